@@ -1,0 +1,755 @@
+#include "analytic/loader.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <numeric>
+#include <sstream>
+#include <toml++/toml.h>
+
+namespace crosslink {
+namespace {
+
+std::string join(const std::vector<std::string>& names) {
+  if (names.empty()) return "(none)";
+  std::string text;
+  for (const std::string& n : names) text += (text.empty() ? "" : ", ") + n;
+  return text;
+}
+
+// Collects every problem in a definition, each located by its TOML node.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  SourceLocation at(const toml::source_region& region) const {
+    return {file_, static_cast<int>(region.begin.line), static_cast<int>(region.begin.column)};
+  }
+  SourceLocation at(const toml::node& node) const { return at(node.source()); }
+  SourceLocation at(const toml::node* node) const {
+    return node ? at(*node) : SourceLocation{file_, 0, 0};
+  }
+  SourceLocation file() const { return {file_, 0, 0}; }
+
+  void error(SourceLocation where, std::string message) {
+    diagnostics_.push_back({std::move(where), std::move(message)});
+  }
+  const std::vector<Diagnostic>& diagnostics() const { return diagnostics_; }
+  void throw_if_any() const {
+    if (!diagnostics_.empty()) throw DefinitionError(diagnostics_);
+  }
+
+  // Every key of `table` must be one of `allowed`.
+  void known_keys(const toml::table& table, std::string_view what,
+                  const std::vector<std::string>& allowed) {
+    for (auto&& [key, node] : table) {
+      if (std::find(allowed.begin(), allowed.end(), key.str()) == allowed.end())
+        error(at(key.source()), fmt::format("unknown key '{}' in {} (valid keys: {})", key.str(),
+                                            what, join(allowed)));
+    }
+  }
+
+  std::optional<std::string> string(const toml::table& table, std::string_view key,
+                                    std::string_view what, bool required) {
+    const toml::node* node = table.get(key);
+    if (!node) {
+      if (required) error(at(table), fmt::format("{} needs '{}' (a string)", what, key));
+      return std::nullopt;
+    }
+    if (const auto* value = node->as_string()) return value->get();
+    error(at(*node), fmt::format("'{}' in {} must be a string", key, what));
+    return std::nullopt;
+  }
+
+  std::optional<double> number(const toml::node& node, std::string_view what) {
+    std::optional<double> value;
+    if (const auto* f = node.as_floating_point()) value = f->get();
+    if (const auto* i = node.as_integer()) value = static_cast<double>(i->get());
+    if (!value) {
+      error(at(node), fmt::format("{} must be a number", what));
+    } else if (!std::isfinite(*value)) {
+      error(at(node), fmt::format("{} must be finite", what));
+      value.reset();
+    }
+    return value;
+  }
+
+  std::optional<double> number(const toml::table& table, std::string_view key,
+                               std::string_view what, bool required) {
+    const toml::node* node = table.get(key);
+    if (!node) {
+      if (required) error(at(table), fmt::format("{} needs '{}' (a number)", what, key));
+      return std::nullopt;
+    }
+    return number(*node, fmt::format("'{}' in {}", key, what));
+  }
+
+  // A fixed-length array of numbers, e.g. [x, y] or [x, y, angle].
+  std::optional<std::vector<double>> numbers(const toml::node& node, size_t count,
+                                             std::string_view what) {
+    const auto* array = node.as_array();
+    if (!array || array->size() != count) {
+      error(at(node), fmt::format("{} must be an array of {} numbers", what, count));
+      return std::nullopt;
+    }
+    std::vector<double> values;
+    for (const toml::node& element : *array) {
+      const std::optional<double> v = number(element, what);
+      if (!v) return std::nullopt;
+      values.push_back(*v);
+    }
+    return values;
+  }
+
+  const toml::table* table(const toml::table& parent, std::string_view key, std::string_view what,
+                           bool required) {
+    const toml::node* node = parent.get(key);
+    if (!node) {
+      if (required) error(at(parent), fmt::format("{} needs a [{}] table", what, key));
+      return nullptr;
+    }
+    if (const auto* t = node->as_table()) return t;
+    error(at(*node), fmt::format("'{}' must be a table", key));
+    return nullptr;
+  }
+
+ private:
+  std::string file_;
+  std::vector<Diagnostic> diagnostics_;
+};
+
+struct UnitChoice {
+  std::string_view name;
+  double si;
+};
+constexpr UnitChoice kLengthUnits[] = {{"mm", 1e-3}, {"cm", 1e-2}, {"m", 1.0}};
+constexpr UnitChoice kAngleUnits[] = {{"deg", std::numbers::pi / 180.0}, {"rad", 1.0}};
+constexpr UnitChoice kAngularSpeedUnits[] = {{"rad/s", 1.0},
+                                             {"deg/s", std::numbers::pi / 180.0},
+                                             {"rpm", 2.0 * std::numbers::pi / 60.0},
+                                             {"rev/s", 2.0 * std::numbers::pi}};
+
+template <size_t N>
+std::optional<double> unit_factor(Reader& r, const toml::table& table, std::string_view key,
+                                  const UnitChoice (&choices)[N], std::string_view fallback,
+                                  std::string* name_out = nullptr) {
+  std::vector<std::string> names;
+  for (const UnitChoice& c : choices) names.emplace_back(c.name);
+  const std::string name = r.string(table, key, "[units]", false).value_or(std::string(fallback));
+  for (const UnitChoice& c : choices)
+    if (c.name == name) {
+      if (name_out) *name_out = name;
+      return c.si;
+    }
+  r.error(r.at(table.get(key)),
+          fmt::format("unknown unit '{}' for '{}' (valid units: {})", name, key, join(names)));
+  return std::nullopt;
+}
+
+// Reads one [[link]] entry.
+Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
+  Link link;
+  const std::string what = fmt::format("link #{}", index + 1);
+  r.known_keys(t, what, {"name", "ground", "points", "lines", "pose", "description"});
+  link.where = r.at(t);
+  link.name = r.string(t, "name", what, true).value_or(fmt::format("link{}", index + 1));
+  if (const toml::node* g = t.get("ground")) {
+    if (const auto* b = g->as_boolean())
+      link.ground = b->get();
+    else
+      r.error(r.at(*g), "'ground' must be true or false");
+  }
+
+  const toml::table* points = r.table(t, "points", fmt::format("link '{}'", link.name), true);
+  if (points) {
+    if (points->empty())
+      r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
+    for (auto&& [key, node] : *points) {
+      const auto xy = r.numbers(node, 2, fmt::format("point '{}' of link '{}'", key.str(),
+                                                      link.name));
+      if (!xy) continue;
+      link.points.push_back({std::string(key.str()),
+                             Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length, r.at(node)});
+    }
+  }
+
+  if (const toml::table* lines = r.table(t, "lines", what, false)) {
+    for (auto&& [key, node] : *lines) {
+      const std::string line_what = fmt::format("line '{}' of link '{}'", key.str(), link.name);
+      const auto* lt = node.as_table();
+      if (!lt) {
+        r.error(r.at(node), fmt::format("{} must be a table {{ through = \"P\", angle = ... }} or "
+                                        "{{ through = \"P\", toward = \"Q\" }}",
+                                        line_what));
+        continue;
+      }
+      r.known_keys(*lt, line_what, {"through", "toward", "angle"});
+      Line line;
+      line.name = std::string(key.str());
+      line.where = r.at(node);
+      const std::optional<std::string> through = r.string(*lt, "through", line_what, true);
+      const int from = through ? link.find_point(*through) : -1;
+      if (through && from < 0) {
+        std::vector<std::string> names;
+        for (const Point& p : link.points) names.push_back(p.name);
+        r.error(r.at(lt->get("through")),
+                fmt::format("{}: point '{}' is not on link '{}' (its points: {})", line_what,
+                            *through, link.name, join(names)));
+        continue;
+      }
+      if (from < 0) continue;
+      line.origin = link.points[from].local;
+      const std::optional<std::string> toward = r.string(*lt, "toward", line_what, false);
+      const std::optional<double> angle = r.number(*lt, "angle", line_what, false);
+      if (toward.has_value() == angle.has_value()) {
+        r.error(line.where, fmt::format("{} needs exactly one of 'toward' (a point) or 'angle'",
+                                        line_what));
+        continue;
+      }
+      if (toward) {
+        const int to = link.find_point(*toward);
+        if (to < 0) {
+          r.error(r.at(lt->get("toward")),
+                  fmt::format("{}: point '{}' is not on link '{}'", line_what, *toward,
+                              link.name));
+          continue;
+        }
+        const Eigen::Vector2d d = link.points[to].local - line.origin;
+        if (d.norm() < 1e-12) {
+          r.error(r.at(lt->get("toward")),
+                  fmt::format("{} is degenerate: '{}' and '{}' are the same place", line_what,
+                              *through, *toward));
+          continue;
+        }
+        line.direction = d.normalized();
+      } else {
+        const double a = *angle * units.angle;
+        line.direction = Eigen::Vector2d(std::cos(a), std::sin(a));
+      }
+      if (link.find_line(line.name) >= 0)
+        r.error(line.where, fmt::format("duplicate line name '{}'", line.name));
+      link.lines.push_back(line);
+    }
+  }
+
+  if (const toml::node* pose = t.get("pose")) {
+    if (const auto p = r.numbers(*pose, 3, fmt::format("pose of link '{}' ([x, y, angle])",
+                                                        link.name)))
+      link.pose = Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length,
+                                  (*p)[2] * units.angle);
+  }
+  return link;
+}
+
+std::vector<std::string> link_names(const Mechanism& m) {
+  std::vector<std::string> names;
+  for (const Link& l : m.links) names.push_back(l.name);
+  return names;
+}
+
+std::vector<std::string> point_names(const Link& link) {
+  std::vector<std::string> names;
+  for (const Point& p : link.points) names.push_back(p.name);
+  return names;
+}
+
+// Resolves a link name from key `key` of `t`; reports an unknown name with the valid ones.
+int resolve_link(Reader& r, const Mechanism& m, const toml::table& t, std::string_view key,
+                 std::string_view what) {
+  const std::optional<std::string> name = r.string(t, key, what, true);
+  if (!name) return -1;
+  const int index = m.find_link(*name);
+  if (index < 0)
+    r.error(r.at(t.get(key)), fmt::format("{}: unknown link '{}' (valid links: {})", what, *name,
+                                          join(link_names(m))));
+  return index;
+}
+
+int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* node,
+                  const std::string& name, std::string_view what) {
+  const int index = m.links[link].find_point(name);
+  if (index < 0)
+    r.error(r.at(node), fmt::format("{}: point '{}' is not on link '{}' (its points: {})", what,
+                                    name, m.links[link].name, join(point_names(m.links[link]))));
+  return index;
+}
+
+Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
+  Joint joint;
+  joint.where = r.at(t);
+  const std::string what = fmt::format("joint #{}", index + 1);
+  const std::string type = r.string(t, "type", what, true).value_or("");
+  if (type == "revolute") {
+    r.known_keys(t, what + " (revolute)", {"type", "name", "links", "point"});
+    joint.type = JointType::revolute;
+    const toml::node* links = t.get("links");
+    const auto* array = links ? links->as_array() : nullptr;
+    if (!array || array->size() != 2 || !(*array)[0].is_string() || !(*array)[1].is_string()) {
+      r.error(links ? r.at(*links) : joint.where,
+              fmt::format("{} needs 'links' = [\"first\", \"second\"] (two link names)", what));
+      return joint;
+    }
+    const std::optional<std::string> point = r.string(t, "point", what, true);
+    joint.name = r.string(t, "name", what, false).value_or(point.value_or(""));
+    int* ends[2] = {&joint.link_a, &joint.link_b};
+    int* pts[2] = {&joint.point_a, &joint.point_b};
+    for (int e = 0; e < 2; ++e) {
+      const std::string name = *(*array)[static_cast<size_t>(e)].value<std::string>();
+      *ends[e] = m.find_link(name);
+      if (*ends[e] < 0) {
+        r.error(r.at((*array)[static_cast<size_t>(e)]),
+                fmt::format("{}: unknown link '{}' (valid links: {})", what, name,
+                            join(link_names(m))));
+        continue;
+      }
+      if (point) *pts[e] = resolve_point(r, m, *ends[e], t.get("point"), *point, what);
+    }
+    if (joint.link_a >= 0 && joint.link_a == joint.link_b)
+      r.error(r.at(*links), fmt::format("{} joins link '{}' to itself", what,
+                                        m.links[joint.link_a].name));
+    return joint;
+  }
+  if (type == "prismatic" || type == "pin_in_slot") {
+    joint.type = type == "prismatic" ? JointType::prismatic : JointType::pin_in_slot;
+    const std::string twhat = fmt::format("{} ({})", what, type);
+    std::vector<std::string> keys = {"type", "name", "guide", "line", "slider", "point"};
+    if (joint.type == JointType::prismatic) keys.push_back("angle");
+    r.known_keys(t, twhat, keys);
+    joint.link_a = resolve_link(r, m, t, "guide", twhat);
+    joint.link_b = resolve_link(r, m, t, "slider", twhat);
+    const std::optional<std::string> line = r.string(t, "line", twhat, true);
+    const std::optional<std::string> point = r.string(t, "point", twhat, true);
+    if (joint.link_a >= 0 && line) {
+      joint.line = m.links[joint.link_a].find_line(*line);
+      if (joint.line < 0) {
+        std::vector<std::string> names;
+        for (const Line& l : m.links[joint.link_a].lines) names.push_back(l.name);
+        r.error(r.at(t.get("line")),
+                fmt::format("{}: line '{}' is not on link '{}' (its lines: {})", twhat, *line,
+                            m.links[joint.link_a].name, join(names)));
+      }
+    }
+    if (joint.link_b >= 0 && point)
+      joint.point_b = resolve_point(r, m, joint.link_b, t.get("point"), *point, twhat);
+    if (joint.link_a >= 0 && joint.link_a == joint.link_b)
+      r.error(joint.where, fmt::format("{}: guide and slider are the same link", twhat));
+    const std::string default_name =
+        (joint.link_b >= 0 ? m.links[joint.link_b].name : std::string("?")) + "/" +
+        line.value_or("?");
+    joint.name = r.string(t, "name", twhat, false).value_or(default_name);
+    if (joint.type == JointType::prismatic) {
+      if (const auto angle = r.number(t, "angle", twhat, false)) {
+        joint.relative_angle = *angle * m.units.angle;
+      } else if (joint.link_a >= 0 && joint.link_b >= 0) {
+        // The slider keeps the relative angle it is drawn at (0 where a pose is not given).
+        auto drawn = [&](int l) { return m.links[l].pose ? (*m.links[l].pose)(2) : 0.0; };
+        joint.relative_angle = drawn(joint.link_b) - drawn(joint.link_a);
+      }
+    }
+    return joint;
+  }
+  r.error(t.get("type") ? r.at(t.get("type")) : joint.where,
+          fmt::format("{}: unknown joint type '{}' (valid types: revolute, prismatic, "
+                      "pin_in_slot)",
+                      what, type));
+  return joint;
+}
+
+void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::table* t = r.table(root, "driver", "a mechanism", true);
+  if (!t) return;
+  Driver& d = m.driver;
+  d.where = r.at(*t);
+  r.known_keys(*t, "[driver]",
+               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit",
+                "polynomial", "table", "duration", "range"});
+  const std::string type = r.string(*t, "type", "[driver]", true).value_or("");
+  if (type == "joint_angle") {
+    d.type = DriverType::joint_angle;
+    const std::optional<std::string> joint = r.string(*t, "joint", "[driver]", true);
+    if (joint) {
+      d.joint = m.find_joint(*joint);
+      if (d.joint < 0) {
+        std::vector<std::string> names;
+        for (const Joint& j : m.joints)
+          if (j.type == JointType::revolute) names.push_back(j.name);
+        r.error(r.at(t->get("joint")),
+                fmt::format("[driver]: unknown joint '{}' (revolute joints: {})", *joint,
+                            join(names)));
+      } else if (m.joints[d.joint].type != JointType::revolute) {
+        r.error(r.at(t->get("joint")),
+                fmt::format("[driver]: joint_angle needs a revolute joint; '{}' is {}", *joint,
+                            to_string(m.joints[d.joint].type)));
+        d.joint = -1;
+      }
+    }
+    if (d.joint >= 0) {
+      const Joint& j = m.joints[d.joint];
+      d.link = j.link_b;
+      d.from = j.point_b;
+      if (const auto to = r.string(*t, "to", "[driver] (joint_angle)", true))
+        d.to = resolve_point(r, m, d.link, t->get("to"), *to, "[driver] 'to'");
+      if (d.to >= 0 && d.to == d.from)
+        r.error(r.at(t->get("to")), "[driver]: 'to' must differ from the joint's point");
+    }
+  } else if (type == "link_angle") {
+    d.type = DriverType::link_angle;
+    d.link = resolve_link(r, m, *t, "link", "[driver]");
+    if (d.link >= 0) {
+      const auto from = r.string(*t, "from", "[driver] (link_angle)", true);
+      const auto to = r.string(*t, "to", "[driver] (link_angle)", true);
+      if (from) d.from = resolve_point(r, m, d.link, t->get("from"), *from, "[driver] 'from'");
+      if (to) d.to = resolve_point(r, m, d.link, t->get("to"), *to, "[driver] 'to'");
+      if (d.from >= 0 && d.to >= 0 &&
+          (m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local).norm() <
+              1e-12)
+        r.error(r.at(t->get("to")), "[driver]: 'from' and 'to' are the same place");
+      if (m.links[d.link].ground) r.error(r.at(t->get("link")), "[driver]: the ground cannot be driven");
+    }
+  } else if (type == "slider") {
+    d.type = DriverType::slider;
+    const std::optional<std::string> joint = r.string(*t, "joint", "[driver]", true);
+    if (joint) {
+      d.joint = m.find_joint(*joint);
+      if (d.joint < 0 || !m.joints[d.joint].is_slide()) {
+        std::vector<std::string> names;
+        for (const Joint& j : m.joints)
+          if (j.is_slide()) names.push_back(j.name);
+        r.error(r.at(t->get("joint")),
+                fmt::format("[driver]: '{}' is not a prismatic or pin_in_slot joint (those: {})",
+                            *joint, join(names)));
+        d.joint = -1;
+      } else {
+        d.link = m.joints[d.joint].link_b;
+      }
+    }
+  } else {
+    r.error(t->get("type") ? r.at(t->get("type")) : d.where,
+            fmt::format("[driver]: unknown type '{}' (valid types: joint_angle, link_angle, "
+                        "slider)",
+                        type));
+  }
+
+  // Driver values are in the file's angle unit, or its length unit for a slider.
+  const double unit = d.angular() ? m.units.angle : m.units.length;
+  d.start = r.number(*t, "start", "[driver]", true).value_or(0.0) * unit;
+  if (const toml::node* range = t->get("range")) {
+    if (const auto lr = r.numbers(*range, 2, "[driver] 'range' ([low, high])")) {
+      if ((*lr)[0] >= (*lr)[1])
+        r.error(r.at(*range), "[driver] 'range' must be [low, high] with low < high");
+      else
+        d.range = std::make_pair((*lr)[0] * unit, (*lr)[1] * unit);
+    }
+  }
+
+  // The motion law: exactly one of speed, polynomial, table.
+  const int laws = (t->get("speed") ? 1 : 0) + (t->get("polynomial") ? 1 : 0) +
+                   (t->get("table") ? 1 : 0);
+  if (laws != 1) {
+    r.error(d.where, "[driver] needs exactly one motion law: 'speed' (constant), 'polynomial' "
+                     "or 'table'");
+    return;
+  }
+  if (t->get("speed")) {
+    d.law.kind = MotionLaw::Kind::constant_speed;
+    double factor = unit;
+    if (d.angular()) {
+      std::string unit_name;
+      if (const auto f = unit_factor(r, *t, "speed_unit", kAngularSpeedUnits, "rad/s"))
+        factor = *f;
+    } else if (t->get("speed_unit")) {
+      r.error(r.at(t->get("speed_unit")),
+              fmt::format("[driver]: a slider's speed is in the file's length unit per second "
+                          "({}/s); remove 'speed_unit'",
+                          m.units.length_name));
+    }
+    const double speed = r.number(*t, "speed", "[driver]", true).value_or(0.0);
+    if (speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
+    d.law.speed = speed * factor;
+    return;
+  }
+  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true);
+  if (duration && *duration <= 0.0)
+    r.error(r.at(t->get("duration")), "[driver] 'duration' must be positive (seconds)");
+  d.law.duration = duration.value_or(0.0);
+  if (const toml::node* poly = t->get("polynomial")) {
+    d.law.kind = MotionLaw::Kind::polynomial;
+    const auto* array = poly->as_array();
+    if (!array || array->empty()) {
+      r.error(r.at(*poly), "[driver] 'polynomial' must be [c1, c2, ...]: value = start + c1 t + "
+                           "c2 t^2 + ... (file units, seconds)");
+      return;
+    }
+    for (const toml::node& c : *array)
+      d.law.coefficients.push_back(r.number(c, "a polynomial coefficient").value_or(0.0) * unit);
+    return;
+  }
+  d.law.kind = MotionLaw::Kind::table;
+  const toml::node* table = t->get("table");
+  const auto* rows = table->as_array();
+  if (!rows || rows->size() < 3) {
+    r.error(r.at(*table), "[driver] 'table' must list at least 3 rows [[t, value], ...]");
+    return;
+  }
+  for (const toml::node& row : *rows) {
+    const auto tv = r.numbers(row, 2, "a [driver] table row ([t, value])");
+    if (!tv) return;
+    if (!d.law.table_time.empty() && (*tv)[0] <= d.law.table_time.back()) {
+      r.error(r.at(row), "[driver] table times must increase strictly");
+      return;
+    }
+    d.law.table_time.push_back((*tv)[0]);
+    d.law.table_value.push_back((*tv)[1] * unit);
+  }
+  d.start = d.law.table_value.front();
+}
+
+// SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
+std::optional<double> reference_factor(const Mechanism& m, std::string_view quantity) {
+  const std::string_view kind = quantity.substr(0, quantity.find('.'));
+  if (kind == "angle") return m.units.angle;
+  if (kind == "omega" || kind == "alpha") return 1.0;
+  static const std::vector<std::string_view> lengths = {
+      "x", "y", "vx", "vy", "v", "ax", "ay", "a", "s", "sdot", "sddot"};
+  if (std::find(lengths.begin(), lengths.end(), kind) != lengths.end()) return m.units.length;
+  return std::nullopt;
+}
+
+void read_references(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::node* node = root.get("reference");
+  if (!node) return;
+  const auto* array = node->as_array();
+  if (!array || !array->is_array_of_tables()) {
+    r.error(r.at(*node), "'reference' must be an array of tables ([[reference]])");
+    return;
+  }
+  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  for (const toml::node& entry : *array) {
+    const toml::table& t = *entry.as_table();
+    r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "source"});
+    Reference ref;
+    ref.where = r.at(t);
+    ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
+    ref.source = r.string(t, "source", "[[reference]]", true).value_or("");
+    const std::optional<double> at = r.number(t, "at", "[[reference]]", true);
+    const std::optional<double> value = r.number(t, "value", "[[reference]]", true);
+    const std::optional<double> factor = reference_factor(m, ref.quantity);
+    if (!ref.quantity.empty() && !factor) {
+      r.error(r.at(t.get("quantity")),
+              fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
+                          "one of angle, omega, alpha, x, y, vx, vy, v, ax, ay, a, s, sdot, "
+                          "sddot)",
+                          ref.quantity));
+      continue;
+    }
+    if (!at || !value || !factor) continue;
+    ref.driver_value = *at * driver_unit;
+    ref.value = *value * *factor;
+    m.references.push_back(ref);
+  }
+}
+
+// Names a reference channel must exist in the mechanism's outputs.
+void check_reference_names(Reader& r, const Mechanism& m) {
+  std::vector<std::string> objects;
+  for (const Link& l : m.links)
+    if (!l.ground) objects.push_back(l.name);
+  for (const auto& p : m.named_points()) objects.push_back(p.name);
+  for (int j : m.slide_joints()) objects.push_back(m.joints[j].name);
+  for (const Reference& ref : m.references) {
+    const std::string object = ref.quantity.substr(ref.quantity.find('.') + 1);
+    if (std::find(objects.begin(), objects.end(), object) == objects.end())
+      r.error(ref.where, fmt::format("[[reference]]: '{}' names no moving link, point or slider "
+                                     "(valid names: {})",
+                                     ref.quantity, join(objects)));
+  }
+}
+
+void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::table* t = r.table(root, "tolerance", "a mechanism", false);
+  if (!t) return;
+  r.known_keys(*t, "[tolerance]", {"position", "angle", "velocity", "acceleration"});
+  auto read = [&](std::string_view key, std::optional<double>& out) {
+    if (const auto v = r.number(*t, key, "[tolerance] (% of peak)", false)) {
+      if (*v <= 0.0)
+        r.error(r.at(t->get(key)), fmt::format("[tolerance] '{}' must be positive", key));
+      else
+        out = *v;
+    }
+  };
+  read("position", m.tolerances.position);
+  read("angle", m.tolerances.angle);
+  read("velocity", m.tolerances.velocity);
+  read("acceleration", m.tolerances.acceleration);
+}
+
+// Structure: one ground, unique names, named points that are one place, a connected chain,
+// and a mobility that one driver can drive.
+void check_structure(Reader& r, const Mechanism& m) {
+  std::vector<int> grounds;
+  for (size_t i = 0; i < m.links.size(); ++i)
+    if (m.links[i].ground) grounds.push_back(static_cast<int>(i));
+  if (grounds.empty()) r.error(r.file(), "no link has ground = true: one link must be the frame");
+  for (size_t i = 1; i < grounds.size(); ++i)
+    r.error(m.links[grounds[i]].where,
+            fmt::format("link '{}' is a second ground (the first is '{}'): exactly one link is "
+                        "the frame",
+                        m.links[grounds[i]].name, m.links[grounds[0]].name));
+  for (size_t i = 0; i < m.links.size(); ++i) {
+    for (size_t j = 0; j < i; ++j)
+      if (m.links[i].name == m.links[j].name)
+        r.error(m.links[i].where,
+                fmt::format("duplicate link name '{}' (first at line {})", m.links[i].name,
+                            m.links[j].where.line));
+  }
+  for (size_t i = 0; i < m.joints.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (!m.joints[i].name.empty() && m.joints[i].name == m.joints[j].name)
+        r.error(m.joints[i].where,
+                fmt::format("duplicate joint name '{}' (first at line {}); give one a 'name'",
+                            m.joints[i].name, m.joints[j].where.line));
+  if (!r.diagnostics().empty()) return;
+
+  // Links joined through revolute joints; a named point must be one place, so every link that
+  // names it must be joined to the others at that point.
+  const size_t n = m.links.size();
+  std::vector<size_t> parent(n);
+  auto find = [&](size_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  std::map<std::string, std::vector<int>> named_on;
+  for (size_t l = 0; l < n; ++l)
+    for (const Point& p : m.links[l].points) named_on[p.name].push_back(static_cast<int>(l));
+  for (const auto& [name, links] : named_on) {
+    if (links.size() < 2) continue;
+    std::iota(parent.begin(), parent.end(), 0);
+    for (const Joint& j : m.joints)
+      if (j.type == JointType::revolute && m.links[j.link_a].points[j.point_a].name == name)
+        parent[find(static_cast<size_t>(j.link_a))] = find(static_cast<size_t>(j.link_b));
+    for (int l : links)
+      if (find(static_cast<size_t>(l)) != find(static_cast<size_t>(links[0]))) {
+        const Point& p = m.links[l].points[m.links[l].find_point(name)];
+        r.error(p.where, fmt::format("point '{}' is named on links '{}' and '{}', which no "
+                                     "revolute joint at '{}' connects: one name is one place "
+                                     "(rename one of them)",
+                                     name, m.links[links[0]].name, m.links[l].name, name));
+      }
+  }
+
+  // Every link must be connected to the ground.
+  std::iota(parent.begin(), parent.end(), 0);
+  for (const Joint& j : m.joints)
+    parent[find(static_cast<size_t>(j.link_a))] = find(static_cast<size_t>(j.link_b));
+  const int g = m.ground();
+  for (size_t l = 0; l < n; ++l)
+    if (find(l) != find(static_cast<size_t>(g)))
+      r.error(m.links[l].where,
+              fmt::format("link '{}' is not connected to the ground by any chain of joints",
+                          m.links[l].name));
+
+  const Mobility mob = mobility(m);
+  if (mob.mobility != 1) {
+    const std::string verdict =
+        mob.mobility < 1
+            ? fmt::format("the chain is over-constrained: {} constraint(s) too many, or {} "
+                          "joint freedom(s) missing",
+                          1 - mob.mobility, 1 - mob.mobility)
+            : fmt::format("the chain has {} freedom(s) more than its one driver can fix: a "
+                          "joint or link is missing, or a joint allows too much",
+                          mob.mobility - 1);
+    r.error(r.file(), fmt::format("mobility {} with 1 driver: {}. Grübler–Kutzbach: {} ({} "
+                                  "links, {} full joints, {} half joints)",
+                                  mob.mobility, verdict, mob.explain(), mob.links,
+                                  mob.full_joints, mob.half_joints));
+  }
+}
+
+Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
+  Mechanism m;
+  m.file = file;
+  r.known_keys(root, "the definition",
+               {"name", "description", "citation", "units", "link", "joint", "driver",
+                "reference", "tolerance"});
+  m.name = r.string(root, "name", "a mechanism", true).value_or("");
+  m.description = r.string(root, "description", "a mechanism", false).value_or("");
+  m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
+
+  if (const toml::table* units = r.table(root, "units", "a mechanism", true)) {
+    r.known_keys(*units, "[units]", {"length", "angle"});
+    if (!units->get("length")) r.error(r.at(*units), "[units] needs 'length' (mm, cm or m)");
+    if (!units->get("angle")) r.error(r.at(*units), "[units] needs 'angle' (deg or rad)");
+    m.units.length = unit_factor(r, *units, "length", kLengthUnits, "m", &m.units.length_name)
+                         .value_or(1.0);
+    m.units.angle =
+        unit_factor(r, *units, "angle", kAngleUnits, "rad", &m.units.angle_name).value_or(1.0);
+  }
+
+  const toml::node* links = root.get("link");
+  const auto* link_array = links ? links->as_array() : nullptr;
+  if (!link_array || !link_array->is_array_of_tables() || link_array->empty()) {
+    r.error(links ? r.at(*links) : r.file(), "a mechanism needs [[link]] tables");
+    r.throw_if_any();
+  }
+  for (size_t i = 0; i < link_array->size(); ++i)
+    m.links.push_back(read_link(r, *(*link_array)[i].as_table(), m.units, static_cast<int>(i)));
+  for (const Link& link : m.links)
+    for (size_t i = 0; i < link.points.size(); ++i)
+      for (size_t j = 0; j < i; ++j)
+        if (link.points[i].name == link.points[j].name)
+          r.error(link.points[i].where,
+                  fmt::format("duplicate point '{}' on link '{}'", link.points[i].name, link.name));
+  r.throw_if_any();
+
+  const toml::node* joints = root.get("joint");
+  const auto* joint_array = joints ? joints->as_array() : nullptr;
+  if (!joint_array || !joint_array->is_array_of_tables()) {
+    r.error(joints ? r.at(*joints) : r.file(), "a mechanism needs [[joint]] tables");
+  } else {
+    for (size_t i = 0; i < joint_array->size(); ++i)
+      m.joints.push_back(read_joint(r, m, *(*joint_array)[i].as_table(), static_cast<int>(i)));
+  }
+  r.throw_if_any();
+
+  check_structure(r, m);
+  read_driver(r, m, root);
+  read_tolerances(r, m, root);
+  read_references(r, m, root);
+  r.throw_if_any();
+  check_reference_names(r, m);
+  r.throw_if_any();
+  return m;
+}
+
+}  // namespace
+
+Mechanism parse_mechanism(std::string_view text, const std::string& file) {
+  Reader reader(file);
+  toml::table root;
+  try {
+    root = toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    reader.error(reader.at(e.source()), fmt::format("TOML syntax: {}", e.description()));
+    reader.throw_if_any();
+  }
+  return read(reader, root, file);
+}
+
+Mechanism load_mechanism(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    Diagnostic problem;
+    problem.where.file = path;
+    problem.message = "cannot open the file";
+    throw DefinitionError({problem});
+  }
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return parse_mechanism(buffer.str(), path);
+}
+
+}  // namespace crosslink

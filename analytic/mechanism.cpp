@@ -1,0 +1,212 @@
+#include "analytic/mechanism.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace crosslink {
+
+std::string SourceLocation::str() const {
+  if (line <= 0) return file;
+  return fmt::format("{}:{}:{}", file, line, column);
+}
+
+std::string Diagnostic::str() const { return fmt::format("{}: error: {}", where.str(), message); }
+
+namespace {
+std::string join_diagnostics(const std::vector<Diagnostic>& diagnostics) {
+  std::string text;
+  for (const Diagnostic& d : diagnostics) {
+    if (!text.empty()) text += '\n';
+    text += d.str();
+  }
+  return text;
+}
+}  // namespace
+
+DefinitionError::DefinitionError(std::vector<Diagnostic> diagnostics)
+    : std::runtime_error(join_diagnostics(diagnostics)), diagnostics_(std::move(diagnostics)) {}
+
+int Link::find_point(std::string_view name) const {
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+int Link::find_line(std::string_view name) const {
+  for (size_t i = 0; i < lines.size(); ++i)
+    if (lines[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+std::string_view to_string(JointType type) {
+  switch (type) {
+    case JointType::revolute: return "revolute";
+    case JointType::prismatic: return "prismatic";
+    case JointType::pin_in_slot: return "pin_in_slot";
+  }
+  return "?";
+}
+
+std::string_view to_string(DriverType type) {
+  switch (type) {
+    case DriverType::joint_angle: return "joint_angle";
+    case DriverType::slider: return "slider";
+    case DriverType::link_angle: return "link_angle";
+  }
+  return "?";
+}
+
+namespace {
+// Natural cubic spline through (t_i, v_i): value and first two derivatives at t.
+DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v, double time) {
+  const size_t n = t.size();
+  // Second derivatives M_i by the tridiagonal system of a natural spline (M_0 = M_n-1 = 0).
+  std::vector<double> m(n, 0.0), c(n, 0.0), d(n, 0.0);
+  for (size_t i = 1; i + 1 < n; ++i) {
+    const double h0 = t[i] - t[i - 1], h1 = t[i + 1] - t[i];
+    const double a = h0, b = 2.0 * (h0 + h1), cc = h1;
+    const double r = 6.0 * ((v[i + 1] - v[i]) / h1 - (v[i] - v[i - 1]) / h0);
+    const double denom = b - a * c[i - 1];
+    c[i] = cc / denom;
+    d[i] = (r - a * d[i - 1]) / denom;
+  }
+  for (size_t i = n - 2; i >= 1; --i) m[i] = d[i] - c[i] * m[i + 1];
+  const size_t k = std::clamp<size_t>(
+      static_cast<size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin()), 1, n - 1);
+  const double h = t[k] - t[k - 1], a = (t[k] - time) / h, b = (time - t[k - 1]) / h;
+  DriverState s;
+  s.time = time;
+  s.value = a * v[k - 1] + b * v[k] + ((a * a * a - a) * m[k - 1] + (b * b * b - b) * m[k]) * h * h / 6.0;
+  s.rate = (v[k] - v[k - 1]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m[k - 1] +
+           (3.0 * b * b - 1.0) / 6.0 * h * m[k];
+  s.accel = a * m[k - 1] + b * m[k];
+  return s;
+}
+}  // namespace
+
+DriverState Driver::at_time(double t) const {
+  DriverState s;
+  s.time = t;
+  switch (law.kind) {
+    case MotionLaw::Kind::constant_speed:
+      s.value = start + law.speed * t;
+      s.rate = law.speed;
+      break;
+    case MotionLaw::Kind::polynomial: {
+      // q = start + sum_k c_k t^k (k from 1): Horner for the value and both derivatives.
+      const std::vector<double>& c = law.coefficients;
+      double value = 0.0, rate = 0.0, accel = 0.0;
+      for (size_t i = c.size(); i-- > 0;) {
+        const double k = static_cast<double>(i + 1);
+        value = value * t + c[i];
+        rate = rate * t + k * c[i];
+        if (i >= 1) accel = accel * t + k * (k - 1.0) * c[i];
+      }
+      s.value = start + value * t;
+      s.rate = rate;
+      s.accel = accel;
+      break;
+    }
+    case MotionLaw::Kind::table:
+      s = spline_at(law.table_time, law.table_value, t);
+      break;
+  }
+  return s;
+}
+
+int Mechanism::ground() const {
+  for (size_t i = 0; i < links.size(); ++i)
+    if (links[i].ground) return static_cast<int>(i);
+  return -1;
+}
+
+int Mechanism::find_link(std::string_view name) const {
+  for (size_t i = 0; i < links.size(); ++i)
+    if (links[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+int Mechanism::find_joint(std::string_view name) const {
+  for (size_t i = 0; i < joints.size(); ++i)
+    if (joints[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+int Mechanism::moving_index(int link) const {
+  const int g = ground();
+  if (link == g) return -1;
+  return link < g ? link : link - 1;
+}
+
+int Mechanism::constraint_count() const {
+  int rows = 0;
+  for (const Joint& j : joints) rows += 3 - j.dof();
+  return rows;
+}
+
+double Mechanism::size() const {
+  std::vector<Eigen::Vector2d> drawn;
+  for (const Link& link : links) {
+    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+    double theta = 0.0;
+    if (link.pose) {
+      origin = link.pose->head<2>();
+      theta = (*link.pose)(2);
+    }
+    const Eigen::Rotation2Dd rotation(theta);
+    for (const Point& p : link.points) drawn.push_back(origin + rotation * p.local);
+  }
+  double largest = 0.0;
+  for (size_t i = 0; i < drawn.size(); ++i)
+    for (size_t j = i + 1; j < drawn.size(); ++j)
+      largest = std::max(largest, (drawn[i] - drawn[j]).norm());
+  return largest > 0.0 ? largest : 1.0;
+}
+
+std::vector<int> Mechanism::slide_joints() const {
+  std::vector<int> slides;
+  for (size_t i = 0; i < joints.size(); ++i)
+    if (joints[i].is_slide()) slides.push_back(static_cast<int>(i));
+  return slides;
+}
+
+std::vector<Mechanism::NamedPoint> Mechanism::named_points() const {
+  std::vector<NamedPoint> named;
+  for (size_t l = 0; l < links.size(); ++l)
+    for (size_t p = 0; p < links[l].points.size(); ++p) {
+      const std::string& name = links[l].points[p].name;
+      const bool seen = std::any_of(named.begin(), named.end(),
+                                    [&](const NamedPoint& n) { return n.name == name; });
+      if (!seen) named.push_back({name, static_cast<int>(l), static_cast<int>(p)});
+    }
+  return named;
+}
+
+double Mechanism::cycle_period() const {
+  if (driver.law.kind != MotionLaw::Kind::constant_speed) return driver.law.duration;
+  const double speed = std::abs(driver.law.speed);
+  if (speed == 0.0) return 0.0;
+  if (driver.angular()) return 2.0 * std::numbers::pi / speed;
+  // A slider driver at constant speed runs over its declared range.
+  if (driver.range) return std::abs(driver.range->second - driver.range->first) / speed;
+  return 0.0;
+}
+
+std::string Mobility::explain() const {
+  return fmt::format("M = 3(n-1) - 2 j1 - j2 = 3({}-1) - 2*{} - {} = {}", links, full_joints,
+                     half_joints, mobility);
+}
+
+Mobility mobility(const Mechanism& mechanism) {
+  Mobility m;
+  m.links = static_cast<int>(mechanism.links.size());
+  for (const Joint& j : mechanism.joints) (j.dof() == 1 ? m.full_joints : m.half_joints) += 1;
+  m.mobility = 3 * (m.links - 1) - 2 * m.full_joints - m.half_joints;
+  return m;
+}
+
+}  // namespace crosslink

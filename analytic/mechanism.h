@@ -1,0 +1,208 @@
+// The Mechanism: an immutable planar linkage model, in SI units, loaded once from a definition
+// file and shared by every method (analytic solvers, engine scenes, comparator).
+//
+// Frames and coordinates. Each link has a body frame; its named points are fixed in that frame
+// (local coordinates). A moving link's configuration is its pose (x, y, theta): the world
+// position of its frame origin [m] and the angle of its x axis from the world x axis [rad, CCW].
+// The ground link's frame is the world frame.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace crosslink {
+
+// Where a definition said something: for error messages "file.toml:12:5: error: ...".
+struct SourceLocation {
+  std::string file;
+  int line = 0;
+  int column = 0;
+  std::string str() const;  // "file:line:column" (or "file" when the line is unknown)
+};
+
+// Units the definition file was written in; values inside the Mechanism are SI.
+struct Units {
+  std::string length_name = "m";  // "mm" | "cm" | "m"
+  std::string angle_name = "rad";  // "deg" | "rad"
+  double length = 1.0;             // metres per file length unit
+  double angle = 1.0;              // radians per file angle unit
+};
+
+struct Point {
+  std::string name;
+  Eigen::Vector2d local;  // position in the link frame [m]
+  SourceLocation where;
+};
+
+// A straight line fixed in a link (a slot or a slider guide): through `origin` along `direction`.
+struct Line {
+  std::string name;
+  Eigen::Vector2d origin;     // local [m]; slider displacement s is measured from here
+  Eigen::Vector2d direction;  // local unit vector; s grows along it
+  SourceLocation where;
+};
+
+struct Link {
+  std::string name;
+  bool ground = false;
+  std::vector<Point> points;
+  std::vector<Line> lines;
+  // Pose (x [m], y [m], theta [rad]) as drawn at the driver's start value. It picks the assembly
+  // mode (branch) the solver assembles on; the solver refines it to exact closure.
+  std::optional<Eigen::Vector3d> pose;
+  SourceLocation where;
+
+  int find_point(std::string_view name) const;  // index in points, or -1
+  int find_line(std::string_view name) const;   // index in lines, or -1
+};
+
+enum class JointType {
+  revolute,     // point `point_a` of link_a coincides with point `point_b` of link_b
+  prismatic,    // point `point_b` of link_b (the slider) stays on line `line` of link_a (the
+                // guide), and the two links keep their relative angle
+  pin_in_slot,  // point `point_b` of link_b stays on line `line` of link_a; rotation free
+};
+std::string_view to_string(JointType type);
+
+struct Joint {
+  std::string name;
+  JointType type = JointType::revolute;
+  int link_a = -1;   // revolute: first link; prismatic, pin_in_slot: the guide (carries the line)
+  int link_b = -1;   // revolute: second link; prismatic, pin_in_slot: the slider / pin link
+  int point_a = -1;  // revolute only: point index on link_a
+  int point_b = -1;  // point index on link_b
+  int line = -1;     // prismatic, pin_in_slot: line index on link_a
+  double relative_angle = 0.0;  // prismatic: theta_b - theta_a, held constant [rad]
+  SourceLocation where;
+
+  bool is_slide() const { return type != JointType::revolute; }
+  int dof() const { return type == JointType::pin_in_slot ? 2 : 1; }  // freedoms it allows
+};
+
+// The motion law of the driver coordinate q_d(t), in SI (rad or m, and seconds).
+struct MotionLaw {
+  enum class Kind { constant_speed, polynomial, table };
+  Kind kind = Kind::constant_speed;
+  double speed = 0.0;                 // constant_speed: dq/dt [rad/s or m/s]; sign = direction
+  std::vector<double> coefficients;   // polynomial: q = start + c1 t + c2 t^2 + ... (c1 first)
+  std::vector<double> table_time;     // table: knots [s], strictly increasing
+  std::vector<double> table_value;    // table: q at the knots (natural cubic spline between)
+  double duration = 0.0;              // polynomial, table: the cycle's length [s]
+};
+
+// The driver's value and its first two time derivatives at one instant.
+struct DriverState {
+  double time = 0.0;   // [s]
+  double value = 0.0;  // [rad] or [m]
+  double rate = 0.0;   // [rad/s] or [m/s]
+  double accel = 0.0;  // [rad/s^2] or [m/s^2]
+};
+
+enum class DriverType {
+  joint_angle,  // angle of (joint point -> `to`) on link_b, measured in link_a's frame
+  slider,       // displacement s of a prismatic or pin-in-slot joint along its line
+  link_angle,   // absolute angle of the direction `from` -> `to` of one link
+};
+std::string_view to_string(DriverType type);
+
+struct Driver {
+  DriverType type = DriverType::joint_angle;
+  int joint = -1;  // joint_angle, slider
+  int link = -1;   // link_angle: the link; joint_angle: link_b of the joint
+  int from = -1;   // point indices on `link` defining the measured direction
+  int to = -1;
+  double start = 0.0;  // driver value at t = 0 (the drawn position) [rad or m]
+  MotionLaw law;
+  std::optional<std::pair<double, double>> range;  // optional sweep range [rad or m]
+  SourceLocation where;
+
+  bool angular() const { return type != DriverType::slider; }
+  DriverState at_time(double t) const;  // from the motion law
+};
+
+// A published value to compare against (a hand calculation, Working Model, ...), in SI.
+struct Reference {
+  std::string quantity;    // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
+  double driver_value;     // [rad or m]
+  double value;            // SI: m, rad, m/s, rad/s, m/s^2, rad/s^2
+  std::string source;      // where the value was printed
+  SourceLocation where;
+};
+
+// Verdict tolerances in % of the reference's peak over the cycle, per quantity class.
+// Absent entries fall back to the comparator's defaults.
+struct ToleranceOverrides {
+  std::optional<double> position, angle, velocity, acceleration;
+};
+
+struct Mechanism {
+  std::string name;
+  std::string description;
+  std::string citation;  // where the dimensions come from
+  std::string file;      // the definition file it was loaded from
+  Units units;
+  std::vector<Link> links;  // exactly one has ground = true
+  std::vector<Joint> joints;
+  Driver driver;
+  std::vector<Reference> references;
+  ToleranceOverrides tolerances;
+
+  int ground() const;                          // index of the ground link
+  int find_link(std::string_view name) const;  // index, or -1
+  int find_joint(std::string_view name) const;
+  // Moving links are numbered 0..n-1 in link order; -1 for ground. Coordinates of moving link k
+  // are q[3k .. 3k+2] = (x, y, theta).
+  int moving_index(int link) const;
+  int moving_count() const { return static_cast<int>(links.size()) - 1; }
+  int coordinate_count() const { return 3 * moving_count(); }
+  // Rows of the constraint equations (without the driver): 2 per revolute and prismatic
+  // joint (prismatic: 1 for the line, 1 for the angle), 1 per pin-in-slot.
+  int constraint_count() const;
+  // Size of the mechanism [m]: the largest distance between any two points drawn at their
+  // posed positions (falls back to local extents). Scales position tolerances.
+  double size() const;
+  // Slide joints in joint order: the mechanism's "sliders" (s, sdot, sddot outputs).
+  std::vector<int> slide_joints() const;
+  // Distinct point names in first-appearance order, and the (link, point) each is read from.
+  struct NamedPoint {
+    std::string name;
+    int link;
+    int point;
+  };
+  std::vector<NamedPoint> named_points() const;
+  // Length of one cycle of the driver: 2 pi for an angular driver at constant speed.
+  double cycle_period() const;  // [s]
+};
+
+// Grübler–Kutzbach count: M = 3 (n - 1) - 2 j1 - j2.
+struct Mobility {
+  int links = 0;         // n, ground included
+  int full_joints = 0;   // j1: revolute and prismatic
+  int half_joints = 0;   // j2: pin-in-slot
+  int mobility = 0;
+  std::string explain() const;  // "M = 3(6-1) - 2*7 - 0 = 1"
+};
+Mobility mobility(const Mechanism& mechanism);
+
+// One problem in a definition, pointing at where it was written.
+struct Diagnostic {
+  SourceLocation where;
+  std::string message;
+  std::string str() const;  // "file:line:col: error: message"
+};
+
+// Thrown by the loader for bad input: every problem found, each with its location.
+class DefinitionError : public std::runtime_error {
+ public:
+  explicit DefinitionError(std::vector<Diagnostic> diagnostics);
+  const std::vector<Diagnostic>& diagnostics() const { return diagnostics_; }
+
+ private:
+  std::vector<Diagnostic> diagnostics_;
+};
+
+}  // namespace crosslink

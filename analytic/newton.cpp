@@ -1,0 +1,389 @@
+#include "analytic/newton.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/QR>
+#include <cmath>
+
+#include "analytic/planar.h"
+
+namespace crosslink {
+
+KinematicState::KinematicState(const Mechanism& mechanism) {
+  const int n = mechanism.coordinate_count();
+  q.setZero(n);
+  qdot.setZero(n);
+  qddot.setZero(n);
+  phi.setZero(n);
+  rhs.setZero(n);
+  jacobian.setZero(n, n);
+  lu = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
+}
+
+namespace {
+
+// Angle of a local vector from the link's x axis.
+double local_angle(const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); }
+
+// The point index and local vector that define an angular driver's measured direction.
+struct DriverArm {
+  int link = -1;        // link whose angle is measured
+  int reference = -1;   // link it is measured from (ground for an absolute angle)
+  double offset = 0.0;  // angle of the arm in the measured link's frame
+};
+
+DriverArm driver_arm(const Mechanism& m) {
+  const Driver& d = m.driver;
+  DriverArm arm;
+  arm.link = d.link;
+  arm.reference = m.ground();
+  if (d.type == DriverType::joint_angle) arm.reference = m.joints[d.joint].link_a;
+  if (d.from >= 0 && d.to >= 0) {
+    const Link& link = m.links[d.link];
+    arm.offset = local_angle(link.points[d.to].local - link.points[d.from].local);
+  }
+  return arm;
+}
+
+// Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
+void projection_gradient(const Mechanism& m, const Eigen::VectorXd& q, int link_a,
+                         const Eigen::Vector2d& origin_a, const Eigen::Vector2d& axis_a,
+                         int link_b, const Eigen::Vector2d& point_b, Eigen::MatrixXd& jac,
+                         int row) {
+  const int ka = m.moving_index(link_a), kb = m.moving_index(link_b);
+  const BodyMotion a = BodyMotion::of(ka, q, nullptr, nullptr);
+  const BodyMotion b = BodyMotion::of(kb, q, nullptr, nullptr);
+  const Eigen::Vector2d w = a.turn(axis_a);
+  const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
+  if (ka >= 0) {
+    jac.block<1, 2>(row, 3 * ka) = -w.transpose();
+    jac(row, 3 * ka + 2) = perp(w).dot(d) - w.dot(perp(a.turn(origin_a)));
+  }
+  if (kb >= 0) {
+    jac.block<1, 2>(row, 3 * kb) += w.transpose();
+    jac(row, 3 * kb + 2) += w.dot(perp(b.turn(point_b)));
+  }
+}
+
+bool is_angle_row_driver(const Driver& d) { return d.angular(); }
+
+}  // namespace
+
+NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
+    : mechanism_(mechanism),
+      options_(options),
+      length_scale_(mechanism.size()),
+      named_points_(mechanism.named_points()),
+      slide_joints_(mechanism.slide_joints()) {
+  // Rows that are angle equations are scaled by the mechanism's size and angle columns by its
+  // inverse, so every row and column of the solved system is in metres: the LU's pivoting and
+  // its condition estimate then do not depend on the file's units.
+  const int n = mechanism.coordinate_count();
+  row_scale_.setOnes(n);
+  col_scale_.setOnes(n);
+  for (int k = 0; k < mechanism.moving_count(); ++k) col_scale_(3 * k + 2) = 1.0 / length_scale_;
+  int row = 0;
+  for (const Joint& j : mechanism.joints) {
+    if (j.type == JointType::prismatic) row_scale_(row + 1) = length_scale_;
+    row += 3 - j.dof();
+  }
+  if (is_angle_row_driver(mechanism.driver) && row < n) row_scale_(row) = length_scale_;
+}
+
+double NewtonSolver::driver_value(const Eigen::VectorXd& q) const {
+  const Mechanism& m = mechanism_;
+  const Driver& d = m.driver;
+  if (d.type == DriverType::slider) {
+    const Joint& j = m.joints[d.joint];
+    const Line& line = m.links[j.link_a].lines[j.line];
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    return project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local)
+        .value;
+  }
+  const DriverArm arm = driver_arm(m);
+  const int k = m.moving_index(arm.link), kr = m.moving_index(arm.reference);
+  return (k >= 0 ? q(3 * k + 2) : 0.0) + arm.offset - (kr >= 0 ? q(3 * kr + 2) : 0.0);
+}
+
+void NewtonSolver::evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
+                            Eigen::VectorXd& out) const {
+  // out = Phi(q) when qdot is null; otherwise the part of d2Phi/dt2 that does not depend on
+  // qddot (the velocity-squared terms), which the acceleration equation moves to the right.
+  const Mechanism& m = mechanism_;
+  const Eigen::VectorXd* qddot = nullptr;  // q'' = 0: only velocity terms remain
+  int row = 0;
+  for (const Joint& j : m.joints) {
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, qdot, qddot);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, qdot, qddot);
+    const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
+    if (j.type == JointType::revolute) {
+      const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
+      out.segment<2>(row) = qdot ? Eigen::Vector2d(a.acceleration(pa) - b.acceleration(pb))
+                                 : Eigen::Vector2d(a.position(pa) - b.position(pb));
+      row += 2;
+      continue;
+    }
+    const Line& line = m.links[j.link_a].lines[j.line];
+    const Projection off = project(a, line.origin, perp(line.direction), b, pb);
+    out(row++) = qdot ? off.accel : off.value;
+    if (j.type == JointType::prismatic)
+      out(row++) = qdot ? 0.0 : b.theta - a.theta - j.relative_angle;
+  }
+  const Driver& d = m.driver;
+  if (d.type == DriverType::slider) {
+    const Joint& j = m.joints[d.joint];
+    const Line& line = m.links[j.link_a].lines[j.line];
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, qdot, qddot);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, qdot, qddot);
+    const Projection s =
+        project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local);
+    out(row) = qdot ? s.accel : s.value;
+  } else {
+    out(row) = qdot ? 0.0 : driver_value(q);  // an angle is linear in q
+  }
+}
+
+void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
+                            Eigen::VectorXd& phi) const {
+  evaluate(q, nullptr, phi);
+  phi(phi.size() - 1) -= driver_value;
+}
+
+void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const {
+  const Mechanism& m = mechanism_;
+  jac.setZero();
+  int row = 0;
+  for (const Joint& j : m.joints) {
+    const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
+    if (j.type == JointType::revolute) {
+      // Phi = r_a + A_a p_a - r_b - A_b p_b
+      const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
+      if (ka >= 0) {
+        const BodyMotion a = BodyMotion::of(ka, q, nullptr, nullptr);
+        jac.block<2, 2>(row, 3 * ka).setIdentity();
+        jac.block<2, 1>(row, 3 * ka + 2) = perp(a.turn(pa));
+      }
+      if (kb >= 0) {
+        const BodyMotion b = BodyMotion::of(kb, q, nullptr, nullptr);
+        jac.block<2, 2>(row, 3 * kb) = -Eigen::Matrix2d::Identity();
+        jac.block<2, 1>(row, 3 * kb + 2) = -perp(b.turn(pb));
+      }
+      row += 2;
+      continue;
+    }
+    const Line& line = m.links[j.link_a].lines[j.line];
+    projection_gradient(m, q, j.link_a, line.origin, perp(line.direction), j.link_b, pb, jac,
+                        row++);
+    if (j.type == JointType::prismatic) {
+      if (ka >= 0) jac(row, 3 * ka + 2) = -1.0;
+      if (kb >= 0) jac(row, 3 * kb + 2) = 1.0;
+      ++row;
+    }
+  }
+  const Driver& d = m.driver;
+  if (d.type == DriverType::slider) {
+    const Joint& j = m.joints[d.joint];
+    const Line& line = m.links[j.link_a].lines[j.line];
+    projection_gradient(m, q, j.link_a, line.origin, line.direction, j.link_b,
+                        m.links[j.link_b].points[j.point_b].local, jac, row);
+  } else {
+    const DriverArm arm = driver_arm(m);
+    const int k = m.moving_index(arm.link), kr = m.moving_index(arm.reference);
+    if (k >= 0) jac(row, 3 * k + 2) += 1.0;
+    if (kr >= 0) jac(row, 3 * kr + 2) -= 1.0;
+  }
+}
+
+void NewtonSolver::factorize(KinematicState& state) const {
+  jacobian(state.q, state.jacobian);
+  state.jacobian.array().colwise() *= row_scale_.array();
+  state.jacobian.array().rowwise() *= col_scale_.transpose().array();
+  state.lu.compute(state.jacobian);
+}
+
+void NewtonSolver::solve_linear(KinematicState& state, Eigen::VectorXd& x) const {
+  // J x = rhs  <=>  (S_r J S_c) y = S_r rhs,  x = S_c y
+  state.rhs.array() *= row_scale_.array();
+  x = state.lu.solve(state.rhs);
+  x.array() *= col_scale_.array();
+}
+
+double NewtonSolver::scaled_norm(const Eigen::VectorXd& phi) const {
+  return phi.cwiseProduct(row_scale_).lpNorm<Eigen::Infinity>();
+}
+
+SolveReport NewtonSolver::solve_position(KinematicState& state) const {
+  SolveReport report;
+  const double tolerance = options_.tolerance * length_scale_;
+  for (int it = 0; it <= options_.max_iterations; ++it) {
+    residual(state.q, state.driver.value, state.phi);
+    report.residual = scaled_norm(state.phi);
+    report.iterations = it;
+    factorize(state);
+    report.rcond = state.lu.rcond();
+    if (!std::isfinite(report.residual)) break;
+    if (report.residual <= tolerance) {
+      if (report.rcond < options_.singular_rcond) {
+        report.status = PoseStatus::singular;
+        report.message = fmt::format("Jacobian singular at the solution (rcond {:.2e})",
+                                     report.rcond);
+      }
+      return report;
+    }
+    // Newton step: J dq = -Phi
+    state.rhs = -state.phi;
+    solve_linear(state, state.qddot);  // qddot is free scratch until the acceleration solve
+    if (!state.qddot.allFinite()) break;
+    state.q += state.qddot;
+  }
+  report.status = PoseStatus::no_convergence;
+  report.message = fmt::format("Newton did not converge in {} iterations (|Phi| = {:.3e})",
+                               options_.max_iterations, report.residual);
+  return report;
+}
+
+void NewtonSolver::solve_velocity(KinematicState& state) const {
+  // J qdot = -dPhi/dt: only the driver row depends on time.
+  state.rhs.setZero();
+  state.rhs(state.rhs.size() - 1) = state.driver.rate;
+  solve_linear(state, state.qdot);
+}
+
+void NewtonSolver::solve_acceleration(KinematicState& state) const {
+  // J qddot = gamma = -(velocity-squared terms of d2Phi/dt2) + driver acceleration
+  evaluate(state.q, &state.qdot, state.rhs);
+  state.rhs = -state.rhs;
+  state.rhs(state.rhs.size() - 1) += state.driver.accel;
+  solve_linear(state, state.qddot);
+}
+
+SolveReport NewtonSolver::solve(KinematicState& state) const {
+  SolveReport report = solve_position(state);
+  if (report.status == PoseStatus::ok) {
+    solve_velocity(state);
+    solve_acceleration(state);
+  } else {
+    state.qdot.setZero();
+    state.qddot.setZero();
+  }
+  return report;
+}
+
+Eigen::VectorXd NewtonSolver::drawn_coordinates() const {
+  const Mechanism& m = mechanism_;
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k >= 0 && m.links[l].pose) q.segment<3>(3 * k) = *m.links[l].pose;
+  }
+  return q;
+}
+
+SolveReport NewtonSolver::assemble(KinematicState& state) const {
+  state.q = drawn_coordinates();
+  state.driver = mechanism_.driver.at_time(0.0);
+  SolveReport report = solve_position(state);
+  if (report.status != PoseStatus::no_convergence) {
+    if (report.status == PoseStatus::ok) {
+      solve_velocity(state);
+      solve_acceleration(state);
+    }
+    return report;
+  }
+  // Newton failed from the drawing. Levenberg–Marquardt minimises |Phi|^2 instead: a minimum
+  // with a residual left means the chain cannot close here; a zero residual gets a fresh Newton.
+  state.q = drawn_coordinates();
+  const int n = static_cast<int>(state.q.size());
+  double lambda = 1e-3;
+  Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);
+  Eigen::MatrixXd jac(n, n);
+  residual(state.q, state.driver.value, phi);
+  for (int it = 0; it < 500; ++it) {
+    jacobian(state.q, jac);
+    jac.array().colwise() *= row_scale_.array();
+    const Eigen::VectorXd scaled_phi = phi.cwiseProduct(row_scale_);
+    const Eigen::MatrixXd normal = jac.transpose() * jac;
+    const Eigen::VectorXd gradient = jac.transpose() * scaled_phi;
+    if (gradient.lpNorm<Eigen::Infinity>() < 1e-14 * length_scale_ * length_scale_) break;
+    Eigen::MatrixXd damped = normal;
+    damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
+    step = -damped.ldlt().solve(gradient);
+    trial = state.q + step;
+    residual(trial, state.driver.value, trial_phi);
+    if (scaled_norm(trial_phi) < scaled_norm(phi) ||
+        trial_phi.cwiseProduct(row_scale_).squaredNorm() < scaled_phi.squaredNorm()) {
+      state.q = trial;
+      phi = trial_phi;
+      lambda = std::max(lambda / 3.0, 1e-12);
+      if (step.lpNorm<Eigen::Infinity>() < 1e-15 * length_scale_) break;
+    } else {
+      lambda *= 4.0;
+      if (lambda > 1e12) break;
+    }
+  }
+  report = solve_position(state);
+  if (report.status == PoseStatus::no_convergence) {
+    report.status = PoseStatus::cannot_assemble;
+    report.message = fmt::format(
+        "the chain cannot be assembled at the driver's start value: the closest it comes leaves "
+        "a loop gap of {:.3e} m",
+        scaled_norm(phi));
+  } else if (report.status == PoseStatus::ok) {
+    solve_velocity(state);
+    solve_acceleration(state);
+  }
+  return report;
+}
+
+void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& report,
+                                Trajectory& out, int row) const {
+  const Mechanism& m = mechanism_;
+  out.time(row) = state.driver.time;
+  out.driver(row) = state.driver.value;
+  out.status[static_cast<size_t>(row)] = report.status;
+  out.rcond(row) = report.rcond;
+  out.loop_gap(row) = 0.0;
+  const Eigen::VectorXd* qd = &state.qdot;
+  const Eigen::VectorXd* qdd = &state.qddot;
+
+  int column = 0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    out.angle(row, column) = state.q(3 * k + 2);
+    out.omega(row, column) = state.qdot(3 * k + 2);
+    out.alpha(row, column) = state.qddot(3 * k + 2);
+    ++column;
+  }
+  column = 0;
+  for (const Mechanism::NamedPoint& p : named_points_) {
+    const BodyMotion body = BodyMotion::of(m.moving_index(p.link), state.q, qd, qdd);
+    const Eigen::Vector2d& local = m.links[p.link].points[p.point].local;
+    const Eigen::Vector2d position = body.position(local), velocity = body.velocity(local),
+                          acceleration = body.acceleration(local);
+    out.x(row, column) = position.x();
+    out.y(row, column) = position.y();
+    out.vx(row, column) = velocity.x();
+    out.vy(row, column) = velocity.y();
+    out.ax(row, column) = acceleration.x();
+    out.ay(row, column) = acceleration.y();
+    ++column;
+  }
+  column = 0;
+  for (int ji : slide_joints_) {
+    const Joint& j = m.joints[ji];
+    const Line& line = m.links[j.link_a].lines[j.line];
+    const Projection s = project(BodyMotion::of(m.moving_index(j.link_a), state.q, qd, qdd),
+                                 line.origin, line.direction,
+                                 BodyMotion::of(m.moving_index(j.link_b), state.q, qd, qdd),
+                                 m.links[j.link_b].points[j.point_b].local);
+    out.s(row, column) = s.value;
+    out.sdot(row, column) = s.rate;
+    out.sddot(row, column) = s.accel;
+    ++column;
+  }
+}
+
+}  // namespace crosslink

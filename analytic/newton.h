@@ -1,0 +1,100 @@
+// Exact kinematics by Newton–Raphson on the full constraint equations Phi(q, t) = 0.
+//
+// q holds (x, y, theta) of every moving link (see mechanism.h). The equations are the joint
+// constraints plus one driver equation, a square system when the mobility is one:
+//   position      Phi(q) = 0                 Newton with the analytic Jacobian J = dPhi/dq
+//   velocity      J qdot  = nu               nu: the driver's rate in the driver row
+//   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + driver accel
+// Velocity and acceleration reuse the LU factorisation of J at the converged position; they are
+// never obtained by differencing positions.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/LU>
+#include <string>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink {
+
+struct NewtonOptions {
+  double tolerance = 1e-12;        // on |Phi|_inf relative to the mechanism's size
+  int max_iterations = 30;
+  double singular_rcond = 1e-9;    // J with a smaller reciprocal condition estimate is singular
+};
+
+// Result of one solve, never a NaN: a status and the numbers that explain it.
+struct SolveReport {
+  PoseStatus status = PoseStatus::ok;
+  int iterations = 0;
+  double residual = 0.0;  // |Phi|_inf at the end [m or rad]
+  double rcond = 1.0;     // reciprocal condition estimate of J (1 = perfect, 0 = singular)
+  std::string message;    // empty when ok
+};
+
+// Working storage for one mechanism, sized once; a solve allocates nothing.
+struct KinematicState {
+  explicit KinematicState(const Mechanism& mechanism);
+
+  Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
+  DriverState driver;
+  // Scratch: the constraint vector, the Jacobian and its factorisation.
+  Eigen::VectorXd phi, rhs;
+  Eigen::MatrixXd jacobian;
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+};
+
+class NewtonSolver {
+ public:
+  explicit NewtonSolver(const Mechanism& mechanism, NewtonOptions options = {});
+
+  const Mechanism& mechanism() const { return mechanism_; }
+  const NewtonOptions& options() const { return options_; }
+  double length_scale() const { return length_scale_; }
+
+  // Constraint residual Phi(q) with the driver row set for `driver_value`.
+  void residual(const Eigen::VectorXd& q, double driver_value, Eigen::VectorXd& phi) const;
+  // Analytic Jacobian dPhi/dq (the driver row included).
+  void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
+  // The driver coordinate measured at q (its definition, e.g. the angle of E->D).
+  double driver_value(const Eigen::VectorXd& q) const;
+
+  // Newton from state.q at state.driver.value. Leaves the LU of J at the solution in state.
+  SolveReport solve_position(KinematicState& state) const;
+  // Linear solves with the factorisation left by solve_position.
+  void solve_velocity(KinematicState& state) const;
+  void solve_acceleration(KinematicState& state) const;
+  // All three; the usual entry point.
+  SolveReport solve(KinematicState& state) const;
+
+  // Assemble from the definition's drawn poses at the driver's start value (the branch that the
+  // drawing shows); Levenberg–Marquardt tells "cannot assemble" from "did not converge".
+  SolveReport assemble(KinematicState& state) const;
+  // The coordinates as drawn (poses from the file; links without one at the origin).
+  Eigen::VectorXd drawn_coordinates() const;
+
+  // Writes sample `row` of a trajectory from a solved state.
+  void write_sample(const KinematicState& state, const SolveReport& report, Trajectory& out,
+                    int row) const;
+
+ private:
+  // Phi(q) when qdot is null, else the velocity-squared part of d2Phi/dt2.
+  void evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
+                Eigen::VectorXd& out) const;
+  // Builds the scaled Jacobian at state.q and factorises it into state.lu.
+  void factorize(KinematicState& state) const;
+  // x = J^-1 state.rhs with the factorisation in state (state.rhs is overwritten).
+  void solve_linear(KinematicState& state, Eigen::VectorXd& x) const;
+  double scaled_norm(const Eigen::VectorXd& phi) const;  // |S_r phi|_inf [m]
+
+  const Mechanism& mechanism_;
+  NewtonOptions options_;
+  double length_scale_;  // Mechanism::size() [m]
+  // Diagonal scalings S_r (angle rows * size) and S_c (angle columns / size).
+  Eigen::VectorXd row_scale_, col_scale_;
+  std::vector<Mechanism::NamedPoint> named_points_;
+  std::vector<int> slide_joints_;
+};
+
+}  // namespace crosslink

@@ -1,0 +1,116 @@
+#include "analytic/trajectory.h"
+
+#include <array>
+#include <utility>
+
+namespace crosslink {
+
+std::string_view to_string(PoseStatus status) {
+  switch (status) {
+    case PoseStatus::ok: return "ok";
+    case PoseStatus::singular: return "singular";
+    case PoseStatus::no_convergence: return "no_convergence";
+    case PoseStatus::cannot_assemble: return "cannot_assemble";
+    case PoseStatus::branch_jump: return "branch_jump";
+    case PoseStatus::loop_gap: return "loop_gap";
+    case PoseStatus::diverged: return "diverged";
+  }
+  return "?";
+}
+
+std::string_view to_string(Quantity q) {
+  switch (q) {
+    case Quantity::position: return "position";
+    case Quantity::angle: return "angle";
+    case Quantity::velocity: return "velocity";
+    case Quantity::acceleration: return "acceleration";
+  }
+  return "?";
+}
+
+void Trajectory::resize(const Mechanism& mechanism, int samples) {
+  link_names.clear();
+  for (const Link& link : mechanism.links)
+    if (!link.ground) link_names.push_back(link.name);
+  point_names.clear();
+  for (const Mechanism::NamedPoint& p : mechanism.named_points()) point_names.push_back(p.name);
+  slider_names.clear();
+  for (int j : mechanism.slide_joints()) slider_names.push_back(mechanism.joints[j].name);
+
+  const auto links = static_cast<Eigen::Index>(link_names.size());
+  const auto points = static_cast<Eigen::Index>(point_names.size());
+  const auto sliders = static_cast<Eigen::Index>(slider_names.size());
+  time.setZero(samples);
+  driver.setZero(samples);
+  for (Eigen::MatrixXd* m : {&angle, &omega, &alpha}) m->setZero(samples, links);
+  for (Eigen::MatrixXd* m : {&x, &y, &vx, &vy, &ax, &ay}) m->setZero(samples, points);
+  for (Eigen::MatrixXd* m : {&s, &sdot, &sddot}) m->setZero(samples, sliders);
+  status.assign(static_cast<size_t>(samples), PoseStatus::ok);
+  rcond.setOnes(samples);
+  loop_gap.setZero(samples);
+  events.clear();
+}
+
+namespace {
+constexpr std::array<std::string_view, 3> kLinkChannels = {"angle", "omega", "alpha"};
+constexpr std::array<std::string_view, 8> kPointChannels = {"x",  "y",  "vx", "vy",
+                                                           "v",  "ax", "ay", "a"};
+constexpr std::array<std::string_view, 3> kSliderChannels = {"s", "sdot", "sddot"};
+
+int index_of(const std::vector<std::string>& names, std::string_view name) {
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+}  // namespace
+
+std::vector<std::string> Trajectory::channel_names() const {
+  std::vector<std::string> names;
+  for (const std::string& link : link_names)
+    for (std::string_view c : kLinkChannels) names.push_back(std::string(c) + "." + link);
+  for (const std::string& point : point_names)
+    for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
+  for (const std::string& slider : slider_names)
+    for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
+  return names;
+}
+
+std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const {
+  const size_t dot = name.find('.');
+  if (dot == std::string_view::npos) return std::nullopt;
+  const std::string_view kind = name.substr(0, dot), object = name.substr(dot + 1);
+
+  if (const int l = index_of(link_names, object); l >= 0) {
+    if (kind == "angle") return angle.col(l);
+    if (kind == "omega") return omega.col(l);
+    if (kind == "alpha") return alpha.col(l);
+  }
+  if (const int p = index_of(point_names, object); p >= 0) {
+    if (kind == "x") return x.col(p);
+    if (kind == "y") return y.col(p);
+    if (kind == "vx") return vx.col(p);
+    if (kind == "vy") return vy.col(p);
+    if (kind == "ax") return ax.col(p);
+    if (kind == "ay") return ay.col(p);
+    if (kind == "v") return Eigen::VectorXd((vx.col(p).array().square() + vy.col(p).array().square()).sqrt());
+    if (kind == "a") return Eigen::VectorXd((ax.col(p).array().square() + ay.col(p).array().square()).sqrt());
+  }
+  if (const int j = index_of(slider_names, object); j >= 0) {
+    if (kind == "s") return s.col(j);
+    if (kind == "sdot") return sdot.col(j);
+    if (kind == "sddot") return sddot.col(j);
+  }
+  return std::nullopt;
+}
+
+Quantity Trajectory::quantity_of(std::string_view channel) {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  if (kind == "angle") return Quantity::angle;
+  if (kind == "omega" || kind == "vx" || kind == "vy" || kind == "v" || kind == "sdot")
+    return Quantity::velocity;
+  if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")
+    return Quantity::acceleration;
+  return Quantity::position;
+}
+
+}  // namespace crosslink

@@ -1,0 +1,77 @@
+// Trajectory: the kinematic state of a mechanism at a sequence of driver values, as produced by
+// every method (exact solvers and engines alike), so the comparator can treat them the same.
+//
+// Storage is column-major by channel: each matrix has one row per sample and one column per
+// link, named point or slider, in the order of the name lists. All values SI.
+//
+// Channel names (used by the comparator, [[reference]] entries and reports):
+//   angle.<link> omega.<link> alpha.<link>                      [rad, rad/s, rad/s^2]
+//   x.<point> y.<point> vx.<point> vy.<point> v.<point>         [m, m/s]  (v = |velocity|)
+//   ax.<point> ay.<point> a.<point>                             [m/s^2]   (a = |acceleration|)
+//   s.<slider> sdot.<slider> sddot.<slider>                     [m, m/s, m/s^2]
+// Link angles are continuous (unwrapped) along a sweep.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analytic/mechanism.h"
+
+namespace crosslink {
+
+// Outcome of solving one pose (or of an engine sample).
+enum class PoseStatus : std::uint8_t {
+  ok,
+  singular,         // Jacobian (near) singular: dead point, toggle or change point
+  no_convergence,   // Newton did not converge in its iteration budget
+  cannot_assemble,  // the chain cannot close at this driver value
+  branch_jump,      // the solution left the branch being followed
+  loop_gap,         // engine: a cut joint opened beyond the gap threshold
+  diverged,         // engine: NaN or runaway state
+};
+std::string_view to_string(PoseStatus status);
+inline bool usable(PoseStatus s) { return s == PoseStatus::ok; }
+
+enum class Quantity { position, angle, velocity, acceleration };
+std::string_view to_string(Quantity q);
+
+struct Trajectory {
+  std::string method;  // "newton", "dyads", "mujoco", ...
+  std::vector<std::string> link_names;    // moving links, in Mechanism order
+  std::vector<std::string> point_names;   // Mechanism::named_points() order
+  std::vector<std::string> slider_names;  // Mechanism::slide_joints() order
+
+  Eigen::VectorXd time;    // [s]
+  Eigen::VectorXd driver;  // driver coordinate [rad or m]
+  Eigen::MatrixXd angle, omega, alpha;
+  Eigen::MatrixXd x, y, vx, vy, ax, ay;
+  Eigen::MatrixXd s, sdot, sddot;
+  std::vector<PoseStatus> status;  // per sample
+  Eigen::VectorXd rcond;           // analytic: reciprocal condition estimate of the Jacobian
+  Eigen::VectorXd loop_gap;        // engines: largest cut-joint violation [m]; 0 for analytic
+
+  // Named events along the sweep (limits, singular positions, branch changes...).
+  struct Event {
+    double driver;  // [rad or m]
+    PoseStatus kind;
+    std::string message;
+  };
+  std::vector<Event> events;
+
+  // Shapes every array for `samples` rows from the mechanism's name lists (the only allocation;
+  // solvers then write rows in place).
+  void resize(const Mechanism& mechanism, int samples);
+  int samples() const { return static_cast<int>(time.size()); }
+
+  // Every channel name, in a fixed order (links, points, sliders).
+  std::vector<std::string> channel_names() const;
+  // The column of one channel over all samples, or nullopt for an unknown name.
+  std::optional<Eigen::VectorXd> channel(std::string_view name) const;
+  static Quantity quantity_of(std::string_view channel);  // by the prefix before '.'
+};
+
+}  // namespace crosslink

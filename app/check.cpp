@@ -1,0 +1,108 @@
+// `crosslink check FILE`: the validation report of a definition.
+#include <fmt/format.h>
+
+#include "analytic/loader.h"
+#include "analytic/newton.h"
+#include "analytic/sweep.h"
+#include "app/commands.h"
+
+namespace crosslink::app {
+namespace {
+
+std::string joint_text(const Mechanism& m, const Joint& j) {
+  if (j.type == JointType::revolute)
+    return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name,
+                       m.links[j.link_b].name, m.links[j.link_a].points[j.point_a].name);
+  return fmt::format("{:<12} {} on line '{}' of {} (point {})", to_string(j.type),
+                     m.links[j.link_b].name, m.links[j.link_a].lines[j.line].name,
+                     m.links[j.link_a].name, m.links[j.link_b].points[j.point_b].name);
+}
+
+std::string driver_text(const Mechanism& m) {
+  const Driver& d = m.driver;
+  const double unit = d.angular() ? m.units.angle : m.units.length;
+  const std::string& unit_name = d.angular() ? m.units.angle_name : m.units.length_name;
+  std::string what;
+  switch (d.type) {
+    case DriverType::joint_angle:
+      what = fmt::format("angle of {}->{} on {} relative to {} (joint {})",
+                         m.links[d.link].points[d.from].name, m.links[d.link].points[d.to].name,
+                         m.links[d.link].name, m.links[m.joints[d.joint].link_a].name,
+                         m.joints[d.joint].name);
+      break;
+    case DriverType::link_angle:
+      what = fmt::format("absolute angle of {}->{} on {}", m.links[d.link].points[d.from].name,
+                         m.links[d.link].points[d.to].name, m.links[d.link].name);
+      break;
+    case DriverType::slider:
+      what = fmt::format("displacement of slider {}", m.joints[d.joint].name);
+      break;
+  }
+  std::string law;
+  switch (d.law.kind) {
+    case MotionLaw::Kind::constant_speed:
+      law = d.angular() ? fmt::format("constant speed {:.6g} rad/s", d.law.speed)
+                        : fmt::format("constant speed {:.6g} m/s", d.law.speed);
+      break;
+    case MotionLaw::Kind::polynomial:
+      law = fmt::format("polynomial over {:.6g} s", d.law.duration);
+      break;
+    case MotionLaw::Kind::table:
+      law = fmt::format("table of {} rows over {:.6g} s", d.law.table_time.size(),
+                        d.law.duration);
+      break;
+  }
+  return fmt::format("{}, start {:.6g} {}, {}", what, d.start / unit, unit_name, law);
+}
+
+int run_check(const std::string& path) {
+  const Mechanism m = load_mechanism(path);
+  fmt::print("{}: {}\n", path, m.name);
+  if (!m.citation.empty()) fmt::print("  source: {}\n", m.citation);
+  fmt::print("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
+  fmt::print("  links ({}):\n", m.links.size());
+  for (const Link& l : m.links) {
+    std::string points;
+    for (const Point& p : l.points) points += (points.empty() ? "" : " ") + p.name;
+    fmt::print("    {:<14} {}points {}\n", l.name, l.ground ? "(ground) " : "", points);
+  }
+  fmt::print("  joints ({}):\n", m.joints.size());
+  for (const Joint& j : m.joints) fmt::print("    {:<14} {}\n", j.name, joint_text(m, j));
+  fmt::print("  mobility: {}\n", mobility(m).explain());
+  fmt::print("  driver: {}\n", driver_text(m));
+
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  const SolveReport assembled = solver.assemble(state);
+  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
+  const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  if (assembled.status == PoseStatus::cannot_assemble ||
+      assembled.status == PoseStatus::no_convergence) {
+    fmt::print(stderr, "{}: error: cannot assemble at driver = {:.6g} {}: {}\n", path,
+               m.driver.start / unit, unit_name, assembled.message);
+    return kExitBadInput;
+  }
+  fmt::print("  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
+             to_string(assembled.status), assembled.residual, assembled.iterations,
+             assembled.rcond);
+  if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
+    const AssemblingRange range = assembling_range(m);
+    fmt::print("  assembling range: {}\n", range.explain(m));
+  }
+  fmt::print("  references: {}\n", m.references.size());
+  if (assembled.status == PoseStatus::singular)
+    fmt::print("  warning: the drawn position is singular: {}\n", assembled.message);
+  fmt::print("  ok\n");
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_check(CLI::App& app, std::function<int()>& run) {
+  auto* cmd = app.add_subcommand("check", "Validate a mechanism definition and report on it");
+  auto path = std::make_shared<std::string>();
+  cmd->add_option("FILE", *path, "mechanism definition (.toml)")->required();
+  cmd->callback([&run, path] { run = [path] { return run_check(*path); }; });
+}
+
+}  // namespace crosslink::app

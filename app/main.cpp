@@ -1,0 +1,36 @@
+// crosslink: cross-validates the kinematics of planar linkages.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <functional>
+
+#include "analytic/mechanism.h"
+#include "app/commands.h"
+
+int main(int argc, char** argv) {
+  using namespace crosslink::app;
+  CLI::App app{"crosslink: exact kinematics of planar linkages, cross-validated against physics "
+               "engines"};
+  app.require_subcommand(1);
+  std::function<int()> run;
+  add_check(app, run);
+  add_solve(app, run);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kExitBadInput;
+  }
+  try {
+    return run();
+  } catch (const crosslink::DefinitionError& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "crosslink: error: {}\n", e.what());
+    return kExitBadInput;
+  }
+}

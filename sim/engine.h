@@ -1,0 +1,46 @@
+// The interface every physics-engine model implements: build a scene from a Mechanism, run it
+// at the driver values of an analytic sweep, and return the same Trajectory type, plus what it
+// cost and every setting the result depends on.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink::sim {
+
+// Engine settings as (name, value) text pairs, printed with every result. Each engine documents
+// its own names and defaults.
+using Settings = std::vector<std::pair<std::string, std::string>>;
+
+struct RunCost {
+  double wall_seconds = 0.0;            // total wall time of the run (build + steps)
+  double wall_seconds_per_cycle = 0.0;  // stepping time per simulated driver cycle
+  long steps = 0;                       // engine steps taken
+  double simulated_seconds = 0.0;
+};
+
+struct EngineRun {
+  Trajectory trajectory;  // same samples (driver values) as the reference sweep
+  Settings settings;      // every setting in force, defaults included
+  RunCost cost;
+  bool ok = true;         // false: the run diverged or could not be built
+  std::string message;    // why not ok, or notes (e.g. an equivalent driver)
+};
+
+// `reference` is the exact sweep: the engine starts from its first sample's configuration
+// (assembled) and is sampled at each of its driver values / times.
+class Engine {
+ public:
+  virtual ~Engine() = default;
+  virtual std::string name() const = 0;  // "mujoco", "bullet"
+  // Whether the engine can realise this mechanism, and why not.
+  virtual bool supports(const Mechanism& mechanism, std::string* why) const = 0;
+  virtual EngineRun run(const Mechanism& mechanism, const Trajectory& reference,
+                        const Settings& overrides) const = 0;
+};
+
+}  // namespace crosslink::sim
