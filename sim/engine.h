@@ -13,7 +13,10 @@
 namespace crosslink::sim {
 
 // Engine settings as (name, value) text pairs, printed with every result. Each engine documents
-// its own names and defaults.
+// its own names and defaults. Names every engine understands:
+//   "dt"            time step [s]
+//   "perturb_link"  "<link>:<factor>": scale that link's points in the scene only (a test hook
+//                   that builds a deliberately wrong model; never used by default)
 using Settings = std::vector<std::pair<std::string, std::string>>;
 
 struct RunCost {
