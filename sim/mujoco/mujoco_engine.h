@@ -1,4 +1,23 @@
 // MuJoCo 2.2.2 model of a Mechanism (see docs/engines.md for the scene and its settings).
+//
+// Settings (name: default; every one is echoed in EngineRun::settings with its value in force):
+//   dt              "auto": the largest step that divides the reference's sample interval and
+//                   turns no link by more than `max_step_angle` per step; or a step [s], rounded
+//                   down so that samples fall on step boundaries
+//   max_step_angle  0.0025 [rad] (only with dt = auto)
+//   integrator      Euler (Euler | RK4 | implicit)
+//   solver          Newton (Newton | CG | PGS)
+//   iterations      20      constraint solver iterations per step
+//   tolerance       1e-10   constraint solver tolerance
+//   solref          "deadbeat" = (-1/dt^2, -1/dt): closes a loop gap in one Euler step; or two
+//                   numbers (MuJoCo's solref) for the loop <connect> constraints
+//   solimp          "0.9999 0.9999 0.001 0.5 2" (loop constraints)
+//   driver_solref   "deadbeat"; driver_solimp "0.9999 0.9999 0.001 0.5 2" (driver equality)
+//   gap_threshold   1e-4 x mechanism size [m]: samples whose largest cut-joint gap since the
+//                   previous sample exceeds it are flagged PoseStatus::loop_gap
+//   driver_threshold 1e-3 [rad] or 1e-3 x size [m]: a driven joint further than this from its
+//                   target has lost the driver (PoseStatus::diverged, run not ok)
+//   perturb_link    none | "<link>:<factor>" (test hook: scales that link's points in the scene)
 #pragma once
 
 #include <memory>
@@ -9,5 +28,11 @@
 namespace crosslink::sim {
 
 std::unique_ptr<Engine> make_mujoco_engine();
+
+// The MJCF text of the scene the engine would run for this reference and these settings (the
+// bodies at the reference's first sample). Throws std::runtime_error when MuJoCo cannot realise
+// the mechanism or a setting is invalid.
+std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
+                        const Settings& settings);
 
 }  // namespace crosslink::sim

@@ -1,0 +1,697 @@
+// MuJoCo engine: builds the scene (scene.h), loads it from a virtual file system, steps it at
+// the reference's times with the driver enforced every step, watches the loop gap, and reads
+// positions, velocities and accelerations at the sampled steps.
+#include "sim/mujoco/mujoco_engine.h"
+
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Geometry>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "analytic/newton.h"
+#include "analytic/planar.h"
+#include "sim/mujoco/scene.h"
+
+namespace crosslink::sim {
+namespace {
+
+using mujoco_scene::DrivenJoint;
+using mujoco_scene::MjcfOptions;
+using mujoco_scene::Scene;
+using mujoco_scene::SceneJoint;
+using mujoco_scene::SceneLink;
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+
+const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
+// An equivalent driver's joint turning slower than this fraction of its peak rate is at its own
+// dead point (measured on the polycentric hinge: 0.45 % gave 7 % of peak alpha, 0.76 % 0.1 %).
+constexpr double kDeadRate = 0.01;
+constexpr double kSingularRcond = 1e-6;
+
+struct Config {
+  std::string dt = "auto";
+  double max_step_angle = 0.0025;
+  std::string integrator = "Euler", solver = "Newton";
+  int iterations = 20;
+  double tolerance = 1e-10;
+  std::string solref = "deadbeat", solimp = kSolimp;
+  std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
+  std::string gap_threshold = "auto", driver_threshold = "auto";
+  std::string perturb_link = "none";
+};
+
+double parse_number(const std::string& name, const std::string& text) {
+  try {
+    size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used == text.size() && std::isfinite(value)) return value;
+  } catch (const std::exception&) {
+  }
+  throw std::runtime_error(fmt::format("setting {} = \"{}\": expected a number", name, text));
+}
+
+std::vector<double> parse_numbers(const std::string& name, const std::string& text) {
+  std::istringstream in(text);
+  std::vector<double> values;
+  std::string word;
+  while (in >> word) values.push_back(parse_number(name, word));
+  return values;
+}
+
+Config parse_settings(const Settings& overrides) {
+  Config c;
+  const std::map<std::string, std::string*> text = {{"dt", &c.dt},
+                                                    {"integrator", &c.integrator},
+                                                    {"solver", &c.solver},
+                                                    {"solref", &c.solref},
+                                                    {"solimp", &c.solimp},
+                                                    {"driver_solref", &c.driver_solref},
+                                                    {"driver_solimp", &c.driver_solimp},
+                                                    {"gap_threshold", &c.gap_threshold},
+                                                    {"driver_threshold", &c.driver_threshold},
+                                                    {"perturb_link", &c.perturb_link}};
+  for (const auto& [name, value] : overrides) {
+    if (auto it = text.find(name); it != text.end()) {
+      *it->second = value;
+    } else if (name == "iterations") {
+      c.iterations = static_cast<int>(parse_number(name, value));
+    } else if (name == "tolerance") {
+      c.tolerance = parse_number(name, value);
+    } else if (name == "max_step_angle") {
+      c.max_step_angle = parse_number(name, value);
+    } else {
+      throw std::runtime_error(fmt::format(
+          "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
+          "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
+          "driver_threshold, perturb_link)",
+          name));
+    }
+  }
+  for (const std::string* choice : {&c.integrator, &c.solver}) {
+    const bool known = *choice == "Euler" || *choice == "RK4" || *choice == "implicit" ||
+                       *choice == "Newton" || *choice == "CG" || *choice == "PGS";
+    if (!known)
+      throw std::runtime_error(fmt::format("unknown integrator or solver \"{}\"", *choice));
+  }
+  return c;
+}
+
+Eigen::Vector2d solref_of(const std::string& name, const std::string& text, double dt) {
+  if (text == "deadbeat") return {-1.0 / (dt * dt), -1.0 / dt};
+  const std::vector<double> v = parse_numbers(name, text);
+  if (v.size() != 2) throw std::runtime_error(fmt::format("setting {}: expected 2 numbers", name));
+  return {v[0], v[1]};
+}
+
+Eigen::Matrix<double, 5, 1> solimp_of(const std::string& name, const std::string& text) {
+  std::vector<double> v = parse_numbers(name, text);
+  const std::array<double, 5> defaults = {0.9, 0.95, 0.001, 0.5, 2.0};  // MuJoCo's
+  if (v.size() < 3 || v.size() > 5)
+    throw std::runtime_error(fmt::format("setting {}: expected 3 to 5 numbers", name));
+  for (size_t i = v.size(); i < 5; ++i) v.push_back(defaults[i]);
+  return Eigen::Map<const Eigen::Matrix<double, 5, 1>>(v.data());
+}
+
+// ---------------------------------------------------------------------------------------------
+// The starting configuration and the time grid
+
+// Absolute coordinates and their rates at the reference's first sample, solved exactly.
+struct Start {
+  Eigen::VectorXd q, qdot;
+};
+
+Start exact_start(const Mechanism& m, const Trajectory& reference) {
+  if (reference.samples() < 2) throw std::runtime_error("the reference has fewer than two samples");
+  const PoseStatus first = reference.status[0];
+  if (first != PoseStatus::ok && first != PoseStatus::singular)
+    throw std::runtime_error(fmt::format(
+        "the reference's first sample is not assembled ({}): no configuration to start from",
+        to_string(first)));
+  // Each link's frame from its angle and one of its points, then Newton to exact closure.
+  KinematicState state(m);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const double theta = reference.angle(0, k);
+    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+    for (const Point& p : m.links[l].points)
+      for (size_t c = 0; c < reference.point_names.size(); ++c)
+        if (reference.point_names[c] == p.name) {
+          const Eigen::Vector2d at(reference.x(0, static_cast<Eigen::Index>(c)),
+                                   reference.y(0, static_cast<Eigen::Index>(c)));
+          origin = at - Eigen::Rotation2Dd(theta).toRotationMatrix() * p.local;
+        }
+    state.q.segment<3>(3 * k) << origin, theta;
+  }
+  state.driver = m.driver.at_time(reference.time(0));
+  state.driver.value = reference.driver(0);
+  const NewtonSolver solver(m);
+  const SolveReport report = solver.solve(state);
+  if (report.status == PoseStatus::no_convergence)
+    throw std::runtime_error("could not close the loops at the first sample: " + report.message);
+  return {state.q, state.qdot};
+}
+
+// Step times: each sample interval is split into equal steps no longer than the wanted step,
+// so samples fall on step boundaries (a sweep's extra sample at a toggle makes one interval
+// shorter than the others).
+struct TimeGrid {
+  std::vector<double> time;       // time at the end of forward step k (k = 0: the first sample)
+  std::vector<long> sample_step;  // step of each sample
+  double dt = 0.0;                // the longest step [s]
+  long steps_per_sample = 1;      // in the longest interval
+};
+
+TimeGrid time_grid(const Trajectory& reference, const Config& c) {
+  const int n = reference.samples();
+  for (int i = 1; i < n; ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      throw std::runtime_error("the reference's times do not increase");
+  double wanted = 0.0;
+  if (c.dt == "auto") {
+    // The fastest link of the reference sets the step: errors grow as (omega dt)^2.
+    double fastest = 0.0;
+    for (int i = 0; i < n; ++i)
+      if (reference.status[static_cast<size_t>(i)] == PoseStatus::ok)
+        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+    wanted = fastest > 0.0 ? c.max_step_angle / fastest : reference.time(1) - reference.time(0);
+  } else {
+    wanted = parse_number("dt", c.dt);
+    if (!(wanted > 0.0)) throw std::runtime_error("setting dt: must be positive");
+  }
+  TimeGrid grid;
+  grid.time.push_back(reference.time(0));
+  grid.sample_step.push_back(0);
+  double h = 0.0;
+  for (int i = 1; i < n; ++i) {
+    const double interval = reference.time(i) - reference.time(i - 1);
+    const long steps = std::max(1L, static_cast<long>(std::ceil(interval / wanted - 1e-9)));
+    h = interval / static_cast<double>(steps);
+    for (long k = 1; k <= steps; ++k)
+      grid.time.push_back(k == steps ? reference.time(i)
+                                     : reference.time(i - 1) + static_cast<double>(k) * h);
+    grid.sample_step.push_back(static_cast<long>(grid.time.size()) - 1);
+    if (h > grid.dt) {
+      grid.dt = h;
+      grid.steps_per_sample = steps;
+    }
+  }
+  grid.time.push_back(reference.time(n - 1) + h);  // one step past the last sample
+  return grid;
+}
+
+// Target of the driven joint at time t.
+class DriverLaw {
+ public:
+  DriverLaw(const Mechanism& m, const Trajectory& reference, const DrivenJoint& driven)
+      : m_(m), reference_(reference), driven_(driven) {}
+
+  // The driven joint's rate at each reference sample (equivalent drivers).
+  Eigen::VectorXd reference_rates() const {
+    Eigen::VectorXd rate(reference_.samples());
+    for (int i = 0; i < reference_.samples(); ++i) rate(i) = relative(i)(1);
+    return rate;
+  }
+
+  double at(double t) const {
+    if (!driven_.equivalent) return driven_.sign * (m_.driver.at_time(t).value - driven_.offset);
+    // Quintic Hermite through the reference's angle, omega and alpha of the driven joint.
+    const int n = reference_.samples();
+    const double* times = reference_.time.data();
+    const int i =
+        std::clamp(static_cast<int>(std::upper_bound(times, times + n, t) - times) - 1, 0, n - 2);
+    const double h = reference_.time(i + 1) - reference_.time(i);
+    const double u = (t - reference_.time(i)) / h;
+    const Eigen::Vector3d p0 = relative(i), p1 = relative(i + 1);
+    const double y0 = p0(0), y1 = p1(0), v0 = p0(1) * h, v1 = p1(1) * h;
+    const double a0 = p0(2) * h * h, a1 = p1(2) * h * h;
+    const double u2 = u * u, u3 = u2 * u, u4 = u3 * u, u5 = u4 * u;
+    const double h0 = 1 - 10 * u3 + 15 * u4 - 6 * u5, h1 = u - 6 * u3 + 8 * u4 - 3 * u5;
+    const double h2 = 0.5 * (u2 - 3 * u3 + 3 * u4 - u5), h3 = 0.5 * (u3 - 2 * u4 + u5);
+    const double h4 = -4 * u3 + 7 * u4 - 3 * u5, h5 = 10 * u3 - 15 * u4 + 6 * u5;
+    return h0 * y0 + h1 * v0 + h2 * a0 + h3 * a1 + h4 * v1 + h5 * y1;
+  }
+
+ private:
+  // (angle, omega, alpha) of link_b relative to link_a in reference sample i.
+  Eigen::Vector3d relative(int i) const {
+    Eigen::Vector3d r = Eigen::Vector3d::Zero();
+    auto add = [&](int link, double sign) {
+      if (link < 0) return;
+      const int k = m_.moving_index(link);
+      r += sign *
+           Eigen::Vector3d(reference_.angle(i, k), reference_.omega(i, k), reference_.alpha(i, k));
+    };
+    add(driven_.link_b, 1.0);
+    add(driven_.link_a, -1.0);
+    return r;
+  }
+
+  const Mechanism& m_;
+  const Trajectory& reference_;
+  const DrivenJoint& driven_;
+};
+
+MjcfOptions mjcf_options(const Config& c, double dt) {
+  MjcfOptions o;
+  o.dt = dt;
+  o.integrator = c.integrator;
+  o.solver = c.solver;
+  o.iterations = c.iterations;
+  o.tolerance = c.tolerance;
+  o.solref = solref_of("solref", c.solref, dt);
+  o.solimp = solimp_of("solimp", c.solimp);
+  o.driver_solref = solref_of("driver_solref", c.driver_solref, dt);
+  o.driver_solimp = solimp_of("driver_solimp", c.driver_solimp);
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------
+// MuJoCo model and data
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+
+// Loads MJCF text through a virtual file system (no file on disk).
+ModelPtr load_model(const std::string& xml) {
+  auto vfs = std::make_unique<mjVFS>();  // about 2 MB: on the heap
+  mj_defaultVFS(vfs.get());
+  const char* name = "crosslink.xml";
+  if (mj_makeEmptyFileVFS(vfs.get(), name, static_cast<int>(xml.size())) != 0)
+    throw std::runtime_error("MuJoCo: could not create the virtual file");
+  const int file = mj_findFileVFS(vfs.get(), name);
+  std::memcpy(vfs->filedata[file], xml.data(), xml.size());
+  std::array<char, 1000> error{};
+  mjModel* model = mj_loadXML(name, vfs.get(), error.data(), static_cast<int>(error.size()));
+  mj_deleteVFS(vfs.get());
+  if (!model)
+    throw std::runtime_error(fmt::format("MuJoCo could not load the scene: {}", error.data()));
+  return ModelPtr(model);
+}
+
+// A scene link's motion: a mechanism link's, or a block's (its guide's rotation, at its pin).
+BodyMotion motion_of(const Mechanism& m, const Scene& s, int link, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& qdot) {
+  const SceneLink& sl = s.links[link];
+  if (sl.source >= 0) return BodyMotion::of(m.moving_index(sl.source), q, &qdot, nullptr);
+  BodyMotion block = motion_of(m, s, sl.guide, q, qdot);
+  const BodyMotion pin = motion_of(m, s, sl.pin, q, qdot);
+  block.r = pin.position(sl.pin_point);
+  block.v = pin.velocity(sl.pin_point);
+  return block;
+}
+
+// Value (qpos) of a scene joint and its rate, from the mechanism's absolute coordinates.
+Eigen::Vector2d joint_motion(const Mechanism& m, const Scene& s, const SceneJoint& j,
+                             const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
+  const BodyMotion a = motion_of(m, s, j.a, q, qdot), b = motion_of(m, s, j.b, q, qdot);
+  if (j.kind == SceneJoint::Kind::hinge) return {b.theta - a.theta, b.omega - a.omega};
+  const Projection p = project(a, j.origin, j.direction, b, j.ub);
+  return {p.value, p.rate};
+}
+
+// perturb_link "<link>:<factor>": the mechanism with that link's points and line origins
+// scaled. The scene is then assembled for it, so the engine runs a valid but wrong linkage.
+Mechanism perturbed(const Mechanism& m, const std::string& text) {
+  if (text.empty() || text == "none") return m;
+  const size_t colon = text.rfind(':');
+  const int link = colon == std::string::npos ? -1 : m.find_link(text.substr(0, colon));
+  const double factor =
+      colon == std::string::npos ? 0.0 : parse_number("perturb_link", text.substr(colon + 1));
+  if (link < 0 || m.links[link].ground || !(factor > 0.0))
+    throw std::runtime_error(
+        fmt::format("perturb_link \"{}\": expected \"<moving link>:<positive factor>\"", text));
+  Mechanism out = m;
+  for (Point& p : out.links[link].points) p.local *= factor;
+  for (Line& l : out.links[link].lines) l.origin *= factor;
+  return out;
+}
+
+// Everything a run and mujoco_mjcf share: settings, start, grid, scene, MJCF.
+struct Prepared {
+  Config config;
+  Start start;
+  TimeGrid grid;
+  Scene scene;
+  MjcfOptions options;
+  std::string mjcf;
+};
+
+Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
+  Prepared p;
+  p.config = parse_settings(overrides);
+  const Mechanism scene_mechanism = perturbed(m, p.config.perturb_link);
+  p.start = exact_start(scene_mechanism, reference);
+  p.grid = time_grid(reference, p.config);
+  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, &reference);
+  p.options = mjcf_options(p.config, p.grid.dt);
+  p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
+  return p;
+}
+
+std::string numbers(const Eigen::VectorXd& v) {
+  std::string text;
+  for (Eigen::Index i = 0; i < v.size(); ++i) text += fmt::format("{}{:.6g}", i ? " " : "", v(i));
+  return text;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stepping and sampling
+
+// Poses (x, y, theta per moving link, Mechanism order) at one step: body origins from MuJoCo,
+// angles unwrapped against the previous step so they stay continuous like the reference's.
+class PoseReader {
+ public:
+  PoseReader(const Mechanism& m, const Scene& s, const mjModel* model, const Eigen::VectorXd& q0)
+      : last_(q0) {
+    for (size_t l = 0; l < s.links.size(); ++l)
+      if (s.links[l].source >= 0 && !s.links[l].ground)
+        bodies_.push_back({m.moving_index(s.links[l].source),
+                           mj_name2id(model, mjOBJ_BODY, s.links[l].name.c_str())});
+  }
+  const Eigen::VectorXd& read(const mjData* d) {
+    for (const auto& [k, body] : bodies_) {
+      const mjtNum* mat = d->xmat + 9 * body;
+      const double raw = std::atan2(mat[3], mat[0]);
+      last_(3 * k) = d->xpos[3 * body];
+      last_(3 * k + 1) = d->xpos[3 * body + 1];
+      last_(3 * k + 2) += std::remainder(raw - last_(3 * k + 2), 2.0 * std::numbers::pi);
+    }
+    return last_;
+  }
+
+ private:
+  Eigen::VectorXd last_;
+  std::vector<std::pair<int, int>> bodies_;  // (moving index, MuJoCo body id)
+};
+
+// Largest gap of any cut joint [m], from the bodies' world frames and the scene's points.
+double loop_gap(const Scene& s, const std::vector<std::array<int, 2>>& cut_bodies,
+                const mjData* d) {
+  double gap = 0.0;
+  for (size_t c = 0; c < s.cuts.size(); ++c) {
+    const SceneJoint& j = s.joints[s.cuts[c]];
+    Eigen::Vector3d p[2];
+    const Eigen::Vector2d local[2] = {j.ua, j.ub};
+    for (int side = 0; side < 2; ++side) {
+      const int body = cut_bodies[c][side];
+      const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> mat(d->xmat + 9 * body);
+      p[side] = Eigen::Map<const Eigen::Vector3d>(d->xpos + 3 * body) +
+                mat * Eigen::Vector3d(local[side].x(), local[side].y(), 0.0);
+    }
+    gap = std::max(gap, (p[0] - p[1]).norm());
+  }
+  return gap;
+}
+
+class MujocoEngine final : public Engine {
+ public:
+  std::string name() const override { return "mujoco"; }
+
+  bool supports(const Mechanism& mechanism, std::string* why) const override {
+    return mujoco_scene::realisable(mechanism, why);
+  }
+
+  EngineRun run(const Mechanism& m, const Trajectory& reference,
+                const Settings& overrides) const override {
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point begin = Clock::now();
+    EngineRun run;
+    run.trajectory.method = "mujoco";
+    run.trajectory.resize(m, reference.samples());
+    run.trajectory.time = reference.time;
+    run.trajectory.driver = reference.driver;
+    Prepared p;
+    ModelPtr model;
+    try {
+      p = prepare(m, reference, overrides);
+      model = load_model(p.mjcf);
+    } catch (const std::exception& e) {
+      run.ok = false;
+      run.message = e.what();
+      run.settings = overrides;
+      std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+      return run;
+    }
+    const Scene& s = p.scene;
+    const double size = s.size;
+    const double gap_threshold = p.config.gap_threshold == "auto"
+                                     ? 1e-4 * size
+                                     : parse_number("gap_threshold", p.config.gap_threshold);
+    const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
+    const double driver_threshold =
+        p.config.driver_threshold == "auto"
+            ? (angular_joint ? 1e-3 : 1e-3 * size)
+            : parse_number("driver_threshold", p.config.driver_threshold);
+    run.settings = {
+        {"dt", fmt::format("{:.9g}", p.grid.dt)},
+        {"steps_per_sample", std::to_string(p.grid.steps_per_sample)},
+        {"max_step_angle", p.config.dt == "auto" ? fmt::format("{:g}", p.config.max_step_angle)
+                                                 : "unused (dt given)"},
+        {"integrator", p.options.integrator},
+        {"solver", p.options.solver},
+        {"iterations", std::to_string(p.options.iterations)},
+        {"tolerance", fmt::format("{:g}", p.options.tolerance)},
+        {"solref", numbers(p.options.solref)},
+        {"solimp", numbers(p.options.solimp)},
+        {"driver_solref", numbers(p.options.driver_solref)},
+        {"driver_solimp", numbers(p.options.driver_solimp)},
+        {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
+        {"driver_threshold", fmt::format("{:.6g}", driver_threshold)},
+        {"perturb_link", p.config.perturb_link},
+        {"mass_model", "slender bar between the farthest points, 1 kg per mechanism size"},
+        {"derivatives", "3-point differences of step positions (one-sided at the ends)"},
+    };
+
+    // The scene's joints, the cut joints' bodies and the driver equality.
+    mjModel* mm = model.get();
+    DataPtr data(mj_makeData(mm));
+    mjData* d = data.get();
+    const int driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    const SceneJoint& driven = s.joints[s.driven.joint];
+    const int driven_id = mj_name2id(mm, mjOBJ_JOINT, driven.name.c_str());
+    const int driven_qpos = mm->jnt_qposadr[driven_id];
+    std::vector<std::array<int, 2>> cut_bodies;
+    for (int c : s.cuts) {
+      const SceneJoint& j = s.joints[c];
+      auto body = [&](int link) {
+        return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
+      };
+      cut_bodies.push_back({body(j.a), body(j.b)});
+    }
+    // Start at rest on the exact configuration, moving with the exact velocities.
+    for (const SceneJoint& j : s.joints) {
+      if (!j.in_tree) continue;
+      const int id = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
+      d->qvel[mm->jnt_dofadr[id]] = joint_motion(m, s, j, p.start.q, p.start.qdot)(1);
+    }
+    if (s.driven.equivalent)
+      run.message = fmt::format(
+          "the driver ({}) is not a joint MuJoCo can drive; equivalent driver: joint {} follows "
+          "the exact trajectory of its angle (quintic Hermite through the reference samples); "
+          "samples are mapped by the definition's driver",
+          to_string(m.driver.type), driven.name);
+    mj_forward(mm, d);
+
+    // Step and sample. Forward step k ends at grid.time[k]; sample i is step S_i, read with
+    // 3-point central differences over steps S_i - 1 .. S_i + 1. The run starts at step 0 (the
+    // exact first sample), steps the driver back to step -kBack and then runs forward to one step
+    // past the last sample. Every sample, the first included, is then read with a central
+    // stencil from states the engine reached by steady forward stepping: the reversal's
+    // transient (and the start's, which lacks the O(dt^2) curvature residual every later step
+    // has; docs/engines.md) is corrected before step -1.
+    constexpr long kBack = 8;
+    const DriverLaw law(m, reference, s.driven);
+    const NewtonSolver writer(m);
+    KinematicState state(m), probe(m);
+    const int samples = reference.samples();
+    Eigen::MatrixXd sample_q(m.coordinate_count(), samples);
+    const std::vector<double>& grid = p.grid.time;
+    const long last_step = static_cast<long>(grid.size()) - 1;
+    const double h0 = grid[1] - grid[0], qpos0 = mm->qpos0[driven_qpos];
+    auto time_of = [&](long k) { return k >= 0 ? grid[k] : grid[0] + static_cast<double>(k) * h0; };
+    // A step of a new length: the deadbeat softness follows it.
+    auto set_step = [&](double h) {
+      if (mm->opt.timestep == h) return;
+      mm->opt.timestep = h;
+      for (int e = 0; e < mm->neq; ++e) {
+        const std::string& choice = e == driver_eq ? p.config.driver_solref : p.config.solref;
+        if (choice != "deadbeat") continue;
+        mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
+        mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
+      }
+    };
+    PoseReader reader(m, s, mm, p.start.q);
+    std::array<Eigen::VectorXd, 3> ring;  // poses of the last three steps, by step mod 3
+    Eigen::VectorXd gaps = Eigen::VectorXd::Zero(samples);
+    std::vector<bool> recorded(static_cast<size_t>(samples), false);
+    auto pose = [&](long k) -> Eigen::VectorXd& {
+      return ring[static_cast<size_t>((k % 3 + 3) % 3)];
+    };
+
+    const Clock::time_point stepping = Clock::now();
+    long step = 0, steps_taken = 0;
+    int interval = 0;  // the sample whose interval (S_i-1, S_i] holds the current step
+    int pending = 0;   // the next sample to record
+    bool failed = false;
+    for (long j = 0; j < last_step + 2 * kBack; ++j) {
+      const long next = j < kBack ? -(j + 1) : j - 2 * kBack + 1;  // -1, -2, .., -kBack, .., 0, 1
+      const double t = time_of(next);
+      set_step(std::abs(t - time_of(step)));
+      const double target = law.at(t);
+      // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
+      mm->eq_data[mjNEQDATA * driver_eq] = target - qpos0;
+      mj_step(mm, d);
+      mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
+      step = next;
+      ++steps_taken;
+      // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
+      while (interval + 1 < samples && step > p.grid.sample_step[interval]) ++interval;
+      const double gap = loop_gap(s, cut_bodies, d);
+      gaps(interval) = std::max(gaps(interval), gap);
+      pose(step) = reader.read(d);
+      const double driver_error = std::abs(d->qpos[driven_qpos] - target);
+      if (!pose(step).allFinite() || !std::isfinite(gap) || gap > size ||
+          d->warning[mjWARN_BADQACC].number > 0) {
+        run.ok = false;
+        run.message = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m){}", t, gap,
+                                  run.message.empty() ? "" : "; " + run.message);
+        failed = true;
+        break;
+      }
+      if (driver_error > driver_threshold) {
+        run.ok = false;
+        run.message = fmt::format(
+            "lost the driver at t = {:.6g} s: joint {} is {:.3g} from its target (loop gap "
+            "{:.3g} m){}",
+            t, driven.name, driver_error, gap, run.message.empty() ? "" : "; " + run.message);
+        failed = true;
+        break;
+      }
+      // The sample whose stencil this step completes (steps around it may differ in length).
+      if (pending < samples && step == p.grid.sample_step[pending] + 1) {
+        const int i = pending++;
+        const double h1 = time_of(step - 1) - time_of(step - 2), h2 = t - time_of(step - 1);
+        const Eigen::VectorXd ahead = pose(step) - pose(step - 1),
+                              behind = pose(step - 1) - pose(step - 2);
+        const double denominator = h1 * h2 * (h1 + h2);
+        state.q = pose(step - 1);
+        state.qdot = (h1 * h1 * ahead + h2 * h2 * behind) / denominator;
+        state.qddot = 2.0 * (h1 * ahead - h2 * behind) / denominator;
+        state.driver = m.driver.at_time(reference.time(i));
+        state.driver.value = reference.driver(i);
+        writer.write_sample(state, SolveReport{}, run.trajectory, i);
+        recorded[static_cast<size_t>(i)] = true;
+        sample_q.col(i) = state.q;
+      }
+    }
+    const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
+
+    // Statuses: the gap watch, then everything from a failure on.
+    Trajectory& out = run.trajectory;
+    out.loop_gap = gaps;
+    int flagged = 0, singular = 0;
+    // A sample not recorded was not reached: the run failed before its stencil was complete.
+    int first_lost = -1;
+    for (int i = 0; i < samples; ++i) {
+      const auto row = static_cast<size_t>(i);
+      if (!recorded[row]) {
+        out.status[row] = PoseStatus::diverged;
+        if (first_lost < 0) first_lost = i;
+        continue;
+      }
+      if (gaps(i) > gap_threshold) {
+        out.status[row] = PoseStatus::loop_gap;
+        ++flagged;
+        continue;
+      }
+      // Conditioning of the definition's constraints at the engine's configuration: MuJoCo
+      // passes change points and toggles silently (Newton from there, on a scratch state).
+      probe.q = sample_q.col(i);
+      probe.driver = m.driver.at_time(reference.time(i));
+      probe.driver.value = reference.driver(i);
+      out.rcond(i) = writer.solve_position(probe).rcond;
+      if (out.rcond(i) < kSingularRcond) {
+        out.status[row] = PoseStatus::singular;
+        out.events.push_back({reference.driver(i), PoseStatus::singular,
+                              fmt::format("the constraint Jacobian at the engine's configuration "
+                                          "is singular (rcond {:.2g})",
+                                          out.rcond(i))});
+        ++singular;
+      }
+    }
+    // An equivalent driver's own dead points: where its joint's rate vanishes, the chain driven
+    // by that joint is singular and MuJoCo's soft solve is poorly conditioned.
+    int dead = 0;
+    if (s.driven.equivalent) {
+      const Eigen::VectorXd rate = law.reference_rates();
+      const double peak = rate.cwiseAbs().maxCoeff();
+      for (int i = 0; i < samples; ++i) {
+        const auto row = static_cast<size_t>(i);
+        if (out.status[row] != PoseStatus::ok || std::abs(rate(i)) >= kDeadRate * peak) continue;
+        out.status[row] = PoseStatus::singular;
+        out.events.push_back({reference.driver(i), PoseStatus::singular,
+                              fmt::format("equivalent driver: joint {} turns at {:.2g} % of its "
+                                          "peak rate (its own dead point)",
+                                          driven.name, 100.0 * std::abs(rate(i)) / peak)});
+        ++dead;
+      }
+    }
+    if (failed && first_lost >= 0)
+      out.events.push_back({reference.driver(first_lost), PoseStatus::diverged, run.message});
+    if (dead > 0)
+      run.message += fmt::format(
+          "; {} samples flagged singular at the equivalent driver's dead "
+          "point",
+          dead);
+    if (flagged > 0) {
+      const std::string note =
+          fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                      flagged, gaps.maxCoeff(), gap_threshold);
+      run.message = run.message.empty() ? note : run.message + "; " + note;
+      for (int i = 0; i < samples; ++i)
+        if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
+            (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
+          out.events.push_back({reference.driver(i), PoseStatus::loop_gap,
+                                fmt::format("loop gap {:.3g} m", gaps(i))});
+    }
+
+    run.cost.steps = steps_taken;
+    run.cost.simulated_seconds = grid.back() - grid.front() + 2.0 * kBack * h0;
+    const double cycle = m.cycle_period() > 0.0 ? m.cycle_period() : run.cost.simulated_seconds;
+    if (run.cost.simulated_seconds > 0.0)
+      run.cost.wall_seconds_per_cycle = stepping_seconds * cycle / run.cost.simulated_seconds;
+    run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+    return run;
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> make_mujoco_engine() {
+  return std::make_unique<MujocoEngine>();
+}
+
+std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
+                        const Settings& settings) {
+  return prepare(mechanism, reference, settings).mjcf;
+}
+
+}  // namespace crosslink::sim

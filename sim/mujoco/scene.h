@@ -1,0 +1,96 @@
+// The MuJoCo scene of a Mechanism, before it becomes MJCF text: scene links (the mechanism's
+// links plus one block per pin-in-slot), scene joints, the spanning tree that MuJoCo's joints
+// realise, the cut joints closed by <connect>, and the driven joint. Internal to crosslink_mujoco.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink::sim::mujoco_scene {
+
+// A rigid body of the scene. Its body frame is the link frame of the Mechanism (a block's frame
+// sits at its pin with the guide's orientation), so a point's local coordinates carry over.
+struct SceneLink {
+  std::string name;
+  int source = -1;  // Mechanism link index; -1 for a pin-in-slot block
+  bool ground = false;
+  std::vector<Eigen::Vector2d> points;             // by Mechanism point index, local [m]
+  Eigen::Vector3d pose = Eigen::Vector3d::Zero();  // (x, y, theta) assembled [m, rad]
+  // Mass model: a slender bar between the two farthest points (docs/engines.md).
+  double mass = 0.0;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();   // local [m]
+  double bar_angle = 0.0;                             // local direction of the bar [rad]
+  Eigen::Vector3d inertia = Eigen::Vector3d::Zero();  // principal, in the bar frame [kg m^2]
+  // A block: it turns with link `guide` and carries point `pin_point` of link `pin` (scene
+  // indices), which is where its frame sits.
+  int guide = -1, pin = -1;
+  Eigen::Vector2d pin_point = Eigen::Vector2d::Zero();
+};
+
+// A one-freedom joint between scene links a and b.
+//   hinge: point ua of a coincides with point ub of b; value = theta_b - theta_a [rad]
+//   slide: point ub of b stays on the line (origin, direction) of a, with theta_b - theta_a
+//          fixed; value = s = direction . (P_b - origin) [m]
+struct SceneJoint {
+  enum class Kind { hinge, slide };
+  Kind kind = Kind::hinge;
+  std::string name;
+  int a = -1, b = -1;
+  Eigen::Vector2d ua = Eigen::Vector2d::Zero();  // hinge: local point on a
+  Eigen::Vector2d ub = Eigen::Vector2d::Zero();  // local point on b
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero(), direction = Eigen::Vector2d::UnitX();
+  double relative_angle = 0.0;  // theta_b - theta_a (slide) [rad]
+  double value = 0.0;           // assembled value (hinge angle or s)
+  bool in_tree = false;
+  int parent = -1, child = -1;  // tree joints: scene link indices (parent nearer the ground)
+};
+
+// How the driven tree joint's value follows the definition's driver coordinate:
+// joint value = sign * (driver - offset). `equivalent` when the definition's driver is not a
+// tree joint (a floating link's angle): the joint then follows the reference trajectory.
+struct DrivenJoint {
+  int joint = -1;  // scene joint index
+  double sign = 1.0, offset = 0.0;
+  bool equivalent = false;
+  // equivalent: the mechanism links whose relative angle (b - a) the joint holds (-1: ground)
+  int link_a = -1, link_b = -1;
+};
+
+struct Scene {
+  std::vector<SceneLink> links;  // index 0 is the ground
+  std::vector<SceneJoint> joints;
+  std::vector<int> tree_order;  // tree joints, parents before children
+  std::vector<int> cuts;        // joints closed by <connect>
+  DrivenJoint driven;
+  double size = 1.0;  // Mechanism::size() [m]
+};
+
+// Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving
+// link, Mechanism order) of an assembled configuration. `reference` (may be null) picks the joint
+// of an equivalent driver: the hinge whose rate stays furthest from zero over the sweep. Throws
+// std::runtime_error when MuJoCo cannot realise the mechanism (the message says why).
+Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q,
+                  const Trajectory* reference);
+
+// Just the realisability check of build_scene (no configuration needed).
+bool realisable(const Mechanism& mechanism, std::string* why);
+
+struct MjcfOptions {
+  double dt = 1e-3;
+  std::string integrator = "Euler", solver = "Newton";
+  int iterations = 20;
+  double tolerance = 1e-10;
+  Eigen::Vector2d solref = Eigen::Vector2d(-1e6, -1e3);         // loop constraints
+  Eigen::Matrix<double, 5, 1> solimp;                           // loop constraints
+  Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
+  Eigen::Matrix<double, 5, 1> driver_solimp;
+};
+
+// The MJCF text. Joint names are the scene joints' names; the driver equality is "driver".
+std::string to_mjcf(const Mechanism& mechanism, const Scene& scene, const MjcfOptions& options);
+
+}  // namespace crosslink::sim::mujoco_scene
