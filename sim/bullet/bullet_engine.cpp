@@ -1,0 +1,1192 @@
+// Bullet 3.24 (float64) scene of a Mechanism: build, step, sample. See docs/engines.md, "Bullet".
+//
+// The scene is a kinematic projection integrator in disguise: every freedom is fixed by a joint,
+// a loop constraint or the driver, so with an exact MLCP solve and ERP 1 each step is one Newton
+// step of the constraint equations towards the driver's next value, and masses only condition
+// the solve. Positions are therefore accurate to O(dt^2); velocities and accelerations come from
+// central differences of positions centred on each sample.
+#include "sim/bullet/bullet_engine.h"
+
+#include <btBulletDynamicsCommon.h>
+#include <fmt/format.h>
+
+#include <BulletCollision/CollisionShapes/btEmptyShape.h>
+#include <BulletDynamics/ConstraintSolver/btGeneric6DofSpring2Constraint.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyJointMotor.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <BulletDynamics/Featherstone/btMultiBodyMLCPConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
+#include <BulletDynamics/MLCPSolvers/btDantzigSolver.h>
+#include <BulletDynamics/MLCPSolvers/btMLCPSolver.h>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <queue>
+#include <stdexcept>
+
+#include "analytic/newton.h"
+#include "analytic/planar.h"
+
+namespace crosslink::sim {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// Linear density of a link (a 10 x 5 mm steel bar, 7850 kg/m^3) [kg/m].
+constexpr double kLinearDensity = 0.39;
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+
+struct Config {
+  std::string formulation = "rigid";    // rigid | multibody
+  std::string solver = "mlcp_dantzig";  // mlcp_dantzig | sequential_impulse
+  int steps_per_sample = 2;             // used when dt is not given
+  double dt = 0.0;                      // 0: sample interval / steps_per_sample
+  int iterations = 50;                  // sequential impulse (and MLCP's fallback)
+  double erp = 1.0;
+  double loop_gap_threshold = 1e-4;  // relative to the mechanism's size
+  double divergence_gap = 0.1;       // relative to the mechanism's size
+  double singular_rcond = 1e-3;      // samples whose Jacobian is worse conditioned are flagged
+  std::string perturb_link;
+  double perturb_factor = 1.0;
+};
+
+double parse_number(const std::string& name, const std::string& text) {
+  size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v))
+    throw std::invalid_argument(fmt::format("setting {}: '{}' is not a number", name, text));
+  return v;
+}
+
+Config parse_settings(const Settings& overrides) {
+  Config c;
+  for (const auto& [name, value] : overrides) {
+    if (name == "formulation") {
+      if (value != "multibody" && value != "rigid")
+        throw std::invalid_argument("setting formulation: expected multibody or rigid, got '" +
+                                    value + "'");
+      c.formulation = value;
+    } else if (name == "solver") {
+      if (value != "mlcp_dantzig" && value != "sequential_impulse")
+        throw std::invalid_argument(
+            "setting solver: expected mlcp_dantzig or sequential_impulse, got '" + value + "'");
+      c.solver = value;
+    } else if (name == "dt") {
+      if (value != "auto") c.dt = parse_number(name, value);
+      if (c.dt < 0.0) throw std::invalid_argument("setting dt: must be positive");
+    } else if (name == "steps_per_sample") {
+      const double n = parse_number(name, value);
+      if (n < 1 || n != std::floor(n))
+        throw std::invalid_argument("setting steps_per_sample: a positive integer");
+      c.steps_per_sample = static_cast<int>(n);
+    } else if (name == "iterations") {
+      const double n = parse_number(name, value);
+      if (n < 1 || n != std::floor(n))
+        throw std::invalid_argument("setting iterations: a positive integer");
+      c.iterations = static_cast<int>(n);
+    } else if (name == "erp") {
+      c.erp = parse_number(name, value);
+      if (c.erp <= 0.0 || c.erp > 1.0) throw std::invalid_argument("setting erp: in (0, 1]");
+    } else if (name == "loop_gap_threshold") {
+      c.loop_gap_threshold = parse_number(name, value);
+    } else if (name == "singular_rcond") {
+      c.singular_rcond = parse_number(name, value);
+    } else if (name == "divergence_gap") {
+      c.divergence_gap = parse_number(name, value);
+    } else if (name == "precision") {
+      if (value != "float64")
+        throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
+                                    "'");
+    } else if (name == "perturb_link") {
+      if (value.empty()) continue;
+      const size_t colon = value.rfind(':');
+      if (colon == std::string::npos)
+        throw std::invalid_argument("setting perturb_link: expected <link>:<factor>");
+      c.perturb_link = value.substr(0, colon);
+      c.perturb_factor = parse_number(name, value.substr(colon + 1));
+    } else {
+      throw std::invalid_argument("unknown Bullet setting '" + name + "'");
+    }
+  }
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene graph: nodes are the moving links plus one sliding block per pin-in-slot joint (the
+// block slides on the line and carries the pin), edges the joints between them.
+
+struct Node {
+  int link = -1;                                  // mechanism link, or -1 for a block
+  int joint = -1;                                 // block: its pin-in-slot joint
+  Eigen::Vector2d com = Eigen::Vector2d::Zero();  // centre of mass in the node's frame
+  double mass = 0.0;
+  double inertia = 0.0;  // about z through the centre of mass
+};
+
+struct Edge {
+  enum class Kind { revolute, prismatic, planar } kind = Kind::revolute;
+  int a = -1, b = -1;  // nodes; -1 is the ground. prismatic: a is the guide, b the slider
+  Eigen::Vector2d pa = Eigen::Vector2d::Zero();     // revolute: joint point on a; prismatic: line
+                                                    // origin on a
+  Eigen::Vector2d pb = Eigen::Vector2d::Zero();     // joint point on b
+  Eigen::Vector2d axis = Eigen::Vector2d::UnitX();  // prismatic: line direction in a's frame
+  double phi = 0.0;                                 // prismatic: theta_b - theta_a
+  int joint = -1;                                   // mechanism joint it realises
+};
+
+// Pose of a node's frame: link frame for links, the pin with the guide's angle for blocks.
+struct Pose {
+  Eigen::Vector2d r;
+  double theta;
+};
+
+struct Plan {
+  std::vector<Node> nodes;
+  std::vector<Edge> edges;
+  int driver_edge = -1;        // edge whose coordinate is driven
+  double driver_sign = 1.0;    // joint coordinate = sign * driver value + constant
+  bool driver_planar = false;  // link angle driven through a planar ground joint
+  // Spanning forest (multibody formulation)
+  std::vector<int> order;        // nodes in insertion order (parents first)
+  std::vector<int> parent_edge;  // per node; -1 none
+  std::vector<int> parent;       // per node; -1 ground
+  std::vector<int> cuts;         // edges closed by loop constraints
+};
+
+int node_of_link(const Plan& plan, int link) {
+  for (size_t i = 0; i < plan.nodes.size(); ++i)
+    if (plan.nodes[i].link == link) return static_cast<int>(i);
+  return -1;
+}
+
+// Mass and inertia: a uniform bar of kLinearDensity spanning the link's points, width w.
+void mass_model(const Mechanism& m, Node& node) {
+  const double w = 0.1 * m.size();
+  if (node.link < 0) {  // sliding block: a square of side w
+    node.mass = kLinearDensity * w;
+    node.inertia = node.mass * w * w / 6.0;
+    return;
+  }
+  const Link& link = m.links[node.link];
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (const Point& p : link.points) c += p.local;
+  if (!link.points.empty()) c /= static_cast<double>(link.points.size());
+  double extent = 0.0, r2 = 0.0;
+  for (const Point& p : link.points) {
+    r2 += (p.local - c).squaredNorm();
+    for (const Point& q : link.points) extent = std::max(extent, (p.local - q.local).norm());
+  }
+  if (!link.points.empty()) r2 /= static_cast<double>(link.points.size());
+  node.com = c;
+  node.mass = kLinearDensity * std::max(extent, w);
+  node.inertia = node.mass * (r2 / 3.0 + w * w / 12.0);
+}
+
+Plan make_plan(const Mechanism& m) {
+  Plan plan;
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (!m.links[l].ground) plan.nodes.push_back({static_cast<int>(l), -1});
+  const int ground = m.ground();
+  auto node = [&](int link) { return link == ground ? -1 : node_of_link(plan, link); };
+  const Driver& d = m.driver;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const Link& la = m.links[j.link_a];
+    const Link& lb = m.links[j.link_b];
+    Edge e;
+    e.joint = static_cast<int>(ji);
+    e.a = node(j.link_a);
+    e.b = node(j.link_b);
+    e.pb = lb.points[j.point_b].local;
+    if (j.type == JointType::revolute) {
+      e.pa = la.points[j.point_a].local;
+      plan.edges.push_back(e);
+      continue;
+    }
+    const Line& line = la.lines[j.line];
+    e.kind = Edge::Kind::prismatic;
+    e.pa = line.origin;
+    e.axis = line.direction;
+    if (j.type == JointType::prismatic) {
+      e.phi = j.relative_angle;
+      plan.edges.push_back(e);
+      if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
+        plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
+      continue;
+    }
+    // Pin in slot: guide -> block (prismatic, same angle), block -> pin link (revolute).
+    Node block;
+    block.joint = static_cast<int>(ji);
+    plan.nodes.push_back(block);
+    const int bn = static_cast<int>(plan.nodes.size()) - 1;
+    Edge slide = e;
+    slide.b = bn;
+    slide.pb = Eigen::Vector2d::Zero();
+    slide.phi = 0.0;
+    plan.edges.push_back(slide);
+    if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
+      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
+    Edge pin;
+    pin.joint = static_cast<int>(ji);
+    pin.a = bn;
+    pin.b = e.b;
+    pin.pa = Eigen::Vector2d::Zero();
+    pin.pb = e.pb;
+    plan.edges.push_back(pin);
+  }
+  for (Node& n : plan.nodes) mass_model(m, n);
+
+  // Driver: a joint coordinate (sign +1 when the tree runs link_a -> link_b, fixed below).
+  if (d.type == DriverType::joint_angle) {
+    for (size_t i = 0; i < plan.edges.size(); ++i)
+      if (plan.edges[i].joint == d.joint && plan.edges[i].kind == Edge::Kind::revolute)
+        plan.driver_edge = static_cast<int>(i);
+  } else if (d.type == DriverType::link_angle) {
+    const int n = node(d.link);
+    for (size_t i = 0; i < plan.edges.size(); ++i) {
+      const Edge& e = plan.edges[i];
+      if (e.kind == Edge::Kind::revolute && ((e.a == -1 && e.b == n) || (e.b == -1 && e.a == n)))
+        plan.driver_edge = static_cast<int>(i);
+    }
+    if (plan.driver_edge < 0) {  // no ground pivot: the rotation of a planar ground joint
+      Edge e;
+      e.kind = Edge::Kind::planar;
+      e.b = n;
+      plan.edges.push_back(e);
+      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
+      plan.driver_planar = true;
+    }
+  }
+  return plan;
+}
+
+// Prim's spanning forest from the ground: the driver's edge first, then slides (so loops are
+// cut at revolute joints), then ground pivots, then the rest, in definition order.
+void make_tree(Plan& plan, std::string* why) {
+  const int n = static_cast<int>(plan.nodes.size());
+  plan.parent.assign(n, -1);
+  plan.parent_edge.assign(n, -1);
+  plan.order.clear();
+  std::vector<bool> in(n, false);
+  auto rank = [&](int ei) {
+    const Edge& e = plan.edges[ei];
+    if (ei == plan.driver_edge) return 0;
+    if (e.kind != Edge::Kind::revolute) return 1;
+    if (e.a == -1 || e.b == -1) return 2;
+    return 3;
+  };
+  using Item = std::pair<int, int>;  // (rank * edges + index, edge)
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  const int ne = static_cast<int>(plan.edges.size());
+  auto offer = [&](int node) {
+    for (int ei = 0; ei < ne; ++ei) {
+      const Edge& e = plan.edges[ei];
+      const int other = e.a == node ? e.b : e.b == node ? e.a : -2;
+      if (other >= 0 && !in[other]) queue.push({rank(ei) * ne + ei, ei});
+    }
+  };
+  offer(-1);
+  while (!queue.empty()) {
+    const int ei = queue.top().second;
+    queue.pop();
+    const Edge& e = plan.edges[ei];
+    const int from = (e.a == -1 || (e.a >= 0 && in[e.a])) ? e.a : e.b;
+    const int to = from == e.a ? e.b : e.a;
+    if (to < 0 || in[to]) continue;
+    in[to] = true;
+    plan.parent[to] = from;
+    plan.parent_edge[to] = ei;
+    plan.order.push_back(to);
+    offer(to);
+  }
+  if (static_cast<int>(plan.order.size()) != n) {
+    if (why) *why = "some links are not connected to the ground";
+    plan.order.clear();
+  }
+}
+
+int root_of(const Plan& plan, int node) {
+  while (plan.parent[node] >= 0) node = plan.parent[node];
+  return node;
+}
+bool is_ancestor(const Plan& plan, int a, int node) {
+  for (; node >= 0; node = plan.parent[node])
+    if (node == a) return true;
+  return false;
+}
+
+// Cut edges; a loop closed inside one multibody is split (the MLCP solve gets it wrong) by
+// re-rooting a subtree on a planar ground joint. Returns false with `why` when a slide would
+// have to be cut.
+bool make_cuts(Plan& plan, std::string* why) {
+  for (int guard = 0; guard < 100; ++guard) {
+    plan.cuts.clear();
+    for (int ei = 0; ei < static_cast<int>(plan.edges.size()); ++ei) {
+      bool tree = false;
+      for (int pe : plan.parent_edge) tree = tree || pe == ei;
+      if (!tree) plan.cuts.push_back(ei);
+    }
+    bool changed = false;
+    for (int ei : plan.cuts) {
+      const Edge& e = plan.edges[ei];
+      if (e.kind != Edge::Kind::revolute) {
+        if (why) *why = "a loop would have to be cut at a slide joint";
+        return false;
+      }
+      if (e.a < 0 || e.b < 0 || root_of(plan, e.a) != root_of(plan, e.b)) continue;
+      const int x = is_ancestor(plan, e.a, e.b) ? e.b : e.a;
+      if (plan.edges[plan.parent_edge[x]].kind != Edge::Kind::revolute) {
+        if (why) *why = "a loop inside one multibody can only be split at a slide joint";
+        return false;
+      }
+      Edge planar;
+      planar.kind = Edge::Kind::planar;
+      planar.b = x;
+      plan.edges.push_back(planar);
+      plan.parent[x] = -1;
+      plan.parent_edge[x] = static_cast<int>(plan.edges.size()) - 1;
+      changed = true;
+      break;
+    }
+    if (!changed) {
+      // Parents must come first within each multibody: re-sort by depth.
+      auto depth = [&](int v) {
+        int k = 0;
+        for (; plan.parent[v] >= 0; v = plan.parent[v]) ++k;
+        return k;
+      };
+      std::stable_sort(plan.order.begin(), plan.order.end(),
+                       [&](int a, int b) { return depth(a) < depth(b); });
+      return true;
+    }
+  }
+  if (why) *why = "could not split the loops into multibodies";
+  return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry helpers
+
+btVector3 bt(const Eigen::Vector2d& v) {
+  return {v.x(), v.y(), 0.0};
+}
+btQuaternion rot_z(double angle) {
+  return btQuaternion(btVector3(0, 0, 1), angle);
+}
+Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
+  return Eigen::Rotation2Dd(angle) * v;
+}
+
+// Node frame poses from mechanism coordinates q.
+std::vector<Pose> node_poses(const Mechanism& m, const Plan& plan, const Eigen::VectorXd& q) {
+  std::vector<Pose> poses(plan.nodes.size());
+  for (size_t i = 0; i < plan.nodes.size(); ++i) {
+    const Node& n = plan.nodes[i];
+    if (n.link >= 0) {
+      const int k = m.moving_index(n.link);
+      poses[i] = {q.segment<2>(3 * k), q(3 * k + 2)};
+      continue;
+    }
+    const Joint& j = m.joints[n.joint];
+    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    poses[i] = {p.position(m.links[j.link_b].points[j.point_b].local), g.theta};
+  }
+  return poses;
+}
+
+Pose pose_or_ground(const std::vector<Pose>& poses, int node) {
+  return node < 0 ? Pose{Eigen::Vector2d::Zero(), 0.0} : poses[node];
+}
+
+// The edge's joint coordinate at the given poses (revolute: theta_b - theta_a, prismatic: s).
+double edge_coordinate(const Edge& e, const std::vector<Pose>& poses) {
+  const Pose a = pose_or_ground(poses, e.a), b = pose_or_ground(poses, e.b);
+  if (e.kind == Edge::Kind::revolute || e.kind == Edge::Kind::planar) return b.theta - a.theta;
+  const Eigen::Vector2d pb = b.r + turn(b.theta, e.pb), o = a.r + turn(a.theta, e.pa);
+  return turn(a.theta, e.axis).dot(pb - o);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes
+
+class Scene {
+ public:
+  virtual ~Scene() = default;
+  // The driven joint coordinate to reach at the end of the next step.
+  virtual void drive(double target) = 0;
+  virtual void step(double dt) = 0;
+  // Centre-of-mass frame (x, y, wrapped theta) of every node.
+  virtual void read(std::vector<Pose>& com_frames) const = 0;
+  virtual int fallbacks() const = 0;
+};
+
+// A Dantzig solver that accepts any finite impulse: large impulses mean a locked or singular
+// chain, which the loop-gap watch reports; the default bound (1000) would silently fall back.
+class UnboundedDantzig : public btDantzigSolver {
+ public:
+  UnboundedDantzig() { m_acceptableUpperLimitSolution = 1e300; }
+};
+
+class MultiBodyScene final : public Scene {
+ public:
+  MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses, double driver_target0,
+                 const Config& config)
+      : plan_(plan) {
+    if (config.solver == "mlcp_dantzig") {
+      mlcp_ = new btMultiBodyMLCPConstraintSolver(&dantzig_);
+      solver_ = mlcp_;
+    } else {
+      solver_ = new btMultiBodyConstraintSolver();
+    }
+    world_ = new btMultiBodyDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
+    world_->setGravity(btVector3(0, 0, 0));
+    btContactSolverInfo& info = world_->getSolverInfo();
+    info.m_numIterations = config.iterations;
+    info.m_erp = info.m_erp2 = config.erp;
+    info.m_globalCfm = 0.0;
+    info.m_splitImpulse = false;
+
+    // One fixed-base multibody per tree root; links in parent-first order.
+    const int n = static_cast<int>(plan.nodes.size());
+    where_.assign(n, {-1, -1});
+    std::vector<int> count;
+    for (int v : plan.order) {
+      const int r = root_of(plan, v);
+      if (where_[r].first < 0) {
+        where_[r] = {static_cast<int>(count.size()), -1};
+        count.push_back(0);
+      }
+      where_[v] = {where_[r].first, count[where_[r].first]++};
+    }
+    for (int c : count) {
+      auto* mb = new btMultiBody(c, 0.0, btVector3(0, 0, 0), true, false);
+      mb->setBaseWorldTransform(btTransform::getIdentity());
+      bodies_.push_back(mb);
+    }
+    for (int v : plan.order) {
+      const Node& node = plan.nodes[v];
+      btMultiBody* mb = bodies_[where_[v].first];
+      const int i = where_[v].second;
+      const int p = plan.parent[v];
+      const int pi = p < 0 ? -1 : where_[p].second;
+      const Eigen::Vector2d pc = p < 0 ? Eigen::Vector2d::Zero() : plan.nodes[p].com;
+      const Edge& e = plan.edges[plan.parent_edge[v]];
+      const btVector3 inertia(node.inertia, node.inertia, node.inertia);
+      const double q =
+          edge_coordinate(e, poses) * (e.kind == Edge::Kind::prismatic || e.a == p ? 1.0 : -1.0);
+      if (e.kind == Edge::Kind::planar) {
+        // Joint coordinates (theta, y, x) of the centre of mass, in the ground frame.
+        mb->setupPlanar(i, node.mass, inertia, pi, btQuaternion::getIdentity(), btVector3(0, 0, 1),
+                        btVector3(0, 0, 0), true);
+        const Pose& pose = poses[v];
+        const Eigen::Vector2d c = pose.r + turn(pose.theta, node.com);
+        const double qp[3] = {pose.theta, c.y(), c.x()};
+        mb->setJointPosMultiDof(i, qp);
+      } else if (e.kind == Edge::Kind::revolute) {
+        const Eigen::Vector2d pp = e.a == p ? e.pa : e.pb, pv = e.a == p ? e.pb : e.pa;
+        mb->setupRevolute(i, node.mass, inertia, pi, btQuaternion::getIdentity(),
+                          btVector3(0, 0, 1), bt(pp - pc), bt(node.com - pv), true);
+        mb->setJointPos(i, q);
+      } else if (e.a == p) {  // prismatic, parent = guide
+        mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(-e.phi), bt(turn(-e.phi, e.axis)),
+                           bt(e.pa - pc), bt(node.com - e.pb), true);
+        mb->setJointPos(i, q);
+      } else {  // prismatic, parent = slider: the guide moves along -axis
+        mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(e.phi), bt(-e.axis), bt(e.pb - pc),
+                           bt(node.com - e.pa), true);
+        mb->setJointPos(i, q);
+      }
+      if (plan.parent_edge[v] == plan.driver_edge) {
+        driver_body_ = mb;
+        driver_link_ = i;
+      }
+    }
+    for (btMultiBody* mb : bodies_) {
+      mb->setLinearDamping(0.0);
+      mb->setAngularDamping(0.0);
+      mb->setMaxCoordinateVelocity(1e300);  // default 100 would clip fast joints
+      mb->setUseGyroTerm(false);
+      mb->setHasSelfCollision(false);
+      mb->finalizeMultiDof();
+      world_->addMultiBody(mb);
+      btAlignedObjectArray<btQuaternion> rot;
+      btAlignedObjectArray<btVector3> org;
+      mb->forwardKinematics(rot, org);
+      // Without link colliders a multibody silently ignores its constraints and motor.
+      for (int i = 0; i < mb->getNumLinks(); ++i) {
+        auto* col = new btMultiBodyLinkCollider(mb, i);
+        col->setCollisionShape(&empty_);
+        col->setWorldTransform(mb->getLink(i).m_cachedWorldTransform);
+        world_->addCollisionObject(col, 0, 0);
+        mb->getLink(i).m_collider = col;
+        colliders_.push_back(col);
+      }
+    }
+    for (int ei : plan.cuts) {
+      const Edge& e = plan.edges[ei];
+      const Eigen::Vector2d ca = e.a < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.a].com;
+      const Eigen::Vector2d cb = e.b < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.b].com;
+      btMultiBodyPoint2Point* c = nullptr;
+      if (e.a < 0)
+        c = new btMultiBodyPoint2Point(bodies_[where_[e.b].first], where_[e.b].second, nullptr,
+                                       bt(e.pb - cb), bt(e.pa));
+      else if (e.b < 0)
+        c = new btMultiBodyPoint2Point(bodies_[where_[e.a].first], where_[e.a].second, nullptr,
+                                       bt(e.pa - ca), bt(e.pb));
+      else
+        c = new btMultiBodyPoint2Point(bodies_[where_[e.a].first], where_[e.a].second,
+                                       bodies_[where_[e.b].first], where_[e.b].second,
+                                       bt(e.pa - ca), bt(e.pb - cb));
+      c->setMaxAppliedImpulse(1e300);
+      world_->addMultiBodyConstraint(c);
+      constraints_.push_back(c);
+    }
+    if (driver_body_) {
+      motor_ = new btMultiBodyJointMotor(driver_body_, driver_link_, 0, 0.0, 1e300);
+      motor_->setErp(1.0);
+      drive(driver_target0);
+      world_->addMultiBodyConstraint(motor_);
+    }
+  }
+
+  ~MultiBodyScene() override {
+    if (motor_) world_->removeMultiBodyConstraint(motor_);
+    for (auto* c : constraints_) world_->removeMultiBodyConstraint(c);
+    for (auto* c : colliders_) world_->removeCollisionObject(c);
+    for (auto* mb : bodies_) world_->removeMultiBody(mb);
+    delete motor_;
+    for (auto* c : constraints_) delete c;
+    for (auto* c : colliders_) delete c;
+    for (auto* mb : bodies_) delete mb;
+    delete world_;
+    delete solver_;
+  }
+
+  // Joint-motor row: rhs = (target - q)/dt + v_desired (kp = kd = 1, erp 1, v_desired 0), so
+  // the driven coordinate lands exactly on the target after the step.
+  void drive(double target) override {
+    if (!motor_) return;
+    motor_->setPositionTarget(target, 1.0);
+    motor_->setVelocityTarget(0.0, 1.0);
+  }
+
+  void step(double dt) override { world_->stepSimulation(dt, 0, dt); }
+
+  void read(std::vector<Pose>& frames) const override {
+    frames.resize(plan_.nodes.size());
+    for (int v : plan_.order) {
+      const btMultiBody* mb = bodies_[where_[v].first];
+      const int i = where_[v].second;
+      const btVector3 c = mb->localPosToWorld(i, btVector3(0, 0, 0));
+      const btVector3 x = mb->localDirToWorld(i, btVector3(1, 0, 0));
+      frames[v] = {{c.x(), c.y()}, std::atan2(x.y(), x.x())};
+    }
+  }
+
+  int fallbacks() const override { return mlcp_ ? mlcp_->getNumFallbacks() : 0; }
+
+ private:
+  const Plan& plan_;
+  btDefaultCollisionConfiguration collision_;
+  btCollisionDispatcher dispatcher_{&collision_};
+  btDbvtBroadphase broadphase_;
+  UnboundedDantzig dantzig_;
+  btMultiBodyMLCPConstraintSolver* mlcp_ = nullptr;
+  btMultiBodyConstraintSolver* solver_ = nullptr;
+  btMultiBodyDynamicsWorld* world_ = nullptr;
+  btEmptyShape empty_;
+  std::vector<btMultiBody*> bodies_;
+  std::vector<btMultiBodyLinkCollider*> colliders_;
+  std::vector<btMultiBodyPoint2Point*> constraints_;
+  btMultiBodyJointMotor* motor_ = nullptr;
+  btMultiBody* driver_body_ = nullptr;
+  int driver_link_ = -1;
+  std::vector<std::pair<int, int>> where_;  // node -> (multibody, link)
+};
+
+// Maximal coordinates: one rigid body per link, held in the plane by its linear and angular
+// factors; each joint a btGeneric6DofSpring2Constraint that locks only the in-plane freedoms it
+// removes (revolute: x, y; prismatic: the line normal and the relative angle; pin in slot: the
+// line normal), so the MLCP sees no redundant or zero rows.
+class RigidScene final : public Scene {
+ public:
+  RigidScene(const Mechanism& m, const Plan& plan, const std::vector<Pose>& poses,
+             double driver_target0, const Config& config)
+      : plan_(plan) {
+    if (config.solver == "mlcp_dantzig") {
+      mlcp_ = new btMLCPSolver(&dantzig_);
+      solver_ = mlcp_;
+    } else {
+      solver_ = new btSequentialImpulseConstraintSolver();
+    }
+    world_ = new btDiscreteDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
+    world_->setGravity(btVector3(0, 0, 0));
+    btContactSolverInfo& info = world_->getSolverInfo();
+    info.m_numIterations = config.iterations;
+    info.m_erp = info.m_erp2 = config.erp;
+    info.m_globalCfm = 0.0;
+    info.m_splitImpulse = false;
+    erp_ = config.erp;
+
+    ground_ = new btRigidBody(0.0, nullptr, &empty_);
+    world_->addRigidBody(ground_, 0, 0);
+    const int links = m.moving_count();
+    for (int v = 0; v < links; ++v) {
+      const Node& node = plan.nodes[v];
+      btRigidBody::btRigidBodyConstructionInfo ci(
+          node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
+      auto* body = new btRigidBody(ci);
+      const Pose& p = poses[v];
+      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.com))));
+      body->setLinearFactor(btVector3(1, 1, 0));
+      body->setAngularFactor(btVector3(0, 0, 1));
+      body->setDamping(0.0, 0.0);
+      body->setFlags(0);  // no gyroscopic terms
+      body->setSleepingThresholds(0.0, 0.0);
+      body->setActivationState(DISABLE_DEACTIVATION);
+      world_->addRigidBody(body, 0, 0);
+      bodies_.push_back(body);
+    }
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      const Joint& j = m.joints[ji];
+      const int a = plan_node(m, j.link_a), b = plan_node(m, j.link_b);
+      const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
+      btTransform fa, fb;
+      if (j.type == JointType::revolute) {
+        fa = btTransform(btQuaternion::getIdentity(),
+                         bt(m.links[j.link_a].points[j.point_a].local - com(a)));
+        fb = btTransform(btQuaternion::getIdentity(), bt(pb - com(b)));
+      } else {
+        // Frame x along the line; the slider's frame turned so its relative angle is zero.
+        const Line& line = m.links[j.link_a].lines[j.line];
+        const double along = std::atan2(line.direction.y(), line.direction.x());
+        fa = btTransform(rot_z(along), bt(line.origin - com(a)));
+        fb = btTransform(rot_z(along - j.relative_angle), bt(pb - com(b)));
+      }
+      auto* c = new btGeneric6DofSpring2Constraint(body(a), body(b), fa, fb);
+      if (j.is_slide()) {
+        const Line& line = m.links[j.link_a].lines[j.line];
+        slides_.push_back({c, bt(line.origin - com(a)), bt(line.direction), fa, fb});
+      }
+      Lock lock;
+      lock.linear[1] = true;
+      lock.linear[0] = j.type == JointType::revolute;
+      lock.angular = j.type == JointType::prismatic;
+      add(c, lock);
+      joint_constraint_.push_back(c);
+      joint_lock_.push_back(lock);
+    }
+    // The driver: the driven joint's own constraint with one more freedom locked, or for a link
+    // angle without a ground pivot a constraint between the ground and the link that locks only
+    // its rotation (the absolute angle is realised directly).
+    const Driver& d = m.driver;
+    if (d.type == DriverType::link_angle && plan.driver_planar) {
+      const int v = plan.edges[plan.driver_edge].b;
+      const btTransform fb(btQuaternion::getIdentity(), btVector3(0, 0, 0));
+      const btTransform fa(btQuaternion::getIdentity(),
+                           bt(poses[v].r + turn(poses[v].theta, com(v))));
+      driver_ = new btGeneric6DofSpring2Constraint(*ground_, *bodies_[v], fa, fb);
+      driver_lock_.angular = true;
+      add(driver_, driver_lock_);
+      driver_rotation_ = true;
+    } else {
+      const int ji = plan.edges[plan.driver_edge].joint;
+      driver_ = joint_constraint_[ji];
+      driver_lock_ = joint_lock_[ji];
+      driver_rotation_ = m.joints[ji].type == JointType::revolute;
+      if (driver_rotation_)
+        driver_lock_.angular = true;
+      else
+        driver_lock_.linear[0] = true;
+    }
+    driver_fa_ = driver_->getFrameOffsetA();
+    driver_fb_ = driver_->getFrameOffsetB();
+    drive(driver_target0);
+  }
+
+  ~RigidScene() override {
+    for (auto* c : constraints_) world_->removeConstraint(c);
+    for (auto* b : bodies_) world_->removeRigidBody(b);
+    world_->removeRigidBody(ground_);
+    for (auto* c : constraints_) delete c;
+    for (auto* b : bodies_) delete b;
+    delete ground_;
+    delete world_;
+    delete solver_;
+  }
+
+  // Rotation: the slider frame is turned back by the target so the lock sits at zero (a lock
+  // at the target itself would jump by 2 pi where the relative angle wraps). Slide: the
+  // linear lock moves to the target.
+  void drive(double target) override {
+    // Slides: frame A's origin follows the slider point along the line, so that the 6-dof
+    // constraint's lever arms are taken at the contact point (with the frames apart its
+    // Jacobian is not that of the point-on-line equation and a moving guide locks up).
+    for (const Slide& sl : slides_) {
+      if (sl.constraint == driver_ && !driver_rotation_) continue;  // x measured from the origin
+      btRigidBody& a = sl.constraint->getRigidBodyA();
+      btRigidBody& b = sl.constraint->getRigidBodyB();
+      const btVector3 p = b.getWorldTransform() * sl.fb.getOrigin();
+      const btVector3 local = a.getWorldTransform().inverse() * p;
+      btTransform fa = sl.fa;
+      fa.setOrigin(sl.origin + sl.axis * (local - sl.origin).dot(sl.axis));
+      btTransform fb = sl.fb;
+      if (sl.constraint == driver_) fb = sl.constraint->getFrameOffsetB();
+      sl.constraint->setFrames(fa, fb);
+    }
+    if (driver_rotation_) {
+      btTransform fb = driver_fb_;
+      fb.setRotation(driver_fb_.getRotation() * rot_z(-target));
+      driver_->setFrames(driver_fa_, fb);
+      set_limits(driver_, driver_lock_, 0.0);
+    } else {
+      set_limits(driver_, driver_lock_, target);
+    }
+  }
+
+  void step(double dt) override { world_->stepSimulation(dt, 0, dt); }
+
+  void read(std::vector<Pose>& frames) const override {
+    frames.resize(plan_.nodes.size());
+    for (size_t v = 0; v < bodies_.size(); ++v) {
+      const btTransform& t = bodies_[v]->getWorldTransform();
+      const btVector3 x = t.getBasis().getColumn(0);
+      frames[v] = {{t.getOrigin().x(), t.getOrigin().y()}, std::atan2(x.y(), x.x())};
+    }
+  }
+
+  int fallbacks() const override { return mlcp_ ? mlcp_->getNumFallbacks() : 0; }
+
+ private:
+  struct Lock {
+    bool linear[2] = {false, false};
+    bool angular = false;
+  };
+  struct Slide {
+    btGeneric6DofSpring2Constraint* constraint;
+    btVector3 origin, axis;  // the line in body A's centre-of-mass frame
+    btTransform fa, fb;
+  };
+  std::vector<Slide> slides_;
+
+  int plan_node(const Mechanism& m, int link) const {
+    return link == m.ground() ? -1 : node_of_link(plan_, link);
+  }
+  Eigen::Vector2d com(int node) const {
+    return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].com;
+  }
+  btRigidBody& body(int node) const { return node < 0 ? *ground_ : *bodies_[node]; }
+
+  // Locked axes get lower = upper (the linear x lock at `x_value`); free axes lower > upper.
+  static void set_limits(btGeneric6DofSpring2Constraint* c, const Lock& lock, double x_value) {
+    c->setLinearLowerLimit(
+        btVector3(lock.linear[0] ? x_value : 1.0, lock.linear[1] ? 0.0 : 1.0, 1.0));
+    c->setLinearUpperLimit(
+        btVector3(lock.linear[0] ? x_value : -1.0, lock.linear[1] ? 0.0 : -1.0, -1.0));
+    c->setAngularLowerLimit(btVector3(1.0, 1.0, lock.angular ? 0.0 : 1.0));
+    c->setAngularUpperLimit(btVector3(-1.0, -1.0, lock.angular ? 0.0 : -1.0));
+  }
+
+  void add(btGeneric6DofSpring2Constraint* c, const Lock& lock) {
+    set_limits(c, lock, 0.0);
+    for (int axis = 0; axis < 6; ++axis) {
+      c->setParam(BT_CONSTRAINT_STOP_ERP, erp_, axis);
+      c->setParam(BT_CONSTRAINT_STOP_CFM, 0.0, axis);
+    }
+    world_->addConstraint(c, true);
+    constraints_.push_back(c);
+  }
+
+  const Plan& plan_;
+  double erp_ = 1.0;
+  btDefaultCollisionConfiguration collision_;
+  btCollisionDispatcher dispatcher_{&collision_};
+  btDbvtBroadphase broadphase_;
+  UnboundedDantzig dantzig_;
+  btMLCPSolver* mlcp_ = nullptr;
+  btConstraintSolver* solver_ = nullptr;
+  btDiscreteDynamicsWorld* world_ = nullptr;
+  btEmptyShape empty_;
+  btRigidBody* ground_ = nullptr;
+  std::vector<btRigidBody*> bodies_;
+  std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;
+  std::vector<Lock> joint_lock_;
+  btGeneric6DofSpring2Constraint* driver_ = nullptr;
+  Lock driver_lock_;
+  bool driver_rotation_ = true;
+  btTransform driver_fa_, driver_fb_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Run
+
+// Mechanism coordinates of the reference's sample `row` (link frames from the link angle and
+// any named point on the link).
+Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& ref, int row) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
+  const auto named = m.named_points();
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const double theta = ref.angle(row, k);
+    q(3 * k + 2) = theta;
+    const Link& link = m.links[l];
+    for (size_t c = 0; c < named.size(); ++c) {
+      const int pi = link.find_point(named[c].name);
+      if (pi < 0) continue;
+      const Eigen::Vector2d p(ref.x(row, static_cast<Eigen::Index>(c)),
+                              ref.y(row, static_cast<Eigen::Index>(c)));
+      q.segment<2>(3 * k) = p - turn(theta, link.points[pi].local);
+      break;
+    }
+  }
+  return q;
+}
+
+Mechanism perturbed(const Mechanism& m, const Config& c) {
+  Mechanism out = m;
+  if (c.perturb_link.empty()) return out;
+  const int l = out.find_link(c.perturb_link);
+  if (l < 0) throw std::invalid_argument("setting perturb_link: no link '" + c.perturb_link + "'");
+  for (Point& p : out.links[l].points) p.local *= c.perturb_factor;
+  for (Line& line : out.links[l].lines) line.origin *= c.perturb_factor;
+  return out;
+}
+
+std::string format_number(double v) {
+  return fmt::format("{:.6g}", v);
+}
+
+class BulletEngine final : public Engine {
+ public:
+  std::string name() const override { return "bullet"; }
+
+  bool supports(const Mechanism& mechanism, std::string* why) const override {
+    if (mobility(mechanism).mobility != 1) {
+      if (why) *why = "the chain's mobility is not 1";
+      return false;
+    }
+    Plan plan = make_plan(mechanism);
+    if (plan.driver_edge < 0) {
+      if (why) *why = "the driver is not a joint the scene can drive";
+      return false;
+    }
+    make_tree(plan, why);
+    return !plan.order.empty();
+  }
+
+  EngineRun run(const Mechanism& original, const Trajectory& reference,
+                const Settings& overrides) const override;
+};
+
+EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& reference,
+                            const Settings& overrides) const {
+  using Clock = std::chrono::steady_clock;
+  const auto t_build = Clock::now();
+  EngineRun out;
+  out.trajectory.method = "bullet";
+  out.trajectory.resize(original, reference.samples());
+  Config config;
+  auto fail = [&](const std::string& message) {
+    out.ok = false;
+    out.message = message;
+    std::fill(out.trajectory.status.begin(), out.trajectory.status.end(), PoseStatus::diverged);
+    return out;
+  };
+  std::vector<std::string> notes;
+  if (!btIsDoublePrecision()) return fail("Bullet is not the float64 build");
+
+  Mechanism m;
+  try {
+    config = parse_settings(overrides);
+    m = perturbed(original, config);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  const int samples = reference.samples();
+  const double size = m.size();
+  const Driver& d = m.driver;
+  out.trajectory.time = reference.time;
+  out.trajectory.driver = reference.driver;
+
+  // Time step: samples fall on step boundaries unless an explicit dt does not divide the
+  // sample interval (then the local quadratic through three steps is evaluated at the sample).
+  double interval = samples > 1 ? reference.time(1) - reference.time(0) : 0.0;
+  for (int i = 1; i < samples; ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      return fail("the reference's sample times do not increase");
+  double dt = config.dt;
+  if (dt == 0.0) {
+    if (!(interval > 0.0)) return fail("cannot choose dt: the reference has one sample");
+    dt = interval / config.steps_per_sample;
+  }
+
+  auto settings_out = [&]() {
+    out.settings = {
+        {"formulation", config.formulation},
+        {"solver", config.solver},
+        {"dt", format_number(dt)},
+        {"steps_per_sample",
+         config.dt == 0.0 ? std::to_string(config.steps_per_sample) : format_number(interval / dt)},
+        {"iterations", std::to_string(config.iterations)},
+        {"erp", format_number(config.erp)},
+        {"precision", btIsDoublePrecision() ? "float64" : "float32"},
+        {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
+        {"divergence_gap", format_number(config.divergence_gap)},
+        {"singular_rcond", format_number(config.singular_rcond)},
+        {"perturb_link", config.perturb_link.empty()
+                             ? ""
+                             : config.perturb_link + ":" + format_number(config.perturb_factor)}};
+  };
+  settings_out();
+
+  // Plan the scene; the multibody formulation falls back to rigid bodies when its tree
+  // cannot be cut at revolute joints.
+  Plan plan = make_plan(m);
+  if (plan.driver_edge < 0) return fail("the driver is not a joint the scene can drive");
+  std::string why;
+  make_tree(plan, &why);
+  if (plan.order.empty()) return fail(why);
+  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
+    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
+    config.formulation = "rigid";
+    settings_out();
+  }
+  if (plan.driver_planar)
+    notes.push_back(
+        "link-angle driver realised directly: the driven link's absolute angle is a joint "
+        "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
+        "locking only its rotation)");
+  if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
+      d.type == DriverType::link_angle)
+    notes.push_back("link-angle driver realised as the angle of its ground pivot");
+
+  // Start: the exact assembled configuration a few steps before the first sample, so that
+  // the first sample is centred too (falls back to the sample itself near an assembly limit).
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  if (samples == 0) return fail("the reference has no samples");
+  const double t0 = reference.time(0);
+  state.q = reference_coordinates(original, reference, 0);
+  int preroll = 4;  // the first step from rest is a transient: keep it out of the stencils
+  double t_start = t0 - preroll * dt;
+  state.driver = d.at_time(t_start);
+  state.driver.value = reference.driver(0) + (state.driver.value - d.at_time(t0).value);
+  SolveReport start = solver.solve_position(state);
+  if (start.status != PoseStatus::ok) {
+    preroll = 0;
+    t_start = t0;
+    state.q = reference_coordinates(original, reference, 0);
+    state.driver = d.at_time(t0);
+    state.driver.value = reference.driver(0);
+    start = solver.solve_position(state);
+    if (start.status != PoseStatus::ok && config.perturb_link.empty())
+      return fail("cannot assemble the scene at the first sample: " + start.message);
+    if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
+      state.q = reference_coordinates(original, reference, 0);
+      notes.push_back("perturbed chain does not assemble at the first sample; started open");
+    }
+  }
+  const double driver_offset = reference.driver(0) - d.at_time(t0).value;
+  const Eigen::VectorXd q_start = state.q;
+  const std::vector<Pose> poses = node_poses(m, plan, q_start);
+  const Edge& de = plan.edges[plan.driver_edge];
+  const bool driver_forward = de.kind != Edge::Kind::revolute || de.a == plan.parent[de.b];
+  // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
+  const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
+  const double coordinate0 = edge_sign * edge_coordinate(de, poses);
+  const double driver0 = state.driver.value;
+  // d(edge coordinate)/d(driver value): -1 only for a link angle read off a ground pivot
+  // written as [link, ground].
+  const double driver_sign =
+      (d.type == DriverType::link_angle && de.kind == Edge::Kind::revolute && de.b < 0) ? -1.0
+                                                                                        : 1.0;
+  auto target_at = [&](double t) {
+    return coordinate0 + edge_sign * driver_sign * (d.at_time(t).value + driver_offset - driver0);
+  };
+
+  std::unique_ptr<Scene> scene;
+  try {
+    if (config.formulation == "multibody")
+      scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config);
+    else
+      scene = std::make_unique<RigidScene>(m, plan, poses, coordinate0, config);
+  } catch (const std::exception& e) {
+    return fail(std::string("scene build failed: ") + e.what());
+  }
+
+  // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
+  std::vector<Pose> frames;
+  Eigen::VectorXd q = q_start;
+  auto read_q = [&]() {
+    scene->read(frames);
+    for (size_t v = 0; v < plan.nodes.size(); ++v) {
+      const Node& node = plan.nodes[v];
+      if (node.link < 0) continue;
+      const int k = m.moving_index(node.link);
+      double theta = frames[v].theta;
+      theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
+      q(3 * k + 2) = theta;
+      q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
+    }
+  };
+  read_q();
+  const double build_mismatch = (q - q_start).cwiseAbs().maxCoeff();
+  if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
+    return fail(fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
+                            build_mismatch));
+
+  // Loop gap: the largest violation of any joint (prismatic angle rows times the size).
+  Eigen::VectorXd phi(m.coordinate_count());
+  std::vector<double> angle_row(static_cast<size_t>(m.coordinate_count()), 0.0);
+  {
+    int row = 0;
+    for (const Joint& j : m.joints) {
+      if (j.type == JointType::prismatic) angle_row[static_cast<size_t>(row + 1)] = 1.0;
+      row += 3 - j.dof();
+    }
+  }
+  auto gap_and_driver = [&](double driver_value, double& driver_error) {
+    solver.residual(q, driver_value, phi);
+    double gap = 0.0;
+    for (Eigen::Index r = 0; r + 1 < phi.size(); ++r)
+      gap = std::max(gap, std::abs(phi(r)) * (angle_row[static_cast<size_t>(r)] ? size : 1.0));
+    driver_error = std::abs(phi(phi.size() - 1));
+    if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
+    return gap;
+  };
+
+  const double t_end = reference.time(samples - 1);
+  const long steps = static_cast<long>(std::ceil((t_end - t_start) / dt - 1e-9)) + 1;
+  Eigen::MatrixXd history(q.size(), steps + 1);
+  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
+  history.col(0) = q;
+  const double gap_flag = config.loop_gap_threshold * size;
+  const double gap_diverge = config.divergence_gap * size;
+  const double driver_tolerance = d.angular() ? 1e-4 : 1e-4 * size;
+  long last_good = steps;  // last step before divergence
+  std::string divergence;
+  double worst_gap = 0.0;
+
+  const auto t_steps = Clock::now();
+  for (long k = 1; k <= steps; ++k) {
+    const double t = t_start + k * dt;
+    scene->drive(target_at(t));
+    scene->step(dt);
+    read_q();
+    double driver_error = 0.0;
+    gaps(k) = gap_and_driver(d.at_time(t).value + driver_offset, driver_error);
+    history.col(k) = q;
+    worst_gap = std::max(worst_gap, gaps(k));
+    if (!q.allFinite() || !(gaps(k) <= gap_diverge) || driver_error > driver_tolerance) {
+      last_good = k - 1;
+      divergence = !q.allFinite() ? "NaN in the state"
+                   : driver_error > driver_tolerance
+                       ? fmt::format("driver lost (off by {:.3e})", driver_error)
+                       : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m",
+                                     gaps(k), gap_diverge);
+      divergence = fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t,
+                               d.at_time(t).value + driver_offset, divergence);
+      break;
+    }
+  }
+  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
+  const long taken = last_good < steps ? last_good + 1 : steps;
+
+  // Samples: the quadratic through steps k-1, k, k+1 (k the nearest step) at the sample time:
+  // central differences when the sample is on step k.
+  KinematicState sample(m), conditioning(m);
+  int singular_at = -1, near_singular = 0;
+  Trajectory& tr = out.trajectory;
+  int flagged = 0, lost = 0;
+  for (int i = 0; i < samples; ++i) {
+    const double u = (reference.time(i) - t_start) / dt;
+    const long k = std::clamp<long>(std::lround(u), 1, steps - 1);
+    const double tau = u - static_cast<double>(k);
+    sample.driver = d.at_time(reference.time(i));
+    sample.driver.value = reference.driver(i);
+    SolveReport report;
+    double gap = 0.0, rcond = 1.0;
+    if (k + 1 > last_good || steps < 2) {
+      report.status = PoseStatus::diverged;
+      sample.q.setZero();
+      sample.qdot.setZero();
+      sample.qddot.setZero();
+      ++lost;
+    } else {
+      const auto qm = history.col(k - 1), q0 = history.col(k), qp = history.col(k + 1);
+      const Eigen::VectorXd first = 0.5 * (qp - qm), second = qp - 2.0 * q0 + qm;
+      sample.q = q0 + tau * first + 0.5 * tau * tau * second;
+      sample.qdot = (first + tau * second) / dt;
+      sample.qddot = second / (dt * dt);
+      gap = std::max({gaps(k - 1), gaps(k), gaps(k + 1)});
+      // Near a singular position the engine may take either branch without opening a gap:
+      // the conditioning of the constraint Jacobian at the sampled pose flags it.
+      conditioning.q = sample.q;
+      conditioning.driver.value = solver.driver_value(sample.q);
+      rcond = solver.solve_position(conditioning).rcond;
+      if (gap > gap_flag) {
+        report.status = PoseStatus::loop_gap;
+        ++flagged;
+      } else if (rcond < config.singular_rcond) {
+        report.status = PoseStatus::singular;
+        if (singular_at < 0) singular_at = i;
+        ++near_singular;
+      }
+    }
+    solver.write_sample(sample, report, tr, i);
+    tr.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : gap;
+    tr.time(i) = reference.time(i);
+    tr.driver(i) = reference.driver(i);
+    tr.rcond(i) = rcond;
+  }
+  if (flagged)
+    tr.events.push_back({reference.driver(0), PoseStatus::loop_gap,
+                         fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
+                                     flagged, gap_flag, worst_gap)});
+  if (near_singular)
+    tr.events.push_back(
+        {reference.driver(singular_at), PoseStatus::singular,
+         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
+                     "engine may have changed branch there",
+                     near_singular, config.singular_rcond)});
+  if (!divergence.empty()) {
+    out.ok = false;
+    tr.events.push_back({d.at_time(t_start + (last_good + 1) * dt).value + driver_offset,
+                         PoseStatus::diverged, divergence});
+    notes.insert(notes.begin(), divergence);
+  }
+  if (const int fb = scene->fallbacks(); fb > 0)
+    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
+  if (config.dt != 0.0 && std::abs(interval / dt - std::round(interval / dt)) > 1e-6)
+    notes.push_back("dt does not divide the sample interval: samples interpolated");
+
+  out.cost.steps = taken;
+  out.cost.simulated_seconds = taken * dt;
+  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
+  const double period = m.cycle_period();
+  out.cost.wall_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping * period / out.cost.simulated_seconds : 0.0;
+  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+  (void)lost;
+  return out;
+}
+
+}  // namespace
+
+std::unique_ptr<Engine> make_bullet_engine() {
+  return std::make_unique<BulletEngine>();
+}
+
+}  // namespace crosslink::sim
