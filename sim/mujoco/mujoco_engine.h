@@ -17,7 +17,8 @@
 //                   previous sample exceeds it are flagged PoseStatus::loop_gap
 //   driver_threshold 1e-3 [rad] or 1e-3 x size [m]: a driven joint further than this from its
 //                   target has lost the driver (PoseStatus::diverged, run not ok)
-//   perturb_link    none | "<link>:<factor>" (test hook: scales that link's points in the scene)
+//   perturb_link    none | "<link>:<factor>" (test hook: that link's points scaled; the scene is
+//                   assembled for the scaled linkage, a valid but wrong model)
 #pragma once
 
 #include <memory>
