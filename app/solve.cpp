@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analytic/dyads.h"
+#include "analytic/instant_centres.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "app/commands.h"
@@ -16,6 +18,8 @@ struct SolveArgs {
   std::optional<double> at;
   std::string format = "table";
   double step = 0.0;
+  std::string method = "auto";  // dyads | newton | auto (dyads when the chain decomposes)
+  bool ic = false;              // print the instantaneous centres (with --at)
 };
 
 nlohmann::json sample_json(const Trajectory& t, int row) {
@@ -59,6 +63,7 @@ void print_json(const Mechanism& m, const Trajectory& t, bool single) {
   j["mechanism"] = m.name;
   j["file"] = m.file;
   j["units"] = "SI";
+  j["method"] = t.method;
   if (single) {
     j.update(sample_json(t, 0));
   } else {
@@ -146,15 +151,81 @@ void print_table_sweep(const Mechanism& m, const Trajectory& t) {
   }
 }
 
+// Kennedy–Aronhold centres at one sample and the velocities they give, beside the exact ones.
+void print_instant_centres(const Mechanism& m, const Trajectory& t) {
+  const double L = m.units.length;
+  const std::string& ln = m.units.length_name;
+  const InstantCentres ic = instant_centres(m, t, 0);
+  fmt::print("\ninstantaneous centres (links numbered in definition order: {})\n", [&] {
+    std::string names;
+    for (size_t l = 0; l < m.links.size(); ++l)
+      names += fmt::format("{}{} {}", l ? ", " : "", l + 1, m.links[l].name);
+    return names;
+  }());
+  fmt::print("{:<8} {:>24}  {}\n", "pair", fmt::format("x, y [{}]", ln), "found");
+  for (const InstantCentre& c : ic.centres) {
+    const std::string where =
+        c.at_infinity()
+            ? fmt::format("at infinity, direction ({:.4f}, {:.4f})", c.point.x(), c.point.y())
+            : fmt::format("{:.4f}, {:.4f}", c.point.x() / L, c.point.y() / L);
+    fmt::print("I({},{})   {:>24}  {}\n", c.i + 1, c.j + 1, where, c.how);
+  }
+  if (ic.kennedy_unplaced > 0)
+    fmt::print(
+        "({} centre(s) Kennedy's theorem alone cannot place: taken from the velocity "
+        "solution, as labelled)\n",
+        ic.kennedy_unplaced);
+  const CentreVelocities v = centre_velocities(m, ic, t, 0);
+  if (!v.complete) {
+    fmt::print("velocities from the centres: {}\n", v.message);
+    return;
+  }
+  fmt::print("\n{:<14} {:>14} {:>14} {:>10}\n", "link", "omega exact", "omega IC", "diff %");
+  for (size_t l = 0; l < t.link_names.size(); ++l) {
+    const double exact = t.omega(0, static_cast<Eigen::Index>(l));
+    fmt::print("{:<14} {:>14.4f} {:>14.4f} {:>10.2e}{}\n", t.link_names[l], exact, v.omega[l],
+               exact != 0.0 ? 100.0 * (v.omega[l] - exact) / exact : 0.0,
+               v.from_geometry[l] ? "" : "  (uses a centre from the velocity solution)");
+  }
+  fmt::print("\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>10}   [{}/s]\n", "point", "vx exact",
+             "vy exact", "vx IC", "vy IC", "|v| diff %", ln);
+  for (size_t p = 0; p < t.point_names.size(); ++p) {
+    const auto c = static_cast<Eigen::Index>(p);
+    const Eigen::Vector2d exact(t.vx(0, c), t.vy(0, c));
+    fmt::print("{:<8} {:>12.4f} {:>12.4f} {:>12.4f} {:>12.4f} {:>10.2e}\n", t.point_names[p],
+               exact.x() / L, exact.y() / L, v.point[p].x() / L, v.point[p].y() / L,
+               exact.norm() > 0.0 ? 100.0 * (v.point[p] - exact).norm() / exact.norm() : 0.0);
+  }
+}
+
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
   if (args.step > 0.0) options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
   const bool single = args.at.has_value();
-  const Trajectory t =
-      single ? solve_at(m, *args.at * (m.driver.angular() ? m.units.angle : m.units.length),
-                        options)
-             : sweep(m, options);
+  if (args.ic && !single) {
+    fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
+    return kExitBadInput;
+  }
+  Trajectory t =
+      single
+          ? solve_at(m, *args.at * (m.driver.angular() ? m.units.angle : m.units.length), options)
+          : sweep(m, options);
+  // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
+  const Decomposition decomposition = args.method == "newton" ? Decomposition{} : decompose(m);
+  if (args.method == "dyads" && !decomposition.complete) {
+    fmt::print(stderr, "{}: error: --method dyads: the chain {}\n", m.file,
+               "does not decompose into dyads: " + decomposition.reason);
+    return kExitBadInput;
+  }
+  std::string why = "newton (asked for)";
+  if (decomposition.complete) {
+    t = dyad_sweep(m, t);
+    why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
+  } else if (args.method == "auto") {
+    why = "newton (the chain does not decompose into dyads: " + decomposition.reason + ")";
+  }
+  fmt::print(stderr, "{}: method: {}\n", m.file, why);
   for (const Trajectory::Event& e : t.events)
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
                e.driver, e.message);
@@ -162,9 +233,10 @@ int run_solve(const SolveArgs& args) {
     print_json(m, t, single);
   else if (args.format == "csv")
     print_csv(t);
-  else if (single)
+  else if (single) {
     print_table_at(m, t, 0);
-  else
+    if (args.ic && usable(t.status[0])) print_instant_centres(m, t);
+  } else
     print_table_sweep(m, t);
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}: error: {} at driver = {}\n", m.file, to_string(t.status[0]),
@@ -184,6 +256,11 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)");
   cmd->add_option("--format", args->format, "output format")
       ->check(CLI::IsMember({"table", "json", "csv"}));
+  cmd->add_option("--method", args->method,
+                  "dyads (closed form), newton, or auto (dyads when the chain decomposes)")
+      ->check(CLI::IsMember({"dyads", "newton", "auto"}));
+  cmd->add_flag("--ic", args->ic,
+                "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
   cmd->callback([&run, args] { run = [args] { return run_solve(*args); }; });
 }
 

@@ -1,0 +1,154 @@
+// Exact kinematics by closed-form Assur groups of class II (dyads), solved in sequence from the
+// driver outward.
+//
+// Decomposition. Links are placed one group at a time; a group's outer joints attach it to links
+// already placed (the ground first). What a joint to a placed link K asks of an unplaced link U
+// is a "tie":
+//   pin    a point of U at a known world point (a revolute joint with K)          2 equations
+//   angle  U's angle known (a prismatic joint's fixed relative angle, or a driver) 1 equation
+//   slot   a point on a line, one of the two on U (the line part of a prismatic or 1 equation
+//          pin-in-slot joint)
+// Groups, in the order they are searched:
+//   input       pin + angle (the driver's input link, or a link welded to a placed one)
+//   pivot_slot  pin + slot: one link and a slotted pin or a slotted link (the block of an R-P
+//               pair taken as a pin-in-slot)                                   circle-line, tangent
+//   slide_slot  angle + slot + slot                                                       line-line
+//   dyad        two links joined by an inner revolute or prismatic joint, each held by a pin (R)
+//               or by angle + slot (P): RRR, RRP, PRR, PRP (inner R: circle-circle, circle-line,
+//               line-line) and RPR, RPP, PPR (inner P: tangent, line-line). PPP does not place.
+// A chain where no such group remains (a class-III group such as the Wanzer needle bar's
+// triangle with three slotted pins, or a driver on a floating link such as the polycentric
+// hinge's theta4) does not decompose: Decomposition::reason says why and Newton solves it.
+//
+// Assembly modes. A group with two solutions (circle-circle, circle-line, tangent) has an
+// assembly_mode of +1 or -1, read off the assembled position (NewtonSolver::assemble at the
+// driver's start value, i.e. the drawing) and then followed continuously: at each pose both
+// solutions are computed and the one nearest the pose predicted from the previous two samples is
+// taken; when that is the other mode, the change is reported (it happens only where the two
+// solutions meet, a toggle or change point).
+//
+// Velocity and acceleration. Each link of a group moves with one unknown rate of its own tie
+// (omega about a pin, or the slide rate along a slot), so a dyad's rates solve a 2x2 linear system
+// (the inner joint's two velocity equations), a single link's a 1x1. The accelerations solve the
+// same matrix; the velocity-squared and Coriolis terms (2 omega sdot of a slide on a turning line)
+// come from planar.h's BodyMotion and project.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/newton.h"
+#include "analytic/planar.h"
+#include "analytic/sweep.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink {
+
+// What a joint to a placed link asks of an unplaced link (see the header comment).
+struct Tie {
+  enum class Kind { pin, angle, slot };
+  Kind kind = Kind::pin;
+  int joint = -1;  // the joint it comes from (-1: the link_angle driver)
+  // pin: point `on_link` of the unplaced link sits at point `on_known` of link `known`; when
+  // `driver_slide`, at the driver's displacement s along line `line` of `known` instead.
+  // angle: theta = theta_known + offset + driver_sign * driver value (known = -1: no link).
+  // slot: the line part of `joint`; the unplaced link is its slider when `slider_is_unplaced`.
+  int known = -1;
+  int on_known = -1, on_link = -1, line = -1;
+  bool driver_slide = false;
+  double offset = 0.0, driver_sign = 0.0;
+  bool slider_is_unplaced = false;
+};
+
+// One group of the decomposition, placed once the links its ties name are placed.
+struct AssurGroup {
+  enum class Kind { input, pivot_slot, slide_slot, dyad };
+  Kind kind = Kind::input;
+  int link[2] = {-1, -1};    // the unplaced links (dyad: two; others: link[0])
+  std::vector<Tie> ties[2];  // the ties of each link to placed links
+  int inner = -1;            // dyad: the joint between link[0] and link[1]
+  // Per link, the index in ties[i] of its pin, angle and slot tie (-1: none); `equation` is the
+  // second slot of a pivot_slot or slide_slot group (the one its rate is solved from).
+  int pin[2] = {-1, -1}, angle[2] = {-1, -1}, slot[2] = {-1, -1}, equation = -1;
+  bool two_solutions = false;  // it has an assembly mode
+  std::string name;            // "RRR dyad coupler + rocker (B, C, D)"
+};
+
+struct Decomposition {
+  bool complete = false;           // every link is placed by a group
+  std::vector<AssurGroup> groups;  // in solving order, from the driver outward
+  std::string reason;              // why it does not decompose (empty when complete)
+};
+// From the ground and the driver outward; topology only (geometry decides modes, not groups).
+Decomposition decompose(const Mechanism& mechanism);
+
+// Working storage for one mechanism, sized once; a solve allocates nothing.
+struct DyadState {
+  explicit DyadState(const Mechanism& mechanism);
+
+  KinematicState kinematics;       // q, qdot, qddot and the driver, as Newton's
+  std::vector<BodyMotion> motion;  // per link (ground included), the solved motion
+  std::vector<int> assembly_mode;  // per group: +1, -1, or 0 (one solution)
+  // Per group, the solution that tells its modes apart (the solved point, or the direction of a
+  // tangent line times the mechanism's size) at the last two accepted samples, for the
+  // continuity prediction; `history` counts how many are valid (0, 1, 2).
+  std::vector<Eigen::Vector2d> previous, before_previous;
+  int history = 0;
+  double smallest_sine = 1.0;  // of the last solve_position: min over groups (0 = singular)
+  // Mode changes of the last solve_position: group index, old mode, new mode.
+  struct ModeChange {
+    int group, from, to;
+  };
+  std::vector<ModeChange> mode_changes;
+};
+
+class DyadSolver {
+ public:
+  // The decomposition must be complete (throws std::invalid_argument otherwise). A pose whose
+  // smallest group sine (of the angle at which its two loci meet; 0 at a toggle or change
+  // point) is below `singular_sine` is singular: positions are given, rates are not.
+  DyadSolver(const Mechanism& mechanism, Decomposition decomposition, double singular_sine = 1e-7);
+
+  const Mechanism& mechanism() const { return mechanism_; }
+  const Decomposition& decomposition() const { return decomposition_; }
+
+  // Reads every group's assembly mode off a solved (assembled) Newton state and takes its link
+  // angles as the reference for unwrapping.
+  void set_modes(const KinematicState& assembled, DyadState& state) const;
+
+  // Position of every group at state.kinematics.driver, in order, following the modes.
+  SolveReport solve_position(DyadState& state) const;
+  void solve_velocity(DyadState& state) const;
+  void solve_acceleration(DyadState& state) const;
+  SolveReport solve(DyadState& state) const;  // all three
+
+  // Describes group g's mode: "+1 (C left of B -> D)".
+  std::string describe_mode(int group, int mode) const;
+
+ private:
+  struct Roots;
+  // Both solutions of group g from the links placed before it (count 0: it cannot assemble).
+  void roots(const AssurGroup& g, DyadState& state, Roots& out) const;
+  // Places g's links on root `index`.
+  void place(const AssurGroup& g, const Roots& roots, int index, DyadState& state) const;
+  // Rates (velocity) and their derivatives (acceleration) of g's links from its unknowns.
+  void set_rate(const AssurGroup& g, int i, double rate, DyadState& state) const;
+  void set_accel(const AssurGroup& g, int i, double accel, DyadState& state) const;
+  Eigen::Vector2d rate_residual(const AssurGroup& g, const DyadState& state, bool accel) const;
+  void publish(DyadState& state) const;  // motions -> kinematics.q, qdot, qddot
+
+  const Mechanism& mechanism_;
+  Decomposition decomposition_;
+  double size_;  // Mechanism::size() [m]
+  double singular_sine_;
+};
+
+// The closed-form sweep at the driver values of a Newton sweep `grid` (sweep() with the same
+// options), method "dyads". Modes start from the assembled drawing and are followed from the
+// sample nearest the driver's start value outward; mode changes are events.
+Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid);
+Trajectory dyad_sweep(const Mechanism& mechanism, const SweepOptions& options = {});
+
+}  // namespace crosslink
