@@ -14,5 +14,6 @@ constexpr int kExitBadInput = 2;
 // Each registers its subcommand on `app` and sets `run` to its action.
 void add_check(CLI::App& app, std::function<int()>& run);
 void add_solve(CLI::App& app, std::function<int()>& run);
+void add_compare(CLI::App& app, std::function<int()>& run);
 
 }  // namespace crosslink::app

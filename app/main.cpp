@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   std::function<int()> run;
   add_check(app, run);
   add_solve(app, run);
+  add_compare(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

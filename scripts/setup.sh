@@ -10,6 +10,7 @@ PACKAGES=(
   libeigen3-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
+  nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -21,6 +22,17 @@ if ((${#missing[@]})); then
   echo "setup: installing ${missing[*]}"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# The HTML report's chart scripts (Vega, Vega-Lite, vega-embed) from the npm registry, at the
+# versions pinned in report/package-lock.json; read by `crosslink compare --report` at run time.
+if ! command -v npm >/dev/null; then  # Debian's nodejs ships npm separately
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO=sudo
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends npm
+fi
+if [ ! -d report/node_modules ] || [ report/package-lock.json -nt report/node_modules ]; then
+  (cd report && npm ci --no-audit --no-fund)
 fi
 
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release

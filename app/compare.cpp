@@ -1,0 +1,171 @@
+// `crosslink compare [FILE] [--engines LIST] [--report out.html] [--csv out.csv]
+// [--json out.json] ...`: every method against the exact analytic sweep, with verdicts. Exit 0
+// when every verdict passes, 1 when one fails, 2 on bad input. Without FILE it compares the
+// bundled sewing machine. See docs/compare.md.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analytic/loader.h"
+#include "app/commands.h"
+#include "compare/comparison.h"
+#include "compare/report.h"
+
+namespace crosslink::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CompareArgs {
+  std::string path;
+  std::string engines = "analytic,dyads,ic,mujoco,bullet";
+  std::string report, csv, json;
+  std::optional<double> at;
+  double step = 0.0;
+  std::vector<std::string> tolerances;  // "velocity=0.5", "dyads:velocity=1e-6"
+  std::vector<std::string> settings;    // "dt=1e-4", "mujoco:dt=1e-4"
+  std::string accuracy;                 // "1" or "1%": cheapest engine settings (sweep.cpp)
+  bool all = false;
+};
+
+// The bundled sewing machine: relative to the current directory, else to the source tree.
+std::string default_mechanism() {
+  const fs::path relative = "mechanisms/sewing_machine.toml";
+  if (fs::exists(relative)) return relative.string();
+  return (fs::path(CROSSLINK_SOURCE_DIR) / relative).string();
+}
+
+std::vector<std::string> split(const std::string& text, char sep) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, sep);)
+    if (!part.empty()) parts.push_back(part);
+  return parts;
+}
+
+// The installed chart scripts: <prefix>/share/crosslink/report next to <prefix>/bin.
+std::vector<std::string> installed_asset_dirs() {
+  std::error_code error;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  if (error) return {};
+  return {(exe.parent_path().parent_path() / "share" / "crosslink" / "report").string()};
+}
+
+// "key=value" for every engine, or "engine:key=value" for one.
+sim::Settings settings_for(const std::string& engine, const std::vector<std::string>& all) {
+  sim::Settings out;
+  for (const std::string& s : all) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos)
+      throw std::invalid_argument(fmt::format("setting '{}': expected KEY=VALUE", s));
+    std::string key = s.substr(0, eq);
+    if (const size_t colon = key.find(':'); colon != std::string::npos) {
+      if (key.substr(0, colon) != engine) continue;
+      key = key.substr(colon + 1);
+    }
+    out.emplace_back(key, s.substr(eq + 1));
+  }
+  return out;
+}
+
+template <class Write>
+void write_to(const std::string& path, Write write) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::invalid_argument(fmt::format("cannot write '{}'", path));
+  write(out);
+  if (!out) throw std::invalid_argument(fmt::format("error writing '{}'", path));
+}
+
+int run_compare(CompareArgs args) {
+  if (args.path.empty()) args.path = default_mechanism();
+  const Mechanism m = load_mechanism(args.path);
+
+  // Methods: the reference first, then the others asked for, in the order given.
+  std::vector<std::string> names = split(args.engines, ',');
+  for (const std::string& n : names)
+    if (std::find(compare::method_names().begin(), compare::method_names().end(), n) ==
+        compare::method_names().end())
+      throw std::invalid_argument(fmt::format(
+          "--engines: unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", n));
+  compare::Tolerances tolerances(m.tolerances);
+  const std::optional<double> accuracy = parse_accuracy(args.accuracy);
+  if (accuracy)  // the accuracy asked for is the engines' tolerance; --tolerance still wins
+    for (const char* q : {"position", "angle", "velocity", "acceleration"})
+      tolerances.apply(fmt::format("{}={:.17g}", q, *accuracy));
+  for (const std::string& t : args.tolerances) tolerances.apply(t);
+  for (const std::string& s : args.settings) (void)settings_for("", {s});  // validate early
+
+  SweepOptions options;
+  const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
+  if (args.step > 0.0) options.step = args.step * driver_scale;
+  std::vector<compare::MethodRun> runs;
+  runs.push_back(compare::run_reference(m, options));
+  for (const std::string& n : names) {
+    if (n == "analytic") continue;
+    sim::Settings settings = settings_for(n, args.settings);
+    if (accuracy && compare::Tolerances::is_engine(n) && compare::method_built(n))
+      settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
+                                   args.json == "-" ? stderr : stdout);
+    runs.push_back(compare::run_method(n, m, runs.front(), settings));
+  }
+
+  const compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);
+
+  const bool json_stdout = args.json == "-";
+  compare::print_console(cmp, json_stdout ? stderr : stdout, {.all = args.all});
+  if (!args.json.empty()) {
+    const std::string text = compare::to_json(cmp).dump(2) + "\n";
+    if (json_stdout)
+      fmt::print("{}", text);
+    else
+      write_to(args.json, [&](std::ostream& out) { out << text; });
+  }
+  if (!args.csv.empty())
+    write_to(args.csv, [&](std::ostream& out) { compare::write_csv(cmp, out); });
+  if (!args.report.empty()) {
+    compare::HtmlOptions html;
+    if (args.at) html.at = *args.at * driver_scale;
+    html.asset_dirs = installed_asset_dirs();
+    std::ostringstream page;
+    compare::write_html(cmp, html, page);
+    write_to(args.report, [&](std::ostream& out) { out << page.str(); });
+    fmt::print(json_stdout ? stderr : stdout, "report: {}\n", args.report);
+  }
+  return cmp.pass() ? kExitOk : kExitFail;
+}
+
+}  // namespace
+
+void add_compare(CLI::App& app, std::function<int()>& run) {
+  auto* cmd = app.add_subcommand(
+      "compare", "Compare every method against the exact sweep: verdicts, reports, exit code");
+  auto args = std::make_shared<CompareArgs>();
+  cmd->add_option("FILE", args->path,
+                  "mechanism definition (.toml); default: the bundled sewing machine");
+  cmd->add_option("--engines", args->engines,
+                  "methods, comma-separated: analytic,dyads,ic,mujoco,bullet")
+      ->capture_default_str();
+  cmd->add_option("--report", args->report, "write a self-contained HTML report");
+  cmd->add_option("--csv", args->csv, "write every sample of every comparison as CSV (SI)");
+  cmd->add_option("--json", args->json, "write the JSON document (SI; '-' for stdout)");
+  cmd->add_option("--at", args->at,
+                  "driver value of the report's drawing, in the file's units (default: start)");
+  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)");
+  cmd->add_option("--tolerance", args->tolerances,
+                  "CLASS=PERCENT for the engines, or METHOD:CLASS=PERCENT (repeatable); classes: "
+                  "position, angle, velocity, acceleration");
+  cmd->add_option("--set", args->settings,
+                  "engine setting KEY=VALUE, or ENGINE:KEY=VALUE (repeatable), e.g. dt=1e-4");
+  cmd->add_option("--accuracy", args->accuracy,
+                  "X or X%: run each engine at its cheapest setting meeting X % of peak on every "
+                  "class (searched coarse to fine, docs/sweep.md); X becomes the engines' "
+                  "tolerance");
+  cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
+  cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
+}
+
+}  // namespace crosslink::app

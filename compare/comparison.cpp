@@ -1,0 +1,141 @@
+#include "compare/comparison.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "analytic/sweep.h"
+
+namespace crosslink::compare {
+
+std::string_view to_string(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::pass:
+      return "pass";
+    case Verdict::fail:
+      return "FAIL";
+    case Verdict::not_applicable:
+      return "n/a";
+  }
+  return "?";
+}
+
+const MethodRun* Comparison::method(std::string_view name) const {
+  for (const MethodRun& m : methods)
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+int Comparison::failures() const {
+  return static_cast<int>(std::count_if(channels.begin(), channels.end(),
+                                        [](const auto& c) { return c.verdict == Verdict::fail; }));
+}
+
+bool Comparison::pass() const {
+  return failures() == 0 && failed_methods.empty();
+}
+
+std::optional<double> value_at(const Trajectory& trajectory, std::string_view channel,
+                               double driver_value, bool angular, bool* interpolated) {
+  const std::optional<Eigen::VectorXd> column = trajectory.channel(channel);
+  if (!column || trajectory.samples() == 0) return std::nullopt;
+  const int n = trajectory.samples();
+  auto offset = [&](int k) {
+    const double d = trajectory.driver(k) - driver_value;
+    return angular ? wrap_angle(d) : d;
+  };
+  const bool angle_channel = Trajectory::quantity_of(channel) == Quantity::angle;
+  // A sample on the value.
+  const double on_grid = 1e-9 * std::max(1.0, std::abs(driver_value));
+  for (int k = 0; k < n; ++k)
+    if (std::abs(offset(k)) <= on_grid) {
+      if (interpolated) *interpolated = false;
+      return (*column)(k);
+    }
+  // Two consecutive samples around it (not across a wrap of the offset).
+  for (int k = 0; k + 1 < n; ++k) {
+    const double a = offset(k), b = offset(k + 1);
+    const double step = std::abs(trajectory.driver(k + 1) - trajectory.driver(k));
+    if ((a < 0.0) == (b < 0.0) || std::abs(a - b) > 1.5 * step) continue;
+    const double w = a / (a - b);
+    double va = (*column)(k), vb = (*column)(k + 1);
+    if (angle_channel) vb = va + wrap_angle(vb - va);
+    if (interpolated) *interpolated = true;
+    return va + w * (vb - va);
+  }
+  return std::nullopt;
+}
+
+Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> methods,
+                           const Tolerances& tolerances) {
+  Comparison out;
+  out.mechanism = &mechanism;
+  out.methods = std::move(methods);
+  const Trajectory& ref = out.methods.front().trajectory;
+  const int n = ref.samples();
+  const std::vector<std::string> channels = ref.channel_names();
+
+  // Reference columns, and the peak floor of each kind: 1 % of its largest peak (metrics.h).
+  std::vector<bool> ref_usable(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) ref_usable[static_cast<size_t>(k)] = usable(ref.status[k]);
+  std::vector<Eigen::VectorXd> ref_columns;
+  std::map<std::string, double> kind_peak;
+  for (const std::string& c : channels) {
+    ref_columns.push_back(*ref.channel(c));
+    double& peak = kind_peak[channel_kind(c)];
+    peak = std::max(peak, channel_peak(c, ref_columns.back(), ref_usable));
+  }
+
+  // Every method after the reference, channel by channel.
+  for (size_t mi = 1; mi < out.methods.size(); ++mi) {
+    const MethodRun& run = out.methods[mi];
+    if (!run.available) continue;
+    if (!run.ok) {
+      out.failed_methods.push_back(run.name);
+      continue;
+    }
+    std::vector<bool> both(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k)
+      both[static_cast<size_t>(k)] = ref_usable[static_cast<size_t>(k)] &&
+                                     usable(run.trajectory.status[static_cast<size_t>(k)]);
+    for (size_t c = 0; c < channels.size(); ++c) {
+      const Quantity q = Trajectory::quantity_of(channels[c]);
+      if (!run.computes(channels[c])) continue;
+      const std::optional<Eigen::VectorXd> column = run.trajectory.channel(channels[c]);
+      if (!column) continue;
+      ChannelResult result;
+      result.method = run.name;
+      result.metrics = compare_channel(channels[c], ref_columns[c], *column, both,
+                                       0.01 * kind_peak[channel_kind(channels[c])]);
+      result.tolerance = tolerances.of(run.name, q);
+      result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable
+                       : result.metrics.max_pct_of_peak <= result.tolerance ? Verdict::pass
+                                                                            : Verdict::fail;
+      out.channels.push_back(std::move(result));
+    }
+  }
+
+  // [[reference]] rows: exact at the printed driver value, every method on its sweep.
+  const bool angular = mechanism.driver.angular();
+  for (const Reference& r : mechanism.references) {
+    ReferenceRow row;
+    row.reference = r;
+    const Trajectory exact = solve_at(mechanism, r.driver_value);
+    if (exact.samples() > 0 && usable(exact.status[0]))
+      if (const auto v = exact.channel(r.quantity)) {
+        row.exact = (*v)(0);
+        row.exact_ok = true;
+      }
+    for (const MethodRun& run : out.methods) {
+      if (!run.available || !run.ok || !run.computes(r.quantity)) continue;
+      bool interpolated = false;
+      if (const auto v =
+              value_at(run.trajectory, r.quantity, r.driver_value, angular, &interpolated))
+        row.values.push_back({run.name, *v, interpolated});
+    }
+    out.references.push_back(std::move(row));
+  }
+  return out;
+}
+
+}  // namespace crosslink::compare

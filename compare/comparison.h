@@ -1,0 +1,66 @@
+// The comparison of every method against the reference (analytic Newton), channel by channel,
+// and of every method against the definition's [[reference]] values. Metrics: metrics.h;
+// tolerances: tolerance.h.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "compare/methods.h"
+#include "compare/metrics.h"
+#include "compare/tolerance.h"
+
+namespace crosslink::compare {
+
+enum class Verdict { pass, fail, not_applicable };
+std::string_view to_string(Verdict verdict);
+
+// One channel of one method against the reference.
+struct ChannelResult {
+  std::string method;
+  ChannelMetrics metrics;
+  double tolerance = 0.0;  // [% of peak]
+  Verdict verdict = Verdict::not_applicable;
+};
+
+// A [[reference]] row of the definition with every method's value at its driver value.
+struct ReferenceRow {
+  Reference reference;  // the printed value (SI)
+  double exact = 0.0;   // analytic Newton at exactly reference.driver_value (SI)
+  bool exact_ok = false;
+  struct Value {
+    std::string method;
+    double value = 0.0;         // SI
+    bool interpolated = false;  // between two sweep samples (linear)
+  };
+  std::vector<Value> values;  // every available method that computes the channel
+};
+
+struct Comparison {
+  const Mechanism* mechanism = nullptr;
+  std::vector<MethodRun> methods;  // methods[0]: the reference ("analytic")
+  std::vector<ChannelResult> channels;
+  std::vector<ReferenceRow> references;
+  // Methods asked for that ran but failed (diverged, wrong sample count): they fail the whole.
+  std::vector<std::string> failed_methods;
+
+  const MethodRun& reference() const { return methods.front(); }
+  const MethodRun* method(std::string_view name) const;
+  bool pass() const;
+  int failures() const;  // channels with verdict fail
+};
+
+// Compares every available method in `methods` (the first is the reference) channel by
+// channel, and fills the [[reference]] rows.
+Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> methods,
+                           const Tolerances& tolerances);
+
+// The value of one channel of `trajectory` at a driver value: the sample on it, or a linear
+// interpolation between the two samples around it (angular drivers modulo 2 pi). nullopt when
+// the value lies outside the sweep or the channel is unknown.
+std::optional<double> value_at(const Trajectory& trajectory, std::string_view channel,
+                               double driver_value, bool angular, bool* interpolated = nullptr);
+
+}  // namespace crosslink::compare

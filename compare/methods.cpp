@@ -1,0 +1,218 @@
+#include "compare/methods.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#ifdef CROSSLINK_HAVE_DYADS
+#include "analytic/dyads.h"
+#endif
+#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+#include "analytic/instant_centres.h"
+#endif
+#ifdef CROSSLINK_HAVE_MUJOCO
+#include "sim/mujoco/mujoco_engine.h"
+#endif
+#ifdef CROSSLINK_HAVE_BULLET
+#include "sim/bullet/bullet_engine.h"
+#endif
+
+namespace crosslink::compare {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+MethodRun not_available(std::string_view name, std::string description, std::string why) {
+  MethodRun run;
+  run.name = std::string(name);
+  run.description = std::move(description);
+  run.message = std::move(why);
+  return run;
+}
+
+// Runs an engine through the sim::Engine interface.
+MethodRun run_engine(const sim::Engine& engine, std::string description, const Mechanism& mechanism,
+                     const MethodRun& reference, const sim::Settings& settings) {
+  MethodRun run;
+  run.name = engine.name();
+  run.description = std::move(description);
+  std::string why;
+  if (!engine.supports(mechanism, &why)) {
+    run.message = "cannot realise this mechanism: " + why;
+    return run;
+  }
+  run.available = true;
+  sim::EngineRun result = engine.run(mechanism, reference.trajectory, settings);
+  run.ok = result.ok;
+  run.message = result.message;
+  run.trajectory = std::move(result.trajectory);
+  run.settings = std::move(result.settings);
+  run.cost = result.cost;
+  if (run.ok && run.trajectory.samples() != reference.trajectory.samples()) {
+    run.ok = false;
+    run.message = fmt::format("returned {} samples for the reference's {}",
+                              run.trajectory.samples(), reference.trajectory.samples());
+  }
+  return run;
+}
+
+}  // namespace
+
+bool MethodRun::computes(std::string_view channel) const {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  return kinds.empty() || std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
+}
+
+const std::vector<std::string>& method_names() {
+  static const std::vector<std::string> names = {"analytic", "dyads", "ic", "mujoco", "bullet"};
+  return names;
+}
+
+bool method_built(std::string_view name) {
+  if (name == "analytic") return true;
+#ifdef CROSSLINK_HAVE_DYADS
+  if (name == "dyads") return true;
+#endif
+#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+  if (name == "ic") return true;
+#endif
+#ifdef CROSSLINK_HAVE_MUJOCO
+  if (name == "mujoco") return true;
+#endif
+#ifdef CROSSLINK_HAVE_BULLET
+  if (name == "bullet") return true;
+#endif
+  return false;
+}
+
+MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options) {
+  MethodRun run;
+  run.name = "analytic";
+  run.description = "Newton-Raphson on the full constraint equations (the reference)";
+  const auto start = std::chrono::steady_clock::now();
+  run.trajectory = sweep(mechanism, options);
+  run.cost.wall_seconds = seconds_since(start);
+  run.cost.steps = run.trajectory.samples();
+  run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+  run.available = true;
+  run.ok = true;
+  const double step = options.step > 0.0 ? options.step : 0.0;
+  run.settings = {{"newton.tolerance", fmt::format("{:g}", options.newton.tolerance)},
+                  {"newton.max_iterations", fmt::format("{}", options.newton.max_iterations)},
+                  {"newton.singular_rcond", fmt::format("{:g}", options.newton.singular_rcond)},
+                  {"step", step > 0.0 ? fmt::format("{:g}", step) : "1 deg (default)"},
+                  {"samples", fmt::format("{}", run.trajectory.samples())}};
+  return run;
+}
+
+MethodRun run_method(std::string_view name, const Mechanism& mechanism, const MethodRun& reference,
+                     const sim::Settings& engine_settings) {
+  if (name == "analytic") return reference;
+  if (name == "dyads") {
+    const std::string description = "closed-form Assur groups (dyads) solved in sequence";
+#ifdef CROSSLINK_HAVE_DYADS
+    const Decomposition decomposition = decompose(mechanism);
+    if (!decomposition.complete)
+      return not_available(name, description,
+                           "does not decompose into dyads: " + decomposition.reason);
+    MethodRun run;
+    run.name = "dyads";
+    run.description = description;
+    const auto start = std::chrono::steady_clock::now();
+    run.trajectory = dyad_sweep(mechanism, reference.trajectory);
+    run.cost.wall_seconds = seconds_since(start);
+    run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+    run.cost.steps = run.trajectory.samples();
+    run.available = true;
+    run.ok = run.trajectory.samples() == reference.trajectory.samples();
+    if (!run.ok) run.message = "returned a different number of samples than the reference";
+    std::string groups;
+    for (const AssurGroup& g : decomposition.groups)
+      groups += (groups.empty() ? "" : "; ") + g.name;
+    run.settings = {{"groups", groups}, {"singular_sine", "1e-7"}};
+    return run;
+#else
+    return not_available(name, description, "not built into this binary (analytic/dyads.h)");
+#endif
+  }
+  if (name == "ic") {
+    const std::string description = "instantaneous centres (Kennedy-Aronhold): velocities";
+#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+    // Velocities from the centres of every exact pose; positions are the reference's.
+    MethodRun run;
+    run.name = "ic";
+    run.description = description;
+    run.kinds = {"omega", "vx", "vy", "v"};
+    run.available = run.ok = true;
+    const auto start = std::chrono::steady_clock::now();
+    const Trajectory& exact = reference.trajectory;
+    run.trajectory = exact;
+    run.trajectory.method = "ic";
+    int incomplete = 0, not_geometric = 0;
+    for (int k = 0; k < exact.samples(); ++k) {
+      const auto ks = static_cast<size_t>(k);
+      if (!usable(exact.status[ks])) continue;
+      const CentreVelocities v =
+          centre_velocities(mechanism, instant_centres(mechanism, exact, k), exact, k);
+      if (!v.complete) {
+        run.trajectory.status[ks] = PoseStatus::singular;
+        ++incomplete;
+        continue;
+      }
+      for (size_t l = 0; l < v.omega.size(); ++l)
+        run.trajectory.omega(k, static_cast<Eigen::Index>(l)) = v.omega[l];
+      for (size_t p = 0; p < v.point.size(); ++p) {
+        run.trajectory.vx(k, static_cast<Eigen::Index>(p)) = v.point[p].x();
+        run.trajectory.vy(k, static_cast<Eigen::Index>(p)) = v.point[p].y();
+      }
+      if (std::find(v.from_geometry.begin(), v.from_geometry.end(), false) != v.from_geometry.end())
+        ++not_geometric;
+    }
+    run.cost.wall_seconds = seconds_since(start);
+    run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+    run.cost.steps = exact.samples();
+    if (incomplete)
+      run.message += fmt::format(
+          "{} samples where the centres do not give every velocity "
+          "(flagged, kept out of verdicts). ",
+          incomplete);
+    if (not_geometric)
+      run.message += fmt::format(
+          "{} samples use a centre placed from the exact velocities "
+          "(Kennedy alone cannot place it): not an independent check "
+          "there.",
+          not_geometric);
+    run.settings = {{"positions", "from the reference sweep"},
+                    {"centres", "primary + Kennedy-Aronhold, else from exact velocities"}};
+    return run;
+#else
+    return not_available(name, description, "not built into this binary");
+#endif
+  }
+  if (name == "mujoco") {
+#ifdef CROSSLINK_HAVE_MUJOCO
+    return run_engine(*sim::make_mujoco_engine(), "MuJoCo 2.2.2 scene", mechanism, reference,
+                      engine_settings);
+#else
+    return not_available(name, "MuJoCo 2.2.2 scene", "not built into this binary");
+#endif
+  }
+  if (name == "bullet") {
+#ifdef CROSSLINK_HAVE_BULLET
+    return run_engine(*sim::make_bullet_engine(), "Bullet 3.24 float64 scene", mechanism, reference,
+                      engine_settings);
+#else
+    return not_available(name, "Bullet 3.24 float64 scene", "not built into this binary");
+#endif
+  }
+  (void)mechanism;
+  (void)engine_settings;
+  throw std::invalid_argument(
+      fmt::format("unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", name));
+}
+
+}  // namespace crosslink::compare

@@ -1,0 +1,51 @@
+// The methods the comparator runs on one Mechanism, each returning the same Trajectory type
+// with the settings it ran with and what it cost:
+//   analytic  Newton-Raphson on the full constraint equations: the reference of every verdict
+//   dyads     closed-form Assur dyads solved in sequence (analytic/dyads.h)
+//   ic        instantaneous centres by Kennedy-Aronhold: velocities only (instant_centres.h)
+//   mujoco    MuJoCo 2.2.2 scene (sim/mujoco), when built
+//   bullet    Bullet 3.24 float64 scene (sim/bullet), when built
+// A method that is not built into this binary, or cannot realise the mechanism, comes back with
+// available = false and the reason; it is listed in reports and never counted as a result.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analytic/sweep.h"
+#include "analytic/trajectory.h"
+#include "sim/engine.h"
+
+namespace crosslink::compare {
+
+struct MethodRun {
+  std::string name;         // one of method_names()
+  std::string description;  // one line for reports
+  bool available = false;   // built in and able to realise this mechanism
+  bool ok = false;          // ran to the end (an engine may diverge: ok = false)
+  std::string message;      // why not available / not ok, or the method's notes
+  Trajectory trajectory;    // same samples as the reference sweep
+  sim::Settings settings;   // every setting in force
+  sim::RunCost cost;
+  // The channel kinds the method computes ("omega", "vx", ...; empty: every channel); its other
+  // channels are not compared.
+  std::vector<std::string> kinds;
+  bool computes(std::string_view channel) const;
+};
+
+// "analytic", "dyads", "ic", "mujoco", "bullet", in report order.
+const std::vector<std::string>& method_names();
+// Whether the method is compiled into this binary (engines are optional at build time).
+bool method_built(std::string_view name);
+
+// The reference: the exact Newton sweep of the mechanism.
+MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});
+
+// Any other method at the reference's samples. `engine_settings` are passed to the engines as
+// overrides (e.g. {"dt", "1e-4"} or the test hook {"perturb_link", "coupler:1.01"}); the exact
+// methods ignore them. Throws std::invalid_argument for an unknown name.
+MethodRun run_method(std::string_view name, const Mechanism& mechanism, const MethodRun& reference,
+                     const sim::Settings& engine_settings = {});
+
+}  // namespace crosslink::compare

@@ -1,0 +1,115 @@
+#include "compare/metrics.h"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace crosslink::compare {
+
+double percent_difference(double value, double against) {
+  if (against == 0.0) return value == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+  return 100.0 * std::abs(value - against) / std::abs(against);
+}
+
+double wrap_angle(double radians) {
+  constexpr double two_pi = 2.0 * std::numbers::pi;
+  double wrapped = std::remainder(radians, two_pi);  // [-pi, pi]
+  if (wrapped <= -std::numbers::pi) wrapped += two_pi;
+  return wrapped;
+}
+
+double wrap_positive_angle(double radians) {
+  constexpr double two_pi = 2.0 * std::numbers::pi;
+  double wrapped = std::fmod(radians, two_pi);
+  if (wrapped < 0.0) wrapped += two_pi;
+  return wrapped >= two_pi ? 0.0 : wrapped;
+}
+
+std::string channel_kind(std::string_view channel) {
+  const std::string_view prefix = channel.substr(0, channel.find('.'));
+  const bool angular = prefix == "angle" || prefix == "omega" || prefix == "alpha";
+  return std::string(to_string(Trajectory::quantity_of(channel))) +
+         (angular ? "/angular" : "/linear");
+}
+
+double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
+                    const std::vector<bool>& usable) {
+  if (Trajectory::quantity_of(channel) == Quantity::angle) return std::numbers::pi;
+  double peak = 0.0;
+  for (Eigen::Index k = 0; k < reference.size(); ++k)
+    if (usable[static_cast<size_t>(k)]) peak = std::max(peak, std::abs(reference(k)));
+  return peak;
+}
+
+ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& reference,
+                               const Eigen::VectorXd& method, const std::vector<bool>& usable,
+                               double peak_floor) {
+  ChannelMetrics m;
+  m.channel = std::string(channel);
+  m.quantity = Trajectory::quantity_of(channel);
+  const bool angle = m.quantity == Quantity::angle;
+  const Eigen::Index n = reference.size();
+  m.in_verdict = usable;
+
+  // P and P_eff: the scale of every % of peak below.
+  m.peak = channel_peak(channel, reference, usable);
+  m.peak_used = std::max(m.peak, peak_floor);
+  const double scale = m.peak_used > 0.0 ? m.peak_used : 1.0;
+
+  // Per sample: d_k, signed % of peak, local % (masked near zero).
+  m.difference.resize(n);
+  m.pct_of_peak.resize(n);
+  m.local_pct.resize(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double d = angle ? wrap_angle(method(k) - reference(k)) : method(k) - reference(k);
+    const double r = angle ? wrap_positive_angle(reference(k)) : reference(k);
+    m.difference(k) = d;
+    m.pct_of_peak(k) = 100.0 * d / scale;
+    m.local_pct(k) = std::abs(r) < 0.01 * scale ? std::numeric_limits<double>::quiet_NaN()
+                                                : 100.0 * std::abs(d) / std::abs(r);
+  }
+
+  // Max and RMS over K; the worst sample is the verdict's witness.
+  double sum_sq = 0.0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (!usable[static_cast<size_t>(k)]) continue;
+    const double a = std::abs(m.difference(k));
+    ++m.usable;
+    sum_sq += a * a;
+    if (m.worst_sample < 0 || a > m.max_abs) {
+      m.max_abs = a;
+      m.worst_sample = static_cast<int>(k);
+    }
+    if (!std::isnan(m.local_pct(k))) m.max_local_pct = std::max(m.max_local_pct, m.local_pct(k));
+  }
+  if (m.usable > 0) m.rms_abs = std::sqrt(sum_sq / m.usable);
+  m.max_pct_of_peak = 100.0 * m.max_abs / scale;
+  m.rms_pct_of_peak = 100.0 * m.rms_abs / scale;
+  return m;
+}
+
+std::vector<std::pair<std::string, std::string>> metric_legend() {
+  return {
+      {"difference",
+       "d = method - reference (analytic Newton), SI; angles wrapped into "
+       "(-180, 180] deg (compared modulo 360 deg)"},
+      {"peak",
+       "P = largest |reference| over the usable samples of the cycle; angles: 180 deg; "
+       "floored at 1 % of the largest peak of the same kind (e.g. all linear "
+       "velocities) so a channel that stays at zero is not scaled by its round-off"},
+      {"% of peak", "100 |d| / P per sample; its maximum over the cycle is the verdict metric"},
+      {"max % of peak", "the largest % of peak over the usable samples, at the worst sample"},
+      {"RMS % of peak", "100 sqrt(mean d^2) / P over the usable samples"},
+      {"local % difference",
+       "100 |d| / |reference| (the course's \"% difference\"); not shown "
+       "where |reference| < 1 % of P"},
+      {"usable sample",
+       "PoseStatus ok in both trajectories; singular, loop-gap and other "
+       "flagged samples are shown but kept out of every max, RMS and verdict"},
+      {"verdict",
+       "pass when max % of peak <= the tolerance of the channel's quantity class "
+       "for that method"},
+  };
+}
+
+}  // namespace crosslink::compare

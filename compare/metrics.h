@@ -1,0 +1,85 @@
+// Difference metrics of one channel of a method against the reference trajectory. Every metric
+// the comparator reports is defined here, once, and computed by the functions below; the
+// reports' legends quote these definitions (metric_legend()).
+//
+// Notation, for one channel (e.g. "omega.coupler") over the samples k of one sweep:
+//   r_k   the reference's value (analytic Newton), m_k the method's value, SI units
+//   K     the usable samples: PoseStatus ok in both trajectories. Samples outside K are kept in
+//         the per-sample arrays (shown in charts and CSV) but never enter a max, RMS or verdict.
+//
+//   difference          d_k = m_k - r_k
+//                       angle channels: d_k wrapped into (-pi, pi] (angles compare modulo 2 pi)
+//   peak                P = max_{k in K} |r_k|
+//                       angle channels: P = pi, the peak of an angle taken modulo 2 pi
+//                       floor: P_eff = max(P, 1 % of the largest P among the channels of the
+//                       same kind, e.g. every linear velocity), so a channel that is zero over
+//                       the cycle (a fixed point, a constant-speed crank's alpha) is not scaled
+//                       by its own round-off
+//   % of peak           e_k = 100 |d_k| / P_eff                       (the verdict metric)
+//   max % of peak       E = max_{k in K} e_k, at the worst sample k* = argmax
+//   RMS % of peak       100 sqrt(mean_{k in K} d_k^2) / P_eff
+//   local % difference  l_k = percent_difference(m_k, r_k) = 100 |d_k| / |r_k|, the course's
+//                       "% difference"; masked (NaN) where |r_k| < 1 % of P_eff
+//                       (angle channels: r_k taken in [0, 2 pi))
+//   max |d|, RMS |d|    over K, in SI units
+//
+// A channel passes when E <= tolerance (in % of peak; see tolerance.h). A channel with no
+// usable sample has no verdict ("n/a") and does not fail.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analytic/trajectory.h"
+
+namespace crosslink::compare {
+
+// The course's "% difference" of `value` against `against`: 100 |value - against| / |against|.
+// E.g. Working Model 365 mm/s against the IC check 370 mm/s: 1.35 %. Infinite when against = 0.
+double percent_difference(double value, double against);
+
+// An angle difference wrapped into (-pi, pi] [rad].
+double wrap_angle(double radians);
+// An angle wrapped into [0, 2 pi) [rad].
+double wrap_positive_angle(double radians);
+
+// Channels of the same kind share the peak floor: quantity class and linear vs angular.
+// Returns e.g. "velocity/linear", "acceleration/angular".
+std::string channel_kind(std::string_view channel);
+
+// The metrics of one channel of one method against the reference.
+struct ChannelMetrics {
+  std::string channel;
+  Quantity quantity = Quantity::position;
+  int usable = 0;                // |K|
+  double peak = 0.0;             // P [SI]
+  double peak_used = 0.0;        // P_eff [SI]
+  double max_abs = 0.0;          // max |d| over K [SI]
+  double rms_abs = 0.0;          // RMS |d| over K [SI]
+  double max_pct_of_peak = 0.0;  // E [%]
+  double rms_pct_of_peak = 0.0;  // [%]
+  int worst_sample = -1;         // k*, or -1 when K is empty
+  double max_local_pct = 0.0;    // max of l_k over K where not masked [%]
+  // Per sample (all samples, usable or not):
+  Eigen::VectorXd difference;    // d_k [SI]
+  Eigen::VectorXd pct_of_peak;   // signed 100 d_k / P_eff [%]
+  Eigen::VectorXd local_pct;     // l_k [%], NaN where masked
+  std::vector<bool> in_verdict;  // k in K
+};
+
+// Compares one channel. `reference` and `method` are the channel's columns over the same
+// samples; `usable` marks K; `peak_floor` is 1 % of the kind's largest peak (see above).
+ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& reference,
+                               const Eigen::VectorXd& method, const std::vector<bool>& usable,
+                               double peak_floor);
+
+// P for one reference column over its usable samples (pi for angle channels).
+double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
+                    const std::vector<bool>& usable);
+
+// The definitions above as legend lines for reports: (term, definition).
+std::vector<std::pair<std::string, std::string>> metric_legend();
+
+}  // namespace crosslink::compare

@@ -1,0 +1,59 @@
+// Reports of a Comparison: console table, JSON (the machine interface, docs/json.md), CSV (per
+// sample) and a self-contained HTML page with charts (docs/report.md).
+#pragma once
+
+#include <cstdio>
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "compare/comparison.h"
+
+namespace crosslink::compare {
+
+// How a channel is shown in the definition's units: file value = SI value / scale.
+struct DisplayUnit {
+  double scale = 1.0;
+  std::string name;  // "cm/s", "deg", "rad/s^2"
+};
+DisplayUnit display_unit(const Mechanism& mechanism, std::string_view channel);
+DisplayUnit driver_unit(const Mechanism& mechanism);
+
+struct ConsoleOptions {
+  bool all = false;     // every channel x method row instead of the summary
+  int worst_rows = 12;  // channels listed in the summary besides the failing ones
+};
+void print_console(const Comparison& comparison, std::FILE* out, const ConsoleOptions& options);
+
+// The `compare` JSON document (docs/json.md, section compare). SI units throughout.
+nlohmann::json to_json(const Comparison& comparison);
+
+// One row per (method, channel, sample), SI units.
+void write_csv(const Comparison& comparison, std::ostream& out);
+
+struct HtmlOptions {
+  std::optional<double> at;  // driver value of the drawing [rad or m]; default: the start
+  // Folders to look for vega.min.js, vega-lite.min.js, vega-embed.min.js in (flat, or as an npm
+  // node_modules tree), before $CROSSLINK_REPORT_ASSETS and the compiled-in source tree.
+  std::vector<std::string> asset_dirs;
+};
+// The folder the chart scripts were found in, or nullopt (the message says where it looked).
+std::optional<std::string> find_report_assets(const std::vector<std::string>& extra_dirs,
+                                              std::string* searched = nullptr);
+// Writes the page; throws std::runtime_error when the chart scripts cannot be found.
+void write_html(const Comparison& comparison, const HtmlOptions& options, std::ostream& out);
+
+// The page frame every crosslink HTML report shares (compare, sweep): the head with the shared
+// style plus `extra_style` and the three chart scripts inlined, and at the end the REPORT data
+// object and the page's own script. Throws std::runtime_error when the chart scripts cannot be
+// found (the message says where it looked).
+void write_page_head(std::string_view title, std::string_view extra_style,
+                     const std::vector<std::string>& asset_dirs, std::ostream& out);
+void write_page_tail(std::string_view report_json, std::string_view page_script, std::ostream& out);
+// Text escaped for HTML element content and attribute values.
+std::string html_escape(std::string_view text);
+
+}  // namespace crosslink::compare

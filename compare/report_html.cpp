@@ -1,0 +1,478 @@
+// The HTML report: one self-contained page. Tables are written here as HTML; the charts are
+// Vega-Lite specifications built in the browser by report_page.js (embedded into this library
+// at build time) from a REPORT data object, and drawn by Vega + Vega-Lite + vega-embed, whose
+// scripts are read at run time from the npm packages in report/ (docs/report.md) and inlined.
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "analytic/sweep.h"
+#include "compare/report.h"
+#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+#include "analytic/instant_centres.h"
+#endif
+
+namespace crosslink::compare {
+
+extern const char* const kReportPageScript;  // report_page.js, generated at build time
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr const char* kScripts[] = {"vega.min.js", "vega-lite.min.js", "vega-embed.min.js"};
+constexpr const char* kPackages[] = {"vega", "vega-lite", "vega-embed"};
+
+// The path of one chart script under `dir`: flat, or in an npm node_modules tree.
+std::optional<fs::path> script_in(const fs::path& dir, int i) {
+  for (const fs::path& p :
+       {dir / kScripts[i], dir / "node_modules" / kPackages[i] / "build" / kScripts[i]})
+    if (fs::is_regular_file(p)) return p;
+  return std::nullopt;
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Text safe inside <script>: no "</script" that would close the element (matched in any case;
+// "<\/script" means the same inside a JS string or regular expression).
+std::string script_safe(std::string text) {
+  for (size_t pos = 0; (pos = text.find("</", pos)) != std::string::npos; pos += 2) {
+    std::string next = text.substr(pos + 2, 6);
+    for (char& c : next) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (next == "script") text.replace(pos, 2, "<\\/");
+  }
+  return text;
+}
+
+std::string escape(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// Seven significant digits are plenty for a chart and keep the page small.
+double round7(double v) {
+  if (!std::isfinite(v)) return v;
+  return std::stod(fmt::format("{:.7g}", v));
+}
+
+json rounded(const Eigen::VectorXd& v, double scale) {
+  json a = json::array();
+  for (Eigen::Index k = 0; k < v.size(); ++k) a.push_back(round7(v(k) / scale));
+  return a;
+}
+
+double severity(const ChannelResult& c) {
+  if (c.verdict == Verdict::not_applicable) return -1.0;
+  return c.tolerance > 0.0 ? c.metrics.max_pct_of_peak / c.tolerance : c.metrics.max_pct_of_peak;
+}
+
+// The drawing at one driver value: link segments, guide lines, points.
+json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& length) {
+  json d;
+  d["unit"] = length.name;
+  d["segments"] = json::array();
+  d["guides"] = json::array();
+  d["points"] = json::array();
+  d["centres"] = json::array();
+  auto where = [&](const std::string& name) -> std::optional<Eigen::Vector2d> {
+    for (size_t p = 0; p < pose.point_names.size(); ++p)
+      if (pose.point_names[p] == name)
+        return Eigen::Vector2d(pose.x(0, static_cast<Eigen::Index>(p)),
+                               pose.y(0, static_cast<Eigen::Index>(p)));
+    return std::nullopt;
+  };
+  const double reach = m.size();
+  int moving = 0;
+  for (const Link& link : m.links) {
+    const double theta = link.ground ? 0.0 : pose.angle(0, moving);
+    // Segments between consecutive points, closed for three or more.
+    std::vector<Eigen::Vector2d> at;
+    for (const Point& p : link.points)
+      if (const auto w = where(p.name)) at.push_back(*w);
+    if (!link.ground && at.size() >= 2)
+      for (size_t i = 0; i < (at.size() == 2 ? 1 : at.size()); ++i) {
+        const Eigen::Vector2d& a = at[i];
+        const Eigen::Vector2d& b = at[(i + 1) % at.size()];
+        d["segments"].push_back({{"link", link.name},
+                                 {"x", a.x() / length.scale},
+                                 {"y", a.y() / length.scale},
+                                 {"x2", b.x() / length.scale},
+                                 {"y2", b.y() / length.scale}});
+      }
+    // Guides and slots, from the link's first point and its angle.
+    if (!link.points.empty() && (link.ground || where(link.points[0].name)))
+      for (const Line& line : link.lines) {
+        const Eigen::Vector2d p0 = link.ground ? link.points[0].local : *where(link.points[0].name);
+        const Eigen::Rotation2Dd R(theta);
+        const Eigen::Vector2d o = p0 + R * (line.origin - link.points[0].local);
+        const Eigen::Vector2d u = R * line.direction;
+        const Eigen::Vector2d a = o - reach * u, b = o + reach * u;
+        d["guides"].push_back({{"line", line.name},
+                               {"x", a.x() / length.scale},
+                               {"y", a.y() / length.scale},
+                               {"x2", b.x() / length.scale},
+                               {"y2", b.y() / length.scale}});
+      }
+    if (!link.ground) ++moving;
+  }
+  const std::vector<Mechanism::NamedPoint> named = m.named_points();
+  for (size_t p = 0; p < pose.point_names.size(); ++p) {
+    const Link& link = m.links[static_cast<size_t>(named[p].link)];
+    const char* kind = link.ground               ? "ground pivot"
+                       : link.points.size() == 1 ? "slider block"
+                                                 : "moving";
+    d["points"].push_back({{"name", pose.point_names[p]},
+                           {"kind", kind},
+                           {"x", pose.x(0, static_cast<Eigen::Index>(p)) / length.scale},
+                           {"y", pose.y(0, static_cast<Eigen::Index>(p)) / length.scale}});
+  }
+  return d;
+}
+
+// The data object the page's script draws from (file units).
+json report_data(const Comparison& cmp, const Trajectory& pose) {
+  const Mechanism& m = *cmp.mechanism;
+  const Trajectory& ref = cmp.reference().trajectory;
+  const DisplayUnit du = driver_unit(m);
+  json r;
+  r["driver"]["unit"] = du.name;
+  r["driver"]["values"] = rounded(ref.driver, du.scale);
+  r["driver"]["usable"] = json::array();
+  for (PoseStatus s : ref.status) r["driver"]["usable"].push_back(usable(s));
+  r["methods"] = json::array();
+  for (const MethodRun& run : cmp.methods)
+    if (run.available && run.ok) r["methods"].push_back(run.name);
+
+  // Per channel: reference and every method's values and signed % of peak.
+  r["channels"] = json::object();
+  std::map<std::string, std::vector<const ChannelResult*>> by_channel;
+  for (const ChannelResult& c : cmp.channels) by_channel[c.metrics.channel].push_back(&c);
+  std::map<Quantity, std::vector<std::pair<double, std::string>>> per_quantity;
+  for (const std::string& name : ref.channel_names()) {
+    const DisplayUnit u = display_unit(m, name);
+    json ch;
+    ch["unit"] = u.name;
+    ch["ref"] = rounded(*ref.channel(name), u.scale);
+    ch["methods"] = json::object();
+    double worst = -1.0;
+    std::string label = name + " [" + u.name + "]";
+    for (const ChannelResult* c : by_channel[name]) {
+      const MethodRun& run = *cmp.method(c->method);
+      json in = json::array();
+      for (bool b : c->metrics.in_verdict) in.push_back(b);
+      ch["methods"][c->method] = {{"v", rounded(*run.trajectory.channel(name), u.scale)},
+                                  {"p", rounded(c->metrics.pct_of_peak, 1.0)},
+                                  {"in", in}};
+      if (severity(*c) > worst) {
+        worst = severity(*c);
+        label = fmt::format("{} [{}]  worst: {} {:.3g} % of peak ({})", name, u.name, c->method,
+                            c->metrics.max_pct_of_peak, to_string(c->verdict));
+      }
+    }
+    r["channels"][name] = ch;
+    per_quantity[Trajectory::quantity_of(name)].push_back({worst, label + "\x1f" + name});
+  }
+  r["quantities"] = json::array();
+  for (auto& [q, list] : per_quantity) {
+    std::stable_sort(list.begin(), list.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    json channels = json::array();
+    for (const auto& [sev, text] : list) {
+      const size_t sep = text.find('\x1f');
+      channels.push_back({{"name", text.substr(sep + 1)}, {"label", text.substr(0, sep)}});
+    }
+    r["quantities"].push_back({{"name", std::string(to_string(q))}, {"channels", channels}});
+  }
+  r["drawing"] = drawing(m, pose, display_unit(m, "x.any"));
+  return r;
+}
+
+std::string methods_table(const Comparison& cmp) {
+  std::string html =
+      "<table><tr><th>method</th><th>status</th><th>wall [s]</th><th>per cycle [s]</th>"
+      "<th>steps</th><th>settings</th></tr>\n";
+  for (const MethodRun& run : cmp.methods) {
+    std::string settings;
+    for (const auto& [k, v] : run.settings)
+      settings += fmt::format("<code>{}={}</code> ", escape(k), escape(v));
+    const std::string status = !run.available ? "not run: " + run.message
+                               : run.ok ? "ok" + (run.message.empty() ? "" : ": " + run.message)
+                                        : "FAILED: " + run.message;
+    html += fmt::format(
+        "<tr><td><b>{}</b><br><small>{}</small></td><td>{}</td><td>{}</td><td>{}</td>"
+        "<td>{}</td><td class=\"settings\">{}</td></tr>\n",
+        escape(run.name), escape(run.description), escape(status),
+        run.available ? fmt::format("{:.4f}", run.cost.wall_seconds) : "",
+        run.available ? fmt::format("{:.4g}", run.cost.wall_seconds_per_cycle) : "",
+        run.available ? fmt::format("{}", run.cost.steps) : "", settings);
+  }
+  return html + "</table>\n";
+}
+
+std::string verdict_table(const Comparison& cmp) {
+  const Mechanism& m = *cmp.mechanism;
+  const DisplayUnit du = driver_unit(m);
+  std::vector<const ChannelResult*> rows;
+  for (const ChannelResult& c : cmp.channels) rows.push_back(&c);
+  std::stable_sort(rows.begin(), rows.end(),
+                   [](auto* a, auto* b) { return severity(*a) > severity(*b); });
+  std::string html =
+      "<table class=\"verdicts\"><tr><th>channel</th><th>quantity</th><th>method</th>"
+      "<th>max % of peak</th><th>RMS % of peak</th><th>max local %</th><th>max |d|</th>"
+      "<th>worst at</th><th>tolerance %</th><th>verdict</th></tr>\n";
+  for (const ChannelResult* c : rows) {
+    const DisplayUnit u = display_unit(m, c->metrics.channel);
+    const int k = c->metrics.worst_sample;
+    html += fmt::format(
+        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.3g}</td><td>{:.3g}</td>"
+        "<td>{:.3g}</td><td>{:.3g} {}</td><td>{}</td><td>{:.3g}</td><td>{}</td></tr>\n",
+        c->verdict == Verdict::fail ? "fail" : "", escape(c->metrics.channel),
+        to_string(c->metrics.quantity), escape(c->method), c->metrics.max_pct_of_peak,
+        c->metrics.rms_pct_of_peak, c->metrics.max_local_pct, c->metrics.max_abs / u.scale,
+        escape(u.name),
+        k >= 0 ? fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
+                             escape(du.name), k)
+               : "-",
+        c->tolerance, to_string(c->verdict));
+  }
+  return html + "</table>\n";
+}
+
+// [[reference]] rows grouped by (quantity, driver value): every printed value, the exact one
+// and each method's, with the % difference of every pair (row against column).
+std::string references_table(const Comparison& cmp) {
+  const Mechanism& m = *cmp.mechanism;
+  const DisplayUnit du = driver_unit(m);
+  std::vector<std::vector<const ReferenceRow*>> groups;
+  for (const ReferenceRow& r : cmp.references) {
+    bool placed = false;
+    for (auto& g : groups)
+      if (g.front()->reference.quantity == r.reference.quantity &&
+          std::abs(g.front()->reference.driver_value - r.reference.driver_value) < 1e-12) {
+        g.push_back(&r);
+        placed = true;
+      }
+    if (!placed) groups.push_back({&r});
+  }
+  std::string html;
+  for (const auto& g : groups) {
+    const Reference& first = g.front()->reference;
+    const DisplayUnit u = display_unit(m, first.quantity);
+    const bool angle = Trajectory::quantity_of(first.quantity) == Quantity::angle;
+    std::vector<std::pair<std::string, double>> values;  // label, file units
+    auto shown = [&](double si) { return (angle ? wrap_positive_angle(si) : si) / u.scale; };
+    for (const ReferenceRow* r : g)
+      values.push_back({r->reference.source, shown(r->reference.value)});
+    if (g.front()->exact_ok)
+      values.push_back({"exact (Newton at this value)", shown(g.front()->exact)});
+    for (const auto& v : g.front()->values)
+      if (v.method != "analytic")
+        values.push_back({v.method + (v.interpolated ? " (interpolated)" : "") +
+                              (v.method == "ic" ? " (IC computed)" : ""),
+                          shown(v.value)});
+    html +=
+        fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n", escape(first.quantity),
+                    first.driver_value / du.scale, escape(du.name), escape(u.name));
+    html += "<table class=\"refs\"><tr><th>value from</th><th>value</th>";
+    for (size_t j = 0; j < values.size(); ++j) html += fmt::format("<th>% vs ({})</th>", j + 1);
+    html += "</tr>\n";
+    for (size_t i = 0; i < values.size(); ++i) {
+      html += fmt::format("<tr><td>({}) {}</td><td>{:.6g}</td>", i + 1, escape(values[i].first),
+                          values[i].second);
+      for (size_t j = 0; j < values.size(); ++j)
+        html += i == j ? "<td></td>"
+                       : fmt::format("<td>{:.3f}</td>",
+                                     percent_difference(values[i].second, values[j].second));
+      html += "</tr>\n";
+    }
+    html += "</table>\n";
+  }
+  return html;
+}
+
+constexpr const char* kStyle = R"css(
+body { font: 14px/1.4 system-ui, sans-serif; margin: 1.5em auto; max-width: 1100px; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 13px; }
+td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: right; vertical-align: top; }
+td:first-child, th:first-child { text-align: left; }
+td.settings { text-align: left; max-width: 520px; }
+tr.fail td { background: #fde0e0; }
+.verdict-pass { color: #17692a; } .verdict-fail { color: #b00020; }
+#render-status { font-size: 12px; color: #666; }
+dt { font-weight: 600; } dd { margin: 0 0 0.4em 1.5em; }
+select { margin: 0.3em 0; max-width: 100%; }
+)css";
+
+}  // namespace
+
+std::optional<std::string> find_report_assets(const std::vector<std::string>& extra_dirs,
+                                              std::string* searched) {
+  std::vector<fs::path> candidates(extra_dirs.begin(), extra_dirs.end());
+  if (const char* env = std::getenv("CROSSLINK_REPORT_ASSETS")) candidates.emplace_back(env);
+#ifdef CROSSLINK_SOURCE_DIR
+  candidates.emplace_back(fs::path(CROSSLINK_SOURCE_DIR) / "report");
+#endif
+  std::string looked;
+  for (const fs::path& dir : candidates) {
+    looked += (looked.empty() ? "" : ", ") + dir.string();
+    bool all = true;
+    for (int i = 0; i < 3; ++i) all = all && script_in(dir, i).has_value();
+    if (all) return dir.string();
+  }
+  if (searched) *searched = looked;
+  return std::nullopt;
+}
+
+void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream& out) {
+  const Mechanism& m = *cmp.mechanism;
+  std::ostringstream head;  // first, so a missing chart script fails before any work
+  write_page_head(fmt::format("crosslink compare: {}", m.name), "", options.asset_dirs, head);
+
+  // The drawing's pose: exact, at --at or the drawn start.
+  const double at = options.at.value_or(m.driver.start);
+  Trajectory pose = solve_at(m, at);
+  const DisplayUnit du = driver_unit(m);
+  json data = report_data(cmp, pose);
+  data["drawing"]["at"] = at / du.scale;
+  data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
+  std::string centres_note = "Instantaneous centres are not built into this binary.";
+#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+  // Instantaneous centres I(i,j), links numbered from 1 in definition order; those far outside
+  // the mechanism (or at infinity) are listed, not drawn.
+  if (usable(pose.status.at(0))) {
+    const InstantCentres ic = instant_centres(m, pose, 0);
+    const DisplayUnit length = display_unit(m, "x.any");
+    Eigen::Vector2d middle = Eigen::Vector2d::Zero();
+    for (Eigen::Index p = 0; p < pose.x.cols(); ++p)
+      middle += Eigen::Vector2d(pose.x(0, p), pose.y(0, p));
+    middle /= std::max<Eigen::Index>(1, pose.x.cols());
+    std::vector<std::string> far;
+    for (const InstantCentre& c : ic.centres) {
+      const std::string name = fmt::format("I{},{}", c.i + 1, c.j + 1);
+      if (!c.placed()) continue;
+      if (c.at_infinity() || (c.position() - middle).norm() > 1.5 * m.size()) {
+        far.push_back(name + (c.at_infinity() ? " (at infinity)" : ""));
+        continue;
+      }
+      data["drawing"]["centres"].push_back({{"name", name},
+                                            {"how", c.how},
+                                            {"x", c.position().x() / length.scale},
+                                            {"y", c.position().y() / length.scale}});
+    }
+    std::string links;
+    for (size_t l = 0; l < m.links.size(); ++l)
+      links += fmt::format("{}{} {}", l ? ", " : "", l + 1, m.links[l].name);
+    centres_note = fmt::format(
+        "Instantaneous centres (red diamonds) I<i>,<j>, links numbered {}."
+        "{}",
+        links, far.empty() ? "" : " Not drawn (far away): ");
+    for (size_t i = 0; i < far.size(); ++i) centres_note += (i ? ", " : "") + far[i];
+    centres_note += ".";
+  }
+#endif
+
+  std::string legend;
+  for (const auto& [term, definition] : metric_legend())
+    legend += fmt::format("<dt>{}</dt><dd>{}</dd>\n", escape(term), escape(definition));
+  std::string quantity_sections;
+  for (const json& q : data["quantities"]) {
+    const std::string name = q["name"];
+    quantity_sections += fmt::format(
+        "<h3>{0}</h3>\n<label>channel <select id=\"select-{0}\"></select></label>\n"
+        "<div id=\"chart-{0}\" class=\"chart\"></div>\n",
+        name);
+  }
+
+  out << head.str();
+  out << fmt::format("<h1>{}</h1>\n<p>{}</p>\n", escape(m.name), escape(m.description));
+  if (!m.citation.empty())
+    out << fmt::format("<p><small>Source: {}</small></p>\n", escape(m.citation));
+  out << fmt::format(
+      "<p>File <code>{}</code>. Overall verdict: <b class=\"verdict-{}\">{}</b> "
+      "({} failing channel comparisons of {}).</p>\n",
+      escape(m.file), cmp.pass() ? "pass" : "fail", cmp.pass() ? "PASS" : "FAIL", cmp.failures(),
+      cmp.channels.size());
+  out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
+         "run)</p>\n";
+  out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
+                     escape(du.name), to_string(pose.status.at(0)));
+  out << "<div id=\"drawing\" class=\"chart\"></div>\n";
+  out << "<p><small>" << escape(centres_note) << "</small></p>\n";
+  out << "<h2>Channels against the driver</h2>\n<p>Every method overlaid on the exact values; "
+         "under each chart the signed difference from exact in % of the exact peak. Red crosses "
+         "mark samples flagged singular or with a loop gap (kept out of verdicts).</p>\n";
+  out << quantity_sections;
+  out << "<h2>Verdicts</h2>\n" << verdict_table(cmp);
+  if (!cmp.references.empty())
+    out << "<h2>Published values ([[reference]])</h2>\n<p>Each cell: % difference of the row's "
+           "value from the column's, 100 |row - column| / |column|.</p>\n"
+        << references_table(cmp);
+  out << "<h2>Methods: settings and cost</h2>\n" << methods_table(cmp);
+  out << "<h2>Legend</h2>\n<dl>\n" << legend << "</dl>\n";
+  write_page_tail(data.dump(), kReportPageScript, out);
+}
+
+void write_page_head(std::string_view title, std::string_view extra_style,
+                     const std::vector<std::string>& asset_dirs, std::ostream& out) {
+  std::string searched;
+  const std::optional<std::string> assets = find_report_assets(asset_dirs, &searched);
+  if (!assets)
+    throw std::runtime_error(fmt::format(
+        "the HTML report needs vega.min.js, vega-lite.min.js and vega-embed.min.js; looked in "
+        "{} (run scripts/setup.sh, or `npm ci` in report/, or set CROSSLINK_REPORT_ASSETS)",
+        searched));
+  out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  out << fmt::format("<title>{}</title>\n", escape(title));
+  out << "<style>" << kStyle << extra_style << "</style>\n";
+  for (int i = 0; i < 3; ++i)
+    out << "<script>/* " << kPackages[i] << " (npm) */\n"
+        << script_safe(read_file(*script_in(*assets, i))) << "\n</script>\n";
+  out << "</head>\n<body>\n";
+}
+
+void write_page_tail(std::string_view report_json, std::string_view page_script,
+                     std::ostream& out) {
+  out << "<script>const REPORT = " << script_safe(std::string(report_json)) << ";</script>\n";
+  out << "<script>\n" << script_safe(std::string(page_script)) << "\n</script>\n";
+  out << "</body>\n</html>\n";
+}
+
+std::string html_escape(std::string_view text) {
+  return escape(text);
+}
+
+}  // namespace crosslink::compare

@@ -1,0 +1,334 @@
+// Console, JSON and CSV reports, and the units they show values in.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "compare/report.h"
+
+namespace crosslink::compare {
+
+DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  const std::string& L = m.units.length_name;
+  if (kind == "angle") return {m.units.angle, m.units.angle_name};
+  if (kind == "omega") return {1.0, "rad/s"};
+  if (kind == "alpha") return {1.0, "rad/s^2"};
+  switch (Trajectory::quantity_of(channel)) {
+    case Quantity::velocity:
+      return {m.units.length, L + "/s"};
+    case Quantity::acceleration:
+      return {m.units.length, L + "/s^2"};
+    default:
+      return {m.units.length, L};
+  }
+}
+
+DisplayUnit driver_unit(const Mechanism& m) {
+  return m.driver.angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
+                            : DisplayUnit{m.units.length, m.units.length_name};
+}
+
+namespace {
+
+// How close a row is to failing: max % of peak over its tolerance.
+double severity(const ChannelResult& c) {
+  if (c.verdict == Verdict::not_applicable) return -1.0;
+  if (c.tolerance <= 0.0) return c.metrics.max_pct_of_peak > 0.0 ? INFINITY : 0.0;
+  return c.metrics.max_pct_of_peak / c.tolerance;
+}
+
+std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
+  if (c.metrics.worst_sample < 0) return "-";
+  const DisplayUnit du = driver_unit(*cmp.mechanism);
+  const double v = cmp.reference().trajectory.driver(c.metrics.worst_sample) / du.scale;
+  return fmt::format("{:.2f} {} #{}", v, du.name, c.metrics.worst_sample);
+}
+
+std::string settings_text(const sim::Settings& settings) {
+  std::string text;
+  for (const auto& [k, v] : settings) text += (text.empty() ? "" : " ") + k + "=" + v;
+  return text;
+}
+
+// Wraps `text` to lines of at most `width` columns, each after `indent` spaces.
+void print_wrapped(std::FILE* out, const std::string& text, int indent, int width) {
+  std::string line;
+  size_t pos = 0;
+  while (pos < text.size()) {
+    size_t next = text.find(' ', pos);
+    if (next == std::string::npos) next = text.size();
+    const std::string word = text.substr(pos, next - pos);
+    if (!line.empty() && static_cast<int>(line.size() + 1 + word.size()) > width - indent) {
+      fmt::print(out, "{:{}}{}\n", "", indent, line);
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + word;
+    pos = next + 1;
+  }
+  if (!line.empty()) fmt::print(out, "{:{}}{}\n", "", indent, line);
+}
+
+constexpr std::string_view kRowFormat = "{:<24} {:<8} {:>12} {:>11} {:>11} {:>19} {:>6}\n";
+
+void print_row(std::FILE* out, const Comparison& cmp, const ChannelResult& c) {
+  fmt::print(out, kRowFormat, c.metrics.channel, c.method,
+             fmt::format("{:.3g}", c.metrics.max_pct_of_peak),
+             fmt::format("{:.3g}", c.metrics.rms_pct_of_peak), fmt::format("{:.3g}", c.tolerance),
+             worst_at(cmp, c), to_string(c.verdict));
+}
+
+void print_header(std::FILE* out) {
+  fmt::print(out, kRowFormat, "channel", "method", "max % peak", "RMS % peak", "tolerance %",
+             "worst at (sample)", "verdict");
+  fmt::print(out, "{:-<98}\n", "");
+}
+
+}  // namespace
+
+void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& options) {
+  const Mechanism& m = *cmp.mechanism;
+  const Trajectory& ref = cmp.reference().trajectory;
+  const DisplayUnit du = driver_unit(m);
+  int excluded = 0;
+  for (PoseStatus s : ref.status) excluded += usable(s) ? 0 : 1;
+  fmt::print(out, "{} ({})\n", m.name, m.file);
+  fmt::print(out, "reference: analytic Newton, {} samples from {:.4g} to {:.4g} {}", ref.samples(),
+             ref.samples() ? ref.driver(0) / du.scale : 0.0,
+             ref.samples() ? ref.driver(ref.samples() - 1) / du.scale : 0.0, du.name);
+  fmt::print(out, "{}\n",
+             excluded ? fmt::format(", {} flagged (kept out of verdicts)", excluded) : "");
+
+  // Methods: settings and cost.
+  fmt::print(out, "\nmethods\n");
+  for (const MethodRun& run : cmp.methods) {
+    if (!run.available) {
+      fmt::print(out, "  {:<9} not run: {}\n", run.name, run.message);
+      continue;
+    }
+    fmt::print(out, "  {:<9} {:<7} {:.3f} s wall, {:.3g} s per cycle, {} steps\n", run.name,
+               run.ok ? "ok" : "FAILED", run.cost.wall_seconds, run.cost.wall_seconds_per_cycle,
+               run.cost.steps);
+    print_wrapped(out, run.description, 12, 100);
+    if (!run.ok || !run.message.empty()) print_wrapped(out, run.message, 12, 100);
+    print_wrapped(out, settings_text(run.settings), 12, 100);
+  }
+
+  // Channel rows: everything, or a summary per quantity class and the worst channels.
+  std::vector<const ChannelResult*> rows;
+  for (const ChannelResult& c : cmp.channels) rows.push_back(&c);
+  fmt::print(out, "\n");
+  if (options.all) {
+    print_header(out);
+    for (const ChannelResult* c : rows) print_row(out, cmp, *c);
+  } else {
+    // Summary: per method and quantity class, its worst channel.
+    std::map<std::pair<std::string, Quantity>, const ChannelResult*> worst;
+    std::map<std::pair<std::string, Quantity>, std::pair<int, int>> counts;  // pass, fail
+    for (const ChannelResult* c : rows) {
+      const auto key = std::pair{c->method, c->metrics.quantity};
+      auto& [p, f] = counts[key];
+      p += c->verdict == Verdict::pass;
+      f += c->verdict == Verdict::fail;
+      if (!worst[key] || severity(*c) > severity(*worst[key])) worst[key] = c;
+    }
+    fmt::print(out, "summary per quantity class (worst channel of each method)\n");
+    fmt::print(out, "{:<13} {:<8} {:<22} {:>11} {:>11} {:>17} {:>10}\n", "quantity", "method",
+               "worst channel", "max % peak", "tolerance %", "worst at", "pass/fail");
+    fmt::print(out, "{:-<98}\n", "");
+    for (const MethodRun& run : cmp.methods)
+      for (Quantity q :
+           {Quantity::position, Quantity::angle, Quantity::velocity, Quantity::acceleration}) {
+        const auto it = worst.find(std::pair{run.name, q});
+        if (it == worst.end() || !it->second) continue;
+        const ChannelResult& c = *it->second;
+        const auto [p, f] = counts[it->first];
+        std::string at = worst_at(cmp, c);
+        fmt::print(out, "{:<13} {:<8} {:<22} {:>11} {:>11} {:>17} {:>10}\n", to_string(q), run.name,
+                   c.metrics.channel, fmt::format("{:.3g}", c.metrics.max_pct_of_peak),
+                   fmt::format("{:.3g}", c.tolerance), at.substr(0, at.find(" #")),
+                   fmt::format("{}/{}", p, f));
+      }
+    // Per channel, its worst method; the closest to failing first.
+    std::map<std::string, const ChannelResult*> per_channel;
+    for (const ChannelResult* c : rows) {
+      const ChannelResult*& w = per_channel[c->metrics.channel];
+      if (!w || severity(*c) > severity(*w)) w = c;
+    }
+    std::vector<const ChannelResult*> list;
+    for (const auto& [name, c] : per_channel) list.push_back(c);
+    std::stable_sort(list.begin(), list.end(),
+                     [](auto* a, auto* b) { return severity(*a) > severity(*b); });
+    int shown = 0;
+    const int total = static_cast<int>(list.size());
+    if (total > 0) {
+      fmt::print(out, "\nworst method per channel, closest to its tolerance first\n");
+      print_header(out);
+    }
+    for (const ChannelResult* c : list) {
+      if (shown >= options.worst_rows && c->verdict != Verdict::fail) break;
+      print_row(out, cmp, *c);
+      ++shown;
+    }
+    if (shown < total)
+      fmt::print(out, "... {} more channels within tolerance (--all lists every row)\n",
+                 total - shown);
+  }
+
+  // [[reference]] rows: printed values against the exact one.
+  if (!cmp.references.empty()) {
+    fmt::print(out, "\n[[reference]] values (file units; %: difference from exact)\n");
+    fmt::print(out, "{:<18} {:>7} {:>10} {:>11} {:>7} {:>9}  {}\n", "quantity", "at", "printed",
+               "exact", "%", "methods%", "source");
+    fmt::print(out, "{:-<98}\n", "");
+    for (const ReferenceRow& r : cmp.references) {
+      const DisplayUnit u = display_unit(m, r.reference.quantity);
+      const bool angle = Trajectory::quantity_of(r.reference.quantity) == Quantity::angle;
+      auto shown_value = [&](double si) {
+        return (angle ? wrap_positive_angle(si) : si) / u.scale;
+      };
+      double worst_method = 0.0;
+      for (const auto& v : r.values)
+        if (v.method != "analytic")
+          worst_method = std::max(worst_method,
+                                  percent_difference(shown_value(v.value), shown_value(r.exact)));
+      fmt::print(out, "{:<18} {:>7.4g} {:>10.5g} {:>11.6g} {:>7.3f} {:>9.2g}  {}\n",
+                 r.reference.quantity, r.reference.driver_value / du.scale,
+                 r.reference.value / u.scale, r.exact_ok ? shown_value(r.exact) : NAN,
+                 percent_difference(shown_value(r.reference.value), shown_value(r.exact)),
+                 worst_method, r.reference.source.substr(0, 40));
+    }
+    fmt::print(out, "(methods%: the largest % difference of any other method from exact)\n");
+  }
+
+  // Verdict, with every failing channel named at its worst sample.
+  fmt::print(out, "\n");
+  for (const std::string& name : cmp.failed_methods)
+    fmt::print(out, "FAIL: method {} did not complete: {}\n", name, cmp.method(name)->message);
+  for (const ChannelResult& c : cmp.channels)
+    if (c.verdict == Verdict::fail) {
+      const DisplayUnit u = display_unit(m, c.metrics.channel);
+      const int k = c.metrics.worst_sample;
+      fmt::print(out,
+                 "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at driver = {:.4f} {} "
+                 "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",
+                 c.metrics.channel, to_string(c.metrics.quantity), c.method,
+                 c.metrics.max_pct_of_peak, c.tolerance, ref.driver(k) / du.scale, du.name, k,
+                 c.method,
+                 (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
+                 u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
+    }
+  int passed = 0, na = 0;
+  for (const ChannelResult& c : cmp.channels) {
+    passed += c.verdict == Verdict::pass;
+    na += c.verdict == Verdict::not_applicable;
+  }
+  fmt::print(out, "verdict: {} ({} channel comparisons: {} pass, {} fail, {} n/a)\n",
+             cmp.pass() ? "PASS" : "FAIL", cmp.channels.size(), passed, cmp.failures(), na);
+}
+
+nlohmann::json to_json(const Comparison& cmp) {
+  using nlohmann::json;
+  const Mechanism& m = *cmp.mechanism;
+  const Trajectory& ref = cmp.reference().trajectory;
+  json j;
+  j["mechanism"] = m.name;
+  j["file"] = m.file;
+  j["units"] = "SI";
+  j["pass"] = cmp.pass();
+  j["reference_method"] = cmp.reference().name;
+  j["samples"] = ref.samples();
+  int excluded = 0;
+  for (PoseStatus s : ref.status) excluded += usable(s) ? 0 : 1;
+  j["flagged_reference_samples"] = excluded;
+
+  j["methods"] = json::array();
+  for (const MethodRun& run : cmp.methods) {
+    json settings = json::object();
+    for (const auto& [k, v] : run.settings) settings[k] = v;
+    j["methods"].push_back({{"name", run.name},
+                            {"description", run.description},
+                            {"available", run.available},
+                            {"ok", run.ok},
+                            {"message", run.message},
+                            {"settings", settings},
+                            {"cost",
+                             {{"wall_seconds", run.cost.wall_seconds},
+                              {"wall_seconds_per_cycle", run.cost.wall_seconds_per_cycle},
+                              {"steps", run.cost.steps},
+                              {"simulated_seconds", run.cost.simulated_seconds}}}});
+  }
+
+  j["channels"] = json::array();
+  for (const ChannelResult& c : cmp.channels) {
+    const int k = c.metrics.worst_sample;
+    j["channels"].push_back(
+        {{"channel", c.metrics.channel},
+         {"quantity", std::string(to_string(c.metrics.quantity))},
+         {"method", c.method},
+         {"max_pct_of_peak", c.metrics.max_pct_of_peak},
+         {"rms_pct_of_peak", c.metrics.rms_pct_of_peak},
+         {"max_local_pct", c.metrics.max_local_pct},
+         {"max_abs", c.metrics.max_abs},
+         {"rms_abs", c.metrics.rms_abs},
+         {"peak", c.metrics.peak_used},
+         {"usable_samples", c.metrics.usable},
+         {"worst_sample", k >= 0 ? json(k) : json(nullptr)},
+         {"worst_driver_value", k >= 0 ? json(ref.driver(k)) : json(nullptr)},
+         {"tolerance_pct", c.tolerance},
+         {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))}});
+  }
+
+  j["references"] = json::array();
+  for (const ReferenceRow& r : cmp.references) {
+    const bool angle = Trajectory::quantity_of(r.reference.quantity) == Quantity::angle;
+    auto norm = [&](double v) { return angle ? wrap_positive_angle(v) : v; };
+    json methods = json::object();
+    for (const auto& v : r.values)
+      methods[v.method] = {
+          {"value", v.value},
+          {"interpolated", v.interpolated},
+          {"pct_difference_vs_exact",
+           r.exact_ok ? json(percent_difference(norm(v.value), norm(r.exact))) : json(nullptr)},
+          {"pct_difference_vs_printed",
+           percent_difference(norm(v.value), norm(r.reference.value))}};
+    j["references"].push_back(
+        {{"quantity", r.reference.quantity},
+         {"driver_value", r.reference.driver_value},
+         {"value", r.reference.value},
+         {"source", r.reference.source},
+         {"exact", r.exact_ok ? json(r.exact) : json(nullptr)},
+         {"pct_difference_vs_exact",
+          r.exact_ok ? json(percent_difference(norm(r.reference.value), norm(r.exact)))
+                     : json(nullptr)},
+         {"methods", methods}});
+  }
+  j["legend"] = json::object();
+  for (const auto& [term, definition] : metric_legend()) j["legend"][term] = definition;
+  return j;
+}
+
+void write_csv(const Comparison& cmp, std::ostream& out) {
+  const Trajectory& ref = cmp.reference().trajectory;
+  out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
+         "reference,value,difference,pct_of_peak,local_pct\n";
+  for (const ChannelResult& c : cmp.channels) {
+    const MethodRun& run = *cmp.method(c.method);
+    const Eigen::VectorXd r = *ref.channel(c.metrics.channel);
+    const Eigen::VectorXd v = *run.trajectory.channel(c.metrics.channel);
+    for (int k = 0; k < ref.samples(); ++k) {
+      const auto ks = static_cast<size_t>(k);
+      const double local = c.metrics.local_pct(k);
+      out << fmt::format("{},{},{},{},{:.17g},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{}\n",
+                         c.method, c.metrics.channel, to_string(c.metrics.quantity), k,
+                         ref.driver(k), to_string(ref.status[ks]),
+                         to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
+                         r(k), v(k), c.metrics.difference(k), c.metrics.pct_of_peak(k),
+                         std::isnan(local) ? std::string() : fmt::format("{:.17g}", local));
+    }
+  }
+}
+
+}  // namespace crosslink::compare

@@ -1,0 +1,45 @@
+# cmake -DCROSSLINK=exe -DCHROMIUM=browser -DMECHANISM=file -DOUT=dir [-DAT=value] [-DENGINES=list]
+#       -P browser_test.cmake
+# Writes the HTML report of MECHANISM, opens it in headless Chromium, and fails unless the
+# page's own status element says every chart rendered with no script error. Keeps the report,
+# the dumped DOM, the browser log and a screenshot in OUT as artifacts.
+file(MAKE_DIRECTORY "${OUT}")
+set(report "${OUT}/report.html")
+set(at_args)
+if(DEFINED AT)
+  set(at_args --at ${AT})
+endif()
+if(DEFINED ENGINES)
+  list(APPEND at_args --engines ${ENGINES})
+endif()
+execute_process(COMMAND "${CROSSLINK}" compare "${MECHANISM}" --report "${report}" ${at_args}
+                RESULT_VARIABLE code OUTPUT_QUIET)
+if(NOT EXISTS "${report}" OR code GREATER 1)
+  message(FATAL_ERROR "crosslink compare --report failed (exit ${code})")
+endif()
+set(flags --headless --no-sandbox --disable-gpu --disable-background-networking
+          --disable-component-update --no-first-run --user-data-dir=${OUT}/profile
+          --enable-logging=stderr --v=0 --virtual-time-budget=20000)
+execute_process(COMMAND "${CHROMIUM}" ${flags} --dump-dom "file://${report}"
+                OUTPUT_VARIABLE dom ERROR_VARIABLE log TIMEOUT 120)
+file(WRITE "${OUT}/report.dom.html" "${dom}")
+file(WRITE "${OUT}/chromium.log" "${log}")
+execute_process(COMMAND "${CHROMIUM}" ${flags} --window-size=1200,3000
+                        --screenshot=${OUT}/report.png "file://${report}"
+                OUTPUT_QUIET ERROR_QUIET TIMEOUT 120)
+string(REGEX MATCH "<p id=\"render-status\"[^>]*>[^<]*</p>" status "${dom}")
+message("status: ${status}")
+if(NOT status MATCHES "data-status=\"ok\"")
+  message(FATAL_ERROR "the report did not render: ${status}\nbrowser log: ${OUT}/chromium.log")
+endif()
+# Console errors from the page (uncaught exceptions are already in the status).
+string(REGEX MATCHALL "CONSOLE\\([0-9]+\\)\\][^\n]*" console "${log}")
+foreach(line IN LISTS console)
+  if(line MATCHES "[Ee]rror")
+    message(FATAL_ERROR "console error: ${line}")
+  endif()
+endforeach()
+if(NOT EXISTS "${OUT}/report.png")
+  message(FATAL_ERROR "no screenshot")
+endif()
+message("screenshot: ${OUT}/report.png")

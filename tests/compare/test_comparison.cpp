@@ -1,0 +1,137 @@
+// The comparator on real mechanisms: a deliberately wrong model fails the verdict at the right
+// channel and sample; the JSON document keeps its documented fields; [[reference]] rows carry the
+// notes' printed values against exact.
+//
+//            D (ground)
+//             \___ C              the sewing machine (mechanisms/sewing_machine.toml)
+//             /\   \  .
+//            /  E   B
+//   G ------A   |
+//           |   F  needle
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "analytic/loader.h"
+#include "compare/comparison.h"
+#include "compare/report.h"
+
+namespace crosslink::compare {
+namespace {
+
+const std::string kSewing = std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/sewing_machine.toml";
+
+// The mechanism with one link's points scaled by `factor` in its own frame.
+Mechanism with_longer_link(Mechanism m, const std::string& link, double factor) {
+  for (Point& p : m.links[static_cast<size_t>(m.find_link(link))].points) p.local *= factor;
+  return m;
+}
+
+// A second method from an analytic sweep of a perturbed definition, under engine tolerances.
+MethodRun perturbed_method(const Mechanism& perturbed) {
+  MethodRun run;
+  run.name = "perturbed";
+  run.available = run.ok = true;
+  run.trajectory = sweep(perturbed);
+  return run;
+}
+
+TEST(Comparison, IdenticalMethodPasses) {
+  const Mechanism m = load_mechanism(kSewing);
+  std::vector<MethodRun> runs = {run_reference(m)};
+  MethodRun same = runs.front();
+  same.name = "perturbed";
+  runs.push_back(same);
+  const Comparison c = compare_methods(m, std::move(runs), Tolerances(m.tolerances));
+  EXPECT_TRUE(c.pass());
+  EXPECT_EQ(c.channels.size(), c.reference().trajectory.channel_names().size());
+}
+
+TEST(Comparison, LinkOnePercentLongFailsNamingChannelAndSample) {
+  const Mechanism m = load_mechanism(kSewing);
+  const Mechanism wrong = with_longer_link(m, "coupler", 1.01);
+  std::vector<MethodRun> runs = {run_reference(m), perturbed_method(wrong)};
+  ASSERT_EQ(runs[0].trajectory.samples(), runs[1].trajectory.samples());
+  const Comparison c = compare_methods(m, std::move(runs), Tolerances(m.tolerances));
+  EXPECT_FALSE(c.pass());
+  const ChannelResult* bell = nullptr;
+  for (const ChannelResult& r : c.channels)
+    if (r.metrics.channel == "angle.bell_crank") bell = &r;
+  ASSERT_NE(bell, nullptr);
+  EXPECT_EQ(bell->verdict, Verdict::fail);
+  EXPECT_GE(bell->metrics.worst_sample, 0);
+
+  char* text = nullptr;
+  size_t size = 0;
+  std::FILE* out = open_memstream(&text, &size);
+  print_console(c, out, {});
+  std::fclose(out);
+  const std::string printed(text, size);
+  std::free(text);
+  EXPECT_NE(printed.find("FAIL: angle.bell_crank (angle) perturbed"), std::string::npos) << printed;
+  EXPECT_NE(printed.find(fmt::format("(sample {})", bell->metrics.worst_sample)),
+            std::string::npos);
+  EXPECT_NE(printed.find("verdict: FAIL"), std::string::npos);
+}
+
+TEST(Comparison, ReferenceRowsCarryPrintedAndExactValues) {
+  const Mechanism m = load_mechanism(kSewing);
+  const Comparison c = compare_methods(m, {run_reference(m)}, Tolerances(m.tolerances));
+  ASSERT_EQ(c.references.size(), m.references.size());
+  for (const ReferenceRow& r : c.references) {
+    ASSERT_TRUE(r.exact_ok) << r.reference.quantity;
+    // Hand calculations with rounded numbers: within about 2 % of exact (notes 000).
+    const bool angle = Trajectory::quantity_of(r.reference.quantity) == Quantity::angle;
+    const double exact = angle ? wrap_positive_angle(r.exact) : r.exact;
+    EXPECT_LT(percent_difference(r.reference.value, exact), 2.0) << r.reference.quantity;
+    ASSERT_FALSE(r.values.empty());
+    EXPECT_EQ(r.values.front().method, "analytic");
+    EXPECT_NEAR(r.values.front().value, r.exact, 1e-9 * std::max(1.0, std::abs(r.exact)));
+  }
+}
+
+TEST(Comparison, JsonHasTheDocumentedFields) {
+  const Mechanism m = load_mechanism(kSewing);
+  std::vector<MethodRun> runs = {run_reference(m), perturbed_method(m)};
+  const nlohmann::json j = to_json(compare_methods(m, std::move(runs), Tolerances(m.tolerances)));
+  for (const char* key : {"mechanism", "pass", "methods", "channels", "references"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["mechanism"], m.name);
+  EXPECT_TRUE(j["pass"].get<bool>());
+  for (const auto& method : j["methods"]) {
+    EXPECT_TRUE(method.contains("settings"));
+    EXPECT_TRUE(method["cost"].contains("wall_seconds"));
+  }
+  ASSERT_FALSE(j["channels"].empty());
+  for (const char* key : {"channel", "quantity", "method", "max_pct_of_peak", "rms_pct_of_peak",
+                          "worst_driver_value", "tolerance_pct", "verdict"})
+    EXPECT_TRUE(j["channels"][0].contains(key)) << key;
+  const std::string quantity = j["channels"][0]["quantity"];
+  EXPECT_TRUE(quantity == "position" || quantity == "angle" || quantity == "velocity" ||
+              quantity == "acceleration");
+  ASSERT_EQ(j["references"].size(), m.references.size());
+  EXPECT_TRUE(j["references"][0]["methods"].contains("analytic"));
+  EXPECT_TRUE(j["references"][0].contains("pct_difference_vs_exact"));
+}
+
+TEST(ValueAt, OnGridAndInterpolated) {
+  const Mechanism m = load_mechanism(kSewing);
+  const Trajectory t = sweep(m);
+  bool interpolated = true;
+  const double on = *value_at(t, "omega.coupler", t.driver(10), true, &interpolated);
+  EXPECT_FALSE(interpolated);
+  EXPECT_DOUBLE_EQ(on, (*t.channel("omega.coupler"))(10));
+  const double mid = 0.5 * (t.driver(10) + t.driver(11));
+  const double between = *value_at(t, "omega.coupler", mid, true, &interpolated);
+  EXPECT_TRUE(interpolated);
+  const Trajectory exact = solve_at(m, mid);
+  EXPECT_NEAR(between, (*exact.channel("omega.coupler"))(0), 0.05);
+}
+
+}  // namespace
+}  // namespace crosslink::compare

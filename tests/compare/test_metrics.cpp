@@ -1,0 +1,87 @@
+// The metric definitions of compare/metrics.h, checked on hand-made columns.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "compare/metrics.h"
+#include "compare/tolerance.h"
+
+namespace crosslink::compare {
+namespace {
+
+TEST(PercentDifference, CourseExample) {
+  // Notes 002: Working Model 365 mm/s against the IC check 370 mm/s, "1.4 % difference".
+  EXPECT_NEAR(percent_difference(365.0, 370.0), 1.3514, 1e-4);
+  EXPECT_TRUE(std::isinf(percent_difference(1.0, 0.0)));
+  EXPECT_EQ(percent_difference(0.0, 0.0), 0.0);
+}
+
+TEST(WrapAngle, ComparesModuloTwoPi) {
+  const double pi = std::numbers::pi;
+  EXPECT_NEAR(wrap_angle(2 * pi + 0.1), 0.1, 1e-15);
+  EXPECT_NEAR(wrap_angle(-0.1 - 4 * pi), -0.1, 1e-14);
+  EXPECT_NEAR(wrap_angle(-pi), pi, 1e-15);  // (-pi, pi]
+  EXPECT_NEAR(wrap_positive_angle(-0.5 * pi), 1.5 * pi, 1e-15);
+}
+
+TEST(CompareChannel, PeakWorstSampleAndExclusion) {
+  Eigen::VectorXd ref(5), m(5);
+  ref << 1.0, -4.0, 2.0, 0.01, 3.0;
+  m << 1.1, -4.0, 2.0, 0.02, 9.0;  // sample 4 is far off but flagged
+  const std::vector<bool> usable = {true, true, true, true, false};
+  const ChannelMetrics c = compare_channel("v.B", ref, m, usable, 0.0);
+  EXPECT_EQ(c.usable, 4);
+  EXPECT_DOUBLE_EQ(c.peak, 4.0);
+  EXPECT_EQ(c.worst_sample, 0);  // the flagged sample 4 does not count
+  EXPECT_NEAR(c.max_pct_of_peak, 100.0 * 0.1 / 4.0, 1e-12);
+  EXPECT_NEAR(c.rms_pct_of_peak, 100.0 * std::sqrt((0.01 + 1e-4) / 4.0) / 4.0, 1e-12);
+  EXPECT_NEAR(c.local_pct(0), 10.0, 1e-12);
+  EXPECT_TRUE(std::isnan(c.local_pct(3)));      // |r| = 0.01 < 1 % of the peak 4: masked
+  EXPECT_NEAR(c.pct_of_peak(4), 150.0, 1e-12);  // shown per sample all the same
+  EXPECT_FALSE(c.in_verdict[4]);
+}
+
+TEST(CompareChannel, AnglesWrapAndUsePi) {
+  Eigen::VectorXd ref(2), m(2);
+  ref << 0.1, 7.0;
+  m << 0.1 + 2 * std::numbers::pi, 7.0 - 2 * std::numbers::pi + 1e-3;
+  const ChannelMetrics c = compare_channel("angle.crank", ref, m, {true, true}, 0.0);
+  EXPECT_NEAR(c.max_abs, 1e-3, 1e-12);
+  EXPECT_NEAR(c.peak_used, std::numbers::pi, 0.0);
+  EXPECT_EQ(c.worst_sample, 1);
+}
+
+TEST(CompareChannel, PeakFloorForChannelsThatStayAtZero) {
+  Eigen::VectorXd ref = Eigen::VectorXd::Zero(3), m(3);
+  m << 1e-9, -2e-9, 0.0;
+  const ChannelMetrics c = compare_channel("alpha.crank", ref, m, {true, true, true}, 10.0);
+  EXPECT_DOUBLE_EQ(c.peak_used, 10.0);
+  EXPECT_NEAR(c.max_pct_of_peak, 2e-8, 1e-20);
+  EXPECT_EQ(channel_kind("alpha.crank"), "acceleration/angular");
+  EXPECT_EQ(channel_kind("sddot.needle"), "acceleration/linear");
+}
+
+TEST(Tolerances, DefaultsDefinitionAndCommandLine) {
+  ToleranceOverrides file;
+  file.velocity = 0.2;
+  Tolerances t(file);
+  EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::position), 1e-2);
+  EXPECT_DOUBLE_EQ(t.of("bullet", Quantity::velocity), 0.2);
+  EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::acceleration), 1.0);
+  EXPECT_DOUBLE_EQ(t.of("dyads", Quantity::velocity), 1e-8);  // the file does not loosen exact
+  t.apply("velocity=0.5");
+  t.apply("bullet:acceleration=2");
+  t.apply("dyads:position=1e-6");
+  EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::velocity), 0.5);
+  EXPECT_DOUBLE_EQ(t.of("bullet", Quantity::acceleration), 2.0);
+  EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::acceleration), 1.0);
+  EXPECT_DOUBLE_EQ(t.of("dyads", Quantity::position), 1e-6);
+  EXPECT_THROW(t.apply("speed=1"), std::invalid_argument);
+  EXPECT_THROW(t.apply("velocity=abc"), std::invalid_argument);
+  EXPECT_THROW(t.apply("velocity"), std::invalid_argument);
+  EXPECT_THROW(t.apply("working_model:velocity=1"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace crosslink::compare
