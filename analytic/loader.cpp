@@ -34,6 +34,12 @@ class Reader {
     return node ? at(*node) : SourceLocation{file_, 0, 0};
   }
   SourceLocation file() const { return {file_, 0, 0}; }
+  // Where something missing from `table` belongs: the table's header, or the file for the root
+  // (whose region starts at line 1, which holds something else).
+  SourceLocation inside(const toml::table& table) const {
+    return &table == root_ ? file() : at(table);
+  }
+  void set_root(const toml::table& root) { root_ = &root; }
 
   void error(SourceLocation where, std::string message) {
     diagnostics_.push_back({std::move(where), std::move(message)});
@@ -57,7 +63,7 @@ class Reader {
                                     std::string_view what, bool required) {
     const toml::node* node = table.get(key);
     if (!node) {
-      if (required) error(at(table), fmt::format("{} needs '{}' (a string)", what, key));
+      if (required) error(inside(table), fmt::format("{} needs '{}' (a string)", what, key));
       return std::nullopt;
     }
     if (const auto* value = node->as_string()) return value->get();
@@ -82,7 +88,7 @@ class Reader {
                                std::string_view what, bool required) {
     const toml::node* node = table.get(key);
     if (!node) {
-      if (required) error(at(table), fmt::format("{} needs '{}' (a number)", what, key));
+      if (required) error(inside(table), fmt::format("{} needs '{}' (a number)", what, key));
       return std::nullopt;
     }
     return number(*node, fmt::format("'{}' in {}", key, what));
@@ -109,7 +115,7 @@ class Reader {
                            bool required) {
     const toml::node* node = parent.get(key);
     if (!node) {
-      if (required) error(at(parent), fmt::format("{} needs a [{}] table", what, key));
+      if (required) error(inside(parent), fmt::format("{} needs a [{}] table", what, key));
       return nullptr;
     }
     if (const auto* t = node->as_table()) return t;
@@ -119,6 +125,7 @@ class Reader {
 
  private:
   std::string file_;
+  const toml::table* root_ = nullptr;
   std::vector<Diagnostic> diagnostics_;
 };
 
@@ -134,12 +141,12 @@ constexpr UnitChoice kAngularSpeedUnits[] = {{"rad/s", 1.0},
                                              {"rev/s", 2.0 * std::numbers::pi}};
 
 template <size_t N>
-std::optional<double> unit_factor(Reader& r, const toml::table& table, std::string_view key,
-                                  const UnitChoice (&choices)[N], std::string_view fallback,
-                                  std::string* name_out = nullptr) {
+std::optional<double> unit_factor(Reader& r, const toml::table& table, std::string_view what,
+                                  std::string_view key, const UnitChoice (&choices)[N],
+                                  std::string_view fallback, std::string* name_out = nullptr) {
   std::vector<std::string> names;
   for (const UnitChoice& c : choices) names.emplace_back(c.name);
-  const std::string name = r.string(table, key, "[units]", false).value_or(std::string(fallback));
+  const std::string name = r.string(table, key, what, false).value_or(std::string(fallback));
   for (const UnitChoice& c : choices)
     if (c.name == name) {
       if (name_out) *name_out = name;
@@ -459,7 +466,7 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     double factor = unit;
     if (d.angular()) {
       std::string unit_name;
-      if (const auto f = unit_factor(r, *t, "speed_unit", kAngularSpeedUnits, "rad/s"))
+      if (const auto f = unit_factor(r, *t, "[driver]", "speed_unit", kAngularSpeedUnits, "rad/s"))
         factor = *f;
     } else if (t->get("speed_unit")) {
       r.error(r.at(t->get("speed_unit")),
@@ -519,6 +526,23 @@ std::optional<double> reference_factor(const Mechanism& m, std::string_view quan
   return std::nullopt;
 }
 
+// The names a reference channel may end in: the mechanism's outputs.
+std::vector<std::string> reference_objects(const Mechanism& m) {
+  std::vector<std::string> objects;
+  for (const Link& l : m.links)
+    if (!l.ground) objects.push_back(l.name);
+  for (const auto& p : m.named_points()) objects.push_back(p.name);
+  for (int j : m.slide_joints()) objects.push_back(m.joints[j].name);
+  return objects;
+}
+
+bool names_object(const Mechanism& m, std::string_view quantity) {
+  const size_t dot = quantity.find('.');
+  if (dot == std::string_view::npos) return false;
+  const std::vector<std::string> objects = reference_objects(m);
+  return std::find(objects.begin(), objects.end(), quantity.substr(dot + 1)) != objects.end();
+}
+
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::node* node = root.get("reference");
   if (!node) return;
@@ -546,26 +570,17 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
                           ref.quantity));
       continue;
     }
+    if (factor && !names_object(m, ref.quantity)) {
+      r.error(r.at(t.get("quantity")),
+              fmt::format("[[reference]]: '{}' names no moving link, point or slider (valid "
+                          "names: {})",
+                          ref.quantity, join(reference_objects(m))));
+      continue;
+    }
     if (!at || !value || !factor) continue;
     ref.driver_value = *at * driver_unit;
     ref.value = *value * *factor;
     m.references.push_back(ref);
-  }
-}
-
-// Names a reference channel must exist in the mechanism's outputs.
-void check_reference_names(Reader& r, const Mechanism& m) {
-  std::vector<std::string> objects;
-  for (const Link& l : m.links)
-    if (!l.ground) objects.push_back(l.name);
-  for (const auto& p : m.named_points()) objects.push_back(p.name);
-  for (int j : m.slide_joints()) objects.push_back(m.joints[j].name);
-  for (const Reference& ref : m.references) {
-    const std::string object = ref.quantity.substr(ref.quantity.find('.') + 1);
-    if (std::find(objects.begin(), objects.end(), object) == objects.end())
-      r.error(ref.where, fmt::format("[[reference]]: '{}' names no moving link, point or slider "
-                                     "(valid names: {})",
-                                     ref.quantity, join(objects)));
   }
 }
 
@@ -588,24 +603,19 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
 }
 
 // Structure: one ground, unique names, named points that are one place, a connected chain,
-// and a mobility that one driver can drive.
-void check_structure(Reader& r, const Mechanism& m) {
+// and a mobility that one driver can drive (reported at `driver`, the [driver] table, if any).
+void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
   std::vector<int> grounds;
   for (size_t i = 0; i < m.links.size(); ++i)
     if (m.links[i].ground) grounds.push_back(static_cast<int>(i));
-  if (grounds.empty()) r.error(r.file(), "no link has ground = true: one link must be the frame");
+  if (grounds.empty())
+    r.error(m.links.front().where,
+            "no link has ground = true: one link must be the frame (add ground = true to it)");
   for (size_t i = 1; i < grounds.size(); ++i)
     r.error(m.links[grounds[i]].where,
             fmt::format("link '{}' is a second ground (the first is '{}'): exactly one link is "
                         "the frame",
                         m.links[grounds[i]].name, m.links[grounds[0]].name));
-  for (size_t i = 0; i < m.links.size(); ++i) {
-    for (size_t j = 0; j < i; ++j)
-      if (m.links[i].name == m.links[j].name)
-        r.error(m.links[i].where,
-                fmt::format("duplicate link name '{}' (first at line {})", m.links[i].name,
-                            m.links[j].where.line));
-  }
   for (size_t i = 0; i < m.joints.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (!m.joints[i].name.empty() && m.joints[i].name == m.joints[j].name)
@@ -646,32 +656,46 @@ void check_structure(Reader& r, const Mechanism& m) {
   for (const Joint& j : m.joints)
     parent[find(static_cast<size_t>(j.link_a))] = find(static_cast<size_t>(j.link_b));
   const int g = m.ground();
+  bool connected = true;
   for (size_t l = 0; l < n; ++l)
-    if (find(l) != find(static_cast<size_t>(g)))
+    if (find(l) != find(static_cast<size_t>(g))) {
+      connected = false;
       r.error(m.links[l].where,
               fmt::format("link '{}' is not connected to the ground by any chain of joints",
                           m.links[l].name));
+    }
+  if (!connected) return;  // its mobility count would only repeat the fault
 
   const Mobility mob = mobility(m);
   if (mob.mobility != 1) {
+    // Say which side of the count is off: the links' freedoms or the joints' constraints.
+    const int off = std::abs(mob.mobility - 1);
+    const std::string freedoms = fmt::format("freedom{}", off == 1 ? "" : "s");
     const std::string verdict =
         mob.mobility < 1
-            ? fmt::format("the chain is over-constrained: {} constraint(s) too many, or {} "
-                          "joint freedom(s) missing",
-                          1 - mob.mobility, 1 - mob.mobility)
-            : fmt::format("the chain has {} freedom(s) more than its one driver can fix: a "
-                          "joint or link is missing, or a joint allows too much",
-                          mob.mobility - 1);
-    r.error(r.file(), fmt::format("mobility {} with 1 driver: {}. Grübler–Kutzbach: {} ({} "
-                                  "links, {} full joints, {} half joints)",
-                                  mob.mobility, verdict, mob.explain(), mob.links,
-                                  mob.full_joints, mob.half_joints));
+            ? fmt::format("the chain is over-constrained, {} {} too few for the one driver: a "
+                          "joint too many (a revolute or prismatic takes 2, a pin_in_slot 1), "
+                          "a revolute or prismatic where a pin_in_slot belongs, or a link "
+                          "missing",
+                          off, freedoms)
+            : fmt::format("the chain is under-constrained, {} {} more than the one driver "
+                          "fixes: a joint missing (a revolute or prismatic takes 2, a "
+                          "pin_in_slot 1), a pin_in_slot where a revolute or prismatic "
+                          "belongs, or a link too many",
+                          off, freedoms);
+    r.error(r.at(driver), fmt::format("mobility {} with 1 driver. Grübler–Kutzbach: {} ({} "
+                                      "links, {} full joints, {} half joints): the joints take "
+                                      "{} of the {} freedoms of the {} moving links. {}",
+                                      mob.mobility, mob.explain(), mob.links, mob.full_joints,
+                                      mob.half_joints, 2 * mob.full_joints + mob.half_joints,
+                                      3 * (mob.links - 1), mob.links - 1, verdict));
   }
 }
 
 Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
+  r.set_root(root);
   r.known_keys(root, "the definition",
                {"name", "description", "citation", "units", "link", "joint", "driver",
                 "reference", "tolerance"});
@@ -683,10 +707,12 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
     r.known_keys(*units, "[units]", {"length", "angle"});
     if (!units->get("length")) r.error(r.at(*units), "[units] needs 'length' (mm, cm or m)");
     if (!units->get("angle")) r.error(r.at(*units), "[units] needs 'angle' (deg or rad)");
-    m.units.length = unit_factor(r, *units, "length", kLengthUnits, "m", &m.units.length_name)
-                         .value_or(1.0);
+    m.units.length =
+        unit_factor(r, *units, "[units]", "length", kLengthUnits, "m", &m.units.length_name)
+            .value_or(1.0);
     m.units.angle =
-        unit_factor(r, *units, "angle", kAngleUnits, "rad", &m.units.angle_name).value_or(1.0);
+        unit_factor(r, *units, "[units]", "angle", kAngleUnits, "rad", &m.units.angle_name)
+            .value_or(1.0);
   }
 
   const toml::node* links = root.get("link");
@@ -697,6 +723,14 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   }
   for (size_t i = 0; i < link_array->size(); ++i)
     m.links.push_back(read_link(r, *(*link_array)[i].as_table(), m.units, static_cast<int>(i)));
+  // Names must be unique before joints refer to them.
+  for (size_t i = 0; i < m.links.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (m.links[i].name == m.links[j].name)
+        r.error(m.links[i].where,
+                fmt::format("duplicate link name '{}' (first at line {}); link names must be "
+                            "unique",
+                            m.links[i].name, m.links[j].where.line));
   for (const Link& link : m.links)
     for (size_t i = 0; i < link.points.size(); ++i)
       for (size_t j = 0; j < i; ++j)
@@ -715,12 +749,10 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   }
   r.throw_if_any();
 
-  check_structure(r, m);
+  check_structure(r, m, root.get("driver"));
   read_driver(r, m, root);
   read_tolerances(r, m, root);
   read_references(r, m, root);
-  r.throw_if_any();
-  check_reference_names(r, m);
   r.throw_if_any();
   return m;
 }

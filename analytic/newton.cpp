@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "analytic/planar.h"
 
@@ -18,6 +20,12 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   rhs.setZero(n);
   jacobian.setZero(n, n);
   lu = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
+  estimate.setZero(n);
+  estimate_rhs.setZero(n);
+  sign.setZero(n);
+  previous_sign.setZero(n);
+  cos_theta.setOnes(mechanism.moving_count());
+  sin_theta.setZero(mechanism.moving_count());
 }
 
 namespace {
@@ -45,14 +53,43 @@ DriverArm driver_arm(const Mechanism& m) {
   return arm;
 }
 
+}  // namespace
+
+// The links' frames at one q. The rotations come from cos and sin computed once per q
+// (KinematicState's cache) or, without a cache, from q on the spot; the numbers are the same.
+struct NewtonSolver::Frames {
+  const Eigen::VectorXd& q;
+  const Eigen::VectorXd* cos = nullptr;  // per moving link, or null
+  const Eigen::VectorXd* sin = nullptr;
+
+  BodyMotion of(int k, const Eigen::VectorXd* qdot = nullptr,
+                const Eigen::VectorXd* qddot = nullptr) const {
+    if (k < 0 || !cos) return BodyMotion::of(k, q, qdot, qddot);
+    BodyMotion m;
+    m.r = q.segment<2>(3 * k);
+    m.theta = q(3 * k + 2);
+    m.rotation << (*cos)(k), -(*sin)(k), (*sin)(k), (*cos)(k);  // as Rotation2D builds it
+    if (qdot) {
+      m.v = qdot->segment<2>(3 * k);
+      m.omega = (*qdot)(3 * k + 2);
+    }
+    if (qddot) {
+      m.a = qddot->segment<2>(3 * k);
+      m.alpha = (*qddot)(3 * k + 2);
+    }
+    return m;
+  }
+};
+
+namespace {
+
 // Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
-void projection_gradient(const Mechanism& m, const Eigen::VectorXd& q, int link_a,
-                         const Eigen::Vector2d& origin_a, const Eigen::Vector2d& axis_a,
-                         int link_b, const Eigen::Vector2d& point_b, Eigen::MatrixXd& jac,
-                         int row) {
-  const int ka = m.moving_index(link_a), kb = m.moving_index(link_b);
-  const BodyMotion a = BodyMotion::of(ka, q, nullptr, nullptr);
-  const BodyMotion b = BodyMotion::of(kb, q, nullptr, nullptr);
+template <typename Frames>
+void projection_gradient(const Frames& frames, int ka, const Eigen::Vector2d& origin_a,
+                         const Eigen::Vector2d& axis_a, int kb, const Eigen::Vector2d& point_b,
+                         Eigen::MatrixXd& jac, int row) {
+  const BodyMotion a = frames.of(ka);
+  const BodyMotion b = frames.of(kb);
   const Eigen::Vector2d w = a.turn(axis_a);
   const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
   if (ka >= 0) {
@@ -88,34 +125,58 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
     row += 3 - j.dof();
   }
   if (is_angle_row_driver(mechanism.driver) && row < n) row_scale_(row) = length_scale_;
+
+  // Looked up once: the moving index of each joint's links, and the driver's measured arm.
+  for (const Joint& j : mechanism.joints) {
+    moving_a_.push_back(mechanism.moving_index(j.link_a));
+    moving_b_.push_back(mechanism.moving_index(j.link_b));
+  }
+  if (mechanism.driver.angular()) {
+    const DriverArm arm = driver_arm(mechanism);
+    arm_link_ = mechanism.moving_index(arm.link);
+    arm_reference_ = mechanism.moving_index(arm.reference);
+    arm_offset_ = arm.offset;
+  }
 }
 
 double NewtonSolver::driver_value(const Eigen::VectorXd& q) const {
+  return driver_value(Frames{q});
+}
+
+double NewtonSolver::driver_value(const Frames& frames) const {
   const Mechanism& m = mechanism_;
   const Driver& d = m.driver;
   if (d.type == DriverType::slider) {
     const Joint& j = m.joints[d.joint];
     const Line& line = m.links[j.link_a].lines[j.line];
-    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    const BodyMotion a = frames.of(moving_a_[d.joint]);
+    const BodyMotion b = frames.of(moving_b_[d.joint]);
     return project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local)
         .value;
   }
-  const DriverArm arm = driver_arm(m);
-  const int k = m.moving_index(arm.link), kr = m.moving_index(arm.reference);
-  return (k >= 0 ? q(3 * k + 2) : 0.0) + arm.offset - (kr >= 0 ? q(3 * kr + 2) : 0.0);
+  const Eigen::VectorXd& q = frames.q;
+  const int k = arm_link_, kr = arm_reference_;
+  return (k >= 0 ? q(3 * k + 2) : 0.0) + arm_offset_ - (kr >= 0 ? q(3 * kr + 2) : 0.0);
 }
 
-void NewtonSolver::evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
+void NewtonSolver::update_frames(KinematicState& state) const {
+  for (Eigen::Index k = 0; k < state.cos_theta.size(); ++k) {
+    state.cos_theta(k) = std::cos(state.q(3 * k + 2));
+    state.sin_theta(k) = std::sin(state.q(3 * k + 2));
+  }
+}
+
+void NewtonSolver::evaluate(const Frames& frames, const Eigen::VectorXd* qdot,
                             Eigen::VectorXd& out) const {
   // out = Phi(q) when qdot is null; otherwise the part of d2Phi/dt2 that does not depend on
   // qddot (the velocity-squared terms), which the acceleration equation moves to the right.
   const Mechanism& m = mechanism_;
   const Eigen::VectorXd* qddot = nullptr;  // q'' = 0: only velocity terms remain
   int row = 0;
-  for (const Joint& j : m.joints) {
-    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, qdot, qddot);
-    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, qdot, qddot);
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const BodyMotion a = frames.of(moving_a_[ji], qdot, qddot);
+    const BodyMotion b = frames.of(moving_b_[ji], qdot, qddot);
     const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
     if (j.type == JointType::revolute) {
       const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
@@ -134,39 +195,44 @@ void NewtonSolver::evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd* qdo
   if (d.type == DriverType::slider) {
     const Joint& j = m.joints[d.joint];
     const Line& line = m.links[j.link_a].lines[j.line];
-    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, qdot, qddot);
-    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, qdot, qddot);
+    const BodyMotion a = frames.of(moving_a_[d.joint], qdot, qddot);
+    const BodyMotion b = frames.of(moving_b_[d.joint], qdot, qddot);
     const Projection s =
         project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local);
     out(row) = qdot ? s.accel : s.value;
   } else {
-    out(row) = qdot ? 0.0 : driver_value(q);  // an angle is linear in q
+    out(row) = qdot ? 0.0 : driver_value(frames);  // an angle is linear in q
   }
 }
 
 void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
                             Eigen::VectorXd& phi) const {
-  evaluate(q, nullptr, phi);
+  evaluate(Frames{q}, nullptr, phi);
   phi(phi.size() - 1) -= driver_value;
 }
 
 void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const {
+  jacobian(Frames{q}, jac);
+}
+
+void NewtonSolver::jacobian(const Frames& frames, Eigen::MatrixXd& jac) const {
   const Mechanism& m = mechanism_;
   jac.setZero();
   int row = 0;
-  for (const Joint& j : m.joints) {
-    const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const int ka = moving_a_[ji], kb = moving_b_[ji];
     const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
     if (j.type == JointType::revolute) {
       // Phi = r_a + A_a p_a - r_b - A_b p_b
       const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
       if (ka >= 0) {
-        const BodyMotion a = BodyMotion::of(ka, q, nullptr, nullptr);
+        const BodyMotion a = frames.of(ka);
         jac.block<2, 2>(row, 3 * ka).setIdentity();
         jac.block<2, 1>(row, 3 * ka + 2) = perp(a.turn(pa));
       }
       if (kb >= 0) {
-        const BodyMotion b = BodyMotion::of(kb, q, nullptr, nullptr);
+        const BodyMotion b = frames.of(kb);
         jac.block<2, 2>(row, 3 * kb) = -Eigen::Matrix2d::Identity();
         jac.block<2, 1>(row, 3 * kb + 2) = -perp(b.turn(pb));
       }
@@ -174,8 +240,7 @@ void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) cons
       continue;
     }
     const Line& line = m.links[j.link_a].lines[j.line];
-    projection_gradient(m, q, j.link_a, line.origin, perp(line.direction), j.link_b, pb, jac,
-                        row++);
+    projection_gradient(frames, ka, line.origin, perp(line.direction), kb, pb, jac, row++);
     if (j.type == JointType::prismatic) {
       if (ka >= 0) jac(row, 3 * ka + 2) = -1.0;
       if (kb >= 0) jac(row, 3 * kb + 2) = 1.0;
@@ -186,21 +251,77 @@ void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) cons
   if (d.type == DriverType::slider) {
     const Joint& j = m.joints[d.joint];
     const Line& line = m.links[j.link_a].lines[j.line];
-    projection_gradient(m, q, j.link_a, line.origin, line.direction, j.link_b,
+    projection_gradient(frames, moving_a_[d.joint], line.origin, line.direction, moving_b_[d.joint],
                         m.links[j.link_b].points[j.point_b].local, jac, row);
   } else {
-    const DriverArm arm = driver_arm(m);
-    const int k = m.moving_index(arm.link), kr = m.moving_index(arm.reference);
+    const int k = arm_link_, kr = arm_reference_;
     if (k >= 0) jac(row, 3 * k + 2) += 1.0;
     if (kr >= 0) jac(row, 3 * kr + 2) -= 1.0;
   }
 }
 
 void NewtonSolver::factorize(KinematicState& state) const {
-  jacobian(state.q, state.jacobian);
+  // state's frames must be those of state.q (update_frames).
+  jacobian(Frames{state.q, &state.cos_theta, &state.sin_theta}, state.jacobian);
   state.jacobian.array().colwise() *= row_scale_.array();
   state.jacobian.array().rowwise() *= col_scale_.transpose().array();
+  state.jacobian_norm = state.jacobian.cwiseAbs().colwise().sum().maxCoeff();
   state.lu.compute(state.jacobian);
+}
+
+double NewtonSolver::rcond(KinematicState& state) const {
+  // Eigen's rcond_estimate_helper and rcond_invmatrix_L1_norm_estimate (Higham's Algorithms 4.1
+  // and 5.1, as in LAPACK) step by step, in the state's scratch vectors so that the estimate
+  // allocates nothing; it returns exactly what state.lu.rcond() would.
+  const Eigen::Index n = state.q.size();
+  if (n == 0) return std::numeric_limits<double>::infinity();
+  if (state.jacobian_norm == 0.0) return 0.0;
+  if (n == 1) return 1.0;
+  const Eigen::PartialPivLU<Eigen::MatrixXd>& lu = state.lu;
+  Eigen::VectorXd& v = state.estimate;
+  // v = J^-1 b and v = J^-T b, with PJ = LU (b is read from estimate_rhs).
+  auto solve = [&] {
+    v.noalias() = lu.permutationP() * state.estimate_rhs;
+    lu.matrixLU().triangularView<Eigen::UnitLower>().solveInPlace(v);
+    lu.matrixLU().triangularView<Eigen::Upper>().solveInPlace(v);
+  };
+  auto solve_transposed = [&] {
+    lu.matrixLU().triangularView<Eigen::Upper>().transpose().solveInPlace(state.estimate_rhs);
+    lu.matrixLU().triangularView<Eigen::UnitLower>().transpose().solveInPlace(state.estimate_rhs);
+    v.noalias() = lu.permutationP().transpose() * state.estimate_rhs;
+  };
+
+  state.estimate_rhs.setConstant(1.0 / static_cast<double>(n));
+  solve();
+  double lower_bound = v.lpNorm<1>();
+  double old_lower_bound = lower_bound;
+  Eigen::Index v_max_abs_index = -1, old_v_max_abs_index = -1;
+  for (int k = 0; k < 4; ++k) {
+    for (Eigen::Index i = 0; i < n; ++i) state.sign(i) = v(i) < 0.0 ? -1.0 : 1.0;
+    if (k > 0 && state.sign == state.previous_sign) break;
+    state.estimate_rhs = state.sign;
+    solve_transposed();
+    v.cwiseAbs().maxCoeff(&v_max_abs_index);
+    if (v_max_abs_index == old_v_max_abs_index) break;
+    state.estimate_rhs.setZero();
+    state.estimate_rhs(v_max_abs_index) = 1.0;
+    solve();  // v = J^-1 e_j
+    lower_bound = v.lpNorm<1>();
+    if (lower_bound <= old_lower_bound) break;
+    state.previous_sign = state.sign;
+    old_v_max_abs_index = v_max_abs_index;
+    old_lower_bound = lower_bound;
+  }
+  double alternating_sign = 1.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    state.estimate_rhs(i) =
+        alternating_sign * (1.0 + static_cast<double>(i) / static_cast<double>(n - 1));
+    alternating_sign = -alternating_sign;
+  }
+  solve();
+  const double alternate_lower_bound = (2.0 * v.lpNorm<1>()) / (3.0 * static_cast<double>(n));
+  const double inverse_norm = std::max(lower_bound, alternate_lower_bound);
+  return inverse_norm == 0.0 ? 0.0 : (1.0 / inverse_norm) / state.jacobian_norm;
 }
 
 void NewtonSolver::solve_linear(KinematicState& state, Eigen::VectorXd& x) const {
@@ -218,13 +339,20 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   SolveReport report;
   const double tolerance = options_.tolerance * length_scale_;
   for (int it = 0; it <= options_.max_iterations; ++it) {
-    residual(state.q, state.driver.value, state.phi);
+    // Phi and J at this q share one evaluation of every link's cos and sin.
+    update_frames(state);
+    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
+    state.phi(state.phi.size() - 1) -= state.driver.value;
     report.residual = scaled_norm(state.phi);
     report.iterations = it;
     factorize(state);
-    report.rcond = state.lu.rcond();
-    if (!std::isfinite(report.residual)) break;
+    // The condition estimate costs several solves: taken only where the loop ends.
+    if (!std::isfinite(report.residual)) {
+      report.rcond = rcond(state);
+      break;
+    }
     if (report.residual <= tolerance) {
+      report.rcond = rcond(state);
       if (report.rcond < options_.singular_rcond) {
         report.status = PoseStatus::singular;
         report.message = fmt::format("Jacobian singular at the solution (rcond {:.2e})",
@@ -235,7 +363,11 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
     // Newton step: J dq = -Phi
     state.rhs = -state.phi;
     solve_linear(state, state.qddot);  // qddot is free scratch until the acceleration solve
-    if (!state.qddot.allFinite()) break;
+    if (!state.qddot.allFinite()) {
+      report.rcond = rcond(state);
+      break;
+    }
+    if (it == options_.max_iterations) report.rcond = rcond(state);
     state.q += state.qddot;
   }
   report.status = PoseStatus::no_convergence;
@@ -253,7 +385,8 @@ void NewtonSolver::solve_velocity(KinematicState& state) const {
 
 void NewtonSolver::solve_acceleration(KinematicState& state) const {
   // J qddot = gamma = -(velocity-squared terms of d2Phi/dt2) + driver acceleration
-  evaluate(state.q, &state.qdot, state.rhs);
+  update_frames(state);  // state.q may have changed since the last factorisation
+  evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, &state.qdot, state.rhs);
   state.rhs = -state.rhs;
   state.rhs(state.rhs.size() - 1) += state.driver.accel;
   solve_linear(state, state.qddot);
@@ -289,6 +422,9 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
     if (report.status == PoseStatus::ok) {
       solve_velocity(state);
       solve_acceleration(state);
+    } else {
+      state.qdot.setZero();
+      state.qddot.setZero();
     }
     return report;
   }
@@ -333,6 +469,11 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
   } else if (report.status == PoseStatus::ok) {
     solve_velocity(state);
     solve_acceleration(state);
+  }
+  if (report.status != PoseStatus::ok) {
+    // No motion to report, and qddot held Newton's last step as scratch (possibly not finite).
+    state.qdot.setZero();
+    state.qddot.setZero();
   }
   return report;
 }

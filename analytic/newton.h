@@ -43,6 +43,11 @@ struct KinematicState {
   Eigen::VectorXd phi, rhs;
   Eigen::MatrixXd jacobian;
   Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  // Scratch of the condition estimate (Eigen's rcond() allocates its vectors on every call).
+  double jacobian_norm = 0.0;  // L1 norm of the scaled Jacobian that `lu` factorises
+  Eigen::VectorXd estimate, estimate_rhs, sign, previous_sign;
+  // cos and sin of every moving link's angle at q, computed once per Newton iteration.
+  Eigen::VectorXd cos_theta, sin_theta;
 };
 
 class NewtonSolver {
@@ -79,14 +84,20 @@ class NewtonSolver {
                     int row) const;
 
  private:
+  struct Frames;  // the links' frames at one q (newton.cpp)
   // Phi(q) when qdot is null, else the velocity-squared part of d2Phi/dt2.
-  void evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
-                Eigen::VectorXd& out) const;
+  void evaluate(const Frames& frames, const Eigen::VectorXd* qdot, Eigen::VectorXd& out) const;
+  void jacobian(const Frames& frames, Eigen::MatrixXd& jac) const;
+  double driver_value(const Frames& frames) const;
+  // state.cos_theta, state.sin_theta at state.q.
+  void update_frames(KinematicState& state) const;
   // Builds the scaled Jacobian at state.q and factorises it into state.lu.
   void factorize(KinematicState& state) const;
   // x = J^-1 state.rhs with the factorisation in state (state.rhs is overwritten).
   void solve_linear(KinematicState& state, Eigen::VectorXd& x) const;
   double scaled_norm(const Eigen::VectorXd& phi) const;  // |S_r phi|_inf [m]
+  // Reciprocal condition estimate of the factorised J, without allocating.
+  double rcond(KinematicState& state) const;
 
   const Mechanism& mechanism_;
   NewtonOptions options_;
@@ -95,6 +106,11 @@ class NewtonSolver {
   Eigen::VectorXd row_scale_, col_scale_;
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
+  // Per joint: moving index of link_a and link_b (-1 for the ground).
+  std::vector<int> moving_a_, moving_b_;
+  // Angular driver: q(3 arm_link_ + 2) + arm_offset_ - q(3 arm_reference_ + 2).
+  int arm_link_ = -1, arm_reference_ = -1;
+  double arm_offset_ = 0.0;
 };
 
 }  // namespace crosslink

@@ -1,0 +1,226 @@
+// The `crosslink` command line, run as a user would: exit codes, diagnostics on stderr, and the
+// JSON and CSV outputs of `solve` (the contract in docs/json.md).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+
+struct CommandRun {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::filesystem::path scratch_dir() {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() /
+      ("crosslink_test_cli_" + std::to_string(static_cast<long>(::getpid())));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Runs `crosslink ARGS` from the source root, capturing stdout and stderr.
+CommandRun crosslink(const std::string& args) {
+  const std::filesystem::path err = scratch_dir() / "stderr.txt";
+  const std::string command =
+      std::string("\"") + CROSSLINK_BINARY + "\" " + args + " 2>\"" + err.string() + "\"";
+  CommandRun run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) {
+    ADD_FAILURE() << "cannot run " << command;
+    return run;
+  }
+  char buffer[4096];
+  for (size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) run.out.append(buffer, n);
+  const int status = ::pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  run.err = read_file(err);
+  return run;
+}
+
+std::string write_definition(const std::string& name, const std::string& text) {
+  const std::filesystem::path path = scratch_dir() / name;
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+const char* const kSewing = "mechanisms/sewing_machine.toml";
+
+TEST(Cli, CheckAcceptsTheSewingMachine) {
+  const CommandRun run = crosslink(std::string("check ") + kSewing);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("ok"), std::string::npos) << run.out;
+}
+
+TEST(Cli, CheckRejectsABadFileWithItsLocation) {
+  // Line 3 names a unit that does not exist; the value starts at column 10.
+  const std::string path = write_definition("bad.toml",
+                                            "name = \"x\"\n[units]\nlength = \"inch\"\n"
+                                            "angle = \"deg\"\n");
+  const CommandRun run = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find(path + ":3:10: error: unknown unit 'inch'"), std::string::npos) << run.err;
+  EXPECT_EQ(run.out.find("error"), std::string::npos) << "errors belong on stderr: " << run.out;
+}
+
+TEST(Cli, CheckReportsAChainThatCannotAssembleWithTheDriverValue) {
+  // Ground AD 0.10, crank AB 0.08 at 180 degrees: |BD| = 0.18 m > BC + CD = 0.04 + 0.05.
+  const std::string path = write_definition("open.toml", R"(name = "open four-bar"
+[units]
+length = "m"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], D = [0.10, 0] }
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [0.08, 0] }
+pose = [0, 0, 180]
+[[link]]
+name = "coupler"
+points = { B = [0, 0], C = [0.04, 0] }
+[[link]]
+name = "rocker"
+points = { D = [0, 0], C = [0.05, 0] }
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["crank", "coupler"]
+point = "B"
+[[joint]]
+type = "revolute"
+links = ["coupler", "rocker"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["ground", "rocker"]
+point = "D"
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 180
+speed = 1
+)");
+  const CommandRun run = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("cannot assemble at driver = 180 deg"), std::string::npos) << run.err;
+}
+
+nlohmann::json solve_json(const std::string& args, int expected_exit = 0) {
+  const CommandRun run = crosslink(std::string("solve ") + kSewing + " " + args + " --format json");
+  EXPECT_EQ(run.exit_code, expected_exit) << run.err;
+  try {
+    return nlohmann::json::parse(run.out);
+  } catch (const nlohmann::json::exception& e) {
+    ADD_FAILURE() << "not JSON (" << e.what() << "):\n" << run.out.substr(0, 400);
+    return {};
+  }
+}
+
+TEST(Cli, SolveAtOneValueGivesTheDocumentedJsonInSi) {
+  const nlohmann::json j = solve_json("--at 135");
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j.at("status"), "ok");
+  EXPECT_EQ(j.at("units"), "SI");
+  EXPECT_EQ(j.at("mechanism"), "Sewing machine needle drive");
+  EXPECT_NEAR(j.at("driver").get<double>(), 135 * kDeg, 1e-12);
+  EXPECT_NEAR(j.at("time").get<double>(), 0.0, 1e-12);  // 135 is the start value
+  ASSERT_TRUE(j.at("events").is_array());
+
+  // Every moving link, named point and slider, with every documented field.
+  for (const char* link : {"crank", "coupler", "bell_crank", "needle_link", "needle"})
+    for (const char* field : {"angle", "omega", "alpha"})
+      EXPECT_TRUE(j.at("links").at(link).at(field).is_number()) << link << "." << field;
+  EXPECT_FALSE(j.at("links").contains("ground"));
+  for (const char* point : {"A", "G", "D", "B", "C", "E", "F"})
+    for (const char* field : {"x", "y", "vx", "vy", "ax", "ay"})
+      EXPECT_TRUE(j.at("points").at(point).at(field).is_number()) << point << "." << field;
+  for (const char* field : {"s", "sdot", "sddot"})
+    EXPECT_TRUE(j.at("sliders").at("needle").at(field).is_number()) << field;
+
+  // SI: the crank at 135 degrees = 2.356 rad, 240 rpm = 8 pi rad/s, no angular acceleration.
+  const nlohmann::json& crank = j["links"]["crank"];
+  EXPECT_NEAR(crank["angle"].get<double>(), 135 * kDeg, 1e-9);
+  EXPECT_NEAR(crank["omega"].get<double>(), 8 * kPi, 1e-9);
+  EXPECT_NEAR(crank["alpha"].get<double>(), 0.0, 1e-6);
+  // B is 1.60 cm from A at 135 degrees: position in m, v = omega x r, a = -omega^2 r.
+  const double r = 0.016, w = 8 * kPi, c = std::cos(135 * kDeg), s = std::sin(135 * kDeg);
+  const nlohmann::json& b = j["points"]["B"];
+  EXPECT_NEAR(b["x"].get<double>(), r * c, 1e-12);
+  EXPECT_NEAR(b["y"].get<double>(), r * s, 1e-12);
+  EXPECT_NEAR(b["vx"].get<double>(), -w * r * s, 1e-9);
+  EXPECT_NEAR(b["vy"].get<double>(), w * r * c, 1e-9);
+  EXPECT_NEAR(b["ax"].get<double>(), -w * w * r * c, 1e-6);
+  EXPECT_NEAR(b["ay"].get<double>(), -w * w * r * s, 1e-6);
+  // Ground points stay put: G = (-1.42, 0) cm.
+  EXPECT_NEAR(j["points"]["G"]["x"].get<double>(), -0.0142, 1e-12);
+  EXPECT_EQ(j["points"]["G"]["vx"].get<double>(), 0.0);
+  // The needle's displacement, printed as 1.12 cm in the notes, in metres.
+  EXPECT_NEAR(j["sliders"]["needle"]["s"].get<double>(), 0.0112, 0.0001);
+}
+
+TEST(Cli, SolveSweepJsonHasSamples) {
+  const nlohmann::json j = solve_json("");
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j.at("status"), "ok");
+  const nlohmann::json& samples = j.at("samples");
+  // The crank turns fully: 0..360 degrees in 1 degree steps, both ends included.
+  ASSERT_EQ(samples.size(), 361u);
+  EXPECT_NEAR(samples[0].at("driver").get<double>(), 135 * kDeg, 1e-12);
+  EXPECT_NEAR(samples[360].at("driver").get<double>(), 495 * kDeg, 1e-9);
+  // One revolution at 240 rpm takes 0.25 s.
+  EXPECT_NEAR(samples[360].at("time").get<double>(), 0.25, 1e-12);
+  EXPECT_EQ(samples[90].at("status"), "ok");
+  EXPECT_TRUE(samples[90].at("links").at("coupler").at("omega").is_number());
+  EXPECT_TRUE(j.at("events").is_array());
+}
+
+TEST(Cli, SolveCsvHeaderAndRows) {
+  const CommandRun run = crosslink(std::string("solve ") + kSewing + " --format csv");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream lines(run.out);
+  std::string header;
+  std::getline(lines, header);
+  EXPECT_EQ(header.rfind("sample,time,driver,status,", 0), 0u) << header;
+  for (const char* channel : {",angle.crank,", ",omega.coupler,", ",alpha.needle,", ",x.B,",
+                              ",vy.F,", ",a.F,", ",s.needle,", ",sdot.needle,"})
+    EXPECT_NE(header.find(channel), std::string::npos) << channel;
+  EXPECT_EQ(header.substr(header.size() - 13), ",sddot.needle");
+  const auto fields = [](const std::string& line) {
+    return std::count(line.begin(), line.end(), ',') + 1;
+  };
+  int rows = 0;
+  for (std::string line; std::getline(lines, line);) {
+    EXPECT_EQ(fields(line), fields(header)) << line.substr(0, 80);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 361);
+}
+
+}  // namespace

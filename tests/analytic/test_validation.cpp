@@ -1,0 +1,504 @@
+// Validation of bad definitions: one test per error class. Each writes a small definition with
+// one fault and checks that a diagnostic points at the faulty line (and column, where a single
+// value is at fault) and says what was expected. Expected locations are found in the test's own
+// text (the line holding the fault), not taken from the loader's output.
+//
+// The base definition is a crank-rocker four-bar (Grashof: 0.04 + 0.12 <= 0.08 + 0.10):
+//
+//            C           coupler BC 0.12, rocker DC 0.08,
+//           / \          crank AB 0.04, ground AD 0.10 (m)
+//          B   \         (C above AD at crank angle 60 degrees)
+//         /     \        .
+//        A-------D       .
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "analytic/loader.h"
+#include "analytic/newton.h"
+
+namespace crosslink {
+namespace {
+
+const std::string kHeader = R"(name = "four-bar"
+[units]
+length = "m"
+angle = "deg"
+)";
+
+const std::string kGround = R"(
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], D = [0.10, 0] }
+)";
+
+const std::string kMoving = R"(
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [0.04, 0] }
+pose = [0, 0, 60]
+
+[[link]]
+name = "coupler"
+points = { B = [0, 0], C = [0.12, 0] }
+pose = [0.02, 0.034641, 18.38]
+
+[[link]]
+name = "rocker"
+points = { D = [0, 0], C = [0.08, 0] }
+pose = [0.10, 0, 64.94]
+)";
+
+const std::string kJoints = R"(
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+
+[[joint]]
+type = "revolute"
+links = ["crank", "coupler"]
+point = "B"
+
+[[joint]]
+type = "revolute"
+links = ["coupler", "rocker"]
+point = "C"
+
+[[joint]]
+type = "revolute"
+links = ["ground", "rocker"]
+point = "D"
+)";
+
+const std::string kDriver = R"(
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 60
+speed = 10
+speed_unit = "rad/s"
+)";
+
+std::string four_bar() {
+  return kHeader + kGround + kMoving + kJoints + kDriver;
+}
+
+// `text` with the first occurrence of `from` replaced by `to` (which must occur).
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "test fault: '" << from << "' not in the definition";
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+// 1-based line and column of the n-th (0-based) occurrence of `marker` in `text`.
+struct Place {
+  int line = 0;
+  int column = 0;
+};
+Place place_of(const std::string& text, const std::string& marker, int nth = 0) {
+  size_t at = text.find(marker);
+  for (int i = 0; i < nth && at != std::string::npos; ++i) at = text.find(marker, at + 1);
+  EXPECT_NE(at, std::string::npos) << "test fault: '" << marker << "' not in the definition";
+  if (at == std::string::npos) return {};
+  const size_t line_start = text.rfind('\n', at);
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  const int column =
+      static_cast<int>(at - (line_start == std::string::npos ? 0 : line_start + 1)) + 1;
+  return {line, column};
+}
+
+std::vector<Diagnostic> diagnostics_of(const std::string& text) {
+  try {
+    parse_mechanism(text, "bad.toml");
+  } catch (const DefinitionError& e) {
+    for (const Diagnostic& d : e.diagnostics()) EXPECT_EQ(d.where.file, "bad.toml");
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "the definition was accepted:\n" << text;
+  return {};
+}
+
+// The diagnostic whose message holds every one of `phrases`; fails the test when none does.
+const Diagnostic* find(const std::vector<Diagnostic>& found,
+                       const std::vector<std::string>& phrases) {
+  for (const Diagnostic& d : found) {
+    bool all = true;
+    for (const std::string& p : phrases) all = all && d.message.find(p) != std::string::npos;
+    if (all) return &d;
+  }
+  std::string list;
+  for (const Diagnostic& d : found) list += "\n  " + d.str();
+  ADD_FAILURE() << "no diagnostic holds all expected phrases; got:" << list;
+  return nullptr;
+}
+
+// Expects a diagnostic holding `phrases` at `where` (column 0: any column on that line).
+void expect_diagnostic(const std::string& text, Place where,
+                       const std::vector<std::string>& phrases) {
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  const Diagnostic* d = find(found, phrases);
+  if (!d) return;
+  EXPECT_EQ(d->where.line, where.line) << d->str();
+  if (where.column > 0) {
+    EXPECT_EQ(d->where.column, where.column) << d->str();
+  }
+  EXPECT_EQ(d->str().rfind(fmt::format("bad.toml:{}:", where.line), 0), 0u) << d->str();
+}
+
+TEST(Validation, BaseFourBarIsValid) {
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  EXPECT_EQ(m.links.size(), 4u);
+  EXPECT_EQ(mobility(m).mobility, 1);
+}
+
+TEST(Validation, TomlSyntaxError) {
+  // An array left open inside an inline table.
+  const std::string text = replaced(four_bar(), "D = [0.10, 0] }", "D = [0.10, 0 }");
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "D = [0.10, 0 }").line) << found[0].str();
+  EXPECT_GT(found[0].where.column, 0);
+  EXPECT_NE(found[0].message.find("TOML syntax"), std::string::npos) << found[0].message;
+}
+
+TEST(Validation, DuplicatePointIsASyntaxErrorAtTheSecondName) {
+  // A link's points form one TOML table, so a repeated point name is a redefined key.
+  const std::string text = replaced(four_bar(), "B = [0.04, 0] }", "B = [0.04, 0], A = [1, 1] }");
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "A = [1, 1]").line) << found[0].str();
+  EXPECT_NE(found[0].message.find("'A'"), std::string::npos) << found[0].message;
+}
+
+TEST(Validation, UnknownKey) {
+  const std::string text =
+      replaced(four_bar(), "name = \"crank\"\n", "name = \"crank\"\ncolour = \"red\"\n");
+  expect_diagnostic(text, place_of(text, "colour"),
+                    {"unknown key 'colour'", "link #2", "valid keys: name, ground, points"});
+}
+
+TEST(Validation, UnknownKeyAtTopLevel) {
+  const std::string text = replaced(four_bar(), "[units]", "[unit]");
+  // At the key itself, inside the brackets.
+  expect_diagnostic(text, place_of(text, "unit]"), {"unknown key 'unit'", "units"});
+}
+
+TEST(Validation, UnknownLinkInJointListsValidNames) {
+  const std::string text =
+      replaced(four_bar(), "[\"crank\", \"coupler\"]", "[\"crank\", \"cuopler\"]");
+  expect_diagnostic(text, place_of(text, "\"cuopler\""),
+                    {"unknown link 'cuopler'", "valid links: ground, crank, coupler, rocker"});
+}
+
+TEST(Validation, DuplicateLinkName) {
+  // The second "crank" is the fault, even though joints only ever find the first.
+  const std::string text = replaced(four_bar(), "name = \"rocker\"", "name = \"crank\"");
+  expect_diagnostic(text, place_of(text, "[[link]]", 3), {"duplicate link name 'crank'"});
+}
+
+TEST(Validation, DuplicateJointName) {
+  std::string text = replaced(four_bar(), "point = \"B\"", "point = \"B\"\nname = \"pin\"");
+  text = replaced(text, "point = \"C\"", "point = \"C\"\nname = \"pin\"");
+  expect_diagnostic(text, place_of(text, "[[joint]]", 2), {"duplicate joint name 'pin'"});
+}
+
+TEST(Validation, JointPointNotOnItsLinkListsThePoints) {
+  // B is on crank and coupler, not on the rocker. (A TOML table lists its keys sorted.)
+  const std::string text = replaced(four_bar(), "links = [\"coupler\", \"rocker\"]\npoint = \"C\"",
+                                    "links = [\"coupler\", \"rocker\"]\npoint = \"B\"");
+  const Place at = place_of(text, "point = \"B\"", 1);
+  expect_diagnostic(text, {at.line, at.column + 8},
+                    {"point 'B' is not on link 'rocker'", "its points: C, D"});
+}
+
+TEST(Validation, DegenerateLineTowardItsOwnPoint) {
+  const std::string text =
+      replaced(four_bar(), "D = [0.10, 0] }\n",
+               "D = [0.10, 0] }\nlines = { guide = { through = \"A\", toward = \"A\" } }\n");
+  const Place at = place_of(text, "toward = \"A\"");
+  expect_diagnostic(text, {at.line, at.column + 9}, {"line 'guide'", "degenerate"});
+}
+
+TEST(Validation, ZeroLengthLineBetweenCoincidentPoints) {
+  const std::string text = replaced(
+      four_bar(), "D = [0.10, 0] }\n",
+      "D = [0.10, 0], E = [0, 0] }\nlines = { guide = { through = \"A\", toward = \"E\" } }\n");
+  const Place at = place_of(text, "toward = \"E\"");
+  expect_diagnostic(text, {at.line, at.column + 9}, {"line 'guide'", "'A' and 'E'"});
+}
+
+TEST(Validation, MissingDriver) {
+  const std::string text = kHeader + kGround + kMoving + kJoints;
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  const Diagnostic* d = find(found, {"[driver]"});
+  ASSERT_NE(d, nullptr);
+  // Nothing to point at inside the file: the diagnostic names the file alone.
+  EXPECT_EQ(d->where.line, 0) << d->str();
+  EXPECT_EQ(d->str().rfind("bad.toml: error:", 0), 0u) << d->str();
+}
+
+// A slider-crank: crank AB, connecting rod BC, piston on the ground's line through A.
+const std::string kSliderCrank = R"(name = "slider-crank"
+[units]
+length = "mm"
+angle = "deg"
+
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0] }
+lines = { stroke = { through = "A", angle = 0 } }
+
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [30, 0] }
+pose = [0, 0, 90]
+
+[[link]]
+name = "rod"
+points = { B = [0, 0], C = [100, 0] }
+pose = [0, 30, -17.46]
+
+[[link]]
+name = "piston"
+points = { C = [0, 0] }
+pose = [95.39, 0, 0]
+
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+
+[[joint]]
+type = "revolute"
+links = ["crank", "rod"]
+point = "B"
+
+[[joint]]
+type = "revolute"
+links = ["rod", "piston"]
+point = "C"
+
+[[joint]]
+type = "prismatic"
+name = "piston"
+guide = "ground"
+line = "stroke"
+slider = "piston"
+point = "C"
+
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 90
+speed = 100
+speed_unit = "rpm"
+)";
+
+TEST(Validation, SliderCrankIsValid) {
+  const Mechanism m = parse_mechanism(kSliderCrank, "good.toml");
+  EXPECT_EQ(mobility(m).mobility, 1);
+}
+
+TEST(Validation, JointAngleDriverOnAPrismaticJoint) {
+  const std::string text =
+      replaced(kSliderCrank, "joint = \"A\"\nto = \"B\"", "joint = \"piston\"\nto = \"B\"");
+  const Place at = place_of(text, "joint = \"piston\"");
+  expect_diagnostic(text, {at.line, at.column + 8}, {"revolute", "'piston' is prismatic"});
+}
+
+TEST(Validation, UnknownLengthUnitListsValidUnits) {
+  const std::string text = replaced(four_bar(), "length = \"m\"", "length = \"inch\"");
+  const Place at = place_of(text, "\"inch\"");
+  expect_diagnostic(text, at, {"unknown unit 'inch'", "mm, cm, m"});
+}
+
+TEST(Validation, UnknownSpeedUnitListsValidUnits) {
+  const std::string text = replaced(four_bar(), "speed_unit = \"rad/s\"", "speed_unit = \"rps\"");
+  const Place at = place_of(text, "\"rps\"");
+  expect_diagnostic(text, at, {"unknown unit 'rps'", "rad/s, deg/s, rpm, rev/s"});
+}
+
+TEST(Validation, OverConstrainedTriangle) {
+  // Three links pinned in a triangle: a structure, M = 3(3-1) - 2*3 = 0.
+  const std::string text = kHeader + R"(
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], C = [0.10, 0] }
+
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [0.05, 0] }
+pose = [0, 0, 60]
+
+[[link]]
+name = "strut"
+points = { B = [0, 0], C = [0.05, 0] }
+pose = [0.025, 0.0433, -60]
+
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+
+[[joint]]
+type = "revolute"
+links = ["crank", "strut"]
+point = "B"
+
+[[joint]]
+type = "revolute"
+links = ["strut", "ground"]
+point = "C"
+)" + kDriver;
+  expect_diagnostic(
+      text, place_of(text, "[driver]"),
+      {"mobility 0", "3(3-1) - 2*3 - 0 = 0", "over-constrained", "1 freedom too few"});
+}
+
+TEST(Validation, UnderConstrainedFiveBar) {
+  // Ground and four moving links in one loop: M = 3(5-1) - 2*5 = 2, one more than one driver.
+  const std::string text = kHeader + R"(
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], E = [0.10, 0] }
+
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [0.04, 0] }
+
+[[link]]
+name = "left"
+points = { B = [0, 0], C = [0.06, 0] }
+
+[[link]]
+name = "right"
+points = { C = [0, 0], D = [0.06, 0] }
+
+[[link]]
+name = "rocker"
+points = { D = [0, 0], E = [0.05, 0] }
+
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+
+[[joint]]
+type = "revolute"
+links = ["crank", "left"]
+point = "B"
+
+[[joint]]
+type = "revolute"
+links = ["left", "right"]
+point = "C"
+
+[[joint]]
+type = "revolute"
+links = ["right", "rocker"]
+point = "D"
+
+[[joint]]
+type = "revolute"
+links = ["rocker", "ground"]
+point = "E"
+)" + kDriver;
+  expect_diagnostic(text, place_of(text, "[driver]"),
+                    {"mobility 2", "3(5-1) - 2*5 - 0 = 2", "under-constrained", "1 freedom more"});
+}
+
+TEST(Validation, TwoGrounds) {
+  const std::string text =
+      replaced(four_bar(), "name = \"rocker\"", "name = \"rocker\"\nground = true");
+  expect_diagnostic(text, place_of(text, "[[link]]", 3),
+                    {"link 'rocker' is a second ground", "first is 'ground'"});
+}
+
+TEST(Validation, NoGround) {
+  const std::string text = replaced(four_bar(), "ground = true\n", "");
+  // Points at the first link, where `ground = true` is expected.
+  expect_diagnostic(text, place_of(text, "[[link]]"), {"no link has ground = true"});
+}
+
+TEST(Validation, LinkNotConnectedToGround) {
+  const std::string text = four_bar() + R"(
+[[link]]
+name = "idler"
+points = { P = [0, 0] }
+)";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  const Diagnostic* d = find(found, {"link 'idler' is not connected to the ground"});
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->where.line, place_of(text, "[[link]]", 4).line) << d->str();
+  // The loose link is the one fault: no second, derived complaint about the mobility.
+  EXPECT_EQ(found.size(), 1u);
+}
+
+TEST(Validation, ReferenceWithUnknownQuantityKind) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "speed.coupler"
+at = 60
+value = 1.0
+source = "test"
+)";
+  expect_diagnostic(text, place_of(text, "\"speed.coupler\""),
+                    {"unknown quantity 'speed.coupler'", "omega", "sddot"});
+}
+
+TEST(Validation, ReferenceToUnknownLink) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "omega.coupling"
+at = 60
+value = 1.0
+source = "test"
+)";
+  expect_diagnostic(text, place_of(text, "\"omega.coupling\""),
+                    {"'omega.coupling'", "valid names: crank, coupler, rocker, A, D, B, C"});
+}
+
+// A four-bar drawn where it cannot close: ground 0.10, crank 0.08, coupler 0.04, rocker 0.05.
+// With the crank at 180 degrees, |BD| = 0.18 m, longer than coupler + rocker = 0.09 m. (It does
+// close near 0 degrees, where |BD| = 0.02 m.)
+std::string open_four_bar() {
+  std::string text = replaced(four_bar(), "B = [0.04, 0]", "B = [0.08, 0]");
+  text = replaced(text, "C = [0.12, 0]", "C = [0.04, 0]");
+  text = replaced(text, "C = [0.08, 0]", "C = [0.05, 0]");
+  text = replaced(text, "pose = [0, 0, 60]", "pose = [0, 0, 180]");
+  text = replaced(text, "start = 60", "start = 180");
+  return text;
+}
+
+TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
+  const Mechanism m = parse_mechanism(open_four_bar(), "open.toml");
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  const SolveReport report = solver.assemble(state);
+  EXPECT_EQ(report.status, PoseStatus::cannot_assemble);
+  EXPECT_FALSE(report.message.empty());
+  EXPECT_TRUE(std::isfinite(report.residual));
+  EXPECT_TRUE(std::isfinite(report.rcond));
+  EXPECT_TRUE(state.q.allFinite());
+  EXPECT_TRUE(state.qdot.allFinite());
+  EXPECT_TRUE(state.qddot.allFinite());
+  // The message says why: the loop gap left at the closest approach.
+  EXPECT_NE(report.message.find("loop gap"), std::string::npos) << report.message;
+}
+
+}  // namespace
+}  // namespace crosslink
