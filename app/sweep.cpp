@@ -1,0 +1,160 @@
+// `crosslink sweep FILE [--engines mujoco,bullet] [--dt LIST] [--report out.html]
+// [--csv out.csv] [--accuracy X%] [--repeat N]`: speed against accuracy. Every engine over a grid
+// of its settings against the exact sweep, with the cost per cycle, the max % of peak per
+// quantity class, the loop gap, the status, the Pareto front and the observed order of
+// convergence in dt. Exit 0; 1 when --accuracy finds no setting for an engine; 2 on bad input.
+// See docs/sweep.md.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "analytic/loader.h"
+#include "app/commands.h"
+#include "compare/settings_sweep.h"
+
+namespace crosslink::app {
+
+std::optional<double> parse_accuracy(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  std::string number = text;
+  if (number.back() == '%') number.pop_back();
+  size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != number.size() || !(value > 0.0) || !std::isfinite(value))
+    throw std::invalid_argument(fmt::format(
+        "--accuracy: expected a positive percentage of peak such as 1 or 0.5%, got '{}'", text));
+  return value;
+}
+
+void print_progress(int index, int total, const compare::GridPoint& point) {
+  fmt::print(stderr, "[{}/{}] {} dt={:.3g} {} ...\n", index, total, point.engine, point.dt,
+             point.variant);
+}
+
+sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
+                                const compare::MethodRun& reference, const std::string& engine,
+                                double accuracy_pct, const sim::Settings& base, std::FILE* out) {
+  compare::ReferenceLadder ladder(mechanism, options, reference);
+  const compare::Selection s = compare::cheapest_setting(
+      mechanism, ladder, engine, accuracy_pct, compare::accuracy_time_steps(ladder.interval()),
+      base, print_progress);
+  fmt::print(out, "{}\n", s.summary());
+  return s.found ? s.chosen.overrides : base;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct SweepArgs {
+  std::string path;
+  std::string engines = "mujoco,bullet";
+  std::vector<double> dts;
+  std::string report, csv, accuracy;
+  double step = 0.0;
+  int repeat = 1;
+  bool quiet = false;
+};
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, ',');)
+    if (!part.empty()) parts.push_back(part);
+  return parts;
+}
+
+// The installed chart scripts: <prefix>/share/crosslink/report next to <prefix>/bin.
+std::vector<std::string> installed_asset_dirs() {
+  std::error_code error;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  if (error) return {};
+  return {(exe.parent_path().parent_path() / "share" / "crosslink" / "report").string()};
+}
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::invalid_argument(fmt::format("cannot write '{}'", path));
+  out << text;
+  if (!out) throw std::invalid_argument(fmt::format("error writing '{}'", path));
+}
+
+int run_sweep(const SweepArgs& args) {
+  const Mechanism m = load_mechanism(args.path);
+  compare::SettingsSweepOptions options;
+  options.engines = split_list(args.engines);
+  for (const std::string& e : options.engines)
+    if (e != "mujoco" && e != "bullet")
+      throw std::invalid_argument(
+          fmt::format("--engines: '{}' has no settings to sweep (engines: mujoco, bullet)", e));
+  if (!args.dts.empty()) options.dts = args.dts;
+  for (double dt : options.dts)
+    if (!(dt > 0.0)) throw std::invalid_argument("--dt: time steps must be positive");
+  if (args.step > 0.0)
+    options.sweep.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
+  options.repeat = std::max(1, args.repeat);
+  options.accuracy_pct = parse_accuracy(args.accuracy);
+  if (!args.quiet) options.progress = print_progress;
+
+  // Fail on an unwritable report before the long part.
+  compare::HtmlOptions html;
+  html.asset_dirs = installed_asset_dirs();
+  if (!args.report.empty()) {
+    std::string searched;
+    if (!compare::find_report_assets(html.asset_dirs, &searched))
+      throw std::invalid_argument(fmt::format(
+          "--report: the chart scripts are missing (looked in {}); run scripts/setup.sh",
+          searched));
+  }
+
+  const compare::SettingsSweep sweep = compare::run_settings_sweep(m, options);
+  compare::print_sweep(sweep, stdout);
+  if (!args.csv.empty()) {
+    std::ostringstream text;
+    compare::write_sweep_csv(sweep, text);
+    write_file(args.csv, text.str());
+    fmt::print("csv: {}\n", args.csv);
+  }
+  if (!args.report.empty()) {
+    std::ostringstream page;
+    compare::write_sweep_html(sweep, html, page);
+    write_file(args.report, page.str());
+    fmt::print("report: {}\n", args.report);
+  }
+  for (const compare::Selection& s : sweep.selections)
+    if (!s.found) return kExitFail;
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_sweep(CLI::App& app, std::function<int()>& run) {
+  auto* cmd = app.add_subcommand(
+      "sweep", "Speed against accuracy: every engine over a grid of its settings");
+  auto args = std::make_shared<SweepArgs>();
+  cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
+  cmd->add_option("--engines", args->engines, "engines, comma-separated: mujoco,bullet")
+      ->capture_default_str();
+  cmd->add_option("--dt", args->dts,
+                  "time steps [s], comma-separated (default 1e-2,3e-3,1e-3,3e-4,1e-4); each is "
+                  "snapped so samples fall on step boundaries")
+      ->delimiter(',');
+  cmd->add_option("--report", args->report, "write a self-contained HTML report");
+  cmd->add_option("--csv", args->csv, "write one row per engine setting as CSV (SI)");
+  cmd->add_option("--accuracy", args->accuracy,
+                  "X or X%: the cheapest setting per engine meeting X % of peak on every class");
+  cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)");
+  cmd->add_option("--repeat", args->repeat, "time each setting N times, keep the fastest")
+      ->capture_default_str();
+  cmd->add_flag("--quiet", args->quiet, "no progress lines on stderr");
+  cmd->callback([&run, args] { run = [args] { return run_sweep(*args); }; });
+}
+
+}  // namespace crosslink::app

@@ -1,0 +1,108 @@
+// Speed against accuracy, as benchmarks: the cost of one driver cycle of the crank-rocker
+// four-bar (a 0.04, b 0.12, c 0.08, d 0.10 m, 8 pi rad/s, sampled every degree: 360 poses) by
+// every method, through the same interfaces `crosslink compare` and `crosslink sweep` use, so the
+// ratios compare like with like (docs/sweep.md, README "Performance").
+//
+//   Cycle/newton             the exact sweep (Newton, position + velocity + acceleration)
+//   Cycle/dyads              closed-form dyads at the same 360 driver values
+//   Cycle/<engine>/dt:<n>    an engine at its default variant, dt = (1 degree of crank) / n, the
+//                            whole run (scene build, steps, sampling); counters: steps per cycle,
+//                            wall time per step, and the run's own stepping time per cycle
+//
+// Run from the source root:
+//   build/bench/bench_sweep --benchmark_min_time=0.5
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+
+#include <string>
+
+#include "analytic/loader.h"
+#include "compare/methods.h"
+
+namespace crosslink {
+namespace {
+
+const Mechanism& crank_rocker() {
+  static const Mechanism m = load_mechanism("mechanisms/fourbar_crank_rocker.toml");
+  return m;
+}
+
+const compare::MethodRun& reference() {
+  static const compare::MethodRun r = compare::run_reference(crank_rocker());
+  return r;
+}
+
+void newton_cycle(benchmark::State& state) {
+  for (auto _ : state) {
+    const Trajectory t = sweep(crank_rocker());
+    benchmark::DoNotOptimize(t.alpha.data());
+  }
+  state.counters["poses"] = reference().trajectory.samples();
+}
+
+void method_cycle(benchmark::State& state, const std::string& method) {
+  if (!compare::method_built(method)) {
+    state.SkipWithError((method + " is not built into this binary").c_str());
+    return;
+  }
+  for (auto _ : state) {
+    const compare::MethodRun run = compare::run_method(method, crank_rocker(), reference());
+    if (!run.ok) {
+      state.SkipWithError((method + ": " + run.message).c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(run.trajectory.alpha.data());
+  }
+  state.counters["poses"] = reference().trajectory.samples();
+}
+
+void engine_cycle(benchmark::State& state, const std::string& engine) {
+  if (!compare::method_built(engine)) {
+    state.SkipWithError((engine + " is not built into this binary").c_str());
+    return;
+  }
+  const double interval = reference().trajectory.time(1) - reference().trajectory.time(0);
+  const double dt = interval / static_cast<double>(state.range(0));
+  const sim::Settings settings = {{"dt", fmt::format("{:.12g}", dt)}};
+  double stepping = 0.0;
+  long steps = 0;
+  for (auto _ : state) {
+    const compare::MethodRun run =
+        compare::run_method(engine, crank_rocker(), reference(), settings);
+    if (!run.ok) {
+      state.SkipWithError((engine + ": " + run.message).c_str());
+      return;
+    }
+    stepping = run.cost.wall_seconds_per_cycle;
+    steps = run.cost.steps;
+    benchmark::DoNotOptimize(run.trajectory.alpha.data());
+  }
+  const double cycle = crank_rocker().cycle_period();
+  state.counters["dt_s"] = dt;
+  state.counters["steps_per_cycle"] = cycle / dt;
+  state.counters["stepping_s_per_cycle"] = stepping;
+  state.counters["s_per_step"] = stepping * dt / cycle;
+  state.counters["steps_run"] = static_cast<double>(steps);
+}
+
+BENCHMARK(newton_cycle)->Name("Cycle/newton")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(method_cycle, dyads, std::string("dyads"))
+    ->Name("Cycle/dyads")
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(engine_cycle, mujoco, std::string("mujoco"))
+    ->Name("Cycle/mujoco")
+    ->ArgName("dt:1deg/")
+    ->Arg(1)
+    ->Arg(7)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(engine_cycle, bullet, std::string("bullet"))
+    ->Name("Cycle/bullet")
+    ->ArgName("dt:1deg/")
+    ->Arg(1)
+    ->Arg(7)
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace crosslink
+
+BENCHMARK_MAIN();

@@ -1,0 +1,231 @@
+// Speed against accuracy: every engine over a grid of its settings (time step, integrator,
+// solver, constraint softness or ERP), each setting compared with the exact Newton sweep through
+// compare_methods() (the metrics of metrics.h, nothing re-implemented), with its wall time per
+// simulated cycle; the observed order of convergence in dt; the Pareto front of error against
+// cost; and the cheapest setting that meets an accuracy asked for. See docs/sweep.md.
+//
+// Quantity classes of a row (max over the channels of the class, usable samples only):
+//   position      "position" and "angle" channels (both are position-level quantities; an angle's
+//                 peak is pi, metrics.h)
+//   velocity      omega, vx, vy, v, sdot
+//   acceleration  alpha, ax, ay, a, sddot
+#pragma once
+
+#include <array>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/sweep.h"
+#include "compare/methods.h"
+#include "compare/report.h"
+
+namespace crosslink::compare {
+
+// The three classes a sweep row reports, in CSV column order.
+enum class ErrorClass { position, velocity, acceleration };
+constexpr std::array<ErrorClass, 3> kErrorClasses = {ErrorClass::position, ErrorClass::velocity,
+                                                     ErrorClass::acceleration};
+std::string_view to_string(ErrorClass c);
+// The class a channel's quantity belongs to (angle -> position).
+ErrorClass error_class_of(Quantity q);
+
+// One setting of one engine: every override passed to the engine, dt included.
+struct GridPoint {
+  std::string engine;      // "mujoco", "bullet"
+  std::string variant;     // everything but dt, e.g. "Euler/Newton": the family a dt series forms
+  double dt = 0.0;         // requested time step [s] (snapped to the samples, see ReferenceLadder)
+  sim::Settings settings;  // engine overrides except dt (the sweep adds the snapped dt)
+};
+
+// The variants a sweep tries for an engine (names and overrides), the engine's default first.
+// MuJoCo: integrators Euler / implicit / RK4 (Newton solver), solvers CG / PGS (Euler), loop
+// softness: MuJoCo's own default solref "0.02 1" / solimp "0.9 0.95 0.001", and the engine-notes
+// (2 dt, 0.5). Bullet: formulation rigid / multibody, solver MLCP Dantzig / sequential impulse
+// (10 and 100 iterations), ERP 1 / 0.2.
+struct Variant {
+  std::string name;
+  // The overrides at time step dt [s] (a softness can depend on dt).
+  std::function<sim::Settings(double dt)> settings;
+};
+std::vector<Variant> engine_variants(std::string_view engine);
+
+// The default time steps: 1e-2, 3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5 s (over two decades).
+std::vector<double> default_time_steps();
+// The time steps the cheapest-setting search of `crosslink compare --accuracy` tries, coarse to
+// fine: the sample interval h [s] divided by 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128
+// (every one puts samples on step boundaries of the comparison's own reference).
+std::vector<double> accuracy_time_steps(double interval);
+
+// Every (time step, variant) of an engine, coarse to fine, the variants in engine_variants()
+// order within one time step.
+std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts);
+
+// Reference sweeps whose samples fall on step boundaries. The base sweep (the mechanism's
+// default grid, or SweepOptions::step) has sample interval h. A time step dt <= h is snapped to
+// h / round(h / dt) and uses the base sweep; a dt > h is snapped to m h, m = round(dt / h), and
+// uses a sweep with every m-th driver value (step m times the base step), built once and kept.
+class ReferenceLadder {
+ public:
+  ReferenceLadder(const Mechanism& mechanism, const SweepOptions& options);
+  // With the base reference already run (run_reference(mechanism, options)).
+  ReferenceLadder(const Mechanism& mechanism, const SweepOptions& options, MethodRun base);
+  const MethodRun& base() const { return *base_; }
+  double interval() const { return interval_; }  // h [s]
+  // The reference for a requested dt and the snapped dt [s].
+  const MethodRun& for_dt(double dt, double* snapped);
+
+ private:
+  const Mechanism& mechanism_;
+  SweepOptions options_;
+  std::unique_ptr<MethodRun> base_;
+  double interval_ = 0.0, base_step_ = 0.0;
+  std::map<long, std::unique_ptr<MethodRun>> coarse_;  // by m
+};
+
+enum class RunStatus {
+  ok,        // every sample the reference can use, the engine could use too
+  flagged,   // the engine flagged samples the reference did not (loop_gap, singular, diverged)
+  diverged,  // the run did not finish (NaN, runaway, lost driver, or could not be built)
+};
+std::string_view to_string(RunStatus s);
+
+// One engine setting (or one analytic method) against the reference.
+struct SweepRow {
+  std::string engine;   // "mujoco", "bullet", or "analytic" for the exact methods
+  std::string variant;  // grid variant, or "newton" / "dyads"
+  double dt = std::numeric_limits<double>::quiet_NaN();  // in force [s]; NaN for analytic
+  sim::Settings settings;         // every setting in force (as the engine reported it)
+  sim::Settings overrides;        // what was passed to the engine (base, variant, dt): reruns it
+  double wall_s_per_cycle = 0.0;  // stepping (or solving) time per driver cycle [s]
+  // Max % of peak per class (ErrorClass order); NaN when no sample could be compared.
+  std::array<double, 3> max_pct = {std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN()};
+  // The same over every sample the engine recorded, flagged ones included (only a run that
+  // flagged samples or diverged part-way has one): how far off the run is where it collapses.
+  std::array<double, 3> raw_pct = {std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN()};
+  double max_loop_gap = 0.0;  // largest cut-joint gap over all samples [m]
+  RunStatus status = RunStatus::ok;
+  int flagged_samples = 0;  // samples usable in the reference but not in the run
+  int samples = 0;
+  std::string message;                                 // the engine's notes or why it diverged
+  std::array<bool, 3> pareto = {false, false, false};  // on the engines' front, per class
+
+  double error(ErrorClass c) const { return max_pct[static_cast<size_t>(c)]; }
+  // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
+  std::string setting_label() const;
+  // Whether the row meets `accuracy_pct` on every class with status ok.
+  bool meets(double accuracy_pct) const;
+};
+
+// Runs one grid point against the ladder's reference for its dt. `base` overrides come first
+// (e.g. a --set perturb_link), the grid point's after. `repeat` > 1 takes the fastest run.
+SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
+                          const GridPoint& point, const sim::Settings& base = {}, int repeat = 1);
+
+// The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
+// (errors against Newton), their cost from timing their sweeps (fastest of `repeat`).
+std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
+                                    int repeat = 3);
+
+// Pareto front of (cost, error), both minimised: point i is on the front when it is eligible
+// and no other eligible point has cost <= and error <= with one of them strictly less.
+// Ineligible points (or non-finite values) are never on it.
+std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
+                               const std::vector<bool>& eligible);
+
+// Observed order of convergence p in error ~ C dt^p: least-squares slope of log error against
+// log dt over the non-saturated points. From coarse to fine, a point is left out when
+//   - it is not finite, or not above zero, or its error is >= `saturation_pct` (the run has not
+//     reached its asymptotic range or has collapsed); or
+//   - it lies on the floor: from the first pair whose local order log(e1/e2)/log(dt1/dt2) is
+//     below `floor_order` on, the finer points stop improving (round-off, a solver tolerance).
+struct ConvergenceFit {
+  double order = std::numeric_limits<double>::quiet_NaN();  // NaN with fewer than 2 points
+  int points = 0;                                           // points in the fit
+  double dt_max = 0.0, dt_min = 0.0;                        // range fitted [s]
+  std::vector<bool> used;                                   // per input point
+};
+ConvergenceFit convergence_order(const std::vector<double>& dt, const std::vector<double>& error,
+                                 double saturation_pct = 10.0, double floor_order = 0.5);
+
+// The order of one (engine, variant) series per class.
+struct OrderRow {
+  std::string engine, variant;
+  std::array<ConvergenceFit, 3> fit;  // ErrorClass order
+};
+
+// The cheapest setting of one engine meeting an accuracy, searched from coarse to fine: every
+// variant at the coarsest time step, then the next finer step, stopping at the first time step
+// where some variant meets the accuracy on every class with status ok; of those, the cheapest.
+struct Selection {
+  std::string engine;
+  double accuracy_pct = 0.0;
+  bool found = false;
+  SweepRow chosen;              // when found
+  std::vector<SweepRow> tried;  // every row run, in order
+  std::string summary() const;  // one line: what was chosen and what it costs, or why none
+};
+
+// The selection rule over rows already run: time steps from coarse to fine, the first where a
+// row of `engine` meets the accuracy; of that time step's rows meeting it, the cheapest.
+Selection select_cheapest(std::string_view engine, double accuracy_pct,
+                          const std::vector<SweepRow>& rows);
+
+// Progress of a long run: (index from 1, total, the grid point about to run).
+using Progress = std::function<void(int, int, const GridPoint&)>;
+
+Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
+                           std::string_view engine, double accuracy_pct,
+                           const std::vector<double>& dts, const sim::Settings& base = {},
+                           const Progress& progress = {}, int repeat = 1);
+
+struct SettingsSweepOptions {
+  std::vector<std::string> engines = {"mujoco", "bullet"};
+  std::vector<double> dts = default_time_steps();
+  SweepOptions sweep;                  // the reference's grid
+  sim::Settings base;                  // overrides applied to every engine run
+  int repeat = 1;                      // fastest of N runs per setting
+  std::optional<double> accuracy_pct;  // also select the cheapest setting per engine
+  Progress progress;
+};
+
+struct SettingsSweep {
+  const Mechanism* mechanism = nullptr;
+  std::vector<SweepRow> rows;  // analytic rows first, then every engine's grid
+  std::vector<OrderRow> orders;
+  std::vector<Selection> selections;  // with accuracy_pct
+  std::vector<std::string> skipped;   // engines not built or unable to realise the mechanism
+  double sample_interval = 0.0;       // base reference [s]
+  int samples = 0;                    // base reference
+};
+
+// The whole sweep: analytic rows, every engine's grid, orders, Pareto fronts, selections.
+SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweepOptions& options);
+
+// Fills orders and pareto flags from rows (run_settings_sweep calls it).
+void analyse(SettingsSweep& sweep);
+
+// One row per setting: engine, setting, dt, wall_s_per_cycle, max_pct_position,
+// max_pct_velocity, max_pct_acceleration, max_loop_gap, status, then variant, flagged_samples,
+// samples, pareto_position, pareto_velocity, pareto_acceleration, raw_pct_position,
+// raw_pct_velocity, raw_pct_acceleration, settings, message. SI units.
+void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
+
+// The self-contained HTML page (the comparator's page frame and chart scripts, report.h).
+void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, std::ostream& out);
+
+// Console summary: the table, orders and selections.
+void print_sweep(const SettingsSweep& sweep, std::FILE* out);
+
+}  // namespace crosslink::compare

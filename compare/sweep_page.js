@@ -1,0 +1,122 @@
+// crosslink settings-sweep report: Vega-Lite charts of error against cost and against dt, built
+// from the REPORT object written by compare/sweep_report.cpp. Writes the outcome into
+// #render-status (data-status="ok" | "error") like the comparison report.
+(function () {
+  const statusEl = document.getElementById('render-status');
+  const errors = [];
+  function setStatus(state, text) {
+    statusEl.dataset.status = state;
+    statusEl.textContent = text;
+  }
+  window.addEventListener('error', (e) => {
+    errors.push(String(e.message));
+    setStatus('error', 'script error: ' + errors.join('; '));
+  });
+
+  const R = REPORT;
+  const schema = 'https://vega.github.io/schema/vega-lite/v6.json';
+  const engineColour = {domain: ['analytic', 'mujoco', 'bullet'],
+                        range: ['#777777', '#1f77b4', '#d62728']};
+  const statusShape = {domain: ['ok', 'flagged', 'diverged'],
+                       range: ['circle', 'triangle-up', 'cross']};
+
+  // Rows of one class: x, y and what the point means.
+  function rows(cls) {
+    return R.rows.map((r) => ({
+      engine: r.engine, variant: r.variant, series: r.series, setting: r.setting,
+      dt: r.dt, cost: r.cost, status: r.status, gap: r.gap,
+      error: r.err[cls], y: r.y[cls], drawn: r.drawn[cls], pareto: r.pareto[cls],
+    })).filter((r) => r.cost !== null);
+  }
+
+  const tooltip = [
+    {field: 'engine'}, {field: 'setting'}, {field: 'status'},
+    {field: 'cost', title: 'wall s per cycle', format: '.3g'},
+    {field: 'error', title: 'max % of peak', format: '.3g'},
+    {field: 'gap', title: 'max loop gap [m]', format: '.3g'}, {field: 'drawn'},
+  ];
+  const yScale = {type: 'log', domain: [R.floor, R.ceiling]};
+
+  function costSpec(cls) {
+    const data = rows(cls);
+    const engines = data.filter((r) => r.engine !== 'analytic');
+    const front = engines.filter((r) => r.pareto).sort((a, b) => a.cost - b.cost);
+    const series = engines.filter((r) => r.status === 'ok')
+                          .sort((a, b) => (a.series < b.series ? -1 : a.series > b.series ? 1
+                                                                     : b.dt - a.dt));
+    const analytic = data.filter((r) => r.engine === 'analytic');
+    const X = {field: 'cost', type: 'quantitative', scale: {type: 'log'},
+               title: 'wall time per simulated cycle [s]'};
+    const Y = {field: 'y', type: 'quantitative', scale: yScale,
+               title: 'max % of peak (' + cls + ')'};
+    return {
+      $schema: schema, width: 680, height: 380,
+      layer: [
+        {data: {values: series}, mark: {type: 'line', strokeWidth: 0.8, opacity: 0.35},
+         encoding: {x: X, y: Y, detail: {field: 'series'}, order: {field: 'dt', sort: 'descending'},
+                    color: {field: 'engine', type: 'nominal', scale: engineColour}}},
+        {data: {values: front}, mark: {type: 'line', interpolate: 'step-after', color: '#000',
+                                      strokeWidth: 2.2},
+         encoding: {x: X, y: Y}},
+        {data: {values: engines},
+         mark: {type: 'point', size: 55, strokeWidth: 1.6},
+         encoding: {x: X, y: Y,
+                    color: {field: 'engine', type: 'nominal', scale: engineColour,
+                            title: 'engine'},
+                    shape: {field: 'status', type: 'nominal', scale: statusShape,
+                            title: 'status'},
+                    fill: {condition: {test: 'datum.pareto', field: 'engine', type: 'nominal',
+                                       scale: engineColour},
+                           value: 'transparent'},
+                    tooltip}},
+        {data: {values: analytic},
+         mark: {type: 'point', shape: 'diamond', size: 110, filled: true, color: '#777'},
+         encoding: {x: X, y: Y, tooltip}},
+        {data: {values: analytic}, mark: {type: 'text', dx: 8, dy: -8, align: 'left'},
+         encoding: {x: X, y: Y, text: {field: 'variant'}}},
+      ],
+    };
+  }
+
+  function dtSpec(cls) {
+    const data = rows(cls).filter((r) => r.engine !== 'analytic');
+    const X = {field: 'dt', type: 'quantitative', scale: {type: 'log'}, title: 'time step dt [s]'};
+    const Y = {field: 'y', type: 'quantitative', scale: yScale,
+               title: 'max % of peak (' + cls + ')'};
+    const colour = {field: 'series', type: 'nominal', title: 'engine and variant',
+                    legend: {labelLimit: 360}};
+    return {
+      $schema: schema, width: 560, height: 320,
+      layer: [
+        {data: {values: data.filter((r) => r.status === 'ok')},
+         mark: {type: 'line', strokeWidth: 1.2},
+         encoding: {x: X, y: Y, color: colour, order: {field: 'dt'}}},
+        {data: {values: data}, mark: {type: 'point', size: 45, filled: true},
+         encoding: {x: X, y: Y, color: colour,
+                    shape: {field: 'status', type: 'nominal', scale: statusShape,
+                            title: 'status'},
+                    tooltip}},
+      ],
+    };
+  }
+
+  const opts = {renderer: 'svg', actions: false};
+  const jobs = [];
+  for (const cls of R.classes) {
+    jobs.push(vegaEmbed('#cost-' + cls, costSpec(cls), opts));
+    jobs.push(vegaEmbed('#dt-' + cls, dtSpec(cls), opts));
+  }
+  Promise.all(jobs).then((results) => {
+    let drawn = 0;
+    for (const r of results) {
+      const svg = r.view.container().querySelector('svg');
+      if (svg && svg.querySelectorAll('path, line, text').length > 0) drawn++;
+    }
+    if (errors.length) return;
+    setStatus(drawn === results.length ? 'ok' : 'error',
+              'rendered ' + drawn + ' of ' + results.length + ' charts');
+  }).catch((e) => {
+    errors.push(String(e));
+    setStatus('error', 'chart error: ' + errors.join('; '));
+  });
+})();

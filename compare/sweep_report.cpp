@@ -1,0 +1,208 @@
+// The settings sweep's HTML page: the comparator's page frame (write_page_head/tail, the inlined
+// Vega-Lite scripts), tables written here, charts built in the browser by sweep_page.js from a
+// REPORT object (docs/sweep.md).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "compare/settings_sweep.h"
+
+namespace crosslink::compare {
+
+extern const char* const kSweepPageScript;  // sweep_page.js, generated at build time
+
+namespace {
+
+using nlohmann::json;
+
+json finite_or_null(double v) {
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
+
+std::string cell(double v, const char* format = "{:.3g}") {
+  return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string("-");
+}
+
+// A class's error; where no sample was usable, the error over the flagged samples, in brackets.
+std::string error_cell(const SweepRow& r, size_t k) {
+  if (std::isfinite(r.max_pct[k])) return cell(r.max_pct[k]);
+  if (std::isfinite(r.raw_pct[k])) return "<i>(" + cell(r.raw_pct[k]) + ")</i>";
+  return "-";
+}
+
+std::string status_text(const SweepRow& r) {
+  if (r.status == RunStatus::flagged)
+    return fmt::format("flagged ({} of {} samples)", r.flagged_samples, r.samples);
+  return std::string(to_string(r.status));
+}
+
+json report_data(const SettingsSweep& sweep) {
+  json r;
+  r["classes"] = json::array();
+  for (ErrorClass c : kErrorClasses) r["classes"].push_back(std::string(to_string(c)));
+  // The floor the exact reference is drawn at: a decade under the smallest error shown.
+  double smallest = 1.0;
+  for (const SweepRow& row : sweep.rows)
+    for (double e : row.max_pct)
+      if (std::isfinite(e) && e > 0.0) smallest = std::min(smallest, e);
+  double largest = 1.0;
+  for (const SweepRow& row : sweep.rows)
+    for (size_t k = 0; k < 3; ++k)
+      for (double e : {row.max_pct[k], row.raw_pct[k]})
+        if (std::isfinite(e)) largest = std::max(largest, std::min(e, 1e3));
+  const double floor = std::pow(10.0, std::floor(std::log10(smallest)) - 1.0);
+  const double ceiling = std::pow(10.0, std::ceil(std::log10(largest)) + 1.0);
+  r["floor"] = floor;
+  r["ceiling"] = ceiling;
+  r["rows"] = json::array();
+  for (const SweepRow& row : sweep.rows) {
+    json j;
+    j["engine"] = row.engine;
+    j["variant"] = row.variant;
+    j["series"] = row.engine + " " + row.variant;
+    j["setting"] = row.setting_label();
+    j["dt"] = finite_or_null(row.dt);
+    j["cost"] = finite_or_null(row.wall_s_per_cycle > 0.0 ? row.wall_s_per_cycle : std::nan(""));
+    j["status"] = std::string(to_string(row.status));
+    j["gap"] = row.max_loop_gap;
+    for (ErrorClass c : kErrorClasses) {
+      const auto k = static_cast<size_t>(c);
+      const double e = row.max_pct[k];
+      // Plotted value: the error; 0 (the reference) at the floor; none (nothing comparable, the
+      // run diverged or flagged every sample) at the ceiling, marked by its status.
+      const double raw = row.raw_pct[k];
+      double y = e;
+      std::string drawn = "max % of peak";
+      if (e == 0.0) {
+        y = floor;
+        drawn = "error 0 (the reference), drawn at the floor";
+      } else if (!std::isfinite(e) && std::isfinite(raw)) {
+        y = std::min(raw, ceiling);
+        drawn = "no usable sample: max % of peak over the flagged samples";
+      } else if (!std::isfinite(e)) {
+        y = ceiling;
+        drawn = "no sample recorded, drawn at the ceiling";
+      } else if (e < floor) {
+        y = floor;
+      }
+      j["err"][to_string(c)] = finite_or_null(e);
+      j["raw"][to_string(c)] = finite_or_null(raw);
+      j["y"][to_string(c)] = y;
+      j["drawn"][to_string(c)] = drawn;
+      j["pareto"][to_string(c)] = row.pareto[k];
+    }
+    r["rows"].push_back(j);
+  }
+  return r;
+}
+
+std::string orders_table(const SettingsSweep& sweep) {
+  std::string html =
+      "<table><tr><th>engine</th><th>variant</th><th>position</th><th>velocity</th>"
+      "<th>acceleration</th></tr>\n";
+  for (const OrderRow& o : sweep.orders) {
+    html +=
+        fmt::format("<tr><td>{}</td><td>{}</td>", html_escape(o.engine), html_escape(o.variant));
+    for (const ConvergenceFit& f : o.fit)
+      html += std::isnan(f.order)
+                  ? fmt::format("<td>n/a ({} point{})</td>", f.points, f.points == 1 ? "" : "s")
+                  : fmt::format(
+                        "<td><b>{:.2f}</b> <small>({} points, dt {:.3g} to {:.3g} s)"
+                        "</small></td>",
+                        f.order, f.points, f.dt_max, f.dt_min);
+    html += "</tr>\n";
+  }
+  return html + "</table>\n";
+}
+
+std::string rows_table(const SettingsSweep& sweep) {
+  std::string html =
+      "<table class=\"rows\"><tr><th>engine</th><th>setting</th><th>dt [s]</th>"
+      "<th>wall per cycle [s]</th><th>position %</th><th>velocity %</th>"
+      "<th>acceleration %</th><th>max loop gap [m]</th><th>status</th><th>front</th>"
+      "<th>settings in force, notes</th></tr>\n";
+  for (const SweepRow& r : sweep.rows) {
+    std::string front;
+    for (ErrorClass c : kErrorClasses)
+      if (r.pareto[static_cast<size_t>(c)]) front += std::string(to_string(c)).substr(0, 3) + " ";
+    std::string settings;
+    for (const auto& [k, v] : r.settings)
+      settings += fmt::format("<code>{}={}</code> ", html_escape(k), html_escape(v));
+    if (!r.message.empty()) settings += "<br><small>" + html_escape(r.message) + "</small>";
+    html += fmt::format(
+        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"settings\">{}</td></tr>\n",
+        r.status == RunStatus::ok ? "" : std::string("status-") + std::string(to_string(r.status)),
+        html_escape(r.engine), html_escape(r.variant), cell(r.dt, "{:.4g}"),
+        cell(r.wall_s_per_cycle, "{:.4g}"), error_cell(r, 0), error_cell(r, 1), error_cell(r, 2),
+        cell(r.max_loop_gap), html_escape(status_text(r)), front, settings);
+  }
+  return html + "</table>\n";
+}
+
+constexpr const char* kSweepStyle = R"css(
+tr.status-flagged td { background: #fff3cd; }
+tr.status-diverged td { background: #fde0e0; }
+)css";
+
+}  // namespace
+
+void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, std::ostream& out) {
+  const Mechanism& m = *sweep.mechanism;
+  write_page_head(fmt::format("crosslink sweep: {}", m.name), kSweepStyle, options.asset_dirs, out);
+  out << fmt::format("<h1>Speed against accuracy: {}</h1>\n<p>{}</p>\n", html_escape(m.name),
+                     html_escape(m.description));
+  out << fmt::format(
+      "<p>File <code>{}</code>. Every engine setting is compared with the exact Newton sweep "
+      "({} samples every {:.4g} s; time steps above that use every m-th driver value so samples "
+      "fall on step boundaries). Error: the largest <i>max % of peak</i> over the channels of a "
+      "class (position includes link angles). Cost: the engine's stepping wall time per driver "
+      "cycle on this machine, one run each.</p>\n",
+      html_escape(m.file), sweep.samples, sweep.sample_interval);
+  for (const std::string& s : sweep.skipped)
+    out << "<p><b>Not run:</b> " << html_escape(s) << "</p>\n";
+  out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
+         "run)</p>\n";
+  if (!sweep.selections.empty()) {
+    out << "<h2>Cheapest setting per engine</h2>\n<ul>\n";
+    for (const Selection& s : sweep.selections)
+      out << "<li>" << html_escape(s.summary()) << "</li>\n";
+    out << "</ul>\n<p>Rule: time steps from coarse to fine; the first time step where a "
+           "variant meets the accuracy on every class with status ok; of those, the "
+           "cheapest.</p>\n";
+  }
+  out << "<h2>Error against cost</h2>\n<p>Log-log, one chart per quantity class. Colour: "
+         "engine; shape: status (circle ok, triangle flagged samples, cross diverged). Thin "
+         "lines join one variant's time steps; the thick black steps are the Pareto front of the "
+         "engine settings with status ok (filled markers). Grey diamonds: the analytic methods "
+         "(Newton is the reference, error 0, drawn at the floor). Settings with no comparable "
+         "sample are drawn at the ceiling: that is where an engine's accuracy collapses.</p>\n";
+  for (ErrorClass c : kErrorClasses)
+    out << fmt::format("<h3>{0}</h3>\n<div id=\"cost-{0}\" class=\"chart\"></div>\n", to_string(c));
+  out << "<h2>Error against time step</h2>\n<p>Each variant's series; the slope is the observed "
+         "order of convergence (table below).</p>\n";
+  for (ErrorClass c : kErrorClasses)
+    out << fmt::format("<h3>{0}</h3>\n<div id=\"dt-{0}\" class=\"chart\"></div>\n", to_string(c));
+  out << "<h2>Observed order of convergence in dt</h2>\n<p>Least-squares slope of log error "
+         "against log dt over the non-saturated points of each series with status ok: points "
+         "at 10 % of peak or more are left out (not yet asymptotic, or collapsed), and so is "
+         "the floor, from the first pair of steps whose local order is below 0.5 (round-off or "
+         "a solver tolerance).</p>\n"
+      << orders_table(sweep);
+  out << "<h2>Every setting</h2>\n<p>Errors in brackets: no sample was usable (flagged, or the "
+         "run diverged part-way); the value is over the samples the engine recorded, flagged "
+         "ones included.</p>\n"
+      << rows_table(sweep);
+  out << "<h2>Legend</h2>\n<dl>\n";
+  for (const auto& [term, definition] : metric_legend())
+    out << fmt::format("<dt>{}</dt><dd>{}</dd>\n", html_escape(term), html_escape(definition));
+  out << "<dt>status</dt><dd>ok: the engine could use every sample the reference can; flagged: "
+         "it flagged some (loop gap, singular, diverged), which stay out of the errors; "
+         "diverged: the run did not finish.</dd>\n";
+  out << "</dl>\n";
+  write_page_tail(report_data(sweep).dump(), kSweepPageScript, out);
+}
+
+}  // namespace crosslink::compare

@@ -1,0 +1,217 @@
+// The settings sweep's analysis on synthetic inputs: Pareto front, observed order of convergence,
+// the cheapest-setting rule, grids, time-step snapping and the CSV columns. No engine runs here
+// (test_sweep_engines.cpp runs them).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include "analytic/loader.h"
+#include "compare/settings_sweep.h"
+
+namespace crosslink::compare {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string mechanism_path(const std::string& stem) {
+  return std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + stem + ".toml";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pareto front
+
+TEST(ParetoFront, KeepsExactlyTheNonDominatedPoints) {
+  //   error
+  //    10 |  a
+  //     1 |        b     d
+  //   0.1 |              c        e
+  //       +--------------------------- cost
+  //          1     2     4        8
+  const std::vector<double> cost = {1, 2, 4, 4, 8};
+  const std::vector<double> error = {10, 1, 0.1, 1, 0.1};
+  const std::vector<bool> front = pareto_front(cost, error, {true, true, true, true, true});
+  EXPECT_EQ(front, (std::vector<bool>{true, true, true, false, false}));
+}
+
+TEST(ParetoFront, IneligibleAndNonFinitePointsAreNeverOnItNorDominate) {
+  // The cheapest and most accurate point diverged: it must not hide the others.
+  const std::vector<double> cost = {0.5, 1, 2, 3};
+  const std::vector<double> error = {1e-6, 1, 0.1, kNaN};
+  const std::vector<bool> front = pareto_front(cost, error, {false, true, true, true});
+  EXPECT_EQ(front, (std::vector<bool>{false, true, true, false}));
+}
+
+TEST(ParetoFront, EqualPointsBothStay) {
+  const std::vector<bool> front = pareto_front({1, 1}, {2, 2}, {true, true});
+  EXPECT_EQ(front, (std::vector<bool>{true, true}));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Order of convergence
+
+TEST(ConvergenceOrder, RecoversTheExponentOfAPowerLaw) {
+  const std::vector<double> dt = {1e-3, 5e-4, 2e-4, 1e-4};
+  for (double p : {1.0, 2.0, 4.0}) {
+    std::vector<double> e;
+    for (double h : dt) e.push_back(2e3 * std::pow(h, p) / std::pow(1e-3, p) * 1e-3);
+    const ConvergenceFit fit = convergence_order(dt, e);
+    EXPECT_NEAR(fit.order, p, 1e-9) << "p = " << p;
+    EXPECT_EQ(fit.points, 4);
+  }
+}
+
+TEST(ConvergenceOrder, LeavesOutSaturatedCoarsePointsAndTheFloor) {
+  // Coarse: collapsed (40 %, 12 %); then second order; then a floor where finer steps stop
+  // improving (local order log(1/0.9)/log(2.5) = 0.11 < 0.5), though the last is lower still.
+  const std::vector<double> dt = {1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5};
+  std::vector<double> e = {40, 12};
+  for (double h : {2e-3, 1e-3, 5e-4, 2.5e-4}) e.push_back(1e-1 * (h / 2e-3) * (h / 2e-3));
+  e.push_back(0.9 * e.back());
+  e.push_back(0.2 * e.back());
+  const ConvergenceFit fit = convergence_order(dt, e);
+  EXPECT_NEAR(fit.order, 2.0, 1e-9);
+  EXPECT_EQ(fit.points, 4);
+  EXPECT_DOUBLE_EQ(fit.dt_max, 2e-3);
+  EXPECT_DOUBLE_EQ(fit.dt_min, 2.5e-4);
+  EXPECT_EQ(fit.used, (std::vector<bool>{false, false, true, true, true, true, false, false}));
+}
+
+TEST(ConvergenceOrder, IgnoresInputOrderAndMissingPoints) {
+  const std::vector<double> dt = {1e-4, 1e-3, 3e-4, 2e-3};
+  const std::vector<double> e = {1e-4, 1e-2, kNaN, 4e-2};  // second order, one point missing
+  const ConvergenceFit fit = convergence_order(dt, e);
+  EXPECT_NEAR(fit.order, 2.0, 1e-9);
+  EXPECT_EQ(fit.points, 3);
+}
+
+TEST(ConvergenceOrder, NoOrderFromFewerThanTwoPoints) {
+  EXPECT_TRUE(std::isnan(convergence_order({1e-3, 1e-4}, {50.0, 1e-3}).order));
+  EXPECT_TRUE(std::isnan(convergence_order({1e-3}, {1e-3}).order));
+  EXPECT_TRUE(std::isnan(convergence_order({}, {}).order));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The cheapest setting
+
+SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> e,
+             RunStatus status = RunStatus::ok) {
+  SweepRow r;
+  r.engine = "mujoco";
+  r.variant = std::move(variant);
+  r.dt = dt;
+  r.wall_s_per_cycle = cost;
+  r.max_pct = e;
+  r.status = status;
+  return r;
+}
+
+TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
+  const std::vector<SweepRow> rows = {
+      row("Euler", 1e-3, 1.0, {0.5, 3, 20}),        // misses acceleration
+      row("RK4", 1e-3, 2.0, {0.1, 0.5, 0.9}),       // meets 1 %
+      row("implicit", 1e-3, 1.7, {0.1, 0.5, 0.8}),  // meets 1 %, cheaper than RK4
+      row("Euler", 1e-4, 0.5, {1e-3, 1e-3, 1e-3}),  // cheaper still (a noisy timing), finer:
+                                                    // not needed, never chosen
+      row("soft", 1e-3, 0.1, {0.01, 0.01, 0.01}, RunStatus::flagged),  // flagged: never chosen
+  };
+  const Selection s = select_cheapest("mujoco", 1.0, rows);
+  ASSERT_TRUE(s.found);
+  EXPECT_EQ(s.chosen.variant, "implicit");
+  EXPECT_DOUBLE_EQ(s.chosen.dt, 1e-3);
+  EXPECT_EQ(s.tried.size(), 4u);  // the 1e-3 level only
+  EXPECT_NE(s.summary().find("implicit"), std::string::npos);
+
+  const Selection strict = select_cheapest("mujoco", 0.01, rows);
+  ASSERT_TRUE(strict.found);
+  EXPECT_DOUBLE_EQ(strict.chosen.dt, 1e-4);
+
+  const Selection impossible = select_cheapest("mujoco", 1e-6, rows);
+  EXPECT_FALSE(impossible.found);
+  EXPECT_NE(impossible.summary().find("no setting"), std::string::npos);
+  EXPECT_FALSE(select_cheapest("bullet", 1.0, rows).found);  // another engine's rows
+}
+
+TEST(Selection, ARowWithoutAComparableClassNeverMeets) {
+  EXPECT_FALSE(row("x", 1e-3, 1, {0.1, kNaN, 0.1}).meets(1.0));
+  EXPECT_TRUE(row("x", 1e-3, 1, {0.1, 0.1, 1.0}).meets(1.0));
+  EXPECT_FALSE(row("x", 1e-3, 1, {0.1, 0.1, 0.1}, RunStatus::diverged).meets(1.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Grids and references on step boundaries
+
+TEST(Grid, CoarseToFineWithEveryVariantPerStepDefaultFirst) {
+  for (const char* engine : {"mujoco", "bullet"}) {
+    const std::vector<Variant> variants = engine_variants(engine);
+    ASSERT_GE(variants.size(), 5u);
+    EXPECT_TRUE(variants.front().settings(1e-3).empty()) << engine << ": default first";
+    const std::vector<GridPoint> grid = engine_grid(engine, {1e-4, 1e-2, 1e-3, 1e-3});
+    ASSERT_EQ(grid.size(), 3 * variants.size());
+    EXPECT_DOUBLE_EQ(grid.front().dt, 1e-2);
+    EXPECT_DOUBLE_EQ(grid.back().dt, 1e-4);
+    for (size_t i = 1; i < grid.size(); ++i) EXPECT_LE(grid[i].dt, grid[i - 1].dt);
+  }
+  // Softness that follows the step: solref (2 dt, 0.5).
+  for (const Variant& v : engine_variants("mujoco"))
+    if (v.name.find("2dt") != std::string::npos) {
+      const sim::Settings s = v.settings(1e-3);
+      ASSERT_EQ(s.size(), 1u);
+      EXPECT_EQ(s[0].second, "0.002 0.5");
+    }
+  EXPECT_THROW(engine_variants("adams"), std::invalid_argument);
+}
+
+TEST(Grid, DefaultTimeStepsSpanTwoDecades) {
+  const std::vector<double> dts = default_time_steps();
+  EXPECT_GE(*std::max_element(dts.begin(), dts.end()) / *std::min_element(dts.begin(), dts.end()),
+            100.0);
+}
+
+TEST(ReferenceLadder, SnapsTimeStepsSoSamplesFallOnStepBoundaries) {
+  // Crank-rocker at 8 pi rad/s sampled every degree: h = 1/1440 s.
+  const Mechanism m = load_mechanism(mechanism_path("fourbar_crank_rocker"));
+  ReferenceLadder ladder(m, {});
+  const double h = 1.0 / 1440.0;
+  ASSERT_NEAR(ladder.interval(), h, 1e-12);
+  double dt = 0.0;
+  const MethodRun& fine = ladder.for_dt(1e-4, &dt);
+  EXPECT_NEAR(dt, h / 7, 1e-15);  // 6.94e-4 / 1e-4 = 6.9 -> 7 steps per sample
+  EXPECT_EQ(&fine, &ladder.base());
+  const MethodRun& coarse = ladder.for_dt(1e-2, &dt);
+  EXPECT_NEAR(dt, 14 * h, 1e-12);  // 14.4 -> every 14th degree
+  const Trajectory& t = coarse.trajectory;
+  ASSERT_GE(t.samples(), 20);
+  for (int k = 1; k < t.samples(); ++k) {
+    EXPECT_NEAR(t.time(k) - t.time(k - 1), dt, 1e-9 * dt);
+    EXPECT_NEAR(t.driver(k) - t.driver(k - 1), 14 * std::numbers::pi / 180, 1e-9);
+  }
+  // Kept, not rebuilt.
+  double again = 0.0;
+  EXPECT_EQ(&ladder.for_dt(9.8e-3, &again), &coarse);
+}
+
+// ---------------------------------------------------------------------------------------------
+// CSV
+
+TEST(Csv, FirstColumnsAreExactlyTheDocumentedOnesInOrder) {
+  SettingsSweep sweep;
+  sweep.rows.push_back(row("Euler/Newton", 1e-3, 2e-3, {0.1, 0.2, kNaN}, RunStatus::flagged));
+  sweep.rows.back().message = "3 samples flagged, \"loop_gap\"";
+  std::ostringstream out;
+  write_sweep_csv(sweep, out);
+  const std::string text = out.str();
+  EXPECT_EQ(text.rfind("engine,setting,dt,wall_s_per_cycle,max_pct_position,max_pct_velocity,"
+                       "max_pct_acceleration,max_loop_gap,status,",
+                       0),
+            0u);
+  const std::string line = text.substr(text.find('\n') + 1);
+  EXPECT_EQ(line.rfind("mujoco,\"Euler/Newton, dt=0.001\",0.001,0.002,0.1,0.2,,0,flagged,", 0), 0u)
+      << line;
+  EXPECT_NE(line.find("\"3 samples flagged, \"\"loop_gap\"\"\""), std::string::npos);
+}
+
+}  // namespace
+}  // namespace crosslink::compare
