@@ -4,6 +4,15 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <optional>
+#include <string>
+
+#include "analytic/sweep.h"
+#include "compare/methods.h"
+
+namespace crosslink::compare {
+struct GridPoint;
+}
 
 namespace crosslink::app {
 
@@ -15,5 +24,18 @@ constexpr int kExitBadInput = 2;
 void add_check(CLI::App& app, std::function<int()>& run);
 void add_solve(CLI::App& app, std::function<int()>& run);
 void add_compare(CLI::App& app, std::function<int()>& run);
+void add_sweep(CLI::App& app, std::function<int()>& run);
+
+// Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
+// empty text; throws std::invalid_argument otherwise), and the progress line of a long search.
+std::optional<double> parse_accuracy(const std::string& text);
+void print_progress(int index, int total, const compare::GridPoint& point);
+// compare --accuracy: `base` plus the cheapest settings of `engine` meeting `accuracy_pct` on
+// every class against `reference` (time steps on its sample boundaries, coarse to fine, stopping
+// at the first that meets it); says on `out` what it chose and what it costs. Without a setting
+// that meets it: `base`, and says so.
+sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
+                                const compare::MethodRun& reference, const std::string& engine,
+                                double accuracy_pct, const sim::Settings& base, std::FILE* out);
 
 }  // namespace crosslink::app
