@@ -602,6 +602,37 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   read("acceleration", m.tolerances.acceleration);
 }
 
+// [expect]: the singular behaviour the definition's author derived in closed form.
+void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::table* t = r.table(root, "expect", "a mechanism", false);
+  if (!t) return;
+  r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof"});
+  Expectations e;
+  e.where = r.at(*t);
+  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
+  if (const toml::node* limits = t->get("limits"))
+    if (const auto v = r.numbers(*limits, 2, "[expect] 'limits' ([lower, upper])"))
+      e.limits = std::make_pair((*v)[0] * unit, (*v)[1] * unit);
+  for (const auto& [key, out] : {std::pair{"toggles", &e.toggles},
+                                 std::pair{"change_points", &e.change_points}}) {
+    const toml::node* node = t->get(key);
+    if (!node) continue;
+    const auto* array = node->as_array();
+    if (!array) {
+      r.error(r.at(*node), fmt::format("[expect] '{}' must be an array of driver values", key));
+      continue;
+    }
+    for (const toml::node& v : *array)
+      if (const auto x = r.number(v, fmt::format("[expect] '{}'", key))) out->push_back(*x * unit);
+  }
+  e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
+  if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
+      e.grashof != "non-Grashof")
+    r.error(r.at(t->get("grashof")), "[expect] 'grashof' must be \"Grashof\", \"change point\" "
+                                     "or \"non-Grashof\"");
+  m.expect = e;
+}
+
 // Structure: one ground, unique names, named points that are one place, a connected chain,
 // and a mobility that one driver can drive (reported at `driver`, the [driver] table, if any).
 void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
@@ -698,7 +729,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   r.set_root(root);
   r.known_keys(root, "the definition",
                {"name", "description", "citation", "units", "link", "joint", "driver",
-                "reference", "tolerance"});
+                "reference", "tolerance", "expect"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
@@ -753,6 +784,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_driver(r, m, root);
   read_tolerances(r, m, root);
   read_references(r, m, root);
+  read_expect(r, m, root);
   r.throw_if_any();
   return m;
 }

@@ -139,6 +139,16 @@ struct ToleranceOverrides {
   std::optional<double> position, angle, velocity, acceleration;
 };
 
+// Expected singular behaviour written in a definition's optional [expect] table (SI), derived
+// by hand in closed form; the stability catalogue's tests check the sweep against it.
+struct Expectations {
+  std::optional<std::pair<double, double>> limits;  // the driver's assembling range
+  std::vector<double> toggles;                       // driver values of toggles (dead points)
+  std::vector<double> change_points;                 // driver values of change points
+  std::string grashof;  // four-bars: "Grashof" | "change point" | "non-Grashof"; "" = not given
+  SourceLocation where;
+};
+
 struct Mechanism {
   std::string name;
   std::string description;
@@ -150,6 +160,7 @@ struct Mechanism {
   Driver driver;
   std::vector<Reference> references;
   ToleranceOverrides tolerances;
+  std::optional<Expectations> expect;  // [expect], when the definition has one
 
   int ground() const;                          // index of the ground link
   int find_link(std::string_view name) const;  // index, or -1

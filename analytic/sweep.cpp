@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace crosslink {
@@ -70,10 +72,9 @@ class Follower {
       if (std::abs(h) < min_step) {
         report.status = converged ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
         report.message =
-            converged
-                ? fmt::format("at driver = {:.12g} the only nearby solution is on another branch",
-                              d0)
-                : fmt::format("the chain does not close beyond driver = {:.12g}", d0);
+            converged ? fmt::format(
+                            "at driver = {:.12g} the only nearby solution is on another branch", d0)
+                      : fmt::format("the chain does not close beyond driver = {:.12g}", d0);
         return report;
       }
     }
@@ -105,8 +106,8 @@ class Follower {
     state_.driver = real;
     tangent_ = state_.qdot;
     curvature_ = state_.qddot;
-    const bool ok = last_.status == PoseStatus::ok && tangent_.allFinite() &&
-                    curvature_.allFinite();
+    const bool ok =
+        last_.status == PoseStatus::ok && tangent_.allFinite() && curvature_.allFinite();
     if (!ok) {
       tangent_.setZero();
       curvature_.setZero();
@@ -149,6 +150,479 @@ double min_step(const NewtonSolver& solver, double tolerance) {
   return m.driver.angular() ? tolerance : tolerance * m.size();
 }
 
+// Follows the configuration curve Phi_c(q) = 0 (the joint constraints without the driver row)
+// by pseudo-arclength continuation. Unlike the Follower it is not parametrised by the driver, so
+// it passes a toggle, where the driver turns back, and it sees both kinds of singular position
+// as sign changes of two smooth functions along the curve:
+//   det J = t_driver * det [C; t]   (J: the full Jacobian, C: the constraint rows, t: tangent)
+// t_driver = d driver / ds changes sign at a toggle (fold); det [C; t] changes sign where two
+// branches cross (change point: C loses rank). Each is located by regula falsi in s, where the
+// arclength system stays well conditioned. Work is in size-free coordinates z (lengths / size,
+// angles in rad) with dimensionless constraint rows.
+class Tracer {
+ public:
+  struct Node {
+    Eigen::VectorXd q;         // coordinates (SI)
+    Eigen::VectorXd t;         // unit tangent in z
+    double driver = 0.0;       // driver value at q [rad or m]
+    double t_driver = 0.0;     // d driver / ds
+    double orientation = 0.0;  // det [C; t], normalised by the row norms of C
+    double s = 0.0;            // arclength from the node it was corrected from
+  };
+
+  explicit Tracer(const NewtonSolver& solver)
+      : solver_(solver), n_(static_cast<int>(solver.mechanism().coordinate_count())) {
+    const Mechanism& m = solver.mechanism();
+    const double L = solver.length_scale();
+    column_.setOnes(n_);
+    for (int k = 0; k < m.moving_count(); ++k) column_.segment<2>(3 * k).setConstant(L);
+    row_.setOnes(n_ - 1);
+    int row = 0;
+    for (const Joint& j : m.joints) {
+      const int rows = 3 - j.dof();
+      for (int r = 0; r < rows; ++r)
+        if (!(j.type == JointType::prismatic && r == 1)) row_(row + r) = 1.0 / L;
+      row += rows;
+    }
+    jac_.setZero(n_, n_);
+    aug_.setZero(n_, n_);
+    phi_.setZero(n_);
+    rhs_.setZero(n_);
+    tolerance_ = solver.options().tolerance;
+    length_ = L;
+    angular_ = m.driver.angular();
+  }
+
+  // A node at a solved pose; the tangent (null vector of C, by SVD so that it exists at a
+  // singular start too) is oriented so the driver moves toward `direction`.
+  bool start(const Eigen::VectorXd& q, double direction, Node& out) {
+    solver_.jacobian(q, jac_);
+    const Eigen::MatrixXd c = constraint_rows();
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(c, Eigen::ComputeFullV);
+    Node seed;
+    seed.q = q;
+    seed.t = svd.matrixV().col(n_ - 1);
+    if (driver_gradient().dot(seed.t) * direction < 0.0) seed.t = -seed.t;
+    return correct(seed, 0.0, out);
+  }
+
+  // The point of the curve on the hyperplane t_from . (z - z_from) = s, by Newton from a
+  // tangent prediction made at `near` (a node on the same branch close to it, or `from`).
+  bool correct(const Node& from, double s, Node& out, const Node* near = nullptr) {
+    const Node& p = near ? *near : from;
+    const double along = near ? (s - near->s) / std::max(from.t.dot(near->t), 0.5) : s;
+    return newton(p.q + column_.cwiseProduct(along * p.t), from, s, nullptr, p.t, out);
+  }
+
+  // The point of the curve at driver value `value`, by Newton from a tangent prediction at
+  // `near` (which must not be at a toggle); its s is measured on the hyperplanes of `from`.
+  // Where another branch crosses, the driver is the better parameter: that branch cannot lie
+  // in a plane of constant driver unless it is itself at a toggle there.
+  bool correct_driver(const Node& from, double value, Node& out, const Node& near) {
+    if (std::abs(near.t_driver) < 1e-3) return false;
+    const double along = (value - near.driver) / near.t_driver;
+    return newton(near.q + column_.cwiseProduct(along * near.t), from, 0.0, &value, near.t, out);
+  }
+
+ private:
+  // Newton on [Phi_c; last row] with the last row either the hyperplane of `from` at s, or
+  // driver(q) - *value. At the solution the tangent is oriented like `orient`, and
+  // det [C; t/|t|] = det [C; orient] |t| (orient minus its part along t lies in C's rows).
+  bool newton(Eigen::VectorXd q, const Node& from, double s, const double* value,
+              const Eigen::VectorXd& orient, Node& out) {
+    for (int it = 0; it <= 12; ++it) {
+      solver_.residual(q, 0.0, phi_);
+      rhs_.head(n_ - 1) = -phi_.head(n_ - 1).cwiseProduct(row_);
+      rhs_(n_ - 1) =
+          value ? *value - phi_(n_ - 1) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
+      if (!rhs_.allFinite()) return false;
+      solver_.jacobian(q, jac_);
+      aug_.topRows(n_ - 1) = constraint_rows();
+      const bool converged =
+          rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0);
+      aug_.row(n_ - 1) = (converged ? orient : value ? driver_gradient() : from.t).transpose();
+      lu_.compute(aug_);
+      if (converged) {
+        Eigen::VectorXd e = Eigen::VectorXd::Zero(n_);
+        e(n_ - 1) = 1.0;
+        const Eigen::VectorXd t = lu_.solve(e);
+        if (!t.allFinite() || t.norm() == 0.0) return false;
+        double row_norms = 1.0;
+        for (int r = 0; r < n_ - 1; ++r) row_norms *= aug_.row(r).norm();
+        out.orientation = lu_.determinant() * t.norm() / row_norms;
+        out.t = t.normalized();
+        out.q = q;
+        out.s = value ? from.t.dot((q - from.q).cwiseQuotient(column_)) : s;
+        out.driver = solver_.driver_value(q);
+        out.t_driver = driver_gradient().dot(out.t);
+        return true;
+      }
+      const Eigen::VectorXd dz = lu_.solve(rhs_);
+      if (!dz.allFinite()) return false;
+      q += column_.cwiseProduct(dz);
+    }
+    return false;
+  }
+
+ public:
+  // |z_to - (z_from + h t_from)|: how far Newton moved the prediction.
+  double correction(const Node& from, const Node& to, double h) const {
+    return ((to.q - from.q).cwiseQuotient(column_) - h * from.t).lpNorm<Eigen::Infinity>();
+  }
+
+  // Distance between two poses in z (angles compared as they are, or modulo a turn).
+  double distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool modulo_turn) const {
+    double worst = 0.0;
+    for (int i = 0; i < n_; ++i) {
+      double d = (a(i) - b(i)) / column_(i);
+      if (modulo_turn && i % 3 == 2) d = std::remainder(d, 2.0 * kPi);
+      worst = std::max(worst, std::abs(d));
+    }
+    return worst;
+  }
+
+ private:
+  Eigen::MatrixXd constraint_rows() const {
+    return row_.asDiagonal() * jac_.topRows(n_ - 1) * column_.asDiagonal();
+  }
+  Eigen::VectorXd driver_gradient() const {
+    return jac_.row(n_ - 1).transpose().cwiseProduct(column_);
+  }
+
+  const NewtonSolver& solver_;
+  int n_;
+  Eigen::VectorXd column_;  // q = column_ .* z
+  Eigen::VectorXd row_;     // dimensionless constraint rows
+  Eigen::MatrixXd jac_, aug_;
+  Eigen::VectorXd phi_, rhs_;
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+  double tolerance_, length_ = 1.0;
+  bool angular_ = true;
+};
+
+// A leg of the configuration curve traced from one pose: nodes in order, with the toggles and
+// change points located on the way (as nodes too). `base` is the node each was corrected from.
+struct Leg {
+  std::vector<Tracer::Node> nodes;
+  std::vector<int> base;    // index of the node each node was corrected from (self: start)
+  std::vector<double> key;  // arclength from the leg's start
+  std::vector<SingularPosition> singular;
+  std::vector<int> singular_node;    // node index of each singular position (-1: none)
+  std::vector<double> singular_key;  // arclength of each singular position
+  bool full_cycle = false;           // the driver made a whole turn without a toggle
+  bool closed = false;               // came back to the start pose after a toggle
+  double end_key = std::numeric_limits<double>::infinity();  // where the leg's path ends
+  bool failed = false;  // the tracer lost the curve (branch_jump)
+};
+
+// Regula falsi (Illinois) for f(node) = 0 between two nodes where f has opposite signs. The
+// parameter is the arclength s on the hyperplanes of `base`, or the driver (by_driver); each
+// evaluation predicts from the nearer bracket node, which is on the branch being followed.
+template <class F>
+Tracer::Node locate(Tracer& tracer, const Tracer::Node& base, Tracer::Node lo, Tracer::Node hi, F f,
+                    double f_tolerance, bool by_driver = false) {
+  const auto x = [&](const Tracer::Node& n) { return by_driver ? n.driver : n.s; };
+  double f_lo = f(lo), f_hi = f(hi);
+  // Stop well before the root when it is a change point: a node right at it has no reliable
+  // tangent to predict from, and the other branch is as near.
+  f_tolerance = std::max(f_tolerance, 1e-10 * std::max(std::abs(f_lo), std::abs(f_hi)));
+  int side = 0;
+  Tracer::Node best = std::abs(f_lo) < std::abs(f_hi) ? lo : hi;
+  for (int it = 0; it < 100; ++it) {
+    const double x_lo = x(lo), x_hi = x(hi);
+    if (std::abs(x_hi - x_lo) <= 1e-15 * std::max(1.0, std::abs(x_lo))) break;
+    double xm = (x_lo * f_hi - x_hi * f_lo) / (f_hi - f_lo);
+    if (!(xm > std::min(x_lo, x_hi) && xm < std::max(x_lo, x_hi))) xm = 0.5 * (x_lo + x_hi);
+    Tracer::Node mid;
+    const Tracer::Node& near = std::abs(xm - x_lo) < std::abs(xm - x_hi) ? lo : hi;
+    auto eval = [&](double at) {
+      return by_driver ? tracer.correct_driver(base, at, mid, near)
+                       : tracer.correct(base, at, mid, &near);
+    };
+    if (!eval(xm)) {
+      xm = 0.5 * (x_lo + x_hi);  // bisect instead
+      if (!eval(xm)) break;
+    }
+    const double f_mid = f(mid);
+    best = mid;
+    if (std::abs(f_mid) <= f_tolerance) break;
+    if ((f_mid < 0) == (f_lo < 0)) {
+      lo = mid;
+      f_lo = f_mid;
+      if (side == -1) f_hi *= 0.5;
+      side = -1;
+    } else {
+      hi = mid;
+      f_hi = f_mid;
+      if (side == +1) f_lo *= 0.5;
+      side = +1;
+    }
+  }
+  return best;
+}
+
+double sign_of(double v) {
+  return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0);
+}
+
+// A change point between two nodes of a step. Newton is ill-posed right at it (the other branch
+// is as near as this one), so det [C; t] is sampled on this branch at 3, 2, 1 x delta on either
+// side of a first estimate, predicting outward-in from the step's ends, and the root is taken
+// from the quintic through them (the branch is analytic there). Returns the root and the six
+// nodes (to serve as path nodes near the change point), or nothing when a solve fails.
+std::optional<double> locate_change_point(Tracer& tracer, const Tracer::Node& cur,
+                                          const Tracer::Node& next, double unit,
+                                          std::vector<Tracer::Node>& nodes) {
+  if (std::abs(cur.t_driver) < 1e-3 || std::abs(next.t_driver) < 1e-3) return std::nullopt;
+  double root = cur.driver +
+                (next.driver - cur.driver) * cur.orientation / (cur.orientation - next.orientation);
+  const double dir = sign_of(next.driver - cur.driver);
+  const double delta = 2e-3 * unit;
+  for (int pass = 0; pass < 2; ++pass) {
+    nodes.clear();
+    Eigen::Matrix<double, 6, 6> v;
+    Eigen::Matrix<double, 6, 1> f;
+    for (int side = -1; side <= 1; side += 2) {
+      Tracer::Node near = side < 0 ? cur : next;
+      for (int k = 3; k >= 1; --k) {
+        const double x = side * k;
+        Tracer::Node at;
+        if (!tracer.correct_driver(cur, root + dir * x * delta, at, near)) return std::nullopt;
+        const int row = static_cast<int>(nodes.size());
+        for (int c = 0; c < 6; ++c) v(row, c) = std::pow(x, c);
+        f(row) = at.orientation;
+        nodes.push_back(at);
+        near = at;
+      }
+    }
+    const Eigen::Matrix<double, 6, 1> poly = v.fullPivLu().solve(f);
+    double x = 0.0;
+    for (int it = 0; it < 50; ++it) {
+      double p = 0.0, dp = 0.0;
+      for (int c = 5; c >= 0; --c) {
+        dp = dp * x + p;
+        p = p * x + poly(c);
+      }
+      if (dp == 0.0) break;
+      const double dx = p / dp;
+      x -= dx;
+      if (std::abs(dx) < 1e-15) break;
+    }
+    if (!(std::abs(x) < 1.0)) return std::nullopt;
+    root += dir * x * delta;
+  }
+  std::sort(nodes.begin(), nodes.end(),
+            [](const Tracer::Node& a, const Tracer::Node& b) { return a.s < b.s; });
+  return root;
+}
+
+struct LegLimits {
+  bool stop_at_toggle = true;  // else pass toggles (the driver reverses) until the loop closes
+  double reach = 0.0;          // driver travel without a toggle that ends the leg [rad or m]
+  bool angular = true;
+};
+
+// Traces from `start` (already oriented) until a toggle (when stopping there), a whole driver
+// turn without toggles, the loop closing back on the start pose, or the reach.
+Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLimits& limits) {
+  Tracer tracer(solver);
+  Leg leg;
+  leg.nodes.push_back(start);
+  leg.base.push_back(0);
+  leg.key.push_back(0.0);
+  const double h_max = 0.02, h_min = 1e-11;
+  const double unit = limits.angular ? 1.0 : solver.length_scale();
+  const double start_driver = start.driver;
+  const double sigma = sign_of(start.t_driver) != 0 ? sign_of(start.t_driver) : 1.0;
+  double h = h_max;
+  double travel = 0.0;  // |driver change| summed along the leg
+  int toggles = 0;
+  for (int steps = 0; steps < 400000; ++steps) {
+    const int i = static_cast<int>(leg.nodes.size()) - 1;
+    const Tracer::Node cur = leg.nodes[static_cast<size_t>(i)];
+    Tracer::Node next;
+    // Newton may only polish the prediction, and the tangent may only turn a little: a step
+    // that would land on another branch is refused and shortened.
+    bool ok = tracer.correct(cur, h, next);
+    if (ok) {
+      ok = tracer.correction(cur, next, h) <= 0.3 * h + 1e-9 && next.t.dot(cur.t) >= 0.9;
+    }
+    if (!ok) {
+      h *= 0.5;
+      if (h < h_min) {
+        leg.failed = true;
+        leg.singular.push_back(
+            {SingularKind::branch_jump, cur.driver, sign_of(cur.t_driver),
+             fmt::format("branch_jump: the chain cannot be followed beyond driver = {:.12g}: the "
+                         "only nearby solutions are on another branch",
+                         cur.driver)});
+        leg.singular_node.push_back(i);
+        leg.singular_key.push_back(leg.key.back());
+        leg.end_key = leg.key.back();
+        return leg;
+      }
+      continue;
+    }
+    // Singular positions inside this step, in the order of s.
+    std::vector<std::pair<SingularKind, Tracer::Node>> found;
+    Tracer::Node from = cur;  // the bracket's low end: s = 0 on the hyperplanes of `cur`
+    from.s = 0.0;
+    if (sign_of(cur.t_driver) * sign_of(next.t_driver) < 0)
+      found.push_back(
+          {SingularKind::toggle,
+           locate(
+               tracer, cur, from, next, [](const Tracer::Node& n) { return n.t_driver; }, 1e-300)});
+    if (sign_of(cur.orientation) * sign_of(next.orientation) < 0) {
+      std::vector<Tracer::Node> around;
+      if (const auto root = locate_change_point(tracer, cur, next, unit, around)) {
+        // The nodes around it become path nodes; the change point itself is only an event.
+        for (const Tracer::Node& n : around)
+          if (n.s > 0.0 && n.s < h) found.push_back({SingularKind::branch_jump, n});
+        Tracer::Node at = around[2];
+        at.s = 0.5 * (around[2].s + around[3].s);
+        at.driver = *root;
+        found.push_back({SingularKind::change_point, at});
+      } else {
+        found.push_back({SingularKind::change_point,
+                         locate(
+                             tracer, cur, from, next,
+                             [](const Tracer::Node& n) { return n.orientation; }, 1e-300, true)});
+      }
+    }
+    std::sort(found.begin(), found.end(),
+              [](const auto& a, const auto& b) { return a.second.s < b.second.s; });
+    bool stop = false;
+    for (auto& [kind, node] : found) {
+      if (kind == SingularKind::branch_jump) {  // a plain node near a change point
+        leg.nodes.push_back(node);
+        leg.base.push_back(i);
+        leg.key.push_back(leg.key[static_cast<size_t>(i)] + node.s);
+        continue;
+      }
+      const double dir = sign_of(cur.t_driver);
+      const double key = leg.key[static_cast<size_t>(i)] + node.s;
+      leg.singular_key.push_back(key);
+      if (kind == SingularKind::change_point) {
+        leg.singular_node.push_back(-1);  // no path node: its tangent is not defined
+      } else {
+        leg.nodes.push_back(node);
+        leg.base.push_back(i);
+        leg.key.push_back(key);
+        leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+      }
+      if (kind == SingularKind::toggle) {
+        ++toggles;
+        leg.singular.push_back(
+            {kind, node.driver, dir,
+             fmt::format("toggle: dead point at driver = {:.12g}: the chain cannot close beyond "
+                         "it (limit of the assembling range); the sweep {} here",
+                         node.driver, limits.stop_at_toggle ? "stops" : "reverses the driver")});
+        if (limits.stop_at_toggle) {
+          stop = true;
+          leg.end_key = leg.key.back();
+          break;
+        }
+      } else {
+        leg.singular.push_back(
+            {kind, node.driver, dir,
+             fmt::format("change_point at driver = {:.12g}: two branches cross; the sweep "
+                         "continues on the smooth branch (continuous velocity), leaving the "
+                         "assembly mode it had",
+                         node.driver)});
+      }
+    }
+    if (stop) return leg;
+    travel += std::abs(next.driver - cur.driver);
+    leg.nodes.push_back(next);
+    leg.base.push_back(i);
+    leg.key.push_back(leg.key[static_cast<size_t>(i)] + h);
+    h = std::min(2.0 * h, h_max);
+    // Whole turn of an angular driver without a toggle: the chain can rotate fully.
+    if (toggles == 0 && limits.angular && std::abs(next.driver - start_driver) >= 2.0 * kPi) {
+      leg.full_cycle = true;
+      return leg;
+    }
+    // After a toggle: back at the start value moving the first way, on the start pose?
+    if (toggles > 0 && sign_of(next.t_driver) == sigma &&
+        (cur.driver - start_driver) * (next.driver - start_driver) <= 0.0) {
+      Tracer::Node lo = cur, hi = next;
+      lo.s = 0.0;
+      const Tracer::Node at = locate(
+          tracer, cur, lo, hi, [&](const Tracer::Node& n) { return n.driver - start_driver; },
+          1e-15 * unit);
+      if (tracer.distance(at.q, start.q, true) < 1e-6) {
+        leg.closed = true;
+        leg.end_key = leg.key[static_cast<size_t>(i)] + at.s;
+        return leg;
+      }
+    }
+    if (travel > limits.reach) {
+      leg.end_key = leg.key.back();
+      return leg;
+    }
+  }
+  leg.end_key = leg.key.back();
+  return leg;
+}
+
+// One sample to write: where it lies on a leg and the driver state it is taken at.
+struct PlannedSample {
+  double key;  // position along the sweep's path
+  Tracer::Node node;
+  double value;
+  bool toggle = false;  // the sample is a located toggle
+};
+
+// Samples of a leg at the grid values start + k*step (and at its toggles), each located on the
+// curve by regula falsi on the driver, so it lies on the traced branch whatever the Jacobian.
+void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, double step,
+              double key_sign, double lo_window, double hi_window,
+              std::vector<PlannedSample>& out) {
+  Tracer tracer(solver);
+  const double unit = solver.mechanism().driver.angular() ? 1.0 : solver.length_scale();
+  for (size_t j = 0; j + 1 < leg.nodes.size(); ++j) {
+    const Tracer::Node& a = leg.nodes[j];
+    const Tracer::Node& b = leg.nodes[j + 1];
+    const int base_index = leg.base[j + 1];
+    const Tracer::Node& base = leg.nodes[static_cast<size_t>(base_index)];
+    Tracer::Node lo = a;
+    lo.s = static_cast<int>(j) == base_index ? 0.0 : a.s;
+    const double dmin = std::min(a.driver, b.driver), dmax = std::max(a.driver, b.driver);
+    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - 1e-9));
+    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + 1e-9));
+    for (long k = k0; k <= k1; ++k) {
+      const double g = grid_start + k * step;
+      if (g < lo_window - 1e-12 * unit || g > hi_window + 1e-12 * unit) continue;
+      Tracer::Node at;
+      if (std::abs(a.driver - g) <= 1e-15 * unit) {
+        at = lo;
+      } else if (std::abs(b.driver - g) <= 1e-15 * unit) {
+        at = b;
+      } else {
+        // Away from toggles straight at the driver value from the nearer end; it must land
+        // inside the segment. Else (near a toggle) by regula falsi in s.
+        const Tracer::Node& near = std::abs(g - a.driver) < std::abs(g - b.driver) ? lo : b;
+        const bool direct = tracer.correct_driver(base, g, at, near) &&
+                            at.s >= std::min(lo.s, b.s) - 1e-12 &&
+                            at.s <= std::max(lo.s, b.s) + 1e-12;
+        if (!direct)
+          at = locate(
+              tracer, base, lo, b, [&](const Tracer::Node& n) { return n.driver - g; },
+              1e-15 * unit);
+      }
+      const double key = leg.key[j] + (at.s - lo.s);
+      if (key > leg.end_key + 1e-12) continue;
+      out.push_back({key_sign * key, at, g, false});
+    }
+  }
+  for (size_t i = 0; i < leg.singular.size(); ++i) {
+    if (leg.singular[i].kind != SingularKind::toggle) continue;  // toggles are extra samples
+    const auto index = static_cast<size_t>(leg.singular_node[i]);
+    if (leg.key[index] > leg.end_key + 1e-12) continue;
+    out.push_back({key_sign * leg.key[index], leg.nodes[index], leg.nodes[index].driver, true});
+  }
+}
+
 }  // namespace
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
@@ -159,41 +633,35 @@ std::string AssemblingRange::explain(const Mechanism& m) const {
 }
 
 AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions& options,
-                                 double tolerance) {
+                                 double /*tolerance: toggles are located to ~1e-12*/) {
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
   AssemblingRange range;
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
-  const double start = state.driver.value;
-  const double step = mechanism.driver.angular() ? default_step(mechanism, options)
-                                                 : mechanism.size() / 50.0;
-  // Angles: search one turn each way. Sliders: up to 100 mechanism sizes each way.
-  const double reach = mechanism.driver.angular() ? 2.0 * kPi : 100.0 * mechanism.size();
-  const double small = min_step(solver, tolerance);
-  const Eigen::VectorXd q_start = state.q;
-
-  auto search = [&](double direction) {
-    state.q = q_start;
-    state.driver.value = start;
-    Follower follower(solver, state);
-    follower.start(solver.solve_position(state));
-    const SolveReport r = follower.advance_to(start + direction * reach, step, small);
-    return std::make_pair(r.status == PoseStatus::ok || r.status == PoseStatus::singular,
-                          state.driver.value);
+  const bool angular = mechanism.driver.angular();
+  const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular};
+  Tracer tracer(solver);
+  auto search = [&](double direction, Leg& leg) {
+    Tracer::Node start;
+    if (!tracer.start(state.q, direction, start)) return false;
+    leg = trace_leg(solver, start, limits);
+    return true;
   };
-  const auto [forward_free, upper] = search(+1.0);
-  if (forward_free && mechanism.driver.angular()) {
+  Leg up, down;
+  if (!search(+1.0, up)) return range;
+  if (up.full_cycle) {
     range.full_cycle = true;
-    range.lower = start;
-    range.upper = start + 2.0 * kPi;
+    range.lower = state.driver.value;
+    range.upper = state.driver.value + 2.0 * kPi;
     return range;
   }
-  const auto [backward_free, lower] = search(-1.0);
-  range.full_cycle = forward_free && backward_free;
-  range.lower = lower;
-  range.upper = upper;
+  if (!search(-1.0, down)) return range;
+  const auto free = [](const Leg& leg) { return !leg.failed && leg.singular.empty(); };
+  range.full_cycle = free(up) && free(down) && !angular;
+  range.lower = down.nodes.back().driver;
+  range.upper = up.nodes.back().driver;
   return range;
 }
 
@@ -233,11 +701,135 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
 
 }  // namespace
 
-Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {
+namespace {
+
+// A constant-speed sweep along the traced configuration curve (see Tracer): the cycle, the
+// assembling range (at_limit = stop), or the whole loop through its toggles (reverse). Returns
+// false when the tracer cannot start (the caller falls back to the Follower).
+bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
+                  const NewtonSolver& solver, KinematicState& state, Trajectory& out,
+                  std::vector<SingularPosition>& singular) {
   const Driver& d = mechanism.driver;
-  const NewtonSolver solver(mechanism, options.newton);
-  KinematicState state(mechanism);
-  const SolveReport assembled = solver.assemble(state);
+  const bool angular = d.angular();
+  const bool stop = options.at_limit == SweepOptions::AtLimit::stop;
+  const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
+  const double start_value = state.driver.value;
+  const double size = mechanism.size();
+  const LegLimits limits{stop, angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size,
+                         angular};
+  Tracer tracer(solver);
+  Tracer::Node first;
+  if (!tracer.start(state.q, sigma, first)) return false;
+  std::vector<Leg> legs;
+  legs.push_back(trace_leg(solver, first, limits));
+  if (stop && !legs[0].full_cycle) {
+    Tracer::Node back;
+    if (!tracer.start(state.q, -sigma, back)) return false;
+    legs.push_back(trace_leg(solver, back, limits));
+  }
+
+  // The grid: start + k*step; a slider's step is 1/360 of the range it covers.
+  double step = default_step(mechanism, options);
+  double lo = start_value, hi = start_value;
+  for (const Leg& leg : legs)
+    for (const Tracer::Node& n : leg.nodes) {
+      lo = std::min(lo, n.driver);
+      hi = std::max(hi, n.driver);
+    }
+  if (step == 0.0) step = hi > lo ? (hi - lo) / 360.0 : size / 50.0;
+  double window_lo = -std::numeric_limits<double>::infinity(), window_hi = -window_lo;
+  if (legs[0].full_cycle) {
+    window_lo = std::min(start_value, start_value + sigma * 2.0 * kPi);
+    window_hi = std::max(start_value, start_value + sigma * 2.0 * kPi);
+  }
+  std::vector<PlannedSample> plan;
+  for (size_t l = 0; l < legs.size(); ++l)
+    plan_leg(solver, legs[l], start_value, step, l == 0 ? 1.0 : -1.0, window_lo, window_hi, plan);
+  std::stable_sort(plan.begin(), plan.end(),
+                   [](const auto& a, const auto& b) { return a.key < b.key; });
+  // The start is on both legs and a toggle may fall on the grid: keep one of each.
+  const double unit = angular ? 1.0 : size;
+  std::vector<PlannedSample> samples;
+  for (const PlannedSample& p : plan) {
+    if (!samples.empty() && std::abs(p.key - samples.back().key) < 1e-9 &&
+        std::abs(p.value - samples.back().value) < 1e-12 * unit) {
+      samples.back().toggle = samples.back().toggle || p.toggle;
+      continue;
+    }
+    samples.push_back(p);
+  }
+
+  out.resize(mechanism, static_cast<int>(samples.size()));
+  double travel = 0.0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const PlannedSample& p = samples[i];
+    if (i > 0) travel += std::abs(p.value - samples[i - 1].value);
+    // Direction of the driver at the sample: toward the next sample (at the end, from the last).
+    double direction = sigma;
+    if (i + 1 < samples.size() && samples[i + 1].value != p.value)
+      direction = sign_of(samples[i + 1].value - p.value);
+    else if (i > 0)
+      direction = sign_of(p.value - samples[i - 1].value);
+    DriverState driver;
+    driver.value = p.value;
+    if (stop) {
+      driver.rate = d.law.speed;
+      driver.time = (p.value - d.start) / d.law.speed;
+    } else {
+      driver.rate = direction * std::abs(d.law.speed);
+      driver.time = travel / std::abs(d.law.speed);
+    }
+    // Polish at the exact driver value: Newton starts on the traced branch, so it stays there.
+    state.q = p.node.q;
+    state.driver = driver;
+    SolveReport report = solver.solve_position(state);
+    // At a change point the position is only determined to ~sqrt(tolerance) (the residual is
+    // quadratic along the branches there): that is a singular sample, not a jump.
+    const double moved = tracer.distance(state.q, p.node.q, false);
+    if ((report.status == PoseStatus::ok || report.status == PoseStatus::singular) &&
+        moved > 1e-6) {
+      const bool at_crossing = report.rcond < 1e-6;
+      report.status = at_crossing ? PoseStatus::singular : PoseStatus::branch_jump;
+      report.message =
+          at_crossing ? "at a change point: Jacobian singular" : "Newton left the traced branch";
+    }
+    if (p.toggle && report.status == PoseStatus::ok) {
+      report.status = PoseStatus::singular;
+      report.message = "toggle (dead point): Jacobian singular";
+    }
+    const int row = static_cast<int>(i);
+    record(solver, state, report, driver, out, row);
+  }
+
+  // Singular positions in the sweep's order.
+  std::vector<std::pair<double, SingularPosition>> found;
+  for (size_t l = 0; l < legs.size(); ++l)
+    for (size_t k = 0; k < legs[l].singular.size(); ++k) {
+      const double key = legs[l].singular_key[k];
+      if (key > legs[l].end_key + 1e-12) continue;
+      found.push_back({(l == 0 ? 1.0 : -1.0) * key, legs[l].singular[k]});
+    }
+  std::stable_sort(found.begin(), found.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [key, position] : found) {
+    singular.push_back(position);
+    out.events.push_back({position.driver,
+                          position.kind == SingularKind::branch_jump ? PoseStatus::branch_jump
+                                                                     : PoseStatus::singular,
+                          position.message});
+  }
+  if (!stop && !legs[0].closed && !legs[0].full_cycle && !legs[0].failed)
+    out.events.push_back({samples.empty() ? start_value : samples.back().value, PoseStatus::ok,
+                          "the loop did not close within the sweep's reach; the sweep ends here"});
+  return true;
+}
+
+// The sweep by driver-parametrised continuation (the Follower), over the driver values of a
+// polynomial or table law, or of an explicit range.
+Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& options,
+                          const NewtonSolver& solver, KinematicState& state,
+                          const SolveReport& assembled) {
+  const Driver& d = mechanism.driver;
   const double small = min_step(solver, 1e-10);
 
   std::vector<DriverState> drivers;
@@ -286,8 +878,46 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {
   return out;
 }
 
-Trajectory solve_at(const Mechanism& mechanism, double driver_value,
-                    const SweepOptions& options) {
+}  // namespace
+
+std::string_view to_string(SingularKind kind) {
+  switch (kind) {
+    case SingularKind::toggle:
+      return "toggle";
+    case SingularKind::change_point:
+      return "change_point";
+    case SingularKind::branch_jump:
+      return "branch_jump";
+  }
+  return "?";
+}
+
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
+                 std::vector<SingularPosition>& singular) {
+  const Driver& d = mechanism.driver;
+  const NewtonSolver solver(mechanism, options.newton);
+  KinematicState state(mechanism);
+  const SolveReport assembled = solver.assemble(state);
+  const bool assembles =
+      assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
+  if (assembles && d.law.kind == MotionLaw::Kind::constant_speed && !options.range && !d.range) {
+    Trajectory out;
+    out.method = "newton";
+    const Eigen::VectorXd q_start = state.q;
+    if (traced_sweep(mechanism, options, solver, state, out, singular)) return out;
+    state.q = q_start;
+    state.driver = d.at_time(0.0);
+    solver.solve_position(state);
+  }
+  return follower_sweep(mechanism, options, solver, state, assembled);
+}
+
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {
+  std::vector<SingularPosition> singular;
+  return sweep(mechanism, options, singular);
+}
+
+Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
   const Driver& d = mechanism.driver;
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);

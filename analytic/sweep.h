@@ -3,7 +3,10 @@
 #pragma once
 
 #include <optional>
+#include <string>
+#include <string_view>
 #include <utility>
+#include <vector>
 
 #include "analytic/newton.h"
 #include "analytic/trajectory.h"
@@ -16,6 +19,28 @@ struct SweepOptions {
   // Sweep this driver interval instead of the cycle or the assembling range [rad or m].
   std::optional<std::pair<double, double>> range;
   NewtonOptions newton;
+  // What a constant-speed sweep does at a limit of the assembling range (a toggle): stop there
+  // (the sweep covers the range on the drawn branch), or reverse the driver as a real rocker
+  // would and follow the chain back on the other assembly mode until it closes its loop.
+  enum class AtLimit { stop, reverse };
+  AtLimit at_limit = AtLimit::stop;
+};
+
+// A position along the sweep where the Jacobian is singular, or where the branch was lost.
+enum class SingularKind {
+  toggle,        // dead point: the driver reaches an extreme (a fold of the configuration curve,
+                 // transmission angle 0 or 180 deg in a four-bar) and bounds the assembling range
+  change_point,  // two branches cross (the constraint Jacobian loses rank); the driver passes and
+                 // the sweep continues on the smooth branch (continuous velocity)
+  branch_jump,   // the tracer could not continue on its branch
+};
+std::string_view to_string(SingularKind kind);
+
+struct SingularPosition {
+  SingularKind kind = SingularKind::toggle;
+  double driver = 0.0;     // located to ~1e-12 [rad or m]
+  double direction = 0.0;  // +1 / -1: the driver's direction of travel arriving there
+  std::string message;
 };
 
 // Where the chain can be assembled, found by continuation from the drawn position.
@@ -35,7 +60,14 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
 // cycle when the driver can complete it, else over the assembling range, else over
 // options.range. For a polynomial or table law, samples are equally spaced in time over the
 // law's duration. Each sample's status says whether it is usable; events list limits and jumps.
+//
+// Singular positions met on the way are events (kind `singular`, message "toggle: ...",
+// "change_point: ...") located to ~1e-12 in the driver; a constant-speed sweep without an
+// explicit range also has a sample exactly at each toggle (flagged singular). The overload also
+// returns them as data.
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options = {});
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
+                 std::vector<SingularPosition>& singular);
 
 // The exact state at one driver value, reached by continuation from the drawn position so it
 // lies on the drawn branch. The driver's rate and acceleration are those of the motion law at

@@ -1,6 +1,9 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
 
+#include <numbers>
+
+#include "analytic/fourbar.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "analytic/sweep.h"
@@ -11,8 +14,8 @@ namespace {
 
 std::string joint_text(const Mechanism& m, const Joint& j) {
   if (j.type == JointType::revolute)
-    return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name,
-                       m.links[j.link_b].name, m.links[j.link_a].points[j.point_a].name);
+    return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name, m.links[j.link_b].name,
+                       m.links[j.link_a].points[j.point_a].name);
   return fmt::format("{:<12} {} on line '{}' of {} (point {})", to_string(j.type),
                      m.links[j.link_b].name, m.links[j.link_a].lines[j.line].name,
                      m.links[j.link_a].name, m.links[j.link_b].points[j.point_b].name);
@@ -48,11 +51,39 @@ std::string driver_text(const Mechanism& m) {
       law = fmt::format("polynomial over {:.6g} s", d.law.duration);
       break;
     case MotionLaw::Kind::table:
-      law = fmt::format("table of {} rows over {:.6g} s", d.law.table_time.size(),
-                        d.law.duration);
+      law = fmt::format("table of {} rows over {:.6g} s", d.law.table_time.size(), d.law.duration);
       break;
   }
   return fmt::format("{}, start {:.6g} {}, {}", what, d.start / unit, unit_name, law);
+}
+
+// Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
+// the transmission angle over the swept samples.
+void print_singular_positions(const Mechanism& m) {
+  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
+  const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  std::vector<SingularPosition> singular;
+  const Trajectory t = sweep(m, {}, singular);
+  int flagged = 0;
+  for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
+  fmt::print("  singular positions over the sweep: {}{}\n",
+             singular.empty() ? std::string("none") : std::to_string(singular.size()),
+             flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
+  for (const SingularPosition& p : singular)
+    fmt::print("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit, unit_name);
+  if (singular.empty())
+    for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
+      fmt::print("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind), e.driver / unit,
+                 unit_name, e.message);
+  if (const auto fb = four_bar(m)) {
+    fmt::print("  four-bar: {}\n", fb->explain(m));
+    if (const auto mu = transmission_range(*fb, t))
+      fmt::print(
+          "  transmission angle (at {}, over {} samples): min {:.4f} deg at driver = {:.6f} "
+          "{}, max {:.4f} deg at driver = {:.6f} {}\n",
+          fb->c, mu->samples, mu->min * 180 / std::numbers::pi, mu->min_at / unit, unit_name,
+          mu->max * 180 / std::numbers::pi, mu->max_at / unit, unit_name);
+  }
 }
 
 int run_check(const std::string& path) {
@@ -87,8 +118,10 @@ int run_check(const std::string& path) {
              assembled.rcond);
   if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m);
-    fmt::print("  assembling range: {}\n", range.explain(m));
+    fmt::print("  assembling range: {}{}\n", range.explain(m),
+               range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
   }
+  print_singular_positions(m);
   fmt::print("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     fmt::print("  warning: the drawn position is singular: {}\n", assembled.message);

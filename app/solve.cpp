@@ -20,6 +20,7 @@ struct SolveArgs {
   double step = 0.0;
   std::string method = "auto";  // dyads | newton | auto (dyads when the chain decomposes)
   bool ic = false;              // print the instantaneous centres (with --at)
+  std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
 };
 
 nlohmann::json sample_json(const Trajectory& t, int row) {
@@ -202,6 +203,8 @@ int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
   if (args.step > 0.0) options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
+  const bool reverse = args.at_limit == "reverse";
+  if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
   const bool single = args.at.has_value();
   if (args.ic && !single) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
@@ -212,7 +215,11 @@ int run_solve(const SolveArgs& args) {
           ? solve_at(m, *args.at * (m.driver.angular() ? m.units.angle : m.units.length), options)
           : sweep(m, options);
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
-  const Decomposition decomposition = args.method == "newton" ? Decomposition{} : decompose(m);
+  // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
+  // sweep follows that; auto keeps it.
+  const Decomposition decomposition = args.method == "newton" || (reverse && args.method == "auto")
+                                          ? Decomposition{}
+                                          : decompose(m);
   if (args.method == "dyads" && !decomposition.complete) {
     fmt::print(stderr, "{}: error: --method dyads: the chain {}\n", m.file,
                "does not decompose into dyads: " + decomposition.reason);
@@ -222,6 +229,8 @@ int run_solve(const SolveArgs& args) {
   if (decomposition.complete) {
     t = dyad_sweep(m, t);
     why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
+  } else if (args.method == "auto" && reverse) {
+    why = "newton (--at-limit reverse: the traced sweep follows the loop through its toggles)";
   } else if (args.method == "auto") {
     why = "newton (the chain does not decompose into dyads: " + decomposition.reason + ")";
   }
@@ -259,6 +268,10 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--method", args->method,
                   "dyads (closed form), newton, or auto (dyads when the chain decomposes)")
       ->check(CLI::IsMember({"dyads", "newton", "auto"}));
+  cmd->add_option("--at-limit", args->at_limit,
+                  "at a limit of the assembling range (a toggle): stop, or reverse the driver "
+                  "as a real rocker would and follow the loop back on the other assembly mode")
+      ->check(CLI::IsMember({"stop", "reverse"}));
   cmd->add_flag("--ic", args->ic,
                 "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
   cmd->callback([&run, args] { run = [args] { return run_solve(*args); }; });

@@ -1,0 +1,292 @@
+// Branches and singular positions over a sweep: toggles (dead points) that bound the assembling
+// range, change points where branches cross, and four-bar Grashof classes and transmission
+// angles. Every expected value is closed-form geometry from the definitions' dimensions (the
+// law of cosines, collinear pivots), never the program's own output.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include "analytic/fourbar.h"
+#include "analytic/loader.h"
+#include "analytic/sweep.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+
+// A point of a link in its own frame [m].
+Eigen::Vector2d local(const Mechanism& m, const char* link, const char* point) {
+  const Link& l = m.links[static_cast<size_t>(m.find_link(link))];
+  return l.points[static_cast<size_t>(l.find_point(point))].local;
+}
+double length(const Mechanism& m, const char* link, const char* p, const char* q) {
+  return (local(m, link, p) - local(m, link, q)).norm();
+}
+
+std::vector<double> events_of(const std::vector<SingularPosition>& s, SingularKind kind) {
+  std::vector<double> out;
+  for (const SingularPosition& p : s)
+    if (p.kind == kind) out.push_back(p.driver);
+  return out;
+}
+
+double channel(const Trajectory& t, const std::string& name, int row) {
+  return (*t.channel(name))(row);
+}
+
+// z of (C - B) x (D - B): which side of BD the coupler-rocker joint C lies on (assembly mode).
+double side_of_c(const Trajectory& t, int row) {
+  const Eigen::Vector2d b(channel(t, "x.B", row), channel(t, "y.B", row));
+  const Eigen::Vector2d c(channel(t, "x.C", row), channel(t, "y.C", row));
+  const Eigen::Vector2d d(channel(t, "x.D", row), channel(t, "y.D", row));
+  const Eigen::Vector2d u = c - b, v = d - b;
+  return u.x() * v.y() - u.y() * v.x();
+}
+
+// The bundled parallelogram: its change points are where all four pivots are collinear, i.e.
+// B on the line AD with |BD| = b + c or |b - c|; the sweep must keep to the parallelogram
+// branch (the smooth one: rocker parallel to crank, coupler parallel to ground) through them.
+TEST(ChangePoint, ParallelogramAtCollinearPivotsStaysOnSmoothBranch) {
+  const Mechanism m = load_mechanism("mechanisms/fourbar_change_point.toml");
+  const double a = length(m, "crank", "A", "B"), b = length(m, "coupler", "B", "C"),
+               c = length(m, "rocker", "D", "C");
+  const Eigen::Vector2d A = local(m, "ground", "A"), D = local(m, "ground", "D");
+  const double ad_angle = std::atan2((D - A).y(), (D - A).x());
+  std::vector<double> expected;
+  for (double theta : {ad_angle, ad_angle + kPi}) {
+    const Eigen::Vector2d B = A + a * Eigen::Vector2d(std::cos(theta), std::sin(theta));
+    const double bd = (D - B).norm();
+    if (std::abs(bd - (b + c)) < 1e-12 || std::abs(bd - std::abs(b - c)) < 1e-12) {
+      // The sweep turns the crank once from its start, so each angle appears once in it.
+      const double start = m.driver.start;
+      expected.push_back(start + std::fmod(std::fmod(theta - start, 2 * kPi) + 2 * kPi, 2 * kPi));
+    }
+  }
+  std::sort(expected.begin(), expected.end());
+  ASSERT_EQ(expected.size(), 2u);  // a parallelogram has both
+
+  std::vector<SingularPosition> singular;
+  const Trajectory t = sweep(m, {}, singular);
+  const std::vector<double> found = events_of(singular, SingularKind::change_point);
+  ASSERT_EQ(found.size(), expected.size());
+  for (size_t i = 0; i < found.size(); ++i) EXPECT_NEAR(found[i], expected[i], 1e-9);
+  // Parallelogram branch on every sample, before and after each change point.
+  int usable = 0;
+  for (int r = 0; r < t.samples(); ++r) {
+    if (t.status[static_cast<size_t>(r)] != PoseStatus::ok) continue;
+    ++usable;
+    EXPECT_NEAR(
+        std::remainder(channel(t, "angle.rocker", r) - channel(t, "angle.crank", r), 2 * kPi), 0.0,
+        1e-9)
+        << "row " << r;
+    EXPECT_NEAR(std::remainder(channel(t, "angle.coupler", r), 2 * kPi), 0.0, 1e-9);
+  }
+  EXPECT_GE(usable, t.samples() - 2);  // only the samples at the change points are singular
+}
+
+// A change point of a crank-rocker (a + d = b + c, all lengths distinct): the smooth branch
+// crosses to the other side of BD (the assembly mode flips) at theta2 = 180 deg.
+TEST(ChangePoint, CrankRockerFlipsAssemblyModeOnSmoothBranch) {
+  const Mechanism m = load_mechanism("mechanisms/singular/fourbar_change_point_crank_rocker.toml");
+  std::vector<SingularPosition> singular;
+  const Trajectory t = sweep(m, {}, singular);
+  const std::vector<double> found = events_of(singular, SingularKind::change_point);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NEAR(found[0], kPi, 1e-9);
+  for (int r = 0; r + 1 < t.samples(); ++r) {
+    if (t.driver(r) < kPi - 1e-9 && t.driver(r + 1) > kPi - 1e-9) {
+      const int after = t.driver(r + 1) > kPi + 1e-9 ? r + 1 : r + 2;  // skip a sample at pi
+      EXPECT_LT(side_of_c(t, r) * side_of_c(t, after), 0.0);
+    }
+  }
+}
+
+// Law of cosines: the crank of a non-Grashof four-bar stops where coupler and rocker are in
+// line, |BD| = b + c:  cos(theta0) = (a^2 + d^2 - (b + c)^2) / (2 a d).
+TEST(Toggle, NonGrashofLimitsAndReverse) {
+  const Mechanism m = load_mechanism("mechanisms/singular/fourbar_non_grashof.toml");
+  const double a = length(m, "crank", "A", "B"), b = length(m, "coupler", "B", "C"),
+               c = length(m, "rocker", "D", "C"), d = length(m, "ground", "A", "D");
+  const double theta0 = std::acos((a * a + d * d - (b + c) * (b + c)) / (2 * a * d));
+
+  const AssemblingRange range = assembling_range(m);
+  EXPECT_FALSE(range.full_cycle);
+  EXPECT_NEAR(range.lower, -theta0, 1e-9);
+  EXPECT_NEAR(range.upper, theta0, 1e-9);
+
+  // Stop: the sweep covers [-theta0, theta0] on the drawn branch, ending on flagged toggles.
+  std::vector<SingularPosition> stop_events;
+  const Trajectory stop = sweep(m, {}, stop_events);
+  EXPECT_NEAR(stop.driver(0), -theta0, 1e-9);
+  EXPECT_NEAR(stop.driver(stop.samples() - 1), theta0, 1e-9);
+  EXPECT_EQ(stop.status.front(), PoseStatus::singular);
+  EXPECT_EQ(stop.status.back(), PoseStatus::singular);
+  const double drawn_side = side_of_c(stop, stop.samples() / 2);
+  for (int r = 1; r + 1 < stop.samples(); ++r) {
+    EXPECT_EQ(stop.status[static_cast<size_t>(r)], PoseStatus::ok);
+    EXPECT_GT(side_of_c(stop, r) * drawn_side, 0.0);  // the drawn (open) mode throughout
+  }
+
+  // Reverse: up to +theta0, back down on the other assembly mode to -theta0, up to the start.
+  SweepOptions reverse;
+  reverse.at_limit = SweepOptions::AtLimit::reverse;
+  std::vector<SingularPosition> events;
+  const Trajectory t = sweep(m, reverse, events);
+  const std::vector<double> toggles = events_of(events, SingularKind::toggle);
+  ASSERT_EQ(toggles.size(), 2u);
+  EXPECT_NEAR(toggles[0], theta0, 1e-9);
+  EXPECT_NEAR(toggles[1], -theta0, 1e-9);
+  int first = -1, second = -1;
+  for (int r = 0; r < t.samples(); ++r) {
+    if (first < 0 && std::abs(t.driver(r) - theta0) < 1e-12) first = r;
+    if (first >= 0 && second < 0 && std::abs(t.driver(r) + theta0) < 1e-12) second = r;
+  }
+  ASSERT_GT(first, 0);
+  ASSERT_GT(second, first);
+  for (int r = 0; r < t.samples(); ++r) {
+    if (r == first || r == second) continue;
+    const bool other_side = r > first && r < second;
+    EXPECT_EQ(side_of_c(t, r) * side_of_c(t, 0) < 0, other_side) << "row " << r;
+    if (r > 0 && r != first + 1 && r != second + 1) {  // driver direction per leg
+      EXPECT_EQ(t.driver(r) < t.driver(r - 1), other_side) << "row " << r;
+    }
+    if (r > 0) {
+      EXPECT_GT(t.time(r), t.time(r - 1));
+    }
+  }
+  // The loop closes on the drawn position.
+  EXPECT_NEAR(t.driver(t.samples() - 1), m.driver.start, 1e-12);
+  EXPECT_NEAR(channel(t, "angle.rocker", t.samples() - 1), channel(t, "angle.rocker", 0), 1e-9);
+}
+
+// The slider-driven offset slider-crank toggles where crank and rod are collinear:
+// |AC| = r + l or l - r with C = (s, e):  s = sqrt((r + l)^2 - e^2), sqrt((l - r)^2 - e^2).
+TEST(Toggle, SliderCrankDrivenFromSlider) {
+  const Mechanism m = load_mechanism("mechanisms/singular/slider_crank_from_slider.toml");
+  const double r = length(m, "crank", "A", "B"), l = length(m, "rod", "B", "C");
+  const double e = local(m, "ground", "P").y() - local(m, "ground", "A").y();
+  const double s_max = std::sqrt((r + l) * (r + l) - e * e);
+  const double s_min = std::sqrt((l - r) * (l - r) - e * e);
+
+  const AssemblingRange range = assembling_range(m);
+  EXPECT_NEAR(range.lower, s_min, 1e-12);  // [m]: 1e-9 mm
+  EXPECT_NEAR(range.upper, s_max, 1e-12);
+
+  SweepOptions reverse;
+  reverse.at_limit = SweepOptions::AtLimit::reverse;
+  std::vector<SingularPosition> events;
+  const Trajectory t = sweep(m, reverse, events);
+  const std::vector<double> toggles = events_of(events, SingularKind::toggle);
+  ASSERT_EQ(toggles.size(), 2u);
+  EXPECT_NEAR(toggles[0], s_max, 1e-12);  // the slider starts moving out (speed > 0)
+  EXPECT_NEAR(toggles[1], s_min, 1e-12);
+  // Passing both dead points the crank makes one full turn and the loop closes.
+  const int last = t.samples() - 1;
+  EXPECT_NEAR(t.driver(last), m.driver.start, 1e-12);
+  EXPECT_NEAR(std::abs(channel(t, "angle.crank", last) - channel(t, "angle.crank", 0)), 2 * kPi,
+              1e-9);
+}
+
+// The polycentric hinge assembles over a limited range of theta4: the sweep's ends are its
+// limits, flagged singular, and the chain closes just inside them but not just outside (by
+// the driver-parametrised Follower, an independent continuation).
+TEST(Toggle, PolycentricHingeLimits) {
+  const Mechanism m = load_mechanism("mechanisms/polycentric_hinge.toml");
+  std::vector<SingularPosition> events;
+  const Trajectory t = sweep(m, {}, events);
+  const AssemblingRange range = assembling_range(m);
+  ASSERT_FALSE(range.full_cycle);
+  EXPECT_NEAR(t.driver(0), range.lower, 1e-12);
+  EXPECT_NEAR(t.driver(t.samples() - 1), range.upper, 1e-12);
+  EXPECT_EQ(t.status.front(), PoseStatus::singular);
+  EXPECT_EQ(t.status.back(), PoseStatus::singular);
+  EXPECT_LT(t.rcond(0), 1e-6);
+  EXPECT_LT(t.rcond(t.samples() - 1), 1e-6);
+  EXPECT_GT(t.rcond(1), 1e-6);
+  EXPECT_EQ(events_of(events, SingularKind::toggle).size(), 2u);
+  EXPECT_TRUE(range.lower < m.driver.start && m.driver.start < range.upper);
+  for (const double limit : {range.lower, range.upper}) {
+    const double inward = limit == range.lower ? 1.0 : -1.0;
+    EXPECT_TRUE(usable(solve_at(m, limit + inward * 1e-7).status[0])) << limit;
+    EXPECT_FALSE(usable(solve_at(m, limit - inward * 1e-7).status[0])) << limit;
+  }
+}
+
+// Grashof class and transmission angle of the bundled crank-rocker: the extremes of
+// cos(mu) = (b^2 + c^2 - |BD|^2) / (2 b c) are at theta2 = 0 and 180 deg (|BD| = d - a, d + a).
+TEST(FourBar, CrankRockerGrashofAndTransmissionAngle) {
+  const Mechanism m = load_mechanism("mechanisms/fourbar_crank_rocker.toml");
+  const auto fb = four_bar(m);
+  ASSERT_TRUE(fb.has_value());
+  EXPECT_EQ(fb->grashof, Grashof::grashof);
+  EXPECT_EQ(fb->inversion, "crank-rocker");
+  const double a = length(m, "crank", "A", "B"), b = length(m, "coupler", "B", "C"),
+               c = length(m, "rocker", "D", "C"), d = length(m, "ground", "A", "D");
+  const double mu_min = std::acos((b * b + c * c - (d - a) * (d - a)) / (2 * b * c));
+  const double mu_max = std::acos((b * b + c * c - (d + a) * (d + a)) / (2 * b * c));
+  const Trajectory t = sweep(m);
+  const auto mu = transmission_range(*fb, t);
+  ASSERT_TRUE(mu.has_value());
+  // The 1 degree grid starts at 0, so it holds both extremes.
+  EXPECT_NEAR(mu->min, mu_min, 1e-9);
+  EXPECT_NEAR(mu->max, mu_max, 1e-9);
+  EXPECT_NEAR(std::remainder(mu->min_at, 2 * kPi), 0.0, 1e-9);
+  EXPECT_NEAR(std::remainder(mu->max_at - kPi, 2 * kPi), 0.0, 1e-9);
+  EXPECT_FALSE(four_bar(load_mechanism("mechanisms/sewing_machine.toml")).has_value());
+}
+
+// The stability catalogue: every definition in mechanisms/singular/ states its expected
+// singular behaviour in [expect] (derived by hand in its comments); the sweep must match it.
+class Catalogue : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Catalogue, MatchesExpectTable) {
+  const Mechanism m = load_mechanism(GetParam());
+  ASSERT_TRUE(m.expect.has_value()) << GetParam() << " has no [expect] table";
+  const Expectations& e = *m.expect;
+  const double tol = m.driver.angular() ? 1e-9 : 1e-9 * m.units.length;  // 1e-9 file units
+  const AssemblingRange range = assembling_range(m);
+  if (e.limits) {
+    EXPECT_FALSE(range.full_cycle);
+    EXPECT_NEAR(range.lower, e.limits->first, tol);
+    EXPECT_NEAR(range.upper, e.limits->second, tol);
+  }
+  std::vector<SingularPosition> singular;
+  sweep(m, {}, singular);
+  auto check = [&](std::vector<double> expected, SingularKind kind) {
+    std::vector<double> found = events_of(singular, kind);
+    std::sort(expected.begin(), expected.end());
+    std::sort(found.begin(), found.end());
+    ASSERT_EQ(found.size(), expected.size()) << to_string(kind);
+    for (size_t i = 0; i < found.size(); ++i)
+      EXPECT_NEAR(found[i], expected[i], tol) << to_string(kind);
+  };
+  check(e.toggles, SingularKind::toggle);
+  check(e.change_points, SingularKind::change_point);
+  EXPECT_TRUE(events_of(singular, SingularKind::branch_jump).empty());
+  if (!e.grashof.empty()) {
+    const auto fb = four_bar(m);
+    ASSERT_TRUE(fb.has_value());
+    EXPECT_EQ(to_string(fb->grashof), e.grashof);
+  }
+}
+
+std::vector<std::string> catalogue_files() {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator("mechanisms/singular"))
+    if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+INSTANTIATE_TEST_SUITE_P(Singular, Catalogue, ::testing::ValuesIn(catalogue_files()),
+                         [](const auto& info) {
+                           return std::filesystem::path(info.param).stem().string();
+                         });
+
+}  // namespace
+}  // namespace crosslink
