@@ -307,7 +307,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
 }
 
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
-                                    int repeat) {
+                                    int repeat, std::vector<std::string>* skipped) {
   std::vector<SweepRow> rows;
   MethodRun reference = run_reference(mechanism, options);
   for (int r = 1; r < repeat; ++r)
@@ -325,6 +325,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
   rows.push_back(newton);
 
   MethodRun dyads = run_method("dyads", mechanism, reference);
+  if (!dyads.available && skipped) skipped->push_back("dyads: " + dyads.message);
   if (dyads.available) {
     for (int r = 1; r < repeat && dyads.ok; ++r)
       dyads.cost.wall_seconds_per_cycle =
@@ -547,7 +548,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   ReferenceLadder ladder(mechanism, options.sweep);
   out.sample_interval = ladder.interval();
   out.samples = ladder.base().trajectory.samples();
-  out.rows = analytic_rows(mechanism, options.sweep, std::max(3, options.repeat));
+  out.rows = analytic_rows(mechanism, options.sweep, std::max(3, options.repeat), &out.skipped);
 
   // Snap the time steps first: two requests that land on the same step run once.
   std::vector<double> snapped;

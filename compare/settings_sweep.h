@@ -134,9 +134,10 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                           const GridPoint& point, const sim::Settings& base = {}, int repeat = 1);
 
 // The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
-// (errors against Newton), their cost from timing their sweeps (fastest of `repeat`).
+// (errors against Newton), their cost from timing their sweeps (fastest of `repeat`). A method
+// that cannot solve the mechanism is left out and, with `skipped`, says why there.
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
-                                    int repeat = 3);
+                                    int repeat = 3, std::vector<std::string>* skipped = nullptr);
 
 // Pareto front of (cost, error), both minimised: point i is on the front when it is eligible
 // and no other eligible point has cost <= and error <= with one of them strictly less.

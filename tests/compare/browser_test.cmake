@@ -1,7 +1,7 @@
 # cmake -DCROSSLINK=exe -DCHROMIUM=browser -DMECHANISM=file -DOUT=dir [-DAT=value] [-DENGINES=list]
-#       -P browser_test.cmake
-# Writes the HTML report of MECHANISM, opens it in headless Chromium, and fails unless the
-# page's own status element says every chart rendered with no script error. Keeps the report,
+#       [-DSUBCOMMAND=compare|sweep] -P browser_test.cmake
+# Writes the HTML report of MECHANISM (`crosslink compare`, or SUBCOMMAND's), opens it in
+# headless Chromium, and fails unless the page's own status element says every chart rendered with no script error. Keeps the report,
 # the dumped DOM, the browser log and a screenshot in OUT as artifacts.
 file(MAKE_DIRECTORY "${OUT}")
 set(report "${OUT}/report.html")
@@ -12,10 +12,13 @@ endif()
 if(DEFINED ENGINES)
   list(APPEND at_args --engines ${ENGINES})
 endif()
-execute_process(COMMAND "${CROSSLINK}" compare "${MECHANISM}" --report "${report}" ${at_args}
+if(NOT DEFINED SUBCOMMAND)
+  set(SUBCOMMAND compare)
+endif()
+execute_process(COMMAND "${CROSSLINK}" ${SUBCOMMAND} "${MECHANISM}" --report "${report}" ${at_args}
                 RESULT_VARIABLE code OUTPUT_QUIET)
 if(NOT EXISTS "${report}" OR code GREATER 1)
-  message(FATAL_ERROR "crosslink compare --report failed (exit ${code})")
+  message(FATAL_ERROR "crosslink ${SUBCOMMAND} --report failed (exit ${code})")
 endif()
 set(flags --headless --no-sandbox --disable-gpu --disable-background-networking
           --disable-component-update --no-first-run --user-data-dir=${OUT}/profile
