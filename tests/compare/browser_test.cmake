@@ -1,8 +1,9 @@
 # cmake -DCROSSLINK=exe -DCHROMIUM=browser -DMECHANISM=file -DOUT=dir [-DAT=value] [-DENGINES=list]
 #       [-DSUBCOMMAND=compare|sweep] -P browser_test.cmake
 # Writes the HTML report of MECHANISM (`crosslink compare`, or SUBCOMMAND's), opens it in
-# headless Chromium, and fails unless the page's own status element says every chart rendered with no script error. Keeps the report,
-# the dumped DOM, the browser log and a screenshot in OUT as artifacts.
+# headless Chromium, and fails unless the page's own status element says every chart rendered
+# with no script error. Keeps the report, the dumped DOM, the browser log and a screenshot in OUT
+# as artifacts.
 file(MAKE_DIRECTORY "${OUT}")
 set(report "${OUT}/report.html")
 set(at_args)
