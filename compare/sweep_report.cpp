@@ -87,6 +87,10 @@ json report_data(const SettingsSweep& sweep) {
       } else if (e < floor) {
         y = floor;
       }
+      if (y > ceiling) {
+        y = ceiling;
+        drawn += ", beyond the chart: drawn at the ceiling";
+      }
       j["err"][to_string(c)] = finite_or_null(e);
       j["raw"][to_string(c)] = finite_or_null(raw);
       j["y"][to_string(c)] = y;
