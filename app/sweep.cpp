@@ -142,9 +142,12 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
   cmd->add_option("--engines", args->engines, "engines, comma-separated: mujoco,bullet")
       ->capture_default_str();
+  std::string defaults;
+  for (double dt : compare::default_time_steps())
+    defaults += fmt::format("{}{:g}", defaults.empty() ? "" : ",", dt);
   cmd->add_option("--dt", args->dts,
-                  "time steps [s], comma-separated (default 1e-2,3e-3,1e-3,3e-4,1e-4); each is "
-                  "snapped so samples fall on step boundaries")
+                  "time steps [s], comma-separated (default " + defaults +
+                      "); each is snapped so samples fall on step boundaries")
       ->delimiter(',');
   cmd->add_option("--report", args->report, "write a self-contained HTML report");
   cmd->add_option("--csv", args->csv, "write one row per engine setting as CSV (SI)");
