@@ -1,5 +1,6 @@
 #include "compare/metrics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -33,17 +34,29 @@ std::string channel_kind(std::string_view channel) {
 }
 
 double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
-                    const std::vector<bool>& usable) {
-  if (Trajectory::quantity_of(channel) == Quantity::angle) return std::numbers::pi;
+                    const std::vector<bool>& usable, double size) {
+  const Quantity q = Trajectory::quantity_of(channel);
+  if (q == Quantity::angle) return std::numbers::pi;
+  if (q == Quantity::position) return size;
   double peak = 0.0;
   for (Eigen::Index k = 0; k < reference.size(); ++k)
     if (usable[static_cast<size_t>(k)]) peak = std::max(peak, std::abs(reference(k)));
   return peak;
 }
 
+double peak_floor(std::string_view channel, double kind_peak, double magnitude_peak,
+                  double driver_rate, double size) {
+  const Quantity q = Trajectory::quantity_of(channel);
+  if (q != Quantity::velocity && q != Quantity::acceleration) return 0.0;
+  const bool angular = channel_kind(channel).ends_with("/angular");
+  const double rate = q == Quantity::velocity ? driver_rate : driver_rate * driver_rate;
+  const double characteristic = angular ? rate : rate * size;
+  return std::max({magnitude_peak, 0.01 * kind_peak, characteristic});
+}
+
 ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& reference,
                                const Eigen::VectorXd& method, const std::vector<bool>& usable,
-                               double peak_floor) {
+                               double size, double peak_floor) {
   ChannelMetrics m;
   m.channel = std::string(channel);
   m.quantity = Trajectory::quantity_of(channel);
@@ -52,7 +65,7 @@ ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& 
   m.in_verdict = usable;
 
   // P and P_eff: the scale of every % of peak below.
-  m.peak = channel_peak(channel, reference, usable);
+  m.peak = channel_peak(channel, reference, usable, size);
   m.peak_used = std::max(m.peak, peak_floor);
   const double scale = m.peak_used > 0.0 ? m.peak_used : 1.0;
 
@@ -95,8 +108,12 @@ std::vector<std::pair<std::string, std::string>> metric_legend() {
        "(-180, 180] deg (compared modulo 360 deg)"},
       {"peak",
        "P = largest |reference| over the usable samples of the cycle; angles: 180 deg; "
-       "floored at 1 % of the largest peak of the same kind (e.g. all linear "
-       "velocities) so a channel that stays at zero is not scaled by its round-off"},
+       "positions: the mechanism's size (coordinates depend on the origin)"},
+      {"scale",
+       "P floored by: a component's vector magnitude peak (vx against |v|); 1 % of the "
+       "largest peak of the same kind; the mechanism's characteristic value (driver rate W: "
+       "W, W^2, W size, W^2 size), so a channel that is zero by design is not scaled by "
+       "its round-off"},
       {"% of peak", "100 |d| / P per sample; its maximum over the cycle is the verdict metric"},
       {"max % of peak", "the largest % of peak over the usable samples, at the worst sample"},
       {"RMS % of peak", "100 sqrt(mean d^2) / P over the usable samples"},
@@ -104,8 +121,9 @@ std::vector<std::pair<std::string, std::string>> metric_legend() {
        "100 |d| / |reference| (the course's \"% difference\"); not shown "
        "where |reference| < 1 % of P"},
       {"usable sample",
-       "PoseStatus ok in both trajectories; singular, loop-gap and other "
-       "flagged samples are shown but kept out of every max, RMS and verdict"},
+       "PoseStatus ok in both trajectories and not next to a singular sample of the "
+       "reference; singular, loop-gap and other flagged samples are shown but kept out "
+       "of every max, RMS and verdict"},
       {"verdict",
        "pass when max % of peak <= the tolerance of the channel's quantity class "
        "for that method"},

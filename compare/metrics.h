@@ -4,17 +4,29 @@
 //
 // Notation, for one channel (e.g. "omega.coupler") over the samples k of one sweep:
 //   r_k   the reference's value (analytic Newton), m_k the method's value, SI units
-//   K     the usable samples: PoseStatus ok in both trajectories. Samples outside K are kept in
-//         the per-sample arrays (shown in charts and CSV) but never enter a max, RMS or verdict.
+//   K     the usable samples: PoseStatus ok in both trajectories, and not next to a sample the
+//         reference flags singular (see comparison.cpp). Samples outside K are kept in the
+//         per-sample arrays (shown in charts and CSV) but never enter a max, RMS or verdict.
 //
 //   difference          d_k = m_k - r_k
 //                       angle channels: d_k wrapped into (-pi, pi] (angles compare modulo 2 pi)
 //   peak                P = max_{k in K} |r_k|
 //                       angle channels: P = pi, the peak of an angle taken modulo 2 pi
-//                       floor: P_eff = max(P, 1 % of the largest P among the channels of the
-//                       same kind, e.g. every linear velocity), so a channel that is zero over
-//                       the cycle (a fixed point, a constant-speed crank's alpha) is not scaled
-//                       by its own round-off
+//                       position channels (x, y, s): P = the mechanism's size L (the largest
+//                       distance between its points): coordinates depend on where the origin
+//                       is, so their own peak is no scale; 0.01 % of L is 1e-4 of the size
+//   scale               P_eff = max(P, F), the floor F being the largest of
+//                       - for a component (vx, vy, ax, ay) the peak of its point's magnitude
+//                         (|v| or |a|): a component is judged against the vector it belongs to
+//                       - 1 % of the largest P among the channels of the same kind (e.g. every
+//                         linear velocity)
+//                       - the mechanism's characteristic value of that kind, from the driver's
+//                         peak rate W (rad/s; a slider's m/s over L) and L: W for angular
+//                         velocity, W^2 for angular acceleration, W L and W^2 L for linear ones
+//                         (the rates a link turning with the driver would have)
+//                       so that a channel that is zero by design (a fixed point, a constant-speed
+//                       crank's alpha, every alpha of a parallelogram) is not scaled by its own
+//                       round-off
 //   % of peak           e_k = 100 |d_k| / P_eff                       (the verdict metric)
 //   max % of peak       E = max_{k in K} e_k, at the worst sample k* = argmax
 //   RMS % of peak       100 sqrt(mean_{k in K} d_k^2) / P_eff
@@ -24,7 +36,7 @@
 //   max |d|, RMS |d|    over K, in SI units
 //
 // A channel passes when E <= tolerance (in % of peak; see tolerance.h). A channel with no
-// usable sample has no verdict ("n/a") and does not fail.
+// usable sample has no verdict ("n/a"); a method with no usable sample at all fails.
 #pragma once
 
 #include <Eigen/Core>
@@ -70,14 +82,20 @@ struct ChannelMetrics {
 };
 
 // Compares one channel. `reference` and `method` are the channel's columns over the same
-// samples; `usable` marks K; `peak_floor` is 1 % of the kind's largest peak (see above).
+// samples; `usable` marks K; `size` is L; `peak_floor` is the floor F (see above).
 ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& reference,
                                const Eigen::VectorXd& method, const std::vector<bool>& usable,
-                               double peak_floor);
+                               double size, double peak_floor);
 
-// P for one reference column over its usable samples (pi for angle channels).
+// P for one reference column over its usable samples (pi for angles, `size` for positions).
 double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
-                    const std::vector<bool>& usable);
+                    const std::vector<bool>& usable, double size);
+
+// The floor F of one channel (see above). `kind_peak` is the largest P of the channel's kind,
+// `magnitude_peak` the peak of its point's |v| or |a| (0 for a channel that is no component),
+// `driver_rate` the driver's peak rate W.
+double peak_floor(std::string_view channel, double kind_peak, double magnitude_peak,
+                  double driver_rate, double size);
 
 // The definitions above as legend lines for reports: (term, definition).
 std::vector<std::pair<std::string, std::string>> metric_legend();

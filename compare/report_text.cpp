@@ -206,7 +206,9 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   // Verdict, with every failing channel named at its worst sample.
   fmt::print(out, "\n");
   for (const std::string& name : cmp.failed_methods)
-    fmt::print(out, "FAIL: method {} did not complete: {}\n", name, cmp.method(name)->message);
+    fmt::print(out, "FAIL: method {} {}\n", name,
+               cmp.method(name)->ok ? "flagged every sample: no usable sample to compare"
+                                    : "did not complete: " + cmp.method(name)->message);
   for (const ChannelResult& c : cmp.channels)
     if (c.verdict == Verdict::fail) {
       const DisplayUnit u = display_unit(m, c.metrics.channel);

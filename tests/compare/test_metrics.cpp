@@ -30,7 +30,7 @@ TEST(CompareChannel, PeakWorstSampleAndExclusion) {
   ref << 1.0, -4.0, 2.0, 0.01, 3.0;
   m << 1.1, -4.0, 2.0, 0.02, 9.0;  // sample 4 is far off but flagged
   const std::vector<bool> usable = {true, true, true, true, false};
-  const ChannelMetrics c = compare_channel("v.B", ref, m, usable, 0.0);
+  const ChannelMetrics c = compare_channel("v.B", ref, m, usable, 1.0, 0.0);
   EXPECT_EQ(c.usable, 4);
   EXPECT_DOUBLE_EQ(c.peak, 4.0);
   EXPECT_EQ(c.worst_sample, 0);  // the flagged sample 4 does not count
@@ -46,7 +46,7 @@ TEST(CompareChannel, AnglesWrapAndUsePi) {
   Eigen::VectorXd ref(2), m(2);
   ref << 0.1, 7.0;
   m << 0.1 + 2 * std::numbers::pi, 7.0 - 2 * std::numbers::pi + 1e-3;
-  const ChannelMetrics c = compare_channel("angle.crank", ref, m, {true, true}, 0.0);
+  const ChannelMetrics c = compare_channel("angle.crank", ref, m, {true, true}, 1.0, 0.0);
   EXPECT_NEAR(c.max_abs, 1e-3, 1e-12);
   EXPECT_NEAR(c.peak_used, std::numbers::pi, 0.0);
   EXPECT_EQ(c.worst_sample, 1);
@@ -55,11 +55,33 @@ TEST(CompareChannel, AnglesWrapAndUsePi) {
 TEST(CompareChannel, PeakFloorForChannelsThatStayAtZero) {
   Eigen::VectorXd ref = Eigen::VectorXd::Zero(3), m(3);
   m << 1e-9, -2e-9, 0.0;
-  const ChannelMetrics c = compare_channel("alpha.crank", ref, m, {true, true, true}, 10.0);
+  const ChannelMetrics c = compare_channel("alpha.crank", ref, m, {true, true, true}, 1.0, 10.0);
   EXPECT_DOUBLE_EQ(c.peak_used, 10.0);
   EXPECT_NEAR(c.max_pct_of_peak, 2e-8, 1e-20);
   EXPECT_EQ(channel_kind("alpha.crank"), "acceleration/angular");
   EXPECT_EQ(channel_kind("sddot.needle"), "acceleration/linear");
+}
+
+// Positions are judged against the mechanism's size, whatever the coordinate's own peak: a
+// needle sliding on x = 0 has x.F ~ 0, and 1e-6 m off is 1e-4 % of a 1 m mechanism.
+TEST(CompareChannel, PositionsUseTheMechanismSize) {
+  Eigen::VectorXd ref(2), m(2);
+  ref << 1e-17, -2e-17;
+  m << 1e-6, 0.0;
+  const ChannelMetrics c = compare_channel("x.F", ref, m, {true, true}, 1.0, 0.0);
+  EXPECT_DOUBLE_EQ(c.peak, 1.0);
+  EXPECT_NEAR(c.max_pct_of_peak, 1e-4, 1e-12);  // less the reference's 1e-17 m
+}
+
+// The floor: a component against its vector's magnitude; zero-by-design channels against the
+// mechanism's characteristic rates (W = 2 rad/s, L = 0.5 m).
+TEST(CompareChannel, FloorFromMagnitudeKindAndCharacteristic) {
+  EXPECT_DOUBLE_EQ(peak_floor("vx.B", 3.0, 5.0, 2.0, 0.5), 5.0);             // |v.B| peak
+  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 900.0, 0.0, 2.0, 0.5), 9.0);    // 1 % of kind
+  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 1e-9, 0.0, 20.0, 0.5), 400.0);  // W^2
+  EXPECT_DOUBLE_EQ(peak_floor("a.C", 1e-9, 0.0, 20.0, 0.5), 200.0);          // W^2 L
+  EXPECT_DOUBLE_EQ(peak_floor("omega.C", 1e-9, 0.0, 20.0, 0.5), 20.0);       // W
+  EXPECT_DOUBLE_EQ(peak_floor("x.C", 1.0, 0.0, 20.0, 0.5), 0.0);             // positions: L
 }
 
 TEST(Tolerances, DefaultsDefinitionAndCommandLine) {
