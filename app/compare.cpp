@@ -14,6 +14,7 @@
 #include "app/commands.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
+#include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::app {
 namespace {
@@ -24,6 +25,7 @@ struct CompareArgs {
   std::string path;
   std::string engines = "analytic,dyads,ic,mujoco,bullet";
   std::string report, csv, json;
+  std::string export_mjcf;  // write the MuJoCo scene (MJCF) it runs
   std::optional<double> at;
   double step = 0.0;
   std::vector<std::string> tolerances;  // "velocity=0.5", "dyads:velocity=1e-6"
@@ -104,10 +106,15 @@ int run_compare(CompareArgs args) {
   if (args.step > 0.0) options.step = args.step * driver_scale;
   std::vector<compare::MethodRun> runs;
   runs.push_back(compare::run_reference(m, options));
+  if (!args.export_mjcf.empty()) {
+    const std::string mjcf =
+        sim::mujoco_mjcf(m, runs.front().trajectory, settings_for("mujoco", args.settings));
+    write_to(args.export_mjcf, [&](std::ostream& out) { out << mjcf; });
+  }
   for (const std::string& n : names) {
     if (n == "analytic") continue;
     sim::Settings settings = settings_for(n, args.settings);
-    if (accuracy && compare::Tolerances::is_engine(n) && compare::method_built(n))
+    if (accuracy && compare::Tolerances::is_engine(n))
       settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
                                    args.json == "-" ? stderr : stdout);
     runs.push_back(compare::run_method(n, m, runs.front(), settings));
@@ -164,6 +171,8 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
                   "X or X%: run each engine at its cheapest setting meeting X % of peak on every "
                   "class (searched coarse to fine, docs/sweep.md); X becomes the engines' "
                   "tolerance");
+  cmd->add_option("--export-mjcf", args->export_mjcf,
+                  "write the generated MuJoCo model (MJCF) to open in MuJoCo's own viewer");
   cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
   cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }

@@ -6,18 +6,10 @@
 #include <chrono>
 #include <stdexcept>
 
-#ifdef CROSSLINK_HAVE_DYADS
 #include "analytic/dyads.h"
-#endif
-#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
 #include "analytic/instant_centres.h"
-#endif
-#ifdef CROSSLINK_HAVE_MUJOCO
-#include "sim/mujoco/mujoco_engine.h"
-#endif
-#ifdef CROSSLINK_HAVE_BULLET
 #include "sim/bullet/bullet_engine.h"
-#endif
+#include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::compare {
 namespace {
@@ -72,21 +64,8 @@ const std::vector<std::string>& method_names() {
   return names;
 }
 
-bool method_built(std::string_view name) {
-  if (name == "analytic") return true;
-#ifdef CROSSLINK_HAVE_DYADS
-  if (name == "dyads") return true;
-#endif
-#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
-  if (name == "ic") return true;
-#endif
-#ifdef CROSSLINK_HAVE_MUJOCO
-  if (name == "mujoco") return true;
-#endif
-#ifdef CROSSLINK_HAVE_BULLET
-  if (name == "bullet") return true;
-#endif
-  return false;
+bool is_method(std::string_view name) {
+  return std::find(method_names().begin(), method_names().end(), name) != method_names().end();
 }
 
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options) {
@@ -114,7 +93,6 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
   if (name == "analytic") return reference;
   if (name == "dyads") {
     const std::string description = "closed-form Assur groups (dyads) solved in sequence";
-#ifdef CROSSLINK_HAVE_DYADS
     const Decomposition decomposition = decompose(mechanism);
     if (!decomposition.complete)
       return not_available(name, description,
@@ -135,13 +113,9 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
       groups += (groups.empty() ? "" : "; ") + g.name;
     run.settings = {{"groups", groups}, {"singular_sine", "1e-7"}};
     return run;
-#else
-    return not_available(name, description, "not built into this binary (analytic/dyads.h)");
-#endif
   }
   if (name == "ic") {
     const std::string description = "instantaneous centres (Kennedy-Aronhold): velocities";
-#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
     // Velocities from the centres of every exact pose; positions are the reference's.
     MethodRun run;
     run.name = "ic";
@@ -189,28 +163,15 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     run.settings = {{"positions", "from the reference sweep"},
                     {"centres", "primary + Kennedy-Aronhold, else from exact velocities"}};
     return run;
-#else
-    return not_available(name, description, "not built into this binary");
-#endif
   }
   if (name == "mujoco") {
-#ifdef CROSSLINK_HAVE_MUJOCO
     return run_engine(*sim::make_mujoco_engine(), "MuJoCo 2.2.2 scene", mechanism, reference,
                       engine_settings);
-#else
-    return not_available(name, "MuJoCo 2.2.2 scene", "not built into this binary");
-#endif
   }
   if (name == "bullet") {
-#ifdef CROSSLINK_HAVE_BULLET
     return run_engine(*sim::make_bullet_engine(), "Bullet 3.24 float64 scene", mechanism, reference,
                       engine_settings);
-#else
-    return not_available(name, "Bullet 3.24 float64 scene", "not built into this binary");
-#endif
   }
-  (void)mechanism;
-  (void)engine_settings;
   throw std::invalid_argument(
       fmt::format("unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", name));
 }

@@ -36,8 +36,8 @@ struct MethodRun {
 
 // "analytic", "dyads", "ic", "mujoco", "bullet", in report order.
 const std::vector<std::string>& method_names();
-// Whether the method is compiled into this binary (engines are optional at build time).
-bool method_built(std::string_view name);
+// Whether `name` is one of method_names().
+bool is_method(std::string_view name);
 
 // The reference: the exact Newton sweep of the mechanism.
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});

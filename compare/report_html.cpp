@@ -16,11 +16,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "analytic/instant_centres.h"
 #include "analytic/sweep.h"
 #include "compare/report.h"
-#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
-#include "analytic/instant_centres.h"
-#endif
 
 namespace crosslink::compare {
 
@@ -369,8 +367,7 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   json data = report_data(cmp, pose);
   data["drawing"]["at"] = at / du.scale;
   data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
-  std::string centres_note = "Instantaneous centres are not built into this binary.";
-#ifdef CROSSLINK_HAVE_INSTANT_CENTRES
+  std::string centres_note = "No instantaneous centres: the drawn pose is singular.";
   // Instantaneous centres I(i,j), links numbered from 1 in definition order; those far outside
   // the mechanism (or at infinity) are listed, not drawn.
   if (usable(pose.status.at(0))) {
@@ -403,7 +400,6 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     for (size_t i = 0; i < far.size(); ++i) centres_note += (i ? ", " : "") + far[i];
     centres_note += ".";
   }
-#endif
 
   std::string legend;
   for (const auto& [term, definition] : metric_legend())

@@ -561,8 +561,8 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   }
   std::vector<GridPoint> grid;
   for (const std::string& engine : options.engines) {
-    if (!method_built(engine)) {
-      out.skipped.push_back(engine + ": not built into this binary");
+    if (!Tolerances::is_engine(engine)) {
+      out.skipped.push_back(engine + ": not an engine (mujoco, bullet)");
       continue;
     }
     const std::vector<GridPoint> g = engine_grid(engine, snapped);

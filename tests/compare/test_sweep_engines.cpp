@@ -36,7 +36,6 @@ double h() {
 // MuJoCo, Euler with the Newton solver and deadbeat loops: second order in dt (engine-notes:
 // "errors scale as dt^2"), on every class, over h/2 .. h/16.
 TEST(SweepEngines, MujocoDefaultConvergesAtSecondOrder) {
-  if (!method_built("mujoco")) GTEST_SKIP() << "MuJoCo not built";
   ReferenceLadder ladder(crank_rocker(), {});
   std::vector<double> dts;
   std::array<std::vector<double>, 3> errors;
@@ -58,7 +57,6 @@ TEST(SweepEngines, MujocoDefaultConvergesAtSecondOrder) {
 // MuJoCo's own default loop softness (solref 0.02 1): engine-notes measured a 1.5 cm loop gap
 // and 67 % of peak in the rocker's omega. The sweep must show it (flagged) and never pick it.
 TEST(SweepEngines, MujocoDefaultSoftnessCollapses) {
-  if (!method_built("mujoco")) GTEST_SKIP() << "MuJoCo not built";
   ReferenceLadder ladder(crank_rocker(), {});
   const SweepRow soft = evaluate_setting(
       crank_rocker(), ladder,
@@ -72,7 +70,6 @@ TEST(SweepEngines, MujocoDefaultSoftnessCollapses) {
 // step; no coarser step than the chosen one had a setting that met it.
 TEST(SweepEngines, CheapestSettingMeetsTheAccuracyAndStopsEarly) {
   for (const char* engine : {"mujoco", "bullet"}) {
-    if (!method_built(engine)) continue;
     ReferenceLadder ladder(crank_rocker(), {});
     const std::vector<double> dts = accuracy_time_steps(ladder.interval());
     const Selection loose = cheapest_setting(crank_rocker(), ladder, engine, 1.0, dts);
