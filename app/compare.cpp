@@ -12,6 +12,7 @@
 
 #include "analytic/loader.h"
 #include "app/commands.h"
+#include "app/files.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "sim/mujoco/mujoco_engine.h"
@@ -41,23 +42,6 @@ std::string default_mechanism() {
   return (fs::path(CROSSLINK_SOURCE_DIR) / relative).string();
 }
 
-std::vector<std::string> split(const std::string& text, char sep) {
-  std::vector<std::string> parts;
-  std::stringstream in(text);
-  for (std::string part; std::getline(in, part, sep);)
-    if (!part.empty()) parts.push_back(part);
-  return parts;
-}
-
-// The installed chart scripts: <prefix>/share/crosslink/report next to <prefix>/bin.
-std::vector<std::string> installed_asset_dirs() {
-  std::error_code error;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
-  if (error) return {};
-  return {(exe.parent_path().parent_path() / "share" / "crosslink" / "report").string()};
-}
-
-// "key=value" for every engine, or "engine:key=value" for one.
 sim::Settings settings_for(const std::string& engine, const std::vector<std::string>& all) {
   sim::Settings out;
   for (const std::string& s : all) {
@@ -72,14 +56,6 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
     out.emplace_back(key, s.substr(eq + 1));
   }
   return out;
-}
-
-template <class Write>
-void write_to(const std::string& path, Write write) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::invalid_argument(fmt::format("cannot write '{}'", path));
-  write(out);
-  if (!out) throw std::invalid_argument(fmt::format("error writing '{}'", path));
 }
 
 int run_compare(CompareArgs args) {
@@ -109,7 +85,7 @@ int run_compare(CompareArgs args) {
   if (!args.export_mjcf.empty()) {
     const std::string mjcf =
         sim::mujoco_mjcf(m, runs.front().trajectory, settings_for("mujoco", args.settings));
-    write_to(args.export_mjcf, [&](std::ostream& out) { out << mjcf; });
+    write_file(args.export_mjcf, mjcf);
   }
   for (const std::string& n : names) {
     if (n == "analytic") continue;
@@ -129,17 +105,20 @@ int run_compare(CompareArgs args) {
     if (json_stdout)
       fmt::print("{}", text);
     else
-      write_to(args.json, [&](std::ostream& out) { out << text; });
+      write_file(args.json, text);
   }
-  if (!args.csv.empty())
-    write_to(args.csv, [&](std::ostream& out) { compare::write_csv(cmp, out); });
+  if (!args.csv.empty()) {
+    std::ostringstream csv;
+    compare::write_csv(cmp, csv);
+    write_file(args.csv, csv.str());
+  }
   if (!args.report.empty()) {
     compare::HtmlOptions html;
     if (args.at) html.at = *args.at * driver_scale;
     html.asset_dirs = installed_asset_dirs();
     std::ostringstream page;
     compare::write_html(cmp, html, page);
-    write_to(args.report, [&](std::ostream& out) { out << page.str(); });
+    write_file(args.report, page.str());
     fmt::print(json_stdout ? stderr : stdout, "report: {}\n", args.report);
   }
   return cmp.pass() ? kExitOk : kExitFail;

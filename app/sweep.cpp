@@ -12,6 +12,7 @@
 
 #include "analytic/loader.h"
 #include "app/commands.h"
+#include "app/files.h"
 #include "compare/settings_sweep.h"
 
 namespace crosslink::app {
@@ -63,33 +64,10 @@ struct SweepArgs {
   bool quiet = false;
 };
 
-std::vector<std::string> split_list(const std::string& text) {
-  std::vector<std::string> parts;
-  std::stringstream in(text);
-  for (std::string part; std::getline(in, part, ',');)
-    if (!part.empty()) parts.push_back(part);
-  return parts;
-}
-
-// The installed chart scripts: <prefix>/share/crosslink/report next to <prefix>/bin.
-std::vector<std::string> installed_asset_dirs() {
-  std::error_code error;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
-  if (error) return {};
-  return {(exe.parent_path().parent_path() / "share" / "crosslink" / "report").string()};
-}
-
-void write_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::invalid_argument(fmt::format("cannot write '{}'", path));
-  out << text;
-  if (!out) throw std::invalid_argument(fmt::format("error writing '{}'", path));
-}
-
 int run_sweep(const SweepArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   compare::SettingsSweepOptions options;
-  options.engines = split_list(args.engines);
+  options.engines = split(args.engines);
   for (const std::string& e : options.engines)
     if (e != "mujoco" && e != "bullet")
       throw std::invalid_argument(
