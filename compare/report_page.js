@@ -49,6 +49,8 @@
     return {
       $schema: 'https://vega.github.io/schema/vega-lite/v6.json',
       datasets: {series: [], flagged: []},
+      // Room for the y axes' labels and titles, which the concatenation otherwise clips.
+      padding: {left: 60, top: 5, right: 5, bottom: 5},
       vconcat: [
         {
           width: 640, height: 220,
