@@ -19,7 +19,8 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   phi.setZero(n);
   rhs.setZero(n);
   jacobian.setZero(n, n);
-  lu = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
+  lu = SmallLU(n);
+  q_start.setZero(n);
   estimate.setZero(n);
   estimate_rhs.setZero(n);
   sign.setZero(n);
@@ -28,10 +29,135 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   sin_theta.setZero(mechanism.moving_count());
 }
 
+SmallLU::SmallLU(Eigen::Index size) : Eigen::PartialPivLU<Eigen::MatrixXd>(size) {
+  const Eigen::Index triangle = size * (size - 1) / 2;
+  l_start_.setZero(size + 1);
+  u_start_.setZero(size + 1);
+  l_rows_.setZero(triangle);
+  u_rows_.setZero(triangle);
+  l_values_.setZero(triangle);
+  u_values_.setZero(triangle);
+  inverse_diagonal_.setZero(size);
+  pivot_rows_.setZero(size);
+}
+
+void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
+  // Eigen's unblocked_lu (right-looking, partial pivoting) in plain loops on column-major
+  // storage, visiting only the nonzeros of the pivot column and of the pivot row.
+  const Eigen::Index n = a.rows();
+  m_lu = a;  // same size as constructed: a copy, no allocation
+  m_l1_norm = l1_norm;
+  double* lu = m_lu.data();
+  int* transpositions = m_rowsTranspositions.indices().data();
+  int* below = pivot_rows_.data();
+  int swaps = 0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    double* column_k = lu + k * n;
+    Eigen::Index pivot_row = k;
+    double biggest = std::abs(column_k[k]);
+    for (Eigen::Index i = k + 1; i < n; ++i) {
+      const double magnitude = std::abs(column_k[i]);
+      if (magnitude > biggest) {
+        biggest = magnitude;
+        pivot_row = i;
+      }
+    }
+    transpositions[k] = static_cast<int>(pivot_row);
+    int count = 0;
+    if (biggest != 0.0) {
+      if (pivot_row != k) {
+        for (Eigen::Index j = 0; j < n; ++j) std::swap(lu[k + j * n], lu[pivot_row + j * n]);
+        ++swaps;
+      }
+      // Scaled by the pivot's reciprocal (as LAPACK's dgetf2 does); the nonzeros listed
+      // without a branch on each entry.
+      const double inverse_pivot = 1.0 / column_k[k];
+      for (Eigen::Index i = k + 1; i < n; ++i) {
+        column_k[i] *= inverse_pivot;
+        below[count] = static_cast<int>(i);
+        count += column_k[i] != 0.0;
+      }
+    }
+    for (Eigen::Index j = k + 1; j < n; ++j) {
+      double* column_j = lu + j * n;
+      const double u = column_j[k];
+      if (u == 0.0) continue;
+      for (int c = 0; c < count; ++c) column_j[below[c]] -= column_k[below[c]] * u;
+    }
+  }
+  m_det_p = (swaps % 2) ? -1 : 1;
+  m_p = m_rowsTranspositions;  // same size: no allocation
+  m_isInitialized = true;
+
+  // The factors' nonzeros, column by column.
+  int l_count = 0, u_count = 0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double* column = lu + j * n;
+    l_start_(j) = l_count;
+    u_start_(j) = u_count;
+    // Each entry is written and the count moves on past the nonzeros only (no branch).
+    for (Eigen::Index i = 0; i < j; ++i) {
+      u_rows_(u_count) = static_cast<int>(i);
+      u_values_(u_count) = column[i];
+      u_count += column[i] != 0.0;
+    }
+    inverse_diagonal_(j) = 1.0 / column[j];
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      l_rows_(l_count) = static_cast<int>(i);
+      l_values_(l_count) = column[i];
+      l_count += column[i] != 0.0;
+    }
+  }
+  l_start_(n) = l_count;
+  u_start_(n) = u_count;
+}
+
+void SmallLU::solve_in_place(double* b) const {
+  // P b, then L (unit lower) and U by column-oriented substitution.
+  const Eigen::Index n = m_lu.rows();
+  const int* transpositions = m_rowsTranspositions.indices().data();
+  const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
+  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
+  const double *l_values = l_values_.data(), *u_values = u_values_.data();
+  for (Eigen::Index k = 0; k < n; ++k)
+    if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double x = b[j];
+    for (int e = l_start[j]; e < l_start[j + 1]; ++e) b[l_rows[e]] -= l_values[e] * x;
+  }
+  for (Eigen::Index j = n - 1; j >= 0; --j) {
+    const double x = b[j] *= inverse_diagonal_(j);
+    for (int e = u_start[j]; e < u_start[j + 1]; ++e) b[u_rows[e]] -= u_values[e] * x;
+  }
+}
+
+void SmallLU::solve_transposed_in_place(double* b) const {
+  // A^-T = P^T L^-T U^-T: U^T and L^T by dot products down the columns, then P^T.
+  const Eigen::Index n = m_lu.rows();
+  const int* transpositions = m_rowsTranspositions.indices().data();
+  const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
+  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
+  const double *l_values = l_values_.data(), *u_values = u_values_.data();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double sum = b[j];
+    for (int e = u_start[j]; e < u_start[j + 1]; ++e) sum -= u_values[e] * b[u_rows[e]];
+    b[j] = sum * inverse_diagonal_(j);
+  }
+  for (Eigen::Index j = n - 1; j >= 0; --j) {
+    double sum = b[j];
+    for (int e = l_start[j]; e < l_start[j + 1]; ++e) sum -= l_values[e] * b[l_rows[e]];
+    b[j] = sum;
+  }
+  for (Eigen::Index k = n - 1; k >= 0; --k)
+    if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
+}
+
 namespace {
 
 // Angle of a local vector from the link's x axis.
-double local_angle(const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); }
+double local_angle(const Eigen::Vector2d& v) {
+  return std::atan2(v.y(), v.x());
+}
 
 // The point index and local vector that define an angular driver's measured direction.
 struct DriverArm {
@@ -102,7 +228,9 @@ void projection_gradient(const Frames& frames, int ka, const Eigen::Vector2d& or
   }
 }
 
-bool is_angle_row_driver(const Driver& d) { return d.angular(); }
+bool is_angle_row_driver(const Driver& d) {
+  return d.angular();
+}
 
 }  // namespace
 
@@ -125,6 +253,8 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
     row += 3 - j.dof();
   }
   if (is_angle_row_driver(mechanism.driver) && row < n) row_scale_(row) = length_scale_;
+  for (int r = 0; r < n; ++r)
+    if (row_scale_(r) != 1.0) scaled_rows_.push_back(r);
 
   // Looked up once: the moving index of each joint's links, and the driver's measured arm.
   for (const Joint& j : mechanism.joints) {
@@ -160,10 +290,9 @@ double NewtonSolver::driver_value(const Frames& frames) const {
 }
 
 void NewtonSolver::update_frames(KinematicState& state) const {
-  for (Eigen::Index k = 0; k < state.cos_theta.size(); ++k) {
-    state.cos_theta(k) = std::cos(state.q(3 * k + 2));
-    state.sin_theta(k) = std::sin(state.q(3 * k + 2));
-  }
+  // sincos: glibc's sin and cos in one call (one argument reduction), the same numbers.
+  for (Eigen::Index k = 0; k < state.cos_theta.size(); ++k)
+    ::sincos(state.q(3 * k + 2), &state.sin_theta(k), &state.cos_theta(k));
 }
 
 void NewtonSolver::evaluate(const Frames& frames, const Eigen::VectorXd* qdot,
@@ -263,10 +392,12 @@ void NewtonSolver::jacobian(const Frames& frames, Eigen::MatrixXd& jac) const {
 void NewtonSolver::factorize(KinematicState& state) const {
   // state's frames must be those of state.q (update_frames).
   jacobian(Frames{state.q, &state.cos_theta, &state.sin_theta}, state.jacobian);
-  state.jacobian.array().colwise() *= row_scale_.array();
-  state.jacobian.array().rowwise() *= col_scale_.transpose().array();
+  // S_r J S_c: only angle rows and angle columns have a scale other than 1.
+  for (int r : scaled_rows_) state.jacobian.row(r) *= row_scale_(r);
+  for (Eigen::Index c = 2; c < state.jacobian.cols(); c += 3)
+    state.jacobian.col(c) *= col_scale_(c);
   state.jacobian_norm = state.jacobian.cwiseAbs().colwise().sum().maxCoeff();
-  state.lu.compute(state.jacobian);
+  state.lu.factorize(state.jacobian, state.jacobian_norm);
 }
 
 double NewtonSolver::rcond(KinematicState& state) const {
@@ -277,18 +408,16 @@ double NewtonSolver::rcond(KinematicState& state) const {
   if (n == 0) return std::numeric_limits<double>::infinity();
   if (state.jacobian_norm == 0.0) return 0.0;
   if (n == 1) return 1.0;
-  const Eigen::PartialPivLU<Eigen::MatrixXd>& lu = state.lu;
+  const SmallLU& lu = state.lu;
   Eigen::VectorXd& v = state.estimate;
   // v = J^-1 b and v = J^-T b, with PJ = LU (b is read from estimate_rhs).
   auto solve = [&] {
-    v.noalias() = lu.permutationP() * state.estimate_rhs;
-    lu.matrixLU().triangularView<Eigen::UnitLower>().solveInPlace(v);
-    lu.matrixLU().triangularView<Eigen::Upper>().solveInPlace(v);
+    v = state.estimate_rhs;
+    lu.solve_in_place(v.data());
   };
   auto solve_transposed = [&] {
-    lu.matrixLU().triangularView<Eigen::Upper>().transpose().solveInPlace(state.estimate_rhs);
-    lu.matrixLU().triangularView<Eigen::UnitLower>().transpose().solveInPlace(state.estimate_rhs);
-    v.noalias() = lu.permutationP().transpose() * state.estimate_rhs;
+    lu.solve_transposed_in_place(state.estimate_rhs.data());
+    v = state.estimate_rhs;
   };
 
   state.estimate_rhs.setConstant(1.0 / static_cast<double>(n));
@@ -326,8 +455,8 @@ double NewtonSolver::rcond(KinematicState& state) const {
 
 void NewtonSolver::solve_linear(KinematicState& state, Eigen::VectorXd& x) const {
   // J x = rhs  <=>  (S_r J S_c) y = S_r rhs,  x = S_c y
-  state.rhs.array() *= row_scale_.array();
-  x = state.lu.solve(state.rhs);
+  x = state.rhs.cwiseProduct(row_scale_);
+  state.lu.solve_in_place(x.data());
   x.array() *= col_scale_.array();
 }
 
@@ -335,9 +464,67 @@ double NewtonSolver::scaled_norm(const Eigen::VectorXd& phi) const {
   return phi.cwiseProduct(row_scale_).lpNorm<Eigen::Infinity>();
 }
 
+namespace {
+
+// Chord iterations are tried only from factors at a well-conditioned solved pose, and at most
+// this many; each must shrink the residual at least by half, and the first step must be small
+// against the mechanism (size-free: lengths / size, angles in rad).
+constexpr double kChordRcond = 1e-6;
+constexpr int kChordIterations = 5;
+constexpr double kChordContraction = 0.5;
+constexpr double kChordFirstStep = 0.1;
+
+}  // namespace
+
+bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& report) const {
+  // Simplified Newton: J(q0) dq = -Phi(q) with the factors of J at the last solved pose q0.
+  // From a sweep's predictor the correction is tiny and J(q0) close to J(q), so this contracts
+  // fast and costs a residual and a forward/back substitution per iteration, no factorisation.
+  state.q_start = state.q;
+  double previous = std::numeric_limits<double>::infinity();
+  for (int it = 0;; ++it) {
+    update_frames(state);
+    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
+    state.phi(state.phi.size() - 1) -= state.driver.value;
+    const double residual = scaled_norm(state.phi);
+    report.iterations = it;
+    report.residual = residual;
+    if (residual <= tolerance) return true;
+    if (!(residual <= kChordContraction * previous) || it == kChordIterations) break;
+    state.rhs = -state.phi;
+    solve_linear(state, state.qddot);  // qddot is free scratch until the acceleration solve
+    if (!state.qddot.allFinite()) break;
+    if (it == 0) {
+      double step = 0.0;
+      for (Eigen::Index k = 0; k < state.qddot.size(); ++k)
+        step = std::max(step, std::abs(state.qddot(k)) * (k % 3 == 2 ? 1.0 : 1.0 / length_scale_));
+      if (step > kChordFirstStep) break;
+    }
+    state.q += state.qddot;
+    previous = residual;
+  }
+  // Not contracting: Newton takes over from where the chord iteration began.
+  state.q = state.q_start;
+  return false;
+}
+
 SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   SolveReport report;
   const double tolerance = options_.tolerance * length_scale_;
+  if (state.factorized && state.factorized_rcond >= kChordRcond &&
+      chord(state, tolerance, report)) {
+    // Converged: one factorisation, at the solution (for rcond, velocity and acceleration).
+    factorize(state);
+    report.rcond = rcond(state);
+    state.factorized_rcond = report.rcond;
+    if (report.rcond < options_.singular_rcond) {
+      report.status = PoseStatus::singular;
+      report.message =
+          fmt::format("Jacobian singular at the solution (rcond {:.2e})", report.rcond);
+    }
+    return report;
+  }
+  state.factorized = false;
   for (int it = 0; it <= options_.max_iterations; ++it) {
     // Phi and J at this q share one evaluation of every link's cos and sin.
     update_frames(state);
@@ -353,10 +540,12 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
     }
     if (report.residual <= tolerance) {
       report.rcond = rcond(state);
+      state.factorized = true;
+      state.factorized_rcond = report.rcond;
       if (report.rcond < options_.singular_rcond) {
         report.status = PoseStatus::singular;
-        report.message = fmt::format("Jacobian singular at the solution (rcond {:.2e})",
-                                     report.rcond);
+        report.message =
+            fmt::format("Jacobian singular at the solution (rcond {:.2e})", report.rcond);
       }
       return report;
     }
@@ -384,8 +573,12 @@ void NewtonSolver::solve_velocity(KinematicState& state) const {
 }
 
 void NewtonSolver::solve_acceleration(KinematicState& state) const {
-  // J qddot = gamma = -(velocity-squared terms of d2Phi/dt2) + driver acceleration
   update_frames(state);  // state.q may have changed since the last factorisation
+  acceleration_at_frames(state);
+}
+
+void NewtonSolver::acceleration_at_frames(KinematicState& state) const {
+  // J qddot = gamma = -(velocity-squared terms of d2Phi/dt2) + driver acceleration
   evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, &state.qdot, state.rhs);
   state.rhs = -state.rhs;
   state.rhs(state.rhs.size() - 1) += state.driver.accel;
@@ -396,7 +589,7 @@ SolveReport NewtonSolver::solve(KinematicState& state) const {
   SolveReport report = solve_position(state);
   if (report.status == PoseStatus::ok) {
     solve_velocity(state);
-    solve_acceleration(state);
+    acceleration_at_frames(state);  // solve_position ends with the frames of state.q
   } else {
     state.qdot.setZero();
     state.qddot.setZero();
@@ -516,10 +709,10 @@ void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& 
   for (int ji : slide_joints_) {
     const Joint& j = m.joints[ji];
     const Line& line = m.links[j.link_a].lines[j.line];
-    const Projection s = project(BodyMotion::of(m.moving_index(j.link_a), state.q, qd, qdd),
-                                 line.origin, line.direction,
-                                 BodyMotion::of(m.moving_index(j.link_b), state.q, qd, qdd),
-                                 m.links[j.link_b].points[j.point_b].local);
+    const Projection s =
+        project(BodyMotion::of(m.moving_index(j.link_a), state.q, qd, qdd), line.origin,
+                line.direction, BodyMotion::of(m.moving_index(j.link_b), state.q, qd, qdd),
+                m.links[j.link_b].points[j.point_b].local);
     out.s(row, column) = s.value;
     out.sdot(row, column) = s.rate;
     out.sddot(row, column) = s.accel;

@@ -19,9 +19,9 @@
 namespace crosslink {
 
 struct NewtonOptions {
-  double tolerance = 1e-12;        // on |Phi|_inf relative to the mechanism's size
+  double tolerance = 1e-12;  // on |Phi|_inf relative to the mechanism's size
   int max_iterations = 30;
-  double singular_rcond = 1e-9;    // J with a smaller reciprocal condition estimate is singular
+  double singular_rcond = 1e-9;  // J with a smaller reciprocal condition estimate is singular
 };
 
 // Result of one solve, never a NaN: a status and the numbers that explain it.
@@ -33,6 +33,34 @@ struct SolveReport {
   std::string message;    // empty when ok
 };
 
+// Eigen's PartialPivLU with the factors computed by plain loops for small matrices. At the sizes
+// of planar linkages (n = 3 per moving link, ~9 to 30) Eigen's dynamic-size LU spends most of its
+// time in per-column expression overhead; the loops below do the same arithmetic (partial
+// pivoting on the largest magnitude, first one on ties, the same transpositions) on the same
+// column-major storage. The base class stays usable (rcond(), solve(), matrixLU()).
+//
+// The constraint Jacobian in absolute coordinates is sparse (3 to 6 entries a row) and so are
+// its factors: the elimination visits only the nonzeros of each pivot column and row, and the
+// factors are also kept column-compressed, so a solve costs about their number of entries
+// rather than n^2. Skipped terms are exact zeros, so the numbers are those of the dense loops.
+class SmallLU : public Eigen::PartialPivLU<Eigen::MatrixXd> {
+ public:
+  SmallLU() = default;
+  explicit SmallLU(Eigen::Index size);
+  // Factorises the square matrix `a` (of the size given at construction) whose L1 norm is
+  // `l1_norm`. Allocates nothing.
+  void factorize(const Eigen::MatrixXd& a, double l1_norm);
+  // b := A^-1 b and b := A^-T b in place, with PA = LU. No allocation.
+  void solve_in_place(double* b) const;
+  void solve_transposed_in_place(double* b) const;
+
+ private:
+  // Strictly lower (L) and strictly upper (U) parts by column: the entries of column j are
+  // [start(j), start(j + 1)) of rows/values. pivot_rows_ is the elimination's scratch.
+  Eigen::VectorXi l_start_, l_rows_, u_start_, u_rows_, pivot_rows_;
+  Eigen::VectorXd l_values_, u_values_, inverse_diagonal_;  // 1 / U(j, j)
+};
+
 // Working storage for one mechanism, sized once; a solve allocates nothing.
 struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
@@ -42,7 +70,12 @@ struct KinematicState {
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
   Eigen::MatrixXd jacobian;
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  SmallLU lu;
+  // Whether `lu` holds the factorisation of J at a solved pose (the last solve_position's), and
+  // that pose's rcond: solve_position then starts with chord iterations on those factors.
+  bool factorized = false;
+  double factorized_rcond = 0.0;
+  Eigen::VectorXd q_start;  // scratch: where a chord iteration started
   // Scratch of the condition estimate (Eigen's rcond() allocates its vectors on every call).
   double jacobian_norm = 0.0;  // L1 norm of the scaled Jacobian that `lu` factorises
   Eigen::VectorXd estimate, estimate_rhs, sign, previous_sign;
@@ -93,6 +126,12 @@ class NewtonSolver {
   void update_frames(KinematicState& state) const;
   // Builds the scaled Jacobian at state.q and factorises it into state.lu.
   void factorize(KinematicState& state) const;
+  // Chord (simplified Newton) iterations from state.q with the factors left by the previous
+  // solve: true when they reach the tolerance. When they stop contracting, state.q is put back
+  // where they started (or left where they got to, if they were contracting but slowly).
+  bool chord(KinematicState& state, double tolerance, SolveReport& report) const;
+  // The acceleration solve with state's frames already those of state.q.
+  void acceleration_at_frames(KinematicState& state) const;
   // x = J^-1 state.rhs with the factorisation in state (state.rhs is overwritten).
   void solve_linear(KinematicState& state, Eigen::VectorXd& x) const;
   double scaled_norm(const Eigen::VectorXd& phi) const;  // |S_r phi|_inf [m]
@@ -104,6 +143,7 @@ class NewtonSolver {
   double length_scale_;  // Mechanism::size() [m]
   // Diagonal scalings S_r (angle rows * size) and S_c (angle columns / size).
   Eigen::VectorXd row_scale_, col_scale_;
+  std::vector<int> scaled_rows_;  // rows whose scale is not 1
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
   // Per joint: moving index of link_a and link_b (-1 for the ground).
