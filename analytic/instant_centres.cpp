@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "analytic/planar.h"
@@ -42,6 +43,20 @@ Eigen::Vector3d normalise_line(const Eigen::Vector3d& l) {
   return l / l.head<2>().norm();
 }
 
+// A line known to carry a centre: a slot normal, or the Kennedy line through two centres.
+struct Line2 {
+  Eigen::Vector3d l;     // homogeneous, unit normal (normalise_line)
+  double quality = 1.0;  // how well its direction is known: the centres' distance apart
+                         // relative to the mechanism's size (1 for a slot normal)
+  std::string how;
+};
+
+// A line through two centres closer than this (relative to the size) is not used: its direction
+// is rounding. A crossing (sine of the angle between the lines, or their distance apart when
+// parallel, times the lines' quality) must be better than kMinCrossing.
+constexpr double kMinLineQuality = 1e-9;
+constexpr double kMinCrossing = 1e-9;
+
 std::string label(int i, int j) {
   return fmt::format("I({},{})", i + 1, j + 1);
 }
@@ -49,6 +64,57 @@ std::string label(int i, int j) {
 BodyMotion motion_of(const Mechanism& m, int link, const Eigen::VectorXd& q,
                      const Eigen::VectorXd* qdot) {
   return BodyMotion::of(m.moving_index(link), q, qdot, nullptr);
+}
+
+// A link's velocity field v(P) = v0 + omega perp(P), and how well it is known: the worst
+// conditioning (1 = perfect, see follow) of the ratios it was found through.
+struct Field {
+  bool known = false;
+  bool from_geometry = true;
+  Eigen::Vector2d v0 = Eigen::Vector2d::Zero();
+  double omega = 0.0;
+  double quality = 1.0;
+  Eigen::Vector2d at(const Eigen::Vector2d& p) const { return v0 + omega * perp(p); }
+};
+
+// Below this conditioning a ratio is 0/0 to rounding (coincident centres) and is not used; at
+// or above kGoodQuality it loses at most ~1e6 ulp, and a geometric pair is preferred there.
+constexpr double kMinQuality = 1e-9;
+constexpr double kGoodQuality = 1e-6;
+
+// Link k's field from a known link j's through I(1,k) (`fixed`) and I(j,k) (`common`): I(j,k)
+// moves alike on j and k, and k turns about I(1,k) (translates when it is at infinity). Returns
+// the conditioning of the step: the distance I(1,k)I(j,k) that divides, relative to the size
+// of the mechanism and of the coordinates (whose rounding moves the centres), or the sine
+// between the two directions when both centres are at infinity; 0 when there is no ratio.
+double follow(const Field& fj, const InstantCentre& fixed, const InstantCentre& common, double size,
+              Field& fk) {
+  if (!common.at_infinity()) {
+    // I(j,k) has one velocity on both links.
+    const Eigen::Vector2d p = common.position(), v = fj.at(p);
+    if (fixed.at_infinity()) {
+      fk.v0 = v;  // k translates
+      return size / std::max(size, p.norm());
+    }
+    const Eigen::Vector2d arm = p - fixed.position();
+    const double quality = arm.norm() / std::max({size, p.norm(), fixed.position().norm()});
+    if (!(quality > 0.0)) return 0.0;
+    fk.omega = v.dot(perp(arm)) / arm.squaredNorm();
+    fk.v0 = -fk.omega * perp(fixed.position());
+    return quality;
+  }
+  // j and k in relative translation: the same angular velocity.
+  fk.omega = fj.omega;
+  if (!fixed.at_infinity()) {
+    fk.v0 = -fk.omega * perp(fixed.position());
+    return size / std::max(size, fixed.position().norm());
+  }
+  // Both translate: v_k = v_j + t perp(u_jk), with no component along u_1k.
+  const Eigen::Vector2d u = common.position(), w = fixed.position();
+  const double across = perp(u).dot(w);
+  if (across == 0.0) return 0.0;
+  fk.v0 = fj.v0 - (fj.v0.dot(w) / across) * perp(u);
+  return std::abs(across);
 }
 
 }  // namespace
@@ -112,7 +178,7 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
       c.j = j;
     }
   // Lines known to carry a centre before Kennedy (slot normals), per pair.
-  std::vector<std::vector<std::pair<Eigen::Vector3d, std::string>>> slot_lines(out.centres.size());
+  std::vector<std::vector<Line2>> slot_lines(out.centres.size());
 
   // Primary centres.
   for (const Joint& jt : m.joints) {
@@ -137,47 +203,83 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
                               b.position(m.links[jt.link_b].points[jt.point_b].local).y(), 1.0);
     const Eigen::Vector3d normal_direction(perp(direction).x(), perp(direction).y(), 0.0);
     slot_lines[static_cast<size_t>(pair_index(n, jt.link_a, jt.link_b))].push_back(
-        {normalise_line(pin.cross(normal_direction)),
+        {normalise_line(pin.cross(normal_direction)), 1.0,
          fmt::format("normal to slot {} at the pin", jt.name)});
   }
 
-  // Kennedy: repeat until a pass places nothing.
-  for (bool placed_any = true; placed_any;) {
-    placed_any = false;
+  // Kennedy, best first: of every centre not yet placed, the one whose best crossing of two
+  // lines is the best-conditioned is placed, then the rest are looked at again with it, until
+  // none can be placed. A line through two centres is known only as well as the centres are
+  // apart: two centres in one place (to rounding: two links about one ground pivot put I(1,j),
+  // I(1,k) and I(j,k) there) give no line, and neither do two centres at infinity.
+  auto line_through = [&](const InstantCentre& a, const InstantCentre& b, Line2& line) {
+    if (a.at_infinity() && b.at_infinity()) return false;
+    const Eigen::Vector3d l = a.point.cross(b.point);
+    if (a.at_infinity() || b.at_infinity()) {
+      const Eigen::Vector2d p = (a.at_infinity() ? b : a).position();
+      line.quality = size / std::max(size, p.norm());
+    } else {
+      line.quality = (a.position() - b.position()).norm() /
+                     std::max({size, a.position().norm(), b.position().norm()});
+    }
+    if (!(line.quality >= kMinLineQuality)) return false;
+    line.l = normalise_line(l);
+    return true;
+  };
+  struct Crossing {
+    double strength = 0.0;
+    Eigen::Vector3d point;
+    std::string how;
+  };
+  std::vector<Line2> lines;
+  auto best_crossing = [&](const InstantCentre& c) {
+    lines = slot_lines[static_cast<size_t>(pair_index(n, c.i, c.j))];
+    for (int k = 0; k < n; ++k) {
+      if (k == c.i || k == c.j) continue;
+      const InstantCentre& a = out.centres[static_cast<size_t>(pair_index(n, c.i, k))];
+      const InstantCentre& b = out.centres[static_cast<size_t>(pair_index(n, k, c.j))];
+      if (!a.placed() || !b.placed() || a.found == InstantCentre::Found::velocity ||
+          b.found == InstantCentre::Found::velocity)
+        continue;
+      Line2 line;
+      if (!line_through(a, b, line)) continue;
+      line.how = fmt::format("{}-{}", label(std::min(c.i, k), std::max(c.i, k)),
+                             label(std::min(k, c.j), std::max(k, c.j)));
+      lines.push_back(std::move(line));
+    }
+    // The best-conditioned crossing of two lines (the same line twice crosses nowhere), each
+    // line weighed by how well it is known.
+    Crossing best;
+    best.strength = kMinCrossing;
+    int best_x = -1, best_y = -1;
+    for (size_t x = 0; x < lines.size(); ++x)
+      for (size_t y = x + 1; y < lines.size(); ++y) {
+        const Eigen::Vector3d p = lines[x].l.cross(lines[y].l);
+        const double strength = std::hypot(p.z(), p.head<2>().norm() / size) *
+                                std::min(lines[x].quality, lines[y].quality);
+        if (strength > best.strength)
+          best.strength = strength, best_x = static_cast<int>(x), best_y = static_cast<int>(y);
+      }
+    if (best_x < 0) {
+      best.strength = 0.0;
+      return best;
+    }
+    best.point = normalise_point(lines[best_x].l.cross(lines[best_y].l), size);
+    best.how = fmt::format("Kennedy: {} x {}", lines[best_x].how, lines[best_y].how);
+    return best;
+  };
+  for (;;) {
+    InstantCentre* chosen = nullptr;
+    Crossing best;
     for (InstantCentre& c : out.centres) {
       if (c.placed()) continue;
-      std::vector<std::pair<Eigen::Vector3d, std::string>> lines =
-          slot_lines[static_cast<size_t>(pair_index(n, c.i, c.j))];
-      for (int k = 0; k < n; ++k) {
-        if (k == c.i || k == c.j) continue;
-        const InstantCentre& a = out.centres[static_cast<size_t>(pair_index(n, c.i, k))];
-        const InstantCentre& b = out.centres[static_cast<size_t>(pair_index(n, k, c.j))];
-        if (!a.placed() || !b.placed() || a.found == InstantCentre::Found::velocity ||
-            b.found == InstantCentre::Found::velocity)
-          continue;
-        const Eigen::Vector3d line = a.point.cross(b.point);
-        // Two centres in one place (or both at infinity) give no line.
-        if (line.head<2>().norm() < 1e-12 * (1.0 + std::abs(line.z()) / size)) continue;
-        lines.push_back(
-            {normalise_line(line), fmt::format("{}-{}", label(std::min(c.i, k), std::max(c.i, k)),
-                                               label(std::min(k, c.j), std::max(k, c.j)))});
-      }
-      // The best-conditioned crossing of two lines (same line twice crosses nowhere).
-      double best = 1e-9;
-      int best_a = -1, best_b = -1;
-      for (size_t x = 0; x < lines.size(); ++x)
-        for (size_t y = x + 1; y < lines.size(); ++y) {
-          const Eigen::Vector3d p = lines[x].first.cross(lines[y].first);
-          const double strength = std::hypot(p.z(), p.head<2>().norm() / size);
-          if (strength > best)
-            best = strength, best_a = static_cast<int>(x), best_b = static_cast<int>(y);
-        }
-      if (best_a < 0) continue;
-      c.point = normalise_point(lines[best_a].first.cross(lines[best_b].first), size);
-      c.found = InstantCentre::Found::kennedy;
-      c.how = fmt::format("Kennedy: {} x {}", lines[best_a].second, lines[best_b].second);
-      placed_any = true;
+      Crossing crossing = best_crossing(c);
+      if (crossing.strength > best.strength) best = std::move(crossing), chosen = &c;
     }
+    if (!chosen) break;
+    chosen->point = best.point;
+    chosen->found = InstantCentre::Found::kennedy;
+    chosen->how = std::move(best.how);
   }
 
   // What Kennedy could not place, from the exact velocities: where the relative velocity of
@@ -200,14 +302,7 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
                                    const Trajectory& exact, int row) {
   const int n = static_cast<int>(m.links.size());
   const int ground = m.ground();
-  // Each link's velocity field v(P) = v0 + omega perp(P).
-  struct Field {
-    bool known = false;
-    bool from_geometry = true;
-    Eigen::Vector2d v0 = Eigen::Vector2d::Zero();
-    double omega = 0.0;
-    Eigen::Vector2d at(const Eigen::Vector2d& p) const { return v0 + omega * perp(p); }
-  };
+  const double size = m.size();
   std::vector<Field> field(static_cast<size_t>(n));
   field[static_cast<size_t>(ground)].known = true;
   auto geometric = [](const InstantCentre& c) { return c.found != InstantCentre::Found::velocity; };
@@ -244,47 +339,39 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
     return out;
   }
 
-  // Propagate: link k from a known link j through I(1,k) and I(j,k).
-  for (bool progress = true; progress;) {
-    progress = false;
+  // Propagate: link k from a known link j through I(1,k) and I(j,k). Of all the pairs that
+  // could give a link next, the best-conditioned is taken (a link's field is no better than the
+  // one it came from); one whose centres are all geometric is preferred when well-conditioned.
+  // A pair whose I(1,k) and I(j,k) coincide (two links turning about one ground pivot: then
+  // I(1,j) is there too) gives the ratio 0/0: rounding makes its centres differ by ~1e-17 m,
+  // so an exact-zero test passes it and the ratio comes out as any number (it returned omega_j).
+  for (;;) {
+    Field best;
+    int best_k = -1;
+    double best_score = 0.0;
+    bool best_geometric = false;
     for (int k = 0; k < n; ++k) {
       if (field[static_cast<size_t>(k)].known) continue;
       const InstantCentre& fixed = centres.at(ground, k);
-      for (int j = 0; j < n && !field[static_cast<size_t>(k)].known; ++j) {
+      for (int j = 0; j < n; ++j) {
         if (j == k || j == ground || !field[static_cast<size_t>(j)].known) continue;
-        const InstantCentre& common = centres.at(j, k);
         const Field& fj = field[static_cast<size_t>(j)];
         Field fk;
+        const double quality = follow(fj, fixed, centres.at(j, k), size, fk);
         fk.known = true;
-        fk.from_geometry = fj.from_geometry && geometric(fixed) && geometric(common);
-        if (!common.at_infinity()) {
-          // I(j,k) has one velocity on both links.
-          const Eigen::Vector2d p = common.position(), v = fj.at(p);
-          if (fixed.at_infinity()) {
-            fk.v0 = v;  // k translates
-          } else {
-            const Eigen::Vector2d arm = p - fixed.position();
-            if (arm.squaredNorm() == 0.0) continue;  // I(1,k) = I(j,k): no ratio here
-            fk.omega = v.dot(perp(arm)) / arm.squaredNorm();
-            fk.v0 = -fk.omega * perp(fixed.position());
-          }
-        } else {
-          // j and k in relative translation: the same angular velocity.
-          fk.omega = fj.omega;
-          if (!fixed.at_infinity()) {
-            fk.v0 = -fk.omega * perp(fixed.position());
-          } else {
-            // Both translate: v_k = v_j + t perp(u_jk), with no component along u_1k.
-            const Eigen::Vector2d u = common.position(), w = fixed.position();
-            const double across = perp(u).dot(w);
-            if (std::abs(across) < 1e-12) continue;
-            fk.v0 = fj.v0 - (fj.v0.dot(w) / across) * perp(u);
-          }
-        }
-        field[static_cast<size_t>(k)] = fk;
-        progress = true;
+        fk.from_geometry = fj.from_geometry && geometric(fixed) && geometric(centres.at(j, k));
+        fk.quality = std::min(fj.quality, quality);
+        if (fk.quality < kMinQuality) continue;
+        // A geometric pair wins over a better-conditioned one that uses the velocity solution
+        // unless it is poorly conditioned itself.
+        const bool geometric_ok = fk.from_geometry && fk.quality >= kGoodQuality;
+        if (best_k >= 0 && (best_geometric && !geometric_ok)) continue;
+        if (best_k >= 0 && best_geometric == geometric_ok && fk.quality <= best_score) continue;
+        best = fk, best_k = k, best_score = fk.quality, best_geometric = geometric_ok;
       }
     }
+    if (best_k < 0) break;
+    field[static_cast<size_t>(best_k)] = best;
   }
 
   out.complete = true;

@@ -8,13 +8,18 @@
 //              at the pin, on which the centre lies
 //   kennedy    I(i,k) lies on the line through I(i,j) and I(j,k) for every third link j; a
 //              centre is placed where two independent such lines (or a slot normal) cross,
-//              repeated over all n(n-1)/2 pairs until no more can be placed
+//              repeated over all n(n-1)/2 pairs until no more can be placed, best-conditioned
+//              crossing first; two centres in one place (to rounding) give no line
 //   velocity   a centre Kennedy's theorem alone cannot place (some six-bars, chains driven from
 //              a floating link) is placed from the exact velocity solution, and says so
 // Velocities from the centres: each link's velocity field v(P) = V0 + omega perp(P) follows from
 // a placed link j through I(1,k) and I(j,k) (I(j,k) moves alike on j and k; k turns about I(1,k),
 // or translates when I(1,k) is at infinity): the ratio omega_k / omega_j = I(1,j)I(j,k) /
-// I(1,k)I(j,k) in vector form. Links are numbered 1.. in the definition's order.
+// I(1,k)I(j,k) in vector form. Of the links j that could give k, the best-conditioned pair is
+// used (one of only geometric centres when it is well-conditioned); a pair whose I(1,k) and
+// I(j,k) coincide (two links turning about one ground pivot, as link 6 and the crank of
+// mechanisms/sixbar_slider_guide.toml about A) gives 0/0 and is never used, however small the
+// rounding that separates them. Links are numbered 1.. in the definition's order.
 #pragma once
 
 #include <Eigen/Core>

@@ -17,13 +17,17 @@
 // percentage differences are printed (the exact V_G = 382.1 mm/s, AP = 15.20 mm).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include "analytic/instant_centres.h"
 #include "analytic/loader.h"
+#include "analytic/planar.h"
 #include "analytic/sweep.h"
 
 namespace crosslink {
@@ -161,6 +165,157 @@ TEST(InstantCentres, CrankRockerI13AtCrossingOfCrankAndRocker) {
   const double omega3 = omega2 / (1.0 - s);
   EXPECT_NEAR(channel(exact, "omega.coupler"), omega3, 1e-9 * std::abs(omega3));
   expect_all_velocities(m, exact);
+}
+
+// Six-bar with a slider on a moving guide at phi2 = 339 deg: the crank and link 6 both turn
+// about A, so I(1,2) = I(1,6) = I(2,6) = A (the last by Kennedy, to round-off) and the ratio
+// omega6 / omega2 through them is 0/0. Link 6's speed must come from a well-conditioned pair
+// (through I(5,6) = F, I(4,6) or I(3,6)), not from that one.
+TEST(InstantCentres, SixBarLinkSixAboutTheCrankPivot) {
+  const Mechanism m = bundled("sixbar_slider_guide");
+  const Trajectory exact = solve_at(m, 339 * kDeg);
+  ASSERT_EQ(exact.status[0], PoseStatus::ok);
+  const InstantCentres ic = instant_centres(m, exact, 0);
+  EXPECT_EQ(ic.kennedy_unplaced, 0);
+  const int ground = m.find_link("ground"), crank = m.find_link("crank"),
+            link6 = m.find_link("link6");
+  ASSERT_TRUE(ic.at(crank, link6).placed());
+  EXPECT_LT((ic.at(crank, link6).position() - ic.at(ground, link6).position()).norm(), 1e-12);
+  const CentreVelocities v = centre_velocities(m, ic, exact, 0);
+  ASSERT_TRUE(v.complete) << v.message;
+  const int k6 = m.moving_index(link6);
+  const double omega6 = exact.omega(0, k6);
+  EXPECT_NEAR(omega6, -2.98134, 1e-5);
+  EXPECT_NEAR(v.omega[static_cast<size_t>(k6)], omega6, 1e-9 * std::abs(omega6));
+  EXPECT_TRUE(v.from_geometry[static_cast<size_t>(k6)]);
+}
+
+// Quick return at theta2 = 90 deg: every centre of links 2 to 6 lies on x = 0, so Kennedy's
+// lines for I(2,5) and I(2,6) coincide and those two come from the velocity solution, labelled.
+// The velocities do not need them (link 5 translates: from I(1,5) at infinity and I(4,5) = D).
+// A link that can only be reached through a centre from the velocities is labelled so.
+TEST(InstantCentres, CentresFromTheVelocitiesAreLabelled) {
+  const Mechanism m = bundled("quick_return");
+  const Trajectory exact = solve_at(m, 90 * kDeg);
+  ASSERT_EQ(exact.status[0], PoseStatus::ok);
+  InstantCentres ic = instant_centres(m, exact, 0);
+  EXPECT_EQ(ic.kennedy_unplaced, 2);
+  const int ground = m.find_link("ground"), crank = m.find_link("crank"),
+            link5 = m.find_link("link5"), ram = m.find_link("ram");
+  EXPECT_EQ(ic.at(crank, link5).found, InstantCentre::Found::velocity);
+  EXPECT_EQ(ic.at(crank, ram).found, InstantCentre::Found::velocity);
+  CentreVelocities v = centre_velocities(m, ic, exact, 0);
+  ASSERT_TRUE(v.complete) << v.message;
+  for (bool g : v.from_geometry) EXPECT_TRUE(g);
+  const auto k_ram = static_cast<size_t>(m.moving_index(ram));
+  const int ram_point = point_column(exact, "E");
+  EXPECT_NEAR(v.point[static_cast<size_t>(ram_point)].x(), exact.vx(0, ram_point), 1e-12);
+
+  // Every way to the ram goes through I(1,6): were it from the velocities, the ram (only) would
+  // say so.
+  for (InstantCentre& c : ic.centres)
+    if (c.i == std::min(ground, ram) && c.j == std::max(ground, ram))
+      c.found = InstantCentre::Found::velocity;
+  v = centre_velocities(m, ic, exact, 0);
+  ASSERT_TRUE(v.complete) << v.message;
+  for (size_t l = 0; l < v.from_geometry.size(); ++l)
+    EXPECT_EQ(v.from_geometry[l], l != k_ram) << exact.link_names[l];
+  EXPECT_NEAR(v.point[static_cast<size_t>(ram_point)].x(), exact.vx(0, ram_point), 1e-12);
+}
+
+// Every bundled mechanism over its whole sweep: the velocities from the centres against the
+// Newton solver's (an independent method: J qdot = nu) at every usable sample, to 1e-9 of each
+// channel's scale. Scales are physical: the driver's rate for angular velocities and the rate
+// times the mechanism's size for linear ones (a slider driver: rate / size and rate), or the
+// channel's peak over the sweep when larger. Samples where a centre had to be placed from the
+// exact velocities are counted and must be labelled so (not an independent check there).
+// The singular catalogue (mechanisms/singular/) is included: there a sample may lie on a change
+// point, where the Jacobian's reciprocal condition falls to ~1e-8 and neither method's velocity
+// is known to 1e-9 (a linear solve's forward error is ~eps / rcond); such samples (rcond below
+// 1e-5; none in mechanisms/*.toml) are held to 1e-14 / rcond instead, and counted.
+TEST(InstantCentres, EveryBundledMechanismOverItsSweep) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> files;
+  for (const char* dir : {"/mechanisms", "/mechanisms/singular"})
+    for (const fs::directory_entry& e :
+         fs::directory_iterator(std::string(CROSSLINK_SOURCE_DIR) + dir))
+      if (e.path().extension() == ".toml") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 10u);
+  for (const fs::path& file : files) {
+    SCOPED_TRACE(file.filename().string());
+    const Mechanism m = load_mechanism(file.string());
+    const Trajectory exact = sweep(m);
+    const int links = static_cast<int>(exact.link_names.size());
+    const int points = static_cast<int>(exact.point_names.size());
+    double rate = 0.0;
+    for (int r = 0; r < exact.samples(); ++r)
+      rate = std::max(rate, std::abs(m.driver.at_time(exact.time(r)).rate));
+    const double size = m.size();
+    const double angular = m.driver.angular() ? rate : rate / size;
+    const double linear = m.driver.angular() ? rate * size : rate;
+    std::vector<double> omega_scale(static_cast<size_t>(links), angular);
+    std::vector<double> v_scale(static_cast<size_t>(points), linear);
+    int usable_samples = 0;
+    for (int r = 0; r < exact.samples(); ++r) {
+      if (!usable(exact.status[static_cast<size_t>(r)])) continue;
+      ++usable_samples;
+      for (int l = 0; l < links; ++l)
+        omega_scale[l] = std::max(omega_scale[l], std::abs(exact.omega(r, l)));
+      for (int p = 0; p < points; ++p)
+        v_scale[p] =
+            std::max(v_scale[p], std::max(std::abs(exact.vx(r, p)), std::abs(exact.vy(r, p))));
+    }
+    ASSERT_GT(usable_samples, 0);
+    double worst_omega = 0.0, worst_v = 0.0;
+    int worst_omega_row = -1, worst_v_row = -1, not_independent = 0, ill_conditioned = 0;
+    for (int r = 0; r < exact.samples(); ++r) {
+      if (!usable(exact.status[static_cast<size_t>(r)])) continue;
+      const double tolerance =
+          exact.rcond(r) >= 1e-5 ? 1e-9 : std::max(1e-9, 1e-14 / exact.rcond(r));
+      if (tolerance > 1e-9) ++ill_conditioned;
+      const InstantCentres ic = instant_centres(m, exact, r);
+      const CentreVelocities v = centre_velocities(m, ic, exact, r);
+      ASSERT_TRUE(v.complete) << "sample " << r << ": " << v.message;
+      const bool all_geometric =
+          std::find(v.from_geometry.begin(), v.from_geometry.end(), false) == v.from_geometry.end();
+      // The label: a link is from geometry only if no centre from the velocities was placed.
+      if (ic.kennedy_unplaced == 0) {
+        EXPECT_TRUE(all_geometric) << "sample " << r;
+      }
+      if (!all_geometric) ++not_independent;
+      for (int l = 0; l < links; ++l) {
+        const double e = std::abs(v.omega[static_cast<size_t>(l)] - exact.omega(r, l)) /
+                         omega_scale[static_cast<size_t>(l)];
+        if (e > worst_omega) worst_omega = e, worst_omega_row = r;
+        EXPECT_LE(e, tolerance) << "omega." << exact.link_names[l] << " at sample " << r
+                                << " (driver " << exact.driver(r) << "): centres "
+                                << v.omega[static_cast<size_t>(l)] << ", Newton "
+                                << exact.omega(r, l);
+      }
+      for (int p = 0; p < points; ++p) {
+        const double e = std::max(std::abs(v.point[static_cast<size_t>(p)].x() - exact.vx(r, p)),
+                                  std::abs(v.point[static_cast<size_t>(p)].y() - exact.vy(r, p))) /
+                         v_scale[static_cast<size_t>(p)];
+        if (e > worst_v) worst_v = e, worst_v_row = r;
+        EXPECT_LE(e, tolerance) << "v." << exact.point_names[p] << " at sample " << r << " (driver "
+                                << exact.driver(r) << ")";
+      }
+    }
+    std::printf(
+        "%-40s %3d samples: max |omega_ic - omega_newton| / scale %.2e (sample %d), "
+        "max |v_ic - v_newton| / scale %.2e (sample %d); %d samples use a centre from the "
+        "velocities; %d ill-conditioned (rcond < 1e-5)\n",
+        file.filename().string().c_str(), usable_samples, worst_omega, worst_omega_row, worst_v,
+        worst_v_row, not_independent, ill_conditioned);
+    if (file.parent_path().filename() == "mechanisms") {
+      EXPECT_EQ(ill_conditioned, 0);
+    }
+    // The six-bar is placed by Kennedy alone at every sample: a fully independent check.
+    if (file.filename() == "sixbar_slider_guide.toml") {
+      EXPECT_EQ(not_independent, 0);
+    }
+  }
 }
 
 }  // namespace
