@@ -22,6 +22,7 @@
 #include <BulletDynamics/MLCPSolvers/btDantzigSolver.h>
 #include <BulletDynamics/MLCPSolvers/btMLCPSolver.h>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -37,6 +38,9 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 // Linear density of a link (a 10 x 5 mm steel bar, 7850 kg/m^3) [kg/m].
 constexpr double kLinearDensity = 0.39;
+constexpr long kSteady = 1;   // the first step after the start that a stencil may use
+constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
+                              // the last), so the start's transient stays out of the stencils
 
 // ---------------------------------------------------------------------------------------------
 // Settings
@@ -45,12 +49,16 @@ struct Config {
   std::string formulation = "rigid";    // rigid | multibody
   std::string solver = "mlcp_dantzig";  // mlcp_dantzig | sequential_impulse
   int steps_per_sample = 2;             // used when dt is not given
+  double max_step_angle = 0.01;         // used when dt is not given: more steps in a sample
+                                        // interval where a link turns faster [rad per step]
   double dt = 0.0;                      // 0: sample interval / steps_per_sample
   int iterations = 50;                  // sequential impulse (and MLCP's fallback)
   double erp = 1.0;
   double loop_gap_threshold = 1e-4;  // relative to the mechanism's size
   double divergence_gap = 0.1;       // relative to the mechanism's size
   double singular_rcond = 1e-3;      // samples whose Jacobian is worse conditioned are flagged
+  double branch_distance = 1e-4;     // closed configuration this far from the reference's (of
+                                     // the size, or rad): another assembly mode, branch_jump
   std::string perturb_link;
   double perturb_factor = 1.0;
 };
@@ -89,6 +97,10 @@ Config parse_settings(const Settings& overrides) {
       if (n < 1 || n != std::floor(n))
         throw std::invalid_argument("setting steps_per_sample: a positive integer");
       c.steps_per_sample = static_cast<int>(n);
+    } else if (name == "max_step_angle") {
+      c.max_step_angle = parse_number(name, value);
+      if (c.max_step_angle < 0.0)
+        throw std::invalid_argument("setting max_step_angle: 0 (off) or positive");
     } else if (name == "iterations") {
       const double n = parse_number(name, value);
       if (n < 1 || n != std::floor(n))
@@ -101,6 +113,8 @@ Config parse_settings(const Settings& overrides) {
       c.loop_gap_threshold = parse_number(name, value);
     } else if (name == "singular_rcond") {
       c.singular_rcond = parse_number(name, value);
+    } else if (name == "branch_distance") {
+      c.branch_distance = parse_number(name, value);
     } else if (name == "divergence_gap") {
       c.divergence_gap = parse_number(name, value);
     } else if (name == "precision") {
@@ -854,6 +868,45 @@ Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& ref,
   return q;
 }
 
+// Largest difference between two configurations: positions per size, angles modulo 2 pi.
+double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size) {
+  double off = 0.0;
+  for (Eigen::Index k = 0; k + 2 < a.size(); k += 3)
+    off = std::max({off, std::abs(a(k) - b(k)) / size, std::abs(a(k + 1) - b(k + 1)) / size,
+                    std::abs(std::remainder(a(k + 2) - b(k + 2), 2.0 * kPi))});
+  return off;
+}
+
+// Finite-difference weights (Fornberg 1988) of the value, first and second derivative at x0
+// from values at the nodes x (any spacing, x0 inside or outside them).
+std::array<std::vector<double>, 3> stencil_weights(double x0, const std::vector<double>& x) {
+  const size_t n = x.size();
+  std::array<std::vector<double>, 3> c;
+  for (auto& row : c) row.assign(n, 0.0);
+  c[0][0] = 1.0;
+  double c1 = 1.0, c4 = x[0] - x0;
+  for (size_t i = 1; i < n; ++i) {
+    const size_t mn = std::min<size_t>(i, 2);
+    double c2 = 1.0;
+    const double c5 = c4;
+    c4 = x[i] - x0;
+    for (size_t j = 0; j < i; ++j) {
+      const double c3 = x[i] - x[j];
+      c2 *= c3;
+      if (j == i - 1) {
+        for (size_t k = mn; k >= 1; --k)
+          c[k][i] = c1 * (static_cast<double>(k) * c[k - 1][i - 1] - c5 * c[k][i - 1]) / c2;
+        c[0][i] = -c1 * c5 * c[0][i - 1] / c2;
+      }
+      for (size_t k = mn; k >= 1; --k)
+        c[k][j] = (c4 * c[k][j] - static_cast<double>(k) * c[k - 1][j]) / c3;
+      c[0][j] = c4 * c[0][j] / c3;
+    }
+    c1 = c2;
+  }
+  return c;
+}
+
 Mechanism perturbed(const Mechanism& m, const Config& c) {
   Mechanism out = m;
   if (c.perturb_link.empty()) return out;
@@ -920,16 +973,39 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   out.trajectory.time = reference.time;
   out.trajectory.driver = reference.driver;
 
+  // The usable span: the run starts at the reference's first usable (ok) sample and stops at
+  // its last; outside them the reference is at or past an assembly limit.
+  int first = -1, last = -1;
+  for (int i = 0; i < samples; ++i)
+    if (usable(reference.status[static_cast<size_t>(i)])) {
+      if (first < 0) first = i;
+      last = i;
+    }
+  if (first < 0) return fail("the reference has no usable sample to start from");
+  if (last == first) return fail("the reference has a single usable sample: nothing to run over");
+
   // Time step: samples fall on step boundaries unless an explicit dt does not divide the
-  // sample interval (then the local quadratic through three steps is evaluated at the sample).
-  double interval = samples > 1 ? reference.time(1) - reference.time(0) : 0.0;
+  // sample interval (then the local polynomial through the nearest steps is evaluated there).
+  const double interval = reference.time(first + 1) - reference.time(first);
   for (int i = 1; i < samples; ++i)
     if (!(reference.time(i) > reference.time(i - 1)))
       return fail("the reference's sample times do not increase");
   double dt = config.dt;
+  int steps_per_sample = config.steps_per_sample;
   if (dt == 0.0) {
-    if (!(interval > 0.0)) return fail("cannot choose dt: the reference has one sample");
-    dt = interval / config.steps_per_sample;
+    // One step length for the whole run (the O(dt^2) residual of each step depends on its
+    // length, so a stencil across a change of length would see a jump): steps_per_sample per
+    // sample interval, more if the reference's fastest link would turn more than max_step_angle
+    // in a step (near an assembly limit the links turn ever faster against the driver).
+    double fastest = 0.0;
+    for (int i = first; i <= last; ++i)
+      if (usable(reference.status[static_cast<size_t>(i)]) && reference.omega.cols() > 0)
+        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+    if (config.max_step_angle > 0.0)
+      steps_per_sample = std::max<int>(
+          steps_per_sample,
+          static_cast<int>(std::ceil(fastest * interval / config.max_step_angle - 1e-9)));
+    dt = interval / steps_per_sample;
   }
 
   auto settings_out = [&]() {
@@ -938,13 +1014,16 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
         {"solver", config.solver},
         {"dt", format_number(dt)},
         {"steps_per_sample",
-         config.dt == 0.0 ? std::to_string(config.steps_per_sample) : format_number(interval / dt)},
+         config.dt == 0.0 ? std::to_string(steps_per_sample) : format_number(interval / dt)},
+        {"max_step_angle",
+         config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
         {"iterations", std::to_string(config.iterations)},
         {"erp", format_number(config.erp)},
         {"precision", btIsDoublePrecision() ? "float64" : "float32"},
         {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
         {"divergence_gap", format_number(config.divergence_gap)},
         {"singular_rcond", format_number(config.singular_rcond)},
+        {"branch_distance", format_number(config.branch_distance)},
         {"perturb_link", config.perturb_link.empty()
                              ? ""
                              : config.perturb_link + ":" + format_number(config.perturb_factor)}};
@@ -972,33 +1051,40 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
       d.type == DriverType::link_angle)
     notes.push_back("link-angle driver realised as the angle of its ground pivot");
 
-  // Start: the exact assembled configuration a few steps before the first sample, so that
-  // the first sample is centred too (falls back to the sample itself near an assembly limit).
+  // Start: the exact assembled configuration at the first usable sample. The engine is not
+  // driven outside the usable samples: at their ends the samples are read with one-sided
+  // differences over the steps after the start (or before the end). Only a sweep over the whole
+  // cycle, usable throughout, is periodic: there the run starts kPreroll steps before the first
+  // sample and ends kPreroll after the last (the end of the previous and the start of the next
+  // cycle), so that every sample has a central stencil clear of the start's transient.
   const NewtonSolver solver(m);
   KinematicState state(m);
-  if (samples == 0) return fail("the reference has no samples");
-  const double t0 = reference.time(0);
-  state.q = reference_coordinates(original, reference, 0);
-  int preroll = 4;  // the first step from rest is a transient: keep it out of the stencils
-  double t_start = t0 - preroll * dt;
+  const double t0 = reference.time(first);
+  const double period = m.cycle_period();
+  const bool periodic =
+      first == 0 && last == samples - 1 && period > 0.0 &&
+      reference.time(last) - reference.time(first) + interval >= period * (1.0 - 1e-9);
+  long preroll = periodic && config.dt == 0.0 ? kPreroll : 0;
+  double t_start = t0 - static_cast<double>(preroll) * dt;
+  state.q = reference_coordinates(original, reference, first);
   state.driver = d.at_time(t_start);
-  state.driver.value = reference.driver(0) + (state.driver.value - d.at_time(t0).value);
+  state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
   SolveReport start = solver.solve_position(state);
-  if (start.status != PoseStatus::ok) {
-    preroll = 0;
+  if (preroll > 0 && (start.status != PoseStatus::ok || start.rcond < config.singular_rcond)) {
+    preroll = 0;  // not assembled there after all: start at the sample
     t_start = t0;
-    state.q = reference_coordinates(original, reference, 0);
+    state.q = reference_coordinates(original, reference, first);
     state.driver = d.at_time(t0);
-    state.driver.value = reference.driver(0);
+    state.driver.value = reference.driver(first);
     start = solver.solve_position(state);
-    if (start.status != PoseStatus::ok && config.perturb_link.empty())
-      return fail("cannot assemble the scene at the first sample: " + start.message);
-    if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
-      state.q = reference_coordinates(original, reference, 0);
-      notes.push_back("perturbed chain does not assemble at the first sample; started open");
-    }
   }
-  const double driver_offset = reference.driver(0) - d.at_time(t0).value;
+  if (start.status != PoseStatus::ok && config.perturb_link.empty())
+    return fail("cannot assemble the scene at the first usable sample: " + start.message);
+  if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
+    state.q = reference_coordinates(original, reference, first);
+    notes.push_back("perturbed chain does not assemble at the first sample; started open");
+  }
+  const double driver_offset = reference.driver(first) - d.at_time(t0).value;
   const Eigen::VectorXd q_start = state.q;
   const std::vector<Pose> poses = node_poses(m, plan, q_start);
   const Edge& de = plan.edges[plan.driver_edge];
@@ -1067,8 +1153,30 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     return gap;
   };
 
-  const double t_end = reference.time(samples - 1);
-  const long steps = static_cast<long>(std::ceil((t_end - t_start) / dt - 1e-9)) + 1;
+  // Step times from the first to the last usable sample, never beyond. Default: each sample
+  // interval split into equal steps (steps_per_sample in a regular one), so every sample is a
+  // step boundary; an explicit dt: uniform steps up to the last sample.
+  const double t_end = reference.time(last);
+  std::vector<double> step_time = {t_start};
+  for (long k = preroll - 1; k >= 0; --k) step_time.push_back(t0 - static_cast<double>(k) * dt);
+  if (config.dt == 0.0) {
+    for (int i = first + 1; i <= last; ++i) {
+      const double span_i = reference.time(i) - reference.time(i - 1);
+      const long n = std::max(1L, static_cast<long>(std::ceil(span_i / dt - 1e-9)));
+      for (long k = 1; k <= n; ++k)
+        step_time.push_back(k == n ? reference.time(i)
+                                   : reference.time(i - 1) +
+                                         span_i * static_cast<double>(k) / static_cast<double>(n));
+    }
+    for (long k = 1; k <= preroll; ++k) step_time.push_back(t_end + static_cast<double>(k) * dt);
+  } else {
+    for (long k = 1; t_start + static_cast<double>(k) * dt <= t_end + 1e-9 * dt; ++k)
+      step_time.push_back(t_start + static_cast<double>(k) * dt);
+  }
+  const long steps = static_cast<long>(step_time.size()) - 1;
+  if (steps < 3)
+    return fail(fmt::format(
+        "only {} steps between the first and last usable samples: too few for differences", steps));
   Eigen::MatrixXd history(q.size(), steps + 1);
   Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
   history.col(0) = q;
@@ -1081,9 +1189,9 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
 
   const auto t_steps = Clock::now();
   for (long k = 1; k <= steps; ++k) {
-    const double t = t_start + k * dt;
+    const double t = step_time[static_cast<size_t>(k)];
     scene->drive(target_at(t));
-    scene->step(dt);
+    scene->step(t - step_time[static_cast<size_t>(k - 1)]);
     read_q();
     double driver_error = 0.0;
     gaps(k) = gap_and_driver(d.at_time(t).value + driver_offset, driver_error);
@@ -1104,45 +1212,102 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
   const long taken = last_good < steps ? last_good + 1 : steps;
 
-  // Samples: the quadratic through steps k-1, k, k+1 (k the nearest step) at the sample time:
-  // central differences when the sample is on step k.
-  KinematicState sample(m), conditioning(m);
-  int singular_at = -1, near_singular = 0;
+  // Samples: the polynomial through the steps k-1, k, k+1 (k the nearest step) at the sample
+  // time, i.e. central differences when the sample is on step k. Step 0 (the exact start, a
+  // transient: it lacks the residual of steady stepping) is never used, so at the first usable
+  // sample, and at the last where no step follows, the 4 nearest steps give one-sided
+  // differences. Samples outside the usable span keep the reference's flag and no value; a
+  // flagged sample inside it (a change point on a sample) is run through and keeps its flag.
+  const NewtonSolver definition(original);  // the definition, even with perturb_link
+  KinematicState sample(m), conditioning(m), closed(original);
+  int singular_at = -1, near_singular = 0, jumped = 0, jumped_at = -1, copied = 0;
   Trajectory& tr = out.trajectory;
   int flagged = 0, lost = 0;
+  std::vector<long> nodes;
+  std::vector<double> node_times;
   for (int i = 0; i < samples; ++i) {
-    const double u = (reference.time(i) - t_start) / dt;
-    const long k = std::clamp<long>(std::lround(u), 1, steps - 1);
-    const double tau = u - static_cast<double>(k);
+    const auto row = static_cast<size_t>(i);
+    tr.time(i) = reference.time(i);
+    tr.driver(i) = reference.driver(i);
+    if (i < first || i > last) {
+      tr.status[row] = reference.status[row];
+      tr.rcond(i) = reference.rcond(i);
+      tr.loop_gap(i) = 0.0;
+      tr.events.push_back({reference.driver(i), reference.status[row],
+                           "outside the reference's usable samples: not run, the reference's "
+                           "flag kept"});
+      continue;
+    }
+    // The nearest step (lower_bound: the first step at or after the sample).
+    const double ti = reference.time(i);
+    const long k = std::lower_bound(step_time.begin(), step_time.end(), ti) - step_time.begin();
+    long nearest = std::min(k, steps);
+    if (k > 0 && k <= steps &&
+        ti - step_time[static_cast<size_t>(k - 1)] < step_time[static_cast<size_t>(k)] - ti)
+      nearest = k - 1;
+    nodes.clear();
+    if (nearest - 1 >= kSteady && nearest + 1 <= steps) {
+      nodes = {nearest - 1, nearest, nearest + 1};
+    } else {
+      const long count = std::min(4L, steps);
+      const long from = std::clamp(nearest - count / 2, kSteady, steps - count + 1);
+      for (long n = from; n < from + count; ++n) nodes.push_back(n);
+    }
     sample.driver = d.at_time(reference.time(i));
     sample.driver.value = reference.driver(i);
     SolveReport report;
     double gap = 0.0, rcond = 1.0;
-    if (k + 1 > last_good || steps < 2) {
+    if (nodes.back() > last_good) {
       report.status = PoseStatus::diverged;
       sample.q.setZero();
       sample.qdot.setZero();
       sample.qddot.setZero();
       ++lost;
     } else {
-      const auto qm = history.col(k - 1), q0 = history.col(k), qp = history.col(k + 1);
-      const Eigen::VectorXd first = 0.5 * (qp - qm), second = qp - 2.0 * q0 + qm;
-      sample.q = q0 + tau * first + 0.5 * tau * tau * second;
-      sample.qdot = (first + tau * second) / dt;
-      sample.qddot = second / (dt * dt);
-      gap = std::max({gaps(k - 1), gaps(k), gaps(k + 1)});
+      node_times.clear();
+      for (long n : nodes) node_times.push_back(step_time[static_cast<size_t>(n)]);
+      const auto w = stencil_weights(reference.time(i), node_times);
+      sample.q.setZero();
+      sample.qdot.setZero();
+      sample.qddot.setZero();
+      for (size_t n = 0; n < nodes.size(); ++n) {
+        sample.q += w[0][n] * history.col(nodes[n]);
+        sample.qdot += w[1][n] * history.col(nodes[n]);
+        sample.qddot += w[2][n] * history.col(nodes[n]);
+        gap = std::max(gap, gaps(nodes[n]));
+      }
       // Near a singular position the engine may take either branch without opening a gap:
       // the conditioning of the constraint Jacobian at the sampled pose flags it.
       conditioning.q = sample.q;
       conditioning.driver.value = solver.driver_value(sample.q);
       rcond = solver.solve_position(conditioning).rcond;
-      if (gap > gap_flag) {
+      if (!usable(reference.status[row])) {
+        report.status = reference.status[row];
+        tr.events.push_back({reference.driver(i), reference.status[row],
+                             "the reference flags this sample: run through, the flag kept"});
+        ++copied;
+      } else if (gap > gap_flag) {
         report.status = PoseStatus::loop_gap;
         ++flagged;
       } else if (rcond < config.singular_rcond) {
         report.status = PoseStatus::singular;
         if (singular_at < 0) singular_at = i;
         ++near_singular;
+      } else {
+        // Branch: the sampled configuration closed exactly on the definition (Newton at the
+        // reference's driver value) must be the reference's; another solution of the same
+        // equations is another assembly mode, e.g. the other branch taken at a change point.
+        // A model error (perturb_link) closes back onto the reference's branch and stays a
+        // reported difference.
+        closed.q = sample.q;
+        closed.driver = sample.driver;
+        if (definition.solve_position(closed).status == PoseStatus::ok &&
+            configuration_distance(closed.q, reference_coordinates(original, reference, i),
+                                   original.size()) > config.branch_distance) {
+          report.status = PoseStatus::branch_jump;
+          if (jumped_at < 0) jumped_at = i;
+          ++jumped;
+        }
       }
     }
     solver.write_sample(sample, report, tr, i);
@@ -1152,7 +1317,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     tr.rcond(i) = rcond;
   }
   if (flagged)
-    tr.events.push_back({reference.driver(0), PoseStatus::loop_gap,
+    tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
                          fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
                                      flagged, gap_flag, worst_gap)});
   if (near_singular)
@@ -1161,10 +1326,30 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
          fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
                      "engine may have changed branch there",
                      near_singular, config.singular_rcond)});
+  if (jumped) {
+    tr.events.push_back(
+        {reference.driver(jumped_at), PoseStatus::branch_jump,
+         fmt::format("{} samples on another assembly mode than the reference (closed "
+                     "configuration more than {:.1e} of the size or rad away)",
+                     jumped, config.branch_distance)});
+    notes.push_back(fmt::format(
+        "{} samples flagged branch_jump (the engine is on another assembly mode)", jumped));
+  }
+  if (first > 0 || last < samples - 1)
+    notes.push_back(fmt::format(
+        "run over the reference's usable samples {} .. {} (driver {:.6g} .. {:.6g}); the {} "
+        "samples outside keep the reference's flag and carry no engine value",
+        first, last, reference.driver(first), reference.driver(last),
+        first + (samples - 1 - last)));
+  if (copied)
+    notes.push_back(
+        fmt::format("{} samples inside the run keep the reference's flag (run through)", copied));
   if (!divergence.empty()) {
     out.ok = false;
-    tr.events.push_back({d.at_time(t_start + (last_good + 1) * dt).value + driver_offset,
-                         PoseStatus::diverged, divergence});
+    tr.events.push_back(
+        {d.at_time(step_time[static_cast<size_t>(std::min(last_good + 1, steps))]).value +
+             driver_offset,
+         PoseStatus::diverged, divergence});
     notes.insert(notes.begin(), divergence);
   }
   if (const int fb = scene->fallbacks(); fb > 0)
@@ -1173,9 +1358,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     notes.push_back("dt does not divide the sample interval: samples interpolated");
 
   out.cost.steps = taken;
-  out.cost.simulated_seconds = taken * dt;
+  out.cost.simulated_seconds = step_time[static_cast<size_t>(taken)] - t_start;
   out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
-  const double period = m.cycle_period();
   out.cost.wall_seconds_per_cycle =
       out.cost.simulated_seconds > 0 ? stepping * period / out.cost.simulated_seconds : 0.0;
   for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];

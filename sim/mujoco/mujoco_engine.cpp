@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -38,6 +39,12 @@ const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
 // dead point (measured on the polycentric hinge: 0.45 % gave 7 % of peak alpha, 0.76 % 0.1 %).
 constexpr double kDeadRate = 0.01;
 constexpr double kSingularRcond = 1e-6;
+// Periodic sweeps: steps run before the first sample and after the last.
+constexpr long kPreroll = 8;
+// A sample whose configuration, closed exactly on the definition, is further than this from the
+// reference's (of the mechanism's size, or rad) is on another assembly mode: branch_jump. Closed
+// configurations on the same branch agree to the Newton tolerance.
+constexpr double kBranchDistance = 1e-4;
 
 struct Config {
   std::string dt = "auto";
@@ -126,54 +133,89 @@ Eigen::Matrix<double, 5, 1> solimp_of(const std::string& name, const std::string
 // ---------------------------------------------------------------------------------------------
 // The starting configuration and the time grid
 
-// Absolute coordinates and their rates at the reference's first sample, solved exactly.
-struct Start {
-  Eigen::VectorXd q, qdot;
+// The reference's usable samples (PoseStatus::ok): the engine starts at the first and stops at
+// the last; samples outside keep the reference's flag. Interior flagged samples (a change point
+// on a sample) are run through.
+struct Span {
+  int first = -1, last = -1;
 };
 
-Start exact_start(const Mechanism& m, const Trajectory& reference) {
-  if (reference.samples() < 2) throw std::runtime_error("the reference has fewer than two samples");
-  const PoseStatus first = reference.status[0];
-  if (first != PoseStatus::ok && first != PoseStatus::singular)
-    throw std::runtime_error(fmt::format(
-        "the reference's first sample is not assembled ({}): no configuration to start from",
-        to_string(first)));
-  // Each link's frame from its angle and one of its points, then Newton to exact closure.
-  KinematicState state(m);
+Span usable_span(const Trajectory& reference) {
+  Span span;
+  for (int i = 0; i < reference.samples(); ++i)
+    if (usable(reference.status[static_cast<size_t>(i)])) {
+      if (span.first < 0) span.first = i;
+      span.last = i;
+    }
+  if (span.first < 0) throw std::runtime_error("the reference has no usable sample to start from");
+  if (span.last == span.first)
+    throw std::runtime_error("the reference has a single usable sample: nothing to run over");
+  return span;
+}
+
+// Absolute coordinates (x, y, theta per moving link) of reference sample `row`: each link's
+// frame from its angle and one of its points.
+Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& reference, int row) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
   for (size_t l = 0; l < m.links.size(); ++l) {
     const int k = m.moving_index(static_cast<int>(l));
     if (k < 0) continue;
-    const double theta = reference.angle(0, k);
+    const double theta = reference.angle(row, k);
     Eigen::Vector2d origin = Eigen::Vector2d::Zero();
     for (const Point& p : m.links[l].points)
       for (size_t c = 0; c < reference.point_names.size(); ++c)
         if (reference.point_names[c] == p.name) {
-          const Eigen::Vector2d at(reference.x(0, static_cast<Eigen::Index>(c)),
-                                   reference.y(0, static_cast<Eigen::Index>(c)));
+          const Eigen::Vector2d at(reference.x(row, static_cast<Eigen::Index>(c)),
+                                   reference.y(row, static_cast<Eigen::Index>(c)));
           origin = at - Eigen::Rotation2Dd(theta).toRotationMatrix() * p.local;
         }
-    state.q.segment<3>(3 * k) << origin, theta;
+    q.segment<3>(3 * k) << origin, theta;
   }
-  state.driver = m.driver.at_time(reference.time(0));
-  state.driver.value = reference.driver(0);
-  const NewtonSolver solver(m);
-  const SolveReport report = solver.solve(state);
-  if (report.status == PoseStatus::no_convergence)
-    throw std::runtime_error("could not close the loops at the first sample: " + report.message);
-  return {state.q, state.qdot};
+  return q;
 }
 
-// Step times: each sample interval is split into equal steps no longer than the wanted step,
-// so samples fall on step boundaries (a sweep's extra sample at a toggle makes one interval
-// shorter than the others).
+// Absolute coordinates and their rates at the reference's first usable sample, solved exactly.
+struct Start {
+  Eigen::VectorXd q, qdot;
+};
+
+// At time t (the first usable sample's, or before it for a periodic pre-roll); nullopt when the
+// chain does not close there on a well-conditioned pose.
+std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference, int first,
+                                 double t) {
+  KinematicState state(m);
+  state.q = reference_coordinates(m, reference, first);
+  state.driver = m.driver.at_time(t);
+  state.driver.value = reference.driver(first) +
+                       (state.driver.value - m.driver.at_time(reference.time(first)).value);
+  const NewtonSolver solver(m);
+  const SolveReport report = solver.solve(state);
+  if (report.status != PoseStatus::ok) return std::nullopt;
+  return Start{state.q, state.qdot};
+}
+
+// Largest difference between two configurations: positions per size, angles modulo 2 pi.
+double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size) {
+  double off = 0.0;
+  for (Eigen::Index k = 0; k + 2 < a.size(); k += 3) {
+    off = std::max({off, std::abs(a(k) - b(k)) / size, std::abs(a(k + 1) - b(k + 1)) / size,
+                    std::abs(std::remainder(a(k + 2) - b(k + 2), 2.0 * std::numbers::pi))});
+  }
+  return off;
+}
+
+// Step times over the usable span: each sample interval is split into equal steps no longer
+// than the wanted step, so samples fall on step boundaries (a sweep's extra sample at a toggle
+// makes one interval shorter than the others). The grid starts at the first usable sample and
+// ends at the last: the engine is never driven outside them.
 struct TimeGrid {
   std::vector<double> time;       // time at the end of forward step k (k = 0: the first sample)
-  std::vector<long> sample_step;  // step of each sample
+  std::vector<long> sample_step;  // step of each sample; -1 outside the usable span
   double dt = 0.0;                // the longest step [s]
   long steps_per_sample = 1;      // in the longest interval
 };
 
-TimeGrid time_grid(const Trajectory& reference, const Config& c) {
+TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& span) {
   const int n = reference.samples();
   for (int i = 1; i < n; ++i)
     if (!(reference.time(i) > reference.time(i - 1)))
@@ -182,58 +224,99 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c) {
   if (c.dt == "auto") {
     // The fastest link of the reference sets the step: errors grow as (omega dt)^2.
     double fastest = 0.0;
-    for (int i = 0; i < n; ++i)
-      if (reference.status[static_cast<size_t>(i)] == PoseStatus::ok)
+    for (int i = span.first; i <= span.last; ++i)
+      if (usable(reference.status[static_cast<size_t>(i)]))
         fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
-    wanted = fastest > 0.0 ? c.max_step_angle / fastest : reference.time(1) - reference.time(0);
+    wanted = fastest > 0.0 ? c.max_step_angle / fastest
+                           : reference.time(span.first + 1) - reference.time(span.first);
   } else {
     wanted = parse_number("dt", c.dt);
     if (!(wanted > 0.0)) throw std::runtime_error("setting dt: must be positive");
   }
   TimeGrid grid;
-  grid.time.push_back(reference.time(0));
-  grid.sample_step.push_back(0);
-  double h = 0.0;
-  for (int i = 1; i < n; ++i) {
+  grid.sample_step.assign(static_cast<size_t>(n), -1);
+  grid.time.push_back(reference.time(span.first));
+  grid.sample_step[static_cast<size_t>(span.first)] = 0;
+  for (int i = span.first + 1; i <= span.last; ++i) {
     const double interval = reference.time(i) - reference.time(i - 1);
     const long steps = std::max(1L, static_cast<long>(std::ceil(interval / wanted - 1e-9)));
-    h = interval / static_cast<double>(steps);
+    const double h = interval / static_cast<double>(steps);
     for (long k = 1; k <= steps; ++k)
       grid.time.push_back(k == steps ? reference.time(i)
                                      : reference.time(i - 1) + static_cast<double>(k) * h);
-    grid.sample_step.push_back(static_cast<long>(grid.time.size()) - 1);
+    grid.sample_step[static_cast<size_t>(i)] = static_cast<long>(grid.time.size()) - 1;
     if (h > grid.dt) {
       grid.dt = h;
       grid.steps_per_sample = steps;
     }
   }
-  grid.time.push_back(reference.time(n - 1) + h);  // one step past the last sample
   return grid;
+}
+
+// Finite-difference weights (Fornberg 1988) of the value, first and second derivative at x0
+// from values at the nodes x (any spacing, x0 inside or outside them).
+std::array<std::vector<double>, 3> stencil_weights(double x0, const std::vector<double>& x) {
+  const size_t n = x.size();
+  std::array<std::vector<double>, 3> c;
+  for (auto& row : c) row.assign(n, 0.0);
+  c[0][0] = 1.0;
+  double c1 = 1.0, c4 = x[0] - x0;
+  for (size_t i = 1; i < n; ++i) {
+    const size_t mn = std::min<size_t>(i, 2);
+    double c2 = 1.0;
+    const double c5 = c4;
+    c4 = x[i] - x0;
+    for (size_t j = 0; j < i; ++j) {
+      const double c3 = x[i] - x[j];
+      c2 *= c3;
+      if (j == i - 1) {
+        for (size_t k = mn; k >= 1; --k)
+          c[k][i] = c1 * (static_cast<double>(k) * c[k - 1][i - 1] - c5 * c[k][i - 1]) / c2;
+        c[0][i] = -c1 * c5 * c[0][i - 1] / c2;
+      }
+      for (size_t k = mn; k >= 1; --k)
+        c[k][j] = (c4 * c[k][j] - static_cast<double>(k) * c[k - 1][j]) / c3;
+      c[0][j] = c4 * c[0][j] / c3;
+    }
+    c1 = c2;
+  }
+  return c;
 }
 
 // Target of the driven joint at time t.
 class DriverLaw {
  public:
   DriverLaw(const Mechanism& m, const Trajectory& reference, const DrivenJoint& driven)
-      : m_(m), reference_(reference), driven_(driven) {}
+      : m_(m), reference_(reference), driven_(driven) {
+    // Knots of an equivalent driver: the usable samples only (a flagged sample's rates may be
+    // infinite or on another branch).
+    for (int i = 0; i < reference.samples(); ++i)
+      if (usable(reference.status[static_cast<size_t>(i)])) {
+        knots_.push_back(i);
+        knot_times_.push_back(reference.time(i));
+      }
+  }
 
-  // The driven joint's rate at each reference sample (equivalent drivers).
+  // The driven joint's rate at each reference sample (equivalent drivers; 0 where flagged).
   Eigen::VectorXd reference_rates() const {
-    Eigen::VectorXd rate(reference_.samples());
-    for (int i = 0; i < reference_.samples(); ++i) rate(i) = relative(i)(1);
+    Eigen::VectorXd rate = Eigen::VectorXd::Zero(reference_.samples());
+    for (int i : knots_) rate(i) = relative(i)(1);
     return rate;
   }
 
   double at(double t) const {
     if (!driven_.equivalent) return driven_.sign * (m_.driver.at_time(t).value - driven_.offset);
     // Quintic Hermite through the reference's angle, omega and alpha of the driven joint.
-    const int n = reference_.samples();
-    const double* times = reference_.time.data();
-    const int i =
-        std::clamp(static_cast<int>(std::upper_bound(times, times + n, t) - times) - 1, 0, n - 2);
-    const double h = reference_.time(i + 1) - reference_.time(i);
+    const int n = static_cast<int>(knots_.size());
+    const int k =
+        std::clamp(static_cast<int>(std::upper_bound(knot_times_.begin(), knot_times_.end(), t) -
+                                    knot_times_.begin()) -
+                       1,
+                   0, n - 2);
+    const int i = knots_[static_cast<size_t>(k)], i1 = knots_[static_cast<size_t>(k + 1)];
+    const double h = reference_.time(i1) - reference_.time(i);
     const double u = (t - reference_.time(i)) / h;
-    const Eigen::Vector3d p0 = relative(i), p1 = relative(i + 1);
+    const Eigen::Vector3d p0 = relative(i), p1 = relative(i1);
     const double y0 = p0(0), y1 = p1(0), v0 = p0(1) * h, v1 = p1(1) * h;
     const double a0 = p0(2) * h * h, a1 = p1(2) * h * h;
     const double u2 = u * u, u3 = u2 * u, u4 = u3 * u, u5 = u4 * u;
@@ -261,6 +344,8 @@ class DriverLaw {
   const Mechanism& m_;
   const Trajectory& reference_;
   const DrivenJoint& driven_;
+  std::vector<int> knots_;
+  std::vector<double> knot_times_;
 };
 
 MjcfOptions mjcf_options(const Config& c, double dt) {
@@ -347,6 +432,7 @@ Mechanism perturbed(const Mechanism& m, const std::string& text) {
 // Everything a run and mujoco_mjcf share: settings, start, grid, scene, MJCF.
 struct Prepared {
   Config config;
+  Span span;
   Start start;
   TimeGrid grid;
   Scene scene;
@@ -358,8 +444,40 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   Prepared p;
   p.config = parse_settings(overrides);
   const Mechanism scene_mechanism = perturbed(m, p.config.perturb_link);
-  p.start = exact_start(scene_mechanism, reference);
-  p.grid = time_grid(reference, p.config);
+  p.span = usable_span(reference);
+  p.grid = time_grid(reference, p.config, p.span);
+  // A sweep over the whole cycle, usable throughout, is periodic: the run may start kPreroll
+  // steps before the first sample and end kPreroll after the last (the end of the previous
+  // cycle, the start of the next), so every sample has a central stencil clear of the start's
+  // transient. Otherwise the run stays within the usable samples (one-sided at the ends).
+  const int n = reference.samples();
+  const double period = m.cycle_period();
+  const double h0 = p.grid.time[1] - p.grid.time[0];
+  const double h1 = p.grid.time.back() - p.grid.time[p.grid.time.size() - 2];
+  const bool periodic =
+      p.span.first == 0 && p.span.last == n - 1 && period > 0.0 && n > 1 &&
+      reference.time(n - 1) - reference.time(0) + (reference.time(1) - reference.time(0)) >=
+          period * (1.0 - 1e-9);
+  std::optional<Start> start;
+  if (periodic) {
+    start = exact_start(scene_mechanism, reference, p.span.first,
+                        reference.time(0) - static_cast<double>(kPreroll) * h0);
+    if (start) {
+      std::vector<double> time;
+      for (long k = kPreroll; k >= 1; --k)
+        time.push_back(reference.time(0) - static_cast<double>(k) * h0);
+      time.insert(time.end(), p.grid.time.begin(), p.grid.time.end());
+      for (long k = 1; k <= kPreroll; ++k)
+        time.push_back(reference.time(n - 1) + static_cast<double>(k) * h1);
+      p.grid.time = std::move(time);
+      for (long& step : p.grid.sample_step)
+        if (step >= 0) step += kPreroll;
+    }
+  }
+  if (!start)
+    start = exact_start(scene_mechanism, reference, p.span.first, reference.time(p.span.first));
+  if (!start) throw std::runtime_error("could not close the loops at the first usable sample");
+  p.start = *start;
   p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, &reference);
   p.options = mjcf_options(p.config, p.grid.dt);
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
@@ -477,7 +595,9 @@ class MujocoEngine final : public Engine {
         {"driver_threshold", fmt::format("{:.6g}", driver_threshold)},
         {"perturb_link", p.config.perturb_link},
         {"mass_model", "slender bar between the farthest points, 1 kg per mechanism size"},
-        {"derivatives", "3-point differences of step positions (one-sided at the ends)"},
+        {"derivatives",
+         "3-point central differences of step positions; 4-point one-sided at the first and "
+         "last usable samples"},
     };
 
     // The scene's joints, the cut joints' bodies and the driver equality.
@@ -510,23 +630,45 @@ class MujocoEngine final : public Engine {
           to_string(m.driver.type), driven.name);
     mj_forward(mm, d);
 
-    // Step and sample. Forward step k ends at grid.time[k]; sample i is step S_i, read with
-    // 3-point central differences over steps S_i - 1 .. S_i + 1. The run starts at step 0 (the
-    // exact first sample), steps the driver back to step -kBack and then runs forward to one step
-    // past the last sample. Every sample, the first included, is then read with a central
-    // stencil from states the engine reached by steady forward stepping: the reversal's
-    // transient (and the start's, which lacks the O(dt^2) curvature residual every later step
-    // has; docs/engines.md) is corrected before step -1.
-    constexpr long kBack = 8;
+    // Step and sample. The run starts at step 0, the exact first usable sample, and steps
+    // forward to the last usable sample, never beyond (outside them the reference is at or past
+    // an assembly limit). Step k ends at grid.time[k]; sample i is step S_i, read with 3-point
+    // central differences over steps S_i - 1 .. S_i + 1 where those steps exist, else (the first
+    // and last samples, or a sample on step 1) with one-sided 4-point differences over the
+    // nearest steps. Step 0 is never in a stencil: the exact start lacks the O(dt^2) curvature
+    // residual every later step has (docs/engines.md), so a stencil through it would see that
+    // residual as an acceleration; the first sample is extrapolated from steps 1..4.
     const DriverLaw law(m, reference, s.driven);
     const NewtonSolver writer(m);
     KinematicState state(m), probe(m);
     const int samples = reference.samples();
-    Eigen::MatrixXd sample_q(m.coordinate_count(), samples);
+    const Span span = p.span;
+    Eigen::MatrixXd sample_q = Eigen::MatrixXd::Zero(m.coordinate_count(), samples);
     const std::vector<double>& grid = p.grid.time;
     const long last_step = static_cast<long>(grid.size()) - 1;
-    const double h0 = grid[1] - grid[0], qpos0 = mm->qpos0[driven_qpos];
-    auto time_of = [&](long k) { return k >= 0 ? grid[k] : grid[0] + static_cast<double>(k) * h0; };
+    const double qpos0 = mm->qpos0[driven_qpos];
+    // Each sample's stencil (steps), fixed before stepping.
+    std::vector<std::vector<long>> stencil(static_cast<size_t>(samples));
+    const long usable_steps = last_step;  // steps 1 .. last_step (step 0 is the start)
+    if (usable_steps < 3) {
+      run.ok = false;
+      run.message = fmt::format(
+          "only {} steps between the first and last usable samples: too few for differences",
+          usable_steps);
+      std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+      return run;
+    }
+    for (int i = span.first; i <= span.last; ++i) {
+      const long at = p.grid.sample_step[static_cast<size_t>(i)];
+      std::vector<long>& st = stencil[static_cast<size_t>(i)];
+      if (at - 1 >= 1 && at + 1 <= last_step) {
+        st = {at - 1, at, at + 1};
+      } else {
+        const long count = std::min(4L, usable_steps);
+        const long from = std::clamp(at - count / 2, 1L, last_step - count + 1);
+        for (long k = from; k < from + count; ++k) st.push_back(k);
+      }
+    }
     // A step of a new length: the deadbeat softness follows it.
     auto set_step = [&](double h) {
       if (mm->opt.timestep == h) return;
@@ -539,31 +681,31 @@ class MujocoEngine final : public Engine {
       }
     };
     PoseReader reader(m, s, mm, p.start.q);
-    std::array<Eigen::VectorXd, 3> ring;  // poses of the last three steps, by step mod 3
+    constexpr long kRing = 16;  // poses of the last steps, by step mod kRing
+    std::array<Eigen::VectorXd, kRing> ring;
     Eigen::VectorXd gaps = Eigen::VectorXd::Zero(samples);
     std::vector<bool> recorded(static_cast<size_t>(samples), false);
-    auto pose = [&](long k) -> Eigen::VectorXd& {
-      return ring[static_cast<size_t>((k % 3 + 3) % 3)];
-    };
+    auto pose = [&](long k) -> Eigen::VectorXd& { return ring[static_cast<size_t>(k % kRing)]; };
+    pose(0) = reader.read(d);
 
     const Clock::time_point stepping = Clock::now();
-    long step = 0, steps_taken = 0;
-    int interval = 0;  // the sample whose interval (S_i-1, S_i] holds the current step
-    int pending = 0;   // the next sample to record
+    long steps_taken = 0;
+    int interval = span.first;  // the sample whose interval (S_i-1, S_i] holds the current step
+    int pending = span.first;   // the next sample to record
     bool failed = false;
-    for (long j = 0; j < last_step + 2 * kBack; ++j) {
-      const long next = j < kBack ? -(j + 1) : j - 2 * kBack + 1;  // -1, -2, .., -kBack, .., 0, 1
-      const double t = time_of(next);
-      set_step(std::abs(t - time_of(step)));
+    std::vector<double> times;
+    for (long step = 1; step <= last_step; ++step) {
+      const double t = grid[static_cast<size_t>(step)];
+      set_step(t - grid[static_cast<size_t>(step - 1)]);
       const double target = law.at(t);
       // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
       mm->eq_data[mjNEQDATA * driver_eq] = target - qpos0;
       mj_step(mm, d);
       mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
-      step = next;
       ++steps_taken;
       // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
-      while (interval + 1 < samples && step > p.grid.sample_step[interval]) ++interval;
+      while (interval < span.last && step > p.grid.sample_step[static_cast<size_t>(interval)])
+        ++interval;
       const double gap = loop_gap(s, cut_bodies, d);
       gaps(interval) = std::max(gaps(interval), gap);
       pose(step) = reader.read(d);
@@ -585,16 +727,21 @@ class MujocoEngine final : public Engine {
         failed = true;
         break;
       }
-      // The sample whose stencil this step completes (steps around it may differ in length).
-      if (pending < samples && step == p.grid.sample_step[pending] + 1) {
+      // The samples whose stencils this step completes.
+      while (pending <= span.last && stencil[static_cast<size_t>(pending)].back() <= step) {
         const int i = pending++;
-        const double h1 = time_of(step - 1) - time_of(step - 2), h2 = t - time_of(step - 1);
-        const Eigen::VectorXd ahead = pose(step) - pose(step - 1),
-                              behind = pose(step - 1) - pose(step - 2);
-        const double denominator = h1 * h2 * (h1 + h2);
-        state.q = pose(step - 1);
-        state.qdot = (h1 * h1 * ahead + h2 * h2 * behind) / denominator;
-        state.qddot = 2.0 * (h1 * ahead - h2 * behind) / denominator;
+        const std::vector<long>& st = stencil[static_cast<size_t>(i)];
+        times.clear();
+        for (long k : st) times.push_back(grid[static_cast<size_t>(k)]);
+        const auto w = stencil_weights(reference.time(i), times);
+        state.q.setZero();
+        state.qdot.setZero();
+        state.qddot.setZero();
+        for (size_t n = 0; n < st.size(); ++n) {
+          state.q += w[0][n] * pose(st[n]);
+          state.qdot += w[1][n] * pose(st[n]);
+          state.qddot += w[2][n] * pose(st[n]);
+        }
         state.driver = m.driver.at_time(reference.time(i));
         state.driver.value = reference.driver(i);
         writer.write_sample(state, SolveReport{}, run.trajectory, i);
@@ -604,22 +751,27 @@ class MujocoEngine final : public Engine {
     }
     const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
 
-    // Statuses: the gap watch, then everything from a failure on.
+    // Statuses: outside the usable span the reference's flag (no engine value); inside, an
+    // unreached sample is diverged, a sample the reference flags keeps that flag (the engine ran
+    // through it), then the gap watch, the conditioning and the branch check.
     Trajectory& out = run.trajectory;
     out.loop_gap = gaps;
-    int flagged = 0, singular = 0;
-    // A sample not recorded was not reached: the run failed before its stencil was complete.
+    int flagged = 0, singular = 0, jumped = 0, copied = 0;
     int first_lost = -1;
     for (int i = 0; i < samples; ++i) {
       const auto row = static_cast<size_t>(i);
+      const PoseStatus ref_status = reference.status[row];
+      if (i < span.first || i > span.last) {
+        out.status[row] = ref_status;
+        out.rcond(i) = reference.rcond(i);
+        out.events.push_back({reference.driver(i), ref_status,
+                              "outside the reference's usable samples: not run, the reference's "
+                              "flag kept"});
+        continue;
+      }
       if (!recorded[row]) {
         out.status[row] = PoseStatus::diverged;
         if (first_lost < 0) first_lost = i;
-        continue;
-      }
-      if (gaps(i) > gap_threshold) {
-        out.status[row] = PoseStatus::loop_gap;
-        ++flagged;
         continue;
       }
       // Conditioning of the definition's constraints at the engine's configuration: MuJoCo
@@ -627,7 +779,20 @@ class MujocoEngine final : public Engine {
       probe.q = sample_q.col(i);
       probe.driver = m.driver.at_time(reference.time(i));
       probe.driver.value = reference.driver(i);
-      out.rcond(i) = writer.solve_position(probe).rcond;
+      const SolveReport projected = writer.solve_position(probe);
+      out.rcond(i) = projected.rcond;
+      if (!usable(ref_status)) {
+        out.status[row] = ref_status;
+        out.events.push_back({reference.driver(i), ref_status,
+                              "the reference flags this sample: run through, the flag kept"});
+        ++copied;
+        continue;
+      }
+      if (gaps(i) > gap_threshold) {
+        out.status[row] = PoseStatus::loop_gap;
+        ++flagged;
+        continue;
+      }
       if (out.rcond(i) < kSingularRcond) {
         out.status[row] = PoseStatus::singular;
         out.events.push_back({reference.driver(i), PoseStatus::singular,
@@ -635,6 +800,25 @@ class MujocoEngine final : public Engine {
                                           "is singular (rcond {:.2g})",
                                           out.rcond(i))});
         ++singular;
+        continue;
+      }
+      // Branch: the engine's configuration closed exactly (Newton on the definition from it)
+      // must be the reference's. Another solution of the same equations is another assembly
+      // mode: the engine took the other branch at a change point. A model error (a wrong
+      // link) does not move the closed configuration and stays a reported difference.
+      if (projected.status == PoseStatus::ok) {
+        const double off =
+            configuration_distance(probe.q, reference_coordinates(m, reference, i), size);
+        if (off > kBranchDistance) {
+          out.status[row] = PoseStatus::branch_jump;
+          if (jumped == 0)
+            out.events.push_back(
+                {reference.driver(i), PoseStatus::branch_jump,
+                 fmt::format("the engine closes the loops on another assembly mode than the "
+                             "reference (closed configuration {:.3g} of the size or rad away)",
+                             off)});
+          ++jumped;
+        }
       }
     }
     // An equivalent driver's own dead points: where its joint's rate vanishes, the chain driven
@@ -643,7 +827,7 @@ class MujocoEngine final : public Engine {
     if (s.driven.equivalent) {
       const Eigen::VectorXd rate = law.reference_rates();
       const double peak = rate.cwiseAbs().maxCoeff();
-      for (int i = 0; i < samples; ++i) {
+      for (int i = span.first; i <= span.last; ++i) {
         const auto row = static_cast<size_t>(i);
         if (out.status[row] != PoseStatus::ok || std::abs(rate(i)) >= kDeadRate * peak) continue;
         out.status[row] = PoseStatus::singular;
@@ -654,27 +838,39 @@ class MujocoEngine final : public Engine {
         ++dead;
       }
     }
+    auto note = [&](const std::string& text) {
+      run.message = run.message.empty() ? text : run.message + "; " + text;
+    };
     if (failed && first_lost >= 0)
       out.events.push_back({reference.driver(first_lost), PoseStatus::diverged, run.message});
+    const int outside = span.first + (samples - 1 - span.last);
+    if (outside > 0)
+      note(fmt::format(
+          "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); the {} samples "
+          "outside (flagged by the reference: {}) keep its flag and carry no engine value",
+          span.first, span.last, reference.driver(span.first), reference.driver(span.last), outside,
+          to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
+    if (copied > 0)
+      note(
+          fmt::format("{} samples inside the run keep the reference's flag (run through)", copied));
     if (dead > 0)
-      run.message += fmt::format(
-          "; {} samples flagged singular at the equivalent driver's dead "
-          "point",
-          dead);
+      note(fmt::format("{} samples flagged singular at the equivalent driver's dead point", dead));
+    if (jumped > 0)
+      note(fmt::format("{} samples flagged branch_jump (the engine is on another assembly mode)",
+                       jumped));
     if (flagged > 0) {
-      const std::string note =
-          fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                      flagged, gaps.maxCoeff(), gap_threshold);
-      run.message = run.message.empty() ? note : run.message + "; " + note;
+      note(fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                       flagged, gaps.maxCoeff(), gap_threshold));
       for (int i = 0; i < samples; ++i)
         if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
             (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
           out.events.push_back({reference.driver(i), PoseStatus::loop_gap,
                                 fmt::format("loop gap {:.3g} m", gaps(i))});
     }
+    (void)singular;
 
     run.cost.steps = steps_taken;
-    run.cost.simulated_seconds = grid.back() - grid.front() + 2.0 * kBack * h0;
+    run.cost.simulated_seconds = grid.back() - grid.front();
     const double cycle = m.cycle_period() > 0.0 ? m.cycle_period() : run.cost.simulated_seconds;
     if (run.cost.simulated_seconds > 0.0)
       run.cost.wall_seconds_per_cycle = stepping_seconds * cycle / run.cost.simulated_seconds;
