@@ -27,8 +27,10 @@ void set_angle(BodyMotion& m, double theta) {
 }
 
 // The angle nearest `previous` that equals `raw` modulo 2 pi (angles are unwrapped along a sweep).
+// A step of less than pi is its own remainder: std::remainder only for a wrap (the same result).
 double unwrap(double raw, double previous) {
-  return previous + std::remainder(raw - previous, 2.0 * kPi);
+  const double step = raw - previous;
+  return previous + (std::abs(step) < kPi ? step : std::remainder(step, 2.0 * kPi));
 }
 
 // Angle of the driver's measured arm in its link's frame (the driver row of newton.cpp).
@@ -38,6 +40,18 @@ double arm_angle(const Mechanism& m) {
   return angle_of(m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local);
 }
 
+int unknowns(const AssurGroup& g) {
+  switch (g.kind) {
+    case AssurGroup::Kind::input:
+      return 0;
+    case AssurGroup::Kind::pivot_slot:
+    case AssurGroup::Kind::slide_slot:
+      return 1;
+    case AssurGroup::Kind::dyad:
+      return 2;
+  }
+  return 0;
+}
 int equations(const Tie& t) {
   return t.kind == Tie::Kind::pin ? 2 : 1;
 }
@@ -284,26 +298,17 @@ Decomposition decompose(const Mechanism& m) {
 DyadState::DyadState(const Mechanism& mechanism)
     : kinematics(mechanism), motion(mechanism.links.size()) {}
 
-DyadSolver::DyadSolver(const Mechanism& mechanism, Decomposition decomposition,
-                       double singular_sine)
-    : mechanism_(mechanism),
-      decomposition_(std::move(decomposition)),
-      size_(mechanism.size()),
-      singular_sine_(singular_sine) {
-  if (!decomposition_.complete)
-    throw std::invalid_argument("the chain does not decompose into dyads: " +
-                                decomposition_.reason);
-}
-
-// Both solutions of one group: the point its loci meet at (or a tangent line's angle).
+// Both solutions of one group: the point its loci meet at (or a tangent line's angle). Reused
+// from group to group: roots() sets what its group's solutions use.
 struct DyadSolver::Roots {
   int count = 0;  // 0: cannot assemble; 1: one solution; 2: two
-  Eigen::Vector2d point[2] = {Eigen::Vector2d::Zero(),
-                              Eigen::Vector2d::Zero()};  // the solved
-                                                         // point (circle or line crossings)
-  double angle[2] = {0.0, 0.0};                          // tangent: the guide's angle
-  bool tangent = false;                                  // the roots are angles
-  double sine = 1.0;  // how far from the two roots meeting (0: they meet)
+  // The solved point (circle or line crossings).
+  Eigen::Vector2d point[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  double angle[2] = {0.0, 0.0};  // tangent: the guide's angle
+  bool tangent = false;          // the roots are angles
+  double sine = 1.0;             // how far from the two roots meeting (0: they meet)
+  // The world points of the group's pins (of links placed before it), for place().
+  Eigen::Vector2d pin[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
   Eigen::Vector2d key(int i, double size) const {
     return tangent ? Eigen::Vector2d(size * std::cos(angle[i]), size * std::sin(angle[i]))
                    : point[i];
@@ -318,9 +323,6 @@ constexpr double kTouching = 1e-10;
 
 struct WorldLine {
   Eigen::Vector2d through, direction;  // direction: unit
-};
-struct PinState {
-  Eigen::Vector2d p, v, a;
 };
 
 // Circle (centre, radius) with a line: roots along the line's direction, +1 first.
@@ -388,18 +390,28 @@ SlotGeometry slot_of(const Mechanism& m, int joint) {
           m.links[j.link_b].points[j.point_b].local};
 }
 
-PinState pin_state(const Mechanism& m, const Tie& t, const DyadState& s) {
+// The velocity (accel false) or acceleration of a pin tie's point, its known link's local point
+// given (unused when the pin slides with the driver).
+Eigen::Vector2d pin_rate(const Mechanism& m, const Tie& t, const Eigen::Vector2d& on_known,
+                         bool accel, const DyadState& s) {
   const BodyMotion& k = s.motion[t.known];
-  if (!t.driver_slide) {
-    const Eigen::Vector2d& local = m.links[t.known].points[t.on_known].local;
-    return {k.position(local), k.velocity(local), k.acceleration(local)};
-  }
+  if (!t.driver_slide) return accel ? k.acceleration(on_known) : k.velocity(on_known);
   const Line& line = m.links[t.known].lines[t.line];
   const DriverState& d = s.kinematics.driver;
   const Eigen::Vector2d local = line.origin + d.value * line.direction;
-  return {k.position(local), k.velocity(local) + d.rate * k.turn(line.direction),
-          k.acceleration(local) + 2.0 * d.rate * k.turn_rate(line.direction) +
-              d.accel * k.turn(line.direction)};
+  if (!accel) return k.velocity(local) + d.rate * k.turn(line.direction);
+  return k.acceleration(local) + 2.0 * d.rate * k.turn_rate(line.direction) +
+         d.accel * k.turn(line.direction);
+}
+
+// The world position of a pin tie's point, its known link's local point
+// given (unused when the pin slides with the driver).
+Eigen::Vector2d pin_position(const Mechanism& m, const Tie& t, const Eigen::Vector2d& on_known,
+                             const DyadState& s) {
+  const BodyMotion& k = s.motion[t.known];
+  if (!t.driver_slide) return k.position(on_known);
+  const Line& line = m.links[t.known].lines[t.line];
+  return k.position(line.origin + s.kinematics.driver.value * line.direction);
 }
 
 // theta, omega, alpha of a link from its angle tie.
@@ -430,20 +442,78 @@ WorldLine slide_line(const Mechanism& m, const Tie& t, int u, const Eigen::Vecto
 
 }  // namespace
 
-void DyadSolver::roots(const AssurGroup& g, DyadState& s, Roots& r) const {
+DyadSolver::DyadSolver(const Mechanism& mechanism, Decomposition decomposition,
+                       double singular_sine)
+    : mechanism_(mechanism),
+      decomposition_(std::move(decomposition)),
+      size_(mechanism.size()),
+      singular_sine_(singular_sine) {
+  if (!decomposition_.complete)
+    throw std::invalid_argument("the chain does not decompose into dyads: " +
+                                decomposition_.reason);
   const Mechanism& m = mechanism_;
-  r = Roots{};
-  // Links with an angle tie get their angle first (it is unique).
-  for (int i = 0; i < 2; ++i)
-    if (g.link[i] >= 0 && g.angle[i] >= 0)
-      set_angle(s.motion[g.link[i]], angle_state(g.ties[i][g.angle[i]], s)(0));
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (const int i = m.moving_index(static_cast<int>(l)); i >= 0)
+      moving_.push_back({static_cast<int>(l), i});
+  plans_.resize(decomposition_.groups.size());
+  for (size_t gi = 0; gi < plans_.size(); ++gi) {
+    const AssurGroup& g = decomposition_.groups[gi];
+    Plan& plan = plans_[gi];
+    plan.unknowns = unknowns(g);
+    plan.rrr = g.kind == AssurGroup::Kind::dyad && m.joints[g.inner].type == JointType::revolute &&
+               g.pin[0] >= 0 && g.pin[1] >= 0 && g.angle[0] < 0 && g.angle[1] < 0;
+    if (plan.rrr) {
+      const Joint& j = m.joints[g.inner];
+      plan.inner[0] = m.links[g.link[0]].points[j.point_a].local;
+      plan.inner[1] = m.links[g.link[1]].points[j.point_b].local;
+    }
+    for (int i = 0; i < 2; ++i) {
+      if (g.link[i] < 0) continue;
+      Plan::Side& side = plan.side[i];
+      if (g.angle[i] >= 0) side.has_angle = true, side.angle = g.ties[i][g.angle[i]];
+      if (g.pin[i] < 0) continue;
+      side.has_pin = true;
+      side.pin = g.ties[i][g.pin[i]];
+      side.pin_local = m.links[g.link[i]].points[side.pin.on_link].local;
+      if (!side.pin.driver_slide)
+        side.pin_known = m.links[side.pin.known].points[side.pin.on_known].local;
+      // The point turned about the pin: the slotted pin of a pivot_slot, a dyad's inner joint.
+      Eigen::Vector2d x = side.pin_local;
+      if (g.kind == AssurGroup::Kind::pivot_slot)
+        x = slot_of(m, g.ties[0][g.equation].joint).point;
+      else if (g.kind == AssurGroup::Kind::dyad && m.joints[g.inner].type == JointType::revolute) {
+        const Joint& j = m.joints[g.inner];
+        x = m.links[g.link[i]].points[i == 0 ? j.point_a : j.point_b].local;
+      }
+      side.radius = (x - side.pin_local).norm();
+      side.turn_angle = angle_of(x - side.pin_local);
+    }
+  }
+}
+
+void DyadSolver::roots(const AssurGroup& g, const Plan& plan, DyadState& s, Roots& r) const {
+  const Mechanism& m = mechanism_;
+  r.count = 0;
+  r.tangent = false;
+  r.sine = 1.0;
+  // Links with an angle tie get their angle first (it is unique); the pins' world points are
+  // those of links placed before (place() reuses them).
+  for (int i = 0; i < 2; ++i) {
+    const Plan::Side& side = plan.side[i];
+    if (side.has_angle) {
+      const Tie& t = side.angle;
+      const DriverState& d = s.kinematics.driver;
+      double theta = t.offset + t.driver_sign * d.value;
+      if (t.known >= 0) theta += s.motion[t.known].theta;
+      set_angle(s.motion[g.link[i]], theta);
+    }
+    if (side.has_pin) r.pin[i] = pin_position(m, side.pin, side.pin_known, s);
+  }
   auto local = [&](int i, int point) -> const Eigen::Vector2d& {
     return m.links[g.link[i]].points[point].local;
   };
-  auto pin_local = [&](int i) -> const Eigen::Vector2d& {
-    return local(i, g.ties[i][g.pin[i]].on_link);
-  };
-  auto pin_world = [&](int i) { return pin_state(m, g.ties[i][g.pin[i]], s).p; };
+  auto pin_local = [&](int i) -> const Eigen::Vector2d& { return plan.side[i].pin_local; };
+  auto pin_world = [&](int i) -> const Eigen::Vector2d& { return r.pin[i]; };
 
   switch (g.kind) {
     case AssurGroup::Kind::input:
@@ -457,7 +527,7 @@ void DyadSolver::roots(const AssurGroup& g, DyadState& s, Roots& r) const {
       if (t.slider_is_unplaced) {
         // The slider's point on a placed line: circle about the pin with the line.
         const BodyMotion& guide = s.motion[sg.guide];
-        r.count = circle_line(a, (sg.point - pin_local(0)).norm(),
+        r.count = circle_line(a, plan.side[0].radius,
                               {guide.position(sg.line->origin), guide.turn(sg.line->direction)},
                               r.point, r.sine);
       } else {
@@ -493,12 +563,11 @@ void DyadSolver::roots(const AssurGroup& g, DyadState& s, Roots& r) const {
     const Eigen::Vector2d c0 = local(0, j.point_a), c1 = local(1, j.point_b);
     const bool pivot0 = g.pin[0] >= 0, pivot1 = g.pin[1] >= 0;
     if (pivot0 && pivot1) {
-      r.count = circle_circle(pin_world(0), (c0 - pin_local(0)).norm(), pin_world(1),
-                              (c1 - pin_local(1)).norm(), r.point, r.sine);
+      r.count = circle_circle(pin_world(0), plan.side[0].radius, pin_world(1), plan.side[1].radius,
+                              r.point, r.sine);
     } else if (pivot0 != pivot1) {
       const int p = pivot0 ? 0 : 1, l = 1 - p;
-      const Eigen::Vector2d& c = p == 0 ? c0 : c1;
-      r.count = circle_line(pin_world(p), (c - pin_local(p)).norm(),
+      r.count = circle_line(pin_world(p), plan.side[p].radius,
                             slide_line(m, g.ties[l][g.slot[l]], g.link[l], l == 0 ? c0 : c1, s),
                             r.point, r.sine);
     } else {
@@ -534,21 +603,20 @@ void DyadSolver::roots(const AssurGroup& g, DyadState& s, Roots& r) const {
                       across, r.point[0], r.sine);
 }
 
-void DyadSolver::place(const AssurGroup& g, const Roots& r, int index, DyadState& s) const {
+void DyadSolver::place(const AssurGroup& g, const Plan& plan, const Roots& r, int index,
+                       DyadState& s) const {
   const Mechanism& m = mechanism_;
   const Eigen::Vector2d& x0 = r.point[index];
   auto local = [&](int i, int point) -> const Eigen::Vector2d& {
     return m.links[g.link[i]].points[point].local;
   };
-  auto pin_local = [&](int i) -> const Eigen::Vector2d& {
-    return local(i, g.ties[i][g.pin[i]].on_link);
-  };
-  auto pin_world = [&](int i) { return pin_state(m, g.ties[i][g.pin[i]], s).p; };
-  // A pinned link through world point `at` of its local point `x`.
-  auto turn_to = [&](int i, const Eigen::Vector2d& x, const Eigen::Vector2d& at) {
+  auto pin_local = [&](int i) -> const Eigen::Vector2d& { return plan.side[i].pin_local; };
+  auto pin_world = [&](int i) -> const Eigen::Vector2d& { return r.pin[i]; };
+  // A pinned link through world point `at` of its plan's turned point.
+  auto turn_to = [&](int i, const Eigen::Vector2d& at) {
     BodyMotion& u = s.motion[g.link[i]];
-    const Eigen::Vector2d a = pin_world(i);
-    set_angle(u, unwrap(angle_of(at - a) - angle_of(x - pin_local(i)), u.theta));
+    const Eigen::Vector2d& a = pin_world(i);
+    set_angle(u, unwrap(angle_of(at - a) - plan.side[i].turn_angle, u.theta));
     u.r = a - u.turn(pin_local(i));
   };
   auto set_turned = [&](int i, double theta) {
@@ -569,7 +637,7 @@ void DyadSolver::place(const AssurGroup& g, const Roots& r, int index, DyadState
       if (r.tangent)
         set_turned(0, r.angle[index]);
       else
-        turn_to(0, slot_of(m, g.ties[0][g.equation].joint).point, x0);
+        turn_to(0, x0);
       return;
     case AssurGroup::Kind::slide_slot: {
       const Tie& t = g.ties[0][g.equation];
@@ -585,7 +653,7 @@ void DyadSolver::place(const AssurGroup& g, const Roots& r, int index, DyadState
     const Eigen::Vector2d c[2] = {local(0, j.point_a), local(1, j.point_b)};
     for (int i = 0; i < 2; ++i) {
       if (g.pin[i] >= 0)
-        turn_to(i, c[i], x0);
+        turn_to(i, x0);
       else
         slide_to(i, c[i], x0);
     }
@@ -611,6 +679,8 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   s.assembly_mode.assign(groups.size(), 0);
   s.previous.assign(groups.size(), Eigen::Vector2d::Zero());
   s.before_previous = s.previous;
+  s.rate_matrix.assign(groups.size(), Eigen::Matrix2d::Identity());
+  s.rate_matrix_valid = false;
   s.history = 0;
   // Each two-solution group takes the root nearest the assembled pose of its links.
   const std::vector<BodyMotion> drawn = s.motion;
@@ -618,14 +688,14 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   for (size_t gi = 0; gi < groups.size(); ++gi) {
     const AssurGroup& g = groups[gi];
     if (!g.two_solutions) continue;
-    roots(g, s, r);
+    roots(g, plans_[gi], s, r);
     if (r.count < 2) {
       s.assembly_mode[gi] = 1;
       continue;
     }
     double distance[2];
     for (int i = 0; i < 2; ++i) {
-      place(g, r, i, s);
+      place(g, plans_[gi], r, i, s);
       distance[i] = 0.0;
       for (int k = 0; k < 2; ++k) {
         if (g.link[k] < 0) continue;
@@ -645,11 +715,12 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
   report.rcond = 1.0;
   s.mode_changes.clear();
   s.smallest_sine = 1.0;
+  s.rate_matrix_valid = false;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
   Roots r;
   for (size_t gi = 0; gi < groups.size(); ++gi) {
     const AssurGroup& g = groups[gi];
-    roots(g, s, r);
+    roots(g, plans_[gi], s, r);
     if (r.count == 0) {
       report.status = PoseStatus::cannot_assemble;
       report.message = fmt::format("{} cannot assemble (its loci do not meet)", g.name);
@@ -673,7 +744,7 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
         }
       }
     }
-    place(g, r, index, s);
+    place(g, plans_[gi], r, index, s);
     s.before_previous[gi] = s.previous[gi];
     s.previous[gi] = r.key(index, size_);
     s.smallest_sine = std::min(s.smallest_sine, r.sine);
@@ -684,55 +755,85 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
     report.status = PoseStatus::singular;
     report.message = fmt::format("two assemblies of a group meet (sine {:.2e})", s.smallest_sine);
   }
-  publish(s);
+  publish_position(s);
   return report;
 }
 
-void DyadSolver::set_rate(const AssurGroup& g, int i, double rate, DyadState& s) const {
-  const Mechanism& m = mechanism_;
-  BodyMotion& u = s.motion[g.link[i]];
-  if (g.pin[i] >= 0) {
-    // About the pin: omega from the angle tie or the unknown rate.
-    u.omega = g.angle[i] >= 0 ? angle_state(g.ties[i][g.angle[i]], s)(1) : rate;
-    u.v = pin_state(m, g.ties[i][g.pin[i]], s).v -
-          u.turn_rate(m.links[g.link[i]].points[g.ties[i][g.pin[i]].on_link].local);
-    return;
-  }
-  // Along the slot at slide rate `rate`, with no motion across it.
-  const Tie& t = g.ties[i][g.slot[i]];
-  const SlotGeometry sg = slot_of(m, t.joint);
-  u.omega = angle_state(g.ties[i][g.angle[i]], s)(1);
-  u.v.setZero();
-  const BodyMotion& guide = s.motion[sg.guide];
-  const BodyMotion& slider = s.motion[sg.slider];
-  const double along = project(guide, sg.line->origin, sg.line->direction, slider, sg.point).rate;
-  const double across =
-      project(guide, sg.line->origin, perp(sg.line->direction), slider, sg.point).rate;
-  const Eigen::Vector2d w = guide.turn(sg.line->direction);
-  u.v = (t.slider_is_unplaced ? 1.0 : -1.0) * ((rate - along) * w - across * perp(w));
-}
+// Link i of group g moves with one unknown rate x of its own tie (omega about a pin, or the slide
+// rate along a slot); its velocity is affine in x and the rest of it does not depend on x (nor on
+// the group's other link): the pin's velocity, or the slider's motion along and across its slot
+// with the link's own translation taken as zero. The same for accelerations.
+struct DyadSolver::Rate {
+  BodyMotion* link = nullptr;
+  bool pinned = false, fixed = false;             // fixed: its angle tie gives its rate (x unused)
+  double angular = 0.0;                           // fixed: omega or alpha from the angle tie
+  Eigen::Vector2d pin = Eigen::Vector2d::Zero();  // pinned: the pin's velocity or acceleration
+  Eigen::Vector2d arm = Eigen::Vector2d::Zero();  // pinned: the pin's offset, turned to world axes
+  Eigen::Vector2d w = Eigen::Vector2d::Zero();    // sliding: the slot's world direction
+  double along = 0.0, across = 0.0, sign = 1.0;   // sliding: the slot's rates at zero slide
 
-void DyadSolver::set_accel(const AssurGroup& g, int i, double accel, DyadState& s) const {
-  const Mechanism& m = mechanism_;
-  BodyMotion& u = s.motion[g.link[i]];
-  if (g.pin[i] >= 0) {
-    u.alpha = g.angle[i] >= 0 ? angle_state(g.ties[i][g.angle[i]], s)(2) : accel;
-    u.a = pin_state(m, g.ties[i][g.pin[i]], s).a -
-          u.turn_accel(m.links[g.link[i]].points[g.ties[i][g.pin[i]].on_link].local);
-    return;
+  // Sets the link's omega and v (velocity) or alpha and a (acceleration) at unknown x.
+  void velocity(double x) const {
+    BodyMotion& u = *link;
+    if (pinned) {
+      u.omega = fixed ? angular : x;
+      u.v = pin - u.omega * perp(arm);
+      return;
+    }
+    u.omega = angular;
+    u.v = sign * ((x - along) * w - across * perp(w));
   }
+  void acceleration(double x) const {
+    BodyMotion& u = *link;
+    if (pinned) {
+      u.alpha = fixed ? angular : x;
+      u.a = pin - (u.alpha * perp(arm) - u.omega * u.omega * arm);
+      return;
+    }
+    u.alpha = angular;
+    u.a = sign * ((x - along) * w - across * perp(w));
+  }
+};
+
+DyadSolver::Rate DyadSolver::prepare_rate(const AssurGroup& g, const Plan& plan, int i, bool accel,
+                                          DyadState& s) const {
+  const Mechanism& m = mechanism_;
+  const Plan::Side& side = plan.side[i];
+  Rate rate;
+  BodyMotion& u = s.motion[g.link[i]];
+  rate.link = &u;
+  if (side.has_angle) {
+    rate.fixed = true;
+    rate.angular = angle_state(side.angle, s)(accel ? 2 : 1);
+  }
+  if (side.has_pin) {
+    // About the pin: omega from the angle tie or the unknown rate.
+    rate.pinned = true;
+    rate.pin = pin_rate(m, side.pin, side.pin_known, accel, s);
+    rate.arm = u.turn(side.pin_local);
+    return rate;
+  }
+  // Along the slot at the unknown slide rate, with no motion across it. project's accel carries
+  // the Coriolis term 2 w' . d' of a slide on a turning line.
   const Tie& t = g.ties[i][g.slot[i]];
   const SlotGeometry sg = slot_of(m, t.joint);
-  u.alpha = angle_state(g.ties[i][g.angle[i]], s)(2);
-  u.a.setZero();
+  if (accel) {
+    u.alpha = rate.angular;
+    u.a.setZero();
+  } else {
+    u.omega = rate.angular;
+    u.v.setZero();
+  }
   const BodyMotion& guide = s.motion[sg.guide];
   const BodyMotion& slider = s.motion[sg.slider];
-  // project's accel carries the Coriolis term 2 w' . d' of a slide on a turning line.
-  const double along = project(guide, sg.line->origin, sg.line->direction, slider, sg.point).accel;
-  const double across =
-      project(guide, sg.line->origin, perp(sg.line->direction), slider, sg.point).accel;
-  const Eigen::Vector2d w = guide.turn(sg.line->direction);
-  u.a = (t.slider_is_unplaced ? 1.0 : -1.0) * ((accel - along) * w - across * perp(w));
+  const Projection along = project(guide, sg.line->origin, sg.line->direction, slider, sg.point);
+  const Projection across =
+      project(guide, sg.line->origin, perp(sg.line->direction), slider, sg.point);
+  rate.along = accel ? along.accel : along.rate;
+  rate.across = accel ? across.accel : across.rate;
+  rate.w = guide.turn(sg.line->direction);
+  rate.sign = t.slider_is_unplaced ? 1.0 : -1.0;
+  return rate;
 }
 
 Eigen::Vector2d DyadSolver::rate_residual(const AssurGroup& g, const DyadState& s,
@@ -758,64 +859,105 @@ Eigen::Vector2d DyadSolver::rate_residual(const AssurGroup& g, const DyadState& 
   return {accel ? b.alpha - a.alpha : b.omega - a.omega, slot_rate(g.inner)};
 }
 
-namespace {
-int unknowns(const AssurGroup& g) {
-  switch (g.kind) {
-    case AssurGroup::Kind::input:
-      return 0;
-    case AssurGroup::Kind::pivot_slot:
-    case AssurGroup::Kind::slide_slot:
-      return 1;
-    case AssurGroup::Kind::dyad:
-      return 2;
-  }
-  return 0;
-}
-}  // namespace
-
 // The group's rate equations are affine in its unknowns x: f(x) = J x + f(0). J's columns are
 // read off f at unit unknowns, then J x = -f(0) is solved (2x2 by Cramer's rule, 1x1 directly).
-// Velocity and acceleration share J; the acceleration's f(0) holds the velocity-squared and
-// Coriolis terms.
+// Velocity and acceleration share J (the acceleration's f(0) holds the velocity-squared and
+// Coriolis terms): `known` says that `j` already holds it (from the velocity solve at this
+// pose), else it is read off here. `set(i, x)` moves link i at unknown x.
 template <typename Set, typename Residual>
-static Eigen::Vector2d solve_rates(int n, Set set, Residual residual) {
-  for (int i = 0; i < n; ++i) set(i, 0.0);
+static void solve_rates(int n, Set set, Residual residual, Eigen::Matrix2d& j, bool known) {
   if (n == 0) {
     set(0, 0.0);
-    return Eigen::Vector2d::Zero();
+    return;
   }
+  for (int i = 0; i < n; ++i) set(i, 0.0);
   const Eigen::Vector2d f0 = residual();
-  Eigen::Matrix2d j = Eigen::Matrix2d::Identity();
-  for (int k = 0; k < n; ++k) {
-    set(k, 1.0);
-    j.col(k) = residual() - f0;
-    set(k, 0.0);
+  if (!known) {
+    j.setIdentity();
+    for (int k = 0; k < n; ++k) {
+      set(k, 1.0);
+      j.col(k) = residual() - f0;
+      set(k, 0.0);
+    }
   }
-  Eigen::Vector2d x;
   if (n == 1) {
-    x << -f0(0) / j(0, 0), 0.0;
-  } else {
-    const double det = j(0, 0) * j(1, 1) - j(0, 1) * j(1, 0);
-    x << (-f0(0) * j(1, 1) + f0(1) * j(0, 1)) / det, (-f0(1) * j(0, 0) + f0(0) * j(1, 0)) / det;
+    set(0, -f0(0) / j(0, 0));
+    return;
   }
-  for (int i = 0; i < n; ++i) set(i, x(i));
-  return x;
+  const double det = j(0, 0) * j(1, 1) - j(0, 1) * j(1, 0);
+  set(0, (-f0(0) * j(1, 1) + f0(1) * j(0, 1)) / det);
+  set(1, (-f0(1) * j(0, 0) + f0(0) * j(1, 0)) / det);
+}
+
+// An RRR dyad's rates in closed form (what solve_rates reads off by probing, without it): each
+// link turns about its pin P_i at omega_i, and the inner joint C moves alike on both,
+//   v_P0 + omega_0 perp(e_0) = v_P1 + omega_1 perp(e_1)      e_i = C - P_i (world)
+//   a_P0 + alpha_0 perp(e_0) - omega_0^2 e_0 = a_P1 + alpha_1 perp(e_1) - omega_1^2 e_1,
+// one 2x2 matrix [perp(e_0), -perp(e_1)] for both, solved by Cramer's rule.
+void DyadSolver::rrr_rates(const AssurGroup& g, const Plan& plan, bool accel, DyadState& s) const {
+  BodyMotion* u[2];
+  Eigen::Vector2d arm[2], e[2], pin[2], f[2];
+  for (int i = 0; i < 2; ++i) {
+    u[i] = &s.motion[g.link[i]];
+    arm[i] = u[i]->turn(plan.side[i].pin_local);
+    e[i] = u[i]->turn(plan.inner[i]) - arm[i];
+    pin[i] = pin_rate(mechanism_, plan.side[i].pin, plan.side[i].pin_known, accel, s);
+    f[i] = accel ? Eigen::Vector2d(pin[i] - u[i]->omega * u[i]->omega * e[i]) : pin[i];
+  }
+  const Eigen::Vector2d j0 = perp(e[0]), j1 = -perp(e[1]), f0 = f[0] - f[1];
+  const double det = j0.x() * j1.y() - j1.x() * j0.y();
+  const double x[2] = {(-f0.x() * j1.y() + f0.y() * j1.x()) / det,
+                       (-f0.y() * j0.x() + f0.x() * j0.y()) / det};
+  for (int i = 0; i < 2; ++i) {
+    BodyMotion& b = *u[i];
+    if (accel) {
+      b.alpha = x[i];
+      b.a = pin[i] - (b.alpha * perp(arm[i]) - b.omega * b.omega * arm[i]);
+    } else {
+      b.omega = x[i];
+      b.v = pin[i] - b.omega * perp(arm[i]);
+    }
+  }
 }
 
 void DyadSolver::solve_velocity(DyadState& s) const {
-  for (const AssurGroup& g : decomposition_.groups)
+  const std::vector<AssurGroup>& groups = decomposition_.groups;
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    const AssurGroup& g = groups[gi];
+    const Plan& plan = plans_[gi];
+    if (plan.rrr) {
+      rrr_rates(g, plan, false, s);
+      continue;
+    }
+    Rate rate[2];
+    for (int i = 0; i < 2; ++i)
+      if (g.link[i] >= 0) rate[i] = prepare_rate(g, plan, i, false, s);
     solve_rates(
-        unknowns(g), [&](int i, double v) { set_rate(g, i, v, s); },
-        [&] { return rate_residual(g, s, false); });
-  publish(s);
+        plan.unknowns, [&](int i, double x) { rate[i].velocity(x); },
+        [&] { return rate_residual(g, s, false); }, s.rate_matrix[gi], false);
+  }
+  s.rate_matrix_valid = true;
+  publish_velocity(s);
 }
 
 void DyadSolver::solve_acceleration(DyadState& s) const {
-  for (const AssurGroup& g : decomposition_.groups)
+  const std::vector<AssurGroup>& groups = decomposition_.groups;
+  const bool known = s.rate_matrix_valid;
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    const AssurGroup& g = groups[gi];
+    const Plan& plan = plans_[gi];
+    if (plan.rrr) {
+      rrr_rates(g, plan, true, s);
+      continue;
+    }
+    Rate rate[2];
+    for (int i = 0; i < 2; ++i)
+      if (g.link[i] >= 0) rate[i] = prepare_rate(g, plan, i, true, s);
     solve_rates(
-        unknowns(g), [&](int i, double v) { set_accel(g, i, v, s); },
-        [&] { return rate_residual(g, s, true); });
-  publish(s);
+        plan.unknowns, [&](int i, double x) { rate[i].acceleration(x); },
+        [&] { return rate_residual(g, s, true); }, s.rate_matrix[gi], known);
+  }
+  publish_acceleration(s);
 }
 
 SolveReport DyadSolver::solve(DyadState& s) const {
@@ -830,16 +972,26 @@ SolveReport DyadSolver::solve(DyadState& s) const {
   return report;
 }
 
-void DyadSolver::publish(DyadState& s) const {
-  const Mechanism& m = mechanism_;
-  KinematicState& k = s.kinematics;
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const int i = m.moving_index(static_cast<int>(l));
-    if (i < 0) continue;
-    const BodyMotion& b = s.motion[l];
-    k.q.segment<3>(3 * i) << b.r, b.theta;
-    k.qdot.segment<3>(3 * i) << b.v, b.omega;
-    k.qddot.segment<3>(3 * i) << b.a, b.alpha;
+// Each copies one of q, qdot, qddot: a pose copies each once.
+void DyadSolver::publish_position(DyadState& s) const {
+  Eigen::VectorXd& q = s.kinematics.q;
+  for (const auto& [l, i] : moving_) {
+    const BodyMotion& b = s.motion[static_cast<size_t>(l)];
+    q(3 * i) = b.r.x(), q(3 * i + 1) = b.r.y(), q(3 * i + 2) = b.theta;
+  }
+}
+void DyadSolver::publish_velocity(DyadState& s) const {
+  Eigen::VectorXd& qdot = s.kinematics.qdot;
+  for (const auto& [l, i] : moving_) {
+    const BodyMotion& b = s.motion[static_cast<size_t>(l)];
+    qdot(3 * i) = b.v.x(), qdot(3 * i + 1) = b.v.y(), qdot(3 * i + 2) = b.omega;
+  }
+}
+void DyadSolver::publish_acceleration(DyadState& s) const {
+  Eigen::VectorXd& qddot = s.kinematics.qddot;
+  for (const auto& [l, i] : moving_) {
+    const BodyMotion& b = s.motion[static_cast<size_t>(l)];
+    qddot(3 * i) = b.a.x(), qddot(3 * i + 1) = b.a.y(), qddot(3 * i + 2) = b.alpha;
   }
 }
 

@@ -36,6 +36,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -102,6 +103,10 @@ struct DyadState {
     int group, from, to;
   };
   std::vector<ModeChange> mode_changes;
+  // Per group, the matrix of its rate equations at the last solve_velocity (valid until the next
+  // solve_position): solve_acceleration reuses it.
+  std::vector<Eigen::Matrix2d> rate_matrix;
+  bool rate_matrix_valid = false;
 };
 
 class DyadSolver {
@@ -129,19 +134,48 @@ class DyadSolver {
 
  private:
   struct Roots;
+  // Per group, what does not change from pose to pose (its ties and the link-local geometry its
+  // roots and placement use), built once by the constructor.
+  struct Plan {
+    struct Side {
+      Tie pin, angle;  // copies of the link's pin and angle ties (when it has them)
+      bool has_pin = false, has_angle = false;
+      Eigen::Vector2d pin_local = Eigen::Vector2d::Zero();  // the pin's point on this link
+      Eigen::Vector2d pin_known = Eigen::Vector2d::Zero();  // and on its known link
+      // The point that place() turns about the pin (dyad: the inner joint's; pivot_slot: the
+      // slotted pin's): its distance from the pin and its angle in the link's frame from it.
+      double radius = 0.0, turn_angle = 0.0;
+    };
+    Side side[2];
+    int unknowns = 0;  // of the rate equations: 0 (input), 1 (single link), 2 (dyad)
+    // An RRR dyad (two pinned links, no angle ties): rates in closed form (rrr_rates), with its
+    // inner joint's point on each link.
+    bool rrr = false;
+    Eigen::Vector2d inner[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  };
+  // A link's motion at a given unknown rate (or its derivative): the part that does not depend
+  // on it, worked out once per group and pose (see prepare_rate).
+  struct Rate;
   // Both solutions of group g from the links placed before it (count 0: it cannot assemble).
-  void roots(const AssurGroup& g, DyadState& state, Roots& out) const;
+  void roots(const AssurGroup& g, const Plan& plan, DyadState& state, Roots& out) const;
   // Places g's links on root `index`.
-  void place(const AssurGroup& g, const Roots& roots, int index, DyadState& state) const;
+  void place(const AssurGroup& g, const Plan& plan, const Roots& roots, int index,
+             DyadState& state) const;
   // Rates (velocity) and their derivatives (acceleration) of g's links from its unknowns.
-  void set_rate(const AssurGroup& g, int i, double rate, DyadState& state) const;
-  void set_accel(const AssurGroup& g, int i, double accel, DyadState& state) const;
+  Rate prepare_rate(const AssurGroup& g, const Plan& plan, int i, bool accel,
+                    DyadState& state) const;
+  void rrr_rates(const AssurGroup& g, const Plan& plan, bool accel, DyadState& state) const;
   Eigen::Vector2d rate_residual(const AssurGroup& g, const DyadState& state, bool accel) const;
-  void publish(DyadState& state) const;  // motions -> kinematics.q, qdot, qddot
+  // Motions -> kinematics.q, qdot or qddot (each copied once per pose).
+  void publish_position(DyadState& state) const;
+  void publish_velocity(DyadState& state) const;
+  void publish_acceleration(DyadState& state) const;
 
   const Mechanism& mechanism_;
   Decomposition decomposition_;
-  double size_;  // Mechanism::size() [m]
+  std::vector<Plan> plans_;                  // per group
+  std::vector<std::pair<int, int>> moving_;  // (link, moving index) of every moving link
+  double size_;                              // Mechanism::size() [m]
   double singular_sine_;
 };
 
