@@ -70,11 +70,15 @@ class Follower {
       last_ = solver_.solve_position(state_);
       h *= 0.5;
       if (std::abs(h) < min_step) {
-        report.status = converged ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
+        // Newton may still converge on the near side of a fold, so a refused step at a limit
+        // looks like a jump: a limit has no solution at all a little beyond it.
+        const bool closes_beyond = converged && solvable_at(d0 + std::copysign(1e6 * min_step, h));
+        report.status = closes_beyond ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
         report.message =
-            converged ? fmt::format(
-                            "at driver = {:.12g} the only nearby solution is on another branch", d0)
-                      : fmt::format("the chain does not close beyond driver = {:.12g}", d0);
+            closes_beyond
+                ? fmt::format("at driver = {:.12g} the only nearby solution is on another branch",
+                              d0)
+                : fmt::format("the chain does not close beyond driver = {:.12g}", d0);
         return report;
       }
     }
@@ -84,6 +88,18 @@ class Follower {
   const SolveReport& last() const { return last_; }
 
  private:
+  // Whether Newton from the current pose closes the chain at `driver`; the state is restored.
+  bool solvable_at(double driver) {
+    q0_ = state_.q;
+    const double d0 = state_.driver.value;
+    state_.driver.value = driver;
+    const PoseStatus s = solver_.solve_position(state_).status;
+    state_.q = q0_;
+    state_.driver.value = d0;
+    last_ = solver_.solve_position(state_);
+    return s == PoseStatus::ok || s == PoseStatus::singular;
+  }
+
   double size_free_norm(const Eigen::VectorXd& v) const {
     return v.cwiseProduct(inverse_scale_).lpNorm<Eigen::Infinity>();
   }

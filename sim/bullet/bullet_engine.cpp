@@ -1056,7 +1056,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   // differences over the steps after the start (or before the end). Only a sweep over the whole
   // cycle, usable throughout, is periodic: there the run starts kPreroll steps before the first
   // sample and ends kPreroll after the last (the end of the previous and the start of the next
-  // cycle), so that every sample has a central stencil clear of the start's transient.
+  // cycle), at the default steps and at an explicit dt alike, so that every sample has a
+  // central stencil clear of the start's transient.
   const NewtonSolver solver(m);
   KinematicState state(m);
   const double t0 = reference.time(first);
@@ -1064,7 +1065,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   const bool periodic =
       first == 0 && last == samples - 1 && period > 0.0 &&
       reference.time(last) - reference.time(first) + interval >= period * (1.0 - 1e-9);
-  long preroll = periodic && config.dt == 0.0 ? kPreroll : 0;
+  long preroll = periodic ? kPreroll : 0;
   double t_start = t0 - static_cast<double>(preroll) * dt;
   state.q = reference_coordinates(original, reference, first);
   state.driver = d.at_time(t_start);
@@ -1158,8 +1159,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   // step boundary; an explicit dt: uniform steps up to the last sample.
   const double t_end = reference.time(last);
   std::vector<double> step_time = {t_start};
-  for (long k = preroll - 1; k >= 0; --k) step_time.push_back(t0 - static_cast<double>(k) * dt);
   if (config.dt == 0.0) {
+    for (long k = preroll - 1; k >= 0; --k) step_time.push_back(t0 - static_cast<double>(k) * dt);
     for (int i = first + 1; i <= last; ++i) {
       const double span_i = reference.time(i) - reference.time(i - 1);
       const long n = std::max(1L, static_cast<long>(std::ceil(span_i / dt - 1e-9)));
@@ -1170,7 +1171,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     }
     for (long k = 1; k <= preroll; ++k) step_time.push_back(t_end + static_cast<double>(k) * dt);
   } else {
-    for (long k = 1; t_start + static_cast<double>(k) * dt <= t_end + 1e-9 * dt; ++k)
+    const double t_stop = t_end + static_cast<double>(preroll) * dt;
+    for (long k = 1; t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
       step_time.push_back(t_start + static_cast<double>(k) * dt);
   }
   const long steps = static_cast<long>(step_time.size()) - 1;
