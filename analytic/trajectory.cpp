@@ -7,23 +7,34 @@ namespace crosslink {
 
 std::string_view to_string(PoseStatus status) {
   switch (status) {
-    case PoseStatus::ok: return "ok";
-    case PoseStatus::singular: return "singular";
-    case PoseStatus::no_convergence: return "no_convergence";
-    case PoseStatus::cannot_assemble: return "cannot_assemble";
-    case PoseStatus::branch_jump: return "branch_jump";
-    case PoseStatus::loop_gap: return "loop_gap";
-    case PoseStatus::diverged: return "diverged";
+    case PoseStatus::ok:
+      return "ok";
+    case PoseStatus::singular:
+      return "singular";
+    case PoseStatus::no_convergence:
+      return "no_convergence";
+    case PoseStatus::cannot_assemble:
+      return "cannot_assemble";
+    case PoseStatus::branch_jump:
+      return "branch_jump";
+    case PoseStatus::loop_gap:
+      return "loop_gap";
+    case PoseStatus::diverged:
+      return "diverged";
   }
   return "?";
 }
 
 std::string_view to_string(Quantity q) {
   switch (q) {
-    case Quantity::position: return "position";
-    case Quantity::angle: return "angle";
-    case Quantity::velocity: return "velocity";
-    case Quantity::acceleration: return "acceleration";
+    case Quantity::position:
+      return "position";
+    case Quantity::angle:
+      return "angle";
+    case Quantity::velocity:
+      return "velocity";
+    case Quantity::acceleration:
+      return "acceleration";
   }
   return "?";
 }
@@ -51,10 +62,17 @@ void Trajectory::resize(const Mechanism& mechanism, int samples) {
   events.clear();
 }
 
+bool Trajectory::beside_singular(int row) const {
+  auto singular_at = [&](int k) {
+    return k >= 0 && k < samples() && status[static_cast<size_t>(k)] == PoseStatus::singular;
+  };
+  return singular_at(row - 1) || singular_at(row + 1);
+}
+
 namespace {
 constexpr std::array<std::string_view, 3> kLinkChannels = {"angle", "omega", "alpha"};
-constexpr std::array<std::string_view, 8> kPointChannels = {"x",  "y",  "vx", "vy",
-                                                           "v",  "ax", "ay", "a"};
+constexpr std::array<std::string_view, 8> kPointChannels = {"x", "y",  "vx", "vy",
+                                                            "v", "ax", "ay", "a"};
 constexpr std::array<std::string_view, 3> kSliderChannels = {"s", "sdot", "sddot"};
 
 int index_of(const std::vector<std::string>& names, std::string_view name) {
@@ -92,8 +110,10 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "vy") return vy.col(p);
     if (kind == "ax") return ax.col(p);
     if (kind == "ay") return ay.col(p);
-    if (kind == "v") return Eigen::VectorXd((vx.col(p).array().square() + vy.col(p).array().square()).sqrt());
-    if (kind == "a") return Eigen::VectorXd((ax.col(p).array().square() + ay.col(p).array().square()).sqrt());
+    if (kind == "v")
+      return Eigen::VectorXd((vx.col(p).array().square() + vy.col(p).array().square()).sqrt());
+    if (kind == "a")
+      return Eigen::VectorXd((ax.col(p).array().square() + ay.col(p).array().square()).sqrt());
   }
   if (const int j = index_of(slider_names, object); j >= 0) {
     if (kind == "s") return s.col(j);

@@ -34,13 +34,15 @@ enum class PoseStatus : std::uint8_t {
   diverged,         // engine: NaN or runaway state
 };
 std::string_view to_string(PoseStatus status);
-inline bool usable(PoseStatus s) { return s == PoseStatus::ok; }
+inline bool usable(PoseStatus s) {
+  return s == PoseStatus::ok;
+}
 
 enum class Quantity { position, angle, velocity, acceleration };
 std::string_view to_string(Quantity q);
 
 struct Trajectory {
-  std::string method;  // "newton", "dyads", "mujoco", ...
+  std::string method;                     // "newton", "dyads", "mujoco", ...
   std::vector<std::string> link_names;    // moving links, in Mechanism order
   std::vector<std::string> point_names;   // Mechanism::named_points() order
   std::vector<std::string> slider_names;  // Mechanism::slide_joints() order
@@ -66,6 +68,11 @@ struct Trajectory {
   // solvers then write rows in place).
   void resize(const Mechanism& mechanism, int samples);
   int samples() const { return static_cast<int>(time.size()); }
+  // Whether sample `row` is next to a sample flagged singular. One grid step from a dead point
+  // or change point the Jacobian's condition is 10 to 40 times worse than elsewhere, so exact
+  // methods agree there only to round-off amplified by it and engines' step errors are
+  // dominated by the singularity: comparisons keep such samples out of their verdicts.
+  bool beside_singular(int row) const;
 
   // Every channel name, in a fixed order (links, points, sliders).
   std::vector<std::string> channel_names() const;

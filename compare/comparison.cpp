@@ -90,17 +90,11 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
 
   // Reference columns, and the scales of metrics.h: the size L, the driver's peak rate W, the
   // largest peak of each kind.
-  // Usable reference samples: ok, and not next to a singular one. One grid step from a dead
-  // point or change point the Jacobian's condition is 10 to 40 times worse than elsewhere (e.g.
-  // rcond 2e-3 against 9e-2 on the parallelogram), so the exact methods agree there only to
-  // round-off amplified by it, and the engines' step errors are dominated by the singularity.
+  // Usable reference samples: ok, and not next to a singular one (Trajectory::beside_singular).
   std::vector<bool> ref_usable(static_cast<size_t>(n));
-  auto singular_at = [&](int k) {
-    return k >= 0 && k < n && ref.status[static_cast<size_t>(k)] == PoseStatus::singular;
-  };
   for (int k = 0; k < n; ++k)
     ref_usable[static_cast<size_t>(k)] =
-        usable(ref.status[static_cast<size_t>(k)]) && !singular_at(k - 1) && !singular_at(k + 1);
+        usable(ref.status[static_cast<size_t>(k)]) && !ref.beside_singular(k);
   const double size = mechanism.size();
   const double driver_rate = driver_peak_rate(mechanism, ref);
   std::vector<Eigen::VectorXd> ref_columns;

@@ -70,15 +70,20 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
   ASSERT_EQ(dyads.samples(), newton.samples());
   EXPECT_EQ(dyads.method, "dyads");
 
-  std::vector<int> rows;  // samples both methods solve
-  for (int r = 0; r < newton.samples(); ++r)
-    if (usable(newton.status[static_cast<size_t>(r)]) &&
-        usable(dyads.status[static_cast<size_t>(r)]))
-      rows.push_back(r);
-  int newton_ok = 0;
-  for (PoseStatus s : newton.status) newton_ok += usable(s);
-  // Every sample Newton solves, the dyads solve too (they may also solve a few more).
-  EXPECT_EQ(static_cast<int>(rows.size()), newton_ok);
+  // Every sample Newton solves, the dyads solve too (they may also solve a few more). The
+  // agreement is checked away from singular positions: beside one (one degree from the
+  // parallelogram's change points) the closed form's circle intersection meets a double root and
+  // both methods carry round-off amplified by the condition, as the comparator allows for.
+  std::vector<int> rows;
+  int newton_ok = 0, both_ok = 0;
+  for (int r = 0; r < newton.samples(); ++r) {
+    const bool ok = usable(newton.status[static_cast<size_t>(r)]);
+    newton_ok += ok;
+    if (!ok || !usable(dyads.status[static_cast<size_t>(r)])) continue;
+    ++both_ok;
+    if (!newton.beside_singular(r)) rows.push_back(r);
+  }
+  EXPECT_EQ(both_ok, newton_ok);
   ASSERT_GT(rows.size(), 10u);
 
   // The scale of a rate channel. A channel can be zero by design: vy of a horizontal slider, or
