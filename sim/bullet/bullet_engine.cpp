@@ -6,6 +6,7 @@
 // the solve. Positions are therefore accurate to O(dt^2); velocities and accelerations come from
 // central differences of positions centred on each sample.
 #include "sim/bullet/bullet_engine.h"
+#include "sim/sampling.h"
 
 #include <btBulletDynamicsCommon.h>
 #include <fmt/format.h>
@@ -844,68 +845,6 @@ class RigidScene final : public Scene {
 
 // ---------------------------------------------------------------------------------------------
 // Run
-
-// Mechanism coordinates of the reference's sample `row` (link frames from the link angle and
-// any named point on the link).
-Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& ref, int row) {
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
-  const auto named = m.named_points();
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const int k = m.moving_index(static_cast<int>(l));
-    if (k < 0) continue;
-    const double theta = ref.angle(row, k);
-    q(3 * k + 2) = theta;
-    const Link& link = m.links[l];
-    for (size_t c = 0; c < named.size(); ++c) {
-      const int pi = link.find_point(named[c].name);
-      if (pi < 0) continue;
-      const Eigen::Vector2d p(ref.x(row, static_cast<Eigen::Index>(c)),
-                              ref.y(row, static_cast<Eigen::Index>(c)));
-      q.segment<2>(3 * k) = p - turn(theta, link.points[pi].local);
-      break;
-    }
-  }
-  return q;
-}
-
-// Largest difference between two configurations: positions per size, angles modulo 2 pi.
-double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size) {
-  double off = 0.0;
-  for (Eigen::Index k = 0; k + 2 < a.size(); k += 3)
-    off = std::max({off, std::abs(a(k) - b(k)) / size, std::abs(a(k + 1) - b(k + 1)) / size,
-                    std::abs(std::remainder(a(k + 2) - b(k + 2), 2.0 * kPi))});
-  return off;
-}
-
-// Finite-difference weights (Fornberg 1988) of the value, first and second derivative at x0
-// from values at the nodes x (any spacing, x0 inside or outside them).
-std::array<std::vector<double>, 3> stencil_weights(double x0, const std::vector<double>& x) {
-  const size_t n = x.size();
-  std::array<std::vector<double>, 3> c;
-  for (auto& row : c) row.assign(n, 0.0);
-  c[0][0] = 1.0;
-  double c1 = 1.0, c4 = x[0] - x0;
-  for (size_t i = 1; i < n; ++i) {
-    const size_t mn = std::min<size_t>(i, 2);
-    double c2 = 1.0;
-    const double c5 = c4;
-    c4 = x[i] - x0;
-    for (size_t j = 0; j < i; ++j) {
-      const double c3 = x[i] - x[j];
-      c2 *= c3;
-      if (j == i - 1) {
-        for (size_t k = mn; k >= 1; --k)
-          c[k][i] = c1 * (static_cast<double>(k) * c[k - 1][i - 1] - c5 * c[k][i - 1]) / c2;
-        c[0][i] = -c1 * c5 * c[0][i - 1] / c2;
-      }
-      for (size_t k = mn; k >= 1; --k)
-        c[k][j] = (c4 * c[k][j] - static_cast<double>(k) * c[k - 1][j]) / c3;
-      c[0][j] = c4 * c[0][j] / c3;
-    }
-    c1 = c2;
-  }
-  return c;
-}
 
 Mechanism perturbed(const Mechanism& m, const Config& c) {
   Mechanism out = m;

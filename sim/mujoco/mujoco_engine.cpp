@@ -2,6 +2,7 @@
 // the reference's times with the driver enforced every step, watches the loop gap, and reads
 // positions, velocities and accelerations at the sampled steps.
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/sampling.h"
 
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -153,27 +154,6 @@ Span usable_span(const Trajectory& reference) {
   return span;
 }
 
-// Absolute coordinates (x, y, theta per moving link) of reference sample `row`: each link's
-// frame from its angle and one of its points.
-Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& reference, int row) {
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const int k = m.moving_index(static_cast<int>(l));
-    if (k < 0) continue;
-    const double theta = reference.angle(row, k);
-    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-    for (const Point& p : m.links[l].points)
-      for (size_t c = 0; c < reference.point_names.size(); ++c)
-        if (reference.point_names[c] == p.name) {
-          const Eigen::Vector2d at(reference.x(row, static_cast<Eigen::Index>(c)),
-                                   reference.y(row, static_cast<Eigen::Index>(c)));
-          origin = at - Eigen::Rotation2Dd(theta).toRotationMatrix() * p.local;
-        }
-    q.segment<3>(3 * k) << origin, theta;
-  }
-  return q;
-}
-
 // Absolute coordinates and their rates at the reference's first usable sample, solved exactly.
 struct Start {
   Eigen::VectorXd q, qdot;
@@ -192,16 +172,6 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
   const SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok) return std::nullopt;
   return Start{state.q, state.qdot};
-}
-
-// Largest difference between two configurations: positions per size, angles modulo 2 pi.
-double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size) {
-  double off = 0.0;
-  for (Eigen::Index k = 0; k + 2 < a.size(); k += 3) {
-    off = std::max({off, std::abs(a(k) - b(k)) / size, std::abs(a(k + 1) - b(k + 1)) / size,
-                    std::abs(std::remainder(a(k + 2) - b(k + 2), 2.0 * std::numbers::pi))});
-  }
-  return off;
 }
 
 // Step times over the usable span: each sample interval is split into equal steps no longer
@@ -251,36 +221,6 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
     }
   }
   return grid;
-}
-
-// Finite-difference weights (Fornberg 1988) of the value, first and second derivative at x0
-// from values at the nodes x (any spacing, x0 inside or outside them).
-std::array<std::vector<double>, 3> stencil_weights(double x0, const std::vector<double>& x) {
-  const size_t n = x.size();
-  std::array<std::vector<double>, 3> c;
-  for (auto& row : c) row.assign(n, 0.0);
-  c[0][0] = 1.0;
-  double c1 = 1.0, c4 = x[0] - x0;
-  for (size_t i = 1; i < n; ++i) {
-    const size_t mn = std::min<size_t>(i, 2);
-    double c2 = 1.0;
-    const double c5 = c4;
-    c4 = x[i] - x0;
-    for (size_t j = 0; j < i; ++j) {
-      const double c3 = x[i] - x[j];
-      c2 *= c3;
-      if (j == i - 1) {
-        for (size_t k = mn; k >= 1; --k)
-          c[k][i] = c1 * (static_cast<double>(k) * c[k - 1][i - 1] - c5 * c[k][i - 1]) / c2;
-        c[0][i] = -c1 * c5 * c[0][i - 1] / c2;
-      }
-      for (size_t k = mn; k >= 1; --k)
-        c[k][j] = (c4 * c[k][j] - static_cast<double>(k) * c[k - 1][j]) / c3;
-      c[0][j] = c4 * c[0][j] / c3;
-    }
-    c1 = c2;
-  }
-  return c;
 }
 
 // Target of the driven joint at time t.
