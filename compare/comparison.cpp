@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "analytic/sweep.h"
@@ -64,6 +65,13 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
     return va + w * (vb - va);
   }
   return std::nullopt;
+}
+
+double ReferenceRow::percent(double value, double against) const {
+  if (std::abs(against) <= zero) return std::numeric_limits<double>::quiet_NaN();
+  if (Trajectory::quantity_of(reference.quantity) == Quantity::angle)
+    return percent_difference(wrap_positive_angle(value), wrap_positive_angle(against));
+  return percent_difference(value, against);
 }
 
 namespace {
@@ -155,6 +163,9 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   for (const Reference& r : mechanism.references) {
     ReferenceRow row;
     row.reference = r;
+    const Eigen::VectorXd none;
+    row.zero = 1e-9 * std::max(channel_peak(r.quantity, none, {}, size),
+                               peak_floor(r.quantity, 0.0, 0.0, driver_rate, size));
     const Trajectory exact = solve_at(mechanism, r.driver_value);
     if (exact.samples() > 0 && usable(exact.status[0]))
       if (const auto v = exact.channel(r.quantity)) {

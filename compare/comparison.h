@@ -36,6 +36,12 @@ struct ReferenceRow {
     bool interpolated = false;  // between two sweep samples (linear)
   };
   std::vector<Value> values;  // every available method that computes the channel
+  // Values below this (SI) are zero to round-off, 1e-9 of the quantity's characteristic scale
+  // (metrics.h): a % difference against them means nothing and is not given.
+  double zero = 0.0;
+  // The course's "% difference" of `value` against `against` (SI; angles in [0, 2 pi)), or NaN
+  // where `against` is a round-off zero.
+  double percent(double value, double against) const;
 };
 
 struct Comparison {

@@ -291,17 +291,15 @@ std::string references_table(const Comparison& cmp) {
     const Reference& first = g.front()->reference;
     const DisplayUnit u = display_unit(m, first.quantity);
     const bool angle = Trajectory::quantity_of(first.quantity) == Quantity::angle;
-    std::vector<std::pair<std::string, double>> values;  // label, file units
+    std::vector<std::pair<std::string, double>> values;  // label, SI
     auto shown = [&](double si) { return (angle ? wrap_positive_angle(si) : si) / u.scale; };
-    for (const ReferenceRow* r : g)
-      values.push_back({r->reference.source, shown(r->reference.value)});
-    if (g.front()->exact_ok)
-      values.push_back({"exact (Newton at this value)", shown(g.front()->exact)});
+    for (const ReferenceRow* r : g) values.push_back({r->reference.source, r->reference.value});
+    if (g.front()->exact_ok) values.push_back({"exact (Newton at this value)", g.front()->exact});
     for (const auto& v : g.front()->values)
       if (v.method != "analytic")
         values.push_back({v.method + (v.interpolated ? " (interpolated)" : "") +
                               (v.method == "ic" ? " (IC computed)" : ""),
-                          shown(v.value)});
+                          v.value});
     html +=
         fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n", escape(first.quantity),
                     first.driver_value / du.scale, escape(du.name), escape(u.name));
@@ -310,11 +308,11 @@ std::string references_table(const Comparison& cmp) {
     html += "</tr>\n";
     for (size_t i = 0; i < values.size(); ++i) {
       html += fmt::format("<tr><td>({}) {}</td><td>{:.6g}</td>", i + 1, escape(values[i].first),
-                          values[i].second);
-      for (size_t j = 0; j < values.size(); ++j)
-        html += i == j ? "<td></td>"
-                       : fmt::format("<td>{:.3f}</td>",
-                                     percent_difference(values[i].second, values[j].second));
+                          shown(values[i].second));
+      for (size_t j = 0; j < values.size(); ++j) {
+        const double pct = g.front()->percent(values[i].second, values[j].second);
+        html += i == j || std::isnan(pct) ? "<td></td>" : fmt::format("<td>{:.3f}</td>", pct);
+      }
       html += "</tr>\n";
     }
     html += "</table>\n";

@@ -189,16 +189,19 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       auto shown_value = [&](double si) {
         return (angle ? wrap_positive_angle(si) : si) / u.scale;
       };
-      double worst_method = 0.0;
+      double worst_method = NAN;  // fmax skips the NaN of a round-off zero
       for (const auto& v : r.values)
         if (v.method != "analytic")
-          worst_method = std::max(worst_method,
-                                  percent_difference(shown_value(v.value), shown_value(r.exact)));
-      fmt::print(out, "{:<18} {:>7.4g} {:>10.5g} {:>11.6g} {:>7.3f} {:>9.2g}  {}\n",
-                 r.reference.quantity, r.reference.driver_value / du.scale,
-                 r.reference.value / u.scale, r.exact_ok ? shown_value(r.exact) : NAN,
-                 percent_difference(shown_value(r.reference.value), shown_value(r.exact)),
-                 worst_method, r.reference.source.substr(0, 40));
+          worst_method = std::fmax(worst_method, r.percent(v.value, r.exact));
+      // A % against a round-off zero is not given ("-").
+      auto pct = [](double v, const char* spec) {
+        return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(spec), v);
+      };
+      fmt::print(out, "{:<18} {:>7.4g} {:>10.5g} {:>11.6g} {:>7} {:>9}  {}\n", r.reference.quantity,
+                 r.reference.driver_value / du.scale, r.reference.value / u.scale,
+                 r.exact_ok ? shown_value(r.exact) : NAN,
+                 pct(r.percent(r.reference.value, r.exact), "{:.3f}"), pct(worst_method, "{:.2g}"),
+                 r.reference.source.substr(0, 40));
     }
     fmt::print(out, "(methods%: the largest % difference of any other method from exact)\n");
   }
@@ -285,17 +288,13 @@ nlohmann::json to_json(const Comparison& cmp) {
 
   j["references"] = json::array();
   for (const ReferenceRow& r : cmp.references) {
-    const bool angle = Trajectory::quantity_of(r.reference.quantity) == Quantity::angle;
-    auto norm = [&](double v) { return angle ? wrap_positive_angle(v) : v; };
     json methods = json::object();
     for (const auto& v : r.values)
-      methods[v.method] = {
-          {"value", v.value},
-          {"interpolated", v.interpolated},
-          {"pct_difference_vs_exact",
-           r.exact_ok ? json(percent_difference(norm(v.value), norm(r.exact))) : json(nullptr)},
-          {"pct_difference_vs_printed",
-           percent_difference(norm(v.value), norm(r.reference.value))}};
+      methods[v.method] = {{"value", v.value},
+                           {"interpolated", v.interpolated},
+                           {"pct_difference_vs_exact",
+                            r.exact_ok ? json(r.percent(v.value, r.exact)) : json(nullptr)},
+                           {"pct_difference_vs_printed", r.percent(v.value, r.reference.value)}};
     j["references"].push_back(
         {{"quantity", r.reference.quantity},
          {"driver_value", r.reference.driver_value},
@@ -303,8 +302,7 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"source", r.reference.source},
          {"exact", r.exact_ok ? json(r.exact) : json(nullptr)},
          {"pct_difference_vs_exact",
-          r.exact_ok ? json(percent_difference(norm(r.reference.value), norm(r.exact)))
-                     : json(nullptr)},
+          r.exact_ok ? json(r.percent(r.reference.value, r.exact)) : json(nullptr)},
          {"methods", methods}});
   }
   j["legend"] = json::object();
