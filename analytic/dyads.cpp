@@ -392,10 +392,18 @@ SlotGeometry slot_of(const Mechanism& m, int joint) {
 
 // The velocity (accel false) or acceleration of a pin tie's point, its known link's local point
 // given (unused when the pin slides with the driver).
-Eigen::Vector2d pin_rate(const Mechanism& m, const Tie& t, const Eigen::Vector2d& on_known,
-                         bool accel, const DyadState& s) {
+Eigen::Vector2d sliding_pin_rate(const Mechanism& m, const Tie& t, bool accel, const DyadState& s);
+inline Eigen::Vector2d pin_rate(const Mechanism& m, const Tie& t, const Eigen::Vector2d& on_known,
+                                bool accel, const DyadState& s) {
   const BodyMotion& k = s.motion[t.known];
-  if (!t.driver_slide) return accel ? k.acceleration(on_known) : k.velocity(on_known);
+  if (!t.driver_slide) [[likely]]
+    return accel ? k.acceleration(on_known) : k.velocity(on_known);
+  return sliding_pin_rate(m, t, accel, s);
+}
+// pin_rate of a pin that slides with the driver.
+[[gnu::noinline]] Eigen::Vector2d sliding_pin_rate(const Mechanism& m, const Tie& t, bool accel,
+                                                   const DyadState& s) {
+  const BodyMotion& k = s.motion[t.known];
   const Line& line = m.links[t.known].lines[t.line];
   const DriverState& d = s.kinematics.driver;
   const Eigen::Vector2d local = line.origin + d.value * line.direction;
@@ -462,6 +470,7 @@ DyadSolver::DyadSolver(const Mechanism& mechanism, Decomposition decomposition,
     plan.unknowns = unknowns(g);
     plan.rrr = g.kind == AssurGroup::Kind::dyad && m.joints[g.inner].type == JointType::revolute &&
                g.pin[0] >= 0 && g.pin[1] >= 0 && g.angle[0] < 0 && g.angle[1] < 0;
+    plan.input = plan.unknowns == 0 && g.link[1] < 0 && g.pin[0] >= 0 && g.angle[0] >= 0;
     if (plan.rrr) {
       const Joint& j = m.joints[g.inner];
       plan.inner[0] = m.links[g.link[0]].points[j.point_a].local;
@@ -727,26 +736,33 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
       return report;
     }
     int index = 0;
+    Eigen::Vector2d key = r.point[0];
     if (r.count == 2) {
       int& mode = s.assembly_mode[gi];
       index = mode > 0 ? 0 : 1;
+      key = r.key(index, size_);
       if (s.history > 0) {
-        // Continuity: the root nearest the pose predicted from the last two samples.
+        // Continuity: the root nearest the pose predicted from the last two samples. The squared
+        // distances rule out a change; the distances themselves decide one (as always).
         const Eigen::Vector2d predicted =
             s.history > 1 ? Eigen::Vector2d(2.0 * s.previous[gi] - s.before_previous[gi])
                           : s.previous[gi];
-        const double stay = (r.key(index, size_) - predicted).norm();
-        const double other = (r.key(1 - index, size_) - predicted).norm();
-        if (other < stay) {
+        const Eigen::Vector2d other_key = r.key(1 - index, size_);
+        const double stay2 = (key - predicted).squaredNorm();
+        const double other2 = (other_key - predicted).squaredNorm();
+        if (other2 < stay2 && std::sqrt(other2) < std::sqrt(stay2)) {
           s.mode_changes.push_back({static_cast<int>(gi), mode, -mode});
           mode = -mode;
           index = 1 - index;
+          key = other_key;
         }
       }
+    } else if (r.tangent) {
+      key = r.key(0, size_);
     }
     place(g, plans_[gi], r, index, s);
     s.before_previous[gi] = s.previous[gi];
-    s.previous[gi] = r.key(index, size_);
+    s.previous[gi] = key;
     s.smallest_sine = std::min(s.smallest_sine, r.sine);
   }
   s.history = std::min(s.history + 1, 2);
@@ -920,6 +936,27 @@ void DyadSolver::rrr_rates(const AssurGroup& g, const Plan& plan, bool accel, Dy
   }
 }
 
+// An input link (a pin and an angle tie, no unknown): what prepare_rate and Rate give at x
+// unused, without them.
+void DyadSolver::input_rates(const AssurGroup& g, const Plan& plan, bool accel,
+                             DyadState& s) const {
+  const Plan::Side& side = plan.side[0];
+  const Tie& t = side.angle;
+  const DriverState& d = s.kinematics.driver;
+  BodyMotion& u = s.motion[g.link[0]];
+  double angular = t.driver_sign * (accel ? d.accel : d.rate);
+  if (t.known >= 0) angular += accel ? s.motion[t.known].alpha : s.motion[t.known].omega;
+  const Eigen::Vector2d pin = pin_rate(mechanism_, side.pin, side.pin_known, accel, s);
+  const Eigen::Vector2d arm = u.turn(side.pin_local);
+  if (accel) {
+    u.alpha = angular;
+    u.a = pin - (u.alpha * perp(arm) - u.omega * u.omega * arm);
+  } else {
+    u.omega = angular;
+    u.v = pin - u.omega * perp(arm);
+  }
+}
+
 void DyadSolver::solve_velocity(DyadState& s) const {
   const std::vector<AssurGroup>& groups = decomposition_.groups;
   for (size_t gi = 0; gi < groups.size(); ++gi) {
@@ -927,6 +964,10 @@ void DyadSolver::solve_velocity(DyadState& s) const {
     const Plan& plan = plans_[gi];
     if (plan.rrr) {
       rrr_rates(g, plan, false, s);
+      continue;
+    }
+    if (plan.input) {
+      input_rates(g, plan, false, s);
       continue;
     }
     Rate rate[2];
@@ -948,6 +989,10 @@ void DyadSolver::solve_acceleration(DyadState& s) const {
     const Plan& plan = plans_[gi];
     if (plan.rrr) {
       rrr_rates(g, plan, true, s);
+      continue;
+    }
+    if (plan.input) {
+      input_rates(g, plan, true, s);
       continue;
     }
     Rate rate[2];

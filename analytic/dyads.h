@@ -152,6 +152,8 @@ class DyadSolver {
     // inner joint's point on each link.
     bool rrr = false;
     Eigen::Vector2d inner[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+    // An input group (one link, a pin and an angle tie): rates straight from them (input_rates).
+    bool input = false;
   };
   // A link's motion at a given unknown rate (or its derivative): the part that does not depend
   // on it, worked out once per group and pose (see prepare_rate).
@@ -165,6 +167,7 @@ class DyadSolver {
   Rate prepare_rate(const AssurGroup& g, const Plan& plan, int i, bool accel,
                     DyadState& state) const;
   void rrr_rates(const AssurGroup& g, const Plan& plan, bool accel, DyadState& state) const;
+  void input_rates(const AssurGroup& g, const Plan& plan, bool accel, DyadState& state) const;
   Eigen::Vector2d rate_residual(const AssurGroup& g, const DyadState& state, bool accel) const;
   // Motions -> kinematics.q, qdot or qddot (each copied once per pose).
   void publish_position(DyadState& state) const;
