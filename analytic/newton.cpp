@@ -33,6 +33,8 @@ SmallLU::SmallLU(Eigen::Index size) : Eigen::PartialPivLU<Eigen::MatrixXd>(size)
   const Eigen::Index triangle = size * (size - 1) / 2;
   l_start_.setZero(size + 1);
   u_start_.setZero(size + 1);
+  for (Eigen::Index j = 0; j <= size; ++j) u_start_(j) = static_cast<int>(j * (j - 1) / 2);
+  u_end_ = u_start_;
   l_rows_.setZero(triangle);
   u_rows_.setZero(triangle);
   l_values_.setZero(triangle);
@@ -50,6 +52,12 @@ void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
   double* lu = m_lu.data();
   int* transpositions = m_rowsTranspositions.indices().data();
   int* below = pivot_rows_.data();
+  // U's column j has room for j entries from start(j) = j (j - 1) / 2; end(j) moves on as they
+  // come.
+  int* u_rows = u_rows_.data();
+  double* u_values = u_values_.data();
+  int* u_end = u_end_.data();
+  for (Eigen::Index j = 0; j < n; ++j) u_end[j] = u_start_(j);
   int swaps = 0;
   for (Eigen::Index k = 0; k < n; ++k) {
     double* column_k = lu + k * n;
@@ -78,10 +86,14 @@ void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
         count += column_k[i] != 0.0;
       }
     }
+    // Row k of U is final from here on (later steps and swaps touch rows below k only): its
+    // nonzeros go to the end of their columns' lists, in increasing row order.
     for (Eigen::Index j = k + 1; j < n; ++j) {
       double* column_j = lu + j * n;
       const double u = column_j[k];
       if (u == 0.0) continue;
+      u_rows[u_end[j]] = static_cast<int>(k);
+      u_values[u_end[j]++] = u;
       for (int c = 0; c < count; ++c) column_j[below[c]] -= column_k[below[c]] * u;
     }
   }
@@ -90,17 +102,12 @@ void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
   m_isInitialized = true;
 
   // The factors' nonzeros, column by column.
-  int l_count = 0, u_count = 0;
+  // L's nonzeros, column by column (later swaps move its rows, so only now).
+  int l_count = 0;
   for (Eigen::Index j = 0; j < n; ++j) {
     const double* column = lu + j * n;
     l_start_(j) = l_count;
-    u_start_(j) = u_count;
     // Each entry is written and the count moves on past the nonzeros only (no branch).
-    for (Eigen::Index i = 0; i < j; ++i) {
-      u_rows_(u_count) = static_cast<int>(i);
-      u_values_(u_count) = column[i];
-      u_count += column[i] != 0.0;
-    }
     inverse_diagonal_(j) = 1.0 / column[j];
     for (Eigen::Index i = j + 1; i < n; ++i) {
       l_rows_(l_count) = static_cast<int>(i);
@@ -109,7 +116,6 @@ void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
     }
   }
   l_start_(n) = l_count;
-  u_start_(n) = u_count;
 }
 
 void SmallLU::solve_in_place(double* b) const {
@@ -117,17 +123,20 @@ void SmallLU::solve_in_place(double* b) const {
   const Eigen::Index n = m_lu.rows();
   const int* transpositions = m_rowsTranspositions.indices().data();
   const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
-  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
+  const int *u_start = u_start_.data(), *u_end = u_end_.data(), *u_rows = u_rows_.data();
   const double *l_values = l_values_.data(), *u_values = u_values_.data();
   for (Eigen::Index k = 0; k < n; ++k)
     if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
+  // As Eigen's column-major triangular solves, a column whose unknown is zero is skipped.
   for (Eigen::Index j = 0; j < n; ++j) {
     const double x = b[j];
+    if (x == 0.0) continue;
     for (int e = l_start[j]; e < l_start[j + 1]; ++e) b[l_rows[e]] -= l_values[e] * x;
   }
   for (Eigen::Index j = n - 1; j >= 0; --j) {
+    if (b[j] == 0.0) continue;
     const double x = b[j] *= inverse_diagonal_(j);
-    for (int e = u_start[j]; e < u_start[j + 1]; ++e) b[u_rows[e]] -= u_values[e] * x;
+    for (int e = u_start[j]; e < u_end[j]; ++e) b[u_rows[e]] -= u_values[e] * x;
   }
 }
 
@@ -136,11 +145,11 @@ void SmallLU::solve_transposed_in_place(double* b) const {
   const Eigen::Index n = m_lu.rows();
   const int* transpositions = m_rowsTranspositions.indices().data();
   const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
-  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
+  const int *u_start = u_start_.data(), *u_end = u_end_.data(), *u_rows = u_rows_.data();
   const double *l_values = l_values_.data(), *u_values = u_values_.data();
   for (Eigen::Index j = 0; j < n; ++j) {
     double sum = b[j];
-    for (int e = u_start[j]; e < u_start[j + 1]; ++e) sum -= u_values[e] * b[u_rows[e]];
+    for (int e = u_start[j]; e < u_end[j]; ++e) sum -= u_values[e] * b[u_rows[e]];
     b[j] = sum * inverse_diagonal_(j);
   }
   for (Eigen::Index j = n - 1; j >= 0; --j) {

@@ -56,8 +56,9 @@ class SmallLU : public Eigen::PartialPivLU<Eigen::MatrixXd> {
 
  private:
   // Strictly lower (L) and strictly upper (U) parts by column: the entries of column j are
-  // [start(j), start(j + 1)) of rows/values. pivot_rows_ is the elimination's scratch.
-  Eigen::VectorXi l_start_, l_rows_, u_start_, u_rows_, pivot_rows_;
+  // [l_start(j), l_start(j + 1)) and [u_start(j), u_end(j)) of rows/values (U's columns have
+  // fixed room, j entries). pivot_rows_ is the elimination's scratch.
+  Eigen::VectorXi l_start_, l_rows_, u_start_, u_end_, u_rows_, pivot_rows_;
   Eigen::VectorXd l_values_, u_values_, inverse_diagonal_;  // 1 / U(j, j)
 };
 
