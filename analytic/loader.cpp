@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <toml++/toml.h>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -9,7 +10,6 @@
 #include <numbers>
 #include <numeric>
 #include <sstream>
-#include <toml++/toml.h>
 
 namespace crosslink {
 namespace {
@@ -173,14 +173,13 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
 
   const toml::table* points = r.table(t, "points", fmt::format("link '{}'", link.name), true);
   if (points) {
-    if (points->empty())
-      r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
+    if (points->empty()) r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
     for (auto&& [key, node] : *points) {
-      const auto xy = r.numbers(node, 2, fmt::format("point '{}' of link '{}'", key.str(),
-                                                      link.name));
+      const auto xy =
+          r.numbers(node, 2, fmt::format("point '{}' of link '{}'", key.str(), link.name));
       if (!xy) continue;
-      link.points.push_back({std::string(key.str()),
-                             Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length, r.at(node)});
+      link.points.push_back(
+          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length, r.at(node)});
     }
   }
 
@@ -213,16 +212,15 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
       const std::optional<std::string> toward = r.string(*lt, "toward", line_what, false);
       const std::optional<double> angle = r.number(*lt, "angle", line_what, false);
       if (toward.has_value() == angle.has_value()) {
-        r.error(line.where, fmt::format("{} needs exactly one of 'toward' (a point) or 'angle'",
-                                        line_what));
+        r.error(line.where,
+                fmt::format("{} needs exactly one of 'toward' (a point) or 'angle'", line_what));
         continue;
       }
       if (toward) {
         const int to = link.find_point(*toward);
         if (to < 0) {
           r.error(r.at(lt->get("toward")),
-                  fmt::format("{}: point '{}' is not on link '{}'", line_what, *toward,
-                              link.name));
+                  fmt::format("{}: point '{}' is not on link '{}'", line_what, *toward, link.name));
           continue;
         }
         const Eigen::Vector2d d = link.points[to].local - line.origin;
@@ -244,10 +242,10 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   if (const toml::node* pose = t.get("pose")) {
-    if (const auto p = r.numbers(*pose, 3, fmt::format("pose of link '{}' ([x, y, angle])",
-                                                        link.name)))
-      link.pose = Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length,
-                                  (*p)[2] * units.angle);
+    if (const auto p =
+            r.numbers(*pose, 3, fmt::format("pose of link '{}' ([x, y, angle])", link.name)))
+      link.pose =
+          Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length, (*p)[2] * units.angle);
   }
   return link;
 }
@@ -316,8 +314,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
       if (point) *pts[e] = resolve_point(r, m, *ends[e], t.get("point"), *point, what);
     }
     if (joint.link_a >= 0 && joint.link_a == joint.link_b)
-      r.error(r.at(*links), fmt::format("{} joins link '{}' to itself", what,
-                                        m.links[joint.link_a].name));
+      r.error(r.at(*links),
+              fmt::format("{} joins link '{}' to itself", what, m.links[joint.link_a].name));
     return joint;
   }
   if (type == "prismatic" || type == "pin_in_slot") {
@@ -372,8 +370,8 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   Driver& d = m.driver;
   d.where = r.at(*t);
   r.known_keys(*t, "[driver]",
-               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit",
-                "polynomial", "table", "duration", "range"});
+               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit", "polynomial",
+                "table", "duration", "range"});
   const std::string type = r.string(*t, "type", "[driver]", true).value_or("");
   if (type == "joint_angle") {
     d.type = DriverType::joint_angle;
@@ -384,9 +382,9 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
         std::vector<std::string> names;
         for (const Joint& j : m.joints)
           if (j.type == JointType::revolute) names.push_back(j.name);
-        r.error(r.at(t->get("joint")),
-                fmt::format("[driver]: unknown joint '{}' (revolute joints: {})", *joint,
-                            join(names)));
+        r.error(
+            r.at(t->get("joint")),
+            fmt::format("[driver]: unknown joint '{}' (revolute joints: {})", *joint, join(names)));
       } else if (m.joints[d.joint].type != JointType::revolute) {
         r.error(r.at(t->get("joint")),
                 fmt::format("[driver]: joint_angle needs a revolute joint; '{}' is {}", *joint,
@@ -415,7 +413,8 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
           (m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local).norm() <
               1e-12)
         r.error(r.at(t->get("to")), "[driver]: 'from' and 'to' are the same place");
-      if (m.links[d.link].ground) r.error(r.at(t->get("link")), "[driver]: the ground cannot be driven");
+      if (m.links[d.link].ground)
+        r.error(r.at(t->get("link")), "[driver]: the ground cannot be driven");
     }
   } else if (type == "slider") {
     d.type = DriverType::slider;
@@ -454,11 +453,12 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
 
   // The motion law: exactly one of speed, polynomial, table.
-  const int laws = (t->get("speed") ? 1 : 0) + (t->get("polynomial") ? 1 : 0) +
-                   (t->get("table") ? 1 : 0);
+  const int laws =
+      (t->get("speed") ? 1 : 0) + (t->get("polynomial") ? 1 : 0) + (t->get("table") ? 1 : 0);
   if (laws != 1) {
-    r.error(d.where, "[driver] needs exactly one motion law: 'speed' (constant), 'polynomial' "
-                     "or 'table'");
+    r.error(d.where,
+            "[driver] needs exactly one motion law: 'speed' (constant), 'polynomial' "
+            "or 'table'");
     return;
   }
   if (t->get("speed")) {
@@ -487,8 +487,9 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     d.law.kind = MotionLaw::Kind::polynomial;
     const auto* array = poly->as_array();
     if (!array || array->empty()) {
-      r.error(r.at(*poly), "[driver] 'polynomial' must be [c1, c2, ...]: value = start + c1 t + "
-                           "c2 t^2 + ... (file units, seconds)");
+      r.error(r.at(*poly),
+              "[driver] 'polynomial' must be [c1, c2, ...]: value = start + c1 t + "
+              "c2 t^2 + ... (file units, seconds)");
       return;
     }
     for (const toml::node& c : *array)
@@ -520,8 +521,8 @@ std::optional<double> reference_factor(const Mechanism& m, std::string_view quan
   const std::string_view kind = quantity.substr(0, quantity.find('.'));
   if (kind == "angle") return m.units.angle;
   if (kind == "omega" || kind == "alpha") return 1.0;
-  static const std::vector<std::string_view> lengths = {
-      "x", "y", "vx", "vy", "v", "ax", "ay", "a", "s", "sdot", "sddot"};
+  static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",    "ax",
+                                                        "ay", "a", "s",  "sdot", "sddot"};
   if (std::find(lengths.begin(), lengths.end(), kind) != lengths.end()) return m.units.length;
   return std::nullopt;
 }
@@ -613,8 +614,8 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   if (const toml::node* limits = t->get("limits"))
     if (const auto v = r.numbers(*limits, 2, "[expect] 'limits' ([lower, upper])"))
       e.limits = std::make_pair((*v)[0] * unit, (*v)[1] * unit);
-  for (const auto& [key, out] : {std::pair{"toggles", &e.toggles},
-                                 std::pair{"change_points", &e.change_points}}) {
+  for (const auto& [key, out] :
+       {std::pair{"toggles", &e.toggles}, std::pair{"change_points", &e.change_points}}) {
     const toml::node* node = t->get(key);
     if (!node) continue;
     const auto* array = node->as_array();
@@ -628,8 +629,9 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
   if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
       e.grashof != "non-Grashof")
-    r.error(r.at(t->get("grashof")), "[expect] 'grashof' must be \"Grashof\", \"change point\" "
-                                     "or \"non-Grashof\"");
+    r.error(r.at(t->get("grashof")),
+            "[expect] 'grashof' must be \"Grashof\", \"change point\" "
+            "or \"non-Grashof\"");
   m.expect = e;
 }
 
@@ -703,17 +705,18 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
     const int off = std::abs(mob.mobility - 1);
     const std::string freedoms = fmt::format("freedom{}", off == 1 ? "" : "s");
     const std::string verdict =
-        mob.mobility < 1
-            ? fmt::format("the chain is over-constrained, {} {} too few for the one driver: a "
-                          "joint too many (a revolute or prismatic takes 2, a pin_in_slot 1), "
-                          "a revolute or prismatic where a pin_in_slot belongs, or a link "
-                          "missing",
-                          off, freedoms)
-            : fmt::format("the chain is under-constrained, {} {} more than the one driver "
-                          "fixes: a joint missing (a revolute or prismatic takes 2, a "
-                          "pin_in_slot 1), a pin_in_slot where a revolute or prismatic "
-                          "belongs, or a link too many",
-                          off, freedoms);
+        mob.mobility < 1 ? fmt::format(
+                               "the chain is over-constrained, {} {} too few for the one driver: a "
+                               "joint too many (a revolute or prismatic takes 2, a pin_in_slot 1), "
+                               "a revolute or prismatic where a pin_in_slot belongs, or a link "
+                               "missing",
+                               off, freedoms)
+                         : fmt::format(
+                               "the chain is under-constrained, {} {} more than the one driver "
+                               "fixes: a joint missing (a revolute or prismatic takes 2, a "
+                               "pin_in_slot 1), a pin_in_slot where a revolute or prismatic "
+                               "belongs, or a link too many",
+                               off, freedoms);
     r.error(r.at(driver), fmt::format("mobility {} with 1 driver. Grübler–Kutzbach: {} ({} "
                                       "links, {} full joints, {} half joints): the joints take "
                                       "{} of the {} freedoms of the {} moving links. {}",
@@ -728,8 +731,8 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   m.file = file;
   r.set_root(root);
   r.known_keys(root, "the definition",
-               {"name", "description", "citation", "units", "link", "joint", "driver",
-                "reference", "tolerance", "expect"});
+               {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
+                "tolerance", "expect"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");

@@ -26,7 +26,7 @@ struct SourceLocation {
 
 // Units the definition file was written in; values inside the Mechanism are SI.
 struct Units {
-  std::string length_name = "m";  // "mm" | "cm" | "m"
+  std::string length_name = "m";   // "mm" | "cm" | "m"
   std::string angle_name = "rad";  // "deg" | "rad"
   double length = 1.0;             // metres per file length unit
   double angle = 1.0;              // radians per file angle unit
@@ -87,11 +87,11 @@ struct Joint {
 struct MotionLaw {
   enum class Kind { constant_speed, polynomial, table };
   Kind kind = Kind::constant_speed;
-  double speed = 0.0;                 // constant_speed: dq/dt [rad/s or m/s]; sign = direction
-  std::vector<double> coefficients;   // polynomial: q = start + c1 t + c2 t^2 + ... (c1 first)
-  std::vector<double> table_time;     // table: knots [s], strictly increasing
-  std::vector<double> table_value;    // table: q at the knots (natural cubic spline between)
-  double duration = 0.0;              // polynomial, table: the cycle's length [s]
+  double speed = 0.0;                // constant_speed: dq/dt [rad/s or m/s]; sign = direction
+  std::vector<double> coefficients;  // polynomial: q = start + c1 t + c2 t^2 + ... (c1 first)
+  std::vector<double> table_time;    // table: knots [s], strictly increasing
+  std::vector<double> table_value;   // table: q at the knots (natural cubic spline between)
+  double duration = 0.0;             // polynomial, table: the cycle's length [s]
 };
 
 // The driver's value and its first two time derivatives at one instant.
@@ -126,10 +126,10 @@ struct Driver {
 
 // A published value to compare against (a hand calculation, Working Model, ...), in SI.
 struct Reference {
-  std::string quantity;    // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
-  double driver_value;     // [rad or m]
-  double value;            // SI: m, rad, m/s, rad/s, m/s^2, rad/s^2
-  std::string source;      // where the value was printed
+  std::string quantity;  // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
+  double driver_value;   // [rad or m]
+  double value;          // SI: m, rad, m/s, rad/s, m/s^2, rad/s^2
+  std::string source;    // where the value was printed
   SourceLocation where;
 };
 
@@ -143,8 +143,8 @@ struct ToleranceOverrides {
 // by hand in closed form; the stability catalogue's tests check the sweep against it.
 struct Expectations {
   std::optional<std::pair<double, double>> limits;  // the driver's assembling range
-  std::vector<double> toggles;                       // driver values of toggles (dead points)
-  std::vector<double> change_points;                 // driver values of change points
+  std::vector<double> toggles;                      // driver values of toggles (dead points)
+  std::vector<double> change_points;                // driver values of change points
   std::string grashof;  // four-bars: "Grashof" | "change point" | "non-Grashof"; "" = not given
   SourceLocation where;
 };
@@ -191,9 +191,9 @@ struct Mechanism {
 
 // Grübler–Kutzbach count: M = 3 (n - 1) - 2 j1 - j2.
 struct Mobility {
-  int links = 0;         // n, ground included
-  int full_joints = 0;   // j1: revolute and prismatic
-  int half_joints = 0;   // j2: pin-in-slot
+  int links = 0;        // n, ground included
+  int full_joints = 0;  // j1: revolute and prismatic
+  int half_joints = 0;  // j2: pin-in-slot
   int mobility = 0;
   std::string explain() const;  // "M = 3(6-1) - 2*7 - 0 = 1"
 };

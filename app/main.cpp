@@ -10,8 +10,9 @@
 
 int main(int argc, char** argv) {
   using namespace crosslink::app;
-  CLI::App app{"crosslink: exact kinematics of planar linkages, cross-validated against physics "
-               "engines"};
+  CLI::App app{
+      "crosslink: exact kinematics of planar linkages, cross-validated against physics "
+      "engines"};
   app.require_subcommand(1);
   std::function<int()> run;
   add_check(app, run);

@@ -18,8 +18,8 @@ struct SolveArgs {
   std::optional<double> at;
   std::string format = "table";
   double step = 0.0;
-  std::string method = "auto";  // dyads | newton | auto (dyads when the chain decomposes)
-  bool ic = false;              // print the instantaneous centres (with --at)
+  std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
+  bool ic = false;                // print the instantaneous centres (with --at)
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
 };
 
@@ -53,9 +53,8 @@ nlohmann::json sample_json(const Trajectory& t, int row) {
 nlohmann::json events_json(const Trajectory& t) {
   nlohmann::json events = nlohmann::json::array();
   for (const Trajectory::Event& e : t.events)
-    events.push_back({{"driver", e.driver},
-                      {"kind", std::string(to_string(e.kind))},
-                      {"message", e.message}});
+    events.push_back(
+        {{"driver", e.driver}, {"kind", std::string(to_string(e.kind))}, {"message", e.message}});
   return events;
 }
 
@@ -118,10 +117,11 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     const auto c = static_cast<Eigen::Index>(p);
     const double vx = t.vx(row, c) / L, vy = t.vy(row, c) / L;
     const double ax = t.ax(row, c) / L, ay = t.ay(row, c) / L;
-    fmt::print("{:<8} {:>10.4f} {:>10.4f} {:>11.3f} {:>11.3f} {:>11.3f} {:>12.2f} {:>12.2f} "
-               "{:>12.2f}\n",
-               t.point_names[p], t.x(row, c) / L, t.y(row, c) / L, vx, vy, std::hypot(vx, vy),
-               ax, ay, std::hypot(ax, ay));
+    fmt::print(
+        "{:<8} {:>10.4f} {:>10.4f} {:>11.3f} {:>11.3f} {:>11.3f} {:>12.2f} {:>12.2f} "
+        "{:>12.2f}\n",
+        t.point_names[p], t.x(row, c) / L, t.y(row, c) / L, vx, vy, std::hypot(vx, vy), ax, ay,
+        std::hypot(ax, ay));
   }
   fmt::print("(velocities in {0}/s, accelerations in {0}/s^2)\n", ln);
   if (!t.slider_names.empty()) {
@@ -202,7 +202,8 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
-  if (args.step > 0.0) options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
+  if (args.step > 0.0)
+    options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
   const bool single = args.at.has_value();
@@ -248,8 +249,7 @@ int run_solve(const SolveArgs& args) {
   } else
     print_table_sweep(m, t);
   if (single && !usable(t.status[0])) {
-    fmt::print(stderr, "{}: error: {} at driver = {}\n", m.file, to_string(t.status[0]),
-               *args.at);
+    fmt::print(stderr, "{}: error: {} at driver = {}\n", m.file, to_string(t.status[0]), *args.at);
     return kExitBadInput;
   }
   return kExitOk;

@@ -30,8 +30,8 @@ struct EngineRun {
   Trajectory trajectory;  // same samples (driver values) as the reference sweep
   Settings settings;      // every setting in force, defaults included
   RunCost cost;
-  bool ok = true;         // false: the run diverged or could not be built
-  std::string message;    // why not ok, or notes (e.g. an equivalent driver)
+  bool ok = true;       // false: the run diverged or could not be built
+  std::string message;  // why not ok, or notes (e.g. an equivalent driver)
 };
 
 // `reference` is the exact sweep: the engine starts from its first sample's configuration
