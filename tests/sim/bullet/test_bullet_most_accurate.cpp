@@ -1,4 +1,4 @@
-// Bullet at its most accurate settings (label `slow`): many steps per sample degree.
+// Bullet at its most accurate settings: 20 steps per sample (0.04 s; part of the default run).
 #include <gtest/gtest.h>
 
 #include <iostream>
