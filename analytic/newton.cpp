@@ -200,19 +200,7 @@ struct NewtonSolver::Frames {
   BodyMotion of(int k, const Eigen::VectorXd* qdot = nullptr,
                 const Eigen::VectorXd* qddot = nullptr) const {
     if (k < 0 || !cos) return BodyMotion::of(k, q, qdot, qddot);
-    BodyMotion m;
-    m.r = q.segment<2>(3 * k);
-    m.theta = q(3 * k + 2);
-    m.rotation << (*cos)(k), -(*sin)(k), (*sin)(k), (*cos)(k);  // as Rotation2D builds it
-    if (qdot) {
-      m.v = qdot->segment<2>(3 * k);
-      m.omega = (*qdot)(3 * k + 2);
-    }
-    if (qddot) {
-      m.a = qddot->segment<2>(3 * k);
-      m.alpha = (*qddot)(3 * k + 2);
-    }
-    return m;
+    return BodyMotion::of(k, q, qdot, qddot, (*cos)(k), (*sin)(k));
   }
 };
 

@@ -4,11 +4,14 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace crosslink {
 
 // The vector turned by +90 degrees: perp(v) = R(90) v. d/dtheta (R(theta) v) = perp(R(theta) v).
-inline Eigen::Vector2d perp(const Eigen::Vector2d& v) { return {-v.y(), v.x()}; }
+inline Eigen::Vector2d perp(const Eigen::Vector2d& v) {
+  return {-v.y(), v.x()};
+}
 
 // Motion of a link frame: origin position, velocity, acceleration [m, m/s, m/s^2], angle,
 // angular velocity, angular acceleration [rad, rad/s, rad/s^2]. Ground is all zeros.
@@ -23,11 +26,17 @@ struct BodyMotion {
   // the ground. Any of the derivative vectors may be null (taken as zero).
   static BodyMotion of(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
                        const Eigen::VectorXd* qddot) {
+    if (k < 0) return {};
+    const double theta = q(3 * k + 2);
+    return of(k, q, qdot, qddot, std::cos(theta), std::sin(theta));
+  }
+  // The same with cos and sin of the link's angle already at hand (as Rotation2D builds them).
+  static BodyMotion of(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* qdot,
+                       const Eigen::VectorXd* qddot, double cos_theta, double sin_theta) {
     BodyMotion m;
-    if (k < 0) return m;
     m.r = q.segment<2>(3 * k);
     m.theta = q(3 * k + 2);
-    m.rotation = Eigen::Rotation2Dd(m.theta).toRotationMatrix();
+    m.rotation << cos_theta, -sin_theta, sin_theta, cos_theta;
     if (qdot) {
       m.v = qdot->segment<2>(3 * k);
       m.omega = (*qdot)(3 * k + 2);
@@ -52,9 +61,7 @@ struct BodyMotion {
   // A point fixed in the link.
   Eigen::Vector2d position(const Eigen::Vector2d& local) const { return r + turn(local); }
   Eigen::Vector2d velocity(const Eigen::Vector2d& local) const { return v + turn_rate(local); }
-  Eigen::Vector2d acceleration(const Eigen::Vector2d& local) const {
-    return a + turn_accel(local);
-  }
+  Eigen::Vector2d acceleration(const Eigen::Vector2d& local) const { return a + turn_accel(local); }
 };
 
 // The projection  p = w . (P - O)  of a point P of link b on a direction w through a point O,
