@@ -453,6 +453,14 @@ class UnboundedDantzig : public btDantzigSolver {
   UnboundedDantzig() { m_acceptableUpperLimitSolution = 1e300; }
 };
 
+// Joint-solver settings of both formulations: iterations, ERP (no softening), no split impulse.
+void apply_solver_settings(btContactSolverInfo& info, const Config& config) {
+  info.m_numIterations = config.iterations;
+  info.m_erp = info.m_erp2 = config.erp;
+  info.m_globalCfm = 0.0;
+  info.m_splitImpulse = false;
+}
+
 class MultiBodyScene final : public Scene {
  public:
   MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses, double driver_target0,
@@ -466,11 +474,7 @@ class MultiBodyScene final : public Scene {
     }
     world_ = new btMultiBodyDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
     world_->setGravity(btVector3(0, 0, 0));
-    btContactSolverInfo& info = world_->getSolverInfo();
-    info.m_numIterations = config.iterations;
-    info.m_erp = info.m_erp2 = config.erp;
-    info.m_globalCfm = 0.0;
-    info.m_splitImpulse = false;
+    apply_solver_settings(world_->getSolverInfo(), config);
 
     // One fixed-base multibody per tree root; links in parent-first order.
     const int n = static_cast<int>(plan.nodes.size());
@@ -647,11 +651,7 @@ class RigidScene final : public Scene {
     }
     world_ = new btDiscreteDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
     world_->setGravity(btVector3(0, 0, 0));
-    btContactSolverInfo& info = world_->getSolverInfo();
-    info.m_numIterations = config.iterations;
-    info.m_erp = info.m_erp2 = config.erp;
-    info.m_globalCfm = 0.0;
-    info.m_splitImpulse = false;
+    apply_solver_settings(world_->getSolverInfo(), config);
     erp_ = config.erp;
 
     ground_ = new btRigidBody(0.0, nullptr, &empty_);
