@@ -691,6 +691,7 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   s.rate_matrix.assign(groups.size(), Eigen::Matrix2d::Identity());
   s.rate_matrix_valid = false;
   s.history = 0;
+  s.previous_driver = s.before_previous_driver = assembled.driver.value;
   // Each two-solution group takes the root nearest the assembled pose of its links.
   const std::vector<BodyMotion> drawn = s.motion;
   Roots r;
@@ -719,13 +720,21 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   }
 }
 
+// Two roots of a group closer than this (times the size) are not told apart.
+constexpr double kCoincident = 1e-6;
+
 SolveReport DyadSolver::solve_position(DyadState& s) const {
   SolveReport report;
   report.rcond = 1.0;
   s.mode_changes.clear();
   s.smallest_sine = 1.0;
+  s.ambiguity = 0.0;
   s.rate_matrix_valid = false;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
+  // The prediction is linear in the driver, so unequal steps scale the last difference.
+  const double d = s.kinematics.driver.value;
+  const double last_step = s.previous_driver - s.before_previous_driver;
+  const double extrapolation = last_step != 0.0 ? (d - s.previous_driver) / last_step : 1.0;
   Roots r;
   for (size_t gi = 0; gi < groups.size(); ++gi) {
     const AssurGroup& g = groups[gi];
@@ -745,17 +754,24 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
         // Continuity: the root nearest the pose predicted from the last two samples. The squared
         // distances rule out a change; the distances themselves decide one (as always).
         const Eigen::Vector2d predicted =
-            s.history > 1 ? Eigen::Vector2d(2.0 * s.previous[gi] - s.before_previous[gi])
-                          : s.previous[gi];
+            s.history > 1
+                ? Eigen::Vector2d(s.previous[gi] +
+                                  extrapolation * (s.previous[gi] - s.before_previous[gi]))
+                : s.previous[gi];
         const Eigen::Vector2d other_key = r.key(1 - index, size_);
-        const double stay2 = (key - predicted).squaredNorm();
-        const double other2 = (other_key - predicted).squaredNorm();
+        double stay2 = (key - predicted).squaredNorm();
+        double other2 = (other_key - predicted).squaredNorm();
         if (other2 < stay2 && std::sqrt(other2) < std::sqrt(stay2)) {
-          s.mode_changes.push_back({static_cast<int>(gi), mode, -mode});
+          s.mode_changes.push_back({static_cast<int>(gi), mode, -mode, d});
           mode = -mode;
           index = 1 - index;
           key = other_key;
+          std::swap(stay2, other2);
         }
+        // Roots closer than round-off lets a double root be resolved (~sqrt(eps) of the size)
+        // are one pose: either will do, and the next step's prediction goes on from it.
+        if ((other_key - key).norm() > kCoincident * size_)
+          s.ambiguity = std::max(s.ambiguity, std::sqrt(stay2 / other2));
       }
     } else if (r.tangent) {
       key = r.key(0, size_);
@@ -766,6 +782,8 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
     s.smallest_sine = std::min(s.smallest_sine, r.sine);
   }
   s.history = std::min(s.history + 1, 2);
+  s.before_previous_driver = s.previous_driver;
+  s.previous_driver = d;
   report.rcond = s.smallest_sine;
   if (s.smallest_sine < singular_sine_) {
     report.status = PoseStatus::singular;
@@ -1050,6 +1068,66 @@ std::string DyadSolver::describe_mode(int group, int mode) const {
                      mode > 0 ? "left" : "right");
 }
 
+namespace {
+
+// Moves a solved DyadState along its branch to a driver value in substeps, as the Newton sweep's
+// Follower does for Newton. The closed form picks, per group, the root nearest a linear
+// prediction from the last two solves; over a long step that prediction can land nearer the
+// other assembly (a 90 degree grid step on the sewing machine did), so steps are capped and a
+// substep whose choice is not clear-cut is refused and halved. At a singular position, where the
+// two roots meet, the halving stops at the smallest step the driver tells apart.
+class DyadMarch {
+ public:
+  DyadMarch(const DyadSolver& solver, DyadState& state, double max_step, double min_step)
+      : solver_(solver), state_(state), saved_(state), max_step_(max_step), min_step_(min_step) {}
+
+  // On failure (a group cannot assemble) the state is solved at the last value reached. Mode
+  // changes on the way are in changes().
+  SolveReport advance_to(double target) {
+    changes_.clear();
+    SolveReport last;
+    double allowed = max_step_;
+    bool first = true;
+    while (first || state_.kinematics.driver.value != target) {
+      first = false;
+      // Equal substeps to the target: a short remainder would make the next prediction
+      // extrapolate from two solves too close to tell their difference from round-off.
+      const double d0 = state_.kinematics.driver.value, remaining = target - d0;
+      const double h = remaining / std::max(1.0, std::ceil(std::abs(remaining) / allowed - 1e-9));
+      saved_ = state_;
+      state_.kinematics.driver.value = std::abs(h) < std::abs(remaining) ? d0 + h : target;
+      const SolveReport report = solver_.solve_position(state_);
+      const bool shortest = std::abs(h) <= min_step_;
+      // Refused: a group cannot assemble (perhaps a step past a limit the target stops short
+      // of), or its choice of root is not clear-cut.
+      if (report.status == PoseStatus::cannot_assemble ||
+          (state_.ambiguity > kAmbiguous && !shortest)) {
+        state_ = saved_;
+        if (shortest) return report;
+        allowed = 0.5 * std::abs(h);
+        continue;
+      }
+      changes_.insert(changes_.end(), state_.mode_changes.begin(), state_.mode_changes.end());
+      last = report;
+      allowed = std::min(2.0 * allowed, max_step_);
+    }
+    return last;
+  }
+
+  const std::vector<DyadState::ModeChange>& changes() const { return changes_; }
+
+ private:
+  // The chosen root must be at least four times nearer the prediction than the other.
+  static constexpr double kAmbiguous = 0.25;
+  const DyadSolver& solver_;
+  DyadState& state_;
+  DyadState saved_;  // the state before the substep being tried
+  double max_step_, min_step_;
+  std::vector<DyadState::ModeChange> changes_;
+};
+
+}  // namespace
+
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   const Driver& d = mechanism.driver;
   Trajectory out;
@@ -1078,28 +1156,39 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   const DyadSolver solver(mechanism, std::move(decomposition));
   DyadState state(mechanism);
   solver.set_modes(assembled, state);
+  // The driver tells apart values 1e-10 rad (or 1e-10 of the size) apart, as the Newton sweep.
+  const double unit = d.angular() ? 1.0 : mechanism.size();
+  DyadMarch march(solver, state, continuation_step(mechanism), unit * 1e-10);
 
-  auto driver_at = [&](int row) {
-    DriverState s = d.at_time(grid.time(row));
-    s.value = grid.driver(row);
-    return s;
-  };
   auto solve_row = [&](int row) {
-    state.kinematics.driver = driver_at(row);
-    const SolveReport r = solver.solve(state);
-    for (const DyadState::ModeChange& c : state.mode_changes)
+    SolveReport r = march.advance_to(grid.driver(row));
+    for (const DyadState::ModeChange& c : march.changes())
       out.events.push_back(
-          {grid.driver(row), PoseStatus::singular,
+          {c.driver, PoseStatus::singular,
            fmt::format("assembly mode of {} changes from {} to {}: its two assemblies meet "
                        "here and the motion is followed continuously",
                        solver.decomposition().groups[static_cast<size_t>(c.group)].name,
                        solver.describe_mode(c.group, c.from),
                        solver.describe_mode(c.group, c.to))});
-    if (r.status == PoseStatus::cannot_assemble &&
-        (out.events.empty() || out.events.back().kind != PoseStatus::cannot_assemble))
-      out.events.push_back({grid.driver(row), r.status, r.message});
     if (r.status == PoseStatus::cannot_assemble) {
-      state.kinematics.q.setZero();
+      if (out.events.empty() || out.events.back().kind != PoseStatus::cannot_assemble)
+        out.events.push_back({state.kinematics.driver.value, r.status, r.message});
+      // The sample has no pose; the march resumes from the last one it solved.
+      KinematicState none = state.kinematics;
+      none.q.setZero();
+      none.qdot.setZero();
+      none.qddot.setZero();
+      none.driver.value = grid.driver(row);
+      newton.write_sample(none, r, out, row);
+      return;
+    }
+    DriverState s = d.at_time(grid.time(row));
+    s.value = grid.driver(row);
+    state.kinematics.driver = s;
+    if (r.status == PoseStatus::ok) {
+      solver.solve_velocity(state);
+      solver.solve_acceleration(state);
+    } else {
       state.kinematics.qdot.setZero();
       state.kinematics.qddot.setZero();
     }
@@ -1107,23 +1196,10 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   };
   if (grid.samples() == 0) return out;
 
-  // From the sample nearest the start value (reached in steps no longer than the grid's) forward,
-  // then from it backward.
+  // From the sample nearest the start value forward, then from it backward.
   int first = 0;
   for (int i = 1; i < grid.samples(); ++i)
     if (std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)) first = i;
-  // One sample (a single driver value): march in 1 degree (or size / 50) steps.
-  const double step = grid.samples() > 1 ? std::abs(grid.driver(1) - grid.driver(0))
-                      : d.angular()      ? kPi / 180.0
-                                         : mechanism.size() / 50.0;
-  if (step > 0.0) {
-    const double gap = grid.driver(first) - d.start;
-    const int substeps = static_cast<int>(std::ceil(std::abs(gap) / step));
-    for (int k = 1; k < substeps; ++k) {
-      state.kinematics.driver.value = d.start + gap * k / substeps;
-      solver.solve_position(state);
-    }
-  }
   solve_row(first);
   const DyadState at_first = state;
   for (int i = first + 1; i < grid.samples(); ++i) solve_row(i);

@@ -96,11 +96,17 @@ struct DyadState {
   // tangent line times the mechanism's size) at the last two accepted samples, for the
   // continuity prediction; `history` counts how many are valid (0, 1, 2).
   std::vector<Eigen::Vector2d> previous, before_previous;
+  double previous_driver = 0.0, before_previous_driver = 0.0;  // where they were solved
   int history = 0;
+  // Of the last solve_position: over the two-solution groups, the largest ratio of the chosen
+  // root's distance from the prediction to the other root's (0: clear; near 1: continuity cannot
+  // tell the two assemblies apart at this step).
+  double ambiguity = 0.0;
   double smallest_sine = 1.0;  // of the last solve_position: min over groups (0 = singular)
   // Mode changes of the last solve_position: group index, old mode, new mode.
   struct ModeChange {
     int group, from, to;
+    double driver;  // where it happened [rad or m]
   };
   std::vector<ModeChange> mode_changes;
   // Per group, the matrix of its rate equations at the last solve_velocity (valid until the next
@@ -184,7 +190,9 @@ class DyadSolver {
 
 // The closed-form sweep at the driver values of a Newton sweep `grid` (sweep() with the same
 // options), method "dyads". Modes start from the assembled drawing and are followed from the
-// sample nearest the driver's start value outward; mode changes are events.
+// sample nearest the driver's start value outward, in substeps of at most continuation_step(),
+// each halved while continuity cannot tell a group's two assemblies apart: a sample's value does
+// not depend on the grid's step. Mode changes are events at the driver value where they happen.
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid);
 Trajectory dyad_sweep(const Mechanism& mechanism, const SweepOptions& options = {});
 

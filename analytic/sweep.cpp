@@ -13,6 +13,14 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
+}  // namespace
+
+double continuation_step(const Mechanism& mechanism) {
+  return (mechanism.driver.angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
+}
+
+namespace {
+
 double default_step(const Mechanism& m, const SweepOptions& o) {
   if (o.step > 0.0) return o.step;
   return m.driver.angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
@@ -888,7 +896,8 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence)
     out.events.push_back({d.start, assembled.status, assembled.message});
-  sweep_values(solver, state, assembled, drivers, max_step, small, out);
+  sweep_values(solver, state, assembled, drivers, std::min(max_step, continuation_step(mechanism)),
+               small, out);
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });
   return out;
@@ -967,7 +976,8 @@ Trajectory solve_at(const Mechanism& mechanism, double driver_value, const Sweep
   Trajectory out;
   out.method = "newton";
   out.resize(mechanism, 1);
-  sweep_values(solver, state, assembled, {target}, max_step, min_step(solver, 1e-10), out);
+  sweep_values(solver, state, assembled, {target}, std::min(max_step, continuation_step(mechanism)),
+               min_step(solver, 1e-10), out);
   return out;
 }
 

@@ -43,6 +43,11 @@ struct SingularPosition {
   std::string message;
 };
 
+// The longest step any continuation takes between two solves, whatever the output grid's step:
+// 1 degree of an angular driver; for a slider, the arc its mechanism's size sweeps in 1 degree.
+// Output samples are reached in such substeps, so a sample's value does not depend on the grid.
+double continuation_step(const Mechanism& mechanism);
+
 // Where the chain can be assembled, found by continuation from the drawn position.
 struct AssemblingRange {
   bool full_cycle = false;  // the driver turns (or runs) through its whole cycle

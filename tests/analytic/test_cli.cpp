@@ -1,5 +1,6 @@
 // The `crosslink` command line, run as a user would: exit codes, diagnostics on stderr, and the
 // JSON and CSV outputs of `solve` (the contract in docs/json.md).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -199,6 +200,28 @@ TEST(Cli, SolveSweepJsonHasSamples) {
   EXPECT_EQ(samples[90].at("status"), "ok");
   EXPECT_TRUE(samples[90].at("links").at("coupler").at("omega").is_number());
   EXPECT_TRUE(j.at("events").is_array());
+}
+
+// The default method (dyads) on a coarse grid: each sample is the pose that `--at` and Newton give
+// at its value (the report: 130.53 deg for the coupler at 315 deg on a 90-degree grid,
+// against 104.09 deg), with no invented events and exit 0.
+TEST(Cli, CoarseStepsGiveTheSamePosesAsAt) {
+  for (const int step : {45, 60, 90, 120}) {
+    const nlohmann::json sweep = solve_json("--step " + std::to_string(step));
+    ASSERT_TRUE(sweep.is_object());
+    EXPECT_TRUE(sweep.at("events").empty()) << step << ": " << sweep.at("events").dump();
+    for (const nlohmann::json& sample : sweep.at("samples")) {
+      const double driver = sample.at("driver").get<double>() / kDeg;
+      ASSERT_EQ(sample.at("status"), "ok") << step << " at " << driver;
+      const nlohmann::json at = solve_json(fmt::format("--at {:.15g} --method newton", driver));
+      for (const char* link : {"coupler", "bell_crank", "needle_link"})
+        EXPECT_NEAR(std::remainder(sample["links"][link]["angle"].get<double>() -
+                                       at["links"][link]["angle"].get<double>(),
+                                   2 * kPi),
+                    0.0, 1e-9)
+            << link << " at " << driver << " on a " << step << "-degree grid";
+    }
+  }
 }
 
 TEST(Cli, SolveCsvHeaderAndRows) {
