@@ -1,5 +1,7 @@
 #include "analytic/dyads.h"
 
+#include "analytic/kinetostatics.h"
+
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
@@ -1132,7 +1134,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   const Driver& d = mechanism.driver;
   Trajectory out;
   out.method = "dyads";
-  out.resize(mechanism, grid.samples());
+  out.resize(mechanism, grid.samples(), true);
   out.time = grid.time;
   out.driver = grid.driver;
   Decomposition decomposition = decompose(mechanism);
@@ -1159,6 +1161,11 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   // The driver tells apart values 1e-10 rad (or 1e-10 of the size) apart, as the Newton sweep.
   const double unit = d.angular() ? 1.0 : mechanism.size();
   DyadMarch march(solver, state, continuation_step(mechanism), unit * 1e-10);
+  // Forces: the multipliers (kinetostatics method 1) at each closed-form pose, with the
+  // constraint Jacobian factorised there.
+  const Kinetostatics kinetostatics(newton);
+  ForceSample forces = kinetostatics.make_sample();
+  KinematicState at_pose(mechanism);
 
   auto solve_row = [&](int row) {
     SolveReport r = march.advance_to(grid.driver(row));
@@ -1193,6 +1200,20 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
       state.kinematics.qddot.setZero();
     }
     newton.write_sample(state.kinematics, r, out, row);
+    if (r.status != PoseStatus::ok) return;
+    at_pose.q = state.kinematics.q;
+    at_pose.qdot = state.kinematics.qdot;
+    at_pose.qddot = state.kinematics.qddot;
+    at_pose.driver = state.kinematics.driver;
+    if (newton.solve_position(at_pose).status != PoseStatus::ok) {
+      // The constraint Jacobian is singular here: the reactions are not determined.
+      out.status[static_cast<size_t>(row)] = PoseStatus::singular;
+      return;
+    }
+    at_pose.qdot = state.kinematics.qdot;  // the closed form's, not re-solved
+    at_pose.qddot = state.kinematics.qddot;
+    kinetostatics.solve(at_pose, forces);
+    kinetostatics.write_sample(forces, out, row);
   };
   if (grid.samples() == 0) return out;
 

@@ -135,6 +135,8 @@ struct UnitChoice {
 };
 constexpr UnitChoice kLengthUnits[] = {{"mm", 1e-3}, {"cm", 1e-2}, {"m", 1.0}};
 constexpr UnitChoice kAngleUnits[] = {{"deg", std::numbers::pi / 180.0}, {"rad", 1.0}};
+constexpr UnitChoice kMassUnits[] = {{"kg", 1.0}, {"g", 1e-3}};
+constexpr UnitChoice kForceUnits[] = {{"N", 1.0}, {"kN", 1e3}};
 constexpr UnitChoice kAngularSpeedUnits[] = {{"rad/s", 1.0},
                                              {"deg/s", std::numbers::pi / 180.0},
                                              {"rpm", 2.0 * std::numbers::pi / 60.0},
@@ -157,11 +159,68 @@ std::optional<double> unit_factor(Reader& r, const toml::table& table, std::stri
   return std::nullopt;
 }
 
+std::vector<std::string> point_names(const Link& link) {
+  std::vector<std::string> names;
+  for (const Point& p : link.points) names.push_back(p.name);
+  return names;
+}
+
+// A link's `mass`, `com` and `inertia`: all three or none (then the default model, filled in
+// once the mechanism's size is known).
+void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) {
+  const std::string what = fmt::format("link '{}'", link.name);
+  const toml::node* mass = t.get("mass");
+  const toml::node* com = t.get("com");
+  const toml::node* inertia = t.get("inertia");
+  if (!mass) {
+    if (com || inertia)
+      r.error(r.at(com ? com : inertia),
+              fmt::format("{} gives '{}' but no 'mass': give mass, com and inertia together, or "
+                          "none for the default model",
+                          what, com ? "com" : "inertia"));
+    return;
+  }
+  if (!com || !inertia) {
+    r.error(r.at(*mass),
+            fmt::format("{} gives 'mass' but no '{}': give mass, com (a point name or [x, y]) "
+                        "and inertia (about the centre of mass; 0 for a point mass) together",
+                        what, com ? "inertia" : "com"));
+    return;
+  }
+  const std::optional<double> m = r.number(*mass, fmt::format("'mass' of {}", what));
+  const std::optional<double> i = r.number(*inertia, fmt::format("'inertia' of {}", what));
+  if (m && *m < 0.0) r.error(r.at(*mass), fmt::format("{}: 'mass' must not be negative", what));
+  if (i && *i < 0.0)
+    r.error(r.at(*inertia), fmt::format("{}: 'inertia' must not be negative", what));
+  if (m && i && *m == 0.0 && *i > 0.0)
+    r.error(r.at(*mass), fmt::format("{}: a link of zero mass cannot have inertia {}", what, *i));
+  std::optional<Eigen::Vector2d> centre;
+  if (const auto* name = com->as_string()) {
+    const int p = link.find_point(name->get());
+    if (p < 0)
+      r.error(r.at(*com), fmt::format("{}: 'com' names point '{}', which is not on it (its "
+                                      "points: {})",
+                                      what, name->get(), join(point_names(link))));
+    else
+      centre = link.points[static_cast<size_t>(p)].local;
+  } else if (const auto xy =
+                 r.numbers(*com, 2, fmt::format("'com' of {} (a point name or [x, y])", what))) {
+    centre = Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length;
+  }
+  if (!m || !i || !centre || *m < 0.0 || *i < 0.0) return;
+  link.mass.mass = *m * units.mass;
+  link.mass.inertia = *i * units.mass * units.length * units.length;
+  link.mass.com = *centre;
+  link.mass.assumed = false;
+}
+
 // Reads one [[link]] entry.
 Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   Link link;
   const std::string what = fmt::format("link #{}", index + 1);
-  r.known_keys(t, what, {"name", "ground", "points", "lines", "pose", "description"});
+  r.known_keys(
+      t, what,
+      {"name", "ground", "points", "lines", "pose", "description", "mass", "com", "inertia"});
   link.where = r.at(t);
   link.name = r.string(t, "name", what, true).value_or(fmt::format("link{}", index + 1));
   if (const toml::node* g = t.get("ground")) {
@@ -247,18 +306,13 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
       link.pose =
           Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length, (*p)[2] * units.angle);
   }
+  read_mass(r, t, units, link);
   return link;
 }
 
 std::vector<std::string> link_names(const Mechanism& m) {
   std::vector<std::string> names;
   for (const Link& l : m.links) names.push_back(l.name);
-  return names;
-}
-
-std::vector<std::string> point_names(const Link& link) {
-  std::vector<std::string> names;
-  for (const Point& p : link.points) names.push_back(p.name);
   return names;
 }
 
@@ -524,6 +578,11 @@ std::optional<double> reference_factor(const Mechanism& m, std::string_view quan
   static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",    "ax",
                                                         "ay", "a", "s",  "sdot", "sddot"};
   if (std::find(lengths.begin(), lengths.end(), kind) != lengths.end()) return m.units.length;
+  static const std::vector<std::string_view> forces = {"fx",         "fy",         "f",    "fn",
+                                                       "shaking_fx", "shaking_fy", "force"};
+  if (std::find(forces.begin(), forces.end(), kind) != forces.end()) return m.units.force;
+  if (kind == "torque" || kind == "moment" || kind == "shaking_moment")
+    return m.units.force * m.units.length;
   return std::nullopt;
 }
 
@@ -533,7 +592,11 @@ std::vector<std::string> reference_objects(const Mechanism& m) {
   for (const Link& l : m.links)
     if (!l.ground) objects.push_back(l.name);
   for (const auto& p : m.named_points()) objects.push_back(p.name);
-  for (int j : m.slide_joints()) objects.push_back(m.joints[j].name);
+  for (const Joint& j : m.joints)
+    if (std::find(objects.begin(), objects.end(), j.name) == objects.end())
+      objects.push_back(j.name);
+  objects.push_back("driver");
+  objects.push_back(m.links[static_cast<size_t>(m.ground())].name);
   return objects;
 }
 
@@ -567,14 +630,15 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
                           "one of angle, omega, alpha, x, y, vx, vy, v, ax, ay, a, s, sdot, "
-                          "sddot)",
+                          "sddot, fx, fy, f, fn, moment, torque, force, shaking_fx, shaking_fy, "
+                          "shaking_moment)",
                           ref.quantity));
       continue;
     }
     if (factor && !names_object(m, ref.quantity)) {
       r.error(r.at(t.get("quantity")),
-              fmt::format("[[reference]]: '{}' names no moving link, point or slider (valid "
-                          "names: {})",
+              fmt::format("[[reference]]: '{}' names no moving link, point, joint, slider, "
+                          "driver or ground (valid names: {})",
                           ref.quantity, join(reference_objects(m))));
       continue;
     }
@@ -585,10 +649,215 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+// A point given as `point = "P"` (a named point of the link) or `at = [x, y]` (local, file
+// units) in table `t`. Returns false (after an error) when neither or both are there.
+bool read_place(Reader& r, const Mechanism& m, const toml::table& t, int link,
+                std::string_view what, Eigen::Vector2d& local, std::string& name) {
+  const toml::node* point = t.get("point");
+  const toml::node* at = t.get("at");
+  if ((point != nullptr) == (at != nullptr)) {
+    r.error(r.at(point ? point
+                 : at  ? at
+                       : &t),
+            fmt::format("{} needs exactly one of 'point' (a point of link '{}') or 'at' "
+                        "([x, y] in its frame)",
+                        what, m.links[static_cast<size_t>(link)].name));
+    return false;
+  }
+  if (point) {
+    const std::optional<std::string> n = r.string(t, "point", what, true);
+    if (!n) return false;
+    const int p = resolve_point(r, m, link, point, *n, what);
+    if (p < 0) return false;
+    local = m.links[static_cast<size_t>(link)].points[static_cast<size_t>(p)].local;
+    name = *n;
+    return true;
+  }
+  const auto xy = r.numbers(*at, 2, fmt::format("'at' of {} ([x, y])", what));
+  if (!xy) return false;
+  local = Eigen::Vector2d((*xy)[0], (*xy)[1]) * m.units.length;
+  return true;
+}
+
+// [[load]]: a force at a point of a link or a torque on a link, constant or a table over the
+// driver coordinate.
+void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::node* node = root.get("load");
+  if (!node) return;
+  const auto* array = node->as_array();
+  if (!array || !array->is_array_of_tables()) {
+    r.error(r.at(*node), "'load' must be an array of tables ([[load]])");
+    return;
+  }
+  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  const double torque_unit = m.units.force * m.units.length;
+  for (size_t index = 0; index < array->size(); ++index) {
+    const toml::table& t = *(*array)[index].as_table();
+    const std::string what = fmt::format("load #{}", index + 1);
+    r.known_keys(t, "[[load]]",
+                 {"name", "link", "point", "at", "force", "torque", "force_table", "torque_table"});
+    Load load;
+    load.where = r.at(t);
+    load.name = r.string(t, "name", what, false).value_or(fmt::format("load{}", index + 1));
+    load.link = resolve_link(r, m, t, "link", what);
+    const char* kinds[] = {"force", "torque", "force_table", "torque_table"};
+    std::vector<std::string> given;
+    for (const char* k : kinds)
+      if (t.get(k)) given.emplace_back(k);
+    if (given.size() != 1) {
+      r.error(load.where, fmt::format("{} needs exactly one of 'force' = [fx, fy], 'torque', "
+                                      "'force_table' = [[driver, fx, fy], ...] or 'torque_table' "
+                                      "= [[driver, torque], ...]{}",
+                                      what, given.empty() ? "" : " (it has " + join(given) + ")"));
+      continue;
+    }
+    if (load.link < 0) continue;
+    if (m.links[static_cast<size_t>(load.link)].ground)
+      r.error(r.at(t.get("link")), fmt::format("{}: a load on the ground does no work and moves "
+                                               "nothing; put it on a moving link",
+                                               what));
+    const std::string kind = given.front();
+    load.kind = kind.starts_with("force") ? Load::Kind::force : Load::Kind::torque;
+    load.table = kind.ends_with("_table");
+    if (load.kind == Load::Kind::force) {
+      if (!read_place(r, m, t, load.link, what, load.local, load.point)) continue;
+    } else if (t.get("point") || t.get("at")) {
+      r.error(r.at(t.get("point") ? t.get("point") : t.get("at")),
+              fmt::format("{}: a torque acts on the whole link; remove '{}'", what,
+                          t.get("point") ? "point" : "at"));
+      continue;
+    }
+    const double unit = load.kind == Load::Kind::force ? m.units.force : torque_unit;
+    const size_t width = load.kind == Load::Kind::force ? 2 : 1;
+    const toml::node& value = *t.get(kind);
+    if (!load.table) {
+      std::optional<std::vector<double>> v;
+      if (width == 2)
+        v = r.numbers(value, 2, fmt::format("'force' of {} ([fx, fy])", what));
+      else if (const auto torque = r.number(value, fmt::format("'torque' of {}", what)))
+        v = std::vector<double>{*torque};
+      if (!v) continue;
+      load.rows.emplace_back(0.0, (*v)[0] * unit, width == 2 ? (*v)[1] * unit : 0.0);
+      m.loads.push_back(load);
+      continue;
+    }
+    const auto* rows = value.as_array();
+    if (!rows || rows->size() < 2) {
+      r.error(r.at(value), fmt::format("{}: '{}' must list at least 2 rows", what, kind));
+      continue;
+    }
+    bool good = true;
+    for (const toml::node& row : *rows) {
+      const auto v = r.numbers(row, width + 1,
+                               fmt::format("a row of '{}' of {} ([driver, {}])", kind, what,
+                                           width == 2 ? "fx, fy" : "torque"));
+      if (!v) {
+        good = false;
+        break;
+      }
+      const double d = (*v)[0] * driver_unit;
+      if (!load.rows.empty() && d <= load.rows.back()(0)) {
+        r.error(r.at(row),
+                fmt::format("{}: driver values in '{}' must increase strictly", what, kind));
+        good = false;
+        break;
+      }
+      load.rows.emplace_back(d, (*v)[1] * unit, width == 2 ? (*v)[2] * unit : 0.0);
+    }
+    if (good) m.loads.push_back(load);
+  }
+}
+
+// [[spring]]: a linear spring and damper between points of two links.
+void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::node* node = root.get("spring");
+  if (!node) return;
+  const auto* array = node->as_array();
+  if (!array || !array->is_array_of_tables()) {
+    r.error(r.at(*node), "'spring' must be an array of tables ([[spring]])");
+    return;
+  }
+  for (size_t index = 0; index < array->size(); ++index) {
+    const toml::table& t = *(*array)[index].as_table();
+    const std::string what = fmt::format("spring #{}", index + 1);
+    r.known_keys(t, "[[spring]]",
+                 {"name", "links", "points", "stiffness", "free_length", "damping"});
+    Spring spring;
+    spring.where = r.at(t);
+    std::vector<std::string> names[2];
+    for (const auto& [key, out] : {std::pair{"links", &names[0]}, std::pair{"points", &names[1]}}) {
+      const toml::node* n = t.get(key);
+      const auto* a = n ? n->as_array() : nullptr;
+      if (!a || a->size() != 2 || !(*a)[0].is_string() || !(*a)[1].is_string()) {
+        r.error(n ? r.at(*n) : spring.where,
+                fmt::format("{} needs '{}' = [\"first\", \"second\"]", what, key));
+        continue;
+      }
+      for (const toml::node& e : *a) out->push_back(*e.value<std::string>());
+    }
+    if (names[0].size() != 2 || names[1].size() != 2) continue;
+    int* links[2] = {&spring.link_a, &spring.link_b};
+    Eigen::Vector2d* locals[2] = {&spring.local_a, &spring.local_b};
+    bool good = true;
+    for (int e = 0; e < 2; ++e) {
+      *links[e] = m.find_link(names[0][e]);
+      if (*links[e] < 0) {
+        r.error(r.at(t.get("links")), fmt::format("{}: unknown link '{}' (valid links: {})", what,
+                                                  names[0][e], join(link_names(m))));
+        good = false;
+        continue;
+      }
+      const int p = resolve_point(r, m, *links[e], t.get("points"), names[1][e], what);
+      if (p < 0) {
+        good = false;
+        continue;
+      }
+      *locals[e] = m.links[static_cast<size_t>(*links[e])].points[static_cast<size_t>(p)].local;
+    }
+    if (!good) continue;
+    if (spring.link_a == spring.link_b) {
+      r.error(r.at(t.get("links")),
+              fmt::format("{} joins two points of one link ('{}'): it would never change length",
+                          what, names[0][0]));
+      continue;
+    }
+    spring.point_a = names[1][0];
+    spring.point_b = names[1][1];
+    spring.name = r.string(t, "name", what, false).value_or(spring.point_a + "-" + spring.point_b);
+    const auto stiffness = r.number(t, "stiffness", what, false);
+    const auto free_length = r.number(t, "free_length", what, false);
+    const auto damping = r.number(t, "damping", what, false);
+    if (!stiffness && !damping) {
+      r.error(spring.where, fmt::format("{} needs 'stiffness' (force unit per length unit) "
+                                        "and 'free_length', or 'damping', or both",
+                                        what));
+      continue;
+    }
+    if (stiffness && !free_length) {
+      r.error(r.at(t.get("stiffness")),
+              fmt::format("{}: 'stiffness' needs 'free_length' (length unit)", what));
+      continue;
+    }
+    for (const auto& [key, v] :
+         {std::pair{"stiffness", stiffness}, std::pair{"free_length", free_length},
+          std::pair{"damping", damping}})
+      if (v && *v < 0.0) {
+        r.error(r.at(t.get(key)), fmt::format("{}: '{}' must not be negative", what, key));
+        good = false;
+      }
+    if (!good) continue;
+    spring.stiffness = stiffness.value_or(0.0) * m.units.force / m.units.length;
+    spring.free_length = free_length.value_or(0.0) * m.units.length;
+    spring.damping = damping.value_or(0.0) * m.units.force / m.units.length;
+    m.springs.push_back(spring);
+  }
+}
+
 void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "tolerance", "a mechanism", false);
   if (!t) return;
-  r.known_keys(*t, "[tolerance]", {"position", "angle", "velocity", "acceleration"});
+  r.known_keys(*t, "[tolerance]",
+               {"position", "angle", "velocity", "acceleration", "force", "torque"});
   auto read = [&](std::string_view key, std::optional<double>& out) {
     if (const auto v = r.number(*t, key, "[tolerance] (% of peak)", false)) {
       if (*v <= 0.0)
@@ -601,6 +870,8 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   read("angle", m.tolerances.angle);
   read("velocity", m.tolerances.velocity);
   read("acceleration", m.tolerances.acceleration);
+  read("force", m.tolerances.force);
+  read("torque", m.tolerances.torque);
 }
 
 // [expect]: the singular behaviour the definition's author derived in closed form.
@@ -732,13 +1003,13 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   r.set_root(root);
   r.known_keys(root, "the definition",
                {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
-                "tolerance", "expect"});
+                "tolerance", "expect", "gravity", "load", "spring"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
 
   if (const toml::table* units = r.table(root, "units", "a mechanism", true)) {
-    r.known_keys(*units, "[units]", {"length", "angle"});
+    r.known_keys(*units, "[units]", {"length", "angle", "mass", "force"});
     if (!units->get("length")) r.error(r.at(*units), "[units] needs 'length' (mm, cm or m)");
     if (!units->get("angle")) r.error(r.at(*units), "[units] needs 'angle' (deg or rad)");
     m.units.length =
@@ -746,6 +1017,11 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
             .value_or(1.0);
     m.units.angle =
         unit_factor(r, *units, "[units]", "angle", kAngleUnits, "rad", &m.units.angle_name)
+            .value_or(1.0);
+    m.units.mass = unit_factor(r, *units, "[units]", "mass", kMassUnits, "kg", &m.units.mass_name)
+                       .value_or(1.0);
+    m.units.force =
+        unit_factor(r, *units, "[units]", "force", kForceUnits, "N", &m.units.force_name)
             .value_or(1.0);
   }
 
@@ -772,6 +1048,12 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
           r.error(link.points[i].where,
                   fmt::format("duplicate point '{}' on link '{}'", link.points[i].name, link.name));
   r.throw_if_any();
+  const double size = m.size();
+  for (Link& link : m.links)
+    if (link.mass.assumed) link.mass = default_mass_properties(link, size);
+  if (const toml::node* g = root.get("gravity"))
+    if (const auto v = r.numbers(*g, 2, "'gravity' ([gx, gy] in the length unit per s^2)"))
+      m.gravity = Eigen::Vector2d((*v)[0], (*v)[1]) * m.units.length;
 
   const toml::node* joints = root.get("joint");
   const auto* joint_array = joints ? joints->as_array() : nullptr;
@@ -785,6 +1067,8 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
 
   check_structure(r, m, root.get("driver"));
   read_driver(r, m, root);
+  read_loads(r, m, root);
+  read_springs(r, m, root);
   read_tolerances(r, m, root);
   read_references(r, m, root);
   read_expect(r, m, root);

@@ -14,7 +14,9 @@ std::string SourceLocation::str() const {
   return fmt::format("{}:{}:{}", file, line, column);
 }
 
-std::string Diagnostic::str() const { return fmt::format("{}: error: {}", where.str(), message); }
+std::string Diagnostic::str() const {
+  return fmt::format("{}: error: {}", where.str(), message);
+}
 
 namespace {
 std::string join_diagnostics(const std::vector<Diagnostic>& diagnostics) {
@@ -44,18 +46,24 @@ int Link::find_line(std::string_view name) const {
 
 std::string_view to_string(JointType type) {
   switch (type) {
-    case JointType::revolute: return "revolute";
-    case JointType::prismatic: return "prismatic";
-    case JointType::pin_in_slot: return "pin_in_slot";
+    case JointType::revolute:
+      return "revolute";
+    case JointType::prismatic:
+      return "prismatic";
+    case JointType::pin_in_slot:
+      return "pin_in_slot";
   }
   return "?";
 }
 
 std::string_view to_string(DriverType type) {
   switch (type) {
-    case DriverType::joint_angle: return "joint_angle";
-    case DriverType::slider: return "slider";
-    case DriverType::link_angle: return "link_angle";
+    case DriverType::joint_angle:
+      return "joint_angle";
+    case DriverType::slider:
+      return "slider";
+    case DriverType::link_angle:
+      return "link_angle";
   }
   return "?";
 }
@@ -80,7 +88,8 @@ DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v
   const double h = t[k] - t[k - 1], a = (t[k] - time) / h, b = (time - t[k - 1]) / h;
   DriverState s;
   s.time = time;
-  s.value = a * v[k - 1] + b * v[k] + ((a * a * a - a) * m[k - 1] + (b * b * b - b) * m[k]) * h * h / 6.0;
+  s.value =
+      a * v[k - 1] + b * v[k] + ((a * a * a - a) * m[k - 1] + (b * b * b - b) * m[k]) * h * h / 6.0;
   s.rate = (v[k] - v[k - 1]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m[k - 1] +
            (3.0 * b * b - 1.0) / 6.0 * h * m[k];
   s.accel = a * m[k - 1] + b * m[k];
@@ -207,6 +216,47 @@ Mobility mobility(const Mechanism& mechanism) {
   for (const Joint& j : mechanism.joints) (j.dof() == 1 ? m.full_joints : m.half_joints) += 1;
   m.mobility = 3 * (m.links - 1) - 2 * m.full_joints - m.half_joints;
   return m;
+}
+
+}  // namespace crosslink
+
+namespace crosslink {
+
+MassProperties default_mass_properties(const Link& link, double size) {
+  double length = 0.0;
+  Eigen::Vector2d from = Eigen::Vector2d::Zero(), to = Eigen::Vector2d::Zero();
+  if (!link.points.empty()) from = to = link.points.front().local;
+  for (size_t i = 0; i < link.points.size(); ++i)
+    for (size_t k = i + 1; k < link.points.size(); ++k)
+      if ((link.points[i].local - link.points[k].local).norm() > length) {
+        length = (link.points[i].local - link.points[k].local).norm();
+        from = link.points[i].local;
+        to = link.points[k].local;
+      }
+  const double l = std::max(length, 0.05 * size), w = 0.1 * l;
+  MassProperties mp;
+  mp.mass = l / size;
+  mp.com = 0.5 * (from + to);
+  mp.inertia = mp.mass * (l * l + w * w) / 12.0;
+  mp.assumed = true;
+  return mp;
+}
+
+Eigen::Vector2d Load::force_at(double driver, bool angular) const {
+  const auto value = [](const Eigen::Vector3d& row) { return Eigen::Vector2d(row(1), row(2)); };
+  if (!table || rows.size() == 1) return value(rows.front());
+  double d = driver;
+  const double first = rows.front()(0);
+  if (angular)
+    d = first + std::fmod(std::fmod(d - first, 2.0 * std::numbers::pi) + 2.0 * std::numbers::pi,
+                          2.0 * std::numbers::pi);
+  if (d <= first) return value(rows.front());
+  for (size_t i = 1; i < rows.size(); ++i)
+    if (d <= rows[i](0)) {
+      const double u = (d - rows[i - 1](0)) / (rows[i](0) - rows[i - 1](0));
+      return (1.0 - u) * value(rows[i - 1]) + u * value(rows[i]);
+    }
+  return value(rows.back());
 }
 
 }  // namespace crosslink

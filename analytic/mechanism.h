@@ -28,8 +28,21 @@ struct SourceLocation {
 struct Units {
   std::string length_name = "m";   // "mm" | "cm" | "m"
   std::string angle_name = "rad";  // "deg" | "rad"
+  std::string mass_name = "kg";    // "kg" | "g"
+  std::string force_name = "N";    // "N" | "kN"
   double length = 1.0;             // metres per file length unit
   double angle = 1.0;              // radians per file angle unit
+  double mass = 1.0;               // kilograms per file mass unit
+  double force = 1.0;              // newtons per file force unit
+};
+
+// A link's mass properties: mass, centre of mass in the link frame, moment of inertia about the
+// centre of mass (z axis). One model shared by every method (exact solvers and engine scenes).
+struct MassProperties {
+  double mass = 0.0;                              // [kg]
+  Eigen::Vector2d com = Eigen::Vector2d::Zero();  // local [m]
+  double inertia = 0.0;                           // about the centre of mass [kg m^2]
+  bool assumed = true;  // the default model (default_mass_properties), not given in the file
 };
 
 struct Point {
@@ -54,6 +67,7 @@ struct Link {
   // Pose (x [m], y [m], theta [rad]) as drawn at the driver's start value. It picks the assembly
   // mode (branch) the solver assembles on; the solver refines it to exact closure.
   std::optional<Eigen::Vector3d> pose;
+  MassProperties mass;  // ground: unused
   SourceLocation where;
 
   int find_point(std::string_view name) const;  // index in points, or -1
@@ -124,6 +138,45 @@ struct Driver {
   DriverState at_time(double t) const;  // from the motion law
 };
 
+// The default mass model of a link whose definition gives no `mass`: a uniform slender bar
+// between its two farthest points (at least 5 % of the mechanism's size long), 1 kg per
+// mechanism size of length, 10:1 slender: mass = l / size, centre of mass at the bar's middle,
+// inertia m (l^2 + w^2) / 12 with w = l / 10. Masses are then of order one in any unit system.
+MassProperties default_mass_properties(const Link& link, double size);
+
+// An applied load, constant or tabulated over the driver coordinate (linear between rows; an
+// angular driver's value is taken modulo one turn from the first row; past the ends, the end
+// rows hold).
+struct Load {
+  enum class Kind { force, torque };
+  Kind kind = Kind::force;
+  std::string name;
+  int link = -1;
+  Eigen::Vector2d local = Eigen::Vector2d::Zero();  // force: point of application, link frame [m]
+  std::string point;                                // force: the named point, if one was named
+  // Constant: one row; table: rows (driver [rad or m], fx [N], fy [N]) or (driver, torque [N m],
+  // 0). World axes; torque counter-clockwise.
+  std::vector<Eigen::Vector3d> rows;
+  bool table = false;
+  SourceLocation where;
+
+  Eigen::Vector2d force_at(double driver, bool angular) const;  // force, or (torque, 0)
+};
+
+// A linear spring and damper between a point of one link and a point of another:
+// force = stiffness (length - free_length) + damping d(length)/dt, pulling the points together
+// when positive.
+struct Spring {
+  std::string name;
+  int link_a = -1, link_b = -1;
+  Eigen::Vector2d local_a = Eigen::Vector2d::Zero(), local_b = Eigen::Vector2d::Zero();  // [m]
+  std::string point_a, point_b;
+  double stiffness = 0.0;    // [N/m]
+  double free_length = 0.0;  // [m]
+  double damping = 0.0;      // [N s/m]
+  SourceLocation where;
+};
+
 // A published value to compare against (a hand calculation, Working Model, ...), in SI.
 struct Reference {
   std::string quantity;  // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
@@ -136,7 +189,7 @@ struct Reference {
 // Verdict tolerances in % of the reference's peak over the cycle, per quantity class.
 // Absent entries fall back to the comparator's defaults.
 struct ToleranceOverrides {
-  std::optional<double> position, angle, velocity, acceleration;
+  std::optional<double> position, angle, velocity, acceleration, force, torque;
 };
 
 // Expected singular behaviour written in a definition's optional [expect] table (SI), derived
@@ -158,6 +211,9 @@ struct Mechanism {
   std::vector<Link> links;  // exactly one has ground = true
   std::vector<Joint> joints;
   Driver driver;
+  Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // [m/s^2]; zero: none
+  std::vector<Load> loads;
+  std::vector<Spring> springs;
   std::vector<Reference> references;
   ToleranceOverrides tolerances;
   std::optional<Expectations> expect;  // [expect], when the definition has one

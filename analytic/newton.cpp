@@ -246,6 +246,7 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
   for (int k = 0; k < mechanism.moving_count(); ++k) col_scale_(3 * k + 2) = 1.0 / length_scale_;
   int row = 0;
   for (const Joint& j : mechanism.joints) {
+    joint_rows_.push_back(row);
     if (j.type == JointType::prismatic) row_scale_(row + 1) = length_scale_;
     row += 3 - j.dof();
   }
@@ -455,6 +456,14 @@ void NewtonSolver::solve_linear(KinematicState& state, Eigen::VectorXd& x) const
   x = state.rhs.cwiseProduct(row_scale_);
   state.lu.solve_in_place(x.data());
   x.array() *= col_scale_.array();
+}
+
+void NewtonSolver::multipliers(KinematicState& state, const Eigen::VectorXd& b,
+                               Eigen::VectorXd& lambda) const {
+  // J^T lambda = b  <=>  (S_r J S_c)^T mu = S_c b,  lambda = S_r mu
+  lambda = b.cwiseProduct(col_scale_);
+  state.lu.solve_transposed_in_place(lambda.data());
+  lambda.array() *= row_scale_.array();
 }
 
 double NewtonSolver::scaled_norm(const Eigen::VectorXd& phi) const {

@@ -113,6 +113,19 @@ class NewtonSolver {
   // The coordinates as drawn (poses from the file; links without one at the origin).
   Eigen::VectorXd drawn_coordinates() const;
 
+  // Lagrange multipliers at the pose factorised by the last solve_position: lambda with
+  // J^T lambda = b, for generalised forces b (one per coordinate). Uses state.rhs as scratch.
+  void multipliers(KinematicState& state, const Eigen::VectorXd& b, Eigen::VectorXd& lambda) const;
+  // Entry (row, column) of the unscaled Jacobian at that pose.
+  double jacobian_entry(const KinematicState& state, int row, int column) const {
+    return state.jacobian(row, column) / (row_scale_(row) * col_scale_(column));
+  }
+  // The first row of joint `joint`'s equations in Phi (2 rows for revolute and prismatic, 1 for
+  // pin_in_slot); the driver's equation is the last row.
+  int joint_row(int joint) const { return joint_rows_[static_cast<size_t>(joint)]; }
+  int moving_a(int joint) const { return moving_a_[static_cast<size_t>(joint)]; }
+  int moving_b(int joint) const { return moving_b_[static_cast<size_t>(joint)]; }
+
   // Writes sample `row` of a trajectory from a solved state.
   void write_sample(const KinematicState& state, const SolveReport& report, Trajectory& out,
                     int row) const;
@@ -149,6 +162,7 @@ class NewtonSolver {
   std::vector<int> slide_joints_;
   // Per joint: moving index of link_a and link_b (-1 for the ground).
   std::vector<int> moving_a_, moving_b_;
+  std::vector<int> joint_rows_;  // per joint: its first row
   // Angular driver: q(3 arm_link_ + 2) + arm_offset_ - q(3 arm_reference_ + 2).
   int arm_link_ = -1, arm_reference_ = -1;
   double arm_offset_ = 0.0;

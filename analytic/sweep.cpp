@@ -1,5 +1,7 @@
 #include "analytic/sweep.h"
 
+#include "analytic/kinetostatics.h"
+
 #include <fmt/format.h>
 
 #include <Eigen/SVD>
@@ -154,19 +156,35 @@ DriverState constant_speed_state(const Driver& d, double value) {
   return s;
 }
 
-// Solves velocity and acceleration for the real driver state and writes one sample.
-void record(const NewtonSolver& solver, KinematicState& state, const SolveReport& report,
-            const DriverState& driver, Trajectory& out, int row) {
-  state.driver = driver;
-  if (report.status == PoseStatus::ok) {
-    solver.solve_velocity(state);
-    solver.solve_acceleration(state);
-  } else {
-    state.qdot.setZero();
-    state.qddot.setZero();
+// Writes samples: velocity and acceleration solved for the real driver state, then the forces
+// (kinetostatics, method 1) at every usable sample.
+class Recorder {
+ public:
+  explicit Recorder(const NewtonSolver& solver)
+      : solver_(solver), kinetostatics_(solver), forces_(kinetostatics_.make_sample()) {}
+
+  void operator()(KinematicState& state, const SolveReport& report, const DriverState& driver,
+                  Trajectory& out, int row) {
+    state.driver = driver;
+    if (report.status == PoseStatus::ok) {
+      solver_.solve_velocity(state);
+      solver_.solve_acceleration(state);
+    } else {
+      state.qdot.setZero();
+      state.qddot.setZero();
+    }
+    solver_.write_sample(state, report, out, row);
+    if (report.status == PoseStatus::ok && out.has_forces) {
+      kinetostatics_.solve(state, forces_);
+      kinetostatics_.write_sample(forces_, out, row);
+    }
   }
-  solver.write_sample(state, report, out, row);
-}
+
+ private:
+  const NewtonSolver& solver_;
+  Kinetostatics kinetostatics_;
+  ForceSample forces_;
+};
 
 double min_step(const NewtonSolver& solver, double tolerance) {
   // Driver values closer than this are not told apart (angles in rad, slider in m).
@@ -698,6 +716,7 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
                   const std::vector<DriverState>& drivers, double max_step, double small,
                   Trajectory& out) {
   Follower follower(solver, state);
+  Recorder record(solver);
   follower.start(assembled);
   SolveReport failure = assembled;
   bool lost = assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular;
@@ -708,7 +727,7 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         if (r.status == PoseStatus::singular)
           out.events.push_back({drivers[i].value, r.status, r.message});
-        record(solver, state, r, drivers[i], out, row);
+        record(state, r, drivers[i], out, row);
         continue;
       }
       lost = true;
@@ -783,7 +802,8 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     samples.push_back(p);
   }
 
-  out.resize(mechanism, static_cast<int>(samples.size()));
+  out.resize(mechanism, static_cast<int>(samples.size()), true);
+  Recorder record(solver);
   double travel = 0.0;
   for (size_t i = 0; i < samples.size(); ++i) {
     const PlannedSample& p = samples[i];
@@ -822,7 +842,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
       report.message = "toggle (dead point): Jacobian singular";
     }
     const int row = static_cast<int>(i);
-    record(solver, state, report, driver, out, row);
+    record(state, report, driver, out, row);
   }
 
   // Singular positions in the sweep's order.
@@ -892,7 +912,7 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
 
   Trajectory out;
   out.method = "newton";
-  out.resize(mechanism, static_cast<int>(drivers.size()));
+  out.resize(mechanism, static_cast<int>(drivers.size()), true);
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence)
     out.events.push_back({d.start, assembled.status, assembled.message});
@@ -975,7 +995,7 @@ Trajectory solve_at(const Mechanism& mechanism, double driver_value, const Sweep
   if (max_step == 0.0) max_step = mechanism.size() / 50.0;
   Trajectory out;
   out.method = "newton";
-  out.resize(mechanism, 1);
+  out.resize(mechanism, 1, true);
   sweep_values(solver, state, assembled, {target}, std::min(max_step, continuation_step(mechanism)),
                min_step(solver, 1e-10), out);
   return out;

@@ -35,11 +35,15 @@ std::string_view to_string(Quantity q) {
       return "velocity";
     case Quantity::acceleration:
       return "acceleration";
+    case Quantity::force:
+      return "force";
+    case Quantity::torque:
+      return "torque";
   }
   return "?";
 }
 
-void Trajectory::resize(const Mechanism& mechanism, int samples) {
+void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_forces) {
   link_names.clear();
   for (const Link& link : mechanism.links)
     if (!link.ground) link_names.push_back(link.name);
@@ -60,6 +64,20 @@ void Trajectory::resize(const Mechanism& mechanism, int samples) {
   rcond.setOnes(samples);
   loop_gap.setZero(samples);
   events.clear();
+
+  joint_names.clear();
+  for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
+  ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
+  slider_driver = !mechanism.driver.angular();
+  has_forces = with_forces;
+  const int rows = with_forces ? samples : 0;
+  const auto joints = static_cast<Eigen::Index>(joint_names.size());
+  effort.setZero(rows);
+  fx.setZero(rows, joints);
+  fy.setZero(rows, joints);
+  fn.setZero(rows, sliders);
+  moment.setZero(rows, sliders);
+  shaking.setZero(rows, 3);
 }
 
 bool Trajectory::beside_singular(int row) const {
@@ -74,6 +92,10 @@ constexpr std::array<std::string_view, 3> kLinkChannels = {"angle", "omega", "al
 constexpr std::array<std::string_view, 8> kPointChannels = {"x", "y",  "vx", "vy",
                                                             "v", "ax", "ay", "a"};
 constexpr std::array<std::string_view, 3> kSliderChannels = {"s", "sdot", "sddot"};
+constexpr std::array<std::string_view, 3> kJointChannels = {"fx", "fy", "f"};
+constexpr std::array<std::string_view, 2> kSlideForceChannels = {"fn", "moment"};
+constexpr std::array<std::string_view, 3> kShakingChannels = {"shaking_fx", "shaking_fy",
+                                                              "shaking_moment"};
 
 int index_of(const std::vector<std::string>& names, std::string_view name) {
   for (size_t i = 0; i < names.size(); ++i)
@@ -90,6 +112,13 @@ std::vector<std::string> Trajectory::channel_names() const {
     for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
   for (const std::string& slider : slider_names)
     for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
+  if (!has_forces) return names;
+  names.push_back(slider_driver ? "force.driver" : "torque.driver");
+  for (const std::string& joint : joint_names)
+    for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
+  for (const std::string& slider : slider_names)
+    for (std::string_view c : kSlideForceChannels) names.push_back(std::string(c) + "." + slider);
+  for (std::string_view c : kShakingChannels) names.push_back(std::string(c) + "." + ground_name);
   return names;
 }
 
@@ -120,6 +149,22 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "sdot") return sdot.col(j);
     if (kind == "sddot") return sddot.col(j);
   }
+  if (!has_forces) return std::nullopt;
+  if (object == "driver" && kind == (slider_driver ? "force" : "torque")) return effort;
+  if (const int j = index_of(joint_names, object); j >= 0) {
+    if (kind == "fx") return fx.col(j);
+    if (kind == "fy") return fy.col(j);
+    if (kind == "f")
+      return Eigen::VectorXd((fx.col(j).array().square() + fy.col(j).array().square()).sqrt());
+  }
+  if (const int j = index_of(slider_names, object); j >= 0) {
+    if (kind == "fn") return fn.col(j);
+    if (kind == "moment") return moment.col(j);
+  }
+  if (object == ground_name) {
+    for (size_t c = 0; c < kShakingChannels.size(); ++c)
+      if (kind == kShakingChannels[c]) return shaking.col(static_cast<Eigen::Index>(c));
+  }
   return std::nullopt;
 }
 
@@ -130,6 +175,10 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
     return Quantity::velocity;
   if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")
     return Quantity::acceleration;
+  if (kind == "fx" || kind == "fy" || kind == "f" || kind == "fn" || kind == "force" ||
+      kind == "shaking_fx" || kind == "shaking_fy")
+    return Quantity::force;
+  if (kind == "torque" || kind == "moment" || kind == "shaking_moment") return Quantity::torque;
   return Quantity::position;
 }
 

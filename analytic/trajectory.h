@@ -9,7 +9,18 @@
 //   x.<point> y.<point> vx.<point> vy.<point> v.<point>         [m, m/s]  (v = |velocity|)
 //   ax.<point> ay.<point> a.<point>                             [m/s^2]   (a = |acceleration|)
 //   s.<slider> sdot.<slider> sddot.<slider>                     [m, m/s, m/s^2]
-// Link angles are continuous (unwrapped) along a sweep.
+// Link angles are continuous (unwrapped) along a sweep. With forces (kinetostatics, has_forces):
+//   torque.driver (angular driver) | force.driver (slider)     [N m | N]  the driver's effort on
+//                                                               its driven link (CCW; along +s)
+//   fx.<joint> fy.<joint> f.<joint>                            [N]  force of the joint's first
+//                                                               link on its second, world axes
+//   fn.<slider> moment.<slider>                                [N, N m]  a slide joint's force
+//                                                               normal to its line (along the
+//                                                               line's left normal) and couple on
+//                                                               the slider (pin_in_slot: 0)
+//   shaking_fx.<ground> shaking_fy.<ground> shaking_moment.<ground>  [N, N m]  force and moment
+//                                                               (about the world origin) the
+//                                                               moving links exert on the ground
 #pragma once
 
 #include <Eigen/Core>
@@ -38,7 +49,7 @@ inline bool usable(PoseStatus s) {
   return s == PoseStatus::ok;
 }
 
-enum class Quantity { position, angle, velocity, acceleration };
+enum class Quantity { position, angle, velocity, acceleration, force, torque };
 std::string_view to_string(Quantity q);
 
 struct Trajectory {
@@ -46,6 +57,9 @@ struct Trajectory {
   std::vector<std::string> link_names;    // moving links, in Mechanism order
   std::vector<std::string> point_names;   // Mechanism::named_points() order
   std::vector<std::string> slider_names;  // Mechanism::slide_joints() order
+  std::vector<std::string> joint_names;   // Mechanism::joints order
+  std::string ground_name;
+  bool slider_driver = false;  // the driver's effort is a force (else a torque)
 
   Eigen::VectorXd time;    // [s]
   Eigen::VectorXd driver;  // driver coordinate [rad or m]
@@ -55,6 +69,12 @@ struct Trajectory {
   std::vector<PoseStatus> status;  // per sample
   Eigen::VectorXd rcond;           // analytic: reciprocal condition estimate of the Jacobian
   Eigen::VectorXd loop_gap;        // engines: largest cut-joint violation [m]; 0 for analytic
+  // Forces, when the method computes them (see the channel list above).
+  bool has_forces = false;
+  Eigen::VectorXd effort;      // the driver's torque [N m] or force [N]
+  Eigen::MatrixXd fx, fy;      // per joint [N]
+  Eigen::MatrixXd fn, moment;  // per slider [N, N m]
+  Eigen::MatrixXd shaking;     // 3 columns: fx, fy [N], moment [N m]
 
   // Named events along the sweep (limits, singular positions, branch changes...).
   struct Event {
@@ -65,8 +85,9 @@ struct Trajectory {
   std::vector<Event> events;
 
   // Shapes every array for `samples` rows from the mechanism's name lists (the only allocation;
-  // solvers then write rows in place).
-  void resize(const Mechanism& mechanism, int samples);
+  // solvers then write rows in place). Force arrays are shaped and has_forces set only
+  // `with_forces`.
+  void resize(const Mechanism& mechanism, int samples, bool with_forces = false);
   int samples() const { return static_cast<int>(time.size()); }
   // Whether sample `row` is next to a sample flagged singular. One grid step from a dead point
   // or change point the Jacobian's condition is 10 to 40 times worse than elsewhere, so exact

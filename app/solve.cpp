@@ -23,7 +23,29 @@ struct SolveArgs {
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
 };
 
-nlohmann::json sample_json(const Trajectory& t, int row) {
+// The forces of a usable sample in the documented schema (docs/json.md); null otherwise.
+nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
+  if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
+  nlohmann::json f;
+  f["driver"] = t.effort(row);
+  f["joints"] = nlohmann::json::object();
+  size_t slide = 0;
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const auto c = static_cast<Eigen::Index>(j);
+    nlohmann::json joint = {{"fx", t.fx(row, c)}, {"fy", t.fy(row, c)}};
+    if (m.joints[j].is_slide()) {
+      const auto s = static_cast<Eigen::Index>(slide++);
+      joint["fn"] = t.fn(row, s);
+      if (m.joints[j].type == JointType::prismatic) joint["moment"] = t.moment(row, s);
+    }
+    f["joints"][m.joints[j].name] = joint;
+  }
+  f["shaking"] = {
+      {"fx", t.shaking(row, 0)}, {"fy", t.shaking(row, 1)}, {"moment", t.shaking(row, 2)}};
+  return f;
+}
+
+nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
   nlohmann::json j;
   j["time"] = t.time(row);
   j["driver"] = t.driver(row);
@@ -47,6 +69,7 @@ nlohmann::json sample_json(const Trajectory& t, int row) {
     j["sliders"][t.slider_names[s]] = {
         {"s", t.s(row, c)}, {"sdot", t.sdot(row, c)}, {"sddot", t.sddot(row, c)}};
   }
+  j["forces"] = forces_json(m, t, row);
   return j;
 }
 
@@ -65,7 +88,7 @@ void print_json(const Mechanism& m, const Trajectory& t, bool single) {
   j["units"] = "SI";
   j["method"] = t.method;
   if (single) {
-    j.update(sample_json(t, 0));
+    j.update(sample_json(m, t, 0));
   } else {
     j["status"] = std::string(to_string(
         std::all_of(t.status.begin(), t.status.end(), [](PoseStatus s) { return usable(s); })
@@ -73,7 +96,7 @@ void print_json(const Mechanism& m, const Trajectory& t, bool single) {
             : *std::find_if(t.status.begin(), t.status.end(),
                             [](PoseStatus s) { return !usable(s); })));
     j["samples"] = nlohmann::json::array();
-    for (int r = 0; r < t.samples(); ++r) j["samples"].push_back(sample_json(t, r));
+    for (int r = 0; r < t.samples(); ++r) j["samples"].push_back(sample_json(m, t, r));
   }
   j["events"] = events_json(t);
   fmt::print("{}\n", j.dump(2));

@@ -115,7 +115,9 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   // A component (vx.B) is judged against its vector's magnitude (v.B).
   auto magnitude_peak = [&](const std::string& channel) {
     const std::string kind = channel.substr(0, channel.find('.'));
-    if (kind != "vx" && kind != "vy" && kind != "ax" && kind != "ay") return 0.0;
+    if (kind != "vx" && kind != "vy" && kind != "ax" && kind != "ay" && kind != "fx" &&
+        kind != "fy")
+      return 0.0;
     const std::string magnitude = kind.substr(0, 1) + channel.substr(channel.find('.'));
     return channel_peak(magnitude, *ref.channel(magnitude), ref_usable, size);
   };

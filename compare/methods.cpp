@@ -100,6 +100,9 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     MethodRun run;
     run.name = "dyads";
     run.description = description;
+    // Its forces are the multipliers at its poses (as the reference's): no independent check.
+    run.kinds = {"angle", "omega", "alpha", "x", "y", "vx",   "vy",
+                 "v",     "ax",    "ay",    "a", "s", "sdot", "sddot"};
     const auto start = std::chrono::steady_clock::now();
     run.trajectory = dyad_sweep(mechanism, reference.trajectory);
     run.cost.wall_seconds = seconds_since(start);

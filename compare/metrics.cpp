@@ -47,6 +47,10 @@ double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
 double peak_floor(std::string_view channel, double kind_peak, double magnitude_peak,
                   double driver_rate, double size) {
   const Quantity q = Trajectory::quantity_of(channel);
+  // Forces and torques: against the component's vector, or 1 % of the largest of their kind
+  // (a reaction that is small by design, such as a light link's).
+  if (q == Quantity::force || q == Quantity::torque)
+    return std::max(magnitude_peak, 0.01 * kind_peak);
   if (q != Quantity::velocity && q != Quantity::acceleration) return 0.0;
   const bool angular = channel_kind(channel).ends_with("/angular");
   const double rate = q == Quantity::velocity ? driver_rate : driver_rate * driver_rate;

@@ -21,6 +21,10 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
       return {m.units.length, L + "/s"};
     case Quantity::acceleration:
       return {m.units.length, L + "/s^2"};
+    case Quantity::force:
+      return {m.units.force, m.units.force_name};
+    case Quantity::torque:
+      return {m.units.force * m.units.length, m.units.force_name + " " + L};
     default:
       return {m.units.length, L};
   }

@@ -37,7 +37,9 @@ std::array<double, 3> class_maxima(const Comparison& cmp, std::string_view metho
   std::array<double, 3> out = {kNaN, kNaN, kNaN};
   for (const ChannelResult& c : cmp.channels) {
     if (c.method != method || c.metrics.usable == 0) continue;
-    double& e = out[index_of(error_class_of(c.metrics.quantity))];
+    const std::optional<ErrorClass> kind = error_class_of(c.metrics.quantity);
+    if (!kind) continue;
+    double& e = out[index_of(*kind)];
     const double v = c.metrics.max_pct_of_peak;
     // NaN in a channel (a NaN value the engine did not flag) makes the class NaN: not usable.
     if (std::isnan(v))
@@ -66,7 +68,7 @@ std::string_view to_string(ErrorClass c) {
   return "?";
 }
 
-ErrorClass error_class_of(Quantity q) {
+std::optional<ErrorClass> error_class_of(Quantity q) {
   switch (q) {
     case Quantity::position:
     case Quantity::angle:
@@ -75,8 +77,11 @@ ErrorClass error_class_of(Quantity q) {
       return ErrorClass::velocity;
     case Quantity::acceleration:
       return ErrorClass::acceleration;
+    case Quantity::force:
+    case Quantity::torque:
+      return std::nullopt;  // kinematic settings sweeps chart motion only
   }
-  return ErrorClass::position;
+  return std::nullopt;
 }
 
 std::string_view to_string(RunStatus s) {

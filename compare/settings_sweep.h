@@ -34,8 +34,8 @@ enum class ErrorClass { position, velocity, acceleration };
 constexpr std::array<ErrorClass, 3> kErrorClasses = {ErrorClass::position, ErrorClass::velocity,
                                                      ErrorClass::acceleration};
 std::string_view to_string(ErrorClass c);
-// The class a channel's quantity belongs to (angle -> position).
-ErrorClass error_class_of(Quantity q);
+// The class a channel's quantity belongs to (angle -> position); none for forces and torques.
+std::optional<ErrorClass> error_class_of(Quantity q);
 
 // One setting of one engine: every override passed to the engine, dt included.
 struct GridPoint {

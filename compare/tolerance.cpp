@@ -21,13 +21,17 @@ double& ClassTolerances::of(Quantity q) {
       return velocity;
     case Quantity::acceleration:
       return acceleration;
+    case Quantity::force:
+      return force;
+    case Quantity::torque:
+      return torque;
   }
   return position;
 }
 
 std::optional<Quantity> parse_quantity(std::string_view name) {
-  for (Quantity q :
-       {Quantity::position, Quantity::angle, Quantity::velocity, Quantity::acceleration})
+  for (Quantity q : {Quantity::position, Quantity::angle, Quantity::velocity,
+                     Quantity::acceleration, Quantity::force, Quantity::torque})
     if (to_string(q) == name) return q;
   return std::nullopt;
 }
@@ -37,13 +41,15 @@ bool Tolerances::is_engine(std::string_view method) {
 }
 
 Tolerances::Tolerances(const ToleranceOverrides& from_definition) {
-  engine_ = {1e-2, 1e-2, 0.1, 1.0};
-  exact_["dyads"] = {1e-8, 1e-8, 1e-8, 1e-8};
-  exact_["ic"] = {1e-6, 1e-6, 1e-6, 1e-6};
+  engine_ = {1e-2, 1e-2, 0.1, 1.0, 1.0, 1.0};
+  exact_["dyads"] = {1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8};
+  exact_["ic"] = {1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6};
   if (from_definition.position) engine_.position = *from_definition.position;
   if (from_definition.angle) engine_.angle = *from_definition.angle;
   if (from_definition.velocity) engine_.velocity = *from_definition.velocity;
   if (from_definition.acceleration) engine_.acceleration = *from_definition.acceleration;
+  if (from_definition.force) engine_.force = *from_definition.force;
+  if (from_definition.torque) engine_.torque = *from_definition.torque;
 }
 
 void Tolerances::apply(std::string_view assignment) {
@@ -62,7 +68,7 @@ void Tolerances::apply(std::string_view assignment) {
   if (!quantity)
     throw std::invalid_argument(
         fmt::format("tolerance '{}': unknown quantity class '{}' (valid: position, angle, "
-                    "velocity, acceleration)",
+                    "velocity, acceleration, force, torque)",
                     assignment, target));
   double value = 0.0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);

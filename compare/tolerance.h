@@ -2,11 +2,11 @@
 // quantity class.
 //
 // Defaults (in % of the reference's peak over the cycle):
-//   method      position  angle    velocity  acceleration
-//   dyads       1e-8      1e-8     1e-8      1e-8     closed form vs Newton: both exact
-//   ic          -         -        1e-6      -        Kennedy-Aronhold, velocities only
-//   mujoco      1e-2      1e-2     0.1       1        an engine's closed loops vs exact
-//   bullet      1e-2      1e-2     0.1       1
+//   method      position  angle    velocity  acceleration  force  torque
+//   dyads       1e-8      1e-8     1e-8      1e-8          1e-8   1e-8   both exact
+//   ic          -         -        1e-6      -             -      -      velocities only
+//   mujoco      1e-2      1e-2     0.1       1             1      1      closed loops vs exact
+//   bullet      1e-2      1e-2     0.1       1             1      1
 // Overrides, later wins:
 //   1. the definition's [tolerance] table (Mechanism::tolerances): engines only, since the
 //      exact methods must agree to round-off whatever the mechanism;
@@ -25,7 +25,7 @@ namespace crosslink::compare {
 
 // Tolerance of one method, per quantity class [% of peak].
 struct ClassTolerances {
-  double position = 0.0, angle = 0.0, velocity = 0.0, acceleration = 0.0;
+  double position = 0.0, angle = 0.0, velocity = 0.0, acceleration = 0.0, force = 0.0, torque = 0.0;
   double of(Quantity q) const;
   double& of(Quantity q);
 };

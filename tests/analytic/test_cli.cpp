@@ -231,10 +231,12 @@ TEST(Cli, SolveCsvHeaderAndRows) {
   std::string header;
   std::getline(lines, header);
   EXPECT_EQ(header.rfind("sample,time,driver,status,", 0), 0u) << header;
-  for (const char* channel : {",angle.crank,", ",omega.coupler,", ",alpha.needle,", ",x.B,",
-                              ",vy.F,", ",a.F,", ",s.needle,", ",sdot.needle,"})
+  for (const char* channel :
+       {",angle.crank,", ",omega.coupler,", ",alpha.needle,", ",x.B,", ",vy.F,", ",a.F,",
+        ",s.needle,", ",sdot.needle,", ",sddot.needle,", ",torque.driver,", ",fx.A,", ",fy.needle,",
+        ",f.C,", ",fn.needle,", ",moment.needle,", ",shaking_fx.ground,", ",shaking_fy.ground,"})
     EXPECT_NE(header.find(channel), std::string::npos) << channel;
-  EXPECT_EQ(header.substr(header.size() - 13), ",sddot.needle");
+  EXPECT_EQ(header.substr(header.size() - 22), ",shaking_moment.ground");
   const auto fields = [](const std::string& line) {
     return std::count(line.begin(), line.end(), ',') + 1;
   };

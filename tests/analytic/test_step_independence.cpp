@@ -74,15 +74,14 @@ std::map<std::string, Trajectory> methods_at(const Mechanism& m, double step) {
 }
 
 // The physical scale of each quantity over the fine sweep: the size for positions, 1 rad for
-// angles, the largest magnitude of its kind at usable samples for rates.
+// angles, the largest magnitude of its kind at usable samples for rates, forces and torques.
 std::map<Quantity, double> scales(const Mechanism& m, const Trajectory& fine) {
-  std::map<Quantity, double> s{{Quantity::position, m.size()},
-                               {Quantity::angle, 1.0},
-                               {Quantity::velocity, 0.0},
-                               {Quantity::acceleration, 0.0}};
+  std::map<Quantity, double> s{{Quantity::position, m.size()}, {Quantity::angle, 1.0},
+                               {Quantity::velocity, 0.0},      {Quantity::acceleration, 0.0},
+                               {Quantity::force, 0.0},         {Quantity::torque, 0.0}};
   for (const std::string& name : fine.channel_names()) {
     const Quantity q = Trajectory::quantity_of(name);
-    if (q != Quantity::velocity && q != Quantity::acceleration) continue;
+    if (q == Quantity::position || q == Quantity::angle) continue;
     const Eigen::VectorXd c = *fine.channel(name);
     for (int k = 0; k < fine.samples(); ++k)
       if (usable(fine.status[static_cast<size_t>(k)])) s[q] = std::max(s[q], std::abs(c(k)));

@@ -26,7 +26,7 @@ inline Agreement agreement(const Mechanism& m, const Trajectory& ref, const Traj
     return ref.status[i] == PoseStatus::ok && run.status[i] == PoseStatus::ok;
   };
   for (int i = 0; i < ref.samples(); ++i) a.compared += usable(i);
-  double class_peak[4] = {0, 0, 0, 0};
+  double class_peak[6] = {0, 0, 0, 0, 0, 0};
   for (const std::string& ch : ref.channel_names()) {
     const auto r = *ref.channel(ch);
     for (int i = 0; i < r.size(); ++i)
@@ -36,6 +36,8 @@ inline Agreement agreement(const Mechanism& m, const Trajectory& ref, const Traj
       }
   }
   for (const std::string& ch : ref.channel_names()) {
+    // Motion only: the forces are compared where the engine reads them.
+    if (!run.channel(ch)) continue;
     const auto r = *ref.channel(ch);
     const auto e = *run.channel(ch);
     const Quantity q = Trajectory::quantity_of(ch);

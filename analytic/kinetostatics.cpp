@@ -1,0 +1,190 @@
+#include "analytic/kinetostatics.h"
+
+#include "analytic/planar.h"
+
+namespace crosslink {
+namespace {
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {
+  return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
+}
+
+// A spring's pull T (positive: drawing its points together), its unit vector from b's point to
+// a's, and the rate of its length. A spring of zero length has no direction and pulls nothing.
+struct SpringState {
+  double pull = 0.0, length = 0.0, rate = 0.0;
+  Eigen::Vector2d towards_a = Eigen::Vector2d::Zero();
+};
+SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicState& state) {
+  const BodyMotion a = motion(m, s.link_a, state), b = motion(m, s.link_b, state);
+  const Eigen::Vector2d d = a.position(s.local_a) - b.position(s.local_b);
+  SpringState out;
+  out.length = d.norm();
+  if (out.length == 0.0) return out;
+  out.towards_a = d / out.length;
+  out.rate = out.towards_a.dot(a.velocity(s.local_a) - b.velocity(s.local_b));
+  out.pull = s.stiffness * (out.length - s.free_length) + s.damping * out.rate;
+  return out;
+}
+
+}  // namespace
+
+Kinetostatics::Kinetostatics(const NewtonSolver& solver)
+    : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {}
+
+ForceSample Kinetostatics::make_sample() const {
+  const Mechanism& m = solver_.mechanism();
+  ForceSample s;
+  s.joint_force.assign(m.joints.size(), Eigen::Vector2d::Zero());
+  s.normal.assign(slide_joints_.size(), 0.0);
+  s.moment.assign(slide_joints_.size(), 0.0);
+  s.generalised.setZero(m.coordinate_count());
+  s.lambda.setZero(m.coordinate_count());
+  return s;
+}
+
+void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const {
+  const Mechanism& m = solver_.mechanism();
+  out.setZero();
+  // A force at a point of link `link` (offset from its frame origin in world axes).
+  auto add = [&](int link, const Eigen::Vector2d& offset, const Eigen::Vector2d& force,
+                 double couple) {
+    const int k = m.moving_index(link);
+    if (k < 0) return;
+    out.segment<2>(3 * k) += force;
+    out(3 * k + 2) += cross(offset, force) + couple;
+  };
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    // Gravity and d'Alembert's inertia force at the centre of mass, and the inertia couple.
+    const Eigen::Vector2d force = mp.mass * (m.gravity - b.acceleration(mp.com));
+    add(static_cast<int>(l), b.turn(mp.com), force, -mp.inertia * b.alpha);
+  }
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    if (load.kind == Load::Kind::torque) {
+      add(load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
+    } else {
+      add(load.link, motion(m, load.link, state).turn(load.local), value, 0.0);
+    }
+  }
+  for (const Spring& s : m.springs) {
+    const SpringState ss = spring_state(m, s, state);
+    const Eigen::Vector2d on_b = ss.pull * ss.towards_a;
+    add(s.link_a, motion(m, s.link_a, state).turn(s.local_a), -on_b, 0.0);
+    add(s.link_b, motion(m, s.link_b, state).turn(s.local_b), on_b, 0.0);
+  }
+}
+
+void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  generalised_forces(state, out.generalised);
+  solver_.multipliers(state, out.generalised, out.lambda);
+  const Eigen::VectorXd& lambda = out.lambda;
+  out.effort = -lambda(lambda.size() - 1);
+
+  size_t slide = 0;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const int jj = static_cast<int>(ji);
+    const int row = solver_.joint_row(jj), rows = 3 - j.dof();
+    // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
+    // force and moment about its frame origin.
+    auto on = [&](int k) {
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (int r = row; r < row + rows; ++r)
+        for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
+      return g;
+    };
+    const int ka = solver_.moving_a(jj), kb = solver_.moving_b(jj);
+    // Through the moving side (both are moving, or the ground is one of them).
+    const bool from_b = kb >= 0;
+    const Eigen::Vector3d g = on(from_b ? kb : ka);
+    const Eigen::Vector2d on_b =
+        from_b ? Eigen::Vector2d(g.head<2>()) : Eigen::Vector2d(-g.head<2>());
+    out.joint_force[ji] = on_b;
+    if (!j.is_slide()) continue;
+    const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    const Eigen::Vector2d point = b.position(
+        m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
+    out.normal[slide] = on_b.dot(a.turn(perp(line.direction)));
+    // The couple on the slider about its point: the moment left once the force at the point is
+    // taken out (on the guide it is the opposite).
+    out.moment[slide] =
+        from_b ? g(2) - cross(point - b.r, on_b) : -(g(2) - cross(point - a.r, -on_b));
+    ++slide;
+  }
+
+  // On the ground: applied gravity and loads less the rate of the moving links' momentum.
+  Eigen::Vector3d shaking = Eigen::Vector3d::Zero();
+  auto add = [&](const Eigen::Vector2d& at, const Eigen::Vector2d& force, double couple) {
+    shaking.head<2>() += force;
+    shaking(2) += cross(at, force) + couple;
+  };
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    add(b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)), -mp.inertia * b.alpha);
+  }
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    if (load.kind == Load::Kind::torque)
+      add(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
+    else
+      add(motion(m, load.link, state).position(load.local), value, 0.0);
+  }
+  out.shaking = shaking;
+}
+
+std::optional<double> Kinetostatics::power_balance(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  if (state.driver.rate == 0.0) return std::nullopt;
+  double power = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    const Eigen::Vector2d v = b.velocity(mp.com);
+    // d/dt of kinetic energy, and of the potential energy of gravity.
+    power += mp.mass * v.dot(b.acceleration(mp.com)) + mp.inertia * b.omega * b.alpha;
+    power -= mp.mass * m.gravity.dot(v);
+  }
+  for (const Spring& s : m.springs) {
+    // d/dt of the spring's energy, and the damper's dissipation.
+    const SpringState ss = spring_state(m, s, state);
+    power += s.stiffness * (ss.length - s.free_length) * ss.rate + s.damping * ss.rate * ss.rate;
+  }
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const BodyMotion b = motion(m, load.link, state);
+    power -=
+        load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));
+  }
+  return power / state.driver.rate;
+}
+
+void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int row) const {
+  out.effort(row) = sample.effort;
+  for (size_t j = 0; j < sample.joint_force.size(); ++j) {
+    out.fx(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].x();
+    out.fy(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].y();
+  }
+  for (size_t s = 0; s < sample.normal.size(); ++s) {
+    out.fn(row, static_cast<Eigen::Index>(s)) = sample.normal[s];
+    out.moment(row, static_cast<Eigen::Index>(s)) = sample.moment[s];
+  }
+  out.shaking.row(row) = sample.shaking.transpose();
+}
+
+}  // namespace crosslink

@@ -1,0 +1,67 @@
+// Exact kinetostatics along a prescribed motion: the driver's effort (torque or force) and every
+// joint's reaction, from the exact position, velocity and acceleration of a pose.
+//
+// Method 1, Lagrange multipliers. With q the links' frame coordinates (x, y, theta), the
+// equations of motion are M qddot + Phi_q^T lambda = Q. Along a prescribed motion qddot is known,
+// so one linear solve with the factorisation of J = Phi_q that the position solve left gives
+//   J^T lambda = Q - M qddot,
+// the right side assembled per link as the generalised force of the applied loads (gravity at
+// the centre of mass, forces at points, torques, springs and dampers) plus d'Alembert's inertia
+// force -m a_c at the centre of mass and couple -I alpha. Each joint's rows give the generalised
+// constraint force on each of its links, -Phi_q^T lambda restricted to them: a force and a
+// moment about the link frame's origin, from which the reaction at the joint's point and, for a
+// prismatic joint, its couple follow. The driver's row gives its effort, -lambda_driver (the
+// driver equation is coordinate - d(t) = 0, so the effort along the coordinate is -lambda).
+//
+// Method 2, power balance, with no multipliers: the driver's power equals the rate of change of
+// kinetic energy plus that of the potential energy of gravity and springs, plus the power
+// dissipated in dampers, minus the power of the loads; divided by the driver's rate.
+//
+// Shaking force and moment: what the mechanism exerts on the ground (through its joints, the
+// driver and springs anchored on it) is the applied gravity and loads minus the rate of change of
+// the moving links' momentum (linear, and angular about the world origin).
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "analytic/newton.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink {
+
+// The forces at one pose, SI.
+struct ForceSample {
+  double effort = 0.0;                       // the driver's torque [N m] or force [N]
+  std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
+  std::vector<double> normal, moment;        // per slide joint (Mechanism::slide_joints order)
+  Eigen::Vector3d shaking = Eigen::Vector3d::Zero();  // on the ground: fx, fy, moment about O
+  Eigen::VectorXd generalised, lambda;                // scratch: Q - M qddot and the multipliers
+};
+
+class Kinetostatics {
+ public:
+  explicit Kinetostatics(const NewtonSolver& solver);
+
+  // Sized for the mechanism; then solve() allocates nothing.
+  ForceSample make_sample() const;
+  // Method 1 at a pose solved by the solver (solve_position, then solve_velocity and
+  // solve_acceleration with the real driver state).
+  void solve(KinematicState& state, ForceSample& out) const;
+  // Method 2: the driver's effort from the power balance; none when the driver is at rest
+  // (its rate is zero, so power says nothing about the effort).
+  std::optional<double> power_balance(const KinematicState& state) const;
+
+  void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
+
+ private:
+  // Q - M qddot: per moving link, the generalised applied and inertia forces (force, moment
+  // about the frame origin).
+  void generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const;
+
+  const NewtonSolver& solver_;
+  std::vector<int> slide_joints_;
+};
+
+}  // namespace crosslink

@@ -1,0 +1,270 @@
+// Exact kinetostatics (analytic/kinetostatics.h) against independent expected values:
+//   - the two methods, Lagrange multipliers and the power balance, agree on the driver's effort
+//     at every sample of every bundled file (as defined, and loaded with gravity, a spring, a
+//     damper, a force and a torque) to 1e-9 of its peak;
+//   - Newton-Euler on every link: the extracted joint reactions, the driver's effort, gravity,
+//     loads and springs sum to m a_c and, about the centre of mass, to I alpha, to 1e-9;
+//   - the shaking force and moment equal the negated sum of the forces the ground's joints exert;
+//   - quasi-statics: under gravity alone at a crawl, the driver's effort is dV/d(driver), V the
+//     potential energy, by central differences of exact positions.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "analytic/instant_centres.h"
+#include "analytic/kinetostatics.h"
+#include "analytic/loader.h"
+#include "analytic/planar.h"
+#include "analytic/sweep.h"
+
+namespace crosslink {
+namespace {
+
+std::vector<std::string> all_mechanisms() {
+  std::vector<std::string> files;
+  const std::filesystem::path root = std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms";
+  for (const auto& dir : {root, root / "singular"})
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// The same mechanism under gravity, with a spring and damper from a ground point to a point of
+// the last moving link, a force at a point of the first moving link that is not the driven one
+// (or of the driven one) and a torque on the last moving link.
+Mechanism loaded(Mechanism m) {
+  m.gravity = Eigen::Vector2d(0.0, -9.81);
+  const int ground = m.ground();
+  const int last = static_cast<int>(m.links.size()) - 1 == ground
+                       ? static_cast<int>(m.links.size()) - 2
+                       : static_cast<int>(m.links.size()) - 1;
+  int first = 0;
+  while (first == ground || (first == m.driver.link && m.moving_count() > 1)) ++first;
+  Spring s;
+  s.link_a = ground;
+  s.link_b = last;
+  s.local_a = m.links[static_cast<size_t>(ground)].points.front().local;
+  s.local_b = m.links[static_cast<size_t>(last)].points.back().local;
+  s.stiffness = 50.0;
+  s.free_length = 0.5 * m.size();
+  s.damping = 0.7;
+  m.springs.push_back(s);
+  Load force;
+  force.link = first;
+  force.local = m.links[static_cast<size_t>(first)].points.back().local;
+  force.rows.emplace_back(0.0, 3.0, -2.0);
+  m.loads.push_back(force);
+  Load torque;
+  torque.kind = Load::Kind::torque;
+  torque.link = last;
+  torque.rows.emplace_back(0.0, 0.4, 0.0);
+  m.loads.push_back(torque);
+  return m;
+}
+
+// Calls f(state, report) at every usable sample of the exact sweep, with the state solved there
+// (position from the sweep's pose polished by Newton, velocity and acceleration).
+template <typename F>
+void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
+  const Trajectory t = sweep(m);
+  KinematicState state(m);
+  for (int k = 0; k < t.samples(); ++k) {
+    if (!usable(t.status[static_cast<size_t>(k)])) continue;
+    state.q = coordinates_at(m, t, k);
+    DriverState d = m.driver.at_time(t.time(k));
+    d.value = t.driver(k);
+    if (m.driver.law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver.law.speed;
+    state.driver = d;
+    const SolveReport r = solver.solve(state);
+    ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << d.value;
+    f(state, r);
+  }
+}
+
+class EveryMechanism : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
+  const Mechanism file = load_mechanism(GetParam());
+  for (const Mechanism& m : {file, loaded(file)}) {
+    const NewtonSolver solver(m);
+    const Kinetostatics kinetostatics(solver);
+    ForceSample forces = kinetostatics.make_sample();
+    std::vector<std::pair<double, double>> efforts;
+    // The effort's scale: its peak, or the largest reaction (times the size for a torque) where
+    // the effort is zero by design (a parallelogram's, at constant speed without gravity).
+    double scale = 0.0;
+    const double arm = m.driver.angular() ? m.size() : 1.0;
+    at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
+      kinetostatics.solve(state, forces);
+      for (const Eigen::Vector2d& f : forces.joint_force) scale = std::max(scale, arm * f.norm());
+      const std::optional<double> power = kinetostatics.power_balance(state);
+      ASSERT_TRUE(power.has_value());
+      efforts.emplace_back(forces.effort, *power);
+    });
+    ASSERT_FALSE(efforts.empty());
+    for (const auto& [a, b] : efforts) scale = std::max(scale, std::abs(a));
+    ASSERT_GT(scale, 0.0) << m.file;
+    for (const auto& [a, b] : efforts) EXPECT_NEAR(a, b, 1e-9 * scale) << m.file;
+  }
+}
+
+// Newton-Euler on every moving link from the extracted reactions: the force and moment sums
+// against m a_c and I alpha, to 1e-9 of the largest force (and force times size).
+TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
+  const Mechanism m = loaded(load_mechanism(GetParam()));
+  const NewtonSolver solver(m);
+  const Kinetostatics kinetostatics(solver);
+  ForceSample forces = kinetostatics.make_sample();
+  const std::vector<int> slides = m.slide_joints();
+  const Driver& d = m.driver;
+  at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
+    kinetostatics.solve(state, forces);
+    const auto body = [&](int link) {
+      return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
+    };
+    std::vector<Eigen::Vector2d> force(m.links.size(), Eigen::Vector2d::Zero());
+    std::vector<double> moment(m.links.size(), 0.0);  // about the centre of mass
+    auto apply = [&](int link, const Eigen::Vector2d& at, const Eigen::Vector2d& f, double c) {
+      const BodyMotion b = body(link);
+      force[static_cast<size_t>(link)] += f;
+      moment[static_cast<size_t>(link)] +=
+          cross(at - b.position(m.links[static_cast<size_t>(link)].mass.com), f) + c;
+    };
+    double scale = 0.0;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      const Eigen::Vector2d at = body(joint.link_b)
+                                     .position(m.links[static_cast<size_t>(joint.link_b)]
+                                                   .points[static_cast<size_t>(joint.point_b)]
+                                                   .local);
+      double couple = 0.0;
+      const auto s = std::find(slides.begin(), slides.end(), static_cast<int>(j));
+      if (s != slides.end()) couple = forces.moment[static_cast<size_t>(s - slides.begin())];
+      apply(joint.link_b, at, forces.joint_force[j], couple);
+      apply(joint.link_a, at, -forces.joint_force[j], -couple);
+      scale = std::max(scale, forces.joint_force[j].norm());
+    }
+    // The driver's effort on its driven link, and its reaction.
+    if (d.type == DriverType::slider) {
+      const Joint& joint = m.joints[static_cast<size_t>(d.joint)];
+      const Eigen::Vector2d along = body(joint.link_a)
+                                        .turn(m.links[static_cast<size_t>(joint.link_a)]
+                                                  .lines[static_cast<size_t>(joint.line)]
+                                                  .direction);
+      const Eigen::Vector2d at = body(joint.link_b)
+                                     .position(m.links[static_cast<size_t>(joint.link_b)]
+                                                   .points[static_cast<size_t>(joint.point_b)]
+                                                   .local);
+      apply(joint.link_b, at, forces.effort * along, 0.0);
+      apply(joint.link_a, at, -forces.effort * along, 0.0);
+    } else {
+      apply(d.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), forces.effort);
+      // Its reaction: on the joint's other link, or for a link's absolute angle on the ground.
+      apply(d.type == DriverType::joint_angle ? m.joints[static_cast<size_t>(d.joint)].link_a
+                                              : m.ground(),
+            Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.effort);
+    }
+    for (const Load& load : m.loads) {
+      const Eigen::Vector2d v = load.force_at(state.driver.value, d.angular());
+      if (load.kind == Load::Kind::torque)
+        apply(load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), v.x());
+      else
+        apply(load.link, body(load.link).position(load.local), v, 0.0);
+    }
+    for (const Spring& s : m.springs) {
+      const BodyMotion a = body(s.link_a), b = body(s.link_b);
+      const Eigen::Vector2d pa = a.position(s.local_a), pb = b.position(s.local_b);
+      const Eigen::Vector2d u = (pa - pb).normalized();
+      const double rate = u.dot(a.velocity(s.local_a) - b.velocity(s.local_b));
+      const double pull = s.stiffness * ((pa - pb).norm() - s.free_length) + s.damping * rate;
+      apply(s.link_b, pb, pull * u, 0.0);
+      apply(s.link_a, pa, -pull * u, 0.0);
+    }
+    for (size_t l = 0; l < m.links.size(); ++l) {
+      const Link& link = m.links[l];
+      if (link.ground) continue;
+      const BodyMotion b = body(static_cast<int>(l));
+      const Eigen::Vector2d expected = link.mass.mass * b.acceleration(link.mass.com);
+      const Eigen::Vector2d total = force[l] + link.mass.mass * m.gravity;
+      const double tolerance = 1e-9 * std::max(scale, 1.0);
+      EXPECT_NEAR(total.x(), expected.x(), tolerance) << link.name << " at " << state.driver.value;
+      EXPECT_NEAR(total.y(), expected.y(), tolerance) << link.name << " at " << state.driver.value;
+      EXPECT_NEAR(moment[l], link.mass.inertia * b.alpha, tolerance * m.size())
+          << link.name << " at " << state.driver.value;
+    }
+    // The ground: what its joints and the driver's reaction take, with the springs anchored on
+    // it, is the shaking force and moment.
+    const int g = m.ground();
+    const Eigen::Vector2d ground_force = force[static_cast<size_t>(g)];
+    // Moments were summed about the ground's (unused) centre of mass: move them to the origin.
+    const Eigen::Vector2d c = m.links[static_cast<size_t>(g)].mass.com;
+    const double ground_moment = moment[static_cast<size_t>(g)] + cross(c, ground_force);
+    const double tolerance = 1e-9 * std::max(scale, 1.0);
+    EXPECT_NEAR(forces.shaking.x(), ground_force.x(), tolerance);
+    EXPECT_NEAR(forces.shaking.y(), ground_force.y(), tolerance);
+    EXPECT_NEAR(forces.shaking.z(), ground_moment, tolerance * m.size());
+  });
+}
+
+INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(all_mechanisms()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return std::filesystem::path(info.param).stem().string();
+                         });
+
+// Under gravity alone, driven at a crawl, the driver holds the mechanism against its weight:
+// effort = dV/d(driver) with V = -sum m g . r_c, by central differences of exact poses.
+TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
+  for (const char* name : {"fourbar_crank_rocker.toml", "sewing_machine.toml",
+                           "singular/slider_crank_from_slider.toml", "watt_sixbar.toml"}) {
+    Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + name);
+    m.gravity = Eigen::Vector2d(0.0, -9.81);
+    m.driver.law.speed = std::copysign(1e-7, m.driver.law.speed);
+    const NewtonSolver solver(m);
+    const Kinetostatics kinetostatics(solver);
+    ForceSample forces = kinetostatics.make_sample();
+    const double h = m.driver.angular() ? 1e-5 : 1e-5 * m.size();
+    auto potential = [&](const Eigen::VectorXd& q) {
+      double v = 0.0;
+      for (size_t l = 0; l < m.links.size(); ++l) {
+        if (m.links[l].ground) continue;
+        const BodyMotion b =
+            BodyMotion::of(m.moving_index(static_cast<int>(l)), q, nullptr, nullptr);
+        v -= m.links[l].mass.mass * m.gravity.dot(b.position(m.links[l].mass.com));
+      }
+      return v;
+    };
+    std::vector<std::pair<double, double>> pairs;
+    int visited = 0;
+    at_every_sample(m, solver, [&](KinematicState& state, const SolveReport& report) {
+      // Every tenth sample, away from toggles (where dV/d(driver) grows without bound and the
+      // differences' truncation error with it).
+      if (visited++ % 10 != 0 || report.rcond < 1e-2) return;
+      kinetostatics.solve(state, forces);
+      KinematicState shifted = state;
+      double v[2];
+      for (int side = 0; side < 2; ++side) {
+        shifted.q = state.q;
+        shifted.driver.value = state.driver.value + (side == 0 ? h : -h);
+        ASSERT_EQ(solver.solve_position(shifted).status, PoseStatus::ok);
+        v[side] = potential(shifted.q);
+      }
+      pairs.emplace_back(forces.effort, (v[0] - v[1]) / (2.0 * h));
+    });
+    double peak = 0.0;
+    for (const auto& [a, b] : pairs) peak = std::max(peak, std::abs(b));
+    ASSERT_GT(peak, 0.0) << name;
+    for (const auto& [a, b] : pairs) EXPECT_NEAR(a, b, 1e-7 * peak) << name;
+  }
+}
+
+}  // namespace
+}  // namespace crosslink
