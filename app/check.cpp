@@ -59,6 +59,43 @@ std::string driver_text(const Mechanism& m) {
 
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
 // the transmission angle over the swept samples.
+// Mass model, gravity, loads and springs, in the file's units; links on the default model named.
+void print_physics(const Mechanism& m) {
+  const double L = m.units.length, M = m.units.mass;
+  std::vector<std::string> assumed;
+  fmt::print("  mass model ({}, {}, inertia about the centre of mass in {} {}^2):\n",
+             m.units.mass_name, m.units.length_name, m.units.mass_name, m.units.length_name);
+  for (const Link& l : m.links) {
+    if (l.ground) continue;
+    if (l.mass.assumed) assumed.push_back(l.name);
+    fmt::print("    {:<14} mass {:.6g}  com ({:.6g}, {:.6g})  inertia {:.6g}{}\n", l.name,
+               l.mass.mass / M, l.mass.com.x() / L, l.mass.com.y() / L,
+               l.mass.inertia / (M * L * L), l.mass.assumed ? "  (default: uniform bar)" : "");
+  }
+  if (!assumed.empty())
+    fmt::print("  note: {} of {} moving links use the default mass model (a uniform bar between "
+               "their farthest points, 1 kg per mechanism size of length): give mass, com and "
+               "inertia for real forces\n",
+               assumed.size(), m.moving_count());
+  if (m.gravity.norm() > 0.0)
+    fmt::print("  gravity: ({:.6g}, {:.6g}) {}/s^2\n", m.gravity.x() / L, m.gravity.y() / L,
+               m.units.length_name);
+  for (const Load& load : m.loads)
+    fmt::print("  load {}: {} on {}{}\n", load.name,
+               load.kind == Load::Kind::force ? "force" : "torque",
+               m.links[static_cast<size_t>(load.link)].name,
+               load.table ? fmt::format(" (table of {} rows over the driver)", load.rows.size())
+                          : "");
+  for (const Spring& s : m.springs)
+    fmt::print("  spring {}: {}:{} - {}:{}, stiffness {:.6g} {}/{}, free length {:.6g} {}, "
+               "damping {:.6g} {} s/{}\n",
+               s.name, m.links[static_cast<size_t>(s.link_a)].name, s.point_a,
+               m.links[static_cast<size_t>(s.link_b)].name, s.point_b,
+               s.stiffness * L / m.units.force, m.units.force_name, m.units.length_name,
+               s.free_length / L, m.units.length_name, s.damping * L / m.units.force,
+               m.units.force_name, m.units.length_name);
+}
+
 void print_singular_positions(const Mechanism& m) {
   const double unit = m.driver.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
@@ -99,6 +136,7 @@ int run_check(const std::string& path) {
   }
   fmt::print("  joints ({}):\n", m.joints.size());
   for (const Joint& j : m.joints) fmt::print("    {:<14} {}\n", j.name, joint_text(m, j));
+  print_physics(m);
   fmt::print("  mobility: {}\n", mobility(m).explain());
   fmt::print("  driver: {}\n", driver_text(m));
 

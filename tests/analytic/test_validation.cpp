@@ -502,3 +502,151 @@ TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
 
 }  // namespace
 }  // namespace crosslink
+
+namespace crosslink {
+namespace {
+
+// Physics keys (docs/mechanism-format.md): mass, com, inertia; gravity; [[load]]; [[spring]];
+// mass and force units.
+std::string with_physics(const std::string& crank_keys, const std::string& tail = "") {
+  return replaced(four_bar(), "pose = [0, 0, 60]\n", "pose = [0, 0, 60]\n" + crank_keys) + tail;
+}
+
+TEST(ValidationPhysics, UnitsAndValuesAreReadInSi) {
+  // 40 g, 2 kg cm^2 = 2e-3 * 1e-4 kg m^2 in a cm file; gravity 981 cm/s^2; a 0.5 kN force,
+  // a 2 kN cm torque, a spring of 3 kN/cm.
+  std::string text =
+      replaced(four_bar(), "length = \"m\"", "length = \"cm\"\nmass = \"g\"\nforce = \"kN\"");
+  text = replaced(text, "D = [0.10, 0] }", "D = [10, 0] }");
+  text = replaced(text, "B = [0.04, 0] }\npose = [0, 0, 60]",
+                  "B = [4, 0] }\npose = [0, 0, 60]\nmass = 40\ncom = [2, 0]\ninertia = 2000");
+  text = replaced(text, "C = [0.12, 0] }\npose = [0.02, 0.034641, 18.38]",
+                  "C = [12, 0] }\npose = [2, 3.4641, 18.38]");
+  text = replaced(text, "C = [0.08, 0] }\npose = [0.10, 0, 64.94]",
+                  "C = [8, 0] }\npose = [10, 0, 64.94]");
+  text += R"(
+gravity = [0, -981]
+[[load]]
+link = "coupler"
+point = "C"
+force = [0.5, 0]
+[[load]]
+link = "rocker"
+torque = 2
+[[spring]]
+links = ["ground", "rocker"]
+points = ["A", "C"]
+stiffness = 3
+free_length = 5
+)";
+  // Top-level keys after tables belong to the last table in TOML: put gravity first.
+  text = replaced(text, "\ngravity = [0, -981]\n", "\n");
+  text = "gravity = [0, -981]\n" + text;
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  const Link& crank = m.links[static_cast<size_t>(m.find_link("crank"))];
+  EXPECT_FALSE(crank.mass.assumed);
+  EXPECT_DOUBLE_EQ(crank.mass.mass, 0.040);
+  EXPECT_DOUBLE_EQ(crank.mass.com.x(), 0.02);
+  EXPECT_NEAR(crank.mass.inertia, 2000 * 1e-3 * 1e-4, 1e-18);
+  EXPECT_TRUE(m.links[static_cast<size_t>(m.find_link("coupler"))].mass.assumed);
+  EXPECT_DOUBLE_EQ(m.gravity.y(), -9.81);
+  ASSERT_EQ(m.loads.size(), 2u);
+  EXPECT_DOUBLE_EQ(m.loads[0].force_at(0.0, true).x(), 500.0);
+  EXPECT_DOUBLE_EQ(m.loads[1].force_at(0.0, true).x(), 2000.0 * 0.01);
+  ASSERT_EQ(m.springs.size(), 1u);
+  EXPECT_DOUBLE_EQ(m.springs[0].stiffness, 3000.0 / 0.01);
+  EXPECT_DOUBLE_EQ(m.springs[0].free_length, 0.05);
+}
+
+TEST(ValidationPhysics, NegativeMass) {
+  const std::string text = with_physics("mass = -1\ncom = \"A\"\ninertia = 0\n");
+  expect_diagnostic(text, place_of(text, "-1"), {"'mass' must not be negative", "crank"});
+}
+
+TEST(ValidationPhysics, ZeroMassWithInertia) {
+  const std::string text = with_physics("mass = 0\ncom = \"A\"\ninertia = 0.5\n");
+  expect_diagnostic(text, place_of(text, "0\ncom"), {"zero mass cannot have inertia"});
+}
+
+TEST(ValidationPhysics, NegativeInertia) {
+  const std::string text = with_physics("mass = 1\ncom = \"A\"\ninertia = -0.5\n");
+  expect_diagnostic(text, place_of(text, "-0.5"), {"'inertia' must not be negative"});
+}
+
+TEST(ValidationPhysics, MassWithoutInertia) {
+  const std::string text = with_physics("mass = 1\ncom = \"A\"\n");
+  expect_diagnostic(text, place_of(text, "1\ncom"), {"gives 'mass' but no 'inertia'"});
+}
+
+TEST(ValidationPhysics, CentreOfMassAtAMissingPoint) {
+  const std::string text = with_physics("mass = 1\ncom = \"Q\"\ninertia = 0\n");
+  expect_diagnostic(text, place_of(text, "\"Q\""), {"'com' names point 'Q'", "its points: A, B"});
+}
+
+TEST(ValidationPhysics, LoadOnAMissingPoint) {
+  const std::string text =
+      with_physics("", "\n[[load]]\nlink = \"coupler\"\npoint = \"Z\"\nforce = [1, 0]\n");
+  expect_diagnostic(text, place_of(text, "\"Z\""), {"point 'Z' is not on link 'coupler'"});
+}
+
+TEST(ValidationPhysics, LoadWithoutAValue) {
+  const std::string text = with_physics("", "\n[[load]]\nlink = \"coupler\"\npoint = \"C\"\n");
+  expect_diagnostic(text, place_of(text, "[[load]]"), {"load #1 needs exactly one of 'force'"});
+}
+
+TEST(ValidationPhysics, TorqueAtAPoint) {
+  const std::string text =
+      with_physics("", "\n[[load]]\nlink = \"coupler\"\npoint = \"C\"\ntorque = 1\n");
+  expect_diagnostic(text, place_of(text, "\"C\"\ntorque"), {"a torque acts on the whole link"});
+}
+
+TEST(ValidationPhysics, LoadTableDriverValuesMustIncrease) {
+  const std::string text = with_physics(
+      "", "\n[[load]]\nlink = \"rocker\"\ntorque_table = [[0, 1], [90, 2], [45, 3]]\n");
+  expect_diagnostic(text, place_of(text, "[45, 3]"), {"must increase strictly"});
+}
+
+TEST(ValidationPhysics, SpringBetweenTwoPointsOfOneLink) {
+  const std::string text =
+      with_physics("",
+                   "\n[[spring]]\nlinks = [\"rocker\", \"rocker\"]\npoints = [\"D\", \"C\"]\n"
+                   "stiffness = 10\nfree_length = 0.05\n");
+  expect_diagnostic(text, place_of(text, "[\"rocker\", \"rocker\"]"),
+                    {"joins two points of one link ('rocker')"});
+}
+
+TEST(ValidationPhysics, SpringStiffnessNeedsAFreeLength) {
+  const std::string text =
+      with_physics("",
+                   "\n[[spring]]\nlinks = [\"ground\", \"rocker\"]\npoints = [\"A\", \"C\"]\n"
+                   "stiffness = 17\n");
+  expect_diagnostic(text, place_of(text, "17\n"), {"'stiffness' needs 'free_length'"});
+}
+
+TEST(ValidationPhysics, NegativeDamping) {
+  const std::string text =
+      with_physics("",
+                   "\n[[spring]]\nlinks = [\"ground\", \"rocker\"]\npoints = [\"A\", \"C\"]\n"
+                   "damping = -2\n");
+  expect_diagnostic(text, place_of(text, "-2"), {"'damping' must not be negative"});
+}
+
+TEST(ValidationPhysics, UnknownMassUnit) {
+  const std::string text =
+      replaced(four_bar(), "angle = \"deg\"", "angle = \"deg\"\nmass = \"lb\"");
+  expect_diagnostic(text, place_of(text, "\"lb\""), {"unknown unit 'lb' for 'mass'", "kg, g"});
+}
+
+TEST(ValidationPhysics, UnknownForceUnit) {
+  const std::string text =
+      replaced(four_bar(), "angle = \"deg\"", "angle = \"deg\"\nforce = \"lbf\"");
+  expect_diagnostic(text, place_of(text, "\"lbf\""), {"unknown unit 'lbf' for 'force'", "N, kN"});
+}
+
+TEST(ValidationPhysics, GravityIsTwoNumbers) {
+  const std::string text = "gravity = [0, -9.81, 0]\n" + four_bar();
+  expect_diagnostic(text, place_of(text, "[0, -9.81, 0]"), {"'gravity'", "2 numbers"});
+}
+
+}  // namespace
+}  // namespace crosslink
