@@ -268,3 +268,32 @@ TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
 
 }  // namespace
 }  // namespace crosslink
+
+namespace crosslink {
+namespace {
+
+// A published dynamic force analysis: Marghitu & Dupac, Advanced Dynamics (Springer 2012), ch. 6,
+// Example 6.1, bundled with its printed results as [[reference]] rows. Forces and the motor moment
+// are printed to three decimals: the exact values must lie within half a unit of the last digit
+// (and a little for the printed value's own rounding of the inputs, none here: the inputs are
+// exact). Kinematic rows are printed to three significant digits and are checked by test_seeds'
+// rules elsewhere.
+TEST(PublishedExamples, MarghituSixBarForcesToThePrintedDigits) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/rrtr_rrt_sixbar_forces.toml");
+  int checked = 0;
+  for (const Reference& r : m.references) {
+    const Quantity q = Trajectory::quantity_of(r.quantity);
+    if (q != Quantity::force && q != Quantity::torque) continue;
+    const Trajectory exact = solve_at(m, r.driver_value);
+    ASSERT_EQ(exact.status[0], PoseStatus::ok);
+    const std::optional<Eigen::VectorXd> value = exact.channel(r.quantity);
+    ASSERT_TRUE(value.has_value()) << r.quantity;
+    EXPECT_NEAR((*value)(0), r.value, 0.5e-3) << r.quantity << " (" << r.source << ")";
+    ++checked;
+  }
+  EXPECT_EQ(checked, 14);  // Mmot and the x, y of F01, F12, F32, F03, F34, F54, and F05's y
+}
+
+}  // namespace
+}  // namespace crosslink
