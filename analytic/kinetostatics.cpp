@@ -9,8 +9,12 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
+// A link's motion, with the cos and sin of its angle that the solver cached at state.q.
 BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {
-  return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
+  const int k = m.moving_index(link);
+  if (k < 0) return {};
+  return BodyMotion::of(k, state.q, &state.qdot, &state.qddot, state.cos_theta(k),
+                        state.sin_theta(k));
 }
 
 // A spring's pull T (positive: drawing its points together), its unit vector from b's point to

@@ -4,6 +4,8 @@
 //                          at run time, stepping 1 degree (or the like) along the driver's
 //                          cycle, forward then back, with the warm start a sweep uses: the
 //                          previous pose extrapolated by its velocity and acceleration.
+//   PoseForces/<file>      the same, plus the exact kinetostatics of each pose (driver effort and
+//                          joint reactions by Lagrange multipliers, analytic/kinetostatics.h)
 //   FourBarPosition/...    position only, same crank-rocker four-bar (a 0.04, b 0.12, c 0.08,
 //                          d 0.10 m), same crank angles (1 degree apart, round and round), each
 //                          solve warm-started from the previous solution without extrapolation:
@@ -24,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "analytic/kinetostatics.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "analytic/planar.h"
@@ -117,9 +120,11 @@ std::shared_ptr<PoseCase> pose_case(const std::string& path, std::string& error)
   }
 }
 
-void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c) {
+void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c, bool forces) {
   const Mechanism& m = c->mechanism;
   const NewtonSolver solver(m);
+  const Kinetostatics kinetostatics(solver);
+  ForceSample sample = kinetostatics.make_sample();
   KinematicState state(m);
   // Start at the first pose of the walk.
   state.q = c->q_first;
@@ -145,6 +150,10 @@ void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c) {
     report = solver.solve(state);
     if (report.status != PoseStatus::ok) ++failures;
     benchmark::DoNotOptimize(state.qddot.data());
+    if (forces && report.status == PoseStatus::ok) {
+      kinetostatics.solve(state, sample);
+      benchmark::DoNotOptimize(sample.effort);
+    }
   }
   bench.counters["poses"] = static_cast<double>(n);
   bench.counters["coordinates"] = static_cast<double>(state.q.size());
@@ -394,7 +403,11 @@ int main(int argc, char** argv) {
     std::string error;
     std::shared_ptr<PoseCase> c = pose_case(path, error);
     if (c) {
-      benchmark::RegisterBenchmark(name.c_str(), [c](benchmark::State& s) { bench_pose(s, c); });
+      benchmark::RegisterBenchmark(name.c_str(),
+                                   [c](benchmark::State& s) { bench_pose(s, c, false); });
+      const std::string with_forces = "PoseForces/" + std::filesystem::path(path).stem().string();
+      benchmark::RegisterBenchmark(with_forces.c_str(),
+                                   [c](benchmark::State& s) { bench_pose(s, c, true); });
     } else {
       benchmark::RegisterBenchmark(name.c_str(), [error](benchmark::State& s) {
         for (auto _ : s) break;
