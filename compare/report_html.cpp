@@ -147,6 +147,40 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
       }
     if (!link.ground) ++moving;
   }
+  // Joint reactions as arrows at their points (the force of the joint's first link on its
+  // second), the longest a quarter of the mechanism's size; the driver's effort as a label.
+  d["forces"] = json::array();
+  if (pose.has_forces && usable(pose.status.at(0))) {
+    double largest = 0.0;
+    for (Eigen::Index j = 0; j < pose.fx.cols(); ++j)
+      largest = std::max(largest, std::hypot(pose.fx(0, j), pose.fy(0, j)));
+    const double per_newton = largest > 0.0 ? 0.25 * reach / largest : 0.0;
+    const double force_unit = m.units.force;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      const auto at = where(m.links[static_cast<size_t>(joint.link_b)]
+                                .points[static_cast<size_t>(joint.point_b)]
+                                .name);
+      if (!at) continue;
+      const Eigen::Vector2d f(pose.fx(0, static_cast<Eigen::Index>(j)),
+                              pose.fy(0, static_cast<Eigen::Index>(j)));
+      const Eigen::Vector2d tip = *at + per_newton * f;
+      d["forces"].push_back({{"joint", joint.name},
+                             {"x", at->x() / length.scale},
+                             {"y", at->y() / length.scale},
+                             {"x2", tip.x() / length.scale},
+                             {"y2", tip.y() / length.scale},
+                             // Clockwise from up, as Vega turns a point's shape.
+                             {"angle", std::atan2(f.x(), f.y()) * 180.0 / std::numbers::pi},
+                             {"label", fmt::format("{} {:.4g} {}", joint.name,
+                                                   f.norm() / force_unit, m.units.force_name)}});
+    }
+    const bool torque = m.driver.angular();
+    d["effort"] =
+        fmt::format("driver {} {:.6g} {}", torque ? "torque" : "force",
+                    pose.effort(0) / (torque ? force_unit * m.units.length : force_unit),
+                    torque ? m.units.force_name + " " + m.units.length_name : m.units.force_name);
+  }
   const std::vector<Mechanism::NamedPoint> named = m.named_points();
   for (size_t p = 0; p < pose.point_names.size(); ++p) {
     const Link& link = m.links[static_cast<size_t>(named[p].link)];

@@ -124,7 +124,23 @@
         {data: {values: D.centres},
          mark: {type: 'text', dx: 10, dy: 10, fontSize: 11, color: '#d62728'},
          encoding: {x: X, y: Y, text: {field: 'name'}}},
+        // Joint reactions: first link on second, at the joint (exact kinetostatics).
+        {data: {values: D.forces}, mark: {type: 'rule', strokeWidth: 2, color: '#2ca02c'},
+         encoding: {x: X, y: Y, x2: X2, y2: Y2, tooltip: [{field: 'label'}]}},
+        {data: {values: D.forces},
+         mark: {type: 'point', shape: 'triangle-up', filled: true, size: 60, color: '#2ca02c'},
+         encoding: {x: {field: 'x2', type: 'quantitative', scale: sx},
+                    y: {field: 'y2', type: 'quantitative', scale: sy},
+                    angle: {field: 'angle', type: 'quantitative', scale: null},
+                    tooltip: [{field: 'label'}]}},
+        {data: {values: D.forces},
+         mark: {type: 'text', dx: 6, dy: 12, fontSize: 10, color: '#2ca02c'},
+         encoding: {x: {field: 'x2', type: 'quantitative', scale: sx},
+                    y: {field: 'y2', type: 'quantitative', scale: sy},
+                    text: {field: 'label'}}},
       ],
+      title: D.effort ? {text: 'reactions (green): first link on second; ' + D.effort,
+                         fontSize: 11, fontWeight: 'normal', anchor: 'start'} : undefined,
     };
   }
 
