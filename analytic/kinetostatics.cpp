@@ -2,6 +2,8 @@
 
 #include "analytic/planar.h"
 
+#include <cmath>
+
 namespace crosslink {
 namespace {
 
@@ -36,6 +38,14 @@ SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicSta
 }
 
 }  // namespace
+
+bool ForceSample::finite() const {
+  bool ok = std::isfinite(effort) && shaking.allFinite();
+  for (const Eigen::Vector2d& f : joint_force) ok = ok && f.allFinite();
+  for (size_t i = 0; i < normal.size(); ++i)
+    ok = ok && std::isfinite(normal[i]) && std::isfinite(moment[i]);
+  return ok;
+}
 
 Kinetostatics::Kinetostatics(const NewtonSolver& solver)
     : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {}
@@ -164,18 +174,57 @@ std::optional<double> Kinetostatics::power_balance(const KinematicState& state) 
     power += mp.mass * v.dot(b.acceleration(mp.com)) + mp.inertia * b.omega * b.alpha;
     power -= mp.mass * m.gravity.dot(v);
   }
+  // d/dt of the springs' energy.
   for (const Spring& s : m.springs) {
-    // d/dt of the spring's energy, and the damper's dissipation.
     const SpringState ss = spring_state(m, s, state);
-    power += s.stiffness * (ss.length - s.free_length) * ss.rate + s.damping * ss.rate * ss.rate;
+    power += s.stiffness * (ss.length - s.free_length) * ss.rate;
   }
+  return (power - load_power(state)) / state.driver.rate;
+}
+
+double Kinetostatics::kinetic_energy(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double energy = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    energy += 0.5 * (link.mass.mass * b.velocity(link.mass.com).squaredNorm() +
+                     link.mass.inertia * b.omega * b.omega);
+  }
+  return energy;
+}
+
+double Kinetostatics::potential_energy(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double energy = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    energy -= link.mass.mass *
+              m.gravity.dot(motion(m, static_cast<int>(l), state).position(link.mass.com));
+  }
+  for (const Spring& s : m.springs) {
+    const double stretch = spring_state(m, s, state).length - s.free_length;
+    energy += 0.5 * s.stiffness * stretch * stretch;
+  }
+  return energy;
+}
+
+double Kinetostatics::load_power(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double power = 0.0;
   for (const Load& load : m.loads) {
     const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
     const BodyMotion b = motion(m, load.link, state);
-    power -=
+    power +=
         load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));
   }
-  return power / state.driver.rate;
+  for (const Spring& s : m.springs) {
+    const double rate = spring_state(m, s, state).rate;
+    power -= s.damping * rate * rate;
+  }
+  return power;
 }
 
 void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int row) const {

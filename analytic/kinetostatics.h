@@ -38,6 +38,10 @@ struct ForceSample {
   std::vector<double> normal, moment;        // per slide joint (Mechanism::slide_joints order)
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();  // on the ground: fx, fy, moment about O
   Eigen::VectorXd generalised, lambda;                // scratch: Q - M qddot and the multipliers
+
+  // Whether every value is a number: at a pose whose J is singular in floating point the
+  // multipliers are not, and such a sample must be flagged, not passed on.
+  bool finite() const;
 };
 
 class Kinetostatics {
@@ -55,11 +59,17 @@ class Kinetostatics {
 
   void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
 
- private:
-  // Q - M qddot: per moving link, the generalised applied and inertia forces (force, moment
-  // about the frame origin).
+  // The kinetic energy and the potential energy of gravity and springs at the state [J].
+  double kinetic_energy(const KinematicState& state) const;
+  double potential_energy(const KinematicState& state) const;
+  // The power of the loads less the dampers' dissipation at the state [W].
+  double load_power(const KinematicState& state) const;
+
+  // Q - M qddot at the state: per moving link, the generalised applied and inertia forces (force,
+  // and moment about the frame origin). Forward dynamics builds its equation from it.
   void generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const;
 
+ private:
   const NewtonSolver& solver_;
   std::vector<int> slide_joints_;
 };

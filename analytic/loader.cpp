@@ -506,9 +506,16 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     }
   }
 
-  // The motion law: exactly one of speed, polynomial, table.
+  // The motion law: exactly one of speed, polynomial, table; none for a dynamics case.
   const int laws =
       (t->get("speed") ? 1 : 0) + (t->get("polynomial") ? 1 : 0) + (t->get("table") ? 1 : 0);
+  if (root.get("dynamics")) {
+    if (laws != 0)
+      r.error(d.where,
+              "[driver] of a dynamics case ([dynamics]) takes no motion law: the "
+              "coordinate moves freely; remove 'speed', 'polynomial' or 'table'");
+    return;
+  }
   if (laws != 1) {
     r.error(d.where,
             "[driver] needs exactly one motion law: 'speed' (constant), 'polynomial' "
@@ -853,6 +860,64 @@ void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+// [dynamics]: a forward-dynamics case. The coordinate's kinematic view (check, solve, compare)
+// is a constant speed equal to its initial rate, or 1 unit/s when that is 0.
+void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::table* t = r.table(root, "dynamics", "a mechanism", false);
+  if (!t) return;
+  r.known_keys(*t, "[dynamics]",
+               {"duration", "interval", "rate", "rate_unit", "effort", "effort_table"});
+  DynamicsCase c;
+  c.where = r.at(*t);
+  const std::optional<double> duration = r.number(*t, "duration", "[dynamics] (s)", true);
+  if (duration && *duration <= 0.0)
+    r.error(r.at(t->get("duration")), "[dynamics] 'duration' must be positive (seconds)");
+  c.duration = duration.value_or(0.0);
+  const std::optional<double> interval = r.number(*t, "interval", "[dynamics] (s)", true);
+  if (interval && (*interval <= 0.0 || (duration && *interval > *duration)))
+    r.error(r.at(t->get("interval")),
+            "[dynamics] 'interval' (s between output samples) must be positive and at most "
+            "'duration'");
+  c.interval = interval.value_or(0.0);
+  Driver& d = m.driver;
+  double rate_unit = d.angular() ? 1.0 : m.units.length;
+  if (d.angular()) {
+    if (const auto f = unit_factor(r, *t, "[dynamics]", "rate_unit", kAngularSpeedUnits, "rad/s"))
+      rate_unit = *f;
+  } else if (t->get("rate_unit")) {
+    r.error(r.at(t->get("rate_unit")),
+            fmt::format("[dynamics]: a slider's rate is in the file's length unit per second "
+                        "({}/s); remove 'rate_unit'",
+                        m.units.length_name));
+  }
+  c.rate = r.number(*t, "rate", "[dynamics]", false).value_or(0.0) * rate_unit;
+  const double effort_unit = d.angular() ? m.units.force * m.units.length : m.units.force;
+  if (t->get("effort") && t->get("effort_table"))
+    r.error(r.at(t->get("effort_table")),
+            "[dynamics] takes 'effort' (constant) or 'effort_table' ([[t, value], ...]), not both");
+  if (const auto e = r.number(*t, "effort", "[dynamics]", false))
+    c.effort.emplace_back(0.0, *e * effort_unit);
+  if (const toml::node* table = t->get("effort_table")) {
+    const auto* rows = table->as_array();
+    if (!rows || rows->size() < 2)
+      r.error(r.at(*table),
+              "[dynamics] 'effort_table' must list at least 2 rows [[t, value], ...]");
+    else
+      for (const toml::node& row : *rows) {
+        const auto tv = r.numbers(row, 2, "an 'effort_table' row ([t, value])");
+        if (!tv) break;
+        if (!c.effort.empty() && (*tv)[0] <= c.effort.back().first) {
+          r.error(r.at(row), "[dynamics] 'effort_table' times must increase strictly");
+          break;
+        }
+        c.effort.emplace_back((*tv)[0], (*tv)[1] * effort_unit);
+      }
+  }
+  d.law.kind = MotionLaw::Kind::constant_speed;
+  d.law.speed = c.rate != 0.0 ? c.rate : 1.0;
+  m.dynamics = c;
+}
+
 void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "tolerance", "a mechanism", false);
   if (!t) return;
@@ -1003,7 +1068,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   r.set_root(root);
   r.known_keys(root, "the definition",
                {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
-                "tolerance", "expect", "gravity", "load", "spring"});
+                "tolerance", "expect", "gravity", "load", "spring", "dynamics"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
@@ -1067,6 +1132,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
 
   check_structure(r, m, root.get("driver"));
   read_driver(r, m, root);
+  read_dynamics(r, m, root);
   read_loads(r, m, root);
   read_springs(r, m, root);
   read_tolerances(r, m, root);

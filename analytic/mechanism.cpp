@@ -259,4 +259,15 @@ Eigen::Vector2d Load::force_at(double driver, bool angular) const {
   return value(rows.back());
 }
 
+double DynamicsCase::effort_at(double t) const {
+  if (effort.empty()) return 0.0;
+  if (t <= effort.front().first) return effort.front().second;
+  for (size_t i = 1; i < effort.size(); ++i)
+    if (t <= effort[i].first) {
+      const double u = (t - effort[i - 1].first) / (effort[i].first - effort[i - 1].first);
+      return (1.0 - u) * effort[i - 1].second + u * effort[i].second;
+    }
+  return effort.back().second;
+}
+
 }  // namespace crosslink

@@ -177,6 +177,21 @@ struct Spring {
   SourceLocation where;
 };
 
+// A forward-dynamics case ([dynamics]): the driver names the independent coordinate, which then
+// moves under gravity, loads, springs and an applied effort from its start value and initial rate
+// instead of following a motion law.
+struct DynamicsCase {
+  double rate = 0.0;      // the coordinate's initial rate [rad/s or m/s]
+  double duration = 0.0;  // [s]
+  double interval = 0.0;  // between output samples [s]
+  // The effort applied along the coordinate (torque [N m] on the driven link, or force [N] along
+  // a slider), as (time [s], value) rows, linear between rows and held beyond; none: free motion.
+  std::vector<std::pair<double, double>> effort;
+  SourceLocation where;
+
+  double effort_at(double t) const;
+};
+
 // A published value to compare against (a hand calculation, Working Model, ...), in SI.
 struct Reference {
   std::string quantity;  // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
@@ -217,6 +232,9 @@ struct Mechanism {
   std::vector<Reference> references;
   ToleranceOverrides tolerances;
   std::optional<Expectations> expect;  // [expect], when the definition has one
+  // [dynamics], when the definition is a forward-dynamics case. Kinematic commands then drive the
+  // coordinate at its initial rate (1 unit/s when that is 0).
+  std::optional<DynamicsCase> dynamics;
 
   int ground() const;                          // index of the ground link
   int find_link(std::string_view name) const;  // index, or -1

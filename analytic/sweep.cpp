@@ -174,10 +174,17 @@ class Recorder {
       state.qddot.setZero();
     }
     solver_.write_sample(state, report, out, row);
-    if (report.status == PoseStatus::ok && out.has_forces) {
-      kinetostatics_.solve(state, forces_);
-      kinetostatics_.write_sample(forces_, out, row);
+    if (report.status != PoseStatus::ok || !out.has_forces) return;
+    kinetostatics_.solve(state, forces_);
+    if (!forces_.finite() || !state.qdot.allFinite() || !state.qddot.allFinite()) {
+      // J is singular in floating point although Newton converged (two loops at a change point
+      // at once): no rates, no reactions.
+      out.status[static_cast<size_t>(row)] = PoseStatus::singular;
+      out.events.push_back({driver.value, PoseStatus::singular,
+                            "Jacobian singular: rates and joint reactions are not determined"});
+      return;
     }
+    kinetostatics_.write_sample(forces_, out, row);
   }
 
  private:

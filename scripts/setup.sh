@@ -7,7 +7,7 @@ BUILD_DIR=${1:-build}
 
 PACKAGES=(
   build-essential cmake pkg-config git clang-format
-  libeigen3-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev libcli11-dev
+  libeigen3-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test

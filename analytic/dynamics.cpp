@@ -1,0 +1,254 @@
+#include "analytic/dynamics.h"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <boost/numeric/odeint.hpp>
+#include <cmath>
+#include <stdexcept>
+
+#include "analytic/kinetostatics.h"
+#include "analytic/newton.h"
+#include "analytic/sweep.h"
+
+namespace crosslink {
+namespace {
+
+using State = std::array<double, 3>;  // d, ddot, w
+
+// Why a run stopped: the chain could not close, or only another branch was near.
+struct Stopped {
+  double time;
+  PoseStatus status;
+  std::string message;
+};
+
+// The minimal-coordinate equation of motion, with the pose followed by continuation.
+class EquationOfMotion {
+ public:
+  explicit EquationOfMotion(const Mechanism& m)
+      : m_(m),
+        solver_(m, NewtonOptions{.tolerance = 1e-15}),
+        kinetostatics_(solver_),
+        state_(m),
+        g0_(m.coordinate_count()),
+        g1_(m.coordinate_count()),
+        s_(m.coordinate_count()),
+        q_last_(m.coordinate_count()),
+        s_last_(m.coordinate_count()),
+        guess_(m.coordinate_count()) {
+    const SolveReport assembled = solver_.assemble(state_);
+    if (assembled.status != PoseStatus::ok)
+      throw Stopped{0.0, assembled.status,
+                    "the chain does not assemble at its start: " + assembled.message};
+    d_last_ = state_.driver.value;
+    q_last_ = state_.q;
+    unit_rate();
+    s_last_ = s_;
+  }
+
+  const NewtonSolver& solver() const { return solver_; }
+  const Kinetostatics& kinetostatics() const { return kinetostatics_; }
+  KinematicState& state() { return state_; }
+  long evaluations() const { return evaluations_; }
+
+  // dd/dt, dddot/dt and dw/dt at (t, x).
+  void operator()(const State& x, State& dxdt, double t) {
+    ++evaluations_;
+    const double effort = m_.dynamics->effort_at(t);
+    double power = 0.0;
+    const double dddot = acceleration(t, x[0], x[1], effort, &power);
+    dxdt = {x[1], dddot, effort * x[1] + power};
+  }
+
+  // The coordinate's acceleration at (d, ddot) under `effort`, and the power of the loads and
+  // dampers. Next to a singular position (a change point, where J loses rank but the motion
+  // goes on smoothly) the pose is resolved only to Newton's tolerance over the condition, and s
+  // and qddot0 to round-off over it, so there both come from six regular evaluations around it
+  // (d + k delta, k = +-1, +-2, +-3, Lagrange weights at 0): the error is ~delta^6 times the
+  // sixth derivative, delta = 0.01 rad (or 0.01 of the size).
+  double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
+    if (move_to(t, d) >= kNearSingular) return regular(t, d, ddot, effort, power);
+    const double delta = 5e-3 * (m_.driver.angular() ? 1.0 : m_.size());
+    const double offsets[6] = {-3.0, -2.0, -1.0, 1.0, 2.0, 3.0};
+    const double weights[6] = {1.0 / 20, -3.0 / 10, 3.0 / 4, 3.0 / 4, -3.0 / 10, 1.0 / 20};
+    double dddot = 0.0, p = 0.0;
+    for (int i = 0; i < 6; ++i) {
+      if (move_to(t, d + offsets[i] * delta) < kNearSingular)
+        throw Stopped{t, PoseStatus::singular,
+                      fmt::format("singular on both sides of coordinate {:.12g}", d)};
+      double pi = 0.0;
+      dddot += weights[i] * regular(t, d + offsets[i] * delta, ddot, effort, &pi);
+      p += weights[i] * pi;
+    }
+    // The state at d itself: its pose, with the rates of the smooth branch where it can.
+    move_to(t, d);
+    state_.qdot = s_ * ddot;
+    state_.driver = {t, d, ddot, dddot};
+    solver_.solve_acceleration(state_);
+    if (power) *power = p;
+    near_singular_ = true;
+    return dddot;
+  }
+
+  // Whether the last acceleration() was taken next to a singular position.
+  bool near_singular() const { return near_singular_; }
+
+ private:
+  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
+  // to its tolerance over it) are interpolated.
+  static constexpr double kNearSingular = 1e-4;
+
+  double regular(double t, double d, double ddot, double effort, double* power) {
+    near_singular_ = false;
+    state_.qdot = s_ * ddot;
+    state_.driver = {t, d, ddot, 0.0};
+    solver_.solve_acceleration(state_);
+    kinetostatics_.generalised_forces(state_, g0_);
+    state_.qddot += s_;
+    kinetostatics_.generalised_forces(state_, g1_);
+    state_.qddot -= s_;
+    const double mass = s_.dot(g0_ - g1_);  // s^T M s
+    if (!(mass > 0.0))
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("the generalised mass is {:g} at coordinate {:.12g}", mass, d)};
+    const double dddot = (effort + s_.dot(g0_)) / mass;
+    state_.qddot += s_ * dddot;
+    state_.driver.accel = dddot;
+    if (power) *power = kinetostatics_.load_power(state_);
+    return dddot;
+  }
+
+  // Solves the pose at d from the last regular one, in continuation steps; s_ = dq/dd there.
+  // Returns the pose's reciprocal condition; a pose next to a singular one is not taken as the
+  // start of the next continuation (its s is not reliable) and its correction is not checked
+  // (Newton resolves it only to ~sqrt(tolerance) there).
+  double move_to(double t, double d) {
+    const double from = d_last_, span = d - from;
+    const int steps =
+        std::max(1, static_cast<int>(std::ceil(std::abs(span) / continuation_step(m_))));
+    double rcond = 1.0;
+    for (int i = 1; i <= steps; ++i) {
+      const double target = i == steps ? d : from + span * i / steps, h = target - d_last_;
+      guess_ = q_last_ + h * s_last_;
+      state_.q = guess_;
+      state_.driver = {t, target, 1.0, 0.0};
+      const SolveReport r = solver_.solve_position(state_);
+      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular)
+        throw Stopped{t, r.status, fmt::format("at coordinate {:.12g}: {}", target, r.message)};
+      rcond = r.rcond;
+      if (rcond < kNearSingular) {
+        // Stepped over: the next pose is predicted from the last regular one, across.
+        if (i < steps) continue;
+        unit_rate();
+        return rcond;
+      }
+      // Newton may only polish the predicted pose: a large correction is another branch.
+      const double predicted = (h * s_last_).lpNorm<Eigen::Infinity>();
+      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() > 0.1 * predicted + 1e-9 * m_.size())
+        throw Stopped{
+            t, PoseStatus::branch_jump,
+            fmt::format("the only pose near coordinate {:.12g} is on another branch", target)};
+      unit_rate();
+      d_last_ = target;
+      q_last_ = state_.q;
+      s_last_ = s_;
+    }
+    return rcond;
+  }
+
+  void unit_rate() {
+    state_.driver.rate = 1.0;
+    solver_.solve_velocity(state_);
+    s_ = state_.qdot;
+  }
+
+  const Mechanism& m_;
+  NewtonSolver solver_;
+  Kinetostatics kinetostatics_;
+  KinematicState state_;
+  Eigen::VectorXd g0_, g1_, s_, q_last_, s_last_, guess_;
+  double d_last_ = 0.0;
+  long evaluations_ = 0;
+  bool near_singular_ = false;
+};
+
+}  // namespace
+
+double Simulation::energy_error(int k) const {
+  const double scale =
+      std::max({std::abs(initial_energy), std::abs(kinetic(k)), std::abs(potential(k)), 1e-300});
+  return std::abs(kinetic(k) + potential(k) - initial_energy - work(k)) / scale;
+}
+
+Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options) {
+  if (!mechanism.dynamics)
+    throw std::invalid_argument(mechanism.file + ": not a dynamics case (no [dynamics] table)");
+  const DynamicsCase& c = *mechanism.dynamics;
+  const double duration = options.duration > 0.0 ? options.duration : c.duration;
+  const double interval = options.interval > 0.0 ? options.interval : c.interval;
+  const int n = static_cast<int>(std::floor(duration / interval + 1e-9)) + 1;
+  std::vector<double> times(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) times[static_cast<size_t>(k)] = k * interval;
+
+  Simulation out;
+  Trajectory& t = out.trajectory;
+  t.method = "exact dynamics (" + options.integrator + ")";
+  t.resize(mechanism, n, true);
+  for (int k = 0; k < n; ++k) t.time(k) = times[static_cast<size_t>(k)];
+  out.kinetic.setZero(n);
+  out.potential.setZero(n);
+  out.work.setZero(n);
+
+  int written = 0;
+  try {
+    EquationOfMotion eom(mechanism);
+    const Kinetostatics& kinetostatics = eom.kinetostatics();
+    ForceSample forces = kinetostatics.make_sample();
+    State x = {mechanism.driver.start, c.rate, 0.0};
+    auto observe = [&](const State& y, double time) {
+      const int k = written++;
+      const double effort = c.effort_at(time);
+      eom.acceleration(time, y[0], y[1], effort);
+      KinematicState& s = eom.state();
+      SolveReport report;
+      if (eom.near_singular()) {
+        // Its coordinate's motion is exact, the rest of its pose only to round-off.
+        report.status = PoseStatus::singular;
+        report.message = "next to a singular position";
+      }
+      eom.solver().write_sample(s, report, t, k);
+      if (!eom.near_singular()) {
+        kinetostatics.solve(s, forces);
+        kinetostatics.write_sample(forces, t, k);
+      }
+      out.kinetic(k) = kinetostatics.kinetic_energy(s);
+      out.potential(k) = kinetostatics.potential_energy(s);
+      out.work(k) = y[2];
+      if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
+    };
+    namespace odeint = boost::numeric::odeint;
+    const double tol = options.tolerance;
+    if (options.integrator == "dopri5") {
+      odeint::integrate_times(
+          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()), std::ref(eom),
+          x, times.begin(), times.end(), interval, observe);
+    } else if (options.integrator == "rkf78") {
+      odeint::integrate_times(
+          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()), std::ref(eom),
+          x, times.begin(), times.end(), interval, observe);
+    } else {
+      throw std::invalid_argument("unknown integrator '" + options.integrator +
+                                  "' (valid: dopri5, rkf78)");
+    }
+    out.evaluations = eom.evaluations();
+  } catch (const Stopped& stop) {
+    out.ok = false;
+    out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
+    t.events.push_back({stop.time, stop.status, out.message});
+    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = stop.status;
+  }
+  return out;
+}
+
+}  // namespace crosslink

@@ -1,0 +1,56 @@
+// Exact forward dynamics of a one-freedom mechanism (a [dynamics] case): the reference that
+// engines' free and torque-driven motion is measured against.
+//
+// The driver names the independent coordinate d. At any (d, ddot) the Newton solver gives the
+// pose, s = dq/dd (the velocity solve at unit rate) and qddot0 (the acceleration solve with
+// d's acceleration zero), so qddot = qddot0 + s dddot. The equations of motion projected on s,
+// along which the constraint forces do no work, give the minimal-coordinate equation
+//   (s^T M s) dddot = effort(t) + s^T (Q - M qddot0),
+// with Q - M qddot from Kinetostatics::generalised_forces (the code the kinetostatics tests
+// check): s^T M s = s^T (g(qddot0) - g(qddot0 + s)). The state (d, ddot, w) is integrated by
+// Boost.Odeint's adaptive Runge-Kutta methods with dense output at the sample times; w is the
+// work done by the applied effort, the loads and the dampers, so that the energy balance
+//   kinetic + potential - initial energy - w = 0
+// measures the integration's error rather than being assumed.
+//
+// The pose follows its branch by continuation from the last one solved, in steps of at most
+// continuation_step(), each Newton correction small against the predicted motion; a step that
+// lands on another branch, or a coordinate where the chain cannot close, ends the run with the
+// time it happened (flagged samples from there on), never a silent jump.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink {
+
+struct SimulationOptions {
+  double duration = 0.0;  // [s]; 0: the case's
+  double interval = 0.0;  // between samples [s]; 0: the case's
+  // "dopri5": Dormand-Prince 5(4) with dense output; "rkf78": Runge-Kutta-Fehlberg 7(8), stepped
+  // to each sample. Two independent integrations of the same equation.
+  std::string integrator = "dopri5";
+  double tolerance = 1e-13;  // absolute and relative, per step
+};
+
+struct Simulation {
+  Trajectory trajectory;  // samples in time; forces with the applied effort as the driver's
+  // Per sample [J]: kinetic and potential energy, and the work done on the mechanism since t = 0
+  // by the applied effort, the loads and the dampers.
+  Eigen::VectorXd kinetic, potential, work;
+  double initial_energy = 0.0;
+  bool ok = true;
+  std::string message;   // why the run stopped early
+  long evaluations = 0;  // of the equation of motion
+
+  // |kinetic + potential - initial - work| at sample k, relative to the largest of the energies.
+  double energy_error(int k) const;
+};
+
+// Integrates a [dynamics] case (throws std::invalid_argument for a mechanism without one).
+Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options = {});
+
+}  // namespace crosslink
