@@ -11,20 +11,14 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
-// A link's motion, with the cos and sin of its angle that the solver cached at state.q.
+// A link's motion at the state. Not from the solver's cached cos and sin: engines fill states
+// of their own (q only) to apply the same loads.
 BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {
-  const int k = m.moving_index(link);
-  if (k < 0) return {};
-  return BodyMotion::of(k, state.q, &state.qdot, &state.qddot, state.cos_theta(k),
-                        state.sin_theta(k));
+  return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
 }
 
-// A spring's pull T (positive: drawing its points together), its unit vector from b's point to
-// a's, and the rate of its length. A spring of zero length has no direction and pulls nothing.
-struct SpringState {
-  double pull = 0.0, length = 0.0, rate = 0.0;
-  Eigen::Vector2d towards_a = Eigen::Vector2d::Zero();
-};
+}  // namespace
+
 SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicState& state) {
   const BodyMotion a = motion(m, s.link_a, state), b = motion(m, s.link_b, state);
   const Eigen::Vector2d d = a.position(s.local_a) - b.position(s.local_b);
@@ -37,6 +31,16 @@ SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicSta
   return out;
 }
 
+namespace {
+// A force at a point of link `link` (offset from its frame origin in world axes) and a couple,
+// added to the generalised force of the link's coordinates.
+void add_at(const Mechanism& m, Eigen::VectorXd& out, int link, const Eigen::Vector2d& offset,
+            const Eigen::Vector2d& force, double couple) {
+  const int k = m.moving_index(link);
+  if (k < 0) return;
+  out.segment<2>(3 * k) += force;
+  out(3 * k + 2) += cross(offset, force) + couple;
+}
 }  // namespace
 
 bool ForceSample::finite() const {
@@ -45,6 +49,24 @@ bool ForceSample::finite() const {
   for (size_t i = 0; i < normal.size(); ++i)
     ok = ok && std::isfinite(normal[i]) && std::isfinite(moment[i]);
   return ok;
+}
+
+void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out) {
+  out.setZero();
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    if (load.kind == Load::Kind::torque) {
+      add_at(m, out, load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
+    } else {
+      add_at(m, out, load.link, motion(m, load.link, state).turn(load.local), value, 0.0);
+    }
+  }
+  for (const Spring& s : m.springs) {
+    const SpringState ss = spring_state(m, s, state);
+    const Eigen::Vector2d on_b = ss.pull * ss.towards_a;
+    add_at(m, out, s.link_a, motion(m, s.link_a, state).turn(s.local_a), -on_b, 0.0);
+    add_at(m, out, s.link_b, motion(m, s.link_b, state).turn(s.local_b), on_b, 0.0);
+  }
 }
 
 Kinetostatics::Kinetostatics(const NewtonSolver& solver)
@@ -63,15 +85,7 @@ ForceSample Kinetostatics::make_sample() const {
 
 void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const {
   const Mechanism& m = solver_.mechanism();
-  out.setZero();
-  // A force at a point of link `link` (offset from its frame origin in world axes).
-  auto add = [&](int link, const Eigen::Vector2d& offset, const Eigen::Vector2d& force,
-                 double couple) {
-    const int k = m.moving_index(link);
-    if (k < 0) return;
-    out.segment<2>(3 * k) += force;
-    out(3 * k + 2) += cross(offset, force) + couple;
-  };
+  applied_loads(m, state, out);
   for (size_t l = 0; l < m.links.size(); ++l) {
     const Link& link = m.links[l];
     if (link.ground) continue;
@@ -79,21 +93,7 @@ void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::Vecto
     const MassProperties& mp = link.mass;
     // Gravity and d'Alembert's inertia force at the centre of mass, and the inertia couple.
     const Eigen::Vector2d force = mp.mass * (m.gravity - b.acceleration(mp.com));
-    add(static_cast<int>(l), b.turn(mp.com), force, -mp.inertia * b.alpha);
-  }
-  for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
-    if (load.kind == Load::Kind::torque) {
-      add(load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
-    } else {
-      add(load.link, motion(m, load.link, state).turn(load.local), value, 0.0);
-    }
-  }
-  for (const Spring& s : m.springs) {
-    const SpringState ss = spring_state(m, s, state);
-    const Eigen::Vector2d on_b = ss.pull * ss.towards_a;
-    add(s.link_a, motion(m, s.link_a, state).turn(s.local_a), -on_b, 0.0);
-    add(s.link_b, motion(m, s.link_b, state).turn(s.local_b), on_b, 0.0);
+    add_at(m, out, static_cast<int>(l), b.turn(mp.com), force, -mp.inertia * b.alpha);
   }
 }
 

@@ -31,6 +31,27 @@
 
 namespace crosslink {
 
+// Below this reciprocal condition of the constraint Jacobian the kinetostatic problem is ill
+// conditioned: reactions grow as 1/rcond towards a change point (fourbar_change_point: within
+// about 4 degrees of it), and so does any approximate method's error there (Bullet 80 % at 3
+// degrees). Force comparisons keep such samples out of their verdicts.
+constexpr double kForceRcond = 1e-2;
+
+// A spring's pull T (positive: drawing its points together), its unit vector from b's point to
+// a's, its length and the rate of its length. A spring of zero length has no direction and pulls
+// nothing.
+struct SpringState {
+  double pull = 0.0, length = 0.0, rate = 0.0;
+  Eigen::Vector2d towards_a = Eigen::Vector2d::Zero();
+};
+SpringState spring_state(const Mechanism& m, const Spring& spring, const KinematicState& state);
+
+// The generalised force of the definition's loads (forces at points, torques) and springs and
+// dampers at a state (positions, velocities, driver value): per moving link (force, moment about
+// its frame origin), as `out` sized 3 per moving link. Gravity and inertia are not in it. The
+// exact method adds them; the engines apply it to their bodies every step.
+void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out);
+
 // The forces at one pose, SI.
 struct ForceSample {
   double effort = 0.0;                       // the driver's torque [N m] or force [N]

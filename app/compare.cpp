@@ -72,7 +72,7 @@ int run_compare(CompareArgs args) {
   compare::Tolerances tolerances(m.tolerances);
   const std::optional<double> accuracy = parse_accuracy(args.accuracy);
   if (accuracy)  // the accuracy asked for is the engines' tolerance; --tolerance still wins
-    for (const char* q : {"position", "angle", "velocity", "acceleration"})
+    for (const char* q : {"position", "angle", "velocity", "acceleration", "force", "torque"})
       tolerances.apply(fmt::format("{}={:.17g}", q, *accuracy));
   for (const std::string& t : args.tolerances) tolerances.apply(t);
   for (const std::string& s : args.settings) (void)settings_for("", {s});  // validate early

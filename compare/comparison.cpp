@@ -1,10 +1,13 @@
 #include "compare/comparison.h"
 
+#include "analytic/kinetostatics.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 
+#include "analytic/kinetostatics.h"
 #include "analytic/sweep.h"
 
 namespace crosslink::compare {
@@ -137,6 +140,10 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
                                      usable(run.trajectory.status[static_cast<size_t>(k)]);
       usable_samples += both[static_cast<size_t>(k)] ? 1 : 0;
     }
+    // Forces: also away from ill-conditioned kinetostatics (kForceRcond).
+    std::vector<bool> both_forces = both;
+    for (int k = 0; k < n; ++k)
+      if (ref.rcond(k) < kForceRcond) both_forces[static_cast<size_t>(k)] = false;
     // A method that flags every sample has shown nothing: it fails rather than passing empty.
     if (usable_samples == 0 && n > 0) {
       out.failed_methods.push_back(run.name);
@@ -151,7 +158,9 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       result.method = run.name;
       const double floor = peak_floor(channels[c], kind_peak[channel_kind(channels[c])],
                                       magnitude_peak(channels[c]), driver_rate, size);
-      result.metrics = compare_channel(channels[c], ref_columns[c], *column, both, size, floor);
+      result.metrics = compare_channel(
+          channels[c], ref_columns[c], *column,
+          q == Quantity::force || q == Quantity::torque ? both_forces : both, size, floor);
       result.tolerance = tolerances.of(run.name, q);
       result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable
                        : result.metrics.max_pct_of_peak <= result.tolerance ? Verdict::pass

@@ -6,6 +6,7 @@
 // the solve. Positions are therefore accurate to O(dt^2); velocities and accelerations come from
 // central differences of positions centred on each sample.
 #include "sim/bullet/bullet_engine.h"
+#include "sim/forces.h"
 #include "sim/sampling.h"
 
 #include <btBulletDynamicsCommon.h>
@@ -37,8 +38,6 @@ namespace crosslink::sim {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-// Linear density of a link (a 10 x 5 mm steel bar, 7850 kg/m^3) [kg/m].
-constexpr double kLinearDensity = 0.39;
 constexpr long kSteady = 1;   // the first step after the start that a stencil may use
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
@@ -57,6 +56,9 @@ struct Config {
   double erp = 1.0;
   double loop_gap_threshold = 1e-4;  // relative to the mechanism's size
   double divergence_gap = 0.1;       // relative to the mechanism's size
+  double driver_threshold = 1e-4;    // [rad], or relative to the size for a slider: a driver
+                                     // further from its law is lost (diverged)
+  bool split_impulse = false;        // Bullet's split impulse (position correction apart)
   double singular_rcond = 1e-3;      // samples whose Jacobian is worse conditioned are flagged
   double branch_distance = 1e-4;     // closed configuration this far from the reference's (of
                                      // the size, or rad): another assembly mode, branch_jump
@@ -118,6 +120,12 @@ Config parse_settings(const Settings& overrides) {
       c.branch_distance = parse_number(name, value);
     } else if (name == "divergence_gap") {
       c.divergence_gap = parse_number(name, value);
+    } else if (name == "driver_threshold") {
+      c.driver_threshold = parse_number(name, value);
+    } else if (name == "split_impulse") {
+      if (value != "0" && value != "1")
+        throw std::invalid_argument("setting split_impulse: 0 or 1, got '" + value + "'");
+      c.split_impulse = value == "1";
     } else if (name == "precision") {
       if (value != "float64")
         throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
@@ -184,27 +192,18 @@ int node_of_link(const Plan& plan, int link) {
   return -1;
 }
 
-// Mass and inertia: a uniform bar of kLinearDensity spanning the link's points, width w.
+// The definition's mass properties (Link::mass); a sliding block (multibody only) has
+// auxiliary_mass() and a negligible inertia.
 void mass_model(const Mechanism& m, Node& node) {
-  const double w = 0.1 * m.size();
-  if (node.link < 0) {  // sliding block: a square of side w
-    node.mass = kLinearDensity * w;
-    node.inertia = node.mass * w * w / 6.0;
+  if (node.link < 0) {
+    node.mass = auxiliary_mass(m);
+    node.inertia = node.mass * 1e-4 * m.size() * m.size();
     return;
   }
-  const Link& link = m.links[node.link];
-  Eigen::Vector2d c = Eigen::Vector2d::Zero();
-  for (const Point& p : link.points) c += p.local;
-  if (!link.points.empty()) c /= static_cast<double>(link.points.size());
-  double extent = 0.0, r2 = 0.0;
-  for (const Point& p : link.points) {
-    r2 += (p.local - c).squaredNorm();
-    for (const Point& q : link.points) extent = std::max(extent, (p.local - q.local).norm());
-  }
-  if (!link.points.empty()) r2 /= static_cast<double>(link.points.size());
-  node.com = c;
-  node.mass = kLinearDensity * std::max(extent, w);
-  node.inertia = node.mass * (r2 / 3.0 + w * w / 12.0);
+  const MassProperties& mp = m.links[static_cast<size_t>(node.link)].mass;
+  node.com = mp.com;
+  node.mass = mp.mass;
+  node.inertia = mp.inertia;
 }
 
 Plan make_plan(const Mechanism& m) {
@@ -444,6 +443,14 @@ class Scene {
   // Centre-of-mass frame (x, y, wrapped theta) of every node.
   virtual void read(std::vector<Pose>& com_frames) const = 0;
   virtual int fallbacks() const = 0;
+  // The definition's loads on the nodes of the mechanism's links (Mechanism order), for the
+  // next step only.
+  virtual void apply(const std::vector<BodyLoad>& loads) = 0;
+  // Joint feedback of the last step (forces on each body in N, torques about each body's
+  // centre of mass in N m): per mechanism joint, and of a separate driver constraint (null
+  // when the driver is a joint's own constraint). Null when the scene reads no forces.
+  virtual const btJointFeedback* feedback(int /*joint*/) const { return nullptr; }
+  virtual const btJointFeedback* driver_feedback() const { return nullptr; }
 };
 
 // A Dantzig solver that accepts any finite impulse: large impulses mean a locked or singular
@@ -453,18 +460,19 @@ class UnboundedDantzig : public btDantzigSolver {
   UnboundedDantzig() { m_acceptableUpperLimitSolution = 1e300; }
 };
 
-// Joint-solver settings of both formulations: iterations, ERP (no softening), no split impulse.
+// Joint-solver settings of both formulations: iterations, ERP (no softening), split impulse
+// (off by default).
 void apply_solver_settings(btContactSolverInfo& info, const Config& config) {
   info.m_numIterations = config.iterations;
   info.m_erp = info.m_erp2 = config.erp;
   info.m_globalCfm = 0.0;
-  info.m_splitImpulse = false;
+  info.m_splitImpulse = config.split_impulse;
 }
 
 class MultiBodyScene final : public Scene {
  public:
   MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses, double driver_target0,
-                 const Config& config)
+                 const Config& config, const Eigen::Vector2d& gravity)
       : plan_(plan) {
     if (config.solver == "mlcp_dantzig") {
       mlcp_ = new btMultiBodyMLCPConstraintSolver(&dantzig_);
@@ -473,7 +481,7 @@ class MultiBodyScene final : public Scene {
       solver_ = new btMultiBodyConstraintSolver();
     }
     world_ = new btMultiBodyDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
-    world_->setGravity(btVector3(0, 0, 0));
+    world_->setGravity(btVector3(gravity.x(), gravity.y(), 0));
     apply_solver_settings(world_->getSolverInfo(), config);
 
     // One fixed-base multibody per tree root; links in parent-first order.
@@ -615,6 +623,14 @@ class MultiBodyScene final : public Scene {
 
   int fallbacks() const override { return mlcp_ ? mlcp_->getNumFallbacks() : 0; }
 
+  void apply(const std::vector<BodyLoad>& loads) override {
+    for (size_t v = 0; v < loads.size(); ++v) {
+      btMultiBody* mb = bodies_[where_[v].first];
+      mb->addLinkForce(where_[v].second, bt(loads[v].force));
+      mb->addLinkTorque(where_[v].second, btVector3(0, 0, loads[v].moment));
+    }
+  }
+
  private:
   const Plan& plan_;
   btDefaultCollisionConfiguration collision_;
@@ -650,7 +666,8 @@ class RigidScene final : public Scene {
       solver_ = new btSequentialImpulseConstraintSolver();
     }
     world_ = new btDiscreteDynamicsWorld(&dispatcher_, &broadphase_, solver_, &collision_);
-    world_->setGravity(btVector3(0, 0, 0));
+    // Before the bodies are added: each takes the world's gravity then.
+    world_->setGravity(btVector3(m.gravity.x(), m.gravity.y(), 0));
     apply_solver_settings(world_->getSolverInfo(), config);
     erp_ = config.erp;
 
@@ -702,6 +719,12 @@ class RigidScene final : public Scene {
       joint_constraint_.push_back(c);
       joint_lock_.push_back(lock);
     }
+    joint_feedback_.resize(joint_constraint_.size());
+    for (size_t ji = 0; ji < joint_constraint_.size(); ++ji) {
+      // setJointFeedback is what fills it (enableFeedback alone does not: bullet3 issue 593).
+      joint_constraint_[ji]->setJointFeedback(&joint_feedback_[ji]);
+      joint_constraint_[ji]->enableFeedback(true);
+    }
     // The driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
     // its rotation (the absolute angle is realised directly).
@@ -715,6 +738,9 @@ class RigidScene final : public Scene {
       driver_lock_.angular = true;
       add(driver_, driver_lock_);
       driver_rotation_ = true;
+      driver_->setJointFeedback(&driver_feedback_);
+      driver_->enableFeedback(true);
+      separate_driver_ = true;
     } else {
       const int ji = plan.edges[plan.driver_edge].joint;
       driver_ = joint_constraint_[ji];
@@ -783,6 +809,20 @@ class RigidScene final : public Scene {
 
   int fallbacks() const override { return mlcp_ ? mlcp_->getNumFallbacks() : 0; }
 
+  void apply(const std::vector<BodyLoad>& loads) override {
+    for (size_t v = 0; v < loads.size(); ++v) {
+      bodies_[v]->applyCentralForce(bt(loads[v].force));
+      bodies_[v]->applyTorque(btVector3(0, 0, loads[v].moment));
+    }
+  }
+
+  const btJointFeedback* feedback(int joint) const override {
+    return &joint_feedback_[static_cast<size_t>(joint)];
+  }
+  const btJointFeedback* driver_feedback() const override {
+    return separate_driver_ ? &driver_feedback_ : nullptr;
+  }
+
  private:
   struct Lock {
     bool linear[2] = {false, false};
@@ -838,6 +878,9 @@ class RigidScene final : public Scene {
   std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;
   std::vector<Lock> joint_lock_;
   btGeneric6DofSpring2Constraint* driver_ = nullptr;
+  std::vector<btJointFeedback> joint_feedback_;
+  btJointFeedback driver_feedback_;
+  bool separate_driver_ = false;
   Lock driver_lock_;
   bool driver_rotation_ = true;
   btTransform driver_fa_, driver_fb_;
@@ -858,6 +901,74 @@ Mechanism perturbed(const Mechanism& m, const Config& c) {
 
 std::string format_number(double v) {
   return fmt::format("{:.6g}", v);
+}
+
+// Forces of the rigid scene at pose q (the pose the last step left), in the mechanism's terms.
+// btJointFeedback holds each constraint's impulse / dt on its bodies, the torques about each
+// body's centre of mass: a joint's couple is taken about its point, and a driven joint's own
+// constraint carries the driver's row too (its torque about the point, or its force along the
+// line, is the effort).
+void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::VectorXd& q,
+                       ForceReading& out) {
+  auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() * b.y() - a.y() * b.x();
+  };
+  out.set_zero();
+  const Driver& d = m.driver;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+    // On the second link, through the first when the second is the ground.
+    Eigen::Vector2d on_b;
+    double couple_b = 0.0;
+    if (j.link_b != m.ground()) {
+      on_b = {fb.m_appliedForceBodyB.x(), fb.m_appliedForceBodyB.y()};
+      const Eigen::Vector2d com = b.position(m.links[j.link_b].mass.com);
+      couple_b = fb.m_appliedTorqueBodyB.z() - cross(point - com, on_b);
+    } else {
+      const Eigen::Vector2d on_a(fb.m_appliedForceBodyA.x(), fb.m_appliedForceBodyA.y());
+      const Eigen::Vector2d com = a.position(m.links[j.link_a].mass.com);
+      on_b = -on_a;
+      couple_b = -(fb.m_appliedTorqueBodyA.z() - cross(point - com, on_a));
+    }
+    if (j.type == JointType::prismatic) out.couple[ji] = couple_b;
+    if (d.joint == static_cast<int>(ji) && !scene.driver_feedback()) {
+      if (d.type == DriverType::slider) {
+        const Eigen::Vector2d u = a.turn(m.links[j.link_a].lines[j.line].direction);
+        out.effort = on_b.dot(u);
+        on_b -= out.effort * u;
+      } else {
+        out.effort = couple_b;  // on the second link, the driven one
+      }
+    }
+    out.joint_force[ji] = on_b;
+  }
+  if (d.type == DriverType::link_angle && !scene.driver_feedback()) {
+    // Realised at the link's ground pivot: the effort is that joint's couple.
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      const Joint& j = m.joints[ji];
+      if (j.type != JointType::revolute || (j.link_a != d.link && j.link_b != d.link) ||
+          (j.link_a != m.ground() && j.link_b != m.ground()))
+        continue;
+      const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
+      const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+      const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+      const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+      const bool link_is_b = j.link_b == d.link;
+      const BodyMotion& l = link_is_b ? b : a;
+      const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
+      const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
+      const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
+      out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
+      break;
+    }
+  } else if (const btJointFeedback* fb = scene.driver_feedback()) {
+    // A rotation lock between the ground and the link, frames at its centre of mass.
+    out.effort = fb->m_appliedTorqueBodyB.z();
+  }
 }
 
 class BulletEngine final : public Engine {
@@ -961,6 +1072,12 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
         {"precision", btIsDoublePrecision() ? "float64" : "float32"},
         {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
         {"divergence_gap", format_number(config.divergence_gap)},
+        {"driver_threshold", format_number(config.driver_threshold)},
+        {"split_impulse", config.split_impulse ? "1" : "0"},
+        {"mass_model", "the definition's (Link::mass)"},
+        {"forces", config.formulation == "rigid"
+                       ? "btJointFeedback of the step leaving each sampled pose"
+                       : "not read (multibody joint feedback is wrong in 3.24)"},
         {"singular_rcond", format_number(config.singular_rcond)},
         {"branch_distance", format_number(config.branch_distance)},
         {"perturb_link", config.perturb_link.empty()
@@ -981,6 +1098,16 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     config.formulation = "rigid";
     settings_out();
   }
+  // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
+  // wrong in 3.24 (bullet3 issues 2966, 4604; measured 1.2-2x at a pivot, engine-notes.md).
+  const bool with_forces = config.formulation == "rigid";
+  out.trajectory.resize(original, samples, with_forces);
+  out.trajectory.time = reference.time;
+  out.trajectory.driver = reference.driver;
+  if (!with_forces)
+    notes.push_back(
+        "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
+        "(bullet3 issues 2966, 4604)");
   if (plan.driver_planar)
     notes.push_back(
         "link-angle driver realised directly: the driven link's absolute angle is a joint "
@@ -1045,7 +1172,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   std::unique_ptr<Scene> scene;
   try {
     if (config.formulation == "multibody")
-      scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config);
+      scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config, m.gravity);
     else
       scene = std::make_unique<RigidScene>(m, plan, poses, coordinate0, config);
   } catch (const std::exception& e) {
@@ -1121,9 +1248,33 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   Eigen::MatrixXd history(q.size(), steps + 1);
   Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
   history.col(0) = q;
+  // The definition's loads and springs at pose k, at its velocity: a one-sided difference of the
+  // last poses (the scene starts from rest).
+  AppliedLoads loads(m);
+  Eigen::VectorXd velocity(q.size());
+  std::vector<double> times;
+  auto apply_loads = [&](long k) {
+    if (!loads.any()) return;
+    velocity.setZero();
+    times.clear();
+    for (long n = std::max(0L, k - 2); n <= k; ++n)
+      times.push_back(step_time[static_cast<size_t>(n)]);
+    if (k > 0) {
+      const auto w = stencil_weights(step_time[static_cast<size_t>(k)], times);
+      for (size_t n = 0; n < times.size(); ++n)
+        velocity +=
+            w[1][n] * history.col(k - static_cast<long>(times.size()) + 1 + static_cast<long>(n));
+    }
+    scene->apply(loads.at(history.col(k), velocity,
+                          d.at_time(step_time[static_cast<size_t>(k)]).value + driver_offset));
+  };
+  // Forces of each pose, read after the step that leaves it.
+  std::vector<ForceReading> readings(with_forces ? static_cast<size_t>(steps + 1) : 0,
+                                     ForceReading(m.joints.size()));
   const double gap_flag = config.loop_gap_threshold * size;
   const double gap_diverge = config.divergence_gap * size;
-  const double driver_tolerance = d.angular() ? 1e-4 : 1e-4 * size;
+  const double driver_tolerance =
+      d.angular() ? config.driver_threshold : config.driver_threshold * size;
   long last_good = steps;  // last step before divergence
   std::string divergence;
   double worst_gap = 0.0;
@@ -1132,7 +1283,10 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   for (long k = 1; k <= steps; ++k) {
     const double t = step_time[static_cast<size_t>(k)];
     scene->drive(target_at(t));
+    apply_loads(k - 1);
     scene->step(t - step_time[static_cast<size_t>(k - 1)]);
+    if (with_forces)
+      read_rigid_forces(m, *scene, history.col(k - 1), readings[static_cast<size_t>(k - 1)]);
     read_q();
     double driver_error = 0.0;
     gaps(k) = gap_and_driver(d.at_time(t).value + driver_offset, driver_error);
@@ -1166,6 +1320,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   int flagged = 0, lost = 0;
   std::vector<long> nodes;
   std::vector<double> node_times;
+  ForceReading combined(m.joints.size());
   for (int i = 0; i < samples; ++i) {
     const auto row = static_cast<size_t>(i);
     tr.time(i) = reference.time(i);
@@ -1252,6 +1407,15 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
       }
     }
     solver.write_sample(sample, report, tr, i);
+    if (with_forces && report.status != PoseStatus::diverged) {
+      const ForceStencil fs = force_stencil(reference.time(i), steps, step_time);
+      if (!fs.steps.empty() && fs.steps.back() + 1 <= last_good) {
+        combined.set_zero();
+        for (size_t n = 0; n < fs.steps.size(); ++n)
+          combined.add(fs.weights[n], readings[static_cast<size_t>(fs.steps[n])]);
+        write_forces(m, sample, combined, tr, i);
+      }
+    }
     tr.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : gap;
     tr.time(i) = reference.time(i);
     tr.driver(i) = reference.driver(i);

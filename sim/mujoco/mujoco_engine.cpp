@@ -21,6 +21,7 @@
 
 #include "analytic/newton.h"
 #include "analytic/planar.h"
+#include "sim/forces.h"
 #include "sim/mujoco/scene.h"
 
 namespace crosslink::sim {
@@ -57,6 +58,7 @@ struct Config {
   std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
+  std::string force_read = "centred";  // centred | raw (docs/engines.md, "Forces")
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -88,7 +90,8 @@ Config parse_settings(const Settings& overrides) {
                                                     {"driver_solimp", &c.driver_solimp},
                                                     {"gap_threshold", &c.gap_threshold},
                                                     {"driver_threshold", &c.driver_threshold},
-                                                    {"perturb_link", &c.perturb_link}};
+                                                    {"perturb_link", &c.perturb_link},
+                                                    {"force_read", &c.force_read}};
   for (const auto& [name, value] : overrides) {
     if (auto it = text.find(name); it != text.end()) {
       *it->second = value;
@@ -102,7 +105,7 @@ Config parse_settings(const Settings& overrides) {
       throw std::runtime_error(fmt::format(
           "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
           "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
-          "driver_threshold, perturb_link)",
+          "driver_threshold, perturb_link, force_read)",
           name));
     }
   }
@@ -112,6 +115,9 @@ Config parse_settings(const Settings& overrides) {
     if (!known)
       throw std::runtime_error(fmt::format("unknown integrator or solver \"{}\"", *choice));
   }
+  if (c.force_read != "centred" && c.force_read != "raw")
+    throw std::runtime_error(
+        fmt::format("setting force_read = \"{}\": expected centred or raw", c.force_read));
   return c;
 }
 
@@ -288,7 +294,7 @@ class DriverLaw {
   std::vector<double> knot_times_;
 };
 
-MjcfOptions mjcf_options(const Config& c, double dt) {
+MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   MjcfOptions o;
   o.dt = dt;
   o.integrator = c.integrator;
@@ -299,6 +305,7 @@ MjcfOptions mjcf_options(const Config& c, double dt) {
   o.solimp = solimp_of("solimp", c.solimp);
   o.driver_solref = solref_of("driver_solref", c.driver_solref, dt);
   o.driver_solimp = solimp_of("driver_solimp", c.driver_solimp);
+  o.gravity = m.gravity;
   return o;
 }
 
@@ -419,7 +426,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   if (!start) throw std::runtime_error("could not close the loops at the first usable sample");
   p.start = *start;
   p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, &reference);
-  p.options = mjcf_options(p.config, p.grid.dt);
+  p.options = mjcf_options(m, p.config, p.grid.dt);
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
   return p;
 }
@@ -479,6 +486,124 @@ double loop_gap(const Scene& s, const std::vector<std::array<int, 2>>& cut_bodie
   return gap;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Reading forces
+
+// The constraint forces of the pose a step leaves, in the mechanism's terms. mj_step (Euler)
+// solves the constraints at (q_k, v_k-1/2): its qacc is the second difference of the poses
+// k-1, k, k+1 (centred on pose k), but the velocity terms of the equations of motion (the tree's
+// Coriolis and centrifugal forces in qfrc_bias) are taken at the mid-step velocity half a step
+// behind, an O(dt) error in every force ("raw"). "centred" evaluates qfrc_bias again at
+// v_k = v_k+1/2 - dt/2 qacc and adds the equality forces that balance the difference at the same
+// qacc, J^T df = qfrc_bias(v_k) - qfrc_bias(v_k-1/2): MuJoCo's forces at the pose's own velocity,
+// O(dt^2). Equality rows (efc_type mjCNSTR_EQUALITY, efc_id the equality) give the driver's
+// effort and the cut joints' forces (a connect's force acts on body1, minus on body2); the tree
+// joints' reactions are cfrc_int from mj_rnePostConstraint on a scratch mjData at the pose
+// (2.2.2 includes connect forces in cfrc_ext: engine_core_smooth.c).
+class ForceReader {
+ public:
+  ForceReader(const Mechanism& m, const Scene& s, const mjModel* mm, bool centred)
+      : m_(m), s_(s), mm_(mm), centred_(centred), scratch_(mj_makeData(mm)) {
+    auto body = [&](int link) {
+      return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
+    };
+    for (size_t l = 0; l < s.links.size(); ++l) body_.push_back(body(static_cast<int>(l)));
+    driver_eq_ = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    for (const SceneJoint& j : s.joints)
+      cut_eq_.push_back(j.in_tree ? -1 : mj_name2id(mm, mjOBJ_EQUALITY, j.name.c_str()));
+  }
+
+  // `d` right after mj_step from pose k (its forward data: efc_*, qacc, qfrc_bias, xfrc_applied);
+  // qpos_k the positions of pose k; h the step's length.
+  void read(const mjData* d, const std::vector<mjtNum>& qpos_k, double h, ForceReading& out) {
+    const int nv = mm_->nv, ne = d->ne;
+    mjData* d2 = scratch_.get();
+    std::copy(qpos_k.begin(), qpos_k.end(), d2->qpos);
+    const double back = centred_ ? 0.5 * h : h;
+    for (int i = 0; i < nv; ++i) d2->qvel[i] = d->qvel[i] - back * d->qacc[i];
+    std::copy(d->xfrc_applied, d->xfrc_applied + 6 * mm_->nbody, d2->xfrc_applied);
+    mj_fwdPosition(mm_, d2);
+    mj_fwdVelocity(mm_, d2);
+    if (d2->ne != ne || d2->nefc != ne)
+      throw std::runtime_error("MuJoCo: the constraint rows changed between step and read");
+    Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d->efc_force, ne);
+    if (centred_) {
+      const Eigen::Map<const Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+          jacobian(d->efc_J, ne, nv);
+      const Eigen::VectorXd bias = Eigen::Map<const Eigen::VectorXd>(d2->qfrc_bias, nv) -
+                                   Eigen::Map<const Eigen::VectorXd>(d->qfrc_bias, nv);
+      // Least squares: a connect's z row is zero in a planar scene.
+      force += jacobian.transpose().completeOrthogonalDecomposition().solve(bias);
+    }
+    std::copy(force.data(), force.data() + ne, d2->efc_force);
+    std::copy(d->qacc, d->qacc + nv, d2->qacc);
+    mj_rnePostConstraint(mm_, d2);
+
+    out.set_zero();
+    const auto row_of = [&](int eq) {
+      for (int r = 0; r < ne; ++r)
+        if (d2->efc_type[r] == mjCNSTR_EQUALITY && d2->efc_id[r] == eq) return r;
+      throw std::runtime_error("MuJoCo: no constraint row for an equality");
+    };
+    out.effort = s_.driven.sign * force(row_of(driver_eq_));
+    for (size_t ji = 0; ji < s_.joints.size(); ++ji) {
+      const SceneJoint& j = s_.joints[ji];
+      const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
+      // A pin-in-slot's force is its pin's (the block between is massless to 1e-6).
+      if (mj.type == JointType::pin_in_slot && j.kind == SceneJoint::Kind::slide) continue;
+      Eigen::Vector2d on_b;
+      double couple_b = 0.0;
+      Eigen::Vector2d about = Eigen::Vector2d::Zero();
+      if (!j.in_tree) {
+        const int r = row_of(cut_eq_[ji]);
+        on_b = -Eigen::Vector2d(force(r), force(r + 1));  // the connect's force is on a
+      } else {
+        // cfrc_int: the parent's wrench on the child's subtree, torque about its root's subtree
+        // centre of mass.
+        const int child = body_[static_cast<size_t>(j.child)];
+        const mjtNum* w = d2->cfrc_int + 6 * child;
+        const double sign = j.child == j.b ? 1.0 : -1.0;
+        on_b = sign * Eigen::Vector2d(w[3], w[4]);
+        couple_b = sign * w[2];
+        const mjtNum* c = d2->subtree_com + 3 * mm_->body_rootid[child];
+        about = Eigen::Vector2d(c[0], c[1]);
+      }
+      if (j.kind == SceneJoint::Kind::slide) {
+        const Eigen::Vector2d at = world_point(d2, j.b, j.ub);
+        out.couple[static_cast<size_t>(j.source)] = couple_b + cross2(about - at, on_b);
+      }
+      if (m_.driver.type == DriverType::slider && j.source == m_.driver.joint) {
+        // The driver's axial force is the effort, not the joint's reaction.
+        const Eigen::Vector2d u = world_direction(d2, j.a, j.direction);
+        on_b -= out.effort * u;
+      }
+      out.joint_force[static_cast<size_t>(j.source)] = on_b;
+    }
+  }
+
+ private:
+  static double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() * b.y() - a.y() * b.x();
+  }
+  Eigen::Vector2d world_direction(const mjData* d, int link, const Eigen::Vector2d& local) const {
+    const mjtNum* r = d->xmat + 9 * body_[static_cast<size_t>(link)];
+    return {r[0] * local.x() + r[1] * local.y(), r[3] * local.x() + r[4] * local.y()};
+  }
+  Eigen::Vector2d world_point(const mjData* d, int link, const Eigen::Vector2d& local) const {
+    const mjtNum* p = d->xpos + 3 * body_[static_cast<size_t>(link)];
+    return Eigen::Vector2d(p[0], p[1]) + world_direction(d, link, local);
+  }
+
+  const Mechanism& m_;
+  const Scene& s_;
+  const mjModel* mm_;
+  bool centred_;
+  DataPtr scratch_;
+  std::vector<int> body_;    // per scene link: MuJoCo body id (world 0)
+  std::vector<int> cut_eq_;  // per scene joint: its connect equality, -1 in the tree
+  int driver_eq_ = -1;
+};
+
 class MujocoEngine final : public Engine {
  public:
   std::string name() const override { return "mujoco"; }
@@ -510,6 +635,11 @@ class MujocoEngine final : public Engine {
     }
     const Scene& s = p.scene;
     const double size = s.size;
+    // Forces are the definition's only when the scene drives the definition's driver.
+    const bool with_forces = !s.driven.equivalent;
+    run.trajectory.resize(m, reference.samples(), with_forces);
+    run.trajectory.time = reference.time;
+    run.trajectory.driver = reference.driver;
     const double gap_threshold = p.config.gap_threshold == "auto"
                                      ? 1e-4 * size
                                      : parse_number("gap_threshold", p.config.gap_threshold);
@@ -534,7 +664,9 @@ class MujocoEngine final : public Engine {
         {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
         {"driver_threshold", fmt::format("{:.6g}", driver_threshold)},
         {"perturb_link", p.config.perturb_link},
-        {"mass_model", "slender bar between the farthest points, 1 kg per mechanism size"},
+        {"mass_model", "the definition's (Link::mass)"},
+        {"force_read",
+         with_forces ? p.config.force_read : "none (equivalent driver: another joint is driven)"},
         {"derivatives",
          "3-point central differences of step positions; 4-point one-sided at the first and "
          "last usable samples"},
@@ -566,9 +698,16 @@ class MujocoEngine final : public Engine {
       run.message = fmt::format(
           "the driver ({}) is not a joint MuJoCo can drive; equivalent driver: joint {} follows "
           "the exact trajectory of its angle (quintic Hermite through the reference samples); "
-          "samples are mapped by the definition's driver",
+          "samples are mapped by the definition's driver; forces not read (the scene's driver "
+          "acts at another joint than the definition's)",
           to_string(m.driver.type), driven.name);
     mj_forward(mm, d);
+    ForceReader force_reader(m, s, mm, p.config.force_read == "centred");
+    AppliedLoads loads(m);
+    std::vector<int> load_body;  // per moving link: MuJoCo body id
+    for (const SceneLink& link : s.links)
+      if (link.source >= 0 && !link.ground)
+        load_body.push_back(mj_name2id(mm, mjOBJ_BODY, link.name.c_str()));
 
     // Step and sample. The run starts at step 0, the exact first usable sample, and steps
     // forward to the last usable sample, never beyond (outside them the reference is at or past
@@ -609,6 +748,24 @@ class MujocoEngine final : public Engine {
         for (long k = from; k < from + count; ++k) st.push_back(k);
       }
     }
+    // Each sample's force stencil (forces of the poses a step leaves), and the poses to read.
+    std::vector<ForceStencil> force_stencil_of(static_cast<size_t>(samples));
+    std::vector<bool> read_forces(static_cast<size_t>(last_step + 1), false);
+    if (with_forces)
+      for (int i = span.first; i <= span.last; ++i) {
+        ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
+        fs = force_stencil(reference.time(i), last_step, grid);
+        for (long k : fs.steps) read_forces[static_cast<size_t>(k)] = true;
+      }
+    // The step that completes a sample: its last pose, and the step after its last force pose.
+    auto complete_at = [&](int i) {
+      const ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
+      long at = stencil[static_cast<size_t>(i)].back();
+      for (long k : fs.steps) at = std::max(at, k + 1);
+      return at;
+    };
+    const double driver_offset =
+        reference.driver(span.first) - m.driver.at_time(reference.time(span.first)).value;
     // A step of a new length: the deadbeat softness follows it.
     auto set_step = [&](double h) {
       if (mm->opt.timestep == h) return;
@@ -627,20 +784,58 @@ class MujocoEngine final : public Engine {
     std::vector<bool> recorded(static_cast<size_t>(samples), false);
     auto pose = [&](long k) -> Eigen::VectorXd& { return ring[static_cast<size_t>(k % kRing)]; };
     pose(0) = reader.read(d);
+    std::vector<double> times;
+    std::array<ForceReading, kRing> readings;
+    readings.fill(ForceReading(m.joints.size()));
+    auto reading = [&](long k) -> ForceReading& {
+      return readings[static_cast<size_t>(k % kRing)];
+    };
+    ForceReading combined(m.joints.size());
+    std::vector<mjtNum> qpos_before(static_cast<size_t>(mm->nq));
+    Eigen::VectorXd velocity(m.coordinate_count());
+    // The definition's loads and springs on the bodies at pose k, at its velocity: a one-sided
+    // difference of the last poses (the exact velocity at the start).
+    auto apply_loads = [&](long k) {
+      if (!loads.any()) return;
+      const double t = grid[static_cast<size_t>(k)];
+      if (k == 0) {
+        velocity = p.start.qdot;
+      } else {
+        times.clear();
+        for (long n = std::max(0L, k - 2); n <= k; ++n)
+          times.push_back(grid[static_cast<size_t>(n)]);
+        const auto w = stencil_weights(t, times);
+        velocity.setZero();
+        for (size_t n = 0; n < times.size(); ++n)
+          velocity +=
+              w[1][n] * pose(k - static_cast<long>(times.size()) + 1 + static_cast<long>(n));
+      }
+      const std::vector<BodyLoad>& on =
+          loads.at(pose(k), velocity, m.driver.at_time(t).value + driver_offset);
+      for (size_t b = 0; b < on.size(); ++b) {
+        mjtNum* x = d->xfrc_applied + 6 * load_body[b];
+        x[0] = on[b].force.x();
+        x[1] = on[b].force.y();
+        x[5] = on[b].moment;
+      }
+    };
 
     const Clock::time_point stepping = Clock::now();
     long steps_taken = 0;
     int interval = span.first;  // the sample whose interval (S_i-1, S_i] holds the current step
     int pending = span.first;   // the next sample to record
     bool failed = false;
-    std::vector<double> times;
     for (long step = 1; step <= last_step; ++step) {
       const double t = grid[static_cast<size_t>(step)];
       set_step(t - grid[static_cast<size_t>(step - 1)]);
       const double target = law.at(t);
       // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
       mm->eq_data[mjNEQDATA * driver_eq] = target - qpos0;
+      apply_loads(step - 1);
+      const bool read = read_forces[static_cast<size_t>(step - 1)];
+      if (read) std::copy(d->qpos, d->qpos + mm->nq, qpos_before.begin());
       mj_step(mm, d);
+      if (read) force_reader.read(d, qpos_before, mm->opt.timestep, reading(step - 1));
       mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
       ++steps_taken;
       // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
@@ -668,7 +863,7 @@ class MujocoEngine final : public Engine {
         break;
       }
       // The samples whose stencils this step completes.
-      while (pending <= span.last && stencil[static_cast<size_t>(pending)].back() <= step) {
+      while (pending <= span.last && complete_at(pending) <= step) {
         const int i = pending++;
         const std::vector<long>& st = stencil[static_cast<size_t>(i)];
         times.clear();
@@ -685,6 +880,13 @@ class MujocoEngine final : public Engine {
         state.driver = m.driver.at_time(reference.time(i));
         state.driver.value = reference.driver(i);
         writer.write_sample(state, SolveReport{}, run.trajectory, i);
+        if (with_forces) {
+          const ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
+          combined.set_zero();
+          for (size_t n = 0; n < fs.steps.size(); ++n)
+            combined.add(fs.weights[n], reading(fs.steps[n]));
+          write_forces(m, state, combined, run.trajectory, i);
+        }
         recorded[static_cast<size_t>(i)] = true;
         sample_q.col(i) = state.q;
       }

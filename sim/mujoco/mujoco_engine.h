@@ -19,6 +19,9 @@
 //                   target has lost the driver (PoseStatus::diverged, run not ok)
 //   perturb_link    none | "<link>:<factor>" (test hook: that link's points scaled; the scene is
 //                   assembled for the scaled linkage, a valid but wrong model)
+//   force_read      centred | raw: constraint forces at the sampled pose's own velocity (O(dt^2)),
+//                   or MuJoCo's efc_force as solved, velocity terms half a step behind (O(dt));
+//                   docs/engines.md, "Forces"
 #pragma once
 
 #include <memory>

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "analytic/planar.h"
+#include "sim/forces.h"
 
 namespace crosslink::sim::mujoco_scene {
 namespace {
@@ -135,27 +136,6 @@ void place_child(Scene& s, const SceneJoint& j) {
   }
 }
 
-// Slender bar between the two farthest points, 1 kg per mechanism size of length (so masses
-// are of order one in any unit system), at least 5 % of the size long, 10:1 slender.
-void set_mass(SceneLink& link, double size) {
-  double length = 0.0;
-  Eigen::Vector2d from = Eigen::Vector2d::Zero(), to = Eigen::Vector2d::Zero();
-  for (size_t i = 0; i < link.points.size(); ++i)
-    for (size_t k = i + 1; k < link.points.size(); ++k)
-      if ((link.points[i] - link.points[k]).norm() > length) {
-        length = (link.points[i] - link.points[k]).norm();
-        from = link.points[i];
-        to = link.points[k];
-      }
-  if (length == 0.0 && !link.points.empty()) from = to = link.points.front();
-  link.centre = 0.5 * (from + to);
-  link.bar_angle = length > 0.0 ? std::atan2(to.y() - from.y(), to.x() - from.x()) : 0.0;
-  const double l = std::max(length, 0.05 * size), w = 0.1 * l;
-  link.mass = l / size;
-  link.inertia = Eigen::Vector3d(link.mass * w * w / 6.0, link.mass * (l * l + w * w) / 12.0,
-                                 link.mass * (l * l + w * w) / 12.0);
-}
-
 }  // namespace
 
 Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory* reference) {
@@ -172,6 +152,9 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
     link.name = m.links[l].name;
     link.source = l;
     link.ground = m.links[l].ground;
+    link.mass = m.links[l].mass.mass;
+    link.centre = m.links[l].mass.com;
+    link.inertia = m.links[l].mass.inertia;
     for (const Point& p : m.links[l].points) link.points.push_back(p.local);
     const int k = m.moving_index(l);
     if (k >= 0) link.pose = q.segment<3>(3 * k);
@@ -186,6 +169,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
     const int a = scene_of_link[j.link_a], b = scene_of_link[j.link_b];
     SceneJoint sj;
     sj.name = j.name;
+    sj.source = static_cast<int>(ji);
     sj.a = a;
     sj.b = b;
     sj.ub = s.links[b].points[j.point_b];
@@ -210,10 +194,13 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
     block.guide = a;
     block.pin = b;
     block.pin_point = sj.ub;
+    block.mass = auxiliary_mass(m);
+    block.inertia = block.mass * 1e-4 * s.size * s.size;
     const int k = static_cast<int>(s.links.size());
     s.links.push_back(block);
     SceneJoint pin;
     pin.name = j.name + "_pin";
+    pin.source = static_cast<int>(ji);
     pin.a = k;
     pin.b = b;
     pin.ub = sj.ub;
@@ -279,8 +266,6 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
     if (!progress && done < s.links.size())
       throw std::runtime_error("some links are not connected to the ground by joints");
   }
-  for (SceneLink& link : s.links)
-    if (!link.ground) set_mass(link, s.size);
   return s;
 }
 
@@ -334,11 +319,13 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
     out +=
         fmt::format("{}<body name=\"{}\" pos=\"{:.17g} {:.17g} 0\" quat=\"{}\">\n", pad,
                     escape(child.name), pos.x(), pos.y(), quat_z(child.pose(2) - parent.pose(2)));
+    // Only I_zz acts in planar motion; the other two equal it (a valid inertia, no gyroscopic
+    // coupling: diagonal in the body frame).
     out += fmt::format(
-        "{}  <inertial pos=\"{:.17g} {:.17g} 0\" quat=\"{}\" mass=\"{:.17g}\" "
+        "{}  <inertial pos=\"{:.17g} {:.17g} 0\" mass=\"{:.17g}\" "
         "diaginertia=\"{:.17g} {:.17g} {:.17g}\"/>\n",
-        pad, child.centre.x(), child.centre.y(), quat_z(child.bar_angle), child.mass,
-        child.inertia(0), child.inertia(1), child.inertia(2));
+        pad, child.centre.x(), child.centre.y(), child.mass, child.inertia, child.inertia,
+        child.inertia);
     // The joint lives in the child's frame; its sign makes qpos = value (see SceneJoint).
     const bool child_is_b = sj.child == sj.b;
     if (sj.kind == SceneJoint::Kind::hinge) {
@@ -370,13 +357,16 @@ std::string vec(const Eigen::VectorXd& v) {
 
 std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   std::string out = fmt::format("<mujoco model=\"{}\">\n", escape(m.name));
-  out += "  <!-- crosslink: planar linkage kinematics; gravity and contacts off, no geoms -->\n";
+  const bool gravity = o.gravity != Eigen::Vector2d::Zero();
+  out += "  <!-- crosslink: planar linkage; contacts off, no geoms -->\n";
   out += "  <compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n";
+  // Dense Jacobian: the force reading solves with the equality rows of efc_J.
   out += fmt::format(
       "  <option timestep=\"{:.17g}\" integrator=\"{}\" solver=\"{}\" iterations=\"{}\" "
-      "tolerance=\"{:.17g}\" gravity=\"0 0 0\">\n"
-      "    <flag contact=\"disable\" gravity=\"disable\"/>\n  </option>\n",
-      o.dt, o.integrator, o.solver, o.iterations, o.tolerance);
+      "tolerance=\"{:.17g}\" jacobian=\"dense\" gravity=\"{:.17g} {:.17g} 0\">\n"
+      "    <flag contact=\"disable\" gravity=\"{}\"/>\n  </option>\n",
+      o.dt, o.integrator, o.solver, o.iterations, o.tolerance, o.gravity.x(), o.gravity.y(),
+      gravity ? "enable" : "disable");
   out += "  <worldbody>\n";
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);

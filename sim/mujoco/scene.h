@@ -20,11 +20,11 @@ struct SceneLink {
   bool ground = false;
   std::vector<Eigen::Vector2d> points;             // by Mechanism point index, local [m]
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();  // (x, y, theta) assembled [m, rad]
-  // Mass model: a slender bar between the two farthest points (docs/engines.md).
+  // The link's mass properties (Link::mass, shared with the exact solver); a block has
+  // auxiliary_mass() at its pin and a negligible inertia.
   double mass = 0.0;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();   // local [m]
-  double bar_angle = 0.0;                             // local direction of the bar [rad]
-  Eigen::Vector3d inertia = Eigen::Vector3d::Zero();  // principal, in the bar frame [kg m^2]
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // local [m]
+  double inertia = 0.0;                              // about z through the centre [kg m^2]
   // A block: it turns with link `guide` and carries point `pin_point` of link `pin` (scene
   // indices), which is where its frame sits.
   int guide = -1, pin = -1;
@@ -39,6 +39,7 @@ struct SceneJoint {
   enum class Kind { hinge, slide };
   Kind kind = Kind::hinge;
   std::string name;
+  int source = -1;  // the Mechanism joint it realises (a pin-in-slot: both its slide and pin)
   int a = -1, b = -1;
   Eigen::Vector2d ua = Eigen::Vector2d::Zero();  // hinge: local point on a
   Eigen::Vector2d ub = Eigen::Vector2d::Zero();  // local point on b
@@ -88,6 +89,7 @@ struct MjcfOptions {
   Eigen::Matrix<double, 5, 1> solimp;                           // loop constraints
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
+  Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off
 };
 
 // The MJCF text. Joint names are the scene joints' names; the driver equality is "driver".

@@ -1,0 +1,216 @@
+#include "sim/forces.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "analytic/kinetostatics.h"
+#include "analytic/planar.h"
+#include "sim/sampling.h"
+
+namespace crosslink::sim {
+namespace {
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+}  // namespace
+
+AppliedLoads::AppliedLoads(const Mechanism& m)
+    : m_(m),
+      state_(m),
+      generalised_(Eigen::VectorXd::Zero(m.coordinate_count())),
+      out_(static_cast<size_t>(m.moving_count())) {}
+
+const std::vector<BodyLoad>& AppliedLoads::at(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                                              double driver_value) {
+  state_.q = q;
+  state_.qdot = qdot;
+  state_.driver.value = driver_value;
+  applied_loads(m_, state_, generalised_);
+  for (size_t l = 0; l < m_.links.size(); ++l) {
+    const int k = m_.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    BodyLoad& load = out_[static_cast<size_t>(k)];
+    load.force = generalised_.segment<2>(3 * k);
+    // About the frame origin -> about the centre of mass.
+    load.moment = generalised_(3 * k + 2) - cross(b.turn(m_.links[l].mass.com), load.force);
+  }
+  return out_;
+}
+
+double auxiliary_mass(const Mechanism& m) {
+  double lightest = std::numeric_limits<double>::infinity();
+  for (const Link& link : m.links)
+    if (!link.ground && link.mass.mass > 0.0) lightest = std::min(lightest, link.mass.mass);
+  return 1e-6 * (std::isfinite(lightest) ? lightest : 1.0);
+}
+
+void ForceReading::set_zero() {
+  effort = 0.0;
+  for (Eigen::Vector2d& f : joint_force) f.setZero();
+  std::fill(couple.begin(), couple.end(), 0.0);
+}
+
+void ForceReading::add(double weight, const ForceReading& other) {
+  effort += weight * other.effort;
+  for (size_t j = 0; j < joint_force.size(); ++j) {
+    joint_force[j] += weight * other.joint_force[j];
+    couple[j] += weight * other.couple[j];
+  }
+}
+
+void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& reading,
+                  Trajectory& out, int row) {
+  const int ground = m.ground();
+  auto motion = [&](int link) {
+    return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, nullptr);
+  };
+  out.effort(row) = reading.effort;
+  Eigen::Vector3d shaking = Eigen::Vector3d::Zero();
+  auto on_ground = [&](const Eigen::Vector2d& at, const Eigen::Vector2d& force, double couple) {
+    shaking.head<2>() += force;
+    shaking(2) += cross(at, force) + couple;
+  };
+  Eigen::Index slide = 0;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    const Eigen::Vector2d& f = reading.joint_force[ji];
+    out.fx(row, static_cast<Eigen::Index>(ji)) = f.x();
+    out.fy(row, static_cast<Eigen::Index>(ji)) = f.y();
+    const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
+    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+    if (j.is_slide()) {
+      const Line& line = m.links[j.link_a].lines[j.line];
+      out.fn(row, slide) = f.dot(a.turn(perp(line.direction)));
+      out.moment(row, slide) = reading.couple[ji];
+      ++slide;
+    }
+    // The ground is the first link (it receives -f and the opposite couple) or the second.
+    if (j.link_a == ground) on_ground(point, -f, -reading.couple[ji]);
+    if (j.link_b == ground) on_ground(point, f, reading.couple[ji]);
+  }
+  // The driver's reaction on the ground.
+  const Driver& d = m.driver;
+  if (d.type == DriverType::link_angle) {
+    on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -reading.effort);
+  } else {
+    const Joint& j = m.joints[static_cast<size_t>(d.joint)];
+    const int sign = j.link_a == ground ? -1 : j.link_b == ground ? 1 : 0;
+    if (sign != 0 && d.type == DriverType::joint_angle) {
+      on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), sign * reading.effort);
+    } else if (sign != 0) {
+      const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
+      const Line& line = m.links[j.link_a].lines[j.line];
+      on_ground(b.position(m.links[j.link_b].points[j.point_b].local),
+                sign * reading.effort * a.turn(line.direction), 0.0);
+    }
+  }
+  // Springs anchored on the ground pull it towards their other end.
+  for (const Spring& s : m.springs) {
+    const SpringState ss = spring_state(m, s, state);
+    const Eigen::Vector2d on_b = ss.pull * ss.towards_a;
+    if (s.link_a == ground) on_ground(motion(s.link_a).position(s.local_a), -on_b, 0.0);
+    if (s.link_b == ground) on_ground(motion(s.link_b).position(s.local_b), on_b, 0.0);
+  }
+  out.shaking.row(row) = shaking.transpose();
+}
+
+ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time) {
+  ForceStencil s;
+  const long first_clean = 2, last_clean = last_step - 1;
+  if (last_clean < first_clean) return s;
+  // The clean step nearest to t.
+  const long k =
+      std::lower_bound(step_time.begin(), step_time.begin() + last_step + 1, t) - step_time.begin();
+  long nearest = std::clamp(k, first_clean, last_clean);
+  if (nearest > first_clean &&
+      t - step_time[static_cast<size_t>(nearest - 1)] < step_time[static_cast<size_t>(nearest)] - t)
+    --nearest;
+  const double h = step_time[static_cast<size_t>(nearest)] -
+                   step_time[static_cast<size_t>(std::max(0L, nearest - 1))];
+  if (std::abs(step_time[static_cast<size_t>(nearest)] - t) <= 1e-9 * h) {
+    s.steps = {nearest};
+    s.weights = {1.0};
+    return s;
+  }
+  const long count = std::min(3L, last_clean - first_clean + 1);
+  const long from = std::clamp(nearest - count / 2, first_clean, last_clean - count + 1);
+  std::vector<double> times;
+  for (long n = from; n < from + count; ++n) {
+    s.steps.push_back(n);
+    times.push_back(step_time[static_cast<size_t>(n)]);
+  }
+  s.weights = stencil_weights(t, times)[0];
+  return s;
+}
+
+}  // namespace crosslink::sim
+
+namespace crosslink::sim {
+
+ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
+                               const Trajectory& engine) {
+  ForceAgreement a;
+  if (!exact.has_forces || !engine.has_forces) return a;
+  std::vector<int> rows;
+  for (int i = 0; i < exact.samples(); ++i)
+    if (usable(exact.status[static_cast<size_t>(i)]) &&
+        usable(engine.status[static_cast<size_t>(i)]) && !exact.beside_singular(i) &&
+        exact.rcond(i) >= kForceRcond)
+      rows.push_back(i);
+  a.compared = static_cast<int>(rows.size());
+  if (rows.empty()) return a;
+  auto worst = [&](auto difference, auto value) {
+    double error = 0.0, peak = 0.0;
+    for (int i : rows) {
+      error = std::max(error, difference(i));
+      peak = std::max(peak, value(i));
+    }
+    return std::pair{error, peak};
+  };
+  auto ratio = [](std::pair<double, double> e) {
+    return e.second > 0.0 ? e.first / e.second : 0.0;
+  };
+  const auto slides = m.slide_joints();
+  // The effort's scale: its peak, or where it is zero by design (a parallelogram at constant
+  // speed without gravity) the largest reaction, times the size for a torque.
+  double reaction_peak = 0.0;
+  for (int i : rows)
+    for (Eigen::Index j = 0; j < exact.fx.cols(); ++j)
+      reaction_peak = std::max(reaction_peak, std::hypot(exact.fx(i, j), exact.fy(i, j)));
+  auto [effort_error, effort_peak] =
+      worst([&](int i) { return std::abs(engine.effort(i) - exact.effort(i)); },
+            [&](int i) { return std::abs(exact.effort(i)); });
+  const double arm = m.driver.angular() ? m.size() : 1.0;
+  effort_peak = std::max(effort_peak, 1e-3 * reaction_peak * arm);
+  a.effort = ratio({effort_error, effort_peak});
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const auto c = static_cast<Eigen::Index>(j);
+    auto force = [&](const Trajectory& t, int i) {
+      return Eigen::Vector2d(t.fx(i, c), t.fy(i, c));
+    };
+    const auto e = worst([&](int i) { return (force(engine, i) - force(exact, i)).norm(); },
+                         [&](int i) { return force(exact, i).norm(); });
+    if (ratio(e) > a.reaction) {
+      a.reaction = ratio(e);
+      a.worst_joint = m.joints[j].name;
+    }
+    const auto s = std::find(slides.begin(), slides.end(), static_cast<int>(j));
+    if (m.joints[j].type != JointType::prismatic || s == slides.end()) continue;
+    const auto k = static_cast<Eigen::Index>(s - slides.begin());
+    const auto ce = worst([&](int i) { return std::abs(engine.moment(i, k) - exact.moment(i, k)); },
+                          [&](int i) { return force(exact, i).norm() * m.size(); });
+    a.couple = std::max(a.couple, ratio(ce));
+  }
+  a.shaking = ratio(worst(
+      [&](int i) {
+        return (engine.shaking.row(i).head<2>() - exact.shaking.row(i).head<2>()).norm();
+      },
+      [&](int i) { return exact.shaking.row(i).head<2>().norm(); }));
+  return a;
+}
+
+}  // namespace crosslink::sim

@@ -1,0 +1,93 @@
+// What both engine models share when they apply the definition's loads and read the constraint
+// forces back: the loads and springs as a wrench on each body, the auxiliary block's mass, and
+// the forces of one sample in the Trajectory's conventions (trajectory.h) with the shaking force
+// summed over what the moving links exert on the ground.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "analytic/kinetostatics.h"
+#include "analytic/mechanism.h"
+#include "analytic/newton.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink::sim {
+
+// The definition's loads, springs and dampers on one moving link, at its centre of mass.
+struct BodyLoad {
+  Eigen::Vector2d force = Eigen::Vector2d::Zero();  // world axes [N]
+  double moment = 0.0;                              // about the centre of mass [N m]
+};
+
+// Per moving link (Mechanism order), from positions, velocities and the driver's value.
+class AppliedLoads {
+ public:
+  explicit AppliedLoads(const Mechanism& m);
+  bool any() const { return !m_.loads.empty() || !m_.springs.empty(); }
+  const std::vector<BodyLoad>& at(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                                  double driver_value);
+
+ private:
+  const Mechanism& m_;
+  KinematicState state_;
+  Eigen::VectorXd generalised_;
+  std::vector<BodyLoad> out_;
+};
+
+// Mass of a body an engine needs that the mechanism does not have (a pin-in-slot's sliding
+// block): 1e-6 of the lightest link, so its d'Alembert force m a is below 1e-6 of the forces
+// of the links around it (docs/engines.md).
+double auxiliary_mass(const Mechanism& m);
+
+// The forces one engine read at one pose, in the mechanism's terms.
+struct ForceReading {
+  double effort = 0.0;                       // the driver's torque [N m] or force [N]
+  std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
+  std::vector<double> couple;                // per joint: prismatic couple on the slider about
+                                             // its point [N m]; 0 otherwise
+  explicit ForceReading(size_t joints = 0)
+      : joint_force(joints, Eigen::Vector2d::Zero()), couple(joints, 0.0) {}
+  void set_zero();
+  void add(double weight, const ForceReading& other);  // this += weight * other
+};
+
+// Writes effort, fx, fy, fn, moment and shaking of row `row` from a reading at `state`
+// (positions, velocities, driver value of the sample): the normal force along the line's left
+// normal, and the shaking force and moment as the sum of what the ground's joints, the driver
+// and the springs anchored on the ground exert on it.
+void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& reading,
+                  Trajectory& out, int row);
+
+// Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the
+// second difference over poses k-1, k, k+1; a pose is `clean` when neither neighbour is the
+// start (pose 0, exact, without the stepping residual): 2 <= k <= last_step - 1. The weights of
+// the clean poses that give a sample at time t (the step on it, or a 3-point quadratic through
+// the nearest clean poses, extrapolated at the ends).
+struct ForceStencil {
+  std::vector<long> steps;
+  std::vector<double> weights;
+};
+ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time);
+
+}  // namespace crosslink::sim
+
+namespace crosslink::sim {
+
+// How far an engine's forces are from the exact ones, over the samples both call usable, the
+// reference does not flag as next to a singular position and whose rcond is at least
+// kForceRcond: the driver's effort (against 1e-3 of the largest reaction, times the size for a
+// torque, where it is zero by design), each joint's
+// reaction (vector difference) and the shaking force, each as its worst difference over the
+// peak of its exact value; a prismatic couple against its joint's peak force times the
+// mechanism's size. Zero when either trajectory has no forces (then `compared` is 0).
+struct ForceAgreement {
+  double effort = 0.0, reaction = 0.0, couple = 0.0, shaking = 0.0;
+  std::string worst_joint;
+  int compared = 0;
+};
+ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
+                               const Trajectory& engine);
+
+}  // namespace crosslink::sim

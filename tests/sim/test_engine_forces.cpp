@@ -1,0 +1,148 @@
+// Each engine's driver effort, joint reactions and shaking force against the exact
+// kinetostatics (analytic/kinetostatics.h, itself checked by power balance and Newton-Euler),
+// on every bundled mechanism at the engine's defaults: as defined, under gravity, and loaded with
+// gravity, a spring and damper, a force at a point and a torque.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <tuple>
+
+#include "analytic/loader.h"
+#include "analytic/sweep.h"
+#include "sim/bullet/bullet_engine.h"
+#include "sim/forces.h"
+#include "sim/mujoco/mujoco_engine.h"
+
+namespace crosslink::sim {
+namespace {
+
+// Worst % of peak, measured at the defaults by bench/force_accuracy (docs/engines.md, "Forces"):
+// MuJoCo at most 0.042 % (the change point's effort, zero by design, against 1e-3 of its
+// reactions) and 0.014 % elsewhere; Bullet at most 0.098 % (sewing machine under gravity).
+double tolerance(const std::string& engine) {
+  return engine == "mujoco" ? 0.05e-2 : 0.15e-2;
+}
+
+std::vector<std::string> bundled() {
+  std::vector<std::string> names;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms"))
+    if (entry.path().extension() == ".toml") names.push_back(entry.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::unique_ptr<Engine> make(const std::string& engine) {
+  return engine == "mujoco" ? make_mujoco_engine() : make_bullet_engine();
+}
+
+// A spring and damper from a ground point to the last moving link's last point, a force at a
+// point of the first moving link and a torque on the last (as test_kinetostatics's loaded()).
+Mechanism loaded(Mechanism m) {
+  m.gravity = Eigen::Vector2d(0.0, -9.81);
+  const int ground = m.ground();
+  int last = static_cast<int>(m.links.size()) - 1;
+  if (last == ground) --last;
+  int first = ground == 0 ? 1 : 0;
+  Spring s;
+  s.link_a = ground;
+  s.link_b = last;
+  s.local_a = m.links[static_cast<size_t>(ground)].points.front().local;
+  s.local_b = m.links[static_cast<size_t>(last)].points.back().local;
+  s.stiffness = 50.0;
+  s.free_length = 0.5 * m.size();
+  s.damping = 0.7;
+  m.springs.push_back(s);
+  Load force;
+  force.link = first;
+  force.local = m.links[static_cast<size_t>(first)].points.back().local;
+  force.rows.emplace_back(0.0, 3.0, -2.0);
+  m.loads.push_back(force);
+  Load torque;
+  torque.kind = Load::Kind::torque;
+  torque.link = last;
+  torque.rows.emplace_back(0.0, 0.4, 0.0);
+  m.loads.push_back(torque);
+  return m;
+}
+
+void expect_forces_agree(const std::string& engine, const Mechanism& m) {
+  const auto e = make(engine);
+  std::string why;
+  if (!e->supports(m, &why)) GTEST_SKIP() << why;
+  const Trajectory exact = sweep(m);
+  const EngineRun run = e->run(m, exact, {});
+  ASSERT_TRUE(run.ok) << run.message;
+  if (!run.trajectory.has_forces) {
+    // MuJoCo's equivalent driver acts at another joint: its forces are not the definition's.
+    EXPECT_NE(run.message.find("forces not read"), std::string::npos) << run.message;
+    return;
+  }
+  const ForceAgreement a = force_agreement(m, exact, run.trajectory);
+  // Flags may only mark a few samples: nearly every sample the exact forces are judged on counts.
+  int eligible = 0;
+  for (int i = 0; i < exact.samples(); ++i)
+    eligible += usable(exact.status[static_cast<size_t>(i)]) && !exact.beside_singular(i) &&
+                exact.rcond(i) >= kForceRcond;
+  EXPECT_GE(a.compared, eligible * 9 / 10);
+  EXPECT_GT(a.compared, 0);
+  const double limit = tolerance(engine);
+  EXPECT_LE(a.effort, limit);
+  EXPECT_LE(a.reaction, limit) << "worst joint " << a.worst_joint;
+  EXPECT_LE(a.couple, limit);
+  EXPECT_LE(a.shaking, limit);
+}
+
+using Param = std::tuple<std::string, std::string>;  // engine, mechanism
+class Bundled : public ::testing::TestWithParam<Param> {};
+
+TEST_P(Bundled, AgreeWithExactKinetostaticsAtDefaults) {
+  const auto& [engine, name] = GetParam();
+  Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + name + ".toml");
+  expect_forces_agree(engine, m);
+  m.gravity = Eigen::Vector2d(0.0, -9.81);
+  expect_forces_agree(engine, m);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, Bundled,
+                         ::testing::Combine(::testing::Values("mujoco", "bullet"),
+                                            ::testing::ValuesIn(bundled())),
+                         [](const ::testing::TestParamInfo<Param>& info) {
+                           return std::get<0>(info.param) + "_" + std::get<1>(info.param);
+                         });
+
+class Loaded : public ::testing::TestWithParam<Param> {};
+
+TEST_P(Loaded, GravitySpringDamperForceAndTorque) {
+  const auto& [engine, name] = GetParam();
+  expect_forces_agree(engine, loaded(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                                    "/mechanisms/" + name + ".toml")));
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
+                         ::testing::Combine(::testing::Values("mujoco", "bullet"),
+                                            ::testing::Values("fourbar_crank_rocker",
+                                                              "slider_crank_offset", "quick_return",
+                                                              "watt_sixbar")),
+                         [](const ::testing::TestParamInfo<Param>& info) {
+                           return std::get<0>(info.param) + "_" + std::get<1>(info.param);
+                         });
+
+// A model error shows: a scene with a 10 % heavier coupler reads forces off the exact ones.
+TEST(EngineForces, CanFail) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/fourbar_crank_rocker.toml");
+  Mechanism heavy = m;
+  heavy.links[static_cast<size_t>(heavy.find_link("coupler"))].mass.mass *= 1.1;
+  const Trajectory exact = sweep(m);
+  for (const std::string engine : {"mujoco", "bullet"}) {
+    const EngineRun run = make(engine)->run(heavy, exact, {});
+    ASSERT_TRUE(run.ok) << run.message;
+    EXPECT_GT(force_agreement(m, exact, run.trajectory).reaction, 10 * tolerance(engine)) << engine;
+  }
+}
+
+}  // namespace
+}  // namespace crosslink::sim
