@@ -48,6 +48,14 @@ double auxiliary_mass(const Mechanism& m) {
   return 1e-6 * (std::isfinite(lightest) ? lightest : 1.0);
 }
 
+MassProperties scene_mass(const Mechanism& m, int link) {
+  MassProperties mp = m.links[static_cast<size_t>(link)].mass;
+  const double auxiliary = auxiliary_mass(m);
+  mp.mass = std::max(mp.mass, auxiliary);
+  mp.inertia = std::max(mp.inertia, auxiliary * 1e-2 * m.size() * m.size());
+  return mp;
+}
+
 void ForceReading::set_zero() {
   effort = 0.0;
   for (Eigen::Vector2d& f : joint_force) f.setZero();

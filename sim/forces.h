@@ -41,6 +41,12 @@ class AppliedLoads {
 // of the links around it (docs/engines.md).
 double auxiliary_mass(const Mechanism& m);
 
+// A link's mass properties in an engine's scene: the definition's, except that an engine needs a
+// positive mass and inertia, so a massless link (a pendulum's rod, a massless crank) gets
+// auxiliary_mass() and a point mass (a piston) the inertia of auxiliary_mass() at a tenth of the
+// mechanism's size: negligible against the forces around them in the same way.
+MassProperties scene_mass(const Mechanism& m, int link);
+
 // The forces one engine read at one pose, in the mechanism's terms.
 struct ForceReading {
   double effort = 0.0;                       // the driver's torque [N m] or force [N]

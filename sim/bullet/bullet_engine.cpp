@@ -200,7 +200,7 @@ void mass_model(const Mechanism& m, Node& node) {
     node.inertia = node.mass * 1e-4 * m.size() * m.size();
     return;
   }
-  const MassProperties& mp = m.links[static_cast<size_t>(node.link)].mass;
+  const MassProperties mp = scene_mass(m, node.link);
   node.com = mp.com;
   node.mass = mp.mass;
   node.inertia = mp.inertia;

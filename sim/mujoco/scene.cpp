@@ -152,9 +152,10 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
     link.name = m.links[l].name;
     link.source = l;
     link.ground = m.links[l].ground;
-    link.mass = m.links[l].mass.mass;
-    link.centre = m.links[l].mass.com;
-    link.inertia = m.links[l].mass.inertia;
+    const MassProperties mp = scene_mass(m, l);
+    link.mass = mp.mass;
+    link.centre = mp.com;
+    link.inertia = mp.inertia;
     for (const Point& p : m.links[l].points) link.points.push_back(p.local);
     const int k = m.moving_index(l);
     if (k >= 0) link.pose = q.segment<3>(3 * k);
