@@ -73,27 +73,27 @@ void print_physics(const Mechanism& m) {
                l.mass.inertia / (M * L * L), l.mass.assumed ? "  (default: uniform bar)" : "");
   }
   if (!assumed.empty())
-    fmt::print("  note: {} of {} moving links use the default mass model (a uniform bar between "
-               "their farthest points, 1 kg per mechanism size of length): give mass, com and "
-               "inertia for real forces\n",
-               assumed.size(), m.moving_count());
+    fmt::print(
+        "  note: {} of {} moving links use the default mass model (a uniform bar between "
+        "their farthest points, 1 kg per mechanism size of length): give mass, com and "
+        "inertia for real forces\n",
+        assumed.size(), m.moving_count());
   if (m.gravity.norm() > 0.0)
     fmt::print("  gravity: ({:.6g}, {:.6g}) {}/s^2\n", m.gravity.x() / L, m.gravity.y() / L,
                m.units.length_name);
   for (const Load& load : m.loads)
-    fmt::print("  load {}: {} on {}{}\n", load.name,
-               load.kind == Load::Kind::force ? "force" : "torque",
-               m.links[static_cast<size_t>(load.link)].name,
-               load.table ? fmt::format(" (table of {} rows over the driver)", load.rows.size())
-                          : "");
+    fmt::print(
+        "  load {}: {} on {}{}\n", load.name, load.kind == Load::Kind::force ? "force" : "torque",
+        m.links[static_cast<size_t>(load.link)].name,
+        load.table ? fmt::format(" (table of {} rows over the driver)", load.rows.size()) : "");
   for (const Spring& s : m.springs)
-    fmt::print("  spring {}: {}:{} - {}:{}, stiffness {:.6g} {}/{}, free length {:.6g} {}, "
-               "damping {:.6g} {} s/{}\n",
-               s.name, m.links[static_cast<size_t>(s.link_a)].name, s.point_a,
-               m.links[static_cast<size_t>(s.link_b)].name, s.point_b,
-               s.stiffness * L / m.units.force, m.units.force_name, m.units.length_name,
-               s.free_length / L, m.units.length_name, s.damping * L / m.units.force,
-               m.units.force_name, m.units.length_name);
+    fmt::print(
+        "  spring {}: {}:{} - {}:{}, stiffness {:.6g} {}/{}, free length {:.6g} {}, "
+        "damping {:.6g} {} s/{}\n",
+        s.name, m.links[static_cast<size_t>(s.link_a)].name, s.point_a,
+        m.links[static_cast<size_t>(s.link_b)].name, s.point_b, s.stiffness * L / m.units.force,
+        m.units.force_name, m.units.length_name, s.free_length / L, m.units.length_name,
+        s.damping * L / m.units.force, m.units.force_name, m.units.length_name);
 }
 
 void print_singular_positions(const Mechanism& m) {

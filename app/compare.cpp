@@ -61,13 +61,7 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
   const Mechanism m = load_mechanism(args.path);
-  if (m.dynamics) {
-    fmt::print(stderr,
-               "{}: error: a dynamics case ([dynamics]): its exact motion is not yet compared "
-               "with the engines' (issue 12); the exact reference is analytic/dynamics.h\n",
-               m.file);
-    return kExitBadInput;
-  }
+  if (refuse_dynamics_case(m)) return kExitBadInput;
 
   // Methods: the reference first, then the others asked for, in the order given.
   std::vector<std::string> names = split(args.engines, ',');

@@ -66,13 +66,7 @@ struct SweepArgs {
 
 int run_sweep(const SweepArgs& args) {
   const Mechanism m = load_mechanism(args.path);
-  if (m.dynamics) {
-    fmt::print(stderr,
-               "{}: error: a dynamics case ([dynamics]): its exact motion is not yet compared "
-               "with the engines' (issue 12); the exact reference is analytic/dynamics.h\n",
-               m.file);
-    return kExitBadInput;
-  }
+  if (refuse_dynamics_case(m)) return kExitBadInput;
   compare::SettingsSweepOptions options;
   options.engines = split(args.engines);
   for (const std::string& e : options.engines)

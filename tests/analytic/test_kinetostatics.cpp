@@ -20,55 +20,13 @@
 #include "analytic/loader.h"
 #include "analytic/planar.h"
 #include "analytic/sweep.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink {
 namespace {
 
-std::vector<std::string> all_mechanisms() {
-  std::vector<std::string> files;
-  const std::filesystem::path root = std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms";
-  for (const auto& dir : {root, root / "singular"})
-    for (const auto& entry : std::filesystem::directory_iterator(dir))
-      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
 double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
-}
-
-// The same mechanism under gravity, with a spring and damper from a ground point to a point of
-// the last moving link, a force at a point of the first moving link that is not the driven one
-// (or of the driven one) and a torque on the last moving link.
-Mechanism loaded(Mechanism m) {
-  m.gravity = Eigen::Vector2d(0.0, -9.81);
-  const int ground = m.ground();
-  const int last = static_cast<int>(m.links.size()) - 1 == ground
-                       ? static_cast<int>(m.links.size()) - 2
-                       : static_cast<int>(m.links.size()) - 1;
-  int first = 0;
-  while (first == ground || (first == m.driver.link && m.moving_count() > 1)) ++first;
-  Spring s;
-  s.link_a = ground;
-  s.link_b = last;
-  s.local_a = m.links[static_cast<size_t>(ground)].points.front().local;
-  s.local_b = m.links[static_cast<size_t>(last)].points.back().local;
-  s.stiffness = 50.0;
-  s.free_length = 0.5 * m.size();
-  s.damping = 0.7;
-  m.springs.push_back(s);
-  Load force;
-  force.link = first;
-  force.local = m.links[static_cast<size_t>(first)].points.back().local;
-  force.rows.emplace_back(0.0, 3.0, -2.0);
-  m.loads.push_back(force);
-  Load torque;
-  torque.kind = Load::Kind::torque;
-  torque.link = last;
-  torque.rows.emplace_back(0.0, 0.4, 0.0);
-  m.loads.push_back(torque);
-  return m;
 }
 
 // Calls f(state, report) at every usable sample of the exact sweep, with the state solved there
@@ -94,7 +52,7 @@ class EveryMechanism : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
   const Mechanism file = load_mechanism(GetParam());
-  for (const Mechanism& m : {file, loaded(file)}) {
+  for (const Mechanism& m : {file, test::loaded(file)}) {
     const NewtonSolver solver(m);
     const Kinetostatics kinetostatics(solver);
     ForceSample forces = kinetostatics.make_sample();
@@ -120,7 +78,7 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
 // Newton-Euler on every moving link from the extracted reactions: the force and moment sums
 // against m a_c and I alpha, to 1e-9 of the largest force (and force times size).
 TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
-  const Mechanism m = loaded(load_mechanism(GetParam()));
+  const Mechanism m = test::loaded(load_mechanism(GetParam()));
   const NewtonSolver solver(m);
   const Kinetostatics kinetostatics(solver);
   ForceSample forces = kinetostatics.make_sample();
@@ -215,7 +173,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   });
 }
 
-INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(all_mechanisms()),
+INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(test::bundled_files(true)),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            return std::filesystem::path(info.param).stem().string();
                          });

@@ -24,21 +24,12 @@
 #include "analytic/instant_centres.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink {
 namespace {
 
 constexpr double kAgreement = 1e-8;
-
-std::vector<std::string> all_mechanisms() {
-  std::vector<std::string> files;
-  const std::filesystem::path root = std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms";
-  for (const auto& dir : {root, root / "singular"})
-    for (const auto& entry : std::filesystem::directory_iterator(dir))
-      if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
-  return files;
-}
 
 // A trajectory with the instantaneous centres' velocities in place of the exact ones (positions
 // are the exact method's, as the comparator's "ic" method does); samples where the centres do
@@ -182,14 +173,14 @@ int check_grids_at_singular_positions(const std::string& file) {
 
 TEST(SingularPositions, GridsOnAndBesideThemEqualFinerGrids) {
   int mechanisms = 0;
-  for (const std::string& file : all_mechanisms())
+  for (const std::string& file : test::bundled_files(true))
     if (check_grids_at_singular_positions(file) > 0) ++mechanisms;
   // The change-point four-bars, the non-Grashof four-bar, the slider-driven slider-crank and the
   // polycentric hinge have singular positions in their first pass.
   EXPECT_GE(mechanisms, 5);
 }
 
-INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(all_mechanisms()),
+INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(test::bundled_files(true)),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            return std::filesystem::path(info.param).stem().string();
                          });

@@ -15,6 +15,7 @@
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink::sim {
 namespace {
@@ -26,56 +27,8 @@ double tolerance(const std::string& engine) {
   return engine == "mujoco" ? 0.05e-2 : 0.15e-2;
 }
 
-// A [dynamics] case is the exact simulation's: engines are compared on it by issue 12's work.
-bool is_dynamics_case(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("[dynamics]", 0) == 0) return true;
-  return false;
-}
-
-std::vector<std::string> bundled() {
-  std::vector<std::string> names;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms"))
-    if (entry.path().extension() == ".toml" && !is_dynamics_case(entry.path()))
-      names.push_back(entry.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
 std::unique_ptr<Engine> make(const std::string& engine) {
   return engine == "mujoco" ? make_mujoco_engine() : make_bullet_engine();
-}
-
-// A spring and damper from a ground point to the last moving link's last point, a force at a
-// point of the first moving link and a torque on the last (as test_kinetostatics's loaded()).
-Mechanism loaded(Mechanism m) {
-  m.gravity = Eigen::Vector2d(0.0, -9.81);
-  const int ground = m.ground();
-  int last = static_cast<int>(m.links.size()) - 1;
-  if (last == ground) --last;
-  int first = ground == 0 ? 1 : 0;
-  Spring s;
-  s.link_a = ground;
-  s.link_b = last;
-  s.local_a = m.links[static_cast<size_t>(ground)].points.front().local;
-  s.local_b = m.links[static_cast<size_t>(last)].points.back().local;
-  s.stiffness = 50.0;
-  s.free_length = 0.5 * m.size();
-  s.damping = 0.7;
-  m.springs.push_back(s);
-  Load force;
-  force.link = first;
-  force.local = m.links[static_cast<size_t>(first)].points.back().local;
-  force.rows.emplace_back(0.0, 3.0, -2.0);
-  m.loads.push_back(force);
-  Load torque;
-  torque.kind = Load::Kind::torque;
-  torque.link = last;
-  torque.rows.emplace_back(0.0, 0.4, 0.0);
-  m.loads.push_back(torque);
-  return m;
 }
 
 void expect_forces_agree(const std::string& engine, const Mechanism& m) {
@@ -118,7 +71,7 @@ TEST_P(Bundled, AgreeWithExactKinetostaticsAtDefaults) {
 
 INSTANTIATE_TEST_SUITE_P(Engines, Bundled,
                          ::testing::Combine(::testing::Values("mujoco", "bullet"),
-                                            ::testing::ValuesIn(bundled())),
+                                            ::testing::ValuesIn(test::bundled_stems())),
                          [](const ::testing::TestParamInfo<Param>& info) {
                            return std::get<0>(info.param) + "_" + std::get<1>(info.param);
                          });
@@ -127,8 +80,8 @@ class Loaded : public ::testing::TestWithParam<Param> {};
 
 TEST_P(Loaded, GravitySpringDamperForceAndTorque) {
   const auto& [engine, name] = GetParam();
-  expect_forces_agree(engine, loaded(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
-                                                    "/mechanisms/" + name + ".toml")));
+  expect_forces_agree(engine, test::loaded(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                                          "/mechanisms/" + name + ".toml")));
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Loaded,

@@ -15,6 +15,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink::sim {
 namespace {
@@ -114,24 +115,6 @@ Agreement agreement(const Mechanism& m, const Trajectory& exact, const Trajector
   return a;
 }
 
-// A [dynamics] case is the exact simulation's: engines are compared on it by issue 12's work.
-bool is_dynamics_case(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("[dynamics]", 0) == 0) return true;
-  return false;
-}
-
-std::vector<std::string> bundled() {
-  std::vector<std::string> names;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms"))
-    if (entry.path().extension() == ".toml" && !is_dynamics_case(entry.path()))
-      names.push_back(entry.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
 class Bundled : public ::testing::TestWithParam<std::string> {};
 
 // Default settings: positions within 1e-4 of the size, velocities 0.1 % and accelerations 1 %
@@ -158,7 +141,7 @@ TEST_P(Bundled, AgreesWithExactSweepAtDefaults) {
       run.cost.steps);
 }
 
-INSTANTIATE_TEST_SUITE_P(Mechanisms, Bundled, ::testing::ValuesIn(bundled()),
+INSTANTIATE_TEST_SUITE_P(Mechanisms, Bundled, ::testing::ValuesIn(test::bundled_stems()),
                          [](const auto& info) { return info.param; });
 
 // The most accurate settings (a quarter of the default step angle, so 16x smaller errors).
