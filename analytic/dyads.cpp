@@ -1130,11 +1130,11 @@ class DyadMarch {
 
 }  // namespace
 
-Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
+Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
   const Driver& d = mechanism.driver;
   Trajectory out;
   out.method = "dyads";
-  out.resize(mechanism, grid.samples(), true);
+  out.resize(mechanism, grid.samples(), forces);
   out.time = grid.time;
   out.driver = grid.driver;
   Decomposition decomposition = decompose(mechanism);
@@ -1164,7 +1164,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
   // Forces: the multipliers (kinetostatics method 1) at each closed-form pose, with the
   // constraint Jacobian factorised there.
   const Kinetostatics kinetostatics(newton);
-  ForceSample forces = kinetostatics.make_sample();
+  ForceSample reactions = kinetostatics.make_sample();
   KinematicState at_pose(mechanism);
 
   auto solve_row = [&](int row) {
@@ -1200,7 +1200,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
       state.kinematics.qddot.setZero();
     }
     newton.write_sample(state.kinematics, r, out, row);
-    if (r.status != PoseStatus::ok) return;
+    if (r.status != PoseStatus::ok || !out.has_forces) return;
     at_pose.q = state.kinematics.q;
     at_pose.qdot = state.kinematics.qdot;
     at_pose.qddot = state.kinematics.qddot;
@@ -1212,8 +1212,12 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid) {
     }
     at_pose.qdot = state.kinematics.qdot;  // the closed form's, not re-solved
     at_pose.qddot = state.kinematics.qddot;
-    kinetostatics.solve(at_pose, forces);
-    kinetostatics.write_sample(forces, out, row);
+    kinetostatics.solve(at_pose, reactions);
+    if (!reactions.finite()) {
+      out.status[static_cast<size_t>(row)] = PoseStatus::singular;
+      return;
+    }
+    kinetostatics.write_sample(reactions, out, row);
   };
   if (grid.samples() == 0) return out;
 

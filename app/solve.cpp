@@ -251,7 +251,7 @@ int run_solve(const SolveArgs& args) {
   }
   std::string why = "newton (asked for)";
   if (decomposition.complete) {
-    t = dyad_sweep(m, t);
+    t = dyad_sweep(m, t, true);
     why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
   } else if (args.method == "auto" && reverse) {
     why = "newton (--at-limit reverse: the traced sweep follows the loop through its toggles)";

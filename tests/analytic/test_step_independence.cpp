@@ -59,7 +59,7 @@ std::map<std::string, Trajectory> methods_at(const Mechanism& m, double step) {
   options.step = step;
   std::map<std::string, Trajectory> out;
   out["newton"] = sweep(m, options);
-  if (decompose(m).complete) out["dyads"] = dyad_sweep(m, out["newton"]);
+  if (decompose(m).complete) out["dyads"] = dyad_sweep(m, out["newton"], true);
   out["ic"] = with_centre_velocities(m, out["newton"]);
   return out;
 }
