@@ -9,7 +9,8 @@
 #include <map>
 #include <numbers>
 #include <numeric>
-#include <sstream>
+
+#include "analytic/limits.h"
 
 namespace crosslink {
 namespace {
@@ -30,12 +31,11 @@ class Reader {
     return {file_, static_cast<int>(region.begin.line), static_cast<int>(region.begin.column)};
   }
   SourceLocation at(const toml::node& node) const { return at(node.source()); }
-  SourceLocation at(const toml::node* node) const {
-    return node ? at(*node) : SourceLocation{file_, 0, 0};
-  }
-  SourceLocation file() const { return {file_, 0, 0}; }
-  // Where something missing from `table` belongs: the table's header, or the file for the root
-  // (whose region starts at line 1, which holds something else).
+  SourceLocation at(const toml::node* node) const { return node ? at(*node) : file(); }
+  // The nearest place for what has none of its own (a missing top-level table): the file's
+  // first line, so every diagnostic reads file:line:column.
+  SourceLocation file() const { return {file_, 1, 1}; }
+  // Where something missing from `table` belongs: the table's header, or the file for the root.
   SourceLocation inside(const toml::table& table) const {
     return &table == root_ ? file() : at(table);
   }
@@ -726,6 +726,70 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
   }
 }
 
+// Screens the text before toml++ parses it: a key with more dotted parts, or arrays and inline
+// tables nested deeper, than limits.h allows is refused at its place, since the parser recurses
+// once per level. A light scan: strings and comments are skipped, and every dot outside them
+// counts toward the key or value it is in (a float has one), up to the next = , [ ] { } or line.
+std::optional<Diagnostic> screen(std::string_view text, const std::string& file) {
+  int line = 1, column = 1, depth = 0, dots = 0;
+  size_t i = 0;
+  auto advance = [&](size_t n) {
+    for (size_t end = std::min(text.size(), i + n); i < end; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+  };
+  auto starts = [&](std::string_view token) { return text.substr(i, token.size()) == token; };
+  // Past the string opening at i (quote ' or "; three of them for a multi-line string).
+  auto skip_string = [&] {
+    const char quote = text[i];
+    const bool multi = starts(std::string(3, quote));
+    advance(multi ? 3 : 1);
+    while (i < text.size()) {
+      if (multi ? starts(std::string(3, quote)) : text[i] == quote) {
+        advance(multi ? 3 : 1);
+        return;
+      }
+      if (!multi && text[i] == '\n') return;  // unterminated: the parser says so
+      advance(quote == '"' && text[i] == '\\' ? 2 : 1);
+    }
+  };
+  while (i < text.size()) {
+    const char c = text[i];
+    if (c == '"' || c == '\'') {
+      skip_string();
+      continue;
+    }
+    if (c == '#') {
+      while (i < text.size() && text[i] != '\n') advance(1);
+      continue;
+    }
+    if (c == '[' || c == '{') {
+      dots = 0;
+      if (++depth > limits::kNesting)
+        return Diagnostic{{file, line, column},
+                          fmt::format("arrays and tables nested deeper than {} levels, the limit "
+                                      "of a definition",
+                                      limits::kNesting)};
+    } else if (c == ']' || c == '}') {
+      depth = std::max(0, depth - 1);
+      dots = 0;
+    } else if (c == '=' || c == ',' || c == '\n') {
+      dots = 0;
+    } else if (c == '.' && ++dots >= limits::kKeyParts) {
+      return Diagnostic{{file, line, column},
+                        fmt::format("a key of more than {} dotted parts, the limit of a definition",
+                                    limits::kKeyParts)};
+    }
+    advance(1);
+  }
+  return std::nullopt;
+}
+
 Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
@@ -796,6 +860,13 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
 
 Mechanism parse_mechanism(std::string_view text, const std::string& file) {
   Reader reader(file);
+  if (text.size() > static_cast<size_t>(limits::kDefinitionBytes)) {
+    reader.error(reader.file(), fmt::format("the file has more than {} bytes, the limit of a "
+                                            "definition",
+                                            limits::kDefinitionBytes));
+    reader.throw_if_any();
+  }
+  if (std::optional<Diagnostic> fault = screen(text, file)) throw DefinitionError({*fault});
   toml::table root;
   try {
     root = toml::parse(text, file);
@@ -808,15 +879,19 @@ Mechanism parse_mechanism(std::string_view text, const std::string& file) {
 
 Mechanism load_mechanism(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  auto refuse = [&](std::string message) {
     Diagnostic problem;
     problem.where.file = path;
-    problem.message = "cannot open the file";
+    problem.message = std::move(message);
     throw DefinitionError({problem});
-  }
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parse_mechanism(buffer.str(), path);
+  };
+  if (!in) refuse("cannot open the file");
+  // One byte over the limit is enough to refuse it (and /dev/zero is not read for ever).
+  std::string text(static_cast<size_t>(limits::kDefinitionBytes) + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (!in && !in.eof()) refuse("cannot read the file");  // a directory, say
+  text.resize(static_cast<size_t>(in.gcount()));
+  return parse_mechanism(text, path);
 }
 
 }  // namespace crosslink

@@ -109,8 +109,11 @@ int run_check(const std::string& path) {
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence) {
-    fmt::print(stderr, "{}: error: cannot assemble at driver = {:.6g} {}: {}\n", path,
-               m.driver.start / unit, unit_name, assembled.message);
+    // At the driver's table: its start value is where the chain must close.
+    const Diagnostic problem{m.driver.where,
+                             fmt::format("cannot assemble at driver = {:.6g} {}: {}",
+                                         m.driver.start / unit, unit_name, assembled.message)};
+    fmt::print(stderr, "{}\n", problem.str());
     return kExitBadInput;
   }
   fmt::print("  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",

@@ -249,7 +249,10 @@ int run_solve(const SolveArgs& args) {
   } else
     print_table_sweep(m, t);
   if (single && !usable(t.status[0])) {
-    fmt::print(stderr, "{}: error: {} at driver = {}\n", m.file, to_string(t.status[0]), *args.at);
+    fmt::print(stderr, "{}\n",
+               Diagnostic{m.driver.where,
+                          fmt::format("{} at driver = {}", to_string(t.status[0]), *args.at)}
+                   .str());
     return kExitBadInput;
   }
   return kExitOk;

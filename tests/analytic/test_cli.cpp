@@ -129,7 +129,15 @@ speed = 1
 )");
   const CommandRun run = crosslink("check \"" + path + "\"");
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.err.find("cannot assemble at driver = 180 deg"), std::string::npos) << run.err;
+  // At the place of the [driver] table (line 35), whose start value cannot be assembled.
+  EXPECT_NE(run.err.find(path + ":35:1: error: cannot assemble at driver = 180 deg"),
+            std::string::npos)
+      << run.err;
+  const CommandRun solve = crosslink("solve \"" + path + "\" --at 180");
+  EXPECT_EQ(solve.exit_code, 2);
+  EXPECT_NE(solve.err.find(path + ":35:1: error: cannot_assemble at driver = 180"),
+            std::string::npos)
+      << solve.err;
 }
 
 nlohmann::json solve_json(const std::string& args, int expected_exit = 0) {
@@ -221,6 +229,21 @@ TEST(Cli, SolveCsvHeaderAndRows) {
     ++rows;
   }
   EXPECT_EQ(rows, 361);
+}
+
+// A header of 100,000 dotted keys (200 kB) crashed the TOML parser with SIGSEGV: now every
+// command that reads it exits 2 with a located message.
+TEST(Cli, AHostileHeaderIsBadInputNotACrash) {
+  std::string header = "[a";
+  for (int k = 1; k < 100000; ++k) header += ".a";
+  const std::string path = write_definition("hostile.toml", header + "]\n");
+  for (const char* command : {"check", "solve", "compare", "sweep"}) {
+    const CommandRun run = crosslink(std::string(command) + " \"" + path + "\"");
+    EXPECT_EQ(run.exit_code, 2) << command << ": " << run.err.substr(0, 300);
+    EXPECT_NE(run.err.find(path + ":1:33: error: a key of more than 16 dotted parts"),
+              std::string::npos)
+        << command << ": " << run.err.substr(0, 300);
+  }
 }
 
 }  // namespace

@@ -242,9 +242,37 @@ TEST(Validation, MissingDriver) {
   const std::vector<Diagnostic> found = diagnostics_of(text);
   const Diagnostic* d = find(found, {"[driver]"});
   ASSERT_NE(d, nullptr);
-  // Nothing to point at inside the file: the diagnostic names the file alone.
-  EXPECT_EQ(d->where.line, 0) << d->str();
-  EXPECT_EQ(d->str().rfind("bad.toml: error:", 0), 0u) << d->str();
+  // Nothing to point at inside the file: the nearest place is its first line.
+  EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
+}
+
+// Every missing top-level piece is reported at the file's first line, like the driver.
+TEST(Validation, MissingTopLevelTablesAtLineOne) {
+  const std::string header_without_units = "name = \"four-bar\"\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"[units]", header_without_units + kGround + kMoving + kJoints + kDriver},
+      {"[[link]]", kHeader + kDriver},
+      {"[[joint]]", kHeader + kGround + kMoving + kDriver},
+      {"'name'", replaced(four_bar(), "name = \"four-bar\"\n", "")},
+  };
+  for (const auto& [missing, text] : cases) {
+    const std::vector<Diagnostic> found = diagnostics_of(text);
+    const Diagnostic* d = find(found, {missing});
+    ASSERT_NE(d, nullptr) << missing;
+    EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
+  }
+}
+
+// Without a [driver] table, the mobility count still has a place. A second pin at A makes
+// M = 3(4-1) - 2*5 = -1.
+TEST(Validation, MobilityWithoutADriverTableHasAPlace) {
+  const std::string text = kHeader + kGround + kMoving + kJoints +
+                           "[[joint]]\ntype = \"revolute\"\nname = \"A2\"\n"
+                           "links = [\"ground\", \"crank\"]\npoint = \"A\"\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  const Diagnostic* d = find(found, {"mobility -1"});
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
 }
 
 // A slider-crank: crank AB, connecting rod BC, piston on the ground's line through A.
@@ -498,6 +526,62 @@ TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
   EXPECT_TRUE(state.qddot.allFinite());
   // The message says why: the loop gap left at the closest approach.
   EXPECT_NE(report.message.find("loop gap"), std::string::npos) << report.message;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Limits (analytic/limits.h): what reaches the TOML parser. Each fault is refused at its place,
+// and the message states the limit.
+
+TEST(Limits, ADefinitionOverOneMebibyteIsRefusedAtLineOne) {
+  // Valid TOML all through: a comment long enough to take the file over 1 MiB.
+  const std::string text = four_bar() + "# " + std::string(1 << 20, 'x') + "\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].str().rfind("bad.toml:1:1: error:", 0), 0u) << found[0].str();
+  EXPECT_NE(found[0].message.find("1048576 bytes"), std::string::npos) << found[0].message;
+}
+
+TEST(Limits, ADottedHeaderOfTooManyPartsIsRefusedWhereItPassesTheLimit) {
+  // [a.a.a...] of 100,000 parts crashed toml++ (stack overflow). The 16th dot starts the 17th
+  // part: after "[" and 15 times "a.", then "a", it is at column 1 + 15 * 2 + 2 = 33.
+  std::string header = "[a";
+  for (int k = 1; k < 100000; ++k) header += ".a";
+  const std::string text = four_bar() + header + "]\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "[a.a").line) << found[0].str();
+  EXPECT_EQ(found[0].where.column, 33) << found[0].str();
+  EXPECT_NE(found[0].message.find("more than 16 dotted parts"), std::string::npos);
+}
+
+TEST(Limits, SixteenDottedPartsAreAccepted) {
+  // At the limit the key reaches the loader, which does not know it: a different error.
+  std::string key = "a";
+  for (int k = 1; k < 16; ++k) key += ".a";
+  const std::vector<Diagnostic> found = diagnostics_of(four_bar() + key + " = 1\n");
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NE(found[0].message.find("unknown key 'a'"), std::string::npos) << found[0].str();
+}
+
+TEST(Limits, NestingDeeperThanSixteenLevelsIsRefused) {
+  // The 17th opening bracket of the value after "x = " is at column 5 + 16.
+  const std::string text = four_bar() + "x = " + std::string(17, '[') + std::string(17, ']') + "\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "x = [").line) << found[0].str();
+  EXPECT_EQ(found[0].where.column, 5 + 16) << found[0].str();
+  EXPECT_NE(found[0].message.find("deeper than 16 levels"), std::string::npos);
+}
+
+TEST(Limits, DotsAndBracketsInStringsAndCommentsDoNotCount) {
+  const std::string dots(200, '.');
+  const std::string description = dots + "[[[[\\\"" + std::string(40, '{');
+  const std::string text =
+      replaced(four_bar(), "name = \"four-bar\"",
+               "name = \"four-bar\"\ndescription = \"" + description + "\"  # " + dots +
+                   std::string(40, '[') + "\ncitation = '''" + dots + "\n" + dots + "'''");
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  EXPECT_EQ(m.description, dots + "[[[[\"" + std::string(40, '{'));
 }
 
 }  // namespace
