@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <numeric>
@@ -21,6 +22,15 @@ std::string join(const std::vector<std::string>& names) {
   for (const std::string& n : names) text += (text.empty() ? "" : ", ") + n;
   return text;
 }
+
+// How a number is read: SI per file unit, the unit's name for messages, and the magnitudes (SI)
+// it may have (limits.h).
+struct Scale {
+  double si = 1.0;
+  std::string_view unit;
+  double largest = std::numeric_limits<double>::max();
+  double smallest = 0.0;  // nonzero values below it are refused
+};
 
 // Collects every problem in a definition, each located by its TOML node.
 class Reader {
@@ -71,40 +81,57 @@ class Reader {
     return std::nullopt;
   }
 
-  std::optional<double> number(const toml::node& node, std::string_view what) {
+  // A number converted to SI by `scale`, refused when it is not finite or is outside the
+  // scale's magnitudes (so that no product or quotient of it overflows).
+  std::optional<double> number(const toml::node& node, std::string_view what,
+                               const Scale& scale = {}) {
     std::optional<double> value;
     if (const auto* f = node.as_floating_point()) value = f->get();
     if (const auto* i = node.as_integer()) value = static_cast<double>(i->get());
     if (!value) {
       error(at(node), fmt::format("{} must be a number", what));
-    } else if (!std::isfinite(*value)) {
-      error(at(node), fmt::format("{} must be finite", what));
-      value.reset();
+      return std::nullopt;
     }
-    return value;
+    if (!std::isfinite(*value)) {
+      error(at(node), fmt::format("{} must be finite", what));
+      return std::nullopt;
+    }
+    const double si = *value * scale.si;
+    const std::string unit = scale.unit.empty() ? "" : " " + std::string(scale.unit);
+    if (!(std::abs(si) <= scale.largest)) {
+      error(at(node), fmt::format("{} = {:g}{} is too large: the limit is {:g}{}", what, *value,
+                                  unit, scale.largest / scale.si, unit));
+      return std::nullopt;
+    }
+    if (si != 0.0 && std::abs(si) < scale.smallest) {
+      error(at(node), fmt::format("{} = {:g}{} is too small: the limit is {:g}{}", what, *value,
+                                  unit, scale.smallest / scale.si, unit));
+      return std::nullopt;
+    }
+    return si;
   }
 
   std::optional<double> number(const toml::table& table, std::string_view key,
-                               std::string_view what, bool required) {
+                               std::string_view what, bool required, const Scale& scale = {}) {
     const toml::node* node = table.get(key);
     if (!node) {
       if (required) error(inside(table), fmt::format("{} needs '{}' (a number)", what, key));
       return std::nullopt;
     }
-    return number(*node, fmt::format("'{}' in {}", key, what));
+    return number(*node, fmt::format("'{}' in {}", key, what), scale);
   }
 
-  // A fixed-length array of numbers, e.g. [x, y] or [x, y, angle].
-  std::optional<std::vector<double>> numbers(const toml::node& node, size_t count,
-                                             std::string_view what) {
+  // A fixed-length array of numbers, e.g. [x, y] or [x, y, angle], each in SI by its scale.
+  std::optional<std::vector<double>> numbers(const toml::node& node, std::string_view what,
+                                             const std::vector<Scale>& scales) {
     const auto* array = node.as_array();
-    if (!array || array->size() != count) {
-      error(at(node), fmt::format("{} must be an array of {} numbers", what, count));
+    if (!array || array->size() != scales.size()) {
+      error(at(node), fmt::format("{} must be an array of {} numbers", what, scales.size()));
       return std::nullopt;
     }
     std::vector<double> values;
-    for (const toml::node& element : *array) {
-      const std::optional<double> v = number(element, what);
+    for (size_t k = 0; k < scales.size(); ++k) {
+      const std::optional<double> v = number((*array)[k], what, scales[k]);
       if (!v) return std::nullopt;
       values.push_back(*v);
     }
@@ -157,6 +184,17 @@ std::optional<double> unit_factor(Reader& r, const toml::table& table, std::stri
   return std::nullopt;
 }
 
+Scale length_scale(const Units& units) {
+  return {units.length, units.length_name, limits::kLength};
+}
+Scale angle_scale(const Units& units) {
+  return {units.angle, units.angle_name, limits::kAngle};
+}
+// Driver values: angles, or lengths for a slider.
+Scale driver_scale(const Mechanism& m) {
+  return m.driver.angular() ? angle_scale(m.units) : length_scale(m.units);
+}
+
 // Reads one [[link]] entry.
 Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   Link link;
@@ -172,18 +210,25 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   const toml::table* points = r.table(t, "points", fmt::format("link '{}'", link.name), true);
-  if (points) {
+  if (points && points->size() > limits::kPoints) {
+    r.error(r.at(*points), fmt::format("link '{}' has {} points: the limit is {} in all links",
+                                       link.name, points->size(), limits::kPoints));
+  } else if (points) {
     if (points->empty()) r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
     for (auto&& [key, node] : *points) {
-      const auto xy =
-          r.numbers(node, 2, fmt::format("point '{}' of link '{}'", key.str(), link.name));
+      const auto xy = r.numbers(node, fmt::format("point '{}' of link '{}'", key.str(), link.name),
+                                {length_scale(units), length_scale(units)});
       if (!xy) continue;
       link.points.push_back(
-          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length, r.at(node)});
+          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]), r.at(node)});
     }
   }
 
-  if (const toml::table* lines = r.table(t, "lines", what, false)) {
+  const toml::table* lines = r.table(t, "lines", what, false);
+  if (lines && lines->size() > limits::kLines) {
+    r.error(r.at(*lines), fmt::format("link '{}' has {} lines: the limit is {} in all links",
+                                      link.name, lines->size(), limits::kLines));
+  } else if (lines) {
     for (auto&& [key, node] : *lines) {
       const std::string line_what = fmt::format("line '{}' of link '{}'", key.str(), link.name);
       const auto* lt = node.as_table();
@@ -210,12 +255,14 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
       if (from < 0) continue;
       line.origin = link.points[from].local;
       const std::optional<std::string> toward = r.string(*lt, "toward", line_what, false);
-      const std::optional<double> angle = r.number(*lt, "angle", line_what, false);
-      if (toward.has_value() == angle.has_value()) {
+      if ((lt->get("toward") != nullptr) == (lt->get("angle") != nullptr)) {
         r.error(line.where,
                 fmt::format("{} needs exactly one of 'toward' (a point) or 'angle'", line_what));
         continue;
       }
+      const std::optional<double> angle =
+          r.number(*lt, "angle", line_what, false, angle_scale(units));
+      if (!toward && !angle) continue;  // reported
       if (toward) {
         const int to = link.find_point(*toward);
         if (to < 0) {
@@ -232,8 +279,7 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
         }
         line.direction = d.normalized();
       } else {
-        const double a = *angle * units.angle;
-        line.direction = Eigen::Vector2d(std::cos(a), std::sin(a));
+        line.direction = Eigen::Vector2d(std::cos(*angle), std::sin(*angle));
       }
       if (link.find_line(line.name) >= 0)
         r.error(line.where, fmt::format("duplicate line name '{}'", line.name));
@@ -242,10 +288,9 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   if (const toml::node* pose = t.get("pose")) {
-    if (const auto p =
-            r.numbers(*pose, 3, fmt::format("pose of link '{}' ([x, y, angle])", link.name)))
-      link.pose =
-          Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length, (*p)[2] * units.angle);
+    if (const auto p = r.numbers(*pose, fmt::format("pose of link '{}' ([x, y, angle])", link.name),
+                                 {length_scale(units), length_scale(units), angle_scale(units)}))
+      link.pose = Eigen::Vector3d((*p)[0], (*p)[1], (*p)[2]);
   }
   return link;
 }
@@ -347,8 +392,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
         line.value_or("?");
     joint.name = r.string(t, "name", twhat, false).value_or(default_name);
     if (joint.type == JointType::prismatic) {
-      if (const auto angle = r.number(t, "angle", twhat, false)) {
-        joint.relative_angle = *angle * m.units.angle;
+      if (const auto angle = r.number(t, "angle", twhat, false, angle_scale(m.units))) {
+        joint.relative_angle = *angle;
       } else if (joint.link_a >= 0 && joint.link_b >= 0) {
         // The slider keeps the relative angle it is drawn at (0 where a pose is not given).
         auto drawn = [&](int l) { return m.links[l].pose ? (*m.links[l].pose)(2) : 0.0; };
@@ -362,6 +407,36 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
                       "pin_in_slot)",
                       what, type));
   return joint;
+}
+
+// A polynomial or table law must stay within the magnitudes of a driver, its rates and
+// accelerations too, at every time the solvers evaluate it: the sweep's 361 samples and the
+// 3601-point grid `solve --at` searches (both equal divisions of the duration).
+void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
+  const Driver& d = m.driver;
+  const int n = 3600;
+  for (int k = 0; k <= n; ++k) {
+    const double time = d.law.duration * k / n;
+    const DriverState s = d.at_time(time);
+    const std::string_view unit = value_scale.unit;
+    std::string fault;
+    if (!(std::abs(s.value) <= value_scale.largest))
+      fault = fmt::format("reaches {:g} {} (the limit is {:g} {})", s.value / value_scale.si, unit,
+                          value_scale.largest / value_scale.si, unit);
+    else if (!(std::abs(s.rate) <= limits::kRate))
+      fault = fmt::format("moves at {:g} {}/s (the limit is {:g} in SI)", s.rate / value_scale.si,
+                          unit, limits::kRate);
+    else if (!(std::abs(s.accel) <= limits::kAcceleration))
+      fault = fmt::format("accelerates at {:g} {}/s^2 (the limit is {:g} in SI)",
+                          s.accel / value_scale.si, unit, limits::kAcceleration);
+    if (!fault.empty()) {
+      r.error(
+          d.law.where,
+          fmt::format("[driver] '{}' {} at t = {:g} s",
+                      d.law.kind == MotionLaw::Kind::table ? "table" : "polynomial", fault, time));
+      return;
+    }
+  }
 }
 
 void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
@@ -441,14 +516,16 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
 
   // Driver values are in the file's angle unit, or its length unit for a slider.
-  const double unit = d.angular() ? m.units.angle : m.units.length;
-  d.start = r.number(*t, "start", "[driver]", true).value_or(0.0) * unit;
+  const Scale value_scale = driver_scale(m);
+  d.start = r.number(*t, "start", "[driver]", true, value_scale).value_or(0.0);
   if (const toml::node* range = t->get("range")) {
-    if (const auto lr = r.numbers(*range, 2, "[driver] 'range' ([low, high])")) {
+    d.range_where = r.at(*range);
+    if (const auto lr =
+            r.numbers(*range, "[driver] 'range' ([low, high])", {value_scale, value_scale})) {
       if ((*lr)[0] >= (*lr)[1])
         r.error(r.at(*range), "[driver] 'range' must be [low, high] with low < high");
       else
-        d.range = std::make_pair((*lr)[0] * unit, (*lr)[1] * unit);
+        d.range = std::make_pair((*lr)[0], (*lr)[1]);
     }
   }
 
@@ -463,28 +540,34 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
   if (t->get("speed")) {
     d.law.kind = MotionLaw::Kind::constant_speed;
-    double factor = unit;
+    d.law.where = r.at(t->get("speed"));
+    Scale speed_scale{value_scale.si, "", limits::kRate, limits::kSlowestSpeed};
+    std::string unit_name = m.units.length_name + "/s";
     if (d.angular()) {
-      std::string unit_name;
-      if (const auto f = unit_factor(r, *t, "[driver]", "speed_unit", kAngularSpeedUnits, "rad/s"))
-        factor = *f;
+      unit_name = "rad/s";
+      if (const auto f =
+              unit_factor(r, *t, "[driver]", "speed_unit", kAngularSpeedUnits, "rad/s", &unit_name))
+        speed_scale.si = *f;
     } else if (t->get("speed_unit")) {
       r.error(r.at(t->get("speed_unit")),
               fmt::format("[driver]: a slider's speed is in the file's length unit per second "
                           "({}/s); remove 'speed_unit'",
                           m.units.length_name));
     }
-    const double speed = r.number(*t, "speed", "[driver]", true).value_or(0.0);
-    if (speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
-    d.law.speed = speed * factor;
+    speed_scale.unit = unit_name;
+    const std::optional<double> speed = r.number(*t, "speed", "[driver]", true, speed_scale);
+    if (speed && *speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
+    d.law.speed = speed.value_or(0.0);
     return;
   }
-  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true);
+  const Scale time_scale{1.0, "s", limits::kDuration, limits::kShortestDuration};
+  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true, time_scale);
   if (duration && *duration <= 0.0)
     r.error(r.at(t->get("duration")), "[driver] 'duration' must be positive (seconds)");
   d.law.duration = duration.value_or(0.0);
   if (const toml::node* poly = t->get("polynomial")) {
     d.law.kind = MotionLaw::Kind::polynomial;
+    d.law.where = r.at(*poly);
     const auto* array = poly->as_array();
     if (!array || array->empty()) {
       r.error(r.at(*poly),
@@ -492,28 +575,51 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
               "c2 t^2 + ... (file units, seconds)");
       return;
     }
-    for (const toml::node& c : *array)
-      d.law.coefficients.push_back(r.number(c, "a polynomial coefficient").value_or(0.0) * unit);
-    return;
-  }
-  d.law.kind = MotionLaw::Kind::table;
-  const toml::node* table = t->get("table");
-  const auto* rows = table->as_array();
-  if (!rows || rows->size() < 3) {
-    r.error(r.at(*table), "[driver] 'table' must list at least 3 rows [[t, value], ...]");
-    return;
-  }
-  for (const toml::node& row : *rows) {
-    const auto tv = r.numbers(row, 2, "a [driver] table row ([t, value])");
-    if (!tv) return;
-    if (!d.law.table_time.empty() && (*tv)[0] <= d.law.table_time.back()) {
-      r.error(r.at(row), "[driver] table times must increase strictly");
+    if (array->size() > limits::kPolynomialTerms) {
+      r.error(r.at(*poly), fmt::format("[driver] 'polynomial' has {} coefficients: the limit is {}",
+                                       array->size(), limits::kPolynomialTerms));
       return;
     }
-    d.law.table_time.push_back((*tv)[0]);
-    d.law.table_value.push_back((*tv)[1] * unit);
+    // Each coefficient is finite; what the law reaches is checked below.
+    for (const toml::node& c : *array)
+      d.law.coefficients.push_back(
+          r.number(c, "a polynomial coefficient", {value_scale.si, value_scale.unit})
+              .value_or(0.0));
+  } else {
+    d.law.kind = MotionLaw::Kind::table;
+    const toml::node* table = t->get("table");
+    d.law.where = r.at(*table);
+    const auto* rows = table->as_array();
+    if (!rows || rows->size() < 3) {
+      r.error(r.at(*table), "[driver] 'table' must list at least 3 rows [[t, value], ...]");
+      return;
+    }
+    if (rows->size() > limits::kTableRows) {
+      r.error(r.at(*table), fmt::format("[driver] 'table' has {} rows: the limit is {}",
+                                        rows->size(), limits::kTableRows));
+      return;
+    }
+    const Scale row_time{1.0, "s", limits::kDuration};
+    for (const toml::node& row : *rows) {
+      const auto tv = r.numbers(row, "a [driver] table row ([t, value])", {row_time, value_scale});
+      if (!tv) return;
+      if (!d.law.table_time.empty() && (*tv)[0] <= d.law.table_time.back()) {
+        r.error(r.at(row), "[driver] table times must increase strictly");
+        return;
+      }
+      // A shorter step makes the spline's rates overflow.
+      if (!d.law.table_time.empty() && (*tv)[0] - d.law.table_time.back() < time_scale.smallest) {
+        r.error(r.at(row), fmt::format("[driver] table times {:g} s and {:g} s are closer than "
+                                       "the limit of {:g} s",
+                                       d.law.table_time.back(), (*tv)[0], time_scale.smallest));
+        return;
+      }
+      d.law.table_time.push_back((*tv)[0]);
+      d.law.table_value.push_back((*tv)[1]);
+    }
+    d.start = d.law.table_value.front();
   }
-  d.start = d.law.table_value.front();
+  if (duration && r.diagnostics().empty()) check_law(r, m, value_scale);
 }
 
 // SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
@@ -537,10 +643,9 @@ std::vector<std::string> reference_objects(const Mechanism& m) {
   return objects;
 }
 
-bool names_object(const Mechanism& m, std::string_view quantity) {
+bool names_object(const std::vector<std::string>& objects, std::string_view quantity) {
   const size_t dot = quantity.find('.');
   if (dot == std::string_view::npos) return false;
-  const std::vector<std::string> objects = reference_objects(m);
   return std::find(objects.begin(), objects.end(), quantity.substr(dot + 1)) != objects.end();
 }
 
@@ -552,7 +657,12 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     r.error(r.at(*node), "'reference' must be an array of tables ([[reference]])");
     return;
   }
-  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  if (array->size() > limits::kReferences) {
+    r.error(r.at(*node), fmt::format("{} [[reference]] entries: the limit is {}", array->size(),
+                                     limits::kReferences));
+    return;
+  }
+  const std::vector<std::string> objects = reference_objects(m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
     r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "source"});
@@ -560,9 +670,10 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     ref.where = r.at(t);
     ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
     ref.source = r.string(t, "source", "[[reference]]", true).value_or("");
-    const std::optional<double> at = r.number(t, "at", "[[reference]]", true);
-    const std::optional<double> value = r.number(t, "value", "[[reference]]", true);
+    const std::optional<double> at = r.number(t, "at", "[[reference]]", true, driver_scale(m));
     const std::optional<double> factor = reference_factor(m, ref.quantity);
+    const std::optional<double> value = r.number(
+        t, "value", "[[reference]]", true, {factor.value_or(1.0), "", limits::kReferenceValue});
     if (!ref.quantity.empty() && !factor) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
@@ -571,16 +682,16 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
                           ref.quantity));
       continue;
     }
-    if (factor && !names_object(m, ref.quantity)) {
+    if (factor && !names_object(objects, ref.quantity)) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: '{}' names no moving link, point or slider (valid "
                           "names: {})",
-                          ref.quantity, join(reference_objects(m))));
+                          ref.quantity, join(objects)));
       continue;
     }
     if (!at || !value || !factor) continue;
-    ref.driver_value = *at * driver_unit;
-    ref.value = *value * *factor;
+    ref.driver_value = *at;
+    ref.value = *value;
     m.references.push_back(ref);
   }
 }
@@ -590,7 +701,8 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   if (!t) return;
   r.known_keys(*t, "[tolerance]", {"position", "angle", "velocity", "acceleration"});
   auto read = [&](std::string_view key, std::optional<double>& out) {
-    if (const auto v = r.number(*t, key, "[tolerance] (% of peak)", false)) {
+    if (const auto v =
+            r.number(*t, key, "[tolerance] (% of peak)", false, {1.0, "%", limits::kTolerance})) {
       if (*v <= 0.0)
         r.error(r.at(t->get(key)), fmt::format("[tolerance] '{}' must be positive", key));
       else
@@ -610,10 +722,11 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof"});
   Expectations e;
   e.where = r.at(*t);
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  if (const toml::node* limits = t->get("limits"))
-    if (const auto v = r.numbers(*limits, 2, "[expect] 'limits' ([lower, upper])"))
-      e.limits = std::make_pair((*v)[0] * unit, (*v)[1] * unit);
+  const Scale value_scale = driver_scale(m);
+  if (const toml::node* range = t->get("limits"))
+    if (const auto v =
+            r.numbers(*range, "[expect] 'limits' ([lower, upper])", {value_scale, value_scale}))
+      e.limits = std::make_pair((*v)[0], (*v)[1]);
   for (const auto& [key, out] :
        {std::pair{"toggles", &e.toggles}, std::pair{"change_points", &e.change_points}}) {
     const toml::node* node = t->get(key);
@@ -623,8 +736,14 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
       r.error(r.at(*node), fmt::format("[expect] '{}' must be an array of driver values", key));
       continue;
     }
+    if (array->size() > limits::kExpectedPositions) {
+      r.error(r.at(*node), fmt::format("[expect] '{}' lists {} values: the limit is {}", key,
+                                       array->size(), limits::kExpectedPositions));
+      continue;
+    }
     for (const toml::node& v : *array)
-      if (const auto x = r.number(v, fmt::format("[expect] '{}'", key))) out->push_back(*x * unit);
+      if (const auto x = r.number(v, fmt::format("[expect] '{}'", key), value_scale))
+        out->push_back(*x);
   }
   e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
   if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
@@ -790,6 +909,27 @@ std::optional<Diagnostic> screen(std::string_view text, const std::string& file)
   return std::nullopt;
 }
 
+// Points and lines over all links within their limits (each link's were checked as read), and
+// a mechanism large enough for its size to scale tolerances.
+void check_counts(Reader& r, const Mechanism& m) {
+  size_t points = 0, lines = 0;
+  for (const Link& link : m.links) {
+    points += link.points.size();
+    lines += link.lines.size();
+    if (points > limits::kPoints || lines > limits::kLines) {
+      r.error(link.where, fmt::format("{} points and {} lines up to link '{}': the limits are {} "
+                                      "points and {} lines in all links",
+                                      points, lines, link.name, limits::kPoints, limits::kLines));
+      return;
+    }
+  }
+  if (r.diagnostics().empty() && m.size() < limits::kSmallestSize)
+    r.error(m.links.front().where,
+            fmt::format("the mechanism's size (the largest distance between its drawn points) is "
+                        "{:g} m: the limit is {:g} m",
+                        m.size(), limits::kSmallestSize));
+}
+
 Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
@@ -819,8 +959,15 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
     r.error(links ? r.at(*links) : r.file(), "a mechanism needs [[link]] tables");
     r.throw_if_any();
   }
+  if (link_array->size() > limits::kLinks) {
+    r.error(r.at((*link_array)[limits::kLinks]),
+            fmt::format("{} [[link]] tables: the limit is {}", link_array->size(), limits::kLinks));
+    r.throw_if_any();
+  }
   for (size_t i = 0; i < link_array->size(); ++i)
     m.links.push_back(read_link(r, *(*link_array)[i].as_table(), m.units, static_cast<int>(i)));
+  check_counts(r, m);
+  r.throw_if_any();
   // Names must be unique before joints refer to them.
   for (size_t i = 0; i < m.links.size(); ++i)
     for (size_t j = 0; j < i; ++j)
@@ -841,6 +988,10 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   const auto* joint_array = joints ? joints->as_array() : nullptr;
   if (!joint_array || !joint_array->is_array_of_tables()) {
     r.error(joints ? r.at(*joints) : r.file(), "a mechanism needs [[joint]] tables");
+  } else if (joint_array->size() > limits::kJoints) {
+    r.error(
+        r.at((*joint_array)[limits::kJoints]),
+        fmt::format("{} [[joint]] tables: the limit is {}", joint_array->size(), limits::kJoints));
   } else {
     for (size_t i = 0; i < joint_array->size(); ++i)
       m.joints.push_back(read_joint(r, m, *(*joint_array)[i].as_table(), static_cast<int>(i)));

@@ -529,8 +529,8 @@ TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Limits (analytic/limits.h): what reaches the TOML parser. Each fault is refused at its place,
-// and the message states the limit.
+// Limits (analytic/limits.h): what reaches the TOML parser, counts, magnitudes. Each fault is
+// refused at its place, and the message states the limit.
 
 TEST(Limits, ADefinitionOverOneMebibyteIsRefusedAtLineOne) {
   // Valid TOML all through: a comment long enough to take the file over 1 MiB.
@@ -582,6 +582,116 @@ TEST(Limits, DotsAndBracketsInStringsAndCommentsDoNotCount) {
                    std::string(40, '[') + "\ncitation = '''" + dots + "\n" + dots + "'''");
   const Mechanism m = parse_mechanism(text, "good.toml");
   EXPECT_EQ(m.description, dots + "[[[[\"" + std::string(40, '{'));
+}
+
+// Ground and n moving links, each pinned to the ground at a point of its own.
+std::string many_links(int n) {
+  std::string text =
+      kHeader + "[[link]]\nname = \"ground\"\nground = true\npoints = { P0 = [0, 0] }\n";
+  for (int k = 1; k <= n; ++k)
+    text += fmt::format("[[link]]\nname = \"l{}\"\npoints = {{ P{} = [{}, 0] }}\n", k, k, k);
+  return text;
+}
+
+TEST(Limits, MoreThanAHundredLinksAreRefusedAtTheHundredAndFirst) {
+  // Ground and 100 moving links make 101 [[link]] tables; the 101st (index 100) is the fault.
+  const std::string text = many_links(100);
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "[[link]]", 100).line) << found[0].str();
+  EXPECT_NE(found[0].message.find("101 [[link]] tables: the limit is 100"), std::string::npos)
+      << found[0].message;
+  // A hundred pass the count and fail later, for want of joints.
+  const std::vector<Diagnostic> fewer = diagnostics_of(many_links(99));
+  const Diagnostic* joints = find(fewer, {"[[joint]]"});
+  ASSERT_NE(joints, nullptr);
+  EXPECT_EQ(joints->where.line, 1);
+}
+
+TEST(Limits, ATableLawOfMoreThanTenThousandRowsIsRefused) {
+  std::string rows;
+  for (int k = 0; k <= 10000; ++k) rows += fmt::format("{}[{}, {}]", k ? ", " : "", k * 1e-4, k);
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "table = [" + rows + "]\nduration = 1");
+  const Place at = place_of(text, "table =");
+  expect_diagnostic(text, {at.line, at.column + 8}, {"10001 rows: the limit is 10000"});
+}
+
+TEST(Limits, APolynomialOfMoreThanTwentyCoefficientsIsRefused) {
+  std::string coefficients = "1";
+  for (int k = 1; k < 21; ++k) coefficients += ", 0";
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "polynomial = [" + coefficients + "]\nduration = 1");
+  const Place at = place_of(text, "polynomial =");
+  expect_diagnostic(text, {at.line, at.column + 13}, {"21 coefficients: the limit is 20"});
+}
+
+TEST(Limits, ACoordinateBeyondAThousandKilometresIsRefusedInFileUnits) {
+  // 2e9 mm is 2000 km; the limit, 1e6 m, is 1e9 mm.
+  std::string text = replaced(four_bar(), "length = \"m\"", "length = \"mm\"");
+  text = replaced(text, "D = [0.10, 0]", "D = [2e9, 0]");
+  expect_diagnostic(text, place_of(text, "2e9"),
+                    {"point 'D' of link 'ground' = 2e+09 mm is too large", "limit is 1e+09 mm"});
+}
+
+TEST(Limits, AnAngleBeyondAHundredMillionRadiansIsRefused) {
+  // 1e10 deg is 1.7e8 rad.
+  const std::string text = replaced(four_bar(), "pose = [0, 0, 60]", "pose = [0, 0, 1e10]");
+  expect_diagnostic(text, place_of(text, "1e10"), {"pose of link 'crank'", "too large"});
+}
+
+TEST(Limits, ASpeedTooSlowForACycleIsRefused) {
+  // 1e-320 rad/s (subnormal) makes one turn last 6e320 s, an infinite time.
+  const std::string text = replaced(four_bar(), "speed = 10", "speed = 1e-320");
+  expect_diagnostic(text, place_of(text, "1e-320"),
+                    {"'speed' in [driver] = ", "rad/s is too small", "limit is 1e-09 rad/s"});
+}
+
+TEST(Limits, ASpeedBeyondTheLimitIsRefusedInItsOwnUnit) {
+  // 1e300 rev/s; the limit 1e9 rad/s is 1e9 / (2 pi) = 1.59155e8 rev/s.
+  std::string text = replaced(four_bar(), "speed = 10", "speed = 1e300");
+  text = replaced(text, "speed_unit = \"rad/s\"", "speed_unit = \"rev/s\"");
+  expect_diagnostic(text, place_of(text, "1e300"), {"too large", "1.59155e+08 rev/s"});
+}
+
+TEST(Limits, TableTimesCloserThanANanosecondAreRefused) {
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "table = [[0, 60], [1e-12, 61], [1, 62]]\nduration = 1");
+  expect_diagnostic(text, place_of(text, "[1e-12"), {"closer than the limit of 1e-09 s"});
+}
+
+TEST(Limits, APolynomialLawThatRunsAwayIsRefusedAtItsKey) {
+  // 60 deg + 1e10 deg/s * t passes 1e8 rad = 5.72958e9 deg before t = 1 s; its rate, 1.7e8
+  // rad/s, is within the 1e9 rad/s limit, so the value is the fault.
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "polynomial = [1e10]\nduration = 1");
+  const Place at = place_of(text, "polynomial =");
+  expect_diagnostic(text, {at.line, at.column + 13},
+                    {"[driver] 'polynomial' reaches", "the limit is 5.72958e+09 deg"});
+}
+
+TEST(Limits, AReferenceValueBeyondTheLimitIsRefused) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "omega.coupler"
+at = 60
+value = 1e300
+source = "test"
+)";
+  expect_diagnostic(text, place_of(text, "1e300"), {"'value' in [[reference]]", "too large"});
+}
+
+TEST(Limits, AMechanismSmallerThanAMicrometreIsRefused) {
+  // The base four-bar's ground in nanometres instead of metres: its points 0.1 nm apart, and
+  // every other link's at most 0.12 nm from its origin, all drawn near the world's origin.
+  std::string text = replaced(four_bar(), "length = \"m\"", "length = \"mm\"");
+  text = replaced(text, "D = [0.10, 0]", "D = [1e-7, 0]");
+  text = replaced(text, "B = [0.04, 0]", "B = [4e-8, 0]");
+  text = replaced(text, "C = [0.12, 0]", "C = [1.2e-7, 0]");
+  text = replaced(text, "C = [0.08, 0]", "C = [8e-8, 0]");
+  text = replaced(text, "pose = [0.02, 0.034641, 18.38]", "pose = [2e-8, 3.4641e-8, 18.38]");
+  text = replaced(text, "pose = [0.10, 0, 64.94]", "pose = [1e-7, 0, 64.94]");
+  expect_diagnostic(text, place_of(text, "[[link]]"), {"the mechanism's size", "1e-06 m"});
 }
 
 }  // namespace
