@@ -1,6 +1,7 @@
 // Limits on what one definition may hold, so that no file can crash the TOML parser, overflow a
 // computation to a non-finite value or make validation run for ever. They are fixed, and far
-// beyond what any planar linkage needs.
+// beyond what any planar linkage needs. (The work of a command has limits of its own, which
+// options raise: analytic/budget.h.)
 #pragma once
 
 namespace crosslink::limits {

@@ -21,6 +21,7 @@ struct SolveArgs {
   std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
   bool ic = false;                // print the instantaneous centres (with --at)
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
+  WorkLimits limits;
 };
 
 nlohmann::json sample_json(const Trajectory& t, int row) {
@@ -202,7 +203,7 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
-  if (args.step > 0.0)
+  if (args.step != 0.0)  // 0: the default; a negative or non-finite step is refused below
     options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
@@ -211,10 +212,12 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
-  Trajectory t =
-      single
-          ? solve_at(m, *args.at * (m.driver.angular() ? m.units.angle : m.units.length), options)
-          : sweep(m, options);
+  const double at = single ? *args.at * (m.driver.angular() ? m.units.angle : m.units.length) : 0;
+  if (single)
+    check_solve_at_work(m, at, options, args.limits);
+  else
+    check_sweep_work(m, options, args.limits);
+  Trajectory t = single ? solve_at(m, at, options) : sweep(m, options);
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
   // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
   // sweep follows that; auto keeps it.
@@ -277,6 +280,7 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
       ->check(CLI::IsMember({"stop", "reverse"}));
   cmd->add_flag("--ic", args->ic,
                 "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
+  add_max_samples(*cmd, args->limits);
   cmd->callback([&run, args] { run = [args] { return run_solve(*args); }; });
 }
 

@@ -62,6 +62,7 @@ struct Config {
                                      // the size, or rad): another assembly mode, branch_jump
   std::string perturb_link;
   double perturb_factor = 1.0;
+  long max_steps = kDefaultMaxSteps;
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -118,6 +119,8 @@ Config parse_settings(const Settings& overrides) {
       c.branch_distance = parse_number(name, value);
     } else if (name == "divergence_gap") {
       c.divergence_gap = parse_number(name, value);
+    } else if (name == "max_steps") {
+      c.max_steps = parse_max_steps(value);
     } else if (name == "precision") {
       if (value != "float64")
         throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
@@ -968,6 +971,13 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                              : config.perturb_link + ":" + format_number(config.perturb_factor)}};
   };
   settings_out();
+  // Refused before the scene is built: the history below keeps every step.
+  try {
+    check_steps((reference.time(last) - reference.time(first)) / dt + 2.0 * kPreroll, dt,
+                config.max_steps);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
 
   // Plan the scene; the multibody formulation falls back to rigid bodies when its tree
   // cannot be cut at revolute joints.
