@@ -187,6 +187,12 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
   const DynamicsCase& c = *mechanism.dynamics;
   const double duration = options.duration > 0.0 ? options.duration : c.duration;
   const double interval = options.interval > 0.0 ? options.interval : c.interval;
+  // Samples are stored: a duration far beyond its interval is refused, not attempted.
+  constexpr double kMostSamples = 1e6;
+  if (!(duration / interval < kMostSamples))
+    throw std::invalid_argument(fmt::format(
+        "{}: [dynamics] duration / interval = {:g} samples, more than {:g}: lengthen 'interval'",
+        mechanism.file, duration / interval, kMostSamples));
   const int n = static_cast<int>(std::floor(duration / interval + 1e-9)) + 1;
   std::vector<double> times(static_cast<size_t>(n));
   for (int k = 0; k < n; ++k) times[static_cast<size_t>(k)] = k * interval;

@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <numeric>
-#include <sstream>
+
+#include "analytic/limits.h"
 
 namespace crosslink {
 namespace {
@@ -21,6 +23,15 @@ std::string join(const std::vector<std::string>& names) {
   return text;
 }
 
+// How a number is read: SI per file unit, the unit's name for messages, and the magnitudes (SI)
+// it may have (limits.h).
+struct Scale {
+  double si = 1.0;
+  std::string_view unit;
+  double largest = std::numeric_limits<double>::max();
+  double smallest = 0.0;  // nonzero values below it are refused
+};
+
 // Collects every problem in a definition, each located by its TOML node.
 class Reader {
  public:
@@ -30,12 +41,11 @@ class Reader {
     return {file_, static_cast<int>(region.begin.line), static_cast<int>(region.begin.column)};
   }
   SourceLocation at(const toml::node& node) const { return at(node.source()); }
-  SourceLocation at(const toml::node* node) const {
-    return node ? at(*node) : SourceLocation{file_, 0, 0};
-  }
-  SourceLocation file() const { return {file_, 0, 0}; }
-  // Where something missing from `table` belongs: the table's header, or the file for the root
-  // (whose region starts at line 1, which holds something else).
+  SourceLocation at(const toml::node* node) const { return node ? at(*node) : file(); }
+  // The nearest place for what has none of its own (a missing top-level table): the file's
+  // first line, so every diagnostic reads file:line:column.
+  SourceLocation file() const { return {file_, 1, 1}; }
+  // Where something missing from `table` belongs: the table's header, or the file for the root.
   SourceLocation inside(const toml::table& table) const {
     return &table == root_ ? file() : at(table);
   }
@@ -71,40 +81,57 @@ class Reader {
     return std::nullopt;
   }
 
-  std::optional<double> number(const toml::node& node, std::string_view what) {
+  // A number converted to SI by `scale`, refused when it is not finite or is outside the
+  // scale's magnitudes (so that no product or quotient of it overflows).
+  std::optional<double> number(const toml::node& node, std::string_view what,
+                               const Scale& scale = {}) {
     std::optional<double> value;
     if (const auto* f = node.as_floating_point()) value = f->get();
     if (const auto* i = node.as_integer()) value = static_cast<double>(i->get());
     if (!value) {
       error(at(node), fmt::format("{} must be a number", what));
-    } else if (!std::isfinite(*value)) {
-      error(at(node), fmt::format("{} must be finite", what));
-      value.reset();
+      return std::nullopt;
     }
-    return value;
+    if (!std::isfinite(*value)) {
+      error(at(node), fmt::format("{} must be finite", what));
+      return std::nullopt;
+    }
+    const double si = *value * scale.si;
+    const std::string unit = scale.unit.empty() ? "" : " " + std::string(scale.unit);
+    if (!(std::abs(si) <= scale.largest)) {
+      error(at(node), fmt::format("{} = {:g}{} is too large: the limit is {:g}{}", what, *value,
+                                  unit, scale.largest / scale.si, unit));
+      return std::nullopt;
+    }
+    if (si != 0.0 && std::abs(si) < scale.smallest) {
+      error(at(node), fmt::format("{} = {:g}{} is too small: the limit is {:g}{}", what, *value,
+                                  unit, scale.smallest / scale.si, unit));
+      return std::nullopt;
+    }
+    return si;
   }
 
   std::optional<double> number(const toml::table& table, std::string_view key,
-                               std::string_view what, bool required) {
+                               std::string_view what, bool required, const Scale& scale = {}) {
     const toml::node* node = table.get(key);
     if (!node) {
       if (required) error(inside(table), fmt::format("{} needs '{}' (a number)", what, key));
       return std::nullopt;
     }
-    return number(*node, fmt::format("'{}' in {}", key, what));
+    return number(*node, fmt::format("'{}' in {}", key, what), scale);
   }
 
-  // A fixed-length array of numbers, e.g. [x, y] or [x, y, angle].
-  std::optional<std::vector<double>> numbers(const toml::node& node, size_t count,
-                                             std::string_view what) {
+  // A fixed-length array of numbers, e.g. [x, y] or [x, y, angle], each in SI by its scale.
+  std::optional<std::vector<double>> numbers(const toml::node& node, std::string_view what,
+                                             const std::vector<Scale>& scales) {
     const auto* array = node.as_array();
-    if (!array || array->size() != count) {
-      error(at(node), fmt::format("{} must be an array of {} numbers", what, count));
+    if (!array || array->size() != scales.size()) {
+      error(at(node), fmt::format("{} must be an array of {} numbers", what, scales.size()));
       return std::nullopt;
     }
     std::vector<double> values;
-    for (const toml::node& element : *array) {
-      const std::optional<double> v = number(element, what);
+    for (size_t k = 0; k < scales.size(); ++k) {
+      const std::optional<double> v = number((*array)[k], what, scales[k]);
       if (!v) return std::nullopt;
       values.push_back(*v);
     }
@@ -159,6 +186,17 @@ std::optional<double> unit_factor(Reader& r, const toml::table& table, std::stri
   return std::nullopt;
 }
 
+Scale length_scale(const Units& units) {
+  return {units.length, units.length_name, limits::kLength};
+}
+Scale angle_scale(const Units& units) {
+  return {units.angle, units.angle_name, limits::kAngle};
+}
+// Driver values: angles, or lengths for a slider.
+Scale driver_scale(const Mechanism& m) {
+  return m.driver.angular() ? angle_scale(m.units) : length_scale(m.units);
+}
+
 std::vector<std::string> point_names(const Link& link) {
   std::vector<std::string> names;
   for (const Point& p : link.points) names.push_back(p.name);
@@ -187,8 +225,11 @@ void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) 
                         what, com ? "inertia" : "com"));
     return;
   }
-  const std::optional<double> m = r.number(*mass, fmt::format("'mass' of {}", what));
-  const std::optional<double> i = r.number(*inertia, fmt::format("'inertia' of {}", what));
+  const std::optional<double> m = r.number(*mass, fmt::format("'mass' of {}", what),
+                                           Scale{units.mass, units.mass_name, limits::kMass});
+  const std::optional<double> i =
+      r.number(*inertia, fmt::format("'inertia' of {}", what),
+               Scale{units.mass * units.length * units.length, "", limits::kInertia});
   if (m && *m < 0.0) r.error(r.at(*mass), fmt::format("{}: 'mass' must not be negative", what));
   if (i && *i < 0.0)
     r.error(r.at(*inertia), fmt::format("{}: 'inertia' must not be negative", what));
@@ -204,12 +245,13 @@ void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) 
     else
       centre = link.points[static_cast<size_t>(p)].local;
   } else if (const auto xy =
-                 r.numbers(*com, 2, fmt::format("'com' of {} (a point name or [x, y])", what))) {
-    centre = Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length;
+                 r.numbers(*com, fmt::format("'com' of {} (a point name or [x, y])", what),
+                           {length_scale(units), length_scale(units)})) {
+    centre = Eigen::Vector2d((*xy)[0], (*xy)[1]);
   }
   if (!m || !i || !centre || *m < 0.0 || *i < 0.0) return;
-  link.mass.mass = *m * units.mass;
-  link.mass.inertia = *i * units.mass * units.length * units.length;
+  link.mass.mass = *m;
+  link.mass.inertia = *i;
   link.mass.com = *centre;
   link.mass.assumed = false;
 }
@@ -231,18 +273,25 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   const toml::table* points = r.table(t, "points", fmt::format("link '{}'", link.name), true);
-  if (points) {
+  if (points && points->size() > limits::kPoints) {
+    r.error(r.at(*points), fmt::format("link '{}' has {} points: the limit is {} in all links",
+                                       link.name, points->size(), limits::kPoints));
+  } else if (points) {
     if (points->empty()) r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
     for (auto&& [key, node] : *points) {
-      const auto xy =
-          r.numbers(node, 2, fmt::format("point '{}' of link '{}'", key.str(), link.name));
+      const auto xy = r.numbers(node, fmt::format("point '{}' of link '{}'", key.str(), link.name),
+                                {length_scale(units), length_scale(units)});
       if (!xy) continue;
       link.points.push_back(
-          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]) * units.length, r.at(node)});
+          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]), r.at(node)});
     }
   }
 
-  if (const toml::table* lines = r.table(t, "lines", what, false)) {
+  const toml::table* lines = r.table(t, "lines", what, false);
+  if (lines && lines->size() > limits::kLines) {
+    r.error(r.at(*lines), fmt::format("link '{}' has {} lines: the limit is {} in all links",
+                                      link.name, lines->size(), limits::kLines));
+  } else if (lines) {
     for (auto&& [key, node] : *lines) {
       const std::string line_what = fmt::format("line '{}' of link '{}'", key.str(), link.name);
       const auto* lt = node.as_table();
@@ -269,12 +318,14 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
       if (from < 0) continue;
       line.origin = link.points[from].local;
       const std::optional<std::string> toward = r.string(*lt, "toward", line_what, false);
-      const std::optional<double> angle = r.number(*lt, "angle", line_what, false);
-      if (toward.has_value() == angle.has_value()) {
+      if ((lt->get("toward") != nullptr) == (lt->get("angle") != nullptr)) {
         r.error(line.where,
                 fmt::format("{} needs exactly one of 'toward' (a point) or 'angle'", line_what));
         continue;
       }
+      const std::optional<double> angle =
+          r.number(*lt, "angle", line_what, false, angle_scale(units));
+      if (!toward && !angle) continue;  // reported
       if (toward) {
         const int to = link.find_point(*toward);
         if (to < 0) {
@@ -291,8 +342,7 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
         }
         line.direction = d.normalized();
       } else {
-        const double a = *angle * units.angle;
-        line.direction = Eigen::Vector2d(std::cos(a), std::sin(a));
+        line.direction = Eigen::Vector2d(std::cos(*angle), std::sin(*angle));
       }
       if (link.find_line(line.name) >= 0)
         r.error(line.where, fmt::format("duplicate line name '{}'", line.name));
@@ -301,10 +351,9 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   if (const toml::node* pose = t.get("pose")) {
-    if (const auto p =
-            r.numbers(*pose, 3, fmt::format("pose of link '{}' ([x, y, angle])", link.name)))
-      link.pose =
-          Eigen::Vector3d((*p)[0] * units.length, (*p)[1] * units.length, (*p)[2] * units.angle);
+    if (const auto p = r.numbers(*pose, fmt::format("pose of link '{}' ([x, y, angle])", link.name),
+                                 {length_scale(units), length_scale(units), angle_scale(units)}))
+      link.pose = Eigen::Vector3d((*p)[0], (*p)[1], (*p)[2]);
   }
   read_mass(r, t, units, link);
   return link;
@@ -401,8 +450,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
         line.value_or("?");
     joint.name = r.string(t, "name", twhat, false).value_or(default_name);
     if (joint.type == JointType::prismatic) {
-      if (const auto angle = r.number(t, "angle", twhat, false)) {
-        joint.relative_angle = *angle * m.units.angle;
+      if (const auto angle = r.number(t, "angle", twhat, false, angle_scale(m.units))) {
+        joint.relative_angle = *angle;
       } else if (joint.link_a >= 0 && joint.link_b >= 0) {
         // The slider keeps the relative angle it is drawn at (0 where a pose is not given).
         auto drawn = [&](int l) { return m.links[l].pose ? (*m.links[l].pose)(2) : 0.0; };
@@ -416,6 +465,36 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
                       "pin_in_slot)",
                       what, type));
   return joint;
+}
+
+// A polynomial or table law must stay within the magnitudes of a driver, its rates and
+// accelerations too, at every time the solvers evaluate it: the sweep's 361 samples and the
+// 3601-point grid `solve --at` searches (both equal divisions of the duration).
+void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
+  const Driver& d = m.driver;
+  const int n = 3600;
+  for (int k = 0; k <= n; ++k) {
+    const double time = d.law.duration * k / n;
+    const DriverState s = d.at_time(time);
+    const std::string_view unit = value_scale.unit;
+    std::string fault;
+    if (!(std::abs(s.value) <= value_scale.largest))
+      fault = fmt::format("reaches {:g} {} (the limit is {:g} {})", s.value / value_scale.si, unit,
+                          value_scale.largest / value_scale.si, unit);
+    else if (!(std::abs(s.rate) <= limits::kRate))
+      fault = fmt::format("moves at {:g} {}/s (the limit is {:g} in SI)", s.rate / value_scale.si,
+                          unit, limits::kRate);
+    else if (!(std::abs(s.accel) <= limits::kAcceleration))
+      fault = fmt::format("accelerates at {:g} {}/s^2 (the limit is {:g} in SI)",
+                          s.accel / value_scale.si, unit, limits::kAcceleration);
+    if (!fault.empty()) {
+      r.error(
+          d.law.where,
+          fmt::format("[driver] '{}' {} at t = {:g} s",
+                      d.law.kind == MotionLaw::Kind::table ? "table" : "polynomial", fault, time));
+      return;
+    }
+  }
 }
 
 void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
@@ -495,14 +574,16 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
 
   // Driver values are in the file's angle unit, or its length unit for a slider.
-  const double unit = d.angular() ? m.units.angle : m.units.length;
-  d.start = r.number(*t, "start", "[driver]", true).value_or(0.0) * unit;
+  const Scale value_scale = driver_scale(m);
+  d.start = r.number(*t, "start", "[driver]", true, value_scale).value_or(0.0);
   if (const toml::node* range = t->get("range")) {
-    if (const auto lr = r.numbers(*range, 2, "[driver] 'range' ([low, high])")) {
+    d.range_where = r.at(*range);
+    if (const auto lr =
+            r.numbers(*range, "[driver] 'range' ([low, high])", {value_scale, value_scale})) {
       if ((*lr)[0] >= (*lr)[1])
         r.error(r.at(*range), "[driver] 'range' must be [low, high] with low < high");
       else
-        d.range = std::make_pair((*lr)[0] * unit, (*lr)[1] * unit);
+        d.range = std::make_pair((*lr)[0], (*lr)[1]);
     }
   }
 
@@ -524,28 +605,34 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
   if (t->get("speed")) {
     d.law.kind = MotionLaw::Kind::constant_speed;
-    double factor = unit;
+    d.law.where = r.at(t->get("speed"));
+    Scale speed_scale{value_scale.si, "", limits::kRate, limits::kSlowestSpeed};
+    std::string unit_name = m.units.length_name + "/s";
     if (d.angular()) {
-      std::string unit_name;
-      if (const auto f = unit_factor(r, *t, "[driver]", "speed_unit", kAngularSpeedUnits, "rad/s"))
-        factor = *f;
+      unit_name = "rad/s";
+      if (const auto f =
+              unit_factor(r, *t, "[driver]", "speed_unit", kAngularSpeedUnits, "rad/s", &unit_name))
+        speed_scale.si = *f;
     } else if (t->get("speed_unit")) {
       r.error(r.at(t->get("speed_unit")),
               fmt::format("[driver]: a slider's speed is in the file's length unit per second "
                           "({}/s); remove 'speed_unit'",
                           m.units.length_name));
     }
-    const double speed = r.number(*t, "speed", "[driver]", true).value_or(0.0);
-    if (speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
-    d.law.speed = speed * factor;
+    speed_scale.unit = unit_name;
+    const std::optional<double> speed = r.number(*t, "speed", "[driver]", true, speed_scale);
+    if (speed && *speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
+    d.law.speed = speed.value_or(0.0);
     return;
   }
-  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true);
+  const Scale time_scale{1.0, "s", limits::kDuration, limits::kShortestDuration};
+  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true, time_scale);
   if (duration && *duration <= 0.0)
     r.error(r.at(t->get("duration")), "[driver] 'duration' must be positive (seconds)");
   d.law.duration = duration.value_or(0.0);
   if (const toml::node* poly = t->get("polynomial")) {
     d.law.kind = MotionLaw::Kind::polynomial;
+    d.law.where = r.at(*poly);
     const auto* array = poly->as_array();
     if (!array || array->empty()) {
       r.error(r.at(*poly),
@@ -553,28 +640,51 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
               "c2 t^2 + ... (file units, seconds)");
       return;
     }
-    for (const toml::node& c : *array)
-      d.law.coefficients.push_back(r.number(c, "a polynomial coefficient").value_or(0.0) * unit);
-    return;
-  }
-  d.law.kind = MotionLaw::Kind::table;
-  const toml::node* table = t->get("table");
-  const auto* rows = table->as_array();
-  if (!rows || rows->size() < 3) {
-    r.error(r.at(*table), "[driver] 'table' must list at least 3 rows [[t, value], ...]");
-    return;
-  }
-  for (const toml::node& row : *rows) {
-    const auto tv = r.numbers(row, 2, "a [driver] table row ([t, value])");
-    if (!tv) return;
-    if (!d.law.table_time.empty() && (*tv)[0] <= d.law.table_time.back()) {
-      r.error(r.at(row), "[driver] table times must increase strictly");
+    if (array->size() > limits::kPolynomialTerms) {
+      r.error(r.at(*poly), fmt::format("[driver] 'polynomial' has {} coefficients: the limit is {}",
+                                       array->size(), limits::kPolynomialTerms));
       return;
     }
-    d.law.table_time.push_back((*tv)[0]);
-    d.law.table_value.push_back((*tv)[1] * unit);
+    // Each coefficient is finite; what the law reaches is checked below.
+    for (const toml::node& c : *array)
+      d.law.coefficients.push_back(
+          r.number(c, "a polynomial coefficient", {value_scale.si, value_scale.unit})
+              .value_or(0.0));
+  } else {
+    d.law.kind = MotionLaw::Kind::table;
+    const toml::node* table = t->get("table");
+    d.law.where = r.at(*table);
+    const auto* rows = table->as_array();
+    if (!rows || rows->size() < 3) {
+      r.error(r.at(*table), "[driver] 'table' must list at least 3 rows [[t, value], ...]");
+      return;
+    }
+    if (rows->size() > limits::kTableRows) {
+      r.error(r.at(*table), fmt::format("[driver] 'table' has {} rows: the limit is {}",
+                                        rows->size(), limits::kTableRows));
+      return;
+    }
+    const Scale row_time{1.0, "s", limits::kDuration};
+    for (const toml::node& row : *rows) {
+      const auto tv = r.numbers(row, "a [driver] table row ([t, value])", {row_time, value_scale});
+      if (!tv) return;
+      if (!d.law.table_time.empty() && (*tv)[0] <= d.law.table_time.back()) {
+        r.error(r.at(row), "[driver] table times must increase strictly");
+        return;
+      }
+      // A shorter step makes the spline's rates overflow.
+      if (!d.law.table_time.empty() && (*tv)[0] - d.law.table_time.back() < time_scale.smallest) {
+        r.error(r.at(row), fmt::format("[driver] table times {:g} s and {:g} s are closer than "
+                                       "the limit of {:g} s",
+                                       d.law.table_time.back(), (*tv)[0], time_scale.smallest));
+        return;
+      }
+      d.law.table_time.push_back((*tv)[0]);
+      d.law.table_value.push_back((*tv)[1]);
+    }
+    d.start = d.law.table_value.front();
   }
-  d.start = d.law.table_value.front();
+  if (duration && r.diagnostics().empty()) check_law(r, m, value_scale);
 }
 
 // SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
@@ -607,10 +717,9 @@ std::vector<std::string> reference_objects(const Mechanism& m) {
   return objects;
 }
 
-bool names_object(const Mechanism& m, std::string_view quantity) {
+bool names_object(const std::vector<std::string>& objects, std::string_view quantity) {
   const size_t dot = quantity.find('.');
   if (dot == std::string_view::npos) return false;
-  const std::vector<std::string> objects = reference_objects(m);
   return std::find(objects.begin(), objects.end(), quantity.substr(dot + 1)) != objects.end();
 }
 
@@ -622,7 +731,12 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     r.error(r.at(*node), "'reference' must be an array of tables ([[reference]])");
     return;
   }
-  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  if (array->size() > limits::kReferences) {
+    r.error(r.at(*node), fmt::format("{} [[reference]] entries: the limit is {}", array->size(),
+                                     limits::kReferences));
+    return;
+  }
+  const std::vector<std::string> objects = reference_objects(m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
     r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "source"});
@@ -630,9 +744,10 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     ref.where = r.at(t);
     ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
     ref.source = r.string(t, "source", "[[reference]]", true).value_or("");
-    const std::optional<double> at = r.number(t, "at", "[[reference]]", true);
-    const std::optional<double> value = r.number(t, "value", "[[reference]]", true);
+    const std::optional<double> at = r.number(t, "at", "[[reference]]", true, driver_scale(m));
     const std::optional<double> factor = reference_factor(m, ref.quantity);
+    const std::optional<double> value = r.number(
+        t, "value", "[[reference]]", true, {factor.value_or(1.0), "", limits::kReferenceValue});
     if (!ref.quantity.empty() && !factor) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
@@ -642,16 +757,16 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
                           ref.quantity));
       continue;
     }
-    if (factor && !names_object(m, ref.quantity)) {
+    if (factor && !names_object(objects, ref.quantity)) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: '{}' names no moving link, point, joint, slider, "
                           "driver or ground (valid names: {})",
-                          ref.quantity, join(reference_objects(m))));
+                          ref.quantity, join(objects)));
       continue;
     }
     if (!at || !value || !factor) continue;
-    ref.driver_value = *at * driver_unit;
-    ref.value = *value * *factor;
+    ref.driver_value = *at;
+    ref.value = *value;
     m.references.push_back(ref);
   }
 }
@@ -680,9 +795,10 @@ bool read_place(Reader& r, const Mechanism& m, const toml::table& t, int link,
     name = *n;
     return true;
   }
-  const auto xy = r.numbers(*at, 2, fmt::format("'at' of {} ([x, y])", what));
+  const auto xy = r.numbers(*at, fmt::format("'at' of {} ([x, y])", what),
+                            {length_scale(m.units), length_scale(m.units)});
   if (!xy) return false;
-  local = Eigen::Vector2d((*xy)[0], (*xy)[1]) * m.units.length;
+  local = Eigen::Vector2d((*xy)[0], (*xy)[1]);
   return true;
 }
 
@@ -696,7 +812,6 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
     r.error(r.at(*node), "'load' must be an array of tables ([[load]])");
     return;
   }
-  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
   const double torque_unit = m.units.force * m.units.length;
   for (size_t index = 0; index < array->size(); ++index) {
     const toml::table& t = *(*array)[index].as_table();
@@ -734,17 +849,19 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
                           t.get("point") ? "point" : "at"));
       continue;
     }
-    const double unit = load.kind == Load::Kind::force ? m.units.force : torque_unit;
+    const Scale unit = load.kind == Load::Kind::force
+                           ? Scale{m.units.force, m.units.force_name, limits::kForce}
+                           : Scale{torque_unit, "", limits::kTorque};
     const size_t width = load.kind == Load::Kind::force ? 2 : 1;
     const toml::node& value = *t.get(kind);
     if (!load.table) {
       std::optional<std::vector<double>> v;
       if (width == 2)
-        v = r.numbers(value, 2, fmt::format("'force' of {} ([fx, fy])", what));
-      else if (const auto torque = r.number(value, fmt::format("'torque' of {}", what)))
+        v = r.numbers(value, fmt::format("'force' of {} ([fx, fy])", what), {unit, unit});
+      else if (const auto torque = r.number(value, fmt::format("'torque' of {}", what), unit))
         v = std::vector<double>{*torque};
       if (!v) continue;
-      load.rows.emplace_back(0.0, (*v)[0] * unit, width == 2 ? (*v)[1] * unit : 0.0);
+      load.rows.emplace_back(0.0, (*v)[0], width == 2 ? (*v)[1] : 0.0);
       m.loads.push_back(load);
       continue;
     }
@@ -755,21 +872,24 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
     }
     bool good = true;
     for (const toml::node& row : *rows) {
-      const auto v = r.numbers(row, width + 1,
+      std::vector<Scale> scales = {driver_scale(m), unit};
+      if (width == 2) scales.push_back(unit);
+      const auto v = r.numbers(row,
                                fmt::format("a row of '{}' of {} ([driver, {}])", kind, what,
-                                           width == 2 ? "fx, fy" : "torque"));
+                                           width == 2 ? "fx, fy" : "torque"),
+                               scales);
       if (!v) {
         good = false;
         break;
       }
-      const double d = (*v)[0] * driver_unit;
+      const double d = (*v)[0];
       if (!load.rows.empty() && d <= load.rows.back()(0)) {
         r.error(r.at(row),
                 fmt::format("{}: driver values in '{}' must increase strictly", what, kind));
         good = false;
         break;
       }
-      load.rows.emplace_back(d, (*v)[1] * unit, width == 2 ? (*v)[2] * unit : 0.0);
+      load.rows.emplace_back(d, (*v)[1], width == 2 ? (*v)[2] : 0.0);
     }
     if (good) m.loads.push_back(load);
   }
@@ -869,11 +989,12 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
                {"duration", "interval", "rate", "rate_unit", "effort", "effort_table"});
   DynamicsCase c;
   c.where = r.at(*t);
-  const std::optional<double> duration = r.number(*t, "duration", "[dynamics] (s)", true);
+  const Scale seconds{1.0, "s", limits::kDuration, limits::kShortestDuration};
+  const std::optional<double> duration = r.number(*t, "duration", "[dynamics] (s)", true, seconds);
   if (duration && *duration <= 0.0)
     r.error(r.at(t->get("duration")), "[dynamics] 'duration' must be positive (seconds)");
   c.duration = duration.value_or(0.0);
-  const std::optional<double> interval = r.number(*t, "interval", "[dynamics] (s)", true);
+  const std::optional<double> interval = r.number(*t, "interval", "[dynamics] (s)", true, seconds);
   if (interval && (*interval <= 0.0 || (duration && *interval > *duration)))
     r.error(r.at(t->get("interval")),
             "[dynamics] 'interval' (s between output samples) must be positive and at most "
@@ -904,7 +1025,8 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
               "[dynamics] 'effort_table' must list at least 2 rows [[t, value], ...]");
     else
       for (const toml::node& row : *rows) {
-        const auto tv = r.numbers(row, 2, "an 'effort_table' row ([t, value])");
+        const auto tv = r.numbers(row, "an 'effort_table' row ([t, value])",
+                                  {Scale{1.0, "s", limits::kDuration}, Scale{}});
         if (!tv) break;
         if (!c.effort.empty() && (*tv)[0] <= c.effort.back().first) {
           r.error(r.at(row), "[dynamics] 'effort_table' times must increase strictly");
@@ -924,7 +1046,8 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
   r.known_keys(*t, "[tolerance]",
                {"position", "angle", "velocity", "acceleration", "force", "torque"});
   auto read = [&](std::string_view key, std::optional<double>& out) {
-    if (const auto v = r.number(*t, key, "[tolerance] (% of peak)", false)) {
+    if (const auto v =
+            r.number(*t, key, "[tolerance] (% of peak)", false, {1.0, "%", limits::kTolerance})) {
       if (*v <= 0.0)
         r.error(r.at(t->get(key)), fmt::format("[tolerance] '{}' must be positive", key));
       else
@@ -946,10 +1069,11 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof"});
   Expectations e;
   e.where = r.at(*t);
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  if (const toml::node* limits = t->get("limits"))
-    if (const auto v = r.numbers(*limits, 2, "[expect] 'limits' ([lower, upper])"))
-      e.limits = std::make_pair((*v)[0] * unit, (*v)[1] * unit);
+  const Scale value_scale = driver_scale(m);
+  if (const toml::node* range = t->get("limits"))
+    if (const auto v =
+            r.numbers(*range, "[expect] 'limits' ([lower, upper])", {value_scale, value_scale}))
+      e.limits = std::make_pair((*v)[0], (*v)[1]);
   for (const auto& [key, out] :
        {std::pair{"toggles", &e.toggles}, std::pair{"change_points", &e.change_points}}) {
     const toml::node* node = t->get(key);
@@ -959,8 +1083,14 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
       r.error(r.at(*node), fmt::format("[expect] '{}' must be an array of driver values", key));
       continue;
     }
+    if (array->size() > limits::kExpectedPositions) {
+      r.error(r.at(*node), fmt::format("[expect] '{}' lists {} values: the limit is {}", key,
+                                       array->size(), limits::kExpectedPositions));
+      continue;
+    }
     for (const toml::node& v : *array)
-      if (const auto x = r.number(v, fmt::format("[expect] '{}'", key))) out->push_back(*x * unit);
+      if (const auto x = r.number(v, fmt::format("[expect] '{}'", key), value_scale))
+        out->push_back(*x);
   }
   e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
   if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
@@ -1062,6 +1192,91 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
   }
 }
 
+// Screens the text before toml++ parses it: a key with more dotted parts, or arrays and inline
+// tables nested deeper, than limits.h allows is refused at its place, since the parser recurses
+// once per level. A light scan: strings and comments are skipped, and every dot outside them
+// counts toward the key or value it is in (a float has one), up to the next = , [ ] { } or line.
+std::optional<Diagnostic> screen(std::string_view text, const std::string& file) {
+  int line = 1, column = 1, depth = 0, dots = 0;
+  size_t i = 0;
+  auto advance = [&](size_t n) {
+    for (size_t end = std::min(text.size(), i + n); i < end; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+  };
+  auto starts = [&](std::string_view token) { return text.substr(i, token.size()) == token; };
+  // Past the string opening at i (quote ' or "; three of them for a multi-line string).
+  auto skip_string = [&] {
+    const char quote = text[i];
+    const bool multi = starts(std::string(3, quote));
+    advance(multi ? 3 : 1);
+    while (i < text.size()) {
+      if (multi ? starts(std::string(3, quote)) : text[i] == quote) {
+        advance(multi ? 3 : 1);
+        return;
+      }
+      if (!multi && text[i] == '\n') return;  // unterminated: the parser says so
+      advance(quote == '"' && text[i] == '\\' ? 2 : 1);
+    }
+  };
+  while (i < text.size()) {
+    const char c = text[i];
+    if (c == '"' || c == '\'') {
+      skip_string();
+      continue;
+    }
+    if (c == '#') {
+      while (i < text.size() && text[i] != '\n') advance(1);
+      continue;
+    }
+    if (c == '[' || c == '{') {
+      dots = 0;
+      if (++depth > limits::kNesting)
+        return Diagnostic{{file, line, column},
+                          fmt::format("arrays and tables nested deeper than {} levels, the limit "
+                                      "of a definition",
+                                      limits::kNesting)};
+    } else if (c == ']' || c == '}') {
+      depth = std::max(0, depth - 1);
+      dots = 0;
+    } else if (c == '=' || c == ',' || c == '\n') {
+      dots = 0;
+    } else if (c == '.' && ++dots >= limits::kKeyParts) {
+      return Diagnostic{{file, line, column},
+                        fmt::format("a key of more than {} dotted parts, the limit of a definition",
+                                    limits::kKeyParts)};
+    }
+    advance(1);
+  }
+  return std::nullopt;
+}
+
+// Points and lines over all links within their limits (each link's were checked as read), and
+// a mechanism large enough for its size to scale tolerances.
+void check_counts(Reader& r, const Mechanism& m) {
+  size_t points = 0, lines = 0;
+  for (const Link& link : m.links) {
+    points += link.points.size();
+    lines += link.lines.size();
+    if (points > limits::kPoints || lines > limits::kLines) {
+      r.error(link.where, fmt::format("{} points and {} lines up to link '{}': the limits are {} "
+                                      "points and {} lines in all links",
+                                      points, lines, link.name, limits::kPoints, limits::kLines));
+      return;
+    }
+  }
+  if (r.diagnostics().empty() && m.size() < limits::kSmallestSize)
+    r.error(m.links.front().where,
+            fmt::format("the mechanism's size (the largest distance between its drawn points) is "
+                        "{:g} m: the limit is {:g} m",
+                        m.size(), limits::kSmallestSize));
+}
+
 Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
@@ -1096,8 +1311,15 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
     r.error(links ? r.at(*links) : r.file(), "a mechanism needs [[link]] tables");
     r.throw_if_any();
   }
+  if (link_array->size() > limits::kLinks) {
+    r.error(r.at((*link_array)[limits::kLinks]),
+            fmt::format("{} [[link]] tables: the limit is {}", link_array->size(), limits::kLinks));
+    r.throw_if_any();
+  }
   for (size_t i = 0; i < link_array->size(); ++i)
     m.links.push_back(read_link(r, *(*link_array)[i].as_table(), m.units, static_cast<int>(i)));
+  check_counts(r, m);
+  r.throw_if_any();
   // Names must be unique before joints refer to them.
   for (size_t i = 0; i < m.links.size(); ++i)
     for (size_t j = 0; j < i; ++j)
@@ -1117,13 +1339,19 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   for (Link& link : m.links)
     if (link.mass.assumed) link.mass = default_mass_properties(link, size);
   if (const toml::node* g = root.get("gravity"))
-    if (const auto v = r.numbers(*g, 2, "'gravity' ([gx, gy] in the length unit per s^2)"))
-      m.gravity = Eigen::Vector2d((*v)[0], (*v)[1]) * m.units.length;
+    if (const auto v = r.numbers(*g, "'gravity' ([gx, gy] in the length unit per s^2)",
+                                 {Scale{m.units.length, "", limits::kGravity},
+                                  Scale{m.units.length, "", limits::kGravity}}))
+      m.gravity = Eigen::Vector2d((*v)[0], (*v)[1]);
 
   const toml::node* joints = root.get("joint");
   const auto* joint_array = joints ? joints->as_array() : nullptr;
   if (!joint_array || !joint_array->is_array_of_tables()) {
     r.error(joints ? r.at(*joints) : r.file(), "a mechanism needs [[joint]] tables");
+  } else if (joint_array->size() > limits::kJoints) {
+    r.error(
+        r.at((*joint_array)[limits::kJoints]),
+        fmt::format("{} [[joint]] tables: the limit is {}", joint_array->size(), limits::kJoints));
   } else {
     for (size_t i = 0; i < joint_array->size(); ++i)
       m.joints.push_back(read_joint(r, m, *(*joint_array)[i].as_table(), static_cast<int>(i)));
@@ -1146,6 +1374,13 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
 
 Mechanism parse_mechanism(std::string_view text, const std::string& file) {
   Reader reader(file);
+  if (text.size() > static_cast<size_t>(limits::kDefinitionBytes)) {
+    reader.error(reader.file(), fmt::format("the file has more than {} bytes, the limit of a "
+                                            "definition",
+                                            limits::kDefinitionBytes));
+    reader.throw_if_any();
+  }
+  if (std::optional<Diagnostic> fault = screen(text, file)) throw DefinitionError({*fault});
   toml::table root;
   try {
     root = toml::parse(text, file);
@@ -1158,15 +1393,19 @@ Mechanism parse_mechanism(std::string_view text, const std::string& file) {
 
 Mechanism load_mechanism(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  auto refuse = [&](std::string message) {
     Diagnostic problem;
     problem.where.file = path;
-    problem.message = "cannot open the file";
+    problem.message = std::move(message);
     throw DefinitionError({problem});
-  }
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parse_mechanism(buffer.str(), path);
+  };
+  if (!in) refuse("cannot open the file");
+  // One byte over the limit is enough to refuse it (and /dev/zero is not read for ever).
+  std::string text(static_cast<size_t>(limits::kDefinitionBytes) + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (!in && !in.eof()) refuse("cannot read the file");  // a directory, say
+  text.resize(static_cast<size_t>(in.gcount()));
+  return parse_mechanism(text, path);
 }
 
 }  // namespace crosslink

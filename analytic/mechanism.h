@@ -106,6 +106,7 @@ struct MotionLaw {
   std::vector<double> table_time;    // table: knots [s], strictly increasing
   std::vector<double> table_value;   // table: q at the knots (natural cubic spline between)
   double duration = 0.0;             // polynomial, table: the cycle's length [s]
+  SourceLocation where;              // the law's key: speed, polynomial or table
 };
 
 // The driver's value and its first two time derivatives at one instant.
@@ -132,7 +133,8 @@ struct Driver {
   double start = 0.0;  // driver value at t = 0 (the drawn position) [rad or m]
   MotionLaw law;
   std::optional<std::pair<double, double>> range;  // optional sweep range [rad or m]
-  SourceLocation where;
+  SourceLocation where;                            // the [driver] table
+  SourceLocation range_where;                      // its 'range', when given
 
   bool angular() const { return type != DriverType::slider; }
   DriverState at_time(double t) const;  // from the motion law

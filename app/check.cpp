@@ -123,8 +123,9 @@ void print_singular_positions(const Mechanism& m) {
   }
 }
 
-int run_check(const std::string& path) {
+int run_check(const std::string& path, const WorkLimits& limits) {
   const Mechanism m = load_mechanism(path);
+  check_sweep_work(m, {}, limits);
   fmt::print("{}: {}\n", path, m.name);
   if (!m.citation.empty()) fmt::print("  source: {}\n", m.citation);
   fmt::print("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
@@ -147,8 +148,11 @@ int run_check(const std::string& path) {
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence) {
-    fmt::print(stderr, "{}: error: cannot assemble at driver = {:.6g} {}: {}\n", path,
-               m.driver.start / unit, unit_name, assembled.message);
+    // At the driver's table: its start value is where the chain must close.
+    const Diagnostic problem{m.driver.where,
+                             fmt::format("cannot assemble at driver = {:.6g} {}: {}",
+                                         m.driver.start / unit, unit_name, assembled.message)};
+    fmt::print(stderr, "{}\n", problem.str());
     return kExitBadInput;
   }
   fmt::print("  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
@@ -172,8 +176,11 @@ int run_check(const std::string& path) {
 void add_check(CLI::App& app, std::function<int()>& run) {
   auto* cmd = app.add_subcommand("check", "Validate a mechanism definition and report on it");
   auto path = std::make_shared<std::string>();
+  auto limits = std::make_shared<WorkLimits>();
   cmd->add_option("FILE", *path, "mechanism definition (.toml)")->required();
-  cmd->callback([&run, path] { run = [path] { return run_check(*path); }; });
+  add_max_samples(*cmd, *limits);
+  cmd->callback(
+      [&run, path, limits] { run = [path, limits] { return run_check(*path, *limits); }; });
 }
 
 }  // namespace crosslink::app

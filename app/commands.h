@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "analytic/budget.h"
 #include "analytic/sweep.h"
 #include "compare/methods.h"
 
@@ -25,6 +26,15 @@ void add_check(CLI::App& app, std::function<int()>& run);
 void add_solve(CLI::App& app, std::function<int()>& run);
 void add_compare(CLI::App& app, std::function<int()>& run);
 void add_sweep(CLI::App& app, std::function<int()>& run);
+
+// The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-steps
+// on those that run engines; `settings` with the engines' max_steps in front (a later one wins);
+// and the refusal (std::invalid_argument naming `option`) of an explicit time step `dt` that
+// would take more than `max_steps` steps over `span` seconds, before any engine runs.
+void add_max_samples(CLI::App& cmd, WorkLimits& limits);
+void add_max_steps(CLI::App& cmd, long& max_steps);
+sim::Settings with_max_steps(long max_steps, const sim::Settings& settings);
+void check_engine_steps(double span, double dt, long max_steps, const std::string& option);
 
 // Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
 // empty text; throws std::invalid_argument otherwise), and the progress line of a long search.

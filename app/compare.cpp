@@ -33,6 +33,8 @@ struct CompareArgs {
   std::vector<std::string> settings;    // "dt=1e-4", "mujoco:dt=1e-4"
   std::string accuracy;                 // "1" or "1%": cheapest engine settings (sweep.cpp)
   bool all = false;
+  WorkLimits limits;
+  long max_steps = sim::kDefaultMaxSteps;
 };
 
 // The bundled sewing machine: relative to the current directory, else to the source tree.
@@ -42,6 +44,7 @@ std::string default_mechanism() {
   return (fs::path(CROSSLINK_SOURCE_DIR) / relative).string();
 }
 
+// The settings of `engine` among all --set KEY=VALUE and ENGINE:KEY=VALUE, in order.
 sim::Settings settings_for(const std::string& engine, const std::vector<std::string>& all) {
   sim::Settings out;
   for (const std::string& s : all) {
@@ -80,9 +83,28 @@ int run_compare(CompareArgs args) {
 
   SweepOptions options;
   const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
-  if (args.step > 0.0) options.step = args.step * driver_scale;
+  if (args.step != 0.0) options.step = args.step * driver_scale;  // 0: the default
+  check_sweep_work(m, options, args.limits);
   std::vector<compare::MethodRun> runs;
   runs.push_back(compare::run_reference(m, options));
+  // An explicit time step is refused before any engine runs when it would take too many steps.
+  const Trajectory& reference = runs.front().trajectory;
+  const double span =
+      reference.samples() > 1 ? reference.time(reference.samples() - 1) - reference.time(0) : 0.0;
+  for (const std::string& n : names) {
+    if (!compare::Tolerances::is_engine(n)) continue;
+    const sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
+    std::optional<double> dt;
+    long max_steps = args.max_steps;
+    for (const auto& [key, value] : settings) {
+      try {
+        if (key == "dt") dt = value == "auto" ? std::optional<double>() : std::stod(value);
+        if (key == "max_steps") max_steps = std::stol(value);
+      } catch (const std::exception&) {  // not a number: the engine says so
+      }
+    }
+    if (dt) check_engine_steps(span, *dt, max_steps, fmt::format("--set dt={:g} ({})", *dt, n));
+  }
   if (!args.export_mjcf.empty()) {
     const std::string mjcf =
         sim::mujoco_mjcf(m, runs.front().trajectory, settings_for("mujoco", args.settings));
@@ -90,7 +112,7 @@ int run_compare(CompareArgs args) {
   }
   for (const std::string& n : names) {
     if (n == "analytic") continue;
-    sim::Settings settings = settings_for(n, args.settings);
+    sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
     if (accuracy && compare::Tolerances::is_engine(n))
       settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
                                    args.json == "-" ? stderr : stdout);
@@ -154,6 +176,8 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--export-mjcf", args->export_mjcf,
                   "write the generated MuJoCo model (MJCF) to open in MuJoCo's own viewer");
   cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
+  add_max_samples(*cmd, args->limits);
+  add_max_steps(*cmd, args->max_steps);
   cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }
 

@@ -21,6 +21,7 @@ struct SolveArgs {
   std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
   bool ic = false;                // print the instantaneous centres (with --at)
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
+  WorkLimits limits;
 };
 
 // The forces of a usable sample in the documented schema (docs/json.md); null otherwise.
@@ -225,7 +226,7 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
-  if (args.step > 0.0)
+  if (args.step != 0.0)  // 0: the default; a negative or non-finite step is refused below
     options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
@@ -234,10 +235,12 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
-  Trajectory t =
-      single
-          ? solve_at(m, *args.at * (m.driver.angular() ? m.units.angle : m.units.length), options)
-          : sweep(m, options);
+  const double at = single ? *args.at * (m.driver.angular() ? m.units.angle : m.units.length) : 0;
+  if (single)
+    check_solve_at_work(m, at, options, args.limits);
+  else
+    check_sweep_work(m, options, args.limits);
+  Trajectory t = single ? solve_at(m, at, options) : sweep(m, options);
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
   // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
   // sweep follows that; auto keeps it.
@@ -272,7 +275,10 @@ int run_solve(const SolveArgs& args) {
   } else
     print_table_sweep(m, t);
   if (single && !usable(t.status[0])) {
-    fmt::print(stderr, "{}: error: {} at driver = {}\n", m.file, to_string(t.status[0]), *args.at);
+    fmt::print(stderr, "{}\n",
+               Diagnostic{m.driver.where,
+                          fmt::format("{} at driver = {}", to_string(t.status[0]), *args.at)}
+                   .str());
     return kExitBadInput;
   }
   return kExitOk;
@@ -297,6 +303,7 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
       ->check(CLI::IsMember({"stop", "reverse"}));
   cmd->add_flag("--ic", args->ic,
                 "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
+  add_max_samples(*cmd, args->limits);
   cmd->callback([&run, args] { run = [args] { return run_solve(*args); }; });
 }
 

@@ -54,6 +54,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The grid's size multiplies the work: bounded like every other input.
+constexpr size_t kMaxTimeSteps = 50;
+constexpr int kMaxRepeat = 100;
+
 struct SweepArgs {
   std::string path;
   std::string engines = "mujoco,bullet";
@@ -62,6 +66,8 @@ struct SweepArgs {
   double step = 0.0;
   int repeat = 1;
   bool quiet = false;
+  WorkLimits limits;
+  long max_steps = sim::kDefaultMaxSteps;
 };
 
 int run_sweep(const SweepArgs& args) {
@@ -74,11 +80,20 @@ int run_sweep(const SweepArgs& args) {
       throw std::invalid_argument(
           fmt::format("--engines: '{}' has no settings to sweep (engines: mujoco, bullet)", e));
   if (!args.dts.empty()) options.dts = args.dts;
-  for (double dt : options.dts)
+  if (options.dts.size() > kMaxTimeSteps)
+    throw std::invalid_argument(
+        fmt::format("--dt: {} time steps: the limit is {}", options.dts.size(), kMaxTimeSteps));
+  for (double dt : options.dts) {
     if (!(dt > 0.0)) throw std::invalid_argument("--dt: time steps must be positive");
-  if (args.step > 0.0)
+    // The reference covers at most one cycle; the defaults are left to the engines' own check.
+    if (!args.dts.empty() && m.cycle_period() > 0.0)
+      check_engine_steps(m.cycle_period(), dt, args.max_steps, fmt::format("--dt {:g}", dt));
+  }
+  if (args.step != 0.0)  // 0: the default
     options.sweep.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
-  options.repeat = std::max(1, args.repeat);
+  check_sweep_work(m, options.sweep, args.limits);
+  options.base = with_max_steps(args.max_steps, {});
+  options.repeat = args.repeat;
   options.accuracy_pct = parse_accuracy(args.accuracy);
   if (!args.quiet) options.progress = print_progress;
 
@@ -134,8 +149,11 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
                   "X or X%: the cheapest setting per engine meeting X % of peak on every class");
   cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)");
   cmd->add_option("--repeat", args->repeat, "time each setting N times, keep the fastest")
+      ->check(CLI::Range(1, kMaxRepeat))
       ->capture_default_str();
   cmd->add_flag("--quiet", args->quiet, "no progress lines on stderr");
+  add_max_samples(*cmd, args->limits);
+  add_max_steps(*cmd, args->max_steps);
   cmd->callback([&run, args] { run = [args] { return run_sweep(*args); }; });
 }
 

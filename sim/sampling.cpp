@@ -1,11 +1,36 @@
 #include "sim/sampling.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 namespace crosslink::sim {
+
+long parse_max_steps(const std::string& text) {
+  size_t used = 0;
+  long value = 0;
+  try {
+    value = std::stol(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || value < 1)
+    throw std::invalid_argument(
+        fmt::format("setting max_steps: a positive whole number, got '{}'", text));
+  return value;
+}
+
+void check_steps(double steps, double dt, long max_steps) {
+  if (steps <= static_cast<double>(max_steps)) return;  // NaN (no dt) is refused too
+  throw std::runtime_error(fmt::format(
+      "dt = {:g} s takes {:.0f} steps over the run: the limit is {} steps (raise it with "
+      "--max-steps N, or the setting max_steps)",
+      dt, steps, max_steps));
+}
 
 Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& reference, int row) {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());

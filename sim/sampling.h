@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <string>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -18,6 +19,13 @@ Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& refe
 
 // Largest difference between two configurations: positions per `size`, angles modulo 2 pi.
 double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size);
+
+// The setting "max_steps": a positive whole number (std::invalid_argument otherwise).
+long parse_max_steps(const std::string& text);
+
+// Refuses (std::runtime_error) a run of `steps` steps of `dt` seconds when that is more than
+// `max_steps`, before it starts; the message says how to raise the limit.
+void check_steps(double steps, double dt, long max_steps);
 
 // Finite-difference weights (Fornberg 1988) of the value, first and second derivative at x0
 // from values at the nodes x (any spacing, x0 inside or outside them).

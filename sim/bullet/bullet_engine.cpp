@@ -64,6 +64,7 @@ struct Config {
                                      // the size, or rad): another assembly mode, branch_jump
   std::string perturb_link;
   double perturb_factor = 1.0;
+  long max_steps = kDefaultMaxSteps;
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -126,6 +127,8 @@ Config parse_settings(const Settings& overrides) {
       if (value != "0" && value != "1")
         throw std::invalid_argument("setting split_impulse: 0 or 1, got '" + value + "'");
       c.split_impulse = value == "1";
+    } else if (name == "max_steps") {
+      c.max_steps = parse_max_steps(value);
     } else if (name == "precision") {
       if (value != "float64")
         throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
@@ -1085,6 +1088,13 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                              : config.perturb_link + ":" + format_number(config.perturb_factor)}};
   };
   settings_out();
+  // Refused before the scene is built: the history below keeps every step.
+  try {
+    check_steps((reference.time(last) - reference.time(first)) / dt + 2.0 * kPreroll, dt,
+                config.max_steps);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
 
   // Plan the scene; the multibody formulation falls back to rigid bodies when its tree
   // cannot be cut at revolute joints.

@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -59,6 +60,7 @@ struct Config {
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
   std::string force_read = "centred";  // centred | raw (docs/engines.md, "Forces")
+  long max_steps = kDefaultMaxSteps;
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -101,11 +103,13 @@ Config parse_settings(const Settings& overrides) {
       c.tolerance = parse_number(name, value);
     } else if (name == "max_step_angle") {
       c.max_step_angle = parse_number(name, value);
+    } else if (name == "max_steps") {
+      c.max_steps = parse_max_steps(value);
     } else {
       throw std::runtime_error(fmt::format(
           "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
           "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
-          "driver_threshold, perturb_link, force_read)",
+          "driver_threshold, perturb_link, force_read, max_steps)",
           name));
     }
   }
@@ -209,13 +213,20 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
     wanted = parse_number("dt", c.dt);
     if (!(wanted > 0.0)) throw std::runtime_error("setting dt: must be positive");
   }
+  // Steps per sample interval, counted (as doubles: they may be astronomical) before the grid
+  // takes any memory.
+  std::vector<double> per_interval;
+  for (int i = span.first + 1; i <= span.last; ++i)
+    per_interval.push_back(
+        std::max(1.0, std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9)));
+  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0), wanted, c.max_steps);
   TimeGrid grid;
   grid.sample_step.assign(static_cast<size_t>(n), -1);
   grid.time.push_back(reference.time(span.first));
   grid.sample_step[static_cast<size_t>(span.first)] = 0;
   for (int i = span.first + 1; i <= span.last; ++i) {
     const double interval = reference.time(i) - reference.time(i - 1);
-    const long steps = std::max(1L, static_cast<long>(std::ceil(interval / wanted - 1e-9)));
+    const long steps = static_cast<long>(per_interval[static_cast<size_t>(i - span.first - 1)]);
     const double h = interval / static_cast<double>(steps);
     for (long k = 1; k <= steps; ++k)
       grid.time.push_back(k == steps ? reference.time(i)

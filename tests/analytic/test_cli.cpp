@@ -130,7 +130,15 @@ speed = 1
 )");
   const CommandRun run = crosslink("check \"" + path + "\"");
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.err.find("cannot assemble at driver = 180 deg"), std::string::npos) << run.err;
+  // At the place of the [driver] table (line 35), whose start value cannot be assembled.
+  EXPECT_NE(run.err.find(path + ":35:1: error: cannot assemble at driver = 180 deg"),
+            std::string::npos)
+      << run.err;
+  const CommandRun solve = crosslink("solve \"" + path + "\" --at 180");
+  EXPECT_EQ(solve.exit_code, 2);
+  EXPECT_NE(solve.err.find(path + ":35:1: error: cannot_assemble at driver = 180"),
+            std::string::npos)
+      << solve.err;
 }
 
 nlohmann::json solve_json(const std::string& args, int expected_exit = 0) {
@@ -246,6 +254,123 @@ TEST(Cli, SolveCsvHeaderAndRows) {
     ++rows;
   }
   EXPECT_EQ(rows, 361);
+}
+
+// A header of 100,000 dotted keys (200 kB) crashed the TOML parser with SIGSEGV: now every
+// command that reads it exits 2 with a located message.
+TEST(Cli, AHostileHeaderIsBadInputNotACrash) {
+  std::string header = "[a";
+  for (int k = 1; k < 100000; ++k) header += ".a";
+  const std::string path = write_definition("hostile.toml", header + "]\n");
+  for (const char* command : {"check", "solve", "compare", "sweep"}) {
+    const CommandRun run = crosslink(std::string(command) + " \"" + path + "\"");
+    EXPECT_EQ(run.exit_code, 2) << command << ": " << run.err.substr(0, 300);
+    EXPECT_NE(run.err.find(path + ":1:33: error: a key of more than 16 dotted parts"),
+              std::string::npos)
+        << command << ": " << run.err.substr(0, 300);
+  }
+}
+
+// The sewing machine with `line` added to its [driver] table; `line_number` gets its line.
+std::string sewing_with(const std::string& name, const std::string& line, int* line_number) {
+  std::string text = read_file(kSewing);
+  const size_t at = text.find("\nspeed = 240");
+  *line_number = 2 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  text.insert(at + 1, line + "\n");
+  return write_definition(name, text);
+}
+
+// The issue's typo, range = [-30, 1e9] degrees at 1-degree steps, made check and solve run for
+// ever: now refused at once, at the range, with the count, the limit and the option.
+TEST(Cli, ARangeTypoIsRefusedBeforeAnyWork) {
+  int line = 0;
+  const std::string path = sewing_with("typo.toml", "range = [-30, 1e9]", &line);
+  for (const char* command : {"check", "solve", "compare", "sweep"}) {
+    const CommandRun run = crosslink(std::string(command) + " \"" + path + "\"");
+    EXPECT_EQ(run.exit_code, 2) << command;
+    EXPECT_NE(run.err.find(path + ":" + std::to_string(line) +
+                           ":9: error: driver.range = [-30, 1e+09] deg at a step of 1 deg asks "
+                           "for 1000000031 samples: the limit is 100000 (raise it with "
+                           "--max-samples N)"),
+              std::string::npos)
+        << command << ": " << run.err;
+  }
+}
+
+// --max-samples on every command: the sewing machine's 361 samples at 1 degree (a full turn,
+// both ends) pass a limit of 361 and are refused at 360, naming the step.
+TEST(Cli, MaxSamplesSetsTheLimit) {
+  for (const char* command : {"check", "solve", "compare", "sweep"}) {
+    const std::string base = std::string(command) + " " + kSewing + " --max-samples ";
+    const CommandRun refused = crosslink(base + "360");
+    EXPECT_EQ(refused.exit_code, 2) << command;
+    EXPECT_NE(refused.err.find("the default step of 1 degree asks for 361 samples: the limit is "
+                               "360 (raise it with --max-samples N)"),
+              std::string::npos)
+        << command << ": " << refused.err;
+  }
+  EXPECT_EQ(crosslink(std::string("check ") + kSewing + " --max-samples 361").exit_code, 0);
+  // 2-degree steps: 181 samples.
+  const CommandRun coarse =
+      crosslink(std::string("solve ") + kSewing + " --step 2 --max-samples 181 --format csv");
+  EXPECT_EQ(coarse.exit_code, 0) << coarse.err;
+  EXPECT_EQ(std::count(coarse.out.begin(), coarse.out.end(), '\n'), 1 + 181);
+}
+
+TEST(Cli, SolveAtAFarOrNonFiniteValueIsRefused) {
+  // From the drawn 135 degrees to 1e7 degrees in steps of at most 1 degree.
+  const CommandRun far = crosslink(std::string("solve ") + kSewing + " --at 1e7");
+  EXPECT_EQ(far.exit_code, 2);
+  EXPECT_NE(far.err.find("--at 1e+07 deg asks for 9999865 continuation steps"), std::string::npos)
+      << far.err;
+  const CommandRun nan = crosslink(std::string("solve ") + kSewing + " --at nan");
+  EXPECT_EQ(nan.exit_code, 2);
+  EXPECT_NE(nan.err.find("--at nan deg is not a driver value"), std::string::npos) << nan.err;
+}
+
+// An explicit engine time step is refused before any engine runs when it would take more steps
+// than --max-steps: the sewing machine's turn lasts 0.25 s, so dt = 1e-9 s is 2.5e8 steps.
+TEST(Cli, AnEngineTimeStepBeyondMaxStepsIsRefused) {
+  const CommandRun compare =
+      crosslink(std::string("compare ") + kSewing + " --engines analytic,mujoco --set dt=1e-9");
+  EXPECT_EQ(compare.exit_code, 2);
+  EXPECT_NE(compare.err.find("dt = 1e-09 s takes 250000000 steps over the run: the limit is "
+                             "2000000 steps (raise it with --max-steps N"),
+            std::string::npos)
+      << compare.err;
+  const CommandRun sweep =
+      crosslink(std::string("sweep ") + kSewing + " --dt 1e-4 --max-steps 2000");
+  EXPECT_EQ(sweep.exit_code, 2);
+  EXPECT_NE(sweep.err.find("--dt 0.0001: dt = 0.0001 s takes 2500 steps over the run: the limit is "
+                           "2000 steps"),
+            std::string::npos)
+      << sweep.err;
+}
+
+// A step the engine chooses itself (dt auto) is held to the same limit by the engine: the run
+// is refused, and the comparison fails saying why.
+TEST(Cli, AnEngineRefusesARunBeyondMaxSteps) {
+  const CommandRun run = crosslink(std::string("compare ") + kSewing +
+                                   " --engines analytic,mujoco,bullet --max-steps 100");
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_GE(static_cast<int>(std::count(run.out.begin(), run.out.end(), '\n')), 1);
+  size_t found = 0;
+  for (size_t at = 0; (at = run.out.find("the limit is 100 steps", at)) != std::string::npos; ++at)
+    ++found;
+  EXPECT_GE(found, 2u) << "both engines should say so:\n" << run.out;
+}
+
+// The settings grid of `sweep` multiplies its work: --repeat and the --dt list are bounded too.
+TEST(Cli, TheSweepGridIsBounded) {
+  const CommandRun repeat = crosslink(std::string("sweep ") + kSewing + " --repeat 101");
+  EXPECT_EQ(repeat.exit_code, 2);
+  EXPECT_NE(repeat.err.find("--repeat: Value 101 not in range 1 to 100"), std::string::npos)
+      << repeat.err;
+  std::string dts = "1e-3";
+  for (int k = 1; k < 51; ++k) dts += ",1e-3";
+  const CommandRun grid = crosslink(std::string("sweep ") + kSewing + " --dt " + dts);
+  EXPECT_EQ(grid.exit_code, 2);
+  EXPECT_NE(grid.err.find("--dt: 51 time steps: the limit is 50"), std::string::npos) << grid.err;
 }
 
 }  // namespace

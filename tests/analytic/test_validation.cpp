@@ -242,9 +242,37 @@ TEST(Validation, MissingDriver) {
   const std::vector<Diagnostic> found = diagnostics_of(text);
   const Diagnostic* d = find(found, {"[driver]"});
   ASSERT_NE(d, nullptr);
-  // Nothing to point at inside the file: the diagnostic names the file alone.
-  EXPECT_EQ(d->where.line, 0) << d->str();
-  EXPECT_EQ(d->str().rfind("bad.toml: error:", 0), 0u) << d->str();
+  // Nothing to point at inside the file: the nearest place is its first line.
+  EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
+}
+
+// Every missing top-level piece is reported at the file's first line, like the driver.
+TEST(Validation, MissingTopLevelTablesAtLineOne) {
+  const std::string header_without_units = "name = \"four-bar\"\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"[units]", header_without_units + kGround + kMoving + kJoints + kDriver},
+      {"[[link]]", kHeader + kDriver},
+      {"[[joint]]", kHeader + kGround + kMoving + kDriver},
+      {"'name'", replaced(four_bar(), "name = \"four-bar\"\n", "")},
+  };
+  for (const auto& [missing, text] : cases) {
+    const std::vector<Diagnostic> found = diagnostics_of(text);
+    const Diagnostic* d = find(found, {missing});
+    ASSERT_NE(d, nullptr) << missing;
+    EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
+  }
+}
+
+// Without a [driver] table, the mobility count still has a place. A second pin at A makes
+// M = 3(4-1) - 2*5 = -1.
+TEST(Validation, MobilityWithoutADriverTableHasAPlace) {
+  const std::string text = kHeader + kGround + kMoving + kJoints +
+                           "[[joint]]\ntype = \"revolute\"\nname = \"A2\"\n"
+                           "links = [\"ground\", \"crank\"]\npoint = \"A\"\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  const Diagnostic* d = find(found, {"mobility -1"});
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->str().rfind("bad.toml:1:1: error:", 0), 0u) << d->str();
 }
 
 // A slider-crank: crank AB, connecting rod BC, piston on the ground's line through A.
@@ -498,6 +526,172 @@ TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
   EXPECT_TRUE(state.qddot.allFinite());
   // The message says why: the loop gap left at the closest approach.
   EXPECT_NE(report.message.find("loop gap"), std::string::npos) << report.message;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Limits (analytic/limits.h): what reaches the TOML parser, counts, magnitudes. Each fault is
+// refused at its place, and the message states the limit.
+
+TEST(Limits, ADefinitionOverOneMebibyteIsRefusedAtLineOne) {
+  // Valid TOML all through: a comment long enough to take the file over 1 MiB.
+  const std::string text = four_bar() + "# " + std::string(1 << 20, 'x') + "\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].str().rfind("bad.toml:1:1: error:", 0), 0u) << found[0].str();
+  EXPECT_NE(found[0].message.find("1048576 bytes"), std::string::npos) << found[0].message;
+}
+
+TEST(Limits, ADottedHeaderOfTooManyPartsIsRefusedWhereItPassesTheLimit) {
+  // [a.a.a...] of 100,000 parts crashed toml++ (stack overflow). The 16th dot starts the 17th
+  // part: after "[" and 15 times "a.", then "a", it is at column 1 + 15 * 2 + 2 = 33.
+  std::string header = "[a";
+  for (int k = 1; k < 100000; ++k) header += ".a";
+  const std::string text = four_bar() + header + "]\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "[a.a").line) << found[0].str();
+  EXPECT_EQ(found[0].where.column, 33) << found[0].str();
+  EXPECT_NE(found[0].message.find("more than 16 dotted parts"), std::string::npos);
+}
+
+TEST(Limits, SixteenDottedPartsAreAccepted) {
+  // At the limit the key reaches the loader, which does not know it: a different error.
+  std::string key = "a";
+  for (int k = 1; k < 16; ++k) key += ".a";
+  const std::vector<Diagnostic> found = diagnostics_of(four_bar() + key + " = 1\n");
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NE(found[0].message.find("unknown key 'a'"), std::string::npos) << found[0].str();
+}
+
+TEST(Limits, NestingDeeperThanSixteenLevelsIsRefused) {
+  // The 17th opening bracket of the value after "x = " is at column 5 + 16.
+  const std::string text = four_bar() + "x = " + std::string(17, '[') + std::string(17, ']') + "\n";
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "x = [").line) << found[0].str();
+  EXPECT_EQ(found[0].where.column, 5 + 16) << found[0].str();
+  EXPECT_NE(found[0].message.find("deeper than 16 levels"), std::string::npos);
+}
+
+TEST(Limits, DotsAndBracketsInStringsAndCommentsDoNotCount) {
+  const std::string dots(200, '.');
+  const std::string description = dots + "[[[[\\\"" + std::string(40, '{');
+  const std::string text =
+      replaced(four_bar(), "name = \"four-bar\"",
+               "name = \"four-bar\"\ndescription = \"" + description + "\"  # " + dots +
+                   std::string(40, '[') + "\ncitation = '''" + dots + "\n" + dots + "'''");
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  EXPECT_EQ(m.description, dots + "[[[[\"" + std::string(40, '{'));
+}
+
+// Ground and n moving links, each pinned to the ground at a point of its own.
+std::string many_links(int n) {
+  std::string text =
+      kHeader + "[[link]]\nname = \"ground\"\nground = true\npoints = { P0 = [0, 0] }\n";
+  for (int k = 1; k <= n; ++k)
+    text += fmt::format("[[link]]\nname = \"l{}\"\npoints = {{ P{} = [{}, 0] }}\n", k, k, k);
+  return text;
+}
+
+TEST(Limits, MoreThanAHundredLinksAreRefusedAtTheHundredAndFirst) {
+  // Ground and 100 moving links make 101 [[link]] tables; the 101st (index 100) is the fault.
+  const std::string text = many_links(100);
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].where.line, place_of(text, "[[link]]", 100).line) << found[0].str();
+  EXPECT_NE(found[0].message.find("101 [[link]] tables: the limit is 100"), std::string::npos)
+      << found[0].message;
+  // A hundred pass the count and fail later, for want of joints.
+  const std::vector<Diagnostic> fewer = diagnostics_of(many_links(99));
+  const Diagnostic* joints = find(fewer, {"[[joint]]"});
+  ASSERT_NE(joints, nullptr);
+  EXPECT_EQ(joints->where.line, 1);
+}
+
+TEST(Limits, ATableLawOfMoreThanTenThousandRowsIsRefused) {
+  std::string rows;
+  for (int k = 0; k <= 10000; ++k) rows += fmt::format("{}[{}, {}]", k ? ", " : "", k * 1e-4, k);
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "table = [" + rows + "]\nduration = 1");
+  const Place at = place_of(text, "table =");
+  expect_diagnostic(text, {at.line, at.column + 8}, {"10001 rows: the limit is 10000"});
+}
+
+TEST(Limits, APolynomialOfMoreThanTwentyCoefficientsIsRefused) {
+  std::string coefficients = "1";
+  for (int k = 1; k < 21; ++k) coefficients += ", 0";
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "polynomial = [" + coefficients + "]\nduration = 1");
+  const Place at = place_of(text, "polynomial =");
+  expect_diagnostic(text, {at.line, at.column + 13}, {"21 coefficients: the limit is 20"});
+}
+
+TEST(Limits, ACoordinateBeyondAThousandKilometresIsRefusedInFileUnits) {
+  // 2e9 mm is 2000 km; the limit, 1e6 m, is 1e9 mm.
+  std::string text = replaced(four_bar(), "length = \"m\"", "length = \"mm\"");
+  text = replaced(text, "D = [0.10, 0]", "D = [2e9, 0]");
+  expect_diagnostic(text, place_of(text, "2e9"),
+                    {"point 'D' of link 'ground' = 2e+09 mm is too large", "limit is 1e+09 mm"});
+}
+
+TEST(Limits, AnAngleBeyondAHundredMillionRadiansIsRefused) {
+  // 1e10 deg is 1.7e8 rad.
+  const std::string text = replaced(four_bar(), "pose = [0, 0, 60]", "pose = [0, 0, 1e10]");
+  expect_diagnostic(text, place_of(text, "1e10"), {"pose of link 'crank'", "too large"});
+}
+
+TEST(Limits, ASpeedTooSlowForACycleIsRefused) {
+  // 1e-320 rad/s (subnormal) makes one turn last 6e320 s, an infinite time.
+  const std::string text = replaced(four_bar(), "speed = 10", "speed = 1e-320");
+  expect_diagnostic(text, place_of(text, "1e-320"),
+                    {"'speed' in [driver] = ", "rad/s is too small", "limit is 1e-09 rad/s"});
+}
+
+TEST(Limits, ASpeedBeyondTheLimitIsRefusedInItsOwnUnit) {
+  // 1e300 rev/s; the limit 1e9 rad/s is 1e9 / (2 pi) = 1.59155e8 rev/s.
+  std::string text = replaced(four_bar(), "speed = 10", "speed = 1e300");
+  text = replaced(text, "speed_unit = \"rad/s\"", "speed_unit = \"rev/s\"");
+  expect_diagnostic(text, place_of(text, "1e300"), {"too large", "1.59155e+08 rev/s"});
+}
+
+TEST(Limits, TableTimesCloserThanANanosecondAreRefused) {
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "table = [[0, 60], [1e-12, 61], [1, 62]]\nduration = 1");
+  expect_diagnostic(text, place_of(text, "[1e-12"), {"closer than the limit of 1e-09 s"});
+}
+
+TEST(Limits, APolynomialLawThatRunsAwayIsRefusedAtItsKey) {
+  // 60 deg + 1e10 deg/s * t passes 1e8 rad = 5.72958e9 deg before t = 1 s; its rate, 1.7e8
+  // rad/s, is within the 1e9 rad/s limit, so the value is the fault.
+  const std::string text = replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"",
+                                    "polynomial = [1e10]\nduration = 1");
+  const Place at = place_of(text, "polynomial =");
+  expect_diagnostic(text, {at.line, at.column + 13},
+                    {"[driver] 'polynomial' reaches", "the limit is 5.72958e+09 deg"});
+}
+
+TEST(Limits, AReferenceValueBeyondTheLimitIsRefused) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "omega.coupler"
+at = 60
+value = 1e300
+source = "test"
+)";
+  expect_diagnostic(text, place_of(text, "1e300"), {"'value' in [[reference]]", "too large"});
+}
+
+TEST(Limits, AMechanismSmallerThanAMicrometreIsRefused) {
+  // The base four-bar's ground in nanometres instead of metres: its points 0.1 nm apart, and
+  // every other link's at most 0.12 nm from its origin, all drawn near the world's origin.
+  std::string text = replaced(four_bar(), "length = \"m\"", "length = \"mm\"");
+  text = replaced(text, "D = [0.10, 0]", "D = [1e-7, 0]");
+  text = replaced(text, "B = [0.04, 0]", "B = [4e-8, 0]");
+  text = replaced(text, "C = [0.12, 0]", "C = [1.2e-7, 0]");
+  text = replaced(text, "C = [0.08, 0]", "C = [8e-8, 0]");
+  text = replaced(text, "pose = [0.02, 0.034641, 18.38]", "pose = [2e-8, 3.4641e-8, 18.38]");
+  text = replaced(text, "pose = [0.10, 0, 64.94]", "pose = [1e-7, 0, 64.94]");
+  expect_diagnostic(text, place_of(text, "[[link]]"), {"the mechanism's size", "1e-06 m"});
 }
 
 }  // namespace

@@ -1,0 +1,160 @@
+#include "analytic/budget.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "analytic/limits.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+// The driver's values as the file writes them.
+struct DriverUnit {
+  double si;
+  std::string_view name;
+};
+DriverUnit driver_unit(const Mechanism& m) {
+  if (m.driver.angular()) return {m.units.angle, m.units.angle_name};
+  return {m.units.length, m.units.length_name};
+}
+
+// The longest step the solver's continuation takes between two solves: the grid step, and at
+// most 1 degree of an angular driver or the arc the mechanism's size sweeps in 1 degree.
+double continuation_bound(const Mechanism& m, double step) {
+  const double largest = m.driver.angular() ? kDegree : m.size() * kDegree;
+  return step > 0.0 ? std::min(step, largest) : largest;
+}
+
+// What asked for the work: a key of the definition at its place, or an option (line 0).
+struct Cause {
+  std::string what;
+  SourceLocation where;
+};
+
+[[noreturn]] void refuse(const Mechanism& m, const Cause& cause, const std::string& message) {
+  if (cause.where.line > 0) throw DefinitionError({{cause.where, cause.what + " " + message}});
+  throw std::invalid_argument(fmt::format("{}: {} {}", m.file, cause.what, message));
+}
+
+void check_count(const Mechanism& m, const Cause& cause, double count, std::string_view of_what,
+                 const WorkLimits& limits) {
+  if (count <= static_cast<double>(limits.max_samples)) return;
+  refuse(m, cause,
+         fmt::format("asks for {:.0f} {}: the limit is {} (raise it with --max-samples N)", count,
+                     of_what, limits.max_samples));
+}
+
+// A step lost in the round-off of the driver's values would be accepted without moving the
+// driver, for ever: steps must stay far above it (1e-12 of the largest value, 4500 ulps).
+void check_resolution(const Mechanism& m, const Cause& cause, double step, double magnitude) {
+  if (step >= 1e-12 * magnitude) return;
+  const DriverUnit u = driver_unit(m);
+  refuse(
+      m, cause,
+      fmt::format("takes steps of {:g} {} among driver values up to {:g} {}: a step must be "
+                  "at least {:g} {} there, or it is lost in round-off",
+                  step / u.si, u.name, magnitude / u.si, u.name, 1e-12 * magnitude / u.si, u.name));
+}
+
+std::string steps_of(const Mechanism& m, double step) {
+  const DriverUnit u = driver_unit(m);
+  return fmt::format("continuation steps of at most {:g} {}", step / u.si, u.name);
+}
+
+void check_step(const Mechanism& m, const SweepOptions& options) {
+  if (options.step == 0.0 || (options.step > 0.0 && std::isfinite(options.step))) return;
+  throw std::invalid_argument(fmt::format("{}: --step must be a positive number", m.file));
+}
+
+}  // namespace
+
+void check_sweep_work(const Mechanism& m, const SweepOptions& options, const WorkLimits& limits) {
+  check_step(m, options);
+  const Driver& d = m.driver;
+  const DriverUnit u = driver_unit(m);
+  const bool step_given = options.step > 0.0;
+  const Cause step_option{fmt::format("--step {:g} {}", options.step / u.si, u.name), {}};
+  const double continuation = continuation_bound(m, options.step);
+
+  if (d.law.kind != MotionLaw::Kind::constant_speed) {
+    // 361 samples at equal times over the duration; the solver continues from each to the next.
+    double travel = 0.0, previous = d.start, magnitude = std::abs(d.start);
+    for (int k = 0; k <= 360; ++k) {
+      const double value = d.at_time(d.law.duration * k / 360).value;
+      travel += std::abs(value - previous);
+      magnitude = std::max(magnitude, std::abs(value));
+      previous = value;
+    }
+    Cause law{d.law.kind == MotionLaw::Kind::table ? "driver.table" : "driver.polynomial",
+              d.law.where};
+    if (step_given) law.what += " at " + step_option.what;
+    check_count(m, law, travel / continuation, steps_of(m, continuation), limits);
+    check_resolution(m, step_given ? step_option : law, continuation, magnitude);
+    return;
+  }
+
+  if (const auto range = options.range ? options.range : d.range) {
+    const auto [lo, hi] = *range;
+    const double step = step_given ? options.step : d.angular() ? kDegree : (hi - lo) / 360.0;
+    Cause cause{"the sweep's range", {}};
+    if (!options.range)
+      cause = {fmt::format("driver.range = [{:g}, {:g}] {}", lo / u.si, hi / u.si, u.name),
+               d.range_where};
+    cause.what += step_given ? " at " + step_option.what
+                             : fmt::format(" at a step of {:g} {}", step / u.si, u.name);
+    check_count(m, cause, std::floor((hi - lo) / step + 1e-9) + 1.0, "samples", limits);
+    // From the drawn position to the first sample, then across the range.
+    const double first = d.law.speed > 0.0 ? lo : hi;
+    check_count(m, cause, (std::abs(d.start - first) + (hi - lo)) / continuation,
+                steps_of(m, continuation), limits);
+    check_resolution(m, cause, std::min(step, continuation),
+                     std::max({std::abs(lo), std::abs(hi), std::abs(d.start)}));
+    return;
+  }
+
+  // Over the cycle or the assembling range, both found by continuation: an angular driver
+  // covers at most a turn, a slider 360 default steps of its range (or its assembling range at
+  // an explicit step); following the loop back (at_limit = reverse) covers it twice.
+  const double passes = options.at_limit == SweepOptions::AtLimit::reverse ? 2.0 : 1.0;
+  double span = 2.0 * std::numbers::pi, step = step_given ? options.step : kDegree;
+  if (!d.angular()) {
+    span = 360.0;
+    step = 1.0;
+    if (step_given) {
+      const AssemblingRange range = assembling_range(m, options);
+      span = range.upper - range.lower;
+      step = options.step;
+    }
+  }
+  const Cause cause = step_given
+                          ? step_option
+                          : Cause{fmt::format("the default step of {}",
+                                              d.angular() ? "1 degree" : "1/360 of the range"),
+                                  {}};
+  check_count(m, cause, passes * (std::floor(span / step + 1e-9) + 1.0), "samples", limits);
+}
+
+void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOptions& options,
+                         const WorkLimits& limits) {
+  check_step(m, options);
+  const DriverUnit u = driver_unit(m);
+  const double largest = m.driver.angular() ? limits::kAngle : limits::kLength;
+  const Cause cause{fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}};
+  if (!(std::abs(driver_value) <= largest))
+    refuse(m, cause,
+           fmt::format("is not a driver value: the limit is {:g} {}", largest / u.si, u.name));
+  const double continuation = continuation_bound(m, options.step);
+  // The solver continues from the drawn position to the value.
+  check_count(m, cause, std::abs(driver_value - m.driver.start) / continuation,
+              steps_of(m, continuation), limits);
+  check_resolution(m, cause, continuation,
+                   std::max(std::abs(driver_value), std::abs(m.driver.start)));
+}
+
+}  // namespace crosslink

@@ -1,0 +1,47 @@
+// Limits on what one definition may hold, so that no file can crash the TOML parser, overflow a
+// computation to a non-finite value or make validation run for ever. They are fixed, and far
+// beyond what any planar linkage needs. (The work of a command has limits of its own, which
+// options raise: analytic/budget.h.)
+#pragma once
+
+namespace crosslink::limits {
+
+// What reaches the TOML parser. toml++ recurses once per level of a dotted key and overflows
+// the stack near 50,000 levels, so the text is screened before it is parsed.
+constexpr long kDefinitionBytes = 1 << 20;  // a bundled definition is under 10 kB
+constexpr int kKeyParts = 16;               // parts of one dotted key or table header: a.b.c is 3
+constexpr int kNesting = 16;                // arrays and inline tables inside one another
+
+// Counts. The solver's Jacobian is dense in 3 coordinates per moving link; validation compares
+// names pairwise.
+constexpr int kLinks = 100;
+constexpr int kJoints = 200;
+constexpr int kPoints = 1000;             // over all links
+constexpr int kLines = 1000;              // over all links
+constexpr int kTableRows = 10000;         // a table law's rows (each evaluation visits them all)
+constexpr int kPolynomialTerms = 20;      // coefficients of a polynomial law
+constexpr int kReferences = 10000;        // [[reference]] entries
+constexpr int kExpectedPositions = 1000;  // [expect] toggles, change points
+
+// Magnitudes, in SI. Products of them (a = omega^2 r, time = travel / speed) stay finite, and a
+// driver value keeps round-off (1e-8 rad at 1e8 rad) far below any step a sweep takes.
+constexpr double kLength = 1e6;             // m: coordinates, a slider's driver values
+constexpr double kSmallestSize = 1e-6;      // m: the mechanism's size (largest drawn distance)
+constexpr double kAngle = 1e8;              // rad: angles, an angular driver's values
+constexpr double kRate = 1e9;               // rad/s or m/s: the driver's speed, a law's rate
+constexpr double kSlowestSpeed = 1e-9;      // rad/s or m/s: a slower constant speed has no cycle
+constexpr double kAcceleration = 1e18;      // rad/s^2 or m/s^2: a law's acceleration
+constexpr double kDuration = 1e9;           // s: a law's duration, a table's times
+constexpr double kShortestDuration = 1e-9;  // s: a law's duration, a table's time steps
+constexpr double kReferenceValue = 1e30;    // any [[reference]] value, SI
+constexpr double kTolerance = 1e6;          // % of peak
+// Physics: masses and loads of any machine, far from overflow in m a, k x, F r.
+constexpr double kMass = 1e9;        // kg
+constexpr double kInertia = 1e12;    // kg m^2
+constexpr double kForce = 1e12;      // N: loads, efforts along a slider
+constexpr double kTorque = 1e12;     // N m
+constexpr double kStiffness = 1e15;  // N/m
+constexpr double kDamping = 1e12;    // N s/m
+constexpr double kGravity = 1e6;     // m/s^2
+
+}  // namespace crosslink::limits

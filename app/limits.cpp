@@ -1,0 +1,40 @@
+// The options that bound a command's work, shared by every subcommand (analytic/budget.h for the
+// exact solver, sim/engine.h for the engines).
+#include <fmt/format.h>
+
+#include "app/commands.h"
+#include "sim/sampling.h"
+
+namespace crosslink::app {
+
+void add_max_samples(CLI::App& cmd, WorkLimits& limits) {
+  cmd.add_option("--max-samples", limits.max_samples,
+                 "the most samples, and continuation steps, of one exact sweep or solve; more "
+                 "is refused before any work")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+}
+
+void add_max_steps(CLI::App& cmd, long& max_steps) {
+  cmd.add_option("--max-steps", max_steps,
+                 "the most steps of one engine run; a run that would take more is refused before "
+                 "it starts")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+}
+
+sim::Settings with_max_steps(long max_steps, const sim::Settings& settings) {
+  sim::Settings out = {{"max_steps", std::to_string(max_steps)}};
+  out.insert(out.end(), settings.begin(), settings.end());  // a later --set max_steps wins
+  return out;
+}
+
+void check_engine_steps(double span, double dt, long max_steps, const std::string& option) {
+  try {
+    sim::check_steps(span / dt, dt, max_steps);
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(fmt::format("{}: {}", option, e.what()));
+  }
+}
+
+}  // namespace crosslink::app

@@ -1,0 +1,224 @@
+// The work a command asks of the exact solver is counted before it starts (analytic/budget.h):
+// each case states the count it expects from the definition's own numbers, and checks that the
+// refusal names the input at fault, the count and the limit, and that raising the limit lets
+// the same request through.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "analytic/budget.h"
+#include "analytic/loader.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// The crank-rocker of test_validation: crank AB 0.04, coupler 0.12, rocker 0.08, ground 0.10 m,
+// drawn at 60 degrees; the crank turns fully. `driver` is its [driver] table's last lines.
+std::string four_bar(const std::string& driver = "speed = 10\n") {
+  return R"(name = "four-bar"
+[units]
+length = "m"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], D = [0.10, 0] }
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [0.04, 0] }
+pose = [0, 0, 60]
+[[link]]
+name = "coupler"
+points = { B = [0, 0], C = [0.12, 0] }
+pose = [0.02, 0.034641, 18.38]
+[[link]]
+name = "rocker"
+points = { D = [0, 0], C = [0.08, 0] }
+pose = [0.10, 0, 64.94]
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["crank", "coupler"]
+point = "B"
+[[joint]]
+type = "revolute"
+links = ["coupler", "rocker"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["ground", "rocker"]
+point = "D"
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 60
+)" + driver;
+}
+
+// Line 42 of four_bar() is the first of `driver`.
+constexpr int kDriverLine = 42;
+
+WorkLimits limit(long samples) {
+  return {samples};
+}
+
+// The message of the DefinitionError `check` throws, which must be located at `line`.
+std::string refusal_at(int line, const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const DefinitionError& e) {
+    EXPECT_EQ(e.diagnostics().size(), 1u);
+    EXPECT_EQ(e.diagnostics()[0].where.line, line) << e.what();
+    return e.diagnostics()[0].message;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not located: " << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+// The message of the std::invalid_argument `check` throws for an option.
+std::string option_refusal(const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not an option's error: " << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+void expect_has(const std::string& message, const std::string& phrase) {
+  EXPECT_NE(message.find(phrase), std::string::npos) << "'" << phrase << "' not in: " << message;
+}
+
+TEST(Budget, TheIssuesRangeTypoIsRefusedAtTheRange) {
+  // range = [-30, 1e9] degrees at 1 degree: 1e9 + 30 steps, so 1,000,000,031 samples.
+  const Mechanism m = parse_mechanism(four_bar("speed = 10\nrange = [-30, 1e9]\n"), "typo.toml");
+  const std::string message =
+      refusal_at(kDriverLine + 1, [&] { check_sweep_work(m, {}, WorkLimits{}); });
+  expect_has(message, "driver.range = [-30, 1e+09] deg at a step of 1 deg");
+  expect_has(message, "asks for 1000000031 samples: the limit is 100000");
+  expect_has(message, "--max-samples N");
+  // Then the continuation: from 60 back to -30, and across the range, 1e9 + 120 steps.
+  expect_has(refusal_at(kDriverLine + 1, [&] { check_sweep_work(m, {}, limit(1'000'000'031)); }),
+             "asks for 1000000120 continuation steps of at most 1 deg");
+  EXPECT_NO_THROW(check_sweep_work(m, {}, limit(1'000'000'120)));
+}
+
+TEST(Budget, AFullTurnAtTheDefaultStepIs361Samples) {
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  EXPECT_NO_THROW(check_sweep_work(m, {}, limit(361)));
+  expect_has(option_refusal([&] { check_sweep_work(m, {}, limit(360)); }),
+             "the default step of 1 degree asks for 361 samples: the limit is 360");
+}
+
+TEST(Budget, AFineStepIsRefusedNamingTheOption) {
+  // 360 degrees at 0.001 degree: 360,000 steps, 360,001 samples.
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  SweepOptions options;
+  options.step = 0.001 * kDeg;
+  expect_has(option_refusal([&] { check_sweep_work(m, options, WorkLimits{}); }),
+             "--step 0.001 deg asks for 360001 samples: the limit is 100000");
+  EXPECT_NO_THROW(check_sweep_work(m, options, limit(360'001)));
+  // Following the loop back (at_limit = reverse) is taken as two turns.
+  options.at_limit = SweepOptions::AtLimit::reverse;
+  EXPECT_THROW(check_sweep_work(m, options, limit(360'001)), std::invalid_argument);
+  EXPECT_NO_THROW(check_sweep_work(m, options, limit(720'002)));
+}
+
+TEST(Budget, AStepThatIsNotAPositiveNumberIsRefused) {
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  for (const double step :
+       {-1.0, std::numeric_limits<double>::infinity(), std::numeric_limits<double>::quiet_NaN()}) {
+    SweepOptions options;
+    options.step = step;
+    expect_has(option_refusal([&] { check_sweep_work(m, options, WorkLimits{}); }),
+               "--step must be a positive number");
+  }
+}
+
+TEST(Budget, ContinuationAcrossAWideRangeCountsEvenAtACoarseStep) {
+  // [0, 1e6] degrees at 1000 degrees: 1001 samples, but the solver continues in steps of at
+  // most 1 degree from 60 down to 0 and across: 60 + 1e6 steps.
+  const Mechanism m = parse_mechanism(four_bar("speed = 10\nrange = [0, 1e6]\n"), "wide.toml");
+  SweepOptions options;
+  options.step = 1000 * kDeg;
+  const std::string message =
+      refusal_at(kDriverLine + 1, [&] { check_sweep_work(m, options, WorkLimits{}); });
+  expect_has(message, "at --step 1000 deg asks for 1000060 continuation steps of at most 1 deg");
+  EXPECT_NO_THROW(check_sweep_work(m, options, limit(1'000'060)));
+}
+
+TEST(Budget, AMotionLawIsMeasuredByTheDriverTravelItAsksFor) {
+  // 60 + 1e6 t degrees over 100 s: 1e8 degrees of travel in steps of at most 1 degree.
+  const Mechanism m = parse_mechanism(four_bar("polynomial = [1e6]\nduration = 100\n"), "law.toml");
+  const std::string message = refusal_at(kDriverLine, [&] { check_sweep_work(m, {}, {}); });
+  expect_has(message, "driver.polynomial asks for 100000000 continuation steps");
+  // (The travel is summed over 360 intervals: within round-off of 1e8.)
+  EXPECT_NO_THROW(check_sweep_work(m, {}, limit(100'000'001)));
+  EXPECT_THROW(check_sweep_work(m, {}, limit(99'999'999)), DefinitionError);
+}
+
+TEST(Budget, ASolveAtAFarValueCountsItsContinuation) {
+  // From 60 to 1e7 degrees in steps of at most 1 degree: 9,999,940 steps.
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  expect_has(option_refusal([&] { check_solve_at_work(m, 1e7 * kDeg, {}, WorkLimits{}); }),
+             "--at 1e+07 deg asks for 9999940 continuation steps of at most 1 deg");
+  EXPECT_NO_THROW(check_solve_at_work(m, 1e7 * kDeg, {}, limit(9'999'940)));
+  EXPECT_NO_THROW(check_solve_at_work(m, 135 * kDeg, {}, limit(75)));
+}
+
+TEST(Budget, ASolveAtAValueThatIsNoDriverValueIsRefused) {
+  // A NaN target was never reached: the continuation toward it ran for ever.
+  const Mechanism m = parse_mechanism(four_bar(), "good.toml");
+  for (const double at : {std::numeric_limits<double>::quiet_NaN(), 1e9})
+    expect_has(option_refusal([&] { check_solve_at_work(m, at, {}, WorkLimits{}); }),
+               "is not a driver value: the limit is 5.72958e+09 deg");
+}
+
+TEST(Budget, AStepLostInRoundOffIsRefused) {
+  // Near 1e7 rad a double resolves 2e-9 rad; the budget asks for steps of at least 1e-12 of
+  // the values (1e-5 rad), so 1e-7 rad steps over a 1e-3 rad range (10,001 samples) are refused.
+  std::string text = four_bar("speed = 10\nrange = [1e7, 1.0000000001e7]\n");
+  text.replace(text.find("angle = \"deg\""), 13, "angle = \"rad\"");
+  text.replace(text.find("start = 60"), 10, "start = 1e7");
+  const Mechanism m = parse_mechanism(text, "far.toml");
+  SweepOptions options;
+  options.step = 1e-7;
+  const std::string message =
+      refusal_at(kDriverLine + 1, [&] { check_sweep_work(m, options, WorkLimits{}); });
+  expect_has(message, "lost in round-off");
+}
+
+TEST(Budget, ASliderAtAnExplicitStepIsMeasuredOverItsAssemblingRange) {
+  // mechanisms/singular: the slider runs between sqrt(1500) and sqrt(6300) mm, 40.6427 mm, so
+  // 0.001 mm steps give 40,642 steps and 40,643 samples.
+  const Mechanism m = load_mechanism("mechanisms/singular/slider_crank_from_slider.toml");
+  SweepOptions options;
+  options.step = 0.001e-3;
+  EXPECT_NO_THROW(check_sweep_work(m, options, limit(40'643)));
+  expect_has(option_refusal([&] { check_sweep_work(m, options, limit(40'642)); }),
+             "--step 0.001 mm asks for 40643 samples");
+  // At its default step (1/360 of the range) it needs no measuring: 361 samples.
+  EXPECT_NO_THROW(check_sweep_work(m, {}, limit(361)));
+  EXPECT_THROW(check_sweep_work(m, {}, limit(360)), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace crosslink
