@@ -217,7 +217,7 @@ bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
   for (double e : max_pct)
     if (!(e <= accuracy_pct)) return false;  // NaN fails
-  return true;
+  return std::isnan(force_pct) || force_pct <= accuracy_pct;
 }
 
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
@@ -286,6 +286,12 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   if (run.ok) {
     const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
     row.max_pct = class_maxima(cmp, run.name);
+    for (const ChannelResult& c : cmp.channels)
+      if (c.method == run.name && c.metrics.usable > 0 &&
+          (c.metrics.quantity == Quantity::force || c.metrics.quantity == Quantity::torque))
+        row.force_pct = std::isnan(row.force_pct)
+                            ? c.metrics.max_pct_of_peak
+                            : std::max(row.force_pct, c.metrics.max_pct_of_peak);
   }
   // Over every recorded sample, flagged ones included: the same comparison on a copy whose
   // engine-side flags are lifted (samples never reached stay out).

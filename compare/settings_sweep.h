@@ -114,6 +114,9 @@ struct SweepRow {
   std::array<double, 3> raw_pct = {std::numeric_limits<double>::quiet_NaN(),
                                    std::numeric_limits<double>::quiet_NaN(),
                                    std::numeric_limits<double>::quiet_NaN()};
+  // Max % of peak over the force and torque channels, when the engine reads forces (NaN
+  // otherwise): an --accuracy pick must meet it too.
+  double force_pct = std::numeric_limits<double>::quiet_NaN();
   double max_loop_gap = 0.0;  // largest cut-joint gap over all samples [m]
   RunStatus status = RunStatus::ok;
   int flagged_samples = 0;  // samples usable in the reference but not in the run
