@@ -59,26 +59,28 @@ std::string driver_text(const Mechanism& m) {
 
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
 // the transmission angle over the swept samples.
-void print_singular_positions(const Mechanism& m) {
+void print_singular_positions(const Mechanism& m, std::string& out) {
   const double unit = m.driver.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
   std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, {}, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
-  fmt::print("  singular positions over the sweep: {}{}\n",
-             singular.empty() ? std::string("none") : std::to_string(singular.size()),
-             flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
+  out +=
+      fmt::format("  singular positions over the sweep: {}{}\n",
+                  singular.empty() ? std::string("none") : std::to_string(singular.size()),
+                  flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
   for (const SingularPosition& p : singular)
-    fmt::print("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit, unit_name);
+    out += fmt::format("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit,
+                       unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
-      fmt::print("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind), e.driver / unit,
-                 unit_name, e.message);
+      out += fmt::format("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind),
+                         e.driver / unit, unit_name, e.message);
   if (const auto fb = four_bar(m)) {
-    fmt::print("  four-bar: {}\n", fb->explain(m));
+    out += fmt::format("  four-bar: {}\n", fb->explain(m));
     if (const auto mu = transmission_range(*fb, t))
-      fmt::print(
+      out += fmt::format(
           "  transmission angle (at {}, over {} samples): min {:.4f} deg at driver = {:.6f} "
           "{}, max {:.4f} deg at driver = {:.6f} {}\n",
           fb->c, mu->samples, mu->min * 180 / std::numbers::pi, mu->min_at / unit, unit_name,
@@ -86,22 +88,25 @@ void print_singular_positions(const Mechanism& m) {
   }
 }
 
-int run_check(const std::string& path, const WorkLimits& limits) {
-  const Mechanism m = load_mechanism(path);
+}  // namespace
+
+CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   check_sweep_work(m, {}, limits);
-  fmt::print("{}: {}\n", path, m.name);
-  if (!m.citation.empty()) fmt::print("  source: {}\n", m.citation);
-  fmt::print("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
-  fmt::print("  links ({}):\n", m.links.size());
+  CheckReport report;
+  std::string& out = report.out;
+  out += fmt::format("{}: {}\n", m.file, m.name);
+  if (!m.citation.empty()) out += fmt::format("  source: {}\n", m.citation);
+  out += fmt::format("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
+  out += fmt::format("  links ({}):\n", m.links.size());
   for (const Link& l : m.links) {
     std::string points;
     for (const Point& p : l.points) points += (points.empty() ? "" : " ") + p.name;
-    fmt::print("    {:<14} {}points {}\n", l.name, l.ground ? "(ground) " : "", points);
+    out += fmt::format("    {:<14} {}points {}\n", l.name, l.ground ? "(ground) " : "", points);
   }
-  fmt::print("  joints ({}):\n", m.joints.size());
-  for (const Joint& j : m.joints) fmt::print("    {:<14} {}\n", j.name, joint_text(m, j));
-  fmt::print("  mobility: {}\n", mobility(m).explain());
-  fmt::print("  driver: {}\n", driver_text(m));
+  out += fmt::format("  joints ({}):\n", m.joints.size());
+  for (const Joint& j : m.joints) out += fmt::format("    {:<14} {}\n", j.name, joint_text(m, j));
+  out += fmt::format("  mobility: {}\n", mobility(m).explain());
+  out += fmt::format("  driver: {}\n", driver_text(m));
 
   const NewtonSolver solver(m);
   KinematicState state(m);
@@ -114,23 +119,33 @@ int run_check(const std::string& path, const WorkLimits& limits) {
     const Diagnostic problem{m.driver.where,
                              fmt::format("cannot assemble at driver = {:.6g} {}: {}",
                                          m.driver.start / unit, unit_name, assembled.message)};
-    fmt::print(stderr, "{}\n", problem.str());
-    return kExitBadInput;
+    report.err = problem.str() + "\n";
+    report.exit_code = kExitBadInput;
+    return report;
   }
-  fmt::print("  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
-             to_string(assembled.status), assembled.residual, assembled.iterations,
-             assembled.rcond);
+  out += fmt::format(
+      "  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
+      to_string(assembled.status), assembled.residual, assembled.iterations, assembled.rcond);
   if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m);
-    fmt::print("  assembling range: {}{}\n", range.explain(m),
-               range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
+    out += fmt::format("  assembling range: {}{}\n", range.explain(m),
+                       range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
   }
-  print_singular_positions(m);
-  fmt::print("  references: {}\n", m.references.size());
+  print_singular_positions(m, out);
+  out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
-    fmt::print("  warning: the drawn position is singular: {}\n", assembled.message);
-  fmt::print("  ok\n");
-  return kExitOk;
+    out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);
+  out += "  ok\n";
+  return report;
+}
+
+namespace {
+
+int run_check(const std::string& path, const WorkLimits& limits) {
+  const CheckReport report = check_report(load_mechanism(path), limits);
+  fmt::print("{}", report.out);
+  fmt::print(stderr, "{}", report.err);
+  return report.exit_code;
 }
 
 }  // namespace
