@@ -144,7 +144,7 @@ void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOpt
                          const WorkLimits& limits) {
   check_step(m, options);
   const DriverUnit u = driver_unit(m);
-  const double largest = m.driver.angular() ? limits::kAngle : limits::kLength;
+  const double largest = m.driver.angular() ? limits::kDriverValue : limits::kLength;
   const Cause cause{fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}};
   if (!(std::abs(driver_value) <= largest))
     refuse(m, cause,

@@ -23,11 +23,14 @@ constexpr int kPolynomialTerms = 20;      // coefficients of a polynomial law
 constexpr int kReferences = 10000;        // [[reference]] entries
 constexpr int kExpectedPositions = 1000;  // [expect] toggles, change points
 
-// Magnitudes, in SI. Products of them (a = omega^2 r, time = travel / speed) stay finite, and a
-// driver value keeps round-off (1e-8 rad at 1e8 rad) far below any step a sweep takes.
+// Magnitudes, in SI. Products of them (a = omega^2 r, time = travel / speed) stay finite. The
+// solver closes the chain to 1e-12 of its size, which round-off in the link angles allows up to
+// about 1e5 rad: a drawing's angles stay well below (1e7 degrees took 47 s to fail). A value the
+// driver is swept or solved to is reached by continuation, whose steps analytic/budget.h counts.
 constexpr double kLength = 1e6;             // m: coordinates, a slider's driver values
 constexpr double kSmallestSize = 1e-6;      // m: the mechanism's size (largest drawn distance)
-constexpr double kAngle = 1e8;              // rad: angles, an angular driver's values
+constexpr double kAngle = 1e4;              // rad: angles as drawn, an angular driver's start
+constexpr double kDriverValue = 1e8;        // rad: a range, [expect] and [[reference]] values
 constexpr double kRate = 1e9;               // rad/s or m/s: the driver's speed, a law's rate
 constexpr double kSlowestSpeed = 1e-9;      // rad/s or m/s: a slower constant speed has no cycle
 constexpr double kAcceleration = 1e18;      // rad/s^2 or m/s^2: a law's acceleration

@@ -99,13 +99,13 @@ class Reader {
     const double si = *value * scale.si;
     const std::string unit = scale.unit.empty() ? "" : " " + std::string(scale.unit);
     if (!(std::abs(si) <= scale.largest)) {
-      error(at(node), fmt::format("{} = {:g}{} is too large: the limit is {:g}{}", what, *value,
-                                  unit, scale.largest / scale.si, unit));
+      error(at(node), fmt::format("{} = {}{} is too large: the limit is {:g}{}", what, *value, unit,
+                                  scale.largest / scale.si, unit));
       return std::nullopt;
     }
     if (si != 0.0 && std::abs(si) < scale.smallest) {
-      error(at(node), fmt::format("{} = {:g}{} is too small: the limit is {:g}{}", what, *value,
-                                  unit, scale.smallest / scale.si, unit));
+      error(at(node), fmt::format("{} = {}{} is too small: the limit is {:g}{}", what, *value, unit,
+                                  scale.smallest / scale.si, unit));
       return std::nullopt;
     }
     return si;
@@ -192,9 +192,14 @@ Scale length_scale(const Units& units) {
 Scale angle_scale(const Units& units) {
   return {units.angle, units.angle_name, limits::kAngle};
 }
-// Driver values: angles, or lengths for a slider.
-Scale driver_scale(const Mechanism& m) {
+// The driver's start (as drawn), and the values it is swept or solved to: angles, or lengths
+// for a slider.
+Scale start_scale(const Mechanism& m) {
   return m.driver.angular() ? angle_scale(m.units) : length_scale(m.units);
+}
+Scale driver_scale(const Mechanism& m) {
+  if (!m.driver.angular()) return length_scale(m.units);
+  return {m.units.angle, m.units.angle_name, limits::kDriverValue};
 }
 
 std::vector<std::string> point_names(const Link& link) {
@@ -575,7 +580,7 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
 
   // Driver values are in the file's angle unit, or its length unit for a slider.
   const Scale value_scale = driver_scale(m);
-  d.start = r.number(*t, "start", "[driver]", true, value_scale).value_or(0.0);
+  d.start = r.number(*t, "start", "[driver]", true, start_scale(m)).value_or(0.0);
   if (const toml::node* range = t->get("range")) {
     d.range_where = r.at(*range);
     if (const auto lr =

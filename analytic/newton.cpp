@@ -724,6 +724,7 @@ void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& 
     out.sddot(row, column) = s.accel;
     ++column;
   }
+  out.flag_non_finite(row);
 }
 
 }  // namespace crosslink

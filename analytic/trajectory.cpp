@@ -1,6 +1,8 @@
 #include "analytic/trajectory.h"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <utility>
 
 namespace crosslink {
@@ -21,6 +23,8 @@ std::string_view to_string(PoseStatus status) {
       return "loop_gap";
     case PoseStatus::diverged:
       return "diverged";
+    case PoseStatus::not_finite:
+      return "not_finite";
   }
   return "?";
 }
@@ -85,6 +89,41 @@ bool Trajectory::beside_singular(int row) const {
     return k >= 0 && k < samples() && status[static_cast<size_t>(k)] == PoseStatus::singular;
   };
   return singular_at(row - 1) || singular_at(row + 1);
+}
+
+bool Trajectory::flag_non_finite(int row) {
+  bool finite = true;
+  auto clean = [&](double& value) {
+    if (std::isfinite(value)) return;
+    finite = false;
+    value = 0.0;
+  };
+  clean(time(row));
+  clean(driver(row));
+  clean(rcond(row));
+  clean(loop_gap(row));
+  for (Eigen::MatrixXd* m :
+       {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot})
+    for (Eigen::Index c = 0; c < m->cols(); ++c) clean((*m)(row, c));
+  PoseStatus& st = status[static_cast<size_t>(row)];
+  if (finite || (st != PoseStatus::ok && st != PoseStatus::singular)) return false;
+  st = PoseStatus::not_finite;
+  return true;
+}
+
+int Trajectory::flag_non_finite() {
+  int flagged = 0;
+  for (int row = 0; row < samples(); ++row) flagged += flag_non_finite(row);
+  // One event, at the first sample flagged now or by the solver as it wrote it.
+  const auto first = std::find(status.begin(), status.end(), PoseStatus::not_finite);
+  const bool told = std::any_of(events.begin(), events.end(),
+                                [](const Event& e) { return e.kind == PoseStatus::not_finite; });
+  if (first != status.end() && !told)
+    events.push_back({driver(static_cast<Eigen::Index>(first - status.begin())),
+                      PoseStatus::not_finite,
+                      "a value is not a finite number here (an overflow on extreme input): "
+                      "the sample is flagged"});
+  return flagged;
 }
 
 namespace {

@@ -43,6 +43,7 @@ enum class PoseStatus : std::uint8_t {
   branch_jump,      // the solution left the branch being followed
   loop_gap,         // engine: a cut joint opened beyond the gap threshold
   diverged,         // engine: NaN or runaway state
+  not_finite,       // a value is not a finite number (an overflow, or 0/0, on extreme input)
 };
 std::string_view to_string(PoseStatus status);
 inline bool usable(PoseStatus s) {
@@ -94,6 +95,14 @@ struct Trajectory {
   // methods agree there only to round-off amplified by it and engines' step errors are
   // dominated by the singularity: comparisons keep such samples out of their verdicts.
   bool beside_singular(int row) const;
+
+  // Flags sample `row` not_finite when a value in it is not a finite number while its status says
+  // it was solved, and puts finite placeholders (zeros) over every non-finite value of the row
+  // whatever its status: no NaN or infinity is ever written. Returns whether it flagged the row.
+  bool flag_non_finite(int row);
+  // Every sample, and one event at the first flagged sample (unless there is one); returns how
+  // many it flagged.
+  int flag_non_finite();
 
   // Every channel name, in a fixed order (links, points, sliders).
   std::vector<std::string> channel_names() const;

@@ -57,37 +57,37 @@ std::string driver_text(const Mechanism& m) {
   return fmt::format("{}, start {:.6g} {}, {}", what, d.start / unit, unit_name, law);
 }
 
-// Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
-// the transmission angle over the swept samples.
 // Mass model, gravity, loads and springs, in the file's units; links on the default model named.
-void print_physics(const Mechanism& m) {
+void print_physics(const Mechanism& m, std::string& out) {
   const double L = m.units.length, M = m.units.mass;
   std::vector<std::string> assumed;
-  fmt::print("  mass model ({}, {}, inertia about the centre of mass in {} {}^2):\n",
-             m.units.mass_name, m.units.length_name, m.units.mass_name, m.units.length_name);
+  out +=
+      fmt::format("  mass model ({}, {}, inertia about the centre of mass in {} {}^2):\n",
+                  m.units.mass_name, m.units.length_name, m.units.mass_name, m.units.length_name);
   for (const Link& l : m.links) {
     if (l.ground) continue;
     if (l.mass.assumed) assumed.push_back(l.name);
-    fmt::print("    {:<14} mass {:.6g}  com ({:.6g}, {:.6g})  inertia {:.6g}{}\n", l.name,
-               l.mass.mass / M, l.mass.com.x() / L, l.mass.com.y() / L,
-               l.mass.inertia / (M * L * L), l.mass.assumed ? "  (default: uniform bar)" : "");
+    out +=
+        fmt::format("    {:<14} mass {:.6g}  com ({:.6g}, {:.6g})  inertia {:.6g}{}\n", l.name,
+                    l.mass.mass / M, l.mass.com.x() / L, l.mass.com.y() / L,
+                    l.mass.inertia / (M * L * L), l.mass.assumed ? "  (default: uniform bar)" : "");
   }
   if (!assumed.empty())
-    fmt::print(
+    out += fmt::format(
         "  note: {} of {} moving links use the default mass model (a uniform bar between "
         "their farthest points, 1 kg per mechanism size of length): give mass, com and "
         "inertia for real forces\n",
         assumed.size(), m.moving_count());
   if (m.gravity.norm() > 0.0)
-    fmt::print("  gravity: ({:.6g}, {:.6g}) {}/s^2\n", m.gravity.x() / L, m.gravity.y() / L,
-               m.units.length_name);
+    out += fmt::format("  gravity: ({:.6g}, {:.6g}) {}/s^2\n", m.gravity.x() / L, m.gravity.y() / L,
+                       m.units.length_name);
   for (const Load& load : m.loads)
-    fmt::print(
+    out += fmt::format(
         "  load {}: {} on {}{}\n", load.name, load.kind == Load::Kind::force ? "force" : "torque",
         m.links[static_cast<size_t>(load.link)].name,
         load.table ? fmt::format(" (table of {} rows over the driver)", load.rows.size()) : "");
   for (const Spring& s : m.springs)
-    fmt::print(
+    out += fmt::format(
         "  spring {}: {}:{} - {}:{}, stiffness {:.6g} {}/{}, free length {:.6g} {}, "
         "damping {:.6g} {} s/{}\n",
         s.name, m.links[static_cast<size_t>(s.link_a)].name, s.point_a,
@@ -96,26 +96,30 @@ void print_physics(const Mechanism& m) {
         s.damping * L / m.units.force, m.units.force_name, m.units.length_name);
 }
 
-void print_singular_positions(const Mechanism& m) {
+// Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
+// the transmission angle over the swept samples.
+void print_singular_positions(const Mechanism& m, std::string& out) {
   const double unit = m.driver.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
   std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, {}, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
-  fmt::print("  singular positions over the sweep: {}{}\n",
-             singular.empty() ? std::string("none") : std::to_string(singular.size()),
-             flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
+  out +=
+      fmt::format("  singular positions over the sweep: {}{}\n",
+                  singular.empty() ? std::string("none") : std::to_string(singular.size()),
+                  flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
   for (const SingularPosition& p : singular)
-    fmt::print("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit, unit_name);
+    out += fmt::format("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit,
+                       unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
-      fmt::print("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind), e.driver / unit,
-                 unit_name, e.message);
+      out += fmt::format("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind),
+                         e.driver / unit, unit_name, e.message);
   if (const auto fb = four_bar(m)) {
-    fmt::print("  four-bar: {}\n", fb->explain(m));
+    out += fmt::format("  four-bar: {}\n", fb->explain(m));
     if (const auto mu = transmission_range(*fb, t))
-      fmt::print(
+      out += fmt::format(
           "  transmission angle (at {}, over {} samples): min {:.4f} deg at driver = {:.6f} "
           "{}, max {:.4f} deg at driver = {:.6f} {}\n",
           fb->c, mu->samples, mu->min * 180 / std::numbers::pi, mu->min_at / unit, unit_name,
@@ -123,23 +127,26 @@ void print_singular_positions(const Mechanism& m) {
   }
 }
 
-int run_check(const std::string& path, const WorkLimits& limits) {
-  const Mechanism m = load_mechanism(path);
+}  // namespace
+
+CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   check_sweep_work(m, {}, limits);
-  fmt::print("{}: {}\n", path, m.name);
-  if (!m.citation.empty()) fmt::print("  source: {}\n", m.citation);
-  fmt::print("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
-  fmt::print("  links ({}):\n", m.links.size());
+  CheckReport report;
+  std::string& out = report.out;
+  out += fmt::format("{}: {}\n", m.file, m.name);
+  if (!m.citation.empty()) out += fmt::format("  source: {}\n", m.citation);
+  out += fmt::format("  units: {}, {}\n", m.units.length_name, m.units.angle_name);
+  out += fmt::format("  links ({}):\n", m.links.size());
   for (const Link& l : m.links) {
     std::string points;
     for (const Point& p : l.points) points += (points.empty() ? "" : " ") + p.name;
-    fmt::print("    {:<14} {}points {}\n", l.name, l.ground ? "(ground) " : "", points);
+    out += fmt::format("    {:<14} {}points {}\n", l.name, l.ground ? "(ground) " : "", points);
   }
-  fmt::print("  joints ({}):\n", m.joints.size());
-  for (const Joint& j : m.joints) fmt::print("    {:<14} {}\n", j.name, joint_text(m, j));
-  print_physics(m);
-  fmt::print("  mobility: {}\n", mobility(m).explain());
-  fmt::print("  driver: {}\n", driver_text(m));
+  out += fmt::format("  joints ({}):\n", m.joints.size());
+  for (const Joint& j : m.joints) out += fmt::format("    {:<14} {}\n", j.name, joint_text(m, j));
+  print_physics(m, out);
+  out += fmt::format("  mobility: {}\n", mobility(m).explain());
+  out += fmt::format("  driver: {}\n", driver_text(m));
 
   const NewtonSolver solver(m);
   KinematicState state(m);
@@ -152,23 +159,33 @@ int run_check(const std::string& path, const WorkLimits& limits) {
     const Diagnostic problem{m.driver.where,
                              fmt::format("cannot assemble at driver = {:.6g} {}: {}",
                                          m.driver.start / unit, unit_name, assembled.message)};
-    fmt::print(stderr, "{}\n", problem.str());
-    return kExitBadInput;
+    report.err = problem.str() + "\n";
+    report.exit_code = kExitBadInput;
+    return report;
   }
-  fmt::print("  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
-             to_string(assembled.status), assembled.residual, assembled.iterations,
-             assembled.rcond);
+  out += fmt::format(
+      "  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
+      to_string(assembled.status), assembled.residual, assembled.iterations, assembled.rcond);
   if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m);
-    fmt::print("  assembling range: {}{}\n", range.explain(m),
-               range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
+    out += fmt::format("  assembling range: {}{}\n", range.explain(m),
+                       range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
   }
-  print_singular_positions(m);
-  fmt::print("  references: {}\n", m.references.size());
+  print_singular_positions(m, out);
+  out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
-    fmt::print("  warning: the drawn position is singular: {}\n", assembled.message);
-  fmt::print("  ok\n");
-  return kExitOk;
+    out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);
+  out += "  ok\n";
+  return report;
+}
+
+namespace {
+
+int run_check(const std::string& path, const WorkLimits& limits) {
+  const CheckReport report = check_report(load_mechanism(path), limits);
+  fmt::print("{}", report.out);
+  fmt::print(stderr, "{}", report.err);
+  return report.exit_code;
 }
 
 }  // namespace

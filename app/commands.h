@@ -27,6 +27,14 @@ void add_solve(CLI::App& app, std::function<int()>& run);
 void add_compare(CLI::App& app, std::function<int()>& run);
 void add_sweep(CLI::App& app, std::function<int()>& run);
 
+// `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
+// position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.
+struct CheckReport {
+  int exit_code = kExitOk;
+  std::string out, err;
+};
+CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits);
+
 // The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-steps
 // on those that run engines; `settings` with the engines' max_steps in front (a later one wins);
 // and the refusal (std::invalid_argument naming `option`) of an explicit time step `dt` that

@@ -261,6 +261,7 @@ int run_solve(const SolveArgs& args) {
   } else if (args.method == "auto") {
     why = "newton (the chain does not decompose into dyads: " + decomposition.reason + ")";
   }
+  t.flag_non_finite();  // the dyads' samples (Newton's are flagged as they are written)
   fmt::print(stderr, "{}: method: {}\n", m.file, why);
   for (const Trajectory::Event& e : t.events)
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),

@@ -74,6 +74,7 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   run.description = "Newton-Raphson on the full constraint equations (the reference)";
   const auto start = std::chrono::steady_clock::now();
   run.trajectory = sweep(mechanism, options);
+  run.trajectory.flag_non_finite();
   run.cost.wall_seconds = seconds_since(start);
   run.cost.steps = run.trajectory.samples();
   run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
@@ -105,6 +106,7 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
                  "v",     "ax",    "ay",    "a", "s", "sdot", "sddot"};
     const auto start = std::chrono::steady_clock::now();
     run.trajectory = dyad_sweep(mechanism, reference.trajectory);
+    run.trajectory.flag_non_finite();
     run.cost.wall_seconds = seconds_since(start);
     run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
     run.cost.steps = run.trajectory.samples();
@@ -149,6 +151,7 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
       if (std::find(v.from_geometry.begin(), v.from_geometry.end(), false) != v.from_geometry.end())
         ++not_geometric;
     }
+    run.trajectory.flag_non_finite();
     run.cost.wall_seconds = seconds_since(start);
     run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
     run.cost.steps = exact.samples();

@@ -193,14 +193,14 @@ TEST(Budget, ASolveAtAValueThatIsNoDriverValueIsRefused) {
 }
 
 TEST(Budget, AStepLostInRoundOffIsRefused) {
-  // Near 1e7 rad a double resolves 2e-9 rad; the budget asks for steps of at least 1e-12 of
-  // the values (1e-5 rad), so 1e-7 rad steps over a 1e-3 rad range (10,001 samples) are refused.
-  std::string text = four_bar("speed = 10\nrange = [1e7, 1.0000000001e7]\n");
+  // Near 1e4 rad a double resolves 1.8e-12 rad; the budget asks for steps of at least 1e-12 of
+  // the values (1e-8 rad), so 1e-9 rad steps over a 1e-5 rad range (10,001 samples) are refused.
+  std::string text = four_bar("speed = 10\nrange = [1e4, 10000.00001]\n");
   text.replace(text.find("angle = \"deg\""), 13, "angle = \"rad\"");
-  text.replace(text.find("start = 60"), 10, "start = 1e7");
+  text.replace(text.find("start = 60"), 10, "start = 1e4");
   const Mechanism m = parse_mechanism(text, "far.toml");
   SweepOptions options;
-  options.step = 1e-7;
+  options.step = 1e-9;
   const std::string message =
       refusal_at(kDriverLine + 1, [&] { check_sweep_work(m, options, WorkLimits{}); });
   expect_has(message, "lost in round-off");

@@ -13,12 +13,27 @@
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 
+// AddressSanitizer brings its own malloc and operator new, which the counting doors below would
+// replace: under it they are left out, and the tests that count skip, saying so (they run in
+// the normal build). The condition estimate's test runs in both.
+#if defined(__SANITIZE_ADDRESS__)
+#define CROSSLINK_COUNTING 0
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define CROSSLINK_COUNTING 0
+#endif
+#endif
+#ifndef CROSSLINK_COUNTING
+#define CROSSLINK_COUNTING 1
+#endif
+
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<long> g_news{0};
 std::atomic<long> g_mallocs{0};
 }  // namespace
 
+#if CROSSLINK_COUNTING
 // glibc's own entry points, which the interposed malloc family forwards to.
 extern "C" {
 void* __libc_malloc(std::size_t size);
@@ -66,6 +81,11 @@ void operator delete(void* p, std::size_t) noexcept {
 void operator delete[](void* p, std::size_t) noexcept {
   std::free(p);
 }
+#endif
+
+constexpr bool kCounting = CROSSLINK_COUNTING;
+constexpr const char* kNotCounted =
+    "AddressSanitizer owns the allocator: counted in the normal build";
 
 namespace crosslink {
 namespace {
@@ -101,6 +121,7 @@ Counts count_sweep(const Mechanism& m, int poses) {
 }
 
 TEST(NoAllocation, TheCountersSeeAllocations) {
+  if (!kCounting) GTEST_SKIP() << kNotCounted;
   // The check can fail: an Eigen vector (malloc) and a std::vector (operator new) are counted.
   g_news = 0;
   g_mallocs = 0;
@@ -117,6 +138,7 @@ TEST(NoAllocation, TheCountersSeeAllocations) {
 }
 
 TEST(NoAllocation, SewingMachinePoses) {
+  if (!kCounting) GTEST_SKIP() << kNotCounted;
   const Mechanism m = load_mechanism("mechanisms/sewing_machine.toml");
   const Counts counts = count_sweep(m, 90);
   EXPECT_EQ(counts.news, 0);
@@ -127,6 +149,7 @@ TEST(NoAllocation, SewingMachinePoses) {
 // is 0.05 m above the rocker pivot O, the crank 0.02 m long, so the rocker swings and the pin
 // never reaches O.
 TEST(NoAllocation, PinInSlotPoses) {
+  if (!kCounting) GTEST_SKIP() << kNotCounted;
   const Mechanism m = parse_mechanism(R"(name = "slotted rocker"
 [units]
 length = "m"

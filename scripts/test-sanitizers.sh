@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The whole test suite (without the `slow` label) built with AddressSanitizer and
+# UndefinedBehaviorSanitizer by clang, in a second build folder, with the libFuzzer target and
+# its one-minute run (label fuzz). Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh
+# -L fuzz. Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR=${BUILD_DIR:-build-asan}
+FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -gline-tables-only"
+
+CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_C_FLAGS="$FLAGS" -DCMAKE_CXX_FLAGS="$FLAGS" \
+  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF
+cmake --build "$BUILD_DIR" -j2
+
+# Every report is an error; leaks too (detect_leaks is on by default on Linux x86_64).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j2 -LE slow "$@"
