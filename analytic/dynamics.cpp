@@ -16,6 +16,8 @@ namespace {
 
 using State = std::array<double, 3>;  // d, ddot, w
 
+constexpr double kFirstStep = 1e-5;  // [s]: the integrator's first trial step
+
 // Why a run stopped: the chain could not close, or only another branch was near.
 struct Stopped {
   double time;
@@ -235,14 +237,18 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     };
     namespace odeint = boost::numeric::odeint;
     const double tol = options.tolerance;
+    // Every trial step evaluates poses along it: the first is small (the controller grows it by
+    // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
+    // the motion (a first trial of 10 s put A02's crank 986 rad away).
+    const double first = std::min(interval, kFirstStep);
     if (options.integrator == "dopri5") {
       odeint::integrate_times(
-          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()), std::ref(eom),
-          x, times.begin(), times.end(), interval, observe);
+          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
     } else if (options.integrator == "rkf78") {
       odeint::integrate_times(
-          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()), std::ref(eom),
-          x, times.begin(), times.end(), interval, observe);
+          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
     } else {
       throw std::invalid_argument("unknown integrator '" + options.integrator +
                                   "' (valid: dopri5, rkf78)");

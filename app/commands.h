@@ -24,6 +24,7 @@ constexpr int kExitBadInput = 2;
 // Each registers its subcommand on `app` and sets `run` to its action.
 void add_check(CLI::App& app, std::function<int()>& run);
 void add_solve(CLI::App& app, std::function<int()>& run);
+void add_simulate(CLI::App& app, std::function<int()>& run);
 void add_compare(CLI::App& app, std::function<int()>& run);
 void add_sweep(CLI::App& app, std::function<int()>& run);
 

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   std::function<int()> run;
   add_check(app, run);
   add_solve(app, run);
+  add_simulate(app, run);
   add_compare(app, run);
   add_sweep(app, run);
   try {

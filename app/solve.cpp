@@ -9,6 +9,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "app/commands.h"
+#include "app/output.h"
 
 namespace crosslink::app {
 namespace {
@@ -24,141 +25,6 @@ struct SolveArgs {
   WorkLimits limits;
 };
 
-// The forces of a usable sample in the documented schema (docs/json.md); null otherwise.
-nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
-  if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
-  nlohmann::json f;
-  f["driver"] = t.effort(row);
-  f["joints"] = nlohmann::json::object();
-  size_t slide = 0;
-  for (size_t j = 0; j < m.joints.size(); ++j) {
-    const auto c = static_cast<Eigen::Index>(j);
-    nlohmann::json joint = {{"fx", t.fx(row, c)}, {"fy", t.fy(row, c)}};
-    if (m.joints[j].is_slide()) {
-      const auto s = static_cast<Eigen::Index>(slide++);
-      joint["fn"] = t.fn(row, s);
-      if (m.joints[j].type == JointType::prismatic) joint["moment"] = t.moment(row, s);
-    }
-    f["joints"][m.joints[j].name] = joint;
-  }
-  f["shaking"] = {
-      {"fx", t.shaking(row, 0)}, {"fy", t.shaking(row, 1)}, {"moment", t.shaking(row, 2)}};
-  return f;
-}
-
-nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
-  nlohmann::json j;
-  j["time"] = t.time(row);
-  j["driver"] = t.driver(row);
-  j["status"] = std::string(to_string(t.status[static_cast<size_t>(row)]));
-  j["links"] = nlohmann::json::object();
-  for (size_t l = 0; l < t.link_names.size(); ++l) {
-    const auto c = static_cast<Eigen::Index>(l);
-    j["links"][t.link_names[l]] = {
-        {"angle", t.angle(row, c)}, {"omega", t.omega(row, c)}, {"alpha", t.alpha(row, c)}};
-  }
-  j["points"] = nlohmann::json::object();
-  for (size_t p = 0; p < t.point_names.size(); ++p) {
-    const auto c = static_cast<Eigen::Index>(p);
-    j["points"][t.point_names[p]] = {{"x", t.x(row, c)},   {"y", t.y(row, c)},
-                                     {"vx", t.vx(row, c)}, {"vy", t.vy(row, c)},
-                                     {"ax", t.ax(row, c)}, {"ay", t.ay(row, c)}};
-  }
-  j["sliders"] = nlohmann::json::object();
-  for (size_t s = 0; s < t.slider_names.size(); ++s) {
-    const auto c = static_cast<Eigen::Index>(s);
-    j["sliders"][t.slider_names[s]] = {
-        {"s", t.s(row, c)}, {"sdot", t.sdot(row, c)}, {"sddot", t.sddot(row, c)}};
-  }
-  j["forces"] = forces_json(m, t, row);
-  return j;
-}
-
-nlohmann::json events_json(const Trajectory& t) {
-  nlohmann::json events = nlohmann::json::array();
-  for (const Trajectory::Event& e : t.events)
-    events.push_back(
-        {{"driver", e.driver}, {"kind", std::string(to_string(e.kind))}, {"message", e.message}});
-  return events;
-}
-
-void print_json(const Mechanism& m, const Trajectory& t, bool single) {
-  nlohmann::json j;
-  j["mechanism"] = m.name;
-  j["file"] = m.file;
-  j["units"] = "SI";
-  j["method"] = t.method;
-  if (single) {
-    j.update(sample_json(m, t, 0));
-  } else {
-    j["status"] = std::string(to_string(
-        std::all_of(t.status.begin(), t.status.end(), [](PoseStatus s) { return usable(s); })
-            ? PoseStatus::ok
-            : *std::find_if(t.status.begin(), t.status.end(),
-                            [](PoseStatus s) { return !usable(s); })));
-    j["samples"] = nlohmann::json::array();
-    for (int r = 0; r < t.samples(); ++r) j["samples"].push_back(sample_json(m, t, r));
-  }
-  j["events"] = events_json(t);
-  fmt::print("{}\n", j.dump(2));
-}
-
-void print_csv(const Trajectory& t) {
-  const std::vector<std::string> channels = t.channel_names();
-  fmt::print("sample,time,driver,status");
-  for (const std::string& c : channels) fmt::print(",{}", c);
-  fmt::print("\n");
-  std::vector<Eigen::VectorXd> columns;
-  for (const std::string& c : channels) columns.push_back(*t.channel(c));
-  for (int r = 0; r < t.samples(); ++r) {
-    fmt::print("{},{:.17g},{:.17g},{}", r, t.time(r), t.driver(r),
-               to_string(t.status[static_cast<size_t>(r)]));
-    for (const Eigen::VectorXd& col : columns) fmt::print(",{:.17g}", col(r));
-    fmt::print("\n");
-  }
-}
-
-// Notes-style tables at one sample, in the file's units.
-void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
-  const double L = m.units.length, A = m.units.angle;
-  const std::string& ln = m.units.length_name;
-  const std::string& an = m.units.angle_name;
-  const double driver_unit = m.driver.angular() ? A : L;
-  fmt::print("{}  driver = {:.4f} {}  t = {:.6g} s  status: {}\n", m.name,
-             t.driver(row) / driver_unit, m.driver.angular() ? an : ln, t.time(row),
-             to_string(t.status[static_cast<size_t>(row)]));
-  fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
-             "omega [rad/s]", "alpha [rad/s^2]");
-  for (size_t l = 0; l < t.link_names.size(); ++l) {
-    const auto c = static_cast<Eigen::Index>(l);
-    fmt::print("{:<14} {:>12.4f} {:>14.4f} {:>16.3f}\n", t.link_names[l], t.angle(row, c) / A,
-               t.omega(row, c), t.alpha(row, c));
-  }
-  fmt::print("\n{:<8} {:>10} {:>10} {:>11} {:>11} {:>11} {:>12} {:>12} {:>12}\n", "point",
-             fmt::format("x [{}]", ln), fmt::format("y [{}]", ln), "vx", "vy", "|v|", "ax", "ay",
-             "|a|");
-  for (size_t p = 0; p < t.point_names.size(); ++p) {
-    const auto c = static_cast<Eigen::Index>(p);
-    const double vx = t.vx(row, c) / L, vy = t.vy(row, c) / L;
-    const double ax = t.ax(row, c) / L, ay = t.ay(row, c) / L;
-    fmt::print(
-        "{:<8} {:>10.4f} {:>10.4f} {:>11.3f} {:>11.3f} {:>11.3f} {:>12.2f} {:>12.2f} "
-        "{:>12.2f}\n",
-        t.point_names[p], t.x(row, c) / L, t.y(row, c) / L, vx, vy, std::hypot(vx, vy), ax, ay,
-        std::hypot(ax, ay));
-  }
-  fmt::print("(velocities in {0}/s, accelerations in {0}/s^2)\n", ln);
-  if (!t.slider_names.empty()) {
-    fmt::print("\n{:<20} {:>12} {:>14} {:>16}\n", "slider", fmt::format("s [{}]", ln),
-               fmt::format("sdot [{}/s]", ln), fmt::format("sddot [{}/s^2]", ln));
-    for (size_t s = 0; s < t.slider_names.size(); ++s) {
-      const auto c = static_cast<Eigen::Index>(s);
-      fmt::print("{:<20} {:>12.4f} {:>14.3f} {:>16.2f}\n", t.slider_names[s], t.s(row, c) / L,
-                 t.sdot(row, c) / L, t.sddot(row, c) / L);
-    }
-  }
-}
-
 // A sweep as one row per sample: driver, status, then each link's angle and omega.
 void print_table_sweep(const Mechanism& m, const Trajectory& t) {
   const double A = m.units.angle;
@@ -170,8 +36,13 @@ void print_table_sweep(const Mechanism& m, const Trajectory& t) {
   for (int r = 0; r < t.samples(); ++r) {
     std::string line = fmt::format("{:>10.4f} {:>8}", t.driver(r) / driver_unit,
                                    to_string(t.status[static_cast<size_t>(r)]));
+    // Blank where the value does not exist: no pose, or (singular) no rates.
+    const PoseStatus status = t.status[static_cast<size_t>(r)];
+    const bool pose = usable(status) || status == PoseStatus::singular;
     for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
-      line += fmt::format(" {:>12.4f} {:>12.4f}", t.angle(r, c) / A, t.omega(r, c));
+      line +=
+          (pose ? fmt::format(" {:>12.4f}", t.angle(r, c) / A) : fmt::format(" {:>12}", "")) +
+          (usable(status) ? fmt::format(" {:>12.4f}", t.omega(r, c)) : fmt::format(" {:>12}", ""));
     fmt::print("{}\n", line);
   }
 }
@@ -267,7 +138,8 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
                e.driver, e.message);
   if (args.format == "json")
-    print_json(m, t, single);
+    fmt::print("{}\n",
+               trajectory_json(m, t, single ? std::optional<int>(0) : std::nullopt).dump(2));
   else if (args.format == "csv")
     print_csv(t);
   else if (single) {

@@ -373,4 +373,79 @@ TEST(Cli, TheSweepGridIsBounded) {
   EXPECT_NE(grid.err.find("--dt: 51 time steps: the limit is 50"), std::string::npos) << grid.err;
 }
 
+// `crosslink simulate`: the exact dynamics in the schema of `solve --at` plus the energy
+// (docs/json.md). Andrews' squeezer against the Test Set for IVP Solvers' reference at 0.03 s
+// (problem "andrews", subroutine solut): beta = 15.81077119629904, epsilon = 1.048080741042263.
+nlohmann::json simulate_json(const std::string& args) {
+  const CommandRun run = crosslink("simulate " + args + " --format json");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  try {
+    return nlohmann::json::parse(run.out);
+  } catch (const nlohmann::json::exception& e) {
+    ADD_FAILURE() << "not JSON (" << e.what() << "):\n" << run.out.substr(0, 400);
+    return {};
+  }
+}
+
+TEST(Cli, SimulateAtGivesTheSolveSchemaPlusTheEnergy) {
+  const nlohmann::json j = simulate_json("mechanisms/andrews_squeezer.toml --at 0.03");
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j.at("status"), "ok");
+  EXPECT_EQ(j.at("units"), "SI");
+  EXPECT_NEAR(j.at("time").get<double>(), 0.03, 1e-15);
+  const nlohmann::json& links = j.at("links");
+  EXPECT_NEAR(links.at("body1").at("angle").get<double>(), 15.81077119629904, 1e-8 * 15.81);
+  EXPECT_NEAR(links.at("body7").at("angle").get<double>(), 1.048080741042263, 1e-8);
+  // The same fields as solve --at's document.
+  const nlohmann::json solve = solve_json("--at 135");
+  for (const auto& [key, value] : solve.items()) EXPECT_TRUE(j.contains(key)) << key;
+  for (const char* field : {"x", "y", "vx", "vy", "ax", "ay"})
+    EXPECT_TRUE(j.at("points").at("D").at(field).is_number()) << field;
+  // The driver's multiplier along the simulated motion is the motor torque that drives it.
+  EXPECT_NEAR(j.at("forces").at("driver").get<double>(), 0.033, 1e-10 * 0.033);
+  EXPECT_TRUE(j.at("forces").at("joints").at("E3").at("fx").is_number());
+  // The energy balance: kinetic + potential - initial - work of the motor torque.
+  const nlohmann::json& e = j.at("energy");
+  const double balance = e.at("kinetic").get<double>() + e.at("potential").get<double>() -
+                         e.at("initial").get<double>() - e.at("work").get<double>();
+  EXPECT_NEAR(e.at("balance").get<double>(), balance, 1e-15);
+  EXPECT_LT(std::abs(balance), 1e-10 * e.at("kinetic").get<double>());
+  // The motor's work: 0.033 N m over the crank's turn (beta - beta0).
+  EXPECT_NEAR(e.at("work").get<double>(),
+              0.033 * (links["body1"]["angle"].get<double>() + 0.0617138900142764), 1e-12);
+}
+
+TEST(Cli, SimulateRunAsJsonAndCsv) {
+  const nlohmann::json j = simulate_json("mechanisms/andrews_squeezer.toml --duration 0.01");
+  ASSERT_TRUE(j.is_object());
+  ASSERT_EQ(j.at("samples").size(), 21u);  // 0.01 s at the case's interval of 0.5 ms
+  EXPECT_NEAR(j["samples"][20]["time"].get<double>(), 0.01, 1e-15);
+  EXPECT_TRUE(j["samples"][20]["energy"]["balance"].is_number());
+  const CommandRun csv =
+      crosslink("simulate mechanisms/andrews_squeezer.toml --duration 0.01 --format csv");
+  ASSERT_EQ(csv.exit_code, 0) << csv.err;
+  std::istringstream lines(csv.out);
+  std::string header;
+  std::getline(lines, header);
+  EXPECT_EQ(header.rfind("sample,time,driver,status,", 0), 0u) << header;
+  EXPECT_NE(header.find(",energy.kinetic,energy.potential,energy.work,energy.balance"),
+            std::string::npos)
+      << header;
+  int rows = 0;
+  for (std::string line; std::getline(lines, line);) ++rows;
+  EXPECT_EQ(rows, 21);
+}
+
+TEST(Cli, SimulateRefusesWhatItCannotRun) {
+  const CommandRun kinematic = crosslink(std::string("simulate ") + kSewing);
+  EXPECT_EQ(kinematic.exit_code, 2);
+  EXPECT_NE(kinematic.err.find("not a dynamics case"), std::string::npos) << kinematic.err;
+  const CommandRun longer = crosslink("simulate mechanisms/andrews_squeezer.toml --duration 1e6");
+  EXPECT_EQ(longer.exit_code, 2);
+  EXPECT_NE(longer.err.find("--max-samples"), std::string::npos) << longer.err;
+  const CommandRun negative = crosslink("simulate mechanisms/andrews_squeezer.toml --at -1");
+  EXPECT_EQ(negative.exit_code, 2);
+  EXPECT_NE(negative.err.find("--at"), std::string::npos) << negative.err;
+}
+
 }  // namespace

@@ -4,7 +4,10 @@
 //     theta; that one-line equation, integrated here by a different method, is the reference for
 //     B0 at every sample. B0 at 10 s is also compared, for the record, with the value EXUDYN's
 //     documentation prints for its finest step (generalised-alpha, h = 1.25e-4 s).
-//   - the energy balance at every sample, and a second integration (rkf78 against dopri5).
+//   - Andrews' squeezing mechanism: the Test Set for IVP Solvers' reference solution at
+//     t = 0.03 s, and its consistent initial accelerations and multipliers at t = 0;
+//   - every bundled dynamics case: the energy balance at every sample, and a second integration
+//     (dopri5 against the reference's rkf78).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -14,6 +17,7 @@
 
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink {
 namespace {
@@ -70,11 +74,11 @@ TEST(DoubleFourBar, EnergyIsConservedAndTwoIntegratorsAgree) {
   const Mechanism m = bundled("iftomm_a02_double_fourbar.toml");
   const Simulation a = simulate(m);
   SimulationOptions other;
-  other.integrator = "rkf78";
+  other.integrator = "dopri5";
   const Simulation b = simulate(m, other);
   ASSERT_TRUE(a.ok && b.ok) << a.message << b.message;
   ASSERT_EQ(a.trajectory.samples(), b.trajectory.samples());
-  // The reference (dopri5) and the check (rkf78): energy balance at every usable sample, in J
+  // The reference (rkf78) and the check (dopri5): energy balance at every usable sample, in J
   // and relative to the energies; and the two integrations' link angles.
   double drift = 0.0, joules = 0.0, check_drift = 0.0, apart = 0.0;
   for (int k = 0; k < a.trajectory.samples(); ++k) {
@@ -89,7 +93,7 @@ TEST(DoubleFourBar, EnergyIsConservedAndTwoIntegratorsAgree) {
       apart = std::max(apart, std::abs(a.trajectory.angle(k, c) - b.trajectory.angle(k, c)));
   }
   std::printf(
-      "[ A02 N=2 ] energy balance: dopri5 %.2e (%.2e J), rkf78 %.2e; dopri5 vs rkf78 "
+      "[ A02 N=2 ] energy balance: rkf78 %.2e (%.2e J), dopri5 %.2e; rkf78 vs dopri5 "
       "angles %.2e rad; evaluations %ld and %ld\n",
       drift, joules, check_drift, apart, a.evaluations, b.evaluations);
   EXPECT_LT(drift, 1e-10);
@@ -97,6 +101,112 @@ TEST(DoubleFourBar, EnergyIsConservedAndTwoIntegratorsAgree) {
   EXPECT_LT(check_drift, 1e-9);
   EXPECT_LT(apart, 1e-8);
 }
+
+// The Test Set's angles from the link angles (its relative angles are differences of ours).
+std::array<double, 7> test_set_angles(const Trajectory& t, int k) {
+  const auto a = [&](const std::string& link) { return t.angle(k, column(t.link_names, link)); };
+  return {a("body1"), a("body2") - a("body1"), a("body3"), a("body4") - a("body5"),
+          a("body5"), a("body6") - a("body7"), a("body7")};
+}
+
+// Test Set for IVP Solvers, problem "andrews" (Mazzia, Iavernaro, Magherini, Univ. of Bari,
+// andrews.f, subroutine solut): the reference solution at t = 0.03 s, beta ... epsilon,
+// computed by PSIDE with rtol = atol = 1e-14. The Test Set scores a solver by its significant
+// digits, -log10 of the largest relative error over these seven.
+TEST(AndrewsSqueezer, AnglesAt30msMatchTheTestSetReference) {
+  const Mechanism m = bundled("andrews_squeezer.toml");
+  const Simulation sim = simulate(m);
+  ASSERT_TRUE(sim.ok) << sim.message;
+  const Trajectory& t = sim.trajectory;
+  const int last = t.samples() - 1;
+  ASSERT_NEAR(t.time(last), 0.03, 1e-15);
+  constexpr std::array<double, 7> kReference = {
+      0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1, -0.5347301163226948e+0,
+      0.5244099658805304e+0, 0.5347301163226948e+0,  0.1048080741042263e+1};
+  const std::array<double, 7> q = test_set_angles(t, last);
+  double worst = 0.0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    const double relative = std::abs(q[i] - kReference[i]) / std::abs(kReference[i]);
+    worst = std::max(worst, relative);
+    EXPECT_LT(relative, 1e-8) << "angle " << i + 1;  // the 8 significant digits
+  }
+  std::printf("[ Andrews ] %.2f significant digits against the Test Set (%ld evaluations)\n",
+              -std::log10(worst), sim.evaluations);
+}
+
+// The Test Set's consistent initial values (andrews.f, subroutine init): from rest,
+// beta'' = 14222.4439199541138705911625887, Theta'' = -10666.8329399655854029433719415, the
+// others 0; multipliers lambda1 = 98.5668703962410896057654982170,
+// lambda2 = -6.12268834425566265503114393122, lambda3..6 = 0. Its constraints g1-g2, g3-g4,
+// g5-g6 close E through body3, body4-body5 and body6-body7, and M w = f - G^T lambda puts
+// -lambda on body2's coordinates: lambda is the force body2 exerts at E on body3 (joint E3),
+// then on body4 (E4) and body6 (E6).
+TEST(AndrewsSqueezer, InitialAccelerationsAndMultipliersMatchTheTestSet) {
+  const Mechanism m = bundled("andrews_squeezer.toml");
+  SimulationOptions first;
+  first.duration = first.interval = m.dynamics->interval;
+  const Simulation sim = simulate(m, first);
+  ASSERT_TRUE(sim.ok) << sim.message;
+  const Trajectory& t = sim.trajectory;
+  ASSERT_EQ(t.status[0], PoseStatus::ok);
+  const auto alpha = [&](const std::string& link) {
+    return t.alpha(0, column(t.link_names, link));
+  };
+  EXPECT_NEAR(alpha("body1"), 14222.4439199541138705911625887, 1e-12 * 14222.44);
+  EXPECT_NEAR(alpha("body2") - alpha("body1"), -10666.8329399655854029433719415, 1e-12 * 14222.44);
+  for (const char* body : {"body3", "body4", "body5", "body6", "body7"})
+    EXPECT_NEAR(alpha(body), 0.0, 1e-12 * 14222.44) << body;
+  const auto joint = [&](const std::string& name) {
+    const auto j = column(t.joint_names, name);
+    return Eigen::Vector2d(t.fx(0, j), t.fy(0, j));
+  };
+  EXPECT_NEAR(joint("E3").x(), 98.5668703962410896057654982170, 1e-12 * 98.57);
+  EXPECT_NEAR(joint("E3").y(), -6.12268834425566265503114393122, 1e-12 * 98.57);
+  EXPECT_NEAR(joint("E4").norm(), 0.0, 1e-12 * 98.57);
+  EXPECT_NEAR(joint("E6").norm(), 0.0, 1e-12 * 98.57);
+  EXPECT_NEAR(t.effort(0), 0.033, 1e-15);  // the applied motor torque
+}
+
+// Every bundled dynamics case: the energy balance (kinetic + potential - initial - work of the
+// effort, loads and dampers) at every sample, and a second integration by another method.
+class BundledDynamics : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BundledDynamics, EnergyBalancesAndASecondIntegrationAgrees) {
+  const Mechanism m = load_mechanism(GetParam());
+  const Simulation a = simulate(m);
+  SimulationOptions other;
+  other.integrator = "dopri5";
+  const Simulation b = simulate(m, other);
+  ASSERT_TRUE(a.ok && b.ok) << a.message << b.message;
+  ASSERT_EQ(a.trajectory.samples(), b.trajectory.samples());
+  double drift = 0.0, apart = 0.0, scale = 0.0;
+  for (int k = 0; k < a.trajectory.samples(); ++k) {
+    if (!usable(a.trajectory.status[static_cast<size_t>(k)]) ||
+        !usable(b.trajectory.status[static_cast<size_t>(k)]))
+      continue;
+    drift = std::max({drift, a.energy_error(k), b.energy_error(k)});
+    for (Eigen::Index c = 0; c < a.trajectory.angle.cols(); ++c) {
+      apart = std::max(apart, std::abs(a.trajectory.angle(k, c) - b.trajectory.angle(k, c)));
+      scale = std::max(scale, std::abs(a.trajectory.angle(k, c)));
+    }
+  }
+  std::printf("[ %s ] energy balance %.2e; integrations %.2e rad apart (largest angle %.3g)\n",
+              m.name.c_str(), drift, apart, scale);
+  EXPECT_LT(drift, 1e-10);
+  EXPECT_LT(apart, 1e-8 * std::max(1.0, scale));
+}
+
+std::vector<std::string> dynamics_cases() {
+  std::vector<std::string> files;
+  for (const std::string& f : test::bundled_files(false))
+    if (test::is_dynamics_case(f)) files.push_back(f);
+  return files;
+}
+
+INSTANTIATE_TEST_SUITE_P(Mechanisms, BundledDynamics, ::testing::ValuesIn(dynamics_cases()),
+                         [](const auto& info) {
+                           return std::filesystem::path(info.param).stem().string();
+                         });
 
 }  // namespace
 }  // namespace crosslink

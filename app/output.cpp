@@ -1,0 +1,183 @@
+#include "app/output.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace crosslink::app {
+namespace {
+
+// What a sample holds: a solved pose (ok, or singular: its position is right, its rates and
+// forces do not exist), or nothing. A value that does not exist is written null (JSON) or left
+// empty (CSV, tables), never as a number.
+bool has_position(PoseStatus s) {
+  return s == PoseStatus::ok || s == PoseStatus::singular;
+}
+bool exists(PoseStatus s, Quantity q) {
+  return q == Quantity::position || q == Quantity::angle ? has_position(s) : usable(s);
+}
+nlohmann::json value(bool exists, double v) {
+  return exists ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+// The forces of a usable sample in the documented schema (docs/json.md); null otherwise.
+nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
+  if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
+  nlohmann::json f;
+  f["driver"] = t.effort(row);
+  f["joints"] = nlohmann::json::object();
+  size_t slide = 0;
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const auto c = static_cast<Eigen::Index>(j);
+    nlohmann::json joint = {{"fx", t.fx(row, c)}, {"fy", t.fy(row, c)}};
+    if (m.joints[j].is_slide()) {
+      const auto s = static_cast<Eigen::Index>(slide++);
+      joint["fn"] = t.fn(row, s);
+      if (m.joints[j].type == JointType::prismatic) joint["moment"] = t.moment(row, s);
+    }
+    f["joints"][m.joints[j].name] = joint;
+  }
+  f["shaking"] = {
+      {"fx", t.shaking(row, 0)}, {"fy", t.shaking(row, 1)}, {"moment", t.shaking(row, 2)}};
+  return f;
+}
+
+}  // namespace
+
+nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
+  nlohmann::json j;
+  j["time"] = t.time(row);
+  j["driver"] = t.driver(row);
+  j["status"] = std::string(to_string(t.status[static_cast<size_t>(row)]));
+  j["links"] = nlohmann::json::object();
+  const PoseStatus status = t.status[static_cast<size_t>(row)];
+  const auto pos = [&](double v) { return value(has_position(status), v); };
+  const auto rate = [&](double v) { return value(usable(status), v); };
+  for (size_t l = 0; l < t.link_names.size(); ++l) {
+    const auto c = static_cast<Eigen::Index>(l);
+    j["links"][t.link_names[l]] = {{"angle", pos(t.angle(row, c))},
+                                   {"omega", rate(t.omega(row, c))},
+                                   {"alpha", rate(t.alpha(row, c))}};
+  }
+  j["points"] = nlohmann::json::object();
+  for (size_t p = 0; p < t.point_names.size(); ++p) {
+    const auto c = static_cast<Eigen::Index>(p);
+    j["points"][t.point_names[p]] = {{"x", pos(t.x(row, c))},    {"y", pos(t.y(row, c))},
+                                     {"vx", rate(t.vx(row, c))}, {"vy", rate(t.vy(row, c))},
+                                     {"ax", rate(t.ax(row, c))}, {"ay", rate(t.ay(row, c))}};
+  }
+  j["sliders"] = nlohmann::json::object();
+  for (size_t s = 0; s < t.slider_names.size(); ++s) {
+    const auto c = static_cast<Eigen::Index>(s);
+    j["sliders"][t.slider_names[s]] = {
+        {"s", pos(t.s(row, c))}, {"sdot", rate(t.sdot(row, c))}, {"sddot", rate(t.sddot(row, c))}};
+  }
+  j["forces"] = forces_json(m, t, row);
+  return j;
+}
+
+nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::optional<int> single,
+                               const std::string& event_key,
+                               const std::function<void(nlohmann::json&, int)>& extra) {
+  nlohmann::json j;
+  j["mechanism"] = m.name;
+  j["file"] = m.file;
+  j["units"] = "SI";
+  j["method"] = t.method;
+  if (single) {
+    j.update(sample_json(m, t, *single));
+    if (extra) extra(j, *single);
+  } else {
+    const auto first_flagged =
+        std::find_if(t.status.begin(), t.status.end(), [](PoseStatus s) { return !usable(s); });
+    j["status"] =
+        std::string(to_string(first_flagged == t.status.end() ? PoseStatus::ok : *first_flagged));
+    j["samples"] = nlohmann::json::array();
+    for (int r = 0; r < t.samples(); ++r) {
+      j["samples"].push_back(sample_json(m, t, r));
+      if (extra) extra(j["samples"].back(), r);
+    }
+  }
+  j["events"] = nlohmann::json::array();
+  for (const Trajectory::Event& e : t.events)
+    j["events"].push_back(
+        {{event_key, e.driver}, {"kind", std::string(to_string(e.kind))}, {"message", e.message}});
+  return j;
+}
+
+void print_csv(const Trajectory& t, const Columns& extra) {
+  const std::vector<std::string> channels = t.channel_names();
+  fmt::print("sample,time,driver,status");
+  for (const std::string& c : channels) fmt::print(",{}", c);
+  for (const auto& [name, column] : extra) fmt::print(",{}", name);
+  fmt::print("\n");
+  std::vector<Eigen::VectorXd> columns;
+  std::vector<Quantity> quantities;
+  for (const std::string& c : channels) {
+    columns.push_back(*t.channel(c));
+    quantities.push_back(Trajectory::quantity_of(c));
+  }
+  for (int r = 0; r < t.samples(); ++r) {
+    const PoseStatus status = t.status[static_cast<size_t>(r)];
+    std::string line =
+        fmt::format("{},{:.17g},{:.17g},{}", r, t.time(r), t.driver(r), to_string(status));
+    for (size_t c = 0; c < columns.size(); ++c)
+      line += exists(status, quantities[c]) ? fmt::format(",{:.17g}", columns[c](r)) : ",";
+    for (const auto& [name, column] : extra)
+      line += std::isfinite(column(r)) ? fmt::format(",{:.17g}", column(r)) : ",";
+    fmt::print("{}\n", line);
+  }
+}
+
+// Notes-style tables at one sample, in the file's units.
+void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
+  const double L = m.units.length, A = m.units.angle;
+  const std::string& ln = m.units.length_name;
+  const std::string& an = m.units.angle_name;
+  const double driver_unit = m.driver.angular() ? A : L;
+  const PoseStatus status = t.status[static_cast<size_t>(row)];
+  // A value that does not exist is a blank of the column's width.
+  const auto pos = [&](double v, int width, int digits) {
+    return has_position(status) ? fmt::format(" {:>{}.{}f}", v, width, digits)
+                                : fmt::format(" {:>{}}", "", width);
+  };
+  const auto rate = [&](double v, int width, int digits) {
+    return usable(status) ? fmt::format(" {:>{}.{}f}", v, width, digits)
+                          : fmt::format(" {:>{}}", "", width);
+  };
+  fmt::print("{}  driver = {:.4f} {}  t = {:.6g} s  status: {}\n", m.name,
+             t.driver(row) / driver_unit, m.driver.angular() ? an : ln, t.time(row),
+             to_string(status));
+  fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
+             "omega [rad/s]", "alpha [rad/s^2]");
+  for (size_t l = 0; l < t.link_names.size(); ++l) {
+    const auto c = static_cast<Eigen::Index>(l);
+    fmt::print("{:<14}{}{}{}\n", t.link_names[l], pos(t.angle(row, c) / A, 12, 4),
+               rate(t.omega(row, c), 14, 4), rate(t.alpha(row, c), 16, 3));
+  }
+  fmt::print("\n{:<8} {:>10} {:>10} {:>11} {:>11} {:>11} {:>12} {:>12} {:>12}\n", "point",
+             fmt::format("x [{}]", ln), fmt::format("y [{}]", ln), "vx", "vy", "|v|", "ax", "ay",
+             "|a|");
+  for (size_t p = 0; p < t.point_names.size(); ++p) {
+    const auto c = static_cast<Eigen::Index>(p);
+    const double vx = t.vx(row, c) / L, vy = t.vy(row, c) / L;
+    const double ax = t.ax(row, c) / L, ay = t.ay(row, c) / L;
+    fmt::print("{:<8}{}{}{}{}{}{}{}{}\n", t.point_names[p], pos(t.x(row, c) / L, 10, 4),
+               pos(t.y(row, c) / L, 10, 4), rate(vx, 11, 3), rate(vy, 11, 3),
+               rate(std::hypot(vx, vy), 11, 3), rate(ax, 12, 2), rate(ay, 12, 2),
+               rate(std::hypot(ax, ay), 12, 2));
+  }
+  fmt::print("(velocities in {0}/s, accelerations in {0}/s^2)\n", ln);
+  if (!t.slider_names.empty()) {
+    fmt::print("\n{:<20} {:>12} {:>14} {:>16}\n", "slider", fmt::format("s [{}]", ln),
+               fmt::format("sdot [{}/s]", ln), fmt::format("sddot [{}/s^2]", ln));
+    for (size_t s = 0; s < t.slider_names.size(); ++s) {
+      const auto c = static_cast<Eigen::Index>(s);
+      fmt::print("{:<20}{}{}{}\n", t.slider_names[s], pos(t.s(row, c) / L, 12, 4),
+                 rate(t.sdot(row, c) / L, 14, 3), rate(t.sddot(row, c) / L, 16, 2));
+    }
+  }
+}
+
+}  // namespace crosslink::app

@@ -1,0 +1,37 @@
+// The trajectory writers shared by `solve` and `simulate`: one sample as JSON in the documented
+// schema (docs/json.md), a whole trajectory as JSON or CSV (SI), one sample as notes-style
+// tables in the file's units.
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink::app {
+
+// Extra per-sample columns (name, values), written after the trajectory's own.
+using Columns = std::vector<std::pair<std::string, Eigen::VectorXd>>;
+
+// One sample: time, driver, status, links, points, sliders, forces (null when not usable).
+nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row);
+
+// The document: mechanism, file, units, method, then either the one sample `single` (its fields
+// at the top level) or `status` and `samples`, and `events` (each at `event_key`: "driver" for a
+// kinematic sweep, "time" for a simulation). `extra` adds fields to each sample.
+nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::optional<int> single,
+                               const std::string& event_key = "driver",
+                               const std::function<void(nlohmann::json&, int)>& extra = {});
+
+// One row per sample: sample, time, driver, status, every channel, then `extra`. A value that is
+// not usable (a flagged sample) is an empty field.
+void print_csv(const Trajectory& t, const Columns& extra = {});
+
+// Notes-style tables of links, points and sliders at one sample, in the file's units.
+void print_table_at(const Mechanism& m, const Trajectory& t, int row);
+
+}  // namespace crosslink::app

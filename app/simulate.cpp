@@ -1,0 +1,166 @@
+// `crosslink simulate FILE [--duration T] [--at T] [--format table|json|csv]`: the exact forward
+// dynamics of a dynamics case (analytic/dynamics.h), with its energy balance. The JSON of one
+// time has the schema of `solve --at` plus `energy`; the table is in the file's units.
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "analytic/dynamics.h"
+#include "analytic/loader.h"
+#include "app/commands.h"
+#include "app/output.h"
+
+namespace crosslink::app {
+namespace {
+
+struct SimulateArgs {
+  std::string path;
+  std::optional<double> duration, at;
+  std::string format = "table";
+  std::string integrator = "rkf78";
+  double tolerance = 1e-13;
+  WorkLimits limits;
+};
+
+// The energy balance at sample k [J]: null where the sample holds no motion.
+nlohmann::json energy_json(const Simulation& s, int k) {
+  if (!usable(s.trajectory.status[static_cast<size_t>(k)])) return nullptr;
+  const double balance = s.kinetic(k) + s.potential(k) - s.initial_energy - s.work(k);
+  return {{"kinetic", s.kinetic(k)}, {"potential", s.potential(k)},
+          {"work", s.work(k)},       {"initial", s.initial_energy},
+          {"balance", balance},      {"balance_relative", s.energy_error(k)}};
+}
+
+// One row per sample: time, status, each link's angle and omega, and the energy balance.
+void print_table_run(const Mechanism& m, const Simulation& s) {
+  const Trajectory& t = s.trajectory;
+  const double A = m.units.angle;
+  std::string header = fmt::format("{:>10} {:>8}", "t [s]", "status");
+  for (const std::string& l : t.link_names)
+    header += fmt::format(" {:>12} {:>12}", "angle." + l, "omega." + l);
+  fmt::print("{}  (angles in {}, omega in rad/s, energy balance in J)\n{} {:>12}\n", m.name,
+             m.units.angle_name, header, "balance");
+  for (int r = 0; r < t.samples(); ++r) {
+    const PoseStatus status = t.status[static_cast<size_t>(r)];
+    const bool pose = usable(status) || status == PoseStatus::singular;
+    std::string line = fmt::format("{:>10.4f} {:>8}", t.time(r), to_string(status));
+    for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
+      line +=
+          (pose ? fmt::format(" {:>12.6f}", t.angle(r, c) / A) : fmt::format(" {:>12}", "")) +
+          (usable(status) ? fmt::format(" {:>12.6f}", t.omega(r, c)) : fmt::format(" {:>12}", ""));
+    const double balance = s.kinetic(r) + s.potential(r) - s.initial_energy - s.work(r);
+    line += usable(status) ? fmt::format(" {:>12.3e}", balance) : fmt::format(" {:>12}", "");
+    fmt::print("{}\n", line);
+  }
+}
+
+int run_simulate(const SimulateArgs& args) {
+  const Mechanism m = load_mechanism(args.path);
+  if (!m.dynamics) {
+    fmt::print(stderr,
+               "{}: error: not a dynamics case: simulate needs a [dynamics] table "
+               "(docs/dynamics.md); `crosslink solve` gives a prescribed motion\n",
+               m.file);
+    return kExitBadInput;
+  }
+  const DynamicsCase& c = *m.dynamics;
+  SimulationOptions options{.integrator = args.integrator, .tolerance = args.tolerance};
+  for (const auto& [value, option] : {std::pair{args.duration, "--duration"}, {args.at, "--at"}})
+    if (value && !(std::isfinite(*value) && *value >= 0.0 && *value <= 1e9))
+      throw std::invalid_argument(
+          fmt::format("{} {} s: a time from 0 to 1e9 s is needed", option, *value));
+  if (args.duration && *args.duration == 0.0)
+    throw std::invalid_argument("--duration 0 s: a duration must be positive");
+  std::optional<int> single;
+  if (args.at) {
+    // Two samples, 0 and T, the integrator landing on T (a time of 0 is the first of the case's).
+    options.duration = *args.at > 0.0 ? *args.at : c.interval;
+    options.interval = options.duration;
+    single = *args.at > 0.0 ? 1 : 0;
+  } else if (args.duration) {
+    options.duration = *args.duration;
+  }
+  const double duration = options.duration > 0.0 ? options.duration : c.duration;
+  const double interval = options.interval > 0.0 ? options.interval : c.interval;
+  const double samples = std::floor(duration / interval + 1e-9) + 1.0;
+  if (samples > static_cast<double>(args.limits.max_samples))
+    throw std::invalid_argument(fmt::format(
+        "{}: a duration of {:g} s at the case's interval of {:g} s asks for {:g} samples: the "
+        "limit is {} (raise it with --max-samples N)",
+        m.file, duration, interval, samples, args.limits.max_samples));
+
+  const Simulation s = simulate(m, options);
+  const Trajectory& t = s.trajectory;
+  double worst = 0.0;
+  for (int k = 0; k < t.samples(); ++k)
+    if (usable(t.status[static_cast<size_t>(k)])) worst = std::max(worst, s.energy_error(k));
+  fmt::print(stderr,
+             "{}: method: {}, tolerance {:g}; {} evaluations; energy balance within {:.2e} of "
+             "the largest energy\n",
+             m.file, t.method, options.tolerance, s.evaluations, worst);
+  for (const Trajectory::Event& e : t.events)
+    fmt::print(stderr, "{}: note: {} at t = {:.10g} s: {}\n", m.file, to_string(e.kind), e.driver,
+               e.message);
+
+  if (args.format == "json") {
+    const auto energy = [&s](nlohmann::json& j, int k) { j["energy"] = energy_json(s, k); };
+    fmt::print("{}\n", trajectory_json(m, t, single, "time", energy).dump(2));
+  } else if (args.format == "csv") {
+    Eigen::VectorXd balance = s.kinetic + s.potential - s.work;
+    balance.array() -= s.initial_energy;
+    Columns energy = {{"energy.kinetic", s.kinetic},
+                      {"energy.potential", s.potential},
+                      {"energy.work", s.work},
+                      {"energy.balance", balance}};
+    for (auto& [name, column] : energy)
+      for (int k = 0; k < t.samples(); ++k)
+        if (!usable(t.status[static_cast<size_t>(k)])) column(k) = NAN;  // an empty field
+    print_csv(t, energy);
+  } else if (single) {
+    print_table_at(m, t, *single);
+    if (const nlohmann::json e = energy_json(s, *single); !e.is_null())
+      fmt::print(
+          "\nenergy [J]: kinetic {:.10g}, potential {:.10g}, work done {:.10g}, initial {:.10g}; "
+          "balance {:.3e}\n",
+          e["kinetic"].get<double>(), e["potential"].get<double>(), e["work"].get<double>(),
+          s.initial_energy, e["balance"].get<double>());
+  } else {
+    print_table_run(m, s);
+  }
+  if (single && !usable(t.status[static_cast<size_t>(*single)])) {
+    fmt::print(stderr, "{}\n",
+               Diagnostic{c.where, fmt::format("{} at t = {} s: {}",
+                                               to_string(t.status[static_cast<size_t>(*single)]),
+                                               *args.at, s.message)}
+                   .str());
+    return kExitBadInput;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_simulate(CLI::App& app, std::function<int()>& run) {
+  auto* cmd = app.add_subcommand(
+      "simulate",
+      "Exact forward dynamics of a dynamics case ([dynamics]), with its energy balance");
+  auto args = std::make_shared<SimulateArgs>();
+  cmd->add_option("FILE", args->path, "mechanism definition (.toml) with a [dynamics] table")
+      ->required();
+  cmd->add_option("--duration", args->duration, "simulated time [s] (default: the case's)");
+  cmd->add_option("--at", args->at, "the state at this time [s] only");
+  cmd->add_option("--format", args->format, "output format")
+      ->check(CLI::IsMember({"table", "json", "csv"}));
+  cmd->add_option("--integrator", args->integrator,
+                  "rkf78 (Runge-Kutta-Fehlberg 7(8), the default) or dopri5 (Dormand-Prince "
+                  "5(4), dense output): two independent integrations")
+      ->check(CLI::IsMember({"rkf78", "dopri5"}));
+  cmd->add_option("--tolerance", args->tolerance,
+                  "absolute and relative error per step (default 1e-13)")
+      ->check(CLI::Range(1e-15, 1e-2));
+  cmd->get_option("--duration")->excludes(cmd->get_option("--at"));
+  add_max_samples(*cmd, args->limits);
+  cmd->callback([&run, args] { run = [args] { return run_simulate(*args); }; });
+}
+
+}  // namespace crosslink::app
