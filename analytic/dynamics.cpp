@@ -178,9 +178,7 @@ class EquationOfMotion {
 }  // namespace
 
 double Simulation::energy_error(int k) const {
-  const double scale =
-      std::max({std::abs(initial_energy), std::abs(kinetic(k)), std::abs(potential(k)), 1e-300});
-  return std::abs(kinetic(k) + potential(k) - initial_energy - work(k)) / scale;
+  return std::abs(energy_balance(k)) / std::max(energy_scale, 1e-300);
 }
 
 Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options) {
@@ -233,6 +231,8 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
       out.kinetic(k) = kinetostatics.kinetic_energy(s);
       out.potential(k) = kinetostatics.potential_energy(s);
       out.work(k) = y[2];
+      out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
+                                   std::abs(out.potential(k)), std::abs(out.work(k))});
       if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
     };
     namespace odeint = boost::numeric::odeint;

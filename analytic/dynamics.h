@@ -47,7 +47,15 @@ struct Simulation {
   std::string message;   // why the run stopped early
   long evaluations = 0;  // of the equation of motion
 
-  // |kinetic + potential - initial - work| at sample k, relative to the largest of the energies.
+  // The largest of the energies (kinetic, potential, work, initial) over the run [J]: the scale
+  // of the balance (one sample's energies may all be near 0: a pendulum at rest at the level of
+  // its pivot).
+  double energy_scale = 0.0;
+
+  // kinetic + potential - initial - work at sample k [J], and its magnitude over energy_scale.
+  double energy_balance(int k) const {
+    return kinetic(k) + potential(k) - initial_energy - work(k);
+  }
   double energy_error(int k) const;
 };
 

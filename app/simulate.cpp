@@ -25,7 +25,7 @@ struct SimulateArgs {
 // The energy balance at sample k [J]: null where the sample holds no motion.
 nlohmann::json energy_json(const Simulation& s, int k) {
   if (!usable(s.trajectory.status[static_cast<size_t>(k)])) return nullptr;
-  const double balance = s.kinetic(k) + s.potential(k) - s.initial_energy - s.work(k);
+  const double balance = s.energy_balance(k);
   return {{"kinetic", s.kinetic(k)}, {"potential", s.potential(k)},
           {"work", s.work(k)},       {"initial", s.initial_energy},
           {"balance", balance},      {"balance_relative", s.energy_error(k)}};
@@ -48,7 +48,7 @@ void print_table_run(const Mechanism& m, const Simulation& s) {
       line +=
           (pose ? fmt::format(" {:>12.6f}", t.angle(r, c) / A) : fmt::format(" {:>12}", "")) +
           (usable(status) ? fmt::format(" {:>12.6f}", t.omega(r, c)) : fmt::format(" {:>12}", ""));
-    const double balance = s.kinetic(r) + s.potential(r) - s.initial_energy - s.work(r);
+    const double balance = s.energy_balance(r);
     line += usable(status) ? fmt::format(" {:>12.3e}", balance) : fmt::format(" {:>12}", "");
     fmt::print("{}\n", line);
   }
@@ -106,8 +106,8 @@ int run_simulate(const SimulateArgs& args) {
     const auto energy = [&s](nlohmann::json& j, int k) { j["energy"] = energy_json(s, k); };
     fmt::print("{}\n", trajectory_json(m, t, single, "time", energy).dump(2));
   } else if (args.format == "csv") {
-    Eigen::VectorXd balance = s.kinetic + s.potential - s.work;
-    balance.array() -= s.initial_energy;
+    Eigen::VectorXd balance(t.samples());
+    for (int k = 0; k < t.samples(); ++k) balance(k) = s.energy_balance(k);
     Columns energy = {{"energy.kinetic", s.kinetic},
                       {"energy.potential", s.potential},
                       {"energy.work", s.work},
