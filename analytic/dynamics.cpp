@@ -43,6 +43,10 @@ class EquationOfMotion {
     if (assembled.status != PoseStatus::ok)
       throw Stopped{0.0, assembled.status,
                     "the chain does not assemble at its start: " + assembled.message};
+    // Poses far less well conditioned than the drawn one are next to a singular position (a
+    // long chain's Jacobian is ill-conditioned everywhere: A02's rcond is 4e-2 upright at
+    // N = 2 and 2e-4 at N = 40).
+    near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
     d_last_ = state_.driver.value;
     q_last_ = state_.q;
     unit_rate();
@@ -70,18 +74,28 @@ class EquationOfMotion {
   // (d + k delta, k = +-1, +-2, +-3, Lagrange weights at 0): the error is ~delta^6 times the
   // sixth derivative, delta = 0.01 rad (or 0.01 of the size).
   double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
-    if (move_to(t, d) >= kNearSingular) return regular(t, d, ddot, effort, power);
-    const double delta = 5e-3 * (m_.driver.angular() ? 1.0 : m_.size());
+    if (move_to(t, d) >= near_singular_rcond_) return regular(t, d, ddot, effort, power);
+    // Nodes 0.005 rad (or of the size) apart, spread twice as far while one of them is itself
+    // next to the singular position: the longer the chain, the wider that zone (A02: 0.002 rad
+    // at N = 2, 0.03 at N = 10).
     const double offsets[6] = {-3.0, -2.0, -1.0, 1.0, 2.0, 3.0};
     const double weights[6] = {1.0 / 20, -3.0 / 10, 3.0 / 4, 3.0 / 4, -3.0 / 10, 1.0 / 20};
     double dddot = 0.0, p = 0.0;
-    for (int i = 0; i < 6; ++i) {
-      if (move_to(t, d + offsets[i] * delta) < kNearSingular)
+    for (double delta = 5e-3 * (m_.driver.angular() ? 1.0 : m_.size());; delta *= 2.0) {
+      if (delta > kWidestSpread * (m_.driver.angular() ? 1.0 : m_.size()))
         throw Stopped{t, PoseStatus::singular,
                       fmt::format("singular on both sides of coordinate {:.12g}", d)};
-      double pi = 0.0;
-      dddot += weights[i] * regular(t, d + offsets[i] * delta, ddot, effort, &pi);
-      p += weights[i] * pi;
+      bool regular_nodes = true;
+      dddot = p = 0.0;
+      for (int i = 0; i < 6 && regular_nodes; ++i) {
+        regular_nodes = move_to(t, d + offsets[i] * delta) >= near_singular_rcond_;
+        double pi = 0.0;
+        if (regular_nodes)
+          dddot += weights[i] * regular(t, d + offsets[i] * delta, ddot, effort, &pi);
+        p += weights[i] * pi;
+      }
+      if (!regular_nodes) continue;
+      break;
     }
     // The state at d itself: its pose, with the rates of the smooth branch where it can.
     move_to(t, d);
@@ -97,9 +111,10 @@ class EquationOfMotion {
   bool near_singular() const { return near_singular_; }
 
  private:
-  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
-  // to its tolerance over it) are interpolated.
-  static constexpr double kNearSingular = 1e-4;
+  // The widest spacing of the interpolation's nodes [rad, or of the size]: 0.16, so the nodes
+  // span +-0.48 and the interpolation's error, ~(spacing)^6 times the sixth derivative, is still
+  // small against the motion's scale.
+  static constexpr double kWidestSpread = 0.16;
 
   double regular(double t, double d, double ddot, double effort, double* power) {
     near_singular_ = false;
@@ -139,7 +154,7 @@ class EquationOfMotion {
       if (r.status != PoseStatus::ok && r.status != PoseStatus::singular)
         throw Stopped{t, r.status, fmt::format("at coordinate {:.12g}: {}", target, r.message)};
       rcond = r.rcond;
-      if (rcond < kNearSingular) {
+      if (rcond < near_singular_rcond_) {
         // Stepped over: the next pose is predicted from the last regular one, across.
         if (i < steps) continue;
         unit_rate();
@@ -173,6 +188,9 @@ class EquationOfMotion {
   double d_last_ = 0.0;
   long evaluations_ = 0;
   bool near_singular_ = false;
+  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
+  // to its tolerance over it) are interpolated.
+  double near_singular_rcond_ = 1e-4;
 };
 
 }  // namespace
@@ -243,12 +261,12 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     const double first = std::min(interval, kFirstStep);
     if (options.integrator == "dopri5") {
       odeint::integrate_times(
-          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()),
-          std::ref(eom), x, times.begin(), times.end(), first, observe);
+          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()), std::ref(eom),
+          x, times.begin(), times.end(), first, observe);
     } else if (options.integrator == "rkf78") {
       odeint::integrate_times(
-          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()),
-          std::ref(eom), x, times.begin(), times.end(), first, observe);
+          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()), std::ref(eom),
+          x, times.begin(), times.end(), first, observe);
     } else {
       throw std::invalid_argument("unknown integrator '" + options.integrator +
                                   "' (valid: dopri5, rkf78)");
@@ -258,7 +276,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     out.ok = false;
     out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
     t.events.push_back({stop.time, stop.status, out.message});
-    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = stop.status;
+    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = PoseStatus::not_reached;
   }
   return out;
 }

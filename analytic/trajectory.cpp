@@ -25,6 +25,8 @@ std::string_view to_string(PoseStatus status) {
       return "diverged";
     case PoseStatus::not_finite:
       return "not_finite";
+    case PoseStatus::not_reached:
+      return "not_reached";
   }
   return "?";
 }
