@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -35,7 +36,21 @@ struct Scale {
 // Collects every problem in a definition, each located by its TOML node.
 class Reader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
+  Reader(std::string file, std::string_view text) : file_(std::move(file)), text_(text) {}
+
+  // The text of a node as written in the file (a value's literal), or "" if it spans lines.
+  std::string literal(const toml::node& node) const {
+    const toml::source_region& region = node.source();
+    if (region.begin.line != region.end.line) return "";
+    size_t start = 0;
+    for (toml::source_index line = 1; line < region.begin.line; ++line) {
+      start = text_.find('\n', start);
+      if (start == std::string_view::npos) return "";
+      ++start;
+    }
+    const size_t from = start + region.begin.column - 1, to = start + region.end.column - 1;
+    return to <= text_.size() && from < to ? std::string(text_.substr(from, to - from)) : "";
+  }
 
   SourceLocation at(const toml::source_region& region) const {
     return {file_, static_cast<int>(region.begin.line), static_cast<int>(region.begin.column)};
@@ -152,6 +167,7 @@ class Reader {
 
  private:
   std::string file_;
+  std::string_view text_;
   const toml::table* root_ = nullptr;
   std::vector<Diagnostic> diagnostics_;
 };
@@ -160,7 +176,8 @@ struct UnitChoice {
   std::string_view name;
   double si;
 };
-constexpr UnitChoice kLengthUnits[] = {{"mm", 1e-3}, {"cm", 1e-2}, {"m", 1.0}};
+constexpr UnitChoice kLengthUnits[] = {
+    {"mm", 1e-3}, {"cm", 1e-2}, {"m", 1.0}, {"in", 0.0254}, {"ft", 0.3048}};
 constexpr UnitChoice kAngleUnits[] = {{"deg", std::numbers::pi / 180.0}, {"rad", 1.0}};
 constexpr UnitChoice kMassUnits[] = {{"kg", 1.0}, {"g", 1e-3}};
 constexpr UnitChoice kForceUnits[] = {{"N", 1.0}, {"kN", 1e3}};
@@ -356,6 +373,7 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   }
 
   if (const toml::node* pose = t.get("pose")) {
+    link.pose_where = r.at(*pose);
     if (const auto p = r.numbers(*pose, fmt::format("pose of link '{}' ([x, y, angle])", link.name),
                                  {length_scale(units), length_scale(units), angle_scale(units)}))
       link.pose = Eigen::Vector3d((*p)[0], (*p)[1], (*p)[2]);
@@ -728,6 +746,28 @@ bool names_object(const std::vector<std::string>& objects, std::string_view quan
   return std::find(objects.begin(), objects.end(), quantity.substr(dot + 1)) != objects.end();
 }
 
+// The unit of the last digit of a number as written: "57.3" 0.1, "-12.00" 0.01, "240" 1,
+// "1.5e3" 100; 0 when it is not a plain decimal literal.
+double last_digit(std::string_view literal) {
+  const size_t exponent = literal.find_first_of("eE");
+  const std::string_view mantissa = literal.substr(0, exponent);
+  if (mantissa.empty() || mantissa.find_first_not_of("+-0123456789._") != std::string_view::npos)
+    return 0.0;
+  const size_t point = mantissa.find('.');
+  int decimals = 0;
+  if (point != std::string_view::npos)
+    for (const char c : mantissa.substr(point + 1)) decimals += c >= '0' && c <= '9';
+  int power = 0;
+  if (exponent != std::string_view::npos) {
+    const std::string e(literal.substr(exponent + 1));
+    char* end = nullptr;
+    const long p = std::strtol(e.c_str(), &end, 10);
+    if (end == e.c_str() || *end != '\0' || std::abs(p) > 300) return 0.0;
+    power = static_cast<int>(p);
+  }
+  return std::pow(10.0, power - decimals);
+}
+
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::node* node = root.get("reference");
   if (!node) return;
@@ -744,7 +784,7 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const std::vector<std::string> objects = reference_objects(m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
-    r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "source"});
+    r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "precision", "source"});
     Reference ref;
     ref.where = r.at(t);
     ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
@@ -772,6 +812,16 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     if (!at || !value || !factor) continue;
     ref.driver_value = *at;
     ref.value = *value;
+    ref.printed = r.literal(*t.get("value"));
+    if (const auto precision =
+            r.number(t, "precision", "[[reference]] (the unit of the printed value's last digit)",
+                     false, {*factor, "", limits::kReferenceValue})) {
+      if (*precision <= 0.0)
+        r.error(r.at(t.get("precision")), "[[reference]] 'precision' must be positive");
+      ref.precision = *precision;
+    } else {
+      ref.precision = last_digit(ref.printed) * *factor;
+    }
     m.references.push_back(ref);
   }
 }
@@ -1115,6 +1165,11 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
   if (grounds.empty())
     r.error(m.links.front().where,
             "no link has ground = true: one link must be the frame (add ground = true to it)");
+  if (!grounds.empty() && m.links[grounds[0]].pose_where.line > 0)
+    r.error(m.links[grounds[0]].pose_where,
+            fmt::format("link '{}' is the ground: its frame is the world's, so it takes no "
+                        "'pose' (its points are world coordinates)",
+                        m.links[grounds[0]].name));
   for (size_t i = 1; i < grounds.size(); ++i)
     r.error(m.links[grounds[i]].where,
             fmt::format("link '{}' is a second ground (the first is '{}'): exactly one link is "
@@ -1378,7 +1433,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
 }  // namespace
 
 Mechanism parse_mechanism(std::string_view text, const std::string& file) {
-  Reader reader(file);
+  Reader reader(file, text);
   if (text.size() > static_cast<size_t>(limits::kDefinitionBytes)) {
     reader.error(reader.file(), fmt::format("the file has more than {} bytes, the limit of a "
                                             "definition",
@@ -1397,10 +1452,15 @@ Mechanism parse_mechanism(std::string_view text, const std::string& file) {
 }
 
 Mechanism load_mechanism(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+  // "-" is standard input, named <stdin> in diagnostics.
+  const bool standard_input = path == "-";
+  const std::string name = standard_input ? "<stdin>" : path;
+  std::ifstream file;
+  if (!standard_input) file.open(path, std::ios::binary);
+  std::istream& in = standard_input ? std::cin : file;
   auto refuse = [&](std::string message) {
     Diagnostic problem;
-    problem.where.file = path;
+    problem.where.file = name;
     problem.message = std::move(message);
     throw DefinitionError({problem});
   };
@@ -1410,7 +1470,7 @@ Mechanism load_mechanism(const std::string& path) {
   in.read(text.data(), static_cast<std::streamsize>(text.size()));
   if (!in && !in.eof()) refuse("cannot read the file");  // a directory, say
   text.resize(static_cast<size_t>(in.gcount()));
-  return parse_mechanism(text, path);
+  return parse_mechanism(text, name);
 }
 
 }  // namespace crosslink

@@ -67,7 +67,8 @@ struct Link {
   // Pose (x [m], y [m], theta [rad]) as drawn at the driver's start value. It picks the assembly
   // mode (branch) the solver assembles on; the solver refines it to exact closure.
   std::optional<Eigen::Vector3d> pose;
-  MassProperties mass;  // ground: unused
+  SourceLocation pose_where;  // where `pose` was written (line 0: not written)
+  MassProperties mass;        // ground: unused
   SourceLocation where;
 
   int find_point(std::string_view name) const;  // index in points, or -1
@@ -196,10 +197,16 @@ struct DynamicsCase {
 
 // A published value to compare against (a hand calculation, Working Model, ...), in SI.
 struct Reference {
+  bool within_rounding(double exact) const { return std::abs(exact - value) <= 0.5 * precision; }
   std::string quantity;  // a channel name, e.g. "omega.coupler", "vy.G" (see trajectory.h)
   double driver_value;   // [rad or m]
   double value;          // SI: m, rad, m/s, rad/s, m/s^2, rad/s^2
-  std::string source;    // where the value was printed
+  std::string printed;   // the value as written in the file (file units), e.g. "-12.00"
+  // The unit of the printed value's last digit (SI): `precision` in the file, or from how the
+  // value is written ("-12.00": 0.01). A value within half of it of the exact one is within
+  // rounding.
+  double precision = 0.0;
+  std::string source;  // where the value was printed
   SourceLocation where;
 };
 

@@ -37,10 +37,13 @@ struct CompareArgs {
   long max_steps = sim::kDefaultMaxSteps;
 };
 
-// The bundled sewing machine: relative to the current directory, else to the source tree.
+// The bundled sewing machine: relative to the current directory, else installed
+// (<prefix>/share/crosslink/mechanisms), else in the source tree crosslink was built from.
 std::string default_mechanism() {
   const fs::path relative = "mechanisms/sewing_machine.toml";
   if (fs::exists(relative)) return relative.string();
+  if (const auto share = installed_share(); share && fs::exists(*share / relative))
+    return (*share / relative).string();
   return (fs::path(CROSSLINK_SOURCE_DIR) / relative).string();
 }
 

@@ -21,11 +21,17 @@ void write_file(const std::string& path, const std::string& text) {
   if (!out) throw std::invalid_argument(fmt::format("error writing '{}'", path));
 }
 
-std::vector<std::string> installed_asset_dirs() {
+std::optional<std::filesystem::path> installed_share() {
   std::error_code error;
   const fs::path exe = fs::read_symlink("/proc/self/exe", error);
-  if (error) return {};
-  return {(exe.parent_path().parent_path() / "share" / "crosslink" / "report").string()};
+  if (error) return std::nullopt;
+  return exe.parent_path().parent_path() / "share" / "crosslink";
+}
+
+std::vector<std::string> installed_asset_dirs() {
+  const auto share = installed_share();
+  if (!share) return {};
+  return {(*share / "report").string()};
 }
 
 std::vector<std::string> split(const std::string& text, char separator) {

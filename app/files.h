@@ -1,6 +1,8 @@
 // Small file and text helpers shared by the subcommands.
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,9 @@ bool refuse_dynamics_case(const Mechanism& m);
 
 // Writes `text` to `path`, creating its folder; throws std::invalid_argument on failure.
 void write_file(const std::string& path, const std::string& text);
+
+// <prefix>/share/crosslink next to the running <prefix>/bin/crosslink (nullopt if unknown).
+std::optional<std::filesystem::path> installed_share();
 
 // The installed chart scripts: <prefix>/share/crosslink/report next to <prefix>/bin.
 std::vector<std::string> installed_asset_dirs();

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <exception>
 #include <functional>
+#include <string>
 
 #include "analytic/mechanism.h"
 #include "app/commands.h"
@@ -13,6 +14,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "crosslink: exact kinematics of planar linkages, cross-validated against physics "
       "engines"};
+  app.set_version_flag("--version", std::string("crosslink ") + CROSSLINK_VERSION);
   app.require_subcommand(1);
   std::function<int()> run;
   add_check(app, run);

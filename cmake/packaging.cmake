@@ -21,3 +21,7 @@ foreach(_script vega/build/vega.min.js vega-lite/build/vega-lite.min.js
   install(FILES ${PROJECT_SOURCE_DIR}/report/node_modules/${_script}
           DESTINATION ${CMAKE_INSTALL_DATADIR}/crosslink/report OPTIONAL)
 endforeach()
+# The bundled definitions, as <prefix>/share/crosslink/mechanisms: `crosslink compare` without a
+# FILE runs the sewing machine from there when the current directory has no mechanisms/.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/mechanisms/ DESTINATION ${CMAKE_INSTALL_DATADIR}/crosslink/mechanisms
+        FILES_MATCHING PATTERN "*.toml")

@@ -327,7 +327,12 @@ std::string references_table(const Comparison& cmp) {
     const bool angle = Trajectory::quantity_of(first.quantity) == Quantity::angle;
     std::vector<std::pair<std::string, double>> values;  // label, SI
     auto shown = [&](double si) { return (angle ? wrap_positive_angle(si) : si) / u.scale; };
-    for (const ReferenceRow* r : g) values.push_back({r->reference.source, r->reference.value});
+    for (const ReferenceRow* r : g)
+      values.push_back(
+          {r->reference.source +
+               (r->reference.printed.empty() ? "" : " (printed " + r->reference.printed + ")") +
+               (r->exact_ok && r->reference.within_rounding(r->exact) ? ": within rounding" : ""),
+           r->reference.value});
     if (g.front()->exact_ok) values.push_back({"exact (Newton at this value)", g.front()->exact});
     for (const auto& v : g.front()->values)
       if (v.method != "analytic")

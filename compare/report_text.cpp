@@ -184,9 +184,9 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   // [[reference]] rows: printed values against the exact one.
   if (!cmp.references.empty()) {
     fmt::print(out, "\n[[reference]] values (file units; %: difference from exact)\n");
-    fmt::print(out, "{:<18} {:>7} {:>10} {:>11} {:>7} {:>9}  {}\n", "quantity", "at", "printed",
-               "exact", "%", "methods%", "source");
-    fmt::print(out, "{:-<98}\n", "");
+    fmt::print(out, "{:<18} {:>7} {:>10} {:>11} {:>7} {:>15} {:>9}  {}\n", "quantity", "at",
+               "printed", "exact", "%", "", "methods%", "source");
+    fmt::print(out, "{:-<114}\n", "");
     for (const ReferenceRow& r : cmp.references) {
       const DisplayUnit u = display_unit(m, r.reference.quantity);
       const bool angle = Trajectory::quantity_of(r.reference.quantity) == Quantity::angle;
@@ -201,11 +201,16 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       auto pct = [](double v, const char* spec) {
         return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(spec), v);
       };
-      fmt::print(out, "{:<18} {:>7.4g} {:>10.5g} {:>11.6g} {:>7} {:>9}  {}\n", r.reference.quantity,
-                 r.reference.driver_value / du.scale, r.reference.value / u.scale,
-                 r.exact_ok ? shown_value(r.exact) : NAN,
-                 pct(r.percent(r.reference.value, r.exact), "{:.3f}"), pct(worst_method, "{:.2g}"),
-                 r.reference.source.substr(0, 40));
+      // The printed value as printed; the exact one blank where it does not exist.
+      const std::string printed = r.reference.printed.empty()
+                                      ? fmt::format("{:.5g}", r.reference.value / u.scale)
+                                      : r.reference.printed;
+      fmt::print(out, "{:<18} {:>7.4g} {:>10} {:>11} {:>7} {:>15} {:>9}  {}\n",
+                 r.reference.quantity, r.reference.driver_value / du.scale, printed,
+                 r.exact_ok ? fmt::format("{:.6g}", shown_value(r.exact)) : "",
+                 pct(r.percent(r.reference.value, r.exact), "{:.3f}"),
+                 r.exact_ok && r.reference.within_rounding(r.exact) ? "within rounding" : "",
+                 pct(worst_method, "{:.2g}"), r.reference.source.substr(0, 40));
     }
     fmt::print(out, "(methods%: the largest % difference of any other method from exact)\n");
   }
@@ -303,6 +308,10 @@ nlohmann::json to_json(const Comparison& cmp) {
         {{"quantity", r.reference.quantity},
          {"driver_value", r.reference.driver_value},
          {"value", r.reference.value},
+         {"printed", r.reference.printed},
+         {"precision", r.reference.precision > 0.0 ? json(r.reference.precision) : json(nullptr)},
+         {"within_rounding",
+          r.exact_ok ? json(r.reference.within_rounding(r.exact)) : json(nullptr)},
          {"source", r.reference.source},
          {"exact", r.exact_ok ? json(r.exact) : json(nullptr)},
          {"pct_difference_vs_exact",

@@ -448,4 +448,19 @@ TEST(Cli, SimulateRefusesWhatItCannotRun) {
   EXPECT_NE(negative.err.find("--at"), std::string::npos) << negative.err;
 }
 
+// Issue 13: --version, and a definition read from standard input ("-").
+TEST(Cli, VersionAndStandardInput) {
+  const CommandRun version = crosslink("--version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_EQ(version.out.rfind("crosslink ", 0), 0u) << version.out;
+  const CommandRun piped = crosslink("check - < mechanisms/fourbar_crank_rocker.toml");
+  EXPECT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_NE(piped.out.find("mobility: M = 3(n-1) - 2 j1 - j2"), std::string::npos) << piped.out;
+  const std::string bad = (scratch_dir() / "bad.toml").string();
+  std::ofstream(bad) << "name = \"x\"\n[units]\nlength = \"m\"\nangle = \"deg\"\n[[link]]\n";
+  const CommandRun error = crosslink("check - < \"" + bad + "\"");
+  EXPECT_EQ(error.exit_code, 2);
+  EXPECT_EQ(error.err.rfind("<stdin>:", 0), 0u) << error.err;
+}
+
 }  // namespace

@@ -500,6 +500,49 @@ source = "test"
                     {"'omega.coupling'", "valid names: crank, coupler, rocker, A, D, B, C"});
 }
 
+// Issue 13: a reference keeps its value as printed, and the unit of its last digit: a
+// difference under half of it is within the printed rounding.
+TEST(Validation, ReferenceKeepsItsPrintedValueAndPrecision) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "omega.coupler"
+at = 60
+value = -12.00
+source = "as printed"
+
+[[reference]]
+quantity = "angle.coupler"
+at = 60
+value = 57.3
+precision = 0.5
+source = "read off a drawing"
+)";
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  ASSERT_EQ(m.references.size(), 2u);
+  EXPECT_EQ(m.references[0].printed, "-12.00");
+  EXPECT_DOUBLE_EQ(m.references[0].precision, 0.01);  // rad/s: no unit factor
+  EXPECT_TRUE(m.references[0].within_rounding(-12.004));
+  EXPECT_FALSE(m.references[0].within_rounding(-12.006));
+  EXPECT_EQ(m.references[1].printed, "57.3");
+  EXPECT_NEAR(m.references[1].precision, 0.5 * std::acos(-1.0) / 180.0, 1e-15);  // degrees
+}
+
+TEST(Validation, PoseOnTheGroundIsAnError) {
+  const std::string text =
+      replaced(four_bar(), "ground = true", "ground = true\npose = [0, 0, 10]");
+  expect_diagnostic(text, place_of(text, "[0, 0, 10]"),
+                    {"link 'ground' is the ground", "takes no 'pose'"});
+}
+
+TEST(Validation, InchesAndFeet) {
+  for (const auto& [unit, metres] : {std::pair{"in", 0.0254}, {"ft", 0.3048}}) {
+    const Mechanism m = parse_mechanism(
+        replaced(four_bar(), "length = \"m\"", fmt::format("length = \"{}\"", unit)), "good.toml");
+    EXPECT_DOUBLE_EQ(m.units.length, metres) << unit;
+    EXPECT_EQ(m.units.length_name, unit);
+  }
+}
+
 // A four-bar drawn where it cannot close: ground 0.10, crank 0.08, coupler 0.04, rocker 0.05.
 // With the crank at 180 degrees, |BD| = 0.18 m, longer than coupler + rocker = 0.09 m. (It does
 // close near 0 degrees, where |BD| = 0.02 m.)
