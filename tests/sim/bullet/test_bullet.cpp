@@ -61,8 +61,8 @@ TEST_P(BulletDefaults, AgreesWithTheAnalyticSweep) {
 INSTANTIATE_TEST_SUITE_P(Bundled, BulletDefaults,
                          ::testing::Values("fourbar_crank_rocker", "slider_crank_offset",
                                            "sewing_machine", "quick_return", "sixbar_slider_guide",
-                                           "stephenson_sixbar", "watt_sixbar",
-                                           "wanzer_needle_bar"));
+                                           "stephenson_sixbar", "watt_sixbar", "wanzer_needle_bar",
+                                           "wanzer_needle_bar_inversion1"));
 
 // The polycentric hinge's range ends at two toggles where d(theta)/d(theta4) grows without
 // bound; the link-angle driver is realised directly, and the run must say so.
