@@ -17,7 +17,6 @@ namespace crosslink {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 // A point of a link in its own frame [m].
 Eigen::Vector2d local(const Mechanism& m, const char* link, const char* point) {
