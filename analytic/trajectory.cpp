@@ -45,6 +45,8 @@ std::string_view to_string(Quantity q) {
       return "force";
     case Quantity::torque:
       return "torque";
+    case Quantity::energy:
+      return "energy";
   }
   return "?";
 }
@@ -84,6 +86,27 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   fn.setZero(rows, sliders);
   moment.setZero(rows, sliders);
   shaking.setZero(rows, 3);
+  has_energy = false;
+  energy.resize(0, 4);
+}
+
+void Trajectory::add_energy() {
+  has_energy = true;
+  energy.setZero(samples(), 4);
+}
+
+double Trajectory::energy_scale() const {
+  if (!has_energy) return 0.0;
+  double kinetic = 0.0, work = 0.0;
+  double low = INFINITY, high = -INFINITY;
+  for (int k = 0; k < samples(); ++k) {
+    if (!usable(status[static_cast<size_t>(k)])) continue;
+    kinetic = std::max(kinetic, std::abs(energy(k, 0)));
+    low = std::min(low, energy(k, 1));
+    high = std::max(high, energy(k, 1));
+    work = std::max(work, std::abs(energy(k, 2)));
+  }
+  return std::max({kinetic, high > low ? high - low : 0.0, work});
 }
 
 bool Trajectory::beside_singular(int row) const {
@@ -104,9 +127,10 @@ bool Trajectory::flag_non_finite(int row) {
   clean(driver(row));
   clean(rcond(row));
   clean(loop_gap(row));
-  for (Eigen::MatrixXd* m :
-       {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot})
+  for (Eigen::MatrixXd* m : {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot})
     for (Eigen::Index c = 0; c < m->cols(); ++c) clean((*m)(row, c));
+  if (has_energy)
+    for (Eigen::Index c = 0; c < energy.cols(); ++c) clean(energy(row, c));
   PoseStatus& st = status[static_cast<size_t>(row)];
   if (finite || (st != PoseStatus::ok && st != PoseStatus::singular)) return false;
   st = PoseStatus::not_finite;
@@ -137,6 +161,8 @@ constexpr std::array<std::string_view, 3> kJointChannels = {"fx", "fy", "f"};
 constexpr std::array<std::string_view, 2> kSlideForceChannels = {"fn", "moment"};
 constexpr std::array<std::string_view, 3> kShakingChannels = {"shaking_fx", "shaking_fy",
                                                               "shaking_moment"};
+constexpr std::array<std::string_view, 4> kEnergyChannels = {"kinetic", "potential", "work",
+                                                             "error"};
 
 int index_of(const std::vector<std::string>& names, std::string_view name) {
   for (size_t i = 0; i < names.size(); ++i)
@@ -153,13 +179,16 @@ std::vector<std::string> Trajectory::channel_names() const {
     for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
   for (const std::string& slider : slider_names)
     for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
-  if (!has_forces) return names;
-  names.push_back(slider_driver ? "force.driver" : "torque.driver");
-  for (const std::string& joint : joint_names)
-    for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
-  for (const std::string& slider : slider_names)
-    for (std::string_view c : kSlideForceChannels) names.push_back(std::string(c) + "." + slider);
-  for (std::string_view c : kShakingChannels) names.push_back(std::string(c) + "." + ground_name);
+  if (has_forces) {
+    names.push_back(slider_driver ? "force.driver" : "torque.driver");
+    for (const std::string& joint : joint_names)
+      for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
+    for (const std::string& slider : slider_names)
+      for (std::string_view c : kSlideForceChannels) names.push_back(std::string(c) + "." + slider);
+    for (std::string_view c : kShakingChannels) names.push_back(std::string(c) + "." + ground_name);
+  }
+  if (has_energy)
+    for (std::string_view c : kEnergyChannels) names.push_back("energy." + std::string(c));
   return names;
 }
 
@@ -189,6 +218,12 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "s") return s.col(j);
     if (kind == "sdot") return sdot.col(j);
     if (kind == "sddot") return sddot.col(j);
+  }
+  if (kind == "energy") {
+    if (!has_energy) return std::nullopt;
+    for (size_t c = 0; c < kEnergyChannels.size(); ++c)
+      if (object == kEnergyChannels[c]) return energy.col(static_cast<Eigen::Index>(c));
+    return std::nullopt;
   }
   if (!has_forces) return std::nullopt;
   if (object == "driver" && kind == (slider_driver ? "force" : "torque")) return effort;
@@ -220,6 +255,7 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
       kind == "shaking_fx" || kind == "shaking_fy")
     return Quantity::force;
   if (kind == "torque" || kind == "moment" || kind == "shaking_moment") return Quantity::torque;
+  if (kind == "energy") return Quantity::energy;
   return Quantity::position;
 }
 

@@ -21,6 +21,15 @@
 //   shaking_fx.<ground> shaking_fy.<ground> shaking_moment.<ground>  [N, N m]  force and moment
 //                                                               (about the world origin) the
 //                                                               moving links exert on the ground
+// With the energy balance (forward dynamics, has_energy):
+//   energy.kinetic energy.potential                            [J]  kinetic energy; potential
+//                                                               energy of gravity and springs
+//   energy.work                                                [J]  work done on the mechanism
+//                                                               since the first sample by the
+//                                                               applied effort, loads and dampers
+//   energy.error                                               [J]  kinetic + potential - work -
+//                                                               (kinetic + potential at the first
+//                                                               sample): zero for exact motion
 #pragma once
 
 #include <Eigen/Core>
@@ -51,7 +60,7 @@ inline bool usable(PoseStatus s) {
   return s == PoseStatus::ok;
 }
 
-enum class Quantity { position, angle, velocity, acceleration, force, torque };
+enum class Quantity { position, angle, velocity, acceleration, force, torque, energy };
 std::string_view to_string(Quantity q);
 
 struct Trajectory {
@@ -77,6 +86,16 @@ struct Trajectory {
   Eigen::MatrixXd fx, fy;      // per joint [N]
   Eigen::MatrixXd fn, moment;  // per slider [N, N m]
   Eigen::MatrixXd shaking;     // 3 columns: fx, fy [N], moment [N m]
+  // The energy balance, when the method keeps it (see the channel list above).
+  bool has_energy = false;
+  Eigen::MatrixXd energy;  // 4 columns: kinetic, potential, work, error [J]
+  // Shapes `energy` for every sample (zeros) and sets has_energy.
+  void add_energy();
+  // The energy a run moves: the largest of the peak kinetic energy, the range of the potential
+  // energy and the peak |work| over the usable samples [J]; 0 without energy channels. The scale
+  // of the energy channels' % of peak (potential energy and the balance's error have no scale
+  // of their own: one depends on where the origin is, the other is zero when exact).
+  double energy_scale() const;
 
   // Named events along the sweep (limits, singular positions, branch changes...).
   struct Event {

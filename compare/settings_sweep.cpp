@@ -79,6 +79,7 @@ std::optional<ErrorClass> error_class_of(Quantity q) {
       return ErrorClass::acceleration;
     case Quantity::force:
     case Quantity::torque:
+    case Quantity::energy:
       return std::nullopt;  // kinematic settings sweeps chart motion only
   }
   return std::nullopt;

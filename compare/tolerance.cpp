@@ -25,13 +25,15 @@ double& ClassTolerances::of(Quantity q) {
       return force;
     case Quantity::torque:
       return torque;
+    case Quantity::energy:
+      return energy;
   }
   return position;
 }
 
 std::optional<Quantity> parse_quantity(std::string_view name) {
   for (Quantity q : {Quantity::position, Quantity::angle, Quantity::velocity,
-                     Quantity::acceleration, Quantity::force, Quantity::torque})
+                     Quantity::acceleration, Quantity::force, Quantity::torque, Quantity::energy})
     if (to_string(q) == name) return q;
   return std::nullopt;
 }
@@ -43,11 +45,12 @@ bool Tolerances::is_engine(std::string_view method) {
 Tolerances::Tolerances(const ToleranceOverrides& from_definition) {
   // Forces and torques: measured at the engines' defaults over every bundled mechanism, without
   // and with gravity (bench/force_accuracy, docs/engines.md "Forces"), worst channel: MuJoCo
-  // 0.014 %, Bullet 0.21 % (polycentric hinge near its limits; 0.10 % elsewhere).
-  engines_["mujoco"] = {1e-2, 1e-2, 0.1, 1.0, 0.05, 0.05};
-  engines_["bullet"] = {1e-2, 1e-2, 0.1, 1.0, 0.3, 0.3};
-  exact_["dyads"] = {1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8};
-  exact_["ic"] = {1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6};
+  // 0.014 %, Bullet 0.21 % (polycentric hinge near its limits; 0.10 % elsewhere). Energy: only
+  // forward-dynamics runs have energy channels.
+  engines_["mujoco"] = {1e-2, 1e-2, 0.1, 1.0, 0.05, 0.05, 1e-2};
+  engines_["bullet"] = {1e-2, 1e-2, 0.1, 1.0, 0.3, 0.3, 1e-2};
+  exact_["dyads"] = {1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8};
+  exact_["ic"] = {1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6};
   for (auto& [name, engine] : engines_) {
     if (from_definition.position) engine.position = *from_definition.position;
     if (from_definition.angle) engine.angle = *from_definition.angle;
@@ -74,7 +77,7 @@ void Tolerances::apply(std::string_view assignment) {
   if (!quantity)
     throw std::invalid_argument(
         fmt::format("tolerance '{}': unknown quantity class '{}' (valid: position, angle, "
-                    "velocity, acceleration, force, torque)",
+                    "velocity, acceleration, force, torque, energy)",
                     assignment, target));
   double value = 0.0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);

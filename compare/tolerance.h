@@ -27,6 +27,7 @@ namespace crosslink::compare {
 // Tolerance of one method, per quantity class [% of peak].
 struct ClassTolerances {
   double position = 0.0, angle = 0.0, velocity = 0.0, acceleration = 0.0, force = 0.0, torque = 0.0;
+  double energy = 0.0;
   double of(Quantity q) const;
   double& of(Quantity q);
 };

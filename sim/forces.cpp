@@ -41,6 +41,88 @@ const std::vector<BodyLoad>& AppliedLoads::at(const Eigen::VectorXd& q, const Ei
   return out_;
 }
 
+DynamicsLoads::DynamicsLoads(const Mechanism& m)
+    : m_(m),
+      solver_(m),
+      kinetostatics_(solver_),
+      state_(m),
+      jacobian_(Eigen::MatrixXd::Zero(m.coordinate_count(), m.coordinate_count())),
+      generalised_(Eigen::VectorXd::Zero(m.coordinate_count())),
+      out_(static_cast<size_t>(m.moving_count())) {
+  bool effort = false;
+  if (m.dynamics)
+    for (const auto& [time, value] : m.dynamics->effort) effort = effort || value != 0.0;
+  any_ = effort || !m.loads.empty() || !m.springs.empty();
+}
+
+double DynamicsLoads::rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
+  solver_.jacobian(q, jacobian_);
+  return jacobian_.row(jacobian_.rows() - 1).dot(qdot);
+}
+
+const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& q,
+                                               const Eigen::VectorXd& qdot) {
+  state_.q = q;
+  state_.qdot = qdot;
+  state_.driver.value = coordinate(q);
+  applied_loads(m_, state_, generalised_);
+  if (m_.dynamics) {
+    const double effort = m_.dynamics->effort_at(t);
+    if (effort != 0.0) {
+      solver_.jacobian(q, jacobian_);
+      generalised_ += effort * jacobian_.row(jacobian_.rows() - 1).transpose();
+    }
+  }
+  for (size_t l = 0; l < m_.links.size(); ++l) {
+    const int k = m_.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    BodyLoad& load = out_[static_cast<size_t>(k)];
+    load.force = generalised_.segment<2>(3 * k);
+    // About the frame origin -> about the centre of mass.
+    load.moment = generalised_(3 * k + 2) - cross(b.turn(m_.links[l].mass.com), load.force);
+  }
+  return out_;
+}
+
+double DynamicsLoads::kinetic(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
+  state_.q = q;
+  state_.qdot = qdot;
+  return kinetostatics_.kinetic_energy(state_);
+}
+
+double DynamicsLoads::potential(const Eigen::VectorXd& q) {
+  state_.q = q;
+  return kinetostatics_.potential_energy(state_);
+}
+
+double DynamicsLoads::power(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
+  if (!any_) return 0.0;
+  state_.q = q;
+  state_.qdot = qdot;
+  state_.driver.value = coordinate(q);
+  double power = kinetostatics_.load_power(state_);
+  if (m_.dynamics) {
+    const double effort = m_.dynamics->effort_at(t);
+    if (effort != 0.0) power += effort * rate(q, qdot);
+  }
+  return power;
+}
+
+double reference_energy_scale(const Mechanism& m, const Trajectory& reference) {
+  DynamicsLoads balance(m);
+  double kinetic = 0.0, low = INFINITY, high = -INFINITY;
+  for (int k = 0; k < reference.samples(); ++k) {
+    if (!usable(reference.status[static_cast<size_t>(k)])) continue;
+    const ReferenceState s = reference_state(m, reference, k);
+    kinetic = std::max(kinetic, balance.kinetic(s.q, s.qdot));
+    const double v = balance.potential(s.q);
+    low = std::min(low, v);
+    high = std::max(high, v);
+  }
+  return std::max(kinetic, high > low ? high - low : 0.0);
+}
+
 double auxiliary_mass(const Mechanism& m) {
   double lightest = std::numeric_limits<double>::infinity();
   for (const Link& link : m.links)

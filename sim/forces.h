@@ -36,6 +36,44 @@ class AppliedLoads {
   std::vector<BodyLoad> out_;
 };
 
+// Forward dynamics (a [dynamics] case): everything that acts on the mechanism besides gravity and
+// the joints, as a wrench on each body at its centre of mass, and the energy balance of a state.
+// The applied effort acts along the driver coordinate d: its generalised force is effort(t) times
+// the driver's row of the constraint Jacobian, dd/dq (a torque on the driven link and the opposite
+// one on its base for a joint angle, a force along the guide at the slider's point and its
+// reaction for a slider), as in the exact equation of motion (analytic/dynamics.h).
+class DynamicsLoads {
+ public:
+  explicit DynamicsLoads(const Mechanism& m);
+  // Whether anything but gravity acts: loads, springs or dampers, or an effort.
+  bool any() const { return any_; }
+  // Per moving link (Mechanism order) at time t [s] and state (q, qdot): the loads at the driver
+  // coordinate measured at q, the springs and dampers, and effort(t) along the coordinate.
+  const std::vector<BodyLoad>& at(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
+  // The driver coordinate measured at q [rad or m], and its rate at (q, qdot).
+  double coordinate(const Eigen::VectorXd& q) const { return solver_.driver_value(q); }
+  double rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
+  // [J]: the kinetic energy (Link::mass), and the potential energy of gravity and springs.
+  double kinetic(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
+  double potential(const Eigen::VectorXd& q);
+  // [W]: the power of the effort, the loads and the dampers (the springs' is potential energy).
+  double power(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
+
+ private:
+  const Mechanism& m_;
+  NewtonSolver solver_;
+  Kinetostatics kinetostatics_;
+  KinematicState state_;
+  Eigen::MatrixXd jacobian_;
+  Eigen::VectorXd generalised_;
+  std::vector<BodyLoad> out_;
+  bool any_ = false;
+};
+
+// The energy a reference run moves (Trajectory::energy_scale of its states): the largest of the
+// peak kinetic energy and the range of the potential energy over its usable samples [J].
+double reference_energy_scale(const Mechanism& m, const Trajectory& reference);
+
 // Mass of a body an engine needs that the mechanism does not have (a pin-in-slot's sliding
 // block): 1e-6 of the lightest link, so its d'Alembert force m a is below 1e-6 of the forces
 // of the links around it (docs/engines.md).

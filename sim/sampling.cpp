@@ -51,6 +51,37 @@ Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& refe
   return q;
 }
 
+ReferenceState reference_state(const Mechanism& m, const Trajectory& reference, int row) {
+  ReferenceState out;
+  const Eigen::Index n = m.coordinate_count();
+  out.q = Eigen::VectorXd::Zero(n);
+  out.qdot = Eigen::VectorXd::Zero(n);
+  out.qddot = Eigen::VectorXd::Zero(n);
+  auto perp = [](const Eigen::Vector2d& v) { return Eigen::Vector2d(-v.y(), v.x()); };
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const double theta = reference.angle(row, k), omega = reference.omega(row, k),
+                 alpha = reference.alpha(row, k);
+    out.q(3 * k + 2) = theta;
+    out.qdot(3 * k + 2) = omega;
+    out.qddot(3 * k + 2) = alpha;
+    for (const Point& p : m.links[l].points)
+      for (size_t c = 0; c < reference.point_names.size(); ++c) {
+        if (reference.point_names[c] != p.name) continue;
+        const auto i = static_cast<Eigen::Index>(c);
+        // From the point P to the frame origin O: r = O - P = -R p_local.
+        const Eigen::Vector2d r = -(Eigen::Rotation2Dd(theta).toRotationMatrix() * p.local);
+        out.q.segment<2>(3 * k) = Eigen::Vector2d(reference.x(row, i), reference.y(row, i)) + r;
+        out.qdot.segment<2>(3 * k) =
+            Eigen::Vector2d(reference.vx(row, i), reference.vy(row, i)) + omega * perp(r);
+        out.qddot.segment<2>(3 * k) = Eigen::Vector2d(reference.ax(row, i), reference.ay(row, i)) +
+                                      alpha * perp(r) - omega * omega * r;
+      }
+  }
+  return out;
+}
+
 double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size) {
   double off = 0.0;
   for (Eigen::Index k = 0; k + 2 < a.size(); k += 3) {

@@ -17,6 +17,13 @@ namespace crosslink::sim {
 // frame from its angle and one of its named points.
 Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& reference, int row);
 
+// Absolute coordinates and their first two time derivatives at reference sample `row`: each
+// link's angle, omega and alpha, and its frame origin's motion from one of its named points.
+struct ReferenceState {
+  Eigen::VectorXd q, qdot, qddot;
+};
+ReferenceState reference_state(const Mechanism& m, const Trajectory& reference, int row);
+
 // Largest difference between two configurations: positions per `size`, angles modulo 2 pi.
 double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size);
 

@@ -41,6 +41,9 @@ constexpr double kPi = std::numbers::pi;
 constexpr long kSteady = 1;   // the first step after the start that a stencil may use
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
+// Forward dynamics: the default step turns the fastest link by at most this much [rad], as
+// MuJoCo's (errors accumulate over a run; docs/engines.md, "Forward dynamics").
+constexpr double kDynamicsMaxStepAngle = 0.0025;
 
 // ---------------------------------------------------------------------------------------------
 // Settings
@@ -51,6 +54,7 @@ struct Config {
   int steps_per_sample = 2;             // used when dt is not given
   double max_step_angle = 0.01;         // used when dt is not given: more steps in a sample
                                         // interval where a link turns faster [rad per step]
+  bool max_step_angle_given = false;    // else a dynamics case uses kDynamicsMaxStepAngle
   double dt = 0.0;                      // 0: sample interval / steps_per_sample
   int iterations = 50;                  // sequential impulse (and MLCP's fallback)
   double erp = 1.0;
@@ -65,6 +69,10 @@ struct Config {
   std::string perturb_link;
   double perturb_factor = 1.0;
   long max_steps = kDefaultMaxSteps;
+  // Forward dynamics only (docs/engines.md, "Forward dynamics").
+  bool staggered_start = true;     // start from v0 - h/2 a0 (semi-implicit Euler's half step)
+  double energy_threshold = 1e-3;  // |energy.error| over the energy scale: a note
+  double divergence_energy = 1.0;  // beyond it the run stops: diverged
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -103,6 +111,7 @@ Config parse_settings(const Settings& overrides) {
       c.steps_per_sample = static_cast<int>(n);
     } else if (name == "max_step_angle") {
       c.max_step_angle = parse_number(name, value);
+      c.max_step_angle_given = true;
       if (c.max_step_angle < 0.0)
         throw std::invalid_argument("setting max_step_angle: 0 (off) or positive");
     } else if (name == "iterations") {
@@ -129,6 +138,15 @@ Config parse_settings(const Settings& overrides) {
       c.split_impulse = value == "1";
     } else if (name == "max_steps") {
       c.max_steps = parse_max_steps(value);
+    } else if (name == "start") {
+      if (value != "staggered" && value != "exact")
+        throw std::invalid_argument("setting start: expected staggered or exact, got '" + value +
+                                    "'");
+      c.staggered_start = value == "staggered";
+    } else if (name == "energy_threshold") {
+      c.energy_threshold = parse_number(name, value);
+    } else if (name == "divergence_energy") {
+      c.divergence_energy = parse_number(name, value);
     } else if (name == "precision") {
       if (value != "float64")
         throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
@@ -174,6 +192,12 @@ struct Edge {
 struct Pose {
   Eigen::Vector2d r;
   double theta;
+};
+
+// Motion of a node's frame: its origin's velocity and its angular velocity.
+struct NodeRate {
+  Eigen::Vector2d v = Eigen::Vector2d::Zero();
+  double omega = 0.0;
 };
 
 struct Plan {
@@ -426,6 +450,47 @@ Pose pose_or_ground(const std::vector<Pose>& poses, int node) {
   return node < 0 ? Pose{Eigen::Vector2d::Zero(), 0.0} : poses[node];
 }
 
+// Node frame motions from mechanism coordinates and rates (a block: its pin's velocity, its
+// guide's angular velocity).
+std::vector<NodeRate> node_rates(const Mechanism& m, const Plan& plan, const Eigen::VectorXd& q,
+                                 const Eigen::VectorXd& qdot) {
+  std::vector<NodeRate> rates(plan.nodes.size());
+  for (size_t i = 0; i < plan.nodes.size(); ++i) {
+    const Node& n = plan.nodes[i];
+    if (n.link >= 0) {
+      const int k = m.moving_index(n.link);
+      rates[i] = {qdot.segment<2>(3 * k), qdot(3 * k + 2)};
+      continue;
+    }
+    const Joint& j = m.joints[n.joint];
+    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, &qdot, nullptr);
+    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, &qdot, nullptr);
+    rates[i] = {p.velocity(m.links[j.link_b].points[j.point_b].local), g.omega};
+  }
+  return rates;
+}
+
+NodeRate rate_or_ground(const std::vector<NodeRate>& rates, int node) {
+  return node < 0 ? NodeRate{} : rates[node];
+}
+
+Eigen::Vector2d perp2(const Eigen::Vector2d& v) {
+  return {-v.y(), v.x()};
+}
+
+// The rate of the edge's joint coordinate (revolute: omega_b - omega_a, prismatic: sdot).
+double edge_rate(const Edge& e, const std::vector<Pose>& poses,
+                 const std::vector<NodeRate>& rates) {
+  const Pose a = pose_or_ground(poses, e.a), b = pose_or_ground(poses, e.b);
+  const NodeRate ra = rate_or_ground(rates, e.a), rb = rate_or_ground(rates, e.b);
+  if (e.kind == Edge::Kind::revolute || e.kind == Edge::Kind::planar) return rb.omega - ra.omega;
+  const Eigen::Vector2d arm_b = turn(b.theta, e.pb), arm_a = turn(a.theta, e.pa);
+  const Eigen::Vector2d pb = b.r + arm_b, o = a.r + arm_a;
+  const Eigen::Vector2d vb = rb.v + rb.omega * perp2(arm_b), vo = ra.v + ra.omega * perp2(arm_a);
+  const Eigen::Vector2d u = turn(a.theta, e.axis);
+  return ra.omega * perp2(u).dot(pb - o) + u.dot(vb - vo);
+}
+
 // The edge's joint coordinate at the given poses (revolute: theta_b - theta_a, prismatic: s).
 double edge_coordinate(const Edge& e, const std::vector<Pose>& poses) {
   const Pose a = pose_or_ground(poses, e.a), b = pose_or_ground(poses, e.b);
@@ -454,6 +519,10 @@ class Scene {
   // when the driver is a joint's own constraint). Null when the scene reads no forces.
   virtual const btJointFeedback* feedback(int /*joint*/) const { return nullptr; }
   virtual const btJointFeedback* driver_feedback() const { return nullptr; }
+  // Forward dynamics: the bodies set moving as the nodes at `poses` with `rates` (each node
+  // frame origin's velocity and angular velocity).
+  virtual void set_velocities(const std::vector<Pose>& poses,
+                              const std::vector<NodeRate>& rates) = 0;
 };
 
 // A Dantzig solver that accepts any finite impulse: large impulses mean a locked or singular
@@ -475,7 +544,7 @@ void apply_solver_settings(btContactSolverInfo& info, const Config& config) {
 class MultiBodyScene final : public Scene {
  public:
   MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses, double driver_target0,
-                 const Config& config, const Eigen::Vector2d& gravity)
+                 const Config& config, const Eigen::Vector2d& gravity, bool driven = true)
       : plan_(plan) {
     if (config.solver == "mlcp_dantzig") {
       mlcp_ = new btMultiBodyMLCPConstraintSolver(&dantzig_);
@@ -582,7 +651,7 @@ class MultiBodyScene final : public Scene {
       world_->addMultiBodyConstraint(c);
       constraints_.push_back(c);
     }
-    if (driver_body_) {
+    if (driver_body_ && driven) {
       motor_ = new btMultiBodyJointMotor(driver_body_, driver_link_, 0, 0.0, 1e300);
       motor_->setErp(1.0);
       drive(driver_target0);
@@ -634,6 +703,26 @@ class MultiBodyScene final : public Scene {
     }
   }
 
+  // Joint rates from the node motions, with the signs of the joint positions set above.
+  void set_velocities(const std::vector<Pose>& poses, const std::vector<NodeRate>& rates) override {
+    for (int v : plan_.order) {
+      btMultiBody* mb = bodies_[where_[v].first];
+      const int i = where_[v].second;
+      const int p = plan_.parent[v];
+      const Edge& e = plan_.edges[plan_.parent_edge[v]];
+      if (e.kind == Edge::Kind::planar) {
+        // (theta, y, x) of the centre of mass, in the ground frame.
+        const Eigen::Vector2d c =
+            rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+        const double qd[3] = {rates[v].omega, c.y(), c.x()};
+        mb->setJointVelMultiDof(i, qd);
+      } else {
+        const double sign = e.kind == Edge::Kind::prismatic || e.a == p ? 1.0 : -1.0;
+        mb->setJointVel(i, sign * edge_rate(e, poses, rates));
+      }
+    }
+  }
+
  private:
   const Plan& plan_;
   btDefaultCollisionConfiguration collision_;
@@ -660,7 +749,7 @@ class MultiBodyScene final : public Scene {
 class RigidScene final : public Scene {
  public:
   RigidScene(const Mechanism& m, const Plan& plan, const std::vector<Pose>& poses,
-             double driver_target0, const Config& config)
+             double driver_target0, const Config& config, bool driven = true)
       : plan_(plan) {
     if (config.solver == "mlcp_dantzig") {
       mlcp_ = new btMLCPSolver(&dantzig_);
@@ -730,8 +819,12 @@ class RigidScene final : public Scene {
     }
     // The driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
-    // its rotation (the absolute angle is realised directly).
+    // its rotation (the absolute angle is realised directly). None in forward dynamics.
     const Driver& d = m.driver;
+    if (!driven) {
+      drive(0.0);
+      return;
+    }
     if (d.type == DriverType::link_angle && plan.driver_planar) {
       const int v = plan.edges[plan.driver_edge].b;
       const btTransform fb(btQuaternion::getIdentity(), btVector3(0, 0, 0));
@@ -789,6 +882,7 @@ class RigidScene final : public Scene {
       if (sl.constraint == driver_) fb = sl.constraint->getFrameOffsetB();
       sl.constraint->setFrames(fa, fb);
     }
+    if (!driver_) return;
     if (driver_rotation_) {
       btTransform fb = driver_fb_;
       fb.setRotation(driver_fb_.getRotation() * rot_z(-target));
@@ -821,6 +915,16 @@ class RigidScene final : public Scene {
 
   const btJointFeedback* feedback(int joint) const override {
     return &joint_feedback_[static_cast<size_t>(joint)];
+  }
+
+  // Each body's centre-of-mass velocity and angular velocity.
+  void set_velocities(const std::vector<Pose>& poses, const std::vector<NodeRate>& rates) override {
+    for (size_t v = 0; v < bodies_.size(); ++v) {
+      const Eigen::Vector2d c =
+          rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+      bodies_[v]->setLinearVelocity(bt(c));
+      bodies_[v]->setAngularVelocity(btVector3(0, 0, rates[v].omega));
+    }
   }
   const btJointFeedback* driver_feedback() const override {
     return separate_driver_ ? &driver_feedback_ : nullptr;
@@ -974,6 +1078,405 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::Vect
   }
 }
 
+// Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
+// no driver, started from the exact state of the reference's first usable sample, the loads and
+// the applied effort on the bodies every step, sampled at the reference's times (which fall on
+// step boundaries).
+EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
+                       const Settings& overrides) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_build = Clock::now();
+  const int samples = reference.samples();
+  EngineRun out;
+  out.trajectory.method = "bullet";
+  auto shape = [&](bool with_forces) {
+    out.trajectory.resize(original, samples, with_forces);
+    out.trajectory.add_energy();
+    out.trajectory.time = reference.time;
+    out.trajectory.driver = reference.driver;
+  };
+  shape(false);
+  auto fail = [&](const std::string& message) {
+    out.ok = false;
+    out.message = message;
+    std::fill(out.trajectory.status.begin(), out.trajectory.status.end(), PoseStatus::diverged);
+    return out;
+  };
+  if (!btIsDoublePrecision()) return fail("Bullet is not the float64 build");
+  Config config;
+  Mechanism m;
+  try {
+    config = parse_settings(overrides);
+    m = perturbed(original, config);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  if (!config.max_step_angle_given) config.max_step_angle = kDynamicsMaxStepAngle;
+  std::vector<std::string> notes;
+  const double size = m.size();
+
+  // The usable span, and the step: each sample interval split into equal steps, as many as
+  // steps_per_sample, or more where the reference's fastest link would turn more than
+  // max_step_angle in a step, or as an explicit dt asks (rounded so that samples fall on steps).
+  int first = -1, last = -1;
+  for (int i = 0; i < samples; ++i)
+    if (usable(reference.status[static_cast<size_t>(i)])) {
+      if (first < 0) first = i;
+      last = i;
+    }
+  if (first < 0) return fail("the reference has no usable sample to start from");
+  if (last == first) return fail("the reference has a single usable sample: nothing to run over");
+  for (int i = 1; i < samples; ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      return fail("the reference's sample times do not increase");
+  double wanted = config.dt;
+  if (wanted == 0.0) {
+    double fastest = 0.0, longest = 0.0;
+    for (int i = first; i <= last; ++i) {
+      if (usable(reference.status[static_cast<size_t>(i)]))
+        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+      if (i > first) longest = std::max(longest, reference.time(i) - reference.time(i - 1));
+    }
+    wanted = longest / config.steps_per_sample;
+    if (config.max_step_angle > 0.0 && fastest > 0.0)
+      wanted = std::min(wanted, config.max_step_angle / fastest);
+  }
+  std::vector<double> step_time = {reference.time(first)};
+  std::vector<long> sample_step(static_cast<size_t>(samples), -1);
+  sample_step[static_cast<size_t>(first)] = 0;
+  double dt = 0.0;
+  try {
+    double count = 0.0;
+    for (int i = first + 1; i <= last; ++i)
+      count += std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9);
+    check_steps(count + 1.0, wanted, config.max_steps);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  for (int i = first + 1; i <= last; ++i) {
+    const double span = reference.time(i) - reference.time(i - 1);
+    const long n = std::max(1L, static_cast<long>(std::ceil(span / wanted - 1e-9)));
+    for (long k = 1; k <= n; ++k)
+      step_time.push_back(k == n ? reference.time(i)
+                                 : reference.time(i - 1) +
+                                       span * static_cast<double>(k) / static_cast<double>(n));
+    sample_step[static_cast<size_t>(i)] = static_cast<long>(step_time.size()) - 1;
+    dt = std::max(dt, span / static_cast<double>(n));
+  }
+  step_time.push_back(step_time.back() + (step_time.back() - step_time[step_time.size() - 2]));
+  const long steps = static_cast<long>(step_time.size()) - 1;  // one past the last sample
+
+  // The scene: the multibody formulation falls back to rigid bodies when its tree cannot be cut
+  // at revolute joints.
+  Plan plan = make_plan(m);
+  std::string why;
+  make_tree(plan, &why);
+  if (plan.order.empty()) return fail(why);
+  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
+    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
+    config.formulation = "rigid";
+  }
+  const bool with_forces = config.formulation == "rigid";
+  shape(with_forces);
+  if (!with_forces)
+    notes.push_back(
+        "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
+        "(bullet3 issues 2966, 4604)");
+
+  // The exact initial state (the reference's first usable sample; with perturb_link the chain
+  // closed by Newton at its coordinate and rate), and the staggered start: semi-implicit Euler
+  // keeps the velocity half a step behind the positions (x_k+1 = x_k + h v_k+1), so the bodies
+  // start at v0 - h/2 a0 (a0 the exact acceleration).
+  const NewtonSolver solver(m);
+  DynamicsLoads balance(original);
+  ReferenceState start = reference_state(original, reference, first);
+  if (!config.perturb_link.empty()) {
+    KinematicState state(m);
+    state.q = start.q;
+    state.driver = {reference.time(first), reference.driver(first),
+                    balance.rate(start.q, start.qdot), 0.0};
+    if (solver.solve(state).status != PoseStatus::ok)
+      return fail("the perturbed chain does not close at the first sample");
+    start.q = state.q;
+    start.qdot = state.qdot;
+  }
+  const double h0 = step_time[1] - step_time[0];
+  const Eigen::VectorXd w =
+      config.staggered_start ? Eigen::VectorXd(start.qdot - 0.5 * h0 * start.qddot) : start.qdot;
+  const std::vector<Pose> poses = node_poses(m, plan, start.q);
+  std::unique_ptr<Scene> scene;
+  try {
+    if (config.formulation == "multibody")
+      scene = std::make_unique<MultiBodyScene>(plan, poses, 0.0, config, m.gravity, false);
+    else
+      scene = std::make_unique<RigidScene>(m, plan, poses, 0.0, config, false);
+    scene->set_velocities(poses, node_rates(m, plan, start.q, w));
+  } catch (const std::exception& e) {
+    return fail(std::string("scene build failed: ") + e.what());
+  }
+  const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
+  out.settings = {
+      {"formulation", config.formulation},
+      {"solver", config.solver},
+      {"dt", format_number(dt)},
+      {"steps_per_sample",
+       config.dt == 0.0 ? std::to_string(static_cast<long>(
+                              std::round((reference.time(first + 1) - reference.time(first)) / dt)))
+                        : "unused (dt given)"},
+      {"max_step_angle",
+       config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
+      {"iterations", std::to_string(config.iterations)},
+      {"erp", format_number(config.erp)},
+      {"precision", btIsDoublePrecision() ? "float64" : "float32"},
+      {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
+      {"divergence_gap", format_number(config.divergence_gap)},
+      {"split_impulse", config.split_impulse ? "1" : "0"},
+      {"mass_model", "the definition's (Link::mass)"},
+      {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
+      {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
+      {"forces", with_forces ? "btJointFeedback of the step leaving each sample"
+                             : "not read (multibody joint feedback is wrong in 3.24)"},
+      {"singular_rcond", format_number(config.singular_rcond)},
+      {"energy_threshold", format_number(config.energy_threshold)},
+      {"divergence_energy", format_number(config.divergence_energy)},
+      {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
+      {"perturb_link", config.perturb_link.empty()
+                           ? ""
+                           : config.perturb_link + ":" + format_number(config.perturb_factor)}};
+
+  // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
+  std::vector<Pose> frames;
+  Eigen::VectorXd q = start.q;
+  auto read_q = [&]() {
+    scene->read(frames);
+    for (size_t v = 0; v < plan.nodes.size(); ++v) {
+      const Node& node = plan.nodes[v];
+      if (node.link < 0) continue;
+      const int k = m.moving_index(node.link);
+      double theta = frames[v].theta;
+      theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
+      q(3 * k + 2) = theta;
+      q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
+    }
+  };
+  read_q();
+  const double build_mismatch = (q - start.q).cwiseAbs().maxCoeff();
+  if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
+    return fail(fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
+                            build_mismatch));
+  // The joints' largest violation (prismatic angle rows times the size); the driver's row is
+  // measured at the engine's own coordinate, so it is zero.
+  Eigen::VectorXd phi(m.coordinate_count());
+  std::vector<double> angle_row(static_cast<size_t>(m.coordinate_count()), 0.0);
+  {
+    int row = 0;
+    for (const Joint& j : m.joints) {
+      if (j.type == JointType::prismatic) angle_row[static_cast<size_t>(row + 1)] = 1.0;
+      row += 3 - j.dof();
+    }
+  }
+  auto joint_gap = [&]() {
+    solver.residual(q, solver.driver_value(q), phi);
+    double gap = 0.0;
+    for (Eigen::Index r = 0; r + 1 < phi.size(); ++r)
+      gap = std::max(gap, std::abs(phi(r)) * (angle_row[static_cast<size_t>(r)] ? size : 1.0));
+    return std::isfinite(gap) ? gap : INFINITY;
+  };
+
+  // Step. The loads at pose k and the engine's velocity state there (the backward difference
+  // x_k - x_k-1 over h, semi-implicit Euler's v_k; the staggered start velocity at k = 0).
+  Eigen::MatrixXd history(q.size(), steps + 1);
+  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
+  history.col(0) = q;
+  std::vector<ForceReading> readings(with_forces ? static_cast<size_t>(steps + 1) : 0,
+                                     ForceReading(m.joints.size()));
+  const double gap_diverge = config.divergence_gap * size;
+  long last_good = steps;
+  std::string divergence;
+  const auto t_steps = Clock::now();
+  Eigen::VectorXd velocity(q.size());
+  for (long k = 1; k <= steps; ++k) {
+    const double t0 = step_time[static_cast<size_t>(k - 1)];
+    const double h = step_time[static_cast<size_t>(k)] - t0;
+    scene->drive(0.0);  // slides' frames follow their sliders
+    if (balance.any()) {
+      velocity = k == 1 ? w
+                        : Eigen::VectorXd((history.col(k - 1) - history.col(k - 2)) /
+                                          (t0 - step_time[static_cast<size_t>(k - 2)]));
+      scene->apply(balance.at(t0, history.col(k - 1), velocity));
+    }
+    scene->step(h);
+    if (with_forces)
+      read_rigid_forces(m, *scene, history.col(k - 1), readings[static_cast<size_t>(k - 1)]);
+    read_q();
+    gaps(k) = joint_gap();
+    history.col(k) = q;
+    if (!q.allFinite() || !(gaps(k) <= gap_diverge)) {
+      last_good = k - 1;
+      divergence = fmt::format(
+          "diverged at t = {:.6g} s: {}", step_time[static_cast<size_t>(k)],
+          !q.allFinite() ? std::string("NaN in the state")
+                         : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m",
+                                       gaps(k), gap_diverge));
+      break;
+    }
+  }
+  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
+
+  // Velocity and acceleration at step k: central differences over k-1, k, k+1; at the start,
+  // one-sided over steps 1..4. The start is a transient in Bullet: its first step's constraint
+  // solve has no position error of a previous step to correct, while every later one does (each
+  // step's velocity constraint is taken at the step's start, and the position error this leaves
+  // is closed by the next step's ERP), so the first step's impulses, and a stencil through
+  // pose 0, are off by up to 5 % of the peak reaction (A02; measured). The forces likewise come
+  // from clean poses (force_stencil: 2 .. last - 1), extrapolated to the first sample.
+  auto derivatives = [&](long k, Eigen::VectorXd& qdot, Eigen::VectorXd* qddot) {
+    std::vector<long> nodes;
+    if (k >= 1)
+      nodes = {k - 1, k, k + 1};
+    else
+      nodes = {1, 2, 3, 4};
+    std::vector<double> times;
+    for (long n : nodes) times.push_back(step_time[static_cast<size_t>(n)]);
+    const auto wts = stencil_weights(step_time[static_cast<size_t>(k)], times);
+    qdot.setZero();
+    if (qddot) qddot->setZero();
+    for (size_t n = 0; n < nodes.size(); ++n) {
+      qdot += wts[1][n] * history.col(nodes[n]);
+      if (qddot) *qddot += wts[2][n] * history.col(nodes[n]);
+    }
+  };
+  // The work of the effort, the loads and the dampers: the trapezoid rule over the steps, the
+  // power at each step from its central difference.
+  std::vector<double> work(static_cast<size_t>(steps + 1), 0.0);
+  if (balance.any() && last_good >= 4) {
+    double previous = 0.0;
+    for (long k = 0; k < last_good; ++k) {
+      derivatives(k, velocity, nullptr);
+      const double power =
+          balance.power(step_time[static_cast<size_t>(k)], history.col(k), velocity);
+      if (k > 0)
+        work[static_cast<size_t>(k)] =
+            work[static_cast<size_t>(k - 1)] +
+            0.5 * (step_time[static_cast<size_t>(k)] - step_time[static_cast<size_t>(k - 1)]) *
+                (previous + power);
+      previous = power;
+    }
+  }
+
+  // Samples.
+  Trajectory& tr = out.trajectory;
+  KinematicState sample(m), conditioning(m);
+  const double initial_energy = balance.kinetic(start.q, start.qdot) + balance.potential(start.q);
+  int flagged = 0, near_singular = 0, copied = 0, drift_at = -1, first_lost = -1;
+  double worst_drift = 0.0;
+  const double gap_flag = config.loop_gap_threshold * size;
+  for (int i = 0; i < samples; ++i) {
+    const auto row = static_cast<size_t>(i);
+    if (i < first || i > last) {
+      tr.status[row] = reference.status[row];
+      tr.rcond(i) = reference.rcond(i);
+      continue;
+    }
+    const long S = sample_step[row];
+    const bool reached = S + 1 <= last_good && (S >= 1 || last_good >= 4);
+    if (!reached) {
+      tr.status[row] = PoseStatus::diverged;
+      if (first_lost < 0) first_lost = i;
+      continue;
+    }
+    const double t = step_time[static_cast<size_t>(S)];
+    sample.q = history.col(S);
+    derivatives(S, sample.qdot, &sample.qddot);
+    const double coordinate = solver.driver_value(sample.q);
+    sample.driver = {t, coordinate, balance.rate(sample.q, sample.qdot), 0.0};
+    SolveReport report;
+    const double gap = std::max({gaps(std::max(S - 1, 0L)), gaps(S), gaps(S + 1)});
+    conditioning.q = sample.q;
+    conditioning.driver.value = coordinate;
+    const double rcond = solver.solve_position(conditioning).rcond;
+    if (!usable(reference.status[row])) {
+      report.status = reference.status[row];
+      ++copied;
+    } else if (gap > gap_flag) {
+      report.status = PoseStatus::loop_gap;
+      ++flagged;
+    } else if (rcond < config.singular_rcond) {
+      report.status = PoseStatus::singular;
+      ++near_singular;
+    }
+    solver.write_sample(sample, report, tr, i);
+    tr.driver(i) = coordinate;
+    tr.time(i) = reference.time(i);
+    tr.rcond(i) = rcond;
+    tr.loop_gap(i) = gap;
+    if (with_forces) {
+      const ForceStencil fs = force_stencil(t, last_good, step_time);
+      ForceReading reading(m.joints.size());
+      for (size_t n = 0; n < fs.steps.size(); ++n)
+        reading.add(fs.weights[n], readings[static_cast<size_t>(fs.steps[n])]);
+      reading.effort = original.dynamics->effort_at(t);
+      write_forces(m, sample, reading, tr, i);
+    }
+    const double kinetic = balance.kinetic(sample.q, sample.qdot);
+    const double potential = balance.potential(sample.q);
+    const double error = kinetic + potential - work[static_cast<size_t>(S)] - initial_energy;
+    tr.energy.row(i) << kinetic, potential, work[static_cast<size_t>(S)], error;
+    worst_drift = std::max(worst_drift, std::abs(error));
+    if (drift_at < 0 && std::abs(error) > config.energy_threshold * energy_scale) drift_at = i;
+    if (divergence.empty() && !(std::abs(error) <= config.divergence_energy * energy_scale)) {
+      divergence = fmt::format(
+          "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
+          "energy the exact motion moves ({:.3g} J)",
+          t, error, std::abs(error) / energy_scale, energy_scale);
+      last_good = S;
+    }
+  }
+  if (!divergence.empty()) {
+    out.ok = false;
+    notes.insert(notes.begin(), divergence);
+    tr.events.push_back(
+        {first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged, divergence});
+    // Samples after an energy divergence are not the engine's motion any more.
+    for (int i = first; i <= last; ++i)
+      if (sample_step[static_cast<size_t>(i)] > last_good)
+        tr.status[static_cast<size_t>(i)] = PoseStatus::diverged;
+  }
+  if (drift_at >= 0) {
+    const std::string text = fmt::format(
+        "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
+        "t = {:.6g} s (sample {}); worst {:.3g} J",
+        config.energy_threshold, energy_scale, reference.time(drift_at), drift_at, worst_drift);
+    notes.push_back(text);
+    tr.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
+  }
+  if (first > 0 || last < samples - 1)
+    notes.push_back(
+        fmt::format("run over the reference's usable samples {} .. {} (t = {:.6g} .. "
+                    "{:.6g} s)",
+                    first, last, reference.time(first), reference.time(last)));
+  if (copied)
+    notes.push_back(fmt::format("{} samples keep the reference's flag (run through)", copied));
+  if (near_singular)
+    notes.push_back(fmt::format(
+        "{} samples flagged singular (constraint Jacobian rcond below {:g} at the engine's "
+        "configuration: next to a singular position)",
+        near_singular, config.singular_rcond));
+  if (flagged)
+    notes.push_back(fmt::format("{} samples flagged loop_gap (above {:.3g} m; largest {:.3g} m)",
+                                flagged, gap_flag, gaps.maxCoeff()));
+  if (const int fb = scene->fallbacks(); fb > 0)
+    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
+  const long taken = std::min(last_good + 1, steps);
+  out.cost.steps = taken;
+  out.cost.simulated_seconds = step_time[static_cast<size_t>(taken)] - step_time.front();
+  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
+  out.cost.wall_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping / out.cost.simulated_seconds : 0.0;
+  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+  return out;
+}
+
 class BulletEngine final : public Engine {
  public:
   std::string name() const override { return "bullet"; }
@@ -998,6 +1501,7 @@ class BulletEngine final : public Engine {
 
 EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& reference,
                             const Settings& overrides) const {
+  if (original.dynamics) return run_dynamics(original, reference, overrides);
   using Clock = std::chrono::steady_clock;
   const auto t_build = Clock::now();
   EngineRun out;

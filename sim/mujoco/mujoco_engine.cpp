@@ -14,6 +14,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -42,6 +43,11 @@ const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
 // dead point (measured on the polycentric hinge: 0.45 % gave 7 % of peak alpha, 0.76 % 0.1 %).
 constexpr double kDeadRate = 0.01;
 constexpr double kSingularRcond = 1e-6;
+// Forward dynamics passes singular positions under its own momentum; within about 0.005 rad of
+// one (IFToMM A02's change point: rcond 1.3e-4 and 3.7e-4) the soft constraint solve's
+// acceleration is off by 2 to 8 % of its peak in the direction the chain gains there, at every
+// step (measured; docs/engines.md, "Forward dynamics"), while from 6.7e-4 on it is within 1e-5.
+constexpr double kDynamicsSingularRcond = 1e-3;
 // Periodic sweeps: steps run before the first sample and after the last.
 constexpr long kPreroll = 8;
 // A sample whose configuration, closed exactly on the definition, is further than this from the
@@ -61,6 +67,15 @@ struct Config {
   std::string perturb_link = "none";
   std::string force_read = "centred";  // centred | raw (docs/engines.md, "Forces")
   long max_steps = kDefaultMaxSteps;
+  // Forward dynamics only (docs/engines.md, "Forward dynamics").
+  std::string start = "auto";      // staggered | exact; auto: staggered for Euler and implicit
+  std::string readout = "auto";    // differences | state; auto: state for RK4
+  double energy_threshold = 1e-3;  // |energy.error| over the energy scale: an event
+  double divergence_energy = 1.0;  // beyond it the run stops: diverged
+  // Samples whose configuration's constraint Jacobian (scaled as the Newton solver's) is worse
+  // conditioned are flagged singular. auto: kSingularRcond for a kinematic run,
+  // kDynamicsSingularRcond for a dynamics run.
+  std::string singular_rcond = "auto";
 };
 
 double parse_number(const std::string& name, const std::string& text) {
@@ -93,7 +108,10 @@ Config parse_settings(const Settings& overrides) {
                                                     {"gap_threshold", &c.gap_threshold},
                                                     {"driver_threshold", &c.driver_threshold},
                                                     {"perturb_link", &c.perturb_link},
-                                                    {"force_read", &c.force_read}};
+                                                    {"force_read", &c.force_read},
+                                                    {"start", &c.start},
+                                                    {"readout", &c.readout},
+                                                    {"singular_rcond", &c.singular_rcond}};
   for (const auto& [name, value] : overrides) {
     if (auto it = text.find(name); it != text.end()) {
       *it->second = value;
@@ -105,11 +123,16 @@ Config parse_settings(const Settings& overrides) {
       c.max_step_angle = parse_number(name, value);
     } else if (name == "max_steps") {
       c.max_steps = parse_max_steps(value);
+    } else if (name == "energy_threshold") {
+      c.energy_threshold = parse_number(name, value);
+    } else if (name == "divergence_energy") {
+      c.divergence_energy = parse_number(name, value);
     } else {
       throw std::runtime_error(fmt::format(
           "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
           "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
-          "driver_threshold, perturb_link, force_read, max_steps)",
+          "driver_threshold, perturb_link, force_read, max_steps, start, readout, "
+          "energy_threshold, divergence_energy, singular_rcond)",
           name));
     }
   }
@@ -122,6 +145,12 @@ Config parse_settings(const Settings& overrides) {
   if (c.force_read != "centred" && c.force_read != "raw")
     throw std::runtime_error(
         fmt::format("setting force_read = \"{}\": expected centred or raw", c.force_read));
+  if (c.start != "auto" && c.start != "staggered" && c.start != "exact")
+    throw std::runtime_error(
+        fmt::format("setting start = \"{}\": expected auto, staggered or exact", c.start));
+  if (c.readout != "auto" && c.readout != "differences" && c.readout != "state")
+    throw std::runtime_error(
+        fmt::format("setting readout = \"{}\": expected auto, differences or state", c.readout));
   return c;
 }
 
@@ -549,14 +578,29 @@ class ForceReader {
     std::copy(force.data(), force.data() + ne, d2->efc_force);
     std::copy(d->qacc, d->qacc + nv, d2->qacc);
     mj_rnePostConstraint(mm_, d2);
+    extract(d2, force, out);
+  }
 
+  // MuJoCo's own forces at the state of `forwarded`, on which mj_forward has just run (its
+  // constraint forces and accelerations at its positions and velocities).
+  void read_state(mjData* forwarded, ForceReading& out) {
+    mj_rnePostConstraint(mm_, forwarded);
+    extract(forwarded, Eigen::Map<const Eigen::VectorXd>(forwarded->efc_force, forwarded->ne), out);
+  }
+
+ private:
+  // The reading from d2 (constraint rows, and cfrc_int after mj_rnePostConstraint) with the
+  // equality forces `force`. Without a driver equality (forward dynamics) the effort is left at
+  // zero: it is an applied load there, not a reaction.
+  void extract(const mjData* d2, const Eigen::VectorXd& force, ForceReading& out) const {
+    const int ne = d2->ne;
     out.set_zero();
     const auto row_of = [&](int eq) {
       for (int r = 0; r < ne; ++r)
         if (d2->efc_type[r] == mjCNSTR_EQUALITY && d2->efc_id[r] == eq) return r;
       throw std::runtime_error("MuJoCo: no constraint row for an equality");
     };
-    out.effort = s_.driven.sign * force(row_of(driver_eq_));
+    out.effort = driver_eq_ >= 0 ? s_.driven.sign * force(row_of(driver_eq_)) : 0.0;
     for (size_t ji = 0; ji < s_.joints.size(); ++ji) {
       const SceneJoint& j = s_.joints[ji];
       const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
@@ -583,7 +627,7 @@ class ForceReader {
         const Eigen::Vector2d at = world_point(d2, j.b, j.ub);
         out.couple[static_cast<size_t>(j.source)] = couple_b + cross2(about - at, on_b);
       }
-      if (m_.driver.type == DriverType::slider && j.source == m_.driver.joint) {
+      if (driver_eq_ >= 0 && m_.driver.type == DriverType::slider && j.source == m_.driver.joint) {
         // The driver's axial force is the effort, not the joint's reaction.
         const Eigen::Vector2d u = world_direction(d2, j.a, j.direction);
         on_b -= out.effort * u;
@@ -592,7 +636,6 @@ class ForceReader {
     }
   }
 
- private:
   static double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return a.x() * b.y() - a.y() * b.x();
   }
@@ -615,6 +658,463 @@ class ForceReader {
   int driver_eq_ = -1;
 };
 
+// ---------------------------------------------------------------------------------------------
+// Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics")
+
+// The integrator-dependent choices of a dynamics run, resolved from the settings.
+struct DynamicsChoices {
+  // Euler and implicit keep the velocity half a step behind the positions (q_k+1 = q_k +
+  // h v_k+1): started from v0 - h/2 a0 ("staggered", the leapfrog start) they are centred;
+  // started from v0 ("exact") every later position lags by h/2 v0-ish, a first-order offset.
+  bool staggered = true;
+  // Samples from central differences of the poses on either side ("differences", second order;
+  // for Euler they equal MuJoCo's own averaged velocity and its step's acceleration), or from
+  // MuJoCo's state at the sample (positions and velocities as integrated, the acceleration and
+  // forces of mj_forward there: "state", for RK4 whose velocity is not staggered).
+  bool state_readout = false;
+};
+
+DynamicsChoices dynamics_choices(const Config& c) {
+  const bool rk4 = c.integrator == "RK4";
+  DynamicsChoices out;
+  out.staggered = c.start == "auto" ? !rk4 : c.start == "staggered";
+  out.state_readout = c.readout == "auto" ? rk4 : c.readout == "state";
+  return out;
+}
+
+// The exact initial state: the reference's first usable sample (its positions, velocities and
+// accelerations are the exact reference's, to about 1e-10). With perturb_link the scene's chain
+// is closed by Newton at the reference's coordinate and rate.
+ReferenceState dynamics_start(const Mechanism& m, const Mechanism& scene_mechanism,
+                              const Trajectory& reference, int first) {
+  ReferenceState start = reference_state(m, reference, first);
+  if (&m == &scene_mechanism) return start;
+  DynamicsLoads balance(m);
+  KinematicState state(scene_mechanism);
+  state.q = start.q;
+  state.driver = {reference.time(first), reference.driver(first), balance.rate(start.q, start.qdot),
+                  0.0};
+  const NewtonSolver solver(scene_mechanism);
+  const SolveReport report = solver.solve(state);
+  if (report.status != PoseStatus::ok)
+    throw std::runtime_error("the perturbed chain does not close at the first sample: " +
+                             report.message);
+  start.q = state.q;
+  start.qdot = state.qdot;
+  return start;
+}
+
+Prepared prepare_dynamics(const Mechanism& m, const Trajectory& reference,
+                          const Settings& overrides, ReferenceState* start_out = nullptr) {
+  Prepared p;
+  p.config = parse_settings(overrides);
+  const bool perturb = p.config.perturb_link != "none" && !p.config.perturb_link.empty();
+  const Mechanism perturbed_mechanism = perturb ? perturbed(m, p.config.perturb_link) : Mechanism();
+  const Mechanism& scene_mechanism = perturb ? perturbed_mechanism : m;
+  p.span = usable_span(reference);
+  p.grid = time_grid(reference, p.config, p.span);
+  // One step past the last sample, so that it has a central stencil too.
+  const double h = p.grid.time.back() - p.grid.time[p.grid.time.size() - 2];
+  p.grid.time.push_back(p.grid.time.back() + h);
+  const ReferenceState start = dynamics_start(m, scene_mechanism, reference, p.span.first);
+  p.start = Start{start.q, start.qdot};
+  if (start_out) *start_out = start;
+  p.scene = mujoco_scene::build_scene(scene_mechanism, start.q, &reference);
+  p.options = mjcf_options(m, p.config, p.grid.dt);
+  p.options.driven = false;
+  p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
+  return p;
+}
+
+// Applies the loads of a dynamics run at every evaluation of the equations of motion (each RK4
+// stage too, at its own time and state) through MuJoCo's control callback, which 2.2.2 calls after
+// the position and velocity stages and before the applied forces are summed (mj_forwardSkip,
+// engine_forward.c): it writes the mechanism's bodies' xfrc_applied, a wrench at each centre of
+// mass, as the kinematic runs apply their loads (so cfrc_int counts them as external). The
+// callback is global in MuJoCo: it finds its run through a thread-local pointer and does nothing
+// outside a dynamics run with loads.
+class LoadHook {
+ public:
+  LoadHook(const Mechanism& m, const Scene& s, const mjModel* mm)
+      : loads_(m),
+        q_(Eigen::VectorXd::Zero(m.coordinate_count())),
+        qdot_(Eigen::VectorXd::Zero(m.coordinate_count())) {
+    for (const SceneLink& link : s.links)
+      if (link.source >= 0 && !link.ground)
+        bodies_.push_back(
+            {m.moving_index(link.source), mj_name2id(mm, mjOBJ_BODY, link.name.c_str())});
+  }
+  bool any() const { return loads_.any(); }
+
+  void apply(const mjModel* mm, mjData* d) {
+    for (const auto& [k, body] : bodies_) {
+      const mjtNum* mat = d->xmat + 9 * body;
+      q_.segment<3>(3 * k) << d->xpos[3 * body], d->xpos[3 * body + 1], std::atan2(mat[3], mat[0]);
+      mjtNum v[6];
+      mj_objectVelocity(mm, d, mjOBJ_XBODY, body, v, 0);  // (angular, linear) at the origin
+      qdot_.segment<3>(3 * k) << v[3], v[4], v[2];
+    }
+    const std::vector<BodyLoad>& on = loads_.at(d->time, q_, qdot_);
+    for (const auto& [k, body] : bodies_) {
+      mjtNum* x = d->xfrc_applied + 6 * body;
+      const BodyLoad& load = on[static_cast<size_t>(k)];
+      x[0] = load.force.x();
+      x[1] = load.force.y();
+      x[5] = load.moment;
+    }
+  }
+
+ private:
+  DynamicsLoads loads_;
+  Eigen::VectorXd q_, qdot_;
+  std::vector<std::pair<int, int>> bodies_;  // (moving index, MuJoCo body id)
+};
+
+thread_local LoadHook* active_hook = nullptr;
+
+void control_callback(const mjModel* m, mjData* d) {
+  if (active_hook) active_hook->apply(m, d);
+}
+
+// Installs the callback (once per process) and makes `hook` this thread's for its lifetime.
+class HookScope {
+ public:
+  explicit HookScope(LoadHook* hook) {
+    static std::once_flag once;
+    std::call_once(once, [] {
+      if (mjcb_control && mjcb_control != control_callback)
+        throw std::runtime_error("MuJoCo's control callback is already taken");
+      mjcb_control = control_callback;
+    });
+    active_hook = hook;
+  }
+  ~HookScope() { active_hook = nullptr; }
+  HookScope(const HookScope&) = delete;
+  HookScope& operator=(const HookScope&) = delete;
+};
+
+// Velocities and accelerations of the mechanism's links at the state of `d` after mj_forward and
+// mj_rnePostConstraint: each body frame origin's, by mj_objectVelocity and mj_objectAcceleration
+// (which count gravity as an acceleration of the world, -g: added back).
+void state_rates(const Mechanism& m, const Scene& s, const mjModel* mm, const mjData* d,
+                 Eigen::VectorXd& qdot, Eigen::VectorXd& qddot) {
+  for (const SceneLink& link : s.links) {
+    if (link.source < 0 || link.ground) continue;
+    const int k = m.moving_index(link.source);
+    const int body = mj_name2id(mm, mjOBJ_BODY, link.name.c_str());
+    mjtNum v[6], a[6];
+    mj_objectVelocity(mm, d, mjOBJ_XBODY, body, v, 0);
+    mj_objectAcceleration(mm, d, mjOBJ_XBODY, body, a, 0);
+    qdot.segment<3>(3 * k) << v[3], v[4], v[2];
+    qddot.segment<3>(3 * k) << a[3] + m.gravity.x(), a[4] + m.gravity.y(), a[2];
+  }
+}
+
+EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point begin = Clock::now();
+  const int samples = reference.samples();
+  EngineRun run;
+  run.trajectory.method = "mujoco";
+  auto shape = [&](bool with_forces) {
+    run.trajectory.resize(m, samples, with_forces);
+    run.trajectory.add_energy();
+    run.trajectory.time = reference.time;
+    run.trajectory.driver = reference.driver;
+  };
+  shape(false);
+  Prepared p;
+  ReferenceState start;
+  ModelPtr model;
+  try {
+    p = prepare_dynamics(m, reference, overrides, &start);
+    model = load_model(p.mjcf);
+  } catch (const std::exception& e) {
+    run.ok = false;
+    run.message = e.what();
+    run.settings = overrides;
+    std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+    return run;
+  }
+  const Scene& s = p.scene;
+  const double size = s.size;
+  const DynamicsChoices choice = dynamics_choices(p.config);
+  const bool with_forces = true;
+  shape(with_forces);
+  const double gap_threshold = p.config.gap_threshold == "auto"
+                                   ? 1e-4 * size
+                                   : parse_number("gap_threshold", p.config.gap_threshold);
+  // The energy the exact motion moves (a mechanism at rest in equilibrium moves none: then any
+  // change is judged against 1e-12 J).
+  const double energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
+  const double singular_rcond = p.config.singular_rcond == "auto"
+                                    ? kDynamicsSingularRcond
+                                    : parse_number("singular_rcond", p.config.singular_rcond);
+  run.settings = {
+      {"dt", fmt::format("{:.9g}", p.grid.dt)},
+      {"steps_per_sample", std::to_string(p.grid.steps_per_sample)},
+      {"max_step_angle",
+       p.config.dt == "auto" ? fmt::format("{:g}", p.config.max_step_angle) : "unused (dt given)"},
+      {"integrator", p.options.integrator},
+      {"solver", p.options.solver},
+      {"iterations", std::to_string(p.options.iterations)},
+      {"tolerance", fmt::format("{:g}", p.options.tolerance)},
+      {"solref", numbers(p.options.solref)},
+      {"solimp", numbers(p.options.solimp)},
+      {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
+      {"perturb_link", p.config.perturb_link},
+      {"mass_model", "the definition's (Link::mass)"},
+      {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
+      {"start", choice.staggered ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
+      {"readout", choice.state_readout ? "state (MuJoCo's velocity; mj_forward acceleration)"
+                                       : "differences (3-point central of step positions)"},
+      {"energy_threshold", fmt::format("{:g}", p.config.energy_threshold)},
+      {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
+      {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
+      {"singular_rcond", fmt::format("{:g}", singular_rcond)},
+  };
+
+  mjModel* mm = model.get();
+  DataPtr data(mj_makeData(mm)), state_data(mj_makeData(mm));
+  mjData* d = data.get();
+  const int nq = mm->nq, nv = mm->nv;
+  std::vector<std::array<int, 2>> cut_bodies;
+  for (int c : s.cuts) {
+    const SceneJoint& j = s.joints[c];
+    auto body = [&](int link) {
+      return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
+    };
+    cut_bodies.push_back({body(j.a), body(j.b)});
+  }
+  const Mechanism& scene_mechanism = m;  // the scene's joints map the definition's links
+  for (const SceneJoint& j : s.joints) {
+    if (!j.in_tree) continue;
+    const int id = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
+    d->qvel[mm->jnt_dofadr[id]] = joint_motion(scene_mechanism, s, j, start.q, start.qdot)(1);
+  }
+  const std::vector<double>& grid = p.grid.time;
+  const long last_step = static_cast<long>(grid.size()) - 1;
+  const double h0 = grid[1] - grid[0];
+  d->time = grid[0];
+
+  // The loads, and the start: MuJoCo's own acceleration at the exact state sets the staggered
+  // velocity and the pose one step before the start (central differences at the first sample).
+  LoadHook hook(m, s, mm);
+  const HookScope scope(hook.any() ? &hook : nullptr);
+  ForceReader force_reader(m, s, mm, p.config.force_read == "centred");
+  DynamicsLoads balance(m);
+  mj_forward(mm, d);
+  std::vector<mjtNum> v0(d->qvel, d->qvel + nv), w(static_cast<size_t>(nv));
+  for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d->qacc[i];
+  if (choice.staggered) std::copy(w.begin(), w.end(), d->qvel);
+  mjData* sd = state_data.get();
+  std::copy(d->qpos, d->qpos + nq, sd->qpos);
+  const bool euler_like = p.config.integrator != "RK4";
+  mj_integratePos(mm, sd->qpos, euler_like ? d->qvel : w.data(), -h0);
+  mj_kinematics(mm, sd);
+  PoseReader before_reader(m, s, mm, start.q);
+  const Eigen::VectorXd before_start = before_reader.read(sd);
+
+  // Per step (ring of the last kRing): poses, the state (for the state readout), the work done
+  // so far and the power at the step.
+  constexpr long kRing = 16;
+  PoseReader reader(m, s, mm, start.q);
+  std::array<Eigen::VectorXd, kRing> ring;
+  std::array<std::vector<mjtNum>, kRing> ring_qpos, ring_qvel;
+  std::array<double, kRing> ring_work{}, ring_power{};
+  auto slot = [](long k) { return static_cast<size_t>(((k % kRing) + kRing) % kRing); };
+  auto pose = [&](long k) -> const Eigen::VectorXd& {
+    return k < 0 ? before_start : ring[slot(k)];
+  };
+  auto keep_state = [&](long k) {
+    ring_qpos[slot(k)].assign(d->qpos, d->qpos + nq);
+    ring_qvel[slot(k)].assign(d->qvel, d->qvel + nv);
+  };
+  ring[slot(0)] = reader.read(d);
+  keep_state(0);
+  // The sample on each step (-1: none).
+  std::vector<int> sample_of(static_cast<size_t>(last_step + 1), -1);
+  for (int i = p.span.first; i <= p.span.last; ++i)
+    sample_of[static_cast<size_t>(p.grid.sample_step[static_cast<size_t>(i)])] = i;
+
+  const NewtonSolver writer(m);
+  KinematicState state(m), probe(m);
+  ForceReading reading(m.joints.size());
+  std::vector<mjtNum> qpos_before(static_cast<size_t>(nq));
+  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(samples);
+  std::vector<bool> recorded(static_cast<size_t>(samples), false);
+  Eigen::MatrixXd sample_q = Eigen::MatrixXd::Zero(m.coordinate_count(), samples);
+  const double initial_energy = balance.kinetic(start.q, start.qdot) + balance.potential(start.q);
+  int drift_at = -1;
+  std::string stopped;
+  int interval = p.span.first;
+
+  // Records sample i on step S (called once step S + 1 is taken).
+  auto record = [&](int i, long S) {
+    const double t = grid[static_cast<size_t>(S)];
+    state.q = pose(S);
+    if (choice.state_readout) {
+      std::copy(ring_qpos[slot(S)].begin(), ring_qpos[slot(S)].end(), sd->qpos);
+      std::copy(ring_qvel[slot(S)].begin(), ring_qvel[slot(S)].end(), sd->qvel);
+      sd->time = t;
+      mj_forward(mm, sd);
+      force_reader.read_state(sd, reading);
+      state_rates(m, s, mm, sd, state.qdot, state.qddot);
+    } else {
+      const double hb = t - (S > 0 ? grid[static_cast<size_t>(S - 1)] : t - h0);
+      const double ha = grid[static_cast<size_t>(S + 1)] - t;
+      const auto wts = stencil_weights(0.0, {-hb, 0.0, ha});
+      state.qdot = wts[1][0] * pose(S - 1) + wts[1][1] * pose(S) + wts[1][2] * pose(S + 1);
+      state.qddot = wts[2][0] * pose(S - 1) + wts[2][1] * pose(S) + wts[2][2] * pose(S + 1);
+    }
+    const double coordinate = balance.coordinate(state.q);
+    state.driver = {t, coordinate, balance.rate(state.q, state.qdot), 0.0};
+    writer.write_sample(state, SolveReport{}, run.trajectory, i);
+    run.trajectory.driver(i) = coordinate;
+    reading.effort = m.dynamics->effort_at(t);
+    write_forces(m, state, reading, run.trajectory, i);
+    const double kinetic = balance.kinetic(state.q, state.qdot);
+    const double potential = balance.potential(state.q);
+    const double work = ring_work[slot(S)];
+    const double error = kinetic + potential - work - initial_energy;
+    run.trajectory.energy.row(i) << kinetic, potential, work, error;
+    recorded[static_cast<size_t>(i)] = true;
+    sample_q.col(i) = state.q;
+    if (drift_at < 0 && std::abs(error) > p.config.energy_threshold * energy_scale) drift_at = i;
+    if (!(std::abs(error) <= p.config.divergence_energy * energy_scale))
+      stopped = fmt::format(
+          "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
+          "energy the exact motion moves ({:.3g} J)",
+          t, error, std::abs(error) / energy_scale, energy_scale);
+  };
+
+  const Clock::time_point stepping = Clock::now();
+  long steps_taken = 0;
+  for (long step = 1; step <= last_step && stopped.empty(); ++step) {
+    const double t0 = grid[static_cast<size_t>(step - 1)];
+    const double h = grid[static_cast<size_t>(step)] - t0;
+    if (mm->opt.timestep != h) {
+      mm->opt.timestep = h;
+      if (p.config.solref == "deadbeat")
+        for (int e = 0; e < mm->neq; ++e) {
+          mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
+          mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
+        }
+    }
+    d->time = t0;
+    const int leaving = sample_of[static_cast<size_t>(step - 1)];
+    const bool read = leaving >= 0 && !choice.state_readout;
+    if (read) std::copy(d->qpos, d->qpos + nq, qpos_before.begin());
+    mj_step(mm, d);
+    if (read) force_reader.read(d, qpos_before, h, reading);
+    mj_kinematics(mm, d);
+    ++steps_taken;
+    while (interval < p.span.last && step > p.grid.sample_step[static_cast<size_t>(interval)])
+      ++interval;
+    const double gap = loop_gap(s, cut_bodies, d);
+    gaps(interval) = std::max(gaps(interval), gap);
+    ring[slot(step)] = reader.read(d);
+    keep_state(step);
+    if (!ring[slot(step)].allFinite() || !std::isfinite(gap) || gap > size ||
+        d->warning[mjWARN_BADQACC].number > 0) {
+      stopped = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)",
+                            grid[static_cast<size_t>(step)], gap);
+      break;
+    }
+    // The work up to the step before: the power there from the poses on either side.
+    const long k = step - 1;
+    if (balance.any()) {
+      const double hb =
+          grid[static_cast<size_t>(k)] - (k > 0 ? grid[static_cast<size_t>(k - 1)] : grid[0] - h0);
+      const auto wts = stencil_weights(0.0, {-hb, 0.0, h});
+      const Eigen::VectorXd velocity =
+          wts[1][0] * pose(k - 1) + wts[1][1] * pose(k) + wts[1][2] * pose(k + 1);
+      ring_power[slot(k)] = balance.power(grid[static_cast<size_t>(k)], pose(k), velocity);
+      ring_work[slot(k)] = k == 0 ? 0.0
+                                  : ring_work[slot(k - 1)] +
+                                        0.5 * hb * (ring_power[slot(k - 1)] + ring_power[slot(k)]);
+    }
+    if (leaving >= 0) record(leaving, k);
+  }
+  const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
+
+  // Statuses: outside the usable span the reference's flag; unreached samples diverged; a sample
+  // the reference flags keeps that flag (run through); then the gap and the conditioning.
+  Trajectory& out = run.trajectory;
+  out.loop_gap = gaps;
+  int flagged = 0, copied = 0, first_lost = -1, near_singular = 0;
+  for (int i = 0; i < samples; ++i) {
+    const auto row = static_cast<size_t>(i);
+    const PoseStatus ref_status = reference.status[row];
+    if (i < p.span.first || i > p.span.last) {
+      out.status[row] = ref_status;
+      out.rcond(i) = reference.rcond(i);
+      continue;
+    }
+    if (!recorded[row]) {
+      out.status[row] = PoseStatus::diverged;
+      if (first_lost < 0) first_lost = i;
+      continue;
+    }
+    probe.q = sample_q.col(i);
+    probe.driver.value = out.driver(i);
+    out.rcond(i) = writer.solve_position(probe).rcond;
+    if (!usable(ref_status)) {
+      out.status[row] = ref_status;
+      ++copied;
+    } else if (gaps(i) > gap_threshold) {
+      out.status[row] = PoseStatus::loop_gap;
+      ++flagged;
+    } else if (out.rcond(i) < singular_rcond) {
+      out.status[row] = PoseStatus::singular;
+      ++near_singular;
+    }
+  }
+  auto note = [&](const std::string& text) {
+    run.message = run.message.empty() ? text : run.message + "; " + text;
+  };
+  if (!stopped.empty()) {
+    run.ok = false;
+    note(stopped);
+    out.events.push_back(
+        {first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged, stopped});
+  }
+  if (drift_at >= 0) {
+    const std::string text = fmt::format(
+        "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
+        "t = {:.6g} s (sample {}); worst {:.3g} J",
+        p.config.energy_threshold, energy_scale, reference.time(drift_at), drift_at,
+        out.energy.col(3).cwiseAbs().maxCoeff());
+    note(text);
+    out.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
+  }
+  if (p.span.first > 0 || p.span.last < samples - 1)
+    note(fmt::format("run over the reference's usable samples {} .. {} (t = {:.6g} .. {:.6g} s)",
+                     p.span.first, p.span.last, reference.time(p.span.first),
+                     reference.time(p.span.last)));
+  if (copied > 0) note(fmt::format("{} samples keep the reference's flag (run through)", copied));
+  if (near_singular > 0)
+    note(
+        fmt::format("{} samples flagged singular (constraint Jacobian rcond below {:g} at the "
+                    "engine's configuration: next to a singular position)",
+                    near_singular, singular_rcond));
+  if (flagged > 0) {
+    note(fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                     flagged, gaps.maxCoeff(), gap_threshold));
+    for (int i = 0; i < samples; ++i)
+      if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
+          (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
+        out.events.push_back(
+            {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+  }
+  run.cost.steps = steps_taken;
+  run.cost.simulated_seconds = grid[static_cast<size_t>(steps_taken)] - grid.front();
+  if (run.cost.simulated_seconds > 0.0)
+    run.cost.wall_seconds_per_cycle = stepping_seconds / run.cost.simulated_seconds;
+  run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+  return run;
+}
+
 class MujocoEngine final : public Engine {
  public:
   std::string name() const override { return "mujoco"; }
@@ -625,6 +1125,7 @@ class MujocoEngine final : public Engine {
 
   EngineRun run(const Mechanism& m, const Trajectory& reference,
                 const Settings& overrides) const override {
+    if (m.dynamics) return run_dynamics(m, reference, overrides);
     using Clock = std::chrono::steady_clock;
     const Clock::time_point begin = Clock::now();
     EngineRun run;
@@ -655,6 +1156,9 @@ class MujocoEngine final : public Engine {
                                      ? 1e-4 * size
                                      : parse_number("gap_threshold", p.config.gap_threshold);
     const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
+    const double kinematic_singular_rcond =
+        p.config.singular_rcond == "auto" ? kSingularRcond
+                                          : parse_number("singular_rcond", p.config.singular_rcond);
     const double driver_threshold =
         p.config.driver_threshold == "auto"
             ? (angular_joint ? 1e-3 : 1e-3 * size)
@@ -674,6 +1178,7 @@ class MujocoEngine final : public Engine {
         {"driver_solimp", numbers(p.options.driver_solimp)},
         {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
         {"driver_threshold", fmt::format("{:.6g}", driver_threshold)},
+        {"singular_rcond", fmt::format("{:g}", kinematic_singular_rcond)},
         {"perturb_link", p.config.perturb_link},
         {"mass_model", "the definition's (Link::mass)"},
         {"force_read",
@@ -946,7 +1451,7 @@ class MujocoEngine final : public Engine {
         ++flagged;
         continue;
       }
-      if (out.rcond(i) < kSingularRcond) {
+      if (out.rcond(i) < kinematic_singular_rcond) {
         out.status[row] = PoseStatus::singular;
         out.events.push_back({reference.driver(i), PoseStatus::singular,
                               fmt::format("the constraint Jacobian at the engine's configuration "
@@ -1040,6 +1545,7 @@ std::unique_ptr<Engine> make_mujoco_engine() {
 
 std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& settings) {
+  if (mechanism.dynamics) return prepare_dynamics(mechanism, reference, settings).mjcf;
   return prepare(mechanism, reference, settings).mjcf;
 }
 

@@ -382,10 +382,11 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         s.links[sj.b].ground ? "world" : escape(s.links[sj.b].name), sj.ua.x(), sj.ua.y(),
         vec(o.solref), vec(o.solimp));
   }
-  out += fmt::format(
-      "    <joint name=\"driver\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
-      "solimp=\"{}\"/>\n",
-      escape(s.joints[s.driven.joint].name), vec(o.driver_solref), vec(o.driver_solimp));
+  if (o.driven)
+    out += fmt::format(
+        "    <joint name=\"driver\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
+        "solimp=\"{}\"/>\n",
+        escape(s.joints[s.driven.joint].name), vec(o.driver_solref), vec(o.driver_solimp));
   out += "  </equality>\n</mujoco>\n";
   return out;
 }

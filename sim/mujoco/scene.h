@@ -90,6 +90,9 @@ struct MjcfOptions {
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off
+  // Whether the driver equality is written: a forward-dynamics scene has none (the coordinate
+  // moves freely under the applied effort).
+  bool driven = true;
 };
 
 // The MJCF text. Joint names are the scene joints' names; the driver equality is "driver".

@@ -109,6 +109,7 @@ Agreement agreement(const Mechanism& m, const Trajectory& exact, const Trajector
         break;
       case Quantity::force:
       case Quantity::torque:
+      case Quantity::energy:
         break;
     }
   }
