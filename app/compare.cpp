@@ -67,7 +67,14 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
   const Mechanism m = load_mechanism(args.path);
-  if (refuse_dynamics_case(m)) return kExitBadInput;
+  // A dynamics case ([dynamics]) is compared in time against its exact simulation.
+  const bool dynamics = m.dynamics.has_value();
+  if (dynamics && args.step != 0.0)
+    throw std::invalid_argument(
+        "--step: a dynamics case is sampled at its [dynamics] interval, not swept");
+  if (dynamics && !args.accuracy.empty())
+    throw std::invalid_argument(
+        "--accuracy: not for a dynamics case yet (its settings sweep is crosslink sweep's)");
 
   // Methods: the reference first, then the others asked for, in the order given.
   std::vector<std::string> names = split(args.engines, ',');
@@ -76,10 +83,11 @@ int run_compare(CompareArgs args) {
         compare::method_names().end())
       throw std::invalid_argument(fmt::format(
           "--engines: unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", n));
-  compare::Tolerances tolerances(m.tolerances);
+  compare::Tolerances tolerances(m);
   const std::optional<double> accuracy = parse_accuracy(args.accuracy);
   if (accuracy)  // the accuracy asked for is the engines' tolerance; --tolerance still wins
-    for (const char* q : {"position", "angle", "velocity", "acceleration", "force", "torque"})
+    for (const char* q :
+         {"position", "angle", "velocity", "acceleration", "force", "torque", "energy"})
       tolerances.apply(fmt::format("{}={:.17g}", q, *accuracy));
   for (const std::string& t : args.tolerances) tolerances.apply(t);
   for (const std::string& s : args.settings) (void)settings_for("", {s});  // validate early
@@ -87,7 +95,7 @@ int run_compare(CompareArgs args) {
   SweepOptions options;
   const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
   if (args.step != 0.0) options.step = args.step * driver_scale;  // 0: the default
-  check_sweep_work(m, options, args.limits);
+  if (!dynamics) check_sweep_work(m, options, args.limits);
   std::vector<compare::MethodRun> runs;
   runs.push_back(compare::run_reference(m, options));
   // An explicit time step is refused before any engine runs when it would take too many steps.
@@ -169,7 +177,7 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)");
   cmd->add_option("--tolerance", args->tolerances,
                   "CLASS=PERCENT for the engines, or METHOD:CLASS=PERCENT (repeatable); classes: "
-                  "position, angle, velocity, acceleration");
+                  "position, angle, velocity, acceleration, force, torque, energy");
   cmd->add_option("--set", args->settings,
                   "engine setting KEY=VALUE, or ENGINE:KEY=VALUE (repeatable), e.g. dt=1e-4");
   cmd->add_option("--accuracy", args->accuracy,

@@ -82,6 +82,19 @@ namespace {
 // mechanism's size).
 double driver_peak_rate(const Mechanism& mechanism, const Trajectory& reference) {
   double rate = 0.0;
+  if (mechanism.dynamics) {
+    // No motion law: the coordinate's own rate and acceleration over the run, by differences of
+    // the reference's samples (a scale, not a result).
+    for (int k = 1; k + 1 < reference.samples(); ++k) {
+      const double h0 = reference.time(k) - reference.time(k - 1);
+      const double h1 = reference.time(k + 1) - reference.time(k);
+      const double d0 = (reference.driver(k) - reference.driver(k - 1)) / h0;
+      const double d1 = (reference.driver(k + 1) - reference.driver(k)) / h1;
+      rate = std::max(
+          {rate, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
+    }
+    return mechanism.driver.angular() ? rate : rate / mechanism.size();
+  }
   for (int k = 0; k < reference.samples(); ++k) {
     const DriverState d = mechanism.driver.at_time(reference.time(k));
     rate = std::max({rate, std::abs(d.rate), std::sqrt(std::abs(d.accel))});
@@ -108,6 +121,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
         usable(ref.status[static_cast<size_t>(k)]) && !ref.beside_singular(k);
   const double size = mechanism.size();
   const double driver_rate = driver_peak_rate(mechanism, ref);
+  const double energy_scale = ref.energy_scale();
   std::vector<Eigen::VectorXd> ref_columns;
   std::map<std::string, double> kind_peak;
   for (const std::string& c : channels) {
@@ -156,8 +170,12 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       if (!column) continue;
       ChannelResult result;
       result.method = run.name;
-      const double floor = peak_floor(channels[c], kind_peak[channel_kind(channels[c])],
-                                      magnitude_peak(channels[c]), driver_rate, size);
+      // Energy channels have no scale of their own (potential energy depends on the origin, the
+      // balance's error is zero when exact): the energy the reference's motion moves.
+      const double floor = q == Quantity::energy
+                               ? energy_scale
+                               : peak_floor(channels[c], kind_peak[channel_kind(channels[c])],
+                                            magnitude_peak(channels[c]), driver_rate, size);
       result.metrics = compare_channel(
           channels[c], ref_columns[c], *column,
           q == Quantity::force || q == Quantity::torque ? both_forces : both, size, floor);

@@ -1,6 +1,8 @@
 // The methods the comparator runs on one Mechanism, each returning the same Trajectory type
 // with the settings it ran with and what it cost:
 //   analytic  Newton-Raphson on the full constraint equations: the reference of every verdict
+//             (a dynamics case: the exact forward dynamics, analytic/dynamics.h; dyads and ic,
+//             kinematic methods, are then not run)
 //   dyads     closed-form Assur dyads solved in sequence (analytic/dyads.h)
 //   ic        instantaneous centres by Kennedy-Aronhold: velocities only (instant_centres.h)
 //   mujoco    MuJoCo 2.2.2 scene (sim/mujoco), when built
@@ -39,7 +41,8 @@ const std::vector<std::string>& method_names();
 // Whether `name` is one of method_names().
 bool is_method(std::string_view name);
 
-// The reference: the exact Newton sweep of the mechanism.
+// The reference: the exact Newton sweep of the mechanism; for a dynamics case ([dynamics]) the
+// exact simulation (analytic/dynamics.h) with its energy channels, `options` unused.
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});
 
 // Any other method at the reference's samples. `engine_settings` are passed to the engines as

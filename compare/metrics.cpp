@@ -38,6 +38,7 @@ double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
   const Quantity q = Trajectory::quantity_of(channel);
   if (q == Quantity::angle) return std::numbers::pi;
   if (q == Quantity::position) return size;
+  if (q == Quantity::energy) return 0.0;  // the energy scale, as the floor (comparison.cpp)
   double peak = 0.0;
   for (Eigen::Index k = 0; k < reference.size(); ++k)
     if (usable[static_cast<size_t>(k)]) peak = std::max(peak, std::abs(reference(k)));
@@ -117,7 +118,8 @@ std::vector<std::pair<std::string, std::string>> metric_legend() {
        "P floored by: a component's vector magnitude peak (vx against |v|); 1 % of the "
        "largest peak of the same kind; the mechanism's characteristic value (driver rate W: "
        "W, W^2, W size, W^2 size), so a channel that is zero by design is not scaled by "
-       "its round-off"},
+       "its round-off; energy channels (dynamics): the energy scale E, the largest of the "
+       "reference's peak kinetic energy, range of potential energy and peak |work|"},
       {"% of peak", "100 |d| / P per sample; its maximum over the cycle is the verdict metric"},
       {"max % of peak", "the largest % of peak over the usable samples, at the worst sample"},
       {"RMS % of peak", "100 sqrt(mean d^2) / P over the usable samples"},

@@ -15,6 +15,11 @@
 //                       position channels (x, y, s): P = the mechanism's size L (the largest
 //                       distance between its points): coordinates depend on where the origin
 //                       is, so their own peak is no scale; 0.01 % of L is 1e-4 of the size
+//                       energy channels (energy.kinetic, .potential, .work, .error; dynamics
+//                       cases): P = 0 and the floor F is the energy scale E of the reference,
+//                       the largest of its peak kinetic energy, the range of its potential
+//                       energy and its peak |work| (Trajectory::energy_scale): potential energy
+//                       depends on the origin and the balance's error is zero when exact
 //   scale               P_eff = max(P, F), the floor F being the largest of
 //                       - for a component (vx, vy, ax, ay) the peak of its point's magnitude
 //                         (|v| or |a|): a component is judged against the vector it belongs to
@@ -87,7 +92,8 @@ ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& 
                                const Eigen::VectorXd& method, const std::vector<bool>& usable,
                                double size, double peak_floor);
 
-// P for one reference column over its usable samples (pi for angles, `size` for positions).
+// P for one reference column over its usable samples (pi for angles, `size` for positions, 0 for
+// energy channels).
 double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
                     const std::vector<bool>& usable, double size);
 

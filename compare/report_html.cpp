@@ -201,8 +201,14 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
   const Trajectory& ref = cmp.reference().trajectory;
   const DisplayUnit du = driver_unit(m);
   json r;
-  r["driver"]["unit"] = du.name;
-  r["driver"]["values"] = rounded(ref.driver, du.scale);
+  if (m.dynamics) {  // samples in time: the charts' axis is the time
+    r["driver"]["unit"] = "s";
+    r["driver"]["title"] = "time [s]";
+    r["driver"]["values"] = rounded(ref.time, 1.0);
+  } else {
+    r["driver"]["unit"] = du.name;
+    r["driver"]["values"] = rounded(ref.driver, du.scale);
+  }
   r["driver"]["usable"] = json::array();
   for (PoseStatus s : ref.status) r["driver"]["usable"].push_back(usable(s));
   r["methods"] = json::array();
@@ -254,9 +260,10 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
 }
 
 std::string methods_table(const Comparison& cmp) {
-  std::string html =
-      "<table><tr><th>method</th><th>status</th><th>wall [s]</th><th>per cycle [s]</th>"
-      "<th>steps</th><th>settings</th></tr>\n";
+  std::string html = std::string("<table><tr><th>method</th><th>status</th><th>wall [s]</th><th>") +
+                     (cmp.mechanism->dynamics ? "per simulated s [s]" : "per cycle [s]") +
+                     "</th>"
+                     "<th>steps</th><th>settings</th></tr>\n";
   for (const MethodRun& run : cmp.methods) {
     std::string settings;
     for (const auto& [k, v] : run.settings)
@@ -296,9 +303,11 @@ std::string verdict_table(const Comparison& cmp) {
         to_string(c->metrics.quantity), escape(c->method), c->metrics.max_pct_of_peak,
         c->metrics.rms_pct_of_peak, c->metrics.max_local_pct, c->metrics.max_abs / u.scale,
         escape(u.name),
-        k >= 0 ? fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
-                             escape(du.name), k)
-               : "-",
+        k < 0 ? std::string("-")
+        : m.dynamics
+            ? fmt::format("t = {:.3f} s (#{})", cmp.reference().trajectory.time(k), k)
+            : fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
+                          escape(du.name), k),
         c->tolerance, to_string(c->verdict));
   }
   return html + "</table>\n";
@@ -465,7 +474,9 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
                      escape(du.name), to_string(pose.status.at(0)));
   out << "<div id=\"drawing\" class=\"chart\"></div>\n";
   out << "<p><small>" << escape(centres_note) << "</small></p>\n";
-  out << "<h2>Channels against the driver</h2>\n<p>Every method overlaid on the exact values; "
+  out << (m.dynamics ? "<h2>Channels against time</h2>\n"
+                     : "<h2>Channels against the driver</h2>\n")
+      << "<p>Every method overlaid on the exact values; "
          "under each chart the signed difference from exact in % of the exact peak. Red crosses "
          "mark samples flagged singular or with a loop gap (kept out of verdicts).</p>\n";
   out << quantity_sections;

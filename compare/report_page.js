@@ -18,7 +18,7 @@
   });
 
   const R = REPORT;
-  const driverTitle = 'driver [' + R.driver.unit + ']';
+  const driverTitle = R.driver.title || 'driver [' + R.driver.unit + ']';
   const methodOrder = R.methods;
   const palette = ['#222222', '#1f77b4', '#2ca02c', '#d62728', '#9467bd', '#ff7f0e', '#8c564b'];
   const colorScale = {domain: methodOrder, range: palette.slice(0, methodOrder.length)};

@@ -14,6 +14,7 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
   const std::string& L = m.units.length_name;
   if (kind == "angle") return {m.units.angle, m.units.angle_name};
+  if (kind == "energy") return {1.0, "J"};
   if (kind == "omega") return {1.0, "rad/s"};
   if (kind == "alpha") return {1.0, "rad/s^2"};
   switch (Trajectory::quantity_of(channel)) {
@@ -46,6 +47,9 @@ double severity(const ChannelResult& c) {
 
 std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
   if (c.metrics.worst_sample < 0) return "-";
+  if (cmp.mechanism->dynamics)  // samples in time
+    return fmt::format("t = {:.3f} s #{}", cmp.reference().trajectory.time(c.metrics.worst_sample),
+                       c.metrics.worst_sample);
   const DisplayUnit du = driver_unit(*cmp.mechanism);
   const double v = cmp.reference().trajectory.driver(c.metrics.worst_sample) / du.scale;
   return fmt::format("{:.2f} {} #{}", v, du.name, c.metrics.worst_sample);
@@ -99,9 +103,15 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   int excluded = 0;
   for (PoseStatus s : ref.status) excluded += usable(s) ? 0 : 1;
   fmt::print(out, "{} ({})\n", m.name, m.file);
-  fmt::print(out, "reference: analytic Newton, {} samples from {:.4g} to {:.4g} {}", ref.samples(),
-             ref.samples() ? ref.driver(0) / du.scale : 0.0,
-             ref.samples() ? ref.driver(ref.samples() - 1) / du.scale : 0.0, du.name);
+  const bool dynamics = m.dynamics.has_value();
+  if (dynamics)
+    fmt::print(out, "reference: exact forward dynamics, {} samples from t = {:.4g} to {:.4g} s",
+               ref.samples(), ref.samples() ? ref.time(0) : 0.0,
+               ref.samples() ? ref.time(ref.samples() - 1) : 0.0);
+  else
+    fmt::print(out, "reference: analytic Newton, {} samples from {:.4g} to {:.4g} {}",
+               ref.samples(), ref.samples() ? ref.driver(0) / du.scale : 0.0,
+               ref.samples() ? ref.driver(ref.samples() - 1) / du.scale : 0.0, du.name);
   fmt::print(out, "{}\n",
              excluded ? fmt::format(", {} flagged (kept out of verdicts)", excluded) : "");
 
@@ -112,9 +122,10 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       fmt::print(out, "  {:<9} not run: {}\n", run.name, run.message);
       continue;
     }
-    fmt::print(out, "  {:<9} {:<7} {:.3f} s wall, {:.3g} s per cycle, {} steps\n", run.name,
+    fmt::print(out, "  {:<9} {:<7} {:.3f} s wall, {:.3g} s per {}, {} {}\n", run.name,
                run.ok ? "ok" : "FAILED", run.cost.wall_seconds, run.cost.wall_seconds_per_cycle,
-               run.cost.steps);
+               dynamics ? "simulated s" : "cycle", run.cost.steps,
+               dynamics && run.name == "analytic" ? "evaluations" : "steps");
     print_wrapped(out, run.description, 12, 100);
     if (!run.ok || !run.message.empty()) print_wrapped(out, run.message, 12, 100);
     print_wrapped(out, settings_text(run.settings), 12, 100);
@@ -143,8 +154,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                "worst channel", "max % peak", "tolerance %", "worst at", "pass/fail");
     fmt::print(out, "{:-<98}\n", "");
     for (const MethodRun& run : cmp.methods)
-      for (Quantity q :
-           {Quantity::position, Quantity::angle, Quantity::velocity, Quantity::acceleration}) {
+      for (Quantity q : {Quantity::position, Quantity::angle, Quantity::velocity,
+                         Quantity::acceleration, Quantity::energy}) {
         const auto it = worst.find(std::pair{run.name, q});
         if (it == worst.end() || !it->second) continue;
         const ChannelResult& c = *it->second;
@@ -225,12 +236,14 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     if (c.verdict == Verdict::fail) {
       const DisplayUnit u = display_unit(m, c.metrics.channel);
       const int k = c.metrics.worst_sample;
+      const std::string where =
+          dynamics ? fmt::format("t = {:.4f} s", ref.time(k))
+                   : fmt::format("driver = {:.4f} {}", ref.driver(k) / du.scale, du.name);
       fmt::print(out,
-                 "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at driver = {:.4f} {} "
+                 "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at {} "
                  "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",
                  c.metrics.channel, to_string(c.metrics.quantity), c.method,
-                 c.metrics.max_pct_of_peak, c.tolerance, ref.driver(k) / du.scale, du.name, k,
-                 c.method,
+                 c.metrics.max_pct_of_peak, c.tolerance, where, k, c.method,
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
     }
@@ -253,6 +266,7 @@ nlohmann::json to_json(const Comparison& cmp) {
   j["units"] = "SI";
   j["pass"] = cmp.pass();
   j["reference_method"] = cmp.reference().name;
+  j["dynamics"] = m.dynamics.has_value();
   j["samples"] = ref.samples();
   int excluded = 0;
   for (PoseStatus s : ref.status) excluded += usable(s) ? 0 : 1;
@@ -291,6 +305,7 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"usable_samples", c.metrics.usable},
          {"worst_sample", k >= 0 ? json(k) : json(nullptr)},
          {"worst_driver_value", k >= 0 ? json(ref.driver(k)) : json(nullptr)},
+         {"worst_time", k >= 0 ? json(ref.time(k)) : json(nullptr)},
          {"tolerance_pct", c.tolerance},
          {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))}});
   }
@@ -326,7 +341,7 @@ nlohmann::json to_json(const Comparison& cmp) {
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
-         "reference,value,difference,pct_of_peak,local_pct\n";
+         "reference,value,difference,pct_of_peak,local_pct,time\n";
   for (const ChannelResult& c : cmp.channels) {
     const MethodRun& run = *cmp.method(c.method);
     const Eigen::VectorXd r = *ref.channel(c.metrics.channel);
@@ -334,12 +349,13 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
       const double local = c.metrics.local_pct(k);
-      out << fmt::format("{},{},{},{},{:.17g},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{}\n",
-                         c.method, c.metrics.channel, to_string(c.metrics.quantity), k,
-                         ref.driver(k), to_string(ref.status[ks]),
-                         to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
-                         r(k), v(k), c.metrics.difference(k), c.metrics.pct_of_peak(k),
-                         std::isnan(local) ? std::string() : fmt::format("{:.17g}", local));
+      out << fmt::format(
+          "{},{},{},{},{:.17g},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g}\n", c.method,
+          c.metrics.channel, to_string(c.metrics.quantity), k, ref.driver(k),
+          to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
+          c.metrics.in_verdict[ks] ? 1 : 0, r(k), v(k), c.metrics.difference(k),
+          c.metrics.pct_of_peak(k),
+          std::isnan(local) ? std::string() : fmt::format("{:.17g}", local), ref.time(k));
     }
   }
 }

@@ -8,6 +8,12 @@
 //   mujoco      1e-2      1e-2     0.1       1             0.05   0.05   closed loops vs exact
 //   bullet      1e-2      1e-2     0.1       1             0.3    0.3    (forces: measured, see
 //                                                                        tolerance.cpp)
+//   energy (energy.* channels, dynamics cases only): 1e-2 for both engines
+// A dynamics case ([dynamics]; Tolerances(const Mechanism&)) has its own engine defaults:
+//   method      position  angle    velocity  acceleration  force  torque  energy
+//   mujoco      1e-2      1e-2     1e-2      0.1           0.05   0.05    1e-2
+//   bullet      1e-2      1e-2     1e-2      0.1           0.3    0.3     1e-2
+// (measured and argued in tolerance.cpp and docs/dynamics.md).
 // Overrides, later wins:
 //   1. the definition's [tolerance] table (Mechanism::tolerances): engines only, since the
 //      exact methods must agree to round-off whatever the mechanism;
@@ -36,6 +42,9 @@ class Tolerances {
  public:
   // The defaults above, then the definition's [tolerance] table.
   explicit Tolerances(const ToleranceOverrides& from_definition = {});
+  // The defaults for the mechanism (a dynamics case has its own: see kDynamics below), then its
+  // [tolerance] table.
+  explicit Tolerances(const Mechanism& mechanism);
   // "class=value" or "method:class=value"; throws std::invalid_argument on bad text.
   void apply(std::string_view assignment);
   double of(std::string_view method, Quantity quantity) const;
@@ -43,6 +52,8 @@ class Tolerances {
   static bool is_engine(std::string_view method);  // mujoco, bullet
 
  private:
+  void apply_definition(const ToleranceOverrides& from_definition);
+
   std::map<std::string, ClassTolerances, std::less<>> exact_;  // dyads, ic: fixed defaults
   // mujoco, bullet: defaults, then [tolerance], then "class=v"
   std::map<std::string, ClassTolerances, std::less<>> engines_;
