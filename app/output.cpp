@@ -131,6 +131,30 @@ void print_csv(const Trajectory& t, const Columns& extra) {
 }
 
 // Notes-style tables at one sample, in the file's units.
+void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
+                      const std::string& note, const Columns& extra) {
+  const double A = m.units.angle;
+  const double driver_unit = m.driver.angular() ? A : m.units.length;
+  std::string header = fmt::format("{:>10} {:>8}", by_time ? "t [s]" : "driver", "status");
+  for (const std::string& l : t.link_names)
+    header += fmt::format(" {:>12} {:>12}", "angle." + l, "omega." + l);
+  for (const auto& [name, column] : extra) header += fmt::format(" {:>12}", name);
+  fmt::print("{}  ({})\n{}\n", m.name, note, header);
+  const std::string blank = fmt::format(" {:>12}", "");
+  for (int r = 0; r < t.samples(); ++r) {
+    const PoseStatus status = t.status[static_cast<size_t>(r)];
+    std::string line = fmt::format(
+        "{:>10.4f} {:>8}", by_time ? t.time(r) : t.driver(r) / driver_unit, to_string(status));
+    for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
+      line +=
+          (has_position(status) ? fmt::format(" {:>12.{}f}", t.angle(r, c) / A, digits) : blank) +
+          (usable(status) ? fmt::format(" {:>12.{}f}", t.omega(r, c), digits) : blank);
+    for (const auto& [name, column] : extra)
+      line += std::isfinite(column(r)) ? fmt::format(" {:>12.3e}", column(r)) : blank;
+    fmt::print("{}\n", line);
+  }
+}
+
 void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
   const double L = m.units.length, A = m.units.angle;
   const std::string& ln = m.units.length_name;

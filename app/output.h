@@ -31,6 +31,12 @@ nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::opt
 // not usable (a flagged sample) is an empty field.
 void print_csv(const Trajectory& t, const Columns& extra = {});
 
+// One row per sample: the driver (file units) or, with `by_time`, the time [s]; the status; each
+// link's angle (file units) and omega with `digits` decimals; then `extra` (scientific, blank
+// where not finite). Values that do not exist are blank.
+void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
+                      const std::string& note, const Columns& extra = {});
+
 // Notes-style tables of links, points and sliders at one sample, in the file's units.
 void print_table_at(const Mechanism& m, const Trajectory& t, int row);
 

@@ -31,27 +31,12 @@ nlohmann::json energy_json(const Simulation& s, int k) {
           {"balance", balance},      {"balance_relative", s.energy_error(k)}};
 }
 
-// One row per sample: time, status, each link's angle and omega, and the energy balance.
-void print_table_run(const Mechanism& m, const Simulation& s) {
-  const Trajectory& t = s.trajectory;
-  const double A = m.units.angle;
-  std::string header = fmt::format("{:>10} {:>8}", "t [s]", "status");
-  for (const std::string& l : t.link_names)
-    header += fmt::format(" {:>12} {:>12}", "angle." + l, "omega." + l);
-  fmt::print("{}  (angles in {}, omega in rad/s, energy balance in J)\n{} {:>12}\n", m.name,
-             m.units.angle_name, header, "balance");
-  for (int r = 0; r < t.samples(); ++r) {
-    const PoseStatus status = t.status[static_cast<size_t>(r)];
-    const bool pose = usable(status) || status == PoseStatus::singular;
-    std::string line = fmt::format("{:>10.4f} {:>8}", t.time(r), to_string(status));
-    for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
-      line +=
-          (pose ? fmt::format(" {:>12.6f}", t.angle(r, c) / A) : fmt::format(" {:>12}", "")) +
-          (usable(status) ? fmt::format(" {:>12.6f}", t.omega(r, c)) : fmt::format(" {:>12}", ""));
-    const double balance = s.energy_balance(r);
-    line += usable(status) ? fmt::format(" {:>12.3e}", balance) : fmt::format(" {:>12}", "");
-    fmt::print("{}\n", line);
-  }
+// The energy balance at every sample [J]; not a number where the sample holds no motion.
+Eigen::VectorXd energy_balances(const Simulation& s) {
+  Eigen::VectorXd balance(s.trajectory.samples());
+  for (int k = 0; k < balance.size(); ++k)
+    balance(k) = usable(s.trajectory.status[static_cast<size_t>(k)]) ? s.energy_balance(k) : NAN;
+  return balance;
 }
 
 int run_simulate(const SimulateArgs& args) {
@@ -106,8 +91,7 @@ int run_simulate(const SimulateArgs& args) {
     const auto energy = [&s](nlohmann::json& j, int k) { j["energy"] = energy_json(s, k); };
     fmt::print("{}\n", trajectory_json(m, t, single, "time", energy).dump(2));
   } else if (args.format == "csv") {
-    Eigen::VectorXd balance(t.samples());
-    for (int k = 0; k < t.samples(); ++k) balance(k) = s.energy_balance(k);
+    Eigen::VectorXd balance = energy_balances(s);
     Columns energy = {{"energy.kinetic", s.kinetic},
                       {"energy.potential", s.potential},
                       {"energy.work", s.work},
@@ -125,7 +109,10 @@ int run_simulate(const SimulateArgs& args) {
           e["kinetic"].get<double>(), e["potential"].get<double>(), e["work"].get<double>(),
           s.initial_energy, e["balance"].get<double>());
   } else {
-    print_table_run(m, s);
+    print_table_rows(
+        m, t, true, 6,
+        fmt::format("angles in {}, omega in rad/s, energy balance in J", m.units.angle_name),
+        {{"balance", energy_balances(s)}});
   }
   if (single && !usable(t.status[static_cast<size_t>(*single)])) {
     fmt::print(stderr, "{}\n",

@@ -25,28 +25,6 @@ struct SolveArgs {
   WorkLimits limits;
 };
 
-// A sweep as one row per sample: driver, status, then each link's angle and omega.
-void print_table_sweep(const Mechanism& m, const Trajectory& t) {
-  const double A = m.units.angle;
-  const double driver_unit = m.driver.angular() ? A : m.units.length;
-  std::string header = fmt::format("{:>10} {:>8}", "driver", "status");
-  for (const std::string& l : t.link_names)
-    header += fmt::format(" {:>12} {:>12}", "angle." + l, "omega." + l);
-  fmt::print("{}  (angles in {}, omega in rad/s)\n{}\n", m.name, m.units.angle_name, header);
-  for (int r = 0; r < t.samples(); ++r) {
-    std::string line = fmt::format("{:>10.4f} {:>8}", t.driver(r) / driver_unit,
-                                   to_string(t.status[static_cast<size_t>(r)]));
-    // Blank where the value does not exist: no pose, or (singular) no rates.
-    const PoseStatus status = t.status[static_cast<size_t>(r)];
-    const bool pose = usable(status) || status == PoseStatus::singular;
-    for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
-      line +=
-          (pose ? fmt::format(" {:>12.4f}", t.angle(r, c) / A) : fmt::format(" {:>12}", "")) +
-          (usable(status) ? fmt::format(" {:>12.4f}", t.omega(r, c)) : fmt::format(" {:>12}", ""));
-    fmt::print("{}\n", line);
-  }
-}
-
 // Kennedy–Aronhold centres at one sample and the velocities they give, beside the exact ones.
 void print_instant_centres(const Mechanism& m, const Trajectory& t) {
   const double L = m.units.length;
@@ -146,7 +124,8 @@ int run_solve(const SolveArgs& args) {
     print_table_at(m, t, 0);
     if (args.ic && usable(t.status[0])) print_instant_centres(m, t);
   } else
-    print_table_sweep(m, t);
+    print_table_rows(m, t, false, 4,
+                     fmt::format("angles in {}, omega in rad/s", m.units.angle_name));
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
                Diagnostic{m.driver.where,
