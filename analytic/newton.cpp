@@ -447,6 +447,9 @@ double NewtonSolver::rcond(KinematicState& state) const {
   }
   solve();
   const double alternate_lower_bound = (2.0 * v.lpNorm<1>()) / (3.0 * static_cast<double>(n));
+  // A zero pivot (an exactly singular Jacobian, e.g. a chain drawn all on one line) gives
+  // infinite or NaN solves: the condition number is infinite.
+  if (!std::isfinite(lower_bound) || !std::isfinite(alternate_lower_bound)) return 0.0;
   const double inverse_norm = std::max(lower_bound, alternate_lower_bound);
   return inverse_norm == 0.0 ? 0.0 : (1.0 / inverse_norm) / state.jacobian_norm;
 }

@@ -465,6 +465,16 @@ std::optional<double> locate_change_point(Tracer& tracer, const Tracer::Node& cu
   return root;
 }
 
+// A leg fails where the chain moves through kHeldArc of arclength (in z: lengths / size, angles
+// in rad, so ten link turns) while the driver spans less than kHeldDriver of its unit (rad, or
+// the chain's size): the driver does not set the pose there. Near a toggle the driver varies as
+// the square of the arclength, with a curvature set by the chain's proportions, so a drawn chain
+// moves its driver by far more over ten turns; a degenerate one does not (a Wanzer triangle drawn
+// a million metres long spins on its slots with the disk held, its driver wobbling by 3e-5 rad:
+// tests/fuzz/regressions/), nor does a branch on which the driver link stays put (a kite four-bar).
+constexpr double kHeldArc = 20.0 * kPi;
+constexpr double kHeldDriver = 1e-3;
+
 struct LegLimits {
   bool stop_at_toggle = true;  // else pass toggles (the driver reverses) until the loop closes
   double reach = 0.0;          // driver travel without a toggle that ends the leg [rad or m]
@@ -486,6 +496,8 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
   double h = h_max;
   double travel = 0.0;  // |driver change| summed along the leg
   int toggles = 0;
+  // The driver's span over the current window of kHeldArc arclength, from held_key.
+  double held_lo = start.driver, held_hi = start.driver, held_key = 0.0;
   for (int steps = 0; steps < 400000; ++steps) {
     const int i = static_cast<int>(leg.nodes.size()) - 1;
     const Tracer::Node cur = leg.nodes[static_cast<size_t>(i)];
@@ -609,6 +621,26 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       leg.end_key = leg.key.back();
       return leg;
     }
+    held_lo = std::min(held_lo, next.driver);
+    held_hi = std::max(held_hi, next.driver);
+    if (leg.key.back() - held_key < kHeldArc) continue;
+    if (held_hi - held_lo > kHeldDriver * unit) {
+      held_lo = held_hi = next.driver;
+      held_key = leg.key.back();
+    } else {
+      leg.failed = true;
+      leg.singular.push_back(
+          {SingularKind::branch_jump, next.driver, sign_of(next.t_driver),
+           fmt::format(
+               "branch_jump: the chain moves with the driver held at driver = {:.12g} "
+               "(ten link turns of motion with the driver within {:.0e} of its unit): the driver "
+               "does not set the pose there, so the chain cannot be followed",
+               next.driver, kHeldDriver)});
+      leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+      leg.singular_key.push_back(leg.key.back());
+      leg.end_key = leg.key.back();
+      return leg;
+    }
   }
   leg.end_key = leg.key.back();
   return leg;
@@ -675,6 +707,7 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
 }  // namespace
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
+  if (!unknown.empty()) return "unknown: " + unknown;
   if (full_cycle) return m.driver.angular() ? "full rotation (360 degrees)" : "unbounded";
   const double unit = m.driver.angular() ? m.units.angle : m.units.length;
   const std::string& name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
@@ -699,14 +732,23 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
     return true;
   };
   Leg up, down;
-  if (!search(+1.0, up)) return range;
+  const std::string no_start = "the configuration curve has no direction at the drawn position";
+  if (!search(+1.0, up)) {
+    range.unknown = no_start;
+    return range;
+  }
   if (up.full_cycle) {
     range.full_cycle = true;
     range.lower = state.driver.value;
     range.upper = state.driver.value + 2.0 * kPi;
     return range;
   }
-  if (!search(-1.0, down)) return range;
+  if (!search(-1.0, down)) {
+    range.unknown = no_start;
+    return range;
+  }
+  for (const Leg* leg : {&up, &down})
+    if (leg->failed) range.unknown = leg->singular.back().message;
   const auto free = [](const Leg& leg) { return !leg.failed && leg.singular.empty(); };
   range.full_cycle = free(up) && free(down) && !angular;
   range.lower = down.nodes.back().driver;
@@ -847,6 +889,11 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     if (p.toggle && report.status == PoseStatus::ok) {
       report.status = PoseStatus::singular;
       report.message = "toggle (dead point): Jacobian singular";
+    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6) {
+      // Singular with no sign change along the curve around it (the tracer saw no toggle or
+      // change point): the Jacobian touches rank loss there, as A02's chain with every bar on
+      // one line. The sample is flagged by the solver; the event says where.
+      out.events.push_back({p.value, PoseStatus::singular, report.message});
     }
     const int row = static_cast<int>(i);
     record(state, report, driver, out, row);

@@ -53,6 +53,7 @@ struct AssemblingRange {
   bool full_cycle = false;  // the driver turns (or runs) through its whole cycle
   double lower = 0.0;       // limits when not full_cycle [rad or m]
   double upper = 0.0;
+  std::string unknown;  // why the range could not be traced (a leg lost the chain); else empty
   std::string explain(const Mechanism& mechanism) const;  // in the file's units
 };
 

@@ -169,7 +169,9 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
-                       range.full_cycle ? "" : " (limits: toggles; the chain cannot close beyond)");
+                       range.full_cycle || !range.unknown.empty()
+                           ? ""
+                           : " (limits: toggles; the chain cannot close beyond)");
   }
   print_singular_positions(m, out);
   out += fmt::format("  references: {}\n", m.references.size());

@@ -1,9 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite built with AddressSanitizer and UndefinedBehaviorSanitizer by clang, in a
 # second build folder, with the libFuzzer target and its one-minute run (label fuzz). Without the
-# label `slow`, as scripts/test.sh: its kept fuzz input (fuzz.regressions.slow) takes 18 s in the
-# Release build and 8 min here, too long for every run: `ctest --test-dir build-asan -L slow`
-# runs it (docs/robustness.md).
+# label `slow`, as scripts/test.sh (`ctest --test-dir build-asan -L slow` runs those).
 # Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz.
 # Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
 set -euo pipefail

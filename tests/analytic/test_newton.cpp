@@ -2,9 +2,13 @@
 // properties (loop closure, finite differences).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <numbers>
 
+#include <Eigen/SVD>
+
 #include "analytic/loader.h"
+#include "analytic/newton.h"
 #include "analytic/sweep.h"
 
 namespace crosslink {
@@ -42,6 +46,23 @@ TEST(SewingMachine, ReproducesPrintedValuesAt135) {
   EXPECT_NEAR(at("alpha.bell_crank"), 40.4, 0.015 * 549.3);
   EXPECT_NEAR(at("alpha.needle_link"), 327.7, 0.015 * 549.3);
   EXPECT_NEAR(at("sddot.needle") / cm, -680.0, 0.015 * 680.0);
+}
+
+// A02 drawn with every link on one line (kept from fuzzing): the Jacobian is exactly singular.
+// Its condition estimate must say so (0), not NaN, which compares false with the threshold and
+// passed the pose as ok.
+TEST(ExactlySingularDrawing, IsSingularWithRcondZero) {
+  const Mechanism m = load_mechanism("tests/fuzz/regressions/a02_drawn_collinear_rcond_nan.toml");
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  const SolveReport r = solver.assemble(state);
+  EXPECT_EQ(r.status, PoseStatus::singular) << r.message;
+  EXPECT_EQ(r.rcond, 0.0);
+  // Independently: the smallest singular value of the Jacobian there, relative to the largest.
+  Eigen::MatrixXd jac(state.q.size(), state.q.size());
+  solver.jacobian(state.q, jac);
+  const Eigen::VectorXd sigma = Eigen::JacobiSVD<Eigen::MatrixXd>(jac).singularValues();
+  EXPECT_LT(sigma(sigma.size() - 1), 1e-12 * sigma(0));
 }
 
 }  // namespace

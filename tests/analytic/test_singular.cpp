@@ -241,6 +241,47 @@ TEST(FourBar, CrankRockerGrashofAndTransmissionAngle) {
 
 // The stability catalogue: every definition in mechanisms/singular/ states its expected
 // singular behaviour in [expect] (derived by hand in its comments); the sweep must match it.
+// A degenerate drawing (kept from fuzzing): the Wanzer triangle with a point a million metres
+// away turns on its slots with the disk held. The tracer must say that the driver does not set
+// the pose, not trace ten turns after ten turns and call the ends of that a range.
+TEST(HeldDriver, ChainTurningWithTheDriverHeldIsFlagged) {
+  const Mechanism m =
+      load_mechanism("tests/fuzz/regressions/wanzer_triangle_spins_driver_locked.toml");
+  const AssemblingRange range = assembling_range(m);
+  EXPECT_FALSE(range.full_cycle);
+  EXPECT_NE(range.unknown.find("driver held"), std::string::npos) << range.unknown;
+  EXPECT_EQ(range.explain(m).rfind("unknown: ", 0), 0u) << range.explain(m);
+
+  std::vector<SingularPosition> events;
+  const Trajectory t = sweep(m, {}, events);
+  EXPECT_TRUE(std::any_of(events.begin(), events.end(), [](const SingularPosition& p) {
+    return p.kind == SingularKind::branch_jump &&
+           p.message.find("driver held") != std::string::npos;
+  }));
+  // The evidence, independent of the tracer: closed poses at the same driver value (to 1e-6
+  // rad) with the triangle turned by over a radian from each other.
+  double lo = 1e300, hi = -1e300;
+  for (int k = 0; k < t.samples(); ++k) {
+    if (t.status[static_cast<size_t>(k)] != PoseStatus::ok) continue;
+    EXPECT_NEAR(t.driver(k), m.driver.start, 1e-6);
+    lo = std::min(lo, channel(t, "angle.triangle", k));
+    hi = std::max(hi, channel(t, "angle.triangle", k));
+  }
+  EXPECT_GT(hi - lo, 1.0);
+}
+
+// No drawn chain of the catalogue is taken for one whose driver is held.
+TEST(HeldDriver, EveryBundledRangeIsKnown) {
+  for (const auto& entry : std::filesystem::recursive_directory_iterator("mechanisms")) {
+    // scaling/ holds copies of one chain, tens of bodies long: A02's four-bar is enough.
+    if (entry.path().extension() != ".toml" || entry.path().parent_path().filename() == "scaling")
+      continue;
+    const Mechanism m = load_mechanism(entry.path().string());
+    if (m.driver.law.kind != MotionLaw::Kind::constant_speed) continue;
+    EXPECT_EQ(assembling_range(m).unknown, "") << entry.path();
+  }
+}
+
 class Catalogue : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Catalogue, MatchesExpectTable) {
