@@ -59,9 +59,19 @@ std::string_view to_string(PoseStatus status);
 inline bool usable(PoseStatus s) {
   return s == PoseStatus::ok;
 }
+// What a sample holds: a solved pose (ok, or singular: its position is right, its rates and
+// forces do not exist), or nothing. A value that does not exist is written null (JSON), left
+// empty (CSV, tables) or drawn as a gap (charts), never as a number.
+inline bool has_position(PoseStatus s) {
+  return s == PoseStatus::ok || s == PoseStatus::singular;
+}
 
 enum class Quantity { position, angle, velocity, acceleration, force, torque, energy };
 std::string_view to_string(Quantity q);
+// Whether a sample with status `s` has a value of quantity `q` (see has_position).
+inline bool value_exists(PoseStatus s, Quantity q) {
+  return q == Quantity::position || q == Quantity::angle ? has_position(s) : usable(s);
+}
 
 struct Trajectory {
   std::string method;                     // "newton", "dyads", "mujoco", ...

@@ -8,15 +8,6 @@
 namespace crosslink::app {
 namespace {
 
-// What a sample holds: a solved pose (ok, or singular: its position is right, its rates and
-// forces do not exist), or nothing. A value that does not exist is written null (JSON) or left
-// empty (CSV, tables), never as a number.
-bool has_position(PoseStatus s) {
-  return s == PoseStatus::ok || s == PoseStatus::singular;
-}
-bool exists(PoseStatus s, Quantity q) {
-  return q == Quantity::position || q == Quantity::angle ? has_position(s) : usable(s);
-}
 nlohmann::json value(bool exists, double v) {
   return exists ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
@@ -123,7 +114,7 @@ void print_csv(const Trajectory& t, const Columns& extra) {
     std::string line =
         fmt::format("{},{:.17g},{:.17g},{}", r, t.time(r), t.driver(r), to_string(status));
     for (size_t c = 0; c < columns.size(); ++c)
-      line += exists(status, quantities[c]) ? fmt::format(",{:.17g}", columns[c](r)) : ",";
+      line += value_exists(status, quantities[c]) ? fmt::format(",{:.17g}", columns[c](r)) : ",";
     for (const auto& [name, column] : extra)
       line += std::isfinite(column(r)) ? fmt::format(",{:.17g}", column(r)) : ",";
     fmt::print("{}\n", line);

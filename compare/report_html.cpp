@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -84,12 +85,29 @@ std::string escape(std::string_view text) {
 // Seven significant digits are plenty for a chart and keep the page small.
 double round7(double v) {
   if (!std::isfinite(v)) return v;
-  return std::stod(fmt::format("{:.7g}", v));
+  // strtod, not stod: a subnormal (a round-off residue such as 1e-310) is a value, not an error.
+  return std::strtod(fmt::format("{:.7g}", v).c_str(), nullptr);
 }
 
 json rounded(const Eigen::VectorXd& v, double scale) {
   json a = json::array();
   for (Eigen::Index k = 0; k < v.size(); ++k) a.push_back(round7(v(k) / scale));
+  return a;
+}
+
+// A channel of a trajectory, null where its sample has no such value: a gap in the chart,
+// never a number drawn as 0. The reference's singular samples keep their positions; another
+// method's flagged sample may hold no value of its own (an engine's sample outside its run keeps
+// the reference's flag), so it is drawn only where usable.
+json channel_values(const Trajectory& t, const std::string& name, double scale, bool reference) {
+  const Eigen::VectorXd v = *t.channel(name);  // channel() returns the column by value
+  const Quantity q = Trajectory::quantity_of(name);
+  json a = json::array();
+  for (Eigen::Index k = 0; k < v.size(); ++k) {
+    const PoseStatus s = t.status[static_cast<size_t>(k)];
+    a.push_back((reference ? value_exists(s, q) : usable(s)) ? json(round7(v(k) / scale))
+                                                             : json(nullptr));
+  }
   return a;
 }
 
@@ -119,13 +137,20 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
     const double theta = link.ground ? 0.0 : pose.angle(0, moving);
     // Segments between consecutive points, closed for three or more.
     std::vector<Eigen::Vector2d> at;
+    std::vector<std::string> names;
     for (const Point& p : link.points)
-      if (const auto w = where(p.name)) at.push_back(*w);
+      if (const auto w = where(p.name)) {
+        at.push_back(*w);
+        names.push_back(p.name);
+      }
     if (!link.ground && at.size() >= 2)
       for (size_t i = 0; i < (at.size() == 2 ? 1 : at.size()); ++i) {
         const Eigen::Vector2d& a = at[i];
         const Eigen::Vector2d& b = at[(i + 1) % at.size()];
+        // p and q name the ends, so that the page can redraw the segment at any sample.
         d["segments"].push_back({{"link", link.name},
+                                 {"p", names[i]},
+                                 {"q", names[(i + 1) % at.size()]},
                                  {"x", a.x() / length.scale},
                                  {"y", a.y() / length.scale},
                                  {"x2", b.x() / length.scale},
@@ -140,6 +165,7 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
         const Eigen::Vector2d u = R * line.direction;
         const Eigen::Vector2d a = o - reach * u, b = o + reach * u;
         d["guides"].push_back({{"line", line.name},
+                               {"moving", !link.ground},
                                {"x", a.x() / length.scale},
                                {"y", a.y() / length.scale},
                                {"x2", b.x() / length.scale},
@@ -224,7 +250,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
     const DisplayUnit u = display_unit(m, name);
     json ch;
     ch["unit"] = u.name;
-    ch["ref"] = rounded(*ref.channel(name), u.scale);
+    ch["ref"] = channel_values(ref, name, u.scale, true);
     ch["methods"] = json::object();
     double worst = -1.0;
     std::string label = name + " [" + u.name + "]";
@@ -232,7 +258,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
       const MethodRun& run = *cmp.method(c->method);
       json in = json::array();
       for (bool b : c->metrics.in_verdict) in.push_back(b);
-      ch["methods"][c->method] = {{"v", rounded(*run.trajectory.channel(name), u.scale)},
+      ch["methods"][c->method] = {{"v", channel_values(run.trajectory, name, u.scale, false)},
                                   {"p", rounded(c->metrics.pct_of_peak, 1.0)},
                                   {"in", in}};
       if (severity(*c) > worst) {
@@ -473,12 +499,20 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
                      escape(du.name), to_string(pose.status.at(0)));
   out << "<div id=\"drawing\" class=\"chart\"></div>\n";
+  out << fmt::format(
+      "<p><label>move the drawing: <input type=\"range\" id=\"sample\" min=\"0\" max=\"{}\" "
+      "value=\"0\"> <span id=\"sample-value\"></span></label><br><small>Grey lines: the paths "
+      "of the moving points (exact). Instantaneous centres, reactions and slots on moving links "
+      "are drawn at the pose above; the dotted line in the charts follows the "
+      "drawing.</small></p>\n",
+      std::max(0, cmp.reference().trajectory.samples() - 1));
   out << "<p><small>" << escape(centres_note) << "</small></p>\n";
   out << (m.dynamics ? "<h2>Channels against time</h2>\n"
                      : "<h2>Channels against the driver</h2>\n")
       << "<p>Every method overlaid on the exact values; "
-         "under each chart the signed difference from exact in % of the exact peak. Red crosses "
-         "mark samples flagged singular or with a loop gap (kept out of verdicts).</p>\n";
+         "under each chart the signed difference from exact in % of the exact peak. A red band "
+         "marks each sample flagged by the reference (singular, a limit, a loop gap: kept out of "
+         "verdicts); a value that does not exist there is a gap, never drawn.</p>\n";
   out << quantity_sections;
   out << "<h2>Verdicts</h2>\n" << verdict_table(cmp);
   if (!cmp.references.empty())
