@@ -115,9 +115,13 @@ int column(const std::vector<std::string>& names, const std::string& name) {
 double transmission_angle(const FourBar& fb, const Trajectory& t, int row) {
   const int b = column(t.point_names, fb.b), c = column(t.point_names, fb.c),
             d = column(t.point_names, fb.d);
-  const Eigen::Vector2d pb(t.x(row, b), t.y(row, b)), pc(t.x(row, c), t.y(row, c)),
-      pd(t.x(row, d), t.y(row, d));
-  const Eigen::Vector2d u = pb - pc, v = pd - pc;
+  return interior_angle({t.x(row, c), t.y(row, c)}, {t.x(row, b), t.y(row, b)},
+                        {t.x(row, d), t.y(row, d)});
+}
+
+double interior_angle(const Eigen::Vector2d& vertex, const Eigen::Vector2d& p,
+                      const Eigen::Vector2d& q) {
+  const Eigen::Vector2d u = p - vertex, v = q - vertex;
   return std::atan2(std::abs(u.x() * v.y() - u.y() * v.x()), u.dot(v));
 }
 

@@ -33,6 +33,10 @@ struct FourBar {
 // The four-bar structure of a mechanism, or nothing when it is not one.
 std::optional<FourBar> four_bar(const Mechanism& mechanism);
 
+// The angle at `vertex` between the directions to p and to q, in [0, pi].
+double interior_angle(const Eigen::Vector2d& vertex, const Eigen::Vector2d& p,
+                      const Eigen::Vector2d& q);
+
 // Transmission angle at one sample: the angle at C between the coupler (C->B) and the output
 // (C->D), in [0, pi]. 0 or pi: coupler and output in line (a toggle for an input driver).
 double transmission_angle(const FourBar& fb, const Trajectory& t, int row);

@@ -1,5 +1,7 @@
 #include "analytic/trajectory.h"
 
+#include "analytic/fourbar.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -73,6 +75,8 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   loop_gap.setZero(samples);
   events.clear();
 
+  transmission.clear();
+  if (const auto fb = four_bar(mechanism)) transmission = {fb->b, fb->c, fb->d};
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
@@ -179,6 +183,7 @@ std::vector<std::string> Trajectory::channel_names() const {
     for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
   for (const std::string& slider : slider_names)
     for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
+  if (!transmission.empty()) names.push_back("mu." + transmission[1]);
   if (has_forces) {
     names.push_back(slider_driver ? "force.driver" : "torque.driver");
     for (const std::string& joint : joint_names)
@@ -219,6 +224,16 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "sdot") return sdot.col(j);
     if (kind == "sddot") return sddot.col(j);
   }
+  if (kind == "mu" && !transmission.empty() && object == transmission[1]) {
+    const int b = index_of(point_names, transmission[0]),
+              c = index_of(point_names, transmission[1]),
+              d = index_of(point_names, transmission[2]);
+    if (b < 0 || c < 0 || d < 0) return std::nullopt;
+    Eigen::VectorXd mu(samples());
+    for (int r = 0; r < samples(); ++r)
+      mu(r) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
+    return mu;
+  }
   if (kind == "energy") {
     if (!has_energy) return std::nullopt;
     for (size_t c = 0; c < kEnergyChannels.size(); ++c)
@@ -246,7 +261,7 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
 
 Quantity Trajectory::quantity_of(std::string_view channel) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
-  if (kind == "angle") return Quantity::angle;
+  if (kind == "angle" || kind == "mu") return Quantity::angle;
   if (kind == "omega" || kind == "vx" || kind == "vy" || kind == "v" || kind == "sdot")
     return Quantity::velocity;
   if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")

@@ -96,6 +96,9 @@ struct Trajectory {
   Eigen::MatrixXd fx, fy;      // per joint [N]
   Eigen::MatrixXd fn, moment;  // per slider [N, N m]
   Eigen::MatrixXd shaking;     // 3 columns: fx, fy [N], moment [N m]
+  // A four-bar's pivots B, C, D (analytic/fourbar.h), empty otherwise: the channel mu.<C>, the
+  // transmission angle at C, from any method's positions.
+  std::vector<std::string> transmission;
   // The energy balance, when the method keeps it (see the channel list above).
   bool has_energy = false;
   Eigen::MatrixXd energy;  // 4 columns: kinetic, potential, work, error [J]

@@ -167,8 +167,8 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     run.name = "dyads";
     run.description = description;
     // Its forces are the multipliers at its poses (as the reference's): no independent check.
-    run.kinds = {"angle", "omega", "alpha", "x", "y", "vx",   "vy",
-                 "v",     "ax",    "ay",    "a", "s", "sdot", "sddot"};
+    run.kinds = {"angle", "omega", "alpha", "x", "y",    "vx",    "vy", "v",
+                 "ax",    "ay",    "a",     "s", "sdot", "sddot", "mu"};
     const auto start = std::chrono::steady_clock::now();
     run.trajectory = dyad_sweep(mechanism, reference.trajectory);
     run.trajectory.flag_non_finite();

@@ -28,7 +28,8 @@ double wrap_positive_angle(double radians) {
 
 std::string channel_kind(std::string_view channel) {
   const std::string_view prefix = channel.substr(0, channel.find('.'));
-  const bool angular = prefix == "angle" || prefix == "omega" || prefix == "alpha";
+  const bool angular =
+      prefix == "angle" || prefix == "omega" || prefix == "alpha" || prefix == "mu";
   return std::string(to_string(Trajectory::quantity_of(channel))) +
          (angular ? "/angular" : "/linear");
 }

@@ -13,7 +13,7 @@ namespace crosslink::compare {
 DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
   const std::string& L = m.units.length_name;
-  if (kind == "angle") return {m.units.angle, m.units.angle_name};
+  if (kind == "angle" || kind == "mu") return {m.units.angle, m.units.angle_name};
   if (kind == "energy") return {1.0, "J"};
   if (kind == "omega") return {1.0, "rad/s"};
   if (kind == "alpha") return {1.0, "rad/s^2"};

@@ -236,6 +236,16 @@ TEST(FourBar, CrankRockerGrashofAndTransmissionAngle) {
   EXPECT_NEAR(mu->max, mu_max, 1e-9);
   EXPECT_NEAR(std::remainder(mu->min_at, 2 * kPi), 0.0, 1e-9);
   EXPECT_NEAR(std::remainder(mu->max_at - kPi, 2 * kPi), 0.0, 1e-9);
+  // The channel mu.C at every sample: the law of cosines in triangle BCD, |BD| from the crank
+  // angle theta (triangle ABD): |BD|^2 = a^2 + d^2 - 2 a d cos(theta - angle of AD).
+  const std::optional<Eigen::VectorXd> channel_mu = t.channel("mu." + fb->c);
+  ASSERT_TRUE(channel_mu.has_value());
+  const Eigen::Vector2d ad = local(m, "ground", "D") - local(m, "ground", "A");
+  for (int k = 0; k < t.samples(); ++k) {
+    const double theta = channel(t, "angle.crank", k) - std::atan2(ad.y(), ad.x());
+    const double bd2 = a * a + d * d - 2 * a * d * std::cos(theta);
+    EXPECT_NEAR((*channel_mu)(k), std::acos((b * b + c * c - bd2) / (2 * b * c)), 1e-9) << k;
+  }
   EXPECT_FALSE(four_bar(load_mechanism("mechanisms/sewing_machine.toml")).has_value());
 }
 
