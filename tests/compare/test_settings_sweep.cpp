@@ -3,6 +3,7 @@
 // (test_sweep_engines.cpp runs them).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -47,6 +48,43 @@ TEST(ParetoFront, IneligibleAndNonFinitePointsAreNeverOnItNorDominate) {
 TEST(ParetoFront, EqualPointsBothStay) {
   const std::vector<bool> front = pareto_front({1, 1}, {2, 2}, {true, true});
   EXPECT_EQ(front, (std::vector<bool>{true, true}));
+}
+
+// Costs within kCostTie, and errors within kErrorTie, are equal: what timing noise or a 2 %
+// difference in error cannot order, the front does not order either.
+TEST(ParetoFront, CostsAndErrorsWithinTheTiesAreEqual) {
+  // Equal errors, costs 10 % apart: both stay (without the ties the dearer one drops).
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{true, true}));
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}), (std::vector<bool>{true, false}));
+  // Errors 2 % apart at costs 30 % apart: the same error, the clearly cheaper one wins.
+  EXPECT_EQ(pareto_front({1.0, 1.3}, {2.04, 2.0}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{true, false}));
+  // As cheap (within the tie) and clearly more accurate: it dominates the cheaper one.
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 1}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{false, true}));
+}
+
+// A grid's worth of points: time steps a factor 2 apart in cost and 4 in error, three variants
+// at each, two of them of the same error and cost to 5 % (as MuJoCo's Euler with the Newton and
+// CG solvers), one three times less accurate. Costs perturbed by up to 8 % either way never move
+// the front (the ties absorb up to 25 % between two costs).
+TEST(ParetoFront, TimingNoiseDoesNotMoveTheFront) {
+  std::vector<double> cost, error;
+  for (int step = 0; step < 4; ++step)
+    for (int variant = 0; variant < 3; ++variant) {
+      cost.push_back(std::pow(2.0, step) * (1.0 + 0.05 * variant));
+      error.push_back(std::pow(4.0, -step) * (variant == 1 ? 1.02 : variant == 2 ? 3.0 : 1.0));
+    }
+  const std::vector<bool> eligible(cost.size(), true);
+  const std::vector<bool> front = pareto_front(cost, error, eligible, kCostTie, kErrorTie);
+  EXPECT_EQ(std::count(front.begin(), front.end(), true), 8);  // both equals at every step
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<double> noisy = cost;
+    for (size_t i = 0; i < noisy.size(); ++i)
+      noisy[i] *= 1.0 + 0.08 * std::sin(37.0 * trial + 11.0 * static_cast<double>(i));
+    EXPECT_EQ(pareto_front(noisy, error, eligible, kCostTie, kErrorTie), front) << trial;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -112,7 +150,7 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   const std::vector<SweepRow> rows = {
       row("Euler", 1e-3, 1.0, {0.5, 3, 20}),        // misses acceleration
       row("RK4", 1e-3, 2.0, {0.1, 0.5, 0.9}),       // meets 1 %
-      row("implicit", 1e-3, 1.7, {0.1, 0.5, 0.8}),  // meets 1 %, cheaper than RK4
+      row("implicit", 1e-3, 1.2, {0.1, 0.5, 0.8}),  // meets 1 %, 1.7 times cheaper than RK4
       row("Euler", 1e-4, 0.5, {1e-3, 1e-3, 1e-3}),  // cheaper still (a noisy timing), finer:
                                                     // not needed, never chosen
       row("soft", 1e-3, 0.1, {0.01, 0.01, 0.01}, RunStatus::flagged),  // flagged: never chosen
@@ -132,6 +170,21 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   EXPECT_FALSE(impossible.found);
   EXPECT_NE(impossible.summary().find("no setting"), std::string::npos);
   EXPECT_FALSE(select_cheapest("bullet", 1.0, rows).found);  // another engine's rows
+}
+
+// At one time step, costs within kPickTie of the cheapest are equal: the earlier row in the grid
+// (the engine's default variant first) is taken, so timing noise cannot change the pick.
+TEST(Selection, CostsWithinTheTieGoToTheGridOrder) {
+  const std::vector<SweepRow> tied = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
+                                      row("Euler/CG", 1e-3, 0.7, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, tied).chosen.variant, "Euler/Newton");
+  const std::vector<SweepRow> apart = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
+                                       row("Euler/CG", 1e-3, 0.6, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, apart).chosen.variant, "Euler/CG");
+  // A dynamics row must meet the accuracy on its energy balance too.
+  SweepRow drifting = row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1});
+  drifting.energy_pct = 2.0;
+  EXPECT_FALSE(drifting.meets(1.0));
 }
 
 TEST(Selection, ARowWithoutAComparableClassNeverMeets) {
