@@ -161,9 +161,10 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
 // The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
 // (errors against Newton), their cost from timing their sweeps (median of `repeat`). A method
 // that cannot solve the mechanism is left out and, with `skipped`, says why there. A dynamics
-// case: the exact simulation (error 0) and the same integrator at looser tolerances
+// case: the exact simulation (error 0) and its second integrator (dopri5) at looser tolerances
 // (kSimulationTolerances), against it.
 constexpr std::array<double, 4> kSimulationTolerances = {1e-4, 1e-6, 1e-8, 1e-10};
+constexpr const char* kSimulationTolerancesIntegrator = "dopri5";
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
                                     int repeat = 3, std::vector<std::string>* skipped = nullptr);
 

@@ -177,8 +177,8 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
         "channels of a class (position includes link angles), worst over the run and at its "
         "end. Cost: the engine's stepping CPU time per simulated second on this machine, the "
         "median of {} runs; costs within {:.0f} % of each other count as equal (the front and "
-        "the pick do not hinge on timing noise). Grey diamonds: the exact simulation's own "
-        "integrator at looser tolerances.</p>\n",
+        "the pick do not hinge on timing noise). Grey diamonds: the exact simulation's second "
+        "integrator (dopri5) at looser tolerances, against the reference (rkf78 at 1e-13).</p>\n",
         html_escape(m.file), sweep.samples, sweep.sample_interval,
         sweep.rows.empty() ? 1 : sweep.rows.back().repeats, 100.0 * kCostTie);
   else

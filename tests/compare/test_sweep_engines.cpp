@@ -127,9 +127,11 @@ TEST(SweepEngines, SmallSweepProducesRowsFrontsAndReports) {
 }
 
 // A dynamics case (IFToMM A02 with N = 2 over 10 s), MuJoCo at one time step: the rows carry the
-// error at the end of the run and of the energy balance; the exact simulation's own integrator
-// at looser tolerances is drawn beside, its error falling with the tolerance; and two identical
-// sweeps give the same errors (the engines are deterministic) and pick the same setting.
+// error at the end of the run and of the energy balance; the exact simulation's second
+// integrator (dopri5) at looser tolerances is drawn beside, its error falling with the tolerance
+// (the reference, rkf78 stepped to each sample, would give the same run at every tolerance);
+// and two identical sweeps give the same errors (the engines are deterministic) and pick the
+// same setting.
 TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
   const Mechanism m = load_mechanism(mechanism_path("iftomm_a02_double_fourbar"));
   SettingsSweepOptions options;
