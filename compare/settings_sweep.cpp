@@ -88,6 +88,13 @@ void end_and_energy(const Comparison& cmp, std::string_view method, SweepRow& ro
   }
 }
 
+void set_tip_errors(const Mechanism& mechanism, const Trajectory& reference, const Trajectory& run,
+                    SweepRow& row) {
+  const std::array<double, 2> e = benchmark_tip_errors(mechanism, reference, run);
+  row.tip_position_error = e[0];
+  row.tip_velocity_error = e[1];
+}
+
 }  // namespace
 
 std::string_view to_string(ErrorClass c) {
@@ -275,6 +282,45 @@ std::string SweepRow::setting_label() const {
   return fmt::format("{}, dt={}", variant, format_dt(dt));
 }
 
+double SweepRow::benchmark_error() const {
+  if (std::isnan(tip_position_error)) return tip_velocity_error;
+  if (std::isnan(tip_velocity_error)) return tip_position_error;
+  return std::max(tip_position_error, tip_velocity_error);
+}
+
+std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism) {
+  const Driver& d = mechanism.driver;
+  if (d.link < 0 || d.to < 0) return std::nullopt;
+  return mechanism.links[static_cast<size_t>(d.link)].points[static_cast<size_t>(d.to)].name;
+}
+
+std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
+                                           const Trajectory& run) {
+  std::array<double, 2> out = {kNaN, kNaN};
+  const std::optional<std::string> tip_point = benchmark_tip_point(mechanism);
+  if (!tip_point || reference.samples() != run.samples()) return out;
+  const std::string& tip = *tip_point;
+  const auto column = [&](const Trajectory& t) -> Eigen::Index {
+    const auto it = std::find(t.point_names.begin(), t.point_names.end(), tip);
+    return it == t.point_names.end() ? -1 : it - t.point_names.begin();
+  };
+  const Eigen::Index p = column(reference), q = column(run);
+  if (p < 0 || q < 0) return out;
+  const auto worst = [](double& e, double a, double b) {
+    if (std::isfinite(a) && std::isfinite(b))
+      e = std::isnan(e) ? std::abs(a - b) : std::max(e, std::abs(a - b));
+  };
+  for (int k = 0; k < run.samples(); ++k) {
+    const PoseStatus s = run.status[static_cast<size_t>(k)];
+    if (s == PoseStatus::diverged || s == PoseStatus::not_reached) continue;
+    worst(out[0], run.x(k, q), reference.x(k, p));
+    worst(out[0], run.y(k, q), reference.y(k, p));
+    worst(out[1], run.vx(k, q), reference.vx(k, p));
+    worst(out[1], run.vy(k, q), reference.vy(k, p));
+  }
+  return out;
+}
+
 bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
   for (double e : max_pct)
@@ -362,6 +408,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
     row.max_pct = class_maxima(cmp, run.name);
     if (mechanism.dynamics) end_and_energy(cmp, run.name, row);
+    if (mechanism.dynamics && shaped) set_tip_errors(mechanism, ref, tr, row);
     for (const ChannelResult& c : cmp.channels)
       if (c.method == run.name && c.metrics.usable > 0 &&
           (c.metrics.quantity == Quantity::force || c.metrics.quantity == Quantity::torque))
@@ -447,6 +494,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
       const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
       row.max_pct = class_maxima(cmp, run.name);
       end_and_energy(cmp, run.name, row);
+      set_tip_errors(mechanism, reference.trajectory, run.trajectory, row);
       row.status = run.ok ? RunStatus::ok : RunStatus::diverged;
       rows.push_back(row);
     }
@@ -590,6 +638,64 @@ void analyse(SettingsSweep& sweep) {
     }
     sweep.orders.push_back(std::move(o));
   }
+  // The IFToMM limits, where the case has the benchmark's tip point.
+  sweep.limits.clear();
+  if (sweep.dynamics && std::any_of(sweep.rows.begin(), sweep.rows.end(), [](const SweepRow& r) {
+        return !std::isnan(r.benchmark_error());
+      }))
+    sweep.limits = benchmark_limits(sweep.rows, sweep.sample_interval * (sweep.samples - 1));
+}
+
+std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, double duration) {
+  // The series: an engine variant over its time steps; the exact simulation's second integrator
+  // over its tolerances (its rows come loosest first). The reference itself (error 0) is none.
+  const auto series_of =
+      [](const SweepRow& r) -> std::optional<std::pair<std::string, std::string>> {
+    if (r.engine != "analytic") return std::pair(r.engine, r.variant);
+    if (r.variant.starts_with("exact, tolerance"))
+      return std::pair(r.engine, fmt::format("exact, {}", kSimulationTolerancesIntegrator));
+    return std::nullopt;
+  };
+  std::vector<std::pair<std::string, std::string>> series;
+  for (const SweepRow& r : rows)
+    if (const auto s = series_of(r);
+        s && std::find(series.begin(), series.end(), *s) == series.end())
+      series.push_back(*s);
+  std::vector<BenchmarkLimit> out;
+  for (double limit : kBenchmarkLimits)
+    for (const auto& [engine, variant] : series) {
+      BenchmarkLimit b;
+      b.engine = engine;
+      b.variant = variant;
+      b.limit = limit;
+      const SweepRow* coarsest = nullptr;
+      const SweepRow* finest = nullptr;
+      for (const SweepRow& r : rows) {
+        if (series_of(r) != std::pair(engine, variant)) continue;
+        // Engines: the largest dt; the exact integrator: the first (loosest) row.
+        const bool coarser = [&](const SweepRow* than) {
+          return than == nullptr || (engine != "analytic" && r.dt > than->dt);
+        }(coarsest);
+        if (r.status == RunStatus::ok && r.benchmark_error() <= limit && coarser) coarsest = &r;
+        if (finest == nullptr || (engine == "analytic" || r.dt < finest->dt)) finest = &r;
+      }
+      if (coarsest) {
+        b.met = true;
+        b.row = *coarsest;
+        b.run_cpu_seconds = coarsest->cost() * duration;
+      } else if (finest) {
+        b.row = *finest;
+        b.why = finest->status != RunStatus::ok
+                    ? fmt::format(
+                          "{} at the finest {} ({} samples flagged){}", to_string(finest->status),
+                          engine == "analytic" ? "tolerance" : "step", finest->flagged_samples,
+                          finest->message.empty() ? "" : ": " + finest->message)
+                    : fmt::format("error {:.3g} at the finest {}", finest->benchmark_error(),
+                                  engine == "analytic" ? "tolerance" : "step");
+      }
+      out.push_back(std::move(b));
+    }
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -760,7 +866,8 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "max_pct_acceleration,max_loop_gap,status,variant,flagged_samples,samples,"
          "pareto_position,pareto_velocity,pareto_acceleration,raw_pct_position,"
          "raw_pct_velocity,raw_pct_acceleration,settings,message,end_pct_position,"
-         "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle\n";
+         "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
+         "tip_position_error,tip_velocity_error\n";
   for (const SweepRow& r : sweep.rows) {
     out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << number(r.dt) << ','
         << number(r.wall_s_per_cycle) << ',' << number(r.max_pct[0]) << ',' << number(r.max_pct[1])
@@ -770,7 +877,8 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << number(r.raw_pct[0]) << ',' << number(r.raw_pct[1]) << ',' << number(r.raw_pct[2]) << ','
         << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << ','
         << number(r.end_pct[0]) << ',' << number(r.end_pct[1]) << ',' << number(r.end_pct[2]) << ','
-        << number(r.energy_pct) << ',' << r.repeats << ',' << number(r.cpu_s_per_cycle) << '\n';
+        << number(r.energy_pct) << ',' << r.repeats << ',' << number(r.cpu_s_per_cycle) << ','
+        << number(r.tip_position_error) << ',' << number(r.tip_velocity_error) << '\n';
   }
 }
 
@@ -819,8 +927,26 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
     }
     fmt::print(out, "\n");
   }
+  if (!sweep.limits.empty()) {
+    fmt::print(out,
+               "\nIFToMM accuracy limits: the largest |difference| of {}'s x, y [m] and vx, vy "
+               "[m/s] over the run; per series, the largest step (the exact integrator: the "
+               "loosest tolerance) that meets each, and the CPU time of the whole run:\n",
+               benchmark_tip_point(m).value_or("?"));
+    for (const BenchmarkLimit& b : sweep.limits)
+      fmt::print(out, "  {:<8} {:<40} {:>6g}  {}\n", b.engine, b.variant, b.limit,
+                 benchmark_limit_text(b));
+  }
   for (const std::string& s : sweep.skipped) fmt::print(out, "not run: {}\n", s);
   for (const Selection& s : sweep.selections) fmt::print(out, "{}\n", s.summary());
+}
+
+std::string benchmark_limit_text(const BenchmarkLimit& b) {
+  if (!b.met) return "not met: " + b.why;
+  const std::string at = b.engine == "analytic" ? b.row.variant.substr(b.row.variant.find(',') + 2)
+                                                : fmt::format("dt {} s", format_dt(b.row.dt));
+  return fmt::format("met at {}: error {:.3g}, CPU {:.3g} s for the run", at,
+                     b.row.benchmark_error(), b.run_cpu_seconds);
 }
 
 }  // namespace crosslink::compare

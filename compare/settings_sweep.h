@@ -136,6 +136,11 @@ struct SweepRow {
                                    std::numeric_limits<double>::quiet_NaN(),
                                    std::numeric_limits<double>::quiet_NaN()};
   double energy_pct = std::numeric_limits<double>::quiet_NaN();
+  // Dynamics cases: the IFToMM benchmarks' error (A01, A02; benchmark_tip_errors()): the largest
+  // difference from the reference of the driven link's tip, per coordinate of its position
+  // [length unit] and of its velocity [length unit/s]. NaN where the case has no tip point.
+  double tip_position_error = std::numeric_limits<double>::quiet_NaN();
+  double tip_velocity_error = std::numeric_limits<double>::quiet_NaN();
   double max_loop_gap = 0.0;  // largest cut-joint gap over all samples [m]
   RunStatus status = RunStatus::ok;
   int flagged_samples = 0;  // samples usable in the reference but not in the run
@@ -144,6 +149,8 @@ struct SweepRow {
   std::array<bool, 3> pareto = {false, false, false};  // on the engines' front, per class
 
   double error(ErrorClass c) const { return max_pct[static_cast<size_t>(c)]; }
+  // The IFToMM error: the larger of the tip's position and velocity errors (NaN: none).
+  double benchmark_error() const;
   // The cost: the CPU time per cycle, or the wall time where none was measured.
   double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
@@ -151,6 +158,17 @@ struct SweepRow {
   // Whether the row meets `accuracy_pct` on every class with status ok.
   bool meets(double accuracy_pct) const;
 };
+
+// The IFToMM benchmarks' error measure (A01 and A02: "the time-history of the position and
+// velocity of point B0 (x and y coordinates)", 1e-1 low and 1e-3 high precision, at the
+// benchmark's output steps; docs/dynamics.md): the tip of the driven link, the driver's `to` point
+// (A01's P1, A02's B0). Over every sample where both runs have values (the engine's `singular`
+// samples included: the benchmark counts every output step), the largest |difference| of x, y
+// [length unit] and of vx, vy [length unit/s]. {NaN, NaN} when the driver names no tip point or no
+// sample has values.
+std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism);
+std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
+                                           const Trajectory& run);
 
 // Runs one grid point against the ladder's reference for its dt. `base` overrides come first
 // (e.g. a --set perturb_link), the grid point's after. `repeat` > 1: the cost is the median of
@@ -237,6 +255,28 @@ Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            const std::vector<double>& dts, const sim::Settings& base = {},
                            const Progress& progress = {}, int repeat = 1);
 
+// The IFToMM accuracy limits in the benchmark's error measure (benchmark_error()).
+constexpr std::array<double, 2> kBenchmarkLimits = {1e-1, 1e-3};
+
+// Where one series meets one IFToMM limit: an engine variant over its time steps, or the exact
+// simulation's second integrator over its tolerances (engine "analytic", variant "exact").
+struct BenchmarkLimit {
+  std::string engine, variant;
+  double limit = 0.0;
+  bool met = false;
+  // Met: the coarsest row meeting it (status ok, benchmark error at most the limit): the largest
+  // time step, or the loosest tolerance. Not met: the series' finest row, for the reason.
+  SweepRow row;
+  double run_cpu_seconds = std::numeric_limits<double>::quiet_NaN();  // met: over the whole run
+  std::string why;  // not met: the finest row's status and error
+};
+
+// Every series' place against every limit, in row order (analyse() fills it for a dynamics case
+// whose driver names a tip point). `duration`: the simulated time of one run [s].
+std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, double duration);
+// "met at dt 0.001 s: error 3.1e-4, CPU 0.021 s for the run", or "not met: ..." (console, HTML).
+std::string benchmark_limit_text(const BenchmarkLimit& b);
+
 struct SettingsSweepOptions {
   std::vector<std::string> engines = {"mujoco", "bullet"};
   std::vector<double> dts = default_time_steps();
@@ -251,11 +291,12 @@ struct SettingsSweep {
   const Mechanism* mechanism = nullptr;
   std::vector<SweepRow> rows;  // analytic rows first, then every engine's grid
   std::vector<OrderRow> orders;
-  std::vector<Selection> selections;  // with accuracy_pct
-  std::vector<std::string> skipped;   // engines not built or unable to realise the mechanism
-  double sample_interval = 0.0;       // base reference [s]
-  int samples = 0;                    // base reference
-  bool dynamics = false;              // a dynamics case: costs per simulated second, end errors
+  std::vector<Selection> selections;   // with accuracy_pct
+  std::vector<std::string> skipped;    // engines not built or unable to realise the mechanism
+  double sample_interval = 0.0;        // base reference [s]
+  int samples = 0;                     // base reference
+  bool dynamics = false;               // a dynamics case: costs per simulated second, end errors
+  std::vector<BenchmarkLimit> limits;  // a dynamics case with a tip point: the IFToMM limits
 };
 
 // The whole sweep: analytic rows, every engine's grid, orders, Pareto fronts, selections.
@@ -268,7 +309,8 @@ void analyse(SettingsSweep& sweep);
 // max_pct_velocity, max_pct_acceleration, max_loop_gap, status, then variant, flagged_samples,
 // samples, pareto_position, pareto_velocity, pareto_acceleration, raw_pct_position,
 // raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
-// end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle. SI units.
+// end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
+// tip_position_error, tip_velocity_error. SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).

@@ -132,6 +132,26 @@ std::string orders_table(const SettingsSweep& sweep) {
   return html + "</table>\n";
 }
 
+// The IFToMM limits: one row per series, a column per limit.
+std::string limits_table(const SettingsSweep& sweep) {
+  std::string html = "<table><tr><th>engine</th><th>variant</th>";
+  for (double limit : kBenchmarkLimits) html += fmt::format("<th>limit {:g}</th>", limit);
+  html += "</tr>\n";
+  const size_t series = sweep.limits.size() / kBenchmarkLimits.size();
+  for (size_t i = 0; i < series; ++i) {
+    const BenchmarkLimit& first = sweep.limits[i];
+    html += fmt::format("<tr><td>{}</td><td>{}</td>", html_escape(first.engine),
+                        html_escape(first.variant));
+    for (size_t k = 0; k < kBenchmarkLimits.size(); ++k) {
+      const BenchmarkLimit& b = sweep.limits[k * series + i];
+      html += fmt::format("<td{}>{}</td>", b.met ? "" : " class=\"status-flagged\"",
+                          html_escape(benchmark_limit_text(b)));
+    }
+    html += "</tr>\n";
+  }
+  return html + "</table>\n";
+}
+
 std::string rows_table(const SettingsSweep& sweep) {
   std::string html =
       "<table class=\"rows\"><tr><th>engine</th><th>setting</th><th>dt [s]</th>"
@@ -158,7 +178,7 @@ std::string rows_table(const SettingsSweep& sweep) {
 }
 
 constexpr const char* kSweepStyle = R"css(
-tr.status-flagged td { background: #fff3cd; }
+tr.status-flagged td, td.status-flagged { background: #fff3cd; }
 tr.status-diverged td { background: #fde0e0; }
 )css";
 
@@ -218,6 +238,17 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
       out << fmt::format("<h3>{0}</h3>\n<div id=\"end-{0}\" class=\"chart\"></div>\n",
                          to_string(c));
   }
+  if (!sweep.limits.empty())
+    out << fmt::format(
+               "<h2>IFToMM accuracy limits</h2>\n<p>The multibody benchmarks' error (IFToMM A01, "
+               "A02): the largest |difference| from the exact simulation of the driven link's tip "
+               "<code>{}</code>, per coordinate of its position [m] and velocity [m/s], over every "
+               "output step. Per series, the largest time step (the exact integrator: the "
+               "loosest tolerance) of this sweep whose run meets the limit with status ok, and "
+               "the CPU time of the whole run; where none does, the finest step's status or "
+               "error.</p>\n",
+               html_escape(benchmark_tip_point(m).value_or("?")))
+        << limits_table(sweep);
   out << "<h2>Error against time step</h2>\n<p>Each variant's series; the slope is the observed "
          "order of convergence (table below).</p>\n";
   for (ErrorClass c : kErrorClasses)

@@ -194,6 +194,88 @@ TEST(Selection, ARowWithoutAComparableClassNeverMeets) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The IFToMM accuracy limits
+
+SweepRow tip_row(std::string variant, double dt, double cost, double position, double velocity,
+                 RunStatus status = RunStatus::ok) {
+  SweepRow r = row(std::move(variant), dt, cost, {0.1, 0.1, 0.1}, status);
+  r.cpu_s_per_cycle = cost;
+  r.tip_position_error = position;
+  r.tip_velocity_error = velocity;
+  return r;
+}
+
+// Per series the largest time step meeting each limit, the larger of the two errors deciding;
+// a flagged run never meets one; a series that meets none says why, from its finest step.
+TEST(BenchmarkLimits, LargestStepMeetingEachLimitAndItsRunCost) {
+  const std::vector<SweepRow> rows = {
+      tip_row("Euler", 1e-2, 0.01, 0.2, 0.05),                      // position over 1e-1
+      tip_row("Euler", 3e-3, 0.02, 0.03, 0.08),                     // meets 1e-1
+      tip_row("Euler", 1e-3, 0.05, 4e-4, 2e-3),                     // velocity over 1e-3
+      tip_row("Euler", 5e-4, 0.09, 2e-4, 9e-4),                     // meets 1e-3
+      tip_row("soft", 1e-2, 0.01, 1e-5, 1e-5, RunStatus::flagged),  // never meets
+      tip_row("soft", 1e-3, 0.05, 0.5, 0.5),                        // ok but too far off
+  };
+  const std::vector<BenchmarkLimit> limits = benchmark_limits(rows, 10.0);
+  ASSERT_EQ(limits.size(), 4u);  // 2 limits x 2 series, limit-major
+  EXPECT_EQ(limits[0].variant, "Euler");
+  EXPECT_DOUBLE_EQ(limits[0].limit, 1e-1);
+  ASSERT_TRUE(limits[0].met);
+  EXPECT_DOUBLE_EQ(limits[0].row.dt, 3e-3);
+  EXPECT_DOUBLE_EQ(limits[0].run_cpu_seconds, 0.2);  // 0.02 s per simulated s over 10 s
+  EXPECT_FALSE(limits[1].met);                       // soft, 1e-1
+  EXPECT_DOUBLE_EQ(limits[1].row.dt, 1e-3);          // its finest step
+  EXPECT_NE(limits[1].why.find("error 0.5"), std::string::npos) << limits[1].why;
+  ASSERT_TRUE(limits[2].met);  // Euler, 1e-3
+  EXPECT_DOUBLE_EQ(limits[2].limit, 1e-3);
+  EXPECT_DOUBLE_EQ(limits[2].row.dt, 5e-4);
+  EXPECT_NE(benchmark_limit_text(limits[2]).find("dt 0.0005 s"), std::string::npos);
+  EXPECT_FALSE(limits[3].met);
+  // Nothing with a tip error, nothing met; analytic rows other than the looser tolerances are
+  // not a series.
+  SweepRow reference = tip_row("exact", kNaN, 0.01, 0.0, 0.0);
+  reference.engine = "analytic";
+  SweepRow loose = tip_row("exact, tolerance 1e-06", kNaN, 0.002, 2e-3, 5e-3);
+  loose.engine = "analytic";
+  SweepRow tight = tip_row("exact, tolerance 1e-08", kNaN, 0.003, 2e-5, 5e-5);
+  tight.engine = "analytic";
+  const std::vector<BenchmarkLimit> exact = benchmark_limits({reference, loose, tight}, 10.0);
+  ASSERT_EQ(exact.size(), 2u);
+  EXPECT_EQ(exact[0].variant, "exact, dopri5");
+  EXPECT_EQ(exact[0].row.variant, loose.variant);  // the loosest meeting 1e-1
+  EXPECT_EQ(exact[1].row.variant, tight.variant);  // and 1e-3
+  EXPECT_NE(benchmark_limit_text(exact[1]).find("met at tolerance 1e-08"), std::string::npos)
+      << benchmark_limit_text(exact[1]);
+}
+
+// The measure on A02's B0: per coordinate, positions and velocities apart; samples an engine
+// did not reach are not counted.
+TEST(BenchmarkLimits, TipErrorsAreB0sLargestCoordinateDifferences) {
+  const Mechanism m = load_mechanism(mechanism_path("iftomm_a02_double_fourbar"));
+  ASSERT_EQ(benchmark_tip_point(m), "B0");
+  Trajectory reference;
+  reference.point_names = {"A0", "B0", "B1"};
+  const int n = 5;
+  reference.time = Eigen::VectorXd::LinSpaced(n, 0.0, 0.1);
+  for (Eigen::MatrixXd* column : {&reference.x, &reference.y, &reference.vx, &reference.vy})
+    *column = Eigen::MatrixXd::Zero(n, 3);
+  reference.status.assign(n, PoseStatus::ok);
+  Trajectory run = reference;
+  run.x(1, 1) = 2e-3;   // B0
+  run.y(2, 1) = -3e-3;  // B0: the position error
+  run.vx(3, 1) = 4e-3;  // B0: the velocity error
+  run.vy(3, 2) = 1.0;   // B1: not the tip
+  run.x(4, 1) = 10.0;   // B0, after the run diverged
+  run.status[4] = PoseStatus::diverged;
+  run.status[2] = PoseStatus::singular;  // counted: the benchmark measures every output step
+  const std::array<double, 2> e = benchmark_tip_errors(m, reference, run);
+  EXPECT_DOUBLE_EQ(e[0], 3e-3);
+  EXPECT_DOUBLE_EQ(e[1], 4e-3);
+  run.vy(0, 1) = kNaN;  // a rate not written is not counted
+  EXPECT_DOUBLE_EQ(benchmark_tip_errors(m, reference, run)[1], 4e-3);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Grids and references on step boundaries
 
 TEST(Grid, CoarseToFineWithEveryVariantPerStepDefaultFirst) {

@@ -130,8 +130,8 @@ TEST(SweepEngines, SmallSweepProducesRowsFrontsAndReports) {
 // error at the end of the run and of the energy balance; the exact simulation's second
 // integrator (dopri5) at looser tolerances is drawn beside, its error falling with the tolerance
 // (the reference, rkf78 stepped to each sample, would give the same run at every tolerance);
-// and two identical sweeps give the same errors (the engines are deterministic) and pick the
-// same setting.
+// the IFToMM limits on B0 per series; and two identical sweeps give the same errors (the
+// engines are deterministic) and pick the same setting.
 TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
   const Mechanism m = load_mechanism(mechanism_path("iftomm_a02_double_fourbar"));
   SettingsSweepOptions options;
@@ -153,6 +153,7 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
       if (r.variant.starts_with("exact, tolerance")) {  // looser first
         EXPECT_LT(r.error(ErrorClass::position), previous) << r.variant;
         previous = r.error(ErrorClass::position);
+        EXPECT_LE(r.tip_position_error, r.benchmark_error()) << r.variant;
       }
       continue;
     }
@@ -164,6 +165,18 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
     EXPECT_TRUE(std::isfinite(r.energy_pct)) << r.variant;
   }
   EXPECT_EQ(engine_rows, 6);
+  // The IFToMM limits on B0, per series (6 MuJoCo variants and the exact integrator): a limit
+  // met is met by its row, with status ok; one not met says why.
+  ASSERT_EQ(a.limits.size(), kBenchmarkLimits.size() * 7);
+  for (const BenchmarkLimit& l : a.limits) {
+    if (!l.met) {
+      EXPECT_FALSE(l.why.empty()) << l.variant;
+      continue;
+    }
+    EXPECT_EQ(l.row.status, RunStatus::ok) << l.variant;
+    EXPECT_LE(l.row.benchmark_error(), l.limit) << l.variant;
+    EXPECT_GT(l.run_cpu_seconds, 0.0) << l.variant;
+  }
   ASSERT_EQ(a.selections.size(), 1u);
   ASSERT_TRUE(a.selections[0].found) << a.selections[0].summary();
   EXPECT_EQ(a.selections[0].chosen.variant, b.selections[0].chosen.variant);
