@@ -567,7 +567,10 @@ class ForceReader {
     if (d2->ne != ne || d2->nefc != ne)
       throw std::runtime_error("MuJoCo: the constraint rows changed between step and read");
     Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d->efc_force, ne);
-    if (centred_) {
+    // No constraint row (forward dynamics of an open chain: no driver equality, no cut joint,
+    // IFToMM A01's pendulum): nothing to centre, and Eigen's decomposition of an nv x 0 matrix
+    // reads out of bounds.
+    if (centred_ && ne > 0) {
       const Eigen::Map<const Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
           jacobian(d->efc_J, ne, nv);
       const Eigen::VectorXd bias = Eigen::Map<const Eigen::VectorXd>(d2->qfrc_bias, nv) -
