@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
+#include <string>
 
 #include "analytic/loader.h"
 #include "compare/settings_sweep.h"
@@ -176,6 +179,19 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
     EXPECT_EQ(l.row.status, RunStatus::ok) << l.variant;
     EXPECT_LE(l.row.benchmark_error(), l.limit) << l.variant;
     EXPECT_GT(l.run_cpu_seconds, 0.0) << l.variant;
+  }
+  // Shown in the console and the report.
+  char* text = nullptr;
+  size_t size = 0;
+  std::FILE* console = open_memstream(&text, &size);
+  print_sweep(a, console);
+  std::fclose(console);
+  EXPECT_NE(std::string(text, size).find("IFToMM accuracy limits"), std::string::npos);
+  std::free(text);
+  if (find_report_assets({})) {
+    std::ostringstream html;
+    write_sweep_html(a, {}, html);
+    EXPECT_NE(html.str().find("<h2>IFToMM accuracy limits</h2>"), std::string::npos);
   }
   ASSERT_EQ(a.selections.size(), 1u);
   ASSERT_TRUE(a.selections[0].found) << a.selections[0].summary();
