@@ -72,9 +72,6 @@ int run_compare(CompareArgs args) {
   if (dynamics && args.step != 0.0)
     throw std::invalid_argument(
         "--step: a dynamics case is sampled at its [dynamics] interval, not swept");
-  if (dynamics && !args.accuracy.empty())
-    throw std::invalid_argument(
-        "--accuracy: not for a dynamics case yet (its settings sweep is crosslink sweep's)");
 
   // Methods: the reference first, then the others asked for, in the order given.
   std::vector<std::string> names = split(args.engines, ',');

@@ -42,13 +42,4 @@ std::vector<std::string> split(const std::string& text, char separator) {
   return parts;
 }
 
-bool refuse_dynamics_case(const Mechanism& m) {
-  if (!m.dynamics) return false;
-  fmt::print(stderr,
-             "{}: error: a dynamics case ([dynamics]): its exact motion is not yet compared with "
-             "the engines' (docs/dynamics.md)\n",
-             m.file);
-  return true;
-}
-
 }  // namespace crosslink::app

@@ -10,10 +10,6 @@
 
 namespace crosslink::app {
 
-// Whether a command that compares engines must refuse the definition: a dynamics case, whose
-// engine comparison is not built yet (says so on stderr).
-bool refuse_dynamics_case(const Mechanism& m);
-
 // Writes `text` to `path`, creating its folder; throws std::invalid_argument on failure.
 void write_file(const std::string& path, const std::string& text);
 

@@ -8,18 +8,27 @@
 //                                    dopri5 at 1e-15 agreeing), evaluations of the equation
 //   A02/N:<n>                        IFToMM A02, 10 s at its 400 output steps, N = 2, 10, 40;
 //                                    counters: evaluations, wall seconds per simulated second
+//   A02/<engine>/N:<n>               the same run by MuJoCo and Bullet at their defaults, from the
+//                                    exact initial state (the reference's own run is not timed);
+//                                    counters: engine steps and time step, the stepping CPU
+//                                    seconds per simulated second (RunCost), and the IFToMM
+//                                    error of B0 against the reference [m, m/s]
 //
-// Run from the source root:
+// Run from the source root (N = 40 takes minutes: the reference 16 s, each engine longer):
 //   build/bench/bench_dynamics --benchmark_min_time=0.5
+//   build/bench/bench_dynamics --benchmark_filter='A02/'   # cost against size only
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <string>
 
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
+#include "compare/methods.h"
+#include "compare/settings_sweep.h"
 
 namespace crosslink {
 namespace {
@@ -86,11 +95,23 @@ void andrews_reference(benchmark::State& state) {
   state.counters["digits_converged_check"] = check;
 }
 
+// IFToMM A02 with N four-bar loops (2N + 1 moving bars).
+const Mechanism& a02(int n) {
+  static std::map<int, Mechanism> cache;
+  auto it = cache.find(n);
+  if (it == cache.end())
+    it = cache
+             .emplace(
+                 n, load_mechanism(n == 2 ? std::string("mechanisms/iftomm_a02_double_fourbar.toml")
+                                          : "mechanisms/scaling/iftomm_a02_nfourbar_" +
+                                                std::to_string(n) + ".toml"))
+             .first;
+  return it->second;
+}
+
 void a02_reference(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const Mechanism m = load_mechanism(
-      n == 2 ? std::string("mechanisms/iftomm_a02_double_fourbar.toml")
-             : "mechanisms/scaling/iftomm_a02_nfourbar_" + std::to_string(n) + ".toml");
+  const Mechanism& m = a02(n);
   Simulation s;
   for (auto _ : state) {
     s = simulate(m);
@@ -107,12 +128,57 @@ void a02_reference(benchmark::State& state) {
                          benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The engine at its defaults on A02 with N loops, against the exact simulation (run once per N,
+// outside the timing).
+template <const char* engine>
+void a02_engine(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const Mechanism& m = a02(n);
+  static std::map<int, compare::MethodRun> references;
+  auto ref = references.find(n);
+  if (ref == references.end()) ref = references.emplace(n, compare::run_reference(m)).first;
+  compare::MethodRun run;
+  for (auto _ : state) {
+    run = compare::run_method(engine, m, ref->second);
+    benchmark::DoNotOptimize(run.trajectory.angle.data());
+  }
+  if (!run.ok) {
+    state.SkipWithError(run.message.c_str());
+    return;
+  }
+  const std::array<double, 2> tip =
+      compare::benchmark_tip_errors(m, ref->second.trajectory, run.trajectory);
+  state.counters["bodies"] = static_cast<double>(m.moving_count());
+  state.counters["steps"] = static_cast<double>(run.cost.steps);
+  for (const auto& [name, value] : run.settings)
+    if (name == "dt") state.counters["dt"] = std::stod(value);
+  state.counters["cpu_s_per_simulated_s"] = run.cost.cpu_seconds_per_cycle;
+  state.counters["B0_position_error"] = tip[0];
+  state.counters["B0_velocity_error"] = tip[1];
+}
+constexpr char kMujoco[] = "mujoco";
+constexpr char kBullet[] = "bullet";
+
 BENCHMARK(andrews_reference)
     ->Name("Andrews/rkf78/tol")
     ->DenseRange(10, 14)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(a02_reference)
     ->Name("A02/N")
+    ->Arg(2)
+    ->Arg(10)
+    ->Arg(40)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+BENCHMARK(a02_engine<kMujoco>)
+    ->Name("A02/mujoco/N")
+    ->Arg(2)
+    ->Arg(10)
+    ->Arg(40)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+BENCHMARK(a02_engine<kBullet>)
+    ->Name("A02/bullet/N")
     ->Arg(2)
     ->Arg(10)
     ->Arg(40)

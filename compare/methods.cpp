@@ -77,17 +77,19 @@ namespace {
 // balance as the energy channels and each sample's conditioning (the Newton solver's rcond of the
 // pose, which the simulation does not keep) so that forces next to a singular position are kept
 // out of verdicts as in a kinematic comparison.
-MethodRun run_dynamics_reference(const Mechanism& mechanism) {
+MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& options) {
   MethodRun run;
   run.name = "analytic";
-  const SimulationOptions options;
   run.description = fmt::format(
       "exact forward dynamics: the minimal-coordinate equation of motion, Boost.Odeint {} at "
-      "tolerance {:g} (the reference)",
-      options.integrator, options.tolerance);
+      "tolerance {:g}{}",
+      options.integrator, options.tolerance,
+      options.tolerance == SimulationOptions{}.tolerance ? " (the reference)" : "");
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = sim::thread_cpu_seconds();
   const Simulation sim = simulate(mechanism, options);
   run.cost.wall_seconds = seconds_since(start);
+  const double cpu = sim::thread_cpu_seconds() - cpu_start;
   run.trajectory = sim.trajectory;
   Trajectory& t = run.trajectory;
   t.add_energy();
@@ -111,6 +113,8 @@ MethodRun run_dynamics_reference(const Mechanism& mechanism) {
   run.cost.simulated_seconds = t.samples() > 0 ? t.time(t.samples() - 1) - t.time(0) : 0.0;
   run.cost.wall_seconds_per_cycle =
       run.cost.simulated_seconds > 0.0 ? run.cost.wall_seconds / run.cost.simulated_seconds : 0.0;
+  run.cost.cpu_seconds_per_cycle =
+      run.cost.simulated_seconds > 0.0 ? cpu / run.cost.simulated_seconds : 0.0;
   run.available = true;
   run.ok = true;  // a simulation stopped early flags its remaining samples
   run.message = sim.message;
@@ -126,17 +130,23 @@ MethodRun run_dynamics_reference(const Mechanism& mechanism) {
 
 }  // namespace
 
+MethodRun run_simulation(const Mechanism& mechanism, const SimulationOptions& options) {
+  return simulation_run(mechanism, options);
+}
+
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options) {
-  if (mechanism.dynamics) return run_dynamics_reference(mechanism);
+  if (mechanism.dynamics) return simulation_run(mechanism, SimulationOptions{});
   MethodRun run;
   run.name = "analytic";
   run.description = "Newton-Raphson on the full constraint equations (the reference)";
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = sim::thread_cpu_seconds();
   run.trajectory = sweep(mechanism, options);
   run.trajectory.flag_non_finite();
   run.cost.wall_seconds = seconds_since(start);
   run.cost.steps = run.trajectory.samples();
   run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+  run.cost.cpu_seconds_per_cycle = sim::thread_cpu_seconds() - cpu_start;
   run.available = true;
   run.ok = true;
   const double step = options.step > 0.0 ? options.step : 0.0;
@@ -170,10 +180,12 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     run.kinds = {"angle", "omega", "alpha", "x", "y",    "vx",    "vy", "v",
                  "ax",    "ay",    "a",     "s", "sdot", "sddot", "mu"};
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = sim::thread_cpu_seconds();
     run.trajectory = dyad_sweep(mechanism, reference.trajectory);
     run.trajectory.flag_non_finite();
     run.cost.wall_seconds = seconds_since(start);
     run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+    run.cost.cpu_seconds_per_cycle = sim::thread_cpu_seconds() - cpu_start;
     run.cost.steps = run.trajectory.samples();
     run.available = true;
     run.ok = run.trajectory.samples() == reference.trajectory.samples();
@@ -193,6 +205,7 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     run.kinds = {"omega", "vx", "vy", "v"};
     run.available = run.ok = true;
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = sim::thread_cpu_seconds();
     const Trajectory& exact = reference.trajectory;
     run.trajectory = exact;
     run.trajectory.method = "ic";
@@ -219,6 +232,7 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
     run.trajectory.flag_non_finite();
     run.cost.wall_seconds = seconds_since(start);
     run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
+    run.cost.cpu_seconds_per_cycle = sim::thread_cpu_seconds() - cpu_start;
     run.cost.steps = exact.samples();
     if (incomplete)
       run.message += fmt::format(

@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "analytic/dynamics.h"
 #include "analytic/sweep.h"
 #include "analytic/trajectory.h"
 #include "sim/engine.h"
@@ -44,6 +45,10 @@ bool is_method(std::string_view name);
 // The reference: the exact Newton sweep of the mechanism; for a dynamics case ([dynamics]) the
 // exact simulation (analytic/dynamics.h) with its energy channels, `options` unused.
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});
+
+// A dynamics case's exact simulation as a method: with its energy channels and each sample's
+// conditioning (rcond); the reference is this at the default options.
+MethodRun run_simulation(const Mechanism& mechanism, const SimulationOptions& options);
 
 // Any other method at the reference's samples. `engine_settings` are passed to the engines as
 // overrides (e.g. {"dt", "1e-4"} or the test hook {"perturb_link", "coupler:1.01"}); the exact

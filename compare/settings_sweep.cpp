@@ -54,6 +54,47 @@ double seconds_per_cycle(const MethodRun& run) {
   return run.cost.wall_seconds_per_cycle;
 }
 
+double cpu_per_cycle(const MethodRun& run) {
+  return run.cost.cpu_seconds_per_cycle;
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return kNaN;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+// Dynamics cases: per class, the largest |% of peak| at each channel's last sample in the
+// verdict (the end of the run); the largest max % of the energy channels.
+void end_and_energy(const Comparison& cmp, std::string_view method, SweepRow& row) {
+  for (const ChannelResult& c : cmp.channels) {
+    if (c.method != method || c.metrics.usable == 0) continue;
+    if (c.metrics.quantity == Quantity::energy) {
+      row.energy_pct = std::isnan(row.energy_pct)
+                           ? c.metrics.max_pct_of_peak
+                           : std::max(row.energy_pct, c.metrics.max_pct_of_peak);
+      continue;
+    }
+    const std::optional<ErrorClass> kind = error_class_of(c.metrics.quantity);
+    if (!kind) continue;
+    int last = -1;
+    for (size_t k = 0; k < c.metrics.in_verdict.size(); ++k)
+      if (c.metrics.in_verdict[k]) last = static_cast<int>(k);
+    if (last < 0) continue;
+    double& e = row.end_pct[index_of(*kind)];
+    const double v = std::abs(c.metrics.pct_of_peak(last));
+    e = std::isnan(e) ? v : std::max(e, v);
+  }
+}
+
+void set_tip_errors(const Mechanism& mechanism, const Trajectory& reference, const Trajectory& run,
+                    SweepRow& row) {
+  const std::array<double, 2> e = benchmark_tip_errors(mechanism, reference, run);
+  row.tip_position_error = e[0];
+  row.tip_velocity_error = e[1];
+}
+
 }  // namespace
 
 std::string_view to_string(ErrorClass c) {
@@ -100,8 +141,30 @@ std::string_view to_string(RunStatus s) {
 // ---------------------------------------------------------------------------------------------
 // Grids
 
-std::vector<Variant> engine_variants(std::string_view engine) {
+std::vector<Variant> engine_variants(std::string_view engine, bool dynamics) {
   auto fixed = [](sim::Settings s) { return [s](double) { return s; }; };
+  // Forward dynamics: no driver to watch; MuJoCo's integrators and solvers, its own default
+  // softness; Bullet's formulations and solvers (docs/sweep.md).
+  if (dynamics && engine == "mujoco")
+    return {
+        {"Euler/Newton", fixed({})},
+        {"implicit/Newton", fixed({{"integrator", "implicit"}})},
+        {"RK4/Newton", fixed({{"integrator", "RK4"}})},
+        {"Euler/CG", fixed({{"solver", "CG"}})},
+        {"Euler/PGS", fixed({{"solver", "PGS"}})},
+        {"Euler/Newton soft (MuJoCo default solref 0.02 1)",
+         fixed({{"solref", "0.02 1"}, {"solimp", "0.9 0.95 0.001 0.5 2"}})},
+    };
+  if (dynamics && engine == "bullet")
+    return {
+        {"rigid/MLCP Dantzig erp 1", fixed({})},
+        {"multibody/MLCP Dantzig erp 1", fixed({{"formulation", "multibody"}})},
+        {"rigid/MLCP Dantzig erp 0.2", fixed({{"erp", "0.2"}})},
+        {"rigid/SI 100 it erp 1", fixed({{"solver", "sequential_impulse"}, {"iterations", "100"}})},
+        {"multibody/SI 100 it erp 1", fixed({{"formulation", "multibody"},
+                                             {"solver", "sequential_impulse"},
+                                             {"iterations", "100"}})},
+    };
   if (engine == "mujoco")
     return {
         {"Euler/Newton", fixed({})},
@@ -147,12 +210,13 @@ std::vector<double> accuracy_time_steps(double interval) {
   return dts;
 }
 
-std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts) {
+std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts,
+                                   bool dynamics) {
   std::vector<double> sorted = dts;
   std::sort(sorted.begin(), sorted.end(), std::greater<>());
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
   std::vector<GridPoint> grid;
-  const std::vector<Variant> variants = engine_variants(engine);
+  const std::vector<Variant> variants = engine_variants(engine, dynamics);
   for (double dt : sorted)
     for (const Variant& v : variants)
       grid.push_back({std::string(engine), v.name, dt, v.settings(dt)});
@@ -181,6 +245,10 @@ const MethodRun& ReferenceLadder::for_dt(double dt, double* snapped) {
   const double h = interval_;
   if (!(dt > 0.0)) throw std::invalid_argument("a time step must be positive");
   const long m = std::lround(dt / h);
+  if (mechanism_.dynamics && dt > h) {  // an engine never steps past a sample
+    *snapped = h;
+    return *base_;
+  }
   if (dt <= h || m <= 1) {
     const long n = std::max(1L, std::lround(h / dt));
     *snapped = h / static_cast<double>(n);
@@ -214,10 +282,50 @@ std::string SweepRow::setting_label() const {
   return fmt::format("{}, dt={}", variant, format_dt(dt));
 }
 
+double SweepRow::benchmark_error() const {
+  if (std::isnan(tip_position_error)) return tip_velocity_error;
+  if (std::isnan(tip_velocity_error)) return tip_position_error;
+  return std::max(tip_position_error, tip_velocity_error);
+}
+
+std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism) {
+  const Driver& d = mechanism.driver;
+  if (d.link < 0 || d.to < 0) return std::nullopt;
+  return mechanism.links[static_cast<size_t>(d.link)].points[static_cast<size_t>(d.to)].name;
+}
+
+std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
+                                           const Trajectory& run) {
+  std::array<double, 2> out = {kNaN, kNaN};
+  const std::optional<std::string> tip_point = benchmark_tip_point(mechanism);
+  if (!tip_point || reference.samples() != run.samples()) return out;
+  const std::string& tip = *tip_point;
+  const auto column = [&](const Trajectory& t) -> Eigen::Index {
+    const auto it = std::find(t.point_names.begin(), t.point_names.end(), tip);
+    return it == t.point_names.end() ? -1 : it - t.point_names.begin();
+  };
+  const Eigen::Index p = column(reference), q = column(run);
+  if (p < 0 || q < 0) return out;
+  const auto worst = [](double& e, double a, double b) {
+    if (std::isfinite(a) && std::isfinite(b))
+      e = std::isnan(e) ? std::abs(a - b) : std::max(e, std::abs(a - b));
+  };
+  for (int k = 0; k < run.samples(); ++k) {
+    const PoseStatus s = run.status[static_cast<size_t>(k)];
+    if (s == PoseStatus::diverged || s == PoseStatus::not_reached) continue;
+    worst(out[0], run.x(k, q), reference.x(k, p));
+    worst(out[0], run.y(k, q), reference.y(k, p));
+    worst(out[1], run.vx(k, q), reference.vx(k, p));
+    worst(out[1], run.vy(k, q), reference.vy(k, p));
+  }
+  return out;
+}
+
 bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
   for (double e : max_pct)
     if (!(e <= accuracy_pct)) return false;  // NaN fails
+  if (!std::isnan(energy_pct) && energy_pct > accuracy_pct) return false;
   return std::isnan(force_pct) || force_pct <= accuracy_pct;
 }
 
@@ -245,11 +353,14 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     }
   };
   MethodRun run = attempt();
+  std::vector<double> costs = {seconds_per_cycle(run)}, cpu = {cpu_per_cycle(run)};
   for (int r = 1; r < repeat && run.available && run.ok; ++r) {
     const MethodRun again = attempt();
-    run.cost.wall_seconds_per_cycle =
-        std::min(run.cost.wall_seconds_per_cycle, again.cost.wall_seconds_per_cycle);
+    costs.push_back(seconds_per_cycle(again));
+    cpu.push_back(cpu_per_cycle(again));
   }
+  run.cost.wall_seconds_per_cycle = median(costs);
+  run.cost.cpu_seconds_per_cycle = median(cpu);
 
   SweepRow row;
   row.engine = point.engine;
@@ -258,6 +369,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   row.samples = reference.trajectory.samples();
   row.message = run.message;
   row.overrides = settings;
+  row.repeats = static_cast<int>(costs.size());
   if (!run.available) {
     row.status = RunStatus::diverged;
     row.settings = settings;
@@ -271,6 +383,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     }
   }
   row.wall_s_per_cycle = seconds_per_cycle(run);
+  row.cpu_s_per_cycle = cpu_per_cycle(run);
   const Trajectory& ref = reference.trajectory;
   const Trajectory& tr = run.trajectory;
   const bool shaped = tr.samples() == ref.samples() && tr.status.size() == ref.status.size();
@@ -278,15 +391,24 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     for (Eigen::Index k = 0; k < tr.loop_gap.size(); ++k)
       if (std::isfinite(tr.loop_gap(k)))
         row.max_loop_gap = std::max(row.max_loop_gap, tr.loop_gap(k));
+  // A dynamics run passes singular positions under its own momentum; the samples it flags next
+  // to them (rcond, the configuration's property) do not make the setting `flagged`: a loop gap
+  // or a divergence does.
+  int failing = 0;
   if (shaped)
     for (size_t k = 0; k < ref.status.size(); ++k)
-      if (usable(ref.status[k]) && !usable(tr.status[k])) ++row.flagged_samples;
+      if (usable(ref.status[k]) && !usable(tr.status[k])) {
+        ++row.flagged_samples;
+        if (!mechanism.dynamics || tr.status[k] != PoseStatus::singular) ++failing;
+      }
 
   // The verdict metric: compare_methods, as `crosslink compare` does.
-  const Tolerances tolerances(mechanism.tolerances);
+  const Tolerances tolerances(mechanism);
   if (run.ok) {
     const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
     row.max_pct = class_maxima(cmp, run.name);
+    if (mechanism.dynamics) end_and_energy(cmp, run.name, row);
+    if (mechanism.dynamics && shaped) set_tip_errors(mechanism, ref, tr, row);
     for (const ChannelResult& c : cmp.channels)
       if (c.method == run.name && c.metrics.usable > 0 &&
           (c.metrics.quantity == Quantity::force || c.metrics.quantity == Quantity::torque))
@@ -296,7 +418,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   }
   // Over every recorded sample, flagged ones included: the same comparison on a copy whose
   // engine-side flags are lifted (samples never reached stay out).
-  if (shaped && (!run.ok || row.flagged_samples > 0)) {
+  if (shaped && (!run.ok || failing > 0)) {
     MethodRun lifted = run;
     lifted.ok = true;
     bool any = false;
@@ -311,7 +433,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   }
   if (!run.ok)
     row.status = RunStatus::diverged;
-  else if (row.flagged_samples > 0)
+  else if (failing > 0)
     row.status = RunStatus::flagged;
   for (double e : row.max_pct)
     if (std::isinf(e)) row.status = RunStatus::diverged;  // NaN values the engine did not flag
@@ -322,19 +444,62 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
                                     int repeat, std::vector<std::string>* skipped) {
   std::vector<SweepRow> rows;
   MethodRun reference = run_reference(mechanism, options);
-  for (int r = 1; r < repeat; ++r)
-    reference.cost.wall_seconds_per_cycle =
-        std::min(reference.cost.wall_seconds_per_cycle,
-                 seconds_per_cycle(run_reference(mechanism, options)));
+  std::vector<double> costs = {seconds_per_cycle(reference)}, cpu = {cpu_per_cycle(reference)};
+  for (int r = 1; r < repeat; ++r) {
+    const MethodRun again = run_reference(mechanism, options);
+    costs.push_back(seconds_per_cycle(again));
+    cpu.push_back(cpu_per_cycle(again));
+  }
+  reference.cost.wall_seconds_per_cycle = median(costs);
+  reference.cost.cpu_seconds_per_cycle = median(cpu);
   SweepRow newton;
   newton.engine = "analytic";
-  newton.variant = "newton";
+  newton.variant = mechanism.dynamics ? "exact" : "newton";
+  newton.repeats = static_cast<int>(costs.size());
   newton.settings = reference.settings;
   newton.wall_s_per_cycle = seconds_per_cycle(reference);
+  newton.cpu_s_per_cycle = cpu_per_cycle(reference);
   newton.max_pct = {0.0, 0.0, 0.0};  // the reference itself
   newton.samples = reference.trajectory.samples();
   newton.message = "the reference: error 0 by definition";
   rows.push_back(newton);
+  if (mechanism.dynamics) {
+    // The exact simulation's second integrator (dopri5, dense output) at looser tolerances,
+    // against the reference (rkf78 at 1e-13): the IFToMM ranking's other axis (what a tolerance
+    // costs). Not rkf78 itself: stepped to each sample, its steps never exceed the sample
+    // interval, and at that step its eighth order is below every tolerance here, so each
+    // looser rkf78 run is the same run (docs/sweep.md).
+    const Tolerances tolerances(mechanism);
+    for (double tolerance : kSimulationTolerances) {
+      SimulationOptions loose;
+      loose.integrator = kSimulationTolerancesIntegrator;
+      loose.tolerance = tolerance;
+      MethodRun run = run_simulation(mechanism, loose);
+      std::vector<double> times = {seconds_per_cycle(run)}, cpu_times = {cpu_per_cycle(run)};
+      for (int r = 1; r < repeat; ++r) {
+        const MethodRun again = run_simulation(mechanism, loose);
+        times.push_back(seconds_per_cycle(again));
+        cpu_times.push_back(cpu_per_cycle(again));
+      }
+      SweepRow row;
+      row.engine = "analytic";
+      row.variant = fmt::format("exact, tolerance {:g}", tolerance);
+      row.settings = run.settings;
+      row.wall_s_per_cycle = median(times);
+      row.cpu_s_per_cycle = median(cpu_times);
+      row.repeats = static_cast<int>(times.size());
+      row.samples = reference.trajectory.samples();
+      row.message = run.message;
+      run.name = loose.integrator;  // compared as a method of its own
+      const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
+      row.max_pct = class_maxima(cmp, run.name);
+      end_and_energy(cmp, run.name, row);
+      set_tip_errors(mechanism, reference.trajectory, run.trajectory, row);
+      row.status = run.ok ? RunStatus::ok : RunStatus::diverged;
+      rows.push_back(row);
+    }
+    return rows;
+  }
 
   MethodRun dyads = run_method("dyads", mechanism, reference);
   if (!dyads.available && skipped) skipped->push_back("dyads: " + dyads.message);
@@ -348,6 +513,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
     row.variant = "dyads";
     row.settings = dyads.settings;
     row.wall_s_per_cycle = seconds_per_cycle(dyads);
+    row.cpu_s_per_cycle = cpu_per_cycle(dyads);
     row.samples = reference.trajectory.samples();
     row.message = dyads.message;
     if (dyads.ok) {
@@ -370,7 +536,8 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
 // Analysis
 
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
-                               const std::vector<bool>& eligible) {
+                               const std::vector<bool>& eligible, double cost_tie,
+                               double error_tie) {
   const size_t n = cost.size();
   if (error.size() != n || eligible.size() != n)
     throw std::invalid_argument("pareto_front: cost, error and eligible differ in length");
@@ -378,12 +545,14 @@ std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vecto
     return eligible[i] && std::isfinite(cost[i]) && std::isfinite(error[i]);
   };
   std::vector<bool> front(n, false);
+  const double band = 1.0 + cost_tie, error_band = 1.0 + error_tie;
   for (size_t i = 0; i < n; ++i) {
     if (!valid(i)) continue;
     bool dominated = false;
     for (size_t j = 0; j < n && !dominated; ++j)
-      dominated = j != i && valid(j) && cost[j] <= cost[i] && error[j] <= error[i] &&
-                  (cost[j] < cost[i] || error[j] < error[i]);
+      dominated = j != i && valid(j) && cost[j] <= band * cost[i] &&
+                  error[j] <= error_band * error[i] &&
+                  (band * cost[j] < cost[i] || error_band * error[j] < error[i]);
     front[i] = !dominated;
   }
   return front;
@@ -440,11 +609,11 @@ void analyse(SettingsSweep& sweep) {
     std::vector<double> cost, error;
     std::vector<bool> eligible;
     for (size_t i : engine_rows) {
-      cost.push_back(sweep.rows[i].wall_s_per_cycle);
+      cost.push_back(sweep.rows[i].cost());
       error.push_back(sweep.rows[i].error(c));
       eligible.push_back(sweep.rows[i].status == RunStatus::ok);
     }
-    const std::vector<bool> front = pareto_front(cost, error, eligible);
+    const std::vector<bool> front = pareto_front(cost, error, eligible, kCostTie, kErrorTie);
     for (size_t k = 0; k < engine_rows.size(); ++k)
       sweep.rows[engine_rows[k]].pareto[index_of(c)] = front[k];
   }
@@ -469,6 +638,64 @@ void analyse(SettingsSweep& sweep) {
     }
     sweep.orders.push_back(std::move(o));
   }
+  // The IFToMM limits, where the case has the benchmark's tip point.
+  sweep.limits.clear();
+  if (sweep.dynamics && std::any_of(sweep.rows.begin(), sweep.rows.end(), [](const SweepRow& r) {
+        return !std::isnan(r.benchmark_error());
+      }))
+    sweep.limits = benchmark_limits(sweep.rows, sweep.sample_interval * (sweep.samples - 1));
+}
+
+std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, double duration) {
+  // The series: an engine variant over its time steps; the exact simulation's second integrator
+  // over its tolerances (its rows come loosest first). The reference itself (error 0) is none.
+  const auto series_of =
+      [](const SweepRow& r) -> std::optional<std::pair<std::string, std::string>> {
+    if (r.engine != "analytic") return std::pair(r.engine, r.variant);
+    if (r.variant.starts_with("exact, tolerance"))
+      return std::pair(r.engine, fmt::format("exact, {}", kSimulationTolerancesIntegrator));
+    return std::nullopt;
+  };
+  std::vector<std::pair<std::string, std::string>> series;
+  for (const SweepRow& r : rows)
+    if (const auto s = series_of(r);
+        s && std::find(series.begin(), series.end(), *s) == series.end())
+      series.push_back(*s);
+  std::vector<BenchmarkLimit> out;
+  for (double limit : kBenchmarkLimits)
+    for (const auto& [engine, variant] : series) {
+      BenchmarkLimit b;
+      b.engine = engine;
+      b.variant = variant;
+      b.limit = limit;
+      const SweepRow* coarsest = nullptr;
+      const SweepRow* finest = nullptr;
+      for (const SweepRow& r : rows) {
+        if (series_of(r) != std::pair(engine, variant)) continue;
+        // Engines: the largest dt; the exact integrator: the first (loosest) row.
+        const bool coarser = [&](const SweepRow* than) {
+          return than == nullptr || (engine != "analytic" && r.dt > than->dt);
+        }(coarsest);
+        if (r.status == RunStatus::ok && r.benchmark_error() <= limit && coarser) coarsest = &r;
+        if (finest == nullptr || (engine == "analytic" || r.dt < finest->dt)) finest = &r;
+      }
+      if (coarsest) {
+        b.met = true;
+        b.row = *coarsest;
+        b.run_cpu_seconds = coarsest->cost() * duration;
+      } else if (finest) {
+        b.row = *finest;
+        b.why = finest->status != RunStatus::ok
+                    ? fmt::format(
+                          "{} at the finest {} ({} samples flagged){}", to_string(finest->status),
+                          engine == "analytic" ? "tolerance" : "step", finest->flagged_samples,
+                          finest->message.empty() ? "" : ": " + finest->message)
+                    : fmt::format("error {:.3g} at the finest {}", finest->benchmark_error(),
+                                  engine == "analytic" ? "tolerance" : "step");
+      }
+      out.push_back(std::move(b));
+    }
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -476,12 +703,15 @@ void analyse(SettingsSweep& sweep) {
 
 namespace {
 
-// Of rows at one time step, the cheapest that meets the accuracy, or nullptr.
+// Of rows at one time step, the cheapest that meets the accuracy, or nullptr: of the rows whose
+// cost is within kPickTie of the lowest, the first (the grid's order).
 const SweepRow* cheapest_meeting(const std::vector<const SweepRow*>& rows, double accuracy_pct) {
-  const SweepRow* best = nullptr;
+  double lowest = std::numeric_limits<double>::infinity();
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct) && (!best || r->wall_s_per_cycle < best->wall_s_per_cycle)) best = r;
-  return best;
+    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->cost());
+  for (const SweepRow* r : rows)
+    if (r->meets(accuracy_pct) && r->cost() <= (1.0 + kPickTie) * lowest) return r;
+  return nullptr;
 }
 
 }  // namespace
@@ -524,11 +754,14 @@ std::string Selection::summary() const {
         k == "iterations" || k == "solref")
       overrides += fmt::format(" {}={}", k, v);
   return fmt::format(
-      "{}: --accuracy {:g} %: chose {} ({}) after {} runs: {:.3g} ms per cycle; max % of peak "
-      "position {:.3g}, velocity {:.3g}, acceleration {:.3g}",
+      "{}: --accuracy {:g} %: chose {} ({}) after {} runs: {:.3g} ms per {}; max % of peak "
+      "position {:.3g}, velocity {:.3g}, acceleration {:.3g}{}",
       engine, accuracy_pct, chosen.setting_label(), overrides.empty() ? "" : overrides.substr(1),
-      tried.size(), 1e3 * chosen.wall_s_per_cycle, chosen.error(ErrorClass::position),
-      chosen.error(ErrorClass::velocity), chosen.error(ErrorClass::acceleration));
+      tried.size(), 1e3 * chosen.cost(), std::isnan(chosen.energy_pct) ? "cycle" : "simulated s",
+      chosen.error(ErrorClass::position), chosen.error(ErrorClass::velocity),
+      chosen.error(ErrorClass::acceleration),
+      std::isnan(chosen.energy_pct) ? std::string()
+                                    : fmt::format(", energy {:.3g}", chosen.energy_pct));
 }
 
 Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
@@ -536,7 +769,7 @@ Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            const std::vector<double>& dts, const sim::Settings& base,
                            const Progress& progress, int repeat) {
   if (!(accuracy_pct > 0.0)) throw std::invalid_argument("the accuracy must be a positive %");
-  const std::vector<GridPoint> grid = engine_grid(engine, dts);
+  const std::vector<GridPoint> grid = engine_grid(engine, dts, mechanism.dynamics.has_value());
   std::vector<SweepRow> rows;
   Selection s;
   for (size_t i = 0; i < grid.size(); ++i) {
@@ -560,6 +793,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   ReferenceLadder ladder(mechanism, options.sweep);
   out.sample_interval = ladder.interval();
   out.samples = ladder.base().trajectory.samples();
+  out.dynamics = mechanism.dynamics.has_value();
   out.rows = analytic_rows(mechanism, options.sweep, std::max(3, options.repeat), &out.skipped);
 
   // Snap the time steps first: two requests that land on the same step run once.
@@ -577,7 +811,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
       out.skipped.push_back(engine + ": not an engine (mujoco, bullet)");
       continue;
     }
-    const std::vector<GridPoint> g = engine_grid(engine, snapped);
+    const std::vector<GridPoint> g = engine_grid(engine, snapped, out.dynamics);
     grid.insert(grid.end(), g.begin(), g.end());
   }
   for (size_t i = 0; i < grid.size(); ++i) {
@@ -631,7 +865,9 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
   out << "engine,setting,dt,wall_s_per_cycle,max_pct_position,max_pct_velocity,"
          "max_pct_acceleration,max_loop_gap,status,variant,flagged_samples,samples,"
          "pareto_position,pareto_velocity,pareto_acceleration,raw_pct_position,"
-         "raw_pct_velocity,raw_pct_acceleration,settings,message\n";
+         "raw_pct_velocity,raw_pct_acceleration,settings,message,end_pct_position,"
+         "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
+         "tip_position_error,tip_velocity_error\n";
   for (const SweepRow& r : sweep.rows) {
     out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << number(r.dt) << ','
         << number(r.wall_s_per_cycle) << ',' << number(r.max_pct[0]) << ',' << number(r.max_pct[1])
@@ -639,7 +875,10 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << to_string(r.status) << ',' << csv_field(r.variant) << ',' << r.flagged_samples << ','
         << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1] << ',' << r.pareto[2] << ','
         << number(r.raw_pct[0]) << ',' << number(r.raw_pct[1]) << ',' << number(r.raw_pct[2]) << ','
-        << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << '\n';
+        << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << ','
+        << number(r.end_pct[0]) << ',' << number(r.end_pct[1]) << ',' << number(r.end_pct[2]) << ','
+        << number(r.energy_pct) << ',' << r.repeats << ',' << number(r.cpu_s_per_cycle) << ','
+        << number(r.tip_position_error) << ',' << number(r.tip_velocity_error) << '\n';
   }
 }
 
@@ -647,17 +886,32 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
   const Mechanism& m = *sweep.mechanism;
   fmt::print(out, "{}: {} settings; reference {} samples every {:.4g} s\n", m.name,
              sweep.rows.size(), sweep.samples, sweep.sample_interval);
-  fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
-             "setting", "dt [s]", "s/cycle", "pos %", "vel %", "acc %", "gap [m]", "status");
+  if (sweep.dynamics)  // the errors at the end of the run and of the energy balance too
+    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
+               "setting", "dt [s]", "cpu s/sim s", "pos %", "end pos %", "vel %", "acc %",
+               "energy %", "status");
+  else
+    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
+               "setting", "dt [s]", "cpu s/cycle", "pos %", "vel %", "acc %", "gap [m]", "status");
   for (const SweepRow& r : sweep.rows) {
     const std::string front = r.pareto[0] || r.pareto[1] || r.pareto[2] ? " *" : "";
-    fmt::print(out, "{:<8} {:<48} {:>10} {:>12.4g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} {}{}\n",
-               r.engine, r.variant, std::isnan(r.dt) ? std::string("-") : format_dt(r.dt),
-               r.wall_s_per_cycle, r.max_pct[0], r.max_pct[1], r.max_pct[2], r.max_loop_gap,
-               r.status == RunStatus::flagged
-                   ? fmt::format("flagged ({} samples)", r.flagged_samples)
-                   : std::string(to_string(r.status)),
-               front);
+    const std::string status = r.status == RunStatus::flagged
+                                   ? fmt::format("flagged ({} samples)", r.flagged_samples)
+                               : r.status == RunStatus::ok && r.flagged_samples > 0
+                                   ? fmt::format("ok ({} samples singular)", r.flagged_samples)
+                                   : std::string(to_string(r.status));
+    const std::string dt = std::isnan(r.dt) ? std::string("-") : format_dt(r.dt);
+    if (sweep.dynamics)
+      fmt::print(out,
+                 "{:<8} {:<48} {:>10} {:>12.4g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} "
+                 "{}{}\n",
+                 r.engine, r.variant, dt, r.cost(), r.max_pct[0], r.end_pct[0], r.max_pct[1],
+                 r.max_pct[2], r.energy_pct, status, front);
+    else
+      fmt::print(out,
+                 "{:<8} {:<48} {:>10} {:>12.4g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} {}{}\n",
+                 r.engine, r.variant, dt, r.cost(), r.max_pct[0], r.max_pct[1], r.max_pct[2],
+                 r.max_loop_gap, status, front);
   }
   fmt::print(out, "(* on the Pareto front of error against cost for at least one class)\n");
   fmt::print(out,
@@ -673,8 +927,26 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
     }
     fmt::print(out, "\n");
   }
+  if (!sweep.limits.empty()) {
+    fmt::print(out,
+               "\nIFToMM accuracy limits: the largest |difference| of {}'s x, y [m] and vx, vy "
+               "[m/s] over the run; per series, the largest step (the exact integrator: the "
+               "loosest tolerance) that meets each, and the CPU time of the whole run:\n",
+               benchmark_tip_point(m).value_or("?"));
+    for (const BenchmarkLimit& b : sweep.limits)
+      fmt::print(out, "  {:<8} {:<40} {:>6g}  {}\n", b.engine, b.variant, b.limit,
+                 benchmark_limit_text(b));
+  }
   for (const std::string& s : sweep.skipped) fmt::print(out, "not run: {}\n", s);
   for (const Selection& s : sweep.selections) fmt::print(out, "{}\n", s.summary());
+}
+
+std::string benchmark_limit_text(const BenchmarkLimit& b) {
+  if (!b.met) return "not met: " + b.why;
+  const std::string at = b.engine == "analytic" ? b.row.variant.substr(b.row.variant.find(',') + 2)
+                                                : fmt::format("dt {} s", format_dt(b.row.dt));
+  return fmt::format("met at {}: error {:.3g}, CPU {:.3g} s for the run", at,
+                     b.row.benchmark_error(), b.run_cpu_seconds);
 }
 
 }  // namespace crosslink::compare

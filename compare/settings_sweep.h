@@ -1,8 +1,11 @@
 // Speed against accuracy: every engine over a grid of its settings (time step, integrator,
-// solver, constraint softness or ERP), each setting compared with the exact Newton sweep through
-// compare_methods() (the metrics of metrics.h, nothing re-implemented), with its wall time per
-// simulated cycle; the observed order of convergence in dt; the Pareto front of error against
-// cost; and the cheapest setting that meets an accuracy asked for. See docs/sweep.md.
+// solver, constraint softness or ERP), each setting compared with the exact Newton sweep (a
+// dynamics case: the exact simulation) through compare_methods() (the metrics of metrics.h,
+// nothing re-implemented), with its wall time per simulated cycle (per simulated second for a
+// dynamics case), the median of repeated runs; the observed order of convergence in dt; the
+// Pareto front of error against cost; and the cheapest setting that meets an accuracy asked for.
+// Costs within kCostTie of each other are ties, decided by the grid's order, so that two
+// identical sweeps draw the same front and pick the same setting. See docs/sweep.md.
 //
 // Quantity classes of a row (max over the channels of the class, usable samples only):
 //   position      "position" and "angle" channels (both are position-level quantities; an angle's
@@ -45,7 +48,8 @@ struct GridPoint {
   sim::Settings settings;  // engine overrides except dt (the sweep adds the snapped dt)
 };
 
-// The variants a sweep tries for an engine (names and overrides), the engine's default first.
+// The variants a sweep tries for an engine (names and overrides), the engine's default first;
+// for a dynamics case (`dynamics`) the engine's forward-dynamics variants (docs/sweep.md).
 // MuJoCo: integrators Euler / implicit / RK4 (Newton solver), solvers CG / PGS (Euler), loop
 // softness: MuJoCo's own default solref "0.02 1" / solimp "0.9 0.95 0.001", and the engine-notes
 // (2 dt, 0.5). Bullet: formulation rigid / multibody, solver MLCP Dantzig / sequential impulse
@@ -55,7 +59,7 @@ struct Variant {
   // The overrides at time step dt [s] (a softness can depend on dt).
   std::function<sim::Settings(double dt)> settings;
 };
-std::vector<Variant> engine_variants(std::string_view engine);
+std::vector<Variant> engine_variants(std::string_view engine, bool dynamics = false);
 
 // The default time steps: 1e-2, 3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5 s (over two decades).
 std::vector<double> default_time_steps();
@@ -66,12 +70,15 @@ std::vector<double> accuracy_time_steps(double interval);
 
 // Every (time step, variant) of an engine, coarse to fine, the variants in engine_variants()
 // order within one time step.
-std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts);
+std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts,
+                                   bool dynamics = false);
 
 // Reference sweeps whose samples fall on step boundaries. The base sweep (the mechanism's
 // default grid, or SweepOptions::step) has sample interval h. A time step dt <= h is snapped to
 // h / round(h / dt) and uses the base sweep; a dt > h is snapped to m h, m = round(dt / h), and
 // uses a sweep with every m-th driver value (step m times the base step), built once and kept.
+// A dynamics case's reference is its simulation at the case's interval h; a dt > h is h (an
+// engine never steps past a sample).
 class ReferenceLadder {
  public:
   ReferenceLadder(const Mechanism& mechanism, const SweepOptions& options);
@@ -104,7 +111,12 @@ struct SweepRow {
   double dt = std::numeric_limits<double>::quiet_NaN();  // in force [s]; NaN for analytic
   sim::Settings settings;         // every setting in force (as the engine reported it)
   sim::Settings overrides;        // what was passed to the engine (base, variant, dt): reruns it
-  double wall_s_per_cycle = 0.0;  // stepping (or solving) time per driver cycle [s]
+  double wall_s_per_cycle = 0.0;  // stepping (or solving) time per driver cycle [s] (a dynamics
+                                  // case: per simulated second), the median of `repeats` runs
+  // The same in CPU time of the stepping thread (RunCost::cpu_seconds_per_cycle), the median of
+  // `repeats` runs: the cost fronts, picks and charts use (cost()).
+  double cpu_s_per_cycle = 0.0;
+  int repeats = 1;
   // Max % of peak per class (ErrorClass order); NaN when no sample could be compared.
   std::array<double, 3> max_pct = {std::numeric_limits<double>::quiet_NaN(),
                                    std::numeric_limits<double>::quiet_NaN(),
@@ -117,6 +129,18 @@ struct SweepRow {
   // Max % of peak over the force and torque channels, when the engine reads forces (NaN
   // otherwise): an --accuracy pick must meet it too.
   double force_pct = std::numeric_limits<double>::quiet_NaN();
+  // Dynamics cases: the % of peak per class at the end of the run (the last sample both call
+  // usable; the benchmarks' "error at the end"), and the max % of the energy scale over the
+  // energy channels (an --accuracy pick must meet it too). NaN otherwise.
+  std::array<double, 3> end_pct = {std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN()};
+  double energy_pct = std::numeric_limits<double>::quiet_NaN();
+  // Dynamics cases: the IFToMM benchmarks' error (A01, A02; benchmark_tip_errors()): the largest
+  // difference from the reference of the driven link's tip, per coordinate of its position
+  // [length unit] and of its velocity [length unit/s]. NaN where the case has no tip point.
+  double tip_position_error = std::numeric_limits<double>::quiet_NaN();
+  double tip_velocity_error = std::numeric_limits<double>::quiet_NaN();
   double max_loop_gap = 0.0;  // largest cut-joint gap over all samples [m]
   RunStatus status = RunStatus::ok;
   int flagged_samples = 0;  // samples usable in the reference but not in the run
@@ -125,28 +149,63 @@ struct SweepRow {
   std::array<bool, 3> pareto = {false, false, false};  // on the engines' front, per class
 
   double error(ErrorClass c) const { return max_pct[static_cast<size_t>(c)]; }
+  // The IFToMM error: the larger of the tip's position and velocity errors (NaN: none).
+  double benchmark_error() const;
+  // The cost: the CPU time per cycle, or the wall time where none was measured.
+  double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
   std::string setting_label() const;
   // Whether the row meets `accuracy_pct` on every class with status ok.
   bool meets(double accuracy_pct) const;
 };
 
+// The IFToMM benchmarks' error measure (A01 and A02: "the time-history of the position and
+// velocity of point B0 (x and y coordinates)", 1e-1 low and 1e-3 high precision, at the
+// benchmark's output steps; docs/dynamics.md): the tip of the driven link, the driver's `to` point
+// (A01's P1, A02's B0). Over every sample where both runs have values (the engine's `singular`
+// samples included: the benchmark counts every output step), the largest |difference| of x, y
+// [length unit] and of vx, vy [length unit/s]. {NaN, NaN} when the driver names no tip point or no
+// sample has values.
+std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism);
+std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
+                                           const Trajectory& run);
+
 // Runs one grid point against the ladder's reference for its dt. `base` overrides come first
-// (e.g. a --set perturb_link), the grid point's after. `repeat` > 1 takes the fastest run.
+// (e.g. a --set perturb_link), the grid point's after. `repeat` > 1: the cost is the median of
+// that many runs (the errors are the same every run).
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                           const GridPoint& point, const sim::Settings& base = {}, int repeat = 1);
 
 // The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
-// (errors against Newton), their cost from timing their sweeps (fastest of `repeat`). A method
-// that cannot solve the mechanism is left out and, with `skipped`, says why there.
+// (errors against Newton), their cost from timing their sweeps (median of `repeat`). A method
+// that cannot solve the mechanism is left out and, with `skipped`, says why there. A dynamics
+// case: the exact simulation (error 0) and its second integrator (dopri5) at looser tolerances
+// (kSimulationTolerances), against it.
+constexpr std::array<double, 4> kSimulationTolerances = {1e-4, 1e-6, 1e-8, 1e-10};
+constexpr const char* kSimulationTolerancesIntegrator = "dopri5";
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
                                     int repeat = 3, std::vector<std::string>* skipped = nullptr);
 
+// Two costs within this fraction of each other are the same cost, and two errors within
+// kErrorTie the same error: decisions (the front, the pick) do not hinge on less. The CPU time
+// of one setting, median of 3 runs, varied by 5 to 60 % between sweeps on this machine with two
+// other builds running, and settings of one family (MuJoCo's Euler with the Newton, CG or PGS
+// solver) differ in error by 2 %: docs/sweep.md.
+constexpr double kCostTie = 0.25;
+constexpr double kErrorTie = 0.1;
+// The cheapest-setting pick is a recommendation: of the variants meeting the accuracy at the
+// coarsest time step where any does, the earliest in the grid (the engine's default first) unless
+// another is more than 1.5 times cheaper, beyond that noise.
+constexpr double kPickTie = 0.5;
+
 // Pareto front of (cost, error), both minimised: point i is on the front when it is eligible
-// and no other eligible point has cost <= and error <= with one of them strictly less.
-// Ineligible points (or non-finite values) are never on it.
+// and no other eligible point j dominates it: error_j <= (1 + error_tie) error_i, cost_j <=
+// (1 + cost_tie) cost_i, and (1 + error_tie) error_j < error_i or (1 + cost_tie) cost_j <
+// cost_i (ties 0: cost <= and error <= with one of them strictly less). Ineligible points (or
+// non-finite values) are never on it.
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
-                               const std::vector<bool>& eligible);
+                               const std::vector<bool>& eligible, double cost_tie = 0.0,
+                               double error_tie = 0.0);
 
 // Observed order of convergence p in error ~ C dt^p: least-squares slope of log error against
 // log dt over the non-saturated points. From coarse to fine, a point is left out when
@@ -182,7 +241,9 @@ struct Selection {
 };
 
 // The selection rule over rows already run: time steps from coarse to fine, the first where a
-// row of `engine` meets the accuracy; of that time step's rows meeting it, the cheapest.
+// row of `engine` meets the accuracy; of that time step's rows meeting it, the cheapest, a
+// cost within kPickTie of the cheapest counting as equal and the earlier row (the grid's
+// variant order, the engine's default first) taken among equals.
 Selection select_cheapest(std::string_view engine, double accuracy_pct,
                           const std::vector<SweepRow>& rows);
 
@@ -194,12 +255,34 @@ Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            const std::vector<double>& dts, const sim::Settings& base = {},
                            const Progress& progress = {}, int repeat = 1);
 
+// The IFToMM accuracy limits in the benchmark's error measure (benchmark_error()).
+constexpr std::array<double, 2> kBenchmarkLimits = {1e-1, 1e-3};
+
+// Where one series meets one IFToMM limit: an engine variant over its time steps, or the exact
+// simulation's second integrator over its tolerances (engine "analytic", variant "exact").
+struct BenchmarkLimit {
+  std::string engine, variant;
+  double limit = 0.0;
+  bool met = false;
+  // Met: the coarsest row meeting it (status ok, benchmark error at most the limit): the largest
+  // time step, or the loosest tolerance. Not met: the series' finest row, for the reason.
+  SweepRow row;
+  double run_cpu_seconds = std::numeric_limits<double>::quiet_NaN();  // met: over the whole run
+  std::string why;  // not met: the finest row's status and error
+};
+
+// Every series' place against every limit, in row order (analyse() fills it for a dynamics case
+// whose driver names a tip point). `duration`: the simulated time of one run [s].
+std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, double duration);
+// "met at dt 0.001 s: error 3.1e-4, CPU 0.021 s for the run", or "not met: ..." (console, HTML).
+std::string benchmark_limit_text(const BenchmarkLimit& b);
+
 struct SettingsSweepOptions {
   std::vector<std::string> engines = {"mujoco", "bullet"};
   std::vector<double> dts = default_time_steps();
   SweepOptions sweep;                  // the reference's grid
   sim::Settings base;                  // overrides applied to every engine run
-  int repeat = 1;                      // fastest of N runs per setting
+  int repeat = 1;                      // median of N runs per setting (the command: 3)
   std::optional<double> accuracy_pct;  // also select the cheapest setting per engine
   Progress progress;
 };
@@ -208,10 +291,12 @@ struct SettingsSweep {
   const Mechanism* mechanism = nullptr;
   std::vector<SweepRow> rows;  // analytic rows first, then every engine's grid
   std::vector<OrderRow> orders;
-  std::vector<Selection> selections;  // with accuracy_pct
-  std::vector<std::string> skipped;   // engines not built or unable to realise the mechanism
-  double sample_interval = 0.0;       // base reference [s]
-  int samples = 0;                    // base reference
+  std::vector<Selection> selections;   // with accuracy_pct
+  std::vector<std::string> skipped;    // engines not built or unable to realise the mechanism
+  double sample_interval = 0.0;        // base reference [s]
+  int samples = 0;                     // base reference
+  bool dynamics = false;               // a dynamics case: costs per simulated second, end errors
+  std::vector<BenchmarkLimit> limits;  // a dynamics case with a tip point: the IFToMM limits
 };
 
 // The whole sweep: analytic rows, every engine's grid, orders, Pareto fronts, selections.
@@ -223,7 +308,9 @@ void analyse(SettingsSweep& sweep);
 // One row per setting: engine, setting, dt, wall_s_per_cycle, max_pct_position,
 // max_pct_velocity, max_pct_acceleration, max_loop_gap, status, then variant, flagged_samples,
 // samples, pareto_position, pareto_velocity, pareto_acceleration, raw_pct_position,
-// raw_pct_velocity, raw_pct_acceleration, settings, message. SI units.
+// raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
+// end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
+// tip_position_error, tip_velocity_error. SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).

@@ -20,12 +20,14 @@
   const statusShape = {domain: ['ok', 'flagged', 'diverged'],
                        range: ['circle', 'triangle-up', 'cross']};
 
-  // Rows of one class: x, y and what the point means.
-  function rows(cls) {
+  // Rows of one class: x, y and what the point means (atEnd: a dynamics case's error at the end
+  // of the run instead of the worst over it).
+  function rows(cls, atEnd) {
     return R.rows.map((r) => ({
       engine: r.engine, variant: r.variant, series: r.series, setting: r.setting,
       dt: r.dt, cost: r.cost, status: r.status, gap: r.gap,
-      error: r.err[cls], y: r.y[cls], drawn: r.drawn[cls], pareto: r.pareto[cls],
+      error: atEnd ? r.end[cls] : r.err[cls], y: atEnd ? r.yend[cls] : r.y[cls],
+      drawn: atEnd ? 'error at the end of the run' : r.drawn[cls], pareto: r.pareto[cls],
     })).filter((r) => r.cost !== null);
   }
 
@@ -37,8 +39,8 @@
   ];
   const yScale = {type: 'log', domain: [R.floor, R.ceiling]};
 
-  function costSpec(cls) {
-    const data = rows(cls);
+  function costSpec(cls, atEnd) {
+    const data = rows(cls, atEnd);
     const engines = data.filter((r) => r.engine !== 'analytic');
     const front = engines.filter((r) => r.pareto).sort((a, b) => a.cost - b.cost);
     const series = engines.filter((r) => r.status === 'ok')
@@ -46,9 +48,9 @@
                                                                      : b.dt - a.dt));
     const analytic = data.filter((r) => r.engine === 'analytic');
     const X = {field: 'cost', type: 'quantitative', scale: {type: 'log'},
-               title: 'wall time per simulated cycle [s]'};
+               title: R.costTitle || 'wall time per simulated cycle [s]'};
     const Y = {field: 'y', type: 'quantitative', scale: yScale,
-               title: 'max % of peak (' + cls + ')'};
+               title: (atEnd ? '% of peak at the end (' : 'max % of peak (') + cls + ')'};
     return {
       $schema: schema, width: 680, height: 380,
       layer: [
@@ -103,7 +105,8 @@
   const opts = {renderer: 'svg', actions: false};
   const jobs = [];
   for (const cls of R.classes) {
-    jobs.push(vegaEmbed('#cost-' + cls, costSpec(cls), opts));
+    jobs.push(vegaEmbed('#cost-' + cls, costSpec(cls, false), opts));
+    if (R.dynamics) jobs.push(vegaEmbed('#end-' + cls, costSpec(cls, true), opts));
     jobs.push(vegaEmbed('#dt-' + cls, dtSpec(cls), opts));
   }
   Promise.all(jobs).then((results) => {

@@ -35,6 +35,8 @@ std::string error_cell(const SweepRow& r, size_t k) {
 std::string status_text(const SweepRow& r) {
   if (r.status == RunStatus::flagged)
     return fmt::format("flagged ({} of {} samples)", r.flagged_samples, r.samples);
+  if (r.status == RunStatus::ok && r.flagged_samples > 0)  // a dynamics run's singular samples
+    return fmt::format("ok ({} of {} samples singular)", r.flagged_samples, r.samples);
   return std::string(to_string(r.status));
 }
 
@@ -56,6 +58,9 @@ json report_data(const SettingsSweep& sweep) {
   const double ceiling = std::pow(10.0, std::ceil(std::log10(largest)) + 1.0);
   r["floor"] = floor;
   r["ceiling"] = ceiling;
+  r["dynamics"] = sweep.dynamics;
+  r["costTitle"] =
+      sweep.dynamics ? "CPU time per simulated second [s]" : "CPU time per simulated cycle [s]";
   r["rows"] = json::array();
   for (const SweepRow& row : sweep.rows) {
     json j;
@@ -64,7 +69,7 @@ json report_data(const SettingsSweep& sweep) {
     j["series"] = row.engine + " " + row.variant;
     j["setting"] = row.setting_label();
     j["dt"] = finite_or_null(row.dt);
-    j["cost"] = finite_or_null(row.wall_s_per_cycle > 0.0 ? row.wall_s_per_cycle : std::nan(""));
+    j["cost"] = finite_or_null(row.cost() > 0.0 ? row.cost() : std::nan(""));
     j["status"] = std::string(to_string(row.status));
     j["gap"] = row.max_loop_gap;
     for (ErrorClass c : kErrorClasses) {
@@ -91,6 +96,12 @@ json report_data(const SettingsSweep& sweep) {
         y = ceiling;
         drawn += ", beyond the chart: drawn at the ceiling";
       }
+      // A dynamics case's error at the end of the run, drawn the same way (none: the ceiling).
+      const double end = row.end_pct[k];
+      j["end"][to_string(c)] = finite_or_null(end);
+      j["yend"][to_string(c)] = !std::isfinite(end)
+                                    ? (row.engine == "analytic" && e == 0.0 ? floor : ceiling)
+                                    : std::clamp(end, floor, ceiling);
       j["err"][to_string(c)] = finite_or_null(e);
       j["raw"][to_string(c)] = finite_or_null(raw);
       j["y"][to_string(c)] = y;
@@ -121,10 +132,30 @@ std::string orders_table(const SettingsSweep& sweep) {
   return html + "</table>\n";
 }
 
+// The IFToMM limits: one row per series, a column per limit.
+std::string limits_table(const SettingsSweep& sweep) {
+  std::string html = "<table><tr><th>engine</th><th>variant</th>";
+  for (double limit : kBenchmarkLimits) html += fmt::format("<th>limit {:g}</th>", limit);
+  html += "</tr>\n";
+  const size_t series = sweep.limits.size() / kBenchmarkLimits.size();
+  for (size_t i = 0; i < series; ++i) {
+    const BenchmarkLimit& first = sweep.limits[i];
+    html += fmt::format("<tr><td>{}</td><td>{}</td>", html_escape(first.engine),
+                        html_escape(first.variant));
+    for (size_t k = 0; k < kBenchmarkLimits.size(); ++k) {
+      const BenchmarkLimit& b = sweep.limits[k * series + i];
+      html += fmt::format("<td{}>{}</td>", b.met ? "" : " class=\"status-flagged\"",
+                          html_escape(benchmark_limit_text(b)));
+    }
+    html += "</tr>\n";
+  }
+  return html + "</table>\n";
+}
+
 std::string rows_table(const SettingsSweep& sweep) {
   std::string html =
       "<table class=\"rows\"><tr><th>engine</th><th>setting</th><th>dt [s]</th>"
-      "<th>wall per cycle [s]</th><th>position %</th><th>velocity %</th>"
+      "<th>CPU per cycle [s]</th><th>position %</th><th>velocity %</th>"
       "<th>acceleration %</th><th>max loop gap [m]</th><th>status</th><th>front</th>"
       "<th>settings in force, notes</th></tr>\n";
   for (const SweepRow& r : sweep.rows) {
@@ -140,14 +171,14 @@ std::string rows_table(const SettingsSweep& sweep) {
         "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"settings\">{}</td></tr>\n",
         r.status == RunStatus::ok ? "" : std::string("status-") + std::string(to_string(r.status)),
         html_escape(r.engine), html_escape(r.variant), cell(r.dt, "{:.4g}"),
-        cell(r.wall_s_per_cycle, "{:.4g}"), error_cell(r, 0), error_cell(r, 1), error_cell(r, 2),
+        cell(r.cost(), "{:.4g}"), error_cell(r, 0), error_cell(r, 1), error_cell(r, 2),
         cell(r.max_loop_gap), html_escape(status_text(r)), front, settings);
   }
   return html + "</table>\n";
 }
 
 constexpr const char* kSweepStyle = R"css(
-tr.status-flagged td { background: #fff3cd; }
+tr.status-flagged td, td.status-flagged { background: #fff3cd; }
 tr.status-diverged td { background: #fde0e0; }
 )css";
 
@@ -158,13 +189,28 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
   write_page_head(fmt::format("crosslink sweep: {}", m.name), kSweepStyle, options.asset_dirs, out);
   out << fmt::format("<h1>Speed against accuracy: {}</h1>\n<p>{}</p>\n", html_escape(m.name),
                      html_escape(m.description));
-  out << fmt::format(
-      "<p>File <code>{}</code>. Every engine setting is compared with the exact Newton sweep "
-      "({} samples every {:.4g} s; time steps above that use every m-th driver value so samples "
-      "fall on step boundaries). Error: the largest <i>max % of peak</i> over the channels of a "
-      "class (position includes link angles). Cost: the engine's stepping wall time per driver "
-      "cycle on this machine, one run each.</p>\n",
-      html_escape(m.file), sweep.samples, sweep.sample_interval);
+  if (sweep.dynamics)
+    out << fmt::format(
+        "<p>File <code>{}</code>, a dynamics case. Every engine setting is compared with the "
+        "exact simulation ({} samples every {:.4g} s; a time step above that is the interval: "
+        "an engine never steps past a sample). Error: the largest <i>max % of peak</i> over the "
+        "channels of a class (position includes link angles), worst over the run and at its "
+        "end. Cost: the engine's stepping CPU time per simulated second on this machine, the "
+        "median of {} runs; costs within {:.0f} % of each other count as equal (the front and "
+        "the pick do not hinge on timing noise). Grey diamonds: the exact simulation's second "
+        "integrator (dopri5) at looser tolerances, against the reference (rkf78 at 1e-13).</p>\n",
+        html_escape(m.file), sweep.samples, sweep.sample_interval,
+        sweep.rows.empty() ? 1 : sweep.rows.back().repeats, 100.0 * kCostTie);
+  else
+    out << fmt::format(
+        "<p>File <code>{}</code>. Every engine setting is compared with the exact Newton sweep "
+        "({} samples every {:.4g} s; time steps above that use every m-th driver value so "
+        "samples fall on step boundaries). Error: the largest <i>max % of peak</i> over the "
+        "channels of a class (position includes link angles). Cost: the engine's stepping CPU "
+        "time per driver cycle on this machine, the median of {} runs; costs within {:.0f} % "
+        "of each other count as equal.</p>\n",
+        html_escape(m.file), sweep.samples, sweep.sample_interval,
+        sweep.rows.empty() ? 1 : sweep.rows.back().repeats, 100.0 * kCostTie);
   for (const std::string& s : sweep.skipped)
     out << "<p><b>Not run:</b> " << html_escape(s) << "</p>\n";
   out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
@@ -185,6 +231,24 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
          "sample are drawn at the ceiling: that is where an engine's accuracy collapses.</p>\n";
   for (ErrorClass c : kErrorClasses)
     out << fmt::format("<h3>{0}</h3>\n<div id=\"cost-{0}\" class=\"chart\"></div>\n", to_string(c));
+  if (sweep.dynamics) {
+    out << "<h2>Error at the end of the run against cost</h2>\n<p>The work-precision chart of "
+           "the multibody benchmarks: the % of peak at the last sample.</p>\n";
+    for (ErrorClass c : kErrorClasses)
+      out << fmt::format("<h3>{0}</h3>\n<div id=\"end-{0}\" class=\"chart\"></div>\n",
+                         to_string(c));
+  }
+  if (!sweep.limits.empty())
+    out << fmt::format(
+               "<h2>IFToMM accuracy limits</h2>\n<p>The multibody benchmarks' error (IFToMM A01, "
+               "A02): the largest |difference| from the exact simulation of the driven link's tip "
+               "<code>{}</code>, per coordinate of its position [m] and velocity [m/s], over every "
+               "output step. Per series, the largest time step (the exact integrator: the "
+               "loosest tolerance) of this sweep whose run meets the limit with status ok, and "
+               "the CPU time of the whole run; where none does, the finest step's status or "
+               "error.</p>\n",
+               html_escape(benchmark_tip_point(m).value_or("?")))
+        << limits_table(sweep);
   out << "<h2>Error against time step</h2>\n<p>Each variant's series; the slope is the observed "
          "order of convergence (table below).</p>\n";
   for (ErrorClass c : kErrorClasses)

@@ -27,8 +27,13 @@ constexpr long kDefaultMaxSteps = 2'000'000;
 
 struct RunCost {
   double wall_seconds = 0.0;            // total wall time of the run (build + steps)
-  double wall_seconds_per_cycle = 0.0;  // stepping time per simulated driver cycle
-  long steps = 0;                       // engine steps taken
+  double wall_seconds_per_cycle = 0.0;  // stepping time per simulated driver cycle (a dynamics
+                                        // case: per simulated second)
+  // The same in CPU time of the stepping thread (sim::thread_cpu_seconds): unlike the wall time
+  // it does not count the time other processes take the core, so it varies less between runs
+  // on a shared machine (the settings sweep's cost).
+  double cpu_seconds_per_cycle = 0.0;
+  long steps = 0;  // engine steps taken
   double simulated_seconds = 0.0;
 };
 

@@ -8,7 +8,15 @@
 #include <numbers>
 #include <stdexcept>
 
+#include <time.h>
+
 namespace crosslink::sim {
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
 
 long parse_max_steps(const std::string& text) {
   size_t used = 0;

@@ -27,6 +27,10 @@ ReferenceState reference_state(const Mechanism& m, const Trajectory& reference, 
 // Largest difference between two configurations: positions per `size`, angles modulo 2 pi.
 double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size);
 
+// CPU time of the calling thread [s] (CLOCK_THREAD_CPUTIME_ID): what a run costs, without the
+// time other processes take the core.
+double thread_cpu_seconds();
+
 // The setting "max_steps": a positive whole number (std::invalid_argument otherwise).
 long parse_max_steps(const std::string& text);
 

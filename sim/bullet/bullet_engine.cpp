@@ -1294,6 +1294,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   long last_good = steps;
   std::string divergence;
   const auto t_steps = Clock::now();
+  const double cpu_start = thread_cpu_seconds();
   Eigen::VectorXd velocity(q.size());
   for (long k = 1; k <= steps; ++k) {
     const double t0 = step_time[static_cast<size_t>(k - 1)];
@@ -1322,6 +1323,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     }
   }
   const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
+  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
 
   // Velocity and acceleration at step k: central differences over k-1, k, k+1; at the start,
   // one-sided over steps 1..4. The start is a transient in Bullet: its first step's constraint
@@ -1473,6 +1475,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
   out.cost.wall_seconds_per_cycle =
       out.cost.simulated_seconds > 0 ? stepping / out.cost.simulated_seconds : 0.0;
+  out.cost.cpu_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping_cpu / out.cost.simulated_seconds : 0.0;
   for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
   return out;
 }
@@ -1794,6 +1798,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   double worst_gap = 0.0;
 
   const auto t_steps = Clock::now();
+  const double cpu_start = thread_cpu_seconds();
   for (long k = 1; k <= steps; ++k) {
     const double t = step_time[static_cast<size_t>(k)];
     scene->drive(target_at(t));
@@ -1819,6 +1824,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     }
   }
   const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
+  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
   const long taken = last_good < steps ? last_good + 1 : steps;
 
   // Samples: the polynomial through the steps k-1, k, k+1 (k the nearest step) at the sample
@@ -1981,6 +1987,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
   out.cost.wall_seconds_per_cycle =
       out.cost.simulated_seconds > 0 ? stepping * period / out.cost.simulated_seconds : 0.0;
+  out.cost.cpu_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping_cpu * period / out.cost.simulated_seconds : 0.0;
   for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
   (void)lost;
   return out;

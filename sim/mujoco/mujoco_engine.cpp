@@ -567,7 +567,10 @@ class ForceReader {
     if (d2->ne != ne || d2->nefc != ne)
       throw std::runtime_error("MuJoCo: the constraint rows changed between step and read");
     Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d->efc_force, ne);
-    if (centred_) {
+    // No constraint row (forward dynamics of an open chain: no driver equality, no cut joint,
+    // IFToMM A01's pendulum): nothing to centre, and Eigen's decomposition of an nv x 0 matrix
+    // reads out of bounds.
+    if (centred_ && ne > 0) {
       const Eigen::Map<const Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
           jacobian(d->efc_J, ne, nv);
       const Eigen::VectorXd bias = Eigen::Map<const Eigen::VectorXd>(d2->qfrc_bias, nv) -
@@ -989,6 +992,7 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   };
 
   const Clock::time_point stepping = Clock::now();
+  const double cpu_start = thread_cpu_seconds();
   long steps_taken = 0;
   for (long step = 1; step <= last_step && stopped.empty(); ++step) {
     const double t0 = grid[static_cast<size_t>(step - 1)];
@@ -1037,6 +1041,7 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
     if (leaving >= 0) record(leaving, k);
   }
   const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
+  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
 
   // Statuses: outside the usable span the reference's flag; unreached samples diverged; a sample
   // the reference flags keeps that flag (run through); then the gap and the conditioning.
@@ -1109,8 +1114,10 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   }
   run.cost.steps = steps_taken;
   run.cost.simulated_seconds = grid[static_cast<size_t>(steps_taken)] - grid.front();
-  if (run.cost.simulated_seconds > 0.0)
+  if (run.cost.simulated_seconds > 0.0) {
     run.cost.wall_seconds_per_cycle = stepping_seconds / run.cost.simulated_seconds;
+    run.cost.cpu_seconds_per_cycle = stepping_cpu / run.cost.simulated_seconds;
+  }
   run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
   return run;
 }
@@ -1337,6 +1344,7 @@ class MujocoEngine final : public Engine {
     };
 
     const Clock::time_point stepping = Clock::now();
+    const double cpu_start = thread_cpu_seconds();
     long steps_taken = 0;
     int interval = span.first;  // the sample whose interval (S_i-1, S_i] holds the current step
     int pending = span.first;   // the next sample to record
@@ -1408,6 +1416,7 @@ class MujocoEngine final : public Engine {
       }
     }
     const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
+    const double stepping_cpu = thread_cpu_seconds() - cpu_start;
 
     // Statuses: outside the usable span the reference's flag (no engine value); inside, an
     // unreached sample is diverged, a sample the reference flags keeps that flag (the engine ran
@@ -1530,8 +1539,10 @@ class MujocoEngine final : public Engine {
     run.cost.steps = steps_taken;
     run.cost.simulated_seconds = grid.back() - grid.front();
     const double cycle = m.cycle_period() > 0.0 ? m.cycle_period() : run.cost.simulated_seconds;
-    if (run.cost.simulated_seconds > 0.0)
+    if (run.cost.simulated_seconds > 0.0) {
       run.cost.wall_seconds_per_cycle = stepping_seconds * cycle / run.cost.simulated_seconds;
+      run.cost.cpu_seconds_per_cycle = stepping_cpu * cycle / run.cost.simulated_seconds;
+    }
     run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
     return run;
   }

@@ -22,6 +22,16 @@
 //   force_read      centred | raw: constraint forces at the sampled pose's own velocity (O(dt^2)),
 //                   or MuJoCo's efc_force as solved, velocity terms half a step behind (O(dt));
 //                   docs/engines.md, "Forces"
+//   singular_rcond  auto: 1e-6 (kinematic), 1e-3 (dynamics): samples whose constraint Jacobian at
+//                   the engine's configuration is worse conditioned are flagged singular
+// A dynamics case ([dynamics]; docs/engines.md, "Forward dynamics") runs without the driver
+// equality and adds:
+//   start           auto | staggered | exact: the velocity at the start, v0 - h/2 a0 (auto for
+//                   Euler and implicit) or v0 (auto for RK4)
+//   readout         auto | differences | state: central differences of the step positions, or
+//                   MuJoCo's state and mj_forward at the sample (auto for RK4)
+//   energy_threshold  1e-3: |energy.error| over the energy scale beyond which a note is given
+//   divergence_energy 1: beyond it the run stops, diverged
 #pragma once
 
 #include <memory>

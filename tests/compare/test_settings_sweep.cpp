@@ -3,6 +3,7 @@
 // (test_sweep_engines.cpp runs them).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -47,6 +48,43 @@ TEST(ParetoFront, IneligibleAndNonFinitePointsAreNeverOnItNorDominate) {
 TEST(ParetoFront, EqualPointsBothStay) {
   const std::vector<bool> front = pareto_front({1, 1}, {2, 2}, {true, true});
   EXPECT_EQ(front, (std::vector<bool>{true, true}));
+}
+
+// Costs within kCostTie, and errors within kErrorTie, are equal: what timing noise or a 2 %
+// difference in error cannot order, the front does not order either.
+TEST(ParetoFront, CostsAndErrorsWithinTheTiesAreEqual) {
+  // Equal errors, costs 10 % apart: both stay (without the ties the dearer one drops).
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{true, true}));
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}), (std::vector<bool>{true, false}));
+  // Errors 2 % apart at costs 30 % apart: the same error, the clearly cheaper one wins.
+  EXPECT_EQ(pareto_front({1.0, 1.3}, {2.04, 2.0}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{true, false}));
+  // As cheap (within the tie) and clearly more accurate: it dominates the cheaper one.
+  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 1}, {true, true}, kCostTie, kErrorTie),
+            (std::vector<bool>{false, true}));
+}
+
+// A grid's worth of points: time steps a factor 2 apart in cost and 4 in error, three variants
+// at each, two of them of the same error and cost to 5 % (as MuJoCo's Euler with the Newton and
+// CG solvers), one three times less accurate. Costs perturbed by up to 8 % either way never move
+// the front (the ties absorb up to 25 % between two costs).
+TEST(ParetoFront, TimingNoiseDoesNotMoveTheFront) {
+  std::vector<double> cost, error;
+  for (int step = 0; step < 4; ++step)
+    for (int variant = 0; variant < 3; ++variant) {
+      cost.push_back(std::pow(2.0, step) * (1.0 + 0.05 * variant));
+      error.push_back(std::pow(4.0, -step) * (variant == 1 ? 1.02 : variant == 2 ? 3.0 : 1.0));
+    }
+  const std::vector<bool> eligible(cost.size(), true);
+  const std::vector<bool> front = pareto_front(cost, error, eligible, kCostTie, kErrorTie);
+  EXPECT_EQ(std::count(front.begin(), front.end(), true), 8);  // both equals at every step
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<double> noisy = cost;
+    for (size_t i = 0; i < noisy.size(); ++i)
+      noisy[i] *= 1.0 + 0.08 * std::sin(37.0 * trial + 11.0 * static_cast<double>(i));
+    EXPECT_EQ(pareto_front(noisy, error, eligible, kCostTie, kErrorTie), front) << trial;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -112,7 +150,7 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   const std::vector<SweepRow> rows = {
       row("Euler", 1e-3, 1.0, {0.5, 3, 20}),        // misses acceleration
       row("RK4", 1e-3, 2.0, {0.1, 0.5, 0.9}),       // meets 1 %
-      row("implicit", 1e-3, 1.7, {0.1, 0.5, 0.8}),  // meets 1 %, cheaper than RK4
+      row("implicit", 1e-3, 1.2, {0.1, 0.5, 0.8}),  // meets 1 %, 1.7 times cheaper than RK4
       row("Euler", 1e-4, 0.5, {1e-3, 1e-3, 1e-3}),  // cheaper still (a noisy timing), finer:
                                                     // not needed, never chosen
       row("soft", 1e-3, 0.1, {0.01, 0.01, 0.01}, RunStatus::flagged),  // flagged: never chosen
@@ -134,10 +172,107 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   EXPECT_FALSE(select_cheapest("bullet", 1.0, rows).found);  // another engine's rows
 }
 
+// At one time step, costs within kPickTie of the cheapest are equal: the earlier row in the grid
+// (the engine's default variant first) is taken, so timing noise cannot change the pick.
+TEST(Selection, CostsWithinTheTieGoToTheGridOrder) {
+  const std::vector<SweepRow> tied = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
+                                      row("Euler/CG", 1e-3, 0.7, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, tied).chosen.variant, "Euler/Newton");
+  const std::vector<SweepRow> apart = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
+                                       row("Euler/CG", 1e-3, 0.6, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, apart).chosen.variant, "Euler/CG");
+  // A dynamics row must meet the accuracy on its energy balance too.
+  SweepRow drifting = row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1});
+  drifting.energy_pct = 2.0;
+  EXPECT_FALSE(drifting.meets(1.0));
+}
+
 TEST(Selection, ARowWithoutAComparableClassNeverMeets) {
   EXPECT_FALSE(row("x", 1e-3, 1, {0.1, kNaN, 0.1}).meets(1.0));
   EXPECT_TRUE(row("x", 1e-3, 1, {0.1, 0.1, 1.0}).meets(1.0));
   EXPECT_FALSE(row("x", 1e-3, 1, {0.1, 0.1, 0.1}, RunStatus::diverged).meets(1.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The IFToMM accuracy limits
+
+SweepRow tip_row(std::string variant, double dt, double cost, double position, double velocity,
+                 RunStatus status = RunStatus::ok) {
+  SweepRow r = row(std::move(variant), dt, cost, {0.1, 0.1, 0.1}, status);
+  r.cpu_s_per_cycle = cost;
+  r.tip_position_error = position;
+  r.tip_velocity_error = velocity;
+  return r;
+}
+
+// Per series the largest time step meeting each limit, the larger of the two errors deciding;
+// a flagged run never meets one; a series that meets none says why, from its finest step.
+TEST(BenchmarkLimits, LargestStepMeetingEachLimitAndItsRunCost) {
+  const std::vector<SweepRow> rows = {
+      tip_row("Euler", 1e-2, 0.01, 0.2, 0.05),                      // position over 1e-1
+      tip_row("Euler", 3e-3, 0.02, 0.03, 0.08),                     // meets 1e-1
+      tip_row("Euler", 1e-3, 0.05, 4e-4, 2e-3),                     // velocity over 1e-3
+      tip_row("Euler", 5e-4, 0.09, 2e-4, 9e-4),                     // meets 1e-3
+      tip_row("soft", 1e-2, 0.01, 1e-5, 1e-5, RunStatus::flagged),  // never meets
+      tip_row("soft", 1e-3, 0.05, 0.5, 0.5),                        // ok but too far off
+  };
+  const std::vector<BenchmarkLimit> limits = benchmark_limits(rows, 10.0);
+  ASSERT_EQ(limits.size(), 4u);  // 2 limits x 2 series, limit-major
+  EXPECT_EQ(limits[0].variant, "Euler");
+  EXPECT_DOUBLE_EQ(limits[0].limit, 1e-1);
+  ASSERT_TRUE(limits[0].met);
+  EXPECT_DOUBLE_EQ(limits[0].row.dt, 3e-3);
+  EXPECT_DOUBLE_EQ(limits[0].run_cpu_seconds, 0.2);  // 0.02 s per simulated s over 10 s
+  EXPECT_FALSE(limits[1].met);                       // soft, 1e-1
+  EXPECT_DOUBLE_EQ(limits[1].row.dt, 1e-3);          // its finest step
+  EXPECT_NE(limits[1].why.find("error 0.5"), std::string::npos) << limits[1].why;
+  ASSERT_TRUE(limits[2].met);  // Euler, 1e-3
+  EXPECT_DOUBLE_EQ(limits[2].limit, 1e-3);
+  EXPECT_DOUBLE_EQ(limits[2].row.dt, 5e-4);
+  EXPECT_NE(benchmark_limit_text(limits[2]).find("dt 0.0005 s"), std::string::npos);
+  EXPECT_FALSE(limits[3].met);
+  // Nothing with a tip error, nothing met; analytic rows other than the looser tolerances are
+  // not a series.
+  SweepRow reference = tip_row("exact", kNaN, 0.01, 0.0, 0.0);
+  reference.engine = "analytic";
+  SweepRow loose = tip_row("exact, tolerance 1e-06", kNaN, 0.002, 2e-3, 5e-3);
+  loose.engine = "analytic";
+  SweepRow tight = tip_row("exact, tolerance 1e-08", kNaN, 0.003, 2e-5, 5e-5);
+  tight.engine = "analytic";
+  const std::vector<BenchmarkLimit> exact = benchmark_limits({reference, loose, tight}, 10.0);
+  ASSERT_EQ(exact.size(), 2u);
+  EXPECT_EQ(exact[0].variant, "exact, dopri5");
+  EXPECT_EQ(exact[0].row.variant, loose.variant);  // the loosest meeting 1e-1
+  EXPECT_EQ(exact[1].row.variant, tight.variant);  // and 1e-3
+  EXPECT_NE(benchmark_limit_text(exact[1]).find("met at tolerance 1e-08"), std::string::npos)
+      << benchmark_limit_text(exact[1]);
+}
+
+// The measure on A02's B0: per coordinate, positions and velocities apart; samples an engine
+// did not reach are not counted.
+TEST(BenchmarkLimits, TipErrorsAreB0sLargestCoordinateDifferences) {
+  const Mechanism m = load_mechanism(mechanism_path("iftomm_a02_double_fourbar"));
+  ASSERT_EQ(benchmark_tip_point(m), "B0");
+  Trajectory reference;
+  reference.point_names = {"A0", "B0", "B1"};
+  const int n = 5;
+  reference.time = Eigen::VectorXd::LinSpaced(n, 0.0, 0.1);
+  for (Eigen::MatrixXd* column : {&reference.x, &reference.y, &reference.vx, &reference.vy})
+    *column = Eigen::MatrixXd::Zero(n, 3);
+  reference.status.assign(n, PoseStatus::ok);
+  Trajectory run = reference;
+  run.x(1, 1) = 2e-3;   // B0
+  run.y(2, 1) = -3e-3;  // B0: the position error
+  run.vx(3, 1) = 4e-3;  // B0: the velocity error
+  run.vy(3, 2) = 1.0;   // B1: not the tip
+  run.x(4, 1) = 10.0;   // B0, after the run diverged
+  run.status[4] = PoseStatus::diverged;
+  run.status[2] = PoseStatus::singular;  // counted: the benchmark measures every output step
+  const std::array<double, 2> e = benchmark_tip_errors(m, reference, run);
+  EXPECT_DOUBLE_EQ(e[0], 3e-3);
+  EXPECT_DOUBLE_EQ(e[1], 4e-3);
+  run.vy(0, 1) = kNaN;  // a rate not written is not counted
+  EXPECT_DOUBLE_EQ(benchmark_tip_errors(m, reference, run)[1], 4e-3);
 }
 
 // ---------------------------------------------------------------------------------------------

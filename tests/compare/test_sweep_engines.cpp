@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
+#include <string>
 
 #include "analytic/loader.h"
 #include "compare/settings_sweep.h"
@@ -124,6 +127,76 @@ TEST(SweepEngines, SmallSweepProducesRowsFrontsAndReports) {
     EXPECT_NE(html.str().find("const REPORT = "), std::string::npos);
     EXPECT_NE(html.str().find("render-status"), std::string::npos);
   }
+}
+
+// A dynamics case (IFToMM A02 with N = 2 over 10 s), MuJoCo at one time step: the rows carry the
+// error at the end of the run and of the energy balance; the exact simulation's second
+// integrator (dopri5) at looser tolerances is drawn beside, its error falling with the tolerance
+// (the reference, rkf78 stepped to each sample, would give the same run at every tolerance);
+// the IFToMM limits on B0 per series; and two identical sweeps give the same errors (the
+// engines are deterministic) and pick the same setting.
+TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
+  const Mechanism m = load_mechanism(mechanism_path("iftomm_a02_double_fourbar"));
+  SettingsSweepOptions options;
+  options.engines = {"mujoco"};
+  options.dts = {2e-3};
+  options.repeat = 3;
+  options.accuracy_pct = 1.0;
+  const SettingsSweep a = run_settings_sweep(m, options);
+  const SettingsSweep b = run_settings_sweep(m, options);
+  ASSERT_TRUE(a.dynamics);
+  ASSERT_EQ(a.rows.size(), b.rows.size());
+  int engine_rows = 0;
+  double previous = INFINITY;
+  for (size_t i = 0; i < a.rows.size(); ++i) {
+    const SweepRow& r = a.rows[i];
+    EXPECT_EQ(r.variant, b.rows[i].variant);
+    EXPECT_EQ(r.max_pct, b.rows[i].max_pct) << r.variant;
+    if (r.engine == "analytic") {
+      if (r.variant.starts_with("exact, tolerance")) {  // looser first
+        EXPECT_LT(r.error(ErrorClass::position), previous) << r.variant;
+        previous = r.error(ErrorClass::position);
+        EXPECT_LE(r.tip_position_error, r.benchmark_error()) << r.variant;
+      }
+      continue;
+    }
+    ++engine_rows;
+    EXPECT_EQ(r.repeats, 3);
+    EXPECT_GT(r.cpu_s_per_cycle, 0.0);
+    if (r.status != RunStatus::ok) continue;
+    for (size_t k = 0; k < 3; ++k) EXPECT_LE(r.end_pct[k], r.max_pct[k] * (1 + 1e-12));
+    EXPECT_TRUE(std::isfinite(r.energy_pct)) << r.variant;
+  }
+  EXPECT_EQ(engine_rows, 6);
+  // The IFToMM limits on B0, per series (6 MuJoCo variants and the exact integrator): a limit
+  // met is met by its row, with status ok; one not met says why.
+  ASSERT_EQ(a.limits.size(), kBenchmarkLimits.size() * 7);
+  for (const BenchmarkLimit& l : a.limits) {
+    if (!l.met) {
+      EXPECT_FALSE(l.why.empty()) << l.variant;
+      continue;
+    }
+    EXPECT_EQ(l.row.status, RunStatus::ok) << l.variant;
+    EXPECT_LE(l.row.benchmark_error(), l.limit) << l.variant;
+    EXPECT_GT(l.run_cpu_seconds, 0.0) << l.variant;
+  }
+  // Shown in the console and the report.
+  char* text = nullptr;
+  size_t size = 0;
+  std::FILE* console = open_memstream(&text, &size);
+  print_sweep(a, console);
+  std::fclose(console);
+  EXPECT_NE(std::string(text, size).find("IFToMM accuracy limits"), std::string::npos);
+  std::free(text);
+  if (find_report_assets({})) {
+    std::ostringstream html;
+    write_sweep_html(a, {}, html);
+    EXPECT_NE(html.str().find("<h2>IFToMM accuracy limits</h2>"), std::string::npos);
+  }
+  ASSERT_EQ(a.selections.size(), 1u);
+  ASSERT_TRUE(a.selections[0].found) << a.selections[0].summary();
+  EXPECT_EQ(a.selections[0].chosen.variant, b.selections[0].chosen.variant);
+  EXPECT_NE(a.selections[0].summary().find("per simulated s"), std::string::npos);
 }
 
 }  // namespace

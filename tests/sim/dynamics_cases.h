@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <string>
 #include <utility>
 
@@ -65,6 +66,20 @@ inline Errors errors(const Trajectory& ref, const Trajectory& run) {
   e.velocity /= v_peak;
   e.acceleration /= a_peak;
   return e;
+}
+
+// Every sample the run flagged is `singular`, for its conditioning (rcond below 1e-3), next to a
+// passage through A02's singular position (the cranks within 0.05 rad of the horizontal).
+inline void expect_flags_only_at_passages(const Trajectory& ref, const Trajectory& run,
+                                          const std::string& what) {
+  for (int i = 0; i < ref.samples(); ++i) {
+    const PoseStatus s = run.status[static_cast<size_t>(i)];
+    if (s == PoseStatus::ok) continue;
+    EXPECT_EQ(s, PoseStatus::singular) << what << " sample " << i;
+    EXPECT_LT(run.rcond(i), 1e-3) << what << " sample " << i;
+    EXPECT_LT(std::abs(std::remainder(ref.driver(i), std::numbers::pi)), 0.05)
+        << what << " sample " << i;
+  }
 }
 
 inline bool all_finite(const Trajectory& t) {
