@@ -360,6 +360,38 @@ TEST(Cli, AnEngineRefusesARunBeyondMaxSteps) {
   EXPECT_GE(found, 2u) << "both engines should say so:\n" << run.out;
 }
 
+// Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
+// (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
+// fail the engine's run (exit 1) under a verdict that said otherwise.
+TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
+  const std::string compare = std::string("compare ") + kSewing;
+  const CommandRun typo = crosslink(compare + " --set mujoco:dtt=1");
+  EXPECT_EQ(typo.exit_code, 2) << typo.out;
+  EXPECT_NE(typo.err.find("unknown MuJoCo setting \"dtt\" (known: dt, max_step_angle,"),
+            std::string::npos)
+      << typo.err;
+  EXPECT_EQ(typo.out.find("verdict"), std::string::npos) << "nothing runs:\n" << typo.out;
+  // A bare key goes to every engine that runs: MuJoCo's integrator is not Bullet's.
+  const CommandRun bare = crosslink(compare + " --engines analytic,bullet --set integrator=RK4");
+  EXPECT_EQ(bare.exit_code, 2);
+  EXPECT_NE(bare.err.find("unknown Bullet setting 'integrator' (known: formulation,"),
+            std::string::npos)
+      << bare.err;
+  // ENGINE:KEY is checked whether that engine runs or not; the prefix must be an engine.
+  const CommandRun idle = crosslink(compare + " --engines analytic --set bullet:erp=2");
+  EXPECT_EQ(idle.exit_code, 2);
+  EXPECT_NE(idle.err.find("setting erp: in (0, 1]"), std::string::npos) << idle.err;
+  const CommandRun prefix = crosslink(compare + " --engines analytic --set adams:dt=1");
+  EXPECT_EQ(prefix.exit_code, 2);
+  EXPECT_NE(prefix.err.find("'adams' is not an engine (engines: mujoco, bullet)"),
+            std::string::npos)
+      << prefix.err;
+  const CommandRun value = crosslink(compare + " --engines analytic,mujoco --set dt=fast");
+  EXPECT_EQ(value.exit_code, 2);
+  EXPECT_NE(value.err.find("setting dt = \"fast\": expected a number"), std::string::npos)
+      << value.err;
+}
+
 // The settings grid of `sweep` multiplies its work: --repeat and the --dt list are bounded too.
 TEST(Cli, TheSweepGridIsBounded) {
   const CommandRun repeat = crosslink(std::string("sweep ") + kSewing + " --repeat 101");
