@@ -643,6 +643,7 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
                           m.units.length_name));
     }
     speed_scale.unit = unit_name;
+    d.law.speed_unit = {unit_name, speed_scale.si};
     const std::optional<double> speed = r.number(*t, "speed", "[driver]", true, speed_scale);
     if (speed && *speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
     d.law.speed = speed.value_or(0.0);

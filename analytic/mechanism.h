@@ -98,11 +98,18 @@ struct Joint {
   int dof() const { return type == JointType::pin_in_slot ? 2 : 1; }  // freedoms it allows
 };
 
+// A unit as the definition wrote it, to show a value back in it: file value = SI value / si.
+struct FileUnit {
+  std::string name = "rad/s";  // "rpm", "deg/s", "mm/s", ...
+  double si = 1.0;             // SI value of one of it
+};
+
 // The motion law of the driver coordinate q_d(t), in SI (rad or m, and seconds).
 struct MotionLaw {
   enum class Kind { constant_speed, polynomial, table };
   Kind kind = Kind::constant_speed;
   double speed = 0.0;                // constant_speed: dq/dt [rad/s or m/s]; sign = direction
+  FileUnit speed_unit;               // the unit the definition gave the speed in
   std::vector<double> coefficients;  // polynomial: q = start + c1 t + c2 t^2 + ... (c1 first)
   std::vector<double> table_time;    // table: knots [s], strictly increasing
   std::vector<double> table_value;   // table: q at the knots (natural cubic spline between)

@@ -44,8 +44,8 @@ std::string driver_text(const Mechanism& m) {
   std::string law;
   switch (d.law.kind) {
     case MotionLaw::Kind::constant_speed:
-      law = d.angular() ? fmt::format("constant speed {:.6g} rad/s", d.law.speed)
-                        : fmt::format("constant speed {:.6g} m/s", d.law.speed);
+      law = fmt::format("constant speed {:.6g} {}", d.law.speed / d.law.speed_unit.si,
+                        d.law.speed_unit.name);
       break;
     case MotionLaw::Kind::polynomial:
       law = fmt::format("polynomial over {:.6g} s", d.law.duration);

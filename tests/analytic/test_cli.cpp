@@ -360,6 +360,28 @@ TEST(Cli, AnEngineRefusesARunBeyondMaxSteps) {
   EXPECT_GE(found, 2u) << "both engines should say so:\n" << run.out;
 }
 
+// The bundled crank-rocker four-bar (mechanisms/fourbar_crank_rocker.toml, m and deg, drawn at
+// crank angle 0) with its motion law replaced by `law`, the [driver] table's last keys.
+std::string crank_rocker_with(const std::string& name, const std::string& law) {
+  const std::string text = read_file("mechanisms/fourbar_crank_rocker.toml");
+  return write_definition(name, text.substr(0, text.find("speed = 240")) + law);
+}
+
+// Issue 13: check shows the driver's speed as the file wrote it.
+TEST(Cli, CheckShowsTheDriverSpeedInTheFilesUnit) {
+  const CommandRun rpm = crosslink(std::string("check ") + kSewing);  // speed = 240, rpm
+  EXPECT_NE(rpm.out.find(", constant speed 240 rpm\n"), std::string::npos) << rpm.out;
+  const CommandRun deg = crosslink(
+      "check \"" + crank_rocker_with("deg_s.toml", "speed = -90\nspeed_unit = \"deg/s\"\n") + "\"");
+  EXPECT_NE(deg.out.find(", constant speed -90 deg/s\n"), std::string::npos) << deg.out;
+  const CommandRun rad =
+      crosslink("check \"" + crank_rocker_with("rad_s.toml", "speed = 2.5\n") + "\"");
+  EXPECT_NE(rad.out.find(", constant speed 2.5 rad/s\n"), std::string::npos) << rad.out;
+  // A slider's speed is in the file's length unit per second (speed = 100, in mm).
+  const CommandRun slider = crosslink("check mechanisms/singular/slider_crank_from_slider.toml");
+  EXPECT_NE(slider.out.find(", constant speed 100 mm/s\n"), std::string::npos) << slider.out;
+}
+
 // Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
 // (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
 // fail the engine's run (exit 1) under a verdict that said otherwise.
