@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "compare/report.h"
+
 namespace crosslink::app {
 namespace {
 
@@ -120,12 +122,15 @@ void print_csv(const Trajectory& t, const Columns& extra) {
   }
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
-    std::string line =
-        fmt::format("{},{:.17g},{:.17g},{}", r, t.time(r), t.driver(r), to_string(status));
-    for (size_t c = 0; c < columns.size(); ++c)
-      line += exists(status, quantities[c]) ? fmt::format(",{:.17g}", columns[c](r)) : ",";
-    for (const auto& [name, column] : extra)
-      line += std::isfinite(column(r)) ? fmt::format(",{:.17g}", column(r)) : ",";
+    std::string line = fmt::format("{},{},{},{}", r, t.time(r), t.driver(r), to_string(status));
+    for (size_t c = 0; c < columns.size(); ++c) {
+      line += ',';
+      if (exists(status, quantities[c])) line += compare::csv_number(columns[c](r));
+    }
+    for (const auto& [name, column] : extra) {
+      line += ',';
+      line += compare::csv_number(column(r));
+    }
     fmt::print("{}\n", line);
   }
 }

@@ -338,6 +338,10 @@ nlohmann::json to_json(const Comparison& cmp) {
   return j;
 }
 
+std::string csv_number(double value) {
+  return std::isfinite(value) ? fmt::format("{}", value) : std::string();
+}
+
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
@@ -348,14 +352,12 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     const Eigen::VectorXd v = *run.trajectory.channel(c.metrics.channel);
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
-      const double local = c.metrics.local_pct(k);
-      out << fmt::format(
-          "{},{},{},{},{:.17g},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g}\n", c.method,
-          c.metrics.channel, to_string(c.metrics.quantity), k, ref.driver(k),
-          to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
-          c.metrics.in_verdict[ks] ? 1 : 0, r(k), v(k), c.metrics.difference(k),
-          c.metrics.pct_of_peak(k),
-          std::isnan(local) ? std::string() : fmt::format("{:.17g}", local), ref.time(k));
+      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method, c.metrics.channel,
+                         to_string(c.metrics.quantity), k, ref.driver(k), to_string(ref.status[ks]),
+                         to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
+                         csv_number(r(k)), csv_number(v(k)), csv_number(c.metrics.difference(k)),
+                         csv_number(c.metrics.pct_of_peak(k)), csv_number(c.metrics.local_pct(k)),
+                         ref.time(k));
     }
   }
 }

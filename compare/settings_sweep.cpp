@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "compare/comparison.h"
+#include "compare/report.h"
 #include "compare/tolerance.h"
 
 namespace crosslink::compare {
@@ -615,10 +616,6 @@ std::string csv_field(std::string_view text) {
   return quoted + "\"";
 }
 
-std::string number(double v) {
-  return std::isnan(v) ? "" : fmt::format("{:.6g}", v);
-}
-
 std::string settings_text(const sim::Settings& s) {
   std::string text;
   for (const auto& [k, v] : s) text += fmt::format("{}{}={}", text.empty() ? "" : "; ", k, v);
@@ -633,13 +630,14 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "pareto_position,pareto_velocity,pareto_acceleration,raw_pct_position,"
          "raw_pct_velocity,raw_pct_acceleration,settings,message\n";
   for (const SweepRow& r : sweep.rows) {
-    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << number(r.dt) << ','
-        << number(r.wall_s_per_cycle) << ',' << number(r.max_pct[0]) << ',' << number(r.max_pct[1])
-        << ',' << number(r.max_pct[2]) << ',' << number(r.max_loop_gap) << ','
-        << to_string(r.status) << ',' << csv_field(r.variant) << ',' << r.flagged_samples << ','
-        << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1] << ',' << r.pareto[2] << ','
-        << number(r.raw_pct[0]) << ',' << number(r.raw_pct[1]) << ',' << number(r.raw_pct[2]) << ','
-        << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << '\n';
+    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt)
+        << ',' << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ','
+        << csv_number(r.max_pct[1]) << ',' << csv_number(r.max_pct[2]) << ','
+        << csv_number(r.max_loop_gap) << ',' << to_string(r.status) << ',' << csv_field(r.variant)
+        << ',' << r.flagged_samples << ',' << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1]
+        << ',' << r.pareto[2] << ',' << csv_number(r.raw_pct[0]) << ',' << csv_number(r.raw_pct[1])
+        << ',' << csv_number(r.raw_pct[2]) << ',' << csv_field(settings_text(r.settings)) << ','
+        << csv_field(r.message) << '\n';
   }
 }
 

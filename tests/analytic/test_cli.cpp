@@ -6,10 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -380,6 +382,109 @@ TEST(Cli, CheckShowsTheDriverSpeedInTheFilesUnit) {
   // A slider's speed is in the file's length unit per second (speed = 100, in mm).
   const CommandRun slider = crosslink("check mechanisms/singular/slider_crank_from_slider.toml");
   EXPECT_NE(slider.out.find(", constant speed 100 mm/s\n"), std::string::npos) << slider.out;
+}
+
+// Issue 13: every CSV number is written in the shortest form that reads back as the same double.
+// A field is checked two ways: it reads back as the value solve's JSON holds for the same sample
+// (nlohmann writes every double so that it reads back exactly), and a stream's default (%g) format
+// with one significant digit fewer does not read back as the same double (so no shorter text would
+// do).
+int significant_digits(const std::string& field) {
+  std::string digits;
+  for (const char c : field) {
+    if (c == 'e' || c == 'E') break;
+    if (std::isdigit(static_cast<unsigned char>(c)) && !(digits.empty() && c == '0')) digits += c;
+  }
+  while (!digits.empty() && digits.back() == '0') digits.pop_back();
+  return static_cast<int>(digits.size());
+}
+
+bool is_shortest(const std::string& field) {
+  const double value = std::stod(field);
+  const int digits = significant_digits(field);
+  if (digits <= 1) return true;
+  std::ostringstream shorter;
+  shorter << std::setprecision(digits - 1) << value;
+  return std::stod(shorter.str()) != value;
+}
+
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  for (std::string field; std::getline(in, field, ',');) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+TEST(Cli, CsvNumbersAreShortestAndReadBackExactly) {
+  const CommandRun csv = crosslink(std::string("solve ") + kSewing + " --format csv");
+  ASSERT_EQ(csv.exit_code, 0) << csv.err;
+  const nlohmann::json json = solve_json("");
+  ASSERT_TRUE(json.contains("samples"));
+  std::istringstream lines(csv.out);
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = csv_fields(line);
+  int row = 0, compared = 0, numbers = 0;
+  for (; std::getline(lines, line); ++row) {
+    const std::vector<std::string> fields = csv_fields(line);
+    ASSERT_EQ(fields.size(), header.size()) << line.substr(0, 80);
+    const nlohmann::json& sample = json.at("samples").at(static_cast<size_t>(row));
+    for (size_t c = 1; c < fields.size(); ++c) {
+      if (fields[c].empty() || header[c] == "status") continue;
+      ++numbers;
+      EXPECT_TRUE(is_shortest(fields[c]))
+          << header[c] << " = " << fields[c] << " (row " << row << ")";
+      // The same value in the JSON document, where the schema has it.
+      const std::string& name = header[c];
+      const std::string kind = name.substr(0, name.find('.'));
+      const std::string object = name.substr(name.find('.') + 1);
+      const nlohmann::json* expected = nullptr;
+      if (name == "time" || name == "driver")
+        expected = &sample.at(name);
+      else if (kind == "angle" || kind == "omega" || kind == "alpha")
+        expected = &sample.at("links").at(object).at(kind);
+      else if (kind == "x" || kind == "y" || kind == "vx" || kind == "vy" || kind == "ax" ||
+               kind == "ay")
+        expected = &sample.at("points").at(object).at(kind);
+      else if (kind == "s" || kind == "sdot" || kind == "sddot")
+        expected = &sample.at("sliders").at(object).at(kind);
+      if (!expected) continue;
+      ASSERT_TRUE(expected->is_number()) << name << " row " << row;
+      EXPECT_EQ(std::stod(fields[c]), expected->get<double>())
+          << name << " = " << fields[c] << " (row " << row << ")";
+      ++compared;
+    }
+  }
+  EXPECT_EQ(row, 361);
+  EXPECT_GT(compared, 361 * 20);
+  EXPECT_GT(numbers, compared);
+
+  // compare --csv: every number, and the driver values are solve's.
+  const std::string path = (scratch_dir() / "compare.csv").string();
+  const CommandRun compare = crosslink(std::string("compare ") + kSewing +
+                                       " --engines analytic,dyads --csv \"" + path + "\"");
+  ASSERT_EQ(compare.exit_code, 0) << compare.err;
+  std::istringstream compare_lines(read_file(path));
+  std::getline(compare_lines, line);
+  EXPECT_EQ(line,
+            "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
+            "reference,value,difference,pct_of_peak,local_pct,time");
+  int compare_rows = 0;
+  while (std::getline(compare_lines, line)) {
+    const std::vector<std::string> fields = csv_fields(line);
+    ASSERT_EQ(fields.size(), 14u) << line;
+    for (const size_t c : {4, 8, 9, 10, 11, 12, 13}) {
+      if (fields[c].empty()) continue;
+      EXPECT_TRUE(is_shortest(fields[c])) << line;
+    }
+    const int k = std::stoi(fields[3]);
+    EXPECT_EQ(std::stod(fields[4]),
+              json.at("samples").at(static_cast<size_t>(k)).at("driver").get<double>())
+        << line;
+    ++compare_rows;
+  }
+  EXPECT_GT(compare_rows, 361);
 }
 
 // Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
