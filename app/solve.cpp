@@ -84,6 +84,14 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
+  if (args.ic && m.driver.at_rest()) {
+    fmt::print(stderr, "{}\n",
+               Diagnostic{m.driver.law.where,
+                          "--ic: the driver is at rest (speed 0): every velocity is zero and "
+                          "no centre is defined by them"}
+                   .str());
+    return kExitBadInput;
+  }
   const double at = single ? *args.at * (m.driver.angular() ? m.units.angle : m.units.length) : 0;
   if (single)
     check_solve_at_work(m, at, options, args.limits);

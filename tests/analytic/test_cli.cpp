@@ -487,6 +487,106 @@ TEST(Cli, CsvNumbersAreShortestAndReadBackExactly) {
   EXPECT_GT(compare_rows, 361);
 }
 
+// Issue 13: a constant angular acceleration of the driver, a key of its own beside the speed it
+// starts from. The crank-rocker's crank from 60 rpm (omega0 = 2 pi rad/s) at alpha = 10 rad/s^2,
+// by both exact methods: over the default cycle, one turn (alpha T^2 / 2 + omega0 T = 2 pi),
+// every sample follows theta = theta0 + omega0 t + alpha t^2 / 2 (theta0 = 0), and the crank pin
+// B (AB = 0.04 m along the crank) moves on its circle: v = omega k x AB,
+// a = alpha k x AB - omega^2 AB.
+TEST(Cli, ADriverAtConstantAccelerationFollowsItsClosedForm) {
+  const std::string path = crank_rocker_with(
+      "accelerating.toml", "speed = 60\nspeed_unit = \"rpm\"\nacceleration = 10\n");
+  const double omega0 = 2.0 * kPi, alpha = 10.0, ab = 0.04;
+  const double turn = (-omega0 + std::sqrt(omega0 * omega0 + 4.0 * kPi * alpha)) / alpha;
+  const CommandRun check = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_NE(check.out.find(fmt::format(
+                "constant acceleration 10 rad/s^2 from speed 60 rpm, over {:.6g} s", turn)),
+            std::string::npos)
+      << check.out;
+  for (const char* method : {"newton", "dyads"}) {
+    const CommandRun run =
+        crosslink("solve \"" + path + "\" --format json --method " + std::string(method));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const nlohmann::json samples = nlohmann::json::parse(run.out).at("samples");
+    ASSERT_EQ(samples.size(), 361u);
+    EXPECT_NEAR(samples.back().at("time").get<double>(), turn, 1e-12);
+    EXPECT_NEAR(samples.back().at("driver").get<double>(), 2.0 * kPi, 1e-12);
+    for (const nlohmann::json& s : samples) {
+      ASSERT_EQ(s.at("status"), "ok");
+      const double t = s.at("time").get<double>();
+      const double theta = omega0 * t + 0.5 * alpha * t * t, omega = omega0 + alpha * t;
+      EXPECT_NEAR(s.at("driver").get<double>(), theta, 1e-12) << method << " t = " << t;
+      const nlohmann::json& crank = s.at("links").at("crank");
+      EXPECT_NEAR(std::remainder(crank.at("angle").get<double>() - theta, 2.0 * kPi), 0.0, 1e-9);
+      EXPECT_NEAR(crank.at("omega").get<double>(), omega, 1e-9) << method << " t = " << t;
+      EXPECT_NEAR(crank.at("alpha").get<double>(), alpha, 1e-9) << method << " t = " << t;
+      const nlohmann::json& b = s.at("points").at("B");
+      const double c = std::cos(theta), n = std::sin(theta);
+      EXPECT_NEAR(b.at("vx").get<double>(), -omega * ab * n, 1e-9);
+      EXPECT_NEAR(b.at("vy").get<double>(), omega * ab * c, 1e-9);
+      EXPECT_NEAR(b.at("ax").get<double>(), -alpha * ab * n - omega * omega * ab * c, 1e-9);
+      EXPECT_NEAR(b.at("ay").get<double>(), alpha * ab * c - omega * omega * ab * n, 1e-9);
+    }
+  }
+  // A single pose: the drawn position, where the rate and acceleration are the given ones.
+  const CommandRun at = crosslink("solve \"" + path + "\" --at 0 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json pose = nlohmann::json::parse(at.out);
+  EXPECT_EQ(pose.at("time").get<double>(), 0.0);
+  EXPECT_NEAR(pose.at("links").at("crank").at("omega").get<double>(), omega0, 1e-12);
+  EXPECT_NEAR(pose.at("links").at("crank").at("alpha").get<double>(), alpha, 1e-12);
+}
+
+// "path:line:col" of `marker` in the file at `path`, plus `offset` characters.
+std::string place_in(const std::string& path, const std::string& marker, size_t offset = 0) {
+  const std::string text = read_file(path);
+  const size_t at = text.find(marker) + offset;
+  const size_t line_start = text.rfind('\n', at);
+  return fmt::format("{}:{}:{}", path, 1 + std::count(text.begin(), text.begin() + at, '\n'),
+                     at - (line_start == std::string::npos ? 0 : line_start + 1) + 1);
+}
+
+// Issue 13: speed 0 states a position problem, one pose at rest: `solve --at` gives it with
+// every rate zero (at rest), the same pose as at any speed; a sweep is refused at the key.
+TEST(Cli, SpeedZeroIsASinglePoseAtRest) {
+  const std::string path = crank_rocker_with("at_rest.toml", "speed = 0\n");
+  const CommandRun at = crosslink("solve \"" + path + "\" --at 30 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json pose = nlohmann::json::parse(at.out);
+  const CommandRun turning =
+      crosslink("solve mechanisms/fourbar_crank_rocker.toml --at 30 --format json");
+  ASSERT_EQ(turning.exit_code, 0) << turning.err;
+  const nlohmann::json moving = nlohmann::json::parse(turning.out);
+  EXPECT_EQ(pose.at("status"), "ok");
+  EXPECT_EQ(pose.at("time").get<double>(), 0.0);
+  EXPECT_NEAR(pose.at("links").at("crank").at("angle").get<double>(), 30.0 * kDeg, 1e-12);
+  for (const auto& [name, link] : pose.at("links").items()) {
+    EXPECT_NEAR(link.at("angle").get<double>(),
+                moving.at("links").at(name).at("angle").get<double>(), 1e-12)
+        << name;
+    EXPECT_EQ(link.at("omega").get<double>(), 0.0) << name;
+    EXPECT_EQ(link.at("alpha").get<double>(), 0.0) << name;
+  }
+  for (const auto& [name, point] : pose.at("points").items())
+    for (const char* rate : {"vx", "vy", "ax", "ay"})
+      EXPECT_EQ(point.at(rate).get<double>(), 0.0) << name << " " << rate;
+
+  const std::string speed = place_in(path, "speed = 0", 8);  // the value
+  for (const std::string command : {"solve", "compare"}) {
+    const CommandRun sweep = crosslink(command + " \"" + path + "\"");
+    EXPECT_EQ(sweep.exit_code, 2) << command;
+    EXPECT_NE(sweep.err.find(speed + ": error: [driver] 'speed' = 0 states one pose at rest"),
+              std::string::npos)
+        << command << ": " << sweep.err;
+  }
+  const CommandRun check = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_NE(check.out.find("constant speed 0 rad/s"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("assembly at start: ok"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("speed 0: one pose at rest"), std::string::npos) << check.out;
+}
+
 // Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
 // (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
 // fail the engine's run (exit 1) under a verdict that said otherwise.
