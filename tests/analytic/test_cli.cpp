@@ -587,6 +587,45 @@ TEST(Cli, SpeedZeroIsASinglePoseAtRest) {
   EXPECT_NE(check.out.find("speed 0: one pose at rest"), std::string::npos) << check.out;
 }
 
+// Issue 13: compare's console gives the results first and the methods' settings after them, and
+// counts apart the channels whose values the definition prescribes. The crank-rocker
+// (mechanisms/fourbar_crank_rocker.toml) has 3 moving links (3 channels each: angle, omega,
+// alpha) and 4 points (8 each: x, y, vx, vy, v, ax, ay, a), 41 kinematic channels, all of which
+// the dyads compute; A and D are on the ground (16 channels) and the crank is driven against the
+// ground (3): 19 prescribed, 22 computed.
+TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
+  const std::string json = (scratch_dir() / "crank_rocker.json").string();
+  const CommandRun run =
+      crosslink("compare mechanisms/fourbar_crank_rocker.toml --engines analytic,dyads --json \"" +
+                json + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const size_t summary = run.out.find("summary per quantity class");
+  const size_t methods = run.out.find("\nmethods\n");
+  const size_t settings = run.out.find("newton.tolerance=");
+  const size_t verdict = run.out.find("verdict: ");
+  ASSERT_NE(summary, std::string::npos) << run.out;
+  ASSERT_NE(methods, std::string::npos) << run.out;
+  EXPECT_LT(summary, methods) << run.out;
+  EXPECT_LT(methods, settings) << run.out;
+  EXPECT_LT(settings, verdict) << run.out;
+  EXPECT_NE(run.out.find("verdict: PASS (22 channel comparisons: 22 pass, 0 fail, 0 n/a; 19 more "
+                         "of values the definition prescribes (ground points, the driven "
+                         "coordinate): 19 pass, 0 fail, 0 n/a)\n"),
+            std::string::npos)
+      << run.out.substr(verdict);
+  // The JSON marks each channel.
+  const nlohmann::json document = nlohmann::json::parse(read_file(json));
+  int prescribed = 0;
+  for (const nlohmann::json& c : document.at("channels")) {
+    const std::string name = c.at("channel");
+    const bool expected = name.substr(name.find('.') + 1) == "A" ||
+                          name.substr(name.find('.') + 1) == "D" || name.ends_with(".crank");
+    EXPECT_EQ(c.at("prescribed").get<bool>(), expected) << name;
+    prescribed += expected;
+  }
+  EXPECT_EQ(prescribed, 19);
+}
+
 // Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
 // (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
 // fail the engine's run (exit 1) under a verdict that said otherwise.
