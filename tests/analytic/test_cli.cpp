@@ -626,6 +626,72 @@ TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
   EXPECT_EQ(prescribed, 19);
 }
 
+// Issue 13: solve's sweep table shows what the notes ask for, in the file's units: each link's
+// angle, omega and alpha and each slider's s, sdot, sddot by default, or the --columns chosen.
+TEST(Cli, SolveSweepTableShowsTheChosenColumnsInFileUnits) {
+  const CommandRun table = crosslink(std::string("solve ") + kSewing);
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  std::istringstream lines(table.out);
+  std::string title, header, units;
+  std::getline(lines, title);
+  std::getline(lines, header);
+  std::getline(lines, units);
+  std::vector<std::string> names, unit_names;
+  for (std::istringstream in(header); in >> title;) names.push_back(title);
+  for (std::istringstream in(units); in >> title;) unit_names.push_back(title);
+  for (const char* column : {"angle.coupler", "omega.coupler", "alpha.coupler", "s.needle",
+                             "sdot.needle", "sddot.needle"})
+    EXPECT_NE(std::find(names.begin(), names.end(), column), names.end()) << header;
+  // Units: the definition's cm and deg (the first unit is the driver's).
+  ASSERT_EQ(unit_names.size() + 1, names.size()) << units;  // "status" has no unit
+  EXPECT_EQ(unit_names[0], "[deg]");
+  const auto unit_of = [&](const std::string& column) {
+    const auto at = std::find(names.begin(), names.end(), column) - names.begin();
+    return unit_names[static_cast<size_t>(at - 1)];
+  };
+  EXPECT_EQ(unit_of("alpha.coupler"), "[rad/s^2]");
+  EXPECT_EQ(unit_of("sddot.needle"), "[cm/s^2]");
+  // The row at 135 deg holds the values of solve --at 135 (SI there), in cm and to 4 decimals.
+  const nlohmann::json at = solve_json("--at 135");
+  bool found = false;
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream in(line);
+    std::vector<std::string> fields;
+    for (std::string f; in >> f;) fields.push_back(f);
+    if (fields.empty() || std::abs(std::stod(fields[0]) - 135.0) > 1e-9) continue;
+    found = true;
+    const auto field = [&](const std::string& column) {
+      return std::stod(fields[static_cast<size_t>(std::find(names.begin(), names.end(), column) -
+                                                  names.begin())]);
+    };
+    EXPECT_NEAR(field("sddot.needle"),
+                at.at("sliders").at("needle").at("sddot").get<double>() / 0.01, 1e-4);
+    EXPECT_NEAR(field("alpha.coupler"), at.at("links").at("coupler").at("alpha").get<double>(),
+                1e-4);
+  }
+  EXPECT_TRUE(found) << "no row at 135 deg";
+
+  const CommandRun chosen =
+      crosslink(std::string("solve ") + kSewing + " --columns x.F,vy,alpha.coupler");
+  ASSERT_EQ(chosen.exit_code, 0) << chosen.err;
+  std::istringstream chosen_lines(chosen.out);
+  std::getline(chosen_lines, title);
+  std::getline(chosen_lines, header);
+  std::vector<std::string> chosen_names;
+  for (std::istringstream in(header); in >> title;) chosen_names.push_back(title);
+  ASSERT_GE(chosen_names.size(), 5u) << header;
+  EXPECT_EQ(chosen_names[2], "x.F");
+  EXPECT_EQ(chosen_names[3].rfind("vy.", 0), 0u);
+  EXPECT_EQ(chosen_names.back(), "alpha.coupler");
+
+  const CommandRun unknown = crosslink(std::string("solve ") + kSewing + " --columns speed");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("--columns: 'speed' is neither a channel"), std::string::npos)
+      << unknown.err;
+  const CommandRun single = crosslink(std::string("solve ") + kSewing + " --at 135 --columns x.F");
+  EXPECT_EQ(single.exit_code, 2);
+}
+
 // Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
 // (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
 // fail the engine's run (exit 1) under a verdict that said otherwise.
