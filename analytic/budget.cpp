@@ -77,6 +77,11 @@ void check_step(const Mechanism& m, const SweepOptions& options) {
 void check_sweep_work(const Mechanism& m, const SweepOptions& options, const WorkLimits& limits) {
   check_step(m, options);
   const Driver& d = m.driver;
+  if (d.at_rest())
+    throw DefinitionError(
+        {{d.law.where,
+          "[driver] 'speed' = 0 states one pose at rest: solve it with `crosslink solve FILE "
+          "--at VALUE`; a sweep needs a speed (any: the positions do not depend on it)"}});
   const DriverUnit u = driver_unit(m);
   const bool step_given = options.step > 0.0;
   const Cause step_option{fmt::format("--step {:g} {}", options.step / u.si, u.name), {}};
@@ -91,8 +96,7 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
       magnitude = std::max(magnitude, std::abs(value));
       previous = value;
     }
-    Cause law{d.law.kind == MotionLaw::Kind::table ? "driver.table" : "driver.polynomial",
-              d.law.where};
+    Cause law{"driver." + std::string(to_string(d.law.kind)), d.law.where};
     if (step_given) law.what += " at " + step_option.what;
     check_count(m, law, travel / continuation, steps_of(m, continuation), limits);
     check_resolution(m, step_given ? step_option : law, continuation, magnitude);

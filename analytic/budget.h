@@ -15,10 +15,10 @@ struct WorkLimits {
 };
 
 // Throws, before any work, when sweep(mechanism, options) would take more samples or steps than
-// `limits` allow, or when options.step is not a usable step: a DefinitionError located at the
-// key at fault (driver.range, the motion law), else std::invalid_argument naming the option
-// (--step). A slider swept over its assembling range with an explicit step is measured by
-// assembling_range() first (itself bounded).
+// `limits` allow, when options.step is not a usable step, or when the driver is at rest (speed
+// 0: one pose, no sweep): a DefinitionError located at the key at fault (driver.range, the
+// motion law), else std::invalid_argument naming the option (--step). A slider swept over its
+// assembling range with an explicit step is measured by assembling_range() first (itself bounded).
 void check_sweep_work(const Mechanism& mechanism, const SweepOptions& options,
                       const WorkLimits& limits);
 

@@ -185,6 +185,10 @@ constexpr UnitChoice kAngularSpeedUnits[] = {{"rad/s", 1.0},
                                              {"deg/s", std::numbers::pi / 180.0},
                                              {"rpm", 2.0 * std::numbers::pi / 60.0},
                                              {"rev/s", 2.0 * std::numbers::pi}};
+constexpr UnitChoice kAngularAccelerationUnits[] = {{"rad/s^2", 1.0},
+                                                    {"deg/s^2", std::numbers::pi / 180.0},
+                                                    {"rpm/s", 2.0 * std::numbers::pi / 60.0},
+                                                    {"rev/s^2", 2.0 * std::numbers::pi}};
 
 template <size_t N>
 std::optional<double> unit_factor(Reader& r, const toml::table& table, std::string_view what,
@@ -511,13 +515,65 @@ void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
       fault = fmt::format("accelerates at {:g} {}/s^2 (the limit is {:g} in SI)",
                           s.accel / value_scale.si, unit, limits::kAcceleration);
     if (!fault.empty()) {
-      r.error(
-          d.law.where,
-          fmt::format("[driver] '{}' {} at t = {:g} s",
-                      d.law.kind == MotionLaw::Kind::table ? "table" : "polynomial", fault, time));
+      r.error(d.law.where,
+              fmt::format("[driver] '{}' {} at t = {:g} s", to_string(d.law.kind), fault, time));
       return;
     }
   }
+}
+
+// Constant acceleration from the start speed: value = start + speed t + acceleration t^2 / 2.
+// Without a duration an angular driver's cycle is the time it takes to turn once.
+void read_acceleration(Reader& r, Mechanism& m, const toml::table& t, const Scale& value_scale,
+                       bool duration_given) {
+  Driver& d = m.driver;
+  d.law.kind = MotionLaw::Kind::constant_acceleration;
+  d.law.where = r.at(t.get("acceleration"));
+  Scale scale{value_scale.si, "", limits::kAcceleration};
+  std::string unit_name = m.units.length_name + "/s^2";
+  if (d.angular()) {
+    unit_name = "rad/s^2";
+    if (const auto f = unit_factor(r, t, "[driver]", "acceleration_unit", kAngularAccelerationUnits,
+                                   "rad/s^2", &unit_name))
+      scale.si = *f;
+  } else if (t.get("acceleration_unit")) {
+    r.error(r.at(t.get("acceleration_unit")),
+            fmt::format("[driver]: a slider's acceleration is in the file's length unit per "
+                        "second squared ({}/s^2); remove 'acceleration_unit'",
+                        m.units.length_name));
+  }
+  scale.unit = unit_name;
+  d.law.acceleration_unit = {unit_name, scale.si};
+  const std::optional<double> acceleration = r.number(t, "acceleration", "[driver]", true, scale);
+  if (!acceleration || !r.diagnostics().empty()) return;
+  d.law.acceleration = *acceleration;
+  if (!duration_given) {
+    const auto shown = [&] {
+      return fmt::format("speed {:g} {}, acceleration {:g} {}", d.law.speed / d.law.speed_unit.si,
+                         d.law.speed_unit.name, *acceleration / scale.si, unit_name);
+    };
+    if (!d.angular()) {
+      r.error(d.law.where, fmt::format("[driver] a slider at constant acceleration ({}) needs "
+                                       "'duration' (seconds): it has no turn to complete",
+                                       shown()));
+      return;
+    }
+    // The first t > 0 with |speed t + acceleration t^2 / 2| = 2 pi, in the direction of motion.
+    const double direction =
+        d.law.speed != 0.0 ? std::copysign(1.0, d.law.speed) : std::copysign(1.0, *acceleration);
+    const double w = direction * d.law.speed, a = direction * *acceleration;
+    const double turn = 2.0 * std::numbers::pi;
+    const double discriminant = w * w + 2.0 * a * turn;
+    if ((w == 0.0 && a == 0.0) || discriminant < 0.0) {
+      r.error(d.law.where,
+              fmt::format("[driver] at {} the driver {} before it turns once: give 'duration' "
+                          "(seconds)",
+                          shown(), w == 0.0 && a == 0.0 ? "does not move" : "stops"));
+      return;
+    }
+    d.law.duration = 2.0 * turn / (w + std::sqrt(discriminant));
+  }
+  check_law(r, m, value_scale);
 }
 
 void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
@@ -526,8 +582,8 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   Driver& d = m.driver;
   d.where = r.at(*t);
   r.known_keys(*t, "[driver]",
-               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit", "polynomial",
-                "table", "duration", "range"});
+               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit",
+                "acceleration", "acceleration_unit", "polynomial", "table", "duration", "range"});
   const std::string type = r.string(*t, "type", "[driver]", true).value_or("");
   if (type == "joint_angle") {
     d.type = DriverType::joint_angle;
@@ -617,15 +673,27 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     if (laws != 0)
       r.error(d.where,
               "[driver] of a dynamics case ([dynamics]) takes no motion law: the "
-              "coordinate moves freely; remove 'speed', 'polynomial' or 'table'");
+              "coordinate moves freely; remove 'speed', 'acceleration', 'polynomial' or 'table'");
+    return;
+  }
+  if (t->get("acceleration") && !t->get("speed")) {
+    r.error(r.at(t->get("acceleration")),
+            "[driver] 'acceleration' needs 'speed', the speed at t = 0 (speed = 0 from rest)");
     return;
   }
   if (laws != 1) {
     r.error(d.where,
-            "[driver] needs exactly one motion law: 'speed' (constant), 'polynomial' "
-            "or 'table'");
+            "[driver] needs exactly one motion law: 'speed' (constant, or with 'acceleration' "
+            "from that speed), 'polynomial' or 'table'");
     return;
   }
+  const Scale time_scale{1.0, "s", limits::kDuration, limits::kShortestDuration};
+  // A polynomial's or a table's cycle; optional with a speed (for an acceleration law).
+  const std::optional<double> duration =
+      r.number(*t, "duration", "[driver]", !t->get("speed"), time_scale);
+  if (duration && *duration <= 0.0)
+    r.error(r.at(t->get("duration")), "[driver] 'duration' must be positive (seconds)");
+  d.law.duration = duration.value_or(0.0);
   if (t->get("speed")) {
     d.law.kind = MotionLaw::Kind::constant_speed;
     d.law.where = r.at(t->get("speed"));
@@ -643,16 +711,12 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
                           m.units.length_name));
     }
     speed_scale.unit = unit_name;
+    d.law.speed_unit = {unit_name, speed_scale.si};
     const std::optional<double> speed = r.number(*t, "speed", "[driver]", true, speed_scale);
-    if (speed && *speed == 0.0) r.error(r.at(t->get("speed")), "[driver] 'speed' must not be zero");
     d.law.speed = speed.value_or(0.0);
+    if (t->get("acceleration")) read_acceleration(r, m, *t, value_scale, duration.has_value());
     return;
   }
-  const Scale time_scale{1.0, "s", limits::kDuration, limits::kShortestDuration};
-  const std::optional<double> duration = r.number(*t, "duration", "[driver]", true, time_scale);
-  if (duration && *duration <= 0.0)
-    r.error(r.at(t->get("duration")), "[driver] 'duration' must be positive (seconds)");
-  d.law.duration = duration.value_or(0.0);
   if (const toml::node* poly = t->get("polynomial")) {
     d.law.kind = MotionLaw::Kind::polynomial;
     d.law.where = r.at(*poly);

@@ -97,6 +97,20 @@ DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v
 }
 }  // namespace
 
+std::string_view to_string(MotionLaw::Kind kind) {
+  switch (kind) {
+    case MotionLaw::Kind::constant_speed:
+      return "speed";
+    case MotionLaw::Kind::constant_acceleration:
+      return "acceleration";
+    case MotionLaw::Kind::polynomial:
+      return "polynomial";
+    case MotionLaw::Kind::table:
+      return "table";
+  }
+  return "?";
+}
+
 DriverState Driver::at_time(double t) const {
   DriverState s;
   s.time = t;
@@ -104,6 +118,11 @@ DriverState Driver::at_time(double t) const {
     case MotionLaw::Kind::constant_speed:
       s.value = start + law.speed * t;
       s.rate = law.speed;
+      break;
+    case MotionLaw::Kind::constant_acceleration:
+      s.value = start + (law.speed + 0.5 * law.acceleration * t) * t;
+      s.rate = law.speed + law.acceleration * t;
+      s.accel = law.acceleration;
       break;
     case MotionLaw::Kind::polynomial: {
       // q = start + sum_k c_k t^k (k from 1): Horner for the value and both derivatives.

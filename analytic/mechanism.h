@@ -98,17 +98,30 @@ struct Joint {
   int dof() const { return type == JointType::pin_in_slot ? 2 : 1; }  // freedoms it allows
 };
 
+// A unit as the definition wrote it, to show a value back in it: file value = SI value / si.
+struct FileUnit {
+  std::string name = "rad/s";  // "rpm", "deg/s", "mm/s", ...
+  double si = 1.0;             // SI value of one of it
+};
+
 // The motion law of the driver coordinate q_d(t), in SI (rad or m, and seconds).
 struct MotionLaw {
-  enum class Kind { constant_speed, polynomial, table };
+  enum class Kind { constant_speed, constant_acceleration, polynomial, table };
   Kind kind = Kind::constant_speed;
-  double speed = 0.0;                // constant_speed: dq/dt [rad/s or m/s]; sign = direction
+  // constant_speed: dq/dt [rad/s or m/s], sign = direction (0: a single pose at rest, a position
+  // problem: no sweep); constant_acceleration: dq/dt at t = 0
+  double speed = 0.0;
+  FileUnit speed_unit;        // the unit the definition gave the speed in
+  double acceleration = 0.0;  // constant_acceleration: d2q/dt2 [rad/s^2 or m/s^2]
+  FileUnit acceleration_unit{"rad/s^2", 1.0};
   std::vector<double> coefficients;  // polynomial: q = start + c1 t + c2 t^2 + ... (c1 first)
   std::vector<double> table_time;    // table: knots [s], strictly increasing
   std::vector<double> table_value;   // table: q at the knots (natural cubic spline between)
-  double duration = 0.0;             // polynomial, table: the cycle's length [s]
-  SourceLocation where;              // the law's key: speed, polynomial or table
+  double duration = 0.0;             // the laws in time (all but constant_speed): the cycle [s]
+  SourceLocation where;              // the law's key: speed, acceleration, polynomial or table
 };
+// The key that states the law in a definition: "speed", "acceleration", "polynomial", "table".
+std::string_view to_string(MotionLaw::Kind kind);
 
 // The driver's value and its first two time derivatives at one instant.
 struct DriverState {
@@ -138,6 +151,8 @@ struct Driver {
   SourceLocation range_where;                      // its 'range', when given
 
   bool angular() const { return type != DriverType::slider; }
+  // A constant speed of 0: a position problem, one pose at rest, with no cycle to sweep.
+  bool at_rest() const { return law.kind == MotionLaw::Kind::constant_speed && law.speed == 0.0; }
   DriverState at_time(double t) const;  // from the motion law
 };
 

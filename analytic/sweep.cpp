@@ -147,12 +147,13 @@ class Follower {
   SolveReport last_;
 };
 
-// The driver's rate and acceleration at a driver value for a constant-speed law.
+// The driver's rate and acceleration at a driver value for a constant-speed law. At rest (speed
+// 0) the pose is the same at every time: t = 0.
 DriverState constant_speed_state(const Driver& d, double value) {
   DriverState s;
   s.value = value;
   s.rate = d.law.speed;
-  s.time = (value - d.start) / d.law.speed;
+  s.time = d.at_rest() ? 0.0 : (value - d.start) / d.law.speed;
   return s;
 }
 

@@ -44,8 +44,14 @@ std::string driver_text(const Mechanism& m) {
   std::string law;
   switch (d.law.kind) {
     case MotionLaw::Kind::constant_speed:
-      law = d.angular() ? fmt::format("constant speed {:.6g} rad/s", d.law.speed)
-                        : fmt::format("constant speed {:.6g} m/s", d.law.speed);
+      law = fmt::format("constant speed {:.6g} {}", d.law.speed / d.law.speed_unit.si,
+                        d.law.speed_unit.name);
+      break;
+    case MotionLaw::Kind::constant_acceleration:
+      law =
+          fmt::format("constant acceleration {:.6g} {} from speed {:.6g} {}, over {:.6g} s",
+                      d.law.acceleration / d.law.acceleration_unit.si, d.law.acceleration_unit.name,
+                      d.law.speed / d.law.speed_unit.si, d.law.speed_unit.name, d.law.duration);
       break;
     case MotionLaw::Kind::polynomial:
       law = fmt::format("polynomial over {:.6g} s", d.law.duration);
@@ -130,7 +136,7 @@ void print_singular_positions(const Mechanism& m, std::string& out) {
 }  // namespace
 
 CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
-  check_sweep_work(m, {}, limits);
+  if (!m.driver.at_rest()) check_sweep_work(m, {}, limits);
   CheckReport report;
   std::string& out = report.out;
   out += fmt::format("{}: {}\n", m.file, m.name);
@@ -166,14 +172,18 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   out += fmt::format(
       "  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
       to_string(assembled.status), assembled.residual, assembled.iterations, assembled.rcond);
-  if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
+  if (m.driver.at_rest()) {
+    out +=
+        "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "
+        "positions over a sweep need a speed\n";
+  } else if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
                            ? ""
                            : " (limits: toggles; the chain cannot close beyond)");
   }
-  print_singular_positions(m, out);
+  if (!m.driver.at_rest()) print_singular_positions(m, out);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

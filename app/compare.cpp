@@ -3,10 +3,12 @@
 // when every verdict passes, 1 when one fails, 2 on bad input. Without FILE it compares the
 // bundled sewing machine. See docs/compare.md.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -64,6 +66,44 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
   return out;
 }
 
+// Every --set before anything runs (bad input, exit 2): an ENGINE: prefix names an engine, and
+// each engine takes what it would be given: a bare KEY=VALUE goes to every engine that runs,
+// ENGINE:KEY=VALUE to that engine whether it runs or not.
+void check_settings(const std::vector<std::string>& all, const std::vector<std::string>& runs) {
+  std::vector<std::string> engines;
+  for (const std::string& n : compare::method_names())
+    if (compare::Tolerances::is_engine(n)) engines.push_back(n);
+  std::map<std::string, std::vector<std::string>> prefixed;
+  for (const std::string& s : all) {
+    (void)settings_for("", {s});  // KEY=VALUE
+    const std::string key = s.substr(0, s.find('='));
+    if (const size_t colon = key.find(':'); colon != std::string::npos) {
+      const std::string engine = key.substr(0, colon);
+      if (std::find(engines.begin(), engines.end(), engine) == engines.end())
+        throw std::invalid_argument(fmt::format("--set {}: '{}' is not an engine (engines: {})", s,
+                                                engine, fmt::join(engines, ", ")));
+      prefixed[engine].push_back(s);
+    }
+  }
+  for (const std::string& engine : engines) {
+    const bool running = std::find(runs.begin(), runs.end(), engine) != runs.end();
+    try {
+      compare::check_engine_settings(engine,
+                                     settings_for(engine, running ? all : prefixed[engine]));
+    } catch (const std::invalid_argument& e) {
+      // A name one engine knows may be meant for that engine alone.
+      const bool bare = running && std::string_view(e.what()).starts_with("unknown") &&
+                        std::any_of(all.begin(), all.end(), [](const std::string& s) {
+                          return s.substr(0, s.find('=')).find(':') == std::string::npos;
+                        });
+      throw std::invalid_argument(fmt::format(
+          "--set: {}{}", e.what(),
+          bare ? "; a bare KEY=VALUE goes to every engine that runs, ENGINE:KEY=VALUE to one"
+               : ""));
+    }
+  }
+}
+
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
   const Mechanism m = load_mechanism(args.path);
@@ -87,7 +127,9 @@ int run_compare(CompareArgs args) {
          {"position", "angle", "velocity", "acceleration", "force", "torque", "energy"})
       tolerances.apply(fmt::format("{}={:.17g}", q, *accuracy));
   for (const std::string& t : args.tolerances) tolerances.apply(t);
-  for (const std::string& s : args.settings) (void)settings_for("", {s});  // validate early
+  std::vector<std::string> given = names;  // what the settings go to: the export too
+  if (!args.export_mjcf.empty()) given.push_back("mujoco");
+  check_settings(args.settings, given);
 
   SweepOptions options;
   const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
@@ -104,12 +146,9 @@ int run_compare(CompareArgs args) {
     const sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
     std::optional<double> dt;
     long max_steps = args.max_steps;
-    for (const auto& [key, value] : settings) {
-      try {
-        if (key == "dt") dt = value == "auto" ? std::optional<double>() : std::stod(value);
-        if (key == "max_steps") max_steps = std::stol(value);
-      } catch (const std::exception&) {  // not a number: the engine says so
-      }
+    for (const auto& [key, value] : settings) {  // numbers: checked above
+      if (key == "dt") dt = value == "auto" ? std::optional<double>() : std::stod(value);
+      if (key == "max_steps") max_steps = std::stol(value);
     }
     if (dt) check_engine_steps(span, *dt, max_steps, fmt::format("--set dt={:g} ({})", *dt, n));
   }

@@ -1,9 +1,14 @@
 #include "app/output.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include "compare/comparison.h"
+#include "compare/report.h"
 
 namespace crosslink::app {
 namespace {
@@ -111,37 +116,89 @@ void print_csv(const Trajectory& t, const Columns& extra) {
   }
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
-    std::string line =
-        fmt::format("{},{:.17g},{:.17g},{}", r, t.time(r), t.driver(r), to_string(status));
-    for (size_t c = 0; c < columns.size(); ++c)
-      line += value_exists(status, quantities[c]) ? fmt::format(",{:.17g}", columns[c](r)) : ",";
-    for (const auto& [name, column] : extra)
-      line += std::isfinite(column(r)) ? fmt::format(",{:.17g}", column(r)) : ",";
+    std::string line = fmt::format("{},{},{},{}", r, t.time(r), t.driver(r), to_string(status));
+    for (size_t c = 0; c < columns.size(); ++c) {
+      line += ',';
+      if (value_exists(status, quantities[c])) line += compare::csv_number(columns[c](r));
+    }
+    for (const auto& [name, column] : extra) {
+      line += ',';
+      line += compare::csv_number(column(r));
+    }
     fmt::print("{}\n", line);
   }
 }
 
+std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
+                                        const std::string& choice) {
+  const std::vector<std::string> all = t.channel_names();
+  const auto kind_of = [](const std::string& name) { return name.substr(0, name.find('.')); };
+  std::vector<std::string> kinds;
+  for (const std::string& name : all)
+    if (std::find(kinds.begin(), kinds.end(), kind_of(name)) == kinds.end())
+      kinds.push_back(kind_of(name));
+  std::vector<std::string> words;
+  if (choice.empty())
+    words = {"angle", "omega", "alpha", "s", "sdot", "sddot"};
+  else
+    for (size_t at = 0; at <= choice.size();) {
+      const size_t comma = std::min(choice.find(',', at), choice.size());
+      if (comma > at) words.push_back(choice.substr(at, comma - at));
+      at = comma + 1;
+    }
+  std::vector<std::string> channels;
+  for (const std::string& word : words) {
+    const size_t before = channels.size();
+    for (const std::string& name : all)
+      if ((name == word || kind_of(name) == word) &&
+          !(choice.empty() && compare::prescribed(m, name)))
+        channels.push_back(name);
+    if (channels.size() == before && !choice.empty())
+      throw std::invalid_argument(fmt::format(
+          "--columns: '{}' is neither a channel of this mechanism (such as {}) nor a kind of "
+          "channel ({})",
+          word, all.empty() ? "" : all[all.size() / 2], fmt::join(kinds, ", ")));
+  }
+  return channels;
+}
+
 // Notes-style tables at one sample, in the file's units.
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
-                      const std::string& note, const Columns& extra) {
-  const double A = m.units.angle;
-  const double driver_unit = m.driver.angular() ? A : m.units.length;
-  std::string header = fmt::format("{:>10} {:>8}", by_time ? "t [s]" : "driver", "status");
-  for (const std::string& l : t.link_names)
-    header += fmt::format(" {:>12} {:>12}", "angle." + l, "omega." + l);
-  for (const auto& [name, column] : extra) header += fmt::format(" {:>12}", name);
-  fmt::print("{}  ({})\n{}\n", m.name, note, header);
-  const std::string blank = fmt::format(" {:>12}", "");
+                      const std::vector<std::string>& channels, const std::string& note,
+                      const Columns& extra) {
+  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  const std::string& driver_unit_name =
+      m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  std::string header = fmt::format("{:>10} {:>8}", by_time ? "t" : "driver", "status");
+  std::string units =
+      fmt::format("{:>10} {:>8}", by_time ? "[s]" : "[" + driver_unit_name + "]", "");
+  std::vector<Eigen::VectorXd> columns;
+  std::vector<compare::DisplayUnit> shown;
+  for (const std::string& name : channels) {
+    columns.push_back(*t.channel(name));
+    shown.push_back(compare::display_unit(m, name));
+    const int width = std::max<int>(12, static_cast<int>(name.size()));
+    header += fmt::format(" {:>{}}", name, width);
+    units += fmt::format(" {:>{}}", "[" + shown.back().name + "]", width);
+  }
+  for (const auto& [name, column] : extra) {
+    header += fmt::format(" {:>12}", name);
+    units += fmt::format(" {:>12}", "");
+  }
+  fmt::print("{}  ({})\n{}\n{}\n", m.name, note, header, units);
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
     std::string line = fmt::format(
         "{:>10.4f} {:>8}", by_time ? t.time(r) : t.driver(r) / driver_unit, to_string(status));
-    for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
-      line +=
-          (has_position(status) ? fmt::format(" {:>12.{}f}", t.angle(r, c) / A, digits) : blank) +
-          (usable(status) ? fmt::format(" {:>12.{}f}", t.omega(r, c), digits) : blank);
+    for (size_t c = 0; c < channels.size(); ++c) {
+      const int width = std::max<int>(12, static_cast<int>(channels[c].size()));
+      line += exists(status, Trajectory::quantity_of(channels[c]))
+                  ? fmt::format(" {:>{}.{}f}", columns[c](r) / shown[c].scale, width, digits)
+                  : fmt::format(" {:>{}}", "", width);
+    }
     for (const auto& [name, column] : extra)
-      line += std::isfinite(column(r)) ? fmt::format(" {:>12.3e}", column(r)) : blank;
+      line += std::isfinite(column(r)) ? fmt::format(" {:>12.3e}", column(r))
+                                       : fmt::format(" {:>12}", "");
     fmt::print("{}\n", line);
   }
 }

@@ -31,11 +31,21 @@ nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::opt
 // not usable (a flagged sample) is an empty field.
 void print_csv(const Trajectory& t, const Columns& extra = {});
 
-// One row per sample: the driver (file units) or, with `by_time`, the time [s]; the status; each
-// link's angle (file units) and omega with `digits` decimals; then `extra` (scientific, blank
-// where not finite). Values that do not exist are blank.
+// The channels a table shows for `choice`, a comma-separated list of channel names (x.C) and
+// kinds (alpha: every link's alpha), in that order; an empty choice gives each link's angle,
+// omega and alpha and each slider's s, sdot and sddot, but for those the definition prescribes
+// (compare::prescribed: the driven crank, a link a prismatic joint holds to the ground). Throws
+// std::invalid_argument for a name that is neither, listing the kinds.
+std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
+                                        const std::string& choice);
+
+// One row per sample: the driver (file units) or, with `by_time`, the time [s]; the status;
+// each of `channels` in the file's units (a row of units under the names) with `digits`
+// decimals; then `extra` (scientific, blank where not finite). Values that do not exist are
+// blank.
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
-                      const std::string& note, const Columns& extra = {});
+                      const std::vector<std::string>& channels, const std::string& note,
+                      const Columns& extra = {});
 
 // Notes-style tables of links, points and sliders at one sample, in the file's units.
 void print_table_at(const Mechanism& m, const Trajectory& t, int row);

@@ -109,10 +109,8 @@ int run_simulate(const SimulateArgs& args) {
           e["kinetic"].get<double>(), e["potential"].get<double>(), e["work"].get<double>(),
           s.initial_energy, e["balance"].get<double>());
   } else {
-    print_table_rows(
-        m, t, true, 6,
-        fmt::format("angles in {}, omega in rad/s, energy balance in J", m.units.angle_name),
-        {{"balance", energy_balances(s)}});
+    print_table_rows(m, t, true, 6, table_channels(m, t, "angle,omega"), "energy balance in J",
+                     {{"balance", energy_balances(s)}});
   }
   if (single && !usable(t.status[static_cast<size_t>(*single)])) {
     fmt::print(stderr, "{}\n",

@@ -22,6 +22,7 @@ struct SolveArgs {
   std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
   bool ic = false;                // print the instantaneous centres (with --at)
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
+  std::string columns;            // the sweep table's channels (table_channels)
   WorkLimits limits;
 };
 
@@ -84,6 +85,26 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
+  if (args.ic && m.driver.at_rest()) {
+    fmt::print(stderr, "{}\n",
+               Diagnostic{m.driver.law.where,
+                          "--ic: the driver is at rest (speed 0): every velocity is zero and "
+                          "no centre is defined by them"}
+                   .str());
+    return kExitBadInput;
+  }
+  if (!args.columns.empty() && (single || args.format != "table")) {
+    fmt::print(
+        stderr, "{}: error: --columns chooses the sweep table's columns: {}\n", m.file,
+        single ? "--at prints every channel of its pose" : "json and csv hold every channel");
+    return kExitBadInput;
+  }
+  std::vector<std::string> columns;  // checked before any work
+  if (!single && args.format == "table") {
+    Trajectory names;
+    names.resize(m, 0, true);
+    columns = table_channels(m, names, args.columns);
+  }
   const double at = single ? *args.at * (m.driver.angular() ? m.units.angle : m.units.length) : 0;
   if (single)
     check_solve_at_work(m, at, options, args.limits);
@@ -124,8 +145,7 @@ int run_solve(const SolveArgs& args) {
     print_table_at(m, t, 0);
     if (args.ic && usable(t.status[0])) print_instant_centres(m, t);
   } else
-    print_table_rows(m, t, false, 4,
-                     fmt::format("angles in {}, omega in rad/s", m.units.angle_name));
+    print_table_rows(m, t, false, 4, columns, "the file's units");
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
                Diagnostic{m.driver.where,
@@ -153,6 +173,11 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
                   "at a limit of the assembling range (a toggle): stop, or reverse the driver "
                   "as a real rocker would and follow the loop back on the other assembly mode")
       ->check(CLI::IsMember({"stop", "reverse"}));
+  cmd->add_option(
+      "--columns", args->columns,
+      "the sweep table's columns, comma-separated: channel names (x.C, sddot.needle) "
+      "and kinds (alpha: every link's); default angle,omega,alpha,s,sdot,sddot but for the "
+      "driven crank and links held by a prismatic joint to the ground");
   cmd->add_flag("--ic", args->ic,
                 "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
   add_max_samples(*cmd, args->limits);

@@ -3,6 +3,7 @@
 #include "analytic/kinetostatics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -28,6 +29,38 @@ const MethodRun* Comparison::method(std::string_view name) const {
   for (const MethodRun& m : methods)
     if (m.name == name) return &m;
   return nullptr;
+}
+
+bool prescribed(const Mechanism& m, std::string_view channel) {
+  const size_t dot = channel.find('.');
+  if (dot == std::string_view::npos) return false;
+  const std::string_view kind = channel.substr(0, dot), object = channel.substr(dot + 1);
+  const int ground = m.ground();
+  if (ground < 0) return false;
+  const Driver& d = m.driver;
+  const bool driven = !m.dynamics;  // in a dynamics case the driver's coordinate moves freely
+  // Whether joint j joins `link` to the ground.
+  const auto grounded = [&](int link, const Joint& j) {
+    return (j.link_a == ground && j.link_b == link) || (j.link_b == ground && j.link_a == link);
+  };
+  static constexpr std::array<std::string_view, 8> kPointKinds = {"x", "y",  "vx", "vy",
+                                                                  "v", "ax", "ay", "a"};
+  if (std::find(kPointKinds.begin(), kPointKinds.end(), kind) != kPointKinds.end())
+    return m.links[static_cast<size_t>(ground)].find_point(object) >= 0;
+  if (kind == "angle" || kind == "omega" || kind == "alpha") {
+    const int link = m.find_link(object);
+    if (link < 0) return false;
+    for (const Joint& j : m.joints)
+      if (j.type == JointType::prismatic && grounded(link, j)) return true;
+    if (!driven) return false;
+    if (d.type == DriverType::link_angle) return d.link == link;
+    return d.type == DriverType::joint_angle &&
+           grounded(link, m.joints[static_cast<size_t>(d.joint)]);
+  }
+  if (kind == "s" || kind == "sdot" || kind == "sddot")
+    return driven && d.type == DriverType::slider &&
+           m.joints[static_cast<size_t>(d.joint)].name == object;
+  return false;
 }
 
 int Comparison::failures() const {
@@ -180,6 +213,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
           channels[c], ref_columns[c], *column,
           q == Quantity::force || q == Quantity::torque ? both_forces : both, size, floor);
       result.tolerance = tolerances.of(run.name, q);
+      result.prescribed = prescribed(mechanism, channels[c]);
       result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable
                        : result.metrics.max_pct_of_peak <= result.tolerance ? Verdict::pass
                                                                             : Verdict::fail;

@@ -23,7 +23,15 @@ struct ChannelResult {
   ChannelMetrics metrics;
   double tolerance = 0.0;  // [% of peak]
   Verdict verdict = Verdict::not_applicable;
+  bool prescribed = false;  // the definition fixes its values (prescribed()): counted apart
 };
+
+// Whether the definition itself fixes a channel's values, so that a method agrees on it by
+// construction: every channel of a point on the ground; the angle, omega and alpha of a link a
+// prismatic joint holds to the ground; and, following a motion law (not a dynamics case), the
+// driven coordinate's own: the angle, omega and alpha of the link whose angle against the ground
+// is driven, the s, sdot and sddot of a driven slider.
+bool prescribed(const Mechanism& mechanism, std::string_view channel);
 
 // A [[reference]] row of the definition with every method's value at its driver value.
 struct ReferenceRow {

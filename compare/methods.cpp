@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <memory>
 #include <stdexcept>
 
 #include "analytic/dyads.h"
@@ -55,7 +56,18 @@ MethodRun run_engine(const sim::Engine& engine, std::string description, const M
   return run;
 }
 
+// The engine of that name, or null for a method that is not an engine.
+std::unique_ptr<sim::Engine> make_engine(std::string_view name) {
+  if (name == "mujoco") return sim::make_mujoco_engine();
+  if (name == "bullet") return sim::make_bullet_engine();
+  return nullptr;
+}
+
 }  // namespace
+
+void check_engine_settings(std::string_view name, const sim::Settings& engine_settings) {
+  if (const auto engine = make_engine(name)) engine->check_settings(engine_settings);
+}
 
 bool MethodRun::computes(std::string_view channel) const {
   const std::string_view kind = channel.substr(0, channel.find('.'));
@@ -249,14 +261,10 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
                     {"centres", "primary + Kennedy-Aronhold, else from exact velocities"}};
     return run;
   }
-  if (name == "mujoco") {
-    return run_engine(*sim::make_mujoco_engine(), "MuJoCo 2.2.2 scene", mechanism, reference,
-                      engine_settings);
-  }
-  if (name == "bullet") {
-    return run_engine(*sim::make_bullet_engine(), "Bullet 3.24 float64 scene", mechanism, reference,
-                      engine_settings);
-  }
+  if (const auto engine = make_engine(name))
+    return run_engine(*engine,
+                      name == "mujoco" ? "MuJoCo 2.2.2 scene" : "Bullet 3.24 float64 scene",
+                      mechanism, reference, engine_settings);
   throw std::invalid_argument(
       fmt::format("unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", name));
 }

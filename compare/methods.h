@@ -50,6 +50,11 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options 
 // conditioning (rcond); the reference is this at the default options.
 MethodRun run_simulation(const Mechanism& mechanism, const SimulationOptions& options);
 
+// Throws std::invalid_argument when `engine_settings` hold a setting the engine `name` does not
+// know, or a value it cannot take (sim::Engine::check_settings), before anything runs; the
+// exact methods take no settings: nothing to check.
+void check_engine_settings(std::string_view name, const sim::Settings& engine_settings);
+
 // Any other method at the reference's samples. `engine_settings` are passed to the engines as
 // overrides (e.g. {"dt", "1e-4"} or the test hook {"perturb_link", "coupler:1.01"}); the exact
 // methods ignore them. Throws std::invalid_argument for an unknown name.

@@ -33,6 +33,9 @@ nlohmann::json to_json(const Comparison& comparison);
 
 // One row per (method, channel, sample), SI units.
 void write_csv(const Comparison& comparison, std::ostream& out);
+// A number of a CSV file: the shortest text that reads back as the same double (fmt's "{}"), or
+// an empty field for a value that does not exist (NaN, infinite).
+std::string csv_number(double value);
 
 struct HtmlOptions {
   std::optional<double> at;  // driver value of the drawing [rad or m]; default: the start

@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -115,22 +116,6 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   fmt::print(out, "{}\n",
              excluded ? fmt::format(", {} flagged (kept out of verdicts)", excluded) : "");
 
-  // Methods: settings and cost.
-  fmt::print(out, "\nmethods\n");
-  for (const MethodRun& run : cmp.methods) {
-    if (!run.available) {
-      fmt::print(out, "  {:<9} not run: {}\n", run.name, run.message);
-      continue;
-    }
-    fmt::print(out, "  {:<9} {:<7} {:.3f} s wall, {:.3g} s per {}, {} {}\n", run.name,
-               run.ok ? "ok" : "FAILED", run.cost.wall_seconds, run.cost.wall_seconds_per_cycle,
-               dynamics ? "simulated s" : "cycle", run.cost.steps,
-               dynamics && run.name == "analytic" ? "evaluations" : "steps");
-    print_wrapped(out, run.description, 12, 100);
-    if (!run.ok || !run.message.empty()) print_wrapped(out, run.message, 12, 100);
-    print_wrapped(out, settings_text(run.settings), 12, 100);
-  }
-
   // Channel rows: everything, or a summary per quantity class and the worst channels.
   std::vector<const ChannelResult*> rows;
   for (const ChannelResult& c : cmp.channels) rows.push_back(&c);
@@ -226,6 +211,22 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     fmt::print(out, "(methods%: the largest % difference of any other method from exact)\n");
   }
 
+  // Methods, after the results: status, cost and every setting in force.
+  fmt::print(out, "\nmethods\n");
+  for (const MethodRun& run : cmp.methods) {
+    if (!run.available) {
+      fmt::print(out, "  {:<9} not run: {}\n", run.name, run.message);
+      continue;
+    }
+    fmt::print(out, "  {:<9} {:<7} {:.3f} s wall, {:.3g} s per {}, {} {}\n", run.name,
+               run.ok ? "ok" : "FAILED", run.cost.wall_seconds, run.cost.wall_seconds_per_cycle,
+               dynamics ? "simulated s" : "cycle", run.cost.steps,
+               dynamics && run.name == "analytic" ? "evaluations" : "steps");
+    print_wrapped(out, run.description, 12, 100);
+    if (!run.ok || !run.message.empty()) print_wrapped(out, run.message, 12, 100);
+    print_wrapped(out, settings_text(run.settings), 12, 100);
+  }
+
   // Verdict, with every failing channel named at its worst sample.
   fmt::print(out, "\n");
   for (const std::string& name : cmp.failed_methods)
@@ -247,13 +248,17 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
     }
-  int passed = 0, na = 0;
-  for (const ChannelResult& c : cmp.channels) {
-    passed += c.verdict == Verdict::pass;
-    na += c.verdict == Verdict::not_applicable;
-  }
-  fmt::print(out, "verdict: {} ({} channel comparisons: {} pass, {} fail, {} n/a)\n",
-             cmp.pass() ? "PASS" : "FAIL", cmp.channels.size(), passed, cmp.failures(), na);
+  // Counts: the channels the definition prescribes apart from those the methods compute.
+  std::array<std::array<int, 3>, 2> counts{};  // [prescribed][pass, fail, n/a]
+  for (const ChannelResult& c : cmp.channels)
+    ++counts[c.prescribed][c.verdict == Verdict::pass ? 0 : c.verdict == Verdict::fail ? 1 : 2];
+  const auto total = [](const std::array<int, 3>& n) { return n[0] + n[1] + n[2]; };
+  fmt::print(out,
+             "verdict: {} ({} channel comparisons: {} pass, {} fail, {} n/a; {} more of values the "
+             "definition prescribes (ground points, the driven coordinate): {} pass, {} fail, {} "
+             "n/a)\n",
+             cmp.pass() ? "PASS" : "FAIL", total(counts[0]), counts[0][0], counts[0][1],
+             counts[0][2], total(counts[1]), counts[1][0], counts[1][1], counts[1][2]);
 }
 
 nlohmann::json to_json(const Comparison& cmp) {
@@ -307,7 +312,8 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"worst_driver_value", k >= 0 ? json(ref.driver(k)) : json(nullptr)},
          {"worst_time", k >= 0 ? json(ref.time(k)) : json(nullptr)},
          {"tolerance_pct", c.tolerance},
-         {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))}});
+         {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))},
+         {"prescribed", c.prescribed}});
   }
 
   j["references"] = json::array();
@@ -338,6 +344,10 @@ nlohmann::json to_json(const Comparison& cmp) {
   return j;
 }
 
+std::string csv_number(double value) {
+  return std::isfinite(value) ? fmt::format("{}", value) : std::string();
+}
+
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
@@ -348,14 +358,12 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     const Eigen::VectorXd v = *run.trajectory.channel(c.metrics.channel);
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
-      const double local = c.metrics.local_pct(k);
-      out << fmt::format(
-          "{},{},{},{},{:.17g},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g}\n", c.method,
-          c.metrics.channel, to_string(c.metrics.quantity), k, ref.driver(k),
-          to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
-          c.metrics.in_verdict[ks] ? 1 : 0, r(k), v(k), c.metrics.difference(k),
-          c.metrics.pct_of_peak(k),
-          std::isnan(local) ? std::string() : fmt::format("{:.17g}", local), ref.time(k));
+      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method, c.metrics.channel,
+                         to_string(c.metrics.quantity), k, ref.driver(k), to_string(ref.status[ks]),
+                         to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
+                         csv_number(r(k)), csv_number(v(k)), csv_number(c.metrics.difference(k)),
+                         csv_number(c.metrics.pct_of_peak(k)), csv_number(c.metrics.local_pct(k)),
+                         ref.time(k));
     }
   }
 }

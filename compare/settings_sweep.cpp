@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "compare/comparison.h"
+#include "compare/report.h"
 #include "compare/tolerance.h"
 
 namespace crosslink::compare {
@@ -849,10 +850,6 @@ std::string csv_field(std::string_view text) {
   return quoted + "\"";
 }
 
-std::string number(double v) {
-  return std::isnan(v) ? "" : fmt::format("{:.6g}", v);
-}
-
 std::string settings_text(const sim::Settings& s) {
   std::string text;
   for (const auto& [k, v] : s) text += fmt::format("{}{}={}", text.empty() ? "" : "; ", k, v);
@@ -869,16 +866,16 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
          "tip_position_error,tip_velocity_error\n";
   for (const SweepRow& r : sweep.rows) {
-    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << number(r.dt) << ','
-        << number(r.wall_s_per_cycle) << ',' << number(r.max_pct[0]) << ',' << number(r.max_pct[1])
-        << ',' << number(r.max_pct[2]) << ',' << number(r.max_loop_gap) << ','
+    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt) << ','
+        << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ',' << csv_number(r.max_pct[1])
+        << ',' << csv_number(r.max_pct[2]) << ',' << csv_number(r.max_loop_gap) << ','
         << to_string(r.status) << ',' << csv_field(r.variant) << ',' << r.flagged_samples << ','
         << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1] << ',' << r.pareto[2] << ','
-        << number(r.raw_pct[0]) << ',' << number(r.raw_pct[1]) << ',' << number(r.raw_pct[2]) << ','
+        << csv_number(r.raw_pct[0]) << ',' << csv_number(r.raw_pct[1]) << ',' << csv_number(r.raw_pct[2]) << ','
         << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << ','
-        << number(r.end_pct[0]) << ',' << number(r.end_pct[1]) << ',' << number(r.end_pct[2]) << ','
-        << number(r.energy_pct) << ',' << r.repeats << ',' << number(r.cpu_s_per_cycle) << ','
-        << number(r.tip_position_error) << ',' << number(r.tip_velocity_error) << '\n';
+        << csv_number(r.end_pct[0]) << ',' << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
+        << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle) << ','
+        << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << '\n';
   }
 }
 

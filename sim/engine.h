@@ -53,6 +53,9 @@ class Engine {
   virtual std::string name() const = 0;  // "mujoco", "bullet"
   // Whether the engine can realise this mechanism, and why not.
   virtual bool supports(const Mechanism& mechanism, std::string* why) const = 0;
+  // Throws std::invalid_argument, before any run, for a setting the engine does not know
+  // (naming it and the settings it knows) or a value it cannot take.
+  virtual void check_settings(const Settings& overrides) const = 0;
   virtual EngineRun run(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& overrides) const = 0;
 };

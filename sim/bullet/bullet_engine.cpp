@@ -159,7 +159,12 @@ Config parse_settings(const Settings& overrides) {
       c.perturb_link = value.substr(0, colon);
       c.perturb_factor = parse_number(name, value.substr(colon + 1));
     } else {
-      throw std::invalid_argument("unknown Bullet setting '" + name + "'");
+      throw std::invalid_argument(fmt::format(
+          "unknown Bullet setting '{}' (known: formulation, solver, dt, steps_per_sample, "
+          "max_step_angle, iterations, erp, loop_gap_threshold, singular_rcond, branch_distance, "
+          "divergence_gap, driver_threshold, split_impulse, max_steps, start, energy_threshold, "
+          "divergence_energy, precision, perturb_link)",
+          name));
     }
   }
   return c;
@@ -1498,6 +1503,8 @@ class BulletEngine final : public Engine {
     make_tree(plan, why);
     return !plan.order.empty();
   }
+
+  void check_settings(const Settings& overrides) const override { (void)parse_settings(overrides); }
 
   EngineRun run(const Mechanism& original, const Trajectory& reference,
                 const Settings& overrides) const override;

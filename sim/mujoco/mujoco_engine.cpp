@@ -1130,6 +1130,27 @@ class MujocoEngine final : public Engine {
     return mujoco_scene::realisable(mechanism, why);
   }
 
+  // Every name and every value that does not depend on the mechanism (dt's positivity and the
+  // deadbeat solref's step are checked when the scene is built).
+  void check_settings(const Settings& overrides) const override {
+    try {
+      const Config c = parse_settings(overrides);
+      for (const auto& [name, text] : {std::pair<const char*, const std::string&>{"dt", c.dt},
+                                       {"gap_threshold", c.gap_threshold},
+                                       {"driver_threshold", c.driver_threshold},
+                                       {"singular_rcond", c.singular_rcond}})
+        if (text != "auto") (void)parse_number(name, text);
+      for (const auto& [name, text] :
+           {std::pair<const char*, const std::string&>{"solref", c.solref},
+            {"driver_solref", c.driver_solref}})
+        (void)solref_of(name, text, 1.0);
+      (void)solimp_of("solimp", c.solimp);
+      (void)solimp_of("driver_solimp", c.driver_solimp);
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(e.what());
+    }
+  }
+
   EngineRun run(const Mechanism& m, const Trajectory& reference,
                 const Settings& overrides) const override {
     if (m.dynamics) return run_dynamics(m, reference, overrides);

@@ -6,10 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -358,6 +360,368 @@ TEST(Cli, AnEngineRefusesARunBeyondMaxSteps) {
   for (size_t at = 0; (at = run.out.find("the limit is 100 steps", at)) != std::string::npos; ++at)
     ++found;
   EXPECT_GE(found, 2u) << "both engines should say so:\n" << run.out;
+}
+
+// The bundled crank-rocker four-bar (mechanisms/fourbar_crank_rocker.toml, m and deg, drawn at
+// crank angle 0) with its motion law replaced by `law`, the [driver] table's last keys.
+std::string crank_rocker_with(const std::string& name, const std::string& law) {
+  const std::string text = read_file("mechanisms/fourbar_crank_rocker.toml");
+  return write_definition(name, text.substr(0, text.find("speed = 240")) + law);
+}
+
+// Issue 13: check shows the driver's speed as the file wrote it.
+TEST(Cli, CheckShowsTheDriverSpeedInTheFilesUnit) {
+  const CommandRun rpm = crosslink(std::string("check ") + kSewing);  // speed = 240, rpm
+  EXPECT_NE(rpm.out.find(", constant speed 240 rpm\n"), std::string::npos) << rpm.out;
+  const CommandRun deg = crosslink(
+      "check \"" + crank_rocker_with("deg_s.toml", "speed = -90\nspeed_unit = \"deg/s\"\n") + "\"");
+  EXPECT_NE(deg.out.find(", constant speed -90 deg/s\n"), std::string::npos) << deg.out;
+  const CommandRun rad =
+      crosslink("check \"" + crank_rocker_with("rad_s.toml", "speed = 2.5\n") + "\"");
+  EXPECT_NE(rad.out.find(", constant speed 2.5 rad/s\n"), std::string::npos) << rad.out;
+  // A slider's speed is in the file's length unit per second (speed = 100, in mm).
+  const CommandRun slider = crosslink("check mechanisms/singular/slider_crank_from_slider.toml");
+  EXPECT_NE(slider.out.find(", constant speed 100 mm/s\n"), std::string::npos) << slider.out;
+}
+
+// Issue 13: every CSV number is written in the shortest form that reads back as the same double.
+// A field is checked two ways: it reads back as the value solve's JSON holds for the same sample
+// (nlohmann writes every double so that it reads back exactly), and a stream's default (%g) format
+// with one significant digit fewer does not read back as the same double (so no shorter text would
+// do).
+int significant_digits(const std::string& field) {
+  std::string digits;
+  for (const char c : field) {
+    if (c == 'e' || c == 'E') break;
+    if (std::isdigit(static_cast<unsigned char>(c)) && !(digits.empty() && c == '0')) digits += c;
+  }
+  while (!digits.empty() && digits.back() == '0') digits.pop_back();
+  return static_cast<int>(digits.size());
+}
+
+bool is_shortest(const std::string& field) {
+  const double value = std::stod(field);
+  const int digits = significant_digits(field);
+  if (digits <= 1) return true;
+  std::ostringstream shorter;
+  shorter << std::setprecision(digits - 1) << value;
+  return std::stod(shorter.str()) != value;
+}
+
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  for (std::string field; std::getline(in, field, ',');) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+TEST(Cli, CsvNumbersAreShortestAndReadBackExactly) {
+  const CommandRun csv = crosslink(std::string("solve ") + kSewing + " --format csv");
+  ASSERT_EQ(csv.exit_code, 0) << csv.err;
+  const nlohmann::json json = solve_json("");
+  ASSERT_TRUE(json.contains("samples"));
+  std::istringstream lines(csv.out);
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = csv_fields(line);
+  int row = 0, compared = 0, numbers = 0;
+  for (; std::getline(lines, line); ++row) {
+    const std::vector<std::string> fields = csv_fields(line);
+    ASSERT_EQ(fields.size(), header.size()) << line.substr(0, 80);
+    const nlohmann::json& sample = json.at("samples").at(static_cast<size_t>(row));
+    for (size_t c = 1; c < fields.size(); ++c) {
+      if (fields[c].empty() || header[c] == "status") continue;
+      ++numbers;
+      EXPECT_TRUE(is_shortest(fields[c]))
+          << header[c] << " = " << fields[c] << " (row " << row << ")";
+      // The same value in the JSON document, where the schema has it.
+      const std::string& name = header[c];
+      const std::string kind = name.substr(0, name.find('.'));
+      const std::string object = name.substr(name.find('.') + 1);
+      const nlohmann::json* expected = nullptr;
+      if (name == "time" || name == "driver")
+        expected = &sample.at(name);
+      else if (kind == "angle" || kind == "omega" || kind == "alpha")
+        expected = &sample.at("links").at(object).at(kind);
+      else if (kind == "x" || kind == "y" || kind == "vx" || kind == "vy" || kind == "ax" ||
+               kind == "ay")
+        expected = &sample.at("points").at(object).at(kind);
+      else if (kind == "s" || kind == "sdot" || kind == "sddot")
+        expected = &sample.at("sliders").at(object).at(kind);
+      if (!expected) continue;
+      ASSERT_TRUE(expected->is_number()) << name << " row " << row;
+      EXPECT_EQ(std::stod(fields[c]), expected->get<double>())
+          << name << " = " << fields[c] << " (row " << row << ")";
+      ++compared;
+    }
+  }
+  EXPECT_EQ(row, 361);
+  EXPECT_GT(compared, 361 * 20);
+  EXPECT_GT(numbers, compared);
+
+  // compare --csv: every number, and the driver values are solve's.
+  const std::string path = (scratch_dir() / "compare.csv").string();
+  const CommandRun compare = crosslink(std::string("compare ") + kSewing +
+                                       " --engines analytic,dyads --csv \"" + path + "\"");
+  ASSERT_EQ(compare.exit_code, 0) << compare.err;
+  std::istringstream compare_lines(read_file(path));
+  std::getline(compare_lines, line);
+  EXPECT_EQ(line,
+            "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
+            "reference,value,difference,pct_of_peak,local_pct,time");
+  int compare_rows = 0;
+  while (std::getline(compare_lines, line)) {
+    const std::vector<std::string> fields = csv_fields(line);
+    ASSERT_EQ(fields.size(), 14u) << line;
+    for (const size_t c : {4, 8, 9, 10, 11, 12, 13}) {
+      if (fields[c].empty()) continue;
+      EXPECT_TRUE(is_shortest(fields[c])) << line;
+    }
+    const int k = std::stoi(fields[3]);
+    EXPECT_EQ(std::stod(fields[4]),
+              json.at("samples").at(static_cast<size_t>(k)).at("driver").get<double>())
+        << line;
+    ++compare_rows;
+  }
+  EXPECT_GT(compare_rows, 361);
+}
+
+// Issue 13: a constant angular acceleration of the driver, a key of its own beside the speed it
+// starts from. The crank-rocker's crank from 60 rpm (omega0 = 2 pi rad/s) at alpha = 10 rad/s^2,
+// by both exact methods: over the default cycle, one turn (alpha T^2 / 2 + omega0 T = 2 pi),
+// every sample follows theta = theta0 + omega0 t + alpha t^2 / 2 (theta0 = 0), and the crank pin
+// B (AB = 0.04 m along the crank) moves on its circle: v = omega k x AB,
+// a = alpha k x AB - omega^2 AB.
+TEST(Cli, ADriverAtConstantAccelerationFollowsItsClosedForm) {
+  const std::string path = crank_rocker_with(
+      "accelerating.toml", "speed = 60\nspeed_unit = \"rpm\"\nacceleration = 10\n");
+  const double omega0 = 2.0 * kPi, alpha = 10.0, ab = 0.04;
+  const double turn = (-omega0 + std::sqrt(omega0 * omega0 + 4.0 * kPi * alpha)) / alpha;
+  const CommandRun check = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_NE(check.out.find(fmt::format(
+                "constant acceleration 10 rad/s^2 from speed 60 rpm, over {:.6g} s", turn)),
+            std::string::npos)
+      << check.out;
+  for (const char* method : {"newton", "dyads"}) {
+    const CommandRun run =
+        crosslink("solve \"" + path + "\" --format json --method " + std::string(method));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const nlohmann::json samples = nlohmann::json::parse(run.out).at("samples");
+    ASSERT_EQ(samples.size(), 361u);
+    EXPECT_NEAR(samples.back().at("time").get<double>(), turn, 1e-12);
+    EXPECT_NEAR(samples.back().at("driver").get<double>(), 2.0 * kPi, 1e-12);
+    for (const nlohmann::json& s : samples) {
+      ASSERT_EQ(s.at("status"), "ok");
+      const double t = s.at("time").get<double>();
+      const double theta = omega0 * t + 0.5 * alpha * t * t, omega = omega0 + alpha * t;
+      EXPECT_NEAR(s.at("driver").get<double>(), theta, 1e-12) << method << " t = " << t;
+      const nlohmann::json& crank = s.at("links").at("crank");
+      EXPECT_NEAR(std::remainder(crank.at("angle").get<double>() - theta, 2.0 * kPi), 0.0, 1e-9);
+      EXPECT_NEAR(crank.at("omega").get<double>(), omega, 1e-9) << method << " t = " << t;
+      EXPECT_NEAR(crank.at("alpha").get<double>(), alpha, 1e-9) << method << " t = " << t;
+      const nlohmann::json& b = s.at("points").at("B");
+      const double c = std::cos(theta), n = std::sin(theta);
+      EXPECT_NEAR(b.at("vx").get<double>(), -omega * ab * n, 1e-9);
+      EXPECT_NEAR(b.at("vy").get<double>(), omega * ab * c, 1e-9);
+      EXPECT_NEAR(b.at("ax").get<double>(), -alpha * ab * n - omega * omega * ab * c, 1e-9);
+      EXPECT_NEAR(b.at("ay").get<double>(), alpha * ab * c - omega * omega * ab * n, 1e-9);
+    }
+  }
+  // A single pose: the drawn position, where the rate and acceleration are the given ones.
+  const CommandRun at = crosslink("solve \"" + path + "\" --at 0 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json pose = nlohmann::json::parse(at.out);
+  EXPECT_EQ(pose.at("time").get<double>(), 0.0);
+  EXPECT_NEAR(pose.at("links").at("crank").at("omega").get<double>(), omega0, 1e-12);
+  EXPECT_NEAR(pose.at("links").at("crank").at("alpha").get<double>(), alpha, 1e-12);
+}
+
+// "path:line:col" of `marker` in the file at `path`, plus `offset` characters.
+std::string place_in(const std::string& path, const std::string& marker, size_t offset = 0) {
+  const std::string text = read_file(path);
+  const size_t at = text.find(marker) + offset;
+  const size_t line_start = text.rfind('\n', at);
+  return fmt::format("{}:{}:{}", path, 1 + std::count(text.begin(), text.begin() + at, '\n'),
+                     at - (line_start == std::string::npos ? 0 : line_start + 1) + 1);
+}
+
+// Issue 13: speed 0 states a position problem, one pose at rest: `solve --at` gives it with
+// every rate zero (at rest), the same pose as at any speed; a sweep is refused at the key.
+TEST(Cli, SpeedZeroIsASinglePoseAtRest) {
+  const std::string path = crank_rocker_with("at_rest.toml", "speed = 0\n");
+  const CommandRun at = crosslink("solve \"" + path + "\" --at 30 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json pose = nlohmann::json::parse(at.out);
+  const CommandRun turning =
+      crosslink("solve mechanisms/fourbar_crank_rocker.toml --at 30 --format json");
+  ASSERT_EQ(turning.exit_code, 0) << turning.err;
+  const nlohmann::json moving = nlohmann::json::parse(turning.out);
+  EXPECT_EQ(pose.at("status"), "ok");
+  EXPECT_EQ(pose.at("time").get<double>(), 0.0);
+  EXPECT_NEAR(pose.at("links").at("crank").at("angle").get<double>(), 30.0 * kDeg, 1e-12);
+  for (const auto& [name, link] : pose.at("links").items()) {
+    EXPECT_NEAR(link.at("angle").get<double>(),
+                moving.at("links").at(name).at("angle").get<double>(), 1e-12)
+        << name;
+    EXPECT_EQ(link.at("omega").get<double>(), 0.0) << name;
+    EXPECT_EQ(link.at("alpha").get<double>(), 0.0) << name;
+  }
+  for (const auto& [name, point] : pose.at("points").items())
+    for (const char* rate : {"vx", "vy", "ax", "ay"})
+      EXPECT_EQ(point.at(rate).get<double>(), 0.0) << name << " " << rate;
+
+  const std::string speed = place_in(path, "speed = 0", 8);  // the value
+  for (const std::string command : {"solve", "compare"}) {
+    const CommandRun sweep = crosslink(command + " \"" + path + "\"");
+    EXPECT_EQ(sweep.exit_code, 2) << command;
+    EXPECT_NE(sweep.err.find(speed + ": error: [driver] 'speed' = 0 states one pose at rest"),
+              std::string::npos)
+        << command << ": " << sweep.err;
+  }
+  const CommandRun check = crosslink("check \"" + path + "\"");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_NE(check.out.find("constant speed 0 rad/s"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("assembly at start: ok"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("speed 0: one pose at rest"), std::string::npos) << check.out;
+}
+
+// Issue 13: compare's console gives the results first and the methods' settings after them, and
+// counts apart the channels whose values the definition prescribes. The crank-rocker
+// (mechanisms/fourbar_crank_rocker.toml) has 3 moving links (3 channels each: angle, omega,
+// alpha) and 4 points (8 each: x, y, vx, vy, v, ax, ay, a), 41 kinematic channels, all of which
+// the dyads compute; A and D are on the ground (16 channels) and the crank is driven against the
+// ground (3): 19 prescribed, 22 computed.
+TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
+  const std::string json = (scratch_dir() / "crank_rocker.json").string();
+  const CommandRun run =
+      crosslink("compare mechanisms/fourbar_crank_rocker.toml --engines analytic,dyads --json \"" +
+                json + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const size_t summary = run.out.find("summary per quantity class");
+  const size_t methods = run.out.find("\nmethods\n");
+  const size_t settings = run.out.find("newton.tolerance=");
+  const size_t verdict = run.out.find("verdict: ");
+  ASSERT_NE(summary, std::string::npos) << run.out;
+  ASSERT_NE(methods, std::string::npos) << run.out;
+  EXPECT_LT(summary, methods) << run.out;
+  EXPECT_LT(methods, settings) << run.out;
+  EXPECT_LT(settings, verdict) << run.out;
+  EXPECT_NE(run.out.find("verdict: PASS (22 channel comparisons: 22 pass, 0 fail, 0 n/a; 19 more "
+                         "of values the definition prescribes (ground points, the driven "
+                         "coordinate): 19 pass, 0 fail, 0 n/a)\n"),
+            std::string::npos)
+      << run.out.substr(verdict);
+  // The JSON marks each channel.
+  const nlohmann::json document = nlohmann::json::parse(read_file(json));
+  int prescribed = 0;
+  for (const nlohmann::json& c : document.at("channels")) {
+    const std::string name = c.at("channel");
+    const bool expected = name.substr(name.find('.') + 1) == "A" ||
+                          name.substr(name.find('.') + 1) == "D" || name.ends_with(".crank");
+    EXPECT_EQ(c.at("prescribed").get<bool>(), expected) << name;
+    prescribed += expected;
+  }
+  EXPECT_EQ(prescribed, 19);
+}
+
+// Issue 13: solve's sweep table shows what the notes ask for, in the file's units: each link's
+// angle, omega and alpha and each slider's s, sdot, sddot by default, or the --columns chosen.
+TEST(Cli, SolveSweepTableShowsTheChosenColumnsInFileUnits) {
+  const CommandRun table = crosslink(std::string("solve ") + kSewing);
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  std::istringstream lines(table.out);
+  std::string title, header, units;
+  std::getline(lines, title);
+  std::getline(lines, header);
+  std::getline(lines, units);
+  std::vector<std::string> names, unit_names;
+  for (std::istringstream in(header); in >> title;) names.push_back(title);
+  for (std::istringstream in(units); in >> title;) unit_names.push_back(title);
+  for (const char* column : {"angle.coupler", "omega.coupler", "alpha.coupler", "s.needle",
+                             "sdot.needle", "sddot.needle"})
+    EXPECT_NE(std::find(names.begin(), names.end(), column), names.end()) << header;
+  // Units: the definition's cm and deg (the first unit is the driver's).
+  ASSERT_EQ(unit_names.size() + 1, names.size()) << units;  // "status" has no unit
+  EXPECT_EQ(unit_names[0], "[deg]");
+  const auto unit_of = [&](const std::string& column) {
+    const auto at = std::find(names.begin(), names.end(), column) - names.begin();
+    return unit_names[static_cast<size_t>(at - 1)];
+  };
+  EXPECT_EQ(unit_of("alpha.coupler"), "[rad/s^2]");
+  EXPECT_EQ(unit_of("sddot.needle"), "[cm/s^2]");
+  // The row at 135 deg holds the values of solve --at 135 (SI there), in cm and to 4 decimals.
+  const nlohmann::json at = solve_json("--at 135");
+  bool found = false;
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream in(line);
+    std::vector<std::string> fields;
+    for (std::string f; in >> f;) fields.push_back(f);
+    if (fields.empty() || std::abs(std::stod(fields[0]) - 135.0) > 1e-9) continue;
+    found = true;
+    const auto field = [&](const std::string& column) {
+      return std::stod(fields[static_cast<size_t>(std::find(names.begin(), names.end(), column) -
+                                                  names.begin())]);
+    };
+    EXPECT_NEAR(field("sddot.needle"),
+                at.at("sliders").at("needle").at("sddot").get<double>() / 0.01, 1e-4);
+    EXPECT_NEAR(field("alpha.coupler"), at.at("links").at("coupler").at("alpha").get<double>(),
+                1e-4);
+  }
+  EXPECT_TRUE(found) << "no row at 135 deg";
+
+  const CommandRun chosen =
+      crosslink(std::string("solve ") + kSewing + " --columns x.F,vy,alpha.coupler");
+  ASSERT_EQ(chosen.exit_code, 0) << chosen.err;
+  std::istringstream chosen_lines(chosen.out);
+  std::getline(chosen_lines, title);
+  std::getline(chosen_lines, header);
+  std::vector<std::string> chosen_names;
+  for (std::istringstream in(header); in >> title;) chosen_names.push_back(title);
+  ASSERT_GE(chosen_names.size(), 5u) << header;
+  EXPECT_EQ(chosen_names[2], "x.F");
+  EXPECT_EQ(chosen_names[3].rfind("vy.", 0), 0u);
+  EXPECT_EQ(chosen_names.back(), "alpha.coupler");
+
+  const CommandRun unknown = crosslink(std::string("solve ") + kSewing + " --columns speed");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("--columns: 'speed' is neither a channel"), std::string::npos)
+      << unknown.err;
+  const CommandRun single = crosslink(std::string("solve ") + kSewing + " --at 135 --columns x.F");
+  EXPECT_EQ(single.exit_code, 2);
+}
+
+// Issue 13: an engine setting that does not exist, or a value an engine cannot take, is bad input
+// (exit 2) before anything runs, naming the setting and the ones the engine knows; it used to
+// fail the engine's run (exit 1) under a verdict that said otherwise.
+TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
+  const std::string compare = std::string("compare ") + kSewing;
+  const CommandRun typo = crosslink(compare + " --set mujoco:dtt=1");
+  EXPECT_EQ(typo.exit_code, 2) << typo.out;
+  EXPECT_NE(typo.err.find("unknown MuJoCo setting \"dtt\" (known: dt, max_step_angle,"),
+            std::string::npos)
+      << typo.err;
+  EXPECT_EQ(typo.out.find("verdict"), std::string::npos) << "nothing runs:\n" << typo.out;
+  // A bare key goes to every engine that runs: MuJoCo's integrator is not Bullet's.
+  const CommandRun bare = crosslink(compare + " --engines analytic,bullet --set integrator=RK4");
+  EXPECT_EQ(bare.exit_code, 2);
+  EXPECT_NE(bare.err.find("unknown Bullet setting 'integrator' (known: formulation,"),
+            std::string::npos)
+      << bare.err;
+  // ENGINE:KEY is checked whether that engine runs or not; the prefix must be an engine.
+  const CommandRun idle = crosslink(compare + " --engines analytic --set bullet:erp=2");
+  EXPECT_EQ(idle.exit_code, 2);
+  EXPECT_NE(idle.err.find("setting erp: in (0, 1]"), std::string::npos) << idle.err;
+  const CommandRun prefix = crosslink(compare + " --engines analytic --set adams:dt=1");
+  EXPECT_EQ(prefix.exit_code, 2);
+  EXPECT_NE(prefix.err.find("'adams' is not an engine (engines: mujoco, bullet)"),
+            std::string::npos)
+      << prefix.err;
+  const CommandRun value = crosslink(compare + " --engines analytic,mujoco --set dt=fast");
+  EXPECT_EQ(value.exit_code, 2);
+  EXPECT_NE(value.err.find("setting dt = \"fast\": expected a number"), std::string::npos)
+      << value.err;
 }
 
 // The settings grid of `sweep` multiplies its work: --repeat and the --dt list are bounded too.

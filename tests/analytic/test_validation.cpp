@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -356,6 +357,43 @@ TEST(Validation, UnknownSpeedUnitListsValidUnits) {
   const std::string text = replaced(four_bar(), "speed_unit = \"rad/s\"", "speed_unit = \"rps\"");
   const Place at = place_of(text, "\"rps\"");
   expect_diagnostic(text, at, {"unknown unit 'rps'", "rad/s, deg/s, rpm, rev/s"});
+}
+
+// Issue 13: a constant acceleration of the driver from its start speed, and its errors at their
+// places.
+TEST(Validation, DriverAccelerationIsReadAndItsErrorsAreLocated) {
+  // 10 rad/s and 5 deg/s^2 (0.0873 rad/s^2): one turn takes T with 0.0436 T^2 + 10 T = 2 pi.
+  const std::string good = replaced(four_bar(), "speed_unit = \"rad/s\"",
+                                    "speed_unit = \"rad/s\"\nacceleration = 5\n"
+                                    "acceleration_unit = \"deg/s^2\"");
+  const Mechanism m = parse_mechanism(good, "good.toml");
+  const double alpha = 5.0 * std::numbers::pi / 180.0;
+  EXPECT_EQ(m.driver.law.kind, MotionLaw::Kind::constant_acceleration);
+  EXPECT_DOUBLE_EQ(m.driver.law.acceleration, alpha);
+  EXPECT_NEAR(10.0 * m.driver.law.duration + 0.5 * alpha * std::pow(m.driver.law.duration, 2),
+              2.0 * std::numbers::pi, 1e-12);
+
+  const std::string no_speed =
+      replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"", "acceleration = 5");
+  Place value = place_of(no_speed, "acceleration = 5");
+  value.column += 15;  // at the value
+  expect_diagnostic(no_speed, value, {"'acceleration' needs 'speed'", "speed = 0 from rest"});
+  const std::string unit = replaced(four_bar(), "speed_unit = \"rad/s\"",
+                                    "speed_unit = \"rad/s\"\nacceleration = 5\n"
+                                    "acceleration_unit = \"g\"");
+  expect_diagnostic(unit, place_of(unit, "\"g\""),
+                    {"unknown unit 'g'", "rad/s^2, deg/s^2, rpm/s, rev/s^2"});
+  // From 10 rad/s at -10 rad/s^2 the crank stops after 5 rad, before a turn: a duration is
+  // needed to say how long the cycle is.
+  const std::string stops =
+      replaced(four_bar(), "speed_unit = \"rad/s\"", "speed_unit = \"rad/s\"\nacceleration = -10");
+  expect_diagnostic(stops, place_of(stops, "-10"),
+                    {"speed 10 rad/s, acceleration -10 rad/s^2", "stops before it turns once",
+                     "give 'duration'"});
+  EXPECT_NO_THROW(parse_mechanism(stops + "duration = 1.5\n", "good.toml"));
+  const std::string fast = replaced(four_bar(), "speed_unit = \"rad/s\"",
+                                    "speed_unit = \"rad/s\"\nacceleration = 1e300");
+  expect_diagnostic(fast, place_of(fast, "1e300"), {"'acceleration' in [driver]", "too large"});
 }
 
 TEST(Validation, OverConstrainedTriangle) {
