@@ -192,7 +192,7 @@ void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int
         "{:>10.4f} {:>8}", by_time ? t.time(r) : t.driver(r) / driver_unit, to_string(status));
     for (size_t c = 0; c < channels.size(); ++c) {
       const int width = std::max<int>(12, static_cast<int>(channels[c].size()));
-      line += exists(status, Trajectory::quantity_of(channels[c]))
+      line += value_exists(status, Trajectory::quantity_of(channels[c]))
                   ? fmt::format(" {:>{}.{}f}", columns[c](r) / shown[c].scale, width, digits)
                   : fmt::format(" {:>{}}", "", width);
     }

@@ -590,9 +590,9 @@ TEST(Cli, SpeedZeroIsASinglePoseAtRest) {
 // Issue 13: compare's console gives the results first and the methods' settings after them, and
 // counts apart the channels whose values the definition prescribes. The crank-rocker
 // (mechanisms/fourbar_crank_rocker.toml) has 3 moving links (3 channels each: angle, omega,
-// alpha) and 4 points (8 each: x, y, vx, vy, v, ax, ay, a), 41 kinematic channels, all of which
-// the dyads compute; A and D are on the ground (16 channels) and the crank is driven against the
-// ground (3): 19 prescribed, 22 computed.
+// alpha) and 4 points (8 each: x, y, vx, vy, v, ax, ay, a), 41 kinematic channels, and the
+// transmission angle mu.C, all of which the dyads compute; A and D are on the ground (16
+// channels) and the crank is driven against the ground (3): 19 prescribed, 23 computed.
 TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
   const std::string json = (scratch_dir() / "crank_rocker.json").string();
   const CommandRun run =
@@ -608,7 +608,7 @@ TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
   EXPECT_LT(summary, methods) << run.out;
   EXPECT_LT(methods, settings) << run.out;
   EXPECT_LT(settings, verdict) << run.out;
-  EXPECT_NE(run.out.find("verdict: PASS (22 channel comparisons: 22 pass, 0 fail, 0 n/a; 19 more "
+  EXPECT_NE(run.out.find("verdict: PASS (23 channel comparisons: 23 pass, 0 fail, 0 n/a; 19 more "
                          "of values the definition prescribes (ground points, the driven "
                          "coordinate): 19 pass, 0 fail, 0 n/a)\n"),
             std::string::npos)
