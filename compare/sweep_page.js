@@ -4,9 +4,10 @@
 (function () {
   const statusEl = document.getElementById('render-status');
   const errors = [];
-  function setStatus(state, text) {
+  function setStatus(state, text) {  // for the browser test; hidden once the charts render
     statusEl.dataset.status = state;
     statusEl.textContent = text;
+    statusEl.hidden = state === 'ok';
   }
   window.addEventListener('error', (e) => {
     errors.push(String(e.message));
@@ -17,6 +18,11 @@
   const schema = 'https://vega.github.io/schema/vega-lite/v6.json';
   const engineColour = {domain: ['analytic', 'mujoco', 'bullet'],
                         range: ['#777777', '#1f77b4', '#d62728']};
+  // Twenty colours that stay apart (Tableau 20, dark and light of ten hues interleaved).
+  const seriesPalette = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
+                         '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#a0cbe8', '#ffbe7d',
+                         '#ff9d9a', '#86bcb6', '#8cd17d', '#f1ce63', '#d4a6c8', '#fabfd2',
+                         '#d7b5a6', '#79706e'];
   const statusShape = {domain: ['ok', 'flagged', 'diverged'],
                        range: ['circle', 'triangle-up', 'cross']};
 
@@ -85,14 +91,22 @@
     const X = {field: 'dt', type: 'quantitative', scale: {type: 'log'}, title: 'time step dt [s]'};
     const Y = {field: 'y', type: 'quantitative', scale: yScale,
                title: 'max % of peak (' + cls + ')'};
+    // One colour per series (a sweep has up to about 15), and the engine's dash on top, so no
+    // two series share a line style.
+    const series = [...new Set(data.map((r) => r.series))];
     const colour = {field: 'series', type: 'nominal', title: 'engine and variant',
+                    scale: {domain: series, range: series.map((s, i) => seriesPalette[i % 20])},
                     legend: {labelLimit: 360}};
+    const dash = {field: 'series', type: 'nominal', title: 'engine and variant',
+                  scale: {domain: series,
+                          range: series.map((s) => (s.startsWith('bullet') ? [6, 3] : [1, 0]))},
+                  legend: {labelLimit: 360}};
     return {
       $schema: schema, width: 560, height: 320,
       layer: [
         {data: {values: data.filter((r) => r.status === 'ok')},
          mark: {type: 'line', strokeWidth: 1.2},
-         encoding: {x: X, y: Y, color: colour, order: {field: 'dt'}}},
+         encoding: {x: X, y: Y, color: colour, strokeDash: dash, order: {field: 'dt'}}},
         {data: {values: data}, mark: {type: 'point', size: 45, filled: true},
          encoding: {x: X, y: Y, color: colour,
                     shape: {field: 'status', type: 'nominal', scale: statusShape,
