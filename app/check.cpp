@@ -42,6 +42,18 @@ std::string driver_text(const Mechanism& m) {
       break;
   }
   std::string law;
+  if (m.dynamics) {  // no motion law: the coordinate moves under the loads from its start
+    const DynamicsCase& c = *m.dynamics;
+    const double rate_unit = d.angular() ? 1.0 : m.units.length;
+    const std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
+    law = fmt::format("free coordinate (dynamics): initial rate {:.6g} {}, {}, {:.6g} s",
+                      c.rate / rate_unit, rate_name,
+                      c.effort.empty()
+                          ? std::string("no applied effort")
+                          : fmt::format("applied effort table of {} rows", c.effort.size()),
+                      c.duration);
+    return fmt::format("{}, start {:.6g} {}, {}", what, d.start / unit, unit_name, law);
+  }
   switch (d.law.kind) {
     case MotionLaw::Kind::constant_speed:
       law = fmt::format("constant speed {:.6g} {}", d.law.speed / d.law.speed_unit.si,

@@ -382,6 +382,13 @@ TEST(Cli, CheckShowsTheDriverSpeedInTheFilesUnit) {
   // A slider's speed is in the file's length unit per second (speed = 100, in mm).
   const CommandRun slider = crosslink("check mechanisms/singular/slider_crank_from_slider.toml");
   EXPECT_NE(slider.out.find(", constant speed 100 mm/s\n"), std::string::npos) << slider.out;
+  // A dynamics case has no motion law: its [dynamics] table (rate 0, a 3-row effort, 2 s).
+  const CommandRun dynamics = crosslink("check mechanisms/slider_crank_spring_motor.toml");
+  EXPECT_NE(dynamics.out.find(", free coordinate (dynamics): initial rate 0 rad/s, applied effort "
+                              "table of 3 rows, 2 s\n"),
+            std::string::npos)
+      << dynamics.out;
+  EXPECT_EQ(dynamics.out.find("constant speed"), std::string::npos) << dynamics.out;
 }
 
 // Issue 13: every CSV number is written in the shortest form that reads back as the same double.
