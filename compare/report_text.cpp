@@ -126,15 +126,19 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   } else {
     // Summary: per method and quantity class, its worst channel.
     std::map<std::pair<std::string, Quantity>, const ChannelResult*> worst;
-    std::map<std::pair<std::string, Quantity>, std::pair<int, int>> counts;  // pass, fail
+    // pass, fail of the channels the method computes (the prescribed ones are counted apart in
+    // the verdict line)
+    std::map<std::pair<std::string, Quantity>, std::pair<int, int>> counts;
     for (const ChannelResult* c : rows) {
       const auto key = std::pair{c->method, c->metrics.quantity};
       auto& [p, f] = counts[key];
-      p += c->verdict == Verdict::pass;
-      f += c->verdict == Verdict::fail;
+      p += c->verdict == Verdict::pass && !c->prescribed;
+      f += c->verdict == Verdict::fail && !c->prescribed;
       if (!worst[key] || severity(*c) > severity(*worst[key])) worst[key] = c;
     }
-    fmt::print(out, "summary per quantity class (worst channel of each method)\n");
+    fmt::print(out,
+               "summary per quantity class (worst channel of each method; pass/fail of the "
+               "channels it computes)\n");
     fmt::print(out, "{:<13} {:<8} {:<22} {:>11} {:>11} {:>17} {:>10}\n", "quantity", "method",
                "worst channel", "max % peak", "tolerance %", "worst at", "pass/fail");
     fmt::print(out, "{:-<98}\n", "");

@@ -615,6 +615,15 @@ TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
   EXPECT_LT(summary, methods) << run.out;
   EXPECT_LT(methods, settings) << run.out;
   EXPECT_LT(settings, verdict) << run.out;
+  // The summary's pass/fail counts computed channels only: the dyads' positions are x and y of B
+  // and C (those of A and D, on the ground, are prescribed); their angles, the coupler's, the
+  // rocker's and mu.C (the crank's is driven).
+  for (const std::string row : {"position      dyads", "angle         dyads"}) {
+    const size_t at = run.out.find(row);
+    ASSERT_NE(at, std::string::npos) << run.out;
+    const std::string line = run.out.substr(at, run.out.find('\n', at) - at);
+    EXPECT_TRUE(line.ends_with(row[0] == 'p' ? " 4/0" : " 3/0")) << line;
+  }
   EXPECT_NE(run.out.find("verdict: PASS (23 channel comparisons: 23 pass, 0 fail, 0 n/a; 19 more "
                          "of values the definition prescribes (ground points, the driven "
                          "coordinate): 19 pass, 0 fail, 0 n/a)\n"),
