@@ -674,9 +674,8 @@ std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, 
       for (const SweepRow& r : rows) {
         if (series_of(r) != std::pair(engine, variant)) continue;
         // Engines: the largest dt; the exact integrator: the first (loosest) row.
-        const bool coarser = [&](const SweepRow* than) {
-          return than == nullptr || (engine != "analytic" && r.dt > than->dt);
-        }(coarsest);
+        // (No lambda: clang 14 cannot capture a structured binding.)
+        const bool coarser = coarsest == nullptr || (engine != "analytic" && r.dt > coarsest->dt);
         if (r.status == RunStatus::ok && r.benchmark_error() <= limit && coarser) coarsest = &r;
         if (finest == nullptr || (engine == "analytic" || r.dt < finest->dt)) finest = &r;
       }
@@ -866,16 +865,18 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
          "tip_position_error,tip_velocity_error\n";
   for (const SweepRow& r : sweep.rows) {
-    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt) << ','
-        << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ',' << csv_number(r.max_pct[1])
-        << ',' << csv_number(r.max_pct[2]) << ',' << csv_number(r.max_loop_gap) << ','
-        << to_string(r.status) << ',' << csv_field(r.variant) << ',' << r.flagged_samples << ','
-        << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1] << ',' << r.pareto[2] << ','
-        << csv_number(r.raw_pct[0]) << ',' << csv_number(r.raw_pct[1]) << ',' << csv_number(r.raw_pct[2]) << ','
-        << csv_field(settings_text(r.settings)) << ',' << csv_field(r.message) << ','
-        << csv_number(r.end_pct[0]) << ',' << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
-        << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle) << ','
-        << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << '\n';
+    out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt)
+        << ',' << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ','
+        << csv_number(r.max_pct[1]) << ',' << csv_number(r.max_pct[2]) << ','
+        << csv_number(r.max_loop_gap) << ',' << to_string(r.status) << ',' << csv_field(r.variant)
+        << ',' << r.flagged_samples << ',' << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1]
+        << ',' << r.pareto[2] << ',' << csv_number(r.raw_pct[0]) << ',' << csv_number(r.raw_pct[1])
+        << ',' << csv_number(r.raw_pct[2]) << ',' << csv_field(settings_text(r.settings)) << ','
+        << csv_field(r.message) << ',' << csv_number(r.end_pct[0]) << ','
+        << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
+        << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle)
+        << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error)
+        << '\n';
   }
 }
 
