@@ -12,20 +12,12 @@
 
 #include "analytic/loader.h"
 #include "analytic/newton.h"
+#include "tests/common/sanitizers.h"
 
 // AddressSanitizer brings its own malloc and operator new, which the counting doors below would
 // replace: under it they are left out, and the tests that count skip, saying so (they run in
 // the normal build). The condition estimate's test runs in both.
-#if defined(__SANITIZE_ADDRESS__)
-#define CROSSLINK_COUNTING 0
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CROSSLINK_COUNTING 0
-#endif
-#endif
-#ifndef CROSSLINK_COUNTING
-#define CROSSLINK_COUNTING 1
-#endif
+#define CROSSLINK_COUNTING (!CROSSLINK_ADDRESS_SANITIZER)
 
 namespace {
 std::atomic<bool> g_counting{false};

@@ -12,6 +12,7 @@
 
 #include "analytic/loader.h"
 #include "compare/settings_sweep.h"
+#include "tests/common/sanitizers.h"
 
 namespace crosslink::compare {
 namespace {
@@ -195,7 +196,12 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
   }
   ASSERT_EQ(a.selections.size(), 1u);
   ASSERT_TRUE(a.selections[0].found) << a.selections[0].summary();
-  EXPECT_EQ(a.selections[0].chosen.variant, b.selections[0].chosen.variant);
+  // The pick compares CPU times; under AddressSanitizer the solvers' code paths slow by different
+  // factors (Newton's allocating more than CG's), so its costs are not the program's and two runs
+  // need not agree on them: the repeat is checked in the normal build only.
+  if (!CROSSLINK_ADDRESS_SANITIZER) {
+    EXPECT_EQ(a.selections[0].chosen.variant, b.selections[0].chosen.variant);
+  }
   EXPECT_NE(a.selections[0].summary().find("per simulated s"), std::string::npos);
 }
 
