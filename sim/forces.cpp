@@ -15,6 +15,20 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
+// Generalised forces (per body: force and moment about the frame origin) as each moving body's
+// force and moment about its centre of mass, at pose q.
+void body_loads(const Mechanism& m, const Eigen::VectorXd& q, const Eigen::VectorXd& generalised,
+                std::vector<BodyLoad>& out) {
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    BodyLoad& load = out[static_cast<size_t>(k)];
+    load.force = generalised.segment<2>(3 * k);
+    load.moment = generalised(3 * k + 2) - cross(b.turn(m.links[l].mass.com), load.force);
+  }
+}
+
 }  // namespace
 
 AppliedLoads::AppliedLoads(const Mechanism& m)
@@ -29,15 +43,7 @@ const std::vector<BodyLoad>& AppliedLoads::at(const Eigen::VectorXd& q, const Ei
   state_.qdot = qdot;
   state_.driver.value = driver_value;
   applied_loads(m_, state_, generalised_);
-  for (size_t l = 0; l < m_.links.size(); ++l) {
-    const int k = m_.moving_index(static_cast<int>(l));
-    if (k < 0) continue;
-    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
-    BodyLoad& load = out_[static_cast<size_t>(k)];
-    load.force = generalised_.segment<2>(3 * k);
-    // About the frame origin -> about the centre of mass.
-    load.moment = generalised_(3 * k + 2) - cross(b.turn(m_.links[l].mass.com), load.force);
-  }
+  body_loads(m_, q, generalised_, out_);
   return out_;
 }
 
@@ -73,15 +79,7 @@ const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& 
       generalised_ += effort * jacobian_.row(jacobian_.rows() - 1).transpose();
     }
   }
-  for (size_t l = 0; l < m_.links.size(); ++l) {
-    const int k = m_.moving_index(static_cast<int>(l));
-    if (k < 0) continue;
-    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
-    BodyLoad& load = out_[static_cast<size_t>(k)];
-    load.force = generalised_.segment<2>(3 * k);
-    // About the frame origin -> about the centre of mass.
-    load.moment = generalised_(3 * k + 2) - cross(b.turn(m_.links[l].mass.com), load.force);
-  }
+  body_loads(m_, q, generalised_, out_);
   return out_;
 }
 
