@@ -1083,6 +1083,22 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::Vect
   }
 }
 
+// The scene's bodies as the mechanism's coordinates q (frame origins from the centres of mass),
+// each angle taken on the turn of the one q holds, so that angles stay continuous.
+void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
+                      std::vector<Pose>& frames, Eigen::VectorXd& q) {
+  scene.read(frames);
+  for (size_t v = 0; v < plan.nodes.size(); ++v) {
+    const Node& node = plan.nodes[v];
+    if (node.link < 0) continue;
+    const int k = m.moving_index(node.link);
+    double theta = frames[v].theta;
+    theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
+    q(3 * k + 2) = theta;
+    q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
+  }
+}
+
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
 // no driver, started from the exact state of the reference's first usable sample, the loads and
 // the applied effort on the bodies every step, sampled at the reference's times (which fall on
@@ -1252,18 +1268,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
   std::vector<Pose> frames;
   Eigen::VectorXd q = start.q;
-  auto read_q = [&]() {
-    scene->read(frames);
-    for (size_t v = 0; v < plan.nodes.size(); ++v) {
-      const Node& node = plan.nodes[v];
-      if (node.link < 0) continue;
-      const int k = m.moving_index(node.link);
-      double theta = frames[v].theta;
-      theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
-      q(3 * k + 2) = theta;
-      q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
-    }
-  };
+  auto read_q = [&]() { read_coordinates(*scene, plan, m, frames, q); };
   read_q();
   const double build_mismatch = (q - start.q).cwiseAbs().maxCoeff();
   if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
@@ -1707,18 +1712,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
   std::vector<Pose> frames;
   Eigen::VectorXd q = q_start;
-  auto read_q = [&]() {
-    scene->read(frames);
-    for (size_t v = 0; v < plan.nodes.size(); ++v) {
-      const Node& node = plan.nodes[v];
-      if (node.link < 0) continue;
-      const int k = m.moving_index(node.link);
-      double theta = frames[v].theta;
-      theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
-      q(3 * k + 2) = theta;
-      q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
-    }
-  };
+  auto read_q = [&]() { read_coordinates(*scene, plan, m, frames, q); };
   read_q();
   const double build_mismatch = (q - q_start).cwiseAbs().maxCoeff();
   if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
