@@ -35,6 +35,14 @@ using mujoco_scene::Scene;
 using mujoco_scene::SceneJoint;
 using mujoco_scene::SceneLink;
 
+// A run that could not be made: its reason, and every sample diverged (no engine value).
+EngineRun failed(EngineRun run, std::string message) {
+  run.ok = false;
+  run.message = std::move(message);
+  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+  return run;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Settings
 
@@ -833,11 +841,8 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
     p = prepare_dynamics(m, reference, overrides, &start);
     model = load_model(p.mjcf);
   } catch (const std::exception& e) {
-    run.ok = false;
-    run.message = e.what();
     run.settings = overrides;
-    std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-    return run;
+    return failed(std::move(run), e.what());
   }
   const Scene& s = p.scene;
   const double size = s.size;
@@ -1167,11 +1172,8 @@ class MujocoEngine final : public Engine {
       p = prepare(m, reference, overrides);
       model = load_model(p.mjcf);
     } catch (const std::exception& e) {
-      run.ok = false;
-      run.message = e.what();
       run.settings = overrides;
-      std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-      return run;
+      return failed(std::move(run), e.what());
     }
     const Scene& s = p.scene;
     const double size = s.size;
@@ -1274,12 +1276,10 @@ class MujocoEngine final : public Engine {
     std::vector<std::vector<long>> stencil(static_cast<size_t>(samples));
     const long usable_steps = last_step;  // steps 1 .. last_step (step 0 is the start)
     if (usable_steps < 3) {
-      run.ok = false;
-      run.message = fmt::format(
-          "only {} steps between the first and last usable samples: too few for differences",
-          usable_steps);
-      std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-      return run;
+      return failed(std::move(run),
+                    fmt::format("only {} steps between the first and last usable samples: too few "
+                                "for differences",
+                                usable_steps));
     }
     for (int i = span.first; i <= span.last; ++i) {
       const long at = p.grid.sample_step[static_cast<size_t>(i)];
