@@ -221,7 +221,8 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
                   "class (searched coarse to fine, docs/sweep.md); X becomes the engines' "
                   "tolerance");
   cmd->add_option("--export-mjcf", args->export_mjcf,
-                  "write the generated MuJoCo model (MJCF) to open in MuJoCo's own viewer");
+                  "write the MuJoCo scene (MJCF) that runs alone in MuJoCo's own viewer: it starts "
+                  "at the definition's start and a clock turns the driver");
   cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
   add_max_samples(*cmd, args->limits);
   add_max_steps(*cmd, args->max_steps);

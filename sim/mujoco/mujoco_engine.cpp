@@ -433,6 +433,7 @@ struct Prepared {
   Scene scene;
   MjcfOptions options;
   std::string mjcf;
+  bool periodic = false;  // the run covers whole cycles (a pre-roll on each side)
 };
 
 Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
@@ -467,6 +468,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
       p.grid.time = std::move(time);
       for (long& step : p.grid.sample_step)
         if (step >= 0) step += kPreroll;
+      p.periodic = true;
     }
   }
   if (!start)
@@ -1569,6 +1571,97 @@ class MujocoEngine final : public Engine {
   }
 };
 
+// The clock's drive outweighs the linkage's load on it by this factor's reciprocal, so the
+// driver's speed (or swing) in the exported scene is the definition's to about this fraction.
+constexpr double kClockLoad = 1e-4;
+
+// The export's additions (scene.h, Standalone): the start's joint rates, bars, ground guides
+// over the sliders' travel, and a clock that turns the driver at the definition's speed through
+// a whole cycle, or swings it between the sweep's ends when the sweep is not a whole cycle.
+mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& reference,
+                                    const Prepared& p, int start_row) {
+  const Scene& s = p.scene;
+  mujoco_scene::Standalone out;
+  out.radius = 0.01 * s.size;
+  out.rates.assign(s.joints.size(), 0.0);
+  for (size_t j = 0; j < s.joints.size(); ++j)
+    if (s.joints[j].in_tree)
+      out.rates[j] = joint_motion(m, s, s.joints[j], p.start.q, p.start.qdot)(1);
+  std::vector<int> usable_rows;
+  for (int i = p.span.first; i <= p.span.last; ++i)
+    if (has_position(reference.status[static_cast<size_t>(i)])) usable_rows.push_back(i);
+  const std::vector<int> slides = m.slide_joints();
+  for (size_t k = 0; k < slides.size(); ++k) {
+    const Joint& j = m.joints[static_cast<size_t>(slides[k])];
+    if (!m.links[static_cast<size_t>(j.link_a)].ground) continue;
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    double low = INFINITY, high = -INFINITY;
+    for (int i : usable_rows) {
+      low = std::min(low, reference.s(i, static_cast<Eigen::Index>(k)));
+      high = std::max(high, reference.s(i, static_cast<Eigen::Index>(k)));
+    }
+    if (low <= high)
+      out.guides.push_back({line.origin + (low - 3 * out.radius) * line.direction,
+                            line.origin + (high + 3 * out.radius) * line.direction});
+  }
+  if (m.dynamics || !p.options.driven || usable_rows.empty()) return out;
+
+  double low = INFINITY, high = -INFINITY, peak_rate = 0.0;
+  for (int i : usable_rows) {
+    low = std::min(low, reference.driver(i));
+    high = std::max(high, reference.driver(i));
+    peak_rate = std::max(peak_rate, std::abs(m.driver.at_time(reference.time(i)).rate));
+  }
+  const double v0 = reference.driver(start_row);
+  const double rate0 = m.driver.at_time(reference.time(start_row)).rate;
+  const bool turning =
+      p.periodic && m.driver.law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
+  // A swing stays a twentieth of the sweep clear of its ends, which are limits (toggles) where
+  // the chain would take the clock's drive: it goes from the start, at rest, to as far towards
+  // the farther end and back.
+  const double margin = 0.05 * (high - low);
+  const double far = v0 - low > high - v0 ? low + margin : high - margin;
+  const auto in_swing = [&](double v) { return std::abs(v - v0) <= std::abs(far - v0) + 1e-12; };
+  // The load the linkage can put on the clock: the peak driver effort where the clock takes it,
+  // and at least its inertia at the driver's peak rate (angular, or over the size for a slider).
+  double peak_effort = 0.0;
+  if (reference.has_forces)
+    for (int i : usable_rows)
+      if (turning || in_swing(reference.driver(i)))
+        peak_effort = std::max(peak_effort, std::abs(reference.effort(i)));
+  const double arm = m.driver.angular() ? 1.0 : s.size;
+  double inertia = 0.0;
+  for (const SceneLink& link : s.links)
+    if (!link.ground) inertia += link.mass * s.size * s.size + link.inertia;
+  const auto load = [&](double rate) {
+    return std::max(peak_effort, inertia * std::pow(rate / arm, 2) / arm);
+  };
+  mujoco_scene::Clock clock;
+  if (turning) {
+    // A servo: torque - damping x rate, at speed when rate = torque / damping; it spins up over
+    // a twentieth of a turn's time (of the cycle, for a slider) from rest.
+    const double period =
+        m.driver.angular() ? 2.0 * std::numbers::pi / std::abs(rate0) : m.cycle_period();
+    clock.damping = load(rate0) / (kClockLoad * std::abs(rate0));
+    clock.torque = clock.damping * rate0;
+    clock.inertia = clock.damping * period / 20.0;
+    clock.rate = rate0;
+  } else {
+    // A spring about the swing's middle, as fast there as the definition's fastest rate; the
+    // keyframe starts at rest, as the clock does.
+    std::fill(out.rates.begin(), out.rates.end(), 0.0);
+    const double centre = 0.5 * (far - v0), amplitude = std::abs(centre);
+    if (amplitude > 0.0 && peak_rate > 0.0) {
+      const double frequency = peak_rate / amplitude;
+      clock.stiffness = load(peak_rate) / (kClockLoad * amplitude);
+      clock.inertia = clock.stiffness / (frequency * frequency);
+      clock.springref = centre;
+    }
+  }
+  out.clock = clock;
+  return out;
+}
+
 }  // namespace
 
 std::unique_ptr<Engine> make_mujoco_engine() {
@@ -1577,8 +1670,24 @@ std::unique_ptr<Engine> make_mujoco_engine() {
 
 std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& settings) {
-  if (mechanism.dynamics) return prepare_dynamics(mechanism, reference, settings).mjcf;
-  return prepare(mechanism, reference, settings).mjcf;
+  Prepared p = mechanism.dynamics ? prepare_dynamics(mechanism, reference, settings)
+                                  : prepare(mechanism, reference, settings);
+  // The exported scene starts at the definition's start: the usable sample nearest it (a
+  // sweep's samples fall on it), not before a run's pre-roll or at a range's end.
+  int row = p.span.first;
+  if (!mechanism.dynamics) {
+    for (int i = p.span.first; i <= p.span.last; ++i)
+      if (usable(reference.status[static_cast<size_t>(i)]) &&
+          std::abs(reference.driver(i) - mechanism.driver.start) <
+              std::abs(reference.driver(row) - mechanism.driver.start))
+        row = i;
+    const auto start = exact_start(mechanism, reference, row, reference.time(row));
+    if (!start) throw std::runtime_error("could not close the loops at the definition's start");
+    p.start = *start;
+    p.scene = mujoco_scene::build_scene(mechanism, p.start.q, &reference);
+  }
+  p.options.standalone = standalone(mechanism, reference, p, row);
+  return mujoco_scene::to_mjcf(mechanism, p.scene, p.options);
 }
 
 }  // namespace crosslink::sim

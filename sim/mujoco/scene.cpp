@@ -280,6 +280,23 @@ bool realisable(const Mechanism& mechanism, std::string* why) {
   return true;
 }
 
+std::vector<std::pair<int, double>> driver_tendon(const Mechanism& m, const Scene& s) {
+  if (!s.driven.equivalent) return {{s.driven.joint, s.driven.sign}};  // sign (driver - offset)
+  // An equivalent driver is a link's absolute angle: the sum of the hinges from the ground, with
+  // theta_child = theta_parent + value when the child is the hinge's b, - value when it is a.
+  std::vector<int> parent_joint(s.links.size(), -1);
+  for (int j : s.tree_order) parent_joint[s.joints[j].child] = j;
+  int link = 0;
+  while (s.links[link].source != m.driver.link) ++link;
+  std::vector<std::pair<int, double>> out;
+  for (; parent_joint[link] >= 0; link = s.joints[parent_joint[link]].parent) {
+    const SceneJoint& j = s.joints[parent_joint[link]];
+    if (j.kind == SceneJoint::Kind::hinge)
+      out.emplace_back(parent_joint[link], j.child == j.b ? 1.0 : -1.0);
+  }
+  return out;
+}
+
 namespace {
 
 std::string escape(const std::string& text) {
@@ -309,8 +326,59 @@ std::string quat_z(double angle) {
   return fmt::format("{:.17g} 0 0 {:.17g}", std::cos(0.5 * angle), std::sin(0.5 * angle));
 }
 
+// The outline of a link's points (convex hull, counter-clockwise; Andrew's monotone chain).
+std::vector<Eigen::Vector2d> outline(std::vector<Eigen::Vector2d> points) {
+  std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  points.erase(std::unique(points.begin(), points.end()), points.end());
+  if (points.size() < 3) return points;
+  const auto turn = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) { return perp(a - o).dot(b - o); };
+  std::vector<Eigen::Vector2d> hull(2 * points.size());
+  size_t k = 0;
+  for (size_t i = 0; i < points.size(); ++i) {  // lower chain
+    while (k >= 2 && turn(hull[k - 2], hull[k - 1], points[i]) <= 0.0) --k;
+    hull[k++] = points[i];
+  }
+  for (size_t i = points.size() - 1, lower = k + 1; i-- > 0;) {  // upper chain
+    while (k >= lower && turn(hull[k - 2], hull[k - 1], points[i]) <= 0.0) --k;
+    hull[k++] = points[i];
+  }
+  hull.resize(k - 1);
+  return hull;
+}
+
+// Visual-only geometry (no contacts; inertiafromgeom is off, so no mass): a bar along each edge
+// of the link's outline and a pin at each point; a block is a box on its guide.
+std::string link_geometry(const SceneLink& link, int colour, double r, const std::string& pad) {
+  static constexpr std::array<const char*, 6> kColours = {"0.12 0.47 0.71 1", "1 0.5 0.05 1",
+                                                          "0.17 0.63 0.17 1", "0.58 0.4 0.74 1",
+                                                          "0.55 0.34 0.29 1", "0.09 0.75 0.81 1"};
+  const std::string look =
+      fmt::format("contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"{}\"",
+                  link.ground ? "0.5 0.5 0.5 1" : kColours[static_cast<size_t>(colour) % 6]);
+  std::string out;
+  if (link.source < 0)
+    return fmt::format("{}<geom type=\"box\" size=\"{:.6g} {:.6g} {:.6g}\" {}/>\n", pad, 3 * r,
+                       1.5 * r, 1.5 * r, look);
+  const std::vector<Eigen::Vector2d> edge = outline(link.points);
+  for (size_t i = 0; !link.ground && edge.size() > 1 && i < edge.size(); ++i) {
+    const Eigen::Vector2d &a = edge[i], &b = edge[(i + 1) % edge.size()];
+    if (edge.size() == 2 && i == 1) break;
+    out += fmt::format(
+        "{}<geom type=\"capsule\" fromto=\"{:.9g} {:.9g} 0 {:.9g} {:.9g} 0\" size=\"{:.6g}\" "
+        "{}/>\n",
+        pad, a.x(), a.y(), b.x(), b.y(), r, look);
+  }
+  for (const Eigen::Vector2d& p : link.points)
+    out += fmt::format("{}<geom type=\"sphere\" pos=\"{:.9g} {:.9g} 0\" size=\"{:.6g}\" {}/>\n",
+                       pad, p.x(), p.y(), 1.6 * r, look);
+  return out;
+}
+
 void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& children, int depth,
-                std::string& out) {
+                const Standalone* standalone, std::vector<int>& written, std::string& out) {
   const std::string pad(static_cast<size_t>(2 * depth), ' ');
   for (int j : children[link]) {
     const SceneJoint& sj = s.joints[j];
@@ -343,7 +411,9 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
           "{}  <joint name=\"{}\" type=\"slide\" axis=\"{:.17g} {:.17g} 0\" ref=\"{:.17g}\"/>\n",
           pad, escape(sj.name), axis.x(), axis.y(), sj.value);
     }
-    write_body(s, sj.child, children, depth + 1, out);
+    written.push_back(j);
+    if (standalone) out += link_geometry(child, sj.child, standalone->radius, pad + "  ");
+    write_body(s, sj.child, children, depth + 1, standalone, written, out);
     out += pad + "</body>\n";
   }
 }
@@ -357,9 +427,21 @@ std::string vec(const Eigen::VectorXd& v) {
 }  // namespace
 
 std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
+  const Standalone* alone = o.standalone ? &*o.standalone : nullptr;
   std::string out = fmt::format("<mujoco model=\"{}\">\n", escape(m.name));
   const bool gravity = o.gravity != Eigen::Vector2d::Zero();
-  out += "  <!-- crosslink: planar linkage; contacts off, no geoms -->\n";
+  if (!alone)
+    out += "  <!-- crosslink: planar linkage; contacts off, no geoms -->\n";
+  else if (alone->clock)
+    out +=
+        "  <!-- crosslink: planar linkage for MuJoCo alone (docs/engines.md, \"The exported "
+        "scene\"); contacts off, geoms drawn only; the hinge \"clock\" moves the driver -->\n";
+  else
+    out +=
+        "  <!-- crosslink: planar linkage for MuJoCo alone (docs/engines.md, \"The exported "
+        "scene\"); contacts off, geoms drawn only; the coordinate moves freely under gravity: "
+        "the definition's loads, springs and effort are crosslink's run's, not in this file "
+        "-->\n";
   out += "  <compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n";
   // Dense Jacobian: the force reading solves with the equality rows of efc_J.
   out += fmt::format(
@@ -368,11 +450,59 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
       "    <flag contact=\"disable\" gravity=\"{}\"/>\n  </option>\n",
       o.dt, o.integrator, o.solver, o.iterations, o.tolerance, o.gravity.x(), o.gravity.y(),
       gravity ? "enable" : "disable");
+  Eigen::Vector2d low = Eigen::Vector2d::Constant(INFINITY), high = -low;
+  for (const SceneLink& link : s.links)
+    for (const Eigen::Vector2d& p : link.points) {
+      low = low.cwiseMin(world(link, p));
+      high = high.cwiseMax(world(link, p));
+    }
+  const Eigen::Vector2d centre =
+      low.allFinite() ? Eigen::Vector2d(0.5 * (low + high)) : Eigen::Vector2d::Zero();
+  if (alone)  // frame the linkage; the camera "plane" looks down on its plane
+    out += fmt::format("  <statistic center=\"{:.9g} {:.9g} 0\" extent=\"{:.9g}\"/>\n", centre.x(),
+                       centre.y(), s.size);
   out += "  <worldbody>\n";
+  std::vector<int> written;  // tree joints in the order MuJoCo numbers them
+  if (alone) {
+    out += fmt::format(
+        "    <camera name=\"plane\" pos=\"{:.9g} {:.9g} {:.9g}\" xyaxes=\"1 0 0 0 1 0\"/>\n"
+        "    <light directional=\"true\" pos=\"0 0 {:.9g}\" dir=\"0 0 -1\"/>\n",
+        centre.x(), centre.y(), 2.5 * s.size, 3 * s.size);
+    out += link_geometry(s.links[0], 0, alone->radius, "    ");
+    for (const auto& [a, b] : alone->guides)
+      out += fmt::format(
+          "    <geom type=\"capsule\" fromto=\"{:.9g} {:.9g} 0 {:.9g} {:.9g} 0\" size=\"{:.6g}\" "
+          "contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"0.5 0.5 0.5 0.5\"/>\n",
+          a.x(), a.y(), b.x(), b.y(), 0.5 * alone->radius);
+  }
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);
-  write_body(s, 0, children, 2, out);
-  out += "  </worldbody>\n  <equality>\n";
+  write_body(s, 0, children, 2, alone, written, out);
+  const Clock* clock = alone && alone->clock ? &*alone->clock : nullptr;
+  if (clock)  // its own body, off the linkage's tree; not drawn
+    out += fmt::format(
+        "    <body name=\"clock\">\n"
+        "      <inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"{0:.17g} {0:.17g} {0:.17g}\"/>\n"
+        "      <joint name=\"clock\" type=\"hinge\" axis=\"0 0 1\" damping=\"{1:.17g}\" "
+        "stiffness=\"{2:.17g}\" springref=\"{3:.17g}\"/>\n"
+        "    </body>\n",
+        clock->inertia, clock->damping, clock->stiffness, clock->springref);
+  out += "  </worldbody>\n";
+  if (clock) {
+    out += "  <tendon>\n    <fixed name=\"driver\">\n";
+    for (const auto& [joint, coefficient] : driver_tendon(m, s))
+      out += fmt::format("      <joint joint=\"{}\" coef=\"{:.17g}\"/>\n",
+                         escape(s.joints[joint].name), coefficient);
+    out +=
+        "    </fixed>\n    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n"
+        "    </fixed>\n  </tendon>\n";
+    if (clock->torque != 0.0)  // a constant torque: no gain, the bias alone
+      out += fmt::format(
+          "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
+          "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
+          clock->torque);
+  }
+  out += "  <equality>\n";
   for (int j : s.cuts) {
     const SceneJoint& sj = s.joints[j];
     out += fmt::format(
@@ -382,12 +512,28 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         s.links[sj.b].ground ? "world" : escape(s.links[sj.b].name), sj.ua.x(), sj.ua.y(),
         vec(o.solref), vec(o.solimp));
   }
-  if (o.driven)
+  // MuJoCo's equalities hold changes from qpos0 (the start): the driver's equals the clock's.
+  if (clock)
+    out += fmt::format(
+        "    <tendon name=\"driver\" tendon1=\"driver\" tendon2=\"clock\" polycoef=\"0 1 0 0 0\" "
+        "solref=\"{}\" solimp=\"{}\"/>\n",
+        vec(o.driver_solref), vec(o.driver_solimp));
+  else if (o.driven)
     out += fmt::format(
         "    <joint name=\"driver\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
         "solimp=\"{}\"/>\n",
         escape(s.joints[s.driven.joint].name), vec(o.driver_solref), vec(o.driver_solimp));
-  out += "  </equality>\n</mujoco>\n";
+  out += "  </equality>\n";
+  if (alone) {  // "start": the exact start's velocities (MuJoCo's simulate loads it by its Key)
+    std::string qvel;
+    for (int j : written)
+      qvel +=
+          fmt::format("{}{:.17g}", qvel.empty() ? "" : " ", alone->rates[static_cast<size_t>(j)]);
+    if (clock) qvel += fmt::format("{}{:.17g}", qvel.empty() ? "" : " ", clock->rate);
+    out +=
+        fmt::format("  <keyframe>\n    <key name=\"start\" qvel=\"{}\"/>\n  </keyframe>\n", qvel);
+  }
+  out += "</mujoco>\n";
   return out;
 }
 

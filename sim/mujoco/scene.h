@@ -4,7 +4,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -80,6 +83,29 @@ Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q,
 // Just the realisability check of build_scene (no configuration needed).
 bool realisable(const Mechanism& mechanism, std::string* why);
 
+// The driver coordinate as a fixed tendon: (scene joint, coefficient) pairs whose weighted sum
+// changes as the driver does. A tree-joint driver is its joint; an equivalent driver (a floating
+// link's angle) is the sum of the hinges on the tree path from the ground to the link.
+std::vector<std::pair<int, double>> driver_tendon(const Mechanism& mechanism, const Scene& scene);
+
+// What turns the MJCF into a scene for MuJoCo alone (the export; docs/engines.md, "The exported
+// scene"): a clock hinge that moves the driver coordinate through the driver equality (crosslink's
+// runs set the equality's target every step instead), drawn bars, and a keyframe at speed.
+struct Clock {
+  double inertia = 1.0;    // [kg m^2]
+  double damping = 0.0;    // constant speed: a servo, torque - damping x rate [N m s]
+  double torque = 0.0;     //   with torque = damping x speed [N m]
+  double stiffness = 0.0;  // an oscillation between the sweep's ends: a spring [N m]
+  double springref = 0.0;  //   centred on this clock angle [rad]
+  double rate = 0.0;       // the keyframe's clock rate [rad/s]
+};
+struct Standalone {
+  std::optional<Clock> clock;  // none: a dynamics case, whose coordinate moves freely
+  std::vector<double> rates;   // per scene joint: its rate at the start (the keyframe) [rad/s, m/s]
+  double radius = 0.0;         // of the drawn bars [m]
+  std::vector<std::array<Eigen::Vector2d, 2>> guides;  // ground lines' drawn segments, world [m]
+};
+
 struct MjcfOptions {
   double dt = 1e-3;
   std::string integrator = "Euler", solver = "Newton";
@@ -93,9 +119,11 @@ struct MjcfOptions {
   // Whether the driver equality is written: a forward-dynamics scene has none (the coordinate
   // moves freely under the applied effort).
   bool driven = true;
+  std::optional<Standalone> standalone;  // the export's additions; none for crosslink's own runs
 };
 
 // The MJCF text. Joint names are the scene joints' names; the driver equality is "driver".
+// With `standalone`, the clock is a hinge "clock" and the driver a fixed tendon "driver".
 std::string to_mjcf(const Mechanism& mechanism, const Scene& scene, const MjcfOptions& options);
 
 }  // namespace crosslink::sim::mujoco_scene
