@@ -1,6 +1,6 @@
 #include "compare/comparison.h"
 
-#include "analytic/kinetostatics.h"
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
@@ -66,6 +66,25 @@ bool prescribed(const Mechanism& m, std::string_view channel) {
 int Comparison::failures() const {
   return static_cast<int>(std::count_if(channels.begin(), channels.end(),
                                         [](const auto& c) { return c.verdict == Verdict::fail; }));
+}
+
+Comparison::Counts Comparison::counts(bool prescribed) const {
+  Counts n;
+  for (const ChannelResult& c : channels)
+    if (c.prescribed == prescribed)
+      ++(c.verdict == Verdict::pass   ? n.pass
+         : c.verdict == Verdict::fail ? n.fail
+                                      : n.not_applicable);
+  return n;
+}
+
+std::string Comparison::counts_text() const {
+  const Counts computed = counts(false), fixed = counts(true);
+  return fmt::format(
+      "{} channel comparisons: {} pass, {} fail, {} n/a; {} more of values the definition "
+      "prescribes (ground points, the driven coordinate): {} pass, {} fail, {} n/a",
+      computed.total(), computed.pass, computed.fail, computed.not_applicable, fixed.total(),
+      fixed.pass, fixed.fail, fixed.not_applicable);
 }
 
 bool Comparison::pass() const {

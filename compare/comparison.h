@@ -64,6 +64,15 @@ struct Comparison {
   const MethodRun* method(std::string_view name) const;
   bool pass() const;
   int failures() const;  // channels with verdict fail
+  // How many channels have each verdict, the computed ones and the prescribed ones apart.
+  struct Counts {
+    int pass = 0, fail = 0, not_applicable = 0;
+    int total() const { return pass + fail + not_applicable; }
+  };
+  Counts counts(bool prescribed) const;
+  // "N channel comparisons: p pass, f fail, n n/a; M more of values the definition prescribes
+  // (...): ..." as the console, HTML report and JSON say it.
+  std::string counts_text() const;
 };
 
 // Compares every available method in `methods` (the first is the reference) channel by

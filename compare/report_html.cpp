@@ -490,10 +490,9 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   if (!m.citation.empty())
     out << fmt::format("<p><small>Source: {}</small></p>\n", escape(m.citation));
   out << fmt::format(
-      "<p>File <code>{}</code>. Overall verdict: <b class=\"verdict-{}\">{}</b> "
-      "({} failing channel comparisons of {}).</p>\n",
-      escape(m.file), cmp.pass() ? "pass" : "fail", cmp.pass() ? "PASS" : "FAIL", cmp.failures(),
-      cmp.channels.size());
+      "<p>File <code>{}</code>. Overall verdict: <b class=\"verdict-{}\">{}</b> ({}).</p>\n",
+      escape(m.file), cmp.pass() ? "pass" : "fail", cmp.pass() ? "PASS" : "FAIL",
+      escape(cmp.counts_text()));
   out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
          "run)</p>\n";
   out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,

@@ -252,17 +252,7 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
     }
-  // Counts: the channels the definition prescribes apart from those the methods compute.
-  std::array<std::array<int, 3>, 2> counts{};  // [prescribed][pass, fail, n/a]
-  for (const ChannelResult& c : cmp.channels)
-    ++counts[c.prescribed][c.verdict == Verdict::pass ? 0 : c.verdict == Verdict::fail ? 1 : 2];
-  const auto total = [](const std::array<int, 3>& n) { return n[0] + n[1] + n[2]; };
-  fmt::print(out,
-             "verdict: {} ({} channel comparisons: {} pass, {} fail, {} n/a; {} more of values the "
-             "definition prescribes (ground points, the driven coordinate): {} pass, {} fail, {} "
-             "n/a)\n",
-             cmp.pass() ? "PASS" : "FAIL", total(counts[0]), counts[0][0], counts[0][1],
-             counts[0][2], total(counts[1]), counts[1][0], counts[1][1], counts[1][2]);
+  fmt::print(out, "verdict: {} ({})\n", cmp.pass() ? "PASS" : "FAIL", cmp.counts_text());
 }
 
 nlohmann::json to_json(const Comparison& cmp) {
