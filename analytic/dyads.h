@@ -193,8 +193,8 @@ class DyadSolver {
 // sample nearest the driver's start value outward, in substeps of at most continuation_step(),
 // each halved while continuity cannot tell a group's two assemblies apart: a sample's value does
 // not depend on the grid's step. Mode changes are events at the driver value where they happen.
-// With `forces`, also the kinetostatics at each closed-form pose (the multipliers, with J factorised
-// there: about five times the closed form's own cost, so only where they are printed).
+// With `forces`, also the kinetostatics at each closed-form pose (the multipliers, with J
+// factorised there: about five times the closed form's own cost, so only where they are printed).
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces = false);
 Trajectory dyad_sweep(const Mechanism& mechanism, const SweepOptions& options = {});
 

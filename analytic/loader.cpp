@@ -12,6 +12,7 @@
 #include <numbers>
 #include <numeric>
 
+#include "analytic/branch.h"
 #include "analytic/limits.h"
 
 namespace crosslink {
@@ -1220,6 +1221,61 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   m.expect = e;
 }
 
+// [[branch]]: an assembly mode by name, `points` = three named points, `turn` = "ccw" | "cw"
+// (BranchChoice).
+void read_branches(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::node* node = root.get("branch");
+  if (!node) return;
+  const auto* array = node->as_array();
+  if (!array || !array->is_array_of_tables()) {
+    r.error(r.at(*node), "'branch' must be an array of tables ([[branch]])");
+    return;
+  }
+  if (array->size() > limits::kJoints) {
+    r.error(r.at(*node),
+            fmt::format("{} [[branch]] tables: the limit is {}", array->size(), limits::kJoints));
+    return;
+  }
+  const std::vector<Mechanism::NamedPoint> named = m.named_points();
+  std::vector<std::string> all;
+  for (const auto& p : named) all.push_back(p.name);
+  for (const toml::node& entry : *array) {
+    const toml::table& t = *entry.as_table();
+    r.known_keys(t, "[[branch]]", {"points", "turn"});
+    BranchChoice b;
+    b.where = r.at(t);
+    const toml::node* points = t.get("points");
+    const auto* list = points ? points->as_array() : nullptr;
+    if (!list || list->size() != 3) {
+      r.error(points ? r.at(*points) : b.where,
+              "[[branch]] needs 'points': the names of three points, whose triangle's 'turn' "
+              "names the assembly");
+      continue;
+    }
+    for (const toml::node& p : *list) {
+      const auto* name = p.as_string();
+      const auto found = name ? std::find_if(named.begin(), named.end(),
+                                             [&](const auto& n) { return n.name == name->get(); })
+                              : named.end();
+      if (found == named.end()) {
+        r.error(r.at(p), fmt::format("[[branch]] 'points': {} is not a named point (points: {})",
+                                     name ? "'" + name->get() + "'" : "a value", join(all)));
+        continue;
+      }
+      if (std::find(b.names.begin(), b.names.end(), found->name) != b.names.end())
+        r.error(r.at(p), fmt::format("[[branch]] 'points' names '{}' twice", found->name));
+      b.names.push_back(found->name);
+      b.points.emplace_back(found->link, found->point);
+    }
+    const std::optional<std::string> turn = r.string(t, "turn", "[[branch]]", true);
+    if (turn && *turn != "ccw" && *turn != "cw")
+      r.error(r.at(t.get("turn")), "[[branch]] 'turn' must be \"ccw\" or \"cw\"");
+    if (b.names.size() != 3 || !turn) continue;
+    b.counter_clockwise = *turn == "ccw";
+    m.branches.push_back(b);
+  }
+}
+
 // Structure: one ground, unique names, named points that are one place, a connected chain,
 // and a mobility that one driver can drive (reported at `driver`, the [driver] table, if any).
 void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
@@ -1407,7 +1463,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   r.set_root(root);
   r.known_keys(root, "the definition",
                {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
-                "tolerance", "expect", "gravity", "load", "spring", "dynamics"});
+                "tolerance", "expect", "gravity", "load", "spring", "dynamics", "branch"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
@@ -1490,7 +1546,9 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_tolerances(r, m, root);
   read_references(r, m, root);
   read_expect(r, m, root);
+  read_branches(r, m, root);
   r.throw_if_any();
+  apply_branches(m);  // the assembly they name, as drawn poses
   return m;
 }
 

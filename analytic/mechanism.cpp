@@ -289,4 +289,10 @@ double DynamicsCase::effort_at(double t) const {
   return effort.back().second;
 }
 
+std::string BranchChoice::text() const {
+  std::string points;
+  for (const std::string& n : names) points += (points.empty() ? "" : " -> ") + n;
+  return fmt::format("{} turns {}", points, counter_clockwise ? "counter-clockwise" : "clockwise");
+}
+
 }  // namespace crosslink

@@ -241,6 +241,18 @@ struct Expectations {
   SourceLocation where;
 };
 
+// An assembly mode named in the definition ([[branch]]): at the driver's start value, the
+// triangle of three named points turns counter-clockwise or clockwise (in a four-bar A B C D,
+// B -> C -> D names the circuit: it turns one way all along it). analytic/branch.h finds the
+// assembly that has it.
+struct BranchChoice {
+  std::vector<std::string> names;           // the three points
+  std::vector<std::pair<int, int>> points;  // each as (link, point index)
+  bool counter_clockwise = true;
+  SourceLocation where;
+  std::string text() const;  // "B -> C -> D turns counter-clockwise"
+};
+
 struct Mechanism {
   std::string name;
   std::string description;
@@ -256,6 +268,7 @@ struct Mechanism {
   std::vector<Reference> references;
   ToleranceOverrides tolerances;
   std::optional<Expectations> expect;  // [expect], when the definition has one
+  std::vector<BranchChoice> branches;  // [[branch]]: the assembly at the start, by name
   // [dynamics], when the definition is a forward-dynamics case. Kinematic commands then drive the
   // coordinate at its initial rate (1 unit/s when that is 0).
   std::optional<DynamicsCase> dynamics;

@@ -1,8 +1,10 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <numbers>
 
+#include "analytic/branch.h"
 #include "analytic/fourbar.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
@@ -145,6 +147,38 @@ void print_singular_positions(const Mechanism& m, std::string& out) {
   }
 }
 
+// Which assembly the chain starts on, who chose it, and whether another closes there.
+void print_modes(const Mechanism& m, const KinematicState& assembled, std::string& out) {
+  const bool drawn = std::any_of(m.links.begin(), m.links.end(),
+                                 [](const Link& l) { return l.pose_where.line > 0; });
+  std::string chosen = drawn ? "as the poses draw it" : "by default: no poses drawn, no [[branch]]";
+  if (!m.branches.empty()) {
+    chosen = "as [[branch]] asks:";
+    for (const BranchChoice& b : m.branches)
+      chosen += fmt::format(" {} (line {});", b.text(), b.where.line);
+    chosen.pop_back();
+  }
+  const std::vector<GroupMode> modes = start_modes(m, assembled);
+  if (modes.empty()) {
+    out += fmt::format("  assembly mode at start: {}\n", chosen);
+    return;
+  }
+  out += fmt::format("  assembly modes at start ({}):\n", chosen);
+  for (const GroupMode& g : modes) {
+    std::string other = "the other mode does not close the chain here";
+    if (g.other_closes && g.other) {
+      std::string names;
+      for (const std::string& n : g.other->names)
+        names += fmt::format("{}\"{}\"", names.empty() ? "" : ", ", n);
+      other = fmt::format("the other mode closes too: [[branch]] points = [{}], turn = \"{}\"",
+                          names, g.other->counter_clockwise ? "ccw" : "cw");
+    } else if (g.other_closes) {
+      other = "the other mode closes too (draw poses near it to choose it)";
+    }
+    out += fmt::format("    {}: {}; {}\n", g.group, g.mode, other);
+  }
+}
+
 }  // namespace
 
 CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
@@ -184,6 +218,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   out += fmt::format(
       "  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
       to_string(assembled.status), assembled.residual, assembled.iterations, assembled.rcond);
+  print_modes(m, state, out);
   if (m.driver.at_rest()) {
     out +=
         "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "

@@ -76,6 +76,46 @@ TEST(Cli, CheckAcceptsTheSewingMachine) {
   EXPECT_NE(run.out.find("ok"), std::string::npos) << run.out;
 }
 
+// Issue 13: `check` says which assembly mode each dyad starts on, who chose it, and how to name
+// the other when it closes too. The crank-rocker is drawn on the open circuit, C above AD, so
+// B -> C -> D turns clockwise (its description says so).
+TEST(Cli, CheckSaysWhichAssemblyModeWasTakenAndThatAnotherExists) {
+  const CommandRun drawn = crosslink("check mechanisms/fourbar_crank_rocker.toml");
+  ASSERT_EQ(drawn.exit_code, 0) << drawn.err;
+  EXPECT_NE(
+      drawn.out.find("assembly modes at start (as the poses draw it):\n    RRR dyad coupler + "
+                     "rocker (joint C): B -> C -> D turns clockwise; the other mode closes "
+                     "too: [[branch]] points = [\"B\", \"C\", \"D\"], turn = \"ccw\"\n"),
+      std::string::npos)
+      << drawn.out;
+  // Without poses: taken by default, and said so.
+  std::string undrawn =
+      read_file(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/fourbar_crank_rocker.toml");
+  for (size_t at; (at = undrawn.find("\npose = ")) != std::string::npos;)
+    undrawn.erase(at, undrawn.find('\n', at + 1) - at);
+  const CommandRun by_default =
+      crosslink("check \"" + write_definition("undrawn.toml", undrawn) + "\"");
+  ASSERT_EQ(by_default.exit_code, 0) << by_default.err;
+  EXPECT_NE(by_default.out.find("assembly modes at start (by default: no poses drawn, no "
+                                "[[branch]]):"),
+            std::string::npos)
+      << by_default.out;
+  // Named: the crossed circuit.
+  const CommandRun named = crosslink(
+      "check \"" +
+      write_definition("named.toml",
+                       undrawn + "\n[[branch]]\npoints = [\"B\", \"C\", \"D\"]\nturn = \"ccw\"\n") +
+      "\"");
+  ASSERT_EQ(named.exit_code, 0) << named.err;
+  EXPECT_NE(named.out.find("(as [[branch]] asks: B -> C -> D turns counter-clockwise (line "),
+            std::string::npos)
+      << named.out;
+  EXPECT_NE(named.out.find("B -> C -> D turns counter-clockwise; the other mode closes too: "
+                           "[[branch]] points = [\"B\", \"C\", \"D\"], turn = \"cw\""),
+            std::string::npos)
+      << named.out;
+}
+
 TEST(Cli, CheckRejectsABadFileWithItsLocation) {
   // Line 3 names a unit that does not exist; the value starts at column 10.
   const std::string path = write_definition("bad.toml",
