@@ -12,6 +12,7 @@
 #include <numbers>
 #include <numeric>
 
+#include "analytic/expression.h"
 #include "analytic/limits.h"
 
 namespace crosslink {
@@ -48,7 +49,16 @@ class Reader {
       if (start == std::string_view::npos) return "";
       ++start;
     }
-    const size_t from = start + region.begin.column - 1, to = start + region.end.column - 1;
+    // toml++ counts columns in characters, not bytes.
+    auto byte_of = [&](toml::source_index column) {
+      size_t i = start;
+      for (toml::source_index c = 1; c < column && i < text_.size(); ++c) {
+        ++i;
+        while (i < text_.size() && starts_nothing(text_[i])) ++i;  // the rest of a character
+      }
+      return i;
+    };
+    const size_t from = byte_of(region.begin.column), to = byte_of(region.end.column);
     return to <= text_.size() && from < to ? std::string(text_.substr(from, to - from)) : "";
   }
 
@@ -57,6 +67,19 @@ class Reader {
   }
   SourceLocation at(const toml::node& node) const { return at(node.source()); }
   SourceLocation at(const toml::node* node) const { return node ? at(*node) : file(); }
+  // Byte `offset` of a string's value: that character when the string is written as it reads
+  // (on one line, without escapes), else the string.
+  SourceLocation at(const toml::value<std::string>& node, size_t offset) const {
+    SourceLocation where = at(node);
+    const std::string& value = node.get();
+    const std::string written = literal(node);
+    if (written.size() != value.size() + 2 || written.compare(1, value.size(), value) != 0)
+      return where;
+    const auto before = value.begin() + static_cast<std::ptrdiff_t>(std::min(offset, value.size()));
+    where.column += 1 + static_cast<int>(std::count_if(value.begin(), before,
+                                                       [](char c) { return !starts_nothing(c); }));
+    return where;
+  }
   // The nearest place for what has none of its own (a missing top-level table): the file's
   // first line, so every diagnostic reads file:line:column.
   SourceLocation file() const { return {file_, 1, 1}; }
@@ -65,6 +88,9 @@ class Reader {
     return &table == root_ ? file() : at(table);
   }
   void set_root(const toml::table& root) { root_ = &root; }
+  // Radians per angle unit of the file, for the trigonometric functions of expressions: [units]
+  // is read before any number.
+  void set_angle_unit(double radians) { angle_unit_ = radians; }
 
   void error(SourceLocation where, std::string message) {
     diagnostics_.push_back({std::move(where), std::move(message)});
@@ -97,14 +123,24 @@ class Reader {
   }
 
   // A number converted to SI by `scale`, refused when it is not finite or is outside the
-  // scale's magnitudes (so that no product or quotient of it overflows).
+  // scale's magnitudes (so that no product or quotient of it overflows). A string is an
+  // expression (analytic/expression.h) in the file's units, whose value is checked the same way.
   std::optional<double> number(const toml::node& node, std::string_view what,
                                const Scale& scale = {}) {
     std::optional<double> value;
     if (const auto* f = node.as_floating_point()) value = f->get();
     if (const auto* i = node.as_integer()) value = static_cast<double>(i->get());
+    if (const auto* s = node.as_string()) {
+      const Evaluation e = evaluate(s->get(), angle_unit_);
+      if (!e.ok()) {
+        error(at(*s, e.offset), fmt::format("{} = \"{}\": {}", what, shortened(s->get()), e.error));
+        return std::nullopt;
+      }
+      value = e.value;
+    }
     if (!value) {
-      error(at(node), fmt::format("{} must be a number", what));
+      error(at(node),
+            fmt::format("{} must be a number, or an expression in quotes (\"2.5 + 1/3\")", what));
       return std::nullopt;
     }
     if (!std::isfinite(*value)) {
@@ -166,9 +202,21 @@ class Reader {
   }
 
  private:
+  // A UTF-8 continuation byte: it starts no character.
+  static bool starts_nothing(char c) { return (static_cast<unsigned char>(c) & 0xC0) == 0x80; }
+
+  // An expression as a message quotes it: its first line, at most 60 bytes.
+  static std::string shortened(std::string_view text) {
+    size_t end = std::min(text.find('\n'), size_t{60});
+    if (end >= text.size()) return std::string(text);
+    while (end > 0 && starts_nothing(text[end])) --end;
+    return std::string(text.substr(0, end)) + "...";
+  }
+
   std::string file_;
   std::string_view text_;
   const toml::table* root_ = nullptr;
+  double angle_unit_ = 1.0;
   std::vector<Diagnostic> diagnostics_;
 };
 
@@ -876,7 +924,9 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     if (!at || !value || !factor) continue;
     ref.driver_value = *at;
     ref.value = *value;
-    ref.printed = r.literal(*t.get("value"));
+    // An expression is kept as written, without its quotes.
+    const toml::node& printed = *t.get("value");
+    ref.printed = printed.is_string() ? *printed.value<std::string>() : r.literal(printed);
     if (const auto precision =
             r.number(t, "precision", "[[reference]] (the unit of the printed value's last digit)",
                      false, {*factor, "", limits::kReferenceValue})) {
@@ -1422,6 +1472,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
     m.units.angle =
         unit_factor(r, *units, "[units]", "angle", kAngleUnits, "rad", &m.units.angle_name)
             .value_or(1.0);
+    r.set_angle_unit(m.units.angle);
     m.units.mass = unit_factor(r, *units, "[units]", "mass", kMassUnits, "kg", &m.units.mass_name)
                        .value_or(1.0);
     m.units.force =
