@@ -11,6 +11,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <set>
 
 #include "analytic/expression.h"
 #include "analytic/limits.h"
@@ -330,6 +331,151 @@ void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) 
   link.mass.assumed = false;
 }
 
+// A polar point: `length` from point `from` of the same link, at `angle` counter-clockwise
+// from the link's x axis, or from the direction from -> `toward` when that is given.
+struct PolarPoint {
+  std::string from;
+  std::optional<std::string> toward;  // none: the x axis
+  const toml::node* from_node = nullptr;
+  const toml::node* toward_node = nullptr;
+  double length = 0.0, angle = 0.0;  // SI
+};
+
+// Reads `{ from = "P", length = l, angle = a [, toward = "Q"] }`, with `names` the points of
+// its link; nullopt after its errors.
+std::optional<PolarPoint> read_polar(Reader& r, const toml::table& t, const std::string& what,
+                                     const std::string& link, const std::vector<std::string>& names,
+                                     const Units& units) {
+  r.known_keys(t, what, {"from", "toward", "length", "angle"});
+  const std::optional<std::string> from = r.string(t, "from", what, true);
+  const std::optional<std::string> toward = r.string(t, "toward", what, false);
+  const std::optional<double> length = r.number(t, "length", what, true, length_scale(units));
+  const std::optional<double> angle = r.number(t, "angle", what, true, angle_scale(units));
+  bool good = from && length && angle && (toward || !t.get("toward"));
+  for (const auto& [key, name] : {std::pair{"from", from}, std::pair{"toward", toward}})
+    if (name && std::find(names.begin(), names.end(), *name) == names.end()) {
+      r.error(r.at(t.get(key)), fmt::format("{}: '{}' names point '{}', which is not on link '{}' "
+                                            "(its points: {})",
+                                            what, key, *name, link, join(names)));
+      good = false;
+    }
+  if (from && toward && *from == *toward) {
+    r.error(r.at(t.get("toward")),
+            fmt::format("{}: 'from' and 'toward' are both '{}': the angle is measured from the "
+                        "direction from -> toward, which needs two points",
+                        what, *toward));
+    good = false;
+  }
+  // A point at distance 0 would have no use for its angle; a negative distance is an angle
+  // a half turn off.
+  if (length && *length <= 0.0) {
+    r.error(r.at(t.get("length")),
+            fmt::format("{}: 'length' must be positive (the distance from '{}')", what,
+                        from.value_or("from")));
+    good = false;
+  }
+  if (!good) return std::nullopt;
+  return PolarPoint{*from, toward, t.get("from"), t.get("toward"), *length, *angle};
+}
+
+// A link's points, [x, y] or polar (read_polar) in the link's frame, kept in the table's order.
+// A polar point may refer to points listed after it, or polar themselves: each is placed once
+// the points it refers to are, and a circle of references is reported once.
+void read_points(Reader& r, const toml::table& points, const Units& units, Link& link) {
+  std::vector<std::string> names;
+  for (auto&& [key, node] : points) names.emplace_back(key.str());
+  std::map<std::string, Eigen::Vector2d> placed;
+  std::map<std::string, PolarPoint> waiting;
+  std::set<std::string> failed;  // reported; what refers to them is not placed, silently
+  for (auto&& [key, node] : points) {
+    const std::string name(key.str());
+    const std::string what = fmt::format("point '{}' of link '{}'", name, link.name);
+    std::optional<PolarPoint> polar;
+    std::optional<std::vector<double>> xy;
+    if (const toml::table* t = node.as_table())
+      polar = read_polar(r, *t, what, link.name, names, units);
+    else if (node.is_array())
+      xy = r.numbers(node, what, {length_scale(units), length_scale(units)});
+    else
+      r.error(r.at(node), fmt::format("{} must be [x, y] or {{ from = \"P\", length = ..., "
+                                      "angle = ... }}",
+                                      what));
+    if (polar)
+      waiting.emplace(name, *polar);
+    else if (xy)
+      placed.emplace(name, Eigen::Vector2d((*xy)[0], (*xy)[1]));
+    else
+      failed.insert(name);
+  }
+
+  // Where a polar point is, once the points it refers to are placed or have failed; nullopt
+  // when one failed (reported) or they are one place.
+  auto place = [&](const std::string& name, const PolarPoint& p) -> std::optional<Eigen::Vector2d> {
+    if (failed.count(p.from) || (p.toward && failed.count(*p.toward))) return std::nullopt;
+    const Eigen::Vector2d& from = placed.at(p.from);
+    double zero = 0.0;  // the angle's zero: the x axis, or the direction from -> toward
+    if (p.toward) {
+      const Eigen::Vector2d d = placed.at(*p.toward) - from;
+      if (d.norm() < 1e-12) {
+        r.error(r.at(p.toward_node),
+                fmt::format("point '{}' of link '{}' is measured from the direction '{}' -> '{}', "
+                            "but they are the same place",
+                            name, link.name, p.from, *p.toward));
+        return std::nullopt;
+      }
+      zero = std::atan2(d.y(), d.x());
+    }
+    return from + p.length * Eigen::Vector2d(std::cos(zero + p.angle), std::sin(zero + p.angle));
+  };
+  // Place what can be placed until nothing more can; what waits then is on a circle or
+  // refers to one.
+  auto done = [&](const std::string& name) { return placed.count(name) || failed.count(name); };
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (auto it = waiting.begin(); it != waiting.end();) {
+      const PolarPoint& p = it->second;
+      if (!done(p.from) || (p.toward && !done(*p.toward))) {
+        ++it;
+        continue;
+      }
+      if (const std::optional<Eigen::Vector2d> xy = place(it->first, p))
+        placed.emplace(it->first, *xy);
+      else
+        failed.insert(it->first);
+      it = waiting.erase(it);
+      progress = true;
+    }
+  }
+  std::set<std::string> reported;
+  for (const auto& entry : waiting) {
+    // Follow the references that wait until one repeats: the circle. via[k] is the key by
+    // which path[k] refers to path[k + 1].
+    std::vector<std::string> path{entry.first};
+    std::vector<const toml::node*> via;
+    size_t start = 0;
+    for (;;) {
+      const PolarPoint& q = waiting.at(path.back());
+      const bool by_from = waiting.count(q.from) > 0;
+      via.push_back(by_from ? q.from_node : q.toward_node);
+      path.push_back(by_from ? q.from : *q.toward);
+      start = static_cast<size_t>(std::find(path.begin(), path.end(), path.back()) - path.begin());
+      if (start + 1 < path.size()) break;
+    }
+    if (reported.count(path[start])) continue;
+    std::string circle;
+    for (size_t k = start; k < path.size(); ++k) circle += (k == start ? "" : " -> ") + path[k];
+    reported.insert(path.begin() + static_cast<std::ptrdiff_t>(start), path.end());
+    r.error(r.at(via[start]),
+            fmt::format("points of link '{}' are measured from one another in a circle: {} "
+                        "(give one of them as [x, y]; its points: {})",
+                        link.name, circle, join(names)));
+  }
+
+  for (auto&& [key, node] : points)
+    if (const auto p = placed.find(std::string(key.str())); p != placed.end())
+      link.points.push_back({p->first, p->second, r.at(node)});
+}
+
 // Reads one [[link]] entry.
 Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   Link link;
@@ -352,13 +498,7 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
                                        link.name, points->size(), limits::kPoints));
   } else if (points) {
     if (points->empty()) r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
-    for (auto&& [key, node] : *points) {
-      const auto xy = r.numbers(node, fmt::format("point '{}' of link '{}'", key.str(), link.name),
-                                {length_scale(units), length_scale(units)});
-      if (!xy) continue;
-      link.points.push_back(
-          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]), r.at(node)});
-    }
+    read_points(r, *points, units, link);
   }
 
   const toml::table* lines = r.table(t, "lines", what, false);

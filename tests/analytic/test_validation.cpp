@@ -1074,5 +1074,137 @@ TEST(Expressions, ABooleanIsNeitherANumberNorAnExpression) {
                     {"'start' in [driver] must be a number, or an expression in quotes"});
 }
 
+// Issue 13: polar points. The coupler BC (B at its origin, C at 0.12 on its x axis) carries
+//   P = 0.05 from B at 30 deg from the x axis:          (0.025 sqrt(3), 0.025)
+//   Q = 0.03 from C at -45 deg from the direction C -> B (180 deg): at 135 deg,
+//       (0.12 - 0.015 sqrt(2), 0.015 sqrt(2))
+//   S = 0.02 from P along the x axis, R = 0.01 from S at 90 deg: S = P + (0.02, 0),
+//       R = S + (0, 0.01); R refers to S, listed after it, and S to P, itself polar.
+const std::string kCoupler = "points = { B = [0, 0], C = [0.12, 0] }";
+// (TOML 1.0 keeps an inline table on one line.)
+const std::string kPolarCoupler =
+    "points = { B = [0, 0], C = [0.12, 0], "
+    "P = { from = \"B\", length = 0.05, angle = 30 }, "
+    "Q = { from = \"C\", toward = \"B\", length = 0.03, angle = -45 }, "
+    "R = { from = \"S\", length = \"0.02 / 2\", angle = \"180 / 2\" }, "
+    "S = { from = \"P\", length = 0.02, angle = 0 } }";
+
+std::string with_coupler(const std::string& points) {
+  return replaced(four_bar(), kCoupler, points);
+}
+
+TEST(PolarPoints, EqualTheirCartesianPoints) {
+  const Mechanism m = parse_mechanism(with_coupler(kPolarCoupler), "good.toml");
+  const Eigen::Vector2d p(0.025 * std::sqrt(3.0), 0.025);
+  const Eigen::Vector2d q(0.12 - 0.015 * std::sqrt(2.0), 0.015 * std::sqrt(2.0));
+  const Eigen::Vector2d s = p + Eigen::Vector2d(0.02, 0.0);
+  const Eigen::Vector2d r = s + Eigen::Vector2d(0.0, 0.01);
+  for (const auto& [name, expected] : {std::pair{"P", p}, {"Q", q}, {"R", r}, {"S", s}}) {
+    EXPECT_NEAR(local(m, "coupler", name).x(), expected.x(), 1e-15) << name;
+    EXPECT_NEAR(local(m, "coupler", name).y(), expected.y(), 1e-15) << name;
+  }
+  // In the table's order, as [x, y] points are; each located at its own table.
+  const Link& coupler = link_named(m, "coupler");
+  ASSERT_EQ(coupler.points.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) EXPECT_EQ(coupler.points[k].name, std::string(1, "BCPQRS"[k]));
+  const std::string text = with_coupler(kPolarCoupler);
+  EXPECT_EQ(coupler.points[3].where.line, place_of(text, "Q = {").line);
+  EXPECT_EQ(coupler.points[3].where.column, place_of(text, "Q = {").column + 4);
+}
+
+// An inclined ground as textbooks give it: a pivot E 0.05 from D at 180 - 27.3 deg, and a guide
+// through it at -27.3 deg.
+TEST(PolarPoints, AnInclinedGroundThroughAPolarPoint) {
+  const std::string text =
+      replaced(four_bar(), "D = [0.10, 0] }\n",
+               "D = [0.10, 0], E = { from = \"D\", length = 0.05, angle = \"180 - 27.3\" } }\n"
+               "lines = { incline = { through = \"E\", angle = -27.3 } }\n");
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  const double a = (180 - 27.3) * kPi / 180;
+  const Eigen::Vector2d e(0.10 + 0.05 * std::cos(a), 0.05 * std::sin(a));
+  EXPECT_NEAR(local(m, "ground", "E").x(), e.x(), 1e-15);
+  EXPECT_NEAR(local(m, "ground", "E").y(), e.y(), 1e-15);
+  const Line& incline = link_named(m, "ground").lines.at(0);
+  EXPECT_EQ(incline.origin, local(m, "ground", "E"));
+  EXPECT_NEAR(incline.direction.x(), std::cos(-27.3 * kPi / 180), 1e-15);
+  EXPECT_NEAR(incline.direction.y(), std::sin(-27.3 * kPi / 180), 1e-15);
+}
+
+TEST(PolarPoints, ACircleIsReportedOnceNamingThePoints) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], "
+      "P = { from = \"Q\", length = 0.05, angle = 30 }, "
+      "Q = { from = \"B\", toward = \"P\", length = 0.03, angle = 10 }, "
+      "R = { from = \"P\", length = 0.01, angle = 0 } }");
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);  // R only refers to the circle
+  const Place from = place_of(text, "\"Q\", length");
+  expect_diagnostic(text, from,
+                    {"points of link 'coupler' are measured from one another in a circle: "
+                     "P -> Q -> P",
+                     "its points: B, C, P, Q, R"});
+}
+
+TEST(PolarPoints, APointMeasuredFromItself) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"P\", length = 1, "
+      "angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"P\", length"), {"in a circle: P -> P"});
+}
+
+TEST(PolarPoints, AnUnknownPointListsTheLinksPoints) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"X\", length = 1, angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"X\""),
+                    {"point 'P' of link 'coupler': 'from' names point 'X', which is not on link "
+                     "'coupler' (its points: B, C, P)"});
+  const std::string toward = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", toward = \"D\", length = 1, "
+      "angle = 0 } }");
+  expect_diagnostic(toward, place_of(toward, "\"D\""),
+                    {"'toward' names point 'D', which is not on link 'coupler'"});
+}
+
+TEST(PolarPoints, TowardMustNotBeFrom) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", toward = \"B\", "
+      "length = 1, angle = 0 } }");
+  const Place key = place_of(text, "toward = \"B\"");
+  expect_diagnostic(text, {key.line, key.column + 9},
+                    {"point 'P'", "'from' and 'toward' are both 'B'"});
+}
+
+TEST(PolarPoints, TowardAtTheSamePlaceAsFrom) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], E = [0, 0], P = { from = \"B\", "
+      "toward = \"E\", length = 1, angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"E\", length"),
+                    {"point 'P' of link 'coupler'", "direction 'B' -> 'E'", "the same place"});
+}
+
+TEST(PolarPoints, TheLengthMustBePositive) {
+  for (const std::string length : {"0", "-0.05", "\"1 - 1\""}) {
+    const std::string text = with_coupler(
+        "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", length = " + length +
+        ", angle = 30 } }");
+    expect_diagnostic(text, place_of(text, length + ", angle"),
+                      {"point 'P' of link 'coupler': 'length' must be positive"});
+  }
+}
+
+TEST(PolarPoints, KeysAreChecked) {
+  const std::string missing =
+      with_coupler("points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", length = 0.05 } }");
+  expect_diagnostic(missing, place_of(missing, "{ from"), {"point 'P'", "needs 'angle'"});
+  const std::string unknown = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", distance = 0.05, angle = 0 } "
+      "}");
+  expect_diagnostic(unknown, place_of(unknown, "distance"),
+                    {"unknown key 'distance'", "valid keys: from, toward, length, angle"});
+  const std::string neither = with_coupler("points = { B = [0, 0], C = [0.12, 0], P = \"B + 1\" }");
+  expect_diagnostic(neither, place_of(neither, "\"B + 1\""),
+                    {"point 'P' of link 'coupler' must be [x, y] or { from = \"P\""});
+}
+
 }  // namespace
 }  // namespace crosslink
