@@ -11,6 +11,9 @@ namespace crosslink::limits {
 constexpr long kDefinitionBytes = 1 << 20;  // a bundled definition is under 10 kB
 constexpr int kKeyParts = 16;               // parts of one dotted key or table header: a.b.c is 3
 constexpr int kNesting = 16;                // arrays and inline tables inside one another
+// An expression in a number (analytic/expression.h) is parsed by recursion too: signs, powers'
+// exponents and parentheses inside one another.
+constexpr int kExpressionNesting = 64;
 
 // Counts. The solver's Jacobian is dense in 3 coordinates per moving link; validation compares
 // names pairwise.

@@ -11,8 +11,10 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <set>
 
 #include "analytic/branch.h"
+#include "analytic/expression.h"
 #include "analytic/limits.h"
 
 namespace crosslink {
@@ -49,7 +51,16 @@ class Reader {
       if (start == std::string_view::npos) return "";
       ++start;
     }
-    const size_t from = start + region.begin.column - 1, to = start + region.end.column - 1;
+    // toml++ counts columns in characters, not bytes.
+    auto byte_of = [&](toml::source_index column) {
+      size_t i = start;
+      for (toml::source_index c = 1; c < column && i < text_.size(); ++c) {
+        ++i;
+        while (i < text_.size() && starts_nothing(text_[i])) ++i;  // the rest of a character
+      }
+      return i;
+    };
+    const size_t from = byte_of(region.begin.column), to = byte_of(region.end.column);
     return to <= text_.size() && from < to ? std::string(text_.substr(from, to - from)) : "";
   }
 
@@ -58,6 +69,19 @@ class Reader {
   }
   SourceLocation at(const toml::node& node) const { return at(node.source()); }
   SourceLocation at(const toml::node* node) const { return node ? at(*node) : file(); }
+  // Byte `offset` of a string's value: that character when the string is written as it reads
+  // (on one line, without escapes), else the string.
+  SourceLocation at(const toml::value<std::string>& node, size_t offset) const {
+    SourceLocation where = at(node);
+    const std::string& value = node.get();
+    const std::string written = literal(node);
+    if (written.size() != value.size() + 2 || written.compare(1, value.size(), value) != 0)
+      return where;
+    const auto before = value.begin() + static_cast<std::ptrdiff_t>(std::min(offset, value.size()));
+    where.column += 1 + static_cast<int>(std::count_if(value.begin(), before,
+                                                       [](char c) { return !starts_nothing(c); }));
+    return where;
+  }
   // The nearest place for what has none of its own (a missing top-level table): the file's
   // first line, so every diagnostic reads file:line:column.
   SourceLocation file() const { return {file_, 1, 1}; }
@@ -66,6 +90,9 @@ class Reader {
     return &table == root_ ? file() : at(table);
   }
   void set_root(const toml::table& root) { root_ = &root; }
+  // Radians per angle unit of the file, for the trigonometric functions of expressions: [units]
+  // is read before any number.
+  void set_angle_unit(double radians) { angle_unit_ = radians; }
 
   void error(SourceLocation where, std::string message) {
     diagnostics_.push_back({std::move(where), std::move(message)});
@@ -98,14 +125,24 @@ class Reader {
   }
 
   // A number converted to SI by `scale`, refused when it is not finite or is outside the
-  // scale's magnitudes (so that no product or quotient of it overflows).
+  // scale's magnitudes (so that no product or quotient of it overflows). A string is an
+  // expression (analytic/expression.h) in the file's units, whose value is checked the same way.
   std::optional<double> number(const toml::node& node, std::string_view what,
                                const Scale& scale = {}) {
     std::optional<double> value;
     if (const auto* f = node.as_floating_point()) value = f->get();
     if (const auto* i = node.as_integer()) value = static_cast<double>(i->get());
+    if (const auto* s = node.as_string()) {
+      const Evaluation e = evaluate(s->get(), angle_unit_);
+      if (!e.ok()) {
+        error(at(*s, e.offset), fmt::format("{} = \"{}\": {}", what, shortened(s->get()), e.error));
+        return std::nullopt;
+      }
+      value = e.value;
+    }
     if (!value) {
-      error(at(node), fmt::format("{} must be a number", what));
+      error(at(node),
+            fmt::format("{} must be a number, or an expression in quotes (\"2.5 + 1/3\")", what));
       return std::nullopt;
     }
     if (!std::isfinite(*value)) {
@@ -167,9 +204,21 @@ class Reader {
   }
 
  private:
+  // A UTF-8 continuation byte: it starts no character.
+  static bool starts_nothing(char c) { return (static_cast<unsigned char>(c) & 0xC0) == 0x80; }
+
+  // An expression as a message quotes it: its first line, at most 60 bytes.
+  static std::string shortened(std::string_view text) {
+    size_t end = std::min(text.find('\n'), size_t{60});
+    if (end >= text.size()) return std::string(text);
+    while (end > 0 && starts_nothing(text[end])) --end;
+    return std::string(text.substr(0, end)) + "...";
+  }
+
   std::string file_;
   std::string_view text_;
   const toml::table* root_ = nullptr;
+  double angle_unit_ = 1.0;
   std::vector<Diagnostic> diagnostics_;
 };
 
@@ -283,6 +332,151 @@ void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) 
   link.mass.assumed = false;
 }
 
+// A polar point: `length` from point `from` of the same link, at `angle` counter-clockwise
+// from the link's x axis, or from the direction from -> `toward` when that is given.
+struct PolarPoint {
+  std::string from;
+  std::optional<std::string> toward;  // none: the x axis
+  const toml::node* from_node = nullptr;
+  const toml::node* toward_node = nullptr;
+  double length = 0.0, angle = 0.0;  // SI
+};
+
+// Reads `{ from = "P", length = l, angle = a [, toward = "Q"] }`, with `names` the points of
+// its link; nullopt after its errors.
+std::optional<PolarPoint> read_polar(Reader& r, const toml::table& t, const std::string& what,
+                                     const std::string& link, const std::vector<std::string>& names,
+                                     const Units& units) {
+  r.known_keys(t, what, {"from", "toward", "length", "angle"});
+  const std::optional<std::string> from = r.string(t, "from", what, true);
+  const std::optional<std::string> toward = r.string(t, "toward", what, false);
+  const std::optional<double> length = r.number(t, "length", what, true, length_scale(units));
+  const std::optional<double> angle = r.number(t, "angle", what, true, angle_scale(units));
+  bool good = from && length && angle && (toward || !t.get("toward"));
+  for (const auto& [key, name] : {std::pair{"from", from}, std::pair{"toward", toward}})
+    if (name && std::find(names.begin(), names.end(), *name) == names.end()) {
+      r.error(r.at(t.get(key)), fmt::format("{}: '{}' names point '{}', which is not on link '{}' "
+                                            "(its points: {})",
+                                            what, key, *name, link, join(names)));
+      good = false;
+    }
+  if (from && toward && *from == *toward) {
+    r.error(r.at(t.get("toward")),
+            fmt::format("{}: 'from' and 'toward' are both '{}': the angle is measured from the "
+                        "direction from -> toward, which needs two points",
+                        what, *toward));
+    good = false;
+  }
+  // A point at distance 0 would have no use for its angle; a negative distance is an angle
+  // a half turn off.
+  if (length && *length <= 0.0) {
+    r.error(r.at(t.get("length")),
+            fmt::format("{}: 'length' must be positive (the distance from '{}')", what,
+                        from.value_or("from")));
+    good = false;
+  }
+  if (!good) return std::nullopt;
+  return PolarPoint{*from, toward, t.get("from"), t.get("toward"), *length, *angle};
+}
+
+// A link's points, [x, y] or polar (read_polar) in the link's frame, kept in the table's order.
+// A polar point may refer to points listed after it, or polar themselves: each is placed once
+// the points it refers to are, and a circle of references is reported once.
+void read_points(Reader& r, const toml::table& points, const Units& units, Link& link) {
+  std::vector<std::string> names;
+  for (auto&& [key, node] : points) names.emplace_back(key.str());
+  std::map<std::string, Eigen::Vector2d> placed;
+  std::map<std::string, PolarPoint> waiting;
+  std::set<std::string> failed;  // reported; what refers to them is not placed, silently
+  for (auto&& [key, node] : points) {
+    const std::string name(key.str());
+    const std::string what = fmt::format("point '{}' of link '{}'", name, link.name);
+    std::optional<PolarPoint> polar;
+    std::optional<std::vector<double>> xy;
+    if (const toml::table* t = node.as_table())
+      polar = read_polar(r, *t, what, link.name, names, units);
+    else if (node.is_array())
+      xy = r.numbers(node, what, {length_scale(units), length_scale(units)});
+    else
+      r.error(r.at(node), fmt::format("{} must be [x, y] or {{ from = \"P\", length = ..., "
+                                      "angle = ... }}",
+                                      what));
+    if (polar)
+      waiting.emplace(name, *polar);
+    else if (xy)
+      placed.emplace(name, Eigen::Vector2d((*xy)[0], (*xy)[1]));
+    else
+      failed.insert(name);
+  }
+
+  // Where a polar point is, once the points it refers to are placed or have failed; nullopt
+  // when one failed (reported) or they are one place.
+  auto place = [&](const std::string& name, const PolarPoint& p) -> std::optional<Eigen::Vector2d> {
+    if (failed.count(p.from) || (p.toward && failed.count(*p.toward))) return std::nullopt;
+    const Eigen::Vector2d& from = placed.at(p.from);
+    double zero = 0.0;  // the angle's zero: the x axis, or the direction from -> toward
+    if (p.toward) {
+      const Eigen::Vector2d d = placed.at(*p.toward) - from;
+      if (d.norm() < 1e-12) {
+        r.error(r.at(p.toward_node),
+                fmt::format("point '{}' of link '{}' is measured from the direction '{}' -> '{}', "
+                            "but they are the same place",
+                            name, link.name, p.from, *p.toward));
+        return std::nullopt;
+      }
+      zero = std::atan2(d.y(), d.x());
+    }
+    return from + p.length * Eigen::Vector2d(std::cos(zero + p.angle), std::sin(zero + p.angle));
+  };
+  // Place what can be placed until nothing more can; what waits then is on a circle or
+  // refers to one.
+  auto done = [&](const std::string& name) { return placed.count(name) || failed.count(name); };
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (auto it = waiting.begin(); it != waiting.end();) {
+      const PolarPoint& p = it->second;
+      if (!done(p.from) || (p.toward && !done(*p.toward))) {
+        ++it;
+        continue;
+      }
+      if (const std::optional<Eigen::Vector2d> xy = place(it->first, p))
+        placed.emplace(it->first, *xy);
+      else
+        failed.insert(it->first);
+      it = waiting.erase(it);
+      progress = true;
+    }
+  }
+  std::set<std::string> reported;
+  for (const auto& entry : waiting) {
+    // Follow the references that wait until one repeats: the circle. via[k] is the key by
+    // which path[k] refers to path[k + 1].
+    std::vector<std::string> path{entry.first};
+    std::vector<const toml::node*> via;
+    size_t start = 0;
+    for (;;) {
+      const PolarPoint& q = waiting.at(path.back());
+      const bool by_from = waiting.count(q.from) > 0;
+      via.push_back(by_from ? q.from_node : q.toward_node);
+      path.push_back(by_from ? q.from : *q.toward);
+      start = static_cast<size_t>(std::find(path.begin(), path.end(), path.back()) - path.begin());
+      if (start + 1 < path.size()) break;
+    }
+    if (reported.count(path[start])) continue;
+    std::string circle;
+    for (size_t k = start; k < path.size(); ++k) circle += (k == start ? "" : " -> ") + path[k];
+    reported.insert(path.begin() + static_cast<std::ptrdiff_t>(start), path.end());
+    r.error(r.at(via[start]),
+            fmt::format("points of link '{}' are measured from one another in a circle: {} "
+                        "(give one of them as [x, y]; its points: {})",
+                        link.name, circle, join(names)));
+  }
+
+  for (auto&& [key, node] : points)
+    if (const auto p = placed.find(std::string(key.str())); p != placed.end())
+      link.points.push_back({p->first, p->second, r.at(node)});
+}
+
 // Reads one [[link]] entry.
 Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   Link link;
@@ -305,13 +499,7 @@ Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
                                        link.name, points->size(), limits::kPoints));
   } else if (points) {
     if (points->empty()) r.error(r.at(*points), fmt::format("link '{}' has no points", link.name));
-    for (auto&& [key, node] : *points) {
-      const auto xy = r.numbers(node, fmt::format("point '{}' of link '{}'", key.str(), link.name),
-                                {length_scale(units), length_scale(units)});
-      if (!xy) continue;
-      link.points.push_back(
-          {std::string(key.str()), Eigen::Vector2d((*xy)[0], (*xy)[1]), r.at(node)});
-    }
+    read_points(r, *points, units, link);
   }
 
   const toml::table* lines = r.table(t, "lines", what, false);
@@ -877,7 +1065,9 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     if (!at || !value || !factor) continue;
     ref.driver_value = *at;
     ref.value = *value;
-    ref.printed = r.literal(*t.get("value"));
+    // An expression is kept as written, without its quotes.
+    const toml::node& printed = *t.get("value");
+    ref.printed = printed.is_string() ? *printed.value<std::string>() : r.literal(printed);
     if (const auto precision =
             r.number(t, "precision", "[[reference]] (the unit of the printed value's last digit)",
                      false, {*factor, "", limits::kReferenceValue})) {
@@ -1478,6 +1668,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
     m.units.angle =
         unit_factor(r, *units, "[units]", "angle", kAngleUnits, "rad", &m.units.angle_name)
             .value_or(1.0);
+    r.set_angle_unit(m.units.angle);
     m.units.mass = unit_factor(r, *units, "[units]", "mass", kMassUnits, "kg", &m.units.mass_name)
                        .value_or(1.0);
     m.units.force =

@@ -932,3 +932,279 @@ TEST(ValidationPhysics, GravityIsTwoNumbers) {
 
 }  // namespace
 }  // namespace crosslink
+
+namespace crosslink {
+namespace {
+
+// Issue 13: arithmetic in numbers. Expected values are the arithmetic worked by hand.
+constexpr double kPi = std::numbers::pi;
+
+const Link& link_named(const Mechanism& m, const std::string& name) {
+  return m.links[static_cast<size_t>(m.find_link(name))];
+}
+const Eigen::Vector2d& local(const Mechanism& m, const std::string& link, const std::string& p) {
+  const Link& l = link_named(m, link);
+  return l.points[static_cast<size_t>(l.find_point(p))].local;
+}
+
+TEST(Expressions, AreEvaluatedInTheFilesUnits) {
+  // In degrees: acos(0.5) is 60 (deg), cos(60) is cos(60 deg) = 0.5.
+  std::string text = replaced(four_bar(), "start = 60", "start = \"acos(0.5)\"");
+  text = replaced(text, "B = [0.04, 0]", "B = [\"0.08*cos(60)\", 0]");
+  text = replaced(text, "D = [0.10, 0]", "D = [\"2^3^2 / 5120\", \"-2^2 + 4\"]");
+  text = replaced(text, "speed = 10", "speed = \"2 * (3 + 2)\"");
+  const Mechanism deg = parse_mechanism(text, "good.toml");
+  EXPECT_NEAR(deg.driver.start, kPi / 3, 1e-15);
+  EXPECT_NEAR(local(deg, "crank", "B").x(), 0.04, 1e-17);
+  EXPECT_EQ(local(deg, "ground", "D"), Eigen::Vector2d(0.10, 0.0));  // 512 / 5120, 0
+  EXPECT_EQ(deg.driver.law.speed, 10.0);
+
+  // In radians the same values are written with pi: the same mechanism.
+  text = replaced(text, "angle = \"deg\"", "angle = \"rad\"");
+  text = replaced(text, "B = [\"0.08*cos(60)\", 0]", "B = [\"0.08*cos(pi/3)\", 0]");
+  text = replaced(text, "pose = [0, 0, 60]", "pose = [0, 0, \"pi/3\"]");
+  text = replaced(text, "18.38]", "\"18.38 * pi/180\"]");
+  text = replaced(text, "64.94]", "\"64.94 * pi/180\"]");
+  const Mechanism rad = parse_mechanism(text, "good.toml");
+  EXPECT_NEAR(rad.driver.start, kPi / 3, 1e-15);  // acos(0.5) in radians
+  EXPECT_NEAR(local(rad, "crank", "B").x(), 0.04, 1e-17);
+  EXPECT_NEAR((*link_named(rad, "coupler").pose)(2), (*link_named(deg, "coupler").pose)(2), 1e-15);
+}
+
+TEST(Expressions, ScaleToSiLikeALiteral) {
+  // In cm and g: 4 cm, 2 + 2 = 4 cm; inertia 1000 * 2 g cm^2. A string `com` is a point's name,
+  // never an expression.
+  std::string text = replaced(four_bar(), "length = \"m\"", "length = \"cm\"\nmass = \"g\"");
+  text = replaced(text, "D = [0.10, 0]", "D = [\"5 * 2\", 0]");
+  text = replaced(text, "B = [0.04, 0] }\npose = [0, 0, 60]",
+                  "B = [\"2 + 2\", 0] }\npose = [0, 0, 60]\nmass = \"40\"\ncom = \"B\"\n"
+                  "inertia = \"1000 * 2\"");
+  text = replaced(text, "C = [0.12, 0] }\npose = [0.02, 0.034641, 18.38]",
+                  "C = [12, 0] }\npose = [2, 3.4641, 18.38]");
+  text = replaced(text, "C = [0.08, 0] }\npose = [0.10, 0, 64.94]",
+                  "C = [8, 0] }\npose = [10, 0, 64.94]");
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  EXPECT_DOUBLE_EQ(local(m, "ground", "D").x(), 0.10);
+  EXPECT_DOUBLE_EQ(local(m, "crank", "B").x(), 0.04);
+  const Link& crank = link_named(m, "crank");
+  EXPECT_DOUBLE_EQ(crank.mass.mass, 0.040);
+  EXPECT_DOUBLE_EQ(crank.mass.com.x(), 0.04);
+  EXPECT_NEAR(crank.mass.inertia, 2000 * 1e-3 * 1e-4, 1e-18);
+}
+
+TEST(Expressions, AReferenceKeepsItsExpressionAsPrinted) {
+  const std::string text = four_bar() + R"(
+[[reference]]
+quantity = "omega.coupler"
+at = "50 + 10"
+value = "-12 - 1/3"
+source = "as printed"
+)";
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  ASSERT_EQ(m.references.size(), 1u);
+  EXPECT_NEAR(m.references[0].driver_value, kPi / 3, 1e-15);
+  EXPECT_EQ(m.references[0].value, -12.0 - 1.0 / 3.0);
+  EXPECT_EQ(m.references[0].printed, "-12 - 1/3");
+  EXPECT_EQ(m.references[0].precision, 0.0);  // no last printed digit: give `precision`
+}
+
+// An error inside an expression is at its character: the string's column, 1 for the quote, and
+// the characters before it.
+TEST(Expressions, ASyntaxErrorIsAtItsCharacter) {
+  const std::string text = replaced(four_bar(), "B = [0.04, 0]", "B = [\"0.04 * * 2\", 0]");
+  expect_diagnostic(text, place_of(text, "* 2"),
+                    {"point 'B' of link 'crank' = \"0.04 * * 2\": expected a number, a name or "
+                     "'(', found '*'"});
+}
+
+TEST(Expressions, AnUnknownFunctionIsAtItsName) {
+  const std::string text = replaced(four_bar(), "start = 60", "start = \"sqr(3600)\"");
+  expect_diagnostic(text, place_of(text, "sqr("),
+                    {"'start' in [driver] = \"sqr(3600)\": unknown function 'sqr'",
+                     "functions: sqrt, abs, sin, cos, tan, asin, acos, atan, atan2"});
+}
+
+TEST(Expressions, DivisionByZeroIsAtTheDivision) {
+  const std::string text = replaced(four_bar(), "D = [0.10, 0]", "D = [\"0.1/0\", 0]");
+  expect_diagnostic(text, place_of(text, "/0\""),
+                    {"point 'D' of link 'ground'", "division by zero"});
+}
+
+TEST(Expressions, UnbalancedParentheses) {
+  const std::string open = replaced(four_bar(), "start = 60", "start = \"2 * (30\"");
+  expect_diagnostic(open, place_of(open, "(30"), {"'(' is never closed"});
+  const std::string close = replaced(four_bar(), "start = 60", "start = \"2 * 30)\"");
+  expect_diagnostic(close, place_of(close, ")\""), {"')' without a matching '('"});
+}
+
+TEST(Expressions, ANonFiniteValueIsAnError) {
+  const std::string text =
+      replaced(four_bar(), "pose = [0, 0, 60]", "pose = [0, 0, \"60 + sqrt(-1)\"]");
+  expect_diagnostic(text, place_of(text, "sqrt(-1)"),
+                    {"pose of link 'crank'", "sqrt(-1) is not a real number"});
+}
+
+// An expression's value passes the checks of a literal, reported at the string.
+TEST(Expressions, AValueBeyondTheLimitIsRefusedAtTheString) {
+  const std::string text = replaced(four_bar(), "D = [0.10, 0]", "D = [\"2 * 1e6\", 0]");
+  expect_diagnostic(text, place_of(text, "\"2 * 1e6\""),
+                    {"point 'D' of link 'ground' = 2000000 m is too large", "limit is 1e+06 m"});
+}
+
+// A string written with escapes does not read as its value: the error is at the string.
+TEST(Expressions, AnEscapedStringIsReportedAtTheString) {
+  const std::string text = replaced(four_bar(), "start = 60", "start = \"1/\\u0030\"");
+  expect_diagnostic(text, place_of(text, "\"1/"), {"'start' in [driver]", "division by zero"});
+}
+
+// toml++ counts columns in characters: after an 'é' (two bytes) on the line, one less than the
+// byte's place.
+TEST(Expressions, ColumnsCountCharactersNotBytes) {
+  const std::string text =
+      replaced(four_bar(), "D = [0.10, 0] }\n",
+               "D = [0.10, 0] }\nlines = { \"é\" = { through = \"A\", angle = \"1/0\" } }\n");
+  const Place byte = place_of(text, "/0\"");
+  expect_diagnostic(text, {byte.line, byte.column - 1}, {"line 'é'", "division by zero"});
+}
+
+TEST(Expressions, ABooleanIsNeitherANumberNorAnExpression) {
+  const std::string text = replaced(four_bar(), "start = 60", "start = true");
+  const Place key = place_of(text, "start = true");
+  expect_diagnostic(text, {key.line, key.column + 8},
+                    {"'start' in [driver] must be a number, or an expression in quotes"});
+}
+
+// Issue 13: polar points. The coupler BC (B at its origin, C at 0.12 on its x axis) carries
+//   P = 0.05 from B at 30 deg from the x axis:          (0.025 sqrt(3), 0.025)
+//   Q = 0.03 from C at -45 deg from the direction C -> B (180 deg): at 135 deg,
+//       (0.12 - 0.015 sqrt(2), 0.015 sqrt(2))
+//   S = 0.02 from P along the x axis, R = 0.01 from S at 90 deg: S = P + (0.02, 0),
+//       R = S + (0, 0.01); R refers to S, listed after it, and S to P, itself polar.
+const std::string kCoupler = "points = { B = [0, 0], C = [0.12, 0] }";
+// (TOML 1.0 keeps an inline table on one line.)
+const std::string kPolarCoupler =
+    "points = { B = [0, 0], C = [0.12, 0], "
+    "P = { from = \"B\", length = 0.05, angle = 30 }, "
+    "Q = { from = \"C\", toward = \"B\", length = 0.03, angle = -45 }, "
+    "R = { from = \"S\", length = \"0.02 / 2\", angle = \"180 / 2\" }, "
+    "S = { from = \"P\", length = 0.02, angle = 0 } }";
+
+std::string with_coupler(const std::string& points) {
+  return replaced(four_bar(), kCoupler, points);
+}
+
+TEST(PolarPoints, EqualTheirCartesianPoints) {
+  const Mechanism m = parse_mechanism(with_coupler(kPolarCoupler), "good.toml");
+  const Eigen::Vector2d p(0.025 * std::sqrt(3.0), 0.025);
+  const Eigen::Vector2d q(0.12 - 0.015 * std::sqrt(2.0), 0.015 * std::sqrt(2.0));
+  const Eigen::Vector2d s = p + Eigen::Vector2d(0.02, 0.0);
+  const Eigen::Vector2d r = s + Eigen::Vector2d(0.0, 0.01);
+  for (const auto& [name, expected] : {std::pair{"P", p}, {"Q", q}, {"R", r}, {"S", s}}) {
+    EXPECT_NEAR(local(m, "coupler", name).x(), expected.x(), 1e-15) << name;
+    EXPECT_NEAR(local(m, "coupler", name).y(), expected.y(), 1e-15) << name;
+  }
+  // In the table's order, as [x, y] points are; each located at its own table.
+  const Link& coupler = link_named(m, "coupler");
+  ASSERT_EQ(coupler.points.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) EXPECT_EQ(coupler.points[k].name, std::string(1, "BCPQRS"[k]));
+  const std::string text = with_coupler(kPolarCoupler);
+  EXPECT_EQ(coupler.points[3].where.line, place_of(text, "Q = {").line);
+  EXPECT_EQ(coupler.points[3].where.column, place_of(text, "Q = {").column + 4);
+}
+
+// An inclined ground as textbooks give it: a pivot E 0.05 from D at 180 - 27.3 deg, and a guide
+// through it at -27.3 deg.
+TEST(PolarPoints, AnInclinedGroundThroughAPolarPoint) {
+  const std::string text =
+      replaced(four_bar(), "D = [0.10, 0] }\n",
+               "D = [0.10, 0], E = { from = \"D\", length = 0.05, angle = \"180 - 27.3\" } }\n"
+               "lines = { incline = { through = \"E\", angle = -27.3 } }\n");
+  const Mechanism m = parse_mechanism(text, "good.toml");
+  const double a = (180 - 27.3) * kPi / 180;
+  const Eigen::Vector2d e(0.10 + 0.05 * std::cos(a), 0.05 * std::sin(a));
+  EXPECT_NEAR(local(m, "ground", "E").x(), e.x(), 1e-15);
+  EXPECT_NEAR(local(m, "ground", "E").y(), e.y(), 1e-15);
+  const Line& incline = link_named(m, "ground").lines.at(0);
+  EXPECT_EQ(incline.origin, local(m, "ground", "E"));
+  EXPECT_NEAR(incline.direction.x(), std::cos(-27.3 * kPi / 180), 1e-15);
+  EXPECT_NEAR(incline.direction.y(), std::sin(-27.3 * kPi / 180), 1e-15);
+}
+
+TEST(PolarPoints, ACircleIsReportedOnceNamingThePoints) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], "
+      "P = { from = \"Q\", length = 0.05, angle = 30 }, "
+      "Q = { from = \"B\", toward = \"P\", length = 0.03, angle = 10 }, "
+      "R = { from = \"P\", length = 0.01, angle = 0 } }");
+  const std::vector<Diagnostic> found = diagnostics_of(text);
+  ASSERT_EQ(found.size(), 1u);  // R only refers to the circle
+  const Place from = place_of(text, "\"Q\", length");
+  expect_diagnostic(text, from,
+                    {"points of link 'coupler' are measured from one another in a circle: "
+                     "P -> Q -> P",
+                     "its points: B, C, P, Q, R"});
+}
+
+TEST(PolarPoints, APointMeasuredFromItself) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"P\", length = 1, "
+      "angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"P\", length"), {"in a circle: P -> P"});
+}
+
+TEST(PolarPoints, AnUnknownPointListsTheLinksPoints) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"X\", length = 1, angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"X\""),
+                    {"point 'P' of link 'coupler': 'from' names point 'X', which is not on link "
+                     "'coupler' (its points: B, C, P)"});
+  const std::string toward = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", toward = \"D\", length = 1, "
+      "angle = 0 } }");
+  expect_diagnostic(toward, place_of(toward, "\"D\""),
+                    {"'toward' names point 'D', which is not on link 'coupler'"});
+}
+
+TEST(PolarPoints, TowardMustNotBeFrom) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", toward = \"B\", "
+      "length = 1, angle = 0 } }");
+  const Place key = place_of(text, "toward = \"B\"");
+  expect_diagnostic(text, {key.line, key.column + 9},
+                    {"point 'P'", "'from' and 'toward' are both 'B'"});
+}
+
+TEST(PolarPoints, TowardAtTheSamePlaceAsFrom) {
+  const std::string text = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], E = [0, 0], P = { from = \"B\", "
+      "toward = \"E\", length = 1, angle = 0 } }");
+  expect_diagnostic(text, place_of(text, "\"E\", length"),
+                    {"point 'P' of link 'coupler'", "direction 'B' -> 'E'", "the same place"});
+}
+
+TEST(PolarPoints, TheLengthMustBePositive) {
+  for (const std::string length : {"0", "-0.05", "\"1 - 1\""}) {
+    const std::string text = with_coupler(
+        "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", length = " + length +
+        ", angle = 30 } }");
+    expect_diagnostic(text, place_of(text, length + ", angle"),
+                      {"point 'P' of link 'coupler': 'length' must be positive"});
+  }
+}
+
+TEST(PolarPoints, KeysAreChecked) {
+  const std::string missing =
+      with_coupler("points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", length = 0.05 } }");
+  expect_diagnostic(missing, place_of(missing, "{ from"), {"point 'P'", "needs 'angle'"});
+  const std::string unknown = with_coupler(
+      "points = { B = [0, 0], C = [0.12, 0], P = { from = \"B\", distance = 0.05, angle = 0 } "
+      "}");
+  expect_diagnostic(unknown, place_of(unknown, "distance"),
+                    {"unknown key 'distance'", "valid keys: from, toward, length, angle"});
+  const std::string neither = with_coupler("points = { B = [0, 0], C = [0.12, 0], P = \"B + 1\" }");
+  expect_diagnostic(neither, place_of(neither, "\"B + 1\""),
+                    {"point 'P' of link 'coupler' must be [x, y] or { from = \"P\""});
+}
+
+}  // namespace
+}  // namespace crosslink
