@@ -203,6 +203,24 @@ class Reader {
     return nullptr;
   }
 
+  // The array of tables [[key]], or nullptr (absent, or an error said: not an array of tables,
+  // or more than `limit` of them when a limit is given).
+  const toml::array* tables(const toml::table& parent, std::string_view key, size_t limit = 0) {
+    const toml::node* node = parent.get(key);
+    if (!node) return nullptr;
+    const auto* array = node->as_array();
+    if (!array || !array->is_array_of_tables()) {
+      error(at(*node), fmt::format("'{0}' must be an array of tables ([[{0}]])", key));
+      return nullptr;
+    }
+    if (limit > 0 && array->size() > limit) {
+      error(at(*node),
+            fmt::format("{} [[{}]] entries: the limit is {}", array->size(), key, limit));
+      return nullptr;
+    }
+    return array;
+  }
+
  private:
   // A UTF-8 continuation byte: it starts no character.
   static bool starts_nothing(char c) { return (static_cast<unsigned char>(c) & 0xC0) == 0x80; }
@@ -1022,18 +1040,8 @@ double last_digit(std::string_view literal) {
 }
 
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
-  const toml::node* node = root.get("reference");
-  if (!node) return;
-  const auto* array = node->as_array();
-  if (!array || !array->is_array_of_tables()) {
-    r.error(r.at(*node), "'reference' must be an array of tables ([[reference]])");
-    return;
-  }
-  if (array->size() > limits::kReferences) {
-    r.error(r.at(*node), fmt::format("{} [[reference]] entries: the limit is {}", array->size(),
-                                     limits::kReferences));
-    return;
-  }
+  const toml::array* array = r.tables(root, "reference", limits::kReferences);
+  if (!array) return;
   const std::vector<std::string> objects = reference_objects(m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
@@ -1115,13 +1123,8 @@ bool read_place(Reader& r, const Mechanism& m, const toml::table& t, int link,
 // [[load]]: a force at a point of a link or a torque on a link, constant or a table over the
 // driver coordinate.
 void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
-  const toml::node* node = root.get("load");
-  if (!node) return;
-  const auto* array = node->as_array();
-  if (!array || !array->is_array_of_tables()) {
-    r.error(r.at(*node), "'load' must be an array of tables ([[load]])");
-    return;
-  }
+  const toml::array* array = r.tables(root, "load");
+  if (!array) return;
   const double torque_unit = m.units.force * m.units.length;
   for (size_t index = 0; index < array->size(); ++index) {
     const toml::table& t = *(*array)[index].as_table();
@@ -1207,13 +1210,8 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
 
 // [[spring]]: a linear spring and damper between points of two links.
 void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
-  const toml::node* node = root.get("spring");
-  if (!node) return;
-  const auto* array = node->as_array();
-  if (!array || !array->is_array_of_tables()) {
-    r.error(r.at(*node), "'spring' must be an array of tables ([[spring]])");
-    return;
-  }
+  const toml::array* array = r.tables(root, "spring");
+  if (!array) return;
   for (size_t index = 0; index < array->size(); ++index) {
     const toml::table& t = *(*array)[index].as_table();
     const std::string what = fmt::format("spring #{}", index + 1);
@@ -1414,18 +1412,8 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
 // [[branch]]: an assembly mode by name, `points` = three named points, `turn` = "ccw" | "cw"
 // (BranchChoice).
 void read_branches(Reader& r, Mechanism& m, const toml::table& root) {
-  const toml::node* node = root.get("branch");
-  if (!node) return;
-  const auto* array = node->as_array();
-  if (!array || !array->is_array_of_tables()) {
-    r.error(r.at(*node), "'branch' must be an array of tables ([[branch]])");
-    return;
-  }
-  if (array->size() > limits::kJoints) {
-    r.error(r.at(*node),
-            fmt::format("{} [[branch]] tables: the limit is {}", array->size(), limits::kJoints));
-    return;
-  }
+  const toml::array* array = r.tables(root, "branch", limits::kJoints);
+  if (!array) return;
   const std::vector<Mechanism::NamedPoint> named = m.named_points();
   std::vector<std::string> all;
   for (const auto& p : named) all.push_back(p.name);
