@@ -9,9 +9,9 @@
 
 #include "analytic/budget.h"
 #include "analytic/sweep.h"
-#include "compare/methods.h"
+#include "methods/registry.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 struct GridPoint;
 }
 
@@ -48,7 +48,7 @@ void check_engine_steps(double span, double dt, long max_steps, const std::strin
 // Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
 // empty text; throws std::invalid_argument otherwise), and the progress line of a long search.
 std::optional<double> parse_accuracy(const std::string& text);
-void print_progress(int index, int total, const compare::GridPoint& point);
+void print_progress(int index, int total, const methods::GridPoint& point);
 // compare --accuracy: `base` plus the cheapest settings of `engine` meeting `accuracy_pct` on
 // every class against `reference` (time steps on its sample boundaries, coarse to fine, stopping
 // at the first that meets it); says on `out` what it chose and what it costs. Without a setting

@@ -71,7 +71,7 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
 // ENGINE:KEY=VALUE to that engine whether it runs or not.
 void check_settings(const std::vector<std::string>& all, const std::vector<std::string>& runs) {
   std::vector<std::string> engines;
-  for (const std::string& n : compare::method_names())
+  for (const std::string& n : methods::method_names())
     if (compare::Tolerances::is_engine(n)) engines.push_back(n);
   std::map<std::string, std::vector<std::string>> prefixed;
   for (const std::string& s : all) {
@@ -88,7 +88,7 @@ void check_settings(const std::vector<std::string>& all, const std::vector<std::
   for (const std::string& engine : engines) {
     const bool running = std::find(runs.begin(), runs.end(), engine) != runs.end();
     try {
-      compare::check_engine_settings(engine,
+      methods::check_engine_settings(engine,
                                      settings_for(engine, running ? all : prefixed[engine]));
     } catch (const std::invalid_argument& e) {
       // A name one engine knows may be meant for that engine alone.
@@ -116,8 +116,8 @@ int run_compare(CompareArgs args) {
   // Methods: the reference first, then the others asked for, in the order given.
   std::vector<std::string> names = split(args.engines, ',');
   for (const std::string& n : names)
-    if (std::find(compare::method_names().begin(), compare::method_names().end(), n) ==
-        compare::method_names().end())
+    if (std::find(methods::method_names().begin(), methods::method_names().end(), n) ==
+        methods::method_names().end())
       throw std::invalid_argument(fmt::format(
           "--engines: unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", n));
   compare::Tolerances tolerances(m);
@@ -136,7 +136,7 @@ int run_compare(CompareArgs args) {
   if (args.step != 0.0) options.step = args.step * driver_scale;  // 0: the default
   if (!dynamics) check_sweep_work(m, options, args.limits);
   std::vector<compare::MethodRun> runs;
-  runs.push_back(compare::run_reference(m, options));
+  runs.push_back(methods::run_reference(m, options));
   // An explicit time step is refused before any engine runs when it would take too many steps.
   const Trajectory& reference = runs.front().trajectory;
   const double span =
@@ -163,7 +163,7 @@ int run_compare(CompareArgs args) {
     if (accuracy && compare::Tolerances::is_engine(n))
       settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
                                    args.json == "-" ? stderr : stdout);
-    runs.push_back(compare::run_method(n, m, runs.front(), settings));
+    runs.push_back(methods::run_method(n, m, runs.front(), settings));
   }
 
   const compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);

@@ -14,7 +14,7 @@
 #include "analytic/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 
 namespace crosslink::app {
 
@@ -35,7 +35,7 @@ std::optional<double> parse_accuracy(const std::string& text) {
   return value;
 }
 
-void print_progress(int index, int total, const compare::GridPoint& point) {
+void print_progress(int index, int total, const methods::GridPoint& point) {
   fmt::print(stderr, "[{}/{}] {} dt={:.3g} {} ...\n", index, total, point.engine, point.dt,
              point.variant);
 }
@@ -43,9 +43,9 @@ void print_progress(int index, int total, const compare::GridPoint& point) {
 sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
                                 const compare::MethodRun& reference, const std::string& engine,
                                 double accuracy_pct, const sim::Settings& base, std::FILE* out) {
-  compare::ReferenceLadder ladder(mechanism, options, reference);
-  const compare::Selection s = compare::cheapest_setting(
-      mechanism, ladder, engine, accuracy_pct, compare::accuracy_time_steps(ladder.interval()),
+  methods::ReferenceLadder ladder(mechanism, options, reference);
+  const methods::Selection s = methods::cheapest_setting(
+      mechanism, ladder, engine, accuracy_pct, methods::accuracy_time_steps(ladder.interval()),
       base, print_progress);
   fmt::print(out, "{}\n", s.summary());
   return s.found ? s.chosen.overrides : base;
@@ -78,7 +78,7 @@ int run_sweep(const SweepArgs& args) {
   if (dynamics && args.step != 0.0)
     throw std::invalid_argument(
         "--step: a dynamics case is sampled at its [dynamics] interval, not swept");
-  compare::SettingsSweepOptions options;
+  methods::SettingsSweepOptions options;
   options.engines = split(args.engines);
   for (const std::string& e : options.engines)
     if (e != "mujoco" && e != "bullet")
@@ -115,21 +115,21 @@ int run_sweep(const SweepArgs& args) {
           searched));
   }
 
-  const compare::SettingsSweep sweep = compare::run_settings_sweep(m, options);
-  compare::print_sweep(sweep, stdout);
+  const methods::SettingsSweep sweep = methods::run_settings_sweep(m, options);
+  methods::print_sweep(sweep, stdout);
   if (!args.csv.empty()) {
     std::ostringstream text;
-    compare::write_sweep_csv(sweep, text);
+    methods::write_sweep_csv(sweep, text);
     write_file(args.csv, text.str());
     fmt::print("csv: {}\n", args.csv);
   }
   if (!args.report.empty()) {
     std::ostringstream page;
-    compare::write_sweep_html(sweep, html, page);
+    methods::write_sweep_html(sweep, html, page);
     write_file(args.report, page.str());
     fmt::print("report: {}\n", args.report);
   }
-  for (const compare::Selection& s : sweep.selections)
+  for (const methods::Selection& s : sweep.selections)
     if (!s.found) return kExitFail;
   return kExitOk;
 }
@@ -144,7 +144,7 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--engines", args->engines, "engines, comma-separated: mujoco,bullet")
       ->capture_default_str();
   std::string defaults;
-  for (double dt : compare::default_time_steps())
+  for (double dt : methods::default_time_steps())
     defaults += fmt::format("{}{:g}", defaults.empty() ? "" : ",", dt);
   cmd->add_option("--dt", args->dts,
                   "time steps [s], comma-separated (default " + defaults +

@@ -27,8 +27,8 @@
 
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
-#include "compare/methods.h"
-#include "compare/settings_sweep.h"
+#include "methods/registry.h"
+#include "methods/settings_sweep.h"
 
 namespace crosslink {
 namespace {
@@ -136,10 +136,10 @@ void a02_engine(benchmark::State& state) {
   const Mechanism& m = a02(n);
   static std::map<int, compare::MethodRun> references;
   auto ref = references.find(n);
-  if (ref == references.end()) ref = references.emplace(n, compare::run_reference(m)).first;
+  if (ref == references.end()) ref = references.emplace(n, methods::run_reference(m)).first;
   compare::MethodRun run;
   for (auto _ : state) {
-    run = compare::run_method(engine, m, ref->second);
+    run = methods::run_method(engine, m, ref->second);
     benchmark::DoNotOptimize(run.trajectory.angle.data());
   }
   if (!run.ok) {
@@ -147,7 +147,7 @@ void a02_engine(benchmark::State& state) {
     return;
   }
   const std::array<double, 2> tip =
-      compare::benchmark_tip_errors(m, ref->second.trajectory, run.trajectory);
+      methods::benchmark_tip_errors(m, ref->second.trajectory, run.trajectory);
   state.counters["bodies"] = static_cast<double>(m.moving_count());
   state.counters["steps"] = static_cast<double>(run.cost.steps);
   for (const auto& [name, value] : run.settings)

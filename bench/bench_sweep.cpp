@@ -17,7 +17,7 @@
 #include <string>
 
 #include "analytic/loader.h"
-#include "compare/methods.h"
+#include "methods/registry.h"
 
 namespace crosslink {
 namespace {
@@ -28,7 +28,7 @@ const Mechanism& crank_rocker() {
 }
 
 const compare::MethodRun& reference() {
-  static const compare::MethodRun r = compare::run_reference(crank_rocker());
+  static const compare::MethodRun r = methods::run_reference(crank_rocker());
   return r;
 }
 
@@ -42,7 +42,7 @@ void newton_cycle(benchmark::State& state) {
 
 void method_cycle(benchmark::State& state, const std::string& method) {
   for (auto _ : state) {
-    const compare::MethodRun run = compare::run_method(method, crank_rocker(), reference());
+    const compare::MethodRun run = methods::run_method(method, crank_rocker(), reference());
     if (!run.ok) {
       state.SkipWithError((method + ": " + run.message).c_str());
       return;
@@ -60,7 +60,7 @@ void engine_cycle(benchmark::State& state, const std::string& engine) {
   long steps = 0;
   for (auto _ : state) {
     const compare::MethodRun run =
-        compare::run_method(engine, crank_rocker(), reference(), settings);
+        methods::run_method(engine, crank_rocker(), reference(), settings);
     if (!run.ok) {
       state.SkipWithError((engine + ": " + run.message).c_str());
       return;

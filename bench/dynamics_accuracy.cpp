@@ -15,8 +15,8 @@
 
 #include "analytic/loader.h"
 #include "compare/comparison.h"
-#include "compare/methods.h"
 #include "compare/tolerance.h"
+#include "methods/registry.h"
 
 namespace {
 
@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
       file = argv[i];
   }
   const Mechanism m = load_mechanism(file);
-  const compare::MethodRun reference = compare::run_reference(m);
+  const compare::MethodRun reference = methods::run_reference(m);
   const compare::Tolerances tolerances(m);
   const int last = reference.trajectory.samples() - 1;
   fmt::print(
@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
       std::vector<double> walls;
       compare::MethodRun run;
       for (int r = 0; r < repeat; ++r) {
-        run = compare::run_method(c.engine, m, reference, settings);
+        run = methods::run_method(c.engine, m, reference, settings);
         walls.push_back(run.cost.wall_seconds);
       }
       int flagged = 0;

@@ -13,6 +13,11 @@
 
 namespace crosslink::compare {
 
+bool MethodRun::computes(std::string_view channel) const {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  return kinds.empty() || std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
+}
+
 std::string_view to_string(Verdict verdict) {
   switch (verdict) {
     case Verdict::pass:

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analytic/mechanism.h"
-#include "compare/methods.h"
+#include "compare/method_run.h"
 #include "compare/metrics.h"
 #include "compare/tolerance.h"
 

@@ -1,5 +1,9 @@
-# cmake -DINPUT=file -DOUTPUT=file.cpp -DSYMBOL=name -P embed_text.cmake
-# Writes a C++ source defining `const char* const crosslink::compare::SYMBOL` with INPUT's text.
+# cmake -DINPUT=file -DOUTPUT=file.cpp -DSYMBOL=name [-DNAMESPACE=methods] -P embed_text.cmake
+# Writes a C++ source defining `const char* const crosslink::NAMESPACE::SYMBOL` (default
+# namespace: compare) with INPUT's text.
+if(NOT NAMESPACE)
+  set(NAMESPACE compare)
+endif()
 file(READ "${INPUT}" text)
 string(FIND "${text}" ")crosslink_text\"" clash)
 if(NOT clash EQUAL -1)
@@ -7,8 +11,8 @@ if(NOT clash EQUAL -1)
 endif()
 file(WRITE "${OUTPUT}.tmp"
   "// Generated from ${INPUT} by embed_text.cmake; do not edit.\n"
-  "namespace crosslink::compare {\n"
+  "namespace crosslink::${NAMESPACE} {\n"
   "extern const char* const ${SYMBOL};\n"
   "const char* const ${SYMBOL} = R\"crosslink_text(${text})crosslink_text\";\n"
-  "}  // namespace crosslink::compare\n")
+  "}  // namespace crosslink::${NAMESPACE}\n")
 file(COPY_FILE "${OUTPUT}.tmp" "${OUTPUT}" ONLY_IF_DIFFERENT)

@@ -18,11 +18,17 @@
 #include <sstream>
 
 #include "analytic/loader.h"
+#include "analytic/sweep.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
+#include "methods/registry.h"
 
 namespace crosslink::compare {
 namespace {
+
+using methods::run_method;
+using methods::run_reference;
+using methods::run_simulation;
 
 const std::string kSewing = std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/sewing_machine.toml";
 

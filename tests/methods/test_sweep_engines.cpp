@@ -11,10 +11,10 @@
 #include <string>
 
 #include "analytic/loader.h"
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 #include "tests/common/sanitizers.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 namespace {
 
 std::string mechanism_path(const std::string& stem) {
@@ -122,7 +122,7 @@ TEST(SweepEngines, SmallSweepProducesRowsFrontsAndReports) {
   write_sweep_csv(sweep, csv);
   const std::string text = csv.str();
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(sweep.rows.size()) + 1);
-  if (find_report_assets({})) {
+  if (compare::find_report_assets({})) {
     std::ostringstream html;
     write_sweep_html(sweep, {}, html);
     EXPECT_NE(html.str().find("const REPORT = "), std::string::npos);
@@ -189,7 +189,7 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
   std::fclose(console);
   EXPECT_NE(std::string(text, size).find("IFToMM accuracy limits"), std::string::npos);
   std::free(text);
-  if (find_report_assets({})) {
+  if (compare::find_report_assets({})) {
     std::ostringstream html;
     write_sweep_html(a, {}, html);
     EXPECT_NE(html.str().find("<h2>IFToMM accuracy limits</h2>"), std::string::npos);
@@ -206,4 +206,4 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
 }
 
 }  // namespace
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

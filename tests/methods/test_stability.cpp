@@ -25,9 +25,9 @@
 
 #include "analytic/loader.h"
 #include "compare/comparison.h"
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 namespace {
 
 namespace fs = std::filesystem;
@@ -243,4 +243,4 @@ TEST(Stability, DynamicsAtACoarseStepIsReported) {
 }
 
 }  // namespace
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

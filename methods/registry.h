@@ -1,5 +1,5 @@
-// The methods the comparator runs on one Mechanism, each returning the same Trajectory type
-// with the settings it ran with and what it cost:
+// The registry of methods: every way crosslink solves a Mechanism, each run into the comparator's
+// MethodRun (compare/method_run.h):
 //   analytic  Newton-Raphson on the full constraint equations: the reference of every verdict
 //             (a dynamics case: the exact forward dynamics, analytic/dynamics.h; dyads and ic,
 //             kinematic methods, are then not run)
@@ -18,24 +18,12 @@
 #include "analytic/dynamics.h"
 #include "analytic/sweep.h"
 #include "analytic/trajectory.h"
+#include "compare/method_run.h"
 #include "sim/engine.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 
-struct MethodRun {
-  std::string name;         // one of method_names()
-  std::string description;  // one line for reports
-  bool available = false;   // built in and able to realise this mechanism
-  bool ok = false;          // ran to the end (an engine may diverge: ok = false)
-  std::string message;      // why not available / not ok, or the method's notes
-  Trajectory trajectory;    // same samples as the reference sweep
-  sim::Settings settings;   // every setting in force
-  sim::RunCost cost;
-  // The channel kinds the method computes ("omega", "vx", ...; empty: every channel); its other
-  // channels are not compared.
-  std::vector<std::string> kinds;
-  bool computes(std::string_view channel) const;
-};
+using compare::MethodRun;
 
 // "analytic", "dyads", "ic", "mujoco", "bullet", in report order.
 const std::vector<std::string>& method_names();
@@ -61,4 +49,4 @@ void check_engine_settings(std::string_view name, const sim::Settings& engine_se
 MethodRun run_method(std::string_view name, const Mechanism& mechanism, const MethodRun& reference,
                      const sim::Settings& engine_settings = {});
 
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

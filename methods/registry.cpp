@@ -1,4 +1,4 @@
-#include "compare/methods.h"
+#include "methods/registry.h"
 
 #include <fmt/format.h>
 
@@ -15,7 +15,7 @@
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/sampling.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -67,11 +67,6 @@ std::unique_ptr<sim::Engine> make_engine(std::string_view name) {
 
 void check_engine_settings(std::string_view name, const sim::Settings& engine_settings) {
   if (const auto engine = make_engine(name)) engine->check_settings(engine_settings);
-}
-
-bool MethodRun::computes(std::string_view channel) const {
-  const std::string_view kind = channel.substr(0, channel.find('.'));
-  return kinds.empty() || std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
 }
 
 const std::vector<std::string>& method_names() {
@@ -269,4 +264,4 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
       fmt::format("unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", name));
 }
 
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

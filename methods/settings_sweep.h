@@ -27,10 +27,21 @@
 
 #include "analytic/mechanism.h"
 #include "analytic/sweep.h"
-#include "compare/methods.h"
+#include "compare/comparison.h"
 #include "compare/report.h"
+#include "compare/tolerance.h"
+#include "methods/registry.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
+
+// The comparator's vocabulary, which the sweep scores every run in.
+using compare::ChannelResult;
+using compare::compare_methods;
+using compare::Comparison;
+using compare::csv_number;
+using compare::HtmlOptions;
+using compare::Tolerances;
+using compare::Verdict;
 
 // The three classes a sweep row reports, in CSV column order.
 enum class ErrorClass { position, velocity, acceleration };
@@ -319,4 +330,4 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
 // Console summary: the table, orders and selections.
 void print_sweep(const SettingsSweep& sweep, std::FILE* out);
 
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

@@ -10,9 +10,9 @@
 #include <sstream>
 
 #include "analytic/loader.h"
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -349,4 +349,4 @@ TEST(Csv, FirstColumnsAreExactlyTheDocumentedOnesInOrder) {
 }
 
 }  // namespace
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

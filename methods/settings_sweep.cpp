@@ -1,6 +1,6 @@
 // Speed against accuracy (settings_sweep.h, docs/sweep.md): grids, evaluation through
 // compare_methods(), Pareto fronts, convergence orders, the cheapest-setting search, CSV.
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,7 @@
 #include "compare/report.h"
 #include "compare/tolerance.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -947,4 +947,4 @@ std::string benchmark_limit_text(const BenchmarkLimit& b) {
                      b.row.benchmark_error(), b.run_cpu_seconds);
 }
 
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods

@@ -7,9 +7,15 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "compare/settings_sweep.h"
+#include "methods/settings_sweep.h"
 
-namespace crosslink::compare {
+namespace crosslink::methods {
+
+// The comparison report's page pieces, shared by this page.
+using compare::html_escape;
+using compare::metric_legend;
+using compare::write_page_head;
+using compare::write_page_tail;
 
 extern const char* const kSweepPageScript;  // sweep_page.js, generated at build time
 
@@ -273,4 +279,4 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
   write_page_tail(report_data(sweep).dump(), kSweepPageScript, out);
 }
 
-}  // namespace crosslink::compare
+}  // namespace crosslink::methods
