@@ -91,8 +91,12 @@ void apply_branches(Mechanism& m) {
   std::vector<size_t> two;  // the groups with two solutions
   for (size_t g = 0; g < d.groups.size(); ++g)
     if (d.groups[g].two_solutions) two.push_back(g);
+  // Bounded work: the first kFlippable of them (4096 combinations); the others keep their first
+  // mode.
+  constexpr size_t kFlippable = 12;
+  if (two.size() > kFlippable) two.resize(kFlippable);
   std::vector<unsigned> flips;
-  for (unsigned f = 0; f < (1u << std::min<size_t>(two.size(), 16)); ++f) flips.push_back(f);
+  for (unsigned f = 0; f < (1u << two.size()); ++f) flips.push_back(f);
   std::stable_sort(flips.begin(), flips.end(),
                    [](unsigned a, unsigned b) { return std::popcount(a) < std::popcount(b); });
   bool any = false;
