@@ -1,5 +1,5 @@
 // crosslink settings-sweep report: Vega-Lite charts of error against cost and against dt, built
-// from the REPORT object written by compare/sweep_report.cpp. Writes the outcome into
+// from the REPORT object written by methods/sweep_report.cpp. Writes the outcome into
 // #render-status (data-status="ok" | "error") like the comparison report.
 (function () {
   const statusEl = document.getElementById('render-status');
