@@ -58,8 +58,7 @@ bool holds(const Mechanism& m, const BranchChoice& b, const Eigen::VectorXd& q) 
 }
 
 void apply_branches(Mechanism& m) {
-  const bool drawn = std::any_of(m.links.begin(), m.links.end(),
-                                 [](const Link& l) { return l.pose_where.line > 0; });
+  const bool drawn = m.drawn();
   if (drawn && m.branches.empty()) return;
   const NewtonSolver newton(m);
   KinematicState state(m);

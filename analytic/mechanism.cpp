@@ -289,6 +289,11 @@ double DynamicsCase::effort_at(double t) const {
   return effort.back().second;
 }
 
+bool Mechanism::drawn() const {
+  return std::any_of(links.begin(), links.end(),
+                     [](const Link& l) { return l.pose_where.line > 0; });
+}
+
 std::string BranchChoice::text() const {
   std::string points;
   for (const std::string& n : names) points += (points.empty() ? "" : " -> ") + n;

@@ -275,6 +275,9 @@ struct Mechanism {
 
   int ground() const;                          // index of the ground link
   int find_link(std::string_view name) const;  // index, or -1
+  // Whether the file draws the assembly: a link's `pose` is written (apply_branches may add
+  // poses that are not).
+  bool drawn() const;
   int find_joint(std::string_view name) const;
   // Moving links are numbered 0..n-1 in link order; -1 for ground. Coordinates of moving link k
   // are q[3k .. 3k+2] = (x, y, theta).

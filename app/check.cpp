@@ -1,7 +1,6 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
 
-#include <algorithm>
 #include <numbers>
 
 #include "analytic/branch.h"
@@ -149,9 +148,8 @@ void print_singular_positions(const Mechanism& m, std::string& out) {
 
 // Which assembly the chain starts on, who chose it, and whether another closes there.
 void print_modes(const Mechanism& m, const KinematicState& assembled, std::string& out) {
-  const bool drawn = std::any_of(m.links.begin(), m.links.end(),
-                                 [](const Link& l) { return l.pose_where.line > 0; });
-  std::string chosen = drawn ? "as the poses draw it" : "by default: no poses drawn, no [[branch]]";
+  std::string chosen =
+      m.drawn() ? "as the poses draw it" : "by default: no poses drawn, no [[branch]]";
   if (!m.branches.empty()) {
     chosen = "as [[branch]] asks:";
     for (const BranchChoice& b : m.branches)
