@@ -349,31 +349,39 @@ std::vector<Eigen::Vector2d> outline(std::vector<Eigen::Vector2d> points) {
   return hull;
 }
 
-// Visual-only geometry (no contacts; inertiafromgeom is off, so no mass): a bar along each edge
-// of the link's outline and a pin at each point; a block is a box on its guide.
+// A geom that is drawn only: no contacts, and no mass (inertiafromgeom is off).
+std::string drawn(const std::string& pad, const std::string& shape, const char* rgba) {
+  return fmt::format("{}<geom {} contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"{}\"/>\n", pad,
+                     shape, rgba);
+}
+
+std::string bar(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double r) {
+  return fmt::format("type=\"capsule\" fromto=\"{:.9g} {:.9g} 0 {:.9g} {:.9g} 0\" size=\"{:.6g}\"",
+                     a.x(), a.y(), b.x(), b.y(), r);
+}
+
+// A link drawn: a bar along each edge of its outline and a pin at each point (the ground: pins
+// only); a block is a box on its guide.
 std::string link_geometry(const SceneLink& link, int colour, double r, const std::string& pad) {
   static constexpr std::array<const char*, 6> kColours = {"0.12 0.47 0.71 1", "1 0.5 0.05 1",
                                                           "0.17 0.63 0.17 1", "0.58 0.4 0.74 1",
                                                           "0.55 0.34 0.29 1", "0.09 0.75 0.81 1"};
-  const std::string look =
-      fmt::format("contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"{}\"",
-                  link.ground ? "0.5 0.5 0.5 1" : kColours[static_cast<size_t>(colour) % 6]);
-  std::string out;
+  const char* rgba = link.ground ? "0.5 0.5 0.5 1" : kColours[static_cast<size_t>(colour) % 6];
   if (link.source < 0)
-    return fmt::format("{}<geom type=\"box\" size=\"{:.6g} {:.6g} {:.6g}\" {}/>\n", pad, 3 * r,
-                       1.5 * r, 1.5 * r, look);
+    return drawn(pad,
+                 fmt::format("type=\"box\" size=\"{:.6g} {:.6g} {:.6g}\"", 3 * r, 1.5 * r, 1.5 * r),
+                 rgba);
+  std::string out;
   const std::vector<Eigen::Vector2d> edge = outline(link.points);
-  for (size_t i = 0; !link.ground && edge.size() > 1 && i < edge.size(); ++i) {
-    const Eigen::Vector2d &a = edge[i], &b = edge[(i + 1) % edge.size()];
-    if (edge.size() == 2 && i == 1) break;
-    out += fmt::format(
-        "{}<geom type=\"capsule\" fromto=\"{:.9g} {:.9g} 0 {:.9g} {:.9g} 0\" size=\"{:.6g}\" "
-        "{}/>\n",
-        pad, a.x(), a.y(), b.x(), b.y(), r, look);
-  }
+  // Two points have one edge; a polygon as many as its corners.
+  const size_t edges = link.ground || edge.size() < 2 ? 0 : edge.size() == 2 ? 1 : edge.size();
+  for (size_t i = 0; i < edges; ++i)
+    out += drawn(pad, bar(edge[i], edge[(i + 1) % edge.size()], r), rgba);
   for (const Eigen::Vector2d& p : link.points)
-    out += fmt::format("{}<geom type=\"sphere\" pos=\"{:.9g} {:.9g} 0\" size=\"{:.6g}\" {}/>\n",
-                       pad, p.x(), p.y(), 1.6 * r, look);
+    out += drawn(pad,
+                 fmt::format("type=\"sphere\" pos=\"{:.9g} {:.9g} 0\" size=\"{:.6g}\"", p.x(),
+                             p.y(), 1.6 * r),
+                 rgba);
   return out;
 }
 
@@ -470,10 +478,7 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         centre.x(), centre.y(), 2.5 * s.size, 3 * s.size);
     out += link_geometry(s.links[0], 0, alone->radius, "    ");
     for (const auto& [a, b] : alone->guides)
-      out += fmt::format(
-          "    <geom type=\"capsule\" fromto=\"{:.9g} {:.9g} 0 {:.9g} {:.9g} 0\" size=\"{:.6g}\" "
-          "contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"0.5 0.5 0.5 0.5\"/>\n",
-          a.x(), a.y(), b.x(), b.y(), 0.5 * alone->radius);
+      out += drawn("    ", bar(a, b, 0.5 * alone->radius), "0.5 0.5 0.5 0.5");
   }
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);
