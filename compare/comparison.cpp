@@ -181,10 +181,15 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   const double energy_scale = ref.energy_scale();
   std::vector<Eigen::VectorXd> ref_columns;
   std::map<std::string, double> kind_peak;
+  Scales scales{size, driver_rate};
   for (const std::string& c : channels) {
     ref_columns.push_back(*ref.channel(c));
+    const double p = channel_peak(c, ref_columns.back(), ref_usable, size);
     double& peak = kind_peak[channel_kind(c)];
-    peak = std::max(peak, channel_peak(c, ref_columns.back(), ref_usable, size));
+    peak = std::max(peak, p);
+    const Quantity q = Trajectory::quantity_of(c);
+    if (q == Quantity::force) scales.force = std::max(scales.force, p);
+    if (q == Quantity::torque) scales.torque = std::max(scales.torque, p);
   }
   // A component (vx.B) is judged against its vector's magnitude (v.B).
   auto magnitude_peak = [&](const std::string& channel) {
@@ -232,7 +237,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       const double floor = q == Quantity::energy
                                ? energy_scale
                                : peak_floor(channels[c], kind_peak[channel_kind(channels[c])],
-                                            magnitude_peak(channels[c]), driver_rate, size);
+                                            magnitude_peak(channels[c]), scales);
       result.metrics = compare_channel(
           channels[c], ref_columns[c], *column,
           q == Quantity::force || q == Quantity::torque ? both_forces : both, size, floor);
@@ -252,7 +257,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     row.reference = r;
     const Eigen::VectorXd none;
     row.zero = 1e-9 * std::max(channel_peak(r.quantity, none, {}, size),
-                               peak_floor(r.quantity, 0.0, 0.0, driver_rate, size));
+                               peak_floor(r.quantity, 0.0, 0.0, scales));
     const Trajectory exact = solve_at(mechanism, r.driver_value);
     if (exact.samples() > 0 && usable(exact.status[0]))
       if (const auto v = exact.channel(r.quantity)) {

@@ -47,16 +47,21 @@ double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
 }
 
 double peak_floor(std::string_view channel, double kind_peak, double magnitude_peak,
-                  double driver_rate, double size) {
+                  const Scales& scales) {
   const Quantity q = Trajectory::quantity_of(channel);
   // Forces and torques: against the component's vector, or 1 % of the largest of their kind
-  // (a reaction that is small by design, such as a light link's).
-  if (q == Quantity::force || q == Quantity::torque)
-    return std::max(magnitude_peak, 0.01 * kind_peak);
+  // (a reaction that is small by design, such as a light link's), or 1 % of the other kind's
+  // peak at the size (a torque that is zero by design, such as a free pendulum's driver's).
+  if (q == Quantity::force)
+    return std::max({magnitude_peak, 0.01 * kind_peak,
+                     scales.size > 0.0 ? 0.01 * scales.torque / scales.size : 0.0});
+  if (q == Quantity::torque)
+    return std::max({magnitude_peak, 0.01 * kind_peak, 0.01 * scales.force * scales.size});
   if (q != Quantity::velocity && q != Quantity::acceleration) return 0.0;
   const bool angular = channel_kind(channel).ends_with("/angular");
-  const double rate = q == Quantity::velocity ? driver_rate : driver_rate * driver_rate;
-  const double characteristic = angular ? rate : rate * size;
+  const double rate =
+      q == Quantity::velocity ? scales.driver_rate : scales.driver_rate * scales.driver_rate;
+  const double characteristic = angular ? rate : rate * scales.size;
   return std::max({magnitude_peak, 0.01 * kind_peak, characteristic});
 }
 
@@ -118,7 +123,8 @@ std::vector<std::pair<std::string, std::string>> metric_legend() {
       {"scale",
        "P floored by: a component's vector magnitude peak (vx against |v|); 1 % of the "
        "largest peak of the same kind; the mechanism's characteristic value (driver rate W: "
-       "W, W^2, W size, W^2 size), so a channel that is zero by design is not scaled by "
+       "W, W^2, W size, W^2 size; forces: 1 % of the peak torque / size; torques: 1 % of the "
+       "peak force x size), so a channel that is zero by design is not scaled by "
        "its round-off; energy channels (dynamics): the energy scale E, the largest of the "
        "reference's peak kinetic energy, range of potential energy and peak |work|"},
       {"% of peak", "100 |d| / P per sample; its maximum over the cycle is the verdict metric"},

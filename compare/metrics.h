@@ -28,7 +28,10 @@
 //                       - the mechanism's characteristic value of that kind, from the driver's
 //                         peak rate W (rad/s; a slider's m/s over L) and L: W for angular
 //                         velocity, W^2 for angular acceleration, W L and W^2 L for linear ones
-//                         (the rates a link turning with the driver would have)
+//                         (the rates a link turning with the driver would have); for forces
+//                         1 % of the largest torque peak over L, for torques 1 % of the largest
+//                         force peak times L (the moment a peak force has at the mechanism's
+//                         size): a free pendulum's driver torque, a shaking moment about a pivot
 //                       so that a channel that is zero by design (a fixed point, a constant-speed
 //                       crank's alpha, every alpha of a parallelogram) is not scaled by its own
 //                       round-off
@@ -97,11 +100,20 @@ ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& 
 double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,
                     const std::vector<bool>& usable, double size);
 
+// The mechanism-wide scales of the floor: the size L [m], the driver's peak rate W, and the
+// reference's largest force [N] and torque [N m] peaks (0 without forces).
+struct Scales {
+  double size = 0.0;
+  double driver_rate = 0.0;
+  double force = 0.0;
+  double torque = 0.0;
+};
+
 // The floor F of one channel (see above). `kind_peak` is the largest P of the channel's kind,
-// `magnitude_peak` the peak of its point's |v| or |a| (0 for a channel that is no component),
-// `driver_rate` the driver's peak rate W.
+// `magnitude_peak` the peak of its point's |v|, |a| or |f| (0 for a channel that is no
+// component).
 double peak_floor(std::string_view channel, double kind_peak, double magnitude_peak,
-                  double driver_rate, double size);
+                  const Scales& scales);
 
 // The definitions above as legend lines for reports: (term, definition).
 std::vector<std::pair<std::string, std::string>> metric_legend();

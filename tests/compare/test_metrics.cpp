@@ -74,14 +74,34 @@ TEST(CompareChannel, PositionsUseTheMechanismSize) {
 }
 
 // The floor: a component against its vector's magnitude; zero-by-design channels against the
-// mechanism's characteristic rates (W = 2 rad/s, L = 0.5 m).
+// mechanism's characteristic rates (W = 2 or 20 rad/s, L = 0.5 m).
 TEST(CompareChannel, FloorFromMagnitudeKindAndCharacteristic) {
-  EXPECT_DOUBLE_EQ(peak_floor("vx.B", 3.0, 5.0, 2.0, 0.5), 5.0);             // |v.B| peak
-  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 900.0, 0.0, 2.0, 0.5), 9.0);    // 1 % of kind
-  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 1e-9, 0.0, 20.0, 0.5), 400.0);  // W^2
-  EXPECT_DOUBLE_EQ(peak_floor("a.C", 1e-9, 0.0, 20.0, 0.5), 200.0);          // W^2 L
-  EXPECT_DOUBLE_EQ(peak_floor("omega.C", 1e-9, 0.0, 20.0, 0.5), 20.0);       // W
-  EXPECT_DOUBLE_EQ(peak_floor("x.C", 1.0, 0.0, 20.0, 0.5), 0.0);             // positions: L
+  const Scales slow{0.5, 2.0}, fast{0.5, 20.0};
+  EXPECT_DOUBLE_EQ(peak_floor("vx.B", 3.0, 5.0, slow), 5.0);            // |v.B| peak
+  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 900.0, 0.0, slow), 9.0);   // 1 % of kind
+  EXPECT_DOUBLE_EQ(peak_floor("alpha.crank", 1e-9, 0.0, fast), 400.0);  // W^2
+  EXPECT_DOUBLE_EQ(peak_floor("a.C", 1e-9, 0.0, fast), 200.0);          // W^2 L
+  EXPECT_DOUBLE_EQ(peak_floor("omega.C", 1e-9, 0.0, fast), 20.0);       // W
+  EXPECT_DOUBLE_EQ(peak_floor("x.C", 1.0, 0.0, fast), 0.0);             // positions: L
+}
+
+// A torque that is zero by design (a free pendulum's driver; a shaking moment about the only
+// pivot) is scaled by the forces at the size, not by its round-off: with joint forces of 30 N
+// peak on a 1 m pendulum, 1 % of 30 N m; and a force that is zero by design by the torques.
+TEST(CompareChannel, ForceAndTorqueFloorsFromEachOther) {
+  const Scales pendulum{1.0, 4.4, 30.0, 4e-14};
+  EXPECT_DOUBLE_EQ(peak_floor("torque.driver", 4e-14, 0.0, pendulum), 0.3);
+  EXPECT_DOUBLE_EQ(peak_floor("shaking_moment.ground", 4e-14, 0.0, pendulum), 0.3);
+  EXPECT_DOUBLE_EQ(peak_floor("fx.O", 30.0, 30.0, pendulum), 30.0);  // its vector: unchanged
+  const Scales rotor{0.5, 4.0, 1e-15, 2.0};  // a balanced rotor under a torque
+  EXPECT_DOUBLE_EQ(peak_floor("fy.O", 1e-15, 1e-15, rotor), 0.04);
+  // Round-off against round-off stays round-off: 1e-13 N m off is 3e-11 % of the floor.
+  Eigen::VectorXd ref(2), m(2);
+  ref << 3.8e-14, 0.0;
+  m << 0.0, 1e-13;
+  const ChannelMetrics c = compare_channel("torque.driver", ref, m, {true, true}, 1.0,
+                                           peak_floor("torque.driver", 3.8e-14, 0.0, pendulum));
+  EXPECT_LT(c.max_pct_of_peak, 1e-10);
 }
 
 TEST(Tolerances, DefaultsDefinitionAndCommandLine) {
