@@ -34,8 +34,8 @@ std::optional<std::string> setting(const sim::Settings& s, std::string_view name
 }
 
 // Max % of peak per class over the comparison's channels of one method.
-std::array<double, 3> class_maxima(const Comparison& cmp, std::string_view method) {
-  std::array<double, 3> out = {kNaN, kNaN, kNaN};
+ClassValues class_maxima(const Comparison& cmp, std::string_view method) {
+  ClassValues out = kNoValues;
   for (const ChannelResult& c : cmp.channels) {
     if (c.method != method || c.metrics.usable == 0) continue;
     const std::optional<ErrorClass> kind = error_class_of(c.metrics.quantity);
@@ -106,6 +106,8 @@ std::string_view to_string(ErrorClass c) {
       return "velocity";
     case ErrorClass::acceleration:
       return "acceleration";
+    case ErrorClass::force:
+      return "force";
   }
   return "?";
 }
@@ -121,8 +123,9 @@ std::optional<ErrorClass> error_class_of(Quantity q) {
       return ErrorClass::acceleration;
     case Quantity::force:
     case Quantity::torque:
+      return ErrorClass::force;
     case Quantity::energy:
-      return std::nullopt;  // kinematic settings sweeps chart motion only
+      return std::nullopt;  // its own column (energy_pct)
   }
   return std::nullopt;
 }
@@ -324,10 +327,12 @@ std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Tra
 
 bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
-  for (double e : max_pct)
-    if (!(e <= accuracy_pct)) return false;  // NaN fails
-  if (!std::isnan(energy_pct) && energy_pct > accuracy_pct) return false;
-  return std::isnan(force_pct) || force_pct <= accuracy_pct;
+  for (ErrorClass c : kErrorClasses) {
+    const double e = error(c);
+    if (c == ErrorClass::force && std::isnan(e)) continue;  // forces not read
+    if (!(e <= accuracy_pct)) return false;                 // NaN fails
+  }
+  return std::isnan(energy_pct) || energy_pct <= accuracy_pct;
 }
 
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
@@ -410,12 +415,6 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     row.max_pct = class_maxima(cmp, run.name);
     if (mechanism.dynamics) end_and_energy(cmp, run.name, row);
     if (mechanism.dynamics && shaped) set_tip_errors(mechanism, ref, tr, row);
-    for (const ChannelResult& c : cmp.channels)
-      if (c.method == run.name && c.metrics.usable > 0 &&
-          (c.metrics.quantity == Quantity::force || c.metrics.quantity == Quantity::torque))
-        row.force_pct = std::isnan(row.force_pct)
-                            ? c.metrics.max_pct_of_peak
-                            : std::max(row.force_pct, c.metrics.max_pct_of_peak);
   }
   // Over every recorded sample, flagged ones included: the same comparison on a copy whose
   // engine-side flags are lifted (samples never reached stay out).
@@ -460,7 +459,8 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
   newton.settings = reference.settings;
   newton.wall_s_per_cycle = seconds_per_cycle(reference);
   newton.cpu_s_per_cycle = cpu_per_cycle(reference);
-  newton.max_pct = {0.0, 0.0, 0.0};  // the reference itself
+  newton.max_pct = {0.0, 0.0, 0.0,  // the reference itself
+                    reference.trajectory.has_forces ? 0.0 : kNaN};
   newton.samples = reference.trajectory.samples();
   newton.message = "the reference: error 0 by definition";
   rows.push_back(newton);
@@ -863,7 +863,8 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "pareto_position,pareto_velocity,pareto_acceleration,raw_pct_position,"
          "raw_pct_velocity,raw_pct_acceleration,settings,message,end_pct_position,"
          "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
-         "tip_position_error,tip_velocity_error\n";
+         "tip_position_error,tip_velocity_error,max_pct_force,pareto_force,raw_pct_force,"
+         "end_pct_force\n";
   for (const SweepRow& r : sweep.rows) {
     out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt)
         << ',' << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ','
@@ -875,8 +876,9 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << csv_field(r.message) << ',' << csv_number(r.end_pct[0]) << ','
         << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
         << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle)
-        << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error)
-        << '\n';
+        << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << ','
+        << csv_number(r.max_pct[3]) << ',' << r.pareto[3] << ',' << csv_number(r.raw_pct[3]) << ','
+        << csv_number(r.end_pct[3]) << '\n';
   }
 }
 
@@ -885,14 +887,20 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
   fmt::print(out, "{}: {} settings; reference {} samples every {:.4g} s\n", m.name,
              sweep.rows.size(), sweep.samples, sweep.sample_interval);
   if (sweep.dynamics)  // the errors at the end of the run and of the energy balance too
-    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
-               "setting", "dt [s]", "cpu s/sim s", "pos %", "end pos %", "vel %", "acc %",
-               "energy %", "status");
+    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {}\n",
+               "engine", "setting", "dt [s]", "cpu s/sim s", "pos %", "end pos %", "vel %", "acc %",
+               "force %", "energy %", "status");
   else
-    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
-               "setting", "dt [s]", "cpu s/cycle", "pos %", "vel %", "acc %", "gap [m]", "status");
+    fmt::print(out, "{:<8} {:<48} {:>10} {:>12} {:>10} {:>10} {:>10} {:>10} {:>10} {}\n", "engine",
+               "setting", "dt [s]", "cpu s/cycle", "pos %", "vel %", "acc %", "force %", "gap [m]",
+               "status");
+  // A value that was not measured (no comparable sample, no forces read) is a dash.
+  const auto value = [](double v) {
+    return std::isnan(v) ? std::string("-") : fmt::format("{:.3g}", v);
+  };
   for (const SweepRow& r : sweep.rows) {
-    const std::string front = r.pareto[0] || r.pareto[1] || r.pareto[2] ? " *" : "";
+    const bool on_front = std::any_of(r.pareto.begin(), r.pareto.end(), [](bool b) { return b; });
+    const std::string front = on_front ? " *" : "";
     const std::string status = r.status == RunStatus::flagged
                                    ? fmt::format("flagged ({} samples)", r.flagged_samples)
                                : r.status == RunStatus::ok && r.flagged_samples > 0
@@ -901,15 +909,14 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
     const std::string dt = std::isnan(r.dt) ? std::string("-") : format_dt(r.dt);
     if (sweep.dynamics)
       fmt::print(out,
-                 "{:<8} {:<48} {:>10} {:>12.4g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} "
-                 "{}{}\n",
-                 r.engine, r.variant, dt, r.cost(), r.max_pct[0], r.end_pct[0], r.max_pct[1],
-                 r.max_pct[2], r.energy_pct, status, front);
+                 "{:<8} {:<48} {:>10} {:>12.4g} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {}{}\n",
+                 r.engine, r.variant, dt, r.cost(), value(r.max_pct[0]), value(r.end_pct[0]),
+                 value(r.max_pct[1]), value(r.max_pct[2]), value(r.max_pct[3]), value(r.energy_pct),
+                 status, front);
     else
-      fmt::print(out,
-                 "{:<8} {:<48} {:>10} {:>12.4g} {:>10.3g} {:>10.3g} {:>10.3g} {:>10.3g} {}{}\n",
-                 r.engine, r.variant, dt, r.cost(), r.max_pct[0], r.max_pct[1], r.max_pct[2],
-                 r.max_loop_gap, status, front);
+      fmt::print(out, "{:<8} {:<48} {:>10} {:>12.4g} {:>10} {:>10} {:>10} {:>10} {:>10.3g} {}{}\n",
+                 r.engine, r.variant, dt, r.cost(), value(r.max_pct[0]), value(r.max_pct[1]),
+                 value(r.max_pct[2]), value(r.max_pct[3]), r.max_loop_gap, status, front);
   }
   fmt::print(out, "(* on the Pareto front of error against cost for at least one class)\n");
   fmt::print(out,

@@ -12,6 +12,9 @@
 //                 peak is pi, metrics.h)
 //   velocity      omega, vx, vy, v, sdot
 //   acceleration  alpha, ax, ay, a, sddot
+//   force         the driver's torque or force, the joints' reactions, the shaking force and
+//                 moment (kinetostatics; a dynamics case's joint forces), where the engine reads
+//                 them: NaN where it does not (an equivalent driver), which no pick holds against
 #pragma once
 
 #include <array>
@@ -43,13 +46,20 @@ using compare::HtmlOptions;
 using compare::Tolerances;
 using compare::Verdict;
 
-// The three classes a sweep row reports, in CSV column order.
-enum class ErrorClass { position, velocity, acceleration };
-constexpr std::array<ErrorClass, 3> kErrorClasses = {ErrorClass::position, ErrorClass::velocity,
-                                                     ErrorClass::acceleration};
+// The classes a sweep row reports, in CSV column order.
+enum class ErrorClass { position, velocity, acceleration, force };
+constexpr std::array<ErrorClass, 4> kErrorClasses = {ErrorClass::position, ErrorClass::velocity,
+                                                     ErrorClass::acceleration, ErrorClass::force};
 std::string_view to_string(ErrorClass c);
-// The class a channel's quantity belongs to (angle -> position); none for forces and torques.
+// The class a channel's quantity belongs to (angle -> position, torque -> force); none for
+// energy (its own column).
 std::optional<ErrorClass> error_class_of(Quantity q);
+
+// One value per class (ErrorClass order), NaN where none was measured.
+using ClassValues = std::array<double, kErrorClasses.size()>;
+constexpr ClassValues kNoValues = {
+    std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+    std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
 
 // One setting of one engine: every override passed to the engine, dt included.
 struct GridPoint {
@@ -128,24 +138,16 @@ struct SweepRow {
   // `repeats` runs: the cost fronts, picks and charts use (cost()).
   double cpu_s_per_cycle = 0.0;
   int repeats = 1;
-  // Max % of peak per class (ErrorClass order); NaN when no sample could be compared.
-  std::array<double, 3> max_pct = {std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN()};
+  // Max % of peak per class; NaN when no sample could be compared (force: or the run reads no
+  // forces).
+  ClassValues max_pct = kNoValues;
   // The same over every sample the engine recorded, flagged ones included (only a run that
   // flagged samples or diverged part-way has one): how far off the run is where it collapses.
-  std::array<double, 3> raw_pct = {std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN()};
-  // Max % of peak over the force and torque channels, when the engine reads forces (NaN
-  // otherwise): an --accuracy pick must meet it too.
-  double force_pct = std::numeric_limits<double>::quiet_NaN();
+  ClassValues raw_pct = kNoValues;
   // Dynamics cases: the % of peak per class at the end of the run (the last sample both call
   // usable; the benchmarks' "error at the end"), and the max % of the energy scale over the
   // energy channels (an --accuracy pick must meet it too). NaN otherwise.
-  std::array<double, 3> end_pct = {std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN(),
-                                   std::numeric_limits<double>::quiet_NaN()};
+  ClassValues end_pct = kNoValues;
   double energy_pct = std::numeric_limits<double>::quiet_NaN();
   // Dynamics cases: the IFToMM benchmarks' error (A01, A02; benchmark_tip_errors()): the largest
   // difference from the reference of the driven link's tip, per coordinate of its position
@@ -157,7 +159,7 @@ struct SweepRow {
   int flagged_samples = 0;  // samples usable in the reference but not in the run
   int samples = 0;
   std::string message;                                 // the engine's notes or why it diverged
-  std::array<bool, 3> pareto = {false, false, false};  // on the engines' front, per class
+  std::array<bool, kErrorClasses.size()> pareto = {};  // on the engines' front, per class
 
   double error(ErrorClass c) const { return max_pct[static_cast<size_t>(c)]; }
   // The IFToMM error: the larger of the tip's position and velocity errors (NaN: none).
@@ -166,7 +168,7 @@ struct SweepRow {
   double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
   std::string setting_label() const;
-  // Whether the row meets `accuracy_pct` on every class with status ok.
+  // Whether the row meets `accuracy_pct` on every class with status ok (forces where read).
   bool meets(double accuracy_pct) const;
 };
 
@@ -236,7 +238,7 @@ ConvergenceFit convergence_order(const std::vector<double>& dt, const std::vecto
 // The order of one (engine, variant) series per class.
 struct OrderRow {
   std::string engine, variant;
-  std::array<ConvergenceFit, 3> fit;  // ErrorClass order
+  std::array<ConvergenceFit, kErrorClasses.size()> fit;  // ErrorClass order
 };
 
 // The cheapest setting of one engine meeting an accuracy, searched from coarse to fine: every
@@ -321,7 +323,8 @@ void analyse(SettingsSweep& sweep);
 // samples, pareto_position, pareto_velocity, pareto_acceleration, raw_pct_position,
 // raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
 // end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
-// tip_position_error, tip_velocity_error. SI units.
+// tip_position_error, tip_velocity_error, max_pct_force, pareto_force, raw_pct_force,
+// end_pct_force. SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).

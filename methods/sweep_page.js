@@ -34,7 +34,7 @@
       dt: r.dt, cost: r.cost, status: r.status, gap: r.gap,
       error: atEnd ? r.end[cls] : r.err[cls], y: atEnd ? r.yend[cls] : r.y[cls],
       drawn: atEnd ? 'error at the end of the run' : r.drawn[cls], pareto: r.pareto[cls],
-    })).filter((r) => r.cost !== null);
+    })).filter((r) => r.cost !== null && r.y !== null);  // y null: a run that reads no forces
   }
 
   const tooltip = [

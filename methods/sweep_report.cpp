@@ -46,10 +46,23 @@ std::string status_text(const SweepRow& r) {
   return std::string(to_string(r.status));
 }
 
+// The classes some row has a value of: forces only where an engine reads them (no empty charts).
+std::vector<ErrorClass> measured_classes(const SettingsSweep& sweep) {
+  std::vector<ErrorClass> out;
+  for (ErrorClass c : kErrorClasses) {
+    const auto k = static_cast<size_t>(c);
+    if (std::any_of(sweep.rows.begin(), sweep.rows.end(), [&](const SweepRow& row) {
+          return std::isfinite(row.max_pct[k]) || std::isfinite(row.raw_pct[k]);
+        }))
+      out.push_back(c);
+  }
+  return out;
+}
+
 json report_data(const SettingsSweep& sweep) {
   json r;
   r["classes"] = json::array();
-  for (ErrorClass c : kErrorClasses) r["classes"].push_back(std::string(to_string(c)));
+  for (ErrorClass c : measured_classes(sweep)) r["classes"].push_back(std::string(to_string(c)));
   // The floor the exact reference is drawn at: a decade under the smallest error shown.
   double smallest = 1.0;
   for (const SweepRow& row : sweep.rows)
@@ -57,7 +70,7 @@ json report_data(const SettingsSweep& sweep) {
       if (std::isfinite(e) && e > 0.0) smallest = std::min(smallest, e);
   double largest = 1.0;
   for (const SweepRow& row : sweep.rows)
-    for (size_t k = 0; k < 3; ++k)
+    for (size_t k = 0; k < kErrorClasses.size(); ++k)
       for (double e : {row.max_pct[k], row.raw_pct[k]})
         if (std::isfinite(e)) largest = std::max(largest, std::min(e, 1e3));
   const double floor = std::pow(10.0, std::floor(std::log10(smallest)) - 1.0);
@@ -111,6 +124,14 @@ json report_data(const SettingsSweep& sweep) {
       j["err"][to_string(c)] = finite_or_null(e);
       j["raw"][to_string(c)] = finite_or_null(raw);
       j["y"][to_string(c)] = y;
+      // A run that reads no forces (an equivalent driver) has no point on the force charts.
+      if (c == ErrorClass::force && row.status == RunStatus::ok && !std::isfinite(e)) {
+        j["y"][to_string(c)] = nullptr;
+        j["yend"][to_string(c)] = nullptr;
+        j["drawn"][to_string(c)] = "forces not read";
+        j["pareto"][to_string(c)] = false;
+        continue;
+      }
       j["drawn"][to_string(c)] = drawn;
       j["pareto"][to_string(c)] = row.pareto[k];
     }
@@ -120,19 +141,22 @@ json report_data(const SettingsSweep& sweep) {
 }
 
 std::string orders_table(const SettingsSweep& sweep) {
-  std::string html =
-      "<table><tr><th>engine</th><th>variant</th><th>position</th><th>velocity</th>"
-      "<th>acceleration</th></tr>\n";
+  const std::vector<ErrorClass> classes = measured_classes(sweep);
+  std::string html = "<table><tr><th>engine</th><th>variant</th>";
+  for (ErrorClass c : classes) html += fmt::format("<th>{}</th>", to_string(c));
+  html += "</tr>\n";
   for (const OrderRow& o : sweep.orders) {
     html +=
         fmt::format("<tr><td>{}</td><td>{}</td>", html_escape(o.engine), html_escape(o.variant));
-    for (const ConvergenceFit& f : o.fit)
+    for (ErrorClass c : classes) {
+      const ConvergenceFit& f = o.fit[static_cast<size_t>(c)];
       html += std::isnan(f.order)
                   ? fmt::format("<td>n/a ({} point{})</td>", f.points, f.points == 1 ? "" : "s")
                   : fmt::format(
                         "<td><b>{:.2f}</b> <small>({} points, dt {:.3g} to {:.3g} s)"
                         "</small></td>",
                         f.order, f.points, f.dt_max, f.dt_min);
+    }
     html += "</tr>\n";
   }
   return html + "</table>\n";
@@ -162,8 +186,8 @@ std::string rows_table(const SettingsSweep& sweep) {
   std::string html =
       "<table class=\"rows\"><tr><th>engine</th><th>setting</th><th>dt [s]</th>"
       "<th>CPU per cycle [s]</th><th>position %</th><th>velocity %</th>"
-      "<th>acceleration %</th><th>max loop gap [m]</th><th>status</th><th>front</th>"
-      "<th>settings in force, notes</th></tr>\n";
+      "<th>acceleration %</th><th>force %</th><th>max loop gap [m]</th><th>status</th>"
+      "<th>front</th><th>settings in force, notes</th></tr>\n";
   for (const SweepRow& r : sweep.rows) {
     std::string front;
     for (ErrorClass c : kErrorClasses)
@@ -174,11 +198,12 @@ std::string rows_table(const SettingsSweep& sweep) {
     if (!r.message.empty()) settings += "<br><small>" + html_escape(r.message) + "</small>";
     html += fmt::format(
         "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"settings\">{}</td></tr>\n",
+        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"settings\">{}</td>"
+        "</tr>\n",
         r.status == RunStatus::ok ? "" : std::string("status-") + std::string(to_string(r.status)),
         html_escape(r.engine), html_escape(r.variant), cell(r.dt, "{:.4g}"),
         cell(r.cost(), "{:.4g}"), error_cell(r, 0), error_cell(r, 1), error_cell(r, 2),
-        cell(r.max_loop_gap), html_escape(status_text(r)), front, settings);
+        error_cell(r, 3), cell(r.max_loop_gap), html_escape(status_text(r)), front, settings);
   }
   return html + "</table>\n";
 }
@@ -235,12 +260,13 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
          "engine settings with status ok (filled markers). Grey diamonds: the analytic methods "
          "(Newton is the reference, error 0, drawn at the floor). Settings with no comparable "
          "sample are drawn at the ceiling: that is where an engine's accuracy collapses.</p>\n";
-  for (ErrorClass c : kErrorClasses)
+  const std::vector<ErrorClass> classes = measured_classes(sweep);
+  for (ErrorClass c : classes)
     out << fmt::format("<h3>{0}</h3>\n<div id=\"cost-{0}\" class=\"chart\"></div>\n", to_string(c));
   if (sweep.dynamics) {
     out << "<h2>Error at the end of the run against cost</h2>\n<p>The work-precision chart of "
            "the multibody benchmarks: the % of peak at the last sample.</p>\n";
-    for (ErrorClass c : kErrorClasses)
+    for (ErrorClass c : classes)
       out << fmt::format("<h3>{0}</h3>\n<div id=\"end-{0}\" class=\"chart\"></div>\n",
                          to_string(c));
   }
@@ -257,7 +283,7 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
         << limits_table(sweep);
   out << "<h2>Error against time step</h2>\n<p>Each variant's series; the slope is the observed "
          "order of convergence (table below).</p>\n";
-  for (ErrorClass c : kErrorClasses)
+  for (ErrorClass c : classes)
     out << fmt::format("<h3>{0}</h3>\n<div id=\"dt-{0}\" class=\"chart\"></div>\n", to_string(c));
   out << "<h2>Observed order of convergence in dt</h2>\n<p>Least-squares slope of log error "
          "against log dt over the non-saturated points of each series with status ok: points "

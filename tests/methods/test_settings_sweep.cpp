@@ -134,16 +134,33 @@ TEST(ConvergenceOrder, NoOrderFromFewerThanTwoPoints) {
 // ---------------------------------------------------------------------------------------------
 // The cheapest setting
 
+// A row's position, velocity and acceleration errors, and its force error (NaN: forces not
+// read).
 SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> e,
-             RunStatus status = RunStatus::ok) {
+             RunStatus status = RunStatus::ok, double force = std::nan("")) {
   SweepRow r;
   r.engine = "mujoco";
   r.variant = std::move(variant);
   r.dt = dt;
   r.wall_s_per_cycle = cost;
-  r.max_pct = e;
+  r.max_pct = {e[0], e[1], e[2], force};
   r.status = status;
   return r;
+}
+
+// The forces are a class of their own: a setting that misses them is not picked, a run that
+// reads none (an equivalent driver) is judged on its motion.
+TEST(Selection, ForcesWhereReadMustMeetTheAccuracy) {
+  const std::vector<SweepRow> rows = {
+      row("Euler", 1e-3, 1.0, {0.1, 0.1, 0.1}, RunStatus::ok, 5.0),  // forces 5 % off
+      row("RK4", 1e-3, 1.2, {0.1, 0.1, 0.1}, RunStatus::ok, 0.5),
+  };
+  const Selection s = select_cheapest("mujoco", 1.0, rows);
+  ASSERT_TRUE(s.found);
+  EXPECT_EQ(s.chosen.variant, "RK4");
+  EXPECT_FALSE(rows[0].meets(1.0));
+  EXPECT_TRUE(row("Euler", 1e-3, 1.0, {0.1, 0.1, 0.1}).meets(1.0));            // no forces read
+  EXPECT_FALSE(row("Euler", 1e-3, 1.0, {0.1, std::nan(""), 0.1}).meets(1.0));  // no motion
 }
 
 TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
