@@ -336,7 +336,7 @@ bool SweepRow::meets(double accuracy_pct) const {
 }
 
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
-                          const GridPoint& point, const sim::Settings& base, int repeat) {
+                          const GridPoint& point, const sim::Settings& base) {
   double dt = 0.0;
   const MethodRun& reference = ladder.for_dt(point.dt, &dt);
   sim::Settings settings = base;
@@ -358,15 +358,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
       return failed;
     }
   };
-  MethodRun run = attempt();
-  std::vector<double> costs = {seconds_per_cycle(run)}, cpu = {cpu_per_cycle(run)};
-  for (int r = 1; r < repeat && run.available && run.ok; ++r) {
-    const MethodRun again = attempt();
-    costs.push_back(seconds_per_cycle(again));
-    cpu.push_back(cpu_per_cycle(again));
-  }
-  run.cost.wall_seconds_per_cycle = median(costs);
-  run.cost.cpu_seconds_per_cycle = median(cpu);
+  const MethodRun run = attempt();
 
   SweepRow row;
   row.engine = point.engine;
@@ -375,7 +367,6 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   row.samples = reference.trajectory.samples();
   row.message = run.message;
   row.overrides = settings;
-  row.repeats = static_cast<int>(costs.size());
   if (!run.available) {
     row.status = RunStatus::diverged;
     row.settings = settings;
@@ -438,6 +429,33 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   for (double e : row.max_pct)
     if (std::isinf(e)) row.status = RunStatus::diverged;  // NaN values the engine did not flag
   return row;
+}
+
+void retime(const Mechanism& mechanism, ReferenceLadder& ladder, std::vector<SweepRow>& rows,
+            size_t first, int repeat, const Progress& progress) {
+  std::vector<std::vector<double>> wall(rows.size()), cpu(rows.size());
+  for (size_t i = first; i < rows.size(); ++i) {
+    wall[i] = {rows[i].wall_s_per_cycle};
+    cpu[i] = {rows[i].cpu_s_per_cycle};
+  }
+  const int count = static_cast<int>(rows.size() - first);
+  for (int round = 1; round < repeat; ++round)
+    for (size_t i = first; i < rows.size(); ++i) {
+      if (rows[i].status == RunStatus::diverged) continue;  // nothing to time
+      if (progress)
+        progress(round * count + static_cast<int>(i - first) + 1, repeat * count,
+                 {rows[i].engine, rows[i].variant + " (timing)", rows[i].dt, {}});
+      double dt = 0.0;
+      const MethodRun& reference = ladder.for_dt(rows[i].dt, &dt);
+      const MethodRun again = run_method(rows[i].engine, mechanism, reference, rows[i].overrides);
+      wall[i].push_back(seconds_per_cycle(again));
+      cpu[i].push_back(cpu_per_cycle(again));
+    }
+  for (size_t i = first; i < rows.size(); ++i) {
+    rows[i].wall_s_per_cycle = median(wall[i]);
+    rows[i].cpu_s_per_cycle = median(cpu[i]);
+    rows[i].repeats = static_cast<int>(cpu[i].size());
+  }
 }
 
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
@@ -772,12 +790,15 @@ Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   const std::vector<GridPoint> grid = engine_grid(engine, dts, mechanism.dynamics.has_value());
   std::vector<SweepRow> rows;
   Selection s;
+  size_t level_start = 0;
   for (size_t i = 0; i < grid.size(); ++i) {
     if (progress) progress(static_cast<int>(i + 1), static_cast<int>(grid.size()), grid[i]);
-    rows.push_back(evaluate_setting(mechanism, ladder, grid[i], base, repeat));
+    rows.push_back(evaluate_setting(mechanism, ladder, grid[i], base));
     // Stop at the end of the first time step where a variant meets the accuracy.
     const bool level_done = i + 1 == grid.size() || grid[i + 1].dt != grid[i].dt;
     if (!level_done) continue;
+    retime(mechanism, ladder, rows, level_start, repeat);  // the level's variants in turn
+    level_start = rows.size();
     s = select_cheapest(engine, accuracy_pct, rows);
     if (s.found) break;
   }
@@ -805,6 +826,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
                      [&](double t) { return std::abs(t - s) <= 1e-9 * s; }))
       snapped.push_back(s);
   }
+  const size_t first_engine_row = out.rows.size();
   std::vector<GridPoint> grid;
   for (const std::string& engine : options.engines) {
     if (!Tolerances::is_engine(engine)) {
@@ -817,7 +839,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   for (size_t i = 0; i < grid.size(); ++i) {
     if (options.progress)
       options.progress(static_cast<int>(i + 1), static_cast<int>(grid.size()), grid[i]);
-    SweepRow row = evaluate_setting(mechanism, ladder, grid[i], options.base, options.repeat);
+    SweepRow row = evaluate_setting(mechanism, ladder, grid[i], options.base);
     // An engine that cannot realise the mechanism: say so once, run nothing more of it.
     if (row.status == RunStatus::diverged && row.wall_s_per_cycle == 0.0 &&
         row.message.find("cannot realise") != std::string::npos) {
@@ -828,6 +850,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
     }
     out.rows.push_back(std::move(row));
   }
+  retime(mechanism, ladder, out.rows, first_engine_row, options.repeat, options.progress);
   analyse(out);
   if (options.accuracy_pct)
     for (const std::string& engine : options.engines)

@@ -183,11 +183,20 @@ std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism);
 std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
                                            const Trajectory& run);
 
-// Runs one grid point against the ladder's reference for its dt. `base` overrides come first
-// (e.g. a --set perturb_link), the grid point's after. `repeat` > 1: the cost is the median of
-// that many runs (the errors are the same every run).
+// Runs one grid point against the ladder's reference for its dt, once. `base` overrides come
+// first (e.g. a --set perturb_link), the grid point's after.
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
-                          const GridPoint& point, const sim::Settings& base = {}, int repeat = 1);
+                          const GridPoint& point, const sim::Settings& base = {});
+
+// Progress of a long run: (index from 1, total, the grid point about to run).
+using Progress = std::function<void(int, int, const GridPoint&)>;
+
+// The cost of rows[first..] as the median of `repeat` runs (the errors are the same every run):
+// the rows already run once are run `repeat` - 1 times more, in turn (every row once per
+// round), so that a burst of load on the machine falls on one run of many settings, which the
+// median drops, rather than on every run of one setting. A diverged row is not rerun.
+void retime(const Mechanism& mechanism, ReferenceLadder& ladder, std::vector<SweepRow>& rows,
+            size_t first, int repeat, const Progress& progress = {});
 
 // The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
 // (errors against Newton), their cost from timing their sweeps (median of `repeat`). A method
@@ -259,9 +268,6 @@ struct Selection {
 // variant order, the engine's default first) taken among equals.
 Selection select_cheapest(std::string_view engine, double accuracy_pct,
                           const std::vector<SweepRow>& rows);
-
-// Progress of a long run: (index from 1, total, the grid point about to run).
-using Progress = std::function<void(int, int, const GridPoint&)>;
 
 Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            std::string_view engine, double accuracy_pct,
