@@ -208,5 +208,77 @@ TEST(SweepEngines, DynamicsCaseWorkPrecisionRows) {
   EXPECT_NE(a.selections[0].summary().find("per simulated s"), std::string::npos);
 }
 
+// Why MuJoCo's Euler (and Bullet's multibody, the same semi-implicit Euler in joint coordinates)
+// converges at first order on Andrews' squeezer, the coasting sewing machine and the motored
+// slider-crank, and at second on A01: semi-implicit Euler, started half a step back and read by
+// central differences, is the leapfrog (second order) only while the accelerations do not depend
+// on the velocity. A velocity-dependent force is evaluated at the velocity half a step behind,
+// an O(dt) error every step. The pendulum of A01 over 10 s has none (one hinge, constant
+// inertia): second order; the same pendulum with a damper from P1 to a ground point: first order.
+// (In joint coordinates a chain's Coriolis and centrifugal terms are such forces too;
+// docs/dynamics.md.)
+TEST(SweepEngines, SemiImplicitEulerLosesAnOrderToVelocityDependentForces) {
+  std::string text = R"(name = "A01 over 10 s"
+gravity = [0, -9.81]
+[units]
+length = "m"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0], G = [0, -3] }
+[[link]]
+name = "pendulum"
+points = { O = [0, 0], P1 = [1, 0] }
+mass = 1
+com = "P1"
+inertia = 0
+[[joint]]
+type = "revolute"
+links = ["ground", "pendulum"]
+point = "O"
+[driver]
+type = "joint_angle"
+joint = "O"
+to = "P1"
+start = 0
+[dynamics]
+duration = 10
+interval = 0.05
+rate = 0
+)";
+  const Mechanism free = parse_mechanism(text, "free.toml");
+  text += R"(
+[[spring]]
+name = "drag"
+links = ["ground", "pendulum"]
+points = ["G", "P1"]
+stiffness = 0
+free_length = 0
+damping = 0.2
+)";
+  const Mechanism damped = parse_mechanism(text, "damped.toml");
+  for (const auto& [engine, variant] :
+       {std::pair<const char*, const char*>{"mujoco", "Euler/Newton"},
+        {"bullet", "multibody/MLCP Dantzig erp 1"}}) {
+    for (const Mechanism* m : {&free, &damped}) {
+      ReferenceLadder ladder(*m, {});
+      std::vector<double> dts, errors;
+      for (double dt : {8e-3, 4e-3, 2e-3, 1e-3}) {  // above the floor (auxiliary inertia)
+        GridPoint p{engine, variant, dt, {}};
+        for (const Variant& v : engine_variants(engine, true))
+          if (v.name == variant) p.settings = v.settings(dt);
+        const SweepRow r = evaluate_setting(*m, ladder, p);
+        ASSERT_EQ(r.status, RunStatus::ok) << engine << " " << r.message;
+        dts.push_back(r.dt);
+        errors.push_back(r.error(ErrorClass::position));
+      }
+      const ConvergenceFit fit = convergence_order(dts, errors);
+      const double expected = m == &free ? 2.0 : 1.0;
+      EXPECT_NEAR(fit.order, expected, 0.3) << engine << " " << m->name << " " << fit.points;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace crosslink::methods
