@@ -325,11 +325,6 @@ std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Tra
   return out;
 }
 
-std::array<double, 2> SweepRow::cost_range() const {
-  if (cpu_s_per_cycle > 0.0 && cpu_low > 0.0 && cpu_high >= cpu_low) return {cpu_low, cpu_high};
-  return {cost(), cost()};
-}
-
 bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
   for (ErrorClass c : kErrorClasses) {
@@ -459,9 +454,6 @@ void retime(const Mechanism& mechanism, ReferenceLadder& ladder, std::vector<Swe
   for (size_t i = first; i < rows.size(); ++i) {
     rows[i].wall_s_per_cycle = median(wall[i]);
     rows[i].cpu_s_per_cycle = median(cpu[i]);
-    const auto [low, high] = std::minmax_element(cpu[i].begin(), cpu[i].end());
-    rows[i].cpu_low = *low;
-    rows[i].cpu_high = *high;
     rows[i].repeats = static_cast<int>(cpu[i].size());
   }
 }
@@ -565,20 +557,11 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
                                const std::vector<bool>& eligible, double cost_tie,
                                double error_tie) {
-  std::vector<std::array<double, 2>> range;
-  for (double c : cost) range.push_back({c, c});
-  return pareto_front(range, error, eligible, cost_tie, error_tie);
-}
-
-std::vector<bool> pareto_front(const std::vector<std::array<double, 2>>& cost,
-                               const std::vector<double>& error, const std::vector<bool>& eligible,
-                               double cost_tie, double error_tie) {
   const size_t n = cost.size();
   if (error.size() != n || eligible.size() != n)
     throw std::invalid_argument("pareto_front: cost, error and eligible differ in length");
   auto valid = [&](size_t i) {
-    return eligible[i] && std::isfinite(cost[i][0]) && std::isfinite(cost[i][1]) &&
-           std::isfinite(error[i]);
+    return eligible[i] && std::isfinite(cost[i]) && std::isfinite(error[i]);
   };
   std::vector<bool> front(n, false);
   const double band = 1.0 + cost_tie, error_band = 1.0 + error_tie;
@@ -586,9 +569,9 @@ std::vector<bool> pareto_front(const std::vector<std::array<double, 2>>& cost,
     if (!valid(i)) continue;
     bool dominated = false;
     for (size_t j = 0; j < n && !dominated; ++j)
-      dominated = j != i && valid(j) && cost[j][0] <= band * cost[i][1] &&
+      dominated = j != i && valid(j) && cost[j] <= band * cost[i] &&
                   error[j] <= error_band * error[i] &&
-                  (band * cost[j][1] < cost[i][0] || error_band * error[j] < error[i]);
+                  (band * cost[j] < cost[i] || error_band * error[j] < error[i]);
     front[i] = !dominated;
   }
   return front;
@@ -642,11 +625,10 @@ void analyse(SettingsSweep& sweep) {
   for (size_t i = 0; i < sweep.rows.size(); ++i)
     if (sweep.rows[i].engine != "analytic") engine_rows.push_back(i);
   for (ErrorClass c : kErrorClasses) {
-    std::vector<std::array<double, 2>> cost;
-    std::vector<double> error;
+    std::vector<double> cost, error;
     std::vector<bool> eligible;
     for (size_t i : engine_rows) {
-      cost.push_back(sweep.rows[i].cost_range());
+      cost.push_back(sweep.rows[i].cost());
       error.push_back(sweep.rows[i].error(c));
       eligible.push_back(sweep.rows[i].status == RunStatus::ok);
     }
@@ -742,13 +724,11 @@ namespace {
 // Of rows at one time step, the cheapest that meets the accuracy, or nullptr: of the rows whose
 // cost is within kPickTie of the lowest, the first (the grid's order).
 const SweepRow* cheapest_meeting(const std::vector<const SweepRow*>& rows, double accuracy_pct) {
-  // The highest run of the cheapest: a row is passed over only when every run of another was
-  // more than 1 + kPickTie times faster than every run of it.
   double lowest = std::numeric_limits<double>::infinity();
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->cost_range()[1]);
+    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->cost());
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct) && r->cost_range()[0] <= (1.0 + kPickTie) * lowest) return r;
+    if (r->meets(accuracy_pct) && r->cost() <= (1.0 + kPickTie) * lowest) return r;
   return nullptr;
 }
 

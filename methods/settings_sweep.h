@@ -137,9 +137,6 @@ struct SweepRow {
   // The same in CPU time of the stepping thread (RunCost::cpu_seconds_per_cycle), the median of
   // `repeats` runs: the cost fronts, picks and charts use (cost()).
   double cpu_s_per_cycle = 0.0;
-  // The lowest and highest of the repeats' CPU times per cycle: how far apart the same setting's
-  // runs were (0: not measured, the cost alone stands for both).
-  double cpu_low = 0.0, cpu_high = 0.0;
   int repeats = 1;
   // Max % of peak per class; NaN when no sample could be compared (force: or the run reads no
   // forces).
@@ -169,8 +166,6 @@ struct SweepRow {
   double benchmark_error() const;
   // The cost: the CPU time per cycle, or the wall time where none was measured.
   double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
-  // The range of the cost over the repeats (the cost itself at both ends when not measured).
-  std::array<double, 2> cost_range() const;
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
   std::string setting_label() const;
   // Whether the row meets `accuracy_pct` on every class with status ok (forces where read).
@@ -233,13 +228,6 @@ constexpr double kPickTie = 0.5;
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
                                const std::vector<bool>& eligible, double cost_tie = 0.0,
                                double error_tie = 0.0);
-// The same with each cost a range [low, high] over repeated runs: j's cost is no worse than i's
-// when low_j <= (1 + cost_tie) high_i, and better when (1 + cost_tie) high_j < low_i: two
-// settings whose runs overlap are never ordered by cost, so timing noise, which widens the
-// ranges, makes ties rather than flips (docs/sweep.md). low = high = cost gives the rule above.
-std::vector<bool> pareto_front(const std::vector<std::array<double, 2>>& cost,
-                               const std::vector<double>& error, const std::vector<bool>& eligible,
-                               double cost_tie = 0.0, double error_tie = 0.0);
 
 // Observed order of convergence p in error ~ C dt^p: least-squares slope of log error against
 // log dt over the non-saturated points. From coarse to fine, a point is left out when

@@ -87,29 +87,6 @@ TEST(ParetoFront, TimingNoiseDoesNotMoveTheFront) {
   }
 }
 
-// With costs as ranges over repeated runs, two settings whose runs overlap are not ordered by
-// cost: noise that widens the ranges makes ties, not flips. Two variants of equal error, the
-// second 1.4 times dearer by its median (beyond the 25 % tie): by medians alone one run of the
-// sweep can drop it from the front and another keep it; with ranges that overlap it stays, and
-// it drops only when every run of it was dearer than every run of the first by the tie.
-TEST(ParetoFront, OverlappingCostRangesAreTies) {
-  const std::vector<double> error = {1.0, 1.0};
-  const std::vector<bool> eligible = {true, true};
-  EXPECT_EQ(pareto_front(std::vector<double>{1.0, 1.4}, error, eligible, kCostTie, kErrorTie),
-            (std::vector<bool>{true, false}));
-  using Range = std::array<double, 2>;
-  EXPECT_EQ(pareto_front(std::vector<Range>{{0.8, 1.2}, {1.1, 1.7}}, error, eligible, kCostTie,
-                         kErrorTie),
-            (std::vector<bool>{true, true}));
-  EXPECT_EQ(pareto_front(std::vector<Range>{{0.9, 1.0}, {1.3, 1.4}}, error, eligible, kCostTie,
-                         kErrorTie),
-            (std::vector<bool>{true, false}));  // 1.25 x 1.0 < 1.3: every run dearer
-  // Zero-width ranges are the medians' rule.
-  EXPECT_EQ(pareto_front(std::vector<Range>{{1.0, 1.0}, {1.4, 1.4}}, error, eligible, kCostTie,
-                         kErrorTie),
-            (std::vector<bool>{true, false}));
-}
-
 // ---------------------------------------------------------------------------------------------
 // Order of convergence
 
@@ -169,19 +146,6 @@ SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> 
   r.max_pct = {e[0], e[1], e[2], force};
   r.status = status;
   return r;
-}
-
-// The pick passes over the grid's earlier variant only when every run of another was more than
-// 1 + kPickTie times faster than every run of it.
-TEST(Selection, OverlappingCostRangesKeepTheEarlierVariant) {
-  std::vector<SweepRow> rows = {row("Euler", 1e-3, 1.0, {0.1, 0.1, 0.1}),
-                                row("CG", 1e-3, 0.6, {0.1, 0.1, 0.1})};
-  for (SweepRow& r : rows) r.cpu_s_per_cycle = r.wall_s_per_cycle;
-  rows[0].cpu_low = 0.7, rows[0].cpu_high = 1.3;   // medians 1.0 and 0.6: 1.67 times
-  rows[1].cpu_low = 0.5, rows[1].cpu_high = 0.75;  // but the runs overlap the tie
-  EXPECT_EQ(select_cheapest("mujoco", 1.0, rows).chosen.variant, "Euler");
-  rows[0].cpu_low = 1.2, rows[0].cpu_high = 1.3;  // every run of CG more than 1.5 times faster
-  EXPECT_EQ(select_cheapest("mujoco", 1.0, rows).chosen.variant, "CG");
 }
 
 // The forces are a class of their own: a setting that misses them is not picked, a run that
