@@ -325,6 +325,12 @@ std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Tra
   return out;
 }
 
+double SweepRow::work() const {
+  if (engine == "analytic" || !(dt > 0.0)) return kNaN;
+  const std::optional<std::string> integrator = setting(settings, "integrator");
+  return (integrator && *integrator == "RK4" ? 4.0 : 1.0) / dt;
+}
+
 bool SweepRow::meets(double accuracy_pct) const {
   if (status != RunStatus::ok) return false;
   for (ErrorClass c : kErrorClasses) {
@@ -555,8 +561,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
 // Analysis
 
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
-                               const std::vector<bool>& eligible, double cost_tie,
-                               double error_tie) {
+                               const std::vector<bool>& eligible, double error_tie) {
   const size_t n = cost.size();
   if (error.size() != n || eligible.size() != n)
     throw std::invalid_argument("pareto_front: cost, error and eligible differ in length");
@@ -564,14 +569,13 @@ std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vecto
     return eligible[i] && std::isfinite(cost[i]) && std::isfinite(error[i]);
   };
   std::vector<bool> front(n, false);
-  const double band = 1.0 + cost_tie, error_band = 1.0 + error_tie;
+  const double band = 1.0 + error_tie;
   for (size_t i = 0; i < n; ++i) {
     if (!valid(i)) continue;
     bool dominated = false;
     for (size_t j = 0; j < n && !dominated; ++j)
-      dominated = j != i && valid(j) && cost[j] <= band * cost[i] &&
-                  error[j] <= error_band * error[i] &&
-                  (band * cost[j] < cost[i] || error_band * error[j] < error[i]);
+      dominated = j != i && valid(j) && cost[j] <= cost[i] && error[j] <= band * error[i] &&
+                  (cost[j] < cost[i] || band * error[j] < error[i]);
     front[i] = !dominated;
   }
   return front;
@@ -625,14 +629,14 @@ void analyse(SettingsSweep& sweep) {
   for (size_t i = 0; i < sweep.rows.size(); ++i)
     if (sweep.rows[i].engine != "analytic") engine_rows.push_back(i);
   for (ErrorClass c : kErrorClasses) {
-    std::vector<double> cost, error;
+    std::vector<double> work, error;
     std::vector<bool> eligible;
     for (size_t i : engine_rows) {
-      cost.push_back(sweep.rows[i].cost());
+      work.push_back(sweep.rows[i].work());
       error.push_back(sweep.rows[i].error(c));
       eligible.push_back(sweep.rows[i].status == RunStatus::ok);
     }
-    const std::vector<bool> front = pareto_front(cost, error, eligible, kCostTie, kErrorTie);
+    const std::vector<bool> front = pareto_front(work, error, eligible, kErrorTie);
     for (size_t k = 0; k < engine_rows.size(); ++k)
       sweep.rows[engine_rows[k]].pareto[index_of(c)] = front[k];
   }
@@ -721,14 +725,14 @@ std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, 
 
 namespace {
 
-// Of rows at one time step, the cheapest that meets the accuracy, or nullptr: of the rows whose
-// cost is within kPickTie of the lowest, the first (the grid's order).
-const SweepRow* cheapest_meeting(const std::vector<const SweepRow*>& rows, double accuracy_pct) {
+// Of rows at one time step, the least work that meets the accuracy, or nullptr: of the rows with
+// the lowest work, the first (the grid's order).
+const SweepRow* least_work_meeting(const std::vector<const SweepRow*>& rows, double accuracy_pct) {
   double lowest = std::numeric_limits<double>::infinity();
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->cost());
+    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->work());
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct) && r->cost() <= (1.0 + kPickTie) * lowest) return r;
+    if (r->meets(accuracy_pct) && r->work() <= lowest) return r;
   return nullptr;
 }
 
@@ -751,7 +755,7 @@ Selection select_cheapest(std::string_view engine, double accuracy_pct,
         level.push_back(&r);
         s.tried.push_back(r);
       }
-    if (const SweepRow* best = cheapest_meeting(level, accuracy_pct)) {
+    if (const SweepRow* best = least_work_meeting(level, accuracy_pct)) {
       s.found = true;
       s.chosen = *best;
       break;
@@ -773,11 +777,14 @@ std::string Selection::summary() const {
       overrides += fmt::format(" {}={}", k, v);
   return fmt::format(
       "{}: --accuracy {:g} %: chose {} ({}) after {} runs: {:.3g} ms per {}; max % of peak "
-      "position {:.3g}, velocity {:.3g}, acceleration {:.3g}{}",
+      "position {:.3g}, velocity {:.3g}, acceleration {:.3g}{}{}",
       engine, accuracy_pct, chosen.setting_label(), overrides.empty() ? "" : overrides.substr(1),
       tried.size(), 1e3 * chosen.cost(), std::isnan(chosen.energy_pct) ? "cycle" : "simulated s",
       chosen.error(ErrorClass::position), chosen.error(ErrorClass::velocity),
       chosen.error(ErrorClass::acceleration),
+      std::isnan(chosen.error(ErrorClass::force))
+          ? std::string()
+          : fmt::format(", force {:.3g}", chosen.error(ErrorClass::force)),
       std::isnan(chosen.energy_pct) ? std::string()
                                     : fmt::format(", energy {:.3g}", chosen.energy_pct));
 }
@@ -887,7 +894,7 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "raw_pct_velocity,raw_pct_acceleration,settings,message,end_pct_position,"
          "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
          "tip_position_error,tip_velocity_error,max_pct_force,pareto_force,raw_pct_force,"
-         "end_pct_force\n";
+         "end_pct_force,work\n";
   for (const SweepRow& r : sweep.rows) {
     out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt)
         << ',' << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ','
@@ -901,7 +908,7 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle)
         << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << ','
         << csv_number(r.max_pct[3]) << ',' << r.pareto[3] << ',' << csv_number(r.raw_pct[3]) << ','
-        << csv_number(r.end_pct[3]) << '\n';
+        << csv_number(r.end_pct[3]) << ',' << csv_number(r.work()) << '\n';
   }
 }
 

@@ -3,9 +3,11 @@
 // dynamics case: the exact simulation) through compare_methods() (the metrics of metrics.h,
 // nothing re-implemented), with its wall time per simulated cycle (per simulated second for a
 // dynamics case), the median of repeated runs; the observed order of convergence in dt; the
-// Pareto front of error against cost; and the cheapest setting that meets an accuracy asked for.
-// Costs within kCostTie of each other are ties, decided by the grid's order, so that two
-// identical sweeps draw the same front and pick the same setting. See docs/sweep.md.
+// Pareto front of error against work; and the least-work setting that meets an accuracy asked
+// for. The front and the pick weigh the work (model evaluations, fixed by the time step and the
+// integrator), never a timing: CPU times moved by 17 to 66 % between identical sweeps on this
+// shared machine, so any rule on them moved the front; with the work two identical sweeps draw
+// the same front and pick the same setting. See docs/sweep.md.
 //
 // Quantity classes of a row (max over the channels of the class, usable samples only):
 //   position      "position" and "angle" channels (both are position-level quantities; an angle's
@@ -166,6 +168,10 @@ struct SweepRow {
   double benchmark_error() const;
   // The cost: the CPU time per cycle, or the wall time where none was measured.
   double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
+  // The work: the engine's model evaluations per simulated second, its steps per second times
+  // its integrator's stages (MuJoCo's RK4 4, every other variant 1). The same in every run, it
+  // is what the front and the pick weigh. NaN for the analytic rows.
+  double work() const;
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
   std::string setting_label() const;
   // Whether the row meets `accuracy_pct` on every class with status ok (forces where read).
@@ -208,26 +214,18 @@ constexpr const char* kSimulationTolerancesIntegrator = "dopri5";
 std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptions& options,
                                     int repeat = 3, std::vector<std::string>* skipped = nullptr);
 
-// Two costs within this fraction of each other are the same cost, and two errors within
-// kErrorTie the same error: decisions (the front, the pick) do not hinge on less. The CPU time
-// of one setting, median of 3 runs, varied by 5 to 60 % between sweeps on this machine with two
-// other builds running, and settings of one family (MuJoCo's Euler with the Newton, CG or PGS
-// solver) differ in error by 2 %: docs/sweep.md.
-constexpr double kCostTie = 0.25;
+// Two errors within this fraction of each other are the same error: settings of one family
+// (MuJoCo's Euler with the Newton, CG or PGS solver) differ in error by 2 %, and the front does
+// not separate them on that.
 constexpr double kErrorTie = 0.1;
-// The cheapest-setting pick is a recommendation: of the variants meeting the accuracy at the
-// coarsest time step where any does, the earliest in the grid (the engine's default first) unless
-// another is more than 1.5 times cheaper, beyond that noise.
-constexpr double kPickTie = 0.5;
 
 // Pareto front of (cost, error), both minimised: point i is on the front when it is eligible
-// and no other eligible point j dominates it: error_j <= (1 + error_tie) error_i, cost_j <=
-// (1 + cost_tie) cost_i, and (1 + error_tie) error_j < error_i or (1 + cost_tie) cost_j <
-// cost_i (ties 0: cost <= and error <= with one of them strictly less). Ineligible points (or
-// non-finite values) are never on it.
+// and no other eligible point j dominates it: cost_j <= cost_i, error_j <= (1 + error_tie)
+// error_i, and cost_j < cost_i or (1 + error_tie) error_j < error_i. Ineligible points (or
+// non-finite values) are never on it. The sweep's cost here is the work (SweepRow::work()),
+// exact, so only errors have a tie.
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error,
-                               const std::vector<bool>& eligible, double cost_tie = 0.0,
-                               double error_tie = 0.0);
+                               const std::vector<bool>& eligible, double error_tie = 0.0);
 
 // Observed order of convergence p in error ~ C dt^p: least-squares slope of log error against
 // log dt over the non-saturated points. From coarse to fine, a point is left out when
@@ -263,9 +261,8 @@ struct Selection {
 };
 
 // The selection rule over rows already run: time steps from coarse to fine, the first where a
-// row of `engine` meets the accuracy; of that time step's rows meeting it, the cheapest, a
-// cost within kPickTie of the cheapest counting as equal and the earlier row (the grid's
-// variant order, the engine's default first) taken among equals.
+// row of `engine` meets the accuracy; of that time step's rows meeting it, the least work, and
+// among equals the earlier row (the grid's variant order, the engine's default first).
 Selection select_cheapest(std::string_view engine, double accuracy_pct,
                           const std::vector<SweepRow>& rows);
 
@@ -330,7 +327,7 @@ void analyse(SettingsSweep& sweep);
 // raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
 // end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
 // tip_position_error, tip_velocity_error, max_pct_force, pareto_force, raw_pct_force,
-// end_pct_force. SI units.
+// end_pct_force, work. SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).

@@ -31,7 +31,7 @@
   function rows(cls, atEnd) {
     return R.rows.map((r) => ({
       engine: r.engine, variant: r.variant, series: r.series, setting: r.setting,
-      dt: r.dt, cost: r.cost, status: r.status, gap: r.gap,
+      dt: r.dt, cost: r.cost, work: r.work, status: r.status, gap: r.gap,
       error: atEnd ? r.end[cls] : r.err[cls], y: atEnd ? r.yend[cls] : r.y[cls],
       drawn: atEnd ? 'error at the end of the run' : r.drawn[cls], pareto: r.pareto[cls],
     })).filter((r) => r.cost !== null && r.y !== null);  // y null: a run that reads no forces
@@ -48,7 +48,8 @@
   function costSpec(cls, atEnd) {
     const data = rows(cls, atEnd);
     const engines = data.filter((r) => r.engine !== 'analytic');
-    const front = engines.filter((r) => r.pareto).sort((a, b) => a.cost - b.cost);
+    // The front is of error against work (the same in every run); joined in order of work.
+    const front = engines.filter((r) => r.pareto).sort((a, b) => a.work - b.work);
     const series = engines.filter((r) => r.status === 'ok')
                           .sort((a, b) => (a.series < b.series ? -1 : a.series > b.series ? 1
                                                                      : b.dt - a.dt));
@@ -63,9 +64,8 @@
         {data: {values: series}, mark: {type: 'line', strokeWidth: 0.8, opacity: 0.35},
          encoding: {x: X, y: Y, detail: {field: 'series'}, order: {field: 'dt', sort: 'descending'},
                     color: {field: 'engine', type: 'nominal', scale: engineColour}}},
-        {data: {values: front}, mark: {type: 'line', interpolate: 'step-after', color: '#000',
-                                      strokeWidth: 2.2},
-         encoding: {x: X, y: Y}},
+        {data: {values: front}, mark: {type: 'line', color: '#000', strokeWidth: 2.2},
+         encoding: {x: X, y: Y, order: {field: 'work'}}},
         {data: {values: engines},
          mark: {type: 'point', size: 55, strokeWidth: 1.6},
          encoding: {x: X, y: Y,

@@ -50,41 +50,45 @@ TEST(ParetoFront, EqualPointsBothStay) {
   EXPECT_EQ(front, (std::vector<bool>{true, true}));
 }
 
-// Costs within kCostTie, and errors within kErrorTie, are equal: what timing noise or a 2 %
-// difference in error cannot order, the front does not order either.
-TEST(ParetoFront, CostsAndErrorsWithinTheTiesAreEqual) {
-  // Equal errors, costs 10 % apart: both stay (without the ties the dearer one drops).
-  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}, kCostTie, kErrorTie),
+// Errors within kErrorTie are equal: what a 2 % difference in error cannot order (MuJoCo's Euler
+// with the Newton or CG solver), the front does not order either.
+TEST(ParetoFront, ErrorsWithinTheTieAreEqual) {
+  // Equal work, errors 2 % apart: both stay (without the tie the less accurate one drops).
+  EXPECT_EQ(pareto_front({1.0, 1.0}, {2.04, 2.0}, {true, true}, kErrorTie),
             (std::vector<bool>{true, true}));
-  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 2}, {true, true}), (std::vector<bool>{true, false}));
-  // Errors 2 % apart at costs 30 % apart: the same error, the clearly cheaper one wins.
-  EXPECT_EQ(pareto_front({1.0, 1.3}, {2.04, 2.0}, {true, true}, kCostTie, kErrorTie),
+  EXPECT_EQ(pareto_front({1.0, 1.0}, {2.04, 2.0}, {true, true}), (std::vector<bool>{false, true}));
+  // Errors 2 % apart, the second with more work: the same error, the lesser work wins.
+  EXPECT_EQ(pareto_front({1.0, 1.3}, {2.04, 2.0}, {true, true}, kErrorTie),
             (std::vector<bool>{true, false}));
-  // As cheap (within the tie) and clearly more accurate: it dominates the cheaper one.
-  EXPECT_EQ(pareto_front({1.0, 1.1}, {2, 1}, {true, true}, kCostTie, kErrorTie),
+  // The same work and clearly more accurate: it dominates.
+  EXPECT_EQ(pareto_front({1.0, 1.0}, {2, 1}, {true, true}, kErrorTie),
             (std::vector<bool>{false, true}));
 }
 
-// A grid's worth of points: time steps a factor 2 apart in cost and 4 in error, three variants
-// at each, two of them of the same error and cost to 5 % (as MuJoCo's Euler with the Newton and
-// CG solvers), one three times less accurate. Costs perturbed by up to 8 % either way never move
-// the front (the ties absorb up to 25 % between two costs).
-TEST(ParetoFront, TimingNoiseDoesNotMoveTheFront) {
-  std::vector<double> cost, error;
-  for (int step = 0; step < 4; ++step)
-    for (int variant = 0; variant < 3; ++variant) {
-      cost.push_back(std::pow(2.0, step) * (1.0 + 0.05 * variant));
-      error.push_back(std::pow(4.0, -step) * (variant == 1 ? 1.02 : variant == 2 ? 3.0 : 1.0));
-    }
-  const std::vector<bool> eligible(cost.size(), true);
-  const std::vector<bool> front = pareto_front(cost, error, eligible, kCostTie, kErrorTie);
-  EXPECT_EQ(std::count(front.begin(), front.end(), true), 8);  // both equals at every step
-  for (int trial = 0; trial < 200; ++trial) {
-    std::vector<double> noisy = cost;
-    for (size_t i = 0; i < noisy.size(); ++i)
-      noisy[i] *= 1.0 + 0.08 * std::sin(37.0 * trial + 11.0 * static_cast<double>(i));
-    EXPECT_EQ(pareto_front(noisy, error, eligible, kCostTie, kErrorTie), front) << trial;
+// The front weighs the work, which a run's timing does not change: two settings of the same time
+// step and integrator (MuJoCo's Euler with the Newton and CG solvers) and equal errors stay on it
+// together however far apart their measured CPU times are, and RK4 (4 stages) at the same step
+// needs a smaller error to be there.
+TEST(ParetoFront, TheWorkNotTheTimingDecides) {
+  SweepRow newton, cg, rk4;
+  for (SweepRow* r : {&newton, &cg, &rk4}) {
+    r->engine = "mujoco";
+    r->dt = 1e-3;
   }
+  newton.cpu_s_per_cycle = 1.0;
+  cg.cpu_s_per_cycle = 3.0;  // a loaded machine's timing
+  rk4.settings = {{"integrator", "RK4"}};
+  EXPECT_DOUBLE_EQ(newton.work(), 1000.0);
+  EXPECT_DOUBLE_EQ(cg.work(), 1000.0);
+  EXPECT_DOUBLE_EQ(rk4.work(), 4000.0);
+  const std::vector<double> work = {newton.work(), cg.work(), rk4.work()};
+  EXPECT_EQ(pareto_front(work, {1.0, 1.01, 1.0}, {true, true, true}, kErrorTie),
+            (std::vector<bool>{true, true, false}));
+  EXPECT_EQ(pareto_front(work, {1.0, 1.01, 0.2}, {true, true, true}, kErrorTie),
+            (std::vector<bool>{true, true, true}));
+  SweepRow analytic;
+  analytic.engine = "analytic";
+  EXPECT_TRUE(std::isnan(analytic.work()));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -145,6 +149,7 @@ SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> 
   r.wall_s_per_cycle = cost;
   r.max_pct = {e[0], e[1], e[2], force};
   r.status = status;
+  if (r.variant.starts_with("RK4")) r.settings = {{"integrator", "RK4"}};  // 4 stages of work
   return r;
 }
 
@@ -167,7 +172,7 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   const std::vector<SweepRow> rows = {
       row("Euler", 1e-3, 1.0, {0.5, 3, 20}),        // misses acceleration
       row("RK4", 1e-3, 2.0, {0.1, 0.5, 0.9}),       // meets 1 %
-      row("implicit", 1e-3, 1.2, {0.1, 0.5, 0.8}),  // meets 1 %, 1.7 times cheaper than RK4
+      row("implicit", 1e-3, 1.2, {0.1, 0.5, 0.8}),  // meets 1 %, a quarter of RK4's work
       row("Euler", 1e-4, 0.5, {1e-3, 1e-3, 1e-3}),  // cheaper still (a noisy timing), finer:
                                                     // not needed, never chosen
       row("soft", 1e-3, 0.1, {0.01, 0.01, 0.01}, RunStatus::flagged),  // flagged: never chosen
@@ -189,15 +194,16 @@ TEST(Selection, StopsAtTheCoarsestTimeStepThatMeetsTheAccuracy) {
   EXPECT_FALSE(select_cheapest("bullet", 1.0, rows).found);  // another engine's rows
 }
 
-// At one time step, costs within kPickTie of the cheapest are equal: the earlier row in the grid
-// (the engine's default variant first) is taken, so timing noise cannot change the pick.
-TEST(Selection, CostsWithinTheTieGoToTheGridOrder) {
-  const std::vector<SweepRow> tied = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
-                                      row("Euler/CG", 1e-3, 0.7, {0.1, 0.1, 0.1})};
-  EXPECT_EQ(select_cheapest("mujoco", 1.0, tied).chosen.variant, "Euler/Newton");
-  const std::vector<SweepRow> apart = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
-                                       row("Euler/CG", 1e-3, 0.6, {0.1, 0.1, 0.1})};
-  EXPECT_EQ(select_cheapest("mujoco", 1.0, apart).chosen.variant, "Euler/CG");
+// At one time step the least work is taken, and among equal work the earlier row in the grid
+// (the engine's default variant first): the measured cost never decides, so timing noise cannot
+// change the pick.
+TEST(Selection, TheGridOrderDecidesBetweenEqualWork) {
+  const std::vector<SweepRow> rows = {row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1}),
+                                      row("Euler/CG", 1e-3, 0.3, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, rows).chosen.variant, "Euler/Newton");
+  const std::vector<SweepRow> rk4_first = {row("RK4/Newton", 1e-3, 0.5, {0.1, 0.1, 0.1}),
+                                           row("Euler/CG", 1e-3, 2.0, {0.1, 0.1, 0.1})};
+  EXPECT_EQ(select_cheapest("mujoco", 1.0, rk4_first).chosen.variant, "Euler/CG");
   // A dynamics row must meet the accuracy on its energy balance too.
   SweepRow drifting = row("Euler/Newton", 1e-3, 1.0, {0.1, 0.1, 0.1});
   drifting.energy_pct = 2.0;
