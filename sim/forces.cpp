@@ -235,6 +235,14 @@ ForceStencil force_stencil(double t, long last_step, const std::vector<double>& 
   return s;
 }
 
+void combine_readings(const ForceStencil& stencil,
+                      const std::function<const ForceReading&(long step)>& reading,
+                      ForceReading& out) {
+  out.set_zero();
+  for (size_t n = 0; n < stencil.steps.size(); ++n)
+    out.add(stencil.weights[n], reading(stencil.steps[n]));
+}
+
 }  // namespace crosslink::sim
 
 namespace crosslink::sim {

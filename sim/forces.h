@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,11 @@ struct ForceStencil {
   std::vector<double> weights;
 };
 ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time);
+
+// A sample's reading: the readings of its stencil's poses (by step), weighted, into `out`.
+void combine_readings(const ForceStencil& stencil,
+                      const std::function<const ForceReading&(long step)>& reading,
+                      ForceReading& out);
 
 }  // namespace crosslink::sim
 

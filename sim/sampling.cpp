@@ -40,6 +40,19 @@ void check_steps(double steps, double dt, long max_steps) {
       dt, steps, max_steps));
 }
 
+Span usable_span(const Trajectory& reference) {
+  Span span;
+  for (int i = 0; i < reference.samples(); ++i)
+    if (usable(reference.status[static_cast<size_t>(i)])) {
+      if (span.first < 0) span.first = i;
+      span.last = i;
+    }
+  if (span.first < 0) throw std::runtime_error("the reference has no usable sample to start from");
+  if (span.last == span.first)
+    throw std::runtime_error("the reference has a single usable sample: nothing to run over");
+  return span;
+}
+
 Eigen::VectorXd reference_coordinates(const Mechanism& m, const Trajectory& reference, int row) {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(m.coordinate_count());
   for (size_t l = 0; l < m.links.size(); ++l) {
@@ -125,6 +138,68 @@ std::array<std::vector<double>, 3> stencil_weights(double x0, const std::vector<
     c1 = c2;
   }
   return c;
+}
+
+std::vector<long> difference_stencil(long at, long last_step) {
+  if (at - 1 >= 1 && at + 1 <= last_step) return {at - 1, at, at + 1};
+  std::vector<long> steps;
+  const long count = std::min(4L, last_step);
+  const long from = std::clamp(at - count / 2, 1L, last_step - count + 1);
+  for (long k = from; k < from + count; ++k) steps.push_back(k);
+  return steps;
+}
+
+SamplePlan plan_samples(const Trajectory& reference, Span span,
+                        const std::vector<double>& step_time, const std::vector<long>& sample_step,
+                        bool with_forces) {
+  const auto samples = static_cast<size_t>(reference.samples());
+  const long last_step = static_cast<long>(step_time.size()) - 1;
+  SamplePlan plan;
+  plan.stencil.resize(samples);
+  plan.forces.resize(samples);
+  plan.read_forces.assign(static_cast<size_t>(last_step + 1), false);
+  for (int i = span.first; i <= span.last; ++i) {
+    const auto row = static_cast<size_t>(i);
+    plan.stencil[row] = difference_stencil(sample_step[row], last_step);
+    if (!with_forces) continue;
+    plan.forces[row] = force_stencil(reference.time(i), last_step, step_time);
+    for (long k : plan.forces[row].steps) plan.read_forces[static_cast<size_t>(k)] = true;
+  }
+  return plan;
+}
+
+long SamplePlan::complete_at(int i) const {
+  long at = stencil[static_cast<size_t>(i)].back();
+  for (long k : forces[static_cast<size_t>(i)].steps) at = std::max(at, k + 1);
+  return at;
+}
+
+void difference_state(double t, const std::vector<long>& steps,
+                      const std::vector<double>& step_time, const PoseAt& pose, Eigen::VectorXd& q,
+                      Eigen::VectorXd& qdot, Eigen::VectorXd& qddot) {
+  std::vector<double> times;
+  for (long k : steps) times.push_back(step_time[static_cast<size_t>(k)]);
+  const auto w = stencil_weights(t, times);
+  q.setZero();
+  qdot.setZero();
+  qddot.setZero();
+  for (size_t n = 0; n < steps.size(); ++n) {
+    const Eigen::Ref<const Eigen::VectorXd> at = pose(steps[n]);
+    q += w[0][n] * at;
+    qdot += w[1][n] * at;
+    qddot += w[2][n] * at;
+  }
+}
+
+void recent_velocity(long k, const std::vector<double>& step_time, const PoseAt& pose,
+                     Eigen::VectorXd& velocity) {
+  std::vector<double> times;
+  for (long n = std::max(0L, k - 2); n <= k; ++n)
+    times.push_back(step_time[static_cast<size_t>(n)]);
+  const auto w = stencil_weights(step_time[static_cast<size_t>(k)], times);
+  velocity.setZero();
+  for (size_t n = 0; n < times.size(); ++n)
+    velocity += w[1][n] * pose(k - static_cast<long>(times.size()) + 1 + static_cast<long>(n));
 }
 
 }  // namespace crosslink::sim

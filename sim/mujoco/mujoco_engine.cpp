@@ -3,6 +3,7 @@
 // positions, velocities and accelerations at the sampled steps.
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/sampling.h"
+#include "sim/statuses.h"
 
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -28,6 +29,8 @@
 
 namespace crosslink::sim {
 namespace {
+
+using Clock = std::chrono::steady_clock;
 
 using mujoco_scene::DrivenJoint;
 using mujoco_scene::MjcfOptions;
@@ -180,26 +183,6 @@ Eigen::Matrix<double, 5, 1> solimp_of(const std::string& name, const std::string
 
 // ---------------------------------------------------------------------------------------------
 // The starting configuration and the time grid
-
-// The reference's usable samples (PoseStatus::ok): the engine starts at the first and stops at
-// the last; samples outside keep the reference's flag. Interior flagged samples (a change point
-// on a sample) are run through.
-struct Span {
-  int first = -1, last = -1;
-};
-
-Span usable_span(const Trajectory& reference) {
-  Span span;
-  for (int i = 0; i < reference.samples(); ++i)
-    if (usable(reference.status[static_cast<size_t>(i)])) {
-      if (span.first < 0) span.first = i;
-      span.last = i;
-    }
-  if (span.first < 0) throw std::runtime_error("the reference has no usable sample to start from");
-  if (span.last == span.first)
-    throw std::runtime_error("the reference has a single usable sample: nothing to run over");
-  return span;
-}
 
 // Absolute coordinates and their rates at the reference's first usable sample, solved exactly.
 struct Start {
@@ -823,44 +806,43 @@ void state_rates(const Mechanism& m, const Scene& s, const mjModel* mm, const mj
   }
 }
 
-EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point begin = Clock::now();
-  const int samples = reference.samples();
-  EngineRun run;
-  run.trajectory.method = "mujoco";
-  auto shape = [&](bool with_forces) {
-    run.trajectory.resize(m, samples, with_forces);
-    run.trajectory.add_energy();
-    run.trajectory.time = reference.time;
-    run.trajectory.driver = reference.driver;
-  };
-  shape(false);
-  Prepared p;
-  ReferenceState start;
-  ModelPtr model;
-  try {
-    p = prepare_dynamics(m, reference, overrides, &start);
-    model = load_model(p.mjcf);
-  } catch (const std::exception& e) {
-    run.settings = overrides;
-    return failed(std::move(run), e.what());
-  }
+// ---------------------------------------------------------------------------------------------
+// A kinematic run, in stages: prepare() (the time grid, usable span and scene) and plan_samples()
+// (each sample's stencils) plan it; KinematicModel builds MuJoCo's model at the exact start;
+// KinematicStepper takes one step; KinematicSampler writes a sample's row and KinematicForces its
+// forces; judge_kinematic() gives the statuses after the run (docs/design.md, "Layout").
+
+// What a run's trajectory holds before anything is read: the reference's samples.
+void shape(Trajectory& out, const Mechanism& m, const Trajectory& reference, bool with_forces) {
+  out.resize(m, reference.samples(), with_forces);
+  out.time = reference.time;
+  out.driver = reference.driver;
+}
+
+// The thresholds a kinematic run watches its steps and flags its samples by.
+struct KinematicWatch {
+  double gap = 0.0;             // a sample interval's largest cut gap above it: loop_gap [m]
+  double singular_rcond = 0.0;  // a sample conditioned worse: singular
+  double driver = 0.0;          // the driven joint further from its target: lost [rad or m]
+};
+
+KinematicWatch kinematic_watch(const Prepared& p) {
   const Scene& s = p.scene;
-  const double size = s.size;
-  const DynamicsChoices choice = dynamics_choices(p.config);
-  const bool with_forces = true;
-  shape(with_forces);
-  const double gap_threshold = p.config.gap_threshold == "auto"
-                                   ? 1e-4 * size
-                                   : parse_number("gap_threshold", p.config.gap_threshold);
-  // The energy the exact motion moves (a mechanism at rest in equilibrium moves none: then any
-  // change is judged against 1e-12 J).
-  const double energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
-  const double singular_rcond = p.config.singular_rcond == "auto"
-                                    ? kDynamicsSingularRcond
-                                    : parse_number("singular_rcond", p.config.singular_rcond);
-  run.settings = {
+  const Config& c = p.config;
+  KinematicWatch w;
+  w.gap =
+      c.gap_threshold == "auto" ? 1e-4 * s.size : parse_number("gap_threshold", c.gap_threshold);
+  const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
+  w.singular_rcond = c.singular_rcond == "auto" ? kSingularRcond
+                                                : parse_number("singular_rcond", c.singular_rcond);
+  w.driver = c.driver_threshold == "auto" ? (angular_joint ? 1e-3 : 1e-3 * s.size)
+                                          : parse_number("driver_threshold", c.driver_threshold);
+  return w;
+}
+
+// What both runs record first: the step and MuJoCo's solver options.
+Settings step_settings(const Prepared& p) {
+  return {
       {"dt", fmt::format("{:.9g}", p.grid.dt)},
       {"steps_per_sample", std::to_string(p.grid.steps_per_sample)},
       {"max_step_angle",
@@ -871,261 +853,766 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
       {"tolerance", fmt::format("{:g}", p.options.tolerance)},
       {"solref", numbers(p.options.solref)},
       {"solimp", numbers(p.options.solimp)},
-      {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
-      {"perturb_link", p.config.perturb_link},
-      {"mass_model", "the definition's (Link::mass)"},
-      {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
-      {"start", choice.staggered ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
-      {"readout", choice.state_readout ? "state (MuJoCo's velocity; mj_forward acceleration)"
-                                       : "differences (3-point central of step positions)"},
-      {"energy_threshold", fmt::format("{:g}", p.config.energy_threshold)},
-      {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
-      {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
-      {"singular_rcond", fmt::format("{:g}", singular_rcond)},
   };
+}
 
-  mjModel* mm = model.get();
-  DataPtr data(mj_makeData(mm)), state_data(mj_makeData(mm));
-  mjData* d = data.get();
-  const int nq = mm->nq, nv = mm->nv;
-  std::vector<std::array<int, 2>> cut_bodies;
+// The settings record of a kinematic run: every setting in force, defaults included.
+Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool with_forces) {
+  Settings out = step_settings(p);
+  out.insert(
+      out.end(),
+      {
+          {"driver_solref", numbers(p.options.driver_solref)},
+          {"driver_solimp", numbers(p.options.driver_solimp)},
+          {"gap_threshold", fmt::format("{:.6g}", w.gap)},
+          {"driver_threshold", fmt::format("{:.6g}", w.driver)},
+          {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
+          {"perturb_link", p.config.perturb_link},
+          {"mass_model", "the definition's (Link::mass)"},
+          {"force_read",
+           with_forces ? p.config.force_read : "none (equivalent driver: another joint is driven)"},
+          {"derivatives",
+           "3-point central differences of step positions; 4-point one-sided at the first and "
+           "last usable samples"},
+      });
+  return out;
+}
+
+// MuJoCo body ids of each cut joint's two links (the world for the ground), for the loop gap.
+std::vector<std::array<int, 2>> cut_body_ids(const Scene& s, const mjModel* mm) {
+  std::vector<std::array<int, 2>> ids;
   for (int c : s.cuts) {
     const SceneJoint& j = s.joints[c];
     auto body = [&](int link) {
       return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
     };
-    cut_bodies.push_back({body(j.a), body(j.b)});
+    ids.push_back({body(j.a), body(j.b)});
   }
-  const Mechanism& scene_mechanism = m;  // the scene's joints map the definition's links
+  return ids;
+}
+
+// The tree joints' rates of the state (q, qdot) into d->qvel: the scene starts on the exact
+// configuration moving with the exact velocities.
+void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjData* d,
+                     const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
   for (const SceneJoint& j : s.joints) {
     if (!j.in_tree) continue;
     const int id = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
-    d->qvel[mm->jnt_dofadr[id]] = joint_motion(scene_mechanism, s, j, start.q, start.qdot)(1);
+    d->qvel[mm->jnt_dofadr[id]] = joint_motion(m, s, j, q, qdot)(1);
   }
-  const std::vector<double>& grid = p.grid.time;
-  const long last_step = static_cast<long>(grid.size()) - 1;
-  const double h0 = grid[1] - grid[0];
-  d->time = grid[0];
+}
 
-  // The loads, and the start: MuJoCo's own acceleration at the exact state sets the staggered
-  // velocity and the pose one step before the start (central differences at the first sample).
-  LoadHook hook(m, s, mm);
-  const HookScope scope(hook.any() ? &hook : nullptr);
-  ForceReader force_reader(m, s, mm, p.config.force_read == "centred");
-  DynamicsLoads balance(m);
-  mj_forward(mm, d);
-  std::vector<mjtNum> v0(d->qvel, d->qvel + nv), w(static_cast<size_t>(nv));
-  for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d->qacc[i];
-  if (choice.staggered) std::copy(w.begin(), w.end(), d->qvel);
-  mjData* sd = state_data.get();
-  std::copy(d->qpos, d->qpos + nq, sd->qpos);
-  const bool euler_like = p.config.integrator != "RK4";
-  mj_integratePos(mm, sd->qpos, euler_like ? d->qvel : w.data(), -h0);
-  mj_kinematics(mm, sd);
-  PoseReader before_reader(m, s, mm, start.q);
-  const Eigen::VectorXd before_start = before_reader.read(sd);
+// Build stage: MuJoCo's data at the exact first usable sample (or the pre-roll's start) with
+// the exact velocities, and the ids the steps use.
+struct KinematicModel {
+  KinematicModel(const Mechanism& m, const Prepared& p, ModelPtr loaded)
+      : model(std::move(loaded)), mm(model.get()), data(mj_makeData(mm)), d(data.get()) {
+    const Scene& s = p.scene;
+    driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    const int driven_id = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven.joint].name.c_str());
+    driven_qpos = mm->jnt_qposadr[driven_id];
+    cut_bodies = cut_body_ids(s, mm);
+    set_joint_rates(m, s, mm, d, p.start.q, p.start.qdot);
+  }
+  ModelPtr model;
+  mjModel* mm;
+  DataPtr data;
+  mjData* d;
+  int driver_eq = -1;
+  int driven_qpos = -1;
+  std::vector<std::array<int, 2>> cut_bodies;
+};
 
-  // Per step (ring of the last kRing): poses, the state (for the state readout), the work done
-  // so far and the power at the step.
-  constexpr long kRing = 16;
-  PoseReader reader(m, s, mm, start.q);
-  std::array<Eigen::VectorXd, kRing> ring;
-  std::array<std::vector<mjtNum>, kRing> ring_qpos, ring_qvel;
-  std::array<double, kRing> ring_work{}, ring_power{};
-  auto slot = [](long k) { return static_cast<size_t>(((k % kRing) + kRing) % kRing); };
-  auto pose = [&](long k) -> const Eigen::VectorXd& {
-    return k < 0 ? before_start : ring[slot(k)];
-  };
-  auto keep_state = [&](long k) {
-    ring_qpos[slot(k)].assign(d->qpos, d->qpos + nq);
-    ring_qvel[slot(k)].assign(d->qvel, d->qvel + nv);
-  };
-  ring[slot(0)] = reader.read(d);
-  keep_state(0);
-  // The sample on each step (-1: none).
-  std::vector<int> sample_of(static_cast<size_t>(last_step + 1), -1);
-  for (int i = p.span.first; i <= p.span.last; ++i)
-    sample_of[static_cast<size_t>(p.grid.sample_step[static_cast<size_t>(i)])] = i;
+// What the steps keep for the samples: the poses and force readings of the last kRing steps, by
+// step mod kRing (a stencil reaches a few steps back at most).
+constexpr long kRing = 16;
 
-  const NewtonSolver writer(m);
-  KinematicState state(m), probe(m);
-  ForceReading reading(m.joints.size());
-  std::vector<mjtNum> qpos_before(static_cast<size_t>(nq));
-  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(samples);
-  std::vector<bool> recorded(static_cast<size_t>(samples), false);
-  Eigen::MatrixXd sample_q = Eigen::MatrixXd::Zero(m.coordinate_count(), samples);
-  const double initial_energy = balance.kinetic(start.q, start.qdot) + balance.potential(start.q);
-  int drift_at = -1;
-  std::string stopped;
-  int interval = p.span.first;
+// Read-forces stage: MuJoCo's constraint forces of every pose a force stencil uses, read from the
+// step that leaves it (ForceReader), and their combination at each sample.
+class KinematicForces {
+ public:
+  KinematicForces(const Mechanism& m, const Scene& s, const mjModel* mm, bool centred)
+      : m_(m), reader_(m, s, mm, centred), combined_(m.joints.size()) {
+    readings_.fill(ForceReading(m.joints.size()));
+    qpos_before_.resize(static_cast<size_t>(mm->nq));
+  }
+  // Around mj_step from pose k: its positions before, its forces after.
+  void before_step(const mjModel* mm, const mjData* d) {
+    std::copy(d->qpos, d->qpos + mm->nq, qpos_before_.begin());
+  }
+  void after_step(long k, const mjModel* mm, const mjData* d) {
+    reader_.read(d, qpos_before_, mm->opt.timestep, reading(k));
+  }
+  // Sample i's forces: its stencil's readings combined, at the sampled state.
+  void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out) {
+    combine_readings(
+        stencil, [&](long k) -> const ForceReading& { return reading(k); }, combined_);
+    write_forces(m_, state, combined_, out, i);
+  }
 
-  // Records sample i on step S (called once step S + 1 is taken).
-  auto record = [&](int i, long S) {
-    const double t = grid[static_cast<size_t>(S)];
-    state.q = pose(S);
-    if (choice.state_readout) {
-      std::copy(ring_qpos[slot(S)].begin(), ring_qpos[slot(S)].end(), sd->qpos);
-      std::copy(ring_qvel[slot(S)].begin(), ring_qvel[slot(S)].end(), sd->qvel);
-      sd->time = t;
-      mj_forward(mm, sd);
-      force_reader.read_state(sd, reading);
-      state_rates(m, s, mm, sd, state.qdot, state.qddot);
-    } else {
-      const double hb = t - (S > 0 ? grid[static_cast<size_t>(S - 1)] : t - h0);
-      const double ha = grid[static_cast<size_t>(S + 1)] - t;
-      const auto wts = stencil_weights(0.0, {-hb, 0.0, ha});
-      state.qdot = wts[1][0] * pose(S - 1) + wts[1][1] * pose(S) + wts[1][2] * pose(S + 1);
-      state.qddot = wts[2][0] * pose(S - 1) + wts[2][1] * pose(S) + wts[2][2] * pose(S + 1);
+ private:
+  ForceReading& reading(long k) { return readings_[static_cast<size_t>(k % kRing)]; }
+  const Mechanism& m_;
+  ForceReader reader_;
+  std::array<ForceReading, kRing> readings_;
+  ForceReading combined_;
+  std::vector<mjtNum> qpos_before_;
+};
+
+// Step stage: one step of a kinematic run. Its length (the deadbeat softness follows it), the
+// driver's target at its end, the loads at the pose it leaves, and the watch on the pose it
+// reaches: NaN, the loop gap (kept per sample interval), the driver.
+class KinematicStepper {
+ public:
+  KinematicStepper(const Mechanism& m, const Trajectory& reference, const Prepared& p,
+                   const KinematicWatch& watch, KinematicModel& model, const DriverLaw& law,
+                   const SamplePlan& plan, KinematicForces* forces)
+      : m_(m),
+        p_(p),
+        watch_(watch),
+        model_(model),
+        law_(law),
+        plan_(plan),
+        forces_(forces),
+        loads_(m),
+        reader_(m, p.scene, model.mm, p.start.q),
+        gaps_(Eigen::VectorXd::Zero(reference.samples())),
+        velocity_(m.coordinate_count()),
+        interval_(p.span.first) {
+    for (const SceneLink& link : p.scene.links)
+      if (link.source >= 0 && !link.ground)
+        load_body_.push_back(mj_name2id(model.mm, mjOBJ_BODY, link.name.c_str()));
+    driver_offset_ =
+        reference.driver(p.span.first) - m.driver.at_time(reference.time(p.span.first)).value;
+    qpos0_ = model.mm->qpos0[model.driven_qpos];
+    pose(0) = reader_.read(model.d);
+  }
+
+  // Takes the step to step `step`; "" or why the run stops there.
+  std::string step(long step) {
+    mjModel* mm = model_.mm;
+    mjData* d = model_.d;
+    const std::vector<double>& grid = p_.grid.time;
+    const double t = grid[static_cast<size_t>(step)];
+    set_step(t - grid[static_cast<size_t>(step - 1)]);
+    const double target = law_.at(t);
+    // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
+    mm->eq_data[mjNEQDATA * model_.driver_eq] = target - qpos0_;
+    apply_loads(step - 1);
+    const bool read = forces_ && plan_.read_forces[static_cast<size_t>(step - 1)];
+    if (read) forces_->before_step(mm, d);
+    mj_step(mm, d);
+    if (read) forces_->after_step(step - 1, mm, d);
+    mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
+    ++taken_;
+    // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
+    while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
+      ++interval_;
+    const double gap = loop_gap(p_.scene, model_.cut_bodies, d);
+    gaps_(interval_) = std::max(gaps_(interval_), gap);
+    pose(step) = reader_.read(d);
+    const double driver_error = std::abs(d->qpos[model_.driven_qpos] - target);
+    if (!pose(step).allFinite() || !std::isfinite(gap) || gap > p_.scene.size ||
+        d->warning[mjWARN_BADQACC].number > 0)
+      return fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)", t, gap);
+    if (driver_error > watch_.driver)
+      return fmt::format(
+          "lost the driver at t = {:.6g} s: joint {} is {:.3g} from its target (loop gap "
+          "{:.3g} m)",
+          t, p_.scene.joints[p_.scene.driven.joint].name, driver_error, gap);
+    return "";
+  }
+
+  PoseAt poses() {
+    return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose(k); };
+  }
+  const Eigen::VectorXd& gaps() const { return gaps_; }
+  long taken() const { return taken_; }
+
+ private:
+  Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
+
+  // A step of a new length: the deadbeat softness follows it.
+  void set_step(double h) {
+    mjModel* mm = model_.mm;
+    if (mm->opt.timestep == h) return;
+    mm->opt.timestep = h;
+    for (int e = 0; e < mm->neq; ++e) {
+      const std::string& choice =
+          e == model_.driver_eq ? p_.config.driver_solref : p_.config.solref;
+      if (choice != "deadbeat") continue;
+      mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
+      mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
     }
-    const double coordinate = balance.coordinate(state.q);
-    state.driver = {t, coordinate, balance.rate(state.q, state.qdot), 0.0};
-    writer.write_sample(state, SolveReport{}, run.trajectory, i);
-    run.trajectory.driver(i) = coordinate;
-    reading.effort = m.dynamics->effort_at(t);
-    write_forces(m, state, reading, run.trajectory, i);
-    const double kinetic = balance.kinetic(state.q, state.qdot);
-    const double potential = balance.potential(state.q);
-    const double work = ring_work[slot(S)];
-    const double error = kinetic + potential - work - initial_energy;
-    run.trajectory.energy.row(i) << kinetic, potential, work, error;
-    recorded[static_cast<size_t>(i)] = true;
-    sample_q.col(i) = state.q;
-    if (drift_at < 0 && std::abs(error) > p.config.energy_threshold * energy_scale) drift_at = i;
-    if (!(std::abs(error) <= p.config.divergence_energy * energy_scale))
-      stopped = fmt::format(
+  }
+
+  // The definition's loads and springs on the bodies at pose k, at its velocity: a one-sided
+  // difference of the last poses (the exact velocity at the start).
+  void apply_loads(long k) {
+    if (!loads_.any()) return;
+    const double t = p_.grid.time[static_cast<size_t>(k)];
+    if (k == 0)
+      velocity_ = p_.start.qdot;
+    else
+      recent_velocity(k, p_.grid.time, poses(), velocity_);
+    const std::vector<BodyLoad>& on =
+        loads_.at(pose(k), velocity_, m_.driver.at_time(t).value + driver_offset_);
+    for (size_t b = 0; b < on.size(); ++b) {
+      mjtNum* x = model_.d->xfrc_applied + 6 * load_body_[b];
+      x[0] = on[b].force.x();
+      x[1] = on[b].force.y();
+      x[5] = on[b].moment;
+    }
+  }
+
+  const Mechanism& m_;
+  const Prepared& p_;
+  const KinematicWatch& watch_;
+  KinematicModel& model_;
+  const DriverLaw& law_;
+  const SamplePlan& plan_;
+  KinematicForces* forces_;
+  AppliedLoads loads_;
+  std::vector<int> load_body_;  // per moving link: MuJoCo body id
+  PoseReader reader_;
+  std::array<Eigen::VectorXd, kRing> ring_;
+  Eigen::VectorXd gaps_;  // per sample: the largest cut gap in its interval
+  Eigen::VectorXd velocity_;
+  double driver_offset_ = 0.0, qpos0_ = 0.0;
+  int interval_;  // the sample whose interval (S_i-1, S_i] holds the current step
+  long taken_ = 0;
+};
+
+// Sample stage: a sample's position, velocity and acceleration from the poses of its difference
+// stencil, written as a trajectory row by the exact solver's code (points and sliders from the
+// links' coordinates); its configuration is kept for the statuses.
+class KinematicSampler {
+ public:
+  KinematicSampler(const Mechanism& m, const Trajectory& reference, const std::vector<double>& grid)
+      : m_(m),
+        reference_(reference),
+        grid_(grid),
+        writer_(m),
+        state_(m),
+        sample_q_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
+        recorded_(static_cast<size_t>(reference.samples()), false) {}
+
+  const KinematicState& write(int i, const std::vector<long>& stencil, const PoseAt& pose,
+                              Trajectory& out) {
+    difference_state(reference_.time(i), stencil, grid_, pose, state_.q, state_.qdot, state_.qddot);
+    state_.driver = m_.driver.at_time(reference_.time(i));
+    state_.driver.value = reference_.driver(i);
+    writer_.write_sample(state_, SolveReport{}, out, i);
+    recorded_[static_cast<size_t>(i)] = true;
+    sample_q_.col(i) = state_.q;
+    return state_;
+  }
+  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
+  Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
+
+ private:
+  const Mechanism& m_;
+  const Trajectory& reference_;
+  const std::vector<double>& grid_;
+  const NewtonSolver writer_;
+  KinematicState state_;
+  Eigen::MatrixXd sample_q_;
+  std::vector<bool> recorded_;
+};
+
+// Statuses stage of a kinematic run: the shared judge with MuJoCo's measures, the conditioning
+// of the definition's constraints at the engine's configuration (MuJoCo passes change points and
+// toggles silently: Newton from there, on a scratch state) and the configuration Newton closes
+// from it, which must be the reference's (another solution is another assembly mode; a model
+// error does not move it and stays a reported difference); an event on each singular sample and
+// on the first jump.
+StatusJudge judge_kinematic(const Mechanism& m, const Trajectory& reference, const Span& span,
+                            const KinematicWatch& watch, double size,
+                            const KinematicSampler& sampled, const Eigen::VectorXd& gaps,
+                            Trajectory& out) {
+  StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, kBranchDistance}, true);
+  const NewtonSolver solver(m);
+  KinematicState probe(m);
+  out.loop_gap = gaps;
+  for (int i = 0; i < reference.samples(); ++i) {
+    const auto row = static_cast<size_t>(i);
+    if (judge.outside(i, out)) continue;
+    if (!sampled.recorded(i)) {
+      out.status[row] = judge.lost(i);
+      continue;
+    }
+    probe.q = sampled.configuration(i);
+    probe.driver = m.driver.at_time(reference.time(i));
+    probe.driver.value = reference.driver(i);
+    const SolveReport projected = solver.solve_position(probe);
+    out.rcond(i) = projected.rcond;
+    double off = 0.0;
+    out.status[row] = judge.judge(
+        i, gaps(i), out.rcond(i),
+        [&] {
+          if (projected.status != PoseStatus::ok) return -1.0;
+          off = configuration_distance(probe.q, reference_coordinates(m, reference, i), size);
+          return off;
+        },
+        out);
+    // MuJoCo's events on the flags it gives itself (a reference's flag kept has its own event).
+    const bool own_flag = usable(reference.status[row]);
+    if (own_flag && out.status[row] == PoseStatus::singular)
+      out.events.push_back({reference.driver(i), PoseStatus::singular,
+                            fmt::format("the constraint Jacobian at the engine's configuration "
+                                        "is singular (rcond {:.2g})",
+                                        out.rcond(i))});
+    if (own_flag && out.status[row] == PoseStatus::branch_jump && judge.jumped() == 1)
+      out.events.push_back(
+          {reference.driver(i), PoseStatus::branch_jump,
+           fmt::format("the engine closes the loops on another assembly mode than the "
+                       "reference (closed configuration {:.3g} of the size or rad away)",
+                       off)});
+  }
+  return judge;
+}
+
+// An equivalent driver's own dead points: where its joint's rate vanishes, the chain driven by
+// that joint is singular and MuJoCo's soft solve is poorly conditioned. Returns how many
+// samples it flags singular.
+int flag_dead_points(const Scene& s, const Trajectory& reference, const Span& span,
+                     const DriverLaw& law, Trajectory& out) {
+  int dead = 0;
+  if (!s.driven.equivalent) return dead;
+  const Eigen::VectorXd rate = law.reference_rates();
+  const double peak = rate.cwiseAbs().maxCoeff();
+  for (int i = span.first; i <= span.last; ++i) {
+    const auto row = static_cast<size_t>(i);
+    if (out.status[row] != PoseStatus::ok || std::abs(rate(i)) >= kDeadRate * peak) continue;
+    out.status[row] = PoseStatus::singular;
+    out.events.push_back(
+        {reference.driver(i), PoseStatus::singular,
+         fmt::format("equivalent driver: joint {} turns at {:.2g} % of its "
+                     "peak rate (its own dead point)",
+                     s.joints[s.driven.joint].name, 100.0 * std::abs(rate(i)) / peak)});
+    ++dead;
+  }
+  return dead;
+}
+
+// The loop-gap note and an event where each run of loop_gap samples starts (both MuJoCo runs).
+void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
+                    const Trajectory& reference, EngineRun& run) {
+  if (flagged == 0) return;
+  add_note(run.message,
+           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                       flagged, gaps.maxCoeff(), threshold));
+  Trajectory& out = run.trajectory;
+  for (int i = 0; i < out.samples(); ++i)
+    if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
+        (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
+      out.events.push_back(
+          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+}
+
+// What a run cost: its stepping time per simulated cycle (`cycle` seconds), and in all.
+void record_cost(long steps, double simulated, double cycle, double stepping_seconds,
+                 double stepping_cpu, std::chrono::steady_clock::time_point begin, RunCost& cost) {
+  cost.steps = steps;
+  cost.simulated_seconds = simulated;
+  if (simulated > 0.0) {
+    cost.wall_seconds_per_cycle = stepping_seconds * cycle / simulated;
+    cost.cpu_seconds_per_cycle = stepping_cpu * cycle / simulated;
+  }
+  cost.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+}
+
+// The message of a run whose driver MuJoCo cannot drive directly.
+std::string equivalent_driver_note(const Mechanism& m, const Scene& s) {
+  return fmt::format(
+      "the driver ({}) is not a joint MuJoCo can drive; equivalent driver: joint {} follows "
+      "the exact trajectory of its angle (quintic Hermite through the reference samples); "
+      "samples are mapped by the definition's driver; forces not read (the scene's driver "
+      "acts at another joint than the definition's)",
+      to_string(m.driver.type), s.joints[s.driven.joint].name);
+}
+
+// A kinematic run's notes and the events of its counts, after the statuses.
+void note_kinematic(const Trajectory& reference, const Span& span, const StatusJudge& judge,
+                    int dead, bool stopped, const Eigen::VectorXd& gaps, double gap_threshold,
+                    EngineRun& run) {
+  Trajectory& out = run.trajectory;
+  const int samples = reference.samples();
+  if (stopped && judge.first_lost() >= 0)
+    out.events.push_back({reference.driver(judge.first_lost()), PoseStatus::diverged, run.message});
+  const int outside = span.first + (samples - 1 - span.last);
+  if (outside > 0)
+    add_note(
+        run.message,
+        fmt::format(
+            "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); "
+            "the {} samples outside (flagged by the reference: {}) keep its flag and "
+            "carry no engine value",
+            span.first, span.last, reference.driver(span.first), reference.driver(span.last),
+            outside,
+            to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
+  add_note(run.message, kept_note(judge.kept(), true));
+  if (dead > 0)
+    add_note(
+        run.message,
+        fmt::format("{} samples flagged singular at the equivalent driver's dead point", dead));
+  add_note(run.message, branch_jump_note(judge.jumped()));
+  note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run);
+}
+
+// ---------------------------------------------------------------------------------------------
+// A dynamics run, in stages: prepare_dynamics() plans it; DynamicsRun builds the scene at the
+// exact start (staggered), takes each step, accumulates the work and writes each sample once
+// the step after it is taken (with its forces); judge_dynamics() gives the statuses after it.
+
+// A dynamics run's trajectory before anything is read: the reference's samples and an energy
+// balance.
+void shape_dynamics(Trajectory& out, const Mechanism& m, const Trajectory& reference,
+                    bool with_forces) {
+  out.resize(m, reference.samples(), with_forces);
+  out.add_energy();
+  out.time = reference.time;
+  out.driver = reference.driver;
+}
+
+// The thresholds and the scale a dynamics run flags and stops by.
+struct DynamicsWatch {
+  double gap = 0.0;  // a sample interval's largest cut gap above it: loop_gap [m]
+  // The energy the exact motion moves (a mechanism at rest in equilibrium moves none: then any
+  // change is judged against 1e-12 J).
+  double energy_scale = 0.0;
+  double singular_rcond = 0.0;
+};
+
+DynamicsWatch dynamics_watch(const Mechanism& m, const Trajectory& reference, const Prepared& p) {
+  DynamicsWatch w;
+  w.gap = p.config.gap_threshold == "auto" ? 1e-4 * p.scene.size
+                                           : parse_number("gap_threshold", p.config.gap_threshold);
+  w.energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
+  w.singular_rcond = p.config.singular_rcond == "auto"
+                         ? kDynamicsSingularRcond
+                         : parse_number("singular_rcond", p.config.singular_rcond);
+  return w;
+}
+
+// The settings record of a dynamics run.
+Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
+                           const DynamicsWatch& w) {
+  Settings out = step_settings(p);
+  out.insert(
+      out.end(),
+      {
+          {"gap_threshold", fmt::format("{:.6g}", w.gap)},
+          {"perturb_link", p.config.perturb_link},
+          {"mass_model", "the definition's (Link::mass)"},
+          {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
+          {"start", choice.staggered ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
+          {"readout", choice.state_readout ? "state (MuJoCo's velocity; mj_forward acceleration)"
+                                           : "differences (3-point central of step positions)"},
+          {"energy_threshold", fmt::format("{:g}", p.config.energy_threshold)},
+          {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
+          {"energy_scale", fmt::format("{:.6g} J", w.energy_scale)},
+          {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
+      });
+  return out;
+}
+
+// The stages of a dynamics run that share its scene and step history.
+class DynamicsRun {
+ public:
+  // Build: the scene at the exact start with the loads' callback; MuJoCo's own acceleration at
+  // the exact state sets the staggered velocity and the pose one step before the start (central
+  // differences at the first sample).
+  DynamicsRun(const Mechanism& m, const Trajectory& reference, const Prepared& p,
+              const ReferenceState& start, const DynamicsChoices& choice,
+              const DynamicsWatch& watch, ModelPtr loaded, Trajectory& out)
+      : m_(m),
+        p_(p),
+        choice_(choice),
+        watch_(watch),
+        out_(out),
+        grid_(p.grid.time),
+        model_(std::move(loaded)),
+        mm_(model_.get()),
+        data_(mj_makeData(mm_)),
+        state_data_(mj_makeData(mm_)),
+        d_(data_.get()),
+        sd_(state_data_.get()),
+        hook_(m, p.scene, mm_),
+        force_reader_(m, p.scene, mm_, p.config.force_read == "centred"),
+        balance_(m),
+        reader_(m, p.scene, mm_, start.q),
+        writer_(m),
+        state_(m),
+        reading_(m.joints.size()),
+        qpos_before_(static_cast<size_t>(mm_->nq)),
+        gaps_(Eigen::VectorXd::Zero(reference.samples())),
+        recorded_(static_cast<size_t>(reference.samples()), false),
+        sample_q_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
+        interval_(p.span.first) {
+    const Scene& s = p.scene;
+    const int nq = mm_->nq, nv = mm_->nv;
+    cut_bodies_ = cut_body_ids(s, mm_);
+    // The scene's joints map the definition's links.
+    set_joint_rates(m, s, mm_, d_, start.q, start.qdot);
+    last_step_ = static_cast<long>(grid_.size()) - 1;
+    h0_ = grid_[1] - grid_[0];
+    d_->time = grid_[0];
+    scope_.emplace(hook_.any() ? &hook_ : nullptr);
+    mj_forward(mm_, d_);
+    std::vector<mjtNum> v0(d_->qvel, d_->qvel + nv), w(static_cast<size_t>(nv));
+    for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0_ * d_->qacc[i];
+    if (choice.staggered) std::copy(w.begin(), w.end(), d_->qvel);
+    std::copy(d_->qpos, d_->qpos + nq, sd_->qpos);
+    const bool euler_like = p.config.integrator != "RK4";
+    mj_integratePos(mm_, sd_->qpos, euler_like ? d_->qvel : w.data(), -h0_);
+    mj_kinematics(mm_, sd_);
+    PoseReader before_reader(m, s, mm_, start.q);
+    before_start_ = before_reader.read(sd_);
+    ring_[slot(0)] = reader_.read(d_);
+    keep_state(0);
+    sample_of_.assign(static_cast<size_t>(last_step_ + 1), -1);
+    for (int i = p.span.first; i <= p.span.last; ++i)
+      sample_of_[static_cast<size_t>(p.grid.sample_step[static_cast<size_t>(i)])] = i;
+    initial_energy_ = balance_.kinetic(start.q, start.qdot) + balance_.potential(start.q);
+  }
+
+  long last_step() const { return last_step_; }
+  // Why the run stopped ("" while it runs): divergence, or an energy balance beyond the limit.
+  const std::string& stopped() const { return stopped_; }
+
+  // Step: one mj_step, the forces of a sampled pose read from the step leaving it (difference
+  // readout), the watch (NaN, loop gap, MuJoCo's bad acceleration), then the work up to the
+  // step before and the sample on it, whose central stencil this step completes.
+  void step(long step) {
+    const double t0 = grid_[static_cast<size_t>(step - 1)];
+    const double h = grid_[static_cast<size_t>(step)] - t0;
+    set_step(h);
+    d_->time = t0;
+    const int leaving = sample_of_[static_cast<size_t>(step - 1)];
+    const bool read = leaving >= 0 && !choice_.state_readout;
+    if (read) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    mj_step(mm_, d_);
+    if (read) force_reader_.read(d_, qpos_before_, h, reading_);
+    mj_kinematics(mm_, d_);
+    ++taken_;
+    while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
+      ++interval_;
+    const double gap = loop_gap(p_.scene, cut_bodies_, d_);
+    gaps_(interval_) = std::max(gaps_(interval_), gap);
+    ring_[slot(step)] = reader_.read(d_);
+    keep_state(step);
+    if (!ring_[slot(step)].allFinite() || !std::isfinite(gap) || gap > p_.scene.size ||
+        d_->warning[mjWARN_BADQACC].number > 0) {
+      stopped_ = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)",
+                             grid_[static_cast<size_t>(step)], gap);
+      return;
+    }
+    accumulate_work(step - 1, h);
+    if (leaving >= 0) record(leaving, step - 1);
+  }
+
+  long taken() const { return taken_; }
+  const Eigen::VectorXd& gaps() const { return gaps_; }
+  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
+  Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
+  int drift_at() const { return drift_at_; }
+
+ private:
+  static size_t slot(long k) { return static_cast<size_t>(((k % kRing) + kRing) % kRing); }
+  const Eigen::VectorXd& pose(long k) const { return k < 0 ? before_start_ : ring_[slot(k)]; }
+  void keep_state(long k) {
+    ring_qpos_[slot(k)].assign(d_->qpos, d_->qpos + mm_->nq);
+    ring_qvel_[slot(k)].assign(d_->qvel, d_->qvel + mm_->nv);
+  }
+
+  // A step of a new length: the deadbeat softness follows it.
+  void set_step(double h) {
+    if (mm_->opt.timestep == h) return;
+    mm_->opt.timestep = h;
+    if (p_.config.solref == "deadbeat")
+      for (int e = 0; e < mm_->neq; ++e) {
+        mm_->eq_solref[mjNREF * e] = -1.0 / (h * h);
+        mm_->eq_solref[mjNREF * e + 1] = -1.0 / h;
+      }
+  }
+
+  // The work up to step k: the power there from the poses on either side, the trapezoid rule.
+  void accumulate_work(long k, double h) {
+    if (!balance_.any()) return;
+    const double hb = grid_[static_cast<size_t>(k)] -
+                      (k > 0 ? grid_[static_cast<size_t>(k - 1)] : grid_[0] - h0_);
+    const auto wts = stencil_weights(0.0, {-hb, 0.0, h});
+    const Eigen::VectorXd velocity =
+        wts[1][0] * pose(k - 1) + wts[1][1] * pose(k) + wts[1][2] * pose(k + 1);
+    ring_power_[slot(k)] = balance_.power(grid_[static_cast<size_t>(k)], pose(k), velocity);
+    ring_work_[slot(k)] = k == 0 ? 0.0
+                                 : ring_work_[slot(k - 1)] +
+                                       0.5 * hb * (ring_power_[slot(k - 1)] + ring_power_[slot(k)]);
+  }
+
+  // Sample and read forces: sample i on step S, from the central differences of the poses
+  // around it (or MuJoCo's state there, "state" readout), its forces, and its energy balance.
+  void record(int i, long S) {
+    const double t = grid_[static_cast<size_t>(S)];
+    state_.q = pose(S);
+    if (choice_.state_readout) {
+      std::copy(ring_qpos_[slot(S)].begin(), ring_qpos_[slot(S)].end(), sd_->qpos);
+      std::copy(ring_qvel_[slot(S)].begin(), ring_qvel_[slot(S)].end(), sd_->qvel);
+      sd_->time = t;
+      mj_forward(mm_, sd_);
+      force_reader_.read_state(sd_, reading_);
+      state_rates(m_, p_.scene, mm_, sd_, state_.qdot, state_.qddot);
+    } else {
+      const double hb = t - (S > 0 ? grid_[static_cast<size_t>(S - 1)] : t - h0_);
+      const double ha = grid_[static_cast<size_t>(S + 1)] - t;
+      const auto wts = stencil_weights(0.0, {-hb, 0.0, ha});
+      state_.qdot = wts[1][0] * pose(S - 1) + wts[1][1] * pose(S) + wts[1][2] * pose(S + 1);
+      state_.qddot = wts[2][0] * pose(S - 1) + wts[2][1] * pose(S) + wts[2][2] * pose(S + 1);
+    }
+    const double coordinate = balance_.coordinate(state_.q);
+    state_.driver = {t, coordinate, balance_.rate(state_.q, state_.qdot), 0.0};
+    writer_.write_sample(state_, SolveReport{}, out_, i);
+    out_.driver(i) = coordinate;
+    reading_.effort = m_.dynamics->effort_at(t);
+    write_forces(m_, state_, reading_, out_, i);
+    const double kinetic = balance_.kinetic(state_.q, state_.qdot);
+    const double potential = balance_.potential(state_.q);
+    const double work = ring_work_[slot(S)];
+    const double error = kinetic + potential - work - initial_energy_;
+    out_.energy.row(i) << kinetic, potential, work, error;
+    recorded_[static_cast<size_t>(i)] = true;
+    sample_q_.col(i) = state_.q;
+    const double scale = watch_.energy_scale;
+    if (drift_at_ < 0 && std::abs(error) > p_.config.energy_threshold * scale) drift_at_ = i;
+    if (!(std::abs(error) <= p_.config.divergence_energy * scale))
+      stopped_ = fmt::format(
           "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
           "energy the exact motion moves ({:.3g} J)",
-          t, error, std::abs(error) / energy_scale, energy_scale);
-  };
+          t, error, std::abs(error) / scale, scale);
+  }
 
+  const Mechanism& m_;
+  const Prepared& p_;
+  const DynamicsChoices& choice_;
+  const DynamicsWatch& watch_;
+  Trajectory& out_;
+  const std::vector<double>& grid_;
+  ModelPtr model_;
+  mjModel* mm_;
+  DataPtr data_, state_data_;
+  mjData* d_;
+  mjData* sd_;
+  LoadHook hook_;
+  std::optional<HookScope> scope_;  // declared after hook_: ends before it
+  ForceReader force_reader_;
+  DynamicsLoads balance_;
+  PoseReader reader_;
+  const NewtonSolver writer_;
+  KinematicState state_;
+  ForceReading reading_;
+  std::vector<mjtNum> qpos_before_;
+  Eigen::VectorXd gaps_;
+  std::vector<bool> recorded_;
+  Eigen::MatrixXd sample_q_;
+  std::vector<std::array<int, 2>> cut_bodies_;
+  Eigen::VectorXd before_start_;
+  // Per step (ring of the last kRing): poses, the state (for the state readout), the work done
+  // so far and the power at the step.
+  std::array<Eigen::VectorXd, kRing> ring_;
+  std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;
+  std::array<double, kRing> ring_work_{}, ring_power_{};
+  std::vector<int> sample_of_;  // the sample on each step (-1: none)
+  long last_step_ = 0, taken_ = 0;
+  double h0_ = 0.0, initial_energy_ = 0.0;
+  int drift_at_ = -1;
+  int interval_;
+  std::string stopped_;
+};
+
+// Statuses stage of a dynamics run: the shared judge, with the conditioning of the definition's
+// constraints at the engine's configuration (no branch check: the motion is the engine's own).
+StatusJudge judge_dynamics(const Mechanism& m, const Trajectory& reference, const Span& span,
+                           const DynamicsWatch& watch, const DynamicsRun& sampled,
+                           Trajectory& out) {
+  StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, 0.0}, false);
+  const NewtonSolver solver(m);
+  KinematicState probe(m);
+  out.loop_gap = sampled.gaps();
+  for (int i = 0; i < reference.samples(); ++i) {
+    const auto row = static_cast<size_t>(i);
+    if (judge.outside(i, out)) continue;
+    if (!sampled.recorded(i)) {
+      out.status[row] = judge.lost(i);
+      continue;
+    }
+    probe.q = sampled.configuration(i);
+    probe.driver.value = out.driver(i);
+    out.rcond(i) = solver.solve_position(probe).rcond;
+    out.status[row] = judge.judge(i, sampled.gaps()(i), out.rcond(i), nullptr, out);
+  }
+  return judge;
+}
+
+// A dynamics run's notes and the events of its counts.
+void note_dynamics(const Trajectory& reference, const Prepared& p, const DynamicsWatch& watch,
+                   const StatusJudge& judge, const DynamicsRun& sampled, EngineRun& run) {
+  Trajectory& out = run.trajectory;
+  const std::string& stopped = sampled.stopped();
+  if (!stopped.empty()) {
+    run.ok = false;
+    add_note(run.message, stopped);
+    const int lost = judge.first_lost();
+    out.events.push_back({lost >= 0 ? reference.driver(lost) : 0.0, PoseStatus::diverged, stopped});
+  }
+  if (const int drift_at = sampled.drift_at(); drift_at >= 0) {
+    const std::string text =
+        energy_drift_note(p.config.energy_threshold, watch.energy_scale, reference, drift_at,
+                          out.energy.col(3).cwiseAbs().maxCoeff());
+    add_note(run.message, text);
+    out.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
+  }
+  add_note(run.message, dynamics_span_note(reference, p.span));
+  add_note(run.message, kept_note(judge.kept(), false));
+  add_note(run.message, dynamics_singular_note(judge.singular(), watch.singular_rcond));
+  note_loop_gaps(judge.loop_gaps(), sampled.gaps(), watch.gap, reference, run);
+}
+
+// A dynamics run: plan, build, then each step (with the samples it completes), the statuses.
+EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
+  const Clock::time_point begin = Clock::now();
+  EngineRun run;
+  run.trajectory.method = "mujoco";
+  shape_dynamics(run.trajectory, m, reference, false);
+  Prepared p;
+  ReferenceState start;
+  ModelPtr model;
+  try {
+    p = prepare_dynamics(m, reference, overrides, &start);
+    model = load_model(p.mjcf);
+  } catch (const std::exception& e) {
+    run.settings = overrides;
+    return failed(std::move(run), e.what());
+  }
+  const DynamicsChoices choice = dynamics_choices(p.config);
+  shape_dynamics(run.trajectory, m, reference, true);
+  const DynamicsWatch watch = dynamics_watch(m, reference, p);
+  run.settings = dynamics_settings(p, choice, watch);
+
+  DynamicsRun dynamics(m, reference, p, start, choice, watch, std::move(model), run.trajectory);
   const Clock::time_point stepping = Clock::now();
   const double cpu_start = thread_cpu_seconds();
-  long steps_taken = 0;
-  for (long step = 1; step <= last_step && stopped.empty(); ++step) {
-    const double t0 = grid[static_cast<size_t>(step - 1)];
-    const double h = grid[static_cast<size_t>(step)] - t0;
-    if (mm->opt.timestep != h) {
-      mm->opt.timestep = h;
-      if (p.config.solref == "deadbeat")
-        for (int e = 0; e < mm->neq; ++e) {
-          mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
-          mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
-        }
-    }
-    d->time = t0;
-    const int leaving = sample_of[static_cast<size_t>(step - 1)];
-    const bool read = leaving >= 0 && !choice.state_readout;
-    if (read) std::copy(d->qpos, d->qpos + nq, qpos_before.begin());
-    mj_step(mm, d);
-    if (read) force_reader.read(d, qpos_before, h, reading);
-    mj_kinematics(mm, d);
-    ++steps_taken;
-    while (interval < p.span.last && step > p.grid.sample_step[static_cast<size_t>(interval)])
-      ++interval;
-    const double gap = loop_gap(s, cut_bodies, d);
-    gaps(interval) = std::max(gaps(interval), gap);
-    ring[slot(step)] = reader.read(d);
-    keep_state(step);
-    if (!ring[slot(step)].allFinite() || !std::isfinite(gap) || gap > size ||
-        d->warning[mjWARN_BADQACC].number > 0) {
-      stopped = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)",
-                            grid[static_cast<size_t>(step)], gap);
-      break;
-    }
-    // The work up to the step before: the power there from the poses on either side.
-    const long k = step - 1;
-    if (balance.any()) {
-      const double hb =
-          grid[static_cast<size_t>(k)] - (k > 0 ? grid[static_cast<size_t>(k - 1)] : grid[0] - h0);
-      const auto wts = stencil_weights(0.0, {-hb, 0.0, h});
-      const Eigen::VectorXd velocity =
-          wts[1][0] * pose(k - 1) + wts[1][1] * pose(k) + wts[1][2] * pose(k + 1);
-      ring_power[slot(k)] = balance.power(grid[static_cast<size_t>(k)], pose(k), velocity);
-      ring_work[slot(k)] = k == 0 ? 0.0
-                                  : ring_work[slot(k - 1)] +
-                                        0.5 * hb * (ring_power[slot(k - 1)] + ring_power[slot(k)]);
-    }
-    if (leaving >= 0) record(leaving, k);
-  }
+  for (long step = 1; step <= dynamics.last_step() && dynamics.stopped().empty(); ++step)
+    dynamics.step(step);
   const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
   const double stepping_cpu = thread_cpu_seconds() - cpu_start;
 
-  // Statuses: outside the usable span the reference's flag; unreached samples diverged; a sample
-  // the reference flags keeps that flag (run through); then the gap and the conditioning.
-  Trajectory& out = run.trajectory;
-  out.loop_gap = gaps;
-  int flagged = 0, copied = 0, first_lost = -1, near_singular = 0;
-  for (int i = 0; i < samples; ++i) {
-    const auto row = static_cast<size_t>(i);
-    const PoseStatus ref_status = reference.status[row];
-    if (i < p.span.first || i > p.span.last) {
-      out.status[row] = ref_status;
-      out.rcond(i) = reference.rcond(i);
-      continue;
-    }
-    if (!recorded[row]) {
-      out.status[row] = PoseStatus::diverged;
-      if (first_lost < 0) first_lost = i;
-      continue;
-    }
-    probe.q = sample_q.col(i);
-    probe.driver.value = out.driver(i);
-    out.rcond(i) = writer.solve_position(probe).rcond;
-    if (!usable(ref_status)) {
-      out.status[row] = ref_status;
-      ++copied;
-    } else if (gaps(i) > gap_threshold) {
-      out.status[row] = PoseStatus::loop_gap;
-      ++flagged;
-    } else if (out.rcond(i) < singular_rcond) {
-      out.status[row] = PoseStatus::singular;
-      ++near_singular;
-    }
-  }
-  auto note = [&](const std::string& text) {
-    run.message = run.message.empty() ? text : run.message + "; " + text;
-  };
-  if (!stopped.empty()) {
-    run.ok = false;
-    note(stopped);
-    out.events.push_back(
-        {first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged, stopped});
-  }
-  if (drift_at >= 0) {
-    const std::string text = fmt::format(
-        "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
-        "t = {:.6g} s (sample {}); worst {:.3g} J",
-        p.config.energy_threshold, energy_scale, reference.time(drift_at), drift_at,
-        out.energy.col(3).cwiseAbs().maxCoeff());
-    note(text);
-    out.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
-  }
-  if (p.span.first > 0 || p.span.last < samples - 1)
-    note(fmt::format("run over the reference's usable samples {} .. {} (t = {:.6g} .. {:.6g} s)",
-                     p.span.first, p.span.last, reference.time(p.span.first),
-                     reference.time(p.span.last)));
-  if (copied > 0) note(fmt::format("{} samples keep the reference's flag (run through)", copied));
-  if (near_singular > 0)
-    note(
-        fmt::format("{} samples flagged singular (constraint Jacobian rcond below {:g} at the "
-                    "engine's configuration: next to a singular position)",
-                    near_singular, singular_rcond));
-  if (flagged > 0) {
-    note(fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                     flagged, gaps.maxCoeff(), gap_threshold));
-    for (int i = 0; i < samples; ++i)
-      if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
-          (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
-        out.events.push_back(
-            {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
-  }
-  run.cost.steps = steps_taken;
-  run.cost.simulated_seconds = grid[static_cast<size_t>(steps_taken)] - grid.front();
-  if (run.cost.simulated_seconds > 0.0) {
-    run.cost.wall_seconds_per_cycle = stepping_seconds / run.cost.simulated_seconds;
-    run.cost.cpu_seconds_per_cycle = stepping_cpu / run.cost.simulated_seconds;
-  }
-  run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+  const StatusJudge judge = judge_dynamics(m, reference, p.span, watch, dynamics, run.trajectory);
+  note_dynamics(reference, p, watch, judge, dynamics, run);
+  const std::vector<double>& grid = p.grid.time;
+  record_cost(dynamics.taken(), grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0,
+              stepping_seconds, stepping_cpu, begin, run.cost);
   return run;
 }
 
@@ -1158,415 +1645,77 @@ class MujocoEngine final : public Engine {
     }
   }
 
+  // A kinematic run: plan, build, step, sample, read forces, then the statuses (the stages
+  // above).
   EngineRun run(const Mechanism& m, const Trajectory& reference,
                 const Settings& overrides) const override {
     if (m.dynamics) return run_dynamics(m, reference, overrides);
-    using Clock = std::chrono::steady_clock;
     const Clock::time_point begin = Clock::now();
     EngineRun run;
     run.trajectory.method = "mujoco";
-    run.trajectory.resize(m, reference.samples());
-    run.trajectory.time = reference.time;
-    run.trajectory.driver = reference.driver;
+    shape(run.trajectory, m, reference, false);
     Prepared p;
-    ModelPtr model;
+    ModelPtr loaded;
     try {
       p = prepare(m, reference, overrides);
-      model = load_model(p.mjcf);
+      loaded = load_model(p.mjcf);
     } catch (const std::exception& e) {
       run.settings = overrides;
       return failed(std::move(run), e.what());
     }
     const Scene& s = p.scene;
-    const double size = s.size;
     // Forces are the definition's only when the scene drives the definition's driver.
     const bool with_forces = !s.driven.equivalent;
-    run.trajectory.resize(m, reference.samples(), with_forces);
-    run.trajectory.time = reference.time;
-    run.trajectory.driver = reference.driver;
-    const double gap_threshold = p.config.gap_threshold == "auto"
-                                     ? 1e-4 * size
-                                     : parse_number("gap_threshold", p.config.gap_threshold);
-    const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
-    const double kinematic_singular_rcond =
-        p.config.singular_rcond == "auto" ? kSingularRcond
-                                          : parse_number("singular_rcond", p.config.singular_rcond);
-    const double driver_threshold =
-        p.config.driver_threshold == "auto"
-            ? (angular_joint ? 1e-3 : 1e-3 * size)
-            : parse_number("driver_threshold", p.config.driver_threshold);
-    run.settings = {
-        {"dt", fmt::format("{:.9g}", p.grid.dt)},
-        {"steps_per_sample", std::to_string(p.grid.steps_per_sample)},
-        {"max_step_angle", p.config.dt == "auto" ? fmt::format("{:g}", p.config.max_step_angle)
-                                                 : "unused (dt given)"},
-        {"integrator", p.options.integrator},
-        {"solver", p.options.solver},
-        {"iterations", std::to_string(p.options.iterations)},
-        {"tolerance", fmt::format("{:g}", p.options.tolerance)},
-        {"solref", numbers(p.options.solref)},
-        {"solimp", numbers(p.options.solimp)},
-        {"driver_solref", numbers(p.options.driver_solref)},
-        {"driver_solimp", numbers(p.options.driver_solimp)},
-        {"gap_threshold", fmt::format("{:.6g}", gap_threshold)},
-        {"driver_threshold", fmt::format("{:.6g}", driver_threshold)},
-        {"singular_rcond", fmt::format("{:g}", kinematic_singular_rcond)},
-        {"perturb_link", p.config.perturb_link},
-        {"mass_model", "the definition's (Link::mass)"},
-        {"force_read",
-         with_forces ? p.config.force_read : "none (equivalent driver: another joint is driven)"},
-        {"derivatives",
-         "3-point central differences of step positions; 4-point one-sided at the first and "
-         "last usable samples"},
-    };
+    shape(run.trajectory, m, reference, with_forces);
+    const KinematicWatch watch = kinematic_watch(p);
+    run.settings = kinematic_settings(p, watch, with_forces);
 
-    // The scene's joints, the cut joints' bodies and the driver equality.
-    mjModel* mm = model.get();
-    DataPtr data(mj_makeData(mm));
-    mjData* d = data.get();
-    const int driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
-    const SceneJoint& driven = s.joints[s.driven.joint];
-    const int driven_id = mj_name2id(mm, mjOBJ_JOINT, driven.name.c_str());
-    const int driven_qpos = mm->jnt_qposadr[driven_id];
-    std::vector<std::array<int, 2>> cut_bodies;
-    for (int c : s.cuts) {
-      const SceneJoint& j = s.joints[c];
-      auto body = [&](int link) {
-        return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
-      };
-      cut_bodies.push_back({body(j.a), body(j.b)});
-    }
-    // Start at rest on the exact configuration, moving with the exact velocities.
-    for (const SceneJoint& j : s.joints) {
-      if (!j.in_tree) continue;
-      const int id = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
-      d->qvel[mm->jnt_dofadr[id]] = joint_motion(m, s, j, p.start.q, p.start.qdot)(1);
-    }
-    if (s.driven.equivalent)
-      run.message = fmt::format(
-          "the driver ({}) is not a joint MuJoCo can drive; equivalent driver: joint {} follows "
-          "the exact trajectory of its angle (quintic Hermite through the reference samples); "
-          "samples are mapped by the definition's driver; forces not read (the scene's driver "
-          "acts at another joint than the definition's)",
-          to_string(m.driver.type), driven.name);
-    mj_forward(mm, d);
-    ForceReader force_reader(m, s, mm, p.config.force_read == "centred");
-    AppliedLoads loads(m);
-    std::vector<int> load_body;  // per moving link: MuJoCo body id
-    for (const SceneLink& link : s.links)
-      if (link.source >= 0 && !link.ground)
-        load_body.push_back(mj_name2id(mm, mjOBJ_BODY, link.name.c_str()));
-
-    // Step and sample. The run starts at step 0, the exact first usable sample, and steps
-    // forward to the last usable sample, never beyond (outside them the reference is at or past
-    // an assembly limit). Step k ends at grid.time[k]; sample i is step S_i, read with 3-point
-    // central differences over steps S_i - 1 .. S_i + 1 where those steps exist, else (the first
-    // and last samples, or a sample on step 1) with one-sided 4-point differences over the
-    // nearest steps. Step 0 is never in a stencil: the exact start lacks the O(dt^2) curvature
-    // residual every later step has (docs/engines.md), so a stencil through it would see that
-    // residual as an acceleration; the first sample is extrapolated from steps 1..4.
-    const DriverLaw law(m, reference, s.driven);
-    const NewtonSolver writer(m);
-    KinematicState state(m), probe(m);
-    const int samples = reference.samples();
-    const Span span = p.span;
-    Eigen::MatrixXd sample_q = Eigen::MatrixXd::Zero(m.coordinate_count(), samples);
-    const std::vector<double>& grid = p.grid.time;
-    const long last_step = static_cast<long>(grid.size()) - 1;
-    const double qpos0 = mm->qpos0[driven_qpos];
-    // Each sample's stencil (steps), fixed before stepping.
-    std::vector<std::vector<long>> stencil(static_cast<size_t>(samples));
-    const long usable_steps = last_step;  // steps 1 .. last_step (step 0 is the start)
-    if (usable_steps < 3) {
+    KinematicModel model(m, p, std::move(loaded));
+    if (s.driven.equivalent) run.message = equivalent_driver_note(m, s);
+    mj_forward(model.mm, model.d);
+    std::optional<KinematicForces> forces;
+    if (with_forces) forces.emplace(m, s, model.mm, p.config.force_read == "centred");
+    const long last_step = static_cast<long>(p.grid.time.size()) - 1;
+    if (last_step < 3)
       return failed(std::move(run),
                     fmt::format("only {} steps between the first and last usable samples: too few "
                                 "for differences",
-                                usable_steps));
-    }
-    for (int i = span.first; i <= span.last; ++i) {
-      const long at = p.grid.sample_step[static_cast<size_t>(i)];
-      std::vector<long>& st = stencil[static_cast<size_t>(i)];
-      if (at - 1 >= 1 && at + 1 <= last_step) {
-        st = {at - 1, at, at + 1};
-      } else {
-        const long count = std::min(4L, usable_steps);
-        const long from = std::clamp(at - count / 2, 1L, last_step - count + 1);
-        for (long k = from; k < from + count; ++k) st.push_back(k);
-      }
-    }
-    // Each sample's force stencil (forces of the poses a step leaves), and the poses to read.
-    std::vector<ForceStencil> force_stencil_of(static_cast<size_t>(samples));
-    std::vector<bool> read_forces(static_cast<size_t>(last_step + 1), false);
-    if (with_forces)
-      for (int i = span.first; i <= span.last; ++i) {
-        ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
-        fs = force_stencil(reference.time(i), last_step, grid);
-        for (long k : fs.steps) read_forces[static_cast<size_t>(k)] = true;
-      }
-    // The step that completes a sample: its last pose, and the step after its last force pose.
-    auto complete_at = [&](int i) {
-      const ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
-      long at = stencil[static_cast<size_t>(i)].back();
-      for (long k : fs.steps) at = std::max(at, k + 1);
-      return at;
-    };
-    const double driver_offset =
-        reference.driver(span.first) - m.driver.at_time(reference.time(span.first)).value;
-    // A step of a new length: the deadbeat softness follows it.
-    auto set_step = [&](double h) {
-      if (mm->opt.timestep == h) return;
-      mm->opt.timestep = h;
-      for (int e = 0; e < mm->neq; ++e) {
-        const std::string& choice = e == driver_eq ? p.config.driver_solref : p.config.solref;
-        if (choice != "deadbeat") continue;
-        mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
-        mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
-      }
-    };
-    PoseReader reader(m, s, mm, p.start.q);
-    constexpr long kRing = 16;  // poses of the last steps, by step mod kRing
-    std::array<Eigen::VectorXd, kRing> ring;
-    Eigen::VectorXd gaps = Eigen::VectorXd::Zero(samples);
-    std::vector<bool> recorded(static_cast<size_t>(samples), false);
-    auto pose = [&](long k) -> Eigen::VectorXd& { return ring[static_cast<size_t>(k % kRing)]; };
-    pose(0) = reader.read(d);
-    std::vector<double> times;
-    std::array<ForceReading, kRing> readings;
-    readings.fill(ForceReading(m.joints.size()));
-    auto reading = [&](long k) -> ForceReading& {
-      return readings[static_cast<size_t>(k % kRing)];
-    };
-    ForceReading combined(m.joints.size());
-    std::vector<mjtNum> qpos_before(static_cast<size_t>(mm->nq));
-    Eigen::VectorXd velocity(m.coordinate_count());
-    // The definition's loads and springs on the bodies at pose k, at its velocity: a one-sided
-    // difference of the last poses (the exact velocity at the start).
-    auto apply_loads = [&](long k) {
-      if (!loads.any()) return;
-      const double t = grid[static_cast<size_t>(k)];
-      if (k == 0) {
-        velocity = p.start.qdot;
-      } else {
-        times.clear();
-        for (long n = std::max(0L, k - 2); n <= k; ++n)
-          times.push_back(grid[static_cast<size_t>(n)]);
-        const auto w = stencil_weights(t, times);
-        velocity.setZero();
-        for (size_t n = 0; n < times.size(); ++n)
-          velocity +=
-              w[1][n] * pose(k - static_cast<long>(times.size()) + 1 + static_cast<long>(n));
-      }
-      const std::vector<BodyLoad>& on =
-          loads.at(pose(k), velocity, m.driver.at_time(t).value + driver_offset);
-      for (size_t b = 0; b < on.size(); ++b) {
-        mjtNum* x = d->xfrc_applied + 6 * load_body[b];
-        x[0] = on[b].force.x();
-        x[1] = on[b].force.y();
-        x[5] = on[b].moment;
-      }
-    };
+                                last_step));
+    const SamplePlan plan =
+        plan_samples(reference, p.span, p.grid.time, p.grid.sample_step, with_forces);
+    const DriverLaw law(m, reference, s.driven);
+    KinematicStepper stepper(m, reference, p, watch, model, law, plan, forces ? &*forces : nullptr);
+    KinematicSampler sampler(m, reference, p.grid.time);
 
+    // Every sample is written as soon as the step completing its stencils is taken.
     const Clock::time_point stepping = Clock::now();
     const double cpu_start = thread_cpu_seconds();
-    long steps_taken = 0;
-    int interval = span.first;  // the sample whose interval (S_i-1, S_i] holds the current step
-    int pending = span.first;   // the next sample to record
-    bool failed = false;
-    for (long step = 1; step <= last_step; ++step) {
-      const double t = grid[static_cast<size_t>(step)];
-      set_step(t - grid[static_cast<size_t>(step - 1)]);
-      const double target = law.at(t);
-      // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
-      mm->eq_data[mjNEQDATA * driver_eq] = target - qpos0;
-      apply_loads(step - 1);
-      const bool read = read_forces[static_cast<size_t>(step - 1)];
-      if (read) std::copy(d->qpos, d->qpos + mm->nq, qpos_before.begin());
-      mj_step(mm, d);
-      if (read) force_reader.read(d, qpos_before, mm->opt.timestep, reading(step - 1));
-      mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
-      ++steps_taken;
-      // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
-      while (interval < span.last && step > p.grid.sample_step[static_cast<size_t>(interval)])
-        ++interval;
-      const double gap = loop_gap(s, cut_bodies, d);
-      gaps(interval) = std::max(gaps(interval), gap);
-      pose(step) = reader.read(d);
-      const double driver_error = std::abs(d->qpos[driven_qpos] - target);
-      if (!pose(step).allFinite() || !std::isfinite(gap) || gap > size ||
-          d->warning[mjWARN_BADQACC].number > 0) {
+    bool stopped = false;
+    int pending = p.span.first;  // the next sample to write
+    for (long step = 1; step <= last_step && !stopped; ++step) {
+      if (const std::string why = stepper.step(step); !why.empty()) {
         run.ok = false;
-        run.message = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m){}", t, gap,
-                                  run.message.empty() ? "" : "; " + run.message);
-        failed = true;
+        run.message = why + (run.message.empty() ? "" : "; " + run.message);
+        stopped = true;
         break;
       }
-      if (driver_error > driver_threshold) {
-        run.ok = false;
-        run.message = fmt::format(
-            "lost the driver at t = {:.6g} s: joint {} is {:.3g} from its target (loop gap "
-            "{:.3g} m){}",
-            t, driven.name, driver_error, gap, run.message.empty() ? "" : "; " + run.message);
-        failed = true;
-        break;
-      }
-      // The samples whose stencils this step completes.
-      while (pending <= span.last && complete_at(pending) <= step) {
-        const int i = pending++;
-        const std::vector<long>& st = stencil[static_cast<size_t>(i)];
-        times.clear();
-        for (long k : st) times.push_back(grid[static_cast<size_t>(k)]);
-        const auto w = stencil_weights(reference.time(i), times);
-        state.q.setZero();
-        state.qdot.setZero();
-        state.qddot.setZero();
-        for (size_t n = 0; n < st.size(); ++n) {
-          state.q += w[0][n] * pose(st[n]);
-          state.qdot += w[1][n] * pose(st[n]);
-          state.qddot += w[2][n] * pose(st[n]);
-        }
-        state.driver = m.driver.at_time(reference.time(i));
-        state.driver.value = reference.driver(i);
-        writer.write_sample(state, SolveReport{}, run.trajectory, i);
-        if (with_forces) {
-          const ForceStencil& fs = force_stencil_of[static_cast<size_t>(i)];
-          combined.set_zero();
-          for (size_t n = 0; n < fs.steps.size(); ++n)
-            combined.add(fs.weights[n], reading(fs.steps[n]));
-          write_forces(m, state, combined, run.trajectory, i);
-        }
-        recorded[static_cast<size_t>(i)] = true;
-        sample_q.col(i) = state.q;
+      for (; pending <= p.span.last && plan.complete_at(pending) <= step; ++pending) {
+        const auto i = static_cast<size_t>(pending);
+        const KinematicState& state =
+            sampler.write(pending, plan.stencil[i], stepper.poses(), run.trajectory);
+        if (forces) forces->write(pending, plan.forces[i], state, run.trajectory);
       }
     }
     const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
     const double stepping_cpu = thread_cpu_seconds() - cpu_start;
 
-    // Statuses: outside the usable span the reference's flag (no engine value); inside, an
-    // unreached sample is diverged, a sample the reference flags keeps that flag (the engine ran
-    // through it), then the gap watch, the conditioning and the branch check.
-    Trajectory& out = run.trajectory;
-    out.loop_gap = gaps;
-    int flagged = 0, singular = 0, jumped = 0, copied = 0;
-    int first_lost = -1;
-    for (int i = 0; i < samples; ++i) {
-      const auto row = static_cast<size_t>(i);
-      const PoseStatus ref_status = reference.status[row];
-      if (i < span.first || i > span.last) {
-        out.status[row] = ref_status;
-        out.rcond(i) = reference.rcond(i);
-        out.events.push_back({reference.driver(i), ref_status,
-                              "outside the reference's usable samples: not run, the reference's "
-                              "flag kept"});
-        continue;
-      }
-      if (!recorded[row]) {
-        out.status[row] = PoseStatus::diverged;
-        if (first_lost < 0) first_lost = i;
-        continue;
-      }
-      // Conditioning of the definition's constraints at the engine's configuration: MuJoCo
-      // passes change points and toggles silently (Newton from there, on a scratch state).
-      probe.q = sample_q.col(i);
-      probe.driver = m.driver.at_time(reference.time(i));
-      probe.driver.value = reference.driver(i);
-      const SolveReport projected = writer.solve_position(probe);
-      out.rcond(i) = projected.rcond;
-      if (!usable(ref_status)) {
-        out.status[row] = ref_status;
-        out.events.push_back({reference.driver(i), ref_status,
-                              "the reference flags this sample: run through, the flag kept"});
-        ++copied;
-        continue;
-      }
-      if (gaps(i) > gap_threshold) {
-        out.status[row] = PoseStatus::loop_gap;
-        ++flagged;
-        continue;
-      }
-      if (out.rcond(i) < kinematic_singular_rcond) {
-        out.status[row] = PoseStatus::singular;
-        out.events.push_back({reference.driver(i), PoseStatus::singular,
-                              fmt::format("the constraint Jacobian at the engine's configuration "
-                                          "is singular (rcond {:.2g})",
-                                          out.rcond(i))});
-        ++singular;
-        continue;
-      }
-      // Branch: the engine's configuration closed exactly (Newton on the definition from it)
-      // must be the reference's. Another solution of the same equations is another assembly
-      // mode: the engine took the other branch at a change point. A model error (a wrong
-      // link) does not move the closed configuration and stays a reported difference.
-      if (projected.status == PoseStatus::ok) {
-        const double off =
-            configuration_distance(probe.q, reference_coordinates(m, reference, i), size);
-        if (off > kBranchDistance) {
-          out.status[row] = PoseStatus::branch_jump;
-          if (jumped == 0)
-            out.events.push_back(
-                {reference.driver(i), PoseStatus::branch_jump,
-                 fmt::format("the engine closes the loops on another assembly mode than the "
-                             "reference (closed configuration {:.3g} of the size or rad away)",
-                             off)});
-          ++jumped;
-        }
-      }
-    }
-    // An equivalent driver's own dead points: where its joint's rate vanishes, the chain driven
-    // by that joint is singular and MuJoCo's soft solve is poorly conditioned.
-    int dead = 0;
-    if (s.driven.equivalent) {
-      const Eigen::VectorXd rate = law.reference_rates();
-      const double peak = rate.cwiseAbs().maxCoeff();
-      for (int i = span.first; i <= span.last; ++i) {
-        const auto row = static_cast<size_t>(i);
-        if (out.status[row] != PoseStatus::ok || std::abs(rate(i)) >= kDeadRate * peak) continue;
-        out.status[row] = PoseStatus::singular;
-        out.events.push_back({reference.driver(i), PoseStatus::singular,
-                              fmt::format("equivalent driver: joint {} turns at {:.2g} % of its "
-                                          "peak rate (its own dead point)",
-                                          driven.name, 100.0 * std::abs(rate(i)) / peak)});
-        ++dead;
-      }
-    }
-    auto note = [&](const std::string& text) {
-      run.message = run.message.empty() ? text : run.message + "; " + text;
-    };
-    if (failed && first_lost >= 0)
-      out.events.push_back({reference.driver(first_lost), PoseStatus::diverged, run.message});
-    const int outside = span.first + (samples - 1 - span.last);
-    if (outside > 0)
-      note(fmt::format(
-          "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); the {} samples "
-          "outside (flagged by the reference: {}) keep its flag and carry no engine value",
-          span.first, span.last, reference.driver(span.first), reference.driver(span.last), outside,
-          to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
-    if (copied > 0)
-      note(
-          fmt::format("{} samples inside the run keep the reference's flag (run through)", copied));
-    if (dead > 0)
-      note(fmt::format("{} samples flagged singular at the equivalent driver's dead point", dead));
-    if (jumped > 0)
-      note(fmt::format("{} samples flagged branch_jump (the engine is on another assembly mode)",
-                       jumped));
-    if (flagged > 0) {
-      note(fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                       flagged, gaps.maxCoeff(), gap_threshold));
-      for (int i = 0; i < samples; ++i)
-        if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
-            (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
-          out.events.push_back({reference.driver(i), PoseStatus::loop_gap,
-                                fmt::format("loop gap {:.3g} m", gaps(i))});
-    }
-    (void)singular;
-
-    run.cost.steps = steps_taken;
-    run.cost.simulated_seconds = grid.back() - grid.front();
-    const double cycle = m.cycle_period() > 0.0 ? m.cycle_period() : run.cost.simulated_seconds;
-    if (run.cost.simulated_seconds > 0.0) {
-      run.cost.wall_seconds_per_cycle = stepping_seconds * cycle / run.cost.simulated_seconds;
-      run.cost.cpu_seconds_per_cycle = stepping_cpu * cycle / run.cost.simulated_seconds;
-    }
-    run.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+    const StatusJudge judge = judge_kinematic(m, reference, p.span, watch, s.size, sampler,
+                                              stepper.gaps(), run.trajectory);
+    const int dead = flag_dead_points(s, reference, p.span, law, run.trajectory);
+    note_kinematic(reference, p.span, judge, dead, stopped, stepper.gaps(), watch.gap, run);
+    const double simulated = p.grid.time.back() - p.grid.time.front();
+    record_cost(stepper.taken(), simulated, m.cycle_period() > 0.0 ? m.cycle_period() : simulated,
+                stepping_seconds, stepping_cpu, begin, run.cost);
     return run;
   }
 };

@@ -1,0 +1,98 @@
+#include "sim/statuses.h"
+
+#include <fmt/format.h>
+
+namespace crosslink::sim {
+
+StatusJudge::StatusJudge(const Trajectory& reference, Span span, Thresholds thresholds, bool events)
+    : reference_(reference), span_(span), thresholds_(thresholds), events_(events) {}
+
+bool StatusJudge::outside(int i, Trajectory& out) {
+  if (i >= span_.first && i <= span_.last) return false;
+  const auto row = static_cast<size_t>(i);
+  out.status[row] = reference_.status[row];
+  out.rcond(i) = reference_.rcond(i);
+  out.loop_gap(i) = 0.0;
+  if (events_)
+    out.events.push_back({reference_.driver(i), reference_.status[row],
+                          "outside the reference's usable samples: not run, the reference's "
+                          "flag kept"});
+  return true;
+}
+
+PoseStatus StatusJudge::lost(int i) {
+  if (first_lost_ < 0) first_lost_ = i;
+  return PoseStatus::diverged;
+}
+
+PoseStatus StatusJudge::judge(int i, double gap, double rcond,
+                              const std::function<double()>& branch_distance, Trajectory& out) {
+  const PoseStatus flag = reference_.status[static_cast<size_t>(i)];
+  if (!usable(flag)) {
+    if (events_)
+      out.events.push_back({reference_.driver(i), flag,
+                            "the reference flags this sample: run through, the flag kept"});
+    ++kept_;
+    return flag;
+  }
+  if (gap > thresholds_.loop_gap) {
+    ++loop_gaps_;
+    return PoseStatus::loop_gap;
+  }
+  if (rcond < thresholds_.singular_rcond) {
+    if (first_singular_ < 0) first_singular_ = i;
+    ++singular_;
+    return PoseStatus::singular;
+  }
+  // Another solution of the same equations is another assembly mode: the engine took the other
+  // branch at a change point. A model error (perturb_link) closes back onto the reference's
+  // branch and stays a reported difference.
+  if (branch_distance && branch_distance() > thresholds_.branch_distance) {
+    if (first_jump_ < 0) first_jump_ = i;
+    ++jumped_;
+    return PoseStatus::branch_jump;
+  }
+  return PoseStatus::ok;
+}
+
+std::string kept_note(int kept, bool kinematic) {
+  if (kept == 0) return "";
+  return kinematic ? fmt::format(
+                         "{} samples inside the run keep the reference's flag (run through)", kept)
+                   : fmt::format("{} samples keep the reference's flag (run through)", kept);
+}
+
+std::string branch_jump_note(int jumped) {
+  if (jumped == 0) return "";
+  return fmt::format("{} samples flagged branch_jump (the engine is on another assembly mode)",
+                     jumped);
+}
+
+std::string dynamics_singular_note(int singular, double singular_rcond) {
+  if (singular == 0) return "";
+  return fmt::format(
+      "{} samples flagged singular (constraint Jacobian rcond below {:g} at the engine's "
+      "configuration: next to a singular position)",
+      singular, singular_rcond);
+}
+
+std::string dynamics_span_note(const Trajectory& reference, Span span) {
+  if (span.first == 0 && span.last == reference.samples() - 1) return "";
+  return fmt::format("run over the reference's usable samples {} .. {} (t = {:.6g} .. {:.6g} s)",
+                     span.first, span.last, reference.time(span.first), reference.time(span.last));
+}
+
+std::string energy_drift_note(double threshold, double energy_scale, const Trajectory& reference,
+                              int drift_at, double worst) {
+  return fmt::format(
+      "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
+      "t = {:.6g} s (sample {}); worst {:.3g} J",
+      threshold, energy_scale, reference.time(drift_at), drift_at, worst);
+}
+
+void add_note(std::string& message, const std::string& note) {
+  if (note.empty()) return;
+  message = message.empty() ? note : message + "; " + note;
+}
+
+}  // namespace crosslink::sim
