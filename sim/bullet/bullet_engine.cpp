@@ -8,6 +8,7 @@
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/sampling.h"
+#include "sim/statuses.h"
 
 #include <btBulletDynamicsCommon.h>
 #include <fmt/format.h>
@@ -38,7 +39,6 @@ namespace crosslink::sim {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr long kSteady = 1;   // the first step after the start that a stencil may use
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
 // Forward dynamics: the default step turns the fastest link by at most this much [rad], as
@@ -1139,14 +1139,13 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   // The usable span, and the step: each sample interval split into equal steps, as many as
   // steps_per_sample, or more where the reference's fastest link would turn more than
   // max_step_angle in a step, or as an explicit dt asks (rounded so that samples fall on steps).
-  int first = -1, last = -1;
-  for (int i = 0; i < samples; ++i)
-    if (usable(reference.status[static_cast<size_t>(i)])) {
-      if (first < 0) first = i;
-      last = i;
-    }
-  if (first < 0) return fail("the reference has no usable sample to start from");
-  if (last == first) return fail("the reference has a single usable sample: nothing to run over");
+  Span span;
+  try {
+    span = usable_span(reference);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  const int first = span.first, last = span.last;
   for (int i = 1; i < samples; ++i)
     if (!(reference.time(i) > reference.time(i - 1)))
       return fail("the reference's sample times do not increase");
@@ -1380,21 +1379,17 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   Trajectory& tr = out.trajectory;
   KinematicState sample(m), conditioning(m);
   const double initial_energy = balance.kinetic(start.q, start.qdot) + balance.potential(start.q);
-  int flagged = 0, near_singular = 0, copied = 0, drift_at = -1, first_lost = -1;
+  int drift_at = -1;
   double worst_drift = 0.0;
   const double gap_flag = config.loop_gap_threshold * size;
+  StatusJudge judge(reference, span, {gap_flag, config.singular_rcond, 0.0}, false);
   for (int i = 0; i < samples; ++i) {
     const auto row = static_cast<size_t>(i);
-    if (i < first || i > last) {
-      tr.status[row] = reference.status[row];
-      tr.rcond(i) = reference.rcond(i);
-      continue;
-    }
+    if (judge.outside(i, tr)) continue;
     const long S = sample_step[row];
     const bool reached = S + 1 <= last_good && (S >= 1 || last_good >= 4);
     if (!reached) {
-      tr.status[row] = PoseStatus::diverged;
-      if (first_lost < 0) first_lost = i;
+      tr.status[row] = judge.lost(i);
       continue;
     }
     const double t = step_time[static_cast<size_t>(S)];
@@ -1407,16 +1402,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     conditioning.q = sample.q;
     conditioning.driver.value = coordinate;
     const double rcond = solver.solve_position(conditioning).rcond;
-    if (!usable(reference.status[row])) {
-      report.status = reference.status[row];
-      ++copied;
-    } else if (gap > gap_flag) {
-      report.status = PoseStatus::loop_gap;
-      ++flagged;
-    } else if (rcond < config.singular_rcond) {
-      report.status = PoseStatus::singular;
-      ++near_singular;
-    }
+    report.status = judge.judge(i, gap, rcond, nullptr, tr);
     solver.write_sample(sample, report, tr, i);
     tr.driver(i) = coordinate;
     tr.time(i) = reference.time(i);
@@ -1447,6 +1433,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   if (!divergence.empty()) {
     out.ok = false;
     notes.insert(notes.begin(), divergence);
+    const int first_lost = judge.first_lost();
     tr.events.push_back(
         {first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged, divergence});
     // Samples after an energy divergence are not the engine's motion any more.
@@ -1455,26 +1442,16 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
         tr.status[static_cast<size_t>(i)] = PoseStatus::diverged;
   }
   if (drift_at >= 0) {
-    const std::string text = fmt::format(
-        "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
-        "t = {:.6g} s (sample {}); worst {:.3g} J",
-        config.energy_threshold, energy_scale, reference.time(drift_at), drift_at, worst_drift);
+    const std::string text =
+        energy_drift_note(config.energy_threshold, energy_scale, reference, drift_at, worst_drift);
     notes.push_back(text);
     tr.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
   }
-  if (first > 0 || last < samples - 1)
-    notes.push_back(
-        fmt::format("run over the reference's usable samples {} .. {} (t = {:.6g} .. "
-                    "{:.6g} s)",
-                    first, last, reference.time(first), reference.time(last)));
-  if (copied)
-    notes.push_back(fmt::format("{} samples keep the reference's flag (run through)", copied));
-  if (near_singular)
-    notes.push_back(fmt::format(
-        "{} samples flagged singular (constraint Jacobian rcond below {:g} at the engine's "
-        "configuration: next to a singular position)",
-        near_singular, config.singular_rcond));
-  if (flagged)
+  for (const std::string& note :
+       {dynamics_span_note(reference, span), kept_note(judge.kept(), false),
+        dynamics_singular_note(judge.singular(), config.singular_rcond)})
+    if (!note.empty()) notes.push_back(note);
+  if (const int flagged = judge.loop_gaps())
     notes.push_back(fmt::format("{} samples flagged loop_gap (above {:.3g} m; largest {:.3g} m)",
                                 flagged, gap_flag, gaps.maxCoeff()));
   if (const int fb = scene->fallbacks(); fb > 0)
@@ -1548,14 +1525,13 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
 
   // The usable span: the run starts at the reference's first usable (ok) sample and stops at
   // its last; outside them the reference is at or past an assembly limit.
-  int first = -1, last = -1;
-  for (int i = 0; i < samples; ++i)
-    if (usable(reference.status[static_cast<size_t>(i)])) {
-      if (first < 0) first = i;
-      last = i;
-    }
-  if (first < 0) return fail("the reference has no usable sample to start from");
-  if (last == first) return fail("the reference has a single usable sample: nothing to run over");
+  Span span;
+  try {
+    span = usable_span(reference);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  const int first = span.first, last = span.last;
 
   // Time step: samples fall on step boundaries unless an explicit dt does not divide the
   // sample interval (then the local polynomial through the nearest steps is evaluated there).
@@ -1771,19 +1747,14 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   // last poses (the scene starts from rest).
   AppliedLoads loads(m);
   Eigen::VectorXd velocity(q.size());
-  std::vector<double> times;
+  const PoseAt pose = [&](long k) -> Eigen::Ref<const Eigen::VectorXd> { return history.col(k); };
+  // The scene starts from rest: no velocity at pose 0.
   auto apply_loads = [&](long k) {
     if (!loads.any()) return;
-    velocity.setZero();
-    times.clear();
-    for (long n = std::max(0L, k - 2); n <= k; ++n)
-      times.push_back(step_time[static_cast<size_t>(n)]);
-    if (k > 0) {
-      const auto w = stencil_weights(step_time[static_cast<size_t>(k)], times);
-      for (size_t n = 0; n < times.size(); ++n)
-        velocity +=
-            w[1][n] * history.col(k - static_cast<long>(times.size()) + 1 + static_cast<long>(n));
-    }
+    if (k > 0)
+      recent_velocity(k, step_time, pose, velocity);
+    else
+      velocity.setZero();
     scene->apply(loads.at(history.col(k), velocity,
                           d.at_time(step_time[static_cast<size_t>(k)]).value + driver_offset));
   };
@@ -1834,132 +1805,98 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   // sample, and at the last where no step follows, the 4 nearest steps give one-sided
   // differences. Samples outside the usable span keep the reference's flag and no value; a
   // flagged sample inside it (a change point on a sample) is run through and keeps its flag.
-  const NewtonSolver definition(original);  // the definition, even with perturb_link
-  KinematicState sample(m), conditioning(m), closed(original);
-  int singular_at = -1, near_singular = 0, jumped = 0, jumped_at = -1, copied = 0;
-  Trajectory& tr = out.trajectory;
-  int flagged = 0, lost = 0;
-  std::vector<long> nodes;
-  std::vector<double> node_times;
-  ForceReading combined(m.joints.size());
-  for (int i = 0; i < samples; ++i) {
-    const auto row = static_cast<size_t>(i);
-    tr.time(i) = reference.time(i);
-    tr.driver(i) = reference.driver(i);
-    if (i < first || i > last) {
-      tr.status[row] = reference.status[row];
-      tr.rcond(i) = reference.rcond(i);
-      tr.loop_gap(i) = 0.0;
-      tr.events.push_back({reference.driver(i), reference.status[row],
-                           "outside the reference's usable samples: not run, the reference's "
-                           "flag kept"});
-      continue;
-    }
-    // The nearest step (lower_bound: the first step at or after the sample).
+  // Plan: each sample's difference stencil around the step nearest it (lower_bound: the first
+  // step at or after the sample) and its force stencil.
+  std::vector<long> nearest_step(static_cast<size_t>(samples), -1);
+  for (int i = first; i <= last; ++i) {
     const double ti = reference.time(i);
     const long k = std::lower_bound(step_time.begin(), step_time.end(), ti) - step_time.begin();
     long nearest = std::min(k, steps);
     if (k > 0 && k <= steps &&
         ti - step_time[static_cast<size_t>(k - 1)] < step_time[static_cast<size_t>(k)] - ti)
       nearest = k - 1;
-    nodes.clear();
-    if (nearest - 1 >= kSteady && nearest + 1 <= steps) {
-      nodes = {nearest - 1, nearest, nearest + 1};
-    } else {
-      const long count = std::min(4L, steps);
-      const long from = std::clamp(nearest - count / 2, kSteady, steps - count + 1);
-      for (long n = from; n < from + count; ++n) nodes.push_back(n);
-    }
+    nearest_step[static_cast<size_t>(i)] = nearest;
+  }
+  const SamplePlan sample_plan =
+      plan_samples(reference, span, step_time, nearest_step, with_forces);
+
+  // Sample, read forces and judge each sample from the step history: samples outside the usable
+  // span keep the reference's flag and no value; a flagged sample inside it (a change point on
+  // a sample) is run through and keeps its flag.
+  const NewtonSolver definition(original);  // the definition, even with perturb_link
+  KinematicState sample(m), conditioning(m), closed(original);
+  Trajectory& tr = out.trajectory;
+  StatusJudge judge(reference, span, {gap_flag, config.singular_rcond, config.branch_distance},
+                    true);
+  ForceReading combined(m.joints.size());
+  for (int i = 0; i < samples; ++i) {
+    const auto row = static_cast<size_t>(i);
+    tr.time(i) = reference.time(i);
+    tr.driver(i) = reference.driver(i);
+    if (judge.outside(i, tr)) continue;
+    const std::vector<long>& nodes = sample_plan.stencil[row];
     sample.driver = d.at_time(reference.time(i));
     sample.driver.value = reference.driver(i);
     SolveReport report;
     double gap = 0.0, rcond = 1.0;
     if (nodes.back() > last_good) {
-      report.status = PoseStatus::diverged;
+      report.status = judge.lost(i);
       sample.q.setZero();
       sample.qdot.setZero();
       sample.qddot.setZero();
-      ++lost;
     } else {
-      node_times.clear();
-      for (long n : nodes) node_times.push_back(step_time[static_cast<size_t>(n)]);
-      const auto w = stencil_weights(reference.time(i), node_times);
-      sample.q.setZero();
-      sample.qdot.setZero();
-      sample.qddot.setZero();
-      for (size_t n = 0; n < nodes.size(); ++n) {
-        sample.q += w[0][n] * history.col(nodes[n]);
-        sample.qdot += w[1][n] * history.col(nodes[n]);
-        sample.qddot += w[2][n] * history.col(nodes[n]);
-        gap = std::max(gap, gaps(nodes[n]));
-      }
+      difference_state(reference.time(i), nodes, step_time, pose, sample.q, sample.qdot,
+                       sample.qddot);
+      for (long n : nodes) gap = std::max(gap, gaps(n));
       // Near a singular position the engine may take either branch without opening a gap:
       // the conditioning of the constraint Jacobian at the sampled pose flags it.
       conditioning.q = sample.q;
       conditioning.driver.value = solver.driver_value(sample.q);
       rcond = solver.solve_position(conditioning).rcond;
-      if (!usable(reference.status[row])) {
-        report.status = reference.status[row];
-        tr.events.push_back({reference.driver(i), reference.status[row],
-                             "the reference flags this sample: run through, the flag kept"});
-        ++copied;
-      } else if (gap > gap_flag) {
-        report.status = PoseStatus::loop_gap;
-        ++flagged;
-      } else if (rcond < config.singular_rcond) {
-        report.status = PoseStatus::singular;
-        if (singular_at < 0) singular_at = i;
-        ++near_singular;
-      } else {
-        // Branch: the sampled configuration closed exactly on the definition (Newton at the
-        // reference's driver value) must be the reference's; another solution of the same
-        // equations is another assembly mode, e.g. the other branch taken at a change point.
-        // A model error (perturb_link) closes back onto the reference's branch and stays a
-        // reported difference.
-        closed.q = sample.q;
-        closed.driver = sample.driver;
-        if (definition.solve_position(closed).status == PoseStatus::ok &&
-            configuration_distance(closed.q, reference_coordinates(original, reference, i),
-                                   original.size()) > config.branch_distance) {
-          report.status = PoseStatus::branch_jump;
-          if (jumped_at < 0) jumped_at = i;
-          ++jumped;
-        }
-      }
+      // Branch: the sampled configuration closed exactly on the definition (Newton at the
+      // reference's driver value) must be the reference's.
+      report.status = judge.judge(
+          i, gap, rcond,
+          [&] {
+            closed.q = sample.q;
+            closed.driver = sample.driver;
+            if (definition.solve_position(closed).status != PoseStatus::ok) return -1.0;
+            return configuration_distance(closed.q, reference_coordinates(original, reference, i),
+                                          original.size());
+          },
+          tr);
     }
     solver.write_sample(sample, report, tr, i);
-    if (with_forces && report.status != PoseStatus::diverged) {
-      const ForceStencil fs = force_stencil(reference.time(i), steps, step_time);
-      if (!fs.steps.empty() && fs.steps.back() + 1 <= last_good) {
-        combined.set_zero();
-        for (size_t n = 0; n < fs.steps.size(); ++n)
-          combined.add(fs.weights[n], readings[static_cast<size_t>(fs.steps[n])]);
-        write_forces(m, sample, combined, tr, i);
-      }
+    const ForceStencil& fs = sample_plan.forces[row];
+    if (with_forces && report.status != PoseStatus::diverged && !fs.steps.empty() &&
+        fs.steps.back() + 1 <= last_good) {
+      combine_readings(
+          fs, [&](long k) -> const ForceReading& { return readings[static_cast<size_t>(k)]; },
+          combined);
+      write_forces(m, sample, combined, tr, i);
     }
     tr.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : gap;
     tr.time(i) = reference.time(i);
     tr.driver(i) = reference.driver(i);
     tr.rcond(i) = rcond;
   }
-  if (flagged)
+  if (const int flagged = judge.loop_gaps())
     tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
                          fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
                                      flagged, gap_flag, worst_gap)});
-  if (near_singular)
+  if (const int near_singular = judge.singular())
     tr.events.push_back(
-        {reference.driver(singular_at), PoseStatus::singular,
+        {reference.driver(judge.first_singular()), PoseStatus::singular,
          fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
                      "engine may have changed branch there",
                      near_singular, config.singular_rcond)});
-  if (jumped) {
+  if (const int jumped = judge.jumped()) {
     tr.events.push_back(
-        {reference.driver(jumped_at), PoseStatus::branch_jump,
-         fmt::format("{} samples on another assembly mode than the reference (closed "
-                     "configuration more than {:.1e} of the size or rad away)",
+        {reference.driver(judge.first_jump()), PoseStatus::branch_jump,
+         fmt::format("{} samples on another assembly mode than the "
+                     "reference (closed configuration more than {:.1e} of the size or rad away)",
                      jumped, config.branch_distance)});
-    notes.push_back(fmt::format(
-        "{} samples flagged branch_jump (the engine is on another assembly mode)", jumped));
+    notes.push_back(branch_jump_note(jumped));
   }
   if (first > 0 || last < samples - 1)
     notes.push_back(fmt::format(
@@ -1967,9 +1904,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
         "samples outside keep the reference's flag and carry no engine value",
         first, last, reference.driver(first), reference.driver(last),
         first + (samples - 1 - last)));
-  if (copied)
-    notes.push_back(
-        fmt::format("{} samples inside the run keep the reference's flag (run through)", copied));
+  if (judge.kept()) notes.push_back(kept_note(judge.kept(), true));
+
   if (!divergence.empty()) {
     out.ok = false;
     tr.events.push_back(
@@ -1991,7 +1927,6 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   out.cost.cpu_seconds_per_cycle =
       out.cost.simulated_seconds > 0 ? stepping_cpu * period / out.cost.simulated_seconds : 0.0;
   for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
-  (void)lost;
   return out;
 }
 
