@@ -16,7 +16,8 @@
 //   acceleration  alpha, ax, ay, a, sddot
 //   force         the driver's torque or force, the joints' reactions, the shaking force and
 //                 moment (kinetostatics; a dynamics case's joint forces), where the engine reads
-//                 them: NaN where it does not (an equivalent driver), which no pick holds against
+//                 them: NaN where it does not (MuJoCo, a slide on a floating driven link's path),
+//                 which no pick holds against
 #pragma once
 
 #include <array>

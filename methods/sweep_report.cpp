@@ -125,7 +125,7 @@ json report_data(const SettingsSweep& sweep) {
       j["err"][to_string(c)] = finite_or_null(e);
       j["raw"][to_string(c)] = finite_or_null(raw);
       j["y"][to_string(c)] = y;
-      // A run that reads no forces (an equivalent driver) has no point on the force charts.
+      // A run that reads no forces has no point on the force charts.
       if (c == ErrorClass::force && row.status == RunStatus::ok && !std::isfinite(e)) {
         j["y"][to_string(c)] = nullptr;
         j["yend"][to_string(c)] = nullptr;

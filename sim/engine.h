@@ -42,7 +42,7 @@ struct EngineRun {
   Settings settings;      // every setting in force, defaults included
   RunCost cost;
   bool ok = true;       // false: the run diverged or could not be built
-  std::string message;  // why not ok, or notes (e.g. an equivalent driver)
+  std::string message;  // why not ok, or notes (e.g. the samples outside a limited sweep)
 };
 
 // `reference` is the exact sweep: the engine starts from its first sample's configuration

@@ -50,9 +50,6 @@ EngineRun failed(EngineRun run, std::string message) {
 // Settings
 
 const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
-// An equivalent driver's joint turning slower than this fraction of its peak rate is at its own
-// dead point (measured on the polycentric hinge: 0.45 % gave 7 % of peak alpha, 0.76 % 0.1 %).
-constexpr double kDeadRate = 0.01;
 constexpr double kSingularRcond = 1e-6;
 // Forward dynamics passes singular positions under its own momentum; within about 0.005 rad of
 // one (IFToMM A02's change point: rcond 1.3e-4 and 3.7e-4) the soft constraint solve's
@@ -260,70 +257,10 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
   return grid;
 }
 
-// Target of the driven joint at time t.
-class DriverLaw {
- public:
-  DriverLaw(const Mechanism& m, const Trajectory& reference, const DrivenJoint& driven)
-      : m_(m), reference_(reference), driven_(driven) {
-    // Knots of an equivalent driver: the usable samples only (a flagged sample's rates may be
-    // infinite or on another branch).
-    for (int i = 0; i < reference.samples(); ++i)
-      if (usable(reference.status[static_cast<size_t>(i)])) {
-        knots_.push_back(i);
-        knot_times_.push_back(reference.time(i));
-      }
-  }
-
-  // The driven joint's rate at each reference sample (equivalent drivers; 0 where flagged).
-  Eigen::VectorXd reference_rates() const {
-    Eigen::VectorXd rate = Eigen::VectorXd::Zero(reference_.samples());
-    for (int i : knots_) rate(i) = relative(i)(1);
-    return rate;
-  }
-
-  double at(double t) const {
-    if (!driven_.equivalent) return driven_.sign * (m_.driver.at_time(t).value - driven_.offset);
-    // Quintic Hermite through the reference's angle, omega and alpha of the driven joint.
-    const int n = static_cast<int>(knots_.size());
-    const int k =
-        std::clamp(static_cast<int>(std::upper_bound(knot_times_.begin(), knot_times_.end(), t) -
-                                    knot_times_.begin()) -
-                       1,
-                   0, n - 2);
-    const int i = knots_[static_cast<size_t>(k)], i1 = knots_[static_cast<size_t>(k + 1)];
-    const double h = reference_.time(i1) - reference_.time(i);
-    const double u = (t - reference_.time(i)) / h;
-    const Eigen::Vector3d p0 = relative(i), p1 = relative(i1);
-    const double y0 = p0(0), y1 = p1(0), v0 = p0(1) * h, v1 = p1(1) * h;
-    const double a0 = p0(2) * h * h, a1 = p1(2) * h * h;
-    const double u2 = u * u, u3 = u2 * u, u4 = u3 * u, u5 = u4 * u;
-    const double h0 = 1 - 10 * u3 + 15 * u4 - 6 * u5, h1 = u - 6 * u3 + 8 * u4 - 3 * u5;
-    const double h2 = 0.5 * (u2 - 3 * u3 + 3 * u4 - u5), h3 = 0.5 * (u3 - 2 * u4 + u5);
-    const double h4 = -4 * u3 + 7 * u4 - 3 * u5, h5 = 10 * u3 - 15 * u4 + 6 * u5;
-    return h0 * y0 + h1 * v0 + h2 * a0 + h3 * a1 + h4 * v1 + h5 * y1;
-  }
-
- private:
-  // (angle, omega, alpha) of link_b relative to link_a in reference sample i.
-  Eigen::Vector3d relative(int i) const {
-    Eigen::Vector3d r = Eigen::Vector3d::Zero();
-    auto add = [&](int link, double sign) {
-      if (link < 0) return;
-      const int k = m_.moving_index(link);
-      r += sign *
-           Eigen::Vector3d(reference_.angle(i, k), reference_.omega(i, k), reference_.alpha(i, k));
-    };
-    add(driven_.link_b, 1.0);
-    add(driven_.link_a, -1.0);
-    return r;
-  }
-
-  const Mechanism& m_;
-  const Trajectory& reference_;
-  const DrivenJoint& driven_;
-  std::vector<int> knots_;
-  std::vector<double> knot_times_;
-};
+// The driver coordinate's target at time t (DrivenJoint: sign (driver - offset)).
+double driver_target(const Mechanism& m, const DrivenJoint& driven, double t) {
+  return driven.sign * (m.driver.at_time(t).value - driven.offset);
+}
 
 MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   MjcfOptions o;
@@ -458,7 +395,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
     start = exact_start(scene_mechanism, reference, p.span.first, reference.time(p.span.first));
   if (!start) throw std::runtime_error("could not close the loops at the first usable sample");
   p.start = *start;
-  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, &reference);
+  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
   return p;
@@ -715,7 +652,7 @@ Prepared prepare_dynamics(const Mechanism& m, const Trajectory& reference,
   const ReferenceState start = dynamics_start(m, scene_mechanism, reference, p.span.first);
   p.start = Start{start.q, start.qdot};
   if (start_out) *start_out = start;
-  p.scene = mujoco_scene::build_scene(scene_mechanism, start.q, &reference);
+  p.scene = mujoco_scene::build_scene(scene_mechanism, start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   p.options.driven = false;
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
@@ -869,8 +806,9 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
           {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
           {"perturb_link", p.config.perturb_link},
           {"mass_model", "the definition's (Link::mass)"},
-          {"force_read",
-           with_forces ? p.config.force_read : "none (equivalent driver: another joint is driven)"},
+          {"force_read", with_forces ? p.config.force_read
+                                     : "none (a slide on the driver tendon's path would carry the "
+                                       "driver's reaction)"},
           {"derivatives",
            "3-point central differences of step positions; 4-point one-sided at the first and "
            "last usable samples"},
@@ -902,6 +840,27 @@ void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjDa
   }
 }
 
+// What the watch calls the driver coordinate: the driven joint, or a floating link's angle.
+std::string driver_name(const Mechanism& m, const Scene& s) {
+  return s.driven.tendon
+             ? fmt::format("the angle of link {}", m.links[static_cast<size_t>(m.driver.link)].name)
+             : fmt::format("joint {}", s.joints[s.driven.joint].name);
+}
+
+// Whether the constraint forces MuJoCo reads are the definition's reactions. A floating link's
+// angle is driven through its tendon, whose torque MuJoCo applies across each hinge of the path
+// from the ground: on the links between, the pairs cancel, and the hinges' forces are the
+// definition's; a slide on that path would carry the driver's reaction moment in its couple, so
+// then no forces are read (no bundled definition has one).
+bool driver_reaction_readable(const Mechanism& m, const Scene& s) {
+  if (!s.driven.tendon) return true;
+  int link = 0;
+  while (s.links[static_cast<size_t>(link)].source != m.driver.link) ++link;
+  for (int j : mujoco_scene::tree_path(s, link))
+    if (s.joints[static_cast<size_t>(j)].kind == SceneJoint::Kind::slide) return false;
+  return true;
+}
+
 // Build stage: MuJoCo's data at the exact first usable sample (or the pre-roll's start) with
 // the exact velocities, and the ids the steps use.
 struct KinematicModel {
@@ -909,8 +868,10 @@ struct KinematicModel {
       : model(std::move(loaded)), mm(model.get()), data(mj_makeData(mm)), d(data.get()) {
     const Scene& s = p.scene;
     driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
-    const int driven_id = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven.joint].name.c_str());
-    driven_qpos = mm->jnt_qposadr[driven_id];
+    for (const auto& [joint, coefficient] : driver_tendon(m, s)) {
+      const int id = mj_name2id(mm, mjOBJ_JOINT, s.joints[joint].name.c_str());
+      driver_coordinate.emplace_back(mm->jnt_qposadr[id], coefficient);
+    }
     cut_bodies = cut_body_ids(s, mm);
     set_joint_rates(m, s, mm, d, p.start.q, p.start.qdot);
   }
@@ -918,8 +879,15 @@ struct KinematicModel {
   mjModel* mm;
   DataPtr data;
   mjData* d;
+  // The driver coordinate of positions `qpos` (the driven joint's value, or a floating link's
+  // angle as its tendon's length): what the driver equality holds.
+  double coordinate(const mjtNum* qpos) const {
+    double sum = 0.0;
+    for (const auto& [address, coefficient] : driver_coordinate) sum += coefficient * qpos[address];
+    return sum;
+  }
   int driver_eq = -1;
-  int driven_qpos = -1;
+  std::vector<std::pair<int, double>> driver_coordinate;  // (qpos address, coefficient)
   std::vector<std::array<int, 2>> cut_bodies;
 };
 
@@ -965,13 +933,12 @@ class KinematicForces {
 class KinematicStepper {
  public:
   KinematicStepper(const Mechanism& m, const Trajectory& reference, const Prepared& p,
-                   const KinematicWatch& watch, KinematicModel& model, const DriverLaw& law,
-                   const SamplePlan& plan, KinematicForces* forces)
+                   const KinematicWatch& watch, KinematicModel& model, const SamplePlan& plan,
+                   KinematicForces* forces)
       : m_(m),
         p_(p),
         watch_(watch),
         model_(model),
-        law_(law),
         plan_(plan),
         forces_(forces),
         loads_(m),
@@ -984,7 +951,7 @@ class KinematicStepper {
         load_body_.push_back(mj_name2id(model.mm, mjOBJ_BODY, link.name.c_str()));
     driver_offset_ =
         reference.driver(p.span.first) - m.driver.at_time(reference.time(p.span.first)).value;
-    qpos0_ = model.mm->qpos0[model.driven_qpos];
+    coordinate0_ = model.coordinate(model.mm->qpos0);
     pose(0) = reader_.read(model.d);
   }
 
@@ -995,9 +962,10 @@ class KinematicStepper {
     const std::vector<double>& grid = p_.grid.time;
     const double t = grid[static_cast<size_t>(step)];
     set_step(t - grid[static_cast<size_t>(step - 1)]);
-    const double target = law_.at(t);
-    // The driver equality holds qpos - qpos0 = eq_data[0]: aim at the end of this step.
-    mm->eq_data[mjNEQDATA * model_.driver_eq] = target - qpos0_;
+    const double target = driver_target(m_, p_.scene.driven, t);
+    // The driver equality holds its coordinate's change from qpos0 at eq_data[0]: aim at the end
+    // of this step.
+    mm->eq_data[mjNEQDATA * model_.driver_eq] = target - coordinate0_;
     apply_loads(step - 1);
     const bool read = forces_ && plan_.read_forces[static_cast<size_t>(step - 1)];
     if (read) forces_->before_step(mm, d);
@@ -1011,15 +979,15 @@ class KinematicStepper {
     const double gap = loop_gap(p_.scene, model_.cut_bodies, d);
     gaps_(interval_) = std::max(gaps_(interval_), gap);
     pose(step) = reader_.read(d);
-    const double driver_error = std::abs(d->qpos[model_.driven_qpos] - target);
+    const double driver_error = std::abs(model_.coordinate(d->qpos) - target);
     if (!pose(step).allFinite() || !std::isfinite(gap) || gap > p_.scene.size ||
         d->warning[mjWARN_BADQACC].number > 0)
       return fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)", t, gap);
     if (driver_error > watch_.driver)
       return fmt::format(
-          "lost the driver at t = {:.6g} s: joint {} is {:.3g} from its target (loop gap "
+          "lost the driver at t = {:.6g} s: {} is {:.3g} from its target (loop gap "
           "{:.3g} m)",
-          t, p_.scene.joints[p_.scene.driven.joint].name, driver_error, gap);
+          t, driver_name(m_, p_.scene), driver_error, gap);
     return "";
   }
 
@@ -1069,7 +1037,6 @@ class KinematicStepper {
   const Prepared& p_;
   const KinematicWatch& watch_;
   KinematicModel& model_;
-  const DriverLaw& law_;
   const SamplePlan& plan_;
   KinematicForces* forces_;
   AppliedLoads loads_;
@@ -1078,7 +1045,7 @@ class KinematicStepper {
   std::array<Eigen::VectorXd, kRing> ring_;
   Eigen::VectorXd gaps_;  // per sample: the largest cut gap in its interval
   Eigen::VectorXd velocity_;
-  double driver_offset_ = 0.0, qpos0_ = 0.0;
+  double driver_offset_ = 0.0, coordinate0_ = 0.0;
   int interval_;  // the sample whose interval (S_i-1, S_i] holds the current step
   long taken_ = 0;
 };
@@ -1172,29 +1139,6 @@ StatusJudge judge_kinematic(const Mechanism& m, const Trajectory& reference, con
   return judge;
 }
 
-// An equivalent driver's own dead points: where its joint's rate vanishes, the chain driven by
-// that joint is singular and MuJoCo's soft solve is poorly conditioned. Returns how many
-// samples it flags singular.
-int flag_dead_points(const Scene& s, const Trajectory& reference, const Span& span,
-                     const DriverLaw& law, Trajectory& out) {
-  int dead = 0;
-  if (!s.driven.equivalent) return dead;
-  const Eigen::VectorXd rate = law.reference_rates();
-  const double peak = rate.cwiseAbs().maxCoeff();
-  for (int i = span.first; i <= span.last; ++i) {
-    const auto row = static_cast<size_t>(i);
-    if (out.status[row] != PoseStatus::ok || std::abs(rate(i)) >= kDeadRate * peak) continue;
-    out.status[row] = PoseStatus::singular;
-    out.events.push_back(
-        {reference.driver(i), PoseStatus::singular,
-         fmt::format("equivalent driver: joint {} turns at {:.2g} % of its "
-                     "peak rate (its own dead point)",
-                     s.joints[s.driven.joint].name, 100.0 * std::abs(rate(i)) / peak)});
-    ++dead;
-  }
-  return dead;
-}
-
 // The loop-gap note and an event where each run of loop_gap samples starts (both MuJoCo runs).
 void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
                     const Trajectory& reference, EngineRun& run) {
@@ -1223,19 +1167,9 @@ void record_cost(long steps, double simulated, double cycle, double stepping_sec
       std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
 }
 
-// The message of a run whose driver MuJoCo cannot drive directly.
-std::string equivalent_driver_note(const Mechanism& m, const Scene& s) {
-  return fmt::format(
-      "the driver ({}) is not a joint MuJoCo can drive; equivalent driver: joint {} follows "
-      "the exact trajectory of its angle (quintic Hermite through the reference samples); "
-      "samples are mapped by the definition's driver; forces not read (the scene's driver "
-      "acts at another joint than the definition's)",
-      to_string(m.driver.type), s.joints[s.driven.joint].name);
-}
-
 // A kinematic run's notes and the events of its counts, after the statuses.
 void note_kinematic(const Trajectory& reference, const Span& span, const StatusJudge& judge,
-                    int dead, bool stopped, const Eigen::VectorXd& gaps, double gap_threshold,
+                    bool stopped, const Eigen::VectorXd& gaps, double gap_threshold,
                     EngineRun& run) {
   Trajectory& out = run.trajectory;
   const int samples = reference.samples();
@@ -1253,10 +1187,6 @@ void note_kinematic(const Trajectory& reference, const Span& span, const StatusJ
             outside,
             to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
   add_note(run.message, kept_note(judge.kept(), true));
-  if (dead > 0)
-    add_note(
-        run.message,
-        fmt::format("{} samples flagged singular at the equivalent driver's dead point", dead));
   add_note(run.message, branch_jump_note(judge.jumped()));
   note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run);
 }
@@ -1664,14 +1594,12 @@ class MujocoEngine final : public Engine {
       return failed(std::move(run), e.what());
     }
     const Scene& s = p.scene;
-    // Forces are the definition's only when the scene drives the definition's driver.
-    const bool with_forces = !s.driven.equivalent;
+    const bool with_forces = driver_reaction_readable(m, s);
     shape(run.trajectory, m, reference, with_forces);
     const KinematicWatch watch = kinematic_watch(p);
     run.settings = kinematic_settings(p, watch, with_forces);
 
     KinematicModel model(m, p, std::move(loaded));
-    if (s.driven.equivalent) run.message = equivalent_driver_note(m, s);
     mj_forward(model.mm, model.d);
     std::optional<KinematicForces> forces;
     if (with_forces) forces.emplace(m, s, model.mm, p.config.force_read == "centred");
@@ -1683,8 +1611,7 @@ class MujocoEngine final : public Engine {
                                 last_step));
     const SamplePlan plan =
         plan_samples(reference, p.span, p.grid.time, p.grid.sample_step, with_forces);
-    const DriverLaw law(m, reference, s.driven);
-    KinematicStepper stepper(m, reference, p, watch, model, law, plan, forces ? &*forces : nullptr);
+    KinematicStepper stepper(m, reference, p, watch, model, plan, forces ? &*forces : nullptr);
     KinematicSampler sampler(m, reference, p.grid.time);
 
     // Every sample is written as soon as the step completing its stencils is taken.
@@ -1711,8 +1638,7 @@ class MujocoEngine final : public Engine {
 
     const StatusJudge judge = judge_kinematic(m, reference, p.span, watch, s.size, sampler,
                                               stepper.gaps(), run.trajectory);
-    const int dead = flag_dead_points(s, reference, p.span, law, run.trajectory);
-    note_kinematic(reference, p.span, judge, dead, stopped, stepper.gaps(), watch.gap, run);
+    note_kinematic(reference, p.span, judge, stopped, stepper.gaps(), watch.gap, run);
     const double simulated = p.grid.time.back() - p.grid.time.front();
     record_cost(stepper.taken(), simulated, m.cycle_period() > 0.0 ? m.cycle_period() : simulated,
                 stepping_seconds, stepping_cpu, begin, run.cost);
@@ -1833,7 +1759,7 @@ std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
     const auto start = exact_start(mechanism, reference, row, reference.time(row));
     if (!start) throw std::runtime_error("could not close the loops at the definition's start");
     p.start = *start;
-    p.scene = mujoco_scene::build_scene(mechanism, p.start.q, &reference);
+    p.scene = mujoco_scene::build_scene(mechanism, p.start.q);
   }
   p.options.standalone = standalone(mechanism, reference, p, row);
   return mujoco_scene::to_mjcf(mechanism, p.scene, p.options);

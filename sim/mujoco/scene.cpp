@@ -39,7 +39,7 @@ struct Components {
 // The tree joint that realises the definition's driver, and how its value maps to the driver.
 DrivenJoint choose_driven(const Mechanism& m, const std::vector<SceneJoint>& joints,
                           const std::vector<int>& scene_of_link,
-                          const std::vector<int>& scene_of_joint, const Trajectory* reference) {
+                          const std::vector<int>& scene_of_joint) {
   const Driver& d = m.driver;
   DrivenJoint driven;
   double arm = 0.0;  // angle of the measured direction in its link's frame
@@ -69,45 +69,18 @@ DrivenJoint choose_driven(const Mechanism& m, const std::vector<SceneJoint>& joi
       return driven;
     }
   }
-  // A floating link's angle: drive a hinge with the exact trajectory of its angle instead. A
-  // hinge whose rate vanishes somewhere would drive the chain through a dead point there, so
-  // the one whose smallest rate over the reference is largest against its peak is chosen.
-  double best = -1.0;
-  for (size_t j = 0; j < joints.size(); ++j) {
-    const SceneJoint& sj = joints[j];
-    if (sj.kind != SceneJoint::Kind::hinge) continue;
-    int link_a = -1, link_b = -1;
-    for (size_t l = 0; l < m.links.size(); ++l) {
-      if (m.links[l].ground) continue;
-      if (scene_of_link[l] == sj.a) link_a = static_cast<int>(l);
-      if (scene_of_link[l] == sj.b) link_b = static_cast<int>(l);
+  // A floating link's angle: the sum of the hinges from the ground to the link (a fixed tendon,
+  // driver_tendon()), which is the link's absolute angle. One of the link's hinges goes first
+  // into the tree.
+  for (size_t j = 0; j < joints.size(); ++j)
+    if (joints[j].kind == SceneJoint::Kind::hinge && (joints[j].a == link || joints[j].b == link)) {
+      driven.joint = static_cast<int>(j);
+      driven.offset = arm;
+      driven.tendon = true;
+      return driven;
     }
-    double score = 0.0;  // without a reference: the first ground pivot
-    if (reference) {
-      double low = INFINITY, peak = 0.0;
-      for (int i = 0; i < reference->samples(); ++i) {
-        if (reference->status[static_cast<size_t>(i)] != PoseStatus::ok) continue;
-        double rate = 0.0;
-        if (link_b >= 0) rate += reference->omega(i, m.moving_index(link_b));
-        if (link_a >= 0) rate -= reference->omega(i, m.moving_index(link_a));
-        low = std::min(low, std::abs(rate));
-        peak = std::max(peak, std::abs(rate));
-      }
-      score = peak > 0.0 ? low / peak : 0.0;
-    } else if (sj.a != ground && sj.b != ground) {
-      continue;
-    }
-    if (score <= best) continue;
-    best = score;
-    driven.joint = static_cast<int>(j);
-    driven.equivalent = true;
-    driven.link_a = link_a;
-    driven.link_b = link_b;
-  }
-  if (driven.joint >= 0) return driven;
   throw std::runtime_error(
-      "the driver is the angle of a link without a ground pivot, and no revolute joint can "
-      "carry an equivalent driver");
+      "the driver is the angle of a link that no revolute joint turns: nothing can drive it");
 }
 
 // Places the child of tree joint j from its parent and the joint's value.
@@ -138,7 +111,7 @@ void place_child(Scene& s, const SceneJoint& j) {
 
 }  // namespace
 
-Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory* reference) {
+Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   Scene s;
   s.size = m.size();
 
@@ -225,7 +198,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
 
   // Spanning tree (Kruskal): the driven joint first, so the driver acts on a MuJoCo joint; then
   // slides, so every cut is a revolute joint that <connect> closes exactly; then hinges.
-  s.driven = choose_driven(m, s.joints, scene_of_link, scene_of_joint, reference);
+  s.driven = choose_driven(m, s.joints, scene_of_link, scene_of_joint);
   std::vector<int> priority;
   priority.push_back(s.driven.joint);
   for (int pass = 0; pass < 2; ++pass)
@@ -272,7 +245,8 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, const Trajectory
 
 bool realisable(const Mechanism& mechanism, std::string* why) {
   try {
-    build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()), nullptr);
+    const Scene s = build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()));
+    (void)driver_tendon(mechanism, s);
   } catch (const std::exception& e) {
     if (why) *why = e.what();
     return false;
@@ -280,20 +254,30 @@ bool realisable(const Mechanism& mechanism, std::string* why) {
   return true;
 }
 
-std::vector<std::pair<int, double>> driver_tendon(const Mechanism& m, const Scene& s) {
-  if (!s.driven.equivalent) return {{s.driven.joint, s.driven.sign}};  // sign (driver - offset)
-  // An equivalent driver is a link's absolute angle: the sum of the hinges from the ground, with
-  // theta_child = theta_parent + value when the child is the hinge's b, - value when it is a.
+std::vector<int> tree_path(const Scene& s, int link) {
   std::vector<int> parent_joint(s.links.size(), -1);
   for (int j : s.tree_order) parent_joint[s.joints[j].child] = j;
+  std::vector<int> out;
+  for (; parent_joint[link] >= 0; link = s.joints[parent_joint[link]].parent)
+    out.push_back(parent_joint[link]);
+  return out;
+}
+
+std::vector<std::pair<int, double>> driver_tendon(const Mechanism& m, const Scene& s) {
+  if (!s.driven.tendon) return {{s.driven.joint, s.driven.sign}};  // sign (driver - offset)
+  // A link's absolute angle: the sum of the hinges from the ground, with theta_child =
+  // theta_parent + value when the child is the hinge's b, - value when it is a.
   int link = 0;
   while (s.links[link].source != m.driver.link) ++link;
   std::vector<std::pair<int, double>> out;
-  for (; parent_joint[link] >= 0; link = s.joints[parent_joint[link]].parent) {
-    const SceneJoint& j = s.joints[parent_joint[link]];
-    if (j.kind == SceneJoint::Kind::hinge)
-      out.emplace_back(parent_joint[link], j.child == j.b ? 1.0 : -1.0);
-  }
+  for (int j : tree_path(s, link))
+    if (s.joints[j].kind == SceneJoint::Kind::hinge)
+      out.emplace_back(j, s.joints[j].child == s.joints[j].b ? 1.0 : -1.0);
+  if (out.empty())
+    throw std::runtime_error(fmt::format(
+        "the driver is the angle of link {}, which no revolute joint between it and the ground "
+        "turns",
+        s.links[link].name));
   return out;
 }
 
@@ -493,20 +477,24 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         "    </body>\n",
         clock->inertia, clock->damping, clock->stiffness, clock->springref);
   out += "  </worldbody>\n";
-  if (clock) {
+  // The driver as a tendon: the clock's, and a floating link's angle in crosslink's runs.
+  const bool driver_tendon_written = clock || (o.driven && s.driven.tendon);
+  if (driver_tendon_written) {
     out += "  <tendon>\n    <fixed name=\"driver\">\n";
     for (const auto& [joint, coefficient] : driver_tendon(m, s))
       out += fmt::format("      <joint joint=\"{}\" coef=\"{:.17g}\"/>\n",
                          escape(s.joints[joint].name), coefficient);
-    out +=
-        "    </fixed>\n    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n"
-        "    </fixed>\n  </tendon>\n";
-    if (clock->torque != 0.0)  // a constant torque: no gain, the bias alone
-      out += fmt::format(
-          "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
-          "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
-          clock->torque);
+    out += "    </fixed>\n";
+    if (clock)
+      out +=
+          "    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n    </fixed>\n";
+    out += "  </tendon>\n";
   }
+  if (clock && clock->torque != 0.0)  // a constant torque: no gain, the bias alone
+    out += fmt::format(
+        "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
+        "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
+        clock->torque);
   out += "  <equality>\n";
   for (int j : s.cuts) {
     const SceneJoint& sj = s.joints[j];
@@ -522,6 +510,11 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
     out += fmt::format(
         "    <tendon name=\"driver\" tendon1=\"driver\" tendon2=\"clock\" polycoef=\"0 1 0 0 0\" "
         "solref=\"{}\" solimp=\"{}\"/>\n",
+        vec(o.driver_solref), vec(o.driver_solimp));
+  else if (driver_tendon_written)
+    out += fmt::format(
+        "    <tendon name=\"driver\" tendon1=\"driver\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
+        "solimp=\"{}\"/>\n",
         vec(o.driver_solref), vec(o.driver_solimp));
   else if (o.driven)
     out += fmt::format(

@@ -53,15 +53,15 @@ struct SceneJoint {
   int parent = -1, child = -1;  // tree joints: scene link indices (parent nearer the ground)
 };
 
-// How the driven tree joint's value follows the definition's driver coordinate:
-// joint value = sign * (driver - offset). `equivalent` when the definition's driver is not a
-// tree joint (a floating link's angle): the joint then follows the reference trajectory.
+// How the driver coordinate MuJoCo holds follows the definition's driver:
+// coordinate = sign * (driver - offset). The coordinate is the driven tree joint's value, or,
+// with `tendon` (the angle of a link without a ground pivot), the fixed tendon over the hinges on
+// the tree's path from the ground to the link (driver_tendon()): their sum is the link's
+// absolute angle, so the definition's own driver is driven and its torque read.
 struct DrivenJoint {
-  int joint = -1;  // scene joint index
+  int joint = -1;  // scene joint index: the driven joint, or (tendon) a hinge of the link
   double sign = 1.0, offset = 0.0;
-  bool equivalent = false;
-  // equivalent: the mechanism links whose relative angle (b - a) the joint holds (-1: ground)
-  int link_a = -1, link_b = -1;
+  bool tendon = false;
 };
 
 struct Scene {
@@ -74,19 +74,20 @@ struct Scene {
 };
 
 // Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving
-// link, Mechanism order) of an assembled configuration. `reference` (may be null) picks the joint
-// of an equivalent driver: the hinge whose rate stays furthest from zero over the sweep. Throws
-// std::runtime_error when MuJoCo cannot realise the mechanism (the message says why).
-Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q,
-                  const Trajectory* reference);
+// link, Mechanism order) of an assembled configuration. Throws std::runtime_error when MuJoCo
+// cannot realise the mechanism (the message says why).
+Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q);
 
 // Just the realisability check of build_scene (no configuration needed).
 bool realisable(const Mechanism& mechanism, std::string* why);
 
 // The driver coordinate as a fixed tendon: (scene joint, coefficient) pairs whose weighted sum
-// changes as the driver does. A tree-joint driver is its joint; an equivalent driver (a floating
-// link's angle) is the sum of the hinges on the tree path from the ground to the link.
+// is the coordinate. A tree-joint driver is its joint; a floating link's angle (tendon) is the
+// sum of the hinges on the tree path from the ground to the link.
 std::vector<std::pair<int, double>> driver_tendon(const Mechanism& mechanism, const Scene& scene);
+
+// The tree joints from scene link `link` up to the ground, nearest first.
+std::vector<int> tree_path(const Scene& scene, int link);
 
 // What turns the MJCF into a scene for MuJoCo alone (the export; docs/engines.md, "The exported
 // scene"): a clock hinge that moves the driver coordinate through the driver equality (crosslink's

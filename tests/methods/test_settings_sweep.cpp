@@ -154,7 +154,7 @@ SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> 
 }
 
 // The forces are a class of their own: a setting that misses them is not picked, a run that
-// reads none (an equivalent driver) is judged on its motion.
+// reads none is judged on its motion.
 TEST(Selection, ForcesWhereReadMustMeetTheAccuracy) {
   const std::vector<SweepRow> rows = {
       row("Euler", 1e-3, 1.0, {0.1, 0.1, 0.1}, RunStatus::ok, 5.0),  // forces 5 % off
