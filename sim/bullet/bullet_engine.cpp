@@ -28,7 +28,9 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <queue>
 #include <stdexcept>
 
@@ -1099,56 +1101,320 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Stages both runs share
+
+using Clock = std::chrono::steady_clock;
+
+// A run that could not be made: its reason, and every sample diverged (no engine value).
+EngineRun failed(EngineRun run, const std::string& message) {
+  run.ok = false;
+  run.message = message;
+  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+  return run;
+}
+
+// The trajectory a run writes before anything is read: the reference's samples, with forces when
+// the scene reads them, and an energy balance in a dynamics run.
+void shape(Trajectory& out, const Mechanism& original, const Trajectory& reference,
+           bool with_forces, bool energy) {
+  out.resize(original, reference.samples(), with_forces);
+  if (energy) out.add_energy();
+  out.time = reference.time;
+  out.driver = reference.driver;
+}
+
+// Prepare stage: what a run needs before its time grid, refused (std::exception with the reason)
+// before anything is built. The settings, the mechanism the scene is built from (perturb_link),
+// and the usable span the run covers, over sample times that increase. Once the settings are
+// read, `out` carries the reference's times and driver values.
+struct Prepared {
+  Config config;
+  Mechanism m;  // the definition, or the perturbed one
+  Span span;
+};
+
+Prepared prepare(const Mechanism& original, const Trajectory& reference, const Settings& overrides,
+                 Trajectory& out) {
+  if (!btIsDoublePrecision()) throw std::runtime_error("Bullet is not the float64 build");
+  Prepared p;
+  p.config = parse_settings(overrides);
+  p.m = perturbed(original, p.config);
+  out.time = reference.time;
+  out.driver = reference.driver;
+  // The run starts at the reference's first usable (ok) sample and stops at its last; outside
+  // them the reference is at or past an assembly limit.
+  p.span = usable_span(reference);
+  for (int i = 1; i < reference.samples(); ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      throw std::runtime_error("the reference's sample times do not increase");
+  return p;
+}
+
+// The settings rows both runs report first, in this order (`steps_per_sample`: each run's own
+// account of it).
+Settings common_settings(const Config& config, double dt, const std::string& steps_per_sample) {
+  return {{"formulation", config.formulation},
+          {"solver", config.solver},
+          {"dt", format_number(dt)},
+          {"steps_per_sample", steps_per_sample},
+          {"max_step_angle",
+           config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
+          {"iterations", std::to_string(config.iterations)},
+          {"erp", format_number(config.erp)},
+          {"precision", btIsDoublePrecision() ? "float64" : "float32"},
+          {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
+          {"divergence_gap", format_number(config.divergence_gap)}};
+}
+
+std::string perturb_setting(const Config& config) {
+  return config.perturb_link.empty()
+             ? ""
+             : config.perturb_link + ":" + format_number(config.perturb_factor);
+}
+
+// Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
+// to rigid bodies (config.formulation follows) when its tree cannot be cut at revolute joints.
+// A kinematic run (`driven`) needs the driver as a joint of the scene, and says how a link angle
+// is realised. False with `why` when there is no scene.
+bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
+                std::vector<std::string>& notes, std::string& why) {
+  plan = make_plan(m);
+  if (driven && plan.driver_edge < 0) {
+    why = "the driver is not a joint the scene can drive";
+    return false;
+  }
+  make_tree(plan, &why);
+  if (plan.order.empty()) return false;
+  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
+    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
+    config.formulation = "rigid";
+  }
+  // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
+  // wrong in 3.24 (bullet3 issues 2966, 4604; measured 1.2-2x at a pivot, engine-notes.md).
+  if (config.formulation != "rigid")
+    notes.push_back(
+        "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
+        "(bullet3 issues 2966, 4604)");
+  if (!driven) return true;
+  if (plan.driver_planar)
+    notes.push_back(
+        "link-angle driver realised directly: the driven link's absolute angle is a joint "
+        "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
+        "locking only its rotation)");
+  if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
+      m.driver.type == DriverType::link_angle)
+    notes.push_back("link-angle driver realised as the angle of its ground pivot");
+  return true;
+}
+
+// Build stage: the scene at configuration q, its driven coordinate at `coordinate0`; a dynamics
+// run's scene (`velocity` given: the mechanism's rates) has no driver and starts moving. "" or
+// why it could not be built.
+std::string build_scene(const Mechanism& m, const Plan& plan, const Config& config,
+                        const Eigen::VectorXd& q, double coordinate0,
+                        const Eigen::VectorXd* velocity, std::unique_ptr<Scene>& scene) {
+  const std::vector<Pose> poses = node_poses(m, plan, q);
+  const bool driven = velocity == nullptr;
+  try {
+    if (config.formulation == "multibody")
+      scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config, m.gravity, driven);
+    else
+      scene = std::make_unique<RigidScene>(m, plan, poses, coordinate0, config, driven);
+    if (velocity) scene->set_velocities(poses, node_rates(m, plan, q, *velocity));
+  } catch (const std::exception& e) {
+    return std::string("scene build failed: ") + e.what();
+  }
+  return "";
+}
+
+// The loop gap a run watches at every pose: the joints' largest violation (prismatic angle rows
+// times the mechanism's size), and the driver row's.
+class JointGap {
+ public:
+  JointGap(const Mechanism& m, const NewtonSolver& solver)
+      : solver_(solver),
+        size_(m.size()),
+        phi_(m.coordinate_count()),
+        angle_row_(static_cast<size_t>(m.coordinate_count()), 0.0) {
+    int row = 0;
+    for (const Joint& j : m.joints) {
+      if (j.type == JointType::prismatic) angle_row_[static_cast<size_t>(row + 1)] = 1.0;
+      row += 3 - j.dof();
+    }
+  }
+  // With the driver at `driver_value`: the gap (infinite when it or the driver's row is not
+  // finite) and the driver row's error.
+  double at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
+    double gap = joints(q, driver_value);
+    driver_error = std::abs(phi_(phi_.size() - 1));
+    if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
+    return gap;
+  }
+  // A dynamics run: the driver's row is measured at the engine's own coordinate, so it is zero.
+  double at(const Eigen::VectorXd& q) {
+    const double gap = joints(q, solver_.driver_value(q));
+    return std::isfinite(gap) ? gap : INFINITY;
+  }
+
+ private:
+  double joints(const Eigen::VectorXd& q, double driver_value) {
+    solver_.residual(q, driver_value, phi_);
+    double gap = 0.0;
+    for (Eigen::Index r = 0; r + 1 < phi_.size(); ++r)
+      gap = std::max(gap, std::abs(phi_(r)) * (angle_row_[static_cast<size_t>(r)] ? size_ : 1.0));
+    return gap;
+  }
+  const NewtonSolver& solver_;
+  double size_;
+  Eigen::VectorXd phi_;
+  std::vector<double> angle_row_;
+};
+
+// Read-forces stage (rigid formulation): the btJointFeedback of the step that leaves each pose,
+// read right after that step in the mechanism's terms (read_rigid_forces) and kept per pose; a
+// sample's forces are the readings of its force stencil's poses, weighted.
+class BulletForces {
+ public:
+  BulletForces(const Mechanism& m, long steps)
+      : m_(m),
+        readings_(static_cast<size_t>(steps + 1), ForceReading(m.joints.size())),
+        combined_(m.joints.size()) {}
+  void read(long k, const Scene& scene, const Eigen::VectorXd& q) {
+    read_rigid_forces(m_, scene, q, readings_[static_cast<size_t>(k)]);
+  }
+  // Sample i's forces at `state`; a dynamics run's effort is the applied one (`effort`).
+  void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out,
+             const double* effort = nullptr) {
+    combine_readings(
+        stencil,
+        [this](long k) -> const ForceReading& { return readings_[static_cast<size_t>(k)]; },
+        combined_);
+    if (effort) combined_.effort = *effort;
+    write_forces(m_, state, combined_, out, i);
+  }
+
+ private:
+  const Mechanism& m_;
+  std::vector<ForceReading> readings_;  // per pose
+  ForceReading combined_;
+};
+
+// What a run samples from: every pose the steps leave, as mechanism coordinates, and the joint
+// gap there; where the run stopped and why.
+struct History {
+  std::vector<double> time;  // per step [s]
+  Eigen::MatrixXd pose;      // per step: its pose
+  Eigen::VectorXd gap;       // per step: its loop gap (0 at the start)
+  long last_good = 0;        // the last pose before a divergence (the last step when none)
+  std::string divergence;    // "" or why the run diverged
+  long steps() const { return static_cast<long>(time.size()) - 1; }
+  PoseAt poses() const {
+    return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose.col(k); };
+  }
+};
+
+// Step stage: the scene's steps into the history; each run drives, loads and watches them its
+// own way around step(). The scene is read back as the mechanism's coordinates after each step
+// (angles on the turn of the pose before, so that they stay continuous), and the forces of the
+// pose the step left are read from it.
+class SceneStepper {
+ public:
+  SceneStepper(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start)
+      : m_(m), plan_(plan), scene_(scene), q_(q_start) {
+    read_coordinates(scene_, plan_, m_, frames_, q_);
+  }
+  // "" or why the scene read back is not the start it was built at.
+  std::string check_start(const Eigen::VectorXd& q_start) const {
+    const double mismatch = (q_ - q_start).cwiseAbs().maxCoeff();
+    if (mismatch < 1e-9 * std::max(m_.size(), 1.0)) return "";
+    return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
+                       mismatch);
+  }
+  // The history over steps at `time`, from the scene's start read back.
+  History& begin(std::vector<double> time, bool with_forces) {
+    history_.time = std::move(time);
+    const long steps = history_.steps();
+    history_.pose.resize(q_.size(), steps + 1);
+    history_.gap = Eigen::VectorXd::Zero(steps + 1);
+    history_.pose.col(0) = q_;
+    history_.last_good = steps;
+    if (with_forces) forces_.emplace(m_, steps);
+    return history_;
+  }
+  // The step to pose k; its pose.
+  const Eigen::VectorXd& step(long k) {
+    const std::vector<double>& time = history_.time;
+    scene_.step(time[static_cast<size_t>(k)] - time[static_cast<size_t>(k - 1)]);
+    if (forces_) forces_->read(k - 1, scene_, history_.pose.col(k - 1));
+    read_coordinates(scene_, plan_, m_, frames_, q_);
+    history_.pose.col(k) = q_;
+    return q_;
+  }
+  Scene& scene() { return scene_; }
+  BulletForces* forces() { return forces_ ? &*forces_ : nullptr; }
+
+ private:
+  const Mechanism& m_;
+  const Plan& plan_;
+  Scene& scene_;
+  std::vector<Pose> frames_;
+  Eigen::VectorXd q_;
+  History history_;
+  std::optional<BulletForces> forces_;
+};
+
+// The conditioning of the constraint Jacobian at a sampled pose, a status's measure (near a
+// singular position the engine may take either branch without opening a gap).
+double conditioning_at(const NewtonSolver& solver, const Eigen::VectorXd& q,
+                       KinematicState& conditioning) {
+  conditioning.q = q;
+  conditioning.driver.value = solver.driver_value(q);
+  return solver.solve_position(conditioning).rcond;
+}
+
+// The notes a run ends with that both word alike.
+void note_fallbacks(const Scene& scene, std::vector<std::string>& notes) {
+  if (const int fb = scene.fallbacks(); fb > 0)
+    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
+}
+
+// What a run cost, from its `taken` steps: the stepping time per simulated `cycle` seconds, and
+// in all since `begin`; then the notes become its message.
+void finish(const History& history, long taken, double cycle, double stepping, double stepping_cpu,
+            Clock::time_point begin, const std::vector<std::string>& notes, EngineRun& out) {
+  out.cost.steps = taken;
+  out.cost.simulated_seconds = history.time[static_cast<size_t>(taken)] - history.time.front();
+  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+  out.cost.wall_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping * cycle / out.cost.simulated_seconds : 0.0;
+  out.cost.cpu_seconds_per_cycle =
+      out.cost.simulated_seconds > 0 ? stepping_cpu * cycle / out.cost.simulated_seconds : 0.0;
+  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+}
+
+// ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
 // no driver, started from the exact state of the reference's first usable sample, the loads and
 // the applied effort on the bodies every step, sampled at the reference's times (which fall on
-// step boundaries).
-EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
-                       const Settings& overrides) {
-  using Clock = std::chrono::steady_clock;
-  const auto t_build = Clock::now();
-  const int samples = reference.samples();
-  EngineRun out;
-  out.trajectory.method = "bullet";
-  auto shape = [&](bool with_forces) {
-    out.trajectory.resize(original, samples, with_forces);
-    out.trajectory.add_energy();
-    out.trajectory.time = reference.time;
-    out.trajectory.driver = reference.driver;
-  };
-  shape(false);
-  auto fail = [&](const std::string& message) {
-    out.ok = false;
-    out.message = message;
-    std::fill(out.trajectory.status.begin(), out.trajectory.status.end(), PoseStatus::diverged);
-    return out;
-  };
-  if (!btIsDoublePrecision()) return fail("Bullet is not the float64 build");
-  Config config;
-  Mechanism m;
-  try {
-    config = parse_settings(overrides);
-    m = perturbed(original, config);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-  if (!config.max_step_angle_given) config.max_step_angle = kDynamicsMaxStepAngle;
-  std::vector<std::string> notes;
-  const double size = m.size();
+// step boundaries). In stages: prepare() and dynamics_grid() plan it; plan_scene() and
+// dynamics_start() place the scene, build_scene() builds it; the DynamicsStepper takes the steps
+// into the history; the DynamicsSampler differences it and integrates the work, and
+// write_dynamics_samples() writes each sample with its forces (BulletForces), its energy balance
+// (EnergyWatch) and its status; note_dynamics() closes.
 
-  // The usable span, and the step: each sample interval split into equal steps, as many as
-  // steps_per_sample, or more where the reference's fastest link would turn more than
-  // max_step_angle in a step, or as an explicit dt asks (rounded so that samples fall on steps).
-  Span span;
-  try {
-    span = usable_span(reference);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
+// The steps: each sample interval split into equal steps, as many as steps_per_sample, or more
+// where the reference's fastest link would turn more than max_step_angle in a step, or as an
+// explicit dt asks (rounded so that samples fall on steps); one more step after the last sample,
+// so that it has a central difference. check_steps()'s std::exception when they are too many.
+struct DynamicsGrid {
+  std::vector<double> time;       // per step [s]
+  std::vector<long> sample_step;  // per sample: its step; -1 outside the usable span
+  double dt = 0.0;                // the longest step
+};
+
+DynamicsGrid dynamics_grid(const Trajectory& reference, const Span& span, const Config& config) {
   const int first = span.first, last = span.last;
-  for (int i = 1; i < samples; ++i)
-    if (!(reference.time(i) > reference.time(i - 1)))
-      return fail("the reference's sample times do not increase");
   double wanted = config.dt;
   if (wanted == 0.0) {
     double fastest = 0.0, longest = 0.0;
@@ -1161,95 +1427,36 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     if (config.max_step_angle > 0.0 && fastest > 0.0)
       wanted = std::min(wanted, config.max_step_angle / fastest);
   }
-  std::vector<double> step_time = {reference.time(first)};
-  std::vector<long> sample_step(static_cast<size_t>(samples), -1);
-  sample_step[static_cast<size_t>(first)] = 0;
-  double dt = 0.0;
-  try {
-    double count = 0.0;
-    for (int i = first + 1; i <= last; ++i)
-      count += std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9);
-    check_steps(count + 1.0, wanted, config.max_steps);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
+  DynamicsGrid g;
+  g.time = {reference.time(first)};
+  g.sample_step.assign(static_cast<size_t>(reference.samples()), -1);
+  g.sample_step[static_cast<size_t>(first)] = 0;
+  double count = 0.0;
+  for (int i = first + 1; i <= last; ++i)
+    count += std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9);
+  check_steps(count + 1.0, wanted, config.max_steps);
   for (int i = first + 1; i <= last; ++i) {
-    const double span = reference.time(i) - reference.time(i - 1);
-    const long n = std::max(1L, static_cast<long>(std::ceil(span / wanted - 1e-9)));
+    const double span_i = reference.time(i) - reference.time(i - 1);
+    const long n = std::max(1L, static_cast<long>(std::ceil(span_i / wanted - 1e-9)));
     for (long k = 1; k <= n; ++k)
-      step_time.push_back(k == n ? reference.time(i)
-                                 : reference.time(i - 1) +
-                                       span * static_cast<double>(k) / static_cast<double>(n));
-    sample_step[static_cast<size_t>(i)] = static_cast<long>(step_time.size()) - 1;
-    dt = std::max(dt, span / static_cast<double>(n));
+      g.time.push_back(k == n ? reference.time(i)
+                              : reference.time(i - 1) +
+                                    span_i * static_cast<double>(k) / static_cast<double>(n));
+    g.sample_step[static_cast<size_t>(i)] = static_cast<long>(g.time.size()) - 1;
+    g.dt = std::max(g.dt, span_i / static_cast<double>(n));
   }
-  step_time.push_back(step_time.back() + (step_time.back() - step_time[step_time.size() - 2]));
-  const long steps = static_cast<long>(step_time.size()) - 1;  // one past the last sample
+  g.time.push_back(g.time.back() + (g.time.back() - g.time[g.time.size() - 2]));
+  return g;
+}
 
-  // The scene: the multibody formulation falls back to rigid bodies when its tree cannot be cut
-  // at revolute joints.
-  Plan plan = make_plan(m);
-  std::string why;
-  make_tree(plan, &why);
-  if (plan.order.empty()) return fail(why);
-  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
-    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
-    config.formulation = "rigid";
-  }
-  const bool with_forces = config.formulation == "rigid";
-  shape(with_forces);
-  if (!with_forces)
-    notes.push_back(
-        "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
-        "(bullet3 issues 2966, 4604)");
-
-  // The exact initial state (the reference's first usable sample; with perturb_link the chain
-  // closed by Newton at its coordinate and rate), and the staggered start: semi-implicit Euler
-  // keeps the velocity half a step behind the positions (x_k+1 = x_k + h v_k+1), so the bodies
-  // start at v0 - h/2 a0 (a0 the exact acceleration).
-  const NewtonSolver solver(m);
-  DynamicsLoads balance(original);
-  ReferenceState start = reference_state(original, reference, first);
-  if (!config.perturb_link.empty()) {
-    KinematicState state(m);
-    state.q = start.q;
-    state.driver = {reference.time(first), reference.driver(first),
-                    balance.rate(start.q, start.qdot), 0.0};
-    if (solver.solve(state).status != PoseStatus::ok)
-      return fail("the perturbed chain does not close at the first sample");
-    start.q = state.q;
-    start.qdot = state.qdot;
-  }
-  const double h0 = step_time[1] - step_time[0];
-  const Eigen::VectorXd w =
-      config.staggered_start ? Eigen::VectorXd(start.qdot - 0.5 * h0 * start.qddot) : start.qdot;
-  const std::vector<Pose> poses = node_poses(m, plan, start.q);
-  std::unique_ptr<Scene> scene;
-  try {
-    if (config.formulation == "multibody")
-      scene = std::make_unique<MultiBodyScene>(plan, poses, 0.0, config, m.gravity, false);
-    else
-      scene = std::make_unique<RigidScene>(m, plan, poses, 0.0, config, false);
-    scene->set_velocities(poses, node_rates(m, plan, start.q, w));
-  } catch (const std::exception& e) {
-    return fail(std::string("scene build failed: ") + e.what());
-  }
-  const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  out.settings = {
-      {"formulation", config.formulation},
-      {"solver", config.solver},
-      {"dt", format_number(dt)},
-      {"steps_per_sample",
-       config.dt == 0.0 ? std::to_string(static_cast<long>(
-                              std::round((reference.time(first + 1) - reference.time(first)) / dt)))
-                        : "unused (dt given)"},
-      {"max_step_angle",
-       config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
-      {"iterations", std::to_string(config.iterations)},
-      {"erp", format_number(config.erp)},
-      {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-      {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
-      {"divergence_gap", format_number(config.divergence_gap)},
+Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
+                           double dt, double energy_scale, bool with_forces) {
+  const double interval = reference.time(span.first + 1) - reference.time(span.first);
+  Settings out = common_settings(config, dt,
+                                 config.dt == 0.0
+                                     ? std::to_string(static_cast<long>(std::round(interval / dt)))
+                                     : "unused (dt given)");
+  const Settings more = {
       {"split_impulse", config.split_impulse ? "1" : "0"},
       {"mass_model", "the definition's (Link::mass)"},
       {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
@@ -1260,192 +1467,265 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
       {"energy_threshold", format_number(config.energy_threshold)},
       {"divergence_energy", format_number(config.divergence_energy)},
       {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
-      {"perturb_link", config.perturb_link.empty()
-                           ? ""
-                           : config.perturb_link + ":" + format_number(config.perturb_factor)}};
+      {"perturb_link", perturb_setting(config)}};
+  out.insert(out.end(), more.begin(), more.end());
+  return out;
+}
 
-  // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
-  std::vector<Pose> frames;
-  Eigen::VectorXd q = start.q;
-  auto read_q = [&]() { read_coordinates(*scene, plan, m, frames, q); };
-  read_q();
-  const double build_mismatch = (q - start.q).cwiseAbs().maxCoeff();
-  if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
-    return fail(fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
-                            build_mismatch));
-  // The joints' largest violation (prismatic angle rows times the size); the driver's row is
-  // measured at the engine's own coordinate, so it is zero.
-  Eigen::VectorXd phi(m.coordinate_count());
-  std::vector<double> angle_row(static_cast<size_t>(m.coordinate_count()), 0.0);
-  {
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      if (j.type == JointType::prismatic) angle_row[static_cast<size_t>(row + 1)] = 1.0;
-      row += 3 - j.dof();
+// Start of a dynamics run: the exact state of the reference's first usable sample (with
+// perturb_link the chain closed by Newton at its coordinate and rate), and the velocity the
+// bodies start at: semi-implicit Euler keeps the velocity half a step behind the positions
+// (x_k+1 = x_k + h v_k+1), so a staggered start is v0 - h/2 a0 (a0 the exact acceleration). ""
+// or why there is no start.
+struct DynamicsStart {
+  ReferenceState state;
+  Eigen::VectorXd velocity;  // the bodies' at the start
+};
+
+std::string dynamics_start(const Mechanism& original, const Mechanism& m,
+                           const Trajectory& reference, const Config& config, int first, double h0,
+                           const NewtonSolver& solver, DynamicsLoads& balance, DynamicsStart& out) {
+  ReferenceState& start = out.state;
+  start = reference_state(original, reference, first);
+  if (!config.perturb_link.empty()) {
+    KinematicState state(m);
+    state.q = start.q;
+    state.driver = {reference.time(first), reference.driver(first),
+                    balance.rate(start.q, start.qdot), 0.0};
+    if (solver.solve(state).status != PoseStatus::ok)
+      return "the perturbed chain does not close at the first sample";
+    start.q = state.q;
+    start.qdot = state.qdot;
+  }
+  out.velocity =
+      config.staggered_start ? Eigen::VectorXd(start.qdot - 0.5 * h0 * start.qddot) : start.qdot;
+  return "";
+}
+
+// Step stage of a dynamics run: no driver (slides' frames follow their sliders), the loads and
+// the effort at the pose a step leaves, at the engine's velocity there (the backward difference
+// x_k - x_k-1 over h, semi-implicit Euler's v_k; the start's velocity at k = 0), and the watch on
+// the pose it reaches: NaN, the loop gap.
+class DynamicsStepper {
+ public:
+  DynamicsStepper(const Mechanism& m, const Config& config, const Eigen::VectorXd& start_velocity,
+                  DynamicsLoads& balance, JointGap& gap, SceneStepper& stepper, History& history)
+      : start_velocity_(start_velocity),
+        balance_(balance),
+        gap_(gap),
+        stepper_(stepper),
+        history_(history),
+        velocity_(history.pose.rows()),
+        gap_diverge_(config.divergence_gap * m.size()) {}
+
+  // The step to pose k; false when the run diverged there (history: where and why).
+  bool step(long k) {
+    const std::vector<double>& time = history_.time;
+    const double t0 = time[static_cast<size_t>(k - 1)];
+    stepper_.scene().drive(0.0);
+    if (balance_.any()) {
+      velocity_ = k == 1 ? start_velocity_
+                         : Eigen::VectorXd((history_.pose.col(k - 1) - history_.pose.col(k - 2)) /
+                                           (t0 - time[static_cast<size_t>(k - 2)]));
+      stepper_.scene().apply(balance_.at(t0, history_.pose.col(k - 1), velocity_));
+    }
+    const Eigen::VectorXd& q = stepper_.step(k);
+    const double gap = history_.gap(k) = gap_.at(q);
+    if (q.allFinite() && gap <= gap_diverge_) return true;
+    history_.last_good = k - 1;
+    history_.divergence = fmt::format(
+        "diverged at t = {:.6g} s: {}", time[static_cast<size_t>(k)],
+        !q.allFinite() ? std::string("NaN in the state")
+                       : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m", gap,
+                                     gap_diverge_));
+    return false;
+  }
+
+ private:
+  const Eigen::VectorXd& start_velocity_;
+  DynamicsLoads& balance_;
+  JointGap& gap_;
+  SceneStepper& stepper_;
+  History& history_;
+  Eigen::VectorXd velocity_;
+  double gap_diverge_;
+};
+
+// Sample stage of a dynamics run: velocity and acceleration at step k from central differences
+// over k-1, k, k+1; at the start, one-sided over steps 1..4. The start is a transient in Bullet:
+// its first step's constraint solve has no position error of a previous step to correct, while
+// every later one does (each step's velocity constraint is taken at the step's start, and the
+// position error this leaves is closed by the next step's ERP), so the first step's impulses,
+// and a stencil through pose 0, are off by up to 5 % of the peak reaction (A02; measured). The
+// forces likewise come from clean poses (force_stencil: 2 .. last - 1), extrapolated to the
+// first sample. Also the work of the effort, the loads and the dampers: the trapezoid rule over
+// the steps, the power at each step from its central difference.
+class DynamicsSampler {
+ public:
+  DynamicsSampler(const Mechanism& m, const NewtonSolver& solver, DynamicsLoads& balance,
+                  const History& history)
+      : solver_(solver),
+        balance_(balance),
+        history_(history),
+        state_(m),
+        conditioning_(m),
+        work_(static_cast<size_t>(history.steps() + 1), 0.0) {}
+
+  void integrate_work() {
+    if (!balance_.any() || history_.last_good < 4) return;
+    Eigen::VectorXd velocity(history_.pose.rows());
+    double previous = 0.0;
+    for (long k = 0; k < history_.last_good; ++k) {
+      derivatives(k, velocity, nullptr);
+      const double power = balance_.power(time(k), history_.pose.col(k), velocity);
+      if (k > 0)
+        work_[static_cast<size_t>(k)] =
+            work_[static_cast<size_t>(k - 1)] + 0.5 * (time(k) - time(k - 1)) * (previous + power);
+      previous = power;
     }
   }
-  auto joint_gap = [&]() {
-    solver.residual(q, solver.driver_value(q), phi);
-    double gap = 0.0;
-    for (Eigen::Index r = 0; r + 1 < phi.size(); ++r)
-      gap = std::max(gap, std::abs(phi(r)) * (angle_row[static_cast<size_t>(r)] ? size : 1.0));
-    return std::isfinite(gap) ? gap : INFINITY;
-  };
-
-  // Step. The loads at pose k and the engine's velocity state there (the backward difference
-  // x_k - x_k-1 over h, semi-implicit Euler's v_k; the staggered start velocity at k = 0).
-  Eigen::MatrixXd history(q.size(), steps + 1);
-  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
-  history.col(0) = q;
-  std::vector<ForceReading> readings(with_forces ? static_cast<size_t>(steps + 1) : 0,
-                                     ForceReading(m.joints.size()));
-  const double gap_diverge = config.divergence_gap * size;
-  long last_good = steps;
-  std::string divergence;
-  const auto t_steps = Clock::now();
-  const double cpu_start = thread_cpu_seconds();
-  Eigen::VectorXd velocity(q.size());
-  for (long k = 1; k <= steps; ++k) {
-    const double t0 = step_time[static_cast<size_t>(k - 1)];
-    const double h = step_time[static_cast<size_t>(k)] - t0;
-    scene->drive(0.0);  // slides' frames follow their sliders
-    if (balance.any()) {
-      velocity = k == 1 ? w
-                        : Eigen::VectorXd((history.col(k - 1) - history.col(k - 2)) /
-                                          (t0 - step_time[static_cast<size_t>(k - 2)]));
-      scene->apply(balance.at(t0, history.col(k - 1), velocity));
-    }
-    scene->step(h);
-    if (with_forces)
-      read_rigid_forces(m, *scene, history.col(k - 1), readings[static_cast<size_t>(k - 1)]);
-    read_q();
-    gaps(k) = joint_gap();
-    history.col(k) = q;
-    if (!q.allFinite() || !(gaps(k) <= gap_diverge)) {
-      last_good = k - 1;
-      divergence = fmt::format(
-          "diverged at t = {:.6g} s: {}", step_time[static_cast<size_t>(k)],
-          !q.allFinite() ? std::string("NaN in the state")
-                         : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m",
-                                       gaps(k), gap_diverge));
-      break;
-    }
+  // Whether the sample on step S was reached: the step after it taken (after step 4 at the
+  // start).
+  bool reached(long S) const {
+    const long last_good = history_.last_good;
+    return S + 1 <= last_good && (S >= 1 || last_good >= 4);
   }
-  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
-  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+  // The sample on step S, and the statuses' measures there: the largest gap around it and the
+  // conditioning at its pose.
+  void sample(long S) {
+    const double t = time(S);
+    state_.q = history_.pose.col(S);
+    derivatives(S, state_.qdot, &state_.qddot);
+    const double coordinate = solver_.driver_value(state_.q);
+    state_.driver = {t, coordinate, balance_.rate(state_.q, state_.qdot), 0.0};
+    const Eigen::VectorXd& gaps = history_.gap;
+    gap_ = std::max({gaps(std::max(S - 1, 0L)), gaps(S), gaps(S + 1)});
+    rcond_ = conditioning_at(solver_, state_.q, conditioning_);
+  }
+  const KinematicState& state() const { return state_; }
+  double gap() const { return gap_; }
+  double rcond() const { return rcond_; }
+  double work(long k) const { return work_[static_cast<size_t>(k)]; }
+  double time(long k) const { return history_.time[static_cast<size_t>(k)]; }
 
-  // Velocity and acceleration at step k: central differences over k-1, k, k+1; at the start,
-  // one-sided over steps 1..4. The start is a transient in Bullet: its first step's constraint
-  // solve has no position error of a previous step to correct, while every later one does (each
-  // step's velocity constraint is taken at the step's start, and the position error this leaves
-  // is closed by the next step's ERP), so the first step's impulses, and a stencil through
-  // pose 0, are off by up to 5 % of the peak reaction (A02; measured). The forces likewise come
-  // from clean poses (force_stencil: 2 .. last - 1), extrapolated to the first sample.
-  auto derivatives = [&](long k, Eigen::VectorXd& qdot, Eigen::VectorXd* qddot) {
+ private:
+  void derivatives(long k, Eigen::VectorXd& qdot, Eigen::VectorXd* qddot) const {
     std::vector<long> nodes;
     if (k >= 1)
       nodes = {k - 1, k, k + 1};
     else
       nodes = {1, 2, 3, 4};
     std::vector<double> times;
-    for (long n : nodes) times.push_back(step_time[static_cast<size_t>(n)]);
-    const auto wts = stencil_weights(step_time[static_cast<size_t>(k)], times);
+    for (long n : nodes) times.push_back(time(n));
+    const auto wts = stencil_weights(time(k), times);
     qdot.setZero();
     if (qddot) qddot->setZero();
     for (size_t n = 0; n < nodes.size(); ++n) {
-      qdot += wts[1][n] * history.col(nodes[n]);
-      if (qddot) *qddot += wts[2][n] * history.col(nodes[n]);
-    }
-  };
-  // The work of the effort, the loads and the dampers: the trapezoid rule over the steps, the
-  // power at each step from its central difference.
-  std::vector<double> work(static_cast<size_t>(steps + 1), 0.0);
-  if (balance.any() && last_good >= 4) {
-    double previous = 0.0;
-    for (long k = 0; k < last_good; ++k) {
-      derivatives(k, velocity, nullptr);
-      const double power =
-          balance.power(step_time[static_cast<size_t>(k)], history.col(k), velocity);
-      if (k > 0)
-        work[static_cast<size_t>(k)] =
-            work[static_cast<size_t>(k - 1)] +
-            0.5 * (step_time[static_cast<size_t>(k)] - step_time[static_cast<size_t>(k - 1)]) *
-                (previous + power);
-      previous = power;
+      qdot += wts[1][n] * history_.pose.col(nodes[n]);
+      if (qddot) *qddot += wts[2][n] * history_.pose.col(nodes[n]);
     }
   }
+  const NewtonSolver& solver_;
+  DynamicsLoads& balance_;
+  const History& history_;
+  KinematicState state_, conditioning_;
+  std::vector<double> work_;  // per step: the work done since the start [J]
+  double gap_ = 0.0, rcond_ = 1.0;
+};
 
-  // Samples.
-  Trajectory& tr = out.trajectory;
-  KinematicState sample(m), conditioning(m);
-  const double initial_energy = balance.kinetic(start.q, start.qdot) + balance.potential(start.q);
-  int drift_at = -1;
-  double worst_drift = 0.0;
-  const double gap_flag = config.loop_gap_threshold * size;
-  StatusJudge judge(reference, span, {gap_flag, config.singular_rcond, 0.0}, false);
-  for (int i = 0; i < samples; ++i) {
+// The energy balance of a dynamics run's samples: kinetic plus potential energy less the work
+// done, against the start's; where it first drifts past energy_threshold, and the divergence
+// beyond divergence_energy (of the energy the exact motion moves).
+class EnergyWatch {
+ public:
+  EnergyWatch(const Config& config, double energy_scale, double initial_energy)
+      : config_(config), scale_(energy_scale), initial_(initial_energy) {}
+  // Sample i's row; true when its balance is off by more than the divergence allows.
+  bool write(int i, const KinematicState& s, double work, DynamicsLoads& balance, Trajectory& out) {
+    const double kinetic = balance.kinetic(s.q, s.qdot);
+    const double potential = balance.potential(s.q);
+    error_ = kinetic + potential - work - initial_;
+    out.energy.row(i) << kinetic, potential, work, error_;
+    worst_ = std::max(worst_, std::abs(error_));
+    if (drift_at_ < 0 && std::abs(error_) > config_.energy_threshold * scale_) drift_at_ = i;
+    return !(std::abs(error_) <= config_.divergence_energy * scale_);
+  }
+  std::string divergence(double t) const {
+    return fmt::format(
+        "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
+        "energy the exact motion moves ({:.3g} J)",
+        t, error_, std::abs(error_) / scale_, scale_);
+  }
+  int drift_at() const { return drift_at_; }
+  double worst() const { return worst_; }
+  double scale() const { return scale_; }
+
+ private:
+  const Config& config_;
+  double scale_, initial_;
+  double error_ = 0.0, worst_ = 0.0;
+  int drift_at_ = -1;
+};
+
+// Sample, read forces, balance the energy and judge each sample off the history: samples outside
+// the usable span keep the reference's flag. An energy divergence ends the engine's motion at
+// its sample (history.last_good).
+void write_dynamics_samples(const Mechanism& original, const Trajectory& reference,
+                            const std::vector<long>& sample_step, const NewtonSolver& solver,
+                            DynamicsSampler& sampler, DynamicsLoads& balance, BulletForces* forces,
+                            EnergyWatch& energy, StatusJudge& judge, History& history,
+                            Trajectory& out) {
+  for (int i = 0; i < reference.samples(); ++i) {
     const auto row = static_cast<size_t>(i);
-    if (judge.outside(i, tr)) continue;
+    if (judge.outside(i, out)) continue;
     const long S = sample_step[row];
-    const bool reached = S + 1 <= last_good && (S >= 1 || last_good >= 4);
-    if (!reached) {
-      tr.status[row] = judge.lost(i);
+    if (!sampler.reached(S)) {
+      out.status[row] = judge.lost(i);
       continue;
     }
-    const double t = step_time[static_cast<size_t>(S)];
-    sample.q = history.col(S);
-    derivatives(S, sample.qdot, &sample.qddot);
-    const double coordinate = solver.driver_value(sample.q);
-    sample.driver = {t, coordinate, balance.rate(sample.q, sample.qdot), 0.0};
+    const double t = sampler.time(S);
+    sampler.sample(S);
+    const KinematicState& state = sampler.state();
     SolveReport report;
-    const double gap = std::max({gaps(std::max(S - 1, 0L)), gaps(S), gaps(S + 1)});
-    conditioning.q = sample.q;
-    conditioning.driver.value = coordinate;
-    const double rcond = solver.solve_position(conditioning).rcond;
-    report.status = judge.judge(i, gap, rcond, nullptr, tr);
-    solver.write_sample(sample, report, tr, i);
-    tr.driver(i) = coordinate;
-    tr.time(i) = reference.time(i);
-    tr.rcond(i) = rcond;
-    tr.loop_gap(i) = gap;
-    if (with_forces) {
-      const ForceStencil fs = force_stencil(t, last_good, step_time);
-      ForceReading reading(m.joints.size());
-      for (size_t n = 0; n < fs.steps.size(); ++n)
-        reading.add(fs.weights[n], readings[static_cast<size_t>(fs.steps[n])]);
-      reading.effort = original.dynamics->effort_at(t);
-      write_forces(m, sample, reading, tr, i);
+    report.status = judge.judge(i, sampler.gap(), sampler.rcond(), nullptr, out);
+    solver.write_sample(state, report, out, i);
+    out.driver(i) = state.driver.value;
+    out.time(i) = reference.time(i);
+    out.rcond(i) = sampler.rcond();
+    out.loop_gap(i) = sampler.gap();
+    if (forces) {
+      const double effort = original.dynamics->effort_at(t);
+      forces->write(i, force_stencil(t, history.last_good, history.time), state, out, &effort);
     }
-    const double kinetic = balance.kinetic(sample.q, sample.qdot);
-    const double potential = balance.potential(sample.q);
-    const double error = kinetic + potential - work[static_cast<size_t>(S)] - initial_energy;
-    tr.energy.row(i) << kinetic, potential, work[static_cast<size_t>(S)], error;
-    worst_drift = std::max(worst_drift, std::abs(error));
-    if (drift_at < 0 && std::abs(error) > config.energy_threshold * energy_scale) drift_at = i;
-    if (divergence.empty() && !(std::abs(error) <= config.divergence_energy * energy_scale)) {
-      divergence = fmt::format(
-          "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
-          "energy the exact motion moves ({:.3g} J)",
-          t, error, std::abs(error) / energy_scale, energy_scale);
-      last_good = S;
+    if (energy.write(i, state, sampler.work(S), balance, out) && history.divergence.empty()) {
+      history.divergence = energy.divergence(t);
+      history.last_good = S;
     }
   }
-  if (!divergence.empty()) {
-    out.ok = false;
-    notes.insert(notes.begin(), divergence);
+}
+
+// Notes stage of a dynamics run: the divergence first (samples after an energy divergence are
+// not the engine's motion any more), the energy drift, then the counts.
+void note_dynamics(const Trajectory& reference, const Span& span, const Config& config,
+                   double gap_flag, const std::vector<long>& sample_step, const StatusJudge& judge,
+                   const History& history, const EnergyWatch& energy, const Scene& scene,
+                   std::vector<std::string>& notes, EngineRun& run) {
+  Trajectory& tr = run.trajectory;
+  if (!history.divergence.empty()) {
+    run.ok = false;
+    notes.insert(notes.begin(), history.divergence);
     const int first_lost = judge.first_lost();
-    tr.events.push_back(
-        {first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged, divergence});
-    // Samples after an energy divergence are not the engine's motion any more.
-    for (int i = first; i <= last; ++i)
-      if (sample_step[static_cast<size_t>(i)] > last_good)
+    tr.events.push_back({first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged,
+                         history.divergence});
+    for (int i = span.first; i <= span.last; ++i)
+      if (sample_step[static_cast<size_t>(i)] > history.last_good)
         tr.status[static_cast<size_t>(i)] = PoseStatus::diverged;
   }
-  if (drift_at >= 0) {
-    const std::string text =
-        energy_drift_note(config.energy_threshold, energy_scale, reference, drift_at, worst_drift);
+  if (energy.drift_at() >= 0) {
+    const std::string text = energy_drift_note(config.energy_threshold, energy.scale(), reference,
+                                               energy.drift_at(), energy.worst());
     notes.push_back(text);
-    tr.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
+    tr.events.push_back({reference.driver(energy.drift_at()), PoseStatus::ok, text});
   }
   for (const std::string& note :
        {dynamics_span_note(reference, span), kept_note(judge.kept(), false),
@@ -1453,18 +1733,72 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     if (!note.empty()) notes.push_back(note);
   if (const int flagged = judge.loop_gaps())
     notes.push_back(fmt::format("{} samples flagged loop_gap (above {:.3g} m; largest {:.3g} m)",
-                                flagged, gap_flag, gaps.maxCoeff()));
-  if (const int fb = scene->fallbacks(); fb > 0)
-    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
-  const long taken = std::min(last_good + 1, steps);
-  out.cost.steps = taken;
-  out.cost.simulated_seconds = step_time[static_cast<size_t>(taken)] - step_time.front();
-  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
-  out.cost.wall_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping / out.cost.simulated_seconds : 0.0;
-  out.cost.cpu_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping_cpu / out.cost.simulated_seconds : 0.0;
-  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+                                flagged, gap_flag, history.gap.maxCoeff()));
+  note_fallbacks(scene, notes);
+}
+
+EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
+                       const Settings& overrides) {
+  const auto begin = Clock::now();
+  EngineRun out;
+  out.trajectory.method = "bullet";
+  shape(out.trajectory, original, reference, false, true);
+  Prepared p;
+  DynamicsGrid grid;
+  try {
+    p = prepare(original, reference, overrides, out.trajectory);
+    if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
+    grid = dynamics_grid(reference, p.span, p.config);
+  } catch (const std::exception& e) {
+    return failed(std::move(out), e.what());
+  }
+  Config& config = p.config;
+  const Mechanism& m = p.m;
+
+  Plan plan;
+  std::vector<std::string> notes;
+  std::string why;
+  if (!plan_scene(m, false, config, plan, notes, why)) return failed(std::move(out), why);
+  const bool with_forces = config.formulation == "rigid";
+  shape(out.trajectory, original, reference, with_forces, true);
+  const NewtonSolver solver(m);
+  DynamicsLoads balance(original);
+  DynamicsStart start;
+  if (why = dynamics_start(original, m, reference, config, p.span.first,
+                           grid.time[1] - grid.time[0], solver, balance, start);
+      !why.empty())
+    return failed(std::move(out), why);
+  std::unique_ptr<Scene> scene;
+  if (why = build_scene(m, plan, config, start.state.q, 0.0, &start.velocity, scene); !why.empty())
+    return failed(std::move(out), why);
+  const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
+  out.settings = dynamics_settings(config, reference, p.span, grid.dt, energy_scale, with_forces);
+  SceneStepper stepper(m, plan, *scene, start.state.q);
+  if (why = stepper.check_start(start.state.q); !why.empty()) return failed(std::move(out), why);
+
+  History& history = stepper.begin(grid.time, with_forces);
+  JointGap gap(m, solver);
+  DynamicsStepper dynamics(m, config, start.velocity, balance, gap, stepper, history);
+  const auto t_steps = Clock::now();
+  const double cpu_start = thread_cpu_seconds();
+  for (long k = 1; k <= history.steps() && dynamics.step(k); ++k) {
+  }
+  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
+  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+
+  DynamicsSampler sampler(m, solver, balance, history);
+  sampler.integrate_work();
+  EnergyWatch energy(
+      config, energy_scale,
+      balance.kinetic(start.state.q, start.state.qdot) + balance.potential(start.state.q));
+  const double gap_flag = config.loop_gap_threshold * m.size();
+  StatusJudge judge(reference, p.span, {gap_flag, config.singular_rcond, 0.0}, false);
+  write_dynamics_samples(original, reference, grid.sample_step, solver, sampler, balance,
+                         stepper.forces(), energy, judge, history, out.trajectory);
+  note_dynamics(reference, p.span, config, gap_flag, grid.sample_step, judge, history, energy,
+                *scene, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), 1.0, stepping, stepping_cpu,
+         begin, notes, out);
   return out;
 }
 
