@@ -1394,6 +1394,402 @@ void finish(const History& history, long taken, double cycle, double stepping, d
 }
 
 // ---------------------------------------------------------------------------------------------
+// A kinematic run, in stages: prepare() and the step length plan it; plan_scene() and
+// kinematic_start() place the scene, build_scene() builds it; the KinematicStepper takes the
+// steps into the history; plan_samples() gives each sample its stencils, and write_samples()
+// reads each off the history (KinematicSampler), with its forces (BulletForces) and its status
+// (KinematicStatuses); note_kinematic() closes.
+
+// The step length: samples fall on step boundaries unless an explicit dt does not divide the
+// sample interval (then the local polynomial through the nearest steps is evaluated there). One
+// step length for the whole run (the O(dt^2) residual of each step depends on its length, so a
+// stencil across a change of length would see a jump): steps_per_sample per sample interval, more
+// if the reference's fastest link would turn more than max_step_angle in a step (near an assembly
+// limit the links turn ever faster against the driver).
+struct StepLength {
+  double interval = 0.0;  // the first sample interval [s]
+  double dt = 0.0;
+  int steps_per_sample = 0;
+};
+
+StepLength kinematic_step(const Trajectory& reference, const Span& span, const Config& config) {
+  StepLength s;
+  s.interval = reference.time(span.first + 1) - reference.time(span.first);
+  s.dt = config.dt;
+  s.steps_per_sample = config.steps_per_sample;
+  if (s.dt == 0.0) {
+    double fastest = 0.0;
+    for (int i = span.first; i <= span.last; ++i)
+      if (usable(reference.status[static_cast<size_t>(i)]) && reference.omega.cols() > 0)
+        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+    if (config.max_step_angle > 0.0)
+      s.steps_per_sample = std::max<int>(
+          s.steps_per_sample,
+          static_cast<int>(std::ceil(fastest * s.interval / config.max_step_angle - 1e-9)));
+    s.dt = s.interval / s.steps_per_sample;
+  }
+  return s;
+}
+
+Settings kinematic_settings(const Config& config, const StepLength& step) {
+  Settings out = common_settings(config, step.dt,
+                                 config.dt == 0.0 ? std::to_string(step.steps_per_sample)
+                                                  : format_number(step.interval / step.dt));
+  const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
+                         {"split_impulse", config.split_impulse ? "1" : "0"},
+                         {"mass_model", "the definition's (Link::mass)"},
+                         {"forces", config.formulation == "rigid"
+                                        ? "btJointFeedback of the step leaving each sampled pose"
+                                        : "not read (multibody joint feedback is wrong in 3.24)"},
+                         {"singular_rcond", format_number(config.singular_rcond)},
+                         {"branch_distance", format_number(config.branch_distance)},
+                         {"perturb_link", perturb_setting(config)}};
+  out.insert(out.end(), more.begin(), more.end());
+  return out;
+}
+
+// Where a kinematic run starts, and the driver's target at each step.
+struct KinematicStart {
+  Eigen::VectorXd q;  // the scene's start
+  long preroll = 0;   // steps before the first sample
+  double t_start = 0.0;
+  double driver_offset = 0.0;  // the reference's driver value less the definition's
+  double coordinate0 = 0.0;    // the driven coordinate at the start
+  double driver0 = 0.0;        // the driver's value at the start
+  double sign = 1.0;           // d(driven coordinate)/d(driver value)
+  // The driver's value at time t, as the reference counts it.
+  double driver_at(const Driver& d, double t) const { return d.at_time(t).value + driver_offset; }
+  // The driven coordinate the scene is to reach at time t.
+  double target(const Driver& d, double t) const {
+    return coordinate0 + sign * (driver_at(d, t) - driver0);
+  }
+};
+
+// Start: the exact assembled configuration at the first usable sample. The engine is not driven
+// outside the usable samples: at their ends the samples are read with one-sided differences over
+// the steps after the start (or before the end). Only a sweep over the whole cycle, usable
+// throughout, is periodic: there the run starts kPreroll steps before the first sample and ends
+// kPreroll after the last (the end of the previous and the start of the next cycle), at the
+// default steps and at an explicit dt alike, so that every sample has a central stencil clear of
+// the start's transient. "" or why there is no start.
+std::string kinematic_start(const Mechanism& original, const Mechanism& m, const Plan& plan,
+                            const Config& config, const Trajectory& reference, const Span& span,
+                            const StepLength& step, const NewtonSolver& solver, KinematicStart& out,
+                            std::vector<std::string>& notes) {
+  const Driver& d = m.driver;
+  const int first = span.first, last = span.last, samples = reference.samples();
+  KinematicState state(m);
+  const double t0 = reference.time(first);
+  const double period = m.cycle_period();
+  const bool periodic =
+      first == 0 && last == samples - 1 && period > 0.0 &&
+      reference.time(last) - reference.time(first) + step.interval >= period * (1.0 - 1e-9);
+  out.preroll = periodic ? kPreroll : 0;
+  out.t_start = t0 - static_cast<double>(out.preroll) * step.dt;
+  state.q = reference_coordinates(original, reference, first);
+  state.driver = d.at_time(out.t_start);
+  state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
+  SolveReport start = solver.solve_position(state);
+  if (out.preroll > 0 && (start.status != PoseStatus::ok || start.rcond < config.singular_rcond)) {
+    out.preroll = 0;  // not assembled there after all: start at the sample
+    out.t_start = t0;
+    state.q = reference_coordinates(original, reference, first);
+    state.driver = d.at_time(t0);
+    state.driver.value = reference.driver(first);
+    start = solver.solve_position(state);
+  }
+  if (start.status != PoseStatus::ok && config.perturb_link.empty())
+    return "cannot assemble the scene at the first usable sample: " + start.message;
+  if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
+    state.q = reference_coordinates(original, reference, first);
+    notes.push_back("perturbed chain does not assemble at the first sample; started open");
+  }
+  out.driver_offset = reference.driver(first) - d.at_time(t0).value;
+  out.q = state.q;
+  const std::vector<Pose> poses = node_poses(m, plan, out.q);
+  const Edge& de = plan.edges[plan.driver_edge];
+  const bool driver_forward = de.kind != Edge::Kind::revolute || de.a == plan.parent[de.b];
+  // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
+  const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
+  out.coordinate0 = edge_sign * edge_coordinate(de, poses);
+  out.driver0 = state.driver.value;
+  // d(edge coordinate)/d(driver value): -1 only for a link angle read off a ground pivot
+  // written as [link, ground].
+  const double driver_sign =
+      (d.type == DriverType::link_angle && de.kind == Edge::Kind::revolute && de.b < 0) ? -1.0
+                                                                                        : 1.0;
+  out.sign = edge_sign * driver_sign;
+  return "";
+}
+
+// Step times from the first to the last usable sample, never beyond (but for a periodic run's
+// pre-roll). Default: each sample interval split into equal steps (steps_per_sample in a regular
+// one), so every sample is a step boundary; an explicit dt: uniform steps up to the last sample.
+std::vector<double> kinematic_times(const Trajectory& reference, const Span& span,
+                                    const Config& config, double dt, const KinematicStart& start) {
+  const double t0 = reference.time(span.first), t_end = reference.time(span.last);
+  const long preroll = start.preroll;
+  std::vector<double> time = {start.t_start};
+  if (config.dt == 0.0) {
+    for (long k = preroll - 1; k >= 0; --k) time.push_back(t0 - static_cast<double>(k) * dt);
+    for (int i = span.first + 1; i <= span.last; ++i) {
+      const double span_i = reference.time(i) - reference.time(i - 1);
+      const long n = std::max(1L, static_cast<long>(std::ceil(span_i / dt - 1e-9)));
+      for (long k = 1; k <= n; ++k)
+        time.push_back(k == n ? reference.time(i)
+                              : reference.time(i - 1) +
+                                    span_i * static_cast<double>(k) / static_cast<double>(n));
+    }
+    for (long k = 1; k <= preroll; ++k) time.push_back(t_end + static_cast<double>(k) * dt);
+  } else {
+    const double t_stop = t_end + static_cast<double>(preroll) * dt;
+    for (long k = 1; start.t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
+      time.push_back(start.t_start + static_cast<double>(k) * dt);
+  }
+  return time;
+}
+
+// Step stage of a kinematic run: the driver's target at the end of each step, the definition's
+// loads and springs at the pose it leaves, at that pose's velocity (a one-sided difference of the
+// last poses; the scene starts from rest), and the watch on the pose it reaches: NaN, the loop
+// gap, the driver.
+class KinematicStepper {
+ public:
+  KinematicStepper(const Mechanism& m, const Config& config, const KinematicStart& start,
+                   JointGap& gap, SceneStepper& stepper, History& history)
+      : m_(m),
+        start_(start),
+        gap_(gap),
+        stepper_(stepper),
+        history_(history),
+        loads_(m),
+        velocity_(history.pose.rows()),
+        gap_diverge_(config.divergence_gap * m.size()),
+        driver_tolerance_(m.driver.angular() ? config.driver_threshold
+                                             : config.driver_threshold * m.size()) {}
+
+  // The step to pose k; false when the run diverged there (history: where and why).
+  bool step(long k) {
+    const Driver& d = m_.driver;
+    const double t = history_.time[static_cast<size_t>(k)];
+    stepper_.scene().drive(start_.target(d, t));
+    apply_loads(k - 1);
+    const Eigen::VectorXd& q = stepper_.step(k);
+    double driver_error = 0.0;
+    const double gap = history_.gap(k) = gap_.at(q, start_.driver_at(d, t), driver_error);
+    worst_gap_ = std::max(worst_gap_, gap);
+    if (q.allFinite() && gap <= gap_diverge_ && !(driver_error > driver_tolerance_)) return true;
+    history_.last_good = k - 1;
+    const std::string why =
+        !q.allFinite() ? "NaN in the state"
+        : driver_error > driver_tolerance_
+            ? fmt::format("driver lost (off by {:.3e})", driver_error)
+            : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m", gap,
+                          gap_diverge_);
+    history_.divergence =
+        fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t, start_.driver_at(d, t), why);
+    return false;
+  }
+  double worst_gap() const { return worst_gap_; }
+
+ private:
+  void apply_loads(long k) {
+    if (!loads_.any()) return;
+    if (k > 0)
+      recent_velocity(k, history_.time, history_.poses(), velocity_);
+    else
+      velocity_.setZero();
+    stepper_.scene().apply(
+        loads_.at(history_.pose.col(k), velocity_,
+                  start_.driver_at(m_.driver, history_.time[static_cast<size_t>(k)])));
+  }
+  const Mechanism& m_;
+  const KinematicStart& start_;
+  JointGap& gap_;
+  SceneStepper& stepper_;
+  History& history_;
+  AppliedLoads loads_;
+  Eigen::VectorXd velocity_;
+  double gap_diverge_, driver_tolerance_;
+  double worst_gap_ = 0.0;
+};
+
+// Each sample's step: the one nearest it (lower_bound: the first step at or after the sample),
+// around which its difference stencil is taken.
+std::vector<long> nearest_steps(const Trajectory& reference, const Span& span,
+                                const std::vector<double>& time) {
+  const long steps = static_cast<long>(time.size()) - 1;
+  std::vector<long> nearest_step(static_cast<size_t>(reference.samples()), -1);
+  for (int i = span.first; i <= span.last; ++i) {
+    const double ti = reference.time(i);
+    const long k = std::lower_bound(time.begin(), time.end(), ti) - time.begin();
+    long nearest = std::min(k, steps);
+    if (k > 0 && k <= steps &&
+        ti - time[static_cast<size_t>(k - 1)] < time[static_cast<size_t>(k)] - ti)
+      nearest = k - 1;
+    nearest_step[static_cast<size_t>(i)] = nearest;
+  }
+  return nearest_step;
+}
+
+// Sample stage of a kinematic run: the polynomial through the steps of a sample's stencil at the
+// sample time (central differences when the sample is on a step; step 0, the exact start, a
+// transient without the residual of steady stepping, is never used, so the ends take one-sided
+// differences over the 4 nearest steps), and the statuses' measures there: the largest gap over
+// the stencil and the conditioning at the sampled pose. A sample the run did not reach is zero.
+class KinematicSampler {
+ public:
+  KinematicSampler(const Mechanism& m, const NewtonSolver& solver, const Trajectory& reference,
+                   const History& history)
+      : m_(m),
+        solver_(solver),
+        reference_(reference),
+        history_(history),
+        state_(m),
+        conditioning_(m) {}
+
+  // Sample i over `stencil`; false when the run did not reach it.
+  bool sample(int i, const std::vector<long>& stencil) {
+    state_.driver = m_.driver.at_time(reference_.time(i));
+    state_.driver.value = reference_.driver(i);
+    gap_ = 0.0;
+    rcond_ = 1.0;
+    if (stencil.back() > history_.last_good) {
+      state_.q.setZero();
+      state_.qdot.setZero();
+      state_.qddot.setZero();
+      return false;
+    }
+    difference_state(reference_.time(i), stencil, history_.time, history_.poses(), state_.q,
+                     state_.qdot, state_.qddot);
+    for (long n : stencil) gap_ = std::max(gap_, history_.gap(n));
+    rcond_ = conditioning_at(solver_, state_.q, conditioning_);
+    return true;
+  }
+  const KinematicState& state() const { return state_; }
+  double gap() const { return gap_; }
+  double rcond() const { return rcond_; }
+
+ private:
+  const Mechanism& m_;
+  const NewtonSolver& solver_;
+  const Trajectory& reference_;
+  const History& history_;
+  KinematicState state_, conditioning_;
+  double gap_ = 0.0, rcond_ = 1.0;
+};
+
+// Statuses stage of a kinematic run: the shared judge with Bullet's measures, and the branch: the
+// sampled configuration closed exactly on the definition (Newton at the reference's driver value,
+// even with perturb_link) must be the reference's.
+class KinematicStatuses {
+ public:
+  KinematicStatuses(const Mechanism& original, const Mechanism& m, const Trajectory& reference,
+                    const Span& span, const Config& config)
+      : original_(original),
+        reference_(reference),
+        definition_(original),
+        closed_(original),
+        judge_(
+            reference, span,
+            {config.loop_gap_threshold * m.size(), config.singular_rcond, config.branch_distance},
+            true) {}
+  StatusJudge& judge() { return judge_; }
+  PoseStatus status(int i, const KinematicSampler& sampled, Trajectory& out) {
+    return judge_.judge(
+        i, sampled.gap(), sampled.rcond(),
+        [&] {
+          closed_.q = sampled.state().q;
+          closed_.driver = sampled.state().driver;
+          if (definition_.solve_position(closed_).status != PoseStatus::ok) return -1.0;
+          return configuration_distance(closed_.q, reference_coordinates(original_, reference_, i),
+                                        original_.size());
+        },
+        out);
+  }
+
+ private:
+  const Mechanism& original_;
+  const Trajectory& reference_;
+  const NewtonSolver definition_;
+  KinematicState closed_;
+  StatusJudge judge_;
+};
+
+// Sample, read forces and judge each sample off the history: samples outside the usable span
+// keep the reference's flag and no value; a flagged sample inside it (a change point on a sample)
+// is run through and keeps its flag. A sample's forces are read when every step its force
+// stencil needs was taken.
+void write_samples(const Trajectory& reference, const SamplePlan& plan, const History& history,
+                   double worst_gap, const NewtonSolver& solver, KinematicSampler& sampler,
+                   BulletForces* forces, KinematicStatuses& statuses, Trajectory& out) {
+  for (int i = 0; i < reference.samples(); ++i) {
+    const auto row = static_cast<size_t>(i);
+    out.time(i) = reference.time(i);
+    out.driver(i) = reference.driver(i);
+    if (statuses.judge().outside(i, out)) continue;
+    SolveReport report;
+    report.status = sampler.sample(i, plan.stencil[row]) ? statuses.status(i, sampler, out)
+                                                         : statuses.judge().lost(i);
+    solver.write_sample(sampler.state(), report, out, i);
+    const ForceStencil& fs = plan.forces[row];
+    if (forces && report.status != PoseStatus::diverged && !fs.steps.empty() &&
+        fs.steps.back() + 1 <= history.last_good)
+      forces->write(i, fs, sampler.state(), out);
+    out.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : sampler.gap();
+    out.time(i) = reference.time(i);
+    out.driver(i) = reference.driver(i);
+    out.rcond(i) = sampler.rcond();
+  }
+}
+
+// Notes stage of a kinematic run: the events of the statuses' counts, the notes, and the
+// divergence first.
+void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span& span,
+                    const Config& config, const StatusJudge& judge, const History& history,
+                    double worst_gap, const KinematicStart& start, const StepLength& step,
+                    const Scene& scene, std::vector<std::string>& notes, EngineRun& run) {
+  Trajectory& tr = run.trajectory;
+  const int first = span.first, last = span.last, samples = reference.samples();
+  if (const int flagged = judge.loop_gaps())
+    tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
+                         fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
+                                     flagged, config.loop_gap_threshold * m.size(), worst_gap)});
+  if (const int near_singular = judge.singular())
+    tr.events.push_back(
+        {reference.driver(judge.first_singular()), PoseStatus::singular,
+         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
+                     "engine may have changed branch there",
+                     near_singular, config.singular_rcond)});
+  if (const int jumped = judge.jumped()) {
+    tr.events.push_back(
+        {reference.driver(judge.first_jump()), PoseStatus::branch_jump,
+         fmt::format("{} samples on another assembly mode than the "
+                     "reference (closed configuration more than {:.1e} of the size or rad away)",
+                     jumped, config.branch_distance)});
+    notes.push_back(branch_jump_note(jumped));
+  }
+  if (first > 0 || last < samples - 1)
+    notes.push_back(fmt::format(
+        "run over the reference's usable samples {} .. {} (driver {:.6g} .. {:.6g}); the {} "
+        "samples outside keep the reference's flag and carry no engine value",
+        first, last, reference.driver(first), reference.driver(last),
+        first + (samples - 1 - last)));
+  if (judge.kept()) notes.push_back(kept_note(judge.kept(), true));
+  if (!history.divergence.empty()) {
+    run.ok = false;
+    const long after = std::min(history.last_good + 1, history.steps());
+    tr.events.push_back({start.driver_at(m.driver, history.time[static_cast<size_t>(after)]),
+                         PoseStatus::diverged, history.divergence});
+    notes.insert(notes.begin(), history.divergence);
+  }
+  note_fallbacks(scene, notes);
+  if (config.dt != 0.0 &&
+      std::abs(step.interval / step.dt - std::round(step.interval / step.dt)) > 1e-6)
+    notes.push_back("dt does not divide the sample interval: samples interpolated");
+}
+
+// ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
 // no driver, started from the exact state of the reference's first usable sample, the loads and
 // the applied effort on the bodies every step, sampled at the reference's times (which fall on
@@ -1826,441 +2222,78 @@ class BulletEngine final : public Engine {
                 const Settings& overrides) const override;
 };
 
+// A kinematic run: plan, build, step, then sample, read forces and judge each sample, and the
+// notes (the stages above).
 EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& reference,
                             const Settings& overrides) const {
   if (original.dynamics) return run_dynamics(original, reference, overrides);
-  using Clock = std::chrono::steady_clock;
-  const auto t_build = Clock::now();
+  const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "bullet";
   out.trajectory.resize(original, reference.samples());
-  Config config;
-  auto fail = [&](const std::string& message) {
-    out.ok = false;
-    out.message = message;
-    std::fill(out.trajectory.status.begin(), out.trajectory.status.end(), PoseStatus::diverged);
-    return out;
-  };
+  Prepared p;
+  try {
+    p = prepare(original, reference, overrides, out.trajectory);
+  } catch (const std::exception& e) {
+    return failed(std::move(out), e.what());
+  }
+  Config& config = p.config;
+  const Mechanism& m = p.m;
+  const StepLength step = kinematic_step(reference, p.span, config);
+  out.settings = kinematic_settings(config, step);
+  // Refused before the scene is built: the history keeps every step.
+  try {
+    check_steps(
+        (reference.time(p.span.last) - reference.time(p.span.first)) / step.dt + 2.0 * kPreroll,
+        step.dt, config.max_steps);
+  } catch (const std::exception& e) {
+    return failed(std::move(out), e.what());
+  }
+
+  Plan plan;
   std::vector<std::string> notes;
-  if (!btIsDoublePrecision()) return fail("Bullet is not the float64 build");
-
-  Mechanism m;
-  try {
-    config = parse_settings(overrides);
-    m = perturbed(original, config);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-  const int samples = reference.samples();
-  const double size = m.size();
-  const Driver& d = m.driver;
-  out.trajectory.time = reference.time;
-  out.trajectory.driver = reference.driver;
-
-  // The usable span: the run starts at the reference's first usable (ok) sample and stops at
-  // its last; outside them the reference is at or past an assembly limit.
-  Span span;
-  try {
-    span = usable_span(reference);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-  const int first = span.first, last = span.last;
-
-  // Time step: samples fall on step boundaries unless an explicit dt does not divide the
-  // sample interval (then the local polynomial through the nearest steps is evaluated there).
-  const double interval = reference.time(first + 1) - reference.time(first);
-  for (int i = 1; i < samples; ++i)
-    if (!(reference.time(i) > reference.time(i - 1)))
-      return fail("the reference's sample times do not increase");
-  double dt = config.dt;
-  int steps_per_sample = config.steps_per_sample;
-  if (dt == 0.0) {
-    // One step length for the whole run (the O(dt^2) residual of each step depends on its
-    // length, so a stencil across a change of length would see a jump): steps_per_sample per
-    // sample interval, more if the reference's fastest link would turn more than max_step_angle
-    // in a step (near an assembly limit the links turn ever faster against the driver).
-    double fastest = 0.0;
-    for (int i = first; i <= last; ++i)
-      if (usable(reference.status[static_cast<size_t>(i)]) && reference.omega.cols() > 0)
-        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
-    if (config.max_step_angle > 0.0)
-      steps_per_sample = std::max<int>(
-          steps_per_sample,
-          static_cast<int>(std::ceil(fastest * interval / config.max_step_angle - 1e-9)));
-    dt = interval / steps_per_sample;
-  }
-
-  auto settings_out = [&]() {
-    out.settings = {
-        {"formulation", config.formulation},
-        {"solver", config.solver},
-        {"dt", format_number(dt)},
-        {"steps_per_sample",
-         config.dt == 0.0 ? std::to_string(steps_per_sample) : format_number(interval / dt)},
-        {"max_step_angle",
-         config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
-        {"iterations", std::to_string(config.iterations)},
-        {"erp", format_number(config.erp)},
-        {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-        {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
-        {"divergence_gap", format_number(config.divergence_gap)},
-        {"driver_threshold", format_number(config.driver_threshold)},
-        {"split_impulse", config.split_impulse ? "1" : "0"},
-        {"mass_model", "the definition's (Link::mass)"},
-        {"forces", config.formulation == "rigid"
-                       ? "btJointFeedback of the step leaving each sampled pose"
-                       : "not read (multibody joint feedback is wrong in 3.24)"},
-        {"singular_rcond", format_number(config.singular_rcond)},
-        {"branch_distance", format_number(config.branch_distance)},
-        {"perturb_link", config.perturb_link.empty()
-                             ? ""
-                             : config.perturb_link + ":" + format_number(config.perturb_factor)}};
-  };
-  settings_out();
-  // Refused before the scene is built: the history below keeps every step.
-  try {
-    check_steps((reference.time(last) - reference.time(first)) / dt + 2.0 * kPreroll, dt,
-                config.max_steps);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-
-  // Plan the scene; the multibody formulation falls back to rigid bodies when its tree
-  // cannot be cut at revolute joints.
-  Plan plan = make_plan(m);
-  if (plan.driver_edge < 0) return fail("the driver is not a joint the scene can drive");
   std::string why;
-  make_tree(plan, &why);
-  if (plan.order.empty()) return fail(why);
-  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
-    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
-    config.formulation = "rigid";
-    settings_out();
-  }
-  // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
-  // wrong in 3.24 (bullet3 issues 2966, 4604; measured 1.2-2x at a pivot, engine-notes.md).
+  if (!plan_scene(m, true, config, plan, notes, why)) return failed(std::move(out), why);
+  out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
   const bool with_forces = config.formulation == "rigid";
-  out.trajectory.resize(original, samples, with_forces);
-  out.trajectory.time = reference.time;
-  out.trajectory.driver = reference.driver;
-  if (!with_forces)
-    notes.push_back(
-        "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
-        "(bullet3 issues 2966, 4604)");
-  if (plan.driver_planar)
-    notes.push_back(
-        "link-angle driver realised directly: the driven link's absolute angle is a joint "
-        "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
-        "locking only its rotation)");
-  if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
-      d.type == DriverType::link_angle)
-    notes.push_back("link-angle driver realised as the angle of its ground pivot");
-
-  // Start: the exact assembled configuration at the first usable sample. The engine is not
-  // driven outside the usable samples: at their ends the samples are read with one-sided
-  // differences over the steps after the start (or before the end). Only a sweep over the whole
-  // cycle, usable throughout, is periodic: there the run starts kPreroll steps before the first
-  // sample and ends kPreroll after the last (the end of the previous and the start of the next
-  // cycle), at the default steps and at an explicit dt alike, so that every sample has a
-  // central stencil clear of the start's transient.
+  shape(out.trajectory, original, reference, with_forces, false);
   const NewtonSolver solver(m);
-  KinematicState state(m);
-  const double t0 = reference.time(first);
-  const double period = m.cycle_period();
-  const bool periodic =
-      first == 0 && last == samples - 1 && period > 0.0 &&
-      reference.time(last) - reference.time(first) + interval >= period * (1.0 - 1e-9);
-  long preroll = periodic ? kPreroll : 0;
-  double t_start = t0 - static_cast<double>(preroll) * dt;
-  state.q = reference_coordinates(original, reference, first);
-  state.driver = d.at_time(t_start);
-  state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
-  SolveReport start = solver.solve_position(state);
-  if (preroll > 0 && (start.status != PoseStatus::ok || start.rcond < config.singular_rcond)) {
-    preroll = 0;  // not assembled there after all: start at the sample
-    t_start = t0;
-    state.q = reference_coordinates(original, reference, first);
-    state.driver = d.at_time(t0);
-    state.driver.value = reference.driver(first);
-    start = solver.solve_position(state);
-  }
-  if (start.status != PoseStatus::ok && config.perturb_link.empty())
-    return fail("cannot assemble the scene at the first usable sample: " + start.message);
-  if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
-    state.q = reference_coordinates(original, reference, first);
-    notes.push_back("perturbed chain does not assemble at the first sample; started open");
-  }
-  const double driver_offset = reference.driver(first) - d.at_time(t0).value;
-  const Eigen::VectorXd q_start = state.q;
-  const std::vector<Pose> poses = node_poses(m, plan, q_start);
-  const Edge& de = plan.edges[plan.driver_edge];
-  const bool driver_forward = de.kind != Edge::Kind::revolute || de.a == plan.parent[de.b];
-  // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
-  const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
-  const double coordinate0 = edge_sign * edge_coordinate(de, poses);
-  const double driver0 = state.driver.value;
-  // d(edge coordinate)/d(driver value): -1 only for a link angle read off a ground pivot
-  // written as [link, ground].
-  const double driver_sign =
-      (d.type == DriverType::link_angle && de.kind == Edge::Kind::revolute && de.b < 0) ? -1.0
-                                                                                        : 1.0;
-  auto target_at = [&](double t) {
-    return coordinate0 + edge_sign * driver_sign * (d.at_time(t).value + driver_offset - driver0);
-  };
-
+  KinematicStart start;
+  if (why =
+          kinematic_start(original, m, plan, config, reference, p.span, step, solver, start, notes);
+      !why.empty())
+    return failed(std::move(out), why);
   std::unique_ptr<Scene> scene;
-  try {
-    if (config.formulation == "multibody")
-      scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config, m.gravity);
-    else
-      scene = std::make_unique<RigidScene>(m, plan, poses, coordinate0, config);
-  } catch (const std::exception& e) {
-    return fail(std::string("scene build failed: ") + e.what());
-  }
+  if (why = build_scene(m, plan, config, start.q, start.coordinate0, nullptr, scene); !why.empty())
+    return failed(std::move(out), why);
+  SceneStepper stepper(m, plan, *scene, start.q);
+  if (why = stepper.check_start(start.q); !why.empty()) return failed(std::move(out), why);
 
-  // Readout: node centre-of-mass frames -> mechanism coordinates, angles unwrapped.
-  std::vector<Pose> frames;
-  Eigen::VectorXd q = q_start;
-  auto read_q = [&]() { read_coordinates(*scene, plan, m, frames, q); };
-  read_q();
-  const double build_mismatch = (q - q_start).cwiseAbs().maxCoeff();
-  if (!(build_mismatch < 1e-9 * std::max(size, 1.0)))
-    return fail(fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
-                            build_mismatch));
-
-  // Loop gap: the largest violation of any joint (prismatic angle rows times the size).
-  Eigen::VectorXd phi(m.coordinate_count());
-  std::vector<double> angle_row(static_cast<size_t>(m.coordinate_count()), 0.0);
-  {
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      if (j.type == JointType::prismatic) angle_row[static_cast<size_t>(row + 1)] = 1.0;
-      row += 3 - j.dof();
-    }
-  }
-  auto gap_and_driver = [&](double driver_value, double& driver_error) {
-    solver.residual(q, driver_value, phi);
-    double gap = 0.0;
-    for (Eigen::Index r = 0; r + 1 < phi.size(); ++r)
-      gap = std::max(gap, std::abs(phi(r)) * (angle_row[static_cast<size_t>(r)] ? size : 1.0));
-    driver_error = std::abs(phi(phi.size() - 1));
-    if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
-    return gap;
-  };
-
-  // Step times from the first to the last usable sample, never beyond. Default: each sample
-  // interval split into equal steps (steps_per_sample in a regular one), so every sample is a
-  // step boundary; an explicit dt: uniform steps up to the last sample.
-  const double t_end = reference.time(last);
-  std::vector<double> step_time = {t_start};
-  if (config.dt == 0.0) {
-    for (long k = preroll - 1; k >= 0; --k) step_time.push_back(t0 - static_cast<double>(k) * dt);
-    for (int i = first + 1; i <= last; ++i) {
-      const double span_i = reference.time(i) - reference.time(i - 1);
-      const long n = std::max(1L, static_cast<long>(std::ceil(span_i / dt - 1e-9)));
-      for (long k = 1; k <= n; ++k)
-        step_time.push_back(k == n ? reference.time(i)
-                                   : reference.time(i - 1) +
-                                         span_i * static_cast<double>(k) / static_cast<double>(n));
-    }
-    for (long k = 1; k <= preroll; ++k) step_time.push_back(t_end + static_cast<double>(k) * dt);
-  } else {
-    const double t_stop = t_end + static_cast<double>(preroll) * dt;
-    for (long k = 1; t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
-      step_time.push_back(t_start + static_cast<double>(k) * dt);
-  }
-  const long steps = static_cast<long>(step_time.size()) - 1;
-  if (steps < 3)
-    return fail(fmt::format(
-        "only {} steps between the first and last usable samples: too few for differences", steps));
-  Eigen::MatrixXd history(q.size(), steps + 1);
-  Eigen::VectorXd gaps = Eigen::VectorXd::Zero(steps + 1);
-  history.col(0) = q;
-  // The definition's loads and springs at pose k, at its velocity: a one-sided difference of the
-  // last poses (the scene starts from rest).
-  AppliedLoads loads(m);
-  Eigen::VectorXd velocity(q.size());
-  const PoseAt pose = [&](long k) -> Eigen::Ref<const Eigen::VectorXd> { return history.col(k); };
-  // The scene starts from rest: no velocity at pose 0.
-  auto apply_loads = [&](long k) {
-    if (!loads.any()) return;
-    if (k > 0)
-      recent_velocity(k, step_time, pose, velocity);
-    else
-      velocity.setZero();
-    scene->apply(loads.at(history.col(k), velocity,
-                          d.at_time(step_time[static_cast<size_t>(k)]).value + driver_offset));
-  };
-  // Forces of each pose, read after the step that leaves it.
-  std::vector<ForceReading> readings(with_forces ? static_cast<size_t>(steps + 1) : 0,
-                                     ForceReading(m.joints.size()));
-  const double gap_flag = config.loop_gap_threshold * size;
-  const double gap_diverge = config.divergence_gap * size;
-  const double driver_tolerance =
-      d.angular() ? config.driver_threshold : config.driver_threshold * size;
-  long last_good = steps;  // last step before divergence
-  std::string divergence;
-  double worst_gap = 0.0;
-
+  History& history =
+      stepper.begin(kinematic_times(reference, p.span, config, step.dt, start), with_forces);
+  if (history.steps() < 3)
+    return failed(std::move(out), fmt::format("only {} steps between the first and last usable "
+                                              "samples: too few for differences",
+                                              history.steps()));
+  JointGap gap(m, solver);
+  KinematicStepper kinematic(m, config, start, gap, stepper, history);
   const auto t_steps = Clock::now();
   const double cpu_start = thread_cpu_seconds();
-  for (long k = 1; k <= steps; ++k) {
-    const double t = step_time[static_cast<size_t>(k)];
-    scene->drive(target_at(t));
-    apply_loads(k - 1);
-    scene->step(t - step_time[static_cast<size_t>(k - 1)]);
-    if (with_forces)
-      read_rigid_forces(m, *scene, history.col(k - 1), readings[static_cast<size_t>(k - 1)]);
-    read_q();
-    double driver_error = 0.0;
-    gaps(k) = gap_and_driver(d.at_time(t).value + driver_offset, driver_error);
-    history.col(k) = q;
-    worst_gap = std::max(worst_gap, gaps(k));
-    if (!q.allFinite() || !(gaps(k) <= gap_diverge) || driver_error > driver_tolerance) {
-      last_good = k - 1;
-      divergence = !q.allFinite() ? "NaN in the state"
-                   : driver_error > driver_tolerance
-                       ? fmt::format("driver lost (off by {:.3e})", driver_error)
-                       : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m",
-                                     gaps(k), gap_diverge);
-      divergence = fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t,
-                               d.at_time(t).value + driver_offset, divergence);
-      break;
-    }
+  for (long k = 1; k <= history.steps() && kinematic.step(k); ++k) {
   }
   const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
   const double stepping_cpu = thread_cpu_seconds() - cpu_start;
-  const long taken = last_good < steps ? last_good + 1 : steps;
 
-  // Samples: the polynomial through the steps k-1, k, k+1 (k the nearest step) at the sample
-  // time, i.e. central differences when the sample is on step k. Step 0 (the exact start, a
-  // transient: it lacks the residual of steady stepping) is never used, so at the first usable
-  // sample, and at the last where no step follows, the 4 nearest steps give one-sided
-  // differences. Samples outside the usable span keep the reference's flag and no value; a
-  // flagged sample inside it (a change point on a sample) is run through and keeps its flag.
-  // Plan: each sample's difference stencil around the step nearest it (lower_bound: the first
-  // step at or after the sample) and its force stencil.
-  std::vector<long> nearest_step(static_cast<size_t>(samples), -1);
-  for (int i = first; i <= last; ++i) {
-    const double ti = reference.time(i);
-    const long k = std::lower_bound(step_time.begin(), step_time.end(), ti) - step_time.begin();
-    long nearest = std::min(k, steps);
-    if (k > 0 && k <= steps &&
-        ti - step_time[static_cast<size_t>(k - 1)] < step_time[static_cast<size_t>(k)] - ti)
-      nearest = k - 1;
-    nearest_step[static_cast<size_t>(i)] = nearest;
-  }
-  const SamplePlan sample_plan =
-      plan_samples(reference, span, step_time, nearest_step, with_forces);
-
-  // Sample, read forces and judge each sample from the step history: samples outside the usable
-  // span keep the reference's flag and no value; a flagged sample inside it (a change point on
-  // a sample) is run through and keeps its flag.
-  const NewtonSolver definition(original);  // the definition, even with perturb_link
-  KinematicState sample(m), conditioning(m), closed(original);
-  Trajectory& tr = out.trajectory;
-  StatusJudge judge(reference, span, {gap_flag, config.singular_rcond, config.branch_distance},
-                    true);
-  ForceReading combined(m.joints.size());
-  for (int i = 0; i < samples; ++i) {
-    const auto row = static_cast<size_t>(i);
-    tr.time(i) = reference.time(i);
-    tr.driver(i) = reference.driver(i);
-    if (judge.outside(i, tr)) continue;
-    const std::vector<long>& nodes = sample_plan.stencil[row];
-    sample.driver = d.at_time(reference.time(i));
-    sample.driver.value = reference.driver(i);
-    SolveReport report;
-    double gap = 0.0, rcond = 1.0;
-    if (nodes.back() > last_good) {
-      report.status = judge.lost(i);
-      sample.q.setZero();
-      sample.qdot.setZero();
-      sample.qddot.setZero();
-    } else {
-      difference_state(reference.time(i), nodes, step_time, pose, sample.q, sample.qdot,
-                       sample.qddot);
-      for (long n : nodes) gap = std::max(gap, gaps(n));
-      // Near a singular position the engine may take either branch without opening a gap:
-      // the conditioning of the constraint Jacobian at the sampled pose flags it.
-      conditioning.q = sample.q;
-      conditioning.driver.value = solver.driver_value(sample.q);
-      rcond = solver.solve_position(conditioning).rcond;
-      // Branch: the sampled configuration closed exactly on the definition (Newton at the
-      // reference's driver value) must be the reference's.
-      report.status = judge.judge(
-          i, gap, rcond,
-          [&] {
-            closed.q = sample.q;
-            closed.driver = sample.driver;
-            if (definition.solve_position(closed).status != PoseStatus::ok) return -1.0;
-            return configuration_distance(closed.q, reference_coordinates(original, reference, i),
-                                          original.size());
-          },
-          tr);
-    }
-    solver.write_sample(sample, report, tr, i);
-    const ForceStencil& fs = sample_plan.forces[row];
-    if (with_forces && report.status != PoseStatus::diverged && !fs.steps.empty() &&
-        fs.steps.back() + 1 <= last_good) {
-      combine_readings(
-          fs, [&](long k) -> const ForceReading& { return readings[static_cast<size_t>(k)]; },
-          combined);
-      write_forces(m, sample, combined, tr, i);
-    }
-    tr.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : gap;
-    tr.time(i) = reference.time(i);
-    tr.driver(i) = reference.driver(i);
-    tr.rcond(i) = rcond;
-  }
-  if (const int flagged = judge.loop_gaps())
-    tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
-                         fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
-                                     flagged, gap_flag, worst_gap)});
-  if (const int near_singular = judge.singular())
-    tr.events.push_back(
-        {reference.driver(judge.first_singular()), PoseStatus::singular,
-         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
-                     "engine may have changed branch there",
-                     near_singular, config.singular_rcond)});
-  if (const int jumped = judge.jumped()) {
-    tr.events.push_back(
-        {reference.driver(judge.first_jump()), PoseStatus::branch_jump,
-         fmt::format("{} samples on another assembly mode than the "
-                     "reference (closed configuration more than {:.1e} of the size or rad away)",
-                     jumped, config.branch_distance)});
-    notes.push_back(branch_jump_note(jumped));
-  }
-  if (first > 0 || last < samples - 1)
-    notes.push_back(fmt::format(
-        "run over the reference's usable samples {} .. {} (driver {:.6g} .. {:.6g}); the {} "
-        "samples outside keep the reference's flag and carry no engine value",
-        first, last, reference.driver(first), reference.driver(last),
-        first + (samples - 1 - last)));
-  if (judge.kept()) notes.push_back(kept_note(judge.kept(), true));
-
-  if (!divergence.empty()) {
-    out.ok = false;
-    tr.events.push_back(
-        {d.at_time(step_time[static_cast<size_t>(std::min(last_good + 1, steps))]).value +
-             driver_offset,
-         PoseStatus::diverged, divergence});
-    notes.insert(notes.begin(), divergence);
-  }
-  if (const int fb = scene->fallbacks(); fb > 0)
-    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
-  if (config.dt != 0.0 && std::abs(interval / dt - std::round(interval / dt)) > 1e-6)
-    notes.push_back("dt does not divide the sample interval: samples interpolated");
-
-  out.cost.steps = taken;
-  out.cost.simulated_seconds = step_time[static_cast<size_t>(taken)] - t_start;
-  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - t_build).count();
-  out.cost.wall_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping * period / out.cost.simulated_seconds : 0.0;
-  out.cost.cpu_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping_cpu * period / out.cost.simulated_seconds : 0.0;
-  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+  const SamplePlan sample_plan = plan_samples(
+      reference, p.span, history.time, nearest_steps(reference, p.span, history.time), with_forces);
+  KinematicSampler sampler(m, solver, reference, history);
+  KinematicStatuses statuses(original, m, reference, p.span, config);
+  write_samples(reference, sample_plan, history, kinematic.worst_gap(), solver, sampler,
+                stepper.forces(), statuses, out.trajectory);
+  note_kinematic(m, reference, p.span, config, statuses.judge(), history, kinematic.worst_gap(),
+                 start, step, *scene, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), m.cycle_period(), stepping,
+         stepping_cpu, begin, notes, out);
   return out;
 }
 
