@@ -1191,7 +1191,8 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
     config.formulation = "rigid";
   }
   // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
-  // wrong in 3.24 (bullet3 issues 2966, 4604; measured 1.2-2x at a pivot, engine-notes.md).
+  // wrong in 3.24 (bullet3 issues 2966, 4604): it reads the velocity terms twice
+  // (tests/sim/bullet/test_bullet_joint_feedback.cpp).
   if (config.formulation != "rigid")
     notes.push_back(
         "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
