@@ -1,6 +1,7 @@
 // Engine forces against the exact kinetostatics: the driver's effort, every joint's reaction and
 // the shaking force of each engine, worst % of the exact value's peak (sim::force_agreement), and
-// the wall time per simulated cycle, for every mechanisms/*.toml without and with gravity, at the
+// the wall time per simulated cycle, for every kinematic mechanisms/*.toml and
+// mechanisms/published/*.toml without and with gravity, at the
 // defaults and over the stabilisation and the step. Prints CSV (docs/engines.md, "Forces"). Run
 // from the source root:
 //   build/bench/force_accuracy            defaults only
@@ -88,9 +89,13 @@ std::string setting(const Settings& s, const std::string& name) {
 
 int main(int argc, char** argv) {
   const bool sweep = argc > 1 && std::strcmp(argv[1], "--sweep") == 0;
+  // The kinematic definitions (a dynamics case's forces are compared along its forward
+  // dynamics: bench/dynamics_accuracy), bundled and published.
   std::vector<std::filesystem::path> files;
-  for (const auto& e : std::filesystem::directory_iterator("mechanisms"))
-    if (e.path().extension() == ".toml") files.push_back(e.path());
+  for (const char* folder : {"mechanisms", "mechanisms/published"})
+    for (const auto& e : std::filesystem::directory_iterator(folder))
+      if (e.path().extension() == ".toml" && !crosslink::load_mechanism(e.path().string()).dynamics)
+        files.push_back(e.path());
   std::sort(files.begin(), files.end());
   fmt::print(
       "engine,mechanism,gravity,setting,dt,steps,effort_pct,reaction_pct,worst_joint,couple_pct,"

@@ -121,6 +121,19 @@ double reference_energy_scale(const Mechanism& m, const Trajectory& reference) {
   return std::max(kinetic, high > low ? high - low : 0.0);
 }
 
+double driver_inertia(const Mechanism& m, const Trajectory& reference) {
+  DynamicsLoads balance(m);
+  double inertia = 0.0;
+  for (int k = 0; k < reference.samples(); ++k) {
+    if (!usable(reference.status[static_cast<size_t>(k)])) continue;
+    const ReferenceState s = reference_state(m, reference, k);
+    const double rate = balance.rate(s.q, s.qdot);
+    if (rate != 0.0)
+      inertia = std::max(inertia, 2.0 * balance.kinetic(s.q, s.qdot) / (rate * rate));
+  }
+  return inertia;
+}
+
 double auxiliary_mass(const Mechanism& m) {
   double lightest = std::numeric_limits<double>::infinity();
   for (const Link& link : m.links)

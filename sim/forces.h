@@ -75,6 +75,11 @@ class DynamicsLoads {
 // peak kinetic energy and the range of the potential energy over its usable samples [J].
 double reference_energy_scale(const Mechanism& m, const Trajectory& reference);
 
+// The largest generalised inertia along the driver coordinate over the reference's usable
+// samples, 2 T / (rate of the coordinate)^2 with T the kinetic energy (Link::mass): what the
+// driver moves, in kg m^2 for an angle or kg for a slider; 0 when the coordinate is never moving.
+double driver_inertia(const Mechanism& m, const Trajectory& reference);
+
 // Mass of a body an engine needs that the mechanism does not have (a pin-in-slot's sliding
 // block): 1e-6 of the lightest link, so its d'Alembert force m a is below 1e-6 of the forces
 // of the links around it (docs/engines.md).

@@ -74,6 +74,7 @@ struct Config {
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
   std::string force_read = "centred";  // centred | raw (docs/engines.md, "Forces")
+  std::string driver_armature = "auto";
   long max_steps = kDefaultMaxSteps;
   // Forward dynamics only (docs/engines.md, "Forward dynamics").
   std::string start = "auto";      // staggered | exact; auto: staggered for Euler and implicit
@@ -117,6 +118,7 @@ Config parse_settings(const Settings& overrides) {
                                                     {"driver_threshold", &c.driver_threshold},
                                                     {"perturb_link", &c.perturb_link},
                                                     {"force_read", &c.force_read},
+                                                    {"driver_armature", &c.driver_armature},
                                                     {"start", &c.start},
                                                     {"readout", &c.readout},
                                                     {"singular_rcond", &c.singular_rcond}};
@@ -129,6 +131,7 @@ Config parse_settings(const Settings& overrides) {
       c.tolerance = parse_number(name, value);
     } else if (name == "max_step_angle") {
       c.max_step_angle = parse_number(name, value);
+
     } else if (name == "max_steps") {
       c.max_steps = parse_max_steps(value);
     } else if (name == "energy_threshold") {
@@ -139,7 +142,7 @@ Config parse_settings(const Settings& overrides) {
       throw std::runtime_error(fmt::format(
           "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
           "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
-          "driver_threshold, perturb_link, force_read, max_steps, start, readout, "
+          "driver_threshold, perturb_link, force_read, driver_armature, max_steps, start, readout, "
           "energy_threshold, divergence_energy, singular_rcond)",
           name));
     }
@@ -159,6 +162,8 @@ Config parse_settings(const Settings& overrides) {
   if (c.readout != "auto" && c.readout != "differences" && c.readout != "state")
     throw std::runtime_error(
         fmt::format("setting readout = \"{}\": expected auto, differences or state", c.readout));
+  if (c.driver_armature != "auto" && parse_number("driver_armature", c.driver_armature) < 0.0)
+    throw std::runtime_error("setting driver_armature: auto, or 0 or more");
   return c;
 }
 
@@ -275,6 +280,24 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   o.driver_solimp = solimp_of("driver_solimp", c.driver_solimp);
   o.gravity = m.gravity;
   return o;
+}
+
+// The rotor inertia the driven joint gets. MuJoCo keeps 1 - dmax = 1e-4 of softness in every
+// equality row, scaled by the row's inverse inertia: a driven joint that is light against what
+// it drives (Khurmi's massless crank on a 250 kg piston: 6e-6 against 22 kg m^2) gives way, and
+// the driver is lost. auto: whatever tops the joint's own inertia up to 1e-2 of `inertia` (the
+// generalised inertia the driver moves, driver_inertia()); the readers take the armature's share
+// back out of the effort. A tendon driver has no armature in 2.2.2.
+double driver_armature(const Config& c, const Scene& s, double inertia) {
+  if (c.driver_armature != "auto") return parse_number("driver_armature", c.driver_armature);
+  if (s.driven.joint < 0 || s.driven.tendon) return 0.0;
+  const SceneJoint& j = s.joints[static_cast<size_t>(s.driven.joint)];
+  const SceneLink& child = s.links[static_cast<size_t>(j.child)];
+  const Eigen::Vector2d at = j.child == j.b ? j.ub : j.ua;
+  const double own = j.kind == SceneJoint::Kind::hinge
+                         ? child.inertia + child.mass * (child.centre - at).squaredNorm()
+                         : child.mass;
+  return std::max(0.0, 1e-2 * inertia - own);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -397,6 +420,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   p.start = *start;
   p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
+  p.options.driver_armature = driver_armature(p.config, p.scene, driver_inertia(m, reference));
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
   return p;
 }
@@ -479,6 +503,10 @@ class ForceReader {
     };
     for (size_t l = 0; l < s.links.size(); ++l) body_.push_back(body(static_cast<int>(l)));
     driver_eq_ = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    if (driver_eq_ >= 0 && !s.driven.tendon) {
+      const int joint = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven.joint].name.c_str());
+      driven_dof_ = mm->jnt_dofadr[joint];
+    }
     for (const SceneJoint& j : s.joints)
       cut_eq_.push_back(j.in_tree ? -1 : mj_name2id(mm, mjOBJ_EQUALITY, j.name.c_str()));
   }
@@ -533,7 +561,13 @@ class ForceReader {
         if (d2->efc_type[r] == mjCNSTR_EQUALITY && d2->efc_id[r] == eq) return r;
       throw std::runtime_error("MuJoCo: no constraint row for an equality");
     };
-    out.effort = driver_eq_ >= 0 ? s_.driven.sign * force(row_of(driver_eq_)) : 0.0;
+    if (driver_eq_ >= 0) {
+      // The driver moves the driven joint's armature too (driver_armature): its share, the
+      // armature times the joint's acceleration, is not the linkage's.
+      double on_joint = force(row_of(driver_eq_));
+      if (driven_dof_ >= 0) on_joint -= mm_->dof_armature[driven_dof_] * d2->qacc[driven_dof_];
+      out.effort = s_.driven.sign * on_joint;
+    }
     for (size_t ji = 0; ji < s_.joints.size(); ++ji) {
       const SceneJoint& j = s_.joints[ji];
       const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
@@ -589,6 +623,7 @@ class ForceReader {
   std::vector<int> body_;    // per scene link: MuJoCo body id (world 0)
   std::vector<int> cut_eq_;  // per scene joint: its connect equality, -1 in the tree
   int driver_eq_ = -1;
+  int driven_dof_ = -1;  // the driven tree joint's degree of freedom (-1: a tendon driver)
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -801,6 +836,7 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
       {
           {"driver_solref", numbers(p.options.driver_solref)},
           {"driver_solimp", numbers(p.options.driver_solimp)},
+          {"driver_armature", fmt::format("{:.6g}", p.options.driver_armature)},
           {"gap_threshold", fmt::format("{:.6g}", w.gap)},
           {"driver_threshold", fmt::format("{:.6g}", w.driver)},
           {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},

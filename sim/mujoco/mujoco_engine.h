@@ -22,6 +22,10 @@
 //   force_read      centred | raw: constraint forces at the sampled pose's own velocity (O(dt^2)),
 //                   or MuJoCo's efc_force as solved, velocity terms half a step behind (O(dt));
 //                   docs/engines.md, "Forces"
+//   driver_armature auto | a rotor inertia [kg m^2, or kg for a slide] on the driven tree joint,
+//                   its share of the effort taken back out: auto tops the joint's own inertia up
+//                   to 1e-2 of the generalised inertia the driver moves (a light crank on a heavy
+//                   load); docs/engines.md, "Forces"
 //   singular_rcond  auto: 1e-6 (kinematic), 1e-3 (dynamics): samples whose constraint Jacobian at
 //                   the engine's configuration is worse conditioned are flagged singular
 // A dynamics case ([dynamics]; docs/engines.md, "Forward dynamics") runs without the driver

@@ -370,7 +370,8 @@ std::string link_geometry(const SceneLink& link, int colour, double r, const std
 }
 
 void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& children, int depth,
-                const Standalone* standalone, std::vector<int>& written, std::string& out) {
+                const MjcfOptions& o, std::vector<int>& written, std::string& out) {
+  const Standalone* standalone = o.standalone ? &*o.standalone : nullptr;
   const std::string pad(static_cast<size_t>(2 * depth), ' ');
   for (int j : children[link]) {
     const SceneJoint& sj = s.joints[j];
@@ -389,23 +390,27 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
         child.inertia);
     // The joint lives in the child's frame; its sign makes qpos = value (see SceneJoint).
     const bool child_is_b = sj.child == sj.b;
+    const std::string armature =
+        o.driver_armature > 0.0 && o.driven && !s.driven.tendon && j == s.driven.joint
+            ? fmt::format(" armature=\"{:.17g}\"", o.driver_armature)
+            : "";
     if (sj.kind == SceneJoint::Kind::hinge) {
       const Eigen::Vector2d at = child_is_b ? sj.ub : sj.ua;
       out += fmt::format(
           "{}  <joint name=\"{}\" type=\"hinge\" pos=\"{:.17g} {:.17g} 0\" axis=\"0 0 {}\" "
-          "ref=\"{:.17g}\"/>\n",
-          pad, escape(sj.name), at.x(), at.y(), child_is_b ? 1 : -1, sj.value);
+          "ref=\"{:.17g}\"{}/>\n",
+          pad, escape(sj.name), at.x(), at.y(), child_is_b ? 1 : -1, sj.value, armature);
     } else {
       const Eigen::Vector2d axis =
           child_is_b ? Eigen::Vector2d(rotation(-sj.relative_angle) * sj.direction)
                      : Eigen::Vector2d(-sj.direction);
       out += fmt::format(
-          "{}  <joint name=\"{}\" type=\"slide\" axis=\"{:.17g} {:.17g} 0\" ref=\"{:.17g}\"/>\n",
-          pad, escape(sj.name), axis.x(), axis.y(), sj.value);
+          "{}  <joint name=\"{}\" type=\"slide\" axis=\"{:.17g} {:.17g} 0\" ref=\"{:.17g}\"{}/>\n",
+          pad, escape(sj.name), axis.x(), axis.y(), sj.value, armature);
     }
     written.push_back(j);
     if (standalone) out += link_geometry(child, sj.child, standalone->radius, pad + "  ");
-    write_body(s, sj.child, children, depth + 1, standalone, written, out);
+    write_body(s, sj.child, children, depth + 1, o, written, out);
     out += pad + "</body>\n";
   }
 }
@@ -466,7 +471,7 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   }
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);
-  write_body(s, 0, children, 2, alone, written, out);
+  write_body(s, 0, children, 2, o, written, out);
   const Clock* clock = alone && alone->clock ? &*alone->clock : nullptr;
   if (clock)  // its own body, off the linkage's tree; not drawn
     out += fmt::format(

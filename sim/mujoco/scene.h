@@ -116,6 +116,7 @@ struct MjcfOptions {
   Eigen::Matrix<double, 5, 1> solimp;                           // loop constraints
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
+  double driver_armature = 0.0;  // rotor inertia on the driven tree joint [kg m^2, or kg]
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off
   // Whether the driver equality is written: a forward-dynamics scene has none (the coordinate
   // moves freely under the applied effort).
