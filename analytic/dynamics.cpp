@@ -46,6 +46,8 @@ class EquationOfMotion {
     // Poses far less well conditioned than the drawn one are next to a singular position (a
     // long chain's Jacobian is ill-conditioned everywhere: A02's rcond is 4e-2 upright at
     // N = 2 and 2e-4 at N = 40).
+    if (const std::string why = singular_start(m, assembled.rcond); !why.empty())
+      throw Stopped{0.0, PoseStatus::singular, why};
     near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
     d_last_ = state_.driver.value;
     q_last_ = state_.q;
@@ -197,6 +199,17 @@ class EquationOfMotion {
 
 double Simulation::energy_error(int k) const {
   return std::abs(energy_balance(k)) / std::max(energy_scale, 1e-300);
+}
+
+std::string singular_start(const Mechanism& m, double rcond) {
+  if (rcond >= kSingularStartRcond) return "";
+  const bool angular = m.driver.angular();
+  return fmt::format(
+      "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
+      "there the other coordinates' rates are not determined by its rate, so no initial "
+      "velocity is consistent with it; start the [driver] away from it",
+      m.driver.start / (angular ? m.units.angle : m.units.length),
+      angular ? m.units.angle_name : m.units.length_name, rcond);
 }
 
 Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options) {

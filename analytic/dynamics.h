@@ -27,6 +27,16 @@
 
 namespace crosslink {
 
+// A start whose constraint Jacobian is this badly conditioned (reciprocal condition, as the
+// Newton solver scales it) is a singular position of the coordinate (the sweep takes rcond below
+// 1e-6 as at a change point): a toggle, or a change point. There the other coordinates' rates
+// are not determined by the coordinate's, so no consistent initial velocity exists.
+inline constexpr double kSingularStartRcond = 1e-6;
+
+// Why a dynamics case cannot start at its drawn pose of reciprocal condition `rcond` ("" when
+// it can): `crosslink check` reports it at the [dynamics] table, and simulate() stops at t = 0.
+std::string singular_start(const Mechanism& m, double rcond);
+
 struct SimulationOptions {
   double duration = 0.0;  // [s]; 0: the case's
   double interval = 0.0;  // between samples [s]; 0: the case's

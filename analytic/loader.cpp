@@ -877,10 +877,13 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   const int laws =
       (t->get("speed") ? 1 : 0) + (t->get("polynomial") ? 1 : 0) + (t->get("table") ? 1 : 0);
   if (root.get("dynamics")) {
-    if (laws != 0)
-      r.error(d.where,
-              "[driver] of a dynamics case ([dynamics]) takes no motion law: the "
-              "coordinate moves freely; remove 'speed', 'acceleration', 'polynomial' or 'table'");
+    for (const char* key : {"speed", "acceleration", "polynomial", "table"})
+      if (const toml::node* law = t->get(key)) {
+        r.error(r.at(law), fmt::format("[driver] of a dynamics case ([dynamics]) takes no motion "
+                                       "law: the coordinate moves freely; remove '{}'",
+                                       key));
+        break;
+      }
     return;
   }
   if (t->get("acceleration") && !t->get("speed")) {

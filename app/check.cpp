@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "analytic/branch.h"
+#include "analytic/dynamics.h"
 #include "analytic/fourbar.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
@@ -216,6 +217,13 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
   out += fmt::format(
       "  assembly at start: {} (residual {:.1e} m, {} Newton iterations, rcond {:.2e})\n",
       to_string(assembled.status), assembled.residual, assembled.iterations, assembled.rcond);
+  if (m.dynamics) {
+    if (const std::string why = singular_start(m, assembled.rcond); !why.empty()) {
+      report.err = Diagnostic{m.dynamics->where, why}.str() + "\n";
+      report.exit_code = kExitBadInput;
+      return report;
+    }
+  }
   print_modes(m, state, out);
   if (m.driver.at_rest()) {
     out +=

@@ -871,6 +871,26 @@ TEST(Cli, SimulateRefusesWhatItCannotRun) {
   EXPECT_NE(negative.err.find("--at"), std::string::npos) << negative.err;
 }
 
+// A dynamics case started at a singular position (the slider-crank driven from its slider, at
+// its outer toggle): check, simulate and compare all refuse it at its [dynamics] table, exit 2.
+TEST(Cli, ADynamicsCaseStartedAtAToggleIsRefusedWhereItIsDefined) {
+  std::string text = read_file("mechanisms/singular/slider_crank_from_slider.toml");
+  text.replace(text.find("start = 60"), 10, "start = 79.372539331937716");
+  text.replace(text.find("speed = 100"), 11, "# speed");
+  text = text.substr(0, text.find("[expect]")) +
+         "[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 100\n";
+  const std::string path = write_definition("toggle_start.toml", text);
+  const int line = static_cast<int>(std::count(text.begin(), text.end(), '\n')) - 3;
+  for (const std::string command : {"check", "simulate", "compare"}) {
+    const CommandRun run = crosslink(command + " \"" + path + "\"");
+    EXPECT_EQ(run.exit_code, 2) << command;
+    EXPECT_NE(run.err.find(fmt::format("toggle_start.toml:{}:1: error: ", line)), std::string::npos)
+        << command << ": " << run.err;
+    EXPECT_NE(run.err.find("is a singular position of the coordinate"), std::string::npos)
+        << command << ": " << run.err;
+  }
+}
+
 // Issue 13: --version, and a definition read from standard input ("-").
 TEST(Cli, VersionAndStandardInput) {
   const CommandRun version = crosslink("--version");

@@ -17,10 +17,12 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "analytic/dynamics.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 
@@ -1204,6 +1206,77 @@ TEST(PolarPoints, KeysAreChecked) {
   const std::string neither = with_coupler("points = { B = [0, 0], C = [0.12, 0], P = \"B + 1\" }");
   expect_diagnostic(neither, place_of(neither, "\"B + 1\""),
                     {"point 'P' of link 'coupler' must be [x, y] or { from = \"P\""});
+}
+
+// A dynamics case: the four-bar's crank free from 60 deg at 10 rad/s under gravity for 1 s.
+std::string dynamics_case(const std::string& table = "duration = 1\ninterval = 0.01\nrate = 10\n") {
+  return "gravity = [0, -9.81]\n" +
+         replaced(four_bar(), "speed = 10\nspeed_unit = \"rad/s\"\n", "") + "\n[dynamics]\n" +
+         table;
+}
+
+TEST(ValidationDynamics, TheCaseIsValid) {
+  const Mechanism m = parse_mechanism(dynamics_case(), "good.toml");
+  ASSERT_TRUE(m.dynamics.has_value());
+  EXPECT_DOUBLE_EQ(m.dynamics->rate, 10.0);
+  EXPECT_DOUBLE_EQ(m.dynamics->duration, 1.0);
+}
+
+TEST(ValidationDynamics, DurationMustBePositive) {
+  for (const std::string duration : {"0", "-2"}) {
+    const std::string text = dynamics_case("duration = " + duration + "\ninterval = 0.01\n");
+    expect_diagnostic(text, place_of(text, duration + "\ninterval"),
+                      {"[dynamics] 'duration' must be positive"});
+  }
+}
+
+TEST(ValidationDynamics, IntervalWithinTheDuration) {
+  for (const std::string interval : {"0", "2"}) {
+    const std::string text = dynamics_case("duration = 1\ninterval = " + interval + "\n");
+    Place at = place_of(text, "interval = " + interval);
+    at.column += 11;  // at the value
+    expect_diagnostic(text, at, {"[dynamics] 'interval'", "at most 'duration'"});
+  }
+}
+
+TEST(ValidationDynamics, OneEffortOnly) {
+  const std::string text =
+      dynamics_case("duration = 1\ninterval = 0.01\neffort = 1\neffort_table = [[0, 0], [1, 1]]\n");
+  expect_diagnostic(text, place_of(text, "[[0, 0]"), {"'effort' (constant) or 'effort_table'"});
+}
+
+TEST(ValidationDynamics, EffortTableTimesIncrease) {
+  const std::string text =
+      dynamics_case("duration = 1\ninterval = 0.01\neffort_table = [[0, 0], [0.5, 1], [0.5, 2]]\n");
+  expect_diagnostic(text, place_of(text, "[0.5, 2]"), {"'effort_table' times must increase"});
+}
+
+TEST(ValidationDynamics, NoMotionLawBesideIt) {
+  const std::string text = replaced(dynamics_case(), "start = 60\n", "start = 60\nspeed = 3\n");
+  Place at = place_of(text, "speed = 3");
+  at.column += 8;  // at the value
+  expect_diagnostic(text, at, {"takes no motion law", "remove 'speed'"});
+}
+
+// Inconsistent initial velocities: the slider-crank driven from its slider, started at its outer
+// toggle (s = sqrt((r + l)^2 - e^2), where the slider cannot move whatever the crank does), has
+// no slider rate that the crank and rod can follow: refused at t = 0, never integrated.
+TEST(ValidationDynamics, AStartAtASingularPositionHasNoConsistentVelocity) {
+  std::ifstream in(std::string(CROSSLINK_SOURCE_DIR) +
+                   "/mechanisms/singular/slider_crank_from_slider.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text = replaced(text, "start = 60\nspeed = 100", "start = 79.372539331937716\n# speed");
+  text = text.substr(0, text.find("[expect]")) +
+         "[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 100\n";
+  const Mechanism m = parse_mechanism(text, "toggle.toml");
+  const Simulation sim = simulate(m);
+  EXPECT_FALSE(sim.ok);
+  for (const PoseStatus status : sim.trajectory.status) EXPECT_FALSE(usable(status));
+  EXPECT_NE(sim.message.find("is a singular position of the coordinate"), std::string::npos)
+      << sim.message;
+  // A step away, the same rate is followed.
+  text = replaced(text, "start = 79.372539331937716", "start = 70");
+  EXPECT_TRUE(simulate(parse_mechanism(text, "away.toml")).ok);
 }
 
 }  // namespace
