@@ -286,6 +286,8 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     }
     out.evaluations = eom.evaluations();
   } catch (const Stopped& stop) {
+    // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
+    if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
     out.ok = false;
     out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
     t.events.push_back({stop.time, stop.status, out.message});

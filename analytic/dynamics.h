@@ -34,7 +34,7 @@ namespace crosslink {
 inline constexpr double kSingularStartRcond = 1e-6;
 
 // Why a dynamics case cannot start at its drawn pose of reciprocal condition `rcond` ("" when
-// it can): `crosslink check` reports it at the [dynamics] table, and simulate() stops at t = 0.
+// it can): `crosslink check` reports it at the [dynamics] table, and simulate() refuses it.
 std::string singular_start(const Mechanism& m, double rcond);
 
 struct SimulationOptions {
@@ -69,7 +69,9 @@ struct Simulation {
   double energy_error(int k) const;
 };
 
-// Integrates a [dynamics] case (throws std::invalid_argument for a mechanism without one).
+// Integrates a [dynamics] case (throws std::invalid_argument for a mechanism without one, and
+// DefinitionError at its [dynamics] table for one that cannot start: no assembly, or a singular
+// start). A run that stops later keeps its samples up to there, the rest not_reached.
 Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options = {});
 
 }  // namespace crosslink

@@ -76,8 +76,6 @@ int run_simulate(const SimulateArgs& args) {
 
   const Simulation s = simulate(m, options);
   const Trajectory& t = s.trajectory;
-  if (!usable(t.status[0]))  // no state at all: the case cannot start
-    throw DefinitionError({Diagnostic{c.where, s.message}});
   double worst = 0.0;
   for (int k = 0; k < t.samples(); ++k)
     if (usable(t.status[static_cast<size_t>(k)])) worst = std::max(worst, s.energy_error(k));

@@ -95,8 +95,6 @@ MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& op
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start = sim::thread_cpu_seconds();
   const Simulation sim = simulate(mechanism, options);
-  if (!usable(sim.trajectory.status[0]))  // the case cannot start: bad input, not a result
-    throw DefinitionError({Diagnostic{mechanism.dynamics->where, sim.message}});
   run.cost.wall_seconds = seconds_since(start);
   const double cpu = sim::thread_cpu_seconds() - cpu_start;
   run.trajectory = sim.trajectory;

@@ -4,9 +4,11 @@ chart(series, x_label, y_label) takes {name: [(x, y), ...]} and returns the SVG 
 series' least-squares slope of log y against log x (its growth exponent, or its order of
 convergence) is written in the legend, where it has two points or more.
 """
+import csv
 import math
 
-# The reports' colours: the reference black, MuJoCo blue, Bullet red; variants get lighter.
+# The reports' colours: the reference black, MuJoCo blue, Bullet red; each engine's variants
+# get their own dash and marker.
 BASE = {"reference": "#222222", "MuJoCo": "#1f77b4", "Bullet": "#d62728"}
 DASHES = ["", "6,3", "2,2", "8,3,2,3", "1,3", "10,4"]
 MARKERS = ["circle", "square", "triangle", "diamond", "cross", "plus"]
@@ -78,6 +80,5 @@ def chart(series, x_label, y_label, legend="{name}: slope {slope:.2f}", width=72
 
 def read_rows(path):
     """The rows of a CSV whose leading '#' lines are comments."""
-    import csv
     with open(path) as f:
         return list(csv.DictReader(line for line in f if not line.startswith("#")))
