@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -276,6 +277,87 @@ TEST(PublishedExamples, KhurmiSliderCrankWithinTheBooksRounding) {
     EXPECT_GT(std::abs(value - r.value), 1e-4 * std::abs(r.value))
         << r.quantity << ": the printed value carries the book's rounding";
   }
+}
+
+}  // namespace
+}  // namespace crosslink
+
+namespace crosslink {
+namespace {
+
+// The four-bar of "Makina Dinamiği - Ders Notları", Örnek 7 (mechanisms/published/
+// fourbar_dynamic_force_example7.toml): the notes' force step, their equations (7)-(17) of
+// section 3.1.3.2, written out here. Inertia loads F3 = -m3 aG3 at G3 (r3 from B along BC),
+// F4 = -m4 aG4 at G4 (r4 from O4 along O4C), couples T3 = -J3 alpha3, T4 = -J4 alpha4; the crank's
+// centre of mass at O2 and alpha2 = 0 (F2 = 0, T2 = 0). Link 4's and link 3's moment balances give
+// F34; then F14 = -F34 - F4, F23 = F34 - F3, F12 = F23, and the crank's balance T.
+struct NotesForces {
+  Eigen::Vector2d f34, f14, f23;
+  double torque;
+};
+NotesForces notes_force_step(double th2, double th3, double th4, double l2, double l3, double l4,
+                             double r3, double r4, const Eigen::Vector2d& f3,
+                             const Eigen::Vector2d& f4, double t3, double t4) {
+  const double a11 = -l4 * std::sin(th4), a12 = l4 * std::cos(th4);
+  const double a21 = l3 * std::sin(th3), a22 = -l3 * std::cos(th3);
+  const double b1 = f4.x() * r4 * std::sin(th4) - f4.y() * r4 * std::cos(th4) - t4;
+  const double b2 = f3.x() * r3 * std::sin(th3) - f3.y() * r3 * std::cos(th3) - t3;
+  const double det = a11 * a22 - a12 * a21;
+  NotesForces out;
+  out.f34 = {(a22 * b1 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det};
+  out.f14 = -out.f34 - f4;
+  out.f23 = out.f34 - f3;
+  out.torque = out.f23.y() * l2 * std::cos(th2) - out.f23.x() * l2 * std::sin(th2);
+  return out;
+}
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// With crosslink's exact kinematics fed to it, the notes' dyad-by-dyad force step gives crosslink's
+// Lagrange-multiplier forces: the two methods agree, so what separates the printed answers from
+// the exact ones is the kinematics.
+TEST(PublishedExamples, Example7NotesForceStepOnExactKinematicsIsOurs) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/published/fourbar_dynamic_force_example7.toml");
+  const Trajectory t = solve_at(m, 120.0 * kDeg);
+  ASSERT_EQ(t.status[0], PoseStatus::ok);
+  const auto value = [&](const std::string& channel) { return (*t.channel(channel))(0); };
+  const Eigen::Vector2d f3 = -0.5 * Eigen::Vector2d(value("ax.G3"), value("ay.G3"));
+  const Eigen::Vector2d f4 = -0.4 * Eigen::Vector2d(value("ax.G4"), value("ay.G4"));
+  const NotesForces notes = notes_force_step(
+      120.0 * kDeg, value("angle.coupler"), value("angle.rocker"), 0.050, 0.151, 0.111, 0.0755,
+      0.0555, f3, f4, -1.21e-3 * value("alpha.coupler"), -0.91e-3 * value("alpha.rocker"));
+  const auto expect_force = [&](const std::string& joint, const Eigen::Vector2d& f) {
+    EXPECT_NEAR(value("fx." + joint), f.x(), 1e-9 * f.norm()) << joint;
+    EXPECT_NEAR(value("fy." + joint), f.y(), 1e-9 * f.norm()) << joint;
+  };
+  expect_force("C", notes.f34);
+  expect_force("O4", notes.f14);
+  expect_force("B", notes.f23);
+  expect_force("O2", notes.f23);
+  EXPECT_NEAR(value("torque.driver"), notes.torque, 1e-9 * std::abs(notes.torque));
+}
+
+// The notes' printed answers follow from their printed, graphical, inputs (theta3 = 26 deg and
+// theta4 = 85 deg read off the drawing; F3 = 187 N at 116 deg as (-82, 168) N, F4 = 60 N at 110 deg
+// as (-20.5, 56.4) N; T3 = -1211.6 N mm, T4 = 1020.6 N mm): the same step gives F34, F14 and F23
+// to their printed 0.1 N, and their T = -3481.5 N mm from the rounded F23 they print (-3481.8 from
+// the unrounded one). The transcription holds; the differences from exact are their kinematics'.
+TEST(PublishedExamples, Example7PrintedForcesFollowFromItsGraphicalKinematics) {
+  const NotesForces notes =
+      notes_force_step(120.0 * kDeg, 26.0 * kDeg, 85.0 * kDeg, 50, 151, 111, 75.5, 55.5, {-82, 168},
+                       {-20.5, 56.4}, -1211.6, 1020.6);
+  EXPECT_NEAR(notes.f34.x(), 31.6, 0.05);
+  EXPECT_NEAR(notes.f34.y(), 110.5, 0.05);
+  EXPECT_NEAR(notes.f14.x(), -11.1, 0.05);
+  EXPECT_NEAR(notes.f14.y(), -166.9, 0.05);
+  EXPECT_NEAR(notes.f23.x(), 113.6, 0.05);
+  EXPECT_NEAR(notes.f23.y(), -57.5, 0.05);
+  // T from the unrounded F23, within what rounding F23 to 0.1 N moves it (0.05 N at l2 = 50 mm
+  // over both components), and exactly from the rounded F23 the notes print.
+  const double c2 = std::cos(120.0 * kDeg), s2 = std::sin(120.0 * kDeg);
+  EXPECT_NEAR(notes.torque, -3481.5, 0.05 * 50 * (std::abs(c2) + std::abs(s2)));
+  EXPECT_NEAR(-57.5 * 50 * c2 - 113.6 * 50 * s2, -3481.5, 0.05);
 }
 
 }  // namespace
