@@ -360,5 +360,66 @@ TEST(PublishedExamples, Example7PrintedForcesFollowFromItsGraphicalKinematics) {
   EXPECT_NEAR(-57.5 * 50 * c2 - 113.6 * 50 * s2, -3481.5, 0.05);
 }
 
+// The slider-crank of the same notes, Örnek 9 (mechanisms/published/
+// slider_crank_dynamic_force_example9.toml): their force step, equations (1)-(8) of section
+// 4.1.2, written out here. Inertia loads -m3 aG3 at G3 (lG from B), the couple -J3 alpha3, -m4 aG4
+// on the piston and the gas force P towards the crank; the rod at phi below the line of stroke;
+// the crank's centre of mass at O2 and alpha2 = 0.
+struct NotesSliderForces {
+  Eigen::Vector2d f34, f23;  // rod on piston, crank on rod (= ground on crank)
+  double f14y, torque;
+};
+NotesSliderForces notes_slider_step(double theta, double phi, double r, double l, double lg,
+                                    const Eigen::Vector2d& f3, double t3, double f4, double p) {
+  NotesSliderForces out;
+  const double f43x = -(p - f4);  // (1): F34x + (-m4 aG4) - P = 0
+  const double f43y =
+      -(f43x * l * std::sin(phi) + f3.x() * lg * std::sin(phi) + f3.y() * lg * std::cos(phi) + t3) /
+      (l * std::cos(phi));  // (5)
+  out.f34 = {-f43x, -f43y};
+  out.f14y = f43y;                                                                      // (2)
+  out.f23 = {-f43x - f3.x(), -f43y - f3.y()};                                           // (3), (4)
+  out.torque = -out.f23.x() * r * std::sin(theta) + out.f23.y() * r * std::cos(theta);  // (8)
+  return out;
+}
+
+// With crosslink's exact kinematics, the notes' force step gives crosslink's forces.
+TEST(PublishedExamples, Example9NotesForceStepOnExactKinematicsIsOurs) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                     "/mechanisms/published/slider_crank_dynamic_force_example9.toml");
+  const Trajectory t = solve_at(m, 60.0 * kDeg);
+  ASSERT_EQ(t.status[0], PoseStatus::ok);
+  const auto value = [&](const std::string& channel) { return (*t.channel(channel))(0); };
+  const NotesSliderForces notes =
+      notes_slider_step(60.0 * kDeg, -value("angle.rod"), 0.051, 0.200, 0.051,
+                        -1.36 * Eigen::Vector2d(value("ax.G3"), value("ay.G3")),
+                        -0.0102 * value("alpha.rod"), -0.91 * value("ax.C"), 6300.0);
+  const double scale = notes.f23.norm();
+  EXPECT_NEAR(value("fx.C"), notes.f34.x(), 1e-9 * scale);
+  EXPECT_NEAR(value("fy.C"), notes.f34.y(), 1e-9 * scale);
+  EXPECT_NEAR(value("fn.piston"), notes.f14y, 1e-9 * scale);
+  for (const std::string joint : {"B", "O2"}) {
+    EXPECT_NEAR(value("fx." + joint), notes.f23.x(), 1e-9 * scale) << joint;
+    EXPECT_NEAR(value("fy." + joint), notes.f23.y(), 1e-9 * scale) << joint;
+  }
+  EXPECT_NEAR(value("torque.driver"), notes.torque, 1e-9 * std::abs(notes.torque));
+}
+
+// On the notes' printed, graphical, inputs (phi rounded to 13 deg; -m3 aG3 = (3197.4, 4401.0) N
+// from aG3 = 4000 m/s^2 at 234 deg; -J3 alpha3 = -224.4 N m; -m4 aG4 = 1710.8 N), the same step
+// gives their printed forces to their 0.1 N (F23y -5301.52) and their T = -196660.3 N mm within
+// what rounding F23 to 0.1 N moves it (-196660.88).
+TEST(PublishedExamples, Example9PrintedForcesFollowFromItsGraphicalKinematics) {
+  const NotesSliderForces notes = notes_slider_step(60.0 * kDeg, 13.0 * kDeg, 51, 200, 51,
+                                                    {3197.4, 4401.0}, -224.4e3, 1710.8, 6300);
+  EXPECT_NEAR(notes.f34.x(), 4589.2, 0.05);
+  EXPECT_NEAR(notes.f34.y(), -900.5, 0.05);
+  EXPECT_NEAR(notes.f14y, 900.5, 0.05);
+  EXPECT_NEAR(notes.f23.x(), 1391.8, 0.05);
+  EXPECT_NEAR(notes.f23.y(), -5301.5, 0.05);
+  EXPECT_NEAR(notes.torque, -196660.3, 0.05 * 51 * (std::sin(60.0 * kDeg) + std::cos(60.0 * kDeg)));
+}
+
 }  // namespace
 }  // namespace crosslink
