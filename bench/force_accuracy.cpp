@@ -91,18 +91,20 @@ int main(int argc, char** argv) {
   const bool sweep = argc > 1 && std::strcmp(argv[1], "--sweep") == 0;
   // The kinematic definitions (a dynamics case's forces are compared along its forward
   // dynamics: bench/dynamics_accuracy), bundled and published.
-  std::vector<std::filesystem::path> files;
+  std::vector<std::pair<std::filesystem::path, Mechanism>> files;
   for (const char* folder : {"mechanisms", "mechanisms/published"})
     for (const auto& e : std::filesystem::directory_iterator(folder))
-      if (e.path().extension() == ".toml" && !crosslink::load_mechanism(e.path().string()).dynamics)
-        files.push_back(e.path());
-  std::sort(files.begin(), files.end());
+      if (e.path().extension() == ".toml")
+        if (Mechanism m = crosslink::load_mechanism(e.path().string()); !m.dynamics)
+          files.emplace_back(e.path(), std::move(m));
+  std::sort(files.begin(), files.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   fmt::print(
       "engine,mechanism,gravity,setting,dt,steps,effort_pct,reaction_pct,worst_joint,couple_pct,"
       "shaking_pct,s_per_cycle,note\n");
-  for (const auto& path : files)
+  for (const auto& [path, defined] : files)
     for (const bool gravity : {false, true}) {
-      Mechanism m = crosslink::load_mechanism(path.string());
+      Mechanism m = defined;
       if (gravity) m.gravity = Eigen::Vector2d(0.0, -9.81);
       const Trajectory exact = crosslink::sweep(m);
       for (const Case& c : cases(sweep)) {

@@ -73,8 +73,8 @@ struct Config {
   std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
-  std::string force_read = "centred";  // centred | raw (docs/engines.md, "Forces")
-  std::string driver_armature = "auto";
+  std::string force_read = "centred";     // centred | raw (docs/engines.md, "Forces")
+  std::optional<double> driver_armature;  // none: auto (driver_armature())
   long max_steps = kDefaultMaxSteps;
   // Forward dynamics only (docs/engines.md, "Forward dynamics").
   std::string start = "auto";      // staggered | exact; auto: staggered for Euler and implicit
@@ -118,7 +118,6 @@ Config parse_settings(const Settings& overrides) {
                                                     {"driver_threshold", &c.driver_threshold},
                                                     {"perturb_link", &c.perturb_link},
                                                     {"force_read", &c.force_read},
-                                                    {"driver_armature", &c.driver_armature},
                                                     {"start", &c.start},
                                                     {"readout", &c.readout},
                                                     {"singular_rcond", &c.singular_rcond}};
@@ -131,7 +130,11 @@ Config parse_settings(const Settings& overrides) {
       c.tolerance = parse_number(name, value);
     } else if (name == "max_step_angle") {
       c.max_step_angle = parse_number(name, value);
-
+    } else if (name == "driver_armature") {
+      c.driver_armature.reset();
+      if (value != "auto") c.driver_armature = parse_number(name, value);
+      if (c.driver_armature && *c.driver_armature < 0.0)
+        throw std::runtime_error("setting driver_armature: auto, or 0 or more");
     } else if (name == "max_steps") {
       c.max_steps = parse_max_steps(value);
     } else if (name == "energy_threshold") {
@@ -162,8 +165,6 @@ Config parse_settings(const Settings& overrides) {
   if (c.readout != "auto" && c.readout != "differences" && c.readout != "state")
     throw std::runtime_error(
         fmt::format("setting readout = \"{}\": expected auto, differences or state", c.readout));
-  if (c.driver_armature != "auto" && parse_number("driver_armature", c.driver_armature) < 0.0)
-    throw std::runtime_error("setting driver_armature: auto, or 0 or more");
   return c;
 }
 
@@ -289,7 +290,7 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
 // generalised inertia the driver moves, driver_inertia()); the readers take the armature's share
 // back out of the effort. A tendon driver has no armature in 2.2.2.
 double driver_armature(const Config& c, const Scene& s, double inertia) {
-  if (c.driver_armature != "auto") return parse_number("driver_armature", c.driver_armature);
+  if (c.driver_armature) return *c.driver_armature;
   if (s.driven.joint < 0 || s.driven.tendon) return 0.0;
   const SceneJoint& j = s.joints[static_cast<size_t>(s.driven.joint)];
   const SceneLink& child = s.links[static_cast<size_t>(j.child)];

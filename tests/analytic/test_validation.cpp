@@ -17,7 +17,6 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -25,6 +24,7 @@
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
+#include "tests/common/mechanisms.h"
 
 namespace crosslink {
 namespace {
@@ -1263,9 +1263,7 @@ TEST(ValidationDynamics, NoMotionLawBesideIt) {
 // no slider rate that the crank and rod can follow: refused at its [dynamics] table, never
 // integrated.
 TEST(ValidationDynamics, AStartAtASingularPositionHasNoConsistentVelocity) {
-  std::ifstream in(std::string(CROSSLINK_SOURCE_DIR) +
-                   "/mechanisms/singular/slider_crank_from_slider.toml");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text = test::source_text("mechanisms/singular/slider_crank_from_slider.toml");
   text = replaced(text, "start = 60\nspeed = 100", "start = 79.372539331937716\n# speed");
   text = text.substr(0, text.find("[expect]")) +
          "[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 100\n";

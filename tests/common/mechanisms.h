@@ -4,12 +4,19 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "analytic/mechanism.h"
 
 namespace crosslink::test {
+
+// The text of a file of the source tree (`relative` to its root).
+inline std::string source_text(const std::string& relative) {
+  std::ifstream in(std::filesystem::path(CROSSLINK_SOURCE_DIR) / relative);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 // A [dynamics] case is the exact simulation's (analytic/dynamics.h), not a kinematic sweep's.
 inline bool is_dynamics_case(const std::filesystem::path& file) {

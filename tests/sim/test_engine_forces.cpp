@@ -107,13 +107,10 @@ TEST(EngineForces, MasslessCrankOnAHeavyPistonAgrees) {
 // (a share of 1 N m against a peak effort of 0.34 N m: 300 % of peak if left in) reads the
 // exact effort.
 TEST(EngineForces, DriverArmatureIsTakenOutOfTheEffort) {
-  const std::string path =
-      std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/fourbar_crank_rocker.toml";
-  std::ifstream in(path);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text = test::source_text("mechanisms/fourbar_crank_rocker.toml");
   const std::string speed = "speed_unit = \"rpm\"";
   text.replace(text.find(speed), speed.size(), speed + "\nacceleration = 100");
-  const Mechanism m = parse_mechanism(text, path);
+  const Mechanism m = parse_mechanism(text, "fourbar_crank_rocker_accelerating.toml");
   ASSERT_EQ(m.driver.law.kind, MotionLaw::Kind::constant_acceleration);
   const Trajectory exact = sweep(m);
   const EngineRun run = make_mujoco_engine()->run(m, exact, {{"driver_armature", "0.01"}});
