@@ -59,6 +59,8 @@ class EquationOfMotion {
   const Kinetostatics& kinetostatics() const { return kinetostatics_; }
   KinematicState& state() { return state_; }
   long evaluations() const { return evaluations_; }
+  // The reciprocal condition of the pose at the coordinate of the last acceleration().
+  double rcond() const { return rcond_; }
 
   // dd/dt, dddot/dt and dw/dt at (t, x).
   void operator()(const State& x, State& dxdt, double t) {
@@ -76,7 +78,8 @@ class EquationOfMotion {
   // (d + k delta, k = +-1, +-2, +-3, Lagrange weights at 0): the error is ~delta^6 times the
   // sixth derivative, delta = 0.01 rad (or 0.01 of the size).
   double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
-    if (move_to(t, d) >= near_singular_rcond_) return regular(t, d, ddot, effort, power);
+    rcond_ = move_to(t, d);
+    if (rcond_ >= near_singular_rcond_) return regular(t, d, ddot, effort, power);
     // Nodes 0.005 rad (or of the size) apart, spread twice as far while one of them is itself
     // next to the singular position: the longer the chain, the wider that zone (A02: 0.002 rad
     // at N = 2, 0.03 at N = 10).
@@ -187,7 +190,7 @@ class EquationOfMotion {
   Kinetostatics kinetostatics_;
   KinematicState state_;
   Eigen::VectorXd g0_, g1_, s_, q_last_, s_last_, guess_;
-  double d_last_ = 0.0;
+  double d_last_ = 0.0, rcond_ = 1.0;
   long evaluations_ = 0;
   bool near_singular_ = false;
   // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
@@ -249,6 +252,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
       eom.acceleration(time, y[0], y[1], effort);
       KinematicState& s = eom.state();
       SolveReport report;
+      report.rcond = eom.rcond();  // the trust rules' conditioning (analytic/trust.h)
       if (eom.near_singular()) {
         // Its coordinate's motion is exact, the rest of its pose only to round-off.
         report.status = PoseStatus::singular;

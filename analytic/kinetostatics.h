@@ -31,12 +31,6 @@
 
 namespace crosslink {
 
-// Below this reciprocal condition of the constraint Jacobian the kinetostatic problem is ill
-// conditioned: reactions grow as 1/rcond towards a change point (fourbar_change_point: within
-// about 4 degrees of it), and so does any approximate method's error there (Bullet 80 % at 3
-// degrees). Force comparisons keep such samples out of their verdicts.
-constexpr double kForceRcond = 1e-2;
-
 // A spring's pull T (positive: drawing its points together), its unit vector from b's point to
 // a's, its length and the rate of its length. A spring of zero length has no direction and pulls
 // nothing.

@@ -29,6 +29,8 @@ std::string_view to_string(PoseStatus status) {
       return "not_finite";
     case PoseStatus::not_reached:
       return "not_reached";
+    case PoseStatus::exact_methods_disagree:
+      return "exact_methods_disagree";
   }
   return "?";
 }

@@ -54,6 +54,7 @@ enum class PoseStatus : std::uint8_t {
   diverged,         // engine: NaN or runaway state
   not_finite,       // a value is not a finite number (an overflow, or 0/0, on extreme input)
   not_reached,      // a simulation stopped (its event says why) before this sample's time
+  exact_methods_disagree,  // the reference's two exact methods disagree here (trust.h)
 };
 std::string_view to_string(PoseStatus status);
 inline bool usable(PoseStatus s) {

@@ -121,9 +121,9 @@ void print_csv(const Trajectory& t, const Columns& extra) {
       line += ',';
       if (value_exists(status, quantities[c])) line += compare::csv_number(columns[c](r));
     }
-    for (const auto& [name, column] : extra) {
+    for (const auto& [name, column] : extra) {  // of a solved sample only (the energy)
       line += ',';
-      line += compare::csv_number(column(r));
+      if (usable(status)) line += compare::csv_number(column(r));
     }
     fmt::print("{}\n", line);
   }
@@ -197,8 +197,8 @@ void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int
                   : fmt::format(" {:>{}}", "", width);
     }
     for (const auto& [name, column] : extra)
-      line += std::isfinite(column(r)) ? fmt::format(" {:>12.3e}", column(r))
-                                       : fmt::format(" {:>12}", "");
+      line += usable(status) && std::isfinite(column(r)) ? fmt::format(" {:>12.3e}", column(r))
+                                                         : fmt::format(" {:>12}", "");
     fmt::print("{}\n", line);
   }
 }

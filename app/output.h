@@ -41,8 +41,8 @@ std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
 
 // One row per sample: the driver (file units) or, with `by_time`, the time [s]; the status;
 // each of `channels` in the file's units (a row of units under the names) with `digits`
-// decimals; then `extra` (scientific, blank where not finite). Values that do not exist are
-// blank.
+// decimals; then `extra` (scientific, blank where not finite or the sample is flagged). Values
+// that do not exist are blank.
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
                       const std::vector<std::string>& channels, const std::string& note,
                       const Columns& extra = {});

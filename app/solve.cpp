@@ -8,6 +8,7 @@
 #include "analytic/instant_centres.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "analytic/trust.h"
 #include "app/commands.h"
 #include "app/output.h"
 
@@ -114,9 +115,8 @@ int run_solve(const SolveArgs& args) {
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
   // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
   // sweep follows that; auto keeps it.
-  const Decomposition decomposition = args.method == "newton" || (reverse && args.method == "auto")
-                                          ? Decomposition{}
-                                          : decompose(m);
+  const Decomposition decomposition =
+      reverse && args.method != "dyads" ? Decomposition{} : decompose(m);
   if (args.method == "dyads" && !decomposition.complete) {
     fmt::print(stderr, "{}: error: --method dyads: the chain {}\n", m.file,
                "does not decompose into dyads: " + decomposition.reason);
@@ -124,8 +124,20 @@ int run_solve(const SolveArgs& args) {
   }
   std::string why = "newton (asked for)";
   if (decomposition.complete) {
-    t = dyad_sweep(m, t, true);
-    why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
+    // The two exact methods check each other (analytic/trust.h): a sample they disagree on is
+    // flagged with the reason, whichever of them is printed.
+    Trajectory closed = dyad_sweep(m, t, args.method != "newton");
+    cross_check(m, t, closed);
+    if (args.method != "newton") {
+      for (int k = 0; k < t.samples(); ++k)
+        if (t.status[static_cast<size_t>(k)] == PoseStatus::exact_methods_disagree &&
+            usable(closed.status[static_cast<size_t>(k)]))
+          closed.status[static_cast<size_t>(k)] = PoseStatus::exact_methods_disagree;
+      for (const Trajectory::Event& e : t.events)
+        if (e.kind == PoseStatus::exact_methods_disagree) closed.events.push_back(e);
+      t = std::move(closed);
+      why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
+    }
   } else if (args.method == "auto" && reverse) {
     why = "newton (--at-limit reverse: the traced sweep follows the loop through its toggles)";
   } else if (args.method == "auto") {

@@ -4,6 +4,9 @@
 // ratios compare like with like (docs/sweep.md, README "Performance").
 //
 //   Cycle/newton             the exact sweep (Newton, position + velocity + acceleration)
+//   Cycle/reference          the reference `compare` judges by: the Newton sweep checked by the
+//                            dyads at its samples (analytic/trust.h), so its cost over
+//                            Cycle/newton is the self-check's
 //   Cycle/dyads              closed-form dyads at the same 360 driver values
 //   Cycle/<engine>/dt:<n>    an engine at its default variant, dt = (1 degree of crank) / n, the
 //                            whole run (scene build, steps, sampling); counters: steps per cycle,
@@ -36,6 +39,14 @@ void newton_cycle(benchmark::State& state) {
   for (auto _ : state) {
     const Trajectory t = sweep(crank_rocker());
     benchmark::DoNotOptimize(t.alpha.data());
+  }
+  state.counters["poses"] = reference().trajectory.samples();
+}
+
+void reference_cycle(benchmark::State& state) {
+  for (auto _ : state) {
+    const compare::MethodRun run = methods::run_reference(crank_rocker());
+    benchmark::DoNotOptimize(run.trajectory.alpha.data());
   }
   state.counters["poses"] = reference().trajectory.samples();
 }
@@ -78,6 +89,7 @@ void engine_cycle(benchmark::State& state, const std::string& engine) {
 }
 
 BENCHMARK(newton_cycle)->Name("Cycle/newton")->Unit(benchmark::kMillisecond);
+BENCHMARK(reference_cycle)->Name("Cycle/reference")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(method_cycle, dyads, std::string("dyads"))
     ->Name("Cycle/dyads")
     ->Unit(benchmark::kMillisecond);

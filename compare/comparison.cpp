@@ -8,8 +8,8 @@
 #include <limits>
 #include <map>
 
-#include "analytic/kinetostatics.h"
 #include "analytic/sweep.h"
+#include "analytic/trust.h"
 
 namespace crosslink::compare {
 
@@ -134,32 +134,6 @@ double ReferenceRow::percent(double value, double against) const {
   return percent_difference(value, against);
 }
 
-namespace {
-// W of metrics.h: the driver's peak rate over the sweep, in rad/s (a slider's m/s over the
-// mechanism's size).
-double driver_peak_rate(const Mechanism& mechanism, const Trajectory& reference) {
-  double rate = 0.0;
-  if (mechanism.dynamics) {
-    // No motion law: the coordinate's own rate and acceleration over the run, by differences of
-    // the reference's samples (a scale, not a result).
-    for (int k = 1; k + 1 < reference.samples(); ++k) {
-      const double h0 = reference.time(k) - reference.time(k - 1);
-      const double h1 = reference.time(k + 1) - reference.time(k);
-      const double d0 = (reference.driver(k) - reference.driver(k - 1)) / h0;
-      const double d1 = (reference.driver(k + 1) - reference.driver(k)) / h1;
-      rate = std::max(
-          {rate, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
-    }
-    return mechanism.driver.angular() ? rate : rate / mechanism.size();
-  }
-  for (int k = 0; k < reference.samples(); ++k) {
-    const DriverState d = mechanism.driver.at_time(reference.time(k));
-    rate = std::max({rate, std::abs(d.rate), std::sqrt(std::abs(d.accel))});
-  }
-  return mechanism.driver.angular() ? rate : rate / mechanism.size();
-}
-}  // namespace
-
 Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> methods,
                            const Tolerances& tolerances) {
   Comparison out;
@@ -171,11 +145,23 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
 
   // Reference columns, and the scales of metrics.h: the size L, the driver's peak rate W, the
   // largest peak of each kind.
-  // Usable reference samples: ok, and not next to a singular one (Trajectory::beside_singular).
-  std::vector<bool> ref_usable(static_cast<size_t>(n));
-  for (int k = 0; k < n; ++k)
-    ref_usable[static_cast<size_t>(k)] =
-        usable(ref.status[static_cast<size_t>(k)]) && !ref.beside_singular(k);
+  // Trusted reference samples, and why the others are kept out (analytic/trust.h): the kinematic
+  // channels' and, stricter near singular positions, the forces'.
+  const double force_rcond = kForceConditioning * typical_rcond(ref);
+  std::vector<std::string> ref_out(static_cast<size_t>(n)), ref_out_forces(ref_out);
+  std::vector<bool> ref_usable(static_cast<size_t>(n)), ref_usable_forces(ref_usable);
+  for (int k = 0; k < n; ++k) {
+    const auto ks = static_cast<size_t>(k);
+    ref_out[ks] = untrusted(ref, k, 0.0);
+    ref_out_forces[ks] = untrusted(ref, k, force_rcond);
+    ref_usable[ks] = ref_out[ks].empty();
+    ref_usable_forces[ks] = ref_out_forces[ks].empty();
+  }
+  // Peaks, and so scales, over the trusted samples of each channel's kind.
+  auto trusted = [&](std::string_view channel) -> const std::vector<bool>& {
+    const Quantity q = Trajectory::quantity_of(channel);
+    return q == Quantity::force || q == Quantity::torque ? ref_usable_forces : ref_usable;
+  };
   const double size = mechanism.size();
   const double driver_rate = driver_peak_rate(mechanism, ref);
   const double energy_scale = ref.energy_scale();
@@ -184,7 +170,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   Scales scales{size, driver_rate};
   for (const std::string& c : channels) {
     ref_columns.push_back(*ref.channel(c));
-    const double p = channel_peak(c, ref_columns.back(), ref_usable, size);
+    const double p = channel_peak(c, ref_columns.back(), trusted(c), size);
     double& peak = kind_peak[channel_kind(c)];
     peak = std::max(peak, p);
     const Quantity q = Trajectory::quantity_of(c);
@@ -198,7 +184,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
         kind != "fy")
       return 0.0;
     const std::string magnitude = kind.substr(0, 1) + channel.substr(channel.find('.'));
-    return channel_peak(magnitude, *ref.channel(magnitude), ref_usable, size);
+    return channel_peak(magnitude, *ref.channel(magnitude), trusted(magnitude), size);
   };
 
   // Every method after the reference, channel by channel.
@@ -209,17 +195,21 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       out.failed_methods.push_back(run.name);
       continue;
     }
-    std::vector<bool> both(static_cast<size_t>(n));
+    // Why each sample is kept out of this method's verdicts: the reference's reason, else the
+    // method's own status.
+    std::vector<std::string> out_kinematic(static_cast<size_t>(n)), out_forces(out_kinematic);
+    std::vector<bool> both(static_cast<size_t>(n)), both_forces(both);
     int usable_samples = 0;
     for (int k = 0; k < n; ++k) {
-      both[static_cast<size_t>(k)] = ref_usable[static_cast<size_t>(k)] &&
-                                     usable(run.trajectory.status[static_cast<size_t>(k)]);
-      usable_samples += both[static_cast<size_t>(k)] ? 1 : 0;
+      const auto ks = static_cast<size_t>(k);
+      const PoseStatus s = run.trajectory.status[ks];
+      const std::string own = usable(s) ? "" : "method:" + std::string(to_string(s));
+      out_kinematic[ks] = ref_out[ks].empty() ? own : ref_out[ks];
+      out_forces[ks] = ref_out_forces[ks].empty() ? own : ref_out_forces[ks];
+      both[ks] = out_kinematic[ks].empty();
+      both_forces[ks] = out_forces[ks].empty();
+      usable_samples += both[ks] ? 1 : 0;
     }
-    // Forces: also away from ill-conditioned kinetostatics (kForceRcond).
-    std::vector<bool> both_forces = both;
-    for (int k = 0; k < n; ++k)
-      if (ref.rcond(k) < kForceRcond) both_forces[static_cast<size_t>(k)] = false;
     // A method that flags every sample has shown nothing: it fails rather than passing empty.
     if (usable_samples == 0 && n > 0) {
       out.failed_methods.push_back(run.name);
@@ -238,9 +228,10 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
                                ? energy_scale
                                : peak_floor(channels[c], kind_peak[channel_kind(channels[c])],
                                             magnitude_peak(channels[c]), scales);
-      result.metrics = compare_channel(
-          channels[c], ref_columns[c], *column,
-          q == Quantity::force || q == Quantity::torque ? both_forces : both, size, floor);
+      const bool force = q == Quantity::force || q == Quantity::torque;
+      result.metrics = compare_channel(channels[c], ref_columns[c], *column,
+                                       force ? both_forces : both, size, floor);
+      result.metrics.reason = force ? out_forces : out_kinematic;
       result.tolerance = tolerances.of(run.name, q);
       result.prescribed = prescribed(mechanism, channels[c]);
       result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable

@@ -65,6 +65,20 @@ double peak_floor(std::string_view channel, double kind_peak, double magnitude_p
   return std::max({magnitude_peak, 0.01 * kind_peak, characteristic});
 }
 
+std::vector<std::pair<std::string, int>> ChannelMetrics::excluded() const {
+  std::vector<std::pair<std::string, int>> counts;
+  for (const std::string& r : reason) {
+    if (r.empty()) continue;
+    auto it =
+        std::find_if(counts.begin(), counts.end(), [&](const auto& c) { return c.first == r; });
+    if (it == counts.end())
+      counts.push_back({r, 1});
+    else
+      ++it->second;
+  }
+  return counts;
+}
+
 ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& reference,
                                const Eigen::VectorXd& method, const std::vector<bool>& usable,
                                double size, double peak_floor) {

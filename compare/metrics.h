@@ -4,9 +4,10 @@
 //
 // Notation, for one channel (e.g. "omega.coupler") over the samples k of one sweep:
 //   r_k   the reference's value (analytic Newton), m_k the method's value, SI units
-//   K     the usable samples: PoseStatus ok in both trajectories, and not next to a sample the
-//         reference flags singular (see comparison.cpp). Samples outside K are kept in the
-//         per-sample arrays (shown in charts and CSV) but never enter a max, RMS or verdict.
+//   K     the trusted samples: PoseStatus ok in both trajectories, not next to a sample the
+//         reference flags singular, and for forces and torques not ill-conditioned (every rule
+//         in analytic/trust.h). Samples outside K are kept in the per-sample arrays (shown in
+//         charts and CSV, with their reason) but never enter a peak, max, RMS or verdict.
 //
 //   difference          d_k = m_k - r_k
 //                       angle channels: d_k wrapped into (-pi, pi] (angles compare modulo 2 pi)
@@ -87,6 +88,12 @@ struct ChannelMetrics {
   Eigen::VectorXd pct_of_peak;   // signed 100 d_k / P_eff [%]
   Eigen::VectorXd local_pct;     // l_k [%], NaN where masked
   std::vector<bool> in_verdict;  // k in K
+  // Why each sample outside K is kept out ("" for k in K): the reference's reason
+  // (analytic/trust.h: "reference:<status>", "beside_singular", "ill_conditioned") or the
+  // method's own status ("method:<status>"). Set by the comparison.
+  std::vector<std::string> reason;
+  // The samples kept out, counted per reason, in the order of first appearance.
+  std::vector<std::pair<std::string, int>> excluded() const;
 };
 
 // Compares one channel. `reference` and `method` are the channel's columns over the same

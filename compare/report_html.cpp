@@ -256,11 +256,15 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
     std::string label = name + " [" + u.name + "]";
     for (const ChannelResult* c : by_channel[name]) {
       const MethodRun& run = *cmp.method(c->method);
-      json in = json::array();
+      json in = json::array(), out = json::array();
       for (bool b : c->metrics.in_verdict) in.push_back(b);
+      // Why each sample is kept out of the verdict (null where it is in): the chart's bands.
+      for (const std::string& why : c->metrics.reason)
+        out.push_back(why.empty() ? json() : json(why));
       ch["methods"][c->method] = {{"v", channel_values(run.trajectory, name, u.scale, false)},
                                   {"p", rounded(c->metrics.pct_of_peak, 1.0)},
-                                  {"in", in}};
+                                  {"in", in},
+                                  {"out", out}};
       if (severity(*c) > worst) {
         worst = severity(*c);
         label = fmt::format("{} [{}]  worst: {} {:.3g} % of peak ({})", name, u.name, c->method,
@@ -322,13 +326,17 @@ std::string verdict_table(const Comparison& cmp) {
   for (const ChannelResult* c : rows) {
     const DisplayUnit u = display_unit(m, c->metrics.channel);
     const int k = c->metrics.worst_sample;
+    // No sample in the verdict: no metric exists ("-"), not 0.
+    const auto metric = [&](double v) {
+      return c->metrics.usable > 0 ? fmt::format("{:.3g}", v) : std::string("-");
+    };
     html += fmt::format(
-        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.3g}</td><td>{:.3g}</td>"
-        "<td>{:.3g}</td><td>{:.3g} {}</td><td>{}</td><td>{:.3g}</td><td>{}</td></tr>\n",
+        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+        "<td>{}</td><td>{} {}</td><td>{}</td><td>{:.3g}</td><td>{}</td></tr>\n",
         c->verdict == Verdict::fail ? "fail" : "", escape(c->metrics.channel),
-        to_string(c->metrics.quantity), escape(c->method), c->metrics.max_pct_of_peak,
-        c->metrics.rms_pct_of_peak, c->metrics.max_local_pct, c->metrics.max_abs / u.scale,
-        escape(u.name),
+        to_string(c->metrics.quantity), escape(c->method), metric(c->metrics.max_pct_of_peak),
+        metric(c->metrics.rms_pct_of_peak), metric(c->metrics.max_local_pct),
+        metric(c->metrics.max_abs / u.scale), escape(u.name),
         k < 0 ? std::string("-")
         : m.dynamics
             ? fmt::format("t = {:.3f} s (#{})", cmp.reference().trajectory.time(k), k)

@@ -36,18 +36,27 @@
   const dashScale = {domain: methodOrder, range: methodOrder.map((m) => style(m).dash)};
 
   // Long rows of one channel: every method's value (null where the sample has none: a gap), and
-  // its signed % of peak. The flagged samples are marked by where they are, not by a value.
+  // its signed % of peak. The samples kept out of a verdict are marked by where they are, not by
+  // a value: a band over each, from midway to its neighbours, saying which method and why.
   function channelRows(name) {
     const ch = R.channels[name];
+    const x = R.driver.values;
     const rows = [];
     const flagged = [];
-    for (let k = 0; k < R.driver.values.length; k++) {
-      const d = R.driver.values[k];
+    for (let k = 0; k < x.length; k++) {
+      const d = x[k];
       rows.push({driver: d, method: methodOrder[0], value: ch.ref[k], pct: null});
-      if (!R.driver.usable[k]) flagged.push({driver: d});
+      const why = [];
       for (const m of Object.keys(ch.methods)) {
         const s = ch.methods[m];
         rows.push({driver: d, method: m, value: s.v[k], pct: s.in[k] ? s.p[k] : null});
+        if (s.out[k] !== null) why.push(m + ': ' + s.out[k]);
+      }
+      if (!R.driver.usable[k] && why.length === 0) why.push('reference flagged');
+      if (why.length) {
+        const lo = k > 0 ? (x[k - 1] + d) / 2 : d, hi = k + 1 < x.length ? (x[k + 1] + d) / 2 : d;
+        flagged.push({driver: Math.min(lo, hi), driver2: Math.max(lo, hi),
+                      reason: 'kept out of the verdict: ' + why.join('; ')});
       }
     }
     return {rows, flagged};
@@ -62,8 +71,9 @@
     const colour = {field: 'method', type: 'nominal', scale: colorScale, title: 'method'};
     const dash = {field: 'method', type: 'nominal', scale: dashScale, title: 'method'};
     const flaggedRule = {data: {name: 'flagged'},
-                         mark: {type: 'rule', color: '#d62728', opacity: 0.25, strokeWidth: 3},
-                         encoding: {x: axisX}};
+                         mark: {type: 'rect', color: '#d62728', opacity: 0.15},
+                         encoding: {x: axisX, x2: {field: 'driver2'},
+                                    tooltip: [{field: 'reason'}]}};
     const cursor = {data: {name: 'cursor'},
                     mark: {type: 'rule', color: '#555', strokeDash: [2, 2]},
                     encoding: {x: axisX}};

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "compare/report.h"
 
@@ -82,17 +83,64 @@ void print_wrapped(std::FILE* out, const std::string& text, int indent, int widt
 
 constexpr std::string_view kRowFormat = "{:<24} {:<8} {:>12} {:>11} {:>11} {:>19} {:>6}\n";
 
+// A metric of a channel, "-" when no sample is in its verdict (the value does not exist).
+std::string metric_text(const ChannelResult& c, double value) {
+  return c.metrics.usable > 0 ? fmt::format("{:.3g}", value) : "-";
+}
+
 void print_row(std::FILE* out, const Comparison& cmp, const ChannelResult& c) {
   fmt::print(out, kRowFormat, c.metrics.channel, c.method,
-             fmt::format("{:.3g}", c.metrics.max_pct_of_peak),
-             fmt::format("{:.3g}", c.metrics.rms_pct_of_peak), fmt::format("{:.3g}", c.tolerance),
-             worst_at(cmp, c), to_string(c.verdict));
+             metric_text(c, c.metrics.max_pct_of_peak), metric_text(c, c.metrics.rms_pct_of_peak),
+             fmt::format("{:.3g}", c.tolerance), worst_at(cmp, c), to_string(c.verdict));
 }
 
 void print_header(std::FILE* out) {
   fmt::print(out, kRowFormat, "channel", "method", "max % peak", "RMS % peak", "tolerance %",
              "worst at (sample)", "verdict");
   fmt::print(out, "{:-<98}\n", "");
+}
+
+// Every sample kept out of a verdict, counted per method and the channels that share the same
+// reasons (kinematic channels and forces usually differ), and every place the reference's two
+// exact methods disagree: nothing is dropped without a word.
+void print_kept_out(std::FILE* out, const Comparison& cmp) {
+  const Trajectory& ref = cmp.reference().trajectory;
+  std::vector<std::tuple<std::string, std::string, std::vector<std::string>>> groups;
+  for (const ChannelResult& c : cmp.channels) {
+    std::string why;
+    int total = 0;
+    for (const auto& [reason, count] : c.metrics.excluded()) {
+      why += fmt::format("{}{} {}", why.empty() ? "" : ", ", count, reason);
+      total += count;
+    }
+    if (total == 0) continue;
+    why = fmt::format("{} of {} samples ({})", total, ref.samples(), why);
+    const std::string q(to_string(c.metrics.quantity));
+    auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) {
+      return std::get<0>(g) == c.method && std::get<1>(g) == why;
+    });
+    if (it == groups.end()) {
+      groups.push_back({c.method, why, {q}});
+    } else if (std::find(std::get<2>(*it).begin(), std::get<2>(*it).end(), q) ==
+               std::get<2>(*it).end()) {
+      std::get<2>(*it).push_back(q);
+    }
+  }
+  if (!groups.empty()) {
+    fmt::print(out, "\nkept out of verdicts (docs/compare.md, 'What is kept out of a verdict')\n");
+    for (const auto& [method, why, quantities] : groups) {
+      std::string kinds;
+      for (const std::string& q : quantities) kinds += (kinds.empty() ? "" : ", ") + q;
+      print_wrapped(out, fmt::format("{} {}: {}", method, kinds, why), 2, 100);
+    }
+  }
+  for (const Trajectory::Event& e : ref.events)
+    if (e.kind == PoseStatus::exact_methods_disagree) {
+      const DisplayUnit du = driver_unit(*cmp.mechanism);
+      print_wrapped(
+          out, fmt::format("reference at {:.4f} {}: {}", e.driver / du.scale, du.name, e.message),
+          2, 100);
+    }
 }
 
 }  // namespace
@@ -143,15 +191,16 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                "worst channel", "max % peak", "tolerance %", "worst at", "pass/fail");
     fmt::print(out, "{:-<98}\n", "");
     for (const MethodRun& run : cmp.methods)
-      for (Quantity q : {Quantity::position, Quantity::angle, Quantity::velocity,
-                         Quantity::acceleration, Quantity::energy}) {
+      for (Quantity q :
+           {Quantity::position, Quantity::angle, Quantity::velocity, Quantity::acceleration,
+            Quantity::force, Quantity::torque, Quantity::energy}) {
         const auto it = worst.find(std::pair{run.name, q});
         if (it == worst.end() || !it->second) continue;
         const ChannelResult& c = *it->second;
         const auto [p, f] = counts[it->first];
         std::string at = worst_at(cmp, c);
         fmt::print(out, "{:<13} {:<8} {:<22} {:>11} {:>11} {:>17} {:>10}\n", to_string(q), run.name,
-                   c.metrics.channel, fmt::format("{:.3g}", c.metrics.max_pct_of_peak),
+                   c.metrics.channel, metric_text(c, c.metrics.max_pct_of_peak),
                    fmt::format("{:.3g}", c.tolerance), at.substr(0, at.find(" #")),
                    fmt::format("{}/{}", p, f));
       }
@@ -180,6 +229,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       fmt::print(out, "... {} more channels within tolerance (--all lists every row)\n",
                  total - shown);
   }
+
+  print_kept_out(out, cmp);
 
   // [[reference]] rows: printed values against the exact one.
   if (!cmp.references.empty()) {
@@ -255,6 +306,16 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   fmt::print(out, "verdict: {} ({})\n", cmp.pass() ? "PASS" : "FAIL", cmp.counts_text());
 }
 
+namespace {
+// The samples a channel keeps out of its verdict, per reason: [{"reason", "samples"}].
+nlohmann::json excluded_json(const ChannelMetrics& metrics) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& [reason, count] : metrics.excluded())
+    out.push_back({{"reason", reason}, {"samples", count}});
+  return out;
+}
+}  // namespace
+
 nlohmann::json to_json(const Comparison& cmp) {
   using nlohmann::json;
   const Mechanism& m = *cmp.mechanism;
@@ -291,17 +352,20 @@ nlohmann::json to_json(const Comparison& cmp) {
   j["channels"] = json::array();
   for (const ChannelResult& c : cmp.channels) {
     const int k = c.metrics.worst_sample;
+    // A channel with no sample in its verdict has no difference and no peak: null, not 0.
+    const auto measured = [&](double v) { return c.metrics.usable > 0 ? json(v) : json(nullptr); };
     j["channels"].push_back(
         {{"channel", c.metrics.channel},
          {"quantity", std::string(to_string(c.metrics.quantity))},
          {"method", c.method},
-         {"max_pct_of_peak", c.metrics.max_pct_of_peak},
-         {"rms_pct_of_peak", c.metrics.rms_pct_of_peak},
-         {"max_local_pct", c.metrics.max_local_pct},
-         {"max_abs", c.metrics.max_abs},
-         {"rms_abs", c.metrics.rms_abs},
-         {"peak", c.metrics.peak_used},
+         {"max_pct_of_peak", measured(c.metrics.max_pct_of_peak)},
+         {"rms_pct_of_peak", measured(c.metrics.rms_pct_of_peak)},
+         {"max_local_pct", measured(c.metrics.max_local_pct)},
+         {"max_abs", measured(c.metrics.max_abs)},
+         {"rms_abs", measured(c.metrics.rms_abs)},
+         {"peak", measured(c.metrics.peak_used)},
          {"usable_samples", c.metrics.usable},
+         {"excluded", excluded_json(c.metrics)},
          {"worst_sample", k >= 0 ? json(k) : json(nullptr)},
          {"worst_driver_value", k >= 0 ? json(ref.driver(k)) : json(nullptr)},
          {"worst_time", k >= 0 ? json(ref.time(k)) : json(nullptr)},
@@ -345,19 +409,27 @@ std::string csv_number(double value) {
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
-         "reference,value,difference,pct_of_peak,local_pct,time\n";
+         "reason,reference,value,difference,pct_of_peak,local_pct,time\n";
   for (const ChannelResult& c : cmp.channels) {
     const MethodRun& run = *cmp.method(c.method);
+    const Quantity q = c.metrics.quantity;
     const Eigen::VectorXd r = *ref.channel(c.metrics.channel);
     const Eigen::VectorXd v = *run.trajectory.channel(c.metrics.channel);
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
-      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method, c.metrics.channel,
-                         to_string(c.metrics.quantity), k, ref.driver(k), to_string(ref.status[ks]),
-                         to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
-                         csv_number(r(k)), csv_number(v(k)), csv_number(c.metrics.difference(k)),
-                         csv_number(c.metrics.pct_of_peak(k)), csv_number(c.metrics.local_pct(k)),
-                         ref.time(k));
+      // A value that does not exist (a rate at a singular sample, any value where the chain
+      // does not close) is an empty field, and so is every difference it enters.
+      const bool has_ref = value_exists(ref.status[ks], q);
+      const bool has_value = value_exists(run.trajectory.status[ks], q);
+      const auto field = [](bool exists, double x) { return exists ? csv_number(x) : ""; };
+      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method,
+                         c.metrics.channel, to_string(q), k, ref.driver(k),
+                         to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
+                         c.metrics.in_verdict[ks] ? 1 : 0, c.metrics.reason[ks],
+                         field(has_ref, r(k)), field(has_value, v(k)),
+                         field(has_ref && has_value, c.metrics.difference(k)),
+                         field(has_ref && has_value, c.metrics.pct_of_peak(k)),
+                         field(has_ref && has_value, c.metrics.local_pct(k)), ref.time(k));
     }
   }
 }

@@ -11,6 +11,7 @@
 #include "analytic/dynamics.h"
 #include "analytic/instant_centres.h"
 #include "analytic/newton.h"
+#include "analytic/trust.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/sampling.h"
@@ -81,9 +82,8 @@ bool is_method(std::string_view name) {
 namespace {
 
 // A dynamics case's reference: the exact simulation (analytic/dynamics.h), with its energy
-// balance as the energy channels and each sample's conditioning (the Newton solver's rcond of the
-// pose, which the simulation does not keep) so that forces next to a singular position are kept
-// out of verdicts as in a kinematic comparison.
+// balance as the energy channels; each sample keeps its pose's conditioning (rcond), so the
+// trust rules (analytic/trust.h) apply as in a kinematic comparison.
 MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& options) {
   MethodRun run;
   run.name = "analytic";
@@ -107,14 +107,6 @@ MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& op
     if (usable(t.status[static_cast<size_t>(k)]))
       worst_balance = std::max(worst_balance, sim.energy_error(k));
   }
-  const NewtonSolver solver(mechanism);
-  KinematicState state(mechanism);
-  for (int k = 0; k < t.samples(); ++k) {
-    if (!usable(t.status[static_cast<size_t>(k)])) continue;
-    state.q = sim::reference_coordinates(mechanism, t, k);
-    state.driver.value = t.driver(k);
-    t.rcond(k) = solver.solve_position(state).rcond;
-  }
   t.flag_non_finite();
   run.cost.steps = sim.evaluations;
   run.cost.simulated_seconds = t.samples() > 0 ? t.time(t.samples() - 1) - t.time(0) : 0.0;
@@ -131,7 +123,8 @@ MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& op
                   {"interval", fmt::format("{:g} s", mechanism.dynamics->interval)},
                   {"samples", fmt::format("{}", t.samples())},
                   {"evaluations", fmt::format("{}", sim.evaluations)},
-                  {"energy_balance", fmt::format("{:.2g} (worst, relative)", worst_balance)}};
+                  {"energy_balance", fmt::format("{:.2g} (worst, relative)", worst_balance)},
+                  {"typical_rcond", fmt::format("{:.3g}", typical_rcond(t))}};
   return run;
 }
 
@@ -150,6 +143,19 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   const double cpu_start = sim::thread_cpu_seconds();
   run.trajectory = sweep(mechanism, options);
   run.trajectory.flag_non_finite();
+  // The reference checks itself where a second exact method can solve the chain.
+  const Decomposition decomposition = decompose(mechanism);
+  std::string check_text = "none: the chain does not decompose into dyads";
+  if (decomposition.complete) {
+    const double check_start = sim::thread_cpu_seconds();
+    const CrossCheck check =
+        cross_check(mechanism, run.trajectory, dyad_sweep(mechanism, run.trajectory));
+    check_text = fmt::format(
+        "dyads on {} samples: agree to {:.2g} of scale (limit {:g}), {} disagree (flagged), {} "
+        "singular by the dyads (flagged); {:.3g} s",
+        check.compared, check.worst, kExactAgreement, check.disagree, check.singular,
+        sim::thread_cpu_seconds() - check_start);
+  }
   run.cost.wall_seconds = seconds_since(start);
   run.cost.steps = run.trajectory.samples();
   run.cost.wall_seconds_per_cycle = run.cost.wall_seconds;
@@ -161,7 +167,9 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
                   {"newton.max_iterations", fmt::format("{}", options.newton.max_iterations)},
                   {"newton.singular_rcond", fmt::format("{:g}", options.newton.singular_rcond)},
                   {"step", step > 0.0 ? fmt::format("{:g}", step) : "1 deg (default)"},
-                  {"samples", fmt::format("{}", run.trajectory.samples())}};
+                  {"samples", fmt::format("{}", run.trajectory.samples())},
+                  {"cross_check", check_text},
+                  {"typical_rcond", fmt::format("{:.3g}", typical_rcond(run.trajectory))}};
   return run;
 }
 

@@ -6,6 +6,7 @@
 
 #include "analytic/kinetostatics.h"
 #include "analytic/planar.h"
+#include "analytic/trust.h"
 #include "sim/sampling.h"
 
 namespace crosslink::sim {
@@ -265,10 +266,9 @@ ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
   ForceAgreement a;
   if (!exact.has_forces || !engine.has_forces) return a;
   std::vector<int> rows;
+  const double force_rcond = kForceConditioning * typical_rcond(exact);
   for (int i = 0; i < exact.samples(); ++i)
-    if (usable(exact.status[static_cast<size_t>(i)]) &&
-        usable(engine.status[static_cast<size_t>(i)]) && !exact.beside_singular(i) &&
-        exact.rcond(i) >= kForceRcond)
+    if (untrusted(exact, i, force_rcond).empty() && usable(engine.status[static_cast<size_t>(i)]))
       rows.push_back(i);
   a.compared = static_cast<int>(rows.size());
   if (rows.empty()) return a;

@@ -130,9 +130,8 @@ void combine_readings(const ForceStencil& stencil,
 
 namespace crosslink::sim {
 
-// How far an engine's forces are from the exact ones, over the samples both call usable, the
-// reference does not flag as next to a singular position and whose rcond is at least
-// kForceRcond: the driver's effort (against 1e-3 of the largest reaction, times the size for a
+// How far an engine's forces are from the exact ones, over the samples the engine calls usable
+// and the reference trusts for forces (analytic/trust.h, `untrusted`): the driver's effort (against 1e-3 of the largest reaction, times the size for a
 // torque, where it is zero by design), each joint's
 // reaction (vector difference) and the shaking force, each as its worst difference over the
 // peak of its exact value; a prismatic couple against its joint's peak force times the

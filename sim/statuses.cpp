@@ -2,10 +2,16 @@
 
 #include <fmt/format.h>
 
+#include "analytic/trust.h"
+
 namespace crosslink::sim {
 
 StatusJudge::StatusJudge(const Trajectory& reference, Span span, Thresholds thresholds, bool events)
-    : reference_(reference), span_(span), thresholds_(thresholds), events_(events) {}
+    : reference_(reference), span_(span), thresholds_(thresholds), events_(events) {
+  // The conditioning limit is a fraction of the chain's own (analytic/trust.h): a long chain is
+  // ill-conditioned everywhere without being near a singular position.
+  thresholds_.singular_rcond *= typical_rcond(reference);
+}
 
 bool StatusJudge::outside(int i, Trajectory& out) {
   if (i >= span_.first && i <= span_.last) return false;
@@ -71,8 +77,8 @@ std::string branch_jump_note(int jumped) {
 std::string dynamics_singular_note(int singular, double singular_rcond) {
   if (singular == 0) return "";
   return fmt::format(
-      "{} samples flagged singular (constraint Jacobian rcond below {:g} at the engine's "
-      "configuration: next to a singular position)",
+      "{} samples flagged singular (constraint Jacobian rcond below {:.2g}, singular_rcond of "
+      "the chain's own conditioning, at the engine's configuration: next to a singular position)",
       singular, singular_rcond);
 }
 

@@ -16,8 +16,10 @@ namespace crosslink::sim {
 class StatusJudge {
  public:
   struct Thresholds {
-    double loop_gap = 0.0;        // a larger gap in a sample's steps: loop_gap [m]
-    double singular_rcond = 0.0;  // a worse conditioned sample: singular
+    double loop_gap = 0.0;  // a larger gap in a sample's steps: loop_gap [m]
+    // A sample conditioned worse than this fraction of the chain's own conditioning (the
+    // reference's typical_rcond, analytic/trust.h): singular.
+    double singular_rcond = 0.0;
     double branch_distance =
         0.0;  // a closed configuration further from the reference's: branch_jump
   };
@@ -36,6 +38,8 @@ class StatusJudge {
   PoseStatus judge(int i, double gap, double rcond, const std::function<double()>& branch_distance,
                    Trajectory& out);
 
+  // The absolute rcond limit in force: singular_rcond times the chain's own conditioning.
+  double singular_limit() const { return thresholds_.singular_rcond; }
   int kept() const { return kept_; }  // reference-flagged samples inside the span (run through)
   int loop_gaps() const { return loop_gaps_; }
   int singular() const { return singular_; }

@@ -6,6 +6,8 @@
 // the solve. Positions are therefore accurate to O(dt^2); velocities and accelerations come from
 // central differences of positions centred on each sample.
 #include "sim/bullet/bullet_engine.h"
+
+#include "analytic/trust.h"
 #include "sim/forces.h"
 #include "sim/sampling.h"
 #include "sim/statuses.h"
@@ -65,7 +67,10 @@ struct Config {
   double driver_threshold = 1e-4;    // [rad], or relative to the size for a slider: a driver
                                      // further from its law is lost (diverged)
   bool split_impulse = false;        // Bullet's split impulse (position correction apart)
-  double singular_rcond = 1e-3;      // samples whose Jacobian is worse conditioned are flagged
+  // Samples whose Jacobian is conditioned worse than this fraction of the chain's own (the
+  // reference's median rcond, analytic/trust.h) are flagged singular: 1e-3 on IFToMM A02 N = 2,
+  // 3e-3 on a four-bar.
+  double singular_rcond = 0.03;
   double branch_distance = 1e-4;     // closed configuration this far from the reference's (of
                                      // the size, or rad): another assembly mode, branch_jump
   std::string perturb_link;
@@ -1491,7 +1496,8 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
   state.driver = d.at_time(out.t_start);
   state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
   SolveReport start = solver.solve_position(state);
-  if (out.preroll > 0 && (start.status != PoseStatus::ok || start.rcond < config.singular_rcond)) {
+  if (out.preroll > 0 && (start.status != PoseStatus::ok ||
+                          start.rcond < config.singular_rcond * typical_rcond(reference))) {
     out.preroll = 0;  // not assembled there after all: start at the sample
     out.t_start = t0;
     state.q = reference_coordinates(original, reference, first);
@@ -1759,9 +1765,9 @@ void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span&
   if (const int near_singular = judge.singular())
     tr.events.push_back(
         {reference.driver(judge.first_singular()), PoseStatus::singular,
-         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}): the "
-                     "engine may have changed branch there",
-                     near_singular, config.singular_rcond)});
+         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}, "
+                     "singular_rcond of the chain's own): the engine may have changed branch there",
+                     near_singular, judge.singular_limit())});
   if (const int jumped = judge.jumped()) {
     tr.events.push_back(
         {reference.driver(judge.first_jump()), PoseStatus::branch_jump,
@@ -2126,7 +2132,7 @@ void note_dynamics(const Trajectory& reference, const Span& span, const Config& 
   }
   for (const std::string& note :
        {dynamics_span_note(reference, span), kept_note(judge.kept(), false),
-        dynamics_singular_note(judge.singular(), config.singular_rcond)})
+        dynamics_singular_note(judge.singular(), judge.singular_limit())})
     if (!note.empty()) notes.push_back(note);
   if (const int flagged = judge.loop_gaps())
     notes.push_back(fmt::format("{} samples flagged loop_gap (above {:.3g} m; largest {:.3g} m)",

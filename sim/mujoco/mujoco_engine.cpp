@@ -50,12 +50,16 @@ EngineRun failed(EngineRun run, std::string message) {
 // Settings
 
 const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
-constexpr double kSingularRcond = 1e-6;
+// The conditioning limits below are fractions of the chain's own (the reference's median rcond,
+// analytic/trust.h), chosen to equal the absolute limits they replace on the bundled linkages:
+// 1e-6 at a four-bar's 0.1, 1e-3 at IFToMM A02 N = 2's 0.033.
+constexpr double kSingularRcond = 1e-5;
 // Forward dynamics passes singular positions under its own momentum; within about 0.005 rad of
 // one (IFToMM A02's change point: rcond 1.3e-4 and 3.7e-4) the soft constraint solve's
 // acceleration is off by 2 to 8 % of its peak in the direction the chain gains there, at every
-// step (measured; docs/engines.md, "Forward dynamics"), while from 6.7e-4 on it is within 1e-5.
-constexpr double kDynamicsSingularRcond = 1e-3;
+// step (measured; docs/engines.md, "Forward dynamics"), while from 6.7e-4 on it is within 1e-5:
+// flagged below 1e-3 there, 0.03 of that chain's own conditioning (0.033).
+constexpr double kDynamicsSingularRcond = 0.03;
 // Periodic sweeps: steps run before the first sample and after the last.
 constexpr long kPreroll = 8;
 // A sample whose configuration, closed exactly on the definition, is further than this from the
@@ -1542,7 +1546,7 @@ void note_dynamics(const Trajectory& reference, const Prepared& p, const Dynamic
   }
   add_note(run.message, dynamics_span_note(reference, p.span));
   add_note(run.message, kept_note(judge.kept(), false));
-  add_note(run.message, dynamics_singular_note(judge.singular(), watch.singular_rcond));
+  add_note(run.message, dynamics_singular_note(judge.singular(), judge.singular_limit()));
   note_loop_gaps(judge.loop_gaps(), sampled.gaps(), watch.gap, reference, run);
 }
 

@@ -26,8 +26,9 @@
 //                   its share of the effort taken back out: auto tops the joint's own inertia up
 //                   to 1e-2 of the generalised inertia the driver moves (a light crank on a heavy
 //                   load); docs/engines.md, "Forces"
-//   singular_rcond  auto: 1e-6 (kinematic), 1e-3 (dynamics): samples whose constraint Jacobian at
-//                   the engine's configuration is worse conditioned are flagged singular
+//   singular_rcond  auto: 1e-5 (kinematic), 0.03 (dynamics): samples whose constraint Jacobian at
+//                   the engine's configuration is conditioned worse than this fraction of the
+//                   chain's own (analytic/trust.h, typical_rcond) are flagged singular
 // A dynamics case ([dynamics]; docs/engines.md, "Forward dynamics") runs without the driver
 // equality and adds:
 //   start           auto | staggered | exact: the velocity at the start, v0 - h/2 a0 (auto for

@@ -516,12 +516,12 @@ TEST(Cli, CsvNumbersAreShortestAndReadBackExactly) {
   std::getline(compare_lines, line);
   EXPECT_EQ(line,
             "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
-            "reference,value,difference,pct_of_peak,local_pct,time");
+            "reason,reference,value,difference,pct_of_peak,local_pct,time");
   int compare_rows = 0;
   while (std::getline(compare_lines, line)) {
     const std::vector<std::string> fields = csv_fields(line);
-    ASSERT_EQ(fields.size(), 14u) << line;
-    for (const size_t c : {4, 8, 9, 10, 11, 12, 13}) {
+    ASSERT_EQ(fields.size(), 15u) << line;
+    for (const size_t c : {4, 9, 10, 11, 12, 13, 14}) {
       if (fields[c].empty()) continue;
       EXPECT_TRUE(is_shortest(fields[c])) << line;
     }
@@ -532,6 +532,79 @@ TEST(Cli, CsvNumbersAreShortestAndReadBackExactly) {
     ++compare_rows;
   }
   EXPECT_GT(compare_rows, 361);
+}
+
+// The trust issue: a value that does not exist is never a number, in any output. A non-Grashof
+// four-bar swept over a range past its toggle (78.28 deg) has samples that cannot assemble
+// (no value at all) and, at the toggles, samples with a position but no rates or forces.
+TEST(Cli, NoOutputHoldsANumberForAValueThatDoesNotExist) {
+  std::string text = read_file("mechanisms/singular/fourbar_non_grashof.toml");
+  text.replace(text.find("speed_unit = \"rpm\""), 18, "speed_unit = \"rpm\"\nrange = [0, 90]");
+  const std::string file = write_definition("past_toggles.toml", text);
+  // A value exists for a status and a quantity as docs/json.md says.
+  const auto exists = [](const std::string& status, const std::string& kind) {
+    const bool position =
+        kind == "x" || kind == "y" || kind == "angle" || kind == "s" || kind == "mu";
+    return status == "ok" || (status == "singular" && position);
+  };
+  // Over the range past the toggles, and over the assembling range (a sample on each toggle).
+  int cannot = 0, singular = 0;
+  std::string line;
+  for (const std::string& swept :
+       {file, std::string("mechanisms/singular/fourbar_non_grashof.toml")}) {
+    const CommandRun csv = crosslink("solve " + swept + " --method newton --format csv");
+    ASSERT_EQ(csv.exit_code, 0) << csv.err;
+    std::istringstream lines(csv.out);
+    std::getline(lines, line);
+    const std::vector<std::string> header = csv_fields(line);
+    while (std::getline(lines, line)) {
+      const std::vector<std::string> f = csv_fields(line);
+      ASSERT_EQ(f.size(), header.size());
+      cannot += f[3] == "cannot_assemble";
+      singular += f[3] == "singular";
+      for (size_t c = 4; c < f.size(); ++c)
+        EXPECT_EQ(!f[c].empty(), exists(f[3], header[c].substr(0, header[c].find('.'))))
+            << header[c] << " at " << f[2] << " (" << f[3] << ")";
+    }
+  }
+  EXPECT_GT(cannot, 0);
+  EXPECT_GT(singular, 0);
+
+  const std::string path = (scratch_dir() / "past_toggles.csv").string();
+  const CommandRun compare =
+      crosslink("compare " + file + " --engines analytic,dyads --csv \"" + path + "\"");
+  ASSERT_LE(compare.exit_code, 1) << compare.err;
+  std::istringstream rows(read_file(path));
+  std::getline(rows, line);
+  int checked = 0;
+  while (std::getline(rows, line)) {
+    const std::vector<std::string> f = csv_fields(line);
+    ASSERT_EQ(f.size(), 15u);
+    const std::string kind = f[1].substr(0, f[1].find('.'));
+    const bool position = f[2] == "position" || f[2] == "angle";
+    const bool has_ref = exists(f[5], position ? "x" : kind);
+    const bool has_value = exists(f[6], position ? "x" : kind);
+    EXPECT_EQ(!f[9].empty(), has_ref) << line;
+    EXPECT_EQ(!f[10].empty(), has_value) << line;
+    if (!has_ref || !has_value) EXPECT_TRUE(f[11].empty() && f[12].empty()) << line;
+    // Every sample out of the verdict says why; every sample in it has no reason.
+    EXPECT_EQ(f[7] == "0", !f[8].empty()) << line;
+    checked += !has_ref;
+  }
+  EXPECT_GT(checked, 0);
+
+  const CommandRun json = crosslink("solve " + file + " --method newton --format json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  int nulls = 0;
+  const nlohmann::json document = nlohmann::json::parse(json.out);
+  for (const nlohmann::json& sample : document.at("samples"))
+    for (const auto& [name, link] : sample.at("links").items())
+      for (const char* kind : {"angle", "omega", "alpha"}) {
+        const bool is_number = link.at(kind).is_number();
+        EXPECT_EQ(is_number, exists(sample.at("status"), kind)) << name << "." << kind;
+        nulls += !is_number;
+      }
+  EXPECT_GT(nulls, 0);
 }
 
 // Issue 13: a constant angular acceleration of the driver, a key of its own beside the speed it
@@ -683,6 +756,41 @@ TEST(Cli, CompareShowsResultsFirstAndCountsPrescribedChannelsApart) {
     prescribed += expected;
   }
   EXPECT_EQ(prescribed, 19);
+}
+
+// The trust issue: a comparison with forces shows their verdicts on the console summary like
+// every other class, and says which samples it kept out of which verdicts and why: the
+// change-point four-bar's samples on and beside its two change points (all channels), and for
+// the forces also those within about 4 degrees, where its conditioning falls below 0.15 of its
+// own (docs/compare.md); the JSON and CSV say the same per channel.
+TEST(Cli, CompareShowsForceVerdictsAndWhatItKeptOut) {
+  const std::string json = (scratch_dir() / "change_point.json").string();
+  const CommandRun run =
+      crosslink("compare mechanisms/fourbar_change_point.toml --engines analytic,mujoco --json \"" +
+                json + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* row : {"force         mujoco", "torque        mujoco"})
+    EXPECT_NE(run.out.find(row), std::string::npos) << row << "\n" << run.out;
+  const size_t kept = run.out.find("kept out of verdicts");
+  ASSERT_NE(kept, std::string::npos) << run.out;
+  const std::string block = run.out.substr(kept, run.out.find("\nmethods\n") - kept);
+  EXPECT_NE(block.find("mujoco angle, velocity, acceleration, position: 6 of 361 samples (4 "
+                       "beside_singular, 2"),
+            std::string::npos)
+      << block;
+  EXPECT_NE(block.find("mujoco torque, force:"), std::string::npos) << block;
+  EXPECT_NE(block.find("ill_conditioned"), std::string::npos) << block;
+  const nlohmann::json document = nlohmann::json::parse(read_file(json));
+  for (const nlohmann::json& c : document.at("channels")) {
+    int excluded = 0;
+    for (const nlohmann::json& e : c.at("excluded")) excluded += e.at("samples").get<int>();
+    EXPECT_EQ(c.at("usable_samples").get<int>() + excluded, 361) << c.at("channel");
+    const std::string q = c.at("quantity");
+    if (q == "force" || q == "torque")
+      EXPECT_GT(excluded, 6) << c.at("channel");
+    else
+      EXPECT_EQ(excluded, 6) << c.at("channel");
+  }
 }
 
 // Issue 13: solve's sweep table shows what the notes ask for, in the file's units: each link's

@@ -5,9 +5,11 @@
 // expected value for B0 = (cos theta, sin theta) at every sample.
 #pragma once
 
+#include <fmt/format.h>
 #include <array>
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
+#include <string>
 
 #include "analytic/trajectory.h"
 
@@ -38,6 +40,45 @@ inline double nfourbar_b0_difference(const Trajectory& t, int b0, int n) {
     worst = std::max({worst, std::abs(dx), std::abs(dy), std::abs(dvx) / 7.0, std::abs(dvy) / 7.0});
   }
   return worst;
+}
+
+// IFToMM A02 with N four-bars as a definition (scripts/generate_a02.py's model), simulated for
+// `duration` s, written in `length` units ("m" or "mm"): the same linkage whatever the unit.
+inline std::string nfourbar_definition(int n, double duration, const std::string& length = "m") {
+  const double u = length == "mm" ? 1000.0 : 1.0;  // file units per metre
+  std::string t = fmt::format(
+      "name = \"A02, N = {}\"\ngravity = [0, {}]\n[units]\nlength = \"{}\"\nangle = \"deg\"\n", n,
+      -9.81 * u, length);
+  const std::string bar =
+      fmt::format("mass = 1\ncom = [{}, 0]\ninertia = {:.17g}\n", 0.5 * u, u * u / 12.0);
+  t += "[[link]]\nname = \"ground\"\nground = true\npoints = { ";
+  for (int i = 0; i <= n; ++i) t += fmt::format("{}A{} = [{}, 0]", i ? ", " : "", i, i * u);
+  t += " }\n";
+  for (int i = 0; i <= n; ++i)
+    t += fmt::format(
+        "[[link]]\nname = \"crank{}\"\npoints = {{ A{} = [0, 0], B{} = [{}, 0] }}\npose = [{}, 0, "
+        "90]\n{}",
+        i, i, i, u, i * u, bar);
+  for (int i = 1; i <= n; ++i)
+    t += fmt::format(
+        "[[link]]\nname = \"coupler{}\"\npoints = {{ B{} = [0, 0], B{} = [{}, 0] }}\npose = [{}, "
+        "{}, 0]\n{}",
+        i, i - 1, i, u, (i - 1) * u, u, bar);
+  for (int i = 0; i <= n; ++i)
+    t += fmt::format(
+        "[[joint]]\ntype = \"revolute\"\nlinks = [\"ground\", \"crank{}\"]\npoint = \"A{}\"\n", i,
+        i);
+  for (int i = 1; i <= n; ++i)
+    t += fmt::format(
+        "[[joint]]\ntype = \"revolute\"\nname = \"B{}c{}\"\nlinks = [\"crank{}\", "
+        "\"coupler{}\"]\npoint = \"B{}\"\n[[joint]]\ntype = \"revolute\"\nname = "
+        "\"B{}c{}\"\nlinks = [\"coupler{}\", \"crank{}\"]\npoint = \"B{}\"\n",
+        i - 1, i, i - 1, i, i - 1, i, i, i, i, i);
+  t += fmt::format(
+      "[driver]\ntype = \"joint_angle\"\njoint = \"A0\"\nto = \"B0\"\nstart = 90\n[dynamics]\n"
+      "duration = {}\ninterval = 0.025\nrate = -1\n",
+      duration);
+  return t;
 }
 
 }  // namespace crosslink::test
