@@ -342,6 +342,13 @@ std::string csv_number(double value) {
   return std::isfinite(value) ? fmt::format("{}", value) : std::string();
 }
 
+std::string csv_field(std::string_view text) {
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
@@ -352,8 +359,9 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     const Eigen::VectorXd v = *run.trajectory.channel(c.metrics.channel);
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
-      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method, c.metrics.channel,
-                         to_string(c.metrics.quantity), k, ref.driver(k), to_string(ref.status[ks]),
+      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(c.method),
+                         csv_field(c.metrics.channel), to_string(c.metrics.quantity), k,
+                         ref.driver(k), to_string(ref.status[ks]),
                          to_string(run.trajectory.status[ks]), c.metrics.in_verdict[ks] ? 1 : 0,
                          csv_number(r(k)), csv_number(v(k)), csv_number(c.metrics.difference(k)),
                          csv_number(c.metrics.pct_of_peak(k)), csv_number(c.metrics.local_pct(k)),
