@@ -136,12 +136,12 @@ Config parse_settings(const Settings& overrides) {
           name));
     }
   }
-  for (const std::string* choice : {&c.integrator, &c.solver}) {
-    const bool known = *choice == "Euler" || *choice == "RK4" || *choice == "implicit" ||
-                       *choice == "Newton" || *choice == "CG" || *choice == "PGS";
-    if (!known)
-      throw std::runtime_error(fmt::format("unknown integrator or solver \"{}\"", *choice));
-  }
+  if (c.integrator != "Euler" && c.integrator != "RK4" && c.integrator != "implicit")
+    throw std::runtime_error(
+        fmt::format("setting integrator = \"{}\": expected Euler, RK4 or implicit", c.integrator));
+  if (c.solver != "Newton" && c.solver != "CG" && c.solver != "PGS")
+    throw std::runtime_error(
+        fmt::format("setting solver = \"{}\": expected Newton, CG or PGS", c.solver));
   if (c.force_read != "centred" && c.force_read != "raw")
     throw std::runtime_error(
         fmt::format("setting force_read = \"{}\": expected centred or raw", c.force_read));

@@ -921,7 +921,9 @@ TEST(Cli, AnEngineSettingsValueIsCheckedBeforeAnyRun) {
            {"mujoco:singular_rcond=2",
             "setting singular_rcond = \"2\": expected a number in [0, 1]"},
            {"bullet:divergence_gap=0", "setting divergence_gap = \"0\": expected a positive"},
-           {"mujoco:tolerance=nan", "setting tolerance = \"nan\": expected 0 or a positive"}}) {
+           {"mujoco:tolerance=nan", "setting tolerance = \"nan\": expected 0 or a positive"},
+           {"mujoco:integrator=Newton",
+            "setting integrator = \"Newton\": expected Euler, RK4 or implicit"}}) {
     const CommandRun run = crosslink(compare + setting);
     EXPECT_EQ(run.exit_code, 2) << setting << ": " << run.err;
     EXPECT_NE(run.err.find(expected), std::string::npos) << setting << ": " << run.err;
