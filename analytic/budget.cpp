@@ -112,7 +112,7 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
                d.range_where};
     cause.what += step_given ? " at " + step_option.what
                              : fmt::format(" at a step of {:g} {}", step / u.si, u.name);
-    check_count(m, cause, std::floor((hi - lo) / step + 1e-9) + 1.0, "samples", limits);
+    check_count(m, cause, range_grid(d.start, step, lo, hi).size(), "samples", limits);
     // From the drawn position to the first sample, then across the range.
     const double first = d.law.speed > 0.0 ? lo : hi;
     check_count(m, cause, (std::abs(d.start - first) + (hi - lo)) / continuation,
@@ -159,6 +159,20 @@ void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOpt
               steps_of(m, continuation), limits);
   check_resolution(m, cause, continuation,
                    std::max(std::abs(driver_value), std::abs(m.driver.start)));
+}
+
+void check_simulation_work(const Mechanism& m, const SimulationOptions& options,
+                           std::string_view option, const WorkLimits& limits) {
+  const DynamicsCase& c = *m.dynamics;
+  const double duration = options.duration > 0.0 ? options.duration : c.duration;
+  const double interval = options.interval > 0.0 ? options.interval : c.interval;
+  Cause cause =
+      options.duration > 0.0
+          ? Cause{fmt::format("{} {:g} s", option, duration), {}}
+          : Cause{fmt::format("[dynamics] 'duration' = {:g} s", duration), c.duration_where};
+  cause.what += fmt::format(" at {} interval of {:g} s",
+                            options.interval > 0.0 ? "an" : "the case's", interval);
+  check_count(m, cause, std::floor(duration / interval + 1e-9) + 1.0, "samples", limits);
 }
 
 }  // namespace crosslink

@@ -5,6 +5,7 @@
 // and the option that raises it. (What a definition may hold is bounded by analytic/limits.h.)
 #pragma once
 
+#include "analytic/dynamics.h"
 #include "analytic/sweep.h"
 
 namespace crosslink {
@@ -26,5 +27,12 @@ void check_sweep_work(const Mechanism& mechanism, const SweepOptions& options,
 // position to `driver_value` (--at), which must also be finite and within the driver's limits.
 void check_solve_at_work(const Mechanism& mechanism, double driver_value,
                          const SweepOptions& options, const WorkLimits& limits);
+
+// The same for simulate(mechanism, options) of a dynamics case: its samples, the duration over
+// the interval. Over the limit, a DefinitionError located at [dynamics] 'duration', or, when
+// options.duration was given by the command-line `option` (--duration, --at), an
+// std::invalid_argument naming it.
+void check_simulation_work(const Mechanism& mechanism, const SimulationOptions& options,
+                           std::string_view option, const WorkLimits& limits);
 
 }  // namespace crosslink

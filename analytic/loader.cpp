@@ -156,9 +156,12 @@ class Reader {
                                   scale.largest / scale.si, unit));
       return std::nullopt;
     }
-    if (si != 0.0 && std::abs(si) < scale.smallest) {
+    // A nonzero value that underflows (5e-324 rpm is 0 rad/s) is no more usable than one below
+    // the key's own floor: it would silently become 0.
+    const double smallest = std::max(scale.smallest, std::numeric_limits<double>::min());
+    if (*value != 0.0 && !(std::abs(si) >= smallest)) {
       error(at(node), fmt::format("{} = {}{} is too small: the limit is {:g}{}", what, *value, unit,
-                                  scale.smallest / scale.si, unit));
+                                  smallest / scale.si, unit));
       return std::nullopt;
     }
     return si;
@@ -1010,7 +1013,9 @@ std::vector<std::string> reference_objects(const Mechanism& m) {
     if (std::find(objects.begin(), objects.end(), j.name) == objects.end())
       objects.push_back(j.name);
   objects.push_back("driver");
-  objects.push_back(m.links[static_cast<size_t>(m.ground())].name);
+  // Without a ground link (an error said already) there is no ground's name.
+  if (const int ground = m.ground(); ground >= 0)
+    objects.push_back(m.links[static_cast<size_t>(ground)].name);
   return objects;
 }
 
@@ -1262,9 +1267,18 @@ void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
     spring.point_a = names[1][0];
     spring.point_b = names[1][1];
     spring.name = r.string(t, "name", what, false).value_or(spring.point_a + "-" + spring.point_b);
-    const auto stiffness = r.number(t, "stiffness", what, false);
-    const auto free_length = r.number(t, "free_length", what, false);
-    const auto damping = r.number(t, "damping", what, false);
+    const double per_length = m.units.force / m.units.length;
+    const std::string force_per_length = m.units.force_name + "/" + m.units.length_name;
+    const auto stiffness =
+        r.number(t, "stiffness", what, false, {per_length, force_per_length, limits::kStiffness});
+    const auto free_length = r.number(t, "free_length", what, false, length_scale(m.units));
+    const auto damping =
+        r.number(t, "damping", what, false,
+                 {per_length, m.units.force_name + " s/" + m.units.length_name, limits::kDamping});
+    // A value refused above has said so already.
+    if ((t.get("stiffness") && !stiffness) || (t.get("free_length") && !free_length) ||
+        (t.get("damping") && !damping))
+      continue;
     if (!stiffness && !damping) {
       r.error(spring.where, fmt::format("{} needs 'stiffness' (force unit per length unit) "
                                         "and 'free_length', or 'damping', or both",
@@ -1284,9 +1298,9 @@ void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
         good = false;
       }
     if (!good) continue;
-    spring.stiffness = stiffness.value_or(0.0) * m.units.force / m.units.length;
-    spring.free_length = free_length.value_or(0.0) * m.units.length;
-    spring.damping = damping.value_or(0.0) * m.units.force / m.units.length;
+    spring.stiffness = stiffness.value_or(0.0);
+    spring.free_length = free_length.value_or(0.0);
+    spring.damping = damping.value_or(0.0);
     m.springs.push_back(spring);
   }
 }
@@ -1305,6 +1319,7 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
   if (duration && *duration <= 0.0)
     r.error(r.at(t->get("duration")), "[dynamics] 'duration' must be positive (seconds)");
   c.duration = duration.value_or(0.0);
+  if (const toml::node* key = t->get("duration")) c.duration_where = r.at(*key);
   const std::optional<double> interval = r.number(*t, "interval", "[dynamics] (s)", true, seconds);
   if (interval && (*interval <= 0.0 || (duration && *interval > *duration)))
     r.error(r.at(t->get("interval")),
@@ -1313,8 +1328,10 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
   c.interval = interval.value_or(0.0);
   Driver& d = m.driver;
   double rate_unit = d.angular() ? 1.0 : m.units.length;
+  std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
   if (d.angular()) {
-    if (const auto f = unit_factor(r, *t, "[dynamics]", "rate_unit", kAngularSpeedUnits, "rad/s"))
+    if (const auto f =
+            unit_factor(r, *t, "[dynamics]", "rate_unit", kAngularSpeedUnits, "rad/s", &rate_name))
       rate_unit = *f;
   } else if (t->get("rate_unit")) {
     r.error(r.at(t->get("rate_unit")),
@@ -1322,13 +1339,18 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
                         "({}/s); remove 'rate_unit'",
                         m.units.length_name));
   }
-  c.rate = r.number(*t, "rate", "[dynamics]", false).value_or(0.0) * rate_unit;
-  const double effort_unit = d.angular() ? m.units.force * m.units.length : m.units.force;
+  // The initial rate is the kinematic view's speed: the same limits as a driver's speed.
+  c.rate = r.number(*t, "rate", "[dynamics]", false,
+                    {rate_unit, rate_name, limits::kRate, limits::kSlowestSpeed})
+               .value_or(0.0);
+  const Scale effort_scale = d.angular()
+                                 ? Scale{m.units.force * m.units.length, "", limits::kTorque}
+                                 : Scale{m.units.force, m.units.force_name, limits::kForce};
   if (t->get("effort") && t->get("effort_table"))
     r.error(r.at(t->get("effort_table")),
             "[dynamics] takes 'effort' (constant) or 'effort_table' ([[t, value], ...]), not both");
-  if (const auto e = r.number(*t, "effort", "[dynamics]", false))
-    c.effort.emplace_back(0.0, *e * effort_unit);
+  if (const auto e = r.number(*t, "effort", "[dynamics]", false, effort_scale))
+    c.effort.emplace_back(0.0, *e);
   if (const toml::node* table = t->get("effort_table")) {
     const auto* rows = table->as_array();
     if (!rows || rows->size() < 2)
@@ -1337,13 +1359,13 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
     else
       for (const toml::node& row : *rows) {
         const auto tv = r.numbers(row, "an 'effort_table' row ([t, value])",
-                                  {Scale{1.0, "s", limits::kDuration}, Scale{}});
+                                  {Scale{1.0, "s", limits::kDuration}, effort_scale});
         if (!tv) break;
         if (!c.effort.empty() && (*tv)[0] <= c.effort.back().first) {
           r.error(r.at(row), "[dynamics] 'effort_table' times must increase strictly");
           break;
         }
-        c.effort.emplace_back((*tv)[0], (*tv)[1] * effort_unit);
+        c.effort.emplace_back((*tv)[0], (*tv)[1]);
       }
   }
   d.law.kind = MotionLaw::Kind::constant_speed;

@@ -206,6 +206,7 @@ struct DynamicsCase {
   // a slider), as (time [s], value) rows, linear between rows and held beyond; none: free motion.
   std::vector<std::pair<double, double>> effort;
   SourceLocation where;
+  SourceLocation duration_where;  // its 'duration'
 
   double effort_at(double t) const;
 };

@@ -954,6 +954,12 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
       const int n = static_cast<int>(std::lround(2.0 * kPi / max_step));
       for (int k = 0; k <= n; ++k)
         drivers.push_back(constant_speed_state(d, d.start + direction * k * max_step));
+    } else if (options.range || d.range) {
+      // The range's grid and its own ends, in the driver's direction of motion.
+      for (const double value :
+           range_grid(d.start, max_step, interval->first, interval->second).values())
+        drivers.push_back(constant_speed_state(d, value));
+      if (direction < 0) std::reverse(drivers.begin(), drivers.end());
     } else {
       // The grid start + k*step inside the interval, in the driver's direction of motion.
       const auto [lo, hi] = *interval;
@@ -979,6 +985,27 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
 }
 
 }  // namespace
+
+RangeGrid range_grid(double start, double step, double lower, double upper) {
+  RangeGrid g{start, step, lower, upper};
+  g.first = std::ceil((lower - start) / step - 1e-9);
+  g.last = std::floor((upper - start) / step + 1e-9);
+  // A grid value at an end, to 1e-9 of a step or the values' round-off, is that end (compared
+  // as values: an index near 1e9 has no room for 1e-9 of it).
+  const double near =
+      1e-9 * step + 8.0 * std::numeric_limits<double>::epsilon() *
+                        std::max({std::abs(start), std::abs(lower), std::abs(upper)});
+  if (start + g.first * step - lower < near) ++g.first;
+  if (upper - (start + g.last * step) < near) --g.last;
+  return g;
+}
+
+std::vector<double> RangeGrid::values() const {
+  std::vector<double> out = {lower};
+  for (double k = first; k <= last; ++k) out.push_back(start + k * step);
+  out.push_back(upper);
+  return out;
+}
 
 std::string_view to_string(SingularKind kind) {
   switch (kind) {

@@ -2,6 +2,7 @@
 // assembling range, sampling position, velocity and acceleration on a regular grid.
 #pragma once
 
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -63,9 +64,10 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
                                  double tolerance = 1e-9);
 
 // The exact sweep: samples at start + k*step (in the direction of the driver's speed) over one
-// cycle when the driver can complete it, else over the assembling range, else over
-// options.range. For a polynomial or table law, samples are equally spaced in time over the
-// law's duration. Each sample's status says whether it is usable; events list limits and jumps.
+// cycle when the driver can complete it, else over the assembling range; over an explicit range
+// (options.range, else the driver's), its grid and its own ends (range_grid()). For a polynomial or
+// table law, samples are equally spaced in time over the law's duration. Each sample's status says
+// whether it is usable; events list limits and jumps.
 //
 // Singular positions met on the way are events (kind `singular`, message "toggle: ...",
 // "change_point: ...") located to ~1e-12 in the driver; a constant-speed sweep without an
@@ -74,6 +76,18 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options = {});
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                  std::vector<SingularPosition>& singular);
+
+// The driver values of a sweep over an explicit range [lower, upper] from `start` at `step`: the
+// grid start + k*step strictly inside, and the range's own two ends (a range between two grid
+// values still has them; a grid value within 1e-9 of a step of an end is that end). The grid's
+// indices are doubles: the work bound counts them before any is made (analytic/budget.h).
+struct RangeGrid {
+  double start = 0.0, step = 0.0, lower = 0.0, upper = 0.0;
+  double first = 0.0, last = -1.0;  // the grid's indices k inside
+  double size() const { return 2.0 + std::max(0.0, last - first + 1.0); }
+  std::vector<double> values() const;  // ascending
+};
+RangeGrid range_grid(double start, double step, double lower, double upper);
 
 // The exact state at one driver value, reached by continuation from the drawn position so it
 // lies on the drawn branch. The driver's rate and acceleration are those of the motion law at

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -41,6 +42,15 @@ CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits);
 // and the refusal (std::invalid_argument naming `option`) of an explicit time step `dt` that
 // would take more than `max_steps` steps over `span` seconds, before any engine runs.
 void add_max_samples(CLI::App& cmd, WorkLimits& limits);
+// The check of a numeric option: a finite number from `low` (excluded when `low_open`) to
+// `high`; NaN, infinities and values out of range are refused before any work (exit 2), the
+// message naming the option.
+CLI::Validator number_in(double low = -std::numeric_limits<double>::max(),
+                         double high = std::numeric_limits<double>::max(), bool low_open = false);
+// A positive step, time or time step.
+inline CLI::Validator positive_number() {
+  return number_in(0.0, std::numeric_limits<double>::max(), true);
+}
 void add_max_steps(CLI::App& cmd, long& max_steps);
 sim::Settings with_max_steps(long max_steps, const sim::Settings& settings);
 void check_engine_steps(double span, double dt, long max_steps, const std::string& option);

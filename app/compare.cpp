@@ -69,7 +69,8 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
 // Every --set before anything runs (bad input, exit 2): an ENGINE: prefix names an engine, and
 // each engine takes what it would be given: a bare KEY=VALUE goes to every engine that runs,
 // ENGINE:KEY=VALUE to that engine whether it runs or not.
-void check_settings(const std::vector<std::string>& all, const std::vector<std::string>& runs) {
+void check_settings(const Mechanism& m, const std::vector<std::string>& all,
+                    const std::vector<std::string>& runs) {
   std::vector<std::string> engines;
   for (const std::string& n : methods::method_names())
     if (compare::Tolerances::is_engine(n)) engines.push_back(n);
@@ -88,7 +89,7 @@ void check_settings(const std::vector<std::string>& all, const std::vector<std::
   for (const std::string& engine : engines) {
     const bool running = std::find(runs.begin(), runs.end(), engine) != runs.end();
     try {
-      methods::check_engine_settings(engine,
+      methods::check_engine_settings(engine, m,
                                      settings_for(engine, running ? all : prefixed[engine]));
     } catch (const std::invalid_argument& e) {
       // A name one engine knows may be meant for that engine alone.
@@ -126,10 +127,16 @@ int run_compare(CompareArgs args) {
     for (const char* q :
          {"position", "angle", "velocity", "acceleration", "force", "torque", "energy"})
       tolerances.apply(fmt::format("{}={:.17g}", q, *accuracy));
-  for (const std::string& t : args.tolerances) tolerances.apply(t);
+  for (const std::string& t : args.tolerances) {
+    try {
+      tolerances.apply(t);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(fmt::format("--tolerance: {}", e.what()));
+    }
+  }
   std::vector<std::string> given = names;  // what the settings go to: the export too
   if (!args.export_mjcf.empty()) given.push_back("mujoco");
-  check_settings(args.settings, given);
+  check_settings(m, args.settings, given);
 
   SweepOptions options;
   const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
@@ -209,8 +216,10 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--csv", args->csv, "write every sample of every comparison as CSV (SI)");
   cmd->add_option("--json", args->json, "write the JSON document (SI; '-' for stdout)");
   cmd->add_option("--at", args->at,
-                  "driver value of the report's drawing, in the file's units (default: start)");
-  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)");
+                  "driver value of the report's drawing, in the file's units (default: start)")
+      ->check(number_in());
+  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)")
+      ->check(positive_number());
   cmd->add_option("--tolerance", args->tolerances,
                   "CLASS=PERCENT for the engines, or METHOD:CLASS=PERCENT (repeatable); classes: "
                   "position, angle, velocity, acceleration, force, torque, energy");

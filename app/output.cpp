@@ -105,8 +105,9 @@ nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::opt
 void print_csv(const Trajectory& t, const Columns& extra) {
   const std::vector<std::string> channels = t.channel_names();
   fmt::print("sample,time,driver,status");
-  for (const std::string& c : channels) fmt::print(",{}", c);
-  for (const auto& [name, column] : extra) fmt::print(",{}", name);
+  // Channel names hold the definition's names, which may hold commas or quotes.
+  for (const std::string& c : channels) fmt::print(",{}", compare::csv_field(c));
+  for (const auto& [name, column] : extra) fmt::print(",{}", compare::csv_field(name));
   fmt::print("\n");
   std::vector<Eigen::VectorXd> columns;
   std::vector<Quantity> quantities;

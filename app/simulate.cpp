@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "analytic/dynamics.h"
+#include "analytic/limits.h"
 #include "analytic/loader.h"
 #include "app/commands.h"
 #include "app/output.h"
@@ -50,12 +51,6 @@ int run_simulate(const SimulateArgs& args) {
   }
   const DynamicsCase& c = *m.dynamics;
   SimulationOptions options{.integrator = args.integrator, .tolerance = args.tolerance};
-  for (const auto& [value, option] : {std::pair{args.duration, "--duration"}, {args.at, "--at"}})
-    if (value && !(std::isfinite(*value) && *value >= 0.0 && *value <= 1e9))
-      throw std::invalid_argument(
-          fmt::format("{} {} s: a time from 0 to 1e9 s is needed", option, *value));
-  if (args.duration && *args.duration == 0.0)
-    throw std::invalid_argument("--duration 0 s: a duration must be positive");
   std::optional<int> single;
   if (args.at) {
     // Two samples, 0 and T, the integrator landing on T (a time of 0 is the first of the case's).
@@ -65,14 +60,7 @@ int run_simulate(const SimulateArgs& args) {
   } else if (args.duration) {
     options.duration = *args.duration;
   }
-  const double duration = options.duration > 0.0 ? options.duration : c.duration;
-  const double interval = options.interval > 0.0 ? options.interval : c.interval;
-  const double samples = std::floor(duration / interval + 1e-9) + 1.0;
-  if (samples > static_cast<double>(args.limits.max_samples))
-    throw std::invalid_argument(fmt::format(
-        "{}: a duration of {:g} s at the case's interval of {:g} s asks for {:g} samples: the "
-        "limit is {} (raise it with --max-samples N)",
-        m.file, duration, interval, samples, args.limits.max_samples));
+  check_simulation_work(m, options, args.at ? "--at" : "--duration", args.limits);
 
   const Simulation s = simulate(m, options);
   const Trajectory& t = s.trajectory;
@@ -132,8 +120,10 @@ void add_simulate(CLI::App& app, std::function<int()>& run) {
   auto args = std::make_shared<SimulateArgs>();
   cmd->add_option("FILE", args->path, "mechanism definition (.toml) with a [dynamics] table")
       ->required();
-  cmd->add_option("--duration", args->duration, "simulated time [s] (default: the case's)");
-  cmd->add_option("--at", args->at, "the state at this time [s] only");
+  cmd->add_option("--duration", args->duration, "simulated time [s] (default: the case's)")
+      ->check(number_in(0.0, limits::kDuration, true));
+  cmd->add_option("--at", args->at, "the state at this time [s] only")
+      ->check(number_in(0.0, limits::kDuration));
   cmd->add_option("--format", args->format, "output format")
       ->check(CLI::IsMember({"table", "json", "csv"}));
   cmd->add_option("--integrator", args->integrator,
@@ -142,7 +132,7 @@ void add_simulate(CLI::App& app, std::function<int()>& run) {
       ->check(CLI::IsMember({"rkf78", "dopri5"}));
   cmd->add_option("--tolerance", args->tolerance,
                   "absolute and relative error per step (default 1e-13)")
-      ->check(CLI::Range(1e-15, 1e-2));
+      ->check(number_in(1e-15, 1e-2));
   cmd->get_option("--duration")->excludes(cmd->get_option("--at"));
   add_max_samples(*cmd, args->limits);
   cmd->callback([&run, args] { run = [args] { return run_simulate(*args); }; });

@@ -174,8 +174,10 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
   auto* cmd = app.add_subcommand("solve", "Exact kinematics at one driver value or over a sweep");
   auto args = std::make_shared<SolveArgs>();
   cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
-  cmd->add_option("--at", args->at, "driver value, in the file's units (default: whole sweep)");
-  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)");
+  cmd->add_option("--at", args->at, "driver value, in the file's units (default: whole sweep)")
+      ->check(number_in());
+  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)")
+      ->check(positive_number());
   cmd->add_option("--format", args->format, "output format")
       ->check(CLI::IsMember({"table", "json", "csv"}));
   cmd->add_option("--method", args->method,

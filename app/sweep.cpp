@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "analytic/limits.h"
 #include "analytic/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
@@ -29,9 +30,12 @@ std::optional<double> parse_accuracy(const std::string& text) {
   } catch (const std::exception&) {
     used = 0;
   }
-  if (used == 0 || used != number.size() || !(value > 0.0) || !std::isfinite(value))
-    throw std::invalid_argument(fmt::format(
-        "--accuracy: expected a positive percentage of peak such as 1 or 0.5%, got '{}'", text));
+  // It becomes the engines' tolerance: the same limit.
+  if (used == 0 || used != number.size() || !(value > 0.0) || !(value <= limits::kTolerance))
+    throw std::invalid_argument(
+        fmt::format("--accuracy: expected a positive percentage of peak up to {:g} such as 1 or "
+                    "0.5%, got '{}'",
+                    limits::kTolerance, text));
   return value;
 }
 
@@ -149,12 +153,14 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--dt", args->dts,
                   "time steps [s], comma-separated (default " + defaults +
                       "); each is snapped so samples fall on step boundaries")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->check(positive_number());
   cmd->add_option("--report", args->report, "write a self-contained HTML report");
   cmd->add_option("--csv", args->csv, "write one row per engine setting as CSV (SI)");
   cmd->add_option("--accuracy", args->accuracy,
                   "X or X%: the cheapest setting per engine meeting X % of peak on every class");
-  cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)");
+  cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)")
+      ->check(positive_number());
   cmd->add_option("--repeat", args->repeat,
                   "time each setting N times, the cost is the median (the errors do not change)")
       ->check(CLI::Range(1, kMaxRepeat))

@@ -36,6 +36,10 @@ void write_csv(const Comparison& comparison, std::ostream& out);
 // A number of a CSV file: the shortest text that reads back as the same double (fmt's "{}"), or
 // an empty field for a value that does not exist (NaN, infinite).
 std::string csv_number(double value);
+// A text field of a CSV file (RFC 4180): as it is, or in double quotes with each quote doubled
+// when it holds a comma, a quote or a line break (a link named "arm, left" stays one column).
+// Every CSV writer of crosslink writes its names through it.
+std::string csv_field(std::string_view text);
 
 struct HtmlOptions {
   std::optional<double> at;  // driver value of the drawing [rad or m]; default: the start

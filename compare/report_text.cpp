@@ -406,6 +406,13 @@ std::string csv_number(double value) {
   return std::isfinite(value) ? fmt::format("{}", value) : std::string();
 }
 
+std::string csv_field(std::string_view text) {
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
 void write_csv(const Comparison& cmp, std::ostream& out) {
   const Trajectory& ref = cmp.reference().trajectory;
   out << "method,channel,quantity,sample,driver,reference_status,method_status,in_verdict,"
@@ -422,8 +429,8 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
       const bool has_ref = value_exists(ref.status[ks], q);
       const bool has_value = value_exists(run.trajectory.status[ks], q);
       const auto field = [](bool exists, double x) { return exists ? csv_number(x) : ""; };
-      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.method,
-                         c.metrics.channel, to_string(q), k, ref.driver(k),
+      out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(c.method),
+                         csv_field(c.metrics.channel), to_string(q), k, ref.driver(k),
                          to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
                          c.metrics.in_verdict[ks] ? 1 : 0, c.metrics.reason[ks],
                          field(has_ref, r(k)), field(has_value, v(k)),

@@ -5,6 +5,8 @@
 #include <charconv>
 #include <stdexcept>
 
+#include "analytic/limits.h"
+
 namespace crosslink::compare {
 
 double ClassTolerances::of(Quantity q) const {
@@ -104,9 +106,12 @@ void Tolerances::apply(std::string_view assignment) {
                     assignment, target));
   double value = 0.0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || !(value >= 0.0))
+  // The limit of a definition's [tolerance] (infinity would pass every sample).
+  if (error != std::errc() || end != text.data() + text.size() || !(value >= 0.0) ||
+      !(value <= limits::kTolerance))
     throw std::invalid_argument(
-        fmt::format("tolerance '{}': '{}' is not a non-negative percentage", assignment, text));
+        fmt::format("tolerance '{}': '{}' is not a percentage from 0 to {:g}", assignment, text,
+                    limits::kTolerance));
   if (method.empty()) {
     for (auto& [name, engine] : engines_) engine.of(*quantity) = value;
     return;

@@ -66,8 +66,9 @@ std::unique_ptr<sim::Engine> make_engine(std::string_view name) {
 
 }  // namespace
 
-void check_engine_settings(std::string_view name, const sim::Settings& engine_settings) {
-  if (const auto engine = make_engine(name)) engine->check_settings(engine_settings);
+void check_engine_settings(std::string_view name, const Mechanism& mechanism,
+                           const sim::Settings& engine_settings) {
+  if (const auto engine = make_engine(name)) engine->check_settings(mechanism, engine_settings);
 }
 
 const std::vector<std::string>& method_names() {

@@ -41,7 +41,8 @@ MethodRun run_simulation(const Mechanism& mechanism, const SimulationOptions& op
 // Throws std::invalid_argument when `engine_settings` hold a setting the engine `name` does not
 // know, or a value it cannot take (sim::Engine::check_settings), before anything runs; the
 // exact methods take no settings: nothing to check.
-void check_engine_settings(std::string_view name, const sim::Settings& engine_settings);
+void check_engine_settings(std::string_view name, const Mechanism& mechanism,
+                           const sim::Settings& engine_settings);
 
 // Any other method at the reference's samples. `engine_settings` are passed to the engines as
 // overrides (e.g. {"dt", "1e-4"} or the test hook {"perturb_link", "coupler:1.01"}); the exact

@@ -872,13 +872,6 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
 
 namespace {
 
-std::string csv_field(std::string_view text) {
-  if (text.find_first_of(",\"\n") == std::string_view::npos) return std::string(text);
-  std::string quoted = "\"";
-  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return quoted + "\"";
-}
-
 std::string settings_text(const sim::Settings& s) {
   std::string text;
   for (const auto& [k, v] : s) text += fmt::format("{}{}={}", text.empty() ? "" : "; ", k, v);

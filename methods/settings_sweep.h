@@ -44,6 +44,7 @@ namespace crosslink::methods {
 using compare::ChannelResult;
 using compare::compare_methods;
 using compare::Comparison;
+using compare::csv_field;
 using compare::csv_number;
 using compare::HtmlOptions;
 using compare::Tolerances;

@@ -54,8 +54,9 @@ class Engine {
   // Whether the engine can realise this mechanism, and why not.
   virtual bool supports(const Mechanism& mechanism, std::string* why) const = 0;
   // Throws std::invalid_argument, before any run, for a setting the engine does not know
-  // (naming it and the settings it knows) or a value it cannot take.
-  virtual void check_settings(const Settings& overrides) const = 0;
+  // (naming it and the settings it knows) or a value it cannot take (out of its range, not a
+  // whole number, a link `mechanism` does not have).
+  virtual void check_settings(const Mechanism& mechanism, const Settings& overrides) const = 0;
   virtual EngineRun run(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& overrides) const = 0;
 };

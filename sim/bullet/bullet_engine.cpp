@@ -10,6 +10,7 @@
 #include "analytic/trust.h"
 #include "sim/forces.h"
 #include "sim/sampling.h"
+#include "sim/settings.h"
 #include "sim/statuses.h"
 
 #include <btBulletDynamicsCommon.h>
@@ -73,27 +74,13 @@ struct Config {
   double singular_rcond = 0.03;
   double branch_distance = 1e-4;     // closed configuration this far from the reference's (of
                                      // the size, or rad): another assembly mode, branch_jump
-  std::string perturb_link;
-  double perturb_factor = 1.0;
+  std::string perturb_link;          // "<moving link>:<factor>" (sim::perturbed), or empty
   long max_steps = kDefaultMaxSteps;
   // Forward dynamics only (docs/engines.md, "Forward dynamics").
   bool staggered_start = true;     // start from v0 - h/2 a0 (semi-implicit Euler's half step)
   double energy_threshold = 1e-3;  // |energy.error| over the energy scale: a note
   double divergence_energy = 1.0;  // beyond it the run stops: diverged
 };
-
-double parse_number(const std::string& name, const std::string& text) {
-  size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v))
-    throw std::invalid_argument(fmt::format("setting {}: '{}' is not a number", name, text));
-  return v;
-}
 
 Config parse_settings(const Settings& overrides) {
   Config c;
@@ -109,36 +96,26 @@ Config parse_settings(const Settings& overrides) {
             "setting solver: expected mlcp_dantzig or sequential_impulse, got '" + value + "'");
       c.solver = value;
     } else if (name == "dt") {
-      if (value != "auto") c.dt = parse_number(name, value);
-      if (c.dt < 0.0) throw std::invalid_argument("setting dt: must be positive");
+      c.dt = value == "auto" ? 0.0 : setting_number(name, value, kPositive);
     } else if (name == "steps_per_sample") {
-      const double n = parse_number(name, value);
-      if (n < 1 || n != std::floor(n))
-        throw std::invalid_argument("setting steps_per_sample: a positive integer");
-      c.steps_per_sample = static_cast<int>(n);
+      c.steps_per_sample = setting_count(name, value);
     } else if (name == "max_step_angle") {
-      c.max_step_angle = parse_number(name, value);
+      c.max_step_angle = setting_number(name, value, kNonNegative);  // 0: off
       c.max_step_angle_given = true;
-      if (c.max_step_angle < 0.0)
-        throw std::invalid_argument("setting max_step_angle: 0 (off) or positive");
     } else if (name == "iterations") {
-      const double n = parse_number(name, value);
-      if (n < 1 || n != std::floor(n))
-        throw std::invalid_argument("setting iterations: a positive integer");
-      c.iterations = static_cast<int>(n);
+      c.iterations = setting_count(name, value, kMostIterations);
     } else if (name == "erp") {
-      c.erp = parse_number(name, value);
-      if (c.erp <= 0.0 || c.erp > 1.0) throw std::invalid_argument("setting erp: in (0, 1]");
+      c.erp = setting_number(name, value, {0.0, 1.0, true});
     } else if (name == "loop_gap_threshold") {
-      c.loop_gap_threshold = parse_number(name, value);
+      c.loop_gap_threshold = setting_number(name, value, kPositive);
     } else if (name == "singular_rcond") {
-      c.singular_rcond = parse_number(name, value);
+      c.singular_rcond = setting_number(name, value, kRcond);
     } else if (name == "branch_distance") {
-      c.branch_distance = parse_number(name, value);
+      c.branch_distance = setting_number(name, value, kPositive);
     } else if (name == "divergence_gap") {
-      c.divergence_gap = parse_number(name, value);
+      c.divergence_gap = setting_number(name, value, kPositive);
     } else if (name == "driver_threshold") {
-      c.driver_threshold = parse_number(name, value);
+      c.driver_threshold = setting_number(name, value, kPositive);
     } else if (name == "split_impulse") {
       if (value != "0" && value != "1")
         throw std::invalid_argument("setting split_impulse: 0 or 1, got '" + value + "'");
@@ -151,20 +128,15 @@ Config parse_settings(const Settings& overrides) {
                                     "'");
       c.staggered_start = value == "staggered";
     } else if (name == "energy_threshold") {
-      c.energy_threshold = parse_number(name, value);
+      c.energy_threshold = setting_number(name, value, kPositive);
     } else if (name == "divergence_energy") {
-      c.divergence_energy = parse_number(name, value);
+      c.divergence_energy = setting_number(name, value, kPositive);
     } else if (name == "precision") {
       if (value != "float64")
         throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
                                     "'");
     } else if (name == "perturb_link") {
-      if (value.empty()) continue;
-      const size_t colon = value.rfind(':');
-      if (colon == std::string::npos)
-        throw std::invalid_argument("setting perturb_link: expected <link>:<factor>");
-      c.perturb_link = value.substr(0, colon);
-      c.perturb_factor = parse_number(name, value.substr(colon + 1));
+      c.perturb_link = value == "none" ? "" : value;  // checked on the mechanism
     } else {
       throw std::invalid_argument(fmt::format(
           "unknown Bullet setting '{}' (known: formulation, solver, dt, steps_per_sample, "
@@ -1008,16 +980,6 @@ class RigidScene final : public Scene {
 // ---------------------------------------------------------------------------------------------
 // Run
 
-Mechanism perturbed(const Mechanism& m, const Config& c) {
-  Mechanism out = m;
-  if (c.perturb_link.empty()) return out;
-  const int l = out.find_link(c.perturb_link);
-  if (l < 0) throw std::invalid_argument("setting perturb_link: no link '" + c.perturb_link + "'");
-  for (Point& p : out.links[l].points) p.local *= c.perturb_factor;
-  for (Line& line : out.links[l].lines) line.origin *= c.perturb_factor;
-  return out;
-}
-
 std::string format_number(double v) {
   return fmt::format("{:.6g}", v);
 }
@@ -1144,7 +1106,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   if (!btIsDoublePrecision()) throw std::runtime_error("Bullet is not the float64 build");
   Prepared p;
   p.config = parse_settings(overrides);
-  p.m = perturbed(original, p.config);
+  p.m = perturbed(original, p.config.perturb_link);
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1170,12 +1132,6 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
           {"precision", btIsDoublePrecision() ? "float64" : "float32"},
           {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
           {"divergence_gap", format_number(config.divergence_gap)}};
-}
-
-std::string perturb_setting(const Config& config) {
-  return config.perturb_link.empty()
-             ? ""
-             : config.perturb_link + ":" + format_number(config.perturb_factor);
 }
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
@@ -1431,7 +1387,9 @@ StepLength kinematic_step(const Trajectory& reference, const Span& span, const C
     if (config.max_step_angle > 0.0)
       s.steps_per_sample = std::max<int>(
           s.steps_per_sample,
-          static_cast<int>(std::ceil(fastest * s.interval / config.max_step_angle - 1e-9)));
+          // At most an int: beyond, the run's step limit refuses it (check_steps).
+          static_cast<int>(std::min(std::ceil(fastest * s.interval / config.max_step_angle - 1e-9),
+                                    double(std::numeric_limits<int>::max()))));
     s.dt = s.interval / s.steps_per_sample;
   }
   return s;
@@ -1449,7 +1407,7 @@ Settings kinematic_settings(const Config& config, const StepLength& step) {
                                         : "not read (multibody joint feedback is wrong in 3.24)"},
                          {"singular_rcond", format_number(config.singular_rcond)},
                          {"branch_distance", format_number(config.branch_distance)},
-                         {"perturb_link", perturb_setting(config)}};
+                         {"perturb_link", config.perturb_link}};
   out.insert(out.end(), more.begin(), more.end());
   return out;
 }
@@ -1870,7 +1828,7 @@ Settings dynamics_settings(const Config& config, const Trajectory& reference, co
       {"energy_threshold", format_number(config.energy_threshold)},
       {"divergence_energy", format_number(config.divergence_energy)},
       {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
-      {"perturb_link", perturb_setting(config)}};
+      {"perturb_link", config.perturb_link}};
   out.insert(out.end(), more.begin(), more.end());
   return out;
 }
@@ -2223,7 +2181,10 @@ class BulletEngine final : public Engine {
     return !plan.order.empty();
   }
 
-  void check_settings(const Settings& overrides) const override { (void)parse_settings(overrides); }
+  // Every name and every value, perturb_link's link among the mechanism's.
+  void check_settings(const Mechanism& m, const Settings& overrides) const override {
+    (void)perturbed(m, parse_settings(overrides).perturb_link);
+  }
 
   EngineRun run(const Mechanism& original, const Trajectory& reference,
                 const Settings& overrides) const override;

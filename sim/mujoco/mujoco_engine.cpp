@@ -3,6 +3,7 @@
 // positions, velocities and accelerations at the sampled steps.
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/sampling.h"
+#include "sim/settings.h"
 #include "sim/statuses.h"
 
 #include <fmt/format.h>
@@ -91,22 +92,9 @@ struct Config {
   std::string singular_rcond = "auto";
 };
 
-double parse_number(const std::string& name, const std::string& text) {
-  try {
-    size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {
-  }
-  throw std::runtime_error(fmt::format("setting {} = \"{}\": expected a number", name, text));
-}
-
-std::vector<double> parse_numbers(const std::string& name, const std::string& text) {
-  std::istringstream in(text);
-  std::vector<double> values;
-  std::string word;
-  while (in >> word) values.push_back(parse_number(name, word));
-  return values;
+// A setting that is "auto" or a number in `range` (checked as it is read, parsed where used).
+void check_auto(const std::string& name, const std::string& text, const SettingRange& range) {
+  if (text != "auto") (void)setting_number(name, text, range);
 }
 
 Config parse_settings(const Settings& overrides) {
@@ -129,22 +117,20 @@ Config parse_settings(const Settings& overrides) {
     if (auto it = text.find(name); it != text.end()) {
       *it->second = value;
     } else if (name == "iterations") {
-      c.iterations = static_cast<int>(parse_number(name, value));
+      c.iterations = setting_count(name, value, kMostIterations);
     } else if (name == "tolerance") {
-      c.tolerance = parse_number(name, value);
+      c.tolerance = setting_number(name, value, kNonNegative);  // 0: every iteration runs
     } else if (name == "max_step_angle") {
-      c.max_step_angle = parse_number(name, value);
+      c.max_step_angle = setting_number(name, value, kPositive);
     } else if (name == "driver_armature") {
       c.driver_armature.reset();
-      if (value != "auto") c.driver_armature = parse_number(name, value);
-      if (c.driver_armature && *c.driver_armature < 0.0)
-        throw std::runtime_error("setting driver_armature: auto, or 0 or more");
+      if (value != "auto") c.driver_armature = setting_number(name, value, kNonNegative);
     } else if (name == "max_steps") {
       c.max_steps = parse_max_steps(value);
     } else if (name == "energy_threshold") {
-      c.energy_threshold = parse_number(name, value);
+      c.energy_threshold = setting_number(name, value, kPositive);
     } else if (name == "divergence_energy") {
-      c.divergence_energy = parse_number(name, value);
+      c.divergence_energy = setting_number(name, value, kPositive);
     } else {
       throw std::runtime_error(fmt::format(
           "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
@@ -154,12 +140,12 @@ Config parse_settings(const Settings& overrides) {
           name));
     }
   }
-  for (const std::string* choice : {&c.integrator, &c.solver}) {
-    const bool known = *choice == "Euler" || *choice == "RK4" || *choice == "implicit" ||
-                       *choice == "Newton" || *choice == "CG" || *choice == "PGS";
-    if (!known)
-      throw std::runtime_error(fmt::format("unknown integrator or solver \"{}\"", *choice));
-  }
+  if (c.integrator != "Euler" && c.integrator != "RK4" && c.integrator != "implicit")
+    throw std::runtime_error(
+        fmt::format("setting integrator = \"{}\": expected Euler, RK4 or implicit", c.integrator));
+  if (c.solver != "Newton" && c.solver != "CG" && c.solver != "PGS")
+    throw std::runtime_error(
+        fmt::format("setting solver = \"{}\": expected Newton, CG or PGS", c.solver));
   if (c.force_read != "centred" && c.force_read != "raw")
     throw std::runtime_error(
         fmt::format("setting force_read = \"{}\": expected centred or raw", c.force_read));
@@ -169,18 +155,22 @@ Config parse_settings(const Settings& overrides) {
   if (c.readout != "auto" && c.readout != "differences" && c.readout != "state")
     throw std::runtime_error(
         fmt::format("setting readout = \"{}\": expected auto, differences or state", c.readout));
+  check_auto("dt", c.dt, kPositive);
+  check_auto("gap_threshold", c.gap_threshold, kPositive);
+  check_auto("driver_threshold", c.driver_threshold, kPositive);
+  check_auto("singular_rcond", c.singular_rcond, kRcond);
   return c;
 }
 
 Eigen::Vector2d solref_of(const std::string& name, const std::string& text, double dt) {
   if (text == "deadbeat") return {-1.0 / (dt * dt), -1.0 / dt};
-  const std::vector<double> v = parse_numbers(name, text);
+  const std::vector<double> v = setting_numbers(name, text);
   if (v.size() != 2) throw std::runtime_error(fmt::format("setting {}: expected 2 numbers", name));
   return {v[0], v[1]};
 }
 
 Eigen::Matrix<double, 5, 1> solimp_of(const std::string& name, const std::string& text) {
-  std::vector<double> v = parse_numbers(name, text);
+  std::vector<double> v = setting_numbers(name, text);
   const std::array<double, 5> defaults = {0.9, 0.95, 0.001, 0.5, 2.0};  // MuJoCo's
   if (v.size() < 3 || v.size() > 5)
     throw std::runtime_error(fmt::format("setting {}: expected 3 to 5 numbers", name));
@@ -237,8 +227,7 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
     wanted = fastest > 0.0 ? c.max_step_angle / fastest
                            : reference.time(span.first + 1) - reference.time(span.first);
   } else {
-    wanted = parse_number("dt", c.dt);
-    if (!(wanted > 0.0)) throw std::runtime_error("setting dt: must be positive");
+    wanted = setting_number("dt", c.dt, kPositive);
   }
   // Steps per sample interval, counted (as doubles: they may be astronomical) before the grid
   // takes any memory.
@@ -353,23 +342,6 @@ Eigen::Vector2d joint_motion(const Mechanism& m, const Scene& s, const SceneJoin
   if (j.kind == SceneJoint::Kind::hinge) return {b.theta - a.theta, b.omega - a.omega};
   const Projection p = project(a, j.origin, j.direction, b, j.ub);
   return {p.value, p.rate};
-}
-
-// perturb_link "<link>:<factor>": the mechanism with that link's points and line origins
-// scaled. The scene is then assembled for it, so the engine runs a valid but wrong linkage.
-Mechanism perturbed(const Mechanism& m, const std::string& text) {
-  if (text.empty() || text == "none") return m;
-  const size_t colon = text.rfind(':');
-  const int link = colon == std::string::npos ? -1 : m.find_link(text.substr(0, colon));
-  const double factor =
-      colon == std::string::npos ? 0.0 : parse_number("perturb_link", text.substr(colon + 1));
-  if (link < 0 || m.links[link].ground || !(factor > 0.0))
-    throw std::runtime_error(
-        fmt::format("perturb_link \"{}\": expected \"<moving link>:<positive factor>\"", text));
-  Mechanism out = m;
-  for (Point& p : out.links[link].points) p.local *= factor;
-  for (Line& l : out.links[link].lines) l.origin *= factor;
-  return out;
 }
 
 // Everything a run and mujoco_mjcf share: settings, start, grid, scene, MJCF.
@@ -808,12 +780,13 @@ KinematicWatch kinematic_watch(const Prepared& p) {
   const Config& c = p.config;
   KinematicWatch w;
   w.gap =
-      c.gap_threshold == "auto" ? 1e-4 * s.size : parse_number("gap_threshold", c.gap_threshold);
+      c.gap_threshold == "auto" ? 1e-4 * s.size : setting_number("gap_threshold", c.gap_threshold);
   const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
-  w.singular_rcond = c.singular_rcond == "auto" ? kSingularRcond
-                                                : parse_number("singular_rcond", c.singular_rcond);
+  w.singular_rcond = c.singular_rcond == "auto"
+                         ? kSingularRcond
+                         : setting_number("singular_rcond", c.singular_rcond);
   w.driver = c.driver_threshold == "auto" ? (angular_joint ? 1e-3 : 1e-3 * s.size)
-                                          : parse_number("driver_threshold", c.driver_threshold);
+                                          : setting_number("driver_threshold", c.driver_threshold);
   return w;
 }
 
@@ -1258,12 +1231,13 @@ struct DynamicsWatch {
 
 DynamicsWatch dynamics_watch(const Mechanism& m, const Trajectory& reference, const Prepared& p) {
   DynamicsWatch w;
-  w.gap = p.config.gap_threshold == "auto" ? 1e-4 * p.scene.size
-                                           : parse_number("gap_threshold", p.config.gap_threshold);
+  w.gap = p.config.gap_threshold == "auto"
+              ? 1e-4 * p.scene.size
+              : setting_number("gap_threshold", p.config.gap_threshold);
   w.energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
   w.singular_rcond = p.config.singular_rcond == "auto"
                          ? kDynamicsSingularRcond
-                         : parse_number("singular_rcond", p.config.singular_rcond);
+                         : setting_number("singular_rcond", p.config.singular_rcond);
   return w;
 }
 
@@ -1595,16 +1569,12 @@ class MujocoEngine final : public Engine {
     return mujoco_scene::realisable(mechanism, why);
   }
 
-  // Every name and every value that does not depend on the mechanism (dt's positivity and the
-  // deadbeat solref's step are checked when the scene is built).
-  void check_settings(const Settings& overrides) const override {
+  // Every name and every value, perturb_link's link among the mechanism's (the deadbeat
+  // solref's step is checked when the scene is built).
+  void check_settings(const Mechanism& m, const Settings& overrides) const override {
     try {
       const Config c = parse_settings(overrides);
-      for (const auto& [name, text] : {std::pair<const char*, const std::string&>{"dt", c.dt},
-                                       {"gap_threshold", c.gap_threshold},
-                                       {"driver_threshold", c.driver_threshold},
-                                       {"singular_rcond", c.singular_rcond}})
-        if (text != "auto") (void)parse_number(name, text);
+      (void)perturbed(m, c.perturb_link);
       for (const auto& [name, text] :
            {std::pair<const char*, const std::string&>{"solref", c.solref},
             {"driver_solref", c.driver_solref}})

@@ -298,6 +298,73 @@ TEST(Cli, SolveCsvHeaderAndRows) {
   EXPECT_EQ(rows, 361);
 }
 
+// The fields of one CSV record (RFC 4180: a field in double quotes may hold commas, and "" is a
+// quote), read independently of crosslink's writer.
+std::vector<std::string> rfc4180_fields(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+      fields.back() += '"';
+      ++i;
+    } else if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
+// `text` with every `from` replaced by `to`.
+std::string replaced_all(std::string text, const std::string& from, const std::string& to) {
+  for (size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size())
+    text.replace(at, from.size(), to);
+  return text;
+}
+
+// A link named with a comma and a quote shifted every column of the CSV header (65 header
+// fields against 62 in each row): every CSV writer quotes its names (RFC 4180).
+TEST(Cli, CsvNamesWithCommasAndQuotesStayOneField) {
+  const std::string fourbar =
+      write_definition("comma.toml", replaced_all(read_file("mechanisms/fourbar_crank_rocker.toml"),
+                                                  "\"rocker\"", "\"rock,\\\"er\""));
+  const std::string pendulum = write_definition(
+      "comma_pendulum.toml", replaced_all(read_file("mechanisms/iftomm_a01_pendulum.toml"),
+                                          "\"pendulum\"", "\"pend,\\\"ulum\""));
+  const std::filesystem::path compare_csv = scratch_dir() / "comma_compare.csv";
+  struct Case {
+    std::string command, csv_file, name;
+  };
+  for (const Case& c :
+       {Case{"solve \"" + fourbar + "\" --format csv", "", "angle.rock,\"er"},
+        Case{"simulate \"" + pendulum + "\" --format csv", "", "angle.pend,\"ulum"},
+        Case{"compare \"" + fourbar + "\" --engines analytic,dyads --csv " + compare_csv.string(),
+             compare_csv.string(), "angle.rock,\"er"}}) {
+    const CommandRun run = crosslink(c.command);
+    ASSERT_EQ(run.exit_code, 0) << c.command << ": " << run.err;
+    std::istringstream lines(c.csv_file.empty() ? run.out : read_file(c.csv_file));
+    std::string header;
+    std::getline(lines, header);
+    const size_t columns = rfc4180_fields(header).size();
+    const std::vector<std::string> names = rfc4180_fields(header);
+    const bool in_header = std::find(names.begin(), names.end(), c.name) != names.end();
+    int rows = 0, named = 0;
+    for (std::string line; std::getline(lines, line); ++rows) {
+      const std::vector<std::string> fields = rfc4180_fields(line);
+      EXPECT_EQ(fields.size(), columns) << c.command << ": " << line.substr(0, 120);
+      named += std::find(fields.begin(), fields.end(), c.name) != fields.end();
+    }
+    EXPECT_GT(rows, 1) << c.command;
+    // solve and simulate name channels in the header, compare in a column of each row.
+    EXPECT_TRUE(in_header || named > 0) << c.command << ": no field '" << c.name << "' in\n"
+                                        << header;
+  }
+}
+
 // A header of 100,000 dotted keys (200 kB) crashed the TOML parser with SIGSEGV: now every
 // command that reads it exits 2 with a located message.
 TEST(Cli, AHostileHeaderIsBadInputNotACrash) {
@@ -367,7 +434,51 @@ TEST(Cli, SolveAtAFarOrNonFiniteValueIsRefused) {
       << far.err;
   const CommandRun nan = crosslink(std::string("solve ") + kSewing + " --at nan");
   EXPECT_EQ(nan.exit_code, 2);
-  EXPECT_NE(nan.err.find("--at nan deg is not a driver value"), std::string::npos) << nan.err;
+  EXPECT_NE(nan.err.find("--at: nan is not a finite number"), std::string::npos) << nan.err;
+}
+
+// Every numeric option of every command refuses NaN, infinities and values out of its range
+// before any work, exit 2, naming the option: `simulate --tolerance nan` wrote every sample ok
+// with a 54 % energy error (rkf78), or never ended (dopri5). Each case here would otherwise run
+// (or, for --at nan, fail later without the option's name).
+TEST(Cli, EveryNumericOptionRefusesNanInfinityAndOutOfRange) {
+  const std::string fourbar = " mechanisms/fourbar_crank_rocker.toml ";
+  const std::string pendulum = " mechanisms/iftomm_a01_pendulum.toml ";
+  for (const auto& [command, option] : std::vector<std::pair<std::string, std::string>>{
+           {"check" + fourbar + "--max-samples nan", "--max-samples"},
+           {"check" + fourbar + "--max-samples 1e300", "--max-samples"},
+           {"solve" + fourbar + "--at inf", "--at"},
+           {"solve" + fourbar + "--step nan", "--step"},
+           {"solve" + fourbar + "--step -1", "--step"},
+           {"solve" + fourbar + "--step 0", "--step"},
+           {"solve" + fourbar + "--step inf", "--step"},
+           {"simulate" + pendulum + "--tolerance nan", "--tolerance"},
+           {"simulate" + pendulum + "--tolerance inf", "--tolerance"},
+           {"simulate" + pendulum + "--tolerance 0.5", "--tolerance"},
+           {"simulate" + pendulum + "--duration nan", "--duration"},
+           {"simulate" + pendulum + "--duration 0", "--duration"},
+           {"simulate" + pendulum + "--at inf", "--at"},
+           {"simulate" + pendulum + "--at -1", "--at"},
+           {"compare" + fourbar + "--engines analytic --at nan", "--at"},
+           {"compare" + fourbar + "--engines analytic --step nan", "--step"},
+           {"compare" + fourbar + "--engines analytic --tolerance velocity=nan", "--tolerance"},
+           {"compare" + fourbar + "--engines analytic --tolerance velocity=inf", "--tolerance"},
+           {"compare" + fourbar + "--engines analytic --tolerance dyads:angle=1e7", "--tolerance"},
+           {"compare" + fourbar + "--engines analytic --accuracy inf", "--accuracy"},
+           {"compare" + fourbar + "--engines analytic --accuracy nan%", "--accuracy"},
+           {"compare" + fourbar + "--engines analytic --max-steps nan", "--max-steps"},
+           {"compare" + fourbar + "--engines analytic --max-steps 1e300", "--max-steps"},
+           {"sweep" + fourbar + "--dt 1e-3,nan", "--dt"},
+           {"sweep" + fourbar + "--dt inf", "--dt"},
+           {"sweep" + fourbar + "--step inf", "--step"},
+           {"sweep" + fourbar + "--repeat nan", "--repeat"},
+           {"sweep" + fourbar + "--accuracy 1e300", "--accuracy"},
+           {"sweep" + fourbar + "--max-samples -5", "--max-samples"}}) {
+    const CommandRun run = crosslink(command);
+    EXPECT_EQ(run.exit_code, 2) << command << ": " << run.err;
+    EXPECT_NE(run.err.find(option), std::string::npos) << command << ": " << run.err;
+    EXPECT_EQ(run.out.find("verdict"), std::string::npos) << command << ": nothing runs";
+  }
 }
 
 // An explicit engine time step is refused before any engine runs when it would take more steps
@@ -879,7 +990,8 @@ TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
   // ENGINE:KEY is checked whether that engine runs or not; the prefix must be an engine.
   const CommandRun idle = crosslink(compare + " --engines analytic --set bullet:erp=2");
   EXPECT_EQ(idle.exit_code, 2);
-  EXPECT_NE(idle.err.find("setting erp: in (0, 1]"), std::string::npos) << idle.err;
+  EXPECT_NE(idle.err.find("setting erp = \"2\": expected a number in (0, 1]"), std::string::npos)
+      << idle.err;
   const CommandRun prefix = crosslink(compare + " --engines analytic --set adams:dt=1");
   EXPECT_EQ(prefix.exit_code, 2);
   EXPECT_NE(prefix.err.find("'adams' is not an engine (engines: mujoco, bullet)"),
@@ -887,8 +999,44 @@ TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
       << prefix.err;
   const CommandRun value = crosslink(compare + " --engines analytic,mujoco --set dt=fast");
   EXPECT_EQ(value.exit_code, 2);
-  EXPECT_NE(value.err.find("setting dt = \"fast\": expected a number"), std::string::npos)
+  EXPECT_NE(value.err.find("setting dt = \"fast\": expected a positive number"), std::string::npos)
       << value.err;
+}
+
+// A value an engine cannot take is bad input (exit 2) before anything runs, not a failed verdict
+// (exit 1): out of its range, not a whole number, beyond an int (3e9 iterations ran Bullet with
+// -2147483648 and passed), or a link the definition does not have. ENGINE:KEY is checked
+// whether that engine runs or not, so none of these runs an engine.
+TEST(Cli, AnEngineSettingsValueIsCheckedBeforeAnyRun) {
+  const std::string compare =
+      "compare mechanisms/fourbar_crank_rocker.toml --engines analytic --set ";
+  for (const auto& [setting, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"mujoco:dt=-1", "setting dt = \"-1\": expected a positive number"},
+           {"bullet:dt=0", "setting dt = \"0\": expected a positive number"},
+           {"mujoco:max_step_angle=0", "setting max_step_angle = \"0\": expected a positive"},
+           {"bullet:max_step_angle=-1", "setting max_step_angle = \"-1\": expected 0 or a"},
+           {"bullet:iterations=3e9",
+            "setting iterations = \"3e9\": expected a whole number "
+            "from 1 to 1000000"},
+           {"mujoco:iterations=1e300", "setting iterations = \"1e300\": expected a whole"},
+           {"mujoco:iterations=2.5", "setting iterations = \"2.5\": expected a whole"},
+           {"bullet:steps_per_sample=1e300",
+            "setting steps_per_sample = \"1e300\": expected a whole number from 1 to 2147483647"},
+           {"bullet:perturb_link=nosuch:2",
+            "setting perturb_link = \"nosuch:2\": expected \"<moving link>:<positive factor>\" "
+            "(moving links: crank, coupler, rocker)"},
+           {"mujoco:perturb_link=coupler:-1", "setting perturb_link = \"coupler:-1\""},
+           {"mujoco:singular_rcond=2",
+            "setting singular_rcond = \"2\": expected a number in [0, 1]"},
+           {"bullet:divergence_gap=0", "setting divergence_gap = \"0\": expected a positive"},
+           {"mujoco:tolerance=nan", "setting tolerance = \"nan\": expected 0 or a positive"},
+           {"mujoco:integrator=Newton",
+            "setting integrator = \"Newton\": expected Euler, RK4 or implicit"}}) {
+    const CommandRun run = crosslink(compare + setting);
+    EXPECT_EQ(run.exit_code, 2) << setting << ": " << run.err;
+    EXPECT_NE(run.err.find(expected), std::string::npos) << setting << ": " << run.err;
+    EXPECT_EQ(run.out.find("verdict"), std::string::npos) << setting << ": nothing runs";
+  }
 }
 
 // The settings grid of `sweep` multiplies its work: --repeat and the --dt list are bounded too.
@@ -977,6 +1125,27 @@ TEST(Cli, SimulateRefusesWhatItCannotRun) {
   const CommandRun negative = crosslink("simulate mechanisms/andrews_squeezer.toml --at -1");
   EXPECT_EQ(negative.exit_code, 2);
   EXPECT_NE(negative.err.find("--at"), std::string::npos) << negative.err;
+}
+
+// A dynamics case's work limit is located like a kinematic one: at the key that asked for the
+// work ([dynamics] 'duration': 0.03 s at 0.0005 s is 61 samples), or naming the option.
+TEST(Cli, ADynamicsCasesWorkLimitIsLocatedAtItsDuration) {
+  const std::string path = "mechanisms/andrews_squeezer.toml";
+  const CommandRun run = crosslink("simulate " + path + " --max-samples 60");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find(place_in(path, "duration = ", 11) +
+                         ": error: [dynamics] 'duration' = 0.03 s at the case's interval of "
+                         "0.0005 s asks for 61 samples: the limit is 60 (raise it with "
+                         "--max-samples N)"),
+            std::string::npos)
+      << run.err;
+  EXPECT_EQ(crosslink("simulate " + path + " --max-samples 61 --format csv").exit_code, 0);
+  const CommandRun option = crosslink("simulate " + path + " --duration 0.06 --max-samples 61");
+  EXPECT_EQ(option.exit_code, 2);
+  EXPECT_NE(option.err.find(path + ": --duration 0.06 s at the case's interval of 0.0005 s asks "
+                                   "for 121 samples: the limit is 61"),
+            std::string::npos)
+      << option.err;
 }
 
 // A dynamics case started at a singular position (the slider-crank driven from its slider, at

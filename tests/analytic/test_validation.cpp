@@ -502,6 +502,19 @@ TEST(Validation, NoGround) {
   expect_diagnostic(text, place_of(text, "[[link]]"), {"no link has ground = true"});
 }
 
+// The fuzz campaign's crash: [[reference]] rows name the ground's outputs, and without a ground
+// the loader read links[-1] (a sanitizer abort; std::bad_alloc with no place in Release).
+TEST(Validation, NoGroundWithReferencesIsLocated) {
+  const std::string text = replaced(four_bar(), "ground = true\n", "") + R"(
+[[reference]]
+quantity = "omega.coupler"
+at = 60
+value = 1
+source = "test"
+)";
+  expect_diagnostic(text, place_of(text, "[[link]]"), {"no link has ground = true"});
+}
+
 TEST(Validation, LinkNotConnectedToGround) {
   const std::string text = four_bar() + R"(
 [[link]]
@@ -737,6 +750,20 @@ TEST(Limits, ASpeedTooSlowForACycleIsRefused) {
                     {"'speed' in [driver] = ", "rad/s is too small", "limit is 1e-09 rad/s"});
 }
 
+TEST(Limits, ASpeedThatUnderflowsToRestIsRefused) {
+  // 5e-324 rpm (the smallest double) times 2 pi / 60 is 0 rad/s: the driver became "at rest".
+  // The limit, 1e-9 rad/s, is 1e-9 * 60 / (2 pi) = 9.54930e-9 rpm.
+  std::string text = replaced(four_bar(), "speed = 10", "speed = 5e-324");
+  text = replaced(text, "speed_unit = \"rad/s\"", "speed_unit = \"rpm\"");
+  expect_diagnostic(text, place_of(text, "5e-324"),
+                    {"'speed' in [driver] = ", "rpm is too small", "limit is 9.5493e-09 rpm"});
+  // A coordinate that underflows is refused too, at the smallest normal double (2.2e-308 m in
+  // mm: 2.2e-305 mm).
+  std::string tiny = replaced(four_bar(), "length = \"m\"", "length = \"mm\"");
+  tiny = replaced(tiny, "D = [0.10, 0]", "D = [100, 1e-320]");
+  expect_diagnostic(tiny, place_of(tiny, "1e-320"), {"is too small", "limit is 2.22507e-305 mm"});
+}
+
 TEST(Limits, ASpeedBeyondTheLimitIsRefusedInItsOwnUnit) {
   // 1e300 rev/s; the limit 1e9 rad/s is 1e9 / (2 pi) = 1.59155e8 rev/s.
   std::string text = replaced(four_bar(), "speed = 10", "speed = 1e300");
@@ -913,6 +940,26 @@ TEST(ValidationPhysics, NegativeDamping) {
                    "\n[[spring]]\nlinks = [\"ground\", \"rocker\"]\npoints = [\"A\", \"C\"]\n"
                    "damping = -2\n");
   expect_diagnostic(text, place_of(text, "-2"), {"'damping' must not be negative"});
+}
+
+// A spring's values have the physics limits (analytic/limits.h): 1e308 N s/cm was 1e310 N s/m,
+// infinite, and `check` printed `damping inf` as ok.
+TEST(ValidationPhysics, SpringValuesBeyondTheLimitsAreRefusedAtTheirKeys) {
+  const std::string spring =
+      "\n[[spring]]\nlinks = [\"ground\", \"rocker\"]\npoints = [\"A\", \"C\"]\n";
+  std::string cm = replaced(four_bar(), "length = \"m\"", "length = \"cm\"");
+  cm = replaced(cm, "D = [0.10, 0]", "D = [10, 0]");  // a drawing's scale does not matter here
+  const std::string damping = cm + spring + "damping = 1e308\n";
+  // 1e12 N s/m is 1e10 N s/cm.
+  expect_diagnostic(
+      damping, place_of(damping, "1e308"),
+      {"'damping' in spring #1 = 1e+308 N s/cm is too large", "the limit is 1e+10 N s/cm"});
+  const std::string stiffness = with_physics("", spring + "stiffness = 2e15\nfree_length = 0.1\n");
+  expect_diagnostic(
+      stiffness, place_of(stiffness, "2e15"),
+      {"'stiffness' in spring #1 = 2000000000000000 N/m is too large", "the limit is 1e+15 N/m"});
+  const std::string length = with_physics("", spring + "stiffness = 2\nfree_length = 2e6\n");
+  expect_diagnostic(length, place_of(length, "2e6"), {"'free_length'", "too large"});
 }
 
 TEST(ValidationPhysics, UnknownMassUnit) {
@@ -1237,6 +1284,26 @@ TEST(ValidationDynamics, IntervalWithinTheDuration) {
     at.column += 11;  // at the value
     expect_diagnostic(text, at, {"[dynamics] 'interval'", "at most 'duration'"});
   }
+}
+
+// The initial rate is the kinematic view's driver speed, with its limits: 1e300 rev/s made every
+// sample singular with no event; a rate that underflows is refused like a speed.
+TEST(ValidationDynamics, RateAndEffortBeyondTheLimitsAreRefusedAtTheirKeys) {
+  const std::string fast =
+      dynamics_case("duration = 1\ninterval = 0.01\nrate = 1e300\nrate_unit = \"rev/s\"\n");
+  // 1e9 rad/s is 1e9 / (2 pi) = 1.59155e8 rev/s.
+  expect_diagnostic(
+      fast, place_of(fast, "1e300"),
+      {"'rate' in [dynamics] = 1e+300 rev/s is too large", "the limit is 1.59155e+08 rev/s"});
+  const std::string slow = dynamics_case("duration = 1\ninterval = 0.01\nrate = 1e-12\n");
+  expect_diagnostic(slow, place_of(slow, "1e-12"),
+                    {"'rate' in [dynamics] = 1e-12 rad/s is too small", "limit is 1e-09 rad/s"});
+  // A torque on the crank beyond 1e12 N m, constant or in a table.
+  const std::string effort = dynamics_case("duration = 1\ninterval = 0.01\neffort = 1e13\n");
+  expect_diagnostic(effort, place_of(effort, "1e13"), {"'effort' in [dynamics]", "too large"});
+  const std::string table =
+      dynamics_case("duration = 1\ninterval = 0.01\neffort_table = [[0, 0], [1, -5e12]]\n");
+  expect_diagnostic(table, place_of(table, "-5e12"), {"'effort_table' row", "too large"});
 }
 
 TEST(ValidationDynamics, OneEffortOnly) {

@@ -1,0 +1,91 @@
+// A sweep over an explicit range samples the grid inside it and the range's own two ends: a
+// range between two grid values gave 0 samples, status ok, exit 0, and a range's off-grid ends
+// were dropped without a note. The bundled crank-rocker (drawn at crank angle 0, 1-degree grid)
+// is a full-turn crank, so every sample assembles; each is checked against the closed-form
+// dyads at the same driver value, a second method.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "analytic/budget.h"
+#include "analytic/dyads.h"
+#include "analytic/loader.h"
+#include "analytic/sweep.h"
+#include "tests/common/mechanisms.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+// Newton and the dyads agree to this (test_dyads: Newton closes the chain to 1e-12 of its size).
+constexpr double kAgreement = 1e-10;
+
+// The crank-rocker with `range` (degrees) and `speed` (rpm) in its [driver] table.
+Mechanism crank_rocker(const std::string& range, const std::string& speed = "240") {
+  std::string text = test::source_text("mechanisms/fourbar_crank_rocker.toml");
+  const size_t at = text.find("speed = 240");
+  text.replace(at, 11, "speed = " + speed + "\nrange = " + range);
+  return parse_mechanism(text, "range.toml");
+}
+
+// The sweep's driver values in degrees; every sample ok and equal to the dyads' closed form.
+std::vector<double> swept_degrees(const Mechanism& m) {
+  const Trajectory t = sweep(m);
+  const Trajectory closed = dyad_sweep(m, t);
+  std::vector<double> degrees;
+  for (int k = 0; k < t.samples(); ++k) {
+    EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << "sample " << k;
+    for (int l = 0; l < t.angle.cols(); ++l)
+      EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << "sample " << k << " link " << l;
+    degrees.push_back(t.driver(k) / kDeg);
+  }
+  // The work bound counts the same samples (it counts them first, before the continuation).
+  try {
+    check_sweep_work(m, {}, WorkLimits{t.samples() - 1});
+    ADD_FAILURE() << "not refused at " << t.samples() - 1 << " samples";
+  } catch (const DefinitionError& e) {
+    EXPECT_NE(std::string(e.what()).find(fmt::format("asks for {} samples", t.samples())),
+              std::string::npos)
+        << e.what();
+  }
+  return degrees;
+}
+
+TEST(Range, ARangeBetweenTwoGridValuesIsSampledAtItsEnds) {
+  const std::vector<double> degrees = swept_degrees(crank_rocker("[10.2, 10.8]"));
+  ASSERT_EQ(degrees.size(), 2u);
+  EXPECT_NEAR(degrees[0], 10.2, 1e-12);
+  EXPECT_NEAR(degrees[1], 10.8, 1e-12);
+}
+
+TEST(Range, OffGridEndsAreSampledBesideTheGridInside) {
+  // 10.5, then 11 .. 50 on the grid, then 50.5: 42 samples.
+  const std::vector<double> degrees = swept_degrees(crank_rocker("[10.5, 50.5]"));
+  ASSERT_EQ(degrees.size(), 42u);
+  EXPECT_NEAR(degrees.front(), 10.5, 1e-12);
+  EXPECT_NEAR(degrees.back(), 50.5, 1e-12);
+  for (size_t k = 1; k + 1 < degrees.size(); ++k)
+    EXPECT_NEAR(degrees[k], 10.0 + static_cast<double>(k), 1e-9) << k;
+}
+
+TEST(Range, EndsOnTheGridAreNotSampledTwice) {
+  const std::vector<double> degrees = swept_degrees(crank_rocker("[10, 50]"));
+  ASSERT_EQ(degrees.size(), 41u);
+  for (size_t k = 0; k < degrees.size(); ++k)
+    EXPECT_NEAR(degrees[k], 10.0 + static_cast<double>(k), 1e-9) << k;
+}
+
+TEST(Range, ANegativeSpeedSweepsTheRangeDownward) {
+  const std::vector<double> degrees = swept_degrees(crank_rocker("[10.5, 12.5]", "-240"));
+  ASSERT_EQ(degrees.size(), 4u);
+  EXPECT_NEAR(degrees[0], 12.5, 1e-12);
+  EXPECT_NEAR(degrees[1], 12.0, 1e-9);
+  EXPECT_NEAR(degrees[2], 11.0, 1e-9);
+  EXPECT_NEAR(degrees[3], 10.5, 1e-12);
+}
+
+}  // namespace
+}  // namespace crosslink
