@@ -590,6 +590,13 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
     state.rhs = -state.phi;
     solve_linear(state, state.qddot);
     if (!state.qddot.allFinite()) break;
+    // A correction of round-off size only: near a singular position a full step along the
+    // Jacobian's near-null direction can leap to another pose with the same residual (a link
+    // turned by whole turns).
+    double largest = 0.0;
+    for (Eigen::Index i = 0; i < state.qddot.size(); ++i)
+      largest = std::max(largest, std::abs(state.qddot(i)) / (i % 3 == 2 ? 1.0 : length_scale_));
+    if (!(largest <= 1e-6)) break;
     const Eigen::VectorXd next = best + state.qddot;
     const double r = residual_at(next);
     if (!(r < best_residual)) break;

@@ -685,6 +685,15 @@ class SingularBand {
   double threshold_;
 };
 
+// Flags a sample singular after it was written: its positions stay, its rates and forces go.
+void drop_rates(Trajectory& t, int row) {
+  t.status[static_cast<size_t>(row)] = PoseStatus::singular;
+  for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
+                             &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking})
+    if (m->rows() > row) m->row(row).setZero();
+  if (t.effort.size() > row) t.effort(row) = 0.0;
+}
+
 // The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
 double best_rcond(const NewtonSolver& solver, const std::vector<Leg>& legs) {
   KinematicState state(solver.mechanism());
@@ -850,7 +859,8 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
   for (size_t i = 0; i < drivers.size(); ++i) {
     const int row = static_cast<int>(i);
     if (!lost) {
-      const SolveReport r = follower.advance_to(drivers[i].value, max_step, small);
+      const SolveReport r =
+          solver.polish(state, follower.advance_to(drivers[i].value, max_step, small));
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         if (r.status == PoseStatus::singular)
           out.events.push_back({drivers[i].value, r.status, r.message});
@@ -1063,6 +1073,14 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
     out.events.push_back({d.start, assembled.status, assembled.message});
   sweep_values(solver, state, assembled, drivers, std::min(max_step, continuation_step(mechanism)),
                small, out);
+  // Without a traced curve, the best condition along the sweep is its samples'.
+  double best = 0.0;
+  for (int k = 0; k < out.samples(); ++k)
+    if (has_position(out.status[static_cast<size_t>(k)])) best = std::max(best, out.rcond(k));
+  const SingularBand band(best);
+  for (int k = 0; k < out.samples(); ++k)
+    if (out.status[static_cast<size_t>(k)] == PoseStatus::ok && !band.why(out.rcond(k)).empty())
+      drop_rates(out, k);
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });
   return out;
