@@ -950,6 +950,14 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
   out.resize(mechanism, static_cast<int>(samples.size()), true);
   Recorder record(solver);
   const SingularBand band(best_rcond(solver, legs));
+  // A sample on a located toggle or change point is that event, not another one.
+  const auto located_at = [&](double value) {
+    for (const Leg& leg : legs)
+      for (const SingularPosition& p : leg.singular)
+        if (p.kind != SingularKind::branch_jump && std::abs(p.driver - value) < 1e-9 * unit)
+          return true;
+    return false;
+  };
   double travel = 0.0;
   for (size_t i = 0; i < samples.size(); ++i) {
     const PlannedSample& p = samples[i];
@@ -990,7 +998,8 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                !why.empty() && report.status == PoseStatus::ok) {
       report.status = PoseStatus::singular;
       report.message = why;
-    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6) {
+    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6 &&
+               !located_at(p.value)) {
       // Singular with no sign change along the curve around it (the tracer saw no toggle or
       // change point): the Jacobian touches rank loss there, as A02's chain with every bar on
       // one line. The sample is flagged by the solver; the event says where.
@@ -1006,6 +1015,9 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     for (size_t k = 0; k < legs[l].singular.size(); ++k) {
       const double key = legs[l].singular_key[k];
       if (key > legs[l].end_key + 1e-12) continue;
+      // A full cycle's leg may trace a little past the cycle's last sample: not the sweep's.
+      const double at = legs[l].singular[k].driver;
+      if (at < window_lo - 1e-12 * unit || at > window_hi + 1e-12 * unit) continue;
       found.push_back({(l == 0 ? 1.0 : -1.0) * key, legs[l].singular[k]});
     }
   std::stable_sort(found.begin(), found.end(),

@@ -14,6 +14,7 @@
 // singular position.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -443,6 +444,55 @@ TEST(SingularSamples, BundledDefinitionsTwoMethodsAgreeBesideSingularPositions) 
   for (const std::string& file : kinematic_definitions())
     if (compare_methods_around_singular_positions(file, false) > 0) ++files;
   EXPECT_GE(files, 3);  // the change-point four-bars and the non-Grashof four-bar at least
+}
+
+// Item 6: every exact method names the same events at the same driver values. The change-point
+// crank-rocker's change point is at 180 deg (a + d = b + c: all pivots collinear with the crank
+// along AD's reverse), which the dyads used to tell at 181 deg (the end of their substep); the
+// non-Grashof four-bar's toggles at +-acos((a^2 + d^2 - (b + c)^2) / (2 a d)).
+TEST(SingularEvents, EveryMethodNamesTheSameEventsAtTheSameValues) {
+  for (const std::string& file : kinematic_definitions()) {
+    const Mechanism m = load_mechanism(file);
+    if (!decompose(m).complete || m.driver.law.kind != MotionLaw::Kind::constant_speed) continue;
+    for (const double step : {1.0, 7.0}) {
+      SweepOptions options;
+      options.step = step * kDeg * (m.driver.angular() ? 1.0 : m.size());
+      std::vector<SingularPosition> located;
+      const Trajectory newton = sweep(m, options, located);
+      const Trajectory dyads = dyad_sweep(m, newton, true);
+      std::vector<double> singular_events;
+      for (const Trajectory::Event& e : dyads.events)
+        if (e.kind == PoseStatus::singular) singular_events.push_back(e.driver);
+      // Every located position is an event of the dyads at its value, and no other.
+      for (const SingularPosition& p : located) {
+        if (p.kind == SingularKind::branch_jump) continue;
+        EXPECT_TRUE(std::any_of(singular_events.begin(), singular_events.end(),
+                                [&](double d) { return std::abs(d - p.driver) < 1e-12; }))
+            << file << ": " << to_string(p.kind) << " at " << p.driver << " step " << step;
+      }
+      for (const double d : singular_events)
+        EXPECT_TRUE(
+            std::any_of(
+                located.begin(), located.end(),
+                [&](const SingularPosition& p) { return std::abs(d - p.driver) < 1e-12; }) ||
+            std::any_of(newton.events.begin(), newton.events.end(),
+                        [&](const Trajectory::Event& e) { return std::abs(d - e.driver) < 1e-12; }))
+            << file << ": a dyad event at " << d << " that the reference does not name";
+      // No sample of one method is cannot_assemble where the other solved it.
+      for (int k = 0; k < newton.samples(); ++k)
+        EXPECT_EQ(has_position(newton.status[static_cast<size_t>(k)]),
+                  has_position(dyads.status[static_cast<size_t>(k)]))
+            << file << " at " << newton.driver(k);
+    }
+  }
+  const Mechanism m = load_mechanism("mechanisms/singular/fourbar_change_point_crank_rocker.toml");
+  const Trajectory dyads = dyad_sweep(m, SweepOptions{});
+  int at_180 = 0;
+  for (const Trajectory::Event& e : dyads.events) {
+    EXPECT_NEAR(e.driver, kPi, 1e-9) << e.message;
+    at_180 += std::abs(e.driver - kPi) < 1e-9;
+  }
+  EXPECT_EQ(at_180, 1);
 }
 
 #if CROSSLINK_SLOW_TESTS
