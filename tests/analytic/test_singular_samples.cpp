@@ -357,7 +357,7 @@ TEST(SingularSamplesSlow, SliderCrankStrokeEndsOnTheGrid) {
 // An explicit `range` is swept by driver-parametrised continuation, not the traced curve: the
 // same rule at its samples, at ranges ending on a change point and beside it. (Across one, the
 // continuation does not keep to the smooth branch: docs/singular-positions.md, not covered.)
-TEST(SingularSamples, RangesEndingOnAndCrossingChangePoints) {
+TEST(SingularSamples, RangesEndingOnAndBesideChangePoints) {
   for (const Fixture* f : {&kParallelogram, &kKite}) {
     const Mechanism drawn = load_mechanism(f->file);
     const ClosedForm exact = f->closed_form(drawn);
