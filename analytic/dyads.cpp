@@ -1128,6 +1128,30 @@ class DyadMarch {
   std::vector<DyadState::ModeChange> changes_;
 };
 
+// The coordinates q of a sample of a trajectory with positions: each moving link's angle, and its
+// origin from the world position of one of its points (a point it shares by name with the
+// trajectory's named points, as a joint's two links do). False when a link has no such point.
+bool coordinates_of(const Mechanism& m, const Trajectory& t, int row, Eigen::VectorXd& q) {
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const double theta = t.angle(row, k);
+    bool placed = false;
+    for (const Point& p : m.links[l].points) {
+      const auto it = std::find(t.point_names.begin(), t.point_names.end(), p.name);
+      if (it == t.point_names.end()) continue;
+      const auto c = static_cast<Eigen::Index>(it - t.point_names.begin());
+      const Eigen::Vector2d origin = Eigen::Vector2d(t.x(row, c), t.y(row, c)) -
+                                     Eigen::Rotation2Dd(theta).toRotationMatrix() * p.local;
+      q.segment<3>(3 * k) << origin.x(), origin.y(), theta;
+      placed = true;
+      break;
+    }
+    if (!placed) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
@@ -1167,16 +1191,59 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   ForceSample reactions = kinetostatics.make_sample();
   KinematicState at_pose(mechanism);
 
+  // The reference's singular positions (toggles and change points, located to ~1e-12 on its
+  // traced curve) are the dyads' events too: a mode change the march meets within a substep is
+  // the change point located inside it, and is told at its located value, not the substep's end.
+  for (const Trajectory::Event& e : grid.events)
+    if (e.kind == PoseStatus::singular || e.kind == PoseStatus::branch_jump)
+      out.events.push_back(e);
+  const size_t located = out.events.size();
+  auto note_mode_change = [&](const DyadState::ModeChange& c, double from) {
+    const std::string what = fmt::format(
+        "assembly mode of {} changes from {} to {}: its two assemblies meet here and "
+        "the motion is followed continuously",
+        solver.decomposition().groups[static_cast<size_t>(c.group)].name,
+        solver.describe_mode(c.group, c.from), solver.describe_mode(c.group, c.to));
+    for (size_t e = 0; e < located; ++e) {
+      Trajectory::Event& at = out.events[e];
+      if (at.message.rfind("change_point", 0) != 0 ||
+          (at.driver - from) * (at.driver - c.driver) > 0.0)
+        continue;
+      at.message += "; " + what;
+      return;
+    }
+    out.events.push_back({c.driver, PoseStatus::singular, what});
+  };
+  KinematicState reference(mechanism);
   auto solve_row = [&](int row) {
+    if (grid.status[static_cast<size_t>(row)] == PoseStatus::singular &&
+        coordinates_of(mechanism, grid, row, reference.q)) {
+      // The reference flags this sample: too near a singular position for its rates to be exact
+      // to round-off, where continuity cannot tell the two assemblies apart either. Its pose is
+      // the root nearest the reference's, and the march goes on from the last pose it solved.
+      DyadState side = state;
+      reference.driver = DriverState{};
+      reference.driver.value = grid.driver(row);
+      solver.set_modes(reference, side);
+      side.kinematics.driver.value = grid.driver(row);
+      SolveReport r = solver.solve_position(side);
+      if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
+        r.status = PoseStatus::singular;
+        r.message = "as the reference: beside a singular position";
+      } else {
+        r.status = PoseStatus::singular;  // the loci touch within round-off: the reference's pose
+        side.kinematics.q = reference.q;
+      }
+      side.kinematics.driver = d.at_time(grid.time(row));
+      side.kinematics.driver.value = grid.driver(row);
+      side.kinematics.qdot.setZero();
+      side.kinematics.qddot.setZero();
+      newton.write_sample(side.kinematics, r, out, row);
+      return;
+    }
+    const double from = state.kinematics.driver.value;
     SolveReport r = march.advance_to(grid.driver(row));
-    for (const DyadState::ModeChange& c : march.changes())
-      out.events.push_back(
-          {c.driver, PoseStatus::singular,
-           fmt::format("assembly mode of {} changes from {} to {}: its two assemblies meet "
-                       "here and the motion is followed continuously",
-                       solver.decomposition().groups[static_cast<size_t>(c.group)].name,
-                       solver.describe_mode(c.group, c.from),
-                       solver.describe_mode(c.group, c.to))});
+    for (const DyadState::ModeChange& c : march.changes()) note_mode_change(c, from);
     if (r.status == PoseStatus::cannot_assemble) {
       if (out.events.empty() || out.events.back().kind != PoseStatus::cannot_assemble)
         out.events.push_back({state.kinematics.driver.value, r.status, r.message});
@@ -1221,14 +1288,39 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   };
   if (grid.samples() == 0) return out;
 
-  // From the sample nearest the start value forward, then from it backward.
-  int first = 0;
-  for (int i = 1; i < grid.samples(); ++i)
-    if (std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)) first = i;
+  // From the sample nearest the start value forward, then from it backward. Near a singular
+  // position continuity cannot tell the two assemblies apart, so the march starts from the
+  // nearest sample the reference solved well, with the modes of the reference's pose there.
+  int first = -1;
+  for (int i = 0; i < grid.samples(); ++i)
+    if (grid.status[static_cast<size_t>(i)] == PoseStatus::ok &&
+        (first < 0 || std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)))
+      first = i;
+  if (first >= 0 && coordinates_of(mechanism, grid, first, reference.q)) {
+    reference.driver.value = grid.driver(first);
+    solver.set_modes(reference, state);
+  } else {
+    first = 0;
+    for (int i = 1; i < grid.samples(); ++i)
+      if (std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)) first = i;
+  }
   solve_row(first);
   const DyadState at_first = state;
+  // Continuity predicts linearly from the last two poses: the first march step gets a second
+  // pose a little behind the first sample (1e-4 of the driver's unit: well inside the band
+  // the reference keeps clear of singular positions), so that a step crossing a change point
+  // right after it is predicted, not guessed.
+  auto seed = [&](int toward) {
+    if (toward < 0 || toward >= grid.samples() || grid.driver(toward) == grid.driver(first)) return;
+    const double behind =
+        grid.driver(first) - 1e-4 * unit * (grid.driver(toward) > grid.driver(first) ? 1.0 : -1.0);
+    if (march.advance_to(behind).status == PoseStatus::cannot_assemble) return;
+    march.advance_to(grid.driver(first));
+  };
+  seed(first + 1);
   for (int i = first + 1; i < grid.samples(); ++i) solve_row(i);
   state = at_first;
+  seed(first - 1);
   for (int i = first - 1; i >= 0; --i) solve_row(i);
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });

@@ -85,10 +85,18 @@ std::optional<FourBar> four_bar(const Mechanism& m) {
   if (fb.grashof == Grashof::non_grashof) {
     fb.inversion = "triple-rocker";
   } else {
-    const auto shortest = static_cast<int>(smin - l.begin());
-    fb.inversion = shortest == 0   ? "double-crank (drag link)"
-                   : shortest == 2 ? "double-rocker"
-                                   : "crank-rocker";
+    // A link next to the ground turns fully when it or the ground is a shortest link; equal
+    // shortest links count alike (Norton ch. 2: the parallelogram, input and output shortest,
+    // is a double crank; so is every inversion of it).
+    const auto shortest = [&](int i) { return l[static_cast<size_t>(i)] - *smin <= eps; };
+    const bool input_turns = shortest(0) || shortest(1), output_turns = shortest(0) || shortest(3);
+    const bool parallelogram = std::abs(l[0] - l[2]) <= eps && std::abs(l[1] - l[3]) <= eps;
+    fb.inversion = parallelogram                 ? "parallelogram double-crank"
+                   : shortest(0)                 ? "double-crank (drag link)"
+                   : input_turns && output_turns ? "double-crank"
+                   : input_turns                 ? "crank-rocker"
+                   : output_turns                ? "rocker-crank"
+                                                 : "double-rocker";
   }
   return fb;
 }

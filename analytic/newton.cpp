@@ -574,6 +574,52 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   return report;
 }
 
+SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) const {
+  if (report.status != PoseStatus::ok && report.status != PoseStatus::singular) return report;
+  auto residual_at = [&](const Eigen::VectorXd& q) {
+    state.q = q;
+    update_frames(state);
+    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
+    state.phi(state.phi.size() - 1) -= state.driver.value;
+    return scaled_norm(state.phi);
+  };
+  Eigen::VectorXd best = state.q;
+  double best_residual = residual_at(best);
+  for (int it = 0; it < 3 && best_residual > 0.0; ++it) {
+    factorize(state);  // at `best`, whose Phi is in state.phi
+    state.rhs = -state.phi;
+    solve_linear(state, state.qddot);
+    if (!state.qddot.allFinite()) break;
+    // A correction of round-off size only: near a singular position a full step along the
+    // Jacobian's near-null direction can leap to another pose with the same residual (a link
+    // turned by whole turns).
+    double largest = 0.0;
+    for (Eigen::Index i = 0; i < state.qddot.size(); ++i)
+      largest = std::max(largest, std::abs(state.qddot(i)) / (i % 3 == 2 ? 1.0 : length_scale_));
+    if (!(largest <= 1e-6)) break;
+    const Eigen::VectorXd next = best + state.qddot;
+    const double r = residual_at(next);
+    if (!(r < best_residual)) break;
+    best = next;
+    best_residual = r;
+  }
+  state.q = best;
+  update_frames(state);
+  factorize(state);
+  report.residual = best_residual;
+  report.rcond = rcond(state);
+  state.factorized = true;
+  state.factorized_rcond = report.rcond;
+  if (report.rcond < options_.singular_rcond) {
+    report.status = PoseStatus::singular;
+    report.message = fmt::format("Jacobian singular at the solution (rcond {:.2e})", report.rcond);
+  } else if (report.status == PoseStatus::singular) {
+    report.status = PoseStatus::ok;
+    report.message.clear();
+  }
+  return report;
+}
+
 void NewtonSolver::solve_velocity(KinematicState& state) const {
   // J qdot = -dPhi/dt: only the driver row depends on time.
   state.rhs.setZero();

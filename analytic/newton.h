@@ -101,6 +101,12 @@ class NewtonSolver {
 
   // Newton from state.q at state.driver.value. Leaves the LU of J at the solution in state.
   SolveReport solve_position(KinematicState& state) const;
+  // Newton steps beyond the tolerance from a pose solve_position converged on (`report` its
+  // report), while each lowers |Phi|: to round-off. Near a singular position the rates' error
+  // grows as the residual over the square of the Jacobian's smallest singular value (the
+  // accelerations' over its cube), so the tolerance's residual is not enough for them. Leaves J
+  // factorised at the pose, as solve_position does.
+  SolveReport polish(KinematicState& state, SolveReport report) const;
   // Linear solves with the factorisation left by solve_position.
   void solve_velocity(KinematicState& state) const;
   void solve_acceleration(KinematicState& state) const;

@@ -256,6 +256,15 @@ class Tracer {
     return correct(seed, 0.0, out);
   }
 
+  // The smallest singular value of the constraint rows C at q over their largest: 0 at a change
+  // point, where C loses rank and two branches cross.
+  double crossing_ratio(const Eigen::VectorXd& q) {
+    solver_.jacobian(q, jac_);
+    const Eigen::VectorXd sigma =
+        Eigen::JacobiSVD<Eigen::MatrixXd>(constraint_rows()).singularValues();
+    return sigma.size() > 0 && sigma(0) > 0.0 ? sigma(sigma.size() - 1) / sigma(0) : 0.0;
+  }
+
   // The point of the curve on the hyperplane t_from . (z - z_from) = s, by Newton from a
   // tangent prediction made at `near` (a node on the same branch close to it, or `from`).
   bool correct(const Node& from, double s, Node& out, const Node* near = nullptr) {
@@ -647,6 +656,60 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
   return leg;
 }
 
+// Where a sample solved by Newton is too near a singular position for its rates to be exact to
+// round-off. Off the curve by the residual r, a pose a driver distance delta from a change point
+// gets its rates wrong by r / delta^2 and its accelerations by r / delta^3 (relative), as the
+// Jacobian's smallest singular value shrinks with delta: measured on a parallelogram and a kite
+// after polishing to round-off, accelerations wrong by 2e-10 of their scale at delta = 1e-2 rad,
+// 1.1e-9 at 5e-3, 3e-7 at 1e-3 and 4e5 at 1e-7 (tests/analytic/test_singular_samples.cpp). Near
+// a toggle the smallest singular value shrinks as sqrt(delta). So a sample is flagged where the
+// Jacobian's condition estimate is below kSingularBand of the best along the sweep (the chain's
+// own, so the rule does not depend on its size or units): on those two, delta below 1.3e-2 rad,
+// short of a 1-degree neighbour.
+constexpr double kSingularBand = 1.5e-2;
+
+class SingularBand {
+ public:
+  // `best`: the largest reciprocal condition estimate along the sweep.
+  explicit SingularBand(double best) : threshold_(kSingularBand * best) {}
+  // Empty when a pose's rates are exact to round-off; else why not.
+  std::string why(double rcond) const {
+    if (rcond >= threshold_) return "";
+    return fmt::format(
+        "beside a singular position: the Jacobian's condition estimate (rcond {:.1e}) is {:.1e} "
+        "of its best along the sweep, so the rates are not determined to round-off here",
+        rcond, rcond / threshold_ * kSingularBand);
+  }
+
+ private:
+  double threshold_;
+};
+
+// Flags a sample singular after it was written: its positions stay, its rates and forces go.
+void drop_rates(Trajectory& t, int row) {
+  t.status[static_cast<size_t>(row)] = PoseStatus::singular;
+  for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
+                             &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking})
+    if (m->rows() > row) m->row(row).setZero();
+  if (t.effort.size() > row) t.effort(row) = 0.0;
+}
+
+// The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
+double best_rcond(const NewtonSolver& solver, const std::vector<Leg>& legs) {
+  KinematicState state(solver.mechanism());
+  double best = 0.0;
+  for (const Leg& leg : legs)
+    for (const Tracer::Node& n : leg.nodes) {
+      state.q = n.q;
+      state.driver.value = n.driver;
+      state.factorized = false;
+      const SolveReport r = solver.solve_position(state);
+      if (r.status == PoseStatus::ok || r.status == PoseStatus::singular)
+        best = std::max(best, r.rcond);
+    }
+  return best;
+}
+
 // One sample to write: where it lies on a leg and the driver state it is taken at.
 struct PlannedSample {
   double key;  // position along the sweep's path
@@ -670,8 +733,11 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
     Tracer::Node lo = a;
     lo.s = static_cast<int>(j) == base_index ? 0.0 : a.s;
     const double dmin = std::min(a.driver, b.driver), dmax = std::max(a.driver, b.driver);
-    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - 1e-9));
-    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + 1e-9));
+    // Grid values on the segment, and within 1e-12 of the driver's unit beyond it (the accuracy
+    // of a located toggle): never a value beyond a limit, where the chain does not close.
+    const double slack = 1e-12 * unit / step;
+    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - slack));
+    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + slack));
     for (long k = k0; k <= k1; ++k) {
       const double g = grid_start + k * step;
       if (g < lo_window - 1e-12 * unit || g > hi_window + 1e-12 * unit) continue;
@@ -705,6 +771,25 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
   }
 }
 
+// A moving driver drawn at a change point (within 1e-10 of the chain's own scale of C's singular
+// values, far below any drawing's precision) is bad input: two branches cross there, so the
+// drawing cannot say which one the chain follows, and no sweep from it is the chain's.
+void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicState& assembled) {
+  const Mechanism& m = solver.mechanism();
+  if (m.driver.at_rest()) return;
+  Tracer tracer(solver);
+  const double ratio = tracer.crossing_ratio(assembled.q);
+  if (ratio >= 1e-10) return;
+  const bool angular = m.driver.angular();
+  throw DefinitionError({Diagnostic{
+      m.driver.where,
+      fmt::format("the drawn position, driver = {:.9g} {}, is a change point (the constraint "
+                  "Jacobian loses rank: {:.1e}): two branches cross there, so the drawing does not "
+                  "say which one the chain follows; draw it at another driver value",
+                  m.driver.start / (angular ? m.units.angle : m.units.length),
+                  angular ? m.units.angle_name : m.units.length_name, ratio)}});
+}
+
 }  // namespace
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
@@ -723,6 +808,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   AssemblingRange range;
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
+  refuse_start_at_change_point(solver, state);
   const bool angular = mechanism.driver.angular();
   const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular};
   Tracer tracer(solver);
@@ -773,7 +859,8 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
   for (size_t i = 0; i < drivers.size(); ++i) {
     const int row = static_cast<int>(i);
     if (!lost) {
-      const SolveReport r = follower.advance_to(drivers[i].value, max_step, small);
+      const SolveReport r =
+          solver.polish(state, follower.advance_to(drivers[i].value, max_step, small));
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         if (r.status == PoseStatus::singular)
           out.events.push_back({drivers[i].value, r.status, r.message});
@@ -844,9 +931,17 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
   const double unit = angular ? 1.0 : size;
   std::vector<PlannedSample> samples;
   for (const PlannedSample& p : plan) {
-    if (!samples.empty() && std::abs(p.key - samples.back().key) < 1e-9 &&
+    // A grid value within round-off of a toggle is the toggle (along the curve the two are up
+    // to sqrt(1e-12) apart, as the driver folds there): one sample, on the grid, flagged.
+    const bool toggle = !samples.empty() && (p.toggle || samples.back().toggle);
+    if (!samples.empty() && (std::abs(p.key - samples.back().key) < 1e-9 || toggle) &&
         std::abs(p.value - samples.back().value) < 1e-12 * unit) {
-      samples.back().toggle = samples.back().toggle || p.toggle;
+      if (p.toggle && !samples.back().toggle) {
+        samples.back().node = p.node;  // the located fold's pose, at the grid's value
+        samples.back().toggle = true;
+      } else if (!p.toggle && samples.back().toggle) {
+        samples.back().value = p.value;
+      }
       continue;
     }
     samples.push_back(p);
@@ -854,6 +949,15 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
 
   out.resize(mechanism, static_cast<int>(samples.size()), true);
   Recorder record(solver);
+  const SingularBand band(best_rcond(solver, legs));
+  // A sample on a located toggle or change point is that event, not another one.
+  const auto located_at = [&](double value) {
+    for (const Leg& leg : legs)
+      for (const SingularPosition& p : leg.singular)
+        if (p.kind != SingularKind::branch_jump && std::abs(p.driver - value) < 1e-9 * unit)
+          return true;
+    return false;
+  };
   double travel = 0.0;
   for (size_t i = 0; i < samples.size(); ++i) {
     const PlannedSample& p = samples[i];
@@ -876,7 +980,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     // Polish at the exact driver value: Newton starts on the traced branch, so it stays there.
     state.q = p.node.q;
     state.driver = driver;
-    SolveReport report = solver.solve_position(state);
+    SolveReport report = solver.polish(state, solver.solve_position(state));
     // At a change point the position is only determined to ~sqrt(tolerance) (the residual is
     // quadratic along the branches there): that is a singular sample, not a jump.
     const double moved = tracer.distance(state.q, p.node.q, false);
@@ -890,7 +994,12 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     if (p.toggle && report.status == PoseStatus::ok) {
       report.status = PoseStatus::singular;
       report.message = "toggle (dead point): Jacobian singular";
-    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6) {
+    } else if (const std::string why = band.why(report.rcond);
+               !why.empty() && report.status == PoseStatus::ok) {
+      report.status = PoseStatus::singular;
+      report.message = why;
+    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6 &&
+               !located_at(p.value)) {
       // Singular with no sign change along the curve around it (the tracer saw no toggle or
       // change point): the Jacobian touches rank loss there, as A02's chain with every bar on
       // one line. The sample is flagged by the solver; the event says where.
@@ -906,6 +1015,9 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     for (size_t k = 0; k < legs[l].singular.size(); ++k) {
       const double key = legs[l].singular_key[k];
       if (key > legs[l].end_key + 1e-12) continue;
+      // A full cycle's leg may trace a little past the cycle's last sample: not the sweep's.
+      const double at = legs[l].singular[k].driver;
+      if (at < window_lo - 1e-12 * unit || at > window_hi + 1e-12 * unit) continue;
       found.push_back({(l == 0 ? 1.0 : -1.0) * key, legs[l].singular[k]});
     }
   std::stable_sort(found.begin(), found.end(),
@@ -979,6 +1091,14 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
     out.events.push_back({d.start, assembled.status, assembled.message});
   sweep_values(solver, state, assembled, drivers, std::min(max_step, continuation_step(mechanism)),
                small, out);
+  // Without a traced curve, the best condition along the sweep is its samples'.
+  double best = 0.0;
+  for (int k = 0; k < out.samples(); ++k)
+    if (has_position(out.status[static_cast<size_t>(k)])) best = std::max(best, out.rcond(k));
+  const SingularBand band(best);
+  for (int k = 0; k < out.samples(); ++k)
+    if (out.status[static_cast<size_t>(k)] == PoseStatus::ok && !band.why(out.rcond(k)).empty())
+      drop_rates(out, k);
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });
   return out;
@@ -1027,6 +1147,7 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
   const SolveReport assembled = solver.assemble(state);
   const bool assembles =
       assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
+  if (assembles) refuse_start_at_change_point(solver, state);
   if (assembles && d.law.kind == MotionLaw::Kind::constant_speed && !options.range && !d.range) {
     Trajectory out;
     out.method = "newton";
@@ -1049,6 +1170,8 @@ Trajectory solve_at(const Mechanism& mechanism, double driver_value, const Sweep
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
+  if (assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular)
+    refuse_start_at_change_point(solver, state);
   DriverState target = constant_speed_state(d, driver_value);
   if (d.law.kind != MotionLaw::Kind::constant_speed) {
     // The first time in the law's cycle at which it passes the value (bisection on a bracket).

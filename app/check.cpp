@@ -129,13 +129,18 @@ void print_singular_positions(const Mechanism& m, std::string& out) {
       fmt::format("  singular positions over the sweep: {}{}\n",
                   singular.empty() ? std::string("none") : std::to_string(singular.size()),
                   flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
+  // Located to ~1e-12: a value that rounds to zero is printed as 0, not -0.
+  const auto value = [&](double driver) {
+    const double v = driver / unit;
+    return std::abs(v) < 5e-10 ? 0.0 : v;
+  };
   for (const SingularPosition& p : singular)
-    out += fmt::format("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), p.driver / unit,
+    out += fmt::format("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), value(p.driver),
                        unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
       out += fmt::format("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind),
-                         e.driver / unit, unit_name, e.message);
+                         value(e.driver), unit_name, e.message);
   if (const auto fb = four_bar(m)) {
     out += fmt::format("  four-bar: {}\n", fb->explain(m));
     if (const auto mu = transmission_range(*fb, t))

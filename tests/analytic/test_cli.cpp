@@ -70,6 +70,48 @@ std::string write_definition(const std::string& name, const std::string& text) {
 
 const char* const kSewing = "mechanisms/sewing_machine.toml";
 
+// The parallelogram fixture drawn at `degrees` (tests/analytic/singular/parallelogram.toml, whose
+// change points are at 0 and 180 deg): crank and rocker at the angle, coupler level.
+std::string parallelogram_at(double degrees) {
+  std::string text = read_file("tests/analytic/singular/parallelogram.toml");
+  const double r = degrees * std::acos(-1.0) / 180.0;
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    text.replace(text.find(from), from.size(), to);
+  };
+  replace("pose = [0, 0, 45]", fmt::format("pose = [0, 0, {:.17g}]", degrees));
+  replace("pose = [28.284271247461902, 28.284271247461902, 0]",
+          fmt::format("pose = [{:.17g}, {:.17g}, 0]", 40 * std::cos(r), 40 * std::sin(r)));
+  replace("pose = [100, 0, 45]", fmt::format("pose = [100, 0, {:.17g}]", degrees));
+  replace("start = 45", fmt::format("start = {:.17g}", degrees));
+  return write_definition(fmt::format("parallelogram_{}.toml", degrees), text);
+}
+
+// Item 6 of issue 24: drawn at a change point, the drawing cannot say which branch the chain is
+// on: refused at [driver] (it was a one-sample sweep and exit 0). Elsewhere `check` names the
+// change points inside the sweep, at the values the crank passes them (0, never -0, from -45
+// deg; not the one a hair past the cycle's end from 179.9999999 deg), and the parallelogram's
+// inversion as Norton's double crank.
+TEST(Cli, ChangePointsAsCheckNamesThem) {
+  for (const double at : {0.0, 180.0}) {
+    const std::string file = parallelogram_at(at);
+    for (const std::string& command : {"check ", "solve ", "solve --at 10 "}) {
+      const CommandRun run = crosslink(command + file);
+      EXPECT_EQ(run.exit_code, 2) << command << at;
+      EXPECT_NE(run.err.find(file + ":64:1: error: the drawn position"), std::string::npos)
+          << command << at << ": " << run.err;
+    }
+  }
+  const CommandRun from_minus_45 = crosslink("check " + parallelogram_at(-45));
+  EXPECT_EQ(from_minus_45.exit_code, 0) << from_minus_45.err;
+  EXPECT_NE(from_minus_45.out.find("change_point  at driver = 0.000000000 deg"), std::string::npos)
+      << from_minus_45.out;
+  EXPECT_EQ(from_minus_45.out.find("-0.000"), std::string::npos) << from_minus_45.out;
+  EXPECT_NE(from_minus_45.out.find("parallelogram double-crank"), std::string::npos);
+  const CommandRun near_180 = crosslink("check " + parallelogram_at(179.9999999));
+  EXPECT_NE(near_180.out.find("singular positions over the sweep: 2"), std::string::npos)
+      << near_180.out;
+}
+
 TEST(Cli, CheckAcceptsTheSewingMachine) {
   const CommandRun run = crosslink(std::string("check ") + kSewing);
   EXPECT_EQ(run.exit_code, 0) << run.err;
