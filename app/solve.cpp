@@ -77,7 +77,7 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
-  if (args.step != 0.0)  // 0: the default; a negative or non-finite step is refused below
+  if (args.step != 0.0)  // 0: not given (the default); --step itself is positive
     options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
