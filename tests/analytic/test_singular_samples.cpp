@@ -28,6 +28,7 @@
 #include "analytic/dyads.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "tests/common/exact.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {
@@ -199,16 +200,6 @@ std::map<std::string, double> exact_channels(const Mechanism& m, const ClosedFor
   return out;
 }
 
-// Each exact method's sweep.
-std::map<std::string, Trajectory> exact_methods(const Mechanism& m, double step) {
-  SweepOptions options;
-  options.step = step;
-  std::map<std::string, Trajectory> out;
-  out["newton"] = sweep(m, options);
-  if (decompose(m).complete) out["dyads"] = dyad_sweep(m, out.at("newton"), true);
-  return out;
-}
-
 // Every sample marked ok against the closed form; returns how many ok samples were checked.
 // `torque_scale` > 0: the driver torque is 0 exactly (constant kinetic energy), to that scale.
 int expect_ok_samples_exact(const Mechanism& m, const ClosedForm& exact, const Trajectory& t,
@@ -296,7 +287,7 @@ void sweep_fixture(const Fixture& f, const std::vector<double>& steps, bool all_
       if (!drawn_start && !all_starts && step != 1.0 && step != 45.0) continue;
       std::map<std::string, Trajectory> methods;
       try {
-        methods = exact_methods(m, step * unit);
+        methods = test::exact_sweeps(m, step * unit);
       } catch (const DefinitionError&) {
         continue;  // a start the sweep refuses (drawn at a change point) has no sample to check
       }
@@ -323,7 +314,7 @@ const Fixture kSliderCrank{
 TEST(SingularSamples, ParallelogramFrom45DegreesLandingOnTheChangePoint) {
   const Mechanism m = load_mechanism(kParallelogram.file);
   const ClosedForm exact = parallelogram(m);
-  for (const auto& [method, t] : exact_methods(m, kDeg)) {
+  for (const auto& [method, t] : test::exact_sweeps(m, kDeg)) {
     bool landed = false;
     for (int k = 0; k < t.samples(); ++k) landed |= std::abs(t.driver(k) - 2 * kPi) < 1e-12;
     EXPECT_TRUE(landed) << method;
@@ -365,7 +356,7 @@ TEST(SingularSamples, RangesEndingOnAndBesideChangePoints) {
       for (const double step : {0.25, 1.0, 7.0}) {
         Mechanism m = drawn;
         m.driver.range = std::make_pair(m.driver.start, end * kDeg);
-        for (const auto& [method, t] : exact_methods(m, step * kDeg)) {
+        for (const auto& [method, t] : test::exact_sweeps(m, step * kDeg)) {
           const std::string what =
               fmt::format("{} {} over a range to {:.12g} deg at {:g}", f->file, method, end, step);
           EXPECT_GT(expect_ok_samples_exact(m, exact, t, what), 0) << what;
@@ -403,7 +394,7 @@ int compare_methods_around_singular_positions(const std::string& file, bool all_
     for (const double n : divisions)
       for (const double beside : {0.0, 1e-7, -1e-7, 1e-10, -1e-10}) {
         const double step = std::abs(gap + beside * unit) / n;
-        const std::map<std::string, Trajectory> t = exact_methods(m, step);
+        const std::map<std::string, Trajectory> t = test::exact_sweeps(m, step);
         const Trajectory& newton = t.at("newton");
         const Trajectory& dyads = t.at("dyads");
         for (int k = 0; k < newton.samples(); ++k) {

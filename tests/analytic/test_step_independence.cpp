@@ -24,6 +24,7 @@
 #include "analytic/instant_centres.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "tests/common/exact.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {
@@ -51,17 +52,6 @@ Trajectory with_centre_velocities(const Mechanism& m, Trajectory t) {
     }
   }
   return t;
-}
-
-// Each method's trajectory at one grid.
-std::map<std::string, Trajectory> methods_at(const Mechanism& m, double step) {
-  SweepOptions options;
-  options.step = step;
-  std::map<std::string, Trajectory> out;
-  out["newton"] = sweep(m, options);
-  if (decompose(m).complete) out["dyads"] = dyad_sweep(m, out["newton"], true);
-  out["ic"] = with_centre_velocities(m, out["newton"]);
-  return out;
 }
 
 // The physical scale of each quantity over the fine sweep: the size for positions, 1 rad for
@@ -115,7 +105,7 @@ class EveryMechanism : public ::testing::TestWithParam<std::string> {};
 // for a slider) against the fine grid.
 TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
   const Mechanism m = load_mechanism(GetParam());
-  const std::map<std::string, Trajectory> fine = methods_at(m, 0.0);
+  const std::map<std::string, Trajectory> fine = test::exact_sweeps(m, 0.0);
   const Trajectory& reference = fine.at("newton");
   ASSERT_GT(reference.samples(), 2);
   // The default grid's step: 1 degree, or for a slider its most common spacing (1/360 of the
@@ -129,7 +119,7 @@ TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
     fine_step = spacing[spacing.size() / 2];
   }
   for (const int multiple : {7, 45, 60, 90, 120}) {
-    const std::map<std::string, Trajectory> coarse = methods_at(m, multiple * fine_step);
+    const std::map<std::string, Trajectory> coarse = test::exact_sweeps(m, multiple * fine_step);
     for (const auto& [method, t] : coarse) {
       const std::string what = method + " at " + std::to_string(multiple) + " steps";
       const int matched = expect_same_samples(m, t, fine.at(method), what);
@@ -157,8 +147,8 @@ int check_grids_at_singular_positions(const std::string& file) {
     for (const double beside : {0.0, 1e-7, -1e-7}) {
       // A grid of four steps to the singular position (plus or minus beside).
       const double step = std::abs(gap + beside * unit) / 4.0;
-      const std::map<std::string, Trajectory> coarse = methods_at(m, step);
-      const std::map<std::string, Trajectory> fine = methods_at(m, step / 45.0);
+      const std::map<std::string, Trajectory> coarse = test::exact_sweeps(m, step);
+      const std::map<std::string, Trajectory> fine = test::exact_sweeps(m, step / 45.0);
       for (const auto& [method, t] : coarse) {
         const std::string what =
             fmt::format("{} {}: {} on a grid {:g} beside the {} at {:.12g}", file, method, method,
