@@ -5,6 +5,7 @@
 // and the option that raises it. (What a definition may hold is bounded by analytic/limits.h.)
 #pragma once
 
+#include "analytic/dynamics.h"
 #include "analytic/sweep.h"
 
 namespace crosslink {
@@ -12,6 +13,8 @@ namespace crosslink {
 struct WorkLimits {
   // Samples of one sweep, and continuation steps of one sweep or solve (--max-samples).
   long max_samples = 100'000;
+  // Pose solves of one exact simulation (--max-solves): SimulationOptions::max_solves.
+  long max_solves = SimulationOptions::kDefaultMaxSolves;
 };
 
 // Throws, before any work, when sweep(mechanism, options) would take more samples or steps than
@@ -26,5 +29,15 @@ void check_sweep_work(const Mechanism& mechanism, const SweepOptions& options,
 // position to `driver_value` (--at), which must also be finite and within the driver's limits.
 void check_solve_at_work(const Mechanism& mechanism, double driver_value,
                          const SweepOptions& options, const WorkLimits& limits);
+
+// The same for the [[reference]] rows compare solves at their `at` (solve_at), each refused at
+// its place.
+void check_reference_work(const Mechanism& mechanism, const WorkLimits& limits);
+
+// The same for simulate(mechanism, options): the samples it stores (its duration over its
+// interval, at most --max-samples) are refused before it starts (std::invalid_argument); its
+// pose solves cannot be foreseen and are bounded by options.max_solves as it runs.
+void check_simulation_work(const Mechanism& mechanism, const SimulationOptions& options,
+                           const WorkLimits& limits);
 
 }  // namespace crosslink

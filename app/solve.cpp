@@ -124,7 +124,12 @@ int run_solve(const SolveArgs& args) {
   }
   std::string why = "newton (asked for)";
   if (decomposition.complete) {
+    // The dyads march from the drawn position too: to the pose solve_at solved, whole turns of a
+    // driver that turns fully nearer the start.
+    const SkippedTurns skip = single ? skipped_turns(m, at, options) : SkippedTurns{};
+    if (skip.turns != 0) t.driver(0) -= skip.driver_shift();
     t = dyad_sweep(m, t, true);
+    skip.move_on(m, at, t);
     why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
   } else if (args.method == "auto" && reverse) {
     why = "newton (--at-limit reverse: the traced sweep follows the loop through its toggles)";
@@ -137,8 +142,7 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
                e.driver, e.message);
   if (args.format == "json")
-    fmt::print("{}\n",
-               trajectory_json(m, t, single ? std::optional<int>(0) : std::nullopt).dump(2));
+    print_trajectory_json(stdout, m, t, single ? std::optional<int>(0) : std::nullopt);
   else if (args.format == "csv")
     print_csv(t);
   else if (single) {
