@@ -50,6 +50,29 @@ void check_count(const Mechanism& m, const Cause& cause, double count, std::stri
                      of_what, limits.max_samples));
 }
 
+// The memory of the samples: each holds a value of every channel (Trajectory::resize, with
+// forces), 8 bytes each, in the solver's trajectory, again in each engine's for compare, and in
+// an output's copy. The limit, kValuesPerSample for each sample --max-samples allows (160 MB at
+// the default), lets a sewing machine (about 130 values) have every sample it may and bounds the
+// long chains': A02 at N = 40 holds about 1,000 values a sample, and 97,298 samples of it (0.0037
+// degrees, within --max-samples) took 26 GB as a JSON document.
+constexpr double kValuesPerSample = 200.0;
+
+void check_values(const Mechanism& m, const Cause& cause, double samples,
+                  const WorkLimits& limits) {
+  Trajectory one;
+  one.resize(m, 1, true);
+  const double each = static_cast<double>(one.channel_names().size()) + 4.0;  // + time, driver,
+                                                                              // rcond, gap
+  const double limit = kValuesPerSample * static_cast<double>(limits.max_samples);
+  if (samples * each <= limit) return;
+  refuse(m, cause,
+         fmt::format("asks for {:.0f} samples of {:.0f} values each ({:.2g} GB): the limit is "
+                     "{:.3g} values, {:.0f} for each of --max-samples (raise it with "
+                     "--max-samples N)",
+                     samples, each, samples * each * 8e-9, limit, kValuesPerSample));
+}
+
 // A step lost in the round-off of the driver's values would be accepted without moving the
 // driver, for ever: steps must stay far above it (1e-12 of the largest value, 4500 ulps).
 void check_resolution(const Mechanism& m, const Cause& cause, double step, double magnitude) {
@@ -112,7 +135,9 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
                d.range_where};
     cause.what += step_given ? " at " + step_option.what
                              : fmt::format(" at a step of {:g} {}", step / u.si, u.name);
-    check_count(m, cause, range_grid(d.start, step, lo, hi).size(), "samples", limits);
+    const double samples = static_cast<double>(range_grid(d.start, step, lo, hi).size());
+    check_count(m, cause, samples, "samples", limits);
+    check_values(m, cause, samples, limits);
     // From the drawn position to the first sample, then across the range.
     const double first = d.law.speed > 0.0 ? lo : hi;
     check_count(m, cause, (std::abs(d.start - first) + (hi - lo)) / continuation,
@@ -141,24 +166,50 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
                           : Cause{fmt::format("the default step of {}",
                                               d.angular() ? "1 degree" : "1/360 of the range"),
                                   {}};
-  check_count(m, cause, passes * (std::floor(span / step + 1e-9) + 1.0), "samples", limits);
+  const double samples = passes * (std::floor(span / step + 1e-9) + 1.0);
+  check_count(m, cause, samples, "samples", limits);
+  check_values(m, cause, samples, limits);
 }
+
+namespace {
+
+// The continuation solve_at takes from the drawn position to `driver_value`.
+void check_continuation(const Mechanism& m, double driver_value, const SweepOptions& options,
+                        const WorkLimits& limits, const Cause& cause) {
+  const DriverUnit u = driver_unit(m);
+  const double largest = m.driver.angular() ? limits::kDriverValue : limits::kLength;
+  if (!(std::abs(driver_value) <= largest))
+    refuse(m, cause,
+           fmt::format("is not a driver value: the limit is {:g} {}", largest / u.si, u.name));
+  const double continuation = continuation_bound(m, options.step);
+  // The solver continues from the drawn position to the value, less the whole turns it skips
+  // (solve_at), plus the turn that shows it may.
+  double travel = std::abs(driver_value - m.driver.start);
+  if (travel / continuation > static_cast<double>(limits.max_samples))
+    if (const SkippedTurns skip = skipped_turns(m, driver_value, options); skip.turns != 0)
+      travel =
+          std::abs(driver_value - skip.driver_shift() - m.driver.start) + 2.0 * std::numbers::pi;
+  check_count(m, cause, travel / continuation, steps_of(m, continuation), limits);
+  check_resolution(m, cause, continuation,
+                   std::max(std::abs(driver_value), std::abs(m.driver.start)));
+}
+
+}  // namespace
 
 void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOptions& options,
                          const WorkLimits& limits) {
   check_step(m, options);
   const DriverUnit u = driver_unit(m);
-  const double largest = m.driver.angular() ? limits::kDriverValue : limits::kLength;
-  const Cause cause{fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}};
-  if (!(std::abs(driver_value) <= largest))
-    refuse(m, cause,
-           fmt::format("is not a driver value: the limit is {:g} {}", largest / u.si, u.name));
-  const double continuation = continuation_bound(m, options.step);
-  // The solver continues from the drawn position to the value.
-  check_count(m, cause, std::abs(driver_value - m.driver.start) / continuation,
-              steps_of(m, continuation), limits);
-  check_resolution(m, cause, continuation,
-                   std::max(std::abs(driver_value), std::abs(m.driver.start)));
+  check_continuation(m, driver_value, options, limits,
+                     {fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}});
+}
+
+void check_reference_work(const Mechanism& m, const WorkLimits& limits) {
+  const DriverUnit u = driver_unit(m);
+  for (const Reference& r : m.references)
+    check_continuation(
+        m, r.driver_value, {}, limits,
+        {fmt::format("[[reference]] at = {:g} {}", r.driver_value / u.si, u.name), r.where});
 }
 
 void check_simulation_work(const Mechanism& m, const SimulationOptions& options,
@@ -172,7 +223,9 @@ void check_simulation_work(const Mechanism& m, const SimulationOptions& options,
           : Cause{fmt::format("[dynamics] 'duration' = {:g} s", duration), c.duration_where};
   cause.what += fmt::format(" at {} interval of {:g} s",
                             options.interval > 0.0 ? "an" : "the case's", interval);
-  check_count(m, cause, std::floor(duration / interval + 1e-9) + 1.0, "samples", limits);
+  const double samples = std::floor(duration / interval + 1e-9) + 1.0;
+  check_count(m, cause, samples, "samples", limits);
+  check_values(m, cause, samples, limits);
 }
 
 }  // namespace crosslink

@@ -13,6 +13,8 @@ namespace crosslink {
 struct WorkLimits {
   // Samples of one sweep, and continuation steps of one sweep or solve (--max-samples).
   long max_samples = 100'000;
+  // Pose solves of one exact simulation (--max-solves): SimulationOptions::max_solves.
+  long max_solves = SimulationOptions::kDefaultMaxSolves;
 };
 
 // Throws, before any work, when sweep(mechanism, options) would take more samples or steps than
@@ -28,10 +30,15 @@ void check_sweep_work(const Mechanism& mechanism, const SweepOptions& options,
 void check_solve_at_work(const Mechanism& mechanism, double driver_value,
                          const SweepOptions& options, const WorkLimits& limits);
 
-// The same for simulate(mechanism, options) of a dynamics case: its samples, the duration over
-// the interval. Over the limit, a DefinitionError located at [dynamics] 'duration', or, when
-// options.duration was given by the command-line `option` (--duration, --at), an
-// std::invalid_argument naming it.
+// The same for the [[reference]] rows compare solves at their `at` (solve_at), each refused at
+// its place.
+void check_reference_work(const Mechanism& mechanism, const WorkLimits& limits);
+
+// The same for simulate(mechanism, options) of a dynamics case: the samples it stores (its
+// duration over its interval) and their values. Over the limit, a DefinitionError located at
+// [dynamics] 'duration', or, when options.duration was given by the command-line `option`
+// (--duration, --at), an std::invalid_argument naming it. Its pose solves cannot be foreseen and
+// are bounded by options.max_solves as it runs.
 void check_simulation_work(const Mechanism& mechanism, const SimulationOptions& options,
                            std::string_view option, const WorkLimits& limits);
 

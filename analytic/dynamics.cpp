@@ -5,6 +5,7 @@
 #include <array>
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "analytic/kinetostatics.h"
@@ -23,13 +24,15 @@ struct Stopped {
   double time;
   PoseStatus status;
   std::string message;
+  bool over_budget = false;  // the run reached SimulationOptions::max_solves
 };
 
 // The minimal-coordinate equation of motion, with the pose followed by continuation.
 class EquationOfMotion {
  public:
-  explicit EquationOfMotion(const Mechanism& m)
+  EquationOfMotion(const Mechanism& m, long max_solves)
       : m_(m),
+        max_solves_(max_solves),
         solver_(m, NewtonOptions{.tolerance = 1e-15}),
         kinetostatics_(solver_),
         state_(m),
@@ -61,6 +64,7 @@ class EquationOfMotion {
   long evaluations() const { return evaluations_; }
   // The reciprocal condition of the pose at the coordinate of the last acceleration().
   double rcond() const { return rcond_; }
+  long solves() const { return solves_; }
 
   // dd/dt, dddot/dt and dw/dt at (t, x).
   void operator()(const State& x, State& dxdt, double t) {
@@ -147,8 +151,18 @@ class EquationOfMotion {
   // (Newton resolves it only to ~sqrt(tolerance) there).
   double move_to(double t, double d) {
     const double from = d_last_, span = d - from;
-    const int steps =
-        std::max(1, static_cast<int>(std::ceil(std::abs(span) / continuation_step(m_))));
+    const double wanted = std::max(1.0, std::ceil(std::abs(span) / continuation_step(m_)));
+    // Counted before they are taken: one evaluation may ask for billions (a coordinate thrown
+    // across 1e9 rad by an effort of 1e12 in a nanosecond).
+    if (!(solves_ + wanted <= static_cast<double>(max_solves_)))
+      throw Stopped{t, PoseStatus::not_reached,
+                    fmt::format("the run has taken {} pose solves and its next evaluation asks "
+                                "for {:.0f} more (coordinate {:.6g} to {:.6g}): the limit is {} "
+                                "(raise it with --max-solves N)",
+                                solves_, wanted, from, d, max_solves_),
+                    true};
+    const int steps = static_cast<int>(wanted);
+    solves_ += steps;
     double rcond = 1.0;
     for (int i = 1; i <= steps; ++i) {
       const double target = i == steps ? d : from + span * i / steps, h = target - d_last_;
@@ -186,6 +200,8 @@ class EquationOfMotion {
   }
 
   const Mechanism& m_;
+  const long max_solves_;
+  long solves_ = 0;
   NewtonSolver solver_;
   Kinetostatics kinetostatics_;
   KinematicState state_;
@@ -241,13 +257,14 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
   out.work.setZero(n);
 
   int written = 0;
+  std::optional<EquationOfMotion> started;
   try {
-    EquationOfMotion eom(mechanism);
+    EquationOfMotion& eom = started.emplace(mechanism, options.max_solves);
     const Kinetostatics& kinetostatics = eom.kinetostatics();
     ForceSample forces = kinetostatics.make_sample();
     State x = {mechanism.driver.start, c.rate, 0.0};
     auto observe = [&](const State& y, double time) {
-      const int k = written++;
+      const int k = written;  // counted once whole: a stop inside leaves it not_reached
       const double effort = c.effort_at(time);
       eom.acceleration(time, y[0], y[1], effort);
       KinematicState& s = eom.state();
@@ -269,6 +286,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
       out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
                                    std::abs(out.potential(k)), std::abs(out.work(k))});
       if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
+      ++written;
     };
     namespace odeint = boost::numeric::odeint;
     const double tol = options.tolerance;
@@ -288,14 +306,18 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
       throw std::invalid_argument("unknown integrator '" + options.integrator +
                                   "' (valid: dopri5, rkf78)");
     }
-    out.evaluations = eom.evaluations();
   } catch (const Stopped& stop) {
     // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
     if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
     out.ok = false;
+    out.over_budget = stop.over_budget;
     out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
     t.events.push_back({stop.time, stop.status, out.message});
     for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = PoseStatus::not_reached;
+  }
+  if (started) {
+    out.evaluations = started->evaluations();
+    out.solves = started->solves();
   }
   return out;
 }

@@ -45,6 +45,12 @@ struct SimulationOptions {
   // reference (on A02 a third of dopri5's evaluations, and half its energy error).
   std::string integrator = "rkf78";
   double tolerance = 1e-13;  // absolute and relative, per step
+  // The most pose solves of the run (each evaluation of the equation of motion solves its pose,
+  // in continuation steps when the coordinate moved far): the integrator's work cannot be
+  // foreseen (its steps follow the motion), so a run that reaches the limit stops there, its
+  // remaining samples not_reached, with an event that names the limit (--max-solves).
+  long max_solves = kDefaultMaxSolves;
+  static constexpr long kDefaultMaxSolves = 2'000'000;
 };
 
 struct Simulation {
@@ -54,8 +60,10 @@ struct Simulation {
   Eigen::VectorXd kinetic, potential, work;
   double initial_energy = 0.0;
   bool ok = true;
-  std::string message;   // why the run stopped early
-  long evaluations = 0;  // of the equation of motion
+  std::string message;       // why the run stopped early
+  long evaluations = 0;      // of the equation of motion
+  long solves = 0;           // of a pose (options.max_solves bounds them)
+  bool over_budget = false;  // stopped by options.max_solves
 
   // The largest of the energies (kinetic, potential, work, initial) over the run [J]: the scale
   // of the balance (one sample's energies may all be near 0: a pendulum at rest at the level of

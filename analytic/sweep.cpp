@@ -1165,8 +1165,50 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {
   return sweep(mechanism, options, singular);
 }
 
+void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
+                           Trajectory& pose) const {
+  if (turns == 0) return;
+  pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
+  for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver(0);
+  pose.driver(0) = driver_value;
+  pose.time(0) = constant_speed_state(mechanism.driver, driver_value).time;
+}
+
+SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
+                           const SweepOptions& options) {
+  const Driver& d = mechanism.driver;
+  if (!d.angular() || d.law.kind != MotionLaw::Kind::constant_speed) return {};
+  const double turns = std::trunc((driver_value - d.start) / (2.0 * kPi));
+  if (std::abs(turns) < 2.0) return {};  // within two turns: nothing to gain
+  const Trajectory a = solve_at(mechanism, d.start, options);
+  const Trajectory b = solve_at(mechanism, d.start + std::copysign(2.0 * kPi, turns), options);
+  if (!usable(a.status[0]) || !usable(b.status[0])) return {};
+  // The same pose one turn on: every point and slider where it was, every link turned by whole
+  // turns.
+  const auto apart = [](const Eigen::MatrixXd& u, const Eigen::MatrixXd& v) {
+    return u.size() == 0 ? 0.0 : (u - v).cwiseAbs().maxCoeff();
+  };
+  const double near = 1e-9 * mechanism.size();
+  if (!(apart(a.x, b.x) <= near && apart(a.y, b.y) <= near && apart(a.s, b.s) <= near)) return {};
+  SkippedTurns out{static_cast<long>(turns), Eigen::VectorXd(a.angle.cols())};
+  for (Eigen::Index l = 0; l < a.angle.cols(); ++l) {
+    const double whole = (b.angle(0, l) - a.angle(0, l)) / (2.0 * kPi);
+    if (!(std::abs(whole - std::round(whole)) <= 1e-9)) return {};
+    out.link_turn(l) = std::round(whole) * 2.0 * kPi;  // over one turn the way it goes
+  }
+  return out;
+}
+
 Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
   const Driver& d = mechanism.driver;
+  // A driver that turns fully is at the same pose a whole number of turns nearer its start:
+  // solved there, its links' angles moved on by their turns (a reference at 5e9 degrees took
+  // 1.5 h of continuation).
+  if (const SkippedTurns skip = skipped_turns(mechanism, driver_value, options); skip.turns != 0) {
+    Trajectory out = solve_at(mechanism, driver_value - skip.driver_shift(), options);
+    skip.move_on(mechanism, driver_value, out);
+    return out;
+  }
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -92,7 +93,23 @@ RangeGrid range_grid(double start, double step, double lower, double upper);
 // The exact state at one driver value, reached by continuation from the drawn position so it
 // lies on the drawn branch. The driver's rate and acceleration are those of the motion law at
 // the first time it passes the value (constant speed: the speed, zero).
+// A driver that turns fully (angular, constant speed, the chain back at its drawn pose one turn
+// on) is solved a whole number of turns nearer its start, its links' angles moved on by their
+// own whole turns: the continuation covers at most about two turns however far the value.
 Trajectory solve_at(const Mechanism& mechanism, double driver_value,
                     const SweepOptions& options = {});
+
+// The whole turns solve_at skips on the way to `driver_value` (0 when it follows the driver all
+// the way: a driver that does not turn fully, or a value within two turns of the start), and
+// each link's angle over one turn the way the driver goes (a whole number of turns).
+struct SkippedTurns {
+  long turns = 0;
+  Eigen::VectorXd link_turn;  // [rad] per moving link
+  double driver_shift() const { return static_cast<double>(turns) * 2.0 * std::numbers::pi; }
+  // The one-sample `pose` solved driver_shift() nearer the start made the pose at driver_value.
+  void move_on(const Mechanism& mechanism, double driver_value, Trajectory& pose) const;
+};
+SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
+                           const SweepOptions& options = {});
 
 }  // namespace crosslink

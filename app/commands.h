@@ -37,10 +37,11 @@ struct CheckReport {
 };
 CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits);
 
-// The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-steps
-// on those that run engines; `settings` with the engines' max_steps in front (a later one wins);
-// and the refusal (std::invalid_argument naming `option`) of an explicit time step `dt` that
-// would take more than `max_steps` steps over `span` seconds, before any engine runs.
+// The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-solves
+// on those that simulate a dynamics case, --max-steps on those that run engines; `settings` with
+// the engines' max_steps in front (a later one wins); and the refusal (std::invalid_argument naming
+// `option`) of an explicit time step `dt` that would take more than `max_steps` steps over `span`
+// seconds, before any engine runs.
 void add_max_samples(CLI::App& cmd, WorkLimits& limits);
 // The check of a numeric option: a finite number from `low` (excluded when `low_open`) to
 // `high`; NaN, infinities and values out of range are refused before any work (exit 2), the
@@ -51,6 +52,7 @@ CLI::Validator number_in(double low = -std::numeric_limits<double>::max(),
 inline CLI::Validator positive_number() {
   return number_in(0.0, std::numeric_limits<double>::max(), true);
 }
+void add_max_solves(CLI::App& cmd, WorkLimits& limits);
 void add_max_steps(CLI::App& cmd, long& max_steps);
 sim::Settings with_max_steps(long max_steps, const sim::Settings& settings);
 void check_engine_steps(double span, double dt, long max_steps, const std::string& option);

@@ -142,8 +142,13 @@ int run_compare(CompareArgs args) {
   const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
   if (args.step != 0.0) options.step = args.step * driver_scale;  // 0: the default
   if (!dynamics) check_sweep_work(m, options, args.limits);
+  if (dynamics) check_simulation_work(m, {}, "", args.limits);
+  check_reference_work(m, args.limits);
+  if (args.at && !dynamics)  // the report draws the pose there (solve_at)
+    check_solve_at_work(m, *args.at * driver_scale, {}, args.limits);
   std::vector<compare::MethodRun> runs;
-  runs.push_back(methods::run_reference(m, options));
+  runs.push_back(dynamics ? methods::run_simulation(m, {.max_solves = args.limits.max_solves})
+                          : methods::run_reference(m, options));
   // An explicit time step is refused before any engine runs when it would take too many steps.
   const Trajectory& reference = runs.front().trajectory;
   const double span =
@@ -234,6 +239,7 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
                   "at the definition's start and a clock turns the driver");
   cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
   add_max_samples(*cmd, args->limits);
+  add_max_solves(*cmd, args->limits);
   add_max_steps(*cmd, args->max_steps);
   cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }

@@ -35,6 +35,14 @@ void add_max_samples(CLI::App& cmd, WorkLimits& limits) {
       ->capture_default_str();
 }
 
+void add_max_solves(CLI::App& cmd, WorkLimits& limits) {
+  cmd.add_option("--max-solves", limits.max_solves,
+                 "the most pose solves of one exact simulation (a dynamics case); a run that "
+                 "reaches it stops there, its remaining samples not_reached")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+}
+
 void add_max_steps(CLI::App& cmd, long& max_steps) {
   cmd.add_option("--max-steps", max_steps,
                  "the most steps of one engine run; a run that would take more is refused before "

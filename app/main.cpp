@@ -2,8 +2,10 @@
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <exception>
 #include <functional>
+#include <new>
 #include <string>
 
 #include "analytic/mechanism.h"
@@ -34,6 +36,13 @@ int main(int argc, char** argv) {
     return run();
   } catch (const crosslink::DefinitionError& e) {
     fmt::print(stderr, "{}\n", e.what());
+    return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    // Written without allocating: there may be no memory left for a formatted message.
+    std::fputs(
+        "crosslink: error: out of memory: the command asked for more than this machine gives "
+        "(fewer samples: --max-samples, --step; docs/robustness.md)\n",
+        stderr);
     return kExitBadInput;
   } catch (const std::exception& e) {
     fmt::print(stderr, "crosslink: error: {}\n", e.what());

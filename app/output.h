@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -26,6 +27,12 @@ nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row);
 nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::optional<int> single,
                                const std::string& event_key = "driver",
                                const std::function<void(nlohmann::json&, int)>& extra = {});
+
+// trajectory_json(...).dump(2) and a newline on `file`, each sample written as it is made (the
+// memory of one sample's JSON, not of the document's).
+void print_trajectory_json(std::FILE* file, const Mechanism& m, const Trajectory& t,
+                           std::optional<int> single, const std::string& event_key = "driver",
+                           const std::function<void(nlohmann::json&, int)>& extra = {});
 
 // One row per sample: sample, time, driver, status, every channel, then `extra`. A value that is
 // not usable (a flagged sample) is an empty field.

@@ -61,6 +61,7 @@ int run_simulate(const SimulateArgs& args) {
     options.duration = *args.duration;
   }
   check_simulation_work(m, options, args.at ? "--at" : "--duration", args.limits);
+  options.max_solves = args.limits.max_solves;
 
   const Simulation s = simulate(m, options);
   const Trajectory& t = s.trajectory;
@@ -77,7 +78,7 @@ int run_simulate(const SimulateArgs& args) {
 
   if (args.format == "json") {
     const auto energy = [&s](nlohmann::json& j, int k) { j["energy"] = energy_json(s, k); };
-    fmt::print("{}\n", trajectory_json(m, t, single, "time", energy).dump(2));
+    print_trajectory_json(stdout, m, t, single, "time", energy);
   } else if (args.format == "csv") {
     Eigen::VectorXd balance = energy_balances(s);
     Columns energy = {{"energy.kinetic", s.kinetic},
@@ -99,6 +100,12 @@ int run_simulate(const SimulateArgs& args) {
   } else {
     print_table_rows(m, t, true, 6, table_channels(m, t, "angle,omega"), "energy balance in J",
                      {{"balance", energy_balances(s)}});
+  }
+  // Stopped by its work limit: the samples it reached are written, the error says where it
+  // stopped and how to raise the limit.
+  if (s.over_budget) {
+    fmt::print(stderr, "{}\n", Diagnostic{c.where, s.message}.str());
+    return kExitBadInput;
   }
   if (single && !usable(t.status[static_cast<size_t>(*single)])) {
     fmt::print(stderr, "{}\n",
@@ -135,6 +142,7 @@ void add_simulate(CLI::App& app, std::function<int()>& run) {
       ->check(number_in(1e-15, 1e-2));
   cmd->get_option("--duration")->excludes(cmd->get_option("--at"));
   add_max_samples(*cmd, args->limits);
+  add_max_solves(*cmd, args->limits);
   cmd->callback([&run, args] { run = [args] { return run_simulate(*args); }; });
 }
 

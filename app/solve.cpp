@@ -124,9 +124,15 @@ int run_solve(const SolveArgs& args) {
   }
   std::string why = "newton (asked for)";
   if (decomposition.complete) {
+    // The dyads march from the drawn position too: to the pose solve_at solved, whole turns of a
+    // driver that turns fully nearer the start.
+    const SkippedTurns skip = single ? skipped_turns(m, at, options) : SkippedTurns{};
+    Trajectory grid = t;
+    if (skip.turns != 0) grid.driver(0) -= skip.driver_shift();
+    Trajectory closed = dyad_sweep(m, grid, args.method != "newton");
+    skip.move_on(m, at, closed);
     // The two exact methods check each other (analytic/trust.h): a sample they disagree on is
     // flagged with the reason, whichever of them is printed.
-    Trajectory closed = dyad_sweep(m, t, args.method != "newton");
     cross_check(m, t, closed);
     if (args.method != "newton") {
       for (int k = 0; k < t.samples(); ++k)
@@ -149,8 +155,7 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
                e.driver, e.message);
   if (args.format == "json")
-    fmt::print("{}\n",
-               trajectory_json(m, t, single ? std::optional<int>(0) : std::nullopt).dump(2));
+    print_trajectory_json(stdout, m, t, single ? std::optional<int>(0) : std::nullopt);
   else if (args.format == "csv")
     print_csv(t);
   else if (single) {

@@ -284,10 +284,12 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
 
   // Verdict, with every failing channel named at its worst sample.
   fmt::print(out, "\n");
-  for (const std::string& name : cmp.failed_methods)
-    fmt::print(out, "FAIL: method {} {}\n", name,
-               cmp.method(name)->ok ? "flagged every sample: no usable sample to compare"
-                                    : "did not complete: " + cmp.method(name)->message);
+  const auto failure = [&cmp](const std::string& name) {
+    return fmt::format("method {} {}", name,
+                       cmp.method(name)->ok ? "flagged every sample: no usable sample to compare"
+                                            : "did not complete: " + cmp.method(name)->message);
+  };
+  for (const std::string& name : cmp.failed_methods) fmt::print(out, "FAIL: {}\n", failure(name));
   for (const ChannelResult& c : cmp.channels)
     if (c.verdict == Verdict::fail) {
       const DisplayUnit u = display_unit(m, c.metrics.channel);
@@ -303,7 +305,11 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
     }
-  fmt::print(out, "verdict: {} ({})\n", cmp.pass() ? "PASS" : "FAIL", cmp.counts_text());
+  // A method that failed as a whole is named on the verdict line itself: its channels are not
+  // among the counts (a scene MuJoCo refused read "FAIL (70 channel comparisons: 70 pass, 0 fail").
+  std::string failed;
+  for (const std::string& name : cmp.failed_methods) failed += failure(name) + "; ";
+  fmt::print(out, "verdict: {} ({}{})\n", cmp.pass() ? "PASS" : "FAIL", failed, cmp.counts_text());
 }
 
 namespace {

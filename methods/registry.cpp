@@ -96,6 +96,8 @@ MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& op
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start = sim::thread_cpu_seconds();
   const Simulation sim = simulate(mechanism, options);
+  // A reference cut short by its work limit leaves nothing to judge past it: asked too much.
+  if (sim.over_budget) throw DefinitionError({Diagnostic{mechanism.dynamics->where, sim.message}});
   run.cost.wall_seconds = seconds_since(start);
   const double cpu = sim::thread_cpu_seconds() - cpu_start;
   run.trajectory = sim.trajectory;

@@ -35,7 +35,8 @@ bool is_method(std::string_view name);
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});
 
 // A dynamics case's exact simulation as a method: with its energy channels and each sample's
-// conditioning (rcond); the reference is this at the default options.
+// conditioning (rcond); the reference is this at the default options. A run stopped by
+// options.max_solves throws a DefinitionError at the case's [dynamics] table.
 MethodRun run_simulation(const Mechanism& mechanism, const SimulationOptions& options);
 
 // Throws std::invalid_argument when `engine_settings` hold a setting the engine `name` does not

@@ -48,6 +48,50 @@ EngineRun failed(EngineRun run, std::string message) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// MuJoCo's messages
+
+// MuJoCo 2.2.2 reports through mju_warning and mju_error (engine_util_errmem.c): without user
+// handlers a warning is printed on stdout (so `compare --json -` was no longer JSON) and appended
+// to MUJOCO_LOG.TXT in the current folder, and an error does the same and exits the process.
+// With handlers neither is written: a warning becomes a note of the run, an error an exception
+// (MuJoCo's own XML loader throws from its handler in the same way). Once per mjData and
+// warning type (mj_warning), so a run holds few; the same text is kept once with its count.
+thread_local std::vector<std::pair<std::string, int>> t_warnings;
+
+void on_warning(const char* message) {
+  for (auto& [text, count] : t_warnings)
+    if (text == message) {
+      ++count;
+      return;
+    }
+  t_warnings.emplace_back(message, 1);
+}
+
+[[noreturn]] void on_error(const char* message) {
+  throw std::runtime_error(std::string("MuJoCo error: ") + message);
+}
+
+// The handlers are installed, and the warnings gathered, for the life of one run.
+class MessageCapture {
+ public:
+  MessageCapture() {
+    mju_user_warning = on_warning;
+    mju_user_error = on_error;
+    t_warnings.clear();
+  }
+  MessageCapture(const MessageCapture&) = delete;
+  MessageCapture& operator=(const MessageCapture&) = delete;
+  ~MessageCapture() { t_warnings.clear(); }
+  // The warnings so far as notes of `message`.
+  static void note(std::string& message) {
+    for (const auto& [text, count] : t_warnings)
+      add_note(message, count > 1 ? fmt::format("MuJoCo warning ({} times): {}", count, text)
+                                  : "MuJoCo warning: " + text);
+    t_warnings.clear();
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
 // Settings
 
 const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
@@ -283,7 +327,8 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
 // generalised inertia the driver moves, driver_inertia()); the readers take the armature's share
 // back out of the effort. A tendon driver has no armature in 2.2.2.
 double driver_armature(const Config& c, const Scene& s, double inertia) {
-  if (c.driver_armature) return *c.driver_armature;
+  if (c.driver_armature) return *c.driver_armature * s.mass_scale;
+  inertia *= s.mass_scale;
   if (s.driven.joint < 0 || s.driven.tendon) return 0.0;
   const SceneJoint& j = s.joints[static_cast<size_t>(s.driven.joint)];
   const SceneLink& child = s.links[static_cast<size_t>(j.child)];
@@ -578,6 +623,10 @@ class ForceReader {
       }
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
+    // Back from the scene's unit of mass (Scene::mass_scale).
+    out.effort /= s_.mass_scale;
+    for (Eigen::Vector2d& f : out.joint_force) f /= s_.mass_scale;
+    for (double& c : out.couple) c /= s_.mass_scale;
   }
 
   static double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -682,6 +731,7 @@ class LoadHook {
  public:
   LoadHook(const Mechanism& m, const Scene& s, const mjModel* mm)
       : loads_(m),
+        mass_scale_(s.mass_scale),
         q_(Eigen::VectorXd::Zero(m.coordinate_count())),
         qdot_(Eigen::VectorXd::Zero(m.coordinate_count())) {
     for (const SceneLink& link : s.links)
@@ -703,14 +753,15 @@ class LoadHook {
     for (const auto& [k, body] : bodies_) {
       mjtNum* x = d->xfrc_applied + 6 * body;
       const BodyLoad& load = on[static_cast<size_t>(k)];
-      x[0] = load.force.x();
-      x[1] = load.force.y();
-      x[5] = load.moment;
+      x[0] = load.force.x() * mass_scale_;  // in the scene's unit of mass
+      x[1] = load.force.y() * mass_scale_;
+      x[5] = load.moment * mass_scale_;
     }
   }
 
  private:
   DynamicsLoads loads_;
+  double mass_scale_;
   Eigen::VectorXd q_, qdot_;
   std::vector<std::pair<int, int>> bodies_;  // (moving index, MuJoCo body id)
 };
@@ -1041,9 +1092,9 @@ class KinematicStepper {
         loads_.at(pose(k), velocity_, m_.driver.at_time(t).value + driver_offset_);
     for (size_t b = 0; b < on.size(); ++b) {
       mjtNum* x = model_.d->xfrc_applied + 6 * load_body_[b];
-      x[0] = on[b].force.x();
-      x[1] = on[b].force.y();
-      x[5] = on[b].moment;
+      x[0] = on[b].force.x() * p_.scene.mass_scale;  // in the scene's unit of mass
+      x[1] = on[b].force.y() * p_.scene.mass_scale;
+      x[5] = on[b].moment * p_.scene.mass_scale;
     }
   }
 
@@ -1590,7 +1641,28 @@ class MujocoEngine final : public Engine {
   // above).
   EngineRun run(const Mechanism& m, const Trajectory& reference,
                 const Settings& overrides) const override {
-    if (m.dynamics) return run_dynamics(m, reference, overrides);
+    const MessageCapture capture;
+    EngineRun run;
+    try {
+      run = m.dynamics ? run_dynamics(m, reference, overrides)
+                       : run_kinematic(m, reference, overrides);
+    } catch (const std::runtime_error& e) {
+      if (!std::string_view(e.what()).starts_with("MuJoCo error: ")) throw;
+      run.trajectory.method = "mujoco";
+      if (m.dynamics)
+        shape_dynamics(run.trajectory, m, reference, false);
+      else
+        shape(run.trajectory, m, reference, false);
+      run.settings = overrides;
+      run = failed(std::move(run), e.what());
+    }
+    capture.note(run.message);
+    return run;
+  }
+
+ private:
+  EngineRun run_kinematic(const Mechanism& m, const Trajectory& reference,
+                          const Settings& overrides) const {
     const Clock::time_point begin = Clock::now();
     EngineRun run;
     run.trajectory.method = "mujoco";
@@ -1714,7 +1786,7 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
   if (reference.has_forces)
     for (int i : usable_rows)
       if (turning || in_swing(reference.driver(i)))
-        peak_effort = std::max(peak_effort, std::abs(reference.effort(i)));
+        peak_effort = std::max(peak_effort, std::abs(reference.effort(i)) * s.mass_scale);
   const double arm = m.driver.angular() ? 1.0 : s.size;
   double inertia = 0.0;
   for (const SceneLink& link : s.links)

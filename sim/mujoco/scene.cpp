@@ -186,6 +186,18 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     s.joints.push_back(pin);
   }
 
+  // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
+  // scene that loads as it is keeps its unit).
+  constexpr double kLightest = 1e-14;
+  double lightest = kLightest;
+  for (const SceneLink& link : s.links)
+    if (!link.ground) lightest = std::min({lightest, link.mass, link.inertia});
+  s.mass_scale = std::exp2(std::ceil(std::log2(kLightest / lightest)));
+  for (SceneLink& link : s.links) {
+    link.mass *= s.mass_scale;
+    link.inertia *= s.mass_scale;
+  }
+
   // Joint values at the given configuration.
   for (SceneJoint& j : s.joints) {
     const SceneLink &a = s.links[j.a], &b = s.links[j.b];

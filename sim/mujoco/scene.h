@@ -71,6 +71,13 @@ struct Scene {
   std::vector<int> cuts;        // joints closed by <connect>
   DrivenJoint driven;
   double size = 1.0;  // Mechanism::size() [m]
+  // The scene's unit of mass in kg is 1 / mass_scale: every mass and inertia of the scene is the
+  // mechanism's times mass_scale, and so is every force MuJoCo applies or reports. MuJoCo refuses
+  // a body whose mass or inertia is under mjMINVAL (1e-15): a crank-rocker drawn at 1e-5 of its
+  // size (a watch, a MEMS part) has link inertias of 2e-16 kg m^2. The motion does not depend on
+  // the unit of mass, and a power of 2 scales every product exactly; 1 when nothing is that
+  // light.
+  double mass_scale = 1.0;
 };
 
 // Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving

@@ -18,49 +18,17 @@
 #include <string>
 #include <vector>
 
+#include "tests/common/cli.h"
+
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 
-struct CommandRun {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::filesystem::path scratch_dir() {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      ("crosslink_test_cli_" + std::to_string(static_cast<long>(::getpid())));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-// Runs `crosslink ARGS` from the source root, capturing stdout and stderr.
-CommandRun crosslink(const std::string& args) {
-  const std::filesystem::path err = scratch_dir() / "stderr.txt";
-  const std::string command =
-      std::string("\"") + CROSSLINK_BINARY + "\" " + args + " 2>\"" + err.string() + "\"";
-  CommandRun run;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (!pipe) {
-    ADD_FAILURE() << "cannot run " << command;
-    return run;
-  }
-  char buffer[4096];
-  for (size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) run.out.append(buffer, n);
-  const int status = ::pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.err = read_file(err);
-  return run;
-}
+using crosslink::test::CommandRun;
+using crosslink::test::crosslink;
+using crosslink::test::read_file;
+using crosslink::test::scratch_dir;
 
 std::string write_definition(const std::string& name, const std::string& text) {
   const std::filesystem::path path = scratch_dir() / name;
