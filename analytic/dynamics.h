@@ -50,7 +50,7 @@ struct SimulationOptions {
   // foreseen (its steps follow the motion), so a run that reaches the limit stops there, its
   // remaining samples not_reached, with an event that names the limit (--max-solves).
   long max_solves = kDefaultMaxSolves;
-  static constexpr long kDefaultMaxSolves = 2'000'000;
+  static constexpr long kDefaultMaxSolves = 6'000'000;
 };
 
 struct Simulation {
