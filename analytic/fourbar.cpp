@@ -88,7 +88,8 @@ std::optional<FourBar> four_bar(const Mechanism& m) {
     // A link next to the ground turns fully when it or the ground is a shortest link; equal
     // shortest links count alike (Norton ch. 2: the parallelogram, input and output shortest,
     // is a double crank; so is every inversion of it).
-    const auto shortest = [&](int i) { return l[static_cast<size_t>(i)] - *smin <= eps; };
+    const double least = *smin;  // a structured binding is not captured by clang 14
+    const auto shortest = [&](int i) { return l[static_cast<size_t>(i)] - least <= eps; };
     const bool input_turns = shortest(0) || shortest(1), output_turns = shortest(0) || shortest(3);
     const bool parallelogram = std::abs(l[0] - l[2]) <= eps && std::abs(l[1] - l[3]) <= eps;
     fb.inversion = parallelogram                 ? "parallelogram double-crank"
