@@ -46,14 +46,14 @@ namespace crosslink {
 // Outcome of solving one pose (or of an engine sample).
 enum class PoseStatus : std::uint8_t {
   ok,
-  singular,         // Jacobian (near) singular: dead point, toggle or change point
-  no_convergence,   // Newton did not converge in its iteration budget
-  cannot_assemble,  // the chain cannot close at this driver value
-  branch_jump,      // the solution left the branch being followed
-  loop_gap,         // engine: a cut joint opened beyond the gap threshold
-  diverged,         // engine: NaN or runaway state
-  not_finite,       // a value is not a finite number (an overflow, or 0/0, on extreme input)
-  not_reached,      // a simulation stopped (its event says why) before this sample's time
+  singular,                // Jacobian (near) singular: dead point, toggle or change point
+  no_convergence,          // Newton did not converge in its iteration budget
+  cannot_assemble,         // the chain cannot close at this driver value
+  branch_jump,             // the solution left the branch being followed
+  loop_gap,                // engine: a cut joint opened beyond the gap threshold
+  diverged,                // engine: NaN or runaway state
+  not_finite,              // a value is not a finite number (an overflow, or 0/0, on extreme input)
+  not_reached,             // a simulation stopped (its event says why) before this sample's time
   exact_methods_disagree,  // the reference's two exact methods disagree here (trust.h)
 };
 std::string_view to_string(PoseStatus status);

@@ -131,9 +131,9 @@ void combine_readings(const ForceStencil& stencil,
 namespace crosslink::sim {
 
 // How far an engine's forces are from the exact ones, over the samples the engine calls usable
-// and the reference trusts for forces (analytic/trust.h, `untrusted`): the driver's effort (against 1e-3 of the largest reaction, times the size for a
-// torque, where it is zero by design), each joint's
-// reaction (vector difference) and the shaking force, each as its worst difference over the
+// and the reference trusts for forces (analytic/trust.h, `untrusted`): the driver's effort (against
+// 1e-3 of the largest reaction, times the size for a torque, where it is zero by design), each
+// joint's reaction (vector difference) and the shaking force, each as its worst difference over the
 // peak of its exact value; a prismatic couple against its joint's peak force times the
 // mechanism's size. Zero when either trajectory has no forces (then `compared` is 0).
 struct ForceAgreement {

@@ -72,9 +72,9 @@ struct Config {
   // reference's median rcond, analytic/trust.h) are flagged singular: 1e-3 on IFToMM A02 N = 2,
   // 3e-3 on a four-bar.
   double singular_rcond = 0.03;
-  double branch_distance = 1e-4;     // closed configuration this far from the reference's (of
-                                     // the size, or rad): another assembly mode, branch_jump
-  std::string perturb_link;          // "<moving link>:<factor>" (sim::perturbed), or empty
+  double branch_distance = 1e-4;  // closed configuration this far from the reference's (of
+                                  // the size, or rad): another assembly mode, branch_jump
+  std::string perturb_link;       // "<moving link>:<factor>" (sim::perturbed), or empty
   long max_steps = kDefaultMaxSteps;
   // Forward dynamics only (docs/engines.md, "Forward dynamics").
   bool staggered_start = true;     // start from v0 - h/2 a0 (semi-implicit Euler's half step)
