@@ -127,9 +127,10 @@ int run_solve(const SolveArgs& args) {
     // The dyads march from the drawn position too: to the pose solve_at solved, whole turns of a
     // driver that turns fully nearer the start.
     const SkippedTurns skip = single ? skipped_turns(m, at, options) : SkippedTurns{};
-    Trajectory grid = t;
-    if (skip.turns != 0) grid.driver(0) -= skip.driver_shift();
-    Trajectory closed = dyad_sweep(m, grid, args.method != "newton");
+    // (Newton's own sample is shifted for the dyads' grid and back, not copied.)
+    if (skip.turns != 0) t.driver(0) -= skip.driver_shift();
+    Trajectory closed = dyad_sweep(m, t, args.method != "newton");
+    if (skip.turns != 0) t.driver(0) += skip.driver_shift();
     skip.move_on(m, at, closed);
     // The two exact methods check each other (analytic/trust.h): a sample they disagree on is
     // flagged with the reason, whichever of them is printed.
