@@ -485,6 +485,19 @@ constexpr double kChordFirstStep = 0.1;
 
 }  // namespace
 
+double NewtonSolver::size_free_norm(const Eigen::VectorXd& v) const {
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    largest = std::max(largest, std::abs(v(i)) / (i % 3 == 2 ? 1.0 : length_scale_));
+  return largest;
+}
+
+bool NewtonSolver::round_off_step(const Eigen::VectorXd& dq, const Eigen::VectorXd& q) const {
+  constexpr double kRoundOffSteps = 16.0;  // eps of the coordinates' magnitude
+  return size_free_norm(dq) <=
+         kRoundOffSteps * std::numeric_limits<double>::epsilon() * std::max(1.0, size_free_norm(q));
+}
+
 bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& report) const {
   // Simplified Newton: J(q0) dq = -Phi(q) with the factors of J at the last solved pose q0.
   // From a sweep's predictor the correction is tiny and J(q0) close to J(q), so this contracts
@@ -503,12 +516,7 @@ bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& r
     state.rhs = -state.phi;
     solve_linear(state, state.qddot);  // qddot is free scratch until the acceleration solve
     if (!state.qddot.allFinite()) break;
-    if (it == 0) {
-      double step = 0.0;
-      for (Eigen::Index k = 0; k < state.qddot.size(); ++k)
-        step = std::max(step, std::abs(state.qddot(k)) * (k % 3 == 2 ? 1.0 : 1.0 / length_scale_));
-      if (step > kChordFirstStep) break;
-    }
+    if (it == 0 && size_free_norm(state.qddot) > kChordFirstStep) break;
     state.q += state.qddot;
     previous = residual;
   }
@@ -534,6 +542,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
     return report;
   }
   state.factorized = false;
+  bool round_off = false;  // the last step moved q by round-off only
   for (int it = 0; it <= options_.max_iterations; ++it) {
     // Phi and J at this q share one evaluation of every link's cos and sin.
     update_frames(state);
@@ -547,7 +556,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
       report.rcond = rcond(state);
       break;
     }
-    if (report.residual <= tolerance) {
+    if (report.residual <= tolerance || round_off) {
       report.rcond = rcond(state);
       state.factorized = true;
       state.factorized_rcond = report.rcond;
@@ -566,6 +575,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
       break;
     }
     if (it == options_.max_iterations) report.rcond = rcond(state);
+    round_off = round_off_step(state.qddot, state.q);
     state.q += state.qddot;
   }
   report.status = PoseStatus::no_convergence;
@@ -593,10 +603,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
     // A correction of round-off size only: near a singular position a full step along the
     // Jacobian's near-null direction can leap to another pose with the same residual (a link
     // turned by whole turns).
-    double largest = 0.0;
-    for (Eigen::Index i = 0; i < state.qddot.size(); ++i)
-      largest = std::max(largest, std::abs(state.qddot(i)) / (i % 3 == 2 ? 1.0 : length_scale_));
-    if (!(largest <= 1e-6)) break;
+    if (!(size_free_norm(state.qddot) <= 1e-6)) break;
     const Eigen::VectorXd next = best + state.qddot;
     const double r = residual_at(next);
     if (!(r < best_residual)) break;

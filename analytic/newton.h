@@ -91,6 +91,12 @@ class NewtonSolver {
   const Mechanism& mechanism() const { return mechanism_; }
   const NewtonOptions& options() const { return options_; }
   double length_scale() const { return length_scale_; }
+  // The largest entry of v in size-free coordinates: lengths / size, angles in rad.
+  double size_free_norm(const Eigen::VectorXd& v) const;
+  // Whether a Newton step dq from q moves it by round-off only. A link turned by many turns
+  // with a point drawn far out has a residual floor (eps |angle| arm) that can lie above the
+  // tolerance; Newton has converged there all the same.
+  bool round_off_step(const Eigen::VectorXd& dq, const Eigen::VectorXd& q) const;
 
   // Constraint residual Phi(q) with the driver row set for `driver_value`.
   void residual(const Eigen::VectorXd& q, double driver_value, Eigen::VectorXd& phi) const;

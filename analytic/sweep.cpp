@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -44,12 +45,7 @@ class Follower {
         q0_(state.q.size()),
         tangent_(state.q.size()),
         curvature_(state.q.size()),
-        predicted_(state.q.size()),
-        inverse_scale_(state.q.size()) {
-    // Distances in units of the mechanism's size: lengths / size, angles as they are.
-    inverse_scale_.setConstant(1.0 / solver.length_scale());
-    for (Eigen::Index k = 2; k < inverse_scale_.size(); k += 3) inverse_scale_(k) = 1.0;
-  }
+        predicted_(state.q.size()) {}
 
   // The state must be solved (J factorised) at its driver value, with `last` its report.
   void start(const SolveReport& last) { last_ = last; }
@@ -110,9 +106,7 @@ class Follower {
     return s == PoseStatus::ok || s == PoseStatus::singular;
   }
 
-  double size_free_norm(const Eigen::VectorXd& v) const {
-    return v.cwiseProduct(inverse_scale_).lpNorm<Eigen::Infinity>();
-  }
+  double size_free_norm(const Eigen::VectorXd& v) const { return solver_.size_free_norm(v); }
 
   // Newton may only polish the prediction. Without a tangent (at a singular position) the
   // motion is bounded instead by the square-root growth of a fold.
@@ -143,7 +137,7 @@ class Follower {
 
   const NewtonSolver& solver_;
   KinematicState& state_;
-  Eigen::VectorXd q0_, tangent_, curvature_, predicted_, inverse_scale_;
+  Eigen::VectorXd q0_, tangent_, curvature_, predicted_;
   SolveReport last_;
 };
 
@@ -289,6 +283,7 @@ class Tracer {
   // det [C; t/|t|] = det [C; orient] |t| (orient minus its part along t lies in C's rows).
   bool newton(Eigen::VectorXd q, const Node& from, double s, const double* value,
               const Eigen::VectorXd& orient, Node& out) {
+    bool round_off = false;  // the last step moved q by round-off only
     for (int it = 0; it <= 12; ++it) {
       solver_.residual(q, 0.0, phi_);
       rhs_.head(n_ - 1) = -phi_.head(n_ - 1).cwiseProduct(row_);
@@ -298,7 +293,8 @@ class Tracer {
       solver_.jacobian(q, jac_);
       aug_.topRows(n_ - 1) = constraint_rows();
       const bool converged =
-          rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0);
+          rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0) ||
+          round_off;
       aug_.row(n_ - 1) = (converged ? orient : value ? driver_gradient() : from.t).transpose();
       lu_.compute(aug_);
       if (converged) {
@@ -318,6 +314,7 @@ class Tracer {
       }
       const Eigen::VectorXd dz = lu_.solve(rhs_);
       if (!dz.allFinite()) return false;
+      round_off = solver_.round_off_step(column_.cwiseProduct(dz), q);
       q += column_.cwiseProduct(dz);
     }
     return false;
@@ -485,10 +482,35 @@ std::optional<double> locate_change_point(Tracer& tracer, const Tracer::Node& cu
 constexpr double kHeldArc = 20.0 * kPi;
 constexpr double kHeldDriver = 1e-3;
 
+// A leg also fails where a link's point moves farther from where the leg began than kEscape
+// times the chain's size for each moving link: no closed chain of links within that size can put
+// a point there (revolute chains reach at most twice their links' summed extents), so the chain
+// runs off to infinity, as two slots turning parallel send a block along them while the driver
+// nears an asymptote (tests/fuzz/regressions/wanzer_parallel_slots_runaway.toml).
+constexpr double kEscape = 4.0;
+
+// The farthest any drawn point of a moving link is from where it was at q0, over the size.
+double escape(const Mechanism& m, const Eigen::VectorXd& q0, const Eigen::VectorXd& q,
+              double size) {
+  double farthest = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const Eigen::Rotation2Dd r0(q0(3 * k + 2)), r(q(3 * k + 2));
+    for (const Point& p : m.links[l].points) {
+      const Eigen::Vector2d moved =
+          q.segment<2>(3 * k) + r * p.local - q0.segment<2>(3 * k) - r0 * p.local;
+      farthest = std::max(farthest, moved.norm());
+    }
+  }
+  return farthest / size;
+}
+
 struct LegLimits {
   bool stop_at_toggle = true;  // else pass toggles (the driver reverses) until the loop closes
   double reach = 0.0;          // driver travel without a toggle that ends the leg [rad or m]
   bool angular = true;
+  int steps = 400000;  // SweepOptions::tracer_steps
 };
 
 // Traces from `start` (already oriented) until a toggle (when stopping there), a whole driver
@@ -508,7 +530,7 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
   int toggles = 0;
   // The driver's span over the current window of kHeldArc arclength, from held_key.
   double held_lo = start.driver, held_hi = start.driver, held_key = 0.0;
-  for (int steps = 0; steps < 400000; ++steps) {
+  for (int steps = 0; steps < limits.steps; ++steps) {
     const int i = static_cast<int>(leg.nodes.size()) - 1;
     const Tracer::Node cur = leg.nodes[static_cast<size_t>(i)];
     Tracer::Node next;
@@ -631,6 +653,20 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       leg.end_key = leg.key.back();
       return leg;
     }
+    if (escape(solver.mechanism(), start.q, next.q, solver.length_scale()) >
+        kEscape * solver.mechanism().moving_count()) {
+      leg.failed = true;
+      leg.singular.push_back(
+          {SingularKind::branch_jump, next.driver, sign_of(next.t_driver),
+           fmt::format("branch_jump: the chain runs off to infinity near driver = {:.12g} (a "
+                       "point moved {:g} times the drawing's size, {:g} for each moving link): "
+                       "the driver nears an asymptote, so the chain cannot be followed",
+                       next.driver, kEscape * solver.mechanism().moving_count(), kEscape)});
+      leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+      leg.singular_key.push_back(leg.key.back());
+      leg.end_key = leg.key.back();
+      return leg;
+    }
     held_lo = std::min(held_lo, next.driver);
     held_hi = std::max(held_hi, next.driver);
     if (leg.key.back() - held_key < kHeldArc) continue;
@@ -652,6 +688,14 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       return leg;
     }
   }
+  leg.failed = true;
+  leg.singular.push_back(
+      {SingularKind::branch_jump, leg.nodes.back().driver, sign_of(leg.nodes.back().t_driver),
+       fmt::format("branch_jump: the tracer's budget of {} steps ran out at driver = {:.12g}, "
+                   "before a limit or a whole cycle, so the chain is not followed beyond",
+                   limits.steps, leg.nodes.back().driver)});
+  leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+  leg.singular_key.push_back(leg.key.back());
   leg.end_key = leg.key.back();
   return leg;
 }
@@ -810,7 +854,8 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
   refuse_start_at_change_point(solver, state);
   const bool angular = mechanism.driver.angular();
-  const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular};
+  const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
+                         options.tracer_steps};
   Tracer tracer(solver);
   auto search = [&](double direction, Leg& leg) {
     Tracer::Node start;
@@ -896,7 +941,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
   const double start_value = state.driver.value;
   const double size = mechanism.size();
   const LegLimits limits{stop, angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size,
-                         angular};
+                         angular, options.tracer_steps};
   Tracer tracer(solver);
   Tracer::Node first;
   if (!tracer.start(state.q, sigma, first)) return false;

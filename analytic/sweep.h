@@ -26,6 +26,10 @@ struct SweepOptions {
   // would and follow the chain back on the other assembly mode until it closes its loop.
   enum class AtLimit { stop, reverse };
   AtLimit at_limit = AtLimit::stop;
+  // The tracer's budget of arclength steps for each leg of the configuration curve (a cycle of
+  // a drawn linkage takes a few thousand): a leg that spends it ends flagged and the assembling
+  // range is unknown, never its last pose taken for a limit.
+  int tracer_steps = 400000;
 };
 
 // A position along the sweep where the Jacobian is singular, or where the branch was lost.

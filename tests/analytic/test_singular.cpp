@@ -11,6 +11,7 @@
 
 #include "analytic/fourbar.h"
 #include "analytic/loader.h"
+#include "analytic/newton.h"
 #include "analytic/sweep.h"
 
 namespace crosslink {
@@ -296,6 +297,67 @@ TEST(HeldDriver, ChainTurningWithTheDriverHeldIsFlagged) {
     hi = std::max(hi, channel(t, "angle.triangle", k));
   }
   EXPECT_GT(hi - lo, 1.0);
+}
+
+// The tracer's Newton stops at round-off: a triangle turned by -25,667 rad with a point 1e6 m
+// out has a residual floor above the tolerance. Each leg spent its 400,000 steps (17 s for
+// check) and the last pose was taken for a limit: "-173.8 to 174.8 deg, limits: toggles".
+TEST(Tracer, ConvergesAtTheRoundOffOfAFarDrawnPoint) {
+  const Mechanism m = load_mechanism("tests/fuzz/regressions/wanzer_disk_pivot_1e6_round_off.toml");
+  const AssemblingRange range = assembling_range(m);
+  EXPECT_EQ(range.unknown, "");
+  EXPECT_TRUE(range.full_cycle) << range.explain(m);
+  // The evidence, without the tracer: the chain assembles from its drawing (Newton, else
+  // Levenberg-Marquardt) at every 15 degrees of the turn, beyond the limits once reported too.
+  for (double degrees = -180.0; degrees <= 180.0; degrees += 15.0) {
+    Mechanism at = m;
+    at.driver.start = degrees * std::numbers::pi / 180.0;
+    const NewtonSolver solver(at);
+    KinematicState state(at);
+    const PoseStatus status = solver.assemble(state).status;
+    EXPECT_TRUE(status == PoseStatus::ok || status == PoseStatus::singular)
+        << degrees << " deg: " << to_string(status);
+  }
+}
+
+// A leg that spends the tracer's budget is flagged and the range unknown; its last pose is not
+// a limit of the assembling range.
+TEST(Tracer, ALegThatSpendsItsBudgetLeavesTheRangeUnknown) {
+  const Mechanism m = load_mechanism("mechanisms/fourbar_crank_rocker.toml");
+  SweepOptions options;
+  EXPECT_TRUE(assembling_range(m, options).full_cycle);
+  options.tracer_steps = 20;
+  const AssemblingRange range = assembling_range(m, options);
+  EXPECT_FALSE(range.full_cycle);
+  EXPECT_NE(range.unknown.find("budget of 20 steps"), std::string::npos) << range.explain(m);
+}
+
+// Two slots turning parallel send the triangle off along them as the disk nears 90 degrees.
+// The held-driver rule ended each leg after 15,700 steps (160 s under the sanitizers, the fuzz
+// minute's seeds); a point's flight beyond the chain's reach ends it in a few hundred.
+TEST(Tracer, AChainRunningOffToInfinityIsFlagged) {
+  const Mechanism m = load_mechanism("tests/fuzz/regressions/wanzer_parallel_slots_runaway.toml");
+  const AssemblingRange range = assembling_range(m);
+  EXPECT_NE(range.unknown.find("runs off to infinity"), std::string::npos) << range.explain(m);
+  std::vector<SingularPosition> events;
+  sweep(m, {}, events);
+  const auto runaway = std::find_if(events.begin(), events.end(), [](const SingularPosition& p) {
+    return p.message.find("runs off to infinity") != std::string::npos;
+  });
+  ASSERT_NE(runaway, events.end());
+  // The evidence, by continuation from the drawn pose: E's distance from the drawn E grows as
+  // 1 / cos of the disk angle, beyond any closed chain of the drawing's size.
+  const double asymptote = std::copysign(std::numbers::pi / 2.0, runaway->driver);
+  EXPECT_NEAR(runaway->driver, asymptote, 0.05);
+  std::vector<double> reach;
+  for (double gap : {0.2, 0.05, 0.0125}) {
+    const Trajectory pose = solve_at(m, asymptote - std::copysign(gap, asymptote));
+    ASSERT_TRUE(has_position(pose.status[0])) << gap;
+    reach.push_back(std::hypot(channel(pose, "x.E", 0), channel(pose, "y.E", 0)));
+  }
+  EXPECT_GT(reach[1], 3.0 * reach[0]);
+  EXPECT_GT(reach[2], 3.0 * reach[1]);
+  EXPECT_GT(reach[2], 20.0 * m.size());
 }
 
 // No drawn chain of the catalogue is taken for one whose driver is held.

@@ -54,6 +54,13 @@ Trajectory with_centre_velocities(const Mechanism& m, Trajectory t) {
   return t;
 }
 
+// Every method's sweep at one grid: the exact ones and the instantaneous centres.
+std::map<std::string, Trajectory> sweeps(const Mechanism& m, double step) {
+  std::map<std::string, Trajectory> out = test::exact_sweeps(m, step);
+  out["ic"] = with_centre_velocities(m, out.at("newton"));
+  return out;
+}
+
 // The physical scale of each quantity over the fine sweep: the size for positions, 1 rad for
 // angles, the largest magnitude of its kind at usable samples for rates, forces and torques.
 std::map<Quantity, double> scales(const Mechanism& m, const Trajectory& fine) {
@@ -105,7 +112,7 @@ class EveryMechanism : public ::testing::TestWithParam<std::string> {};
 // for a slider) against the fine grid.
 TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
   const Mechanism m = load_mechanism(GetParam());
-  const std::map<std::string, Trajectory> fine = test::exact_sweeps(m, 0.0);
+  const std::map<std::string, Trajectory> fine = sweeps(m, 0.0);
   const Trajectory& reference = fine.at("newton");
   ASSERT_GT(reference.samples(), 2);
   // The default grid's step: 1 degree, or for a slider its most common spacing (1/360 of the
@@ -119,7 +126,7 @@ TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
     fine_step = spacing[spacing.size() / 2];
   }
   for (const int multiple : {7, 45, 60, 90, 120}) {
-    const std::map<std::string, Trajectory> coarse = test::exact_sweeps(m, multiple * fine_step);
+    const std::map<std::string, Trajectory> coarse = sweeps(m, multiple * fine_step);
     for (const auto& [method, t] : coarse) {
       const std::string what = method + " at " + std::to_string(multiple) + " steps";
       const int matched = expect_same_samples(m, t, fine.at(method), what);
@@ -147,8 +154,8 @@ int check_grids_at_singular_positions(const std::string& file) {
     for (const double beside : {0.0, 1e-7, -1e-7}) {
       // A grid of four steps to the singular position (plus or minus beside).
       const double step = std::abs(gap + beside * unit) / 4.0;
-      const std::map<std::string, Trajectory> coarse = test::exact_sweeps(m, step);
-      const std::map<std::string, Trajectory> fine = test::exact_sweeps(m, step / 45.0);
+      const std::map<std::string, Trajectory> coarse = sweeps(m, step);
+      const std::map<std::string, Trajectory> fine = sweeps(m, step / 45.0);
       for (const auto& [method, t] : coarse) {
         const std::string what =
             fmt::format("{} {}: {} on a grid {:g} beside the {} at {:.12g}", file, method, method,

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "tests/common/cli.h"
+#include "tests/common/sanitizers.h"
 
 namespace {
 
@@ -132,7 +133,9 @@ TEST(WorkLimits, SolveJsonIsWrittenSampleBySample) {
   const double megabytes = static_cast<double>(usage.ru_maxrss) / 1024.0;  // kB on Linux
   std::printf("[ solve A02 N=10, 4001 samples, JSON ] %zu MB of text, peak memory %.0f MB\n",
               a02.out.size() >> 20, megabytes);
-  EXPECT_LT(megabytes, 120.0);
+  // AddressSanitizer keeps 256 MB of freed blocks in quarantine and adds its shadow memory, so its
+  // peak measures the sanitizer; the Release suite holds the bound.
+  if (!CROSSLINK_ADDRESS_SANITIZER) EXPECT_LT(megabytes, 120.0);
   EXPECT_EQ(nlohmann::json::parse(a02.out)["samples"].size(), 4001u);
 }
 
