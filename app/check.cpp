@@ -118,11 +118,11 @@ void print_physics(const Mechanism& m, std::string& out) {
 
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
 // the transmission angle over the swept samples.
-void print_singular_positions(const Mechanism& m, std::string& out) {
+void print_singular_positions(const Mechanism& m, const SweepOptions& options, std::string& out) {
   const double unit = m.driver.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
   std::vector<SingularPosition> singular;
-  const Trajectory t = sweep(m, {}, singular);
+  const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
   out +=
@@ -185,8 +185,9 @@ void print_modes(const Mechanism& m, const KinematicState& assembled, std::strin
 
 }  // namespace
 
-CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
-  if (!m.driver.at_rest()) check_sweep_work(m, {}, limits);
+CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
+                         const SweepOptions& options) {
+  if (!m.driver.at_rest()) check_sweep_work(m, options, limits);
   CheckReport report;
   std::string& out = report.out;
   out += fmt::format("{}: {}\n", m.file, m.name);
@@ -235,13 +236,13 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits) {
         "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "
         "positions over a sweep need a speed\n";
   } else if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
-    const AssemblingRange range = assembling_range(m);
+    const AssemblingRange range = assembling_range(m, options);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
                            ? ""
                            : " (limits: toggles; the chain cannot close beyond)");
   }
-  if (!m.driver.at_rest()) print_singular_positions(m, out);
+  if (!m.driver.at_rest()) print_singular_positions(m, options, out);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

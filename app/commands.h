@@ -31,11 +31,14 @@ void add_sweep(CLI::App& app, std::function<int()>& run);
 
 // `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
 // position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.
+// `sweep`: the options of its assembling range and sweep (the command's are the defaults; the
+// fuzz target bounds its grid and tracer).
 struct CheckReport {
   int exit_code = kExitOk;
   std::string out, err;
 };
-CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits);
+CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
+                         const SweepOptions& sweep = {});
 
 // The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-solves
 // on those that simulate a dynamics case, --max-steps on those that run engines; `settings` with

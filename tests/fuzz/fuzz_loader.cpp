@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -66,9 +67,20 @@ void require_finite(const Trajectory& t, const std::string& what) {
   if (!finite) violation("a non-finite value in " + what);
 }
 
+// Each input's work is bounded so that a minute tries thousands of inputs: an angular driver is
+// swept on a 10 degree grid (36 samples; a slider's default grid is 360 samples), and the tracer
+// has 20,000 steps a leg (the bundled definitions take under 5,000, the 40-bar A02 chain
+// included), so an input that spends them takes the flagged path of a spent leg.
+SweepOptions bounded_sweep(const Mechanism& m) {
+  SweepOptions options;
+  if (m.driver.angular()) options.step = std::numbers::pi / 18.0;
+  options.tracer_steps = 20000;
+  return options;
+}
+
 // What `solve` writes: the sweep by its default method, one pose, and its centres.
 void solve(const Mechanism& m) {
-  Trajectory t = sweep(m);
+  Trajectory t = sweep(m, bounded_sweep(m));
   require_finite(t, "the Newton sweep");
   if (decompose(m).complete) {
     t = dyad_sweep(m, t);
@@ -154,7 +166,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const Mechanism m = parse_mechanism(text, "fuzz.toml");
-    const app::CheckReport report = app::check_report(m, {});
+    const app::CheckReport report = app::check_report(m, {}, bounded_sweep(m));
     if (has_non_finite_word(report.out + report.err) && !has_non_finite_word(text))
       violation("check printed a non-finite value:\n" + report.out + report.err);
     if (report.exit_code == app::kExitOk) solve(m);
