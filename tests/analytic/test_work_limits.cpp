@@ -135,7 +135,9 @@ TEST(WorkLimits, SolveJsonIsWrittenSampleBySample) {
               a02.out.size() >> 20, megabytes);
   // AddressSanitizer keeps 256 MB of freed blocks in quarantine and adds its shadow memory, so its
   // peak measures the sanitizer; the Release suite holds the bound.
-  if (!CROSSLINK_ADDRESS_SANITIZER) EXPECT_LT(megabytes, 120.0);
+  if (!CROSSLINK_ADDRESS_SANITIZER) {
+    EXPECT_LT(megabytes, 120.0);
+  }
   EXPECT_EQ(nlohmann::json::parse(a02.out)["samples"].size(), 4001u);
 }
 
