@@ -874,6 +874,15 @@ TEST(ValidationPhysics, NegativeMass) {
   expect_diagnostic(text, place_of(text, "-1"), {"'mass' must not be negative", "crank"});
 }
 
+// A subnormal mass (1e-320 kg, fuzz-timeout-3615... of issue 24) is refused at its key: the
+// smallest normal double, 2.22507e-308 kg, is the limit.
+TEST(ValidationPhysics, AMassThatUnderflowsIsRefused) {
+  const std::string text = with_physics("mass = 1e-320\ncom = \"A\"\ninertia = 0\n");
+  expect_diagnostic(
+      text, place_of(text, "1e-320"),
+      {"'mass' of link 'crank' = 1e-320 kg is too small", "limit is 2.22507e-308 kg"});
+}
+
 TEST(ValidationPhysics, ZeroMassWithInertia) {
   const std::string text = with_physics("mass = 0\ncom = \"A\"\ninertia = 0.5\n");
   expect_diagnostic(text, place_of(text, "0\ncom"), {"zero mass cannot have inertia"});
