@@ -17,6 +17,7 @@
 #include "app/files.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
+#include "methods/engines.h"
 #include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::app {
@@ -26,7 +27,7 @@ namespace fs = std::filesystem;
 
 struct CompareArgs {
   std::string path;
-  std::string engines = "analytic,dyads,ic,mujoco,bullet";
+  std::string engines = fmt::format("{}", fmt::join(methods::method_names(), ","));
   std::string report, csv, json;
   std::string export_mjcf;  // write the MuJoCo scene (MJCF) it runs
   std::optional<double> at;
@@ -71,9 +72,7 @@ sim::Settings settings_for(const std::string& engine, const std::vector<std::str
 // ENGINE:KEY=VALUE to that engine whether it runs or not.
 void check_settings(const Mechanism& m, const std::vector<std::string>& all,
                     const std::vector<std::string>& runs) {
-  std::vector<std::string> engines;
-  for (const std::string& n : methods::method_names())
-    if (compare::Tolerances::is_engine(n)) engines.push_back(n);
+  const std::vector<std::string> engines = methods::engine_names();
   std::map<std::string, std::vector<std::string>> prefixed;
   for (const std::string& s : all) {
     (void)settings_for("", {s});  // KEY=VALUE
@@ -119,9 +118,9 @@ int run_compare(CompareArgs args) {
   for (const std::string& n : names)
     if (std::find(methods::method_names().begin(), methods::method_names().end(), n) ==
         methods::method_names().end())
-      throw std::invalid_argument(fmt::format(
-          "--engines: unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", n));
-  compare::Tolerances tolerances(m);
+      throw std::invalid_argument(fmt::format("--engines: unknown method '{}' (valid: {})", n,
+                                              fmt::join(methods::method_names(), ", ")));
+  compare::Tolerances tolerances = methods::default_tolerances(m);
   const std::optional<double> accuracy = parse_accuracy(args.accuracy);
   if (accuracy)  // the accuracy asked for is the engines' tolerance; --tolerance still wins
     for (const char* q :
@@ -154,7 +153,7 @@ int run_compare(CompareArgs args) {
   const double span =
       reference.samples() > 1 ? reference.time(reference.samples() - 1) - reference.time(0) : 0.0;
   for (const std::string& n : names) {
-    if (!compare::Tolerances::is_engine(n)) continue;
+    if (!methods::find_engine(n)) continue;
     const sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
     std::optional<double> dt;
     long max_steps = args.max_steps;
@@ -172,7 +171,7 @@ int run_compare(CompareArgs args) {
   for (const std::string& n : names) {
     if (n == "analytic") continue;
     sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
-    if (accuracy && compare::Tolerances::is_engine(n))
+    if (accuracy && methods::find_engine(n))
       settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
                                    args.json == "-" ? stderr : stdout);
     runs.push_back(methods::run_method(n, m, runs.front(), settings));
@@ -214,8 +213,9 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   auto args = std::make_shared<CompareArgs>();
   cmd->add_option("FILE", args->path,
                   "mechanism definition (.toml); default: the bundled sewing machine");
-  cmd->add_option("--engines", args->engines,
-                  "methods, comma-separated: analytic,dyads,ic,mujoco,bullet")
+  cmd->add_option(
+         "--engines", args->engines,
+         "methods, comma-separated: " + fmt::format("{}", fmt::join(methods::method_names(), ",")))
       ->capture_default_str();
   cmd->add_option("--report", args->report, "write a self-contained HTML report");
   cmd->add_option("--csv", args->csv, "write every sample of every comparison as CSV (SI)");

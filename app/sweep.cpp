@@ -6,6 +6,7 @@
 // front and the observed order of convergence in dt. Exit 0; 1 when --accuracy finds no setting
 // for an engine; 2 on bad input. See docs/sweep.md.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <filesystem>
 #include <fstream>
@@ -65,7 +66,7 @@ constexpr int kMaxRepeat = 100;
 
 struct SweepArgs {
   std::string path;
-  std::string engines = "mujoco,bullet";
+  std::string engines = fmt::format("{}", fmt::join(methods::engine_names(), ","));
   std::vector<double> dts;
   std::string report, csv, accuracy;
   double step = 0.0;
@@ -85,9 +86,10 @@ int run_sweep(const SweepArgs& args) {
   methods::SettingsSweepOptions options;
   options.engines = split(args.engines);
   for (const std::string& e : options.engines)
-    if (e != "mujoco" && e != "bullet")
+    if (!methods::find_engine(e))
       throw std::invalid_argument(
-          fmt::format("--engines: '{}' has no settings to sweep (engines: mujoco, bullet)", e));
+          fmt::format("--engines: '{}' has no settings to sweep (engines: {})", e,
+                      fmt::join(methods::engine_names(), ", ")));
   if (!args.dts.empty()) options.dts = args.dts;
   if (options.dts.size() > kMaxTimeSteps)
     throw std::invalid_argument(
@@ -144,7 +146,9 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
       "sweep", "Speed against accuracy: every engine over a grid of its settings");
   auto args = std::make_shared<SweepArgs>();
   cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
-  cmd->add_option("--engines", args->engines, "engines, comma-separated: mujoco,bullet")
+  cmd->add_option(
+         "--engines", args->engines,
+         "engines, comma-separated: " + fmt::format("{}", fmt::join(methods::engine_names(), ",")))
       ->capture_default_str();
   std::string defaults;
   for (double dt : methods::default_time_steps())

@@ -16,6 +16,7 @@
 #include "analytic/loader.h"
 #include "compare/comparison.h"
 #include "compare/tolerance.h"
+#include "methods/engines.h"
 #include "methods/registry.h"
 
 namespace {
@@ -63,7 +64,7 @@ int main(int argc, char** argv) {
   }
   const Mechanism m = load_mechanism(file);
   const compare::MethodRun reference = methods::run_reference(m);
-  const compare::Tolerances tolerances(m);
+  const compare::Tolerances tolerances = methods::default_tolerances(m);
   const int last = reference.trajectory.samples() - 1;
   fmt::print(
       "engine,variant,dt,ok,flagged,wall_s,max_pct_position,max_pct_velocity,"

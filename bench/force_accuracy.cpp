@@ -58,7 +58,7 @@ std::vector<Case> cases(bool sweep) {
   for (const char* steps : {"1", "4", "8", "16"})
     out.push_back(
         {"bullet", fmt::format("steps_per_sample {}", steps), {{"steps_per_sample", steps}}});
-  const Settings open_bt = {{"driver_threshold", "1"}, {"loop_gap_threshold", "1"}};
+  const Settings open_bt = {{"driver_threshold", "1"}, {"gap_threshold", "1"}};
   for (const char* steps : {"2", "8"}) {
     for (const char* erp : {"0.2", "0.5", "0.8", "0.95"}) {
       Settings s = open_bt;

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analytic/trajectory.h"
-#include "sim/engine.h"
+#include "compare/run_record.h"
 
 namespace crosslink::compare {
 
@@ -19,8 +19,8 @@ struct MethodRun {
   bool ok = false;          // ran to the end (an engine may diverge: ok = false)
   std::string message;      // why not available / not ok, or the method's notes
   Trajectory trajectory;    // same samples as the reference sweep
-  sim::Settings settings;   // every setting in force
-  sim::RunCost cost;
+  RunSettings settings;     // every setting in force
+  RunCost cost;
   // The channel kinds the method computes ("omega", "vx", ...; empty: every channel); its other
   // channels are not compared.
   std::vector<std::string> kinds;

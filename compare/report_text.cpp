@@ -57,7 +57,7 @@ std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
   return fmt::format("{:.2f} {} #{}", v, du.name, c.metrics.worst_sample);
 }
 
-std::string settings_text(const sim::Settings& settings) {
+std::string settings_text(const RunSettings& settings) {
   std::string text;
   for (const auto& [k, v] : settings) text += (text.empty() ? "" : " ") + k + "=" + v;
   return text;

@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <stdexcept>
+#include <utility>
 
 #include "analytic/limits.h"
 
@@ -40,49 +41,25 @@ std::optional<Quantity> parse_quantity(std::string_view name) {
   return std::nullopt;
 }
 
-bool Tolerances::is_engine(std::string_view method) {
-  return method == "mujoco" || method == "bullet";
+bool Tolerances::is_engine(std::string_view method) const {
+  return engine(method) != nullptr;
 }
 
-namespace {
-// Forward dynamics (docs/dynamics.md, "Engines"). A run's error is mostly a phase error that
-// grows along it and shows in positions, velocities and accelerations alike (measured within
-// 25 % of each other), so they share the kinematic position tolerance, 1e-4 of the scale, and so
-// does the energy balance (of the energy scale); accelerations (and forces) are sensitive next
-// to singular positions, 10 times looser. Measured at the defaults on IFToMM A02 with N = 2 over
-// 10 s (position / velocity / acceleration / force / energy, % of scale): MuJoCo 0.0031 /
-// 0.0031 / 0.0038 / 0.011 / 0.0027, Bullet 0.0038 / 0.0038 / 0.0047 / 0.014 / 0.0034.
-const ClassTolerances kDynamicsMujoco = {0.01, 0.01, 0.01, 0.1, 0.05, 0.05, 0.01};
-const ClassTolerances kDynamicsBullet = {0.01, 0.01, 0.01, 0.1, 0.3, 0.3, 0.01};
-}  // namespace
-
-Tolerances::Tolerances(const ToleranceOverrides& from_definition) {
-  // Forces and torques: measured at the engines' defaults over every bundled mechanism, without
-  // and with gravity (bench/force_accuracy, docs/engines.md "Forces"), worst channel: MuJoCo
-  // 0.014 %, Bullet 0.21 % (polycentric hinge near its limits; 0.10 % elsewhere). Energy: only
-  // dynamics cases have energy channels (kDynamics*).
-  engines_["mujoco"] = {1e-2, 1e-2, 0.1, 1.0, 0.05, 0.05, 1e-2};
-  engines_["bullet"] = {1e-2, 1e-2, 0.1, 1.0, 0.3, 0.3, 1e-2};
+Tolerances::Tolerances(EngineTolerances engines, const ToleranceOverrides& from_definition)
+    : engines_(std::move(engines)) {
   exact_["dyads"] = {1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8};
   exact_["ic"] = {1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6};
   apply_definition(from_definition);
 }
 
-Tolerances::Tolerances(const Mechanism& mechanism) {
-  engines_["mujoco"] = mechanism.dynamics ? kDynamicsMujoco : Tolerances().engines_["mujoco"];
-  engines_["bullet"] = mechanism.dynamics ? kDynamicsBullet : Tolerances().engines_["bullet"];
-  exact_ = Tolerances().exact_;
-  apply_definition(mechanism.tolerances);
-}
-
 void Tolerances::apply_definition(const ToleranceOverrides& from_definition) {
-  for (auto& [name, engine] : engines_) {
-    if (from_definition.position) engine.position = *from_definition.position;
-    if (from_definition.angle) engine.angle = *from_definition.angle;
-    if (from_definition.velocity) engine.velocity = *from_definition.velocity;
-    if (from_definition.acceleration) engine.acceleration = *from_definition.acceleration;
-    if (from_definition.force) engine.force = *from_definition.force;
-    if (from_definition.torque) engine.torque = *from_definition.torque;
+  for (ClassTolerances* engine : engine_rows()) {
+    if (from_definition.position) engine->position = *from_definition.position;
+    if (from_definition.angle) engine->angle = *from_definition.angle;
+    if (from_definition.velocity) engine->velocity = *from_definition.velocity;
+    if (from_definition.acceleration) engine->acceleration = *from_definition.acceleration;
+    if (from_definition.force) engine->force = *from_definition.force;
+    if (from_definition.torque) engine->torque = *from_definition.torque;
   }
 }
 
@@ -113,14 +90,32 @@ void Tolerances::apply(std::string_view assignment) {
         fmt::format("tolerance '{}': '{}' is not a percentage from 0 to {:g}", assignment, text,
                     limits::kTolerance));
   if (method.empty()) {
-    for (auto& [name, engine] : engines_) engine.of(*quantity) = value;
+    for (ClassTolerances* engine : engine_rows()) engine->of(*quantity) = value;
     return;
   }
   if (!is_engine(method) && !exact_.contains(method))
-    throw std::invalid_argument(
-        fmt::format("tolerance '{}': unknown method '{}' (valid: dyads, ic, mujoco, bullet)",
-                    assignment, method));
+    throw std::invalid_argument(fmt::format("tolerance '{}': unknown method '{}' (valid: {})",
+                                            assignment, method, valid_methods()));
   method_override_[{std::string(method), *quantity}] = value;
+}
+
+std::vector<ClassTolerances*> Tolerances::engine_rows() {
+  std::vector<ClassTolerances*> rows = {&engines_.others};
+  for (auto& [name, engine] : engines_.engines) rows.push_back(&engine);
+  return rows;
+}
+
+const ClassTolerances* Tolerances::engine(std::string_view method) const {
+  for (const auto& [name, t] : engines_.engines)
+    if (name == method) return &t;
+  return nullptr;
+}
+
+std::string Tolerances::valid_methods() const {
+  std::string out;
+  for (const auto& [name, t] : exact_) out += (out.empty() ? "" : ", ") + name;
+  for (const auto& [name, t] : engines_.engines) out += ", " + name;
+  return out;
 }
 
 double Tolerances::of(std::string_view method, Quantity quantity) const {
@@ -128,8 +123,8 @@ double Tolerances::of(std::string_view method, Quantity quantity) const {
       it != method_override_.end())
     return it->second;
   if (const auto it = exact_.find(method); it != exact_.end()) return it->second.of(quantity);
-  if (const auto it = engines_.find(method); it != engines_.end()) return it->second.of(quantity);
-  return engines_.at("mujoco").of(quantity);  // another engine: the common defaults
+  if (const ClassTolerances* e = engine(method)) return e->of(quantity);
+  return engines_.others.of(quantity);
 }
 
 }  // namespace crosslink::compare

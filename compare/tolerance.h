@@ -1,19 +1,12 @@
 // Verdict tolerances: the largest allowed "max % of peak" (see metrics.h) per method and per
 // quantity class.
 //
-// Defaults (in % of the reference's peak over the cycle):
+// The exact methods' defaults (in % of the reference's peak over the cycle):
 //   method      position  angle    velocity  acceleration  force  torque
 //   dyads       1e-8      1e-8     1e-8      1e-8          1e-8   1e-8   both exact
 //   ic          -         -        1e-6      -             -      -      velocities only
-//   mujoco      1e-2      1e-2     0.1       1             0.05   0.05   closed loops vs exact
-//   bullet      1e-2      1e-2     0.1       1             0.3    0.3    (forces: measured, see
-//                                                                        tolerance.cpp)
-//   energy (energy.* channels, dynamics cases only): 1e-2 for both engines
-// A dynamics case ([dynamics]; Tolerances(const Mechanism&)) has its own engine defaults:
-//   method      position  angle    velocity  acceleration  force  torque  energy
-//   mujoco      1e-2      1e-2     1e-2      0.1           0.05   0.05    1e-2
-//   bullet      1e-2      1e-2     1e-2      0.1           0.3    0.3     1e-2
-// (measured and argued in tolerance.cpp and docs/dynamics.md).
+// The engines' defaults are given by the caller (EngineTolerances: the engine table,
+// methods/engines.h, and docs/compare.md): the comparator knows no engine.
 // Overrides, later wins:
 //   1. the definition's [tolerance] table (Mechanism::tolerances): engines only, since the
 //      exact methods must agree to round-off whatever the mechanism;
@@ -24,6 +17,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "analytic/mechanism.h"
 #include "analytic/trajectory.h"
@@ -38,25 +33,33 @@ struct ClassTolerances {
   double& of(Quantity q);
 };
 
+// The engines' default tolerances, by engine name in report order.
+struct EngineTolerances {
+  std::vector<std::pair<std::string, ClassTolerances>> engines;
+  ClassTolerances others;  // a method neither exact nor one of `engines` (a run from elsewhere)
+};
+
 class Tolerances {
  public:
-  // The defaults above, then the definition's [tolerance] table.
-  explicit Tolerances(const ToleranceOverrides& from_definition = {});
-  // The defaults for the mechanism (a dynamics case has its own: see kDynamics below), then its
-  // [tolerance] table.
-  explicit Tolerances(const Mechanism& mechanism);
+  // The exact methods' defaults and `engines`', then the definition's [tolerance] table (on every
+  // engine and `others`).
+  explicit Tolerances(EngineTolerances engines = {},
+                      const ToleranceOverrides& from_definition = {});
   // "class=value" or "method:class=value"; throws std::invalid_argument on bad text.
   void apply(std::string_view assignment);
   double of(std::string_view method, Quantity quantity) const;
 
-  static bool is_engine(std::string_view method);  // mujoco, bullet
+  bool is_engine(std::string_view method) const;  // one of the engines given
 
  private:
   void apply_definition(const ToleranceOverrides& from_definition);
+  std::vector<ClassTolerances*> engine_rows();  // every engine's and others'
+  const ClassTolerances* engine(std::string_view method) const;
+  std::string valid_methods() const;  // "dyads, ic, " and the engines
 
   std::map<std::string, ClassTolerances, std::less<>> exact_;  // dyads, ic: fixed defaults
-  // mujoco, bullet: defaults, then [tolerance], then "class=v"
-  std::map<std::string, ClassTolerances, std::less<>> engines_;
+  // The engines and others: defaults, then [tolerance], then "class=v".
+  EngineTolerances engines_;
   std::map<std::pair<std::string, Quantity>, double, std::less<>> method_override_;
 };
 

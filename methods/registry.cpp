@@ -1,6 +1,7 @@
 #include "methods/registry.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -12,8 +13,7 @@
 #include "analytic/instant_centres.h"
 #include "analytic/newton.h"
 #include "analytic/trust.h"
-#include "sim/bullet/bullet_engine.h"
-#include "sim/mujoco/mujoco_engine.h"
+#include "methods/engines.h"
 #include "sim/sampling.h"
 
 namespace crosslink::methods {
@@ -59,9 +59,15 @@ MethodRun run_engine(const sim::Engine& engine, std::string description, const M
 
 // The engine of that name, or null for a method that is not an engine.
 std::unique_ptr<sim::Engine> make_engine(std::string_view name) {
-  if (name == "mujoco") return sim::make_mujoco_engine();
-  if (name == "bullet") return sim::make_bullet_engine();
-  return nullptr;
+  const EngineEntry* entry = find_engine(name);
+  return entry ? entry->make() : nullptr;
+}
+
+// Every method's name: the exact methods, then the engine table's.
+std::vector<std::string> all_method_names() {
+  std::vector<std::string> names = {"analytic", "dyads", "ic"};
+  for (const EngineEntry& e : engine_table()) names.push_back(e.name);
+  return names;
 }
 
 }  // namespace
@@ -72,7 +78,7 @@ void check_engine_settings(std::string_view name, const Mechanism& mechanism,
 }
 
 const std::vector<std::string>& method_names() {
-  static const std::vector<std::string> names = {"analytic", "dyads", "ic", "mujoco", "bullet"};
+  static const std::vector<std::string> names = all_method_names();
   return names;
 }
 
@@ -267,12 +273,10 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
                     {"centres", "primary + Kennedy-Aronhold, else from exact velocities"}};
     return run;
   }
-  if (const auto engine = make_engine(name))
-    return run_engine(*engine,
-                      name == "mujoco" ? "MuJoCo 2.2.2 scene" : "Bullet 3.24 float64 scene",
-                      mechanism, reference, engine_settings);
+  if (const EngineEntry* entry = find_engine(name))
+    return run_engine(*entry->make(), entry->description, mechanism, reference, engine_settings);
   throw std::invalid_argument(
-      fmt::format("unknown method '{}' (valid: analytic, dyads, ic, mujoco, bullet)", name));
+      fmt::format("unknown method '{}' (valid: {})", name, fmt::join(method_names(), ", ")));
 }
 
 }  // namespace crosslink::methods

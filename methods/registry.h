@@ -5,8 +5,7 @@
 //             kinematic methods, are then not run)
 //   dyads     closed-form Assur dyads solved in sequence (analytic/dyads.h)
 //   ic        instantaneous centres by Kennedy-Aronhold: velocities only (instant_centres.h)
-//   mujoco    MuJoCo 2.2.2 scene (sim/mujoco), when built
-//   bullet    Bullet 3.24 float64 scene (sim/bullet), when built
+//   then every engine of the engine table (methods/engines.h): mujoco, bullet
 // A method that is not built into this binary, or cannot realise the mechanism, comes back with
 // available = false and the reason; it is listed in reports and never counted as a result.
 #pragma once
@@ -25,7 +24,7 @@ namespace crosslink::methods {
 
 using compare::MethodRun;
 
-// "analytic", "dyads", "ic", "mujoco", "bullet", in report order.
+// "analytic", "dyads", "ic", then the engine table's, in report order.
 const std::vector<std::string>& method_names();
 // Whether `name` is one of method_names().
 bool is_method(std::string_view name);

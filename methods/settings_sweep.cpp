@@ -3,6 +3,7 @@
 #include "methods/settings_sweep.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -146,62 +147,10 @@ std::string_view to_string(RunStatus s) {
 // Grids
 
 std::vector<Variant> engine_variants(std::string_view engine, bool dynamics) {
-  auto fixed = [](sim::Settings s) { return [s](double) { return s; }; };
-  // Forward dynamics: no driver to watch; MuJoCo's integrators and solvers, its own default
-  // softness; Bullet's formulations and solvers (docs/sweep.md).
-  if (dynamics && engine == "mujoco")
-    return {
-        {"Euler/Newton", fixed({})},
-        {"implicit/Newton", fixed({{"integrator", "implicit"}})},
-        {"RK4/Newton", fixed({{"integrator", "RK4"}})},
-        {"Euler/CG", fixed({{"solver", "CG"}})},
-        {"Euler/PGS", fixed({{"solver", "PGS"}})},
-        {"Euler/Newton soft (MuJoCo default solref 0.02 1)",
-         fixed({{"solref", "0.02 1"}, {"solimp", "0.9 0.95 0.001 0.5 2"}})},
-    };
-  if (dynamics && engine == "bullet")
-    return {
-        {"rigid/MLCP Dantzig erp 1", fixed({})},
-        {"multibody/MLCP Dantzig erp 1", fixed({{"formulation", "multibody"}})},
-        {"rigid/MLCP Dantzig erp 0.2", fixed({{"erp", "0.2"}})},
-        {"rigid/SI 100 it erp 1", fixed({{"solver", "sequential_impulse"}, {"iterations", "100"}})},
-        {"multibody/SI 100 it erp 1", fixed({{"formulation", "multibody"},
-                                             {"solver", "sequential_impulse"},
-                                             {"iterations", "100"}})},
-    };
-  if (engine == "mujoco")
-    return {
-        {"Euler/Newton", fixed({})},
-        // Both trip the engine's 1e-3 rad driver watch on the first step of its start-up
-        // (measured; docs/sweep.md): watched at 0.05 rad instead, so their errors show.
-        {"implicit/Newton, driver watch 0.05 rad",
-         fixed({{"integrator", "implicit"}, {"driver_threshold", "0.05"}})},
-        {"RK4/Newton, driver watch 0.05 rad",
-         fixed({{"integrator", "RK4"}, {"driver_threshold", "0.05"}})},
-        {"Euler/CG", fixed({{"solver", "CG"}})},
-        {"Euler/PGS", fixed({{"solver", "PGS"}})},
-        // The engine-notes' softness: time constant 2 dt, damping ratio 0.5.
-        {"Euler/Newton solref (2dt, 0.5)",
-         [](double dt) {
-           return sim::Settings{{"solref", fmt::format("{:.9g} 0.5", 2.0 * dt)}};
-         }},
-        // MuJoCo's own defaults for the loop constraints (the driver stays stiff).
-        {"Euler/Newton soft (MuJoCo default solref 0.02 1)",
-         fixed({{"solref", "0.02 1"}, {"solimp", "0.9 0.95 0.001 0.5 2"}})},
-    };
-  if (engine == "bullet")
-    return {
-        {"rigid/MLCP Dantzig erp 1", fixed({})},
-        {"multibody/MLCP Dantzig erp 1", fixed({{"formulation", "multibody"}})},
-        {"rigid/MLCP Dantzig erp 0.2", fixed({{"erp", "0.2"}})},
-        {"rigid/SI 100 it erp 1", fixed({{"solver", "sequential_impulse"}, {"iterations", "100"}})},
-        {"rigid/SI 10 it erp 1", fixed({{"solver", "sequential_impulse"}, {"iterations", "10"}})},
-        {"multibody/SI 100 it erp 1", fixed({{"formulation", "multibody"},
-                                             {"solver", "sequential_impulse"},
-                                             {"iterations", "100"}})},
-    };
-  throw std::invalid_argument(
-      fmt::format("no settings grid for '{}' (engines: mujoco, bullet)", engine));
+  if (const EngineEntry* entry = find_engine(engine))
+    return dynamics ? entry->dynamics_variants : entry->variants;
+  throw std::invalid_argument(fmt::format("no settings grid for '{}' (engines: {})", engine,
+                                          fmt::join(engine_names(), ", ")));
 }
 
 std::vector<double> default_time_steps() {
@@ -406,7 +355,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
       }
 
   // The verdict metric: compare_methods, as `crosslink compare` does.
-  const Tolerances tolerances(mechanism);
+  const Tolerances tolerances = default_tolerances(mechanism);
   if (run.ok) {
     const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
     row.max_pct = class_maxima(cmp, run.name);
@@ -494,7 +443,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
     // costs). Not rkf78 itself: stepped to each sample, its steps never exceed the sample
     // interval, and at that step its eighth order is below every tolerance here, so each
     // looser rkf78 run is the same run (docs/sweep.md).
-    const Tolerances tolerances(mechanism);
+    const Tolerances tolerances = default_tolerances(mechanism);
     for (double tolerance : kSimulationTolerances) {
       SimulationOptions loose;
       loose.integrator = kSimulationTolerancesIntegrator;
@@ -543,7 +492,8 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
     row.message = dyads.message;
     if (dyads.ok) {
       const Comparison cmp =
-          compare_methods(mechanism, {reference, dyads}, Tolerances(mechanism.tolerances));
+          compare_methods(mechanism, {reference, dyads},
+                          Tolerances(engine_tolerances(false), mechanism.tolerances));
       row.max_pct = class_maxima(cmp, "dyads");
       for (size_t k = 0; k < reference.trajectory.status.size(); ++k)
         if (usable(reference.trajectory.status[k]) && !usable(dyads.trajectory.status[k]))
@@ -836,8 +786,9 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   const size_t first_engine_row = out.rows.size();
   std::vector<GridPoint> grid;
   for (const std::string& engine : options.engines) {
-    if (!Tolerances::is_engine(engine)) {
-      out.skipped.push_back(engine + ": not an engine (mujoco, bullet)");
+    if (!find_engine(engine)) {
+      out.skipped.push_back(
+          fmt::format("{}: not an engine ({})", engine, fmt::join(engine_names(), ", ")));
       continue;
     }
     const std::vector<GridPoint> g = engine_grid(engine, snapped, out.dynamics);

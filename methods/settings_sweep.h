@@ -36,6 +36,7 @@
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "compare/tolerance.h"
+#include "methods/engines.h"
 #include "methods/registry.h"
 
 namespace crosslink::methods {
@@ -67,23 +68,18 @@ constexpr ClassValues kNoValues = {
 
 // One setting of one engine: every override passed to the engine, dt included.
 struct GridPoint {
-  std::string engine;      // "mujoco", "bullet"
+  std::string engine;      // an engine_names() entry
   std::string variant;     // everything but dt, e.g. "Euler/Newton": the family a dt series forms
   double dt = 0.0;         // requested time step [s] (snapped to the samples, see ReferenceLadder)
   sim::Settings settings;  // engine overrides except dt (the sweep adds the snapped dt)
 };
 
 // The variants a sweep tries for an engine (names and overrides), the engine's default first;
-// for a dynamics case (`dynamics`) the engine's forward-dynamics variants (docs/sweep.md).
-// MuJoCo: integrators Euler / implicit / RK4 (Newton solver), solvers CG / PGS (Euler), loop
-// softness: MuJoCo's own default solref "0.02 1" / solimp "0.9 0.95 0.001", and the engine-notes
-// (2 dt, 0.5). Bullet: formulation rigid / multibody, solver MLCP Dantzig / sequential impulse
-// (10 and 100 iterations), ERP 1 / 0.2.
-struct Variant {
-  std::string name;
-  // The overrides at time step dt [s] (a softness can depend on dt).
-  std::function<sim::Settings(double dt)> settings;
-};
+// for a dynamics case (`dynamics`) the engine's forward-dynamics variants (docs/sweep.md): the
+// engine table's (methods/engines.h). MuJoCo: integrators Euler / implicit / RK4 (Newton solver),
+// solvers CG / PGS (Euler), loop softness: MuJoCo's own default solref "0.02 1" / solimp "0.9
+// 0.95 0.001", and the engine-notes (2 dt, 0.5). Bullet: formulation rigid / multibody, solver
+// MLCP Dantzig / sequential impulse (10 and 100 iterations), ERP 1 / 0.2.
 std::vector<Variant> engine_variants(std::string_view engine, bool dynamics = false);
 
 // The default time steps: 1e-2, 3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5 s (over two decades).
@@ -131,7 +127,7 @@ std::string_view to_string(RunStatus s);
 
 // One engine setting (or one analytic method) against the reference.
 struct SweepRow {
-  std::string engine;   // "mujoco", "bullet", or "analytic" for the exact methods
+  std::string engine;   // an engine_names() entry, or "analytic" for the exact methods
   std::string variant;  // grid variant, or "newton" / "dyads"
   double dt = std::numeric_limits<double>::quiet_NaN();  // in force [s]; NaN for analytic
   sim::Settings settings;         // every setting in force (as the engine reported it)
@@ -296,7 +292,7 @@ std::vector<BenchmarkLimit> benchmark_limits(const std::vector<SweepRow>& rows, 
 std::string benchmark_limit_text(const BenchmarkLimit& b);
 
 struct SettingsSweepOptions {
-  std::vector<std::string> engines = {"mujoco", "bullet"};
+  std::vector<std::string> engines = engine_names();  // every engine
   std::vector<double> dts = default_time_steps();
   SweepOptions sweep;                  // the reference's grid
   sim::Settings base;                  // overrides applied to every engine run

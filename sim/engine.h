@@ -9,33 +9,27 @@
 
 #include "analytic/mechanism.h"
 #include "analytic/trajectory.h"
+#include "compare/run_record.h"
+#include "sim/settings.h"
 
 namespace crosslink::sim {
 
-// Engine settings as (name, value) text pairs, printed with every result. Each engine documents
-// its own names and defaults. Names every engine understands:
-//   "dt"            time step [s]
-//   "perturb_link"  "<link>:<factor>": scale that link's points in the scene only (a test hook
-//                   that builds a deliberately wrong model; never used by default)
-//   "max_steps"     the most steps the run may take (default kDefaultMaxSteps); a run that
-//                   would take more is refused before it starts
-using Settings = std::vector<std::pair<std::string, std::string>>;
+// Engine settings as (name, value) text pairs, printed with every result. Each engine declares
+// its names, defaults and values once (Engine::settings_schema). Names every engine understands,
+// in the same units, so that one bare --set reaches them all:
+//   "dt"                time step [s], or auto
+//   "max_steps"         the most steps the run may take (default kDefaultMaxSteps); a run that
+//                       would take more is refused before it starts
+//   "gap_threshold"     a loop gap [m] beyond which a sample is loop_gap, or auto
+//   "driver_threshold"  a driven coordinate further from its law [rad, or m for a slider] is
+//                       lost, or auto
+//   "singular_rcond"    the fraction of the chain's own conditioning below which a sample is
+//                       singular
+//   "perturb_link"      "<link>:<factor>": scale that link's points in the scene only (a test
+//                       hook that builds a deliberately wrong model; default none)
+using Settings = RunSettings;
 
-// A run's time and memory grow with its steps (Bullet keeps every step's configuration): 2
-// million steps are about 5 s of MuJoCo and 240 MB of Bullet history for 15 coordinates.
-constexpr long kDefaultMaxSteps = 2'000'000;
-
-struct RunCost {
-  double wall_seconds = 0.0;            // total wall time of the run (build + steps)
-  double wall_seconds_per_cycle = 0.0;  // stepping time per simulated driver cycle (a dynamics
-                                        // case: per simulated second)
-  // The same in CPU time of the stepping thread (sim::thread_cpu_seconds): unlike the wall time
-  // it does not count the time other processes take the core, so it varies less between runs
-  // on a shared machine (the settings sweep's cost).
-  double cpu_seconds_per_cycle = 0.0;
-  long steps = 0;  // engine steps taken
-  double simulated_seconds = 0.0;
-};
+using crosslink::RunCost;  // sim::RunCost: the run record every engine fills
 
 struct EngineRun {
   Trajectory trajectory;  // same samples (driver values) as the reference sweep
@@ -51,6 +45,8 @@ class Engine {
  public:
   virtual ~Engine() = default;
   virtual std::string name() const = 0;  // "mujoco", "bullet"
+  // Every setting the engine takes: parsed, checked and listed from this one declaration.
+  virtual const SettingSchema& settings_schema() const = 0;
   // Whether the engine can realise this mechanism, and why not.
   virtual bool supports(const Mechanism& mechanism, std::string* why) const = 0;
   // Throws std::invalid_argument, before any run, for a setting the engine does not know

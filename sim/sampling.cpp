@@ -18,20 +18,6 @@ double thread_cpu_seconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-long parse_max_steps(const std::string& text) {
-  size_t used = 0;
-  long value = 0;
-  try {
-    value = std::stol(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || value < 1)
-    throw std::invalid_argument(
-        fmt::format("setting max_steps: a positive whole number, got '{}'", text));
-  return value;
-}
-
 void check_steps(double steps, double dt, long max_steps) {
   if (steps <= static_cast<double>(max_steps)) return;  // NaN (no dt) is refused too
   throw std::runtime_error(fmt::format(

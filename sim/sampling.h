@@ -32,10 +32,6 @@ double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b
 // CPU time of the calling thread [s] (CLOCK_THREAD_CPUTIME_ID): what a run costs, without the
 // time other processes take the core.
 double thread_cpu_seconds();
-
-// The setting "max_steps": a positive whole number (std::invalid_argument otherwise).
-long parse_max_steps(const std::string& text);
-
 // Refuses (std::runtime_error) a run of `steps` steps of `dt` seconds when that is more than
 // `max_steps`, before it starts; the message says how to raise the limit.
 void check_steps(double steps, double dt, long max_steps);

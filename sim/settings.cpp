@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -34,13 +35,20 @@ std::optional<double> finite(const std::string& text) {
   return value;
 }
 
-}  // namespace
-
-double setting_number(std::string_view name, const std::string& text, const SettingRange& range) {
+// The text as a finite number within `range`, or nullopt.
+std::optional<double> within(const std::string& text, const SettingRange& range) {
   const std::optional<double> v = finite(text);
   if (!v || *v < range.low || (range.low_open && *v == range.low) || *v > range.high ||
       (range.high_open && *v == range.high))
-    refuse(name, text, describe(range));
+    return std::nullopt;
+  return v;
+}
+
+}  // namespace
+
+double setting_number(std::string_view name, const std::string& text, const SettingRange& range) {
+  const std::optional<double> v = within(text, range);
+  if (!v) refuse(name, text, describe(range));
   return *v;
 }
 
@@ -55,11 +63,122 @@ std::vector<double> setting_numbers(std::string_view name, const std::string& te
   return values;
 }
 
-int setting_count(std::string_view name, const std::string& text, int most) {
-  const std::optional<double> v = finite(text);
-  if (!v || *v < 1.0 || *v > most || *v != std::floor(*v))
+long setting_count(std::string_view name, const std::string& text, long most) {
+  // Digits alone are read exactly (a count beyond 2^53 is not rounded); "5e1" as a number.
+  if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) {
+    try {
+      const long long v = std::stoll(text);
+      if (v >= 1 && v <= most) return static_cast<long>(v);
+    } catch (const std::out_of_range&) {
+    }
     refuse(name, text, fmt::format("a whole number from 1 to {}", most));
-  return static_cast<int>(*v);
+  }
+  const std::optional<double> v = finite(text);
+  if (!v || *v < 1.0 || *v > static_cast<double>(most) || *v != std::floor(*v))
+    refuse(name, text, fmt::format("a whole number from 1 to {}", most));
+  return static_cast<long>(*v);
+}
+
+namespace {
+
+// "a, b or c"
+std::string one_of(const std::vector<std::string>& words) {
+  std::string out;
+  for (size_t i = 0; i < words.size(); ++i)
+    out += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i];
+  return out;
+}
+
+// Numbers and counts: what they take besides ", or auto".
+std::string or_words(std::string what, const std::vector<std::string>& words) {
+  return words.empty() ? what : what + ", or " + one_of(words);
+}
+
+}  // namespace
+
+std::string allowed_values(const SettingSpec& spec) {
+  switch (spec.kind) {
+    case SettingKind::number:
+      return or_words(describe(spec.range), spec.words);
+    case SettingKind::count:
+      return or_words(fmt::format("a whole number from 1 to {}", spec.most), spec.words);
+    case SettingKind::choice:
+      return one_of(spec.words);
+    case SettingKind::text:
+      return spec.allowed;
+  }
+  return spec.allowed;
+}
+
+SettingSpec shared_setting(std::string_view name) {
+  using enum SettingKind;
+  if (name == "max_steps")
+    return {"max_steps",
+            count,
+            std::to_string(kDefaultMaxSteps),
+            "the most steps of a run (refused before it starts)",
+            {},
+            kMostSteps};
+  if (name == "perturb_link")
+    return {"perturb_link",
+            text,
+            "none",
+            "test hook: that link's points scaled in the scene only",
+            {},
+            0,
+            {},
+            "none, or <moving link>:<positive factor>"};
+  if (name == "divergence_energy")
+    return {"divergence_energy", number, "1",
+            "forward dynamics: beyond it (of the energy scale) the run stops: diverged", kPositive};
+  throw std::logic_error(fmt::format("no shared setting {}", name));
+}
+
+SettingValues::SettingValues(const SettingSchema& schema, std::string_view engine,
+                             const RunSettings& overrides)
+    : schema_(schema), given_(schema.size(), false) {
+  for (const SettingSpec& s : schema) text_.push_back(s.default_value);
+  for (const auto& [name, value] : overrides) {
+    const auto it = std::find_if(schema.begin(), schema.end(),
+                                 [&](const SettingSpec& s) { return s.name == name; });
+    if (it == schema.end()) {
+      std::string known;
+      for (const SettingSpec& s : schema) known += (known.empty() ? "" : ", ") + s.name;
+      throw std::invalid_argument(
+          fmt::format("unknown {} setting \"{}\" (known: {})", engine, name, known));
+    }
+    const SettingSpec& spec = *it;
+    const bool word = std::find(spec.words.begin(), spec.words.end(), value) != spec.words.end();
+    if (spec.kind == SettingKind::choice && !word) refuse(name, value, allowed_values(spec));
+    if (spec.kind == SettingKind::number && !word && !within(value, spec.range))
+      refuse(name, value, allowed_values(spec));
+    if (spec.kind == SettingKind::count && !word) (void)setting_count(name, value, spec.most);
+    const auto i = static_cast<size_t>(it - schema.begin());
+    text_[i] = value;
+    given_[i] = true;
+  }
+}
+
+const SettingSpec& SettingValues::spec(std::string_view name) const {
+  for (const SettingSpec& s : schema_)
+    if (s.name == name) return s;
+  throw std::logic_error(fmt::format("setting {} is not declared", name));
+}
+
+const std::string& SettingValues::text(std::string_view name) const {
+  return text_[static_cast<size_t>(&spec(name) - schema_.data())];
+}
+
+bool SettingValues::given(std::string_view name) const {
+  return given_[static_cast<size_t>(&spec(name) - schema_.data())];
+}
+
+double SettingValues::number(std::string_view name) const {
+  return setting_number(name, text(name), spec(name).range);
+}
+
+long SettingValues::count(std::string_view name) const {
+  return setting_count(name, text(name), spec(name).most);
 }
 
 Mechanism perturbed(const Mechanism& m, const std::string& text) {

@@ -1,5 +1,7 @@
-// What both engines share in reading their settings (--set NAME=VALUE) before any run: a
-// number's text and the values it may take, a whole count, and the perturb_link test hook. Each
+// The settings schema every engine declares once (SettingSpec: name, kind, default, the values it
+// takes, one line of doc), and the readers behind it: parsing and checking --set NAME=VALUE
+// before any run (SettingValues), the listing of `crosslink engines` and the table of
+// docs/engines.md (tests/methods/test_engines.cpp holds the table to the declarations). Each
 // reader throws std::invalid_argument naming the setting, its text and what it takes, so that a
 // bad value is bad input (exit 2), never a failed run.
 #pragma once
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include "analytic/mechanism.h"
+#include "compare/run_record.h"
 
 namespace crosslink::sim {
 
@@ -28,14 +31,66 @@ constexpr SettingRange kRcond{0.0, 1.0};  // a reciprocal condition number
 // defaults are 20 and 50), and the count stays an int.
 constexpr int kMostIterations = 1'000'000;
 
+// A run's time and memory grow with its steps (Bullet keeps every step's configuration): 2
+// million steps are about 5 s of MuJoCo and 240 MB of Bullet history for 15 coordinates.
+constexpr long kDefaultMaxSteps = 2'000'000;
+// The most steps a run may be allowed (the command line's --max-steps bound).
+constexpr long kMostSteps = 1'000'000'000'000'000'000;
+
+enum class SettingKind {
+  number,  // a finite number in `range`, or one of `words` ("auto": the engine decides)
+  count,   // a whole number from 1 to `most`, or one of `words`
+  choice,  // one of `words`
+  text,    // free text the engine checks itself (`allowed` says what it takes)
+};
+
+struct SettingSpec {
+  std::string name;
+  SettingKind kind = SettingKind::number;
+  std::string default_value;  // the value a run reads when the setting is not given
+  std::string doc;            // one line: what it does
+  SettingRange range = {};    // number
+  long most = std::numeric_limits<int>::max();  // count
+  std::vector<std::string> words = {};          // choice: its values; number, count: besides
+  std::string allowed = {};                     // text: what it takes
+};
+using SettingSchema = std::vector<SettingSpec>;
+
+// A setting every engine declares alike, by name: "max_steps", "perturb_link",
+// "divergence_energy" (std::logic_error for another name).
+SettingSpec shared_setting(std::string_view name);
+
+// What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit".
+std::string allowed_values(const SettingSpec& spec);
+
+// An engine's settings read against its schema: every declared setting's text (its default
+// unless given; a later override wins), each override checked by its kind before any run.
+class SettingValues {
+ public:
+  // Throws std::invalid_argument for a name `schema` does not declare ("unknown <engine> setting
+  // ..." with the names it knows) or a value its kind does not take.
+  SettingValues(const SettingSchema& schema, std::string_view engine, const RunSettings& overrides);
+  const std::string& text(std::string_view name) const;
+  bool given(std::string_view name) const;  // overridden, not the default
+  bool is(std::string_view name, std::string_view word) const { return text(name) == word; }
+  double number(std::string_view name) const;  // a number setting that holds a number
+  long count(std::string_view name) const;     // a count setting that holds a count
+
+ private:
+  const SettingSpec& spec(std::string_view name) const;
+  const SettingSchema& schema_;
+  std::vector<std::string> text_;  // per declared setting
+  std::vector<bool> given_;
+};
+
 // A finite number in `range` (any finite number by default).
 double setting_number(std::string_view name, const std::string& text,
                       const SettingRange& range = {});
 // Finite numbers separated by spaces ("0.02 1").
 std::vector<double> setting_numbers(std::string_view name, const std::string& text);
 // A whole number from 1 to `most` ("50", "5e1"; not "2.5" nor "3e9" beyond an int).
-int setting_count(std::string_view name, const std::string& text,
-                  int most = std::numeric_limits<int>::max());
+long setting_count(std::string_view name, const std::string& text,
+                   long most = std::numeric_limits<int>::max());
 
 // The test hook perturb_link = "<moving link>:<positive factor>": that link's points and line
 // origins scaled, so the scene is assembled for a valid but wrong linkage. "" or "none": `m` as

@@ -63,11 +63,12 @@ struct Config {
   double dt = 0.0;                      // 0: sample interval / steps_per_sample
   int iterations = 50;                  // sequential impulse (and MLCP's fallback)
   double erp = 1.0;
-  double loop_gap_threshold = 1e-4;  // relative to the mechanism's size
-  double divergence_gap = 0.1;       // relative to the mechanism's size
-  double driver_threshold = 1e-4;    // [rad], or relative to the size for a slider: a driver
-                                     // further from its law is lost (diverged)
-  bool split_impulse = false;        // Bullet's split impulse (position correction apart)
+  double gap_threshold = 0.0;     // [m]; 0 (auto) until prepare(): 1e-4 of the size
+  double divergence_gap = 0.1;    // relative to the mechanism's size
+  double driver_threshold = 0.0;  // [rad], or [m] for a slider: a driver further from its law
+                                  // is lost (diverged); 0 (auto) until prepare(): 1e-4 rad, or
+                                  // 1e-4 of the size
+  bool split_impulse = false;     // Bullet's split impulse (position correction apart)
   // Samples whose Jacobian is conditioned worse than this fraction of the chain's own (the
   // reference's median rcond, analytic/trust.h) are flagged singular: 1e-3 on IFToMM A02 N = 2,
   // 3e-3 on a four-bar.
@@ -82,70 +83,111 @@ struct Config {
   double divergence_energy = 1.0;  // beyond it the run stops: diverged
 };
 
+// Every setting, its default and what it takes (sim/settings.h; docs/engines.md, "Bullet").
+const SettingSchema& bullet_settings() {
+  using enum SettingKind;
+  static const SettingSchema schema = {
+      {"formulation",
+       choice,
+       "rigid",
+       "rigid bodies with joints, or a Featherstone multibody",
+       {},
+       0,
+       {"multibody", "rigid"}},
+      {"solver",
+       choice,
+       "mlcp_dantzig",
+       "the joint solver",
+       {},
+       0,
+       {"mlcp_dantzig", "sequential_impulse"}},
+      {"dt",
+       number,
+       "auto",
+       "time step [s]; auto: sample interval / steps_per_sample",
+       kPositive,
+       0,
+       {"auto"}},
+      {"steps_per_sample", count, "2", "auto dt: steps per sample interval (at least)"},
+      {"max_step_angle", number, "0.01",
+       "auto dt: the most the fastest link turns in a step "
+       "[rad] (0: off; forward dynamics: 0.0025)",
+       kNonNegative},
+      {"iterations",
+       count,
+       "50",
+       "sequential impulse's iterations (and the MLCP's fallback)",
+       {},
+       kMostIterations},
+      {"erp", number, "1", "error reduction per step", {0.0, 1.0, true}},
+      {"gap_threshold",
+       number,
+       "auto",
+       "a larger joint gap [m] in a sample's stencil flags "
+       "loop_gap; auto: 1e-4 x size",
+       kPositive,
+       0,
+       {"auto"}},
+      {"singular_rcond", number, "0.03",
+       "samples conditioned worse than this fraction of the "
+       "chain's own are singular",
+       kRcond},
+      {"branch_distance", number, "0.0001",
+       "a closed configuration this far from the "
+       "reference's (of the size, or rad) is branch_jump",
+       kPositive},
+      {"divergence_gap", number, "0.1", "beyond this gap (of the size) the run stops: diverged",
+       kPositive},
+      {"driver_threshold",
+       number,
+       "auto",
+       "a driver further from its law [rad or m] is lost; "
+       "auto: 1e-4 rad (1e-4 x size for a slider)",
+       kPositive,
+       0,
+       {"auto"}},
+      {"split_impulse", choice, "0", "Bullet's split impulse", {}, 0, {"0", "1"}},
+      shared_setting("max_steps"),
+      {"start",
+       choice,
+       "staggered",
+       "forward dynamics: staggered (v0 - h/2 a0) or exact start",
+       {},
+       0,
+       {"staggered", "exact"}},
+      {"energy_threshold", number, "0.001",
+       "forward dynamics: an energy error over the energy "
+       "scale beyond it is a note",
+       kPositive},
+      shared_setting("divergence_energy"),
+      {"precision", choice, "float64", "the Bullet build linked", {}, 0, {"float64"}},
+      shared_setting("perturb_link"),
+  };
+  return schema;
+}
+
 Config parse_settings(const Settings& overrides) {
+  const SettingValues v(bullet_settings(), "Bullet", overrides);
   Config c;
-  for (const auto& [name, value] : overrides) {
-    if (name == "formulation") {
-      if (value != "multibody" && value != "rigid")
-        throw std::invalid_argument("setting formulation: expected multibody or rigid, got '" +
-                                    value + "'");
-      c.formulation = value;
-    } else if (name == "solver") {
-      if (value != "mlcp_dantzig" && value != "sequential_impulse")
-        throw std::invalid_argument(
-            "setting solver: expected mlcp_dantzig or sequential_impulse, got '" + value + "'");
-      c.solver = value;
-    } else if (name == "dt") {
-      c.dt = value == "auto" ? 0.0 : setting_number(name, value, kPositive);
-    } else if (name == "steps_per_sample") {
-      c.steps_per_sample = setting_count(name, value);
-    } else if (name == "max_step_angle") {
-      c.max_step_angle = setting_number(name, value, kNonNegative);  // 0: off
-      c.max_step_angle_given = true;
-    } else if (name == "iterations") {
-      c.iterations = setting_count(name, value, kMostIterations);
-    } else if (name == "erp") {
-      c.erp = setting_number(name, value, {0.0, 1.0, true});
-    } else if (name == "loop_gap_threshold") {
-      c.loop_gap_threshold = setting_number(name, value, kPositive);
-    } else if (name == "singular_rcond") {
-      c.singular_rcond = setting_number(name, value, kRcond);
-    } else if (name == "branch_distance") {
-      c.branch_distance = setting_number(name, value, kPositive);
-    } else if (name == "divergence_gap") {
-      c.divergence_gap = setting_number(name, value, kPositive);
-    } else if (name == "driver_threshold") {
-      c.driver_threshold = setting_number(name, value, kPositive);
-    } else if (name == "split_impulse") {
-      if (value != "0" && value != "1")
-        throw std::invalid_argument("setting split_impulse: 0 or 1, got '" + value + "'");
-      c.split_impulse = value == "1";
-    } else if (name == "max_steps") {
-      c.max_steps = parse_max_steps(value);
-    } else if (name == "start") {
-      if (value != "staggered" && value != "exact")
-        throw std::invalid_argument("setting start: expected staggered or exact, got '" + value +
-                                    "'");
-      c.staggered_start = value == "staggered";
-    } else if (name == "energy_threshold") {
-      c.energy_threshold = setting_number(name, value, kPositive);
-    } else if (name == "divergence_energy") {
-      c.divergence_energy = setting_number(name, value, kPositive);
-    } else if (name == "precision") {
-      if (value != "float64")
-        throw std::invalid_argument("setting precision: only float64 is built, got '" + value +
-                                    "'");
-    } else if (name == "perturb_link") {
-      c.perturb_link = value == "none" ? "" : value;  // checked on the mechanism
-    } else {
-      throw std::invalid_argument(fmt::format(
-          "unknown Bullet setting '{}' (known: formulation, solver, dt, steps_per_sample, "
-          "max_step_angle, iterations, erp, loop_gap_threshold, singular_rcond, branch_distance, "
-          "divergence_gap, driver_threshold, split_impulse, max_steps, start, energy_threshold, "
-          "divergence_energy, precision, perturb_link)",
-          name));
-    }
-  }
+  c.formulation = v.text("formulation");
+  c.solver = v.text("solver");
+  c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
+  c.steps_per_sample = static_cast<int>(v.count("steps_per_sample"));
+  c.max_step_angle = v.number("max_step_angle");
+  c.max_step_angle_given = v.given("max_step_angle");
+  c.iterations = static_cast<int>(v.count("iterations"));
+  c.erp = v.number("erp");
+  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
+  c.singular_rcond = v.number("singular_rcond");
+  c.branch_distance = v.number("branch_distance");
+  c.divergence_gap = v.number("divergence_gap");
+  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
+  c.split_impulse = v.is("split_impulse", "1");
+  c.max_steps = v.count("max_steps");
+  c.staggered_start = v.is("start", "staggered");
+  c.energy_threshold = v.number("energy_threshold");
+  c.divergence_energy = v.number("divergence_energy");
+  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
   return c;
 }
 
@@ -1107,6 +1149,10 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   Prepared p;
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
+  // The thresholds' auto values, of the scene's mechanism.
+  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0)
+    p.config.driver_threshold = p.m.driver.angular() ? 1e-4 : 1e-4 * p.m.size();
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1130,7 +1176,7 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
           {"iterations", std::to_string(config.iterations)},
           {"erp", format_number(config.erp)},
           {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-          {"loop_gap_threshold", format_number(config.loop_gap_threshold)},
+          {"gap_threshold", format_number(config.gap_threshold)},
           {"divergence_gap", format_number(config.divergence_gap)}};
 }
 
@@ -1530,8 +1576,7 @@ class KinematicStepper {
         loads_(m),
         velocity_(history.pose.rows()),
         gap_diverge_(config.divergence_gap * m.size()),
-        driver_tolerance_(m.driver.angular() ? config.driver_threshold
-                                             : config.driver_threshold * m.size()) {}
+        driver_tolerance_(config.driver_threshold) {}
 
   // The step to pose k; false when the run diverged there (history: where and why).
   bool step(long k) {
@@ -1649,16 +1694,14 @@ class KinematicSampler {
 // even with perturb_link) must be the reference's.
 class KinematicStatuses {
  public:
-  KinematicStatuses(const Mechanism& original, const Mechanism& m, const Trajectory& reference,
-                    const Span& span, const Config& config)
+  KinematicStatuses(const Mechanism& original, const Trajectory& reference, const Span& span,
+                    const Config& config)
       : original_(original),
         reference_(reference),
         definition_(original),
         closed_(original),
-        judge_(
-            reference, span,
-            {config.loop_gap_threshold * m.size(), config.singular_rcond, config.branch_distance},
-            true) {}
+        judge_(reference, span,
+               {config.gap_threshold, config.singular_rcond, config.branch_distance}, true) {}
   StatusJudge& judge() { return judge_; }
   PoseStatus status(int i, const KinematicSampler& sampled, Trajectory& out) {
     return judge_.judge(
@@ -1719,7 +1762,7 @@ void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span&
   if (const int flagged = judge.loop_gaps())
     tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
                          fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
-                                     flagged, config.loop_gap_threshold * m.size(), worst_gap)});
+                                     flagged, config.gap_threshold, worst_gap)});
   if (const int near_singular = judge.singular())
     tr.events.push_back(
         {reference.driver(judge.first_singular()), PoseStatus::singular,
@@ -2152,7 +2195,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   EnergyWatch energy(
       config, energy_scale,
       balance.kinetic(start.state.q, start.state.qdot) + balance.potential(start.state.q));
-  const double gap_flag = config.loop_gap_threshold * m.size();
+  const double gap_flag = config.gap_threshold;
   StatusJudge judge(reference, p.span, {gap_flag, config.singular_rcond, 0.0}, false);
   write_dynamics_samples(original, reference, grid.sample_step, solver, sampler, balance,
                          stepper.forces(), energy, judge, history, out.trajectory);
@@ -2180,6 +2223,8 @@ class BulletEngine final : public Engine {
     make_tree(plan, why);
     return !plan.order.empty();
   }
+
+  const SettingSchema& settings_schema() const override { return bullet_settings(); }
 
   // Every name and every value, perturb_link's link among the mechanism's.
   void check_settings(const Mechanism& m, const Settings& overrides) const override {
@@ -2255,7 +2300,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   const SamplePlan sample_plan = plan_samples(
       reference, p.span, history.time, nearest_steps(reference, p.span, history.time), with_forces);
   KinematicSampler sampler(m, solver, reference, history);
-  KinematicStatuses statuses(original, m, reference, p.span, config);
+  KinematicStatuses statuses(original, reference, p.span, config);
   write_samples(reference, sample_plan, history, kinematic.worst_gap(), solver, sampler,
                 stepper.forces(), statuses, out.trajectory);
   note_kinematic(m, reference, p.span, config, statuses.judge(), history, kinematic.worst_gap(),

@@ -136,73 +136,137 @@ struct Config {
   std::string singular_rcond = "auto";
 };
 
-// A setting that is "auto" or a number in `range` (checked as it is read, parsed where used).
-void check_auto(const std::string& name, const std::string& text, const SettingRange& range) {
-  if (text != "auto") (void)setting_number(name, text, range);
+// Every setting, its default and what it takes (sim/settings.h; docs/engines.md, "MuJoCo").
+const SettingSchema& mujoco_settings() {
+  using enum SettingKind;
+  static const SettingSchema schema = {
+      {"dt",
+       number,
+       "auto",
+       "time step [s]; auto: the longest dividing each sample interval "
+       "within max_step_angle",
+       kPositive,
+       0,
+       {"auto"}},
+      {"max_step_angle", number, "0.0025",
+       "auto dt: the most the fastest link turns in a step "
+       "[rad]",
+       kPositive},
+      {"integrator", choice, "Euler", "MuJoCo's integrator", {}, 0, {"Euler", "RK4", "implicit"}},
+      {"solver", choice, "Newton", "MuJoCo's constraint solver", {}, 0, {"Newton", "CG", "PGS"}},
+      {"iterations", count, "20", "the solver's iterations per step", {}, kMostIterations},
+      {"tolerance", number, "1e-10", "the solver's tolerance (0: every iteration runs)",
+       kNonNegative},
+      {"solref",
+       text,
+       "deadbeat",
+       "the loop constraints' solref",
+       {},
+       0,
+       {},
+       "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
+      {"solimp", text, kSolimp, "the loop constraints' solimp", {}, 0, {}, "3 to 5 numbers"},
+      {"driver_solref",
+       text,
+       "deadbeat",
+       "the driver's solref",
+       {},
+       0,
+       {},
+       "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
+      {"driver_solimp", text, kSolimp, "the driver's solimp", {}, 0, {}, "3 to 5 numbers"},
+      {"gap_threshold",
+       number,
+       "auto",
+       "a larger cut gap [m] since the previous sample flags "
+       "loop_gap; auto: 1e-4 x size",
+       kPositive,
+       0,
+       {"auto"}},
+      {"driver_threshold",
+       number,
+       "auto",
+       "a driven joint further from its target [rad or m] is "
+       "lost; auto: 1e-3 rad (1e-3 x size for a slider)",
+       kPositive,
+       0,
+       {"auto"}},
+      shared_setting("perturb_link"),
+      {"force_read",
+       choice,
+       "centred",
+       "forces at the sampled pose's velocity, or efc_force as "
+       "solved",
+       {},
+       0,
+       {"centred", "raw"}},
+      {"driver_armature",
+       number,
+       "auto",
+       "armature of the driven joint; auto: 1e-2 of the "
+       "inertia it moves",
+       kNonNegative,
+       0,
+       {"auto"}},
+      shared_setting("max_steps"),
+      {"start",
+       choice,
+       "auto",
+       "forward dynamics: staggered (v0 - h/2 a0) or exact start; auto: "
+       "staggered for Euler and implicit",
+       {},
+       0,
+       {"auto", "staggered", "exact"}},
+      {"readout",
+       choice,
+       "auto",
+       "forward dynamics: rates from position differences or the "
+       "state; auto: state for RK4",
+       {},
+       0,
+       {"auto", "differences", "state"}},
+      {"energy_threshold", number, "0.001",
+       "forward dynamics: an energy error over the energy "
+       "scale beyond it is an event",
+       kPositive},
+      shared_setting("divergence_energy"),
+      {"singular_rcond",
+       number,
+       "auto",
+       "samples conditioned worse than this fraction of the "
+       "chain's own are singular; auto: 1e-5 (dynamics 0.03)",
+       kRcond,
+       0,
+       {"auto"}},
+  };
+  return schema;
 }
 
 Config parse_settings(const Settings& overrides) {
+  const SettingValues v(mujoco_settings(), "MuJoCo", overrides);
   Config c;
-  const std::map<std::string, std::string*> text = {{"dt", &c.dt},
-                                                    {"integrator", &c.integrator},
-                                                    {"solver", &c.solver},
-                                                    {"solref", &c.solref},
-                                                    {"solimp", &c.solimp},
-                                                    {"driver_solref", &c.driver_solref},
-                                                    {"driver_solimp", &c.driver_solimp},
-                                                    {"gap_threshold", &c.gap_threshold},
-                                                    {"driver_threshold", &c.driver_threshold},
-                                                    {"perturb_link", &c.perturb_link},
-                                                    {"force_read", &c.force_read},
-                                                    {"start", &c.start},
-                                                    {"readout", &c.readout},
-                                                    {"singular_rcond", &c.singular_rcond}};
-  for (const auto& [name, value] : overrides) {
-    if (auto it = text.find(name); it != text.end()) {
-      *it->second = value;
-    } else if (name == "iterations") {
-      c.iterations = setting_count(name, value, kMostIterations);
-    } else if (name == "tolerance") {
-      c.tolerance = setting_number(name, value, kNonNegative);  // 0: every iteration runs
-    } else if (name == "max_step_angle") {
-      c.max_step_angle = setting_number(name, value, kPositive);
-    } else if (name == "driver_armature") {
-      c.driver_armature.reset();
-      if (value != "auto") c.driver_armature = setting_number(name, value, kNonNegative);
-    } else if (name == "max_steps") {
-      c.max_steps = parse_max_steps(value);
-    } else if (name == "energy_threshold") {
-      c.energy_threshold = setting_number(name, value, kPositive);
-    } else if (name == "divergence_energy") {
-      c.divergence_energy = setting_number(name, value, kPositive);
-    } else {
-      throw std::runtime_error(fmt::format(
-          "unknown MuJoCo setting \"{}\" (known: dt, max_step_angle, integrator, solver, "
-          "iterations, tolerance, solref, solimp, driver_solref, driver_solimp, gap_threshold, "
-          "driver_threshold, perturb_link, force_read, driver_armature, max_steps, start, readout, "
-          "energy_threshold, divergence_energy, singular_rcond)",
-          name));
-    }
-  }
-  if (c.integrator != "Euler" && c.integrator != "RK4" && c.integrator != "implicit")
-    throw std::runtime_error(
-        fmt::format("setting integrator = \"{}\": expected Euler, RK4 or implicit", c.integrator));
-  if (c.solver != "Newton" && c.solver != "CG" && c.solver != "PGS")
-    throw std::runtime_error(
-        fmt::format("setting solver = \"{}\": expected Newton, CG or PGS", c.solver));
-  if (c.force_read != "centred" && c.force_read != "raw")
-    throw std::runtime_error(
-        fmt::format("setting force_read = \"{}\": expected centred or raw", c.force_read));
-  if (c.start != "auto" && c.start != "staggered" && c.start != "exact")
-    throw std::runtime_error(
-        fmt::format("setting start = \"{}\": expected auto, staggered or exact", c.start));
-  if (c.readout != "auto" && c.readout != "differences" && c.readout != "state")
-    throw std::runtime_error(
-        fmt::format("setting readout = \"{}\": expected auto, differences or state", c.readout));
-  check_auto("dt", c.dt, kPositive);
-  check_auto("gap_threshold", c.gap_threshold, kPositive);
-  check_auto("driver_threshold", c.driver_threshold, kPositive);
-  check_auto("singular_rcond", c.singular_rcond, kRcond);
+  for (auto [name, field] : {std::pair{"dt", &c.dt},
+                             {"integrator", &c.integrator},
+                             {"solver", &c.solver},
+                             {"solref", &c.solref},
+                             {"solimp", &c.solimp},
+                             {"driver_solref", &c.driver_solref},
+                             {"driver_solimp", &c.driver_solimp},
+                             {"gap_threshold", &c.gap_threshold},
+                             {"driver_threshold", &c.driver_threshold},
+                             {"perturb_link", &c.perturb_link},
+                             {"force_read", &c.force_read},
+                             {"start", &c.start},
+                             {"readout", &c.readout},
+                             {"singular_rcond", &c.singular_rcond}})
+    *field = v.text(name);
+  c.max_step_angle = v.number("max_step_angle");
+  c.iterations = static_cast<int>(v.count("iterations"));
+  c.tolerance = v.number("tolerance");
+  if (!v.is("driver_armature", "auto")) c.driver_armature = v.number("driver_armature");
+  c.max_steps = v.count("max_steps");
+  c.energy_threshold = v.number("energy_threshold");
+  c.divergence_energy = v.number("divergence_energy");
   return c;
 }
 
@@ -1615,6 +1679,7 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
 class MujocoEngine final : public Engine {
  public:
   std::string name() const override { return "mujoco"; }
+  const SettingSchema& settings_schema() const override { return mujoco_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
     return mujoco_scene::realisable(mechanism, why);

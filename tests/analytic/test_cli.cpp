@@ -997,7 +997,7 @@ TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
   // A bare key goes to every engine that runs: MuJoCo's integrator is not Bullet's.
   const CommandRun bare = crosslink(compare + " --engines analytic,bullet --set integrator=RK4");
   EXPECT_EQ(bare.exit_code, 2);
-  EXPECT_NE(bare.err.find("unknown Bullet setting 'integrator' (known: formulation,"),
+  EXPECT_NE(bare.err.find("unknown Bullet setting \"integrator\" (known: formulation,"),
             std::string::npos)
       << bare.err;
   // ENGINE:KEY is checked whether that engine runs or not; the prefix must be an engine.

@@ -21,6 +21,7 @@
 #include "analytic/sweep.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
+#include "methods/engines.h"
 #include "methods/registry.h"
 
 namespace crosslink::compare {
@@ -53,7 +54,8 @@ TEST(Comparison, IdenticalMethodPasses) {
   MethodRun same = runs.front();
   same.name = "perturbed";
   runs.push_back(same);
-  const Comparison c = compare_methods(m, std::move(runs), Tolerances(m.tolerances));
+  const Comparison c = compare_methods(m, std::move(runs),
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_TRUE(c.pass());
   EXPECT_EQ(c.channels.size(), c.reference().trajectory.channel_names().size());
 }
@@ -63,7 +65,8 @@ TEST(Comparison, LinkOnePercentLongFailsNamingChannelAndSample) {
   const Mechanism wrong = with_longer_link(m, "coupler", 1.01);
   std::vector<MethodRun> runs = {run_reference(m), perturbed_method(wrong)};
   ASSERT_EQ(runs[0].trajectory.samples(), runs[1].trajectory.samples());
-  const Comparison c = compare_methods(m, std::move(runs), Tolerances(m.tolerances));
+  const Comparison c = compare_methods(m, std::move(runs),
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(c.pass());
   const ChannelResult* bell = nullptr;
   for (const ChannelResult& r : c.channels)
@@ -87,7 +90,8 @@ TEST(Comparison, LinkOnePercentLongFailsNamingChannelAndSample) {
 
 TEST(Comparison, ReferenceRowsCarryPrintedAndExactValues) {
   const Mechanism m = load_mechanism(kSewing);
-  const Comparison c = compare_methods(m, {run_reference(m)}, Tolerances(m.tolerances));
+  const Comparison c = compare_methods(m, {run_reference(m)},
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
   ASSERT_EQ(c.references.size(), m.references.size());
   for (const ReferenceRow& r : c.references) {
     ASSERT_TRUE(r.exact_ok) << r.reference.quantity;
@@ -104,7 +108,8 @@ TEST(Comparison, ReferenceRowsCarryPrintedAndExactValues) {
 TEST(Comparison, JsonHasTheDocumentedFields) {
   const Mechanism m = load_mechanism(kSewing);
   std::vector<MethodRun> runs = {run_reference(m), perturbed_method(m)};
-  const nlohmann::json j = to_json(compare_methods(m, std::move(runs), Tolerances(m.tolerances)));
+  const nlohmann::json j = to_json(compare_methods(
+      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances)));
   for (const char* key : {"mechanism", "pass", "methods", "channels", "references"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["mechanism"], m.name);

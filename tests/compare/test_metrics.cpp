@@ -6,6 +6,7 @@
 
 #include "compare/metrics.h"
 #include "compare/tolerance.h"
+#include "methods/engines.h"
 
 namespace crosslink::compare {
 namespace {
@@ -107,7 +108,7 @@ TEST(CompareChannel, ForceAndTorqueFloorsFromEachOther) {
 TEST(Tolerances, DefaultsDefinitionAndCommandLine) {
   ToleranceOverrides file;
   file.velocity = 0.2;
-  Tolerances t(file);
+  Tolerances t(methods::engine_tolerances(false), file);
   EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::position), 1e-2);
   EXPECT_DOUBLE_EQ(t.of("bullet", Quantity::velocity), 0.2);
   EXPECT_DOUBLE_EQ(t.of("mujoco", Quantity::acceleration), 1.0);

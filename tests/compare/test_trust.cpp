@@ -12,6 +12,7 @@
 #include "analytic/sweep.h"
 #include "analytic/trust.h"
 #include "compare/comparison.h"
+#include "methods/engines.h"
 #include "methods/registry.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/nfourbar.h"
@@ -79,7 +80,8 @@ TEST(Trust, ACorruptedReferenceSampleIsCaughtAndCannotPassAWrongMethod) {
     reference.name = "analytic";
     reference.available = reference.ok = true;
     reference.trajectory = corrupted;
-    const Comparison c = compare_methods(m, {reference, wrong}, Tolerances(m.tolerances));
+    const Comparison c = compare_methods(
+        m, {reference, wrong}, Tolerances(methods::engine_tolerances(false), m.tolerances));
     EXPECT_TRUE(passes(c, "mujoco", Quantity::force));
     EXPECT_TRUE(passes(c, "mujoco", Quantity::torque));
   }
@@ -93,7 +95,8 @@ TEST(Trust, ACorruptedReferenceSampleIsCaughtAndCannotPassAWrongMethod) {
   reference.name = "analytic";
   reference.available = reference.ok = true;
   reference.trajectory = corrupted;
-  const Comparison c = compare_methods(m, {reference, wrong}, Tolerances(m.tolerances));
+  const Comparison c = compare_methods(m, {reference, wrong},
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(c.pass());
   for (Quantity q : {Quantity::velocity, Quantity::acceleration, Quantity::force, Quantity::torque})
     EXPECT_FALSE(passes(c, "mujoco", q)) << to_string(q);
@@ -134,8 +137,8 @@ TEST(Trust, ALinkageWithNoSingularPositionLosesNoSample) {
   ASSERT_EQ(t.samples(), 361);
   const double force_rcond = kForceConditioning * typical_rcond(t);
   for (int k = 0; k < t.samples(); ++k) EXPECT_EQ(untrusted(t, k, force_rcond), "") << k;
-  const Comparison c =
-      compare_methods(m, {reference, wrong_method(t, 1.0)}, Tolerances(m.tolerances));
+  const Comparison c = compare_methods(m, {reference, wrong_method(t, 1.0)},
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_TRUE(c.pass());
   for (const ChannelResult& r : c.channels)
     EXPECT_EQ(r.metrics.usable, t.samples()) << r.metrics.channel;
@@ -161,7 +164,8 @@ TEST(Trust, TheNFourBarChainIsJudgedAlikeAtEverySizeAndUnit) {
     std::vector<MethodRun> runs = {reference};
     for (const char* engine : {"mujoco", "bullet"})
       runs.push_back(methods::run_method(engine, m, reference));
-    const Comparison c = compare_methods(m, runs, Tolerances(m.tolerances));
+    const Comparison c =
+        compare_methods(m, runs, Tolerances(methods::engine_tolerances(false), m.tolerances));
     EXPECT_TRUE(c.pass()) << k.n << " " << k.unit;
     for (size_t r = 1; r < c.methods.size(); ++r)
       for (PoseStatus s : c.methods[r].trajectory.status)

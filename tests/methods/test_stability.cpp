@@ -120,7 +120,8 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
                               !usable(run.trajectory.status[static_cast<size_t>(k)]));
       if (flagged) continue;
       double after = 0.0;  // largest position-class error after the event [% of peak]
-      const Comparison c = compare_methods(m, {reference, run}, Tolerances(m.tolerances));
+      const Comparison c =
+          compare_methods(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
       for (const ChannelResult& r : c.channels) {
         if (r.metrics.quantity != Quantity::position && r.metrics.quantity != Quantity::angle)
           continue;
@@ -133,7 +134,8 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
                             << " deg: nothing flagged near it, and afterwards the engine is "
                             << after << " % of peak off in position (another branch)";
     }
-    const Comparison cmp = compare_methods(m, {reference, run}, Tolerances(m.tolerances));
+    const Comparison cmp =
+        compare_methods(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
     if (run.ok)
       expect_flagged_samples_out_of_verdicts(cmp, what);
     else
@@ -191,13 +193,15 @@ TEST(Stability, MujocoDefaultSoftConstraintsFailTheVerdict) {
                     [](PoseStatus s) { return s == PoseStatus::loop_gap; });
   EXPECT_GT(flagged, 0) << watched.message;
   expect_flagged_samples_out_of_verdicts(
-      compare_methods(m, {reference, watched}, Tolerances(m.tolerances)), "soft, watched");
+      compare_methods(m, {reference, watched}, Tolerances(engine_tolerances(false), m.tolerances)),
+      "soft, watched");
 
   sim::Settings unwatched = soft;
   unwatched.emplace_back("gap_threshold", "1");  // judge every sample
   const MethodRun judged = run_method("mujoco", m, reference, unwatched);
   ASSERT_TRUE(judged.ok) << judged.message;
-  const Comparison cmp = compare_methods(m, {reference, judged}, Tolerances(m.tolerances));
+  const Comparison cmp =
+      compare_methods(m, {reference, judged}, Tolerances(engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(cmp.pass());
   double omega_rocker = 0.0;
   for (const ChannelResult& c : cmp.channels)
@@ -234,7 +238,7 @@ TEST(Stability, DynamicsAtACoarseStepIsReported) {
       const long flagged =
           std::count_if(run.trajectory.status.begin(), run.trajectory.status.end(),
                         [](PoseStatus s) { return !usable(s) && s != PoseStatus::singular; });
-      const Comparison cmp = compare_methods(m, {reference, run}, Tolerances(m));
+      const Comparison cmp = compare_methods(m, {reference, run}, default_tolerances(m));
       std::printf("%s: %s, %ld samples flagged, verdict %s\n", what.c_str(),
                   run.ok ? "finished" : "diverged", flagged, cmp.pass() ? "PASS" : "FAIL");
       EXPECT_TRUE(!run.ok || flagged > 0 || !cmp.pass()) << what << ": " << run.message;

@@ -134,7 +134,7 @@ TEST(Bullet, ReportsEverySetting) {
   const sim::EngineRun run =
       sim::make_bullet_engine()->run(m, ref, {{"steps_per_sample", "3"}, {"erp", "0.9"}});
   for (const char* name : {"formulation", "solver", "dt", "steps_per_sample", "iterations", "erp",
-                           "precision", "loop_gap_threshold", "perturb_link"})
+                           "precision", "gap_threshold", "perturb_link"})
     EXPECT_NE(setting(run, name), "<absent>") << name;
   EXPECT_EQ(setting(run, "precision"), "float64");
   EXPECT_EQ(setting(run, "steps_per_sample"), "3");

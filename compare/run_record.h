@@ -1,0 +1,27 @@
+// What a method's run carries besides its trajectory, in terms no engine defines: the settings it
+// ran with as (name, value) text and what it cost. The comparator prints them; an engine fills
+// them (sim/engine.h includes this header, never the other way: docs/design.md, "Layout").
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace crosslink {
+
+// Settings as (name, value) text pairs, printed with every result.
+using RunSettings = std::vector<std::pair<std::string, std::string>>;
+
+struct RunCost {
+  double wall_seconds = 0.0;            // total wall time of the run (build + steps)
+  double wall_seconds_per_cycle = 0.0;  // stepping time per simulated driver cycle (a dynamics
+                                        // case: per simulated second)
+  // The same in CPU time of the stepping thread (sim::thread_cpu_seconds): unlike the wall time
+  // it does not count the time other processes take the core, so it varies less between runs
+  // on a shared machine (the settings sweep's cost).
+  double cpu_seconds_per_cycle = 0.0;
+  long steps = 0;  // engine steps taken
+  double simulated_seconds = 0.0;
+};
+
+}  // namespace crosslink
