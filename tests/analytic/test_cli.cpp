@@ -62,7 +62,7 @@ std::string parallelogram_at(double degrees) {
 TEST(Cli, ChangePointsAsCheckNamesThem) {
   for (const double at : {0.0, 180.0}) {
     const std::string file = parallelogram_at(at);
-    for (const std::string& command : {"check ", "solve ", "solve --at 10 "}) {
+    for (const std::string command : {"check ", "solve ", "solve --at 10 "}) {
       const CommandRun run = crosslink(command + file);
       EXPECT_EQ(run.exit_code, 2) << command << at;
       EXPECT_NE(run.err.find(file + ":64:1: error: the drawn position"), std::string::npos)
@@ -710,7 +710,9 @@ TEST(Cli, NoOutputHoldsANumberForAValueThatDoesNotExist) {
     const bool has_value = exists(f[6], position ? "x" : kind);
     EXPECT_EQ(!f[9].empty(), has_ref) << line;
     EXPECT_EQ(!f[10].empty(), has_value) << line;
-    if (!has_ref || !has_value) EXPECT_TRUE(f[11].empty() && f[12].empty()) << line;
+    if (!has_ref || !has_value) {
+      EXPECT_TRUE(f[11].empty() && f[12].empty()) << line;
+    }
     // Every sample out of the verdict says why; every sample in it has no reason.
     EXPECT_EQ(f[7] == "0", !f[8].empty()) << line;
     checked += !has_ref;
