@@ -138,7 +138,9 @@ SettingValues::SettingValues(const SettingSchema& schema, std::string_view engin
                              const RunSettings& overrides)
     : schema_(schema), given_(schema.size(), false) {
   for (const SettingSpec& s : schema) text_.push_back(s.default_value);
-  for (const auto& [name, value] : overrides) {
+  for (const auto& setting : overrides) {
+    const std::string& name = setting.first;    // a plain reference: clang 14 cannot capture a
+    const std::string& value = setting.second;  // structured binding in the lambda below
     const auto it = std::find_if(schema.begin(), schema.end(),
                                  [&](const SettingSpec& s) { return s.name == name; });
     if (it == schema.end()) {
