@@ -1,10 +1,10 @@
 #include "analytic/sweep.h"
 
 #include "analytic/kinetostatics.h"
+#include "analytic/planar.h"
 
 #include <fmt/format.h>
 
-#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -314,8 +314,9 @@ class Tracer {
       }
       const Eigen::VectorXd dz = lu_.solve(rhs_);
       if (!dz.allFinite()) return false;
-      round_off = solver_.round_off_step(column_.cwiseProduct(dz), q);
-      q += column_.cwiseProduct(dz);
+      const Eigen::VectorXd dq = column_.cwiseProduct(dz);
+      round_off = solver_.round_off_step(dq, q);
+      q += dq;
     }
     return false;
   }
@@ -489,21 +490,31 @@ constexpr double kHeldDriver = 1e-3;
 // nears an asymptote (tests/fuzz/regressions/wanzer_parallel_slots_runaway.toml).
 constexpr double kEscape = 4.0;
 
-// The farthest any drawn point of a moving link is from where it was at q0, over the size.
-double escape(const Mechanism& m, const Eigen::VectorXd& q0, const Eigen::VectorXd& q,
-              double size) {
-  double farthest = 0.0;
+// Every drawn point of the moving links, in the world, at q (in link and point order).
+std::vector<Eigen::Vector2d> moving_points(const Mechanism& m, const Eigen::VectorXd& q) {
+  std::vector<Eigen::Vector2d> out;
   for (size_t l = 0; l < m.links.size(); ++l) {
     const int k = m.moving_index(static_cast<int>(l));
     if (k < 0) continue;
-    const Eigen::Rotation2Dd r0(q0(3 * k + 2)), r(q(3 * k + 2));
-    for (const Point& p : m.links[l].points) {
-      const Eigen::Vector2d moved =
-          q.segment<2>(3 * k) + r * p.local - q0.segment<2>(3 * k) - r0 * p.local;
-      farthest = std::max(farthest, moved.norm());
-    }
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    for (const Point& p : m.links[l].points) out.push_back(b.position(p.local));
   }
-  return farthest / size;
+  return out;
+}
+
+// The farthest any of `from` (moving_points at the leg's start) has moved at q.
+double farthest_move(const Mechanism& m, const std::vector<Eigen::Vector2d>& from,
+                     const Eigen::VectorXd& q) {
+  double farthest = 0.0;
+  size_t i = 0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    for (const Point& p : m.links[l].points)
+      farthest = std::max(farthest, (b.position(p.local) - from[i++]).norm());
+  }
+  return farthest;
 }
 
 struct LegLimits {
@@ -512,6 +523,18 @@ struct LegLimits {
   bool angular = true;
   int steps = 400000;  // SweepOptions::tracer_steps
 };
+
+// Ends the leg at its last node, where the tracer lost the curve: a branch_jump, with why.
+Leg& fail(Leg& leg, std::string message) {
+  const Tracer::Node& last = leg.nodes.back();
+  leg.failed = true;
+  leg.singular.push_back(
+      {SingularKind::branch_jump, last.driver, sign_of(last.t_driver), std::move(message)});
+  leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+  leg.singular_key.push_back(leg.key.back());
+  leg.end_key = leg.key.back();
+  return leg;
+}
 
 // Traces from `start` (already oriented) until a toggle (when stopping there), a whole driver
 // turn without toggles, the loop closing back on the start pose, or the reach.
@@ -530,6 +553,9 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
   int toggles = 0;
   // The driver's span over the current window of kHeldArc arclength, from held_key.
   double held_lo = start.driver, held_hi = start.driver, held_key = 0.0;
+  const Mechanism& m = solver.mechanism();
+  const std::vector<Eigen::Vector2d> start_points = moving_points(m, start.q);
+  const double escape_sizes = kEscape * m.moving_count();
   for (int steps = 0; steps < limits.steps; ++steps) {
     const int i = static_cast<int>(leg.nodes.size()) - 1;
     const Tracer::Node cur = leg.nodes[static_cast<size_t>(i)];
@@ -543,16 +569,9 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
     if (!ok) {
       h *= 0.5;
       if (h < h_min) {
-        leg.failed = true;
-        leg.singular.push_back(
-            {SingularKind::branch_jump, cur.driver, sign_of(cur.t_driver),
-             fmt::format("branch_jump: the chain cannot be followed beyond driver = {:.12g}: the "
-                         "only nearby solutions are on another branch",
-                         cur.driver)});
-        leg.singular_node.push_back(i);
-        leg.singular_key.push_back(leg.key.back());
-        leg.end_key = leg.key.back();
-        return leg;
+        return fail(leg, fmt::format("branch_jump: the chain cannot be followed beyond driver = "
+                                     "{:.12g}: the only nearby solutions are on another branch",
+                                     cur.driver));
       }
       continue;
     }
@@ -653,20 +672,12 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       leg.end_key = leg.key.back();
       return leg;
     }
-    if (escape(solver.mechanism(), start.q, next.q, solver.length_scale()) >
-        kEscape * solver.mechanism().moving_count()) {
-      leg.failed = true;
-      leg.singular.push_back(
-          {SingularKind::branch_jump, next.driver, sign_of(next.t_driver),
-           fmt::format("branch_jump: the chain runs off to infinity near driver = {:.12g} (a "
-                       "point moved {:g} times the drawing's size, {:g} for each moving link): "
-                       "the driver nears an asymptote, so the chain cannot be followed",
-                       next.driver, kEscape * solver.mechanism().moving_count(), kEscape)});
-      leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
-      leg.singular_key.push_back(leg.key.back());
-      leg.end_key = leg.key.back();
-      return leg;
-    }
+    if (farthest_move(m, start_points, next.q) > escape_sizes * solver.length_scale())
+      return fail(leg, fmt::format("branch_jump: the chain runs off to infinity near driver = "
+                                   "{:.12g} (a point moved {:g} times the drawing's size, {:g} "
+                                   "for each moving link): the driver nears an asymptote, so the "
+                                   "chain cannot be followed",
+                                   next.driver, escape_sizes, kEscape));
     held_lo = std::min(held_lo, next.driver);
     held_hi = std::max(held_hi, next.driver);
     if (leg.key.back() - held_key < kHeldArc) continue;
@@ -674,30 +685,17 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       held_lo = held_hi = next.driver;
       held_key = leg.key.back();
     } else {
-      leg.failed = true;
-      leg.singular.push_back(
-          {SingularKind::branch_jump, next.driver, sign_of(next.t_driver),
-           fmt::format(
-               "branch_jump: the chain moves with the driver held at driver = {:.12g} "
-               "(ten link turns of motion with the driver within {:.0e} of its unit): the driver "
-               "does not set the pose there, so the chain cannot be followed",
-               next.driver, kHeldDriver)});
-      leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
-      leg.singular_key.push_back(leg.key.back());
-      leg.end_key = leg.key.back();
-      return leg;
+      return fail(leg, fmt::format("branch_jump: the chain moves with the driver held at driver "
+                                   "= {:.12g} (ten link turns of motion with the driver within "
+                                   "{:.0e} of its unit): the driver does not set the pose there, "
+                                   "so the chain cannot be followed",
+                                   next.driver, kHeldDriver));
     }
   }
-  leg.failed = true;
-  leg.singular.push_back(
-      {SingularKind::branch_jump, leg.nodes.back().driver, sign_of(leg.nodes.back().t_driver),
-       fmt::format("branch_jump: the tracer's budget of {} steps ran out at driver = {:.12g}, "
-                   "before a limit or a whole cycle, so the chain is not followed beyond",
-                   limits.steps, leg.nodes.back().driver)});
-  leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
-  leg.singular_key.push_back(leg.key.back());
-  leg.end_key = leg.key.back();
-  return leg;
+  return fail(leg, fmt::format("branch_jump: the tracer's budget of {} steps ran out at driver = "
+                               "{:.12g}, before a limit or a whole cycle, so the chain is not "
+                               "followed beyond",
+                               limits.steps, leg.nodes.back().driver));
 }
 
 // Where a sample solved by Newton is too near a singular position for its rates to be exact to
