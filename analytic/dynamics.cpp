@@ -36,8 +36,7 @@ class EquationOfMotion {
         solver_(m, NewtonOptions{.tolerance = 1e-15}),
         kinetostatics_(solver_),
         state_(m),
-        g0_(m.coordinate_count()),
-        g1_(m.coordinate_count()),
+        applied_(m.coordinate_count()),
         s_(m.coordinate_count()),
         q_last_(m.coordinate_count()),
         s_last_(m.coordinate_count()),
@@ -52,6 +51,7 @@ class EquationOfMotion {
     if (const std::string why = singular_start(m, assembled.rcond); !why.empty())
       throw Stopped{0.0, PoseStatus::singular, why};
     near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
+    interpolated_rcond_ = std::min(1e-3, 3e-2 * assembled.rcond);
     d_last_ = state_.driver.value;
     q_last_ = state_.q;
     unit_rate();
@@ -76,44 +76,24 @@ class EquationOfMotion {
   }
 
   // The coordinate's acceleration at (d, ddot) under `effort`, and the power of the loads and
-  // dampers. Next to a singular position (a change point, where J loses rank but the motion
-  // goes on smoothly) the pose is resolved only to Newton's tolerance over the condition, and s
-  // and qddot0 to round-off over it, so there both come from six regular evaluations around it
-  // (d + k delta, k = +-1, +-2, +-3, Lagrange weights at 0): the error is ~delta^6 times the
-  // sixth derivative, delta = 0.01 rad (or 0.01 of the size).
+  // dampers, from the reduced equation of motion m(d) dddot + c(d) ddot^2 = effort + s^T Q.
+  // Next to a singular position (a change point, where J loses rank but the motion goes on
+  // smoothly) s and ds/dd carry round-off times the square of J's condition, so there the
+  // kinematic terms (s, ds/dd, m, c: functions of d alone, smooth along the branch) come from
+  // eight regular poses around it (d + k delta, k = +-1 .. +-4, Lagrange weights at 0; error
+  // ~0.014 delta^8 times their eighth derivative), while Q (loads, springs, dampers, gravity,
+  // which may have a kink there) is taken at d itself. The zone's edge (rcond 1e-3 on A02)
+  // balances the two errors: with its edge at 1e-4 and six nodes, a regular evaluation at the
+  // edge was off by 1e-8 of the acceleration, and a one-ulp change of the mass moved A02's
+  // energy balance over 10 s between 7e-10 and 9e-9 J (docs/dynamics.md).
   double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
     rcond_ = move_to(t, d);
-    if (rcond_ >= near_singular_rcond_) return regular(t, d, ddot, effort, power);
-    // Nodes 0.005 rad (or of the size) apart, spread twice as far while one of them is itself
-    // next to the singular position: the longer the chain, the wider that zone (A02: 0.002 rad
-    // at N = 2, 0.03 at N = 10).
-    const double offsets[6] = {-3.0, -2.0, -1.0, 1.0, 2.0, 3.0};
-    const double weights[6] = {1.0 / 20, -3.0 / 10, 3.0 / 4, 3.0 / 4, -3.0 / 10, 1.0 / 20};
-    double dddot = 0.0, p = 0.0;
-    for (double delta = 5e-3 * (m_.driver.angular() ? 1.0 : m_.size());; delta *= 2.0) {
-      if (delta > kWidestSpread * (m_.driver.angular() ? 1.0 : m_.size()))
-        throw Stopped{t, PoseStatus::singular,
-                      fmt::format("singular on both sides of coordinate {:.12g}", d)};
-      bool regular_nodes = true;
-      dddot = p = 0.0;
-      for (int i = 0; i < 6 && regular_nodes; ++i) {
-        regular_nodes = move_to(t, d + offsets[i] * delta) >= near_singular_rcond_;
-        double pi = 0.0;
-        if (regular_nodes)
-          dddot += weights[i] * regular(t, d + offsets[i] * delta, ddot, effort, &pi);
-        p += weights[i] * pi;
-      }
-      if (!regular_nodes) continue;
-      break;
-    }
-    // The state at d itself: its pose, with the rates of the smooth branch where it can.
-    move_to(t, d);
-    state_.qdot = s_ * ddot;
-    state_.driver = {t, d, ddot, dddot};
-    solver_.solve_acceleration(state_);
-    if (power) *power = p;
-    near_singular_ = true;
-    return dddot;
+    near_singular_ = rcond_ < interpolated_rcond_;
+    if (near_singular_)
+      interpolate(t, d);
+    else
+      reduce(t, d, here_);
+    return motion(t, d, ddot, effort, power);
   }
 
   // Whether the last acceleration() was taken next to a singular position.
@@ -121,25 +101,74 @@ class EquationOfMotion {
 
  private:
   // The widest spacing of the interpolation's nodes [rad, or of the size]: 0.16, so the nodes
-  // span +-0.48 and the interpolation's error, ~(spacing)^6 times the sixth derivative, is still
+  // span +-0.64 and the interpolation's error, ~(spacing)^8 times the eighth derivative, is still
   // small against the motion's scale.
   static constexpr double kWidestSpread = 0.16;
 
-  double regular(double t, double d, double ddot, double effort, double* power) {
-    near_singular_ = false;
-    state_.qdot = s_ * ddot;
-    state_.driver = {t, d, ddot, 0.0};
+  // The kinematics of the reduced equation at a pose: s = dq/dd; a = d2q/dd2 (qddot at unit
+  // rate and no coordinate acceleration); m = s^T M s, twice the kinetic energy at unit rate (a
+  // sum of squares: as the difference of two force evaluations it drowned in a fast coasting
+  // chain's centripetal terms, and 1e6 rev/s read a mass of 0); c = s^T M a = m'/2, the kinetic
+  // energy's rate at unit rate.
+  struct Reduced {
+    Eigen::VectorXd s, a;
+    double mass = 0.0, velocity_product = 0.0;
+  };
+
+  // The reduced kinematics at the pose move_to(t, d) left.
+  void reduce(double t, double d, Reduced& r) {
+    state_.qdot = s_;
+    state_.driver = {t, d, 1.0, 0.0};
     solver_.solve_acceleration(state_);
-    kinetostatics_.generalised_forces(state_, g0_);
-    state_.qddot += s_;
-    kinetostatics_.generalised_forces(state_, g1_);
-    state_.qddot -= s_;
-    const double mass = s_.dot(g0_ - g1_);  // s^T M s
-    if (!(mass > 0.0))
-      throw Stopped{t, PoseStatus::singular,
-                    fmt::format("the generalised mass is {:g} at coordinate {:.12g}", mass, d)};
-    const double dddot = (effort + s_.dot(g0_)) / mass;
-    state_.qddot += s_ * dddot;
+    r.s = s_;
+    r.a = state_.qddot;
+    r.mass = 2.0 * kinetostatics_.kinetic_energy(state_);
+    r.velocity_product = kinetostatics_.kinetic_energy_rate(state_);
+  }
+
+  // here_ from regular poses around d: nodes 0.005 rad (or of the size) apart, spread twice as
+  // far while one of them is itself next to the singular position (the longer the chain, the
+  // wider that zone). Leaves the pose at d.
+  void interpolate(double t, double d) {
+    constexpr std::array<double, 8> offsets = {-4.0, -3.0, -2.0, -1.0, 1.0, 2.0, 3.0, 4.0};
+    constexpr std::array<double, 8> weights = {-1.0 / 70, 4.0 / 35, -2.0 / 5, 4.0 / 5,
+                                               4.0 / 5,   -2.0 / 5, 4.0 / 35, -1.0 / 70};
+    const double unit = m_.driver.angular() ? 1.0 : m_.size();
+    for (double delta = 5e-3 * unit;; delta *= 2.0) {
+      if (delta > kWidestSpread * unit)
+        throw Stopped{t, PoseStatus::singular,
+                      fmt::format("singular on both sides of coordinate {:.12g}", d)};
+      here_.s.setZero();
+      here_.a.setZero();
+      here_.mass = here_.velocity_product = 0.0;
+      bool regular_nodes = true;
+      for (size_t i = 0; i < offsets.size() && regular_nodes; ++i) {
+        const double node = d + offsets[i] * delta;
+        regular_nodes = move_to(t, node) >= interpolated_rcond_;
+        if (!regular_nodes) break;
+        reduce(t, node, node_);
+        here_.s += weights[i] * node_.s;
+        here_.a += weights[i] * node_.a;
+        here_.mass += weights[i] * node_.mass;
+        here_.velocity_product += weights[i] * node_.velocity_product;
+      }
+      if (regular_nodes) break;
+    }
+    move_to(t, d);
+  }
+
+  // The acceleration from here_ and Q at the pose at d; leaves the state at (d, ddot, dddot).
+  double motion(double t, double d, double ddot, double effort, double* power) {
+    if (!(here_.mass > 0.0))
+      throw Stopped{
+          t, PoseStatus::singular,
+          fmt::format("the generalised mass is {:g} at coordinate {:.12g}", here_.mass, d)};
+    state_.qdot = here_.s * ddot;
+    state_.driver = {t, d, ddot, 0.0};
+    kinetostatics_.generalised_forces(state_, applied_, false);
+    const double dddot =
+        (effort + here_.s.dot(applied_) - ddot * ddot * here_.velocity_product) / here_.mass;
+    state_.qddot = here_.a * (ddot * ddot) + here_.s * dddot;
     state_.driver.accel = dddot;
     if (power) *power = kinetostatics_.load_power(state_);
     return dddot;
@@ -205,13 +234,16 @@ class EquationOfMotion {
   NewtonSolver solver_;
   Kinetostatics kinetostatics_;
   KinematicState state_;
-  Eigen::VectorXd g0_, g1_, s_, q_last_, s_last_, guess_;
+  Eigen::VectorXd applied_, s_, q_last_, s_last_, guess_;
+  Reduced here_, node_;  // at the coordinate, and at one interpolation node
   double d_last_ = 0.0, rcond_ = 1.0;
   long evaluations_ = 0;
   bool near_singular_ = false;
   // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
-  // to its tolerance over it) are interpolated.
+  // to its tolerance over it) are stepped over by the continuation, not started from.
   double near_singular_rcond_ = 1e-4;
+  // Poses closer than this have their acceleration interpolated (see acceleration()).
+  double interpolated_rcond_ = 1e-3;
 };
 
 }  // namespace

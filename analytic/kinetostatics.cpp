@@ -83,7 +83,8 @@ ForceSample Kinetostatics::make_sample() const {
   return s;
 }
 
-void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const {
+void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::VectorXd& out,
+                                       bool inertia) const {
   const Mechanism& m = solver_.mechanism();
   applied_loads(m, state, out);
   for (size_t l = 0; l < m.links.size(); ++l) {
@@ -92,8 +93,11 @@ void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::Vecto
     const BodyMotion b = motion(m, static_cast<int>(l), state);
     const MassProperties& mp = link.mass;
     // Gravity and d'Alembert's inertia force at the centre of mass, and the inertia couple.
-    const Eigen::Vector2d force = mp.mass * (m.gravity - b.acceleration(mp.com));
-    add_at(m, out, static_cast<int>(l), b.turn(mp.com), force, -mp.inertia * b.alpha);
+    const Eigen::Vector2d force =
+        inertia ? Eigen::Vector2d(mp.mass * (m.gravity - b.acceleration(mp.com)))
+                : Eigen::Vector2d(mp.mass * m.gravity);
+    add_at(m, out, static_cast<int>(l), b.turn(mp.com), force,
+           inertia ? -mp.inertia * b.alpha : 0.0);
   }
 }
 
@@ -193,6 +197,19 @@ double Kinetostatics::kinetic_energy(const KinematicState& state) const {
                      link.mass.inertia * b.omega * b.omega);
   }
   return energy;
+}
+
+double Kinetostatics::kinetic_energy_rate(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double rate = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    rate += link.mass.mass * b.velocity(link.mass.com).dot(b.acceleration(link.mass.com)) +
+            link.mass.inertia * b.omega * b.alpha;
+  }
+  return rate;
 }
 
 double Kinetostatics::potential_energy(const KinematicState& state) const {

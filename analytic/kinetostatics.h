@@ -77,12 +77,16 @@ class Kinetostatics {
   // The kinetic energy and the potential energy of gravity and springs at the state [J].
   double kinetic_energy(const KinematicState& state) const;
   double potential_energy(const KinematicState& state) const;
+  // d/dt of the kinetic energy at the state, qdot^T M qddot [W].
+  double kinetic_energy_rate(const KinematicState& state) const;
   // The power of the loads less the dampers' dissipation at the state [W].
   double load_power(const KinematicState& state) const;
 
   // Q - M qddot at the state: per moving link, the generalised applied and inertia forces (force,
-  // and moment about the frame origin). Forward dynamics builds its equation from it.
-  void generalised_forces(const KinematicState& state, Eigen::VectorXd& out) const;
+  // and moment about the frame origin); Q alone (loads, springs, dampers, gravity) without
+  // `inertia`. Forward dynamics builds its equation from it.
+  void generalised_forces(const KinematicState& state, Eigen::VectorXd& out,
+                          bool inertia = true) const;
 
  private:
   const NewtonSolver& solver_;
