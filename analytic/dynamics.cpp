@@ -88,15 +88,17 @@ class EquationOfMotion {
   // energy balance over 10 s between 7e-10 and 9e-9 J (docs/dynamics.md).
   double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
     rcond_ = move_to(t, d);
-    near_singular_ = rcond_ < interpolated_rcond_;
-    if (near_singular_)
+    near_singular_ = rcond_ < near_singular_rcond_;
+    if (rcond_ < interpolated_rcond_)
       interpolate(t, d);
     else
       reduce(t, d, here_);
     return motion(t, d, ddot, effort, power);
   }
 
-  // Whether the last acceleration() was taken next to a singular position.
+  // Whether the pose of the last acceleration() is next to a singular position: resolved only to
+  // Newton's tolerance over J's condition, a sample there is flagged (the interpolation's zone
+  // is wider: its edge serves the integration, where 1e-10 of an acceleration matters).
   bool near_singular() const { return near_singular_; }
 
  private:
@@ -126,33 +128,38 @@ class EquationOfMotion {
     r.velocity_product = kinetostatics_.kinetic_energy_rate(state_);
   }
 
-  // here_ from regular poses around d: nodes 0.005 rad (or of the size) apart, spread twice as
-  // far while one of them is itself next to the singular position (the longer the chain, the
-  // wider that zone). Leaves the pose at d.
+  // here_ from eight regular poses d + k delta (k = +-1 .. +-4, Lagrange weights at 0), delta
+  // the distance from d to the farther edge of the zone next to the singular position, found
+  // in steps of 0.005 rad (or of the size). (Doubling delta from 0.005 until the nodes cleared
+  // the zone left a sample near one edge 0.08 rad apart, off by 1e-9 of the energy.) Leaves the
+  // pose at d.
   void interpolate(double t, double d) {
     constexpr std::array<double, 8> offsets = {-4.0, -3.0, -2.0, -1.0, 1.0, 2.0, 3.0, 4.0};
     constexpr std::array<double, 8> weights = {-1.0 / 70, 4.0 / 35, -2.0 / 5, 4.0 / 5,
                                                4.0 / 5,   -2.0 / 5, 4.0 / 35, -1.0 / 70};
-    const double unit = m_.driver.angular() ? 1.0 : m_.size();
-    for (double delta = 5e-3 * unit;; delta *= 2.0) {
-      if (delta > kWidestSpread * unit)
-        throw Stopped{t, PoseStatus::singular,
-                      fmt::format("singular on both sides of coordinate {:.12g}", d)};
-      here_.s.setZero();
-      here_.a.setZero();
-      here_.mass = here_.velocity_product = 0.0;
-      bool regular_nodes = true;
-      for (size_t i = 0; i < offsets.size() && regular_nodes; ++i) {
-        const double node = d + offsets[i] * delta;
-        regular_nodes = move_to(t, node) >= interpolated_rcond_;
-        if (!regular_nodes) break;
-        reduce(t, node, node_);
-        here_.s += weights[i] * node_.s;
-        here_.a += weights[i] * node_.a;
-        here_.mass += weights[i] * node_.mass;
-        here_.velocity_product += weights[i] * node_.velocity_product;
+    const double unit = m_.driver.angular() ? 1.0 : m_.size(), step = 5e-3 * unit;
+    double delta = step;
+    for (const int side : {-1, 1})
+      while (move_to(t, d + side * delta) < interpolated_rcond_) {
+        delta += step;
+        if (delta > kWidestSpread * unit)
+          throw Stopped{t, PoseStatus::singular,
+                        fmt::format("singular on both sides of coordinate {:.12g}", d)};
       }
-      if (regular_nodes) break;
+    here_.s.setZero();
+    here_.a.setZero();
+    here_.mass = here_.velocity_product = 0.0;
+    for (size_t i = 0; i < offsets.size(); ++i) {
+      const double node = d + offsets[i] * delta;
+      if (move_to(t, node) < interpolated_rcond_)
+        throw Stopped{
+            t, PoseStatus::singular,
+            fmt::format("no regular poses at {:g} apart around coordinate {:.12g}", delta, d)};
+      reduce(t, node, node_);
+      here_.s += weights[i] * node_.s;
+      here_.a += weights[i] * node_.a;
+      here_.mass += weights[i] * node_.mass;
+      here_.velocity_product += weights[i] * node_.velocity_product;
     }
     move_to(t, d);
   }
