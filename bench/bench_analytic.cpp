@@ -30,6 +30,7 @@
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "analytic/planar.h"
+#include "tests/common/crank_rocker.h"
 
 namespace crosslink {
 namespace {
@@ -165,74 +166,11 @@ void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c, boo
 
 constexpr double kA = 0.04, kB = 0.12, kC = 0.08, kD = 0.10;  // crank, coupler, rocker, ground
 
-// Used when mechanisms/fourbar_crank_rocker.toml is not there: the same four-bar, drawn at a
-// crank angle of 0 on the open assembly (C above AD).
-const char* const kFourBar = R"toml(name = "crank-rocker four-bar (built in)"
-[units]
-length = "m"
-angle = "deg"
-[[link]]
-name = "ground"
-ground = true
-points = { A = [0, 0], D = [0.10, 0] }
-[[link]]
-name = "crank"
-points = { A = [0, 0], B = [0.04, 0] }
-pose = [0, 0, 0]
-[[link]]
-name = "coupler"
-points = { B = [0, 0], C = [0.12, 0] }
-pose = [0.04, 0, 36.336]
-[[link]]
-name = "rocker"
-points = { D = [0, 0], C = [0.08, 0] }
-pose = [0.10, 0, 62.720]
-[[joint]]
-type = "revolute"
-links = ["ground", "crank"]
-point = "A"
-[[joint]]
-type = "revolute"
-links = ["crank", "coupler"]
-point = "B"
-[[joint]]
-type = "revolute"
-links = ["coupler", "rocker"]
-point = "C"
-[[joint]]
-type = "revolute"
-links = ["ground", "rocker"]
-point = "D"
-[driver]
-type = "joint_angle"
-joint = "A"
-to = "B"
-start = 0
-speed = 240
-speed_unit = "rpm"
-)toml";
-
+// The shared crank-rocker (tests/common/crank_rocker.h), drawn at a crank angle of 0 on the open
+// assembly (C above AD), as SolveSpace is given it.
 Mechanism four_bar() {
-  const std::string path = "mechanisms/fourbar_crank_rocker.toml";
-  if (std::filesystem::exists(path)) {
-    const Mechanism m = load_mechanism(path);
-    // Only if it is the four-bar this comparison is about: link lengths a, b, c, d.
-    auto length = [&](const char* link, const char* from, const char* to) {
-      const int l = m.find_link(link);
-      if (l < 0) return -1.0;
-      const int i = m.links[l].find_point(from), j = m.links[l].find_point(to);
-      if (i < 0 || j < 0) return -1.0;
-      return (m.links[l].points[i].local - m.links[l].points[j].local).norm();
-    };
-    const bool same = std::abs(length("crank", "A", "B") - kA) < 1e-12 &&
-                      std::abs(length("coupler", "B", "C") - kB) < 1e-12 &&
-                      std::abs(length("rocker", "D", "C") - kC) < 1e-12 &&
-                      std::abs(length("ground", "A", "D") - kD) < 1e-12;
-    if (same && m.links.size() == 4 && m.driver.start == 0.0) return m;
-    fmt::print(stderr,
-               "bench_analytic: {} is not the a, b, c, d four-bar; using the built-in one\n", path);
-  }
-  return parse_mechanism(kFourBar, "fourbar (built in)");
+  return parse_mechanism(test::crank_rocker(0.0, "speed = 240\nspeed_unit = \"rpm\"\n").text(),
+                         "crank-rocker (tests/common/crank_rocker.h)");
 }
 
 // World position of point `name` of link `link` at coordinates q.

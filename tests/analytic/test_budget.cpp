@@ -13,61 +13,21 @@
 
 #include "analytic/budget.h"
 #include "analytic/loader.h"
+#include "tests/common/crank_rocker.h"
 
 namespace crosslink {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// The crank-rocker of test_validation: crank AB 0.04, coupler 0.12, rocker 0.08, ground 0.10 m,
-// drawn at 60 degrees; the crank turns fully. `driver` is its [driver] table's last lines.
-std::string four_bar(const std::string& driver = "speed = 10\n") {
-  return R"(name = "four-bar"
-[units]
-length = "m"
-angle = "deg"
-[[link]]
-name = "ground"
-ground = true
-points = { A = [0, 0], D = [0.10, 0] }
-[[link]]
-name = "crank"
-points = { A = [0, 0], B = [0.04, 0] }
-pose = [0, 0, 60]
-[[link]]
-name = "coupler"
-points = { B = [0, 0], C = [0.12, 0] }
-pose = [0.02, 0.034641, 18.38]
-[[link]]
-name = "rocker"
-points = { D = [0, 0], C = [0.08, 0] }
-pose = [0.10, 0, 64.94]
-[[joint]]
-type = "revolute"
-links = ["ground", "crank"]
-point = "A"
-[[joint]]
-type = "revolute"
-links = ["crank", "coupler"]
-point = "B"
-[[joint]]
-type = "revolute"
-links = ["coupler", "rocker"]
-point = "C"
-[[joint]]
-type = "revolute"
-links = ["ground", "rocker"]
-point = "D"
-[driver]
-type = "joint_angle"
-joint = "A"
-to = "B"
-start = 60
-)" + driver;
+// The shared crank-rocker (tests/common/crank_rocker.h), drawn at 60 degrees; the crank turns
+// fully. `law` is its [driver] table's last lines.
+std::string four_bar(const std::string& law = "speed = 10\n") {
+  return test::crank_rocker(60.0, law).text();
 }
 
-// Line 42 of four_bar() is the first of `driver`.
-constexpr int kDriverLine = 42;
+// The line of four_bar() that holds the first of `law`.
+const int kDriverLine = test::line_of(four_bar(), "start = 60") + 1;
 
 WorkLimits limit(long samples) {
   return {samples};

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "tests/common/cli.h"
+#include "tests/common/crank_rocker.h"
 
 namespace {
 
@@ -139,56 +140,26 @@ TEST(Cli, CheckRejectsABadFileWithItsLocation) {
 
 TEST(Cli, CheckReportsAChainThatCannotAssembleWithTheDriverValue) {
   // Ground AD 0.10, crank AB 0.08 at 180 degrees: |BD| = 0.18 m > BC + CD = 0.04 + 0.05.
-  const std::string path = write_definition("open.toml", R"(name = "open four-bar"
-[units]
-length = "m"
-angle = "deg"
-[[link]]
-name = "ground"
-ground = true
-points = { A = [0, 0], D = [0.10, 0] }
-[[link]]
-name = "crank"
-points = { A = [0, 0], B = [0.08, 0] }
-pose = [0, 0, 180]
-[[link]]
-name = "coupler"
-points = { B = [0, 0], C = [0.04, 0] }
-[[link]]
-name = "rocker"
-points = { D = [0, 0], C = [0.05, 0] }
-[[joint]]
-type = "revolute"
-links = ["ground", "crank"]
-point = "A"
-[[joint]]
-type = "revolute"
-links = ["crank", "coupler"]
-point = "B"
-[[joint]]
-type = "revolute"
-links = ["coupler", "rocker"]
-point = "C"
-[[joint]]
-type = "revolute"
-links = ["ground", "rocker"]
-point = "D"
-[driver]
-type = "joint_angle"
-joint = "A"
-to = "B"
-start = 180
-speed = 1
-)");
+  crosslink::test::CrankRockerText open = crosslink::test::crank_rocker(180.0, "speed = 1\n");
+  open.moving =
+      "\n[[link]]\nname = \"crank\"\npoints = { A = [0, 0], B = [0.08, 0] }\n"
+      "pose = [0, 0, 180]\n[[link]]\nname = \"coupler\"\n"
+      "points = { B = [0, 0], C = [0.04, 0] }\n[[link]]\nname = \"rocker\"\n"
+      "points = { D = [0, 0], C = [0.05, 0] }\n";
+  const std::string text = open.text();
+  const std::string path = write_definition("open.toml", text);
+  const int driver_line = crosslink::test::line_of(text, "[driver]");
   const CommandRun run = crosslink("check \"" + path + "\"");
   EXPECT_EQ(run.exit_code, 2);
-  // At the place of the [driver] table (line 35), whose start value cannot be assembled.
-  EXPECT_NE(run.err.find(path + ":35:1: error: cannot assemble at driver = 180 deg"),
+  // At the place of the [driver] table, whose start value cannot be assembled.
+  EXPECT_NE(run.err.find(fmt::format("{}:{}:1: error: cannot assemble at driver = 180 deg", path,
+                                     driver_line)),
             std::string::npos)
       << run.err;
   const CommandRun solve = crosslink("solve \"" + path + "\" --at 180");
   EXPECT_EQ(solve.exit_code, 2);
-  EXPECT_NE(solve.err.find(path + ":35:1: error: cannot_assemble at driver = 180"),
+  EXPECT_NE(solve.err.find(
+                fmt::format("{}:{}:1: error: cannot_assemble at driver = 180", path, driver_line)),
             std::string::npos)
       << solve.err;
 }

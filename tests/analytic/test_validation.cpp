@@ -24,72 +24,16 @@
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
+#include "tests/common/crank_rocker.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {
 namespace {
 
-const std::string kHeader = R"(name = "four-bar"
-[units]
-length = "m"
-angle = "deg"
-)";
-
-const std::string kGround = R"(
-[[link]]
-name = "ground"
-ground = true
-points = { A = [0, 0], D = [0.10, 0] }
-)";
-
-const std::string kMoving = R"(
-[[link]]
-name = "crank"
-points = { A = [0, 0], B = [0.04, 0] }
-pose = [0, 0, 60]
-
-[[link]]
-name = "coupler"
-points = { B = [0, 0], C = [0.12, 0] }
-pose = [0.02, 0.034641, 18.38]
-
-[[link]]
-name = "rocker"
-points = { D = [0, 0], C = [0.08, 0] }
-pose = [0.10, 0, 64.94]
-)";
-
-const std::string kJoints = R"(
-[[joint]]
-type = "revolute"
-links = ["ground", "crank"]
-point = "A"
-
-[[joint]]
-type = "revolute"
-links = ["crank", "coupler"]
-point = "B"
-
-[[joint]]
-type = "revolute"
-links = ["coupler", "rocker"]
-point = "C"
-
-[[joint]]
-type = "revolute"
-links = ["ground", "rocker"]
-point = "D"
-)";
-
-const std::string kDriver = R"(
-[driver]
-type = "joint_angle"
-joint = "A"
-to = "B"
-start = 60
-speed = 10
-speed_unit = "rad/s"
-)";
+// The shared crank-rocker (tests/common/crank_rocker.h), drawn at 60 degrees, in parts.
+const test::CrankRockerText kBase = test::crank_rocker();
+const std::string kHeader = kBase.header, kGround = kBase.ground, kMoving = kBase.moving,
+                  kJoints = kBase.joints, kDriver = kBase.driver;
 
 std::string four_bar() {
   return kHeader + kGround + kMoving + kJoints + kDriver;
