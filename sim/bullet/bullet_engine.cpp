@@ -10,6 +10,7 @@
 #include "analytic/trust.h"
 #include "sim/forces.h"
 #include "sim/sampling.h"
+#include "sim/scene_graph.h"
 #include "sim/settings.h"
 #include "sim/statuses.h"
 
@@ -34,7 +35,6 @@
 #include <memory>
 #include <numbers>
 #include <optional>
-#include <queue>
 #include <stdexcept>
 
 #include "analytic/newton.h"
@@ -192,8 +192,9 @@ Config parse_settings(const Settings& overrides) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Scene graph: nodes are the moving links plus one sliding block per pin-in-slot joint (the
-// block slides on the line and carries the pin), edges the joints between them.
+// The scene graph (sim/scene_graph.h) in Bullet's terms: nodes are its bodies but the ground
+// (the moving links, then one sliding block per pin-in-slot joint; node = body - 1), edges its
+// joints (-1 is the ground).
 
 struct Node {
   int link = -1;                                  // mechanism link, or -1 for a block
@@ -230,7 +231,6 @@ struct Plan {
   std::vector<Node> nodes;
   std::vector<Edge> edges;
   int driver_edge = -1;        // edge whose coordinate is driven
-  double driver_sign = 1.0;    // joint coordinate = sign * driver value + constant
   bool driver_planar = false;  // link angle driven through a planar ground joint
   // Spanning forest (multibody formulation)
   std::vector<int> order;        // nodes in insertion order (parents first)
@@ -245,200 +245,54 @@ int node_of_link(const Plan& plan, int link) {
   return -1;
 }
 
-// The definition's mass properties (Link::mass); a sliding block (multibody only) has
-// auxiliary_mass() and a negligible inertia.
-void mass_model(const Mechanism& m, Node& node) {
-  if (node.link < 0) {
-    node.mass = auxiliary_mass(m);
-    node.inertia = node.mass * 1e-4 * m.size() * m.size();
-    return;
-  }
-  const MassProperties mp = scene_mass(m, node.link);
-  node.com = mp.com;
-  node.mass = mp.mass;
-  node.inertia = mp.inertia;
-}
-
-Plan make_plan(const Mechanism& m) {
+// The graph's tree policy for Bullet: a floating link's driven angle is a planar ground joint's
+// (rigid: a ground constraint locking only its rotation), ground pivots enter the tree before the
+// other hinges, and the multibody formulation splits the loops that would close inside one
+// multibody (`split_error` says when it cannot).
+Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
+  TreePolicy policy;
+  policy.ground_pivots_first = true;
+  policy.planar_joints = true;
+  policy.split_loops = multibody;
+  const SceneGraph g = scene_graph(m, policy);
+  if (split_error) *split_error = g.split_error;
+  const auto node = [](int body) { return body - 1; };
   Plan plan;
-  for (size_t l = 0; l < m.links.size(); ++l)
-    if (!m.links[l].ground) plan.nodes.push_back({static_cast<int>(l), -1});
-  const int ground = m.ground();
-  auto node = [&](int link) { return link == ground ? -1 : node_of_link(plan, link); };
-  const Driver& d = m.driver;
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    const Link& la = m.links[j.link_a];
-    const Link& lb = m.links[j.link_b];
+  for (size_t i = 1; i < g.bodies.size(); ++i) {
+    const SceneBody& body = g.bodies[i];
+    plan.nodes.push_back({body.source, body.joint, body.centre, body.mass, body.inertia});
+  }
+  for (const SceneJoint& j : g.joints) {
     Edge e;
-    e.joint = static_cast<int>(ji);
-    e.a = node(j.link_a);
-    e.b = node(j.link_b);
-    e.pb = lb.points[j.point_b].local;
-    if (j.type == JointType::revolute) {
-      e.pa = la.points[j.point_a].local;
-      plan.edges.push_back(e);
-      continue;
-    }
-    const Line& line = la.lines[j.line];
-    e.kind = Edge::Kind::prismatic;
-    e.pa = line.origin;
-    e.axis = line.direction;
-    if (j.type == JointType::prismatic) {
-      e.phi = j.relative_angle;
-      plan.edges.push_back(e);
-      if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
-        plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-      continue;
-    }
-    // Pin in slot: guide -> block (prismatic, same angle), block -> pin link (revolute).
-    Node block;
-    block.joint = static_cast<int>(ji);
-    plan.nodes.push_back(block);
-    const int bn = static_cast<int>(plan.nodes.size()) - 1;
-    Edge slide = e;
-    slide.b = bn;
-    slide.pb = Eigen::Vector2d::Zero();
-    slide.phi = 0.0;
-    plan.edges.push_back(slide);
-    if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
-      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-    Edge pin;
-    pin.joint = static_cast<int>(ji);
-    pin.a = bn;
-    pin.b = e.b;
-    pin.pa = Eigen::Vector2d::Zero();
-    pin.pb = e.pb;
-    plan.edges.push_back(pin);
+    e.kind = j.kind == SceneJoint::Kind::hinge   ? Edge::Kind::revolute
+             : j.kind == SceneJoint::Kind::slide ? Edge::Kind::prismatic
+                                                 : Edge::Kind::planar;
+    e.a = node(j.a);
+    e.b = node(j.b);
+    e.pa = j.kind == SceneJoint::Kind::slide ? j.origin : j.ua;
+    e.pb = j.ub;
+    e.axis = j.direction;
+    e.phi = j.relative_angle;
+    e.joint = j.source;
+    plan.edges.push_back(e);
   }
-  for (Node& n : plan.nodes) mass_model(m, n);
-
-  // Driver: a joint coordinate (sign +1 when the tree runs link_a -> link_b, fixed below).
-  if (d.type == DriverType::joint_angle) {
-    for (size_t i = 0; i < plan.edges.size(); ++i)
-      if (plan.edges[i].joint == d.joint && plan.edges[i].kind == Edge::Kind::revolute)
-        plan.driver_edge = static_cast<int>(i);
-  } else if (d.type == DriverType::link_angle) {
-    const int n = node(d.link);
-    for (size_t i = 0; i < plan.edges.size(); ++i) {
-      const Edge& e = plan.edges[i];
-      if (e.kind == Edge::Kind::revolute && ((e.a == -1 && e.b == n) || (e.b == -1 && e.a == n)))
-        plan.driver_edge = static_cast<int>(i);
-    }
-    if (plan.driver_edge < 0) {  // no ground pivot: the rotation of a planar ground joint
-      Edge e;
-      e.kind = Edge::Kind::planar;
-      e.b = n;
-      plan.edges.push_back(e);
-      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-      plan.driver_planar = true;
-    }
+  plan.driver_edge = g.driven.front().joint;  // one driver today
+  plan.driver_planar = g.driven.front().floating;
+  plan.parent.assign(plan.nodes.size(), -1);
+  plan.parent_edge.assign(plan.nodes.size(), -1);
+  for (int j : g.tree_order) {
+    const int child = node(g.joints[j].child);
+    plan.order.push_back(child);
+    plan.parent[child] = node(g.joints[j].parent);
+    plan.parent_edge[child] = j;
   }
+  plan.cuts = g.cuts;
   return plan;
-}
-
-// Prim's spanning forest from the ground: the driver's edge first, then slides (so loops are
-// cut at revolute joints), then ground pivots, then the rest, in definition order.
-void make_tree(Plan& plan, std::string* why) {
-  const int n = static_cast<int>(plan.nodes.size());
-  plan.parent.assign(n, -1);
-  plan.parent_edge.assign(n, -1);
-  plan.order.clear();
-  std::vector<bool> in(n, false);
-  auto rank = [&](int ei) {
-    const Edge& e = plan.edges[ei];
-    if (ei == plan.driver_edge) return 0;
-    if (e.kind != Edge::Kind::revolute) return 1;
-    if (e.a == -1 || e.b == -1) return 2;
-    return 3;
-  };
-  using Item = std::pair<int, int>;  // (rank * edges + index, edge)
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  const int ne = static_cast<int>(plan.edges.size());
-  auto offer = [&](int node) {
-    for (int ei = 0; ei < ne; ++ei) {
-      const Edge& e = plan.edges[ei];
-      const int other = e.a == node ? e.b : e.b == node ? e.a : -2;
-      if (other >= 0 && !in[other]) queue.push({rank(ei) * ne + ei, ei});
-    }
-  };
-  offer(-1);
-  while (!queue.empty()) {
-    const int ei = queue.top().second;
-    queue.pop();
-    const Edge& e = plan.edges[ei];
-    const int from = (e.a == -1 || (e.a >= 0 && in[e.a])) ? e.a : e.b;
-    const int to = from == e.a ? e.b : e.a;
-    if (to < 0 || in[to]) continue;
-    in[to] = true;
-    plan.parent[to] = from;
-    plan.parent_edge[to] = ei;
-    plan.order.push_back(to);
-    offer(to);
-  }
-  if (static_cast<int>(plan.order.size()) != n) {
-    if (why) *why = "some links are not connected to the ground";
-    plan.order.clear();
-  }
 }
 
 int root_of(const Plan& plan, int node) {
   while (plan.parent[node] >= 0) node = plan.parent[node];
   return node;
-}
-bool is_ancestor(const Plan& plan, int a, int node) {
-  for (; node >= 0; node = plan.parent[node])
-    if (node == a) return true;
-  return false;
-}
-
-// Cut edges; a loop closed inside one multibody is split (the MLCP solve gets it wrong) by
-// re-rooting a subtree on a planar ground joint. Returns false with `why` when a slide would
-// have to be cut.
-bool make_cuts(Plan& plan, std::string* why) {
-  for (int guard = 0; guard < 100; ++guard) {
-    plan.cuts.clear();
-    for (int ei = 0; ei < static_cast<int>(plan.edges.size()); ++ei) {
-      bool tree = false;
-      for (int pe : plan.parent_edge) tree = tree || pe == ei;
-      if (!tree) plan.cuts.push_back(ei);
-    }
-    bool changed = false;
-    for (int ei : plan.cuts) {
-      const Edge& e = plan.edges[ei];
-      if (e.kind != Edge::Kind::revolute) {
-        if (why) *why = "a loop would have to be cut at a slide joint";
-        return false;
-      }
-      if (e.a < 0 || e.b < 0 || root_of(plan, e.a) != root_of(plan, e.b)) continue;
-      const int x = is_ancestor(plan, e.a, e.b) ? e.b : e.a;
-      if (plan.edges[plan.parent_edge[x]].kind != Edge::Kind::revolute) {
-        if (why) *why = "a loop inside one multibody can only be split at a slide joint";
-        return false;
-      }
-      Edge planar;
-      planar.kind = Edge::Kind::planar;
-      planar.b = x;
-      plan.edges.push_back(planar);
-      plan.parent[x] = -1;
-      plan.parent_edge[x] = static_cast<int>(plan.edges.size()) - 1;
-      changed = true;
-      break;
-    }
-    if (!changed) {
-      // Parents must come first within each multibody: re-sort by depth.
-      auto depth = [&](int v) {
-        int k = 0;
-        for (; plan.parent[v] >= 0; v = plan.parent[v]) ++k;
-        return k;
-      };
-      std::stable_sort(plan.order.begin(), plan.order.end(),
-                       [&](int a, int b) { return depth(a) < depth(b); });
-      return true;
-    }
-  }
-  if (why) *why = "could not split the loops into multibodies";
-  return false;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1182,19 +1036,19 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
 // to rigid bodies (config.formulation follows) when its tree cannot be cut at revolute joints.
-// A kinematic run (`driven`) needs the driver as a joint of the scene, and says how a link angle
-// is realised. False with `why` when there is no scene.
+// A kinematic run (`driven`) says how a link angle is realised. False with `why` when there is
+// no scene.
 bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
                 std::vector<std::string>& notes, std::string& why) {
-  plan = make_plan(m);
-  if (driven && plan.driver_edge < 0) {
-    why = "the driver is not a joint the scene can drive";
+  std::string split_error;
+  try {
+    plan = make_plan(m, config.formulation == "multibody", &split_error);
+  } catch (const std::exception& e) {
+    why = e.what();
     return false;
   }
-  make_tree(plan, &why);
-  if (plan.order.empty()) return false;
-  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
-    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
+  if (!split_error.empty()) {
+    notes.push_back("multibody formulation impossible (" + split_error + "): rigid bodies used");
     config.formulation = "rigid";
   }
   // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
@@ -2215,13 +2069,13 @@ class BulletEngine final : public Engine {
       if (why) *why = "the chain's mobility is not 1";
       return false;
     }
-    Plan plan = make_plan(mechanism);
-    if (plan.driver_edge < 0) {
-      if (why) *why = "the driver is not a joint the scene can drive";
+    try {
+      (void)make_plan(mechanism, false, nullptr);
+    } catch (const std::exception& e) {
+      if (why) *why = e.what();
       return false;
     }
-    make_tree(plan, why);
-    return !plan.order.empty();
+    return true;
   }
 
   const SettingSchema& settings_schema() const override { return bullet_settings(); }
