@@ -209,6 +209,17 @@ std::vector<int> tree_path(const SceneGraph& g, int body) {
 
 }  // namespace
 
+BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd* qdot) {
+  if (body.source >= 0) return BodyMotion::of(m.moving_index(body.source), q, qdot, nullptr);
+  const Joint& j = m.joints[body.joint];
+  BodyMotion block = BodyMotion::of(m.moving_index(j.link_a), q, qdot, nullptr);
+  const BodyMotion pin = BodyMotion::of(m.moving_index(j.link_b), q, qdot, nullptr);
+  block.r = pin.position(body.pin_point);
+  block.v = pin.velocity(body.pin_point);
+  return block;
+}
+
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   SceneGraph g;
 

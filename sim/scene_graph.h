@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "analytic/mechanism.h"
+#include "analytic/planar.h"
 
 namespace crosslink::sim {
 
@@ -104,6 +105,11 @@ struct SceneGraph {
   // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).
   std::string split_error;
 };
+
+// A body's motion from the Mechanism's coordinates q (and rates qdot, when given): a link's, or a
+// block's, which sits at its pin and turns with its guide.
+BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd* qdot = nullptr);
 
 // The scene graph of `mechanism` under `policy`. Throws std::runtime_error when no engine can
 // realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.

@@ -196,14 +196,6 @@ Config parse_settings(const Settings& overrides) {
 // (the moving links, then one sliding block per pin-in-slot joint; node = body - 1), edges its
 // joints (-1 is the ground).
 
-struct Node {
-  int link = -1;                                  // mechanism link, or -1 for a block
-  int joint = -1;                                 // block: its pin-in-slot joint
-  Eigen::Vector2d com = Eigen::Vector2d::Zero();  // centre of mass in the node's frame
-  double mass = 0.0;
-  double inertia = 0.0;  // about z through the centre of mass
-};
-
 struct Edge {
   enum class Kind { revolute, prismatic, planar } kind = Kind::revolute;
   int a = -1, b = -1;  // nodes; -1 is the ground. prismatic: a is the guide, b the slider
@@ -228,7 +220,7 @@ struct NodeRate {
 };
 
 struct Plan {
-  std::vector<Node> nodes;
+  std::vector<SceneBody> nodes;  // the graph's bodies but the ground
   std::vector<Edge> edges;
   int driver_edge = -1;        // edge whose coordinate is driven
   bool driver_planar = false;  // link angle driven through a planar ground joint
@@ -241,7 +233,7 @@ struct Plan {
 
 int node_of_link(const Plan& plan, int link) {
   for (size_t i = 0; i < plan.nodes.size(); ++i)
-    if (plan.nodes[i].link == link) return static_cast<int>(i);
+    if (plan.nodes[i].source == link) return static_cast<int>(i);
   return -1;
 }
 
@@ -258,10 +250,7 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   if (split_error) *split_error = g.split_error;
   const auto node = [](int body) { return body - 1; };
   Plan plan;
-  for (size_t i = 1; i < g.bodies.size(); ++i) {
-    const SceneBody& body = g.bodies[i];
-    plan.nodes.push_back({body.source, body.joint, body.centre, body.mass, body.inertia});
-  }
+  plan.nodes.assign(g.bodies.begin() + 1, g.bodies.end());
   for (const SceneJoint& j : g.joints) {
     Edge e;
     e.kind = j.kind == SceneJoint::Kind::hinge   ? Edge::Kind::revolute
@@ -312,16 +301,8 @@ Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
 std::vector<Pose> node_poses(const Mechanism& m, const Plan& plan, const Eigen::VectorXd& q) {
   std::vector<Pose> poses(plan.nodes.size());
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
-    const Node& n = plan.nodes[i];
-    if (n.link >= 0) {
-      const int k = m.moving_index(n.link);
-      poses[i] = {q.segment<2>(3 * k), q(3 * k + 2)};
-      continue;
-    }
-    const Joint& j = m.joints[n.joint];
-    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
-    poses[i] = {p.position(m.links[j.link_b].points[j.point_b].local), g.theta};
+    const BodyMotion n = body_motion(m, plan.nodes[i], q);
+    poses[i] = {n.r, n.theta};
   }
   return poses;
 }
@@ -336,16 +317,8 @@ std::vector<NodeRate> node_rates(const Mechanism& m, const Plan& plan, const Eig
                                  const Eigen::VectorXd& qdot) {
   std::vector<NodeRate> rates(plan.nodes.size());
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
-    const Node& n = plan.nodes[i];
-    if (n.link >= 0) {
-      const int k = m.moving_index(n.link);
-      rates[i] = {qdot.segment<2>(3 * k), qdot(3 * k + 2)};
-      continue;
-    }
-    const Joint& j = m.joints[n.joint];
-    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, &qdot, nullptr);
-    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, &qdot, nullptr);
-    rates[i] = {p.velocity(m.links[j.link_b].points[j.point_b].local), g.omega};
+    const BodyMotion n = body_motion(m, plan.nodes[i], q, &qdot);
+    rates[i] = {n.v, n.omega};
   }
   return rates;
 }
@@ -454,12 +427,12 @@ class MultiBodyScene final : public Scene {
       bodies_.push_back(mb);
     }
     for (int v : plan.order) {
-      const Node& node = plan.nodes[v];
+      const SceneBody& node = plan.nodes[v];
       btMultiBody* mb = bodies_[where_[v].first];
       const int i = where_[v].second;
       const int p = plan.parent[v];
       const int pi = p < 0 ? -1 : where_[p].second;
-      const Eigen::Vector2d pc = p < 0 ? Eigen::Vector2d::Zero() : plan.nodes[p].com;
+      const Eigen::Vector2d pc = p < 0 ? Eigen::Vector2d::Zero() : plan.nodes[p].centre;
       const Edge& e = plan.edges[plan.parent_edge[v]];
       const btVector3 inertia(node.inertia, node.inertia, node.inertia);
       const double q =
@@ -469,21 +442,21 @@ class MultiBodyScene final : public Scene {
         mb->setupPlanar(i, node.mass, inertia, pi, btQuaternion::getIdentity(), btVector3(0, 0, 1),
                         btVector3(0, 0, 0), true);
         const Pose& pose = poses[v];
-        const Eigen::Vector2d c = pose.r + turn(pose.theta, node.com);
+        const Eigen::Vector2d c = pose.r + turn(pose.theta, node.centre);
         const double qp[3] = {pose.theta, c.y(), c.x()};
         mb->setJointPosMultiDof(i, qp);
       } else if (e.kind == Edge::Kind::revolute) {
         const Eigen::Vector2d pp = e.a == p ? e.pa : e.pb, pv = e.a == p ? e.pb : e.pa;
         mb->setupRevolute(i, node.mass, inertia, pi, btQuaternion::getIdentity(),
-                          btVector3(0, 0, 1), bt(pp - pc), bt(node.com - pv), true);
+                          btVector3(0, 0, 1), bt(pp - pc), bt(node.centre - pv), true);
         mb->setJointPos(i, q);
       } else if (e.a == p) {  // prismatic, parent = guide
         mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(-e.phi), bt(turn(-e.phi, e.axis)),
-                           bt(e.pa - pc), bt(node.com - e.pb), true);
+                           bt(e.pa - pc), bt(node.centre - e.pb), true);
         mb->setJointPos(i, q);
       } else {  // prismatic, parent = slider: the guide moves along -axis
         mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(e.phi), bt(-e.axis), bt(e.pb - pc),
-                           bt(node.com - e.pa), true);
+                           bt(node.centre - e.pa), true);
         mb->setJointPos(i, q);
       }
       if (plan.parent_edge[v] == plan.driver_edge) {
@@ -514,8 +487,8 @@ class MultiBodyScene final : public Scene {
     }
     for (int ei : plan.cuts) {
       const Edge& e = plan.edges[ei];
-      const Eigen::Vector2d ca = e.a < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.a].com;
-      const Eigen::Vector2d cb = e.b < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.b].com;
+      const Eigen::Vector2d ca = e.a < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.a].centre;
+      const Eigen::Vector2d cb = e.b < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.b].centre;
       btMultiBodyPoint2Point* c = nullptr;
       if (e.a < 0)
         c = new btMultiBodyPoint2Point(bodies_[where_[e.b].first], where_[e.b].second, nullptr,
@@ -593,7 +566,7 @@ class MultiBodyScene final : public Scene {
       if (e.kind == Edge::Kind::planar) {
         // (theta, y, x) of the centre of mass, in the ground frame.
         const Eigen::Vector2d c =
-            rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+            rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].centre));
         const double qd[3] = {rates[v].omega, c.y(), c.x()};
         mb->setJointVelMultiDof(i, qd);
       } else {
@@ -647,12 +620,12 @@ class RigidScene final : public Scene {
     world_->addRigidBody(ground_, 0, 0);
     const int links = m.moving_count();
     for (int v = 0; v < links; ++v) {
-      const Node& node = plan.nodes[v];
+      const SceneBody& node = plan.nodes[v];
       btRigidBody::btRigidBodyConstructionInfo ci(
           node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
       auto* body = new btRigidBody(ci);
       const Pose& p = poses[v];
-      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.com))));
+      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.centre))));
       body->setLinearFactor(btVector3(1, 1, 0));
       body->setAngularFactor(btVector3(0, 0, 1));
       body->setDamping(0.0, 0.0);
@@ -801,7 +774,7 @@ class RigidScene final : public Scene {
   void set_velocities(const std::vector<Pose>& poses, const std::vector<NodeRate>& rates) override {
     for (size_t v = 0; v < bodies_.size(); ++v) {
       const Eigen::Vector2d c =
-          rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+          rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].centre));
       bodies_[v]->setLinearVelocity(bt(c));
       bodies_[v]->setAngularVelocity(btVector3(0, 0, rates[v].omega));
     }
@@ -826,7 +799,7 @@ class RigidScene final : public Scene {
     return link == m.ground() ? -1 : node_of_link(plan_, link);
   }
   Eigen::Vector2d com(int node) const {
-    return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].com;
+    return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].centre;
   }
   btRigidBody& body(int node) const { return node < 0 ? *ground_ : *bodies_[node]; }
 
@@ -954,13 +927,13 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
                       std::vector<Pose>& frames, Eigen::VectorXd& q) {
   scene.read(frames);
   for (size_t v = 0; v < plan.nodes.size(); ++v) {
-    const Node& node = plan.nodes[v];
-    if (node.link < 0) continue;
-    const int k = m.moving_index(node.link);
+    const SceneBody& node = plan.nodes[v];
+    if (node.source < 0) continue;
+    const int k = m.moving_index(node.source);
     double theta = frames[v].theta;
     theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
     q(3 * k + 2) = theta;
-    q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
+    q.segment<2>(3 * k) = frames[v].r - turn(theta, node.centre);
   }
 }
 

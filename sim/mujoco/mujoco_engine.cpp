@@ -431,22 +431,11 @@ ModelPtr load_model(const std::string& xml) {
   return ModelPtr(model);
 }
 
-// A scene link's motion: a mechanism link's, or a block's (its guide's rotation, at its pin).
-BodyMotion motion_of(const Mechanism& m, const Scene& s, int link, const Eigen::VectorXd& q,
-                     const Eigen::VectorXd& qdot) {
-  const SceneLink& sl = s.links[link];
-  if (sl.source >= 0) return BodyMotion::of(m.moving_index(sl.source), q, &qdot, nullptr);
-  BodyMotion block = motion_of(m, s, sl.guide, q, qdot);
-  const BodyMotion pin = motion_of(m, s, sl.pin, q, qdot);
-  block.r = pin.position(sl.pin_point);
-  block.v = pin.velocity(sl.pin_point);
-  return block;
-}
-
 // Value (qpos) of a scene joint and its rate, from the mechanism's absolute coordinates.
 Eigen::Vector2d joint_motion(const Mechanism& m, const Scene& s, const SceneJoint& j,
                              const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
-  const BodyMotion a = motion_of(m, s, j.a, q, qdot), b = motion_of(m, s, j.b, q, qdot);
+  const BodyMotion a = body_motion(m, s.links[j.a], q, &qdot),
+                   b = body_motion(m, s.links[j.b], q, &qdot);
   if (j.kind == SceneJoint::Kind::hinge) return {b.theta - a.theta, b.omega - a.omega};
   const Projection p = project(a, j.origin, j.direction, b, j.ub);
   return {p.value, p.rate};
