@@ -60,16 +60,12 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   for (SceneBody& body : graph.bodies) {
     SceneLink link;
     static_cast<SceneBody&>(link) = std::move(body);
-    if (link.source >= 0) {
+    if (link.source >= 0)
       for (const Point& p : m.links[link.source].points) link.points.push_back(p.local);
-      const int k = m.moving_index(link.source);
-      if (k >= 0) link.pose = q.segment<3>(3 * k);
-    }
+    const BodyMotion at = body_motion(m, link, q);
+    link.pose << at.r, at.theta;
     s.links.push_back(std::move(link));
   }
-  for (SceneLink& block : s.links)  // a block sits at its pin, turned as its guide
-    if (block.source < 0)
-      block.pose << world(s.links[block.pin], block.pin_point), s.links[block.guide].pose(2);
   for (sim::SceneJoint& joint : graph.joints) {
     SceneJoint j;
     static_cast<sim::SceneJoint&>(j) = std::move(joint);
