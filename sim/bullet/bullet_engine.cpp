@@ -1346,7 +1346,10 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
   out.q = state.q;
   const std::vector<Pose> poses = node_poses(m, plan, out.q);
   const Edge& de = plan.edges[plan.driver_edge];
-  const bool driver_forward = de.kind != Edge::Kind::revolute || de.a == plan.parent[de.b];
+  // Whether the tree runs the driven joint from a to b (a pivot written [link, ground] runs from
+  // its b, the ground).
+  const bool driver_forward =
+      de.kind != Edge::Kind::revolute || (de.b >= 0 && de.a == plan.parent[de.b]);
   // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
   const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
   out.coordinate0 = edge_sign * edge_coordinate(de, poses);

@@ -983,9 +983,11 @@ struct KinematicModel {
       : model(std::move(loaded)), mm(model.get()), data(mj_makeData(mm)), d(data.get()) {
     const Scene& s = p.scene;
     driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    // A joint equality holds the driven joint's qpos, whichever way the joint runs against the
+    // driver (driver_target's sign); a tendon equality its length, the sum of the terms.
     for (const auto& [joint, coefficient] : s.driven.terms) {
       const int id = mj_name2id(mm, mjOBJ_JOINT, s.joints[joint].name.c_str());
-      driver_coordinate.emplace_back(mm->jnt_qposadr[id], coefficient);
+      driver_coordinate.emplace_back(mm->jnt_qposadr[id], s.driven.floating ? coefficient : 1.0);
     }
     cut_bodies = cut_body_ids(s, mm);
     set_joint_rates(m, s, mm, d, p.start.q, p.start.qdot);
