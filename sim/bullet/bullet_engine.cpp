@@ -857,9 +857,9 @@ std::string format_number(double v) {
 // btJointFeedback holds each constraint's impulse / dt on its bodies, the torques about each
 // body's centre of mass: a joint's couple is taken about its point, and a driven joint's own
 // constraint carries the driver's row too (its torque about the point, or its force along the
-// line, is the effort).
-void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::VectorXd& q,
-                       ForceReading& out) {
+// line, is the effort). `driven_joint`: the Mechanism joint the scene graph drives.
+void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
+                       const Eigen::VectorXd& q, ForceReading& out) {
   auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return a.x() * b.y() - a.y() * b.x();
   };
@@ -898,23 +898,17 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::Vect
   }
   if (d.type == DriverType::link_angle && !scene.driver_feedback()) {
     // Realised at the link's ground pivot: the effort is that joint's couple.
-    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-      const Joint& j = m.joints[ji];
-      if (j.type != JointType::revolute || (j.link_a != d.link && j.link_b != d.link) ||
-          (j.link_a != m.ground() && j.link_b != m.ground()))
-        continue;
-      const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
-      const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-      const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
-      const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
-      const bool link_is_b = j.link_b == d.link;
-      const BodyMotion& l = link_is_b ? b : a;
-      const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
-      const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
-      const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
-      out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
-      break;
-    }
+    const Joint& j = m.joints[static_cast<size_t>(driven_joint)];
+    const btJointFeedback& fb = *scene.feedback(driven_joint);
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+    const bool link_is_b = j.link_b == d.link;
+    const BodyMotion& l = link_is_b ? b : a;
+    const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
+    const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
+    const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
+    out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
   } else if (const btJointFeedback* fb = scene.driver_feedback()) {
     // A rotation lock between the ground and the link, frames at its centre of mass.
     out.effort = fb->m_appliedTorqueBodyB.z();
@@ -1111,12 +1105,13 @@ class JointGap {
 // sample's forces are the readings of its force stencil's poses, weighted.
 class BulletForces {
  public:
-  BulletForces(const Mechanism& m, long steps)
+  BulletForces(const Mechanism& m, long steps, int driven_joint)
       : m_(m),
+        driven_joint_(driven_joint),
         readings_(static_cast<size_t>(steps + 1), ForceReading(m.joints.size())),
         combined_(m.joints.size()) {}
   void read(long k, const Scene& scene, const Eigen::VectorXd& q) {
-    read_rigid_forces(m_, scene, q, readings_[static_cast<size_t>(k)]);
+    read_rigid_forces(m_, scene, driven_joint_, q, readings_[static_cast<size_t>(k)]);
   }
   // Sample i's forces at `state`; a dynamics run's effort is the applied one (`effort`).
   void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out,
@@ -1131,6 +1126,7 @@ class BulletForces {
 
  private:
   const Mechanism& m_;
+  int driven_joint_;                    // the Mechanism joint the scene graph drives
   std::vector<ForceReading> readings_;  // per pose
   ForceReading combined_;
 };
@@ -1174,7 +1170,7 @@ class SceneStepper {
     history_.gap = Eigen::VectorXd::Zero(steps + 1);
     history_.pose.col(0) = q_;
     history_.last_good = steps;
-    if (with_forces) forces_.emplace(m_, steps);
+    if (with_forces) forces_.emplace(m_, steps, plan_.edges[plan_.driver_edge].joint);
     return history_;
   }
   // The step to pose k; its pose.

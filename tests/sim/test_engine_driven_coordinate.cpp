@@ -1,9 +1,9 @@
 // A link-angle driver read off a ground pivot that the definition writes [link, ground]: the
 // pivot's value theta_ground - theta_link runs against the driver (DrivenCoordinate::sign -1).
-// Every engine and formulation follows the exact sweep there as it does with the pivot written
-// [ground, link] (until 2026-11-27 MuJoCo lost the driver at its first step, its driver
-// coordinate read as sign x qpos against a target in qpos; Bullet's multibody read the tree
-// parent of the ground, out of bounds, and lost it too).
+// Every engine and formulation follows the exact sweep there, and reads the driver's torque, as it
+// does with the pivot written [ground, link] (until 2026-11-27 MuJoCo lost the driver at its first
+// step, its driver coordinate read as sign x qpos against a target in qpos; Bullet's multibody read
+// the tree parent of the ground, out of bounds, and lost it too).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -11,6 +11,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "sim/bullet/bullet_engine.h"
+#include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::sim {
@@ -61,6 +62,14 @@ TEST(EngineDrivenCoordinate, LinkAngleAtAPivotWrittenLinkFirst) {
     ASSERT_TRUE(run.ok) << run.message;
     // The default velocity tolerance, 0.1 % of peak (the bundled crank-rocker: 0.01 %).
     EXPECT_LT(worst_omega(exact, run.trajectory), 1e-3);
+    // The driver's torque, read at the pivot, against the exact kinetostatics, within the bounds
+    // test_engine_forces holds each engine to (MuJoCo 0.05 %, Bullet 0.25 % of peak); Bullet's
+    // multibody reads no forces.
+    if (run.trajectory.has_forces)
+      EXPECT_LE(force_agreement(m, exact, run.trajectory).effort,
+                engine->name() == "mujoco" ? 0.05e-2 : 0.25e-2);
+    else
+      EXPECT_FALSE(settings.empty());
   }
 }
 
