@@ -10,6 +10,7 @@
 #include "analytic/trust.h"
 #include "sim/forces.h"
 #include "sim/sampling.h"
+#include "sim/scene_graph.h"
 #include "sim/settings.h"
 #include "sim/statuses.h"
 
@@ -34,7 +35,6 @@
 #include <memory>
 #include <numbers>
 #include <optional>
-#include <queue>
 #include <stdexcept>
 
 #include "analytic/newton.h"
@@ -192,16 +192,9 @@ Config parse_settings(const Settings& overrides) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Scene graph: nodes are the moving links plus one sliding block per pin-in-slot joint (the
-// block slides on the line and carries the pin), edges the joints between them.
-
-struct Node {
-  int link = -1;                                  // mechanism link, or -1 for a block
-  int joint = -1;                                 // block: its pin-in-slot joint
-  Eigen::Vector2d com = Eigen::Vector2d::Zero();  // centre of mass in the node's frame
-  double mass = 0.0;
-  double inertia = 0.0;  // about z through the centre of mass
-};
+// The scene graph (sim/scene_graph.h) in Bullet's terms: nodes are its bodies but the ground
+// (the moving links, then one sliding block per pin-in-slot joint; node = body - 1), edges its
+// joints (-1 is the ground).
 
 struct Edge {
   enum class Kind { revolute, prismatic, planar } kind = Kind::revolute;
@@ -227,10 +220,9 @@ struct NodeRate {
 };
 
 struct Plan {
-  std::vector<Node> nodes;
+  std::vector<SceneBody> nodes;  // the graph's bodies but the ground
   std::vector<Edge> edges;
   int driver_edge = -1;        // edge whose coordinate is driven
-  double driver_sign = 1.0;    // joint coordinate = sign * driver value + constant
   bool driver_planar = false;  // link angle driven through a planar ground joint
   // Spanning forest (multibody formulation)
   std::vector<int> order;        // nodes in insertion order (parents first)
@@ -241,204 +233,55 @@ struct Plan {
 
 int node_of_link(const Plan& plan, int link) {
   for (size_t i = 0; i < plan.nodes.size(); ++i)
-    if (plan.nodes[i].link == link) return static_cast<int>(i);
+    if (plan.nodes[i].source == link) return static_cast<int>(i);
   return -1;
 }
 
-// The definition's mass properties (Link::mass); a sliding block (multibody only) has
-// auxiliary_mass() and a negligible inertia.
-void mass_model(const Mechanism& m, Node& node) {
-  if (node.link < 0) {
-    node.mass = auxiliary_mass(m);
-    node.inertia = node.mass * 1e-4 * m.size() * m.size();
-    return;
-  }
-  const MassProperties mp = scene_mass(m, node.link);
-  node.com = mp.com;
-  node.mass = mp.mass;
-  node.inertia = mp.inertia;
-}
-
-Plan make_plan(const Mechanism& m) {
+// The graph's tree policy for Bullet: a floating link's driven angle is a planar ground joint's
+// (rigid: a ground constraint locking only its rotation), ground pivots enter the tree before the
+// other hinges, and the multibody formulation splits the loops that would close inside one
+// multibody (`split_error` says when it cannot).
+Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
+  TreePolicy policy;
+  policy.ground_pivots_first = true;
+  policy.planar_joints = true;
+  policy.split_loops = multibody;
+  const SceneGraph g = scene_graph(m, policy);
+  if (split_error) *split_error = g.split_error;
+  const auto node = [](int body) { return body - 1; };
   Plan plan;
-  for (size_t l = 0; l < m.links.size(); ++l)
-    if (!m.links[l].ground) plan.nodes.push_back({static_cast<int>(l), -1});
-  const int ground = m.ground();
-  auto node = [&](int link) { return link == ground ? -1 : node_of_link(plan, link); };
-  const Driver& d = m.driver;
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    const Link& la = m.links[j.link_a];
-    const Link& lb = m.links[j.link_b];
+  plan.nodes.assign(g.bodies.begin() + 1, g.bodies.end());
+  for (const SceneJoint& j : g.joints) {
     Edge e;
-    e.joint = static_cast<int>(ji);
-    e.a = node(j.link_a);
-    e.b = node(j.link_b);
-    e.pb = lb.points[j.point_b].local;
-    if (j.type == JointType::revolute) {
-      e.pa = la.points[j.point_a].local;
-      plan.edges.push_back(e);
-      continue;
-    }
-    const Line& line = la.lines[j.line];
-    e.kind = Edge::Kind::prismatic;
-    e.pa = line.origin;
-    e.axis = line.direction;
-    if (j.type == JointType::prismatic) {
-      e.phi = j.relative_angle;
-      plan.edges.push_back(e);
-      if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
-        plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-      continue;
-    }
-    // Pin in slot: guide -> block (prismatic, same angle), block -> pin link (revolute).
-    Node block;
-    block.joint = static_cast<int>(ji);
-    plan.nodes.push_back(block);
-    const int bn = static_cast<int>(plan.nodes.size()) - 1;
-    Edge slide = e;
-    slide.b = bn;
-    slide.pb = Eigen::Vector2d::Zero();
-    slide.phi = 0.0;
-    plan.edges.push_back(slide);
-    if (d.type == DriverType::slider && d.joint == static_cast<int>(ji))
-      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-    Edge pin;
-    pin.joint = static_cast<int>(ji);
-    pin.a = bn;
-    pin.b = e.b;
-    pin.pa = Eigen::Vector2d::Zero();
-    pin.pb = e.pb;
-    plan.edges.push_back(pin);
+    e.kind = j.kind == SceneJoint::Kind::hinge   ? Edge::Kind::revolute
+             : j.kind == SceneJoint::Kind::slide ? Edge::Kind::prismatic
+                                                 : Edge::Kind::planar;
+    e.a = node(j.a);
+    e.b = node(j.b);
+    e.pa = j.kind == SceneJoint::Kind::slide ? j.origin : j.ua;
+    e.pb = j.ub;
+    e.axis = j.direction;
+    e.phi = j.relative_angle;
+    e.joint = j.source;
+    plan.edges.push_back(e);
   }
-  for (Node& n : plan.nodes) mass_model(m, n);
-
-  // Driver: a joint coordinate (sign +1 when the tree runs link_a -> link_b, fixed below).
-  if (d.type == DriverType::joint_angle) {
-    for (size_t i = 0; i < plan.edges.size(); ++i)
-      if (plan.edges[i].joint == d.joint && plan.edges[i].kind == Edge::Kind::revolute)
-        plan.driver_edge = static_cast<int>(i);
-  } else if (d.type == DriverType::link_angle) {
-    const int n = node(d.link);
-    for (size_t i = 0; i < plan.edges.size(); ++i) {
-      const Edge& e = plan.edges[i];
-      if (e.kind == Edge::Kind::revolute && ((e.a == -1 && e.b == n) || (e.b == -1 && e.a == n)))
-        plan.driver_edge = static_cast<int>(i);
-    }
-    if (plan.driver_edge < 0) {  // no ground pivot: the rotation of a planar ground joint
-      Edge e;
-      e.kind = Edge::Kind::planar;
-      e.b = n;
-      plan.edges.push_back(e);
-      plan.driver_edge = static_cast<int>(plan.edges.size()) - 1;
-      plan.driver_planar = true;
-    }
+  plan.driver_edge = g.driven.front().joint;  // one driver today
+  plan.driver_planar = g.driven.front().floating;
+  plan.parent.assign(plan.nodes.size(), -1);
+  plan.parent_edge.assign(plan.nodes.size(), -1);
+  for (int j : g.tree_order) {
+    const int child = node(g.joints[j].child);
+    plan.order.push_back(child);
+    plan.parent[child] = node(g.joints[j].parent);
+    plan.parent_edge[child] = j;
   }
+  plan.cuts = g.cuts;
   return plan;
-}
-
-// Prim's spanning forest from the ground: the driver's edge first, then slides (so loops are
-// cut at revolute joints), then ground pivots, then the rest, in definition order.
-void make_tree(Plan& plan, std::string* why) {
-  const int n = static_cast<int>(plan.nodes.size());
-  plan.parent.assign(n, -1);
-  plan.parent_edge.assign(n, -1);
-  plan.order.clear();
-  std::vector<bool> in(n, false);
-  auto rank = [&](int ei) {
-    const Edge& e = plan.edges[ei];
-    if (ei == plan.driver_edge) return 0;
-    if (e.kind != Edge::Kind::revolute) return 1;
-    if (e.a == -1 || e.b == -1) return 2;
-    return 3;
-  };
-  using Item = std::pair<int, int>;  // (rank * edges + index, edge)
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  const int ne = static_cast<int>(plan.edges.size());
-  auto offer = [&](int node) {
-    for (int ei = 0; ei < ne; ++ei) {
-      const Edge& e = plan.edges[ei];
-      const int other = e.a == node ? e.b : e.b == node ? e.a : -2;
-      if (other >= 0 && !in[other]) queue.push({rank(ei) * ne + ei, ei});
-    }
-  };
-  offer(-1);
-  while (!queue.empty()) {
-    const int ei = queue.top().second;
-    queue.pop();
-    const Edge& e = plan.edges[ei];
-    const int from = (e.a == -1 || (e.a >= 0 && in[e.a])) ? e.a : e.b;
-    const int to = from == e.a ? e.b : e.a;
-    if (to < 0 || in[to]) continue;
-    in[to] = true;
-    plan.parent[to] = from;
-    plan.parent_edge[to] = ei;
-    plan.order.push_back(to);
-    offer(to);
-  }
-  if (static_cast<int>(plan.order.size()) != n) {
-    if (why) *why = "some links are not connected to the ground";
-    plan.order.clear();
-  }
 }
 
 int root_of(const Plan& plan, int node) {
   while (plan.parent[node] >= 0) node = plan.parent[node];
   return node;
-}
-bool is_ancestor(const Plan& plan, int a, int node) {
-  for (; node >= 0; node = plan.parent[node])
-    if (node == a) return true;
-  return false;
-}
-
-// Cut edges; a loop closed inside one multibody is split (the MLCP solve gets it wrong) by
-// re-rooting a subtree on a planar ground joint. Returns false with `why` when a slide would
-// have to be cut.
-bool make_cuts(Plan& plan, std::string* why) {
-  for (int guard = 0; guard < 100; ++guard) {
-    plan.cuts.clear();
-    for (int ei = 0; ei < static_cast<int>(plan.edges.size()); ++ei) {
-      bool tree = false;
-      for (int pe : plan.parent_edge) tree = tree || pe == ei;
-      if (!tree) plan.cuts.push_back(ei);
-    }
-    bool changed = false;
-    for (int ei : plan.cuts) {
-      const Edge& e = plan.edges[ei];
-      if (e.kind != Edge::Kind::revolute) {
-        if (why) *why = "a loop would have to be cut at a slide joint";
-        return false;
-      }
-      if (e.a < 0 || e.b < 0 || root_of(plan, e.a) != root_of(plan, e.b)) continue;
-      const int x = is_ancestor(plan, e.a, e.b) ? e.b : e.a;
-      if (plan.edges[plan.parent_edge[x]].kind != Edge::Kind::revolute) {
-        if (why) *why = "a loop inside one multibody can only be split at a slide joint";
-        return false;
-      }
-      Edge planar;
-      planar.kind = Edge::Kind::planar;
-      planar.b = x;
-      plan.edges.push_back(planar);
-      plan.parent[x] = -1;
-      plan.parent_edge[x] = static_cast<int>(plan.edges.size()) - 1;
-      changed = true;
-      break;
-    }
-    if (!changed) {
-      // Parents must come first within each multibody: re-sort by depth.
-      auto depth = [&](int v) {
-        int k = 0;
-        for (; plan.parent[v] >= 0; v = plan.parent[v]) ++k;
-        return k;
-      };
-      std::stable_sort(plan.order.begin(), plan.order.end(),
-                       [&](int a, int b) { return depth(a) < depth(b); });
-      return true;
-    }
-  }
-  if (why) *why = "could not split the loops into multibodies";
-  return false;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -458,16 +301,8 @@ Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
 std::vector<Pose> node_poses(const Mechanism& m, const Plan& plan, const Eigen::VectorXd& q) {
   std::vector<Pose> poses(plan.nodes.size());
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
-    const Node& n = plan.nodes[i];
-    if (n.link >= 0) {
-      const int k = m.moving_index(n.link);
-      poses[i] = {q.segment<2>(3 * k), q(3 * k + 2)};
-      continue;
-    }
-    const Joint& j = m.joints[n.joint];
-    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
-    poses[i] = {p.position(m.links[j.link_b].points[j.point_b].local), g.theta};
+    const BodyMotion n = body_motion(m, plan.nodes[i], q);
+    poses[i] = {n.r, n.theta};
   }
   return poses;
 }
@@ -482,16 +317,8 @@ std::vector<NodeRate> node_rates(const Mechanism& m, const Plan& plan, const Eig
                                  const Eigen::VectorXd& qdot) {
   std::vector<NodeRate> rates(plan.nodes.size());
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
-    const Node& n = plan.nodes[i];
-    if (n.link >= 0) {
-      const int k = m.moving_index(n.link);
-      rates[i] = {qdot.segment<2>(3 * k), qdot(3 * k + 2)};
-      continue;
-    }
-    const Joint& j = m.joints[n.joint];
-    const BodyMotion g = BodyMotion::of(m.moving_index(j.link_a), q, &qdot, nullptr);
-    const BodyMotion p = BodyMotion::of(m.moving_index(j.link_b), q, &qdot, nullptr);
-    rates[i] = {p.velocity(m.links[j.link_b].points[j.point_b].local), g.omega};
+    const BodyMotion n = body_motion(m, plan.nodes[i], q, &qdot);
+    rates[i] = {n.v, n.omega};
   }
   return rates;
 }
@@ -600,12 +427,12 @@ class MultiBodyScene final : public Scene {
       bodies_.push_back(mb);
     }
     for (int v : plan.order) {
-      const Node& node = plan.nodes[v];
+      const SceneBody& node = plan.nodes[v];
       btMultiBody* mb = bodies_[where_[v].first];
       const int i = where_[v].second;
       const int p = plan.parent[v];
       const int pi = p < 0 ? -1 : where_[p].second;
-      const Eigen::Vector2d pc = p < 0 ? Eigen::Vector2d::Zero() : plan.nodes[p].com;
+      const Eigen::Vector2d pc = p < 0 ? Eigen::Vector2d::Zero() : plan.nodes[p].centre;
       const Edge& e = plan.edges[plan.parent_edge[v]];
       const btVector3 inertia(node.inertia, node.inertia, node.inertia);
       const double q =
@@ -615,21 +442,21 @@ class MultiBodyScene final : public Scene {
         mb->setupPlanar(i, node.mass, inertia, pi, btQuaternion::getIdentity(), btVector3(0, 0, 1),
                         btVector3(0, 0, 0), true);
         const Pose& pose = poses[v];
-        const Eigen::Vector2d c = pose.r + turn(pose.theta, node.com);
+        const Eigen::Vector2d c = pose.r + turn(pose.theta, node.centre);
         const double qp[3] = {pose.theta, c.y(), c.x()};
         mb->setJointPosMultiDof(i, qp);
       } else if (e.kind == Edge::Kind::revolute) {
         const Eigen::Vector2d pp = e.a == p ? e.pa : e.pb, pv = e.a == p ? e.pb : e.pa;
         mb->setupRevolute(i, node.mass, inertia, pi, btQuaternion::getIdentity(),
-                          btVector3(0, 0, 1), bt(pp - pc), bt(node.com - pv), true);
+                          btVector3(0, 0, 1), bt(pp - pc), bt(node.centre - pv), true);
         mb->setJointPos(i, q);
       } else if (e.a == p) {  // prismatic, parent = guide
         mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(-e.phi), bt(turn(-e.phi, e.axis)),
-                           bt(e.pa - pc), bt(node.com - e.pb), true);
+                           bt(e.pa - pc), bt(node.centre - e.pb), true);
         mb->setJointPos(i, q);
       } else {  // prismatic, parent = slider: the guide moves along -axis
         mb->setupPrismatic(i, node.mass, inertia, pi, rot_z(e.phi), bt(-e.axis), bt(e.pb - pc),
-                           bt(node.com - e.pa), true);
+                           bt(node.centre - e.pa), true);
         mb->setJointPos(i, q);
       }
       if (plan.parent_edge[v] == plan.driver_edge) {
@@ -660,8 +487,8 @@ class MultiBodyScene final : public Scene {
     }
     for (int ei : plan.cuts) {
       const Edge& e = plan.edges[ei];
-      const Eigen::Vector2d ca = e.a < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.a].com;
-      const Eigen::Vector2d cb = e.b < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.b].com;
+      const Eigen::Vector2d ca = e.a < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.a].centre;
+      const Eigen::Vector2d cb = e.b < 0 ? Eigen::Vector2d::Zero() : plan.nodes[e.b].centre;
       btMultiBodyPoint2Point* c = nullptr;
       if (e.a < 0)
         c = new btMultiBodyPoint2Point(bodies_[where_[e.b].first], where_[e.b].second, nullptr,
@@ -739,7 +566,7 @@ class MultiBodyScene final : public Scene {
       if (e.kind == Edge::Kind::planar) {
         // (theta, y, x) of the centre of mass, in the ground frame.
         const Eigen::Vector2d c =
-            rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+            rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].centre));
         const double qd[3] = {rates[v].omega, c.y(), c.x()};
         mb->setJointVelMultiDof(i, qd);
       } else {
@@ -793,12 +620,12 @@ class RigidScene final : public Scene {
     world_->addRigidBody(ground_, 0, 0);
     const int links = m.moving_count();
     for (int v = 0; v < links; ++v) {
-      const Node& node = plan.nodes[v];
+      const SceneBody& node = plan.nodes[v];
       btRigidBody::btRigidBodyConstructionInfo ci(
           node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
       auto* body = new btRigidBody(ci);
       const Pose& p = poses[v];
-      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.com))));
+      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.centre))));
       body->setLinearFactor(btVector3(1, 1, 0));
       body->setAngularFactor(btVector3(0, 0, 1));
       body->setDamping(0.0, 0.0);
@@ -947,7 +774,7 @@ class RigidScene final : public Scene {
   void set_velocities(const std::vector<Pose>& poses, const std::vector<NodeRate>& rates) override {
     for (size_t v = 0; v < bodies_.size(); ++v) {
       const Eigen::Vector2d c =
-          rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].com));
+          rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].centre));
       bodies_[v]->setLinearVelocity(bt(c));
       bodies_[v]->setAngularVelocity(btVector3(0, 0, rates[v].omega));
     }
@@ -972,7 +799,7 @@ class RigidScene final : public Scene {
     return link == m.ground() ? -1 : node_of_link(plan_, link);
   }
   Eigen::Vector2d com(int node) const {
-    return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].com;
+    return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].centre;
   }
   btRigidBody& body(int node) const { return node < 0 ? *ground_ : *bodies_[node]; }
 
@@ -1030,9 +857,9 @@ std::string format_number(double v) {
 // btJointFeedback holds each constraint's impulse / dt on its bodies, the torques about each
 // body's centre of mass: a joint's couple is taken about its point, and a driven joint's own
 // constraint carries the driver's row too (its torque about the point, or its force along the
-// line, is the effort).
-void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::VectorXd& q,
-                       ForceReading& out) {
+// line, is the effort). `driven_joint`: the Mechanism joint the scene graph drives.
+void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
+                       const Eigen::VectorXd& q, ForceReading& out) {
   auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return a.x() * b.y() - a.y() * b.x();
   };
@@ -1071,23 +898,17 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::Vect
   }
   if (d.type == DriverType::link_angle && !scene.driver_feedback()) {
     // Realised at the link's ground pivot: the effort is that joint's couple.
-    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-      const Joint& j = m.joints[ji];
-      if (j.type != JointType::revolute || (j.link_a != d.link && j.link_b != d.link) ||
-          (j.link_a != m.ground() && j.link_b != m.ground()))
-        continue;
-      const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
-      const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-      const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
-      const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
-      const bool link_is_b = j.link_b == d.link;
-      const BodyMotion& l = link_is_b ? b : a;
-      const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
-      const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
-      const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
-      out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
-      break;
-    }
+    const Joint& j = m.joints[static_cast<size_t>(driven_joint)];
+    const btJointFeedback& fb = *scene.feedback(driven_joint);
+    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+    const bool link_is_b = j.link_b == d.link;
+    const BodyMotion& l = link_is_b ? b : a;
+    const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
+    const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
+    const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
+    out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
   } else if (const btJointFeedback* fb = scene.driver_feedback()) {
     // A rotation lock between the ground and the link, frames at its centre of mass.
     out.effort = fb->m_appliedTorqueBodyB.z();
@@ -1100,13 +921,13 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
                       std::vector<Pose>& frames, Eigen::VectorXd& q) {
   scene.read(frames);
   for (size_t v = 0; v < plan.nodes.size(); ++v) {
-    const Node& node = plan.nodes[v];
-    if (node.link < 0) continue;
-    const int k = m.moving_index(node.link);
+    const SceneBody& node = plan.nodes[v];
+    if (node.source < 0) continue;
+    const int k = m.moving_index(node.source);
     double theta = frames[v].theta;
     theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
     q(3 * k + 2) = theta;
-    q.segment<2>(3 * k) = frames[v].r - turn(theta, node.com);
+    q.segment<2>(3 * k) = frames[v].r - turn(theta, node.centre);
   }
 }
 
@@ -1182,19 +1003,19 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
 // to rigid bodies (config.formulation follows) when its tree cannot be cut at revolute joints.
-// A kinematic run (`driven`) needs the driver as a joint of the scene, and says how a link angle
-// is realised. False with `why` when there is no scene.
+// A kinematic run (`driven`) says how a link angle is realised. False with `why` when there is
+// no scene.
 bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
                 std::vector<std::string>& notes, std::string& why) {
-  plan = make_plan(m);
-  if (driven && plan.driver_edge < 0) {
-    why = "the driver is not a joint the scene can drive";
+  std::string split_error;
+  try {
+    plan = make_plan(m, config.formulation == "multibody", &split_error);
+  } catch (const std::exception& e) {
+    why = e.what();
     return false;
   }
-  make_tree(plan, &why);
-  if (plan.order.empty()) return false;
-  if (config.formulation == "multibody" && !make_cuts(plan, &why)) {
-    notes.push_back("multibody formulation impossible (" + why + "): rigid bodies used");
+  if (!split_error.empty()) {
+    notes.push_back("multibody formulation impossible (" + split_error + "): rigid bodies used");
     config.formulation = "rigid";
   }
   // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
@@ -1284,12 +1105,13 @@ class JointGap {
 // sample's forces are the readings of its force stencil's poses, weighted.
 class BulletForces {
  public:
-  BulletForces(const Mechanism& m, long steps)
+  BulletForces(const Mechanism& m, long steps, int driven_joint)
       : m_(m),
+        driven_joint_(driven_joint),
         readings_(static_cast<size_t>(steps + 1), ForceReading(m.joints.size())),
         combined_(m.joints.size()) {}
   void read(long k, const Scene& scene, const Eigen::VectorXd& q) {
-    read_rigid_forces(m_, scene, q, readings_[static_cast<size_t>(k)]);
+    read_rigid_forces(m_, scene, driven_joint_, q, readings_[static_cast<size_t>(k)]);
   }
   // Sample i's forces at `state`; a dynamics run's effort is the applied one (`effort`).
   void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out,
@@ -1304,6 +1126,7 @@ class BulletForces {
 
  private:
   const Mechanism& m_;
+  int driven_joint_;                    // the Mechanism joint the scene graph drives
   std::vector<ForceReading> readings_;  // per pose
   ForceReading combined_;
 };
@@ -1347,7 +1170,7 @@ class SceneStepper {
     history_.gap = Eigen::VectorXd::Zero(steps + 1);
     history_.pose.col(0) = q_;
     history_.last_good = steps;
-    if (with_forces) forces_.emplace(m_, steps);
+    if (with_forces) forces_.emplace(m_, steps, plan_.edges[plan_.driver_edge].joint);
     return history_;
   }
   // The step to pose k; its pose.
@@ -1519,7 +1342,10 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
   out.q = state.q;
   const std::vector<Pose> poses = node_poses(m, plan, out.q);
   const Edge& de = plan.edges[plan.driver_edge];
-  const bool driver_forward = de.kind != Edge::Kind::revolute || de.a == plan.parent[de.b];
+  // Whether the tree runs the driven joint from a to b (a pivot written [link, ground] runs from
+  // its b, the ground).
+  const bool driver_forward =
+      de.kind != Edge::Kind::revolute || (de.b >= 0 && de.a == plan.parent[de.b]);
   // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
   const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
   out.coordinate0 = edge_sign * edge_coordinate(de, poses);
@@ -2215,13 +2041,13 @@ class BulletEngine final : public Engine {
       if (why) *why = "the chain's mobility is not 1";
       return false;
     }
-    Plan plan = make_plan(mechanism);
-    if (plan.driver_edge < 0) {
-      if (why) *why = "the driver is not a joint the scene can drive";
+    try {
+      (void)make_plan(mechanism, false, nullptr);
+    } catch (const std::exception& e) {
+      if (why) *why = e.what();
       return false;
     }
-    make_tree(plan, why);
-    return !plan.order.empty();
+    return true;
   }
 
   const SettingSchema& settings_schema() const override { return bullet_settings(); }

@@ -33,7 +33,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-using mujoco_scene::DrivenJoint;
 using mujoco_scene::MjcfOptions;
 using mujoco_scene::Scene;
 using mujoco_scene::SceneJoint;
@@ -364,8 +363,8 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
   return grid;
 }
 
-// The driver coordinate's target at time t (DrivenJoint: sign (driver - offset)).
-double driver_target(const Mechanism& m, const DrivenJoint& driven, double t) {
+// The driver coordinate's target at time t (DrivenCoordinate: sign (driver - offset)).
+double driver_target(const Mechanism& m, const DrivenCoordinate& driven, double t) {
   return driven.sign * (m.driver.at_time(t).value - driven.offset);
 }
 
@@ -393,7 +392,7 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
 double driver_armature(const Config& c, const Scene& s, double inertia) {
   if (c.driver_armature) return *c.driver_armature * s.mass_scale;
   inertia *= s.mass_scale;
-  if (s.driven.joint < 0 || s.driven.tendon) return 0.0;
+  if (s.driven.joint < 0 || s.driven.floating) return 0.0;
   const SceneJoint& j = s.joints[static_cast<size_t>(s.driven.joint)];
   const SceneLink& child = s.links[static_cast<size_t>(j.child)];
   const Eigen::Vector2d at = j.child == j.b ? j.ub : j.ua;
@@ -432,22 +431,11 @@ ModelPtr load_model(const std::string& xml) {
   return ModelPtr(model);
 }
 
-// A scene link's motion: a mechanism link's, or a block's (its guide's rotation, at its pin).
-BodyMotion motion_of(const Mechanism& m, const Scene& s, int link, const Eigen::VectorXd& q,
-                     const Eigen::VectorXd& qdot) {
-  const SceneLink& sl = s.links[link];
-  if (sl.source >= 0) return BodyMotion::of(m.moving_index(sl.source), q, &qdot, nullptr);
-  BodyMotion block = motion_of(m, s, sl.guide, q, qdot);
-  const BodyMotion pin = motion_of(m, s, sl.pin, q, qdot);
-  block.r = pin.position(sl.pin_point);
-  block.v = pin.velocity(sl.pin_point);
-  return block;
-}
-
 // Value (qpos) of a scene joint and its rate, from the mechanism's absolute coordinates.
 Eigen::Vector2d joint_motion(const Mechanism& m, const Scene& s, const SceneJoint& j,
                              const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
-  const BodyMotion a = motion_of(m, s, j.a, q, qdot), b = motion_of(m, s, j.b, q, qdot);
+  const BodyMotion a = body_motion(m, s.links[j.a], q, &qdot),
+                   b = body_motion(m, s.links[j.b], q, &qdot);
   if (j.kind == SceneJoint::Kind::hinge) return {b.theta - a.theta, b.omega - a.omega};
   const Projection p = project(a, j.origin, j.direction, b, j.ub);
   return {p.value, p.rate};
@@ -589,7 +577,7 @@ class ForceReader {
     };
     for (size_t l = 0; l < s.links.size(); ++l) body_.push_back(body(static_cast<int>(l)));
     driver_eq_ = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
-    if (driver_eq_ >= 0 && !s.driven.tendon) {
+    if (driver_eq_ >= 0 && !s.driven.floating) {
       const int joint = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven.joint].name.c_str());
       driven_dof_ = mm->jnt_dofadr[joint];
     }
@@ -971,7 +959,7 @@ void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjDa
 
 // What the watch calls the driver coordinate: the driven joint, or a floating link's angle.
 std::string driver_name(const Mechanism& m, const Scene& s) {
-  return s.driven.tendon
+  return s.driven.floating
              ? fmt::format("the angle of link {}", m.links[static_cast<size_t>(m.driver.link)].name)
              : fmt::format("joint {}", s.joints[s.driven.joint].name);
 }
@@ -981,11 +969,9 @@ std::string driver_name(const Mechanism& m, const Scene& s) {
 // from the ground: on the links between, the pairs cancel, and the hinges' forces are the
 // definition's; a slide on that path would carry the driver's reaction moment in its couple, so
 // then no forces are read (no bundled definition has one).
-bool driver_reaction_readable(const Mechanism& m, const Scene& s) {
-  if (!s.driven.tendon) return true;
-  int link = 0;
-  while (s.links[static_cast<size_t>(link)].source != m.driver.link) ++link;
-  for (int j : mujoco_scene::tree_path(s, link))
+bool driver_reaction_readable(const Scene& s) {
+  if (!s.driven.floating) return true;
+  for (int j : s.driven.path)
     if (s.joints[static_cast<size_t>(j)].kind == SceneJoint::Kind::slide) return false;
   return true;
 }
@@ -997,9 +983,11 @@ struct KinematicModel {
       : model(std::move(loaded)), mm(model.get()), data(mj_makeData(mm)), d(data.get()) {
     const Scene& s = p.scene;
     driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
-    for (const auto& [joint, coefficient] : driver_tendon(m, s)) {
+    // A joint equality holds the driven joint's qpos, whichever way the joint runs against the
+    // driver (driver_target's sign); a tendon equality its length, the sum of the terms.
+    for (const auto& [joint, coefficient] : s.driven.terms) {
       const int id = mj_name2id(mm, mjOBJ_JOINT, s.joints[joint].name.c_str());
-      driver_coordinate.emplace_back(mm->jnt_qposadr[id], coefficient);
+      driver_coordinate.emplace_back(mm->jnt_qposadr[id], s.driven.floating ? coefficient : 1.0);
     }
     cut_bodies = cut_body_ids(s, mm);
     set_joint_rates(m, s, mm, d, p.start.q, p.start.qdot);
@@ -1742,7 +1730,7 @@ class MujocoEngine final : public Engine {
       return failed(std::move(run), e.what());
     }
     const Scene& s = p.scene;
-    const bool with_forces = driver_reaction_readable(m, s);
+    const bool with_forces = driver_reaction_readable(s);
     shape(run.trajectory, m, reference, with_forces);
     const KinematicWatch watch = kinematic_watch(p);
     run.settings = kinematic_settings(p, watch, with_forces);

@@ -5,7 +5,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <stdexcept>
 
 #include "analytic/planar.h"
@@ -20,67 +19,6 @@ Eigen::Matrix2d rotation(double theta) {
 
 Eigen::Vector2d world(const SceneLink& link, const Eigen::Vector2d& local) {
   return link.pose.head<2>() + rotation(link.pose(2)) * local;
-}
-
-// Minimal union-find for Kruskal's spanning tree.
-struct Components {
-  std::vector<int> parent;
-  explicit Components(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int i) { return parent[i] == i ? i : parent[i] = find(parent[i]); }
-  bool join(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return false;
-    parent[a] = b;
-    return true;
-  }
-};
-
-// The tree joint that realises the definition's driver, and how its value maps to the driver.
-DrivenJoint choose_driven(const Mechanism& m, const std::vector<SceneJoint>& joints,
-                          const std::vector<int>& scene_of_link,
-                          const std::vector<int>& scene_of_joint) {
-  const Driver& d = m.driver;
-  DrivenJoint driven;
-  double arm = 0.0;  // angle of the measured direction in its link's frame
-  if (d.from >= 0 && d.to >= 0) {
-    const Eigen::Vector2d v =
-        m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local;
-    arm = std::atan2(v.y(), v.x());
-  }
-  if (d.type == DriverType::slider) {
-    driven.joint = scene_of_joint[d.joint];  // the slide (a pin-in-slot's block slide)
-    return driven;
-  }
-  if (d.type == DriverType::joint_angle) {
-    driven.joint = scene_of_joint[d.joint];  // value = theta_b - theta_a = driver - arm
-    driven.offset = arm;
-    return driven;
-  }
-  // Link angle: direct when the link turns about a ground pivot.
-  const int ground = scene_of_link[m.ground()], link = scene_of_link[d.link];
-  for (size_t j = 0; j < joints.size(); ++j) {
-    const SceneJoint& sj = joints[j];
-    if (sj.kind != SceneJoint::Kind::hinge) continue;
-    if ((sj.a == ground && sj.b == link) || (sj.a == link && sj.b == ground)) {
-      driven.joint = static_cast<int>(j);
-      driven.offset = arm;
-      driven.sign = sj.b == link ? 1.0 : -1.0;
-      return driven;
-    }
-  }
-  // A floating link's angle: the sum of the hinges from the ground to the link (a fixed tendon,
-  // driver_tendon()), which is the link's absolute angle. One of the link's hinges goes first
-  // into the tree.
-  for (size_t j = 0; j < joints.size(); ++j)
-    if (joints[j].kind == SceneJoint::Kind::hinge && (joints[j].a == link || joints[j].b == link)) {
-      driven.joint = static_cast<int>(j);
-      driven.offset = arm;
-      driven.tendon = true;
-      return driven;
-    }
-  throw std::runtime_error(
-      "the driver is the angle of a link that no revolute joint turns: nothing can drive it");
 }
 
 // Places the child of tree joint j from its parent and the joint's value.
@@ -112,79 +50,30 @@ void place_child(Scene& s, const SceneJoint& j) {
 }  // namespace
 
 Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
+  SceneGraph graph = scene_graph(m);
+  if (graph.cut_slide >= 0)
+    throw std::runtime_error(fmt::format(
+        "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
+        graph.joints[graph.cut_slide].name));
   Scene s;
   s.size = m.size();
-
-  // Links: ground first, then the moving links in Mechanism order.
-  std::vector<int> scene_of_link(m.links.size());
-  std::vector<int> order{m.ground()};
-  for (size_t l = 0; l < m.links.size(); ++l)
-    if (!m.links[l].ground) order.push_back(static_cast<int>(l));
-  for (int l : order) {
+  for (SceneBody& body : graph.bodies) {
     SceneLink link;
-    link.name = m.links[l].name;
-    link.source = l;
-    link.ground = m.links[l].ground;
-    const MassProperties mp = scene_mass(m, l);
-    link.mass = mp.mass;
-    link.centre = mp.com;
-    link.inertia = mp.inertia;
-    for (const Point& p : m.links[l].points) link.points.push_back(p.local);
-    const int k = m.moving_index(l);
-    if (k >= 0) link.pose = q.segment<3>(3 * k);
-    scene_of_link[l] = static_cast<int>(s.links.size());
-    s.links.push_back(link);
+    static_cast<SceneBody&>(link) = std::move(body);
+    if (link.source >= 0)
+      for (const Point& p : m.links[link.source].points) link.points.push_back(p.local);
+    const BodyMotion at = body_motion(m, link, q);
+    link.pose << at.r, at.theta;
+    s.links.push_back(std::move(link));
   }
-
-  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin.
-  std::vector<int> scene_of_joint(m.joints.size());
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    const int a = scene_of_link[j.link_a], b = scene_of_link[j.link_b];
-    SceneJoint sj;
-    sj.name = j.name;
-    sj.source = static_cast<int>(ji);
-    sj.a = a;
-    sj.b = b;
-    sj.ub = s.links[b].points[j.point_b];
-    scene_of_joint[ji] = static_cast<int>(s.joints.size());
-    if (j.type == JointType::revolute) {
-      sj.ua = s.links[a].points[j.point_a];
-      s.joints.push_back(sj);
-      continue;
-    }
-    const Line& line = m.links[j.link_a].lines[j.line];
-    sj.kind = SceneJoint::Kind::slide;
-    sj.origin = line.origin;
-    sj.direction = line.direction;
-    sj.relative_angle = j.relative_angle;
-    if (j.type == JointType::prismatic) {
-      s.joints.push_back(sj);
-      continue;
-    }
-    SceneLink block;
-    block.name = j.name + "_block";
-    block.pose << world(s.links[b], sj.ub), s.links[a].pose(2);
-    block.guide = a;
-    block.pin = b;
-    block.pin_point = sj.ub;
-    block.mass = auxiliary_mass(m);
-    block.inertia = block.mass * 1e-4 * s.size * s.size;
-    const int k = static_cast<int>(s.links.size());
-    s.links.push_back(block);
-    SceneJoint pin;
-    pin.name = j.name + "_pin";
-    pin.source = static_cast<int>(ji);
-    pin.a = k;
-    pin.b = b;
-    pin.ub = sj.ub;
-    sj.name = j.name + "_slide";
-    sj.b = k;
-    sj.ub.setZero();
-    sj.relative_angle = 0.0;
-    s.joints.push_back(sj);
-    s.joints.push_back(pin);
+  for (sim::SceneJoint& joint : graph.joints) {
+    SceneJoint j;
+    static_cast<sim::SceneJoint&>(j) = std::move(joint);
+    s.joints.push_back(std::move(j));
   }
+  s.tree_order = std::move(graph.tree_order);
+  s.cuts = std::move(graph.cuts);
+  s.driven = std::move(graph.driven.front());  // one driver today
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
   // scene that loads as it is keeps its unit).
@@ -208,89 +97,19 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     }
   }
 
-  // Spanning tree (Kruskal): the driven joint first, so the driver acts on a MuJoCo joint; then
-  // slides, so every cut is a revolute joint that <connect> closes exactly; then hinges.
-  s.driven = choose_driven(m, s.joints, scene_of_link, scene_of_joint);
-  std::vector<int> priority;
-  priority.push_back(s.driven.joint);
-  for (int pass = 0; pass < 2; ++pass)
-    for (size_t j = 0; j < s.joints.size(); ++j) {
-      const bool slide = s.joints[j].kind == SceneJoint::Kind::slide;
-      if (static_cast<int>(j) != s.driven.joint && slide == (pass == 0))
-        priority.push_back(static_cast<int>(j));
-    }
-  Components components(s.links.size());
-  for (int j : priority) {
-    SceneJoint& sj = s.joints[j];
-    sj.in_tree = components.join(sj.a, sj.b);
-    if (!sj.in_tree) {
-      if (sj.kind == SceneJoint::Kind::slide)
-        throw std::runtime_error(fmt::format(
-            "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
-            sj.name));
-      s.cuts.push_back(j);
-    }
-  }
-
-  // Root the tree at the ground (breadth first) and place every body from its parent, so tree
-  // joints hold to rounding in the scene.
-  std::vector<bool> placed(s.links.size(), false);
-  placed[0] = true;
-  for (size_t done = 0; done < s.links.size();) {
-    bool progress = false;
-    for (int j : priority) {
-      SceneJoint& sj = s.joints[j];
-      if (!sj.in_tree || sj.parent >= 0 || placed[sj.a] == placed[sj.b]) continue;
-      sj.parent = placed[sj.a] ? sj.a : sj.b;
-      sj.child = placed[sj.a] ? sj.b : sj.a;
-      place_child(s, sj);
-      placed[sj.child] = true;
-      s.tree_order.push_back(j);
-      progress = true;
-    }
-    done = static_cast<size_t>(std::count(placed.begin(), placed.end(), true));
-    if (!progress && done < s.links.size())
-      throw std::runtime_error("some links are not connected to the ground by joints");
-  }
+  // Place every body from its tree parent, so tree joints hold to rounding in the scene.
+  for (int j : s.tree_order) place_child(s, s.joints[j]);
   return s;
 }
 
 bool realisable(const Mechanism& mechanism, std::string* why) {
   try {
-    const Scene s = build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()));
-    (void)driver_tendon(mechanism, s);
+    (void)build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()));
   } catch (const std::exception& e) {
     if (why) *why = e.what();
     return false;
   }
   return true;
-}
-
-std::vector<int> tree_path(const Scene& s, int link) {
-  std::vector<int> parent_joint(s.links.size(), -1);
-  for (int j : s.tree_order) parent_joint[s.joints[j].child] = j;
-  std::vector<int> out;
-  for (; parent_joint[link] >= 0; link = s.joints[parent_joint[link]].parent)
-    out.push_back(parent_joint[link]);
-  return out;
-}
-
-std::vector<std::pair<int, double>> driver_tendon(const Mechanism& m, const Scene& s) {
-  if (!s.driven.tendon) return {{s.driven.joint, s.driven.sign}};  // sign (driver - offset)
-  // A link's absolute angle: the sum of the hinges from the ground, with theta_child =
-  // theta_parent + value when the child is the hinge's b, - value when it is a.
-  int link = 0;
-  while (s.links[link].source != m.driver.link) ++link;
-  std::vector<std::pair<int, double>> out;
-  for (int j : tree_path(s, link))
-    if (s.joints[j].kind == SceneJoint::Kind::hinge)
-      out.emplace_back(j, s.joints[j].child == s.joints[j].b ? 1.0 : -1.0);
-  if (out.empty())
-    throw std::runtime_error(fmt::format(
-        "the driver is the angle of link {}, which no revolute joint between it and the ground "
-        "turns",
-        s.links[link].name));
-  return out;
 }
 
 namespace {
@@ -403,7 +222,7 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
     // The joint lives in the child's frame; its sign makes qpos = value (see SceneJoint).
     const bool child_is_b = sj.child == sj.b;
     const std::string armature =
-        o.driver_armature > 0.0 && o.driven && !s.driven.tendon && j == s.driven.joint
+        o.driver_armature > 0.0 && o.driven && !s.driven.floating && j == s.driven.joint
             ? fmt::format(" armature=\"{:.17g}\"", o.driver_armature)
             : "";
     if (sj.kind == SceneJoint::Kind::hinge) {
@@ -495,10 +314,10 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         clock->inertia, clock->damping, clock->stiffness, clock->springref);
   out += "  </worldbody>\n";
   // The driver as a tendon: the clock's, and a floating link's angle in crosslink's runs.
-  const bool driver_tendon_written = clock || (o.driven && s.driven.tendon);
+  const bool driver_tendon_written = clock || (o.driven && s.driven.floating);
   if (driver_tendon_written) {
     out += "  <tendon>\n    <fixed name=\"driver\">\n";
-    for (const auto& [joint, coefficient] : driver_tendon(m, s))
+    for (const auto& [joint, coefficient] : s.driven.terms)
       out += fmt::format("      <joint joint=\"{}\" coef=\"{:.17g}\"/>\n",
                          escape(s.joints[joint].name), coefficient);
     out += "    </fixed>\n";

@@ -1,6 +1,6 @@
-// The MuJoCo scene of a Mechanism, before it becomes MJCF text: scene links (the mechanism's
-// links plus one block per pin-in-slot), scene joints, the spanning tree that MuJoCo's joints
-// realise, the cut joints closed by <connect>, and the driven joint. Internal to crosslink_mujoco.
+// The MuJoCo scene of a Mechanism, before it becomes MJCF text: the scene graph (sim/scene_graph.h:
+// bodies, joints, spanning tree, cuts closed by <connect>, driven coordinate) translated at an
+// assembled configuration, with MuJoCo's unit of mass. Internal to crosslink_mujoco.
 #pragma once
 
 #include <Eigen/Core>
@@ -12,56 +12,20 @@
 
 #include "analytic/mechanism.h"
 #include "analytic/trajectory.h"
+#include "sim/scene_graph.h"
 
 namespace crosslink::sim::mujoco_scene {
 
-// A rigid body of the scene. Its body frame is the link frame of the Mechanism (a block's frame
-// sits at its pin with the guide's orientation), so a point's local coordinates carry over.
-struct SceneLink {
-  std::string name;
-  int source = -1;  // Mechanism link index; -1 for a pin-in-slot block
-  bool ground = false;
+// A body of the graph as MuJoCo writes it: its points and its assembled pose; mass and inertia in
+// the scene's unit of mass (Scene::mass_scale).
+struct SceneLink : SceneBody {
   std::vector<Eigen::Vector2d> points;             // by Mechanism point index, local [m]
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();  // (x, y, theta) assembled [m, rad]
-  // The link's mass properties (Link::mass, shared with the exact solver); a block has
-  // auxiliary_mass() at its pin and a negligible inertia.
-  double mass = 0.0;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // local [m]
-  double inertia = 0.0;                              // about z through the centre [kg m^2]
-  // A block: it turns with link `guide` and carries point `pin_point` of link `pin` (scene
-  // indices), which is where its frame sits.
-  int guide = -1, pin = -1;
-  Eigen::Vector2d pin_point = Eigen::Vector2d::Zero();
 };
 
-// A one-freedom joint between scene links a and b.
-//   hinge: point ua of a coincides with point ub of b; value = theta_b - theta_a [rad]
-//   slide: point ub of b stays on the line (origin, direction) of a, with theta_b - theta_a
-//          fixed; value = s = direction . (P_b - origin) [m]
-struct SceneJoint {
-  enum class Kind { hinge, slide };
-  Kind kind = Kind::hinge;
-  std::string name;
-  int source = -1;  // the Mechanism joint it realises (a pin-in-slot: both its slide and pin)
-  int a = -1, b = -1;
-  Eigen::Vector2d ua = Eigen::Vector2d::Zero();  // hinge: local point on a
-  Eigen::Vector2d ub = Eigen::Vector2d::Zero();  // local point on b
-  Eigen::Vector2d origin = Eigen::Vector2d::Zero(), direction = Eigen::Vector2d::UnitX();
-  double relative_angle = 0.0;  // theta_b - theta_a (slide) [rad]
-  double value = 0.0;           // assembled value (hinge angle or s)
-  bool in_tree = false;
-  int parent = -1, child = -1;  // tree joints: scene link indices (parent nearer the ground)
-};
-
-// How the driver coordinate MuJoCo holds follows the definition's driver:
-// coordinate = sign * (driver - offset). The coordinate is the driven tree joint's value, or,
-// with `tendon` (the angle of a link without a ground pivot), the fixed tendon over the hinges on
-// the tree's path from the ground to the link (driver_tendon()): their sum is the link's
-// absolute angle, so the definition's own driver is driven and its torque read.
-struct DrivenJoint {
-  int joint = -1;  // scene joint index: the driven joint, or (tendon) a hinge of the link
-  double sign = 1.0, offset = 0.0;
-  bool tendon = false;
+// A joint of the graph with its assembled value (hinge angle or s), which MuJoCo's qpos holds.
+struct SceneJoint : sim::SceneJoint {
+  double value = 0.0;
 };
 
 struct Scene {
@@ -69,7 +33,11 @@ struct Scene {
   std::vector<SceneJoint> joints;
   std::vector<int> tree_order;  // tree joints, parents before children
   std::vector<int> cuts;        // joints closed by <connect>
-  DrivenJoint driven;
+  // The driver coordinate MuJoCo holds, coordinate = sign * (driver - offset): the driven tree
+  // joint's value, or, for a floating link's angle, the fixed tendon over the hinges on the
+  // tree's path from the ground to the link (DrivenCoordinate::terms): their sum is the link's
+  // absolute angle, so the definition's own driver is driven and its torque read.
+  DrivenCoordinate driven;
   double size = 1.0;  // Mechanism::size() [m]
   // The scene's unit of mass in kg is 1 / mass_scale: every mass and inertia of the scene is the
   // mechanism's times mass_scale, and so is every force MuJoCo applies or reports. MuJoCo refuses
@@ -87,14 +55,6 @@ Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q);
 
 // Just the realisability check of build_scene (no configuration needed).
 bool realisable(const Mechanism& mechanism, std::string* why);
-
-// The driver coordinate as a fixed tendon: (scene joint, coefficient) pairs whose weighted sum
-// is the coordinate. A tree-joint driver is its joint; a floating link's angle (tendon) is the
-// sum of the hinges on the tree path from the ground to the link.
-std::vector<std::pair<int, double>> driver_tendon(const Mechanism& mechanism, const Scene& scene);
-
-// The tree joints from scene link `link` up to the ground, nearest first.
-std::vector<int> tree_path(const Scene& scene, int link);
 
 // What turns the MJCF into a scene for MuJoCo alone (the export; docs/engines.md, "The exported
 // scene"): a clock hinge that moves the driver coordinate through the driver equality (crosslink's

@@ -1,0 +1,350 @@
+#include "sim/scene_graph.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "sim/forces.h"
+
+namespace crosslink::sim {
+namespace {
+
+constexpr int kGround = 0;  // the ground's body index
+
+// Minimal union-find for Kruskal's spanning tree.
+struct Components {
+  std::vector<int> parent;
+  explicit Components(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int i) { return parent[i] == i ? i : parent[i] = find(parent[i]); }
+  bool join(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return false;
+    parent[a] = b;
+    return true;
+  }
+};
+
+int add_planar_joint(SceneGraph& g, int body) {
+  SceneJoint planar;
+  planar.kind = SceneJoint::Kind::planar;
+  planar.name = g.bodies[body].name + "_planar";
+  planar.a = kGround;
+  planar.b = body;
+  g.joints.push_back(planar);
+  return static_cast<int>(g.joints.size()) - 1;
+}
+
+// The joint that realises driver `d`, and how its value maps to the driver.
+DrivenCoordinate drive(const Mechanism& m, const Driver& d, SceneGraph& g,
+                       const std::vector<int>& body_of_link, const std::vector<int>& joint_of,
+                       const TreePolicy& policy) {
+  DrivenCoordinate driven;
+  double arm = 0.0;  // angle of the measured direction in its link's frame
+  if (d.from >= 0 && d.to >= 0) {
+    const Eigen::Vector2d v =
+        m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local;
+    arm = std::atan2(v.y(), v.x());
+  }
+  if (d.type == DriverType::slider) {
+    driven.joint = joint_of[d.joint];  // the slide (a pin-in-slot's block slide)
+    return driven;
+  }
+  if (d.type == DriverType::joint_angle) {
+    driven.joint = joint_of[d.joint];  // value = theta_b - theta_a = driver - arm
+    driven.offset = arm;
+    return driven;
+  }
+  // Link angle: direct when the link turns about a ground pivot.
+  const int ground = body_of_link[m.ground()], link = body_of_link[d.link];
+  for (size_t j = 0; j < g.joints.size(); ++j) {
+    const SceneJoint& sj = g.joints[j];
+    if (sj.kind != SceneJoint::Kind::hinge) continue;
+    if ((sj.a == ground && sj.b == link) || (sj.a == link && sj.b == ground)) {
+      driven.joint = static_cast<int>(j);
+      driven.offset = arm;
+      driven.sign = sj.b == link ? 1.0 : -1.0;
+      return driven;
+    }
+  }
+  // A floating link's angle: a planar ground joint's, or the sum of the hinges from the ground to
+  // the link (terms, once the tree is known), with one of the link's hinges first into the tree.
+  driven.offset = arm;
+  driven.floating = true;
+  driven.body = link;
+  if (policy.planar_joints) {
+    driven.joint = add_planar_joint(g, link);
+    return driven;
+  }
+  for (size_t j = 0; j < g.joints.size(); ++j)
+    if (g.joints[j].kind == SceneJoint::Kind::hinge &&
+        (g.joints[j].a == link || g.joints[j].b == link)) {
+      driven.joint = static_cast<int>(j);
+      return driven;
+    }
+  throw std::runtime_error(
+      "the driver is the angle of a link that no revolute joint turns: nothing can drive it");
+}
+
+// The joints in the order the tree prefers them (SceneGraph::tree_order's comment).
+std::vector<int> preference(const SceneGraph& g, const TreePolicy& policy) {
+  std::vector<int> order;
+  std::vector<bool> taken(g.joints.size(), false);
+  const auto take = [&](auto wanted) {
+    for (size_t j = 0; j < g.joints.size(); ++j)
+      if (!taken[j] && wanted(g.joints[j])) {
+        taken[j] = true;
+        order.push_back(static_cast<int>(j));
+      }
+  };
+  for (const DrivenCoordinate& d : g.driven)
+    if (!taken[static_cast<size_t>(d.joint)]) {
+      taken[static_cast<size_t>(d.joint)] = true;
+      order.push_back(d.joint);
+    }
+  take([](const SceneJoint& j) { return j.kind != SceneJoint::Kind::hinge; });
+  if (policy.ground_pivots_first)
+    take([](const SceneJoint& j) { return j.a == kGround || j.b == kGround; });
+  take([](const SceneJoint&) { return true; });
+  return order;
+}
+
+// The tree grown from the ground in passes over the preference, each pass taking every tree
+// joint that reaches a new body: its bodies, parents first. (MuJoCo numbers a body's children in
+// this order.)
+std::vector<int> grow(SceneGraph& g, const std::vector<int>& preferred) {
+  std::vector<bool> placed(g.bodies.size(), false);
+  placed[kGround] = true;
+  std::vector<int> order;
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (int j : preferred) {
+      SceneJoint& sj = g.joints[j];
+      if (!sj.in_tree || placed[sj.a] == placed[sj.b]) continue;
+      sj.parent = placed[sj.a] ? sj.a : sj.b;
+      sj.child = placed[sj.a] ? sj.b : sj.a;
+      placed[sj.child] = true;
+      order.push_back(sj.child);
+      progress = true;
+    }
+  }
+  return order;
+}
+
+// Per body: its tree joint to its parent (-1: the ground).
+std::vector<int> parent_joints(const SceneGraph& g) {
+  std::vector<int> out(g.bodies.size(), -1);
+  for (size_t j = 0; j < g.joints.size(); ++j)
+    if (g.joints[j].in_tree) out[g.joints[j].child] = static_cast<int>(j);
+  return out;
+}
+
+void list_cuts(SceneGraph& g) {
+  g.cuts.clear();
+  for (size_t j = 0; j < g.joints.size(); ++j)
+    if (!g.joints[j].in_tree) g.cuts.push_back(static_cast<int>(j));
+}
+
+// TreePolicy::split_loops on the tree grown as `order` (bodies, parents first): "" or why not.
+std::string split_loops(SceneGraph& g, std::vector<int>& order) {
+  std::vector<int> up;  // per body, its tree joint to its parent, as the tree stands
+  const auto parent = [&](int body) { return up[body] < 0 ? -1 : g.joints[up[body]].parent; };
+  const auto root_of = [&](int body) {
+    while (parent(body) != kGround) body = parent(body);
+    return body;
+  };
+  const auto is_ancestor = [&](int a, int body) {
+    for (; body != kGround; body = parent(body))
+      if (body == a) return true;
+    return false;
+  };
+  for (int guard = 0; guard < 100; ++guard) {
+    list_cuts(g);
+    up = parent_joints(g);
+    bool changed = false;
+    for (int c : g.cuts) {
+      const SceneJoint& cut = g.joints[c];
+      if (cut.kind != SceneJoint::Kind::hinge)
+        return "a loop would have to be cut at a slide joint";
+      if (cut.a == kGround || cut.b == kGround || root_of(cut.a) != root_of(cut.b)) continue;
+      const int x = is_ancestor(cut.a, cut.b) ? cut.b : cut.a;
+      SceneJoint& old = g.joints[up[x]];
+      if (old.kind != SceneJoint::Kind::hinge)
+        return "a loop inside one multibody can only be split at a slide joint";
+      old.in_tree = false;
+      old.parent = old.child = -1;
+      SceneJoint& planar = g.joints[add_planar_joint(g, x)];
+      planar.in_tree = true;
+      planar.parent = kGround;
+      planar.child = x;
+      changed = true;
+      break;
+    }
+    if (!changed) {
+      // Parents must come first within each multibody: re-sort by depth.
+      const auto depth = [&](int body) {
+        int k = 0;
+        for (; parent(body) != kGround; body = parent(body)) ++k;
+        return k;
+      };
+      std::stable_sort(order.begin(), order.end(),
+                       [&](int a, int b) { return depth(a) < depth(b); });
+      return "";
+    }
+  }
+  return "could not split the loops into multibodies";
+}
+
+// The tree joints from `body` up to the ground, nearest first.
+std::vector<int> tree_path(const SceneGraph& g, int body) {
+  const std::vector<int> parent_joint = parent_joints(g);
+  std::vector<int> out;
+  for (; parent_joint[body] >= 0; body = g.joints[parent_joint[body]].parent)
+    out.push_back(parent_joint[body]);
+  return out;
+}
+
+}  // namespace
+
+BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd* qdot) {
+  if (body.source >= 0) return BodyMotion::of(m.moving_index(body.source), q, qdot, nullptr);
+  const Joint& j = m.joints[body.joint];
+  BodyMotion block = BodyMotion::of(m.moving_index(j.link_a), q, qdot, nullptr);
+  const BodyMotion pin = BodyMotion::of(m.moving_index(j.link_b), q, qdot, nullptr);
+  block.r = pin.position(body.pin_point);
+  block.v = pin.velocity(body.pin_point);
+  return block;
+}
+
+SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
+  SceneGraph g;
+
+  // Bodies: ground first, then the moving links in Mechanism order.
+  std::vector<int> body_of_link(m.links.size());
+  std::vector<int> order{m.ground()};
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (!m.links[l].ground) order.push_back(static_cast<int>(l));
+  for (int l : order) {
+    SceneBody body;
+    body.name = m.links[l].name;
+    body.source = l;
+    body.ground = m.links[l].ground;
+    const MassProperties mp = scene_mass(m, l);
+    body.mass = mp.mass;
+    body.centre = mp.com;
+    body.inertia = mp.inertia;
+    body_of_link[l] = static_cast<int>(g.bodies.size());
+    g.bodies.push_back(body);
+  }
+
+  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin.
+  std::vector<int> joint_of(m.joints.size());
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    SceneJoint sj;
+    sj.name = j.name;
+    sj.source = static_cast<int>(ji);
+    sj.a = body_of_link[j.link_a];
+    sj.b = body_of_link[j.link_b];
+    sj.ub = m.links[j.link_b].points[j.point_b].local;
+    joint_of[ji] = static_cast<int>(g.joints.size());
+    if (j.type == JointType::revolute) {
+      sj.ua = m.links[j.link_a].points[j.point_a].local;
+      g.joints.push_back(sj);
+      continue;
+    }
+    const Line& line = m.links[j.link_a].lines[j.line];
+    sj.kind = SceneJoint::Kind::slide;
+    sj.origin = line.origin;
+    sj.direction = line.direction;
+    sj.relative_angle = j.relative_angle;
+    if (j.type == JointType::prismatic) {
+      g.joints.push_back(sj);
+      continue;
+    }
+    SceneBody block;
+    block.name = j.name + "_block";
+    block.joint = static_cast<int>(ji);
+    block.guide = sj.a;
+    block.pin = sj.b;
+    block.pin_point = sj.ub;
+    block.mass = auxiliary_mass(m);
+    block.inertia = block.mass * 1e-4 * m.size() * m.size();
+    const int k = static_cast<int>(g.bodies.size());
+    g.bodies.push_back(block);
+    SceneJoint pin;
+    pin.name = j.name + "_pin";
+    pin.source = static_cast<int>(ji);
+    pin.a = k;
+    pin.b = sj.b;
+    pin.ub = sj.ub;
+    sj.name = j.name + "_slide";
+    sj.b = k;
+    sj.ub.setZero();
+    sj.relative_angle = 0.0;
+    g.joints.push_back(sj);
+    g.joints.push_back(pin);
+  }
+
+  // One driver today (issue 20: Mechanism::drivers).
+  g.driven.push_back(drive(m, m.driver, g, body_of_link, joint_of, policy));
+
+  // The spanning tree (Kruskal over the preference), the cuts, and the tree grown from the ground.
+  const std::vector<int> preferred = preference(g, policy);
+  Components components(g.bodies.size());
+  size_t joined = 0;
+  for (int j : preferred) {
+    SceneJoint& sj = g.joints[j];
+    sj.in_tree = components.join(sj.a, sj.b);
+    if (sj.in_tree) ++joined;
+  }
+  if (joined + 1 != g.bodies.size())
+    throw std::runtime_error("some links are not connected to the ground by joints");
+  list_cuts(g);
+  for (int c : g.cuts)
+    if (g.joints[c].kind != SceneJoint::Kind::hinge) {
+      g.cut_slide = c;
+      break;
+    }
+  std::vector<int> bodies = grow(g, preferred);
+  if (policy.split_loops) {
+    SceneGraph split = g;
+    std::vector<int> split_order = bodies;
+    g.split_error = split_loops(split, split_order);
+    if (g.split_error.empty()) {
+      g = std::move(split);
+      bodies = std::move(split_order);
+    }
+  }
+  const std::vector<int> parent_joint = parent_joints(g);
+  for (int body : bodies) g.tree_order.push_back(parent_joint[body]);
+
+  // A floating link's angle: its planar joint's, or the hinges on its path from the ground, each
+  // +1 when the child is the hinge's b (theta_child = theta_parent + value), -1 when it is a.
+  for (DrivenCoordinate& d : g.driven) {
+    if (!d.floating) {
+      d.terms = {{d.joint, d.sign}};
+      continue;
+    }
+    d.path = tree_path(g, d.body);
+    if (policy.planar_joints) {
+      d.terms = {{d.joint, 1.0}};
+      continue;
+    }
+    for (int j : d.path)
+      if (g.joints[j].kind == SceneJoint::Kind::hinge)
+        d.terms.emplace_back(j, g.joints[j].child == g.joints[j].b ? 1.0 : -1.0);
+    if (d.terms.empty())
+      throw std::runtime_error(fmt::format(
+          "the driver is the angle of link {}, which no revolute joint between it and the ground "
+          "turns",
+          g.bodies[d.body].name));
+  }
+  return g;
+}
+
+}  // namespace crosslink::sim

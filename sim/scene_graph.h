@@ -1,0 +1,118 @@
+// The engine-neutral scene of a Mechanism: the rigid bodies an engine builds (the links, plus one
+// block per pin-in-slot), the joints between them, the spanning tree an engine with joint
+// coordinates realises, the loop joints it leaves out of the tree (cuts, closed by a constraint)
+// and the driven coordinates. Every topology decision is made here, once; an engine translates
+// the graph into its own model and decides nothing about topology (docs/design.md, "Scene graph").
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/planar.h"
+
+namespace crosslink::sim {
+
+// A rigid body. Its frame is the link frame of the Mechanism, so a point's local coordinates
+// carry over; a block's frame sits at its pin with its guide's orientation.
+struct SceneBody {
+  std::string name;
+  int source = -1;  // Mechanism link index; -1 for a pin-in-slot block
+  bool ground = false;
+  // The mass model every engine gets: the link's scene_mass() (sim/forces.h); a block has
+  // auxiliary_mass() at its pin and a negligible inertia.
+  double mass = 0.0;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // local [m]
+  double inertia = 0.0;                              // about z through the centre [kg m^2]
+  // A block: it realises pin-in-slot joint `joint` (Mechanism index), turns with body `guide`
+  // and carries point `pin_point` of body `pin`, which is where its frame sits.
+  int joint = -1, guide = -1, pin = -1;
+  Eigen::Vector2d pin_point = Eigen::Vector2d::Zero();
+};
+
+// A joint between bodies a and b.
+//   hinge:  point ua of a coincides with point ub of b; value = theta_b - theta_a [rad]
+//   slide:  point ub of b stays on the line (origin, direction) of a, with theta_b - theta_a
+//           fixed at relative_angle; value = s = direction . (P_b - origin) [m]
+//   planar: b moves freely in the plane of a (the ground); its value is theta_b [rad]. Only
+//           TreePolicy::planar_joints adds one.
+// A coupling between two joints' values (a gear, a rack and pinion: issue 20) will be a fourth
+// kind, never in the tree: every engine closes it as a constraint, as it closes a cut.
+struct SceneJoint {
+  enum class Kind { hinge, slide, planar };
+  Kind kind = Kind::hinge;
+  std::string name;
+  int source = -1;  // the Mechanism joint it realises (a pin-in-slot: both its slide and pin)
+  int a = -1, b = -1;
+  Eigen::Vector2d ua = Eigen::Vector2d::Zero();  // hinge: local point on a
+  Eigen::Vector2d ub = Eigen::Vector2d::Zero();  // local point on b
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero(), direction = Eigen::Vector2d::UnitX();
+  double relative_angle = 0.0;  // slide: theta_b - theta_a [rad]
+  // The spanning tree: a tree joint's parent body (nearer the ground) and child.
+  bool in_tree = false;
+  int parent = -1, child = -1;
+};
+
+// A driver realised in the scene: the joint values whose weighted sum is the driver's value
+// less `offset` (sum of coefficient x value = driver - offset). A joint angle, a slider or a link
+// angle at a ground pivot is one joint (coefficient +-1); the angle of a floating link (no ground
+// pivot) is the sum of the hinges on the tree's path from the ground to it, or, with
+// TreePolicy::planar_joints, the angle of its planar ground joint.
+struct DrivenCoordinate {
+  int joint = -1;       // the joint that goes first into the tree: the driven one, or (floating) a
+                        // hinge of the link, or its planar ground joint
+  double sign = 1.0;    // the coefficient of `joint`
+  double offset = 0.0;  // the measured direction's angle in its link's frame [rad]; 0 for a slider
+  bool floating = false;  // the angle of a link without a ground pivot
+  int body = -1;          // floating: the link's body
+  std::vector<int> path;  // floating: the tree joints from the body up to the ground, nearest first
+  std::vector<std::pair<int, double>> terms;  // (joint, coefficient)
+};
+
+// How an engine's tree is to be grown: each choice below is where the two engines' models differ,
+// kept because changing either would change that engine's numbers (docs/design.md, "Scene graph").
+struct TreePolicy {
+  // After the driven joint and the slides, the hinges to the ground before the others (Bullet's
+  // multibody: each ground pivot roots its own multibody).
+  bool ground_pivots_first = false;
+  // A floating link's driven angle is the angle of a planar joint from the ground to it (Bullet),
+  // instead of the sum of the hinges on its tree path (MuJoCo's fixed tendon).
+  bool planar_joints = false;
+  // No loop closes inside one multibody (a subtree hanging from the ground): such a loop is split
+  // by putting its deeper end on a planar ground joint (Bullet's multibody MLCP solve gets those
+  // loops wrong). Tree joints are then ordered by depth.
+  bool split_loops = false;
+};
+
+struct SceneGraph {
+  // Bodies: the ground (0), the moving links in Mechanism order, then one block per pin-in-slot
+  // in joint order.
+  std::vector<SceneBody> bodies;
+  // Joints in Mechanism order, a pin-in-slot as its slide (guide to block) then its pin (block
+  // to pin link); planar joints last.
+  std::vector<SceneJoint> joints;
+  // The spanning tree, the minimum spanning tree under the preference: the driven joints first
+  // (so the driver acts on a joint of the tree), then slides and planar joints (so every cut is
+  // a hinge, which a point constraint closes exactly), then (ground_pivots_first) the hinges to
+  // the ground, then the other hinges; each group in joint order.
+  std::vector<int> tree_order;           // tree joints, parents before children
+  std::vector<int> cuts;                 // joints left out of the tree, in joint order
+  std::vector<DrivenCoordinate> driven;  // per driver of the Mechanism
+  // A slide among the cuts (a loop of slides only), which no point constraint closes; -1: none.
+  int cut_slide = -1;
+  // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).
+  std::string split_error;
+};
+
+// A body's motion from the Mechanism's coordinates q (and rates qdot, when given): a link's, or a
+// block's, which sits at its pin and turns with its guide.
+BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd* qdot = nullptr);
+
+// The scene graph of `mechanism` under `policy`. Throws std::runtime_error when no engine can
+// realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.
+SceneGraph scene_graph(const Mechanism& mechanism, const TreePolicy& policy = {});
+
+}  // namespace crosslink::sim
