@@ -102,13 +102,14 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
   const Eigen::VectorXd& lambda = out.lambda;
-  out.effort = -lambda(lambda.size() - 1);
+  const ConstraintLayout& layout = solver_.layout();
+  out.effort = -lambda(layout.driver_row(0));
 
   size_t slide = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
-    const int jj = static_cast<int>(ji);
-    const int row = solver_.joint_row(jj), rows = 3 - j.dof();
+    const ConstraintRows& rows_of = layout.joint(static_cast<int>(ji));
+    const int row = rows_of.first_row, rows = rows_of.rows();
     // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
     // force and moment about its frame origin.
     auto on = [&](int k) {
@@ -117,7 +118,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
         for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
       return g;
     };
-    const int ka = solver_.moving_a(jj), kb = solver_.moving_b(jj);
+    const int ka = rows_of.a, kb = rows_of.b;
     // Through the moving side (both are moving, or the ground is one of them).
     const bool from_b = kb >= 0;
     const Eigen::Vector3d g = on(from_b ? kb : ka);

@@ -170,12 +170,6 @@ int Mechanism::moving_index(int link) const {
   return link < g ? link : link - 1;
 }
 
-int Mechanism::constraint_count() const {
-  int rows = 0;
-  for (const Joint& j : joints) rows += 3 - j.dof();
-  return rows;
-}
-
 double Mechanism::size() const {
   std::vector<Eigen::Vector2d> drawn;
   for (const Link& link : links) {

@@ -285,9 +285,6 @@ struct Mechanism {
   int moving_index(int link) const;
   int moving_count() const { return static_cast<int>(links.size()) - 1; }
   int coordinate_count() const { return 3 * moving_count(); }
-  // Rows of the constraint equations (without the driver): 2 per revolute and prismatic
-  // joint (prismatic: 1 for the line, 1 for the angle), 1 per pin-in-slot.
-  int constraint_count() const;
   // Size of the mechanism [m]: the largest distance between any two points drawn at their
   // posed positions (falls back to local extents). Scales position tolerances.
   double size() const;

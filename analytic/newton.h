@@ -13,6 +13,7 @@
 #include <Eigen/LU>
 #include <string>
 
+#include "analytic/constraints.h"
 #include "analytic/mechanism.h"
 #include "analytic/trajectory.h"
 
@@ -132,22 +133,18 @@ class NewtonSolver {
   double jacobian_entry(const KinematicState& state, int row, int column) const {
     return state.jacobian(row, column) / (row_scale_(row) * col_scale_(column));
   }
-  // The first row of joint `joint`'s equations in Phi (2 rows for revolute and prismatic, 1 for
-  // pin_in_slot); the driver's equation is the last row.
-  int joint_row(int joint) const { return joint_rows_[static_cast<size_t>(joint)]; }
-  int moving_a(int joint) const { return moving_a_[static_cast<size_t>(joint)]; }
-  int moving_b(int joint) const { return moving_b_[static_cast<size_t>(joint)]; }
+  // The rows of Phi: each joint's and the driver's, their equations and which are angles.
+  const ConstraintLayout& layout() const { return layout_; }
 
   // Writes sample `row` of a trajectory from a solved state.
   void write_sample(const KinematicState& state, const SolveReport& report, Trajectory& out,
                     int row) const;
 
  private:
-  struct Frames;  // the links' frames at one q (newton.cpp)
-  // Phi(q) when qdot is null, else the velocity-squared part of d2Phi/dt2.
-  void evaluate(const Frames& frames, const Eigen::VectorXd* qdot, Eigen::VectorXd& out) const;
-  void jacobian(const Frames& frames, Eigen::MatrixXd& jac) const;
-  double driver_value(const Frames& frames) const;
+  // The frames at state.q with state's cos and sin (update_frames).
+  static LinkFrames frames(const KinematicState& state) {
+    return {state.q, &state.cos_theta, &state.sin_theta};
+  }
   // state.cos_theta, state.sin_theta at state.q.
   void update_frames(KinematicState& state) const;
   // Builds the scaled Jacobian at state.q and factorises it into state.lu.
@@ -166,18 +163,13 @@ class NewtonSolver {
 
   const Mechanism& mechanism_;
   NewtonOptions options_;
+  ConstraintLayout layout_;
   double length_scale_;  // Mechanism::size() [m]
   // Diagonal scalings S_r (angle rows * size) and S_c (angle columns / size).
   Eigen::VectorXd row_scale_, col_scale_;
   std::vector<int> scaled_rows_;  // rows whose scale is not 1
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
-  // Per joint: moving index of link_a and link_b (-1 for the ground).
-  std::vector<int> moving_a_, moving_b_;
-  std::vector<int> joint_rows_;  // per joint: its first row
-  // Angular driver: q(3 arm_link_ + 2) + arm_offset_ - q(3 arm_reference_ + 2).
-  int arm_link_ = -1, arm_reference_ = -1;
-  double arm_offset_ = 0.0;
 };
 
 }  // namespace crosslink

@@ -215,19 +215,17 @@ class Tracer {
   };
 
   explicit Tracer(const NewtonSolver& solver)
-      : solver_(solver), n_(static_cast<int>(solver.mechanism().coordinate_count())) {
+      : solver_(solver),
+        n_(static_cast<int>(solver.mechanism().coordinate_count())),
+        joints_(solver.layout().joint_row_count()),
+        driver_row_(solver.layout().driver_row(0)) {
     const Mechanism& m = solver.mechanism();
     const double L = solver.length_scale();
     column_.setOnes(n_);
     for (int k = 0; k < m.moving_count(); ++k) column_.segment<2>(3 * k).setConstant(L);
-    row_.setOnes(n_ - 1);
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      const int rows = 3 - j.dof();
-      for (int r = 0; r < rows; ++r)
-        if (!(j.type == JointType::prismatic && r == 1)) row_(row + r) = 1.0 / L;
-      row += rows;
-    }
+    row_.setOnes(joints_);
+    for (int r = 0; r < joints_; ++r)
+      if (!solver.layout().angle_row(r)) row_(r) = 1.0 / L;
     jac_.setZero(n_, n_);
     aug_.setZero(n_, n_);
     phi_.setZero(n_);
@@ -286,24 +284,24 @@ class Tracer {
     bool round_off = false;  // the last step moved q by round-off only
     for (int it = 0; it <= 12; ++it) {
       solver_.residual(q, 0.0, phi_);
-      rhs_.head(n_ - 1) = -phi_.head(n_ - 1).cwiseProduct(row_);
-      rhs_(n_ - 1) =
-          value ? *value - phi_(n_ - 1) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
+      rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
+      rhs_(joints_) =
+          value ? *value - phi_(driver_row_) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
       if (!rhs_.allFinite()) return false;
       solver_.jacobian(q, jac_);
-      aug_.topRows(n_ - 1) = constraint_rows();
+      aug_.topRows(joints_) = constraint_rows();
       const bool converged =
           rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0) ||
           round_off;
-      aug_.row(n_ - 1) = (converged ? orient : value ? driver_gradient() : from.t).transpose();
+      aug_.row(joints_) = (converged ? orient : value ? driver_gradient() : from.t).transpose();
       lu_.compute(aug_);
       if (converged) {
         Eigen::VectorXd e = Eigen::VectorXd::Zero(n_);
-        e(n_ - 1) = 1.0;
+        e(joints_) = 1.0;
         const Eigen::VectorXd t = lu_.solve(e);
         if (!t.allFinite() || t.norm() == 0.0) return false;
         double row_norms = 1.0;
-        for (int r = 0; r < n_ - 1; ++r) row_norms *= aug_.row(r).norm();
+        for (int r = 0; r < joints_; ++r) row_norms *= aug_.row(r).norm();
         out.orientation = lu_.determinant() * t.norm() / row_norms;
         out.t = t.normalized();
         out.q = q;
@@ -340,14 +338,16 @@ class Tracer {
 
  private:
   Eigen::MatrixXd constraint_rows() const {
-    return row_.asDiagonal() * jac_.topRows(n_ - 1) * column_.asDiagonal();
+    return row_.asDiagonal() * jac_.topRows(joints_) * column_.asDiagonal();
   }
   Eigen::VectorXd driver_gradient() const {
-    return jac_.row(n_ - 1).transpose().cwiseProduct(column_);
+    return jac_.row(driver_row_).transpose().cwiseProduct(column_);
   }
 
   const NewtonSolver& solver_;
   int n_;
+  int joints_;              // the rows of C (the joints'); [C; last row] is square, n_ rows
+  int driver_row_;          // the driver's row of Phi and J
   Eigen::VectorXd column_;  // q = column_ .* z
   Eigen::VectorXd row_;     // dimensionless constraint rows
   Eigen::MatrixXd jac_, aug_;

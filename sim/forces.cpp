@@ -64,7 +64,7 @@ DynamicsLoads::DynamicsLoads(const Mechanism& m)
 
 double DynamicsLoads::rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
   solver_.jacobian(q, jacobian_);
-  return jacobian_.row(jacobian_.rows() - 1).dot(qdot);
+  return jacobian_.row(solver_.layout().driver_row(0)).dot(qdot);
 }
 
 const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& q,
@@ -77,7 +77,7 @@ const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& 
     const double effort = m_.dynamics->effort_at(t);
     if (effort != 0.0) {
       solver_.jacobian(q, jacobian_);
-      generalised_ += effort * jacobian_.row(jacobian_.rows() - 1).transpose();
+      generalised_ += effort * jacobian_.row(solver_.layout().driver_row(0)).transpose();
     }
   }
   body_loads(m_, q, generalised_, out_);

@@ -1236,26 +1236,17 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
   return "";
 }
 
-// The loop gap a run watches at every pose: the joints' largest violation (prismatic angle rows
-// times the mechanism's size), and the driver row's.
+// The loop gap a run watches at every pose: the joints' largest violation (angle rows times the
+// mechanism's size), and the driver row's.
 class JointGap {
  public:
   JointGap(const Mechanism& m, const NewtonSolver& solver)
-      : solver_(solver),
-        size_(m.size()),
-        phi_(m.coordinate_count()),
-        angle_row_(static_cast<size_t>(m.coordinate_count()), 0.0) {
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      if (j.type == JointType::prismatic) angle_row_[static_cast<size_t>(row + 1)] = 1.0;
-      row += 3 - j.dof();
-    }
-  }
+      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()) {}
   // With the driver at `driver_value`: the gap (infinite when it or the driver's row is not
   // finite) and the driver row's error.
   double at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
     double gap = joints(q, driver_value);
-    driver_error = std::abs(phi_(phi_.size() - 1));
+    driver_error = std::abs(phi_(solver_.layout().driver_row(0)));
     if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
     return gap;
   }
@@ -1268,15 +1259,15 @@ class JointGap {
  private:
   double joints(const Eigen::VectorXd& q, double driver_value) {
     solver_.residual(q, driver_value, phi_);
+    const ConstraintLayout& layout = solver_.layout();
     double gap = 0.0;
-    for (Eigen::Index r = 0; r + 1 < phi_.size(); ++r)
-      gap = std::max(gap, std::abs(phi_(r)) * (angle_row_[static_cast<size_t>(r)] ? size_ : 1.0));
+    for (int r = 0; r < layout.joint_row_count(); ++r)
+      gap = std::max(gap, std::abs(phi_(r)) * (layout.angle_row(r) ? size_ : 1.0));
     return gap;
   }
   const NewtonSolver& solver_;
   double size_;
   Eigen::VectorXd phi_;
-  std::vector<double> angle_row_;
 };
 
 // Read-forces stage (rigid formulation): the btJointFeedback of the step that leaves each pose,
