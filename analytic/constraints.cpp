@@ -166,14 +166,14 @@ ConstraintLayout::ConstraintLayout(const Mechanism& m) {
   for (const Joint& j : m.joints) add(joint_rows(m, j));
   joint_count_ = blocks_.size();
   joints_ = rows_;
-  add(driver_rows(m, m.driver));
+  for (const Driver& d : m.drivers) add(driver_rows(m, d));
 }
 
 void ConstraintLayout::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
   for (const ConstraintRows& c : blocks_) c.position(frames, phi);
 }
 
-void ConstraintLayout::residual(const LinkFrames& frames, const DriverState* drivers,
+void ConstraintLayout::residual(const LinkFrames& frames, std::span<const DriverState> drivers,
                                 Eigen::VectorXd& phi) const {
   position(frames, phi);
   for (int d = 0; d < driver_count(); ++d) phi(driver_row(d)) -= drivers[d].value;
@@ -184,14 +184,16 @@ void ConstraintLayout::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) 
   for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
 }
 
-void ConstraintLayout::velocity_rhs(const DriverState* drivers, Eigen::VectorXd& nu) const {
+void ConstraintLayout::velocity_rhs(std::span<const DriverState> drivers,
+                                    Eigen::VectorXd& nu) const {
   // Only the drivers' rows depend on time: -dPhi/dt is their rate.
   nu.setZero();
   for (int d = 0; d < driver_count(); ++d) nu(driver_row(d)) = drivers[d].rate;
 }
 
 void ConstraintLayout::acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
-                                        const DriverState* drivers, Eigen::VectorXd& gamma) const {
+                                        std::span<const DriverState> drivers,
+                                        Eigen::VectorXd& gamma) const {
   for (const ConstraintRows& c : blocks_) c.velocity_squared(frames, qdot, gamma);
   gamma = -gamma;
   for (int d = 0; d < driver_count(); ++d) gamma(driver_row(d)) += drivers[d].accel;

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -97,14 +98,15 @@ class ConstraintLayout {
   // Phi at the frames with each driver's row at its measured value (drivers[d].value not taken
   // off): the joints' rows are the loop closure, the drivers' rows their coordinates.
   void position(const LinkFrames& frames, Eigen::VectorXd& phi) const;
-  // Phi with driver d's row less drivers[d].
-  void residual(const LinkFrames& frames, const DriverState* drivers, Eigen::VectorXd& phi) const;
+  // Phi with driver d's row less drivers[d] (one state per driver).
+  void residual(const LinkFrames& frames, std::span<const DriverState> drivers,
+                Eigen::VectorXd& phi) const;
   void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;  // all of dPhi/dq
   // nu: each driver's rate in its row, 0 in the joints' rows.
-  void velocity_rhs(const DriverState* drivers, Eigen::VectorXd& nu) const;
+  void velocity_rhs(std::span<const DriverState> drivers, Eigen::VectorXd& nu) const;
   // gamma = -(velocity-squared terms of d2Phi/dt2) + each driver's acceleration in its row.
   void acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
-                        const DriverState* drivers, Eigen::VectorXd& gamma) const;
+                        std::span<const DriverState> drivers, Eigen::VectorXd& gamma) const;
 
  private:
   std::vector<ConstraintRows> blocks_;  // the joints', then the drivers'

@@ -90,8 +90,8 @@ class EquationOfMotion {
     const double offsets[6] = {-3.0, -2.0, -1.0, 1.0, 2.0, 3.0};
     const double weights[6] = {1.0 / 20, -3.0 / 10, 3.0 / 4, 3.0 / 4, -3.0 / 10, 1.0 / 20};
     double dddot = 0.0, p = 0.0;
-    for (double delta = 5e-3 * (m_.driver.angular() ? 1.0 : m_.size());; delta *= 2.0) {
-      if (delta > kWidestSpread * (m_.driver.angular() ? 1.0 : m_.size()))
+    for (double delta = 5e-3 * (m_.driver().angular() ? 1.0 : m_.size());; delta *= 2.0) {
+      if (delta > kWidestSpread * (m_.driver().angular() ? 1.0 : m_.size()))
         throw Stopped{t, PoseStatus::singular,
                       fmt::format("singular on both sides of coordinate {:.12g}", d)};
       bool regular_nodes = true;
@@ -222,12 +222,12 @@ double Simulation::energy_error(int k) const {
 
 std::string singular_start(const Mechanism& m, double rcond) {
   if (rcond >= kSingularStartRcond) return "";
-  const bool angular = m.driver.angular();
+  const bool angular = m.driver().angular();
   return fmt::format(
       "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
       "there the other coordinates' rates are not determined by its rate, so no initial "
       "velocity is consistent with it; start the [driver] away from it",
-      m.driver.start / (angular ? m.units.angle : m.units.length),
+      m.driver().start / (angular ? m.units.angle : m.units.length),
       angular ? m.units.angle_name : m.units.length_name, rcond);
 }
 
@@ -262,7 +262,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     EquationOfMotion& eom = started.emplace(mechanism, options.max_solves);
     const Kinetostatics& kinetostatics = eom.kinetostatics();
     ForceSample forces = kinetostatics.make_sample();
-    State x = {mechanism.driver.start, c.rate, 0.0};
+    State x = {mechanism.driver().start, c.rate, 0.0};
     auto observe = [&](const State& y, double time) {
       const int k = written;  // counted once whole: a stop inside leaves it not_reached
       const double effort = c.effort_at(time);

@@ -44,7 +44,7 @@ void add_at(const Mechanism& m, Eigen::VectorXd& out, int link, const Eigen::Vec
 }  // namespace
 
 bool ForceSample::finite() const {
-  bool ok = std::isfinite(effort) && shaking.allFinite();
+  bool ok = effort.allFinite() && shaking.allFinite();
   for (const Eigen::Vector2d& f : joint_force) ok = ok && f.allFinite();
   for (size_t i = 0; i < normal.size(); ++i)
     ok = ok && std::isfinite(normal[i]) && std::isfinite(moment[i]);
@@ -54,7 +54,7 @@ bool ForceSample::finite() const {
 void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out) {
   out.setZero();
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     if (load.kind == Load::Kind::torque) {
       add_at(m, out, load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     } else {
@@ -75,6 +75,7 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
 ForceSample Kinetostatics::make_sample() const {
   const Mechanism& m = solver_.mechanism();
   ForceSample s;
+  s.effort.setZero(static_cast<Eigen::Index>(m.drivers.size()));
   s.joint_force.assign(m.joints.size(), Eigen::Vector2d::Zero());
   s.normal.assign(slide_joints_.size(), 0.0);
   s.moment.assign(slide_joints_.size(), 0.0);
@@ -103,7 +104,8 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   solver_.multipliers(state, out.generalised, out.lambda);
   const Eigen::VectorXd& lambda = out.lambda;
   const ConstraintLayout& layout = solver_.layout();
-  out.effort = -lambda(layout.driver_row(0));
+  // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
+  for (int d = 0; d < layout.driver_count(); ++d) out.effort(d) = -lambda(layout.driver_row(d));
 
   size_t slide = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
@@ -152,7 +154,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
     add(b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)), -mp.inertia * b.alpha);
   }
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     if (load.kind == Load::Kind::torque)
       add(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     else
@@ -216,7 +218,7 @@ double Kinetostatics::load_power(const KinematicState& state) const {
   const Mechanism& m = solver_.mechanism();
   double power = 0.0;
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     const BodyMotion b = motion(m, load.link, state);
     power +=
         load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));
@@ -229,7 +231,7 @@ double Kinetostatics::load_power(const KinematicState& state) const {
 }
 
 void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int row) const {
-  out.effort(row) = sample.effort;
+  out.effort.row(row) = sample.effort.transpose();
   for (size_t j = 0; j < sample.joint_force.size(); ++j) {
     out.fx(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].x();
     out.fy(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].y();

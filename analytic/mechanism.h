@@ -262,7 +262,13 @@ struct Mechanism {
   Units units;
   std::vector<Link> links;  // exactly one has ground = true
   std::vector<Joint> joints;
-  Driver driver;
+  // The drivers, each one row of the constraints (analytic/constraints.h) and one effort. The
+  // loader accepts one [driver] table, so there is one, and a Mechanism starts with one.
+  std::vector<Driver> drivers = std::vector<Driver>(1);
+  // The first driver: the sweep's parameter (its range, law, cycle and start). Every place that
+  // still assumes a single driver reads it by this name.
+  const Driver& driver() const { return drivers.front(); }
+  Driver& driver() { return drivers.front(); }
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // [m/s^2]; zero: none
   std::vector<Load> loads;
   std::vector<Spring> springs;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "analytic/planar.h"
 
@@ -168,6 +169,9 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
       length_scale_(mechanism.size()),
       named_points_(mechanism.named_points()),
       slide_joints_(mechanism.slide_joints()) {
+  // KinematicState holds one driver's state (see drivers()); the loader accepts one driver.
+  if (layout_.driver_count() != 1)
+    throw std::invalid_argument("the Newton solver takes a mechanism with one driver");
   // Rows that are angle equations are scaled by the mechanism's size and angle columns by its
   // inverse, so every row and column of the solved system is in metres: the LU's pivoting and
   // its condition estimate then do not depend on the file's units.
@@ -194,7 +198,7 @@ void NewtonSolver::update_frames(KinematicState& state) const {
 void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
                             Eigen::VectorXd& phi) const {
   const DriverState driver{0.0, driver_value, 0.0, 0.0};
-  layout_.residual(LinkFrames{q}, &driver, phi);
+  layout_.residual(LinkFrames{q}, {&driver, 1}, phi);
 }
 
 void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const {
@@ -320,7 +324,7 @@ bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& r
   double previous = std::numeric_limits<double>::infinity();
   for (int it = 0;; ++it) {
     update_frames(state);
-    layout_.residual(frames(state), &state.driver, state.phi);
+    layout_.residual(frames(state), drivers(state), state.phi);
     const double residual = scaled_norm(state.phi);
     report.iterations = it;
     report.residual = residual;
@@ -359,7 +363,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   for (int it = 0; it <= options_.max_iterations; ++it) {
     // Phi and J at this q share one evaluation of every link's cos and sin.
     update_frames(state);
-    layout_.residual(frames(state), &state.driver, state.phi);
+    layout_.residual(frames(state), drivers(state), state.phi);
     report.residual = scaled_norm(state.phi);
     report.iterations = it;
     factorize(state);
@@ -401,7 +405,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
   auto residual_at = [&](const Eigen::VectorXd& q) {
     state.q = q;
     update_frames(state);
-    layout_.residual(frames(state), &state.driver, state.phi);
+    layout_.residual(frames(state), drivers(state), state.phi);
     return scaled_norm(state.phi);
   };
   Eigen::VectorXd best = state.q;
@@ -439,7 +443,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
 }
 
 void NewtonSolver::solve_velocity(KinematicState& state) const {
-  layout_.velocity_rhs(&state.driver, state.rhs);
+  layout_.velocity_rhs(drivers(state), state.rhs);
   solve_linear(state, state.qdot);
 }
 
@@ -449,7 +453,7 @@ void NewtonSolver::solve_acceleration(KinematicState& state) const {
 }
 
 void NewtonSolver::acceleration_at_frames(KinematicState& state) const {
-  layout_.acceleration_rhs(frames(state), state.qdot, &state.driver, state.rhs);
+  layout_.acceleration_rhs(frames(state), state.qdot, drivers(state), state.rhs);
   solve_linear(state, state.qddot);
 }
 
@@ -477,7 +481,7 @@ Eigen::VectorXd NewtonSolver::drawn_coordinates() const {
 
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
-  state.driver = mechanism_.driver.at_time(0.0);
+  state.driver = mechanism_.driver().at_time(0.0);
   SolveReport report = solve_position(state);
   if (report.status != PoseStatus::no_convergence) {
     if (report.status == PoseStatus::ok) {

@@ -1,10 +1,11 @@
 // Exact kinematics by Newton–Raphson on the full constraint equations Phi(q, t) = 0.
 //
-// q holds (x, y, theta) of every moving link (see mechanism.h). The equations are the joint
-// constraints plus one driver equation, a square system when the mobility is one:
+// q holds (x, y, theta) of every moving link (see mechanism.h). The equations are the rows of
+// the constraint layout (constraints.h: each joint's, then each driver's), a square system when
+// the mobility is one:
 //   position      Phi(q) = 0                 Newton with the analytic Jacobian J = dPhi/dq
-//   velocity      J qdot  = nu               nu: the driver's rate in the driver row
-//   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + driver accel
+//   velocity      J qdot  = nu               nu: each driver's rate in its row
+//   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + each driver's accel
 // Velocity and acceleration reuse the LU factorisation of J at the converged position; they are
 // never obtained by differencing positions.
 #pragma once
@@ -68,6 +69,7 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
+  // The driver's state; the solver passes it to the layout as the list of driver states (one).
   DriverState driver;
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
@@ -99,9 +101,9 @@ class NewtonSolver {
   // tolerance; Newton has converged there all the same.
   bool round_off_step(const Eigen::VectorXd& dq, const Eigen::VectorXd& q) const;
 
-  // Constraint residual Phi(q) with the driver row set for `driver_value`.
+  // Constraint residual Phi(q) with the driver's row less `driver_value`.
   void residual(const Eigen::VectorXd& q, double driver_value, Eigen::VectorXd& phi) const;
-  // Analytic Jacobian dPhi/dq (the driver row included).
+  // Analytic Jacobian dPhi/dq (the drivers' rows included).
   void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
   // The driver coordinate measured at q (its definition, e.g. the angle of E->D).
   double driver_value(const Eigen::VectorXd& q) const;
@@ -141,6 +143,10 @@ class NewtonSolver {
                     int row) const;
 
  private:
+  // The drivers' states as the layout takes them: a list (of one).
+  static std::span<const DriverState> drivers(const KinematicState& state) {
+    return {&state.driver, 1};
+  }
   // The frames at state.q with state's cos and sin (update_frames).
   static LinkFrames frames(const KinematicState& state) {
     return {state.q, &state.cos_theta, &state.sin_theta};

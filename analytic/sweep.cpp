@@ -19,14 +19,14 @@ constexpr double kPi = std::numbers::pi;
 }  // namespace
 
 double continuation_step(const Mechanism& mechanism) {
-  return (mechanism.driver.angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
+  return (mechanism.driver().angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
 }
 
 namespace {
 
 double default_step(const Mechanism& m, const SweepOptions& o) {
   if (o.step > 0.0) return o.step;
-  return m.driver.angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
+  return m.driver().angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
 }
 
 // Follows one assembly branch as the driver moves, by predictor-corrector continuation.
@@ -191,7 +191,7 @@ class Recorder {
 double min_step(const NewtonSolver& solver, double tolerance) {
   // Driver values closer than this are not told apart (angles in rad, slider in m).
   const Mechanism& m = solver.mechanism();
-  return m.driver.angular() ? tolerance : tolerance * m.size();
+  return m.driver().angular() ? tolerance : tolerance * m.size();
 }
 
 // Follows the configuration curve Phi_c(q) = 0 (the joint constraints without the driver row)
@@ -232,7 +232,7 @@ class Tracer {
     rhs_.setZero(n_);
     tolerance_ = solver.options().tolerance;
     length_ = L;
-    angular_ = m.driver.angular();
+    angular_ = m.driver().angular();
   }
 
   // A node at a solved pose; the tangent (null vector of C, by SVD so that it exists at a
@@ -733,7 +733,7 @@ void drop_rates(Trajectory& t, int row) {
   for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
                              &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking})
     if (m->rows() > row) m->row(row).setZero();
-  if (t.effort.size() > row) t.effort(row) = 0.0;
+  if (t.effort.rows() > row) t.effort.row(row).setZero();
 }
 
 // The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
@@ -766,7 +766,7 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
               double key_sign, double lo_window, double hi_window,
               std::vector<PlannedSample>& out) {
   Tracer tracer(solver);
-  const double unit = solver.mechanism().driver.angular() ? 1.0 : solver.length_scale();
+  const double unit = solver.mechanism().driver().angular() ? 1.0 : solver.length_scale();
   for (size_t j = 0; j + 1 < leg.nodes.size(); ++j) {
     const Tracer::Node& a = leg.nodes[j];
     const Tracer::Node& b = leg.nodes[j + 1];
@@ -818,17 +818,17 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
 // drawing cannot say which one the chain follows, and no sweep from it is the chain's.
 void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicState& assembled) {
   const Mechanism& m = solver.mechanism();
-  if (m.driver.at_rest()) return;
+  if (m.driver().at_rest()) return;
   Tracer tracer(solver);
   const double ratio = tracer.crossing_ratio(assembled.q);
   if (ratio >= 1e-10) return;
-  const bool angular = m.driver.angular();
+  const bool angular = m.driver().angular();
   throw DefinitionError({Diagnostic{
-      m.driver.where,
+      m.driver().where,
       fmt::format("the drawn position, driver = {:.9g} {}, is a change point (the constraint "
                   "Jacobian loses rank: {:.1e}): two branches cross there, so the drawing does not "
                   "say which one the chain follows; draw it at another driver value",
-                  m.driver.start / (angular ? m.units.angle : m.units.length),
+                  m.driver().start / (angular ? m.units.angle : m.units.length),
                   angular ? m.units.angle_name : m.units.length_name, ratio)}});
 }
 
@@ -836,9 +836,9 @@ void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicSta
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
   if (!unknown.empty()) return "unknown: " + unknown;
-  if (full_cycle) return m.driver.angular() ? "full rotation (360 degrees)" : "unbounded";
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  const std::string& name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  if (full_cycle) return m.driver().angular() ? "full rotation (360 degrees)" : "unbounded";
+  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
+  const std::string& name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   return fmt::format("{:.6f} to {:.6f} {}", lower / unit, upper / unit, name);
 }
 
@@ -851,7 +851,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
   refuse_start_at_change_point(solver, state);
-  const bool angular = mechanism.driver.angular();
+  const bool angular = mechanism.driver().angular();
   const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
                          options.tracer_steps};
   Tracer tracer(solver);
@@ -932,7 +932,7 @@ namespace {
 bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                   const NewtonSolver& solver, KinematicState& state, Trajectory& out,
                   std::vector<SingularPosition>& singular) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const bool angular = d.angular();
   const bool stop = options.at_limit == SweepOptions::AtLimit::stop;
   const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
@@ -1083,7 +1083,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
 Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& options,
                           const NewtonSolver& solver, KinematicState& state,
                           const SolveReport& assembled) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const double small = min_step(solver, 1e-10);
 
   std::vector<DriverState> drivers;
@@ -1184,7 +1184,7 @@ std::string_view to_string(SingularKind kind) {
 
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                  std::vector<SingularPosition>& singular) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
@@ -1214,12 +1214,12 @@ void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
   pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
   for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver(0);
   pose.driver(0) = driver_value;
-  pose.time(0) = constant_speed_state(mechanism.driver, driver_value).time;
+  pose.time(0) = constant_speed_state(mechanism.driver(), driver_value).time;
 }
 
 SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
                            const SweepOptions& options) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   if (!d.angular() || d.law.kind != MotionLaw::Kind::constant_speed) return {};
   const double turns = std::trunc((driver_value - d.start) / (2.0 * kPi));
   if (std::abs(turns) < 2.0) return {};  // within two turns: nothing to gain
@@ -1243,7 +1243,7 @@ SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
 }
 
 Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   // A driver that turns fully is at the same pose a whole number of turns nearer its start:
   // solved there, its links' angles moved on by their turns (a reference at 5e9 degrees took
   // 1.5 h of continuation).

@@ -77,7 +77,7 @@ std::shared_ptr<PoseCase> pose_case(const std::string& path, std::string& error)
       error = "does not assemble at its start: " + assembled.message;
       return nullptr;
     }
-    const Driver& d = m.driver;
+    const Driver& d = m.driver();
     double dt = d.law.duration / 360.0;
     if (d.law.kind == MotionLaw::Kind::constant_speed)
       dt = (d.angular() ? kDeg : m.size() / 200.0) / std::abs(d.law.speed);
@@ -228,7 +228,7 @@ Mechanism four_bar() {
                       std::abs(length("coupler", "B", "C") - kB) < 1e-12 &&
                       std::abs(length("rocker", "D", "C") - kC) < 1e-12 &&
                       std::abs(length("ground", "A", "D") - kD) < 1e-12;
-    if (same && m.links.size() == 4 && m.driver.start == 0.0) return m;
+    if (same && m.links.size() == 4 && m.driver().start == 0.0) return m;
     fmt::print(stderr,
                "bench_analytic: {} is not the a, b, c, d four-bar; using the built-in one\n", path);
   }
@@ -331,7 +331,7 @@ class SolveSpaceFourBar {
 
 // Crank angles of the comparison: 1 degree apart from the drawn start, round and round.
 double crank_angle(const Mechanism& m, long step) {
-  return m.driver.start + static_cast<double>(step % 360) * kDeg;
+  return m.driver().start + static_cast<double>(step % 360) * kDeg;
 }
 
 void bench_four_bar_crosslink(benchmark::State& bench) {
@@ -346,7 +346,7 @@ void bench_four_bar_crosslink(benchmark::State& bench) {
   for (auto _ : bench) {
     ++step;
     // The crank angle itself is continuous: one more degree each pose.
-    state.driver.value = m.driver.start + static_cast<double>(step) * kDeg;
+    state.driver.value = m.driver().start + static_cast<double>(step) * kDeg;
     if (solver.solve_position(state).status != PoseStatus::ok) ++failures;
     benchmark::DoNotOptimize(state.q.data());
   }

@@ -265,7 +265,7 @@ Plan make_plan(const Mechanism& m) {
     if (!m.links[l].ground) plan.nodes.push_back({static_cast<int>(l), -1});
   const int ground = m.ground();
   auto node = [&](int link) { return link == ground ? -1 : node_of_link(plan, link); };
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const Link& la = m.links[j.link_a];
@@ -846,7 +846,7 @@ class RigidScene final : public Scene {
     // The driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
     // its rotation (the absolute angle is realised directly). None in forward dynamics.
-    const Driver& d = m.driver;
+    const Driver& d = m.driver();
     if (!driven) {
       drive(0.0);
       return;
@@ -1037,7 +1037,7 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, const Eigen::Vect
     return a.x() * b.y() - a.y() * b.x();
   };
   out.set_zero();
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
@@ -1152,7 +1152,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   // The thresholds' auto values, of the scene's mechanism.
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
   if (p.config.driver_threshold == 0.0)
-    p.config.driver_threshold = p.m.driver.angular() ? 1e-4 : 1e-4 * p.m.size();
+    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1211,7 +1211,7 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
         "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
         "locking only its rotation)");
   if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
-      m.driver.type == DriverType::link_angle)
+      m.driver().type == DriverType::link_angle)
     notes.push_back("link-angle driver realised as the angle of its ground pivot");
   return true;
 }
@@ -1477,7 +1477,7 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
                             const Config& config, const Trajectory& reference, const Span& span,
                             const StepLength& step, const NewtonSolver& solver, KinematicStart& out,
                             std::vector<std::string>& notes) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const int first = span.first, last = span.last, samples = reference.samples();
   KinematicState state(m);
   const double t0 = reference.time(first);
@@ -1571,7 +1571,7 @@ class KinematicStepper {
 
   // The step to pose k; false when the run diverged there (history: where and why).
   bool step(long k) {
-    const Driver& d = m_.driver;
+    const Driver& d = m_.driver();
     const double t = history_.time[static_cast<size_t>(k)];
     stepper_.scene().drive(start_.target(d, t));
     apply_loads(k - 1);
@@ -1602,7 +1602,7 @@ class KinematicStepper {
       velocity_.setZero();
     stepper_.scene().apply(
         loads_.at(history_.pose.col(k), velocity_,
-                  start_.driver_at(m_.driver, history_.time[static_cast<size_t>(k)])));
+                  start_.driver_at(m_.driver(), history_.time[static_cast<size_t>(k)])));
   }
   const Mechanism& m_;
   const KinematicStart& start_;
@@ -1651,7 +1651,7 @@ class KinematicSampler {
 
   // Sample i over `stencil`; false when the run did not reach it.
   bool sample(int i, const std::vector<long>& stencil) {
-    state_.driver = m_.driver.at_time(reference_.time(i));
+    state_.driver = m_.driver().at_time(reference_.time(i));
     state_.driver.value = reference_.driver(i);
     gap_ = 0.0;
     rcond_ = 1.0;
@@ -1778,7 +1778,7 @@ void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span&
   if (!history.divergence.empty()) {
     run.ok = false;
     const long after = std::min(history.last_good + 1, history.steps());
-    tr.events.push_back({start.driver_at(m.driver, history.time[static_cast<size_t>(after)]),
+    tr.events.push_back({start.driver_at(m.driver(), history.time[static_cast<size_t>(after)]),
                          PoseStatus::diverged, history.divergence});
     notes.insert(notes.begin(), history.divergence);
   }

@@ -40,7 +40,7 @@ struct Components {
 DrivenJoint choose_driven(const Mechanism& m, const std::vector<SceneJoint>& joints,
                           const std::vector<int>& scene_of_link,
                           const std::vector<int>& scene_of_joint) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   DrivenJoint driven;
   double arm = 0.0;  // angle of the measured direction in its link's frame
   if (d.from >= 0 && d.to >= 0) {
@@ -280,7 +280,7 @@ std::vector<std::pair<int, double>> driver_tendon(const Mechanism& m, const Scen
   // A link's absolute angle: the sum of the hinges from the ground, with theta_child =
   // theta_parent + value when the child is the hinge's b, - value when it is a.
   int link = 0;
-  while (s.links[link].source != m.driver.link) ++link;
+  while (s.links[link].source != m.driver().link) ++link;
   std::vector<std::pair<int, double>> out;
   for (int j : tree_path(s, link))
     if (s.joints[j].kind == SceneJoint::Kind::hinge)

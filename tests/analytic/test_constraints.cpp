@@ -90,7 +90,7 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
       d.to = 1;
       break;
   }
-  m.driver = d;
+  m.driver() = d;
   return m;
 }
 
@@ -190,7 +190,7 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
     if (j.type == JointType::prismatic)
       expected(row++) = angle_of(q, kb) - angle_of(q, ka) - j.relative_angle;
   }
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   if (d.type == DriverType::slider) {
     expected(row) = slide_offset(m.joints[d.joint], true);
   } else {
@@ -290,8 +290,8 @@ TEST_P(EveryKind, VelocityAndAccelerationAlongATrajectory) {
   // The right-hand sides: the driver's rate and acceleration in its row, the rest from the terms.
   const DriverState driver{0.0, 0.0, 2.5, -4.0};
   Eigen::VectorXd nu(layout.rows()), gamma(layout.rows());
-  layout.velocity_rhs(&driver, nu);
-  layout.acceleration_rhs(LinkFrames{q0}, v, &driver, gamma);
+  layout.velocity_rhs({&driver, 1}, nu);
+  layout.acceleration_rhs(LinkFrames{q0}, v, {&driver, 1}, gamma);
   for (int r = 0; r < layout.rows(); ++r) {
     const bool driver_row = r == layout.driver_row(0);
     EXPECT_EQ(nu(r), driver_row ? driver.rate : 0.0);
