@@ -35,7 +35,7 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
 
 DisplayUnit driver_unit(const Mechanism& m) {
   return m.driver().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
-                            : DisplayUnit{m.units.length, m.units.length_name};
+                              : DisplayUnit{m.units.length, m.units.length_name};
 }
 
 namespace {
