@@ -20,14 +20,14 @@ struct DriverUnit {
   std::string_view name;
 };
 DriverUnit driver_unit(const Mechanism& m) {
-  if (m.driver.angular()) return {m.units.angle, m.units.angle_name};
+  if (m.driver().angular()) return {m.units.angle, m.units.angle_name};
   return {m.units.length, m.units.length_name};
 }
 
 // The longest step the solver's continuation takes between two solves: the grid step, and at
 // most 1 degree of an angular driver or the arc the mechanism's size sweeps in 1 degree.
 double continuation_bound(const Mechanism& m, double step) {
-  const double largest = m.driver.angular() ? kDegree : m.size() * kDegree;
+  const double largest = m.driver().angular() ? kDegree : m.size() * kDegree;
   return step > 0.0 ? std::min(step, largest) : largest;
 }
 
@@ -99,7 +99,7 @@ void check_step(const Mechanism& m, const SweepOptions& options) {
 
 void check_sweep_work(const Mechanism& m, const SweepOptions& options, const WorkLimits& limits) {
   check_step(m, options);
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   if (d.at_rest())
     throw DefinitionError(
         {{d.law.where,
@@ -177,21 +177,21 @@ namespace {
 void check_continuation(const Mechanism& m, double driver_value, const SweepOptions& options,
                         const WorkLimits& limits, const Cause& cause) {
   const DriverUnit u = driver_unit(m);
-  const double largest = m.driver.angular() ? limits::kDriverValue : limits::kLength;
+  const double largest = m.driver().angular() ? limits::kDriverValue : limits::kLength;
   if (!(std::abs(driver_value) <= largest))
     refuse(m, cause,
            fmt::format("is not a driver value: the limit is {:g} {}", largest / u.si, u.name));
   const double continuation = continuation_bound(m, options.step);
   // The solver continues from the drawn position to the value, less the whole turns it skips
   // (solve_at), plus the turn that shows it may.
-  double travel = std::abs(driver_value - m.driver.start);
+  double travel = std::abs(driver_value - m.driver().start);
   if (travel / continuation > static_cast<double>(limits.max_samples))
     if (const SkippedTurns skip = skipped_turns(m, driver_value, options); skip.turns != 0)
       travel =
-          std::abs(driver_value - skip.driver_shift() - m.driver.start) + 2.0 * std::numbers::pi;
+          std::abs(driver_value - skip.driver_shift() - m.driver().start) + 2.0 * std::numbers::pi;
   check_count(m, cause, travel / continuation, steps_of(m, continuation), limits);
   check_resolution(m, cause, continuation,
-                   std::max(std::abs(driver_value), std::abs(m.driver.start)));
+                   std::max(std::abs(driver_value), std::abs(m.driver().start)));
 }
 
 }  // namespace

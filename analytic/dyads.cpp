@@ -37,7 +37,7 @@ double unwrap(double raw, double previous) {
 
 // Angle of the driver's measured arm in its link's frame (the driver row of newton.cpp).
 double arm_angle(const Mechanism& m) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   if (d.from < 0 || d.to < 0) return 0.0;
   return angle_of(m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local);
 }
@@ -61,7 +61,7 @@ int equations(const Tie& t) {
 // The ties of unplaced link u to placed links, from unused joints and the driver.
 std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& placed,
                          const std::vector<char>& used) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   std::vector<Tie> ties;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
@@ -235,7 +235,7 @@ Decomposition decompose(const Mechanism& m) {
       const Joint& j = m.joints[ji];
       if (used[ji] || j.type == JointType::pin_in_slot) continue;
       if (placed[static_cast<size_t>(j.link_a)] || placed[static_cast<size_t>(j.link_b)]) continue;
-      if (m.driver.joint == static_cast<int>(ji) && m.driver.type != DriverType::link_angle)
+      if (m.driver().joint == static_cast<int>(ji) && m.driver().type != DriverType::link_angle)
         continue;  // a driven joint between two unplaced links
       AssurGroup g;
       g.kind = AssurGroup::Kind::dyad;
@@ -275,11 +275,11 @@ Decomposition decompose(const Mechanism& m) {
     }
     std::string why =
         "the rest is a group of class III or higher (e.g. a link held by three sliding pins)";
-    if (m.driver.type == DriverType::link_angle && !placed[static_cast<size_t>(m.driver.link)])
+    if (m.driver().type == DriverType::link_angle && !placed[static_cast<size_t>(m.driver().link)])
       why = fmt::format(
           "the driver turns the floating link '{}', whose angle alone does not "
           "place it, so the chain cannot be solved outward from the driver",
-          m.links[m.driver.link].name);
+          m.links[m.driver().link].name);
     out.reason = fmt::format(
         "no dyad or single link can be placed after {{{}}}; unplaced: {}. {}: left to Newton",
         placed_names, left, why);
@@ -1155,7 +1155,7 @@ bool coordinates_of(const Mechanism& m, const Trajectory& t, int row, Eigen::Vec
 }  // namespace
 
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   Trajectory out;
   out.method = "dyads";
   out.resize(mechanism, grid.samples(), forces);

@@ -137,7 +137,7 @@ class EquationOfMotion {
     constexpr std::array<double, 8> offsets = {-4.0, -3.0, -2.0, -1.0, 1.0, 2.0, 3.0, 4.0};
     constexpr std::array<double, 8> weights = {-1.0 / 70, 4.0 / 35, -2.0 / 5, 4.0 / 5,
                                                4.0 / 5,   -2.0 / 5, 4.0 / 35, -1.0 / 70};
-    const double unit = m_.driver.angular() ? 1.0 : m_.size(), step = 5e-3 * unit;
+    const double unit = m_.driver().angular() ? 1.0 : m_.size(), step = 5e-3 * unit;
     double delta = step;
     for (const int side : {-1, 1})
       while (move_to(t, d + side * delta) < interpolated_rcond_) {
@@ -261,12 +261,12 @@ double Simulation::energy_error(int k) const {
 
 std::string singular_start(const Mechanism& m, double rcond) {
   if (rcond >= kSingularStartRcond) return "";
-  const bool angular = m.driver.angular();
+  const bool angular = m.driver().angular();
   return fmt::format(
       "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
       "there the other coordinates' rates are not determined by its rate, so no initial "
       "velocity is consistent with it; start the [driver] away from it",
-      m.driver.start / (angular ? m.units.angle : m.units.length),
+      m.driver().start / (angular ? m.units.angle : m.units.length),
       angular ? m.units.angle_name : m.units.length_name, rcond);
 }
 
@@ -301,7 +301,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
     EquationOfMotion& eom = started.emplace(mechanism, options.max_solves);
     const Kinetostatics& kinetostatics = eom.kinetostatics();
     ForceSample forces = kinetostatics.make_sample();
-    State x = {mechanism.driver.start, c.rate, 0.0};
+    State x = {mechanism.driver().start, c.rate, 0.0};
     auto observe = [&](const State& y, double time) {
       const int k = written;  // counted once whole: a stop inside leaves it not_reached
       const double effort = c.effort_at(time);

@@ -308,7 +308,7 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
   auto geometric = [](const InstantCentre& c) { return c.found != InstantCentre::Found::velocity; };
 
   // The driver: the input link's motion relative to the link it is measured from.
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const double rate = d.at_time(exact.time(row)).rate;
   const Eigen::VectorXd q = coordinates_at(m, exact, row);
   auto rotate_about = [&](int k, double omega, const InstantCentre& c) {

@@ -44,7 +44,7 @@ void add_at(const Mechanism& m, Eigen::VectorXd& out, int link, const Eigen::Vec
 }  // namespace
 
 bool ForceSample::finite() const {
-  bool ok = std::isfinite(effort) && shaking.allFinite();
+  bool ok = effort.allFinite() && shaking.allFinite();
   for (const Eigen::Vector2d& f : joint_force) ok = ok && f.allFinite();
   for (size_t i = 0; i < normal.size(); ++i)
     ok = ok && std::isfinite(normal[i]) && std::isfinite(moment[i]);
@@ -54,7 +54,7 @@ bool ForceSample::finite() const {
 void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out) {
   out.setZero();
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     if (load.kind == Load::Kind::torque) {
       add_at(m, out, load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     } else {
@@ -75,6 +75,7 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
 ForceSample Kinetostatics::make_sample() const {
   const Mechanism& m = solver_.mechanism();
   ForceSample s;
+  s.effort.setZero(static_cast<Eigen::Index>(m.drivers.size()));
   s.joint_force.assign(m.joints.size(), Eigen::Vector2d::Zero());
   s.normal.assign(slide_joints_.size(), 0.0);
   s.moment.assign(slide_joints_.size(), 0.0);
@@ -106,13 +107,15 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
   const Eigen::VectorXd& lambda = out.lambda;
-  out.effort = -lambda(lambda.size() - 1);
+  const ConstraintLayout& layout = solver_.layout();
+  // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
+  for (int d = 0; d < layout.driver_count(); ++d) out.effort(d) = -lambda(layout.driver_row(d));
 
   size_t slide = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
-    const int jj = static_cast<int>(ji);
-    const int row = solver_.joint_row(jj), rows = 3 - j.dof();
+    const ConstraintRows& rows_of = layout.joint(static_cast<int>(ji));
+    const int row = rows_of.first_row, rows = rows_of.rows();
     // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
     // force and moment about its frame origin.
     auto on = [&](int k) {
@@ -121,7 +124,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
         for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
       return g;
     };
-    const int ka = solver_.moving_a(jj), kb = solver_.moving_b(jj);
+    const int ka = rows_of.a, kb = rows_of.b;
     // Through the moving side (both are moving, or the ground is one of them).
     const bool from_b = kb >= 0;
     const Eigen::Vector3d g = on(from_b ? kb : ka);
@@ -155,7 +158,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
     add(b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)), -mp.inertia * b.alpha);
   }
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     if (load.kind == Load::Kind::torque)
       add(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     else
@@ -232,7 +235,7 @@ double Kinetostatics::load_power(const KinematicState& state) const {
   const Mechanism& m = solver_.mechanism();
   double power = 0.0;
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver.angular());
+    const Eigen::Vector2d value = load.force_at(state.driver.value, m.driver().angular());
     const BodyMotion b = motion(m, load.link, state);
     power +=
         load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));
@@ -245,7 +248,7 @@ double Kinetostatics::load_power(const KinematicState& state) const {
 }
 
 void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int row) const {
-  out.effort(row) = sample.effort;
+  out.effort.row(row) = sample.effort.transpose();
   for (size_t j = 0; j < sample.joint_force.size(); ++j) {
     out.fx(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].x();
     out.fy(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].y();

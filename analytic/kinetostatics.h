@@ -48,7 +48,7 @@ void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::Vecto
 
 // The forces at one pose, SI.
 struct ForceSample {
-  double effort = 0.0;                       // the driver's torque [N m] or force [N]
+  Eigen::VectorXd effort;  // per driver (Mechanism::drivers): its torque [N m] or force [N]
   std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
   std::vector<double> normal, moment;        // per slide joint (Mechanism::slide_joints order)
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();  // on the ground: fx, fy, moment about O

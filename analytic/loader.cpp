@@ -287,10 +287,10 @@ Scale angle_scale(const Units& units) {
 // The driver's start (as drawn), and the values it is swept or solved to: angles, or lengths
 // for a slider.
 Scale start_scale(const Mechanism& m) {
-  return m.driver.angular() ? angle_scale(m.units) : length_scale(m.units);
+  return m.driver().angular() ? angle_scale(m.units) : length_scale(m.units);
 }
 Scale driver_scale(const Mechanism& m) {
-  if (!m.driver.angular()) return length_scale(m.units);
+  if (!m.driver().angular()) return length_scale(m.units);
   return {m.units.angle, m.units.angle_name, limits::kDriverValue};
 }
 
@@ -708,7 +708,7 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
 // accelerations too, at every time the solvers evaluate it: the sweep's 361 samples and the
 // 3601-point grid `solve --at` searches (both equal divisions of the duration).
 void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const int n = 3600;
   for (int k = 0; k <= n; ++k) {
     const double time = d.law.duration * k / n;
@@ -736,7 +736,7 @@ void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
 // Without a duration an angular driver's cycle is the time it takes to turn once.
 void read_acceleration(Reader& r, Mechanism& m, const toml::table& t, const Scale& value_scale,
                        bool duration_given) {
-  Driver& d = m.driver;
+  Driver& d = m.driver();
   d.law.kind = MotionLaw::Kind::constant_acceleration;
   d.law.where = r.at(t.get("acceleration"));
   Scale scale{value_scale.si, "", limits::kAcceleration};
@@ -789,7 +789,7 @@ void read_acceleration(Reader& r, Mechanism& m, const toml::table& t, const Scal
 void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "driver", "a mechanism", true);
   if (!t) return;
-  Driver& d = m.driver;
+  Driver& d = m.driver();
   d.where = r.at(*t);
   r.known_keys(*t, "[driver]",
                {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit",
@@ -1326,7 +1326,7 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
             "[dynamics] 'interval' (s between output samples) must be positive and at most "
             "'duration'");
   c.interval = interval.value_or(0.0);
-  Driver& d = m.driver;
+  Driver& d = m.driver();
   double rate_unit = d.angular() ? 1.0 : m.units.length;
   std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
   if (d.angular()) {

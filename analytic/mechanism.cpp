@@ -170,12 +170,6 @@ int Mechanism::moving_index(int link) const {
   return link < g ? link : link - 1;
 }
 
-int Mechanism::constraint_count() const {
-  int rows = 0;
-  for (const Joint& j : joints) rows += 3 - j.dof();
-  return rows;
-}
-
 double Mechanism::size() const {
   std::vector<Eigen::Vector2d> drawn;
   for (const Link& link : links) {
@@ -215,12 +209,12 @@ std::vector<Mechanism::NamedPoint> Mechanism::named_points() const {
 }
 
 double Mechanism::cycle_period() const {
-  if (driver.law.kind != MotionLaw::Kind::constant_speed) return driver.law.duration;
-  const double speed = std::abs(driver.law.speed);
+  if (driver().law.kind != MotionLaw::Kind::constant_speed) return driver().law.duration;
+  const double speed = std::abs(driver().law.speed);
   if (speed == 0.0) return 0.0;
-  if (driver.angular()) return 2.0 * std::numbers::pi / speed;
+  if (driver().angular()) return 2.0 * std::numbers::pi / speed;
   // A slider driver at constant speed runs over its declared range.
-  if (driver.range) return std::abs(driver.range->second - driver.range->first) / speed;
+  if (driver().range) return std::abs(driver().range->second - driver().range->first) / speed;
   return 0.0;
 }
 

@@ -262,7 +262,13 @@ struct Mechanism {
   Units units;
   std::vector<Link> links;  // exactly one has ground = true
   std::vector<Joint> joints;
-  Driver driver;
+  // The drivers, each one row of the constraints (analytic/constraints.h) and one effort. The
+  // loader accepts one [driver] table, so there is one, and a Mechanism starts with one.
+  std::vector<Driver> drivers = std::vector<Driver>(1);
+  // The first driver: the sweep's parameter (its range, law, cycle and start). Every place that
+  // still assumes a single driver reads it by this name.
+  const Driver& driver() const { return drivers.front(); }
+  Driver& driver() { return drivers.front(); }
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // [m/s^2]; zero: none
   std::vector<Load> loads;
   std::vector<Spring> springs;
@@ -285,9 +291,6 @@ struct Mechanism {
   int moving_index(int link) const;
   int moving_count() const { return static_cast<int>(links.size()) - 1; }
   int coordinate_count() const { return 3 * moving_count(); }
-  // Rows of the constraint equations (without the driver): 2 per revolute and prismatic
-  // joint (prismatic: 1 for the line, 1 for the angle), 1 per pin-in-slot.
-  int constraint_count() const;
   // Size of the mechanism [m]: the largest distance between any two points drawn at their
   // posed positions (falls back to local extents). Scales position tolerances.
   double size() const;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "analytic/planar.h"
 
@@ -161,82 +162,16 @@ void SmallLU::solve_transposed_in_place(double* b) const {
     if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
 }
 
-namespace {
-
-// Angle of a local vector from the link's x axis.
-double local_angle(const Eigen::Vector2d& v) {
-  return std::atan2(v.y(), v.x());
-}
-
-// The point index and local vector that define an angular driver's measured direction.
-struct DriverArm {
-  int link = -1;        // link whose angle is measured
-  int reference = -1;   // link it is measured from (ground for an absolute angle)
-  double offset = 0.0;  // angle of the arm in the measured link's frame
-};
-
-DriverArm driver_arm(const Mechanism& m) {
-  const Driver& d = m.driver;
-  DriverArm arm;
-  arm.link = d.link;
-  arm.reference = m.ground();
-  if (d.type == DriverType::joint_angle) arm.reference = m.joints[d.joint].link_a;
-  if (d.from >= 0 && d.to >= 0) {
-    const Link& link = m.links[d.link];
-    arm.offset = local_angle(link.points[d.to].local - link.points[d.from].local);
-  }
-  return arm;
-}
-
-}  // namespace
-
-// The links' frames at one q. The rotations come from cos and sin computed once per q
-// (KinematicState's cache) or, without a cache, from q on the spot; the numbers are the same.
-struct NewtonSolver::Frames {
-  const Eigen::VectorXd& q;
-  const Eigen::VectorXd* cos = nullptr;  // per moving link, or null
-  const Eigen::VectorXd* sin = nullptr;
-
-  BodyMotion of(int k, const Eigen::VectorXd* qdot = nullptr,
-                const Eigen::VectorXd* qddot = nullptr) const {
-    if (k < 0 || !cos) return BodyMotion::of(k, q, qdot, qddot);
-    return BodyMotion::of(k, q, qdot, qddot, (*cos)(k), (*sin)(k));
-  }
-};
-
-namespace {
-
-// Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
-template <typename Frames>
-void projection_gradient(const Frames& frames, int ka, const Eigen::Vector2d& origin_a,
-                         const Eigen::Vector2d& axis_a, int kb, const Eigen::Vector2d& point_b,
-                         Eigen::MatrixXd& jac, int row) {
-  const BodyMotion a = frames.of(ka);
-  const BodyMotion b = frames.of(kb);
-  const Eigen::Vector2d w = a.turn(axis_a);
-  const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
-  if (ka >= 0) {
-    jac.block<1, 2>(row, 3 * ka) = -w.transpose();
-    jac(row, 3 * ka + 2) = perp(w).dot(d) - w.dot(perp(a.turn(origin_a)));
-  }
-  if (kb >= 0) {
-    jac.block<1, 2>(row, 3 * kb) += w.transpose();
-    jac(row, 3 * kb + 2) += w.dot(perp(b.turn(point_b)));
-  }
-}
-
-bool is_angle_row_driver(const Driver& d) {
-  return d.angular();
-}
-
-}  // namespace
-
 NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
     : mechanism_(mechanism),
       options_(options),
+      layout_(mechanism),
       length_scale_(mechanism.size()),
       named_points_(mechanism.named_points()),
       slide_joints_(mechanism.slide_joints()) {
+  // KinematicState holds one driver's state (see drivers()); the loader accepts one driver.
+  if (layout_.driver_count() != 1)
+    throw std::invalid_argument("the Newton solver takes a mechanism with one driver");
   // Rows that are angle equations are scaled by the mechanism's size and angle columns by its
   // inverse, so every row and column of the solved system is in metres: the LU's pivoting and
   // its condition estimate then do not depend on the file's units.
@@ -244,47 +179,14 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
   row_scale_.setOnes(n);
   col_scale_.setOnes(n);
   for (int k = 0; k < mechanism.moving_count(); ++k) col_scale_(3 * k + 2) = 1.0 / length_scale_;
-  int row = 0;
-  for (const Joint& j : mechanism.joints) {
-    joint_rows_.push_back(row);
-    if (j.type == JointType::prismatic) row_scale_(row + 1) = length_scale_;
-    row += 3 - j.dof();
-  }
-  if (is_angle_row_driver(mechanism.driver) && row < n) row_scale_(row) = length_scale_;
+  for (int r = 0; r < std::min(n, layout_.rows()); ++r)
+    if (layout_.angle_row(r)) row_scale_(r) = length_scale_;
   for (int r = 0; r < n; ++r)
     if (row_scale_(r) != 1.0) scaled_rows_.push_back(r);
-
-  // Looked up once: the moving index of each joint's links, and the driver's measured arm.
-  for (const Joint& j : mechanism.joints) {
-    moving_a_.push_back(mechanism.moving_index(j.link_a));
-    moving_b_.push_back(mechanism.moving_index(j.link_b));
-  }
-  if (mechanism.driver.angular()) {
-    const DriverArm arm = driver_arm(mechanism);
-    arm_link_ = mechanism.moving_index(arm.link);
-    arm_reference_ = mechanism.moving_index(arm.reference);
-    arm_offset_ = arm.offset;
-  }
 }
 
 double NewtonSolver::driver_value(const Eigen::VectorXd& q) const {
-  return driver_value(Frames{q});
-}
-
-double NewtonSolver::driver_value(const Frames& frames) const {
-  const Mechanism& m = mechanism_;
-  const Driver& d = m.driver;
-  if (d.type == DriverType::slider) {
-    const Joint& j = m.joints[d.joint];
-    const Line& line = m.links[j.link_a].lines[j.line];
-    const BodyMotion a = frames.of(moving_a_[d.joint]);
-    const BodyMotion b = frames.of(moving_b_[d.joint]);
-    return project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local)
-        .value;
-  }
-  const Eigen::VectorXd& q = frames.q;
-  const int k = arm_link_, kr = arm_reference_;
-  return (k >= 0 ? q(3 * k + 2) : 0.0) + arm_offset_ - (kr >= 0 ? q(3 * kr + 2) : 0.0);
+  return layout_.driver(0).value(LinkFrames{q});
 }
 
 void NewtonSolver::update_frames(KinematicState& state) const {
@@ -293,103 +195,19 @@ void NewtonSolver::update_frames(KinematicState& state) const {
     ::sincos(state.q(3 * k + 2), &state.sin_theta(k), &state.cos_theta(k));
 }
 
-void NewtonSolver::evaluate(const Frames& frames, const Eigen::VectorXd* qdot,
-                            Eigen::VectorXd& out) const {
-  // out = Phi(q) when qdot is null; otherwise the part of d2Phi/dt2 that does not depend on
-  // qddot (the velocity-squared terms), which the acceleration equation moves to the right.
-  const Mechanism& m = mechanism_;
-  const Eigen::VectorXd* qddot = nullptr;  // q'' = 0: only velocity terms remain
-  int row = 0;
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    const BodyMotion a = frames.of(moving_a_[ji], qdot, qddot);
-    const BodyMotion b = frames.of(moving_b_[ji], qdot, qddot);
-    const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
-    if (j.type == JointType::revolute) {
-      const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
-      out.segment<2>(row) = qdot ? Eigen::Vector2d(a.acceleration(pa) - b.acceleration(pb))
-                                 : Eigen::Vector2d(a.position(pa) - b.position(pb));
-      row += 2;
-      continue;
-    }
-    const Line& line = m.links[j.link_a].lines[j.line];
-    const Projection off = project(a, line.origin, perp(line.direction), b, pb);
-    out(row++) = qdot ? off.accel : off.value;
-    if (j.type == JointType::prismatic)
-      out(row++) = qdot ? 0.0 : b.theta - a.theta - j.relative_angle;
-  }
-  const Driver& d = m.driver;
-  if (d.type == DriverType::slider) {
-    const Joint& j = m.joints[d.joint];
-    const Line& line = m.links[j.link_a].lines[j.line];
-    const BodyMotion a = frames.of(moving_a_[d.joint], qdot, qddot);
-    const BodyMotion b = frames.of(moving_b_[d.joint], qdot, qddot);
-    const Projection s =
-        project(a, line.origin, line.direction, b, m.links[j.link_b].points[j.point_b].local);
-    out(row) = qdot ? s.accel : s.value;
-  } else {
-    out(row) = qdot ? 0.0 : driver_value(frames);  // an angle is linear in q
-  }
-}
-
 void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
                             Eigen::VectorXd& phi) const {
-  evaluate(Frames{q}, nullptr, phi);
-  phi(phi.size() - 1) -= driver_value;
+  const DriverState driver{0.0, driver_value, 0.0, 0.0};
+  layout_.residual(LinkFrames{q}, {&driver, 1}, phi);
 }
 
 void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const {
-  jacobian(Frames{q}, jac);
-}
-
-void NewtonSolver::jacobian(const Frames& frames, Eigen::MatrixXd& jac) const {
-  const Mechanism& m = mechanism_;
-  jac.setZero();
-  int row = 0;
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    const int ka = moving_a_[ji], kb = moving_b_[ji];
-    const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
-    if (j.type == JointType::revolute) {
-      // Phi = r_a + A_a p_a - r_b - A_b p_b
-      const Eigen::Vector2d& pa = m.links[j.link_a].points[j.point_a].local;
-      if (ka >= 0) {
-        const BodyMotion a = frames.of(ka);
-        jac.block<2, 2>(row, 3 * ka).setIdentity();
-        jac.block<2, 1>(row, 3 * ka + 2) = perp(a.turn(pa));
-      }
-      if (kb >= 0) {
-        const BodyMotion b = frames.of(kb);
-        jac.block<2, 2>(row, 3 * kb) = -Eigen::Matrix2d::Identity();
-        jac.block<2, 1>(row, 3 * kb + 2) = -perp(b.turn(pb));
-      }
-      row += 2;
-      continue;
-    }
-    const Line& line = m.links[j.link_a].lines[j.line];
-    projection_gradient(frames, ka, line.origin, perp(line.direction), kb, pb, jac, row++);
-    if (j.type == JointType::prismatic) {
-      if (ka >= 0) jac(row, 3 * ka + 2) = -1.0;
-      if (kb >= 0) jac(row, 3 * kb + 2) = 1.0;
-      ++row;
-    }
-  }
-  const Driver& d = m.driver;
-  if (d.type == DriverType::slider) {
-    const Joint& j = m.joints[d.joint];
-    const Line& line = m.links[j.link_a].lines[j.line];
-    projection_gradient(frames, moving_a_[d.joint], line.origin, line.direction, moving_b_[d.joint],
-                        m.links[j.link_b].points[j.point_b].local, jac, row);
-  } else {
-    const int k = arm_link_, kr = arm_reference_;
-    if (k >= 0) jac(row, 3 * k + 2) += 1.0;
-    if (kr >= 0) jac(row, 3 * kr + 2) -= 1.0;
-  }
+  layout_.jacobian(LinkFrames{q}, jac);
 }
 
 void NewtonSolver::factorize(KinematicState& state) const {
   // state's frames must be those of state.q (update_frames).
-  jacobian(Frames{state.q, &state.cos_theta, &state.sin_theta}, state.jacobian);
+  layout_.jacobian(frames(state), state.jacobian);
   // S_r J S_c: only angle rows and angle columns have a scale other than 1.
   for (int r : scaled_rows_) state.jacobian.row(r) *= row_scale_(r);
   for (Eigen::Index c = 2; c < state.jacobian.cols(); c += 3)
@@ -506,8 +324,7 @@ bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& r
   double previous = std::numeric_limits<double>::infinity();
   for (int it = 0;; ++it) {
     update_frames(state);
-    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
-    state.phi(state.phi.size() - 1) -= state.driver.value;
+    layout_.residual(frames(state), drivers(state), state.phi);
     const double residual = scaled_norm(state.phi);
     report.iterations = it;
     report.residual = residual;
@@ -546,8 +363,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   for (int it = 0; it <= options_.max_iterations; ++it) {
     // Phi and J at this q share one evaluation of every link's cos and sin.
     update_frames(state);
-    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
-    state.phi(state.phi.size() - 1) -= state.driver.value;
+    layout_.residual(frames(state), drivers(state), state.phi);
     report.residual = scaled_norm(state.phi);
     report.iterations = it;
     factorize(state);
@@ -589,8 +405,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
   auto residual_at = [&](const Eigen::VectorXd& q) {
     state.q = q;
     update_frames(state);
-    evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, nullptr, state.phi);
-    state.phi(state.phi.size() - 1) -= state.driver.value;
+    layout_.residual(frames(state), drivers(state), state.phi);
     return scaled_norm(state.phi);
   };
   Eigen::VectorXd best = state.q;
@@ -628,9 +443,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
 }
 
 void NewtonSolver::solve_velocity(KinematicState& state) const {
-  // J qdot = -dPhi/dt: only the driver row depends on time.
-  state.rhs.setZero();
-  state.rhs(state.rhs.size() - 1) = state.driver.rate;
+  layout_.velocity_rhs(drivers(state), state.rhs);
   solve_linear(state, state.qdot);
 }
 
@@ -640,10 +453,7 @@ void NewtonSolver::solve_acceleration(KinematicState& state) const {
 }
 
 void NewtonSolver::acceleration_at_frames(KinematicState& state) const {
-  // J qddot = gamma = -(velocity-squared terms of d2Phi/dt2) + driver acceleration
-  evaluate(Frames{state.q, &state.cos_theta, &state.sin_theta}, &state.qdot, state.rhs);
-  state.rhs = -state.rhs;
-  state.rhs(state.rhs.size() - 1) += state.driver.accel;
+  layout_.acceleration_rhs(frames(state), state.qdot, drivers(state), state.rhs);
   solve_linear(state, state.qddot);
 }
 
@@ -671,7 +481,7 @@ Eigen::VectorXd NewtonSolver::drawn_coordinates() const {
 
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
-  state.driver = mechanism_.driver.at_time(0.0);
+  state.driver = mechanism_.driver().at_time(0.0);
   SolveReport report = solve_position(state);
   if (report.status != PoseStatus::no_convergence) {
     if (report.status == PoseStatus::ok) {

@@ -1,10 +1,11 @@
 // Exact kinematics by Newton–Raphson on the full constraint equations Phi(q, t) = 0.
 //
-// q holds (x, y, theta) of every moving link (see mechanism.h). The equations are the joint
-// constraints plus one driver equation, a square system when the mobility is one:
+// q holds (x, y, theta) of every moving link (see mechanism.h). The equations are the rows of
+// the constraint layout (constraints.h: each joint's, then each driver's), a square system when
+// the mobility is one:
 //   position      Phi(q) = 0                 Newton with the analytic Jacobian J = dPhi/dq
-//   velocity      J qdot  = nu               nu: the driver's rate in the driver row
-//   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + driver accel
+//   velocity      J qdot  = nu               nu: each driver's rate in its row
+//   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + each driver's accel
 // Velocity and acceleration reuse the LU factorisation of J at the converged position; they are
 // never obtained by differencing positions.
 #pragma once
@@ -13,6 +14,7 @@
 #include <Eigen/LU>
 #include <string>
 
+#include "analytic/constraints.h"
 #include "analytic/mechanism.h"
 #include "analytic/trajectory.h"
 
@@ -67,6 +69,7 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
+  // The driver's state; the solver passes it to the layout as the list of driver states (one).
   DriverState driver;
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
@@ -98,9 +101,9 @@ class NewtonSolver {
   // tolerance; Newton has converged there all the same.
   bool round_off_step(const Eigen::VectorXd& dq, const Eigen::VectorXd& q) const;
 
-  // Constraint residual Phi(q) with the driver row set for `driver_value`.
+  // Constraint residual Phi(q) with the driver's row less `driver_value`.
   void residual(const Eigen::VectorXd& q, double driver_value, Eigen::VectorXd& phi) const;
-  // Analytic Jacobian dPhi/dq (the driver row included).
+  // Analytic Jacobian dPhi/dq (the drivers' rows included).
   void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
   // The driver coordinate measured at q (its definition, e.g. the angle of E->D).
   double driver_value(const Eigen::VectorXd& q) const;
@@ -132,22 +135,22 @@ class NewtonSolver {
   double jacobian_entry(const KinematicState& state, int row, int column) const {
     return state.jacobian(row, column) / (row_scale_(row) * col_scale_(column));
   }
-  // The first row of joint `joint`'s equations in Phi (2 rows for revolute and prismatic, 1 for
-  // pin_in_slot); the driver's equation is the last row.
-  int joint_row(int joint) const { return joint_rows_[static_cast<size_t>(joint)]; }
-  int moving_a(int joint) const { return moving_a_[static_cast<size_t>(joint)]; }
-  int moving_b(int joint) const { return moving_b_[static_cast<size_t>(joint)]; }
+  // The rows of Phi: each joint's and the driver's, their equations and which are angles.
+  const ConstraintLayout& layout() const { return layout_; }
 
   // Writes sample `row` of a trajectory from a solved state.
   void write_sample(const KinematicState& state, const SolveReport& report, Trajectory& out,
                     int row) const;
 
  private:
-  struct Frames;  // the links' frames at one q (newton.cpp)
-  // Phi(q) when qdot is null, else the velocity-squared part of d2Phi/dt2.
-  void evaluate(const Frames& frames, const Eigen::VectorXd* qdot, Eigen::VectorXd& out) const;
-  void jacobian(const Frames& frames, Eigen::MatrixXd& jac) const;
-  double driver_value(const Frames& frames) const;
+  // The drivers' states as the layout takes them: a list (of one).
+  static std::span<const DriverState> drivers(const KinematicState& state) {
+    return {&state.driver, 1};
+  }
+  // The frames at state.q with state's cos and sin (update_frames).
+  static LinkFrames frames(const KinematicState& state) {
+    return {state.q, &state.cos_theta, &state.sin_theta};
+  }
   // state.cos_theta, state.sin_theta at state.q.
   void update_frames(KinematicState& state) const;
   // Builds the scaled Jacobian at state.q and factorises it into state.lu.
@@ -166,18 +169,13 @@ class NewtonSolver {
 
   const Mechanism& mechanism_;
   NewtonOptions options_;
+  ConstraintLayout layout_;
   double length_scale_;  // Mechanism::size() [m]
   // Diagonal scalings S_r (angle rows * size) and S_c (angle columns / size).
   Eigen::VectorXd row_scale_, col_scale_;
   std::vector<int> scaled_rows_;  // rows whose scale is not 1
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
-  // Per joint: moving index of link_a and link_b (-1 for the ground).
-  std::vector<int> moving_a_, moving_b_;
-  std::vector<int> joint_rows_;  // per joint: its first row
-  // Angular driver: q(3 arm_link_ + 2) + arm_offset_ - q(3 arm_reference_ + 2).
-  int arm_link_ = -1, arm_reference_ = -1;
-  double arm_offset_ = 0.0;
 };
 
 }  // namespace crosslink

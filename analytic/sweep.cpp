@@ -19,14 +19,14 @@ constexpr double kPi = std::numbers::pi;
 }  // namespace
 
 double continuation_step(const Mechanism& mechanism) {
-  return (mechanism.driver.angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
+  return (mechanism.driver().angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
 }
 
 namespace {
 
 double default_step(const Mechanism& m, const SweepOptions& o) {
   if (o.step > 0.0) return o.step;
-  return m.driver.angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
+  return m.driver().angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
 }
 
 // Follows one assembly branch as the driver moves, by predictor-corrector continuation.
@@ -191,7 +191,7 @@ class Recorder {
 double min_step(const NewtonSolver& solver, double tolerance) {
   // Driver values closer than this are not told apart (angles in rad, slider in m).
   const Mechanism& m = solver.mechanism();
-  return m.driver.angular() ? tolerance : tolerance * m.size();
+  return m.driver().angular() ? tolerance : tolerance * m.size();
 }
 
 // Follows the configuration curve Phi_c(q) = 0 (the joint constraints without the driver row)
@@ -217,25 +217,23 @@ class Tracer {
  private:
   // Expressions, evaluated where they are assigned: the trace allocates nothing per step.
   auto constraint_rows() const {
-    return row_.asDiagonal() * jac_.topRows(n_ - 1) * column_.asDiagonal();
+    return row_.asDiagonal() * jac_.topRows(joints_) * column_.asDiagonal();
   }
-  auto driver_gradient() const { return jac_.row(n_ - 1).transpose().cwiseProduct(column_); }
+  auto driver_gradient() const { return jac_.row(driver_row_).transpose().cwiseProduct(column_); }
 
  public:
   explicit Tracer(const NewtonSolver& solver)
-      : solver_(solver), n_(static_cast<int>(solver.mechanism().coordinate_count())) {
+      : solver_(solver),
+        n_(static_cast<int>(solver.mechanism().coordinate_count())),
+        joints_(solver.layout().joint_row_count()),
+        driver_row_(solver.layout().driver_row(0)) {
     const Mechanism& m = solver.mechanism();
     const double L = solver.length_scale();
     column_.setOnes(n_);
     for (int k = 0; k < m.moving_count(); ++k) column_.segment<2>(3 * k).setConstant(L);
-    row_.setOnes(n_ - 1);
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      const int rows = 3 - j.dof();
-      for (int r = 0; r < rows; ++r)
-        if (!(j.type == JointType::prismatic && r == 1)) row_(row + r) = 1.0 / L;
-      row += rows;
-    }
+    row_.setOnes(joints_);
+    for (int r = 0; r < joints_; ++r)
+      if (!solver.layout().angle_row(r)) row_(r) = 1.0 / L;
     jac_.setZero(n_, n_);
     aug_.setZero(n_, n_);
     phi_.setZero(n_);
@@ -244,7 +242,7 @@ class Tracer {
     dq_.setZero(n_);
     tolerance_ = solver.options().tolerance;
     length_ = L;
-    angular_ = m.driver.angular();
+    angular_ = m.driver().angular();
   }
 
   // A node at a solved pose; the tangent (null vector of C, by SVD so that it exists at a
@@ -301,32 +299,32 @@ class Tracer {
     double last_step = std::numeric_limits<double>::infinity();
     for (int it = 0; it <= 12; ++it) {
       solver_.residual(q, 0.0, phi_);
-      rhs_.head(n_ - 1) = -phi_.head(n_ - 1).cwiseProduct(row_);
-      rhs_(n_ - 1) =
-          value ? *value - phi_(n_ - 1) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
+      rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
+      rhs_(joints_) =
+          value ? *value - phi_(driver_row_) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
       if (!rhs_.allFinite()) return false;
       const bool converged =
           rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0) ||
           round_off;
       if (converged || !factorised) {
         solver_.jacobian(q, jac_);
-        aug_.topRows(n_ - 1) = constraint_rows();
+        aug_.topRows(joints_) = constraint_rows();
         if (converged)
-          aug_.row(n_ - 1) = orient.transpose();
+          aug_.row(joints_) = orient.transpose();
         else if (value)
-          aug_.row(n_ - 1) = driver_gradient().transpose();
+          aug_.row(joints_) = driver_gradient().transpose();
         else
-          aug_.row(n_ - 1) = from.t.transpose();
+          aug_.row(joints_) = from.t.transpose();
         lu_.compute(aug_);
         factorised = true;
       }
       if (converged) {
         dz_.setZero();
-        dz_(n_ - 1) = 1.0;
+        dz_(joints_) = 1.0;
         const Eigen::VectorXd t = lu_.solve(dz_);
         if (!t.allFinite() || t.norm() == 0.0) return false;
         double row_norms = 1.0;
-        for (int r = 0; r < n_ - 1; ++r) row_norms *= aug_.row(r).norm();
+        for (int r = 0; r < joints_; ++r) row_norms *= aug_.row(r).norm();
         out.orientation = lu_.determinant() * t.norm() / row_norms;
         out.t = t.normalized();
         out.q = q;
@@ -367,6 +365,8 @@ class Tracer {
  private:
   const NewtonSolver& solver_;
   int n_;
+  int joints_;              // the rows of C (the joints'); [C; last row] is square, n_ rows
+  int driver_row_;          // the driver's row of Phi and J
   Eigen::VectorXd column_;  // q = column_ .* z
   Eigen::VectorXd row_;     // dimensionless constraint rows
   Eigen::MatrixXd jac_, aug_;
@@ -752,7 +752,7 @@ void drop_rates(Trajectory& t, int row) {
   for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
                              &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking})
     if (m->rows() > row) m->row(row).setZero();
-  if (t.effort.size() > row) t.effort(row) = 0.0;
+  if (t.effort.rows() > row) t.effort.row(row).setZero();
 }
 
 // The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
@@ -785,7 +785,7 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
               double key_sign, double lo_window, double hi_window,
               std::vector<PlannedSample>& out) {
   Tracer tracer(solver);
-  const double unit = solver.mechanism().driver.angular() ? 1.0 : solver.length_scale();
+  const double unit = solver.mechanism().driver().angular() ? 1.0 : solver.length_scale();
   for (size_t j = 0; j + 1 < leg.nodes.size(); ++j) {
     const Tracer::Node& a = leg.nodes[j];
     const Tracer::Node& b = leg.nodes[j + 1];
@@ -837,17 +837,17 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
 // drawing cannot say which one the chain follows, and no sweep from it is the chain's.
 void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicState& assembled) {
   const Mechanism& m = solver.mechanism();
-  if (m.driver.at_rest()) return;
+  if (m.driver().at_rest()) return;
   Tracer tracer(solver);
   const double ratio = tracer.crossing_ratio(assembled.q);
   if (ratio >= 1e-10) return;
-  const bool angular = m.driver.angular();
+  const bool angular = m.driver().angular();
   throw DefinitionError({Diagnostic{
-      m.driver.where,
+      m.driver().where,
       fmt::format("the drawn position, driver = {:.9g} {}, is a change point (the constraint "
                   "Jacobian loses rank: {:.1e}): two branches cross there, so the drawing does not "
                   "say which one the chain follows; draw it at another driver value",
-                  m.driver.start / (angular ? m.units.angle : m.units.length),
+                  m.driver().start / (angular ? m.units.angle : m.units.length),
                   angular ? m.units.angle_name : m.units.length_name, ratio)}});
 }
 
@@ -855,9 +855,9 @@ void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicSta
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
   if (!unknown.empty()) return "unknown: " + unknown;
-  if (full_cycle) return m.driver.angular() ? "full rotation (360 degrees)" : "unbounded";
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  const std::string& name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  if (full_cycle) return m.driver().angular() ? "full rotation (360 degrees)" : "unbounded";
+  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
+  const std::string& name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   return fmt::format("{:.6f} to {:.6f} {}", lower / unit, upper / unit, name);
 }
 
@@ -870,7 +870,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
   refuse_start_at_change_point(solver, state);
-  const bool angular = mechanism.driver.angular();
+  const bool angular = mechanism.driver().angular();
   const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
                          options.tracer_steps};
   Tracer tracer(solver);
@@ -951,7 +951,7 @@ namespace {
 bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                   const NewtonSolver& solver, KinematicState& state, Trajectory& out,
                   std::vector<SingularPosition>& singular) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const bool angular = d.angular();
   const bool stop = options.at_limit == SweepOptions::AtLimit::stop;
   const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
@@ -1102,7 +1102,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
 Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& options,
                           const NewtonSolver& solver, KinematicState& state,
                           const SolveReport& assembled) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const double small = min_step(solver, 1e-10);
 
   std::vector<DriverState> drivers;
@@ -1203,7 +1203,7 @@ std::string_view to_string(SingularKind kind) {
 
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                  std::vector<SingularPosition>& singular) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
@@ -1233,12 +1233,12 @@ void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
   pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
   for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver(0);
   pose.driver(0) = driver_value;
-  pose.time(0) = constant_speed_state(mechanism.driver, driver_value).time;
+  pose.time(0) = constant_speed_state(mechanism.driver(), driver_value).time;
 }
 
 SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
                            const SweepOptions& options) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   if (!d.angular() || d.law.kind != MotionLaw::Kind::constant_speed) return {};
   const double turns = std::trunc((driver_value - d.start) / (2.0 * kPi));
   if (std::abs(turns) < 2.0) return {};  // within two turns: nothing to gain
@@ -1262,7 +1262,7 @@ SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
 }
 
 Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
-  const Driver& d = mechanism.driver;
+  const Driver& d = mechanism.driver();
   // A driver that turns fully is at the same pose a whole number of turns nearer its start:
   // solved there, its links' angles moved on by their turns (a reference at 5e9 degrees took
   // 1.5 h of continuation).

@@ -82,11 +82,11 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
-  slider_driver = !mechanism.driver.angular();
+  slider_driver = !mechanism.driver().angular();
   has_forces = with_forces;
   const int rows = with_forces ? samples : 0;
   const auto joints = static_cast<Eigen::Index>(joint_names.size());
-  effort.setZero(rows);
+  effort.setZero(rows, static_cast<Eigen::Index>(mechanism.drivers.size()));
   fx.setZero(rows, joints);
   fy.setZero(rows, joints);
   fn.setZero(rows, sliders);
@@ -243,7 +243,8 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     return std::nullopt;
   }
   if (!has_forces) return std::nullopt;
-  if (object == "driver" && kind == (slider_driver ? "force" : "torque")) return effort;
+  // The one driver's effort (several drivers' channels will be named by driver).
+  if (object == "driver" && kind == (slider_driver ? "force" : "torque")) return effort.col(0);
   if (const int j = index_of(joint_names, object); j >= 0) {
     if (kind == "fx") return fx.col(j);
     if (kind == "fy") return fy.col(j);

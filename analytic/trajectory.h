@@ -93,7 +93,7 @@ struct Trajectory {
   Eigen::VectorXd loop_gap;        // engines: largest cut-joint violation [m]; 0 for analytic
   // Forces, when the method computes them (see the channel list above).
   bool has_forces = false;
-  Eigen::VectorXd effort;      // the driver's torque [N m] or force [N]
+  Eigen::MatrixXd effort;      // per driver (Mechanism::drivers): torque [N m] or force [N]
   Eigen::MatrixXd fx, fy;      // per joint [N]
   Eigen::MatrixXd fn, moment;  // per slider [N, N m]
   Eigen::MatrixXd shaking;     // 3 columns: fx, fy [N], moment [N m]

@@ -25,11 +25,11 @@ double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory
     }
   } else {
     for (int k = 0; k < t.samples(); ++k) {
-      const DriverState d = mechanism.driver.at_time(t.time(k));
+      const DriverState d = mechanism.driver().at_time(t.time(k));
       rate = std::max({rate, std::abs(d.rate), std::sqrt(std::abs(d.accel))});
     }
   }
-  return mechanism.driver.angular() ? rate : rate / mechanism.size();
+  return mechanism.driver().angular() ? rate : rate / mechanism.size();
 }
 
 namespace {

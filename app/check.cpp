@@ -24,7 +24,7 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
 }
 
 std::string driver_text(const Mechanism& m) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const double unit = d.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = d.angular() ? m.units.angle_name : m.units.length_name;
   std::string what;
@@ -119,8 +119,8 @@ void print_physics(const Mechanism& m, std::string& out) {
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
 // the transmission angle over the swept samples.
 void print_singular_positions(const Mechanism& m, const SweepOptions& options, std::string& out) {
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
+  const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
@@ -187,7 +187,7 @@ void print_modes(const Mechanism& m, const KinematicState& assembled, std::strin
 
 CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
                          const SweepOptions& options) {
-  if (!m.driver.at_rest()) check_sweep_work(m, options, limits);
+  if (!m.driver().at_rest()) check_sweep_work(m, options, limits);
   CheckReport report;
   std::string& out = report.out;
   out += fmt::format("{}: {}\n", m.file, m.name);
@@ -208,14 +208,14 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   const NewtonSolver solver(m);
   KinematicState state(m);
   const SolveReport assembled = solver.assemble(state);
-  const double unit = m.driver.angular() ? m.units.angle : m.units.length;
-  const std::string& unit_name = m.driver.angular() ? m.units.angle_name : m.units.length_name;
+  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
+  const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence) {
     // At the driver's table: its start value is where the chain must close.
-    const Diagnostic problem{m.driver.where,
+    const Diagnostic problem{m.driver().where,
                              fmt::format("cannot assemble at driver = {:.6g} {}: {}",
-                                         m.driver.start / unit, unit_name, assembled.message)};
+                                         m.driver().start / unit, unit_name, assembled.message)};
     report.err = problem.str() + "\n";
     report.exit_code = kExitBadInput;
     return report;
@@ -231,18 +231,18 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
     }
   }
   print_modes(m, state, out);
-  if (m.driver.at_rest()) {
+  if (m.driver().at_rest()) {
     out +=
         "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "
         "positions over a sweep need a speed\n";
-  } else if (m.driver.law.kind == MotionLaw::Kind::constant_speed) {
+  } else if (m.driver().law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m, options);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
                            ? ""
                            : " (limits: toggles; the chain cannot close beyond)");
   }
-  if (!m.driver.at_rest()) print_singular_positions(m, options, out);
+  if (!m.driver().at_rest()) print_singular_positions(m, options, out);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

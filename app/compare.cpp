@@ -138,7 +138,7 @@ int run_compare(CompareArgs args) {
   check_settings(m, args.settings, given);
 
   SweepOptions options;
-  const double driver_scale = m.driver.angular() ? m.units.angle : m.units.length;
+  const double driver_scale = m.driver().angular() ? m.units.angle : m.units.length;
   if (args.step != 0.0) options.step = args.step * driver_scale;  // 0: the default
   if (!dynamics) check_sweep_work(m, options, args.limits);
   if (dynamics) check_simulation_work(m, {}, "", args.limits);

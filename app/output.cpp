@@ -21,7 +21,7 @@ nlohmann::json value(bool exists, double v) {
 nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
   if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
   nlohmann::json f;
-  f["driver"] = t.effort(row);
+  f["driver"] = t.effort(row, 0);
   f["joints"] = nlohmann::json::object();
   size_t slide = 0;
   for (size_t j = 0; j < m.joints.size(); ++j) {
@@ -213,9 +213,9 @@ std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
                       const std::vector<std::string>& channels, const std::string& note,
                       const Columns& extra) {
-  const double driver_unit = m.driver.angular() ? m.units.angle : m.units.length;
+  const double driver_unit = m.driver().angular() ? m.units.angle : m.units.length;
   const std::string& driver_unit_name =
-      m.driver.angular() ? m.units.angle_name : m.units.length_name;
+      m.driver().angular() ? m.units.angle_name : m.units.length_name;
   std::string header = fmt::format("{:>10} {:>8}", by_time ? "t" : "driver", "status");
   std::string units =
       fmt::format("{:>10} {:>8}", by_time ? "[s]" : "[" + driver_unit_name + "]", "");
@@ -254,7 +254,7 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
   const double L = m.units.length, A = m.units.angle;
   const std::string& ln = m.units.length_name;
   const std::string& an = m.units.angle_name;
-  const double driver_unit = m.driver.angular() ? A : L;
+  const double driver_unit = m.driver().angular() ? A : L;
   const PoseStatus status = t.status[static_cast<size_t>(row)];
   // A value that does not exist is a blank of the column's width.
   const auto pos = [&](double v, int width, int digits) {
@@ -266,7 +266,7 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
                           : fmt::format(" {:>{}}", "", width);
   };
   fmt::print("{}  driver = {:.4f} {}  t = {:.6g} s  status: {}\n", m.name,
-             t.driver(row) / driver_unit, m.driver.angular() ? an : ln, t.time(row),
+             t.driver(row) / driver_unit, m.driver().angular() ? an : ln, t.time(row),
              to_string(status));
   fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
              "omega [rad/s]", "alpha [rad/s^2]");

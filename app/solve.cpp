@@ -78,7 +78,7 @@ int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
   if (args.step != 0.0)  // 0: not given (the default); --step itself is positive
-    options.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
+    options.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
   const bool single = args.at.has_value();
@@ -86,9 +86,9 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
-  if (args.ic && m.driver.at_rest()) {
+  if (args.ic && m.driver().at_rest()) {
     fmt::print(stderr, "{}\n",
-               Diagnostic{m.driver.law.where,
+               Diagnostic{m.driver().law.where,
                           "--ic: the driver is at rest (speed 0): every velocity is zero and "
                           "no centre is defined by them"}
                    .str());
@@ -106,7 +106,7 @@ int run_solve(const SolveArgs& args) {
     names.resize(m, 0, true);
     columns = table_channels(m, names, args.columns);
   }
-  const double at = single ? *args.at * (m.driver.angular() ? m.units.angle : m.units.length) : 0;
+  const double at = single ? *args.at * (m.driver().angular() ? m.units.angle : m.units.length) : 0;
   if (single)
     check_solve_at_work(m, at, options, args.limits);
   else
@@ -166,7 +166,7 @@ int run_solve(const SolveArgs& args) {
     print_table_rows(m, t, false, 4, columns, "the file's units");
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
-               Diagnostic{m.driver.where,
+               Diagnostic{m.driver().where,
                           fmt::format("{} at driver = {}", to_string(t.status[0]), *args.at)}
                    .str());
     return kExitBadInput;

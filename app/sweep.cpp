@@ -102,7 +102,7 @@ int run_sweep(const SweepArgs& args) {
       check_engine_steps(span, dt, args.max_steps, fmt::format("--dt {:g}", dt));
   }
   if (args.step != 0.0)  // 0: the default
-    options.sweep.step = args.step * (m.driver.angular() ? m.units.angle : m.units.length);
+    options.sweep.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
   if (!dynamics) check_sweep_work(m, options.sweep, args.limits);
   options.base = with_max_steps(args.max_steps, {});
   options.repeat = args.repeat;

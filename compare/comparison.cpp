@@ -42,7 +42,7 @@ bool prescribed(const Mechanism& m, std::string_view channel) {
   const std::string_view kind = channel.substr(0, dot), object = channel.substr(dot + 1);
   const int ground = m.ground();
   if (ground < 0) return false;
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const bool driven = !m.dynamics;  // in a dynamics case the driver's coordinate moves freely
   // Whether joint j joins `link` to the ground.
   const auto grounded = [&](int link, const Joint& j) {
@@ -242,7 +242,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   }
 
   // [[reference]] rows: exact at the printed driver value, every method on its sweep.
-  const bool angular = mechanism.driver.angular();
+  const bool angular = mechanism.driver().angular();
   for (const Reference& r : mechanism.references) {
     ReferenceRow row;
     row.reference = r;

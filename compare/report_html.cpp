@@ -201,10 +201,10 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
                              {"label", fmt::format("{} {:.4g} {}", joint.name,
                                                    f.norm() / force_unit, m.units.force_name)}});
     }
-    const bool torque = m.driver.angular();
+    const bool torque = m.driver().angular();
     d["effort"] =
         fmt::format("driver {} {:.6g} {}", torque ? "torque" : "force",
-                    pose.effort(0) / (torque ? force_unit * m.units.length : force_unit),
+                    pose.effort(0, 0) / (torque ? force_unit * m.units.length : force_unit),
                     torque ? m.units.force_name + " " + m.units.length_name : m.units.force_name);
   }
   const std::vector<Mechanism::NamedPoint> named = m.named_points();
@@ -441,7 +441,7 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   write_page_head(fmt::format("crosslink compare: {}", m.name), "", options.asset_dirs, head);
 
   // The drawing's pose: exact, at --at or the drawn start.
-  const double at = options.at.value_or(m.driver.start);
+  const double at = options.at.value_or(m.driver().start);
   Trajectory pose = solve_at(m, at);
   const DisplayUnit du = driver_unit(m);
   json data = report_data(cmp, pose);

@@ -34,8 +34,8 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
 }
 
 DisplayUnit driver_unit(const Mechanism& m) {
-  return m.driver.angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
-                            : DisplayUnit{m.units.length, m.units.length_name};
+  return m.driver().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
+                              : DisplayUnit{m.units.length, m.units.length_name};
 }
 
 namespace {

@@ -64,7 +64,7 @@ DynamicsLoads::DynamicsLoads(const Mechanism& m)
 
 double DynamicsLoads::rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
   solver_.jacobian(q, jacobian_);
-  return jacobian_.row(jacobian_.rows() - 1).dot(qdot);
+  return jacobian_.row(solver_.layout().driver_row(0)).dot(qdot);
 }
 
 const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& q,
@@ -77,7 +77,7 @@ const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& 
     const double effort = m_.dynamics->effort_at(t);
     if (effort != 0.0) {
       solver_.jacobian(q, jacobian_);
-      generalised_ += effort * jacobian_.row(jacobian_.rows() - 1).transpose();
+      generalised_ += effort * jacobian_.row(solver_.layout().driver_row(0)).transpose();
     }
   }
   body_loads(m_, q, generalised_, out_);
@@ -170,7 +170,7 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
   auto motion = [&](int link) {
     return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, nullptr);
   };
-  out.effort(row) = reading.effort;
+  out.effort(row, 0) = reading.effort;  // the engine drives one joint
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();
   auto on_ground = [&](const Eigen::Vector2d& at, const Eigen::Vector2d& force, double couple) {
     shaking.head<2>() += force;
@@ -195,7 +195,7 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     if (j.link_b == ground) on_ground(point, f, reading.couple[ji]);
   }
   // The driver's reaction on the ground.
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   if (d.type == DriverType::link_angle) {
     on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -reading.effort);
   } else {
@@ -291,9 +291,9 @@ ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
     for (Eigen::Index j = 0; j < exact.fx.cols(); ++j)
       reaction_peak = std::max(reaction_peak, std::hypot(exact.fx(i, j), exact.fy(i, j)));
   auto [effort_error, effort_peak] =
-      worst([&](int i) { return std::abs(engine.effort(i) - exact.effort(i)); },
-            [&](int i) { return std::abs(exact.effort(i)); });
-  const double arm = m.driver.angular() ? m.size() : 1.0;
+      worst([&](int i) { return std::abs(engine.effort(i, 0) - exact.effort(i, 0)); },
+            [&](int i) { return std::abs(exact.effort(i, 0)); });
+  const double arm = m.driver().angular() ? m.size() : 1.0;
   effort_peak = std::max(effort_peak, 1e-3 * reaction_peak * arm);
   a.effort = ratio({effort_error, effort_peak});
   for (size_t j = 0; j < m.joints.size(); ++j) {

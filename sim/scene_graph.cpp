@@ -291,7 +291,8 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   }
 
   // One driver today (issue 20: Mechanism::drivers).
-  g.driven.push_back(drive(m, m.driver, g, body_of_link, joint_of, policy));
+  for (const Driver& d : m.drivers)
+    g.driven.push_back(drive(m, d, g, body_of_link, joint_of, policy));
 
   // The spanning tree (Kruskal over the preference), the cuts, and the tree grown from the ground.
   const std::vector<int> preferred = preference(g, policy);

@@ -673,7 +673,7 @@ class RigidScene final : public Scene {
     // The driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
     // its rotation (the absolute angle is realised directly). None in forward dynamics.
-    const Driver& d = m.driver;
+    const Driver& d = m.driver();
     if (!driven) {
       drive(0.0);
       return;
@@ -864,7 +864,7 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
     return a.x() * b.y() - a.y() * b.x();
   };
   out.set_zero();
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
@@ -973,7 +973,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   // The thresholds' auto values, of the scene's mechanism.
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
   if (p.config.driver_threshold == 0.0)
-    p.config.driver_threshold = p.m.driver.angular() ? 1e-4 : 1e-4 * p.m.size();
+    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1032,7 +1032,7 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
         "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
         "locking only its rotation)");
   if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
-      m.driver.type == DriverType::link_angle)
+      m.driver().type == DriverType::link_angle)
     notes.push_back("link-angle driver realised as the angle of its ground pivot");
   return true;
 }
@@ -1057,26 +1057,17 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
   return "";
 }
 
-// The loop gap a run watches at every pose: the joints' largest violation (prismatic angle rows
-// times the mechanism's size), and the driver row's.
+// The loop gap a run watches at every pose: the joints' largest violation (angle rows times the
+// mechanism's size), and the driver row's.
 class JointGap {
  public:
   JointGap(const Mechanism& m, const NewtonSolver& solver)
-      : solver_(solver),
-        size_(m.size()),
-        phi_(m.coordinate_count()),
-        angle_row_(static_cast<size_t>(m.coordinate_count()), 0.0) {
-    int row = 0;
-    for (const Joint& j : m.joints) {
-      if (j.type == JointType::prismatic) angle_row_[static_cast<size_t>(row + 1)] = 1.0;
-      row += 3 - j.dof();
-    }
-  }
+      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()) {}
   // With the driver at `driver_value`: the gap (infinite when it or the driver's row is not
   // finite) and the driver row's error.
   double at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
     double gap = joints(q, driver_value);
-    driver_error = std::abs(phi_(phi_.size() - 1));
+    driver_error = std::abs(phi_(solver_.layout().driver_row(0)));
     if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
     return gap;
   }
@@ -1089,15 +1080,15 @@ class JointGap {
  private:
   double joints(const Eigen::VectorXd& q, double driver_value) {
     solver_.residual(q, driver_value, phi_);
+    const ConstraintLayout& layout = solver_.layout();
     double gap = 0.0;
-    for (Eigen::Index r = 0; r + 1 < phi_.size(); ++r)
-      gap = std::max(gap, std::abs(phi_(r)) * (angle_row_[static_cast<size_t>(r)] ? size_ : 1.0));
+    for (int r = 0; r < layout.joint_row_count(); ++r)
+      gap = std::max(gap, std::abs(phi_(r)) * (layout.angle_row(r) ? size_ : 1.0));
     return gap;
   }
   const NewtonSolver& solver_;
   double size_;
   Eigen::VectorXd phi_;
-  std::vector<double> angle_row_;
 };
 
 // Read-forces stage (rigid formulation): the btJointFeedback of the step that leaves each pose,
@@ -1309,7 +1300,7 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
                             const Config& config, const Trajectory& reference, const Span& span,
                             const StepLength& step, const NewtonSolver& solver, KinematicStart& out,
                             std::vector<std::string>& notes) {
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   const int first = span.first, last = span.last, samples = reference.samples();
   KinematicState state(m);
   const double t0 = reference.time(first);
@@ -1406,7 +1397,7 @@ class KinematicStepper {
 
   // The step to pose k; false when the run diverged there (history: where and why).
   bool step(long k) {
-    const Driver& d = m_.driver;
+    const Driver& d = m_.driver();
     const double t = history_.time[static_cast<size_t>(k)];
     stepper_.scene().drive(start_.target(d, t));
     apply_loads(k - 1);
@@ -1437,7 +1428,7 @@ class KinematicStepper {
       velocity_.setZero();
     stepper_.scene().apply(
         loads_.at(history_.pose.col(k), velocity_,
-                  start_.driver_at(m_.driver, history_.time[static_cast<size_t>(k)])));
+                  start_.driver_at(m_.driver(), history_.time[static_cast<size_t>(k)])));
   }
   const Mechanism& m_;
   const KinematicStart& start_;
@@ -1486,7 +1477,7 @@ class KinematicSampler {
 
   // Sample i over `stencil`; false when the run did not reach it.
   bool sample(int i, const std::vector<long>& stencil) {
-    state_.driver = m_.driver.at_time(reference_.time(i));
+    state_.driver = m_.driver().at_time(reference_.time(i));
     state_.driver.value = reference_.driver(i);
     gap_ = 0.0;
     rcond_ = 1.0;
@@ -1613,7 +1604,7 @@ void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span&
   if (!history.divergence.empty()) {
     run.ok = false;
     const long after = std::min(history.last_good + 1, history.steps());
-    tr.events.push_back({start.driver_at(m.driver, history.time[static_cast<size_t>(after)]),
+    tr.events.push_back({start.driver_at(m.driver(), history.time[static_cast<size_t>(after)]),
                          PoseStatus::diverged, history.divergence});
     notes.insert(notes.begin(), history.divergence);
   }

@@ -299,9 +299,9 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
                                  double t) {
   KinematicState state(m);
   state.q = reference_coordinates(m, reference, first);
-  state.driver = m.driver.at_time(t);
+  state.driver = m.driver().at_time(t);
   state.driver.value = reference.driver(first) +
-                       (state.driver.value - m.driver.at_time(reference.time(first)).value);
+                       (state.driver.value - m.driver().at_time(reference.time(first)).value);
   const NewtonSolver solver(m);
   const SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok) return std::nullopt;
@@ -365,7 +365,7 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
 
 // The driver coordinate's target at time t (DrivenCoordinate: sign (driver - offset)).
 double driver_target(const Mechanism& m, const DrivenCoordinate& driven, double t) {
-  return driven.sign * (m.driver.at_time(t).value - driven.offset);
+  return driven.sign * (m.driver().at_time(t).value - driven.offset);
 }
 
 MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
@@ -668,7 +668,8 @@ class ForceReader {
         const Eigen::Vector2d at = world_point(d2, j.b, j.ub);
         out.couple[static_cast<size_t>(j.source)] = couple_b + cross2(about - at, on_b);
       }
-      if (driver_eq_ >= 0 && m_.driver.type == DriverType::slider && j.source == m_.driver.joint) {
+      if (driver_eq_ >= 0 && m_.driver().type == DriverType::slider &&
+          j.source == m_.driver().joint) {
         // The driver's axial force is the effort, not the joint's reaction.
         const Eigen::Vector2d u = world_direction(d2, j.a, j.direction);
         on_b -= out.effort * u;
@@ -959,9 +960,9 @@ void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjDa
 
 // What the watch calls the driver coordinate: the driven joint, or a floating link's angle.
 std::string driver_name(const Mechanism& m, const Scene& s) {
-  return s.driven.floating
-             ? fmt::format("the angle of link {}", m.links[static_cast<size_t>(m.driver.link)].name)
-             : fmt::format("joint {}", s.joints[s.driven.joint].name);
+  return s.driven.floating ? fmt::format("the angle of link {}",
+                                         m.links[static_cast<size_t>(m.driver().link)].name)
+                           : fmt::format("joint {}", s.joints[s.driven.joint].name);
 }
 
 // Whether the constraint forces MuJoCo reads are the definition's reactions. A floating link's
@@ -1067,7 +1068,7 @@ class KinematicStepper {
       if (link.source >= 0 && !link.ground)
         load_body_.push_back(mj_name2id(model.mm, mjOBJ_BODY, link.name.c_str()));
     driver_offset_ =
-        reference.driver(p.span.first) - m.driver.at_time(reference.time(p.span.first)).value;
+        reference.driver(p.span.first) - m.driver().at_time(reference.time(p.span.first)).value;
     coordinate0_ = model.coordinate(model.mm->qpos0);
     pose(0) = reader_.read(model.d);
   }
@@ -1141,7 +1142,7 @@ class KinematicStepper {
     else
       recent_velocity(k, p_.grid.time, poses(), velocity_);
     const std::vector<BodyLoad>& on =
-        loads_.at(pose(k), velocity_, m_.driver.at_time(t).value + driver_offset_);
+        loads_.at(pose(k), velocity_, m_.driver().at_time(t).value + driver_offset_);
     for (size_t b = 0; b < on.size(); ++b) {
       mjtNum* x = model_.d->xfrc_applied + 6 * load_body_[b];
       x[0] = on[b].force.x() * p_.scene.mass_scale;  // in the scene's unit of mass
@@ -1184,7 +1185,7 @@ class KinematicSampler {
   const KinematicState& write(int i, const std::vector<long>& stencil, const PoseAt& pose,
                               Trajectory& out) {
     difference_state(reference_.time(i), stencil, grid_, pose, state_.q, state_.qdot, state_.qddot);
-    state_.driver = m_.driver.at_time(reference_.time(i));
+    state_.driver = m_.driver().at_time(reference_.time(i));
     state_.driver.value = reference_.driver(i);
     writer_.write_sample(state_, SolveReport{}, out, i);
     recorded_[static_cast<size_t>(i)] = true;
@@ -1226,7 +1227,7 @@ StatusJudge judge_kinematic(const Mechanism& m, const Trajectory& reference, con
       continue;
     }
     probe.q = sampled.configuration(i);
-    probe.driver = m.driver.at_time(reference.time(i));
+    probe.driver = m.driver().at_time(reference.time(i));
     probe.driver.value = reference.driver(i);
     const SolveReport projected = solver.solve_position(probe);
     out.rcond(i) = projected.rcond;
@@ -1821,12 +1822,12 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
   for (int i : usable_rows) {
     low = std::min(low, reference.driver(i));
     high = std::max(high, reference.driver(i));
-    peak_rate = std::max(peak_rate, std::abs(m.driver.at_time(reference.time(i)).rate));
+    peak_rate = std::max(peak_rate, std::abs(m.driver().at_time(reference.time(i)).rate));
   }
   const double v0 = reference.driver(start_row);
-  const double rate0 = m.driver.at_time(reference.time(start_row)).rate;
+  const double rate0 = m.driver().at_time(reference.time(start_row)).rate;
   const bool turning =
-      p.periodic && m.driver.law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
+      p.periodic && m.driver().law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
   // A swing stays a twentieth of the sweep clear of its ends, which are limits (toggles) where
   // the chain would take the clock's drive: it goes from the start, at rest, to as far towards
   // the farther end and back.
@@ -1839,8 +1840,8 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
   if (reference.has_forces)
     for (int i : usable_rows)
       if (turning || in_swing(reference.driver(i)))
-        peak_effort = std::max(peak_effort, std::abs(reference.effort(i)) * s.mass_scale);
-  const double arm = m.driver.angular() ? 1.0 : s.size;
+        peak_effort = std::max(peak_effort, std::abs(reference.effort(i, 0)) * s.mass_scale);
+  const double arm = m.driver().angular() ? 1.0 : s.size;
   double inertia = 0.0;
   for (const SceneLink& link : s.links)
     if (!link.ground) inertia += link.mass * s.size * s.size + link.inertia;
@@ -1852,7 +1853,7 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
     // A servo: torque - damping x rate, at speed when rate = torque / damping; it spins up over
     // a twentieth of a turn's time (of the cycle, for a slider) from rest.
     const double period =
-        m.driver.angular() ? 2.0 * std::numbers::pi / std::abs(rate0) : m.cycle_period();
+        m.driver().angular() ? 2.0 * std::numbers::pi / std::abs(rate0) : m.cycle_period();
     clock.damping = load(rate0) / (kClockLoad * std::abs(rate0));
     clock.torque = clock.damping * rate0;
     clock.inertia = clock.damping * period / 20.0;
@@ -1889,8 +1890,8 @@ std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
   if (!mechanism.dynamics) {
     for (int i = p.span.first; i <= p.span.last; ++i)
       if (usable(reference.status[static_cast<size_t>(i)]) &&
-          std::abs(reference.driver(i) - mechanism.driver.start) <
-              std::abs(reference.driver(row) - mechanism.driver.start))
+          std::abs(reference.driver(i) - mechanism.driver().start) <
+              std::abs(reference.driver(row) - mechanism.driver().start))
         row = i;
     const auto start = exact_start(mechanism, reference, row, reference.time(row));
     if (!start) throw std::runtime_error("could not close the loops at the definition's start");

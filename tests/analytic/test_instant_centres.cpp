@@ -162,7 +162,7 @@ TEST(InstantCentres, CrankRockerI13AtCrossingOfCrankAndRocker) {
   EXPECT_NEAR(centre.position().y(), i13.y(), 1e-12);
   // B turns about A with the crank and about I13 with the coupler: omega2 perp(B - A) =
   // omega3 perp(B - I13), and B - I13 = (1 - s)(B - A).
-  const double omega2 = m.driver.law.speed;
+  const double omega2 = m.driver().law.speed;
   const double omega3 = omega2 / (1.0 - s);
   EXPECT_NEAR(channel(exact, "omega.coupler"), omega3, 1e-9 * std::abs(omega3));
   expect_all_velocities(m, exact);
@@ -250,10 +250,10 @@ TEST(InstantCentres, EveryBundledMechanismOverItsSweep) {
     const int points = static_cast<int>(exact.point_names.size());
     double rate = 0.0;
     for (int r = 0; r < exact.samples(); ++r)
-      rate = std::max(rate, std::abs(m.driver.at_time(exact.time(r)).rate));
+      rate = std::max(rate, std::abs(m.driver().at_time(exact.time(r)).rate));
     const double size = m.size();
-    const double angular = m.driver.angular() ? rate : rate / size;
-    const double linear = m.driver.angular() ? rate * size : rate;
+    const double angular = m.driver().angular() ? rate : rate / size;
+    const double linear = m.driver().angular() ? rate * size : rate;
     std::vector<double> omega_scale(static_cast<size_t>(links), angular);
     std::vector<double> v_scale(static_cast<size_t>(points), linear);
     int usable_samples = 0;

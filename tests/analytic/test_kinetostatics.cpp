@@ -39,9 +39,9 @@ void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
   for (int k = 0; k < t.samples(); ++k) {
     if (!usable(t.status[static_cast<size_t>(k)])) continue;
     state.q = coordinates_at(m, t, k);
-    DriverState d = m.driver.at_time(t.time(k));
+    DriverState d = m.driver().at_time(t.time(k));
     d.value = t.driver(k);
-    if (m.driver.law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver.law.speed;
+    if (m.driver().law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver().law.speed;
     state.driver = d;
     const SolveReport r = solver.solve(state);
     ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << d.value;
@@ -61,13 +61,13 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
     // The effort's scale: its peak, or the largest reaction (times the size for a torque) where
     // the effort is zero by design (a parallelogram's, at constant speed without gravity).
     double scale = 0.0;
-    const double arm = m.driver.angular() ? m.size() : 1.0;
+    const double arm = m.driver().angular() ? m.size() : 1.0;
     at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
       kinetostatics.solve(state, forces);
       for (const Eigen::Vector2d& f : forces.joint_force) scale = std::max(scale, arm * f.norm());
       const std::optional<double> power = kinetostatics.power_balance(state);
       ASSERT_TRUE(power.has_value());
-      efforts.emplace_back(forces.effort, *power);
+      efforts.emplace_back(forces.effort(0), *power);
     });
     ASSERT_FALSE(efforts.empty());
     for (const auto& [a, b] : efforts) scale = std::max(scale, std::abs(a));
@@ -84,7 +84,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   const Kinetostatics kinetostatics(solver);
   ForceSample forces = kinetostatics.make_sample();
   const std::vector<int> slides = m.slide_joints();
-  const Driver& d = m.driver;
+  const Driver& d = m.driver();
   at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
     kinetostatics.solve(state, forces);
     const auto body = [&](int link) {
@@ -123,14 +123,14 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
                                      .position(m.links[static_cast<size_t>(joint.link_b)]
                                                    .points[static_cast<size_t>(joint.point_b)]
                                                    .local);
-      apply(joint.link_b, at, forces.effort * along, 0.0);
-      apply(joint.link_a, at, -forces.effort * along, 0.0);
+      apply(joint.link_b, at, forces.effort(0) * along, 0.0);
+      apply(joint.link_a, at, -forces.effort(0) * along, 0.0);
     } else {
-      apply(d.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), forces.effort);
+      apply(d.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), forces.effort(0));
       // Its reaction: on the joint's other link, or for a link's absolute angle on the ground.
       apply(d.type == DriverType::joint_angle ? m.joints[static_cast<size_t>(d.joint)].link_a
                                               : m.ground(),
-            Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.effort);
+            Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.effort(0));
     }
     for (const Load& load : m.loads) {
       const Eigen::Vector2d v = load.force_at(state.driver.value, d.angular());
@@ -186,11 +186,11 @@ TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
                            "singular/slider_crank_from_slider.toml", "watt_sixbar.toml"}) {
     Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + name);
     m.gravity = Eigen::Vector2d(0.0, -9.81);
-    m.driver.law.speed = std::copysign(1e-7, m.driver.law.speed);
+    m.driver().law.speed = std::copysign(1e-7, m.driver().law.speed);
     const NewtonSolver solver(m);
     const Kinetostatics kinetostatics(solver);
     ForceSample forces = kinetostatics.make_sample();
-    const double h = m.driver.angular() ? 1e-5 : 1e-5 * m.size();
+    const double h = m.driver().angular() ? 1e-5 : 1e-5 * m.size();
     auto potential = [&](const Eigen::VectorXd& q) {
       double v = 0.0;
       for (size_t l = 0; l < m.links.size(); ++l) {
@@ -216,7 +216,7 @@ TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
         ASSERT_EQ(solver.solve_position(shifted).status, PoseStatus::ok);
         v[side] = potential(shifted.q);
       }
-      pairs.emplace_back(forces.effort, (v[0] - v[1]) / (2.0 * h));
+      pairs.emplace_back(forces.effort(0), (v[0] - v[1]) / (2.0 * h));
     });
     double peak = 0.0;
     for (const auto& [a, b] : pairs) peak = std::max(peak, std::abs(b));

@@ -73,7 +73,7 @@ void require_finite(const Trajectory& t, const std::string& what) {
 // included), so an input that spends them takes the flagged path of a spent leg.
 SweepOptions bounded_sweep(const Mechanism& m) {
   SweepOptions options;
-  if (m.driver.angular()) options.step = std::numbers::pi / 18.0;
+  if (m.driver().angular()) options.step = std::numbers::pi / 18.0;
   options.tracer_steps = 20000;
   return options;
 }
@@ -86,7 +86,7 @@ void solve(const Mechanism& m) {
     t = dyad_sweep(m, t);
     require_finite(t, "the dyad sweep");
   }
-  const double at = m.driver.start + (m.driver.angular() ? 0.5 : 0.1 * m.size());
+  const double at = m.driver().start + (m.driver().angular() ? 0.5 : 0.1 * m.size());
   check_solve_at_work(m, at, {}, {});
   const Trajectory pose = solve_at(m, at);
   require_finite(pose, "solve --at");

@@ -1,0 +1,202 @@
+#include "analytic/constraints.h"
+
+#include <cmath>
+
+namespace crosslink {
+namespace {
+
+using Kind = ConstraintRows::Kind;
+
+// The angle of a q's link k (0 for the ground, k < 0).
+double angle_of(const Eigen::VectorXd& q, int k) {
+  return k >= 0 ? q(3 * k + 2) : 0.0;
+}
+
+// Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
+void projection_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& origin_a,
+                         const Eigen::Vector2d& axis_a, int kb, const Eigen::Vector2d& point_b,
+                         Eigen::MatrixXd& jac, int row) {
+  const BodyMotion a = frames.of(ka);
+  const BodyMotion b = frames.of(kb);
+  const Eigen::Vector2d w = a.turn(axis_a);
+  const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
+  if (ka >= 0) {
+    jac.block<1, 2>(row, 3 * ka) = -w.transpose();
+    jac(row, 3 * ka + 2) = perp(w).dot(d) - w.dot(perp(a.turn(origin_a)));
+  }
+  if (kb >= 0) {
+    jac.block<1, 2>(row, 3 * kb) += w.transpose();
+    jac(row, 3 * kb + 2) += w.dot(perp(b.turn(point_b)));
+  }
+}
+
+// The block of a driver (one row): an angle measured from link `reference` to the arm
+// from -> to on `link`, or a slide joint's displacement along its line.
+ConstraintRows driver_rows(const Mechanism& m, const Driver& d) {
+  ConstraintRows c;
+  if (d.type == DriverType::slider) {
+    const Joint& j = m.joints[static_cast<size_t>(d.joint)];
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    c.kind = Kind::slider_driver;
+    c.a = m.moving_index(j.link_a);
+    c.b = m.moving_index(j.link_b);
+    c.point_a = line.origin;
+    c.axis = line.direction;
+    c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+    return c;
+  }
+  c.kind = Kind::angle_driver;
+  c.b = m.moving_index(d.link);
+  c.a = m.moving_index(d.type == DriverType::joint_angle
+                           ? m.joints[static_cast<size_t>(d.joint)].link_a
+                           : m.ground());
+  if (d.from >= 0 && d.to >= 0) {
+    const Link& link = m.links[static_cast<size_t>(d.link)];
+    const Eigen::Vector2d arm = link.points[static_cast<size_t>(d.to)].local -
+                                link.points[static_cast<size_t>(d.from)].local;
+    c.angle = std::atan2(arm.y(), arm.x());
+  }
+  return c;
+}
+
+ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
+  ConstraintRows c;
+  c.a = m.moving_index(j.link_a);
+  c.b = m.moving_index(j.link_b);
+  c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  if (j.type == JointType::revolute) {
+    c.kind = Kind::revolute;
+    c.point_a = m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.point_a)].local;
+    return c;
+  }
+  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+  c.kind = j.type == JointType::prismatic ? Kind::prismatic : Kind::pin_in_slot;
+  c.point_a = line.origin;
+  c.axis = perp(line.direction);
+  c.angle = j.relative_angle;
+  return c;
+}
+
+}  // namespace
+
+double ConstraintRows::value(const LinkFrames& frames) const {
+  if (kind == Kind::angle_driver)
+    return angle_of(frames.q, b) + angle - angle_of(frames.q, a);  // linear in q
+  return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
+}
+
+void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
+  switch (kind) {
+    case Kind::revolute: {
+      const BodyMotion ma = frames.of(a), mb = frames.of(b);
+      phi.segment<2>(first_row) = ma.position(point_a) - mb.position(point_b);
+      return;
+    }
+    case Kind::prismatic: {
+      const BodyMotion ma = frames.of(a), mb = frames.of(b);
+      phi(first_row) = project(ma, point_a, axis, mb, point_b).value;
+      phi(first_row + 1) = mb.theta - ma.theta - angle;
+      return;
+    }
+    case Kind::pin_in_slot:
+    case Kind::angle_driver:
+    case Kind::slider_driver:
+      phi(first_row) = value(frames);
+      return;
+  }
+}
+
+void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                      Eigen::VectorXd& out) const {
+  switch (kind) {
+    case Kind::revolute: {
+      const BodyMotion ma = frames.of(a, &qdot), mb = frames.of(b, &qdot);
+      out.segment<2>(first_row) = ma.acceleration(point_a) - mb.acceleration(point_b);
+      return;
+    }
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+      out(first_row) =
+          project(frames.of(a, &qdot), point_a, axis, frames.of(b, &qdot), point_b).accel;
+      if (kind == Kind::prismatic) out(first_row + 1) = 0.0;  // an angle is linear in q
+      return;
+    case Kind::angle_driver:
+      out(first_row) = 0.0;
+      return;
+  }
+}
+
+void ConstraintRows::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
+  const int row = first_row;
+  switch (kind) {
+    case Kind::revolute:
+      if (a >= 0) {
+        jac.block<2, 2>(row, 3 * a).setIdentity();
+        jac.block<2, 1>(row, 3 * a + 2) = perp(frames.of(a).turn(point_a));
+      }
+      if (b >= 0) {
+        jac.block<2, 2>(row, 3 * b) = -Eigen::Matrix2d::Identity();
+        jac.block<2, 1>(row, 3 * b + 2) = -perp(frames.of(b).turn(point_b));
+      }
+      return;
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+      projection_gradient(frames, a, point_a, axis, b, point_b, jac, row);
+      if (kind == Kind::prismatic) {
+        if (a >= 0) jac(row + 1, 3 * a + 2) = -1.0;
+        if (b >= 0) jac(row + 1, 3 * b + 2) = 1.0;
+      }
+      return;
+    case Kind::angle_driver:
+      if (b >= 0) jac(row, 3 * b + 2) += 1.0;
+      if (a >= 0) jac(row, 3 * a + 2) -= 1.0;
+      return;
+  }
+}
+
+ConstraintLayout::ConstraintLayout(const Mechanism& m) {
+  auto add = [&](ConstraintRows c) {
+    c.first_row = rows_;
+    for (int r = 0; r < c.rows(); ++r) angle_rows_.push_back(c.angle_row(r) ? 1 : 0);
+    rows_ += c.rows();
+    blocks_.push_back(c);
+  };
+  for (const Joint& j : m.joints) add(joint_rows(m, j));
+  joint_count_ = blocks_.size();
+  joints_ = rows_;
+  for (const Driver& d : m.drivers) add(driver_rows(m, d));
+}
+
+void ConstraintLayout::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
+  for (const ConstraintRows& c : blocks_) c.position(frames, phi);
+}
+
+void ConstraintLayout::residual(const LinkFrames& frames, std::span<const DriverState> drivers,
+                                Eigen::VectorXd& phi) const {
+  position(frames, phi);
+  for (int d = 0; d < driver_count(); ++d) phi(driver_row(d)) -= drivers[d].value;
+}
+
+void ConstraintLayout::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
+  jac.setZero();
+  for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
+}
+
+void ConstraintLayout::velocity_rhs(std::span<const DriverState> drivers,
+                                    Eigen::VectorXd& nu) const {
+  // Only the drivers' rows depend on time: -dPhi/dt is their rate.
+  nu.setZero();
+  for (int d = 0; d < driver_count(); ++d) nu(driver_row(d)) = drivers[d].rate;
+}
+
+void ConstraintLayout::acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                        std::span<const DriverState> drivers,
+                                        Eigen::VectorXd& gamma) const {
+  for (const ConstraintRows& c : blocks_) c.velocity_squared(frames, qdot, gamma);
+  gamma = -gamma;
+  for (int d = 0; d < driver_count(); ++d) gamma(driver_row(d)) += drivers[d].accel;
+}
+
+}  // namespace crosslink

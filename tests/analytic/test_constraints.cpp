@@ -1,0 +1,310 @@
+// Every joint type and driver of the constraint layout (analytic/constraints.h) through every
+// level of its definition, each against a check that does not use it (as Pinocchio runs every
+// joint through every algorithm in one test):
+//   position      each row is the geometry it stands for, computed here with Eigen's rotations
+//                 (the points' gap, the pin's distance off its line, the relative angle, the
+//                 driver's angle or displacement), zero where the joint is closed by construction;
+//   angle rows    the rows flagged as angles do not change when every length is in mm, the others
+//                 grow 1000 times;
+//   Jacobian      central differences of the position rows, coordinate by coordinate;
+//   velocity      J qdot against the time derivative of the rows along an exact trajectory;
+//   acceleration  the velocity-squared terms against the time derivative of the velocity
+//                 constraint J(q(t)) qdot(t) along it, less J qddot; the right-hand sides
+//                 assembled from the drivers' states.
+// The trajectory is a quadratic in time, q(t) = q0 + v t + a t^2 / 2, so qdot and qddot are exact.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "analytic/constraints.h"
+
+namespace crosslink {
+namespace {
+
+using Kind = ConstraintRows::Kind;
+
+Point point(const char* name, double x, double y) {
+  return {name, Eigen::Vector2d(x, y), {}};
+}
+
+// Ground G and three moving links A, B, C with every joint type, the ground on either side of a
+// slide: revolute G-A, revolute A-B, prismatic A-C (A the guide), pin-in-slot G-B (G the slot),
+// prismatic G-C. Not a mechanism of mobility one: the layout does not need a square system. The
+// driver is of `type`; `scale` multiplies every length (1000: the same mechanism in mm).
+Mechanism every_kind(DriverType type, double scale = 1.0) {
+  Mechanism m;
+  const double s = scale;
+  Link ground{"G", true, {point("O", 0, 0), point("P", 0.3 * s, -0.1 * s)}, {}, {}, {}, {}, {}};
+  ground.lines.push_back(
+      {"slot", Eigen::Vector2d(0.1 * s, 0.2 * s), Eigen::Vector2d(0.6, 0.8), {}});
+  ground.lines.push_back({"rail",
+                          Eigen::Vector2d(-0.2 * s, 0.05 * s),
+                          Eigen::Vector2d(std::cos(2.0), std::sin(2.0)),
+                          {}});
+  Link a{"A", false, {point("O", 0.05 * s, -0.02 * s), point("B", 0.7 * s, 0.1 * s)}, {}, {}, {},
+         {},  {}};
+  a.lines.push_back({"guide",
+                     Eigen::Vector2d(0.2 * s, -0.1 * s),
+                     Eigen::Vector2d(std::cos(-0.4), std::sin(-0.4)),
+                     {}});
+  Link b{"B", false, {point("B", -0.1 * s, 0.03 * s), point("E", 0.4 * s, 0.25 * s)}, {}, {}, {},
+         {},  {}};
+  Link c{"C", false, {point("S", 0.02 * s, 0.09 * s)}, {}, {}, {}, {}, {}};
+  m.links = {ground, a, b, c};
+  auto joint = [](const char* name, JointType t, int la, int lb, int pa, int pb, int line,
+                  double angle) {
+    Joint j;
+    j.name = name;
+    j.type = t;
+    j.link_a = la;
+    j.link_b = lb;
+    j.point_a = pa;
+    j.point_b = pb;
+    j.line = line;
+    j.relative_angle = angle;
+    return j;
+  };
+  m.joints = {joint("GA", JointType::revolute, 0, 1, 0, 0, -1, 0.0),
+              joint("AB", JointType::revolute, 1, 2, 1, 0, -1, 0.0),
+              joint("AC", JointType::prismatic, 1, 3, -1, 0, 0, 0.35),
+              joint("GB", JointType::pin_in_slot, 0, 2, -1, 1, 0, 0.0),
+              joint("GC", JointType::prismatic, 0, 3, -1, 0, 1, -1.1)};
+  Driver d;
+  d.type = type;
+  switch (type) {
+    case DriverType::joint_angle:  // the arm B -> E of B, measured in A's frame at joint AB
+      d.joint = 1;
+      d.link = 2;
+      d.from = 0;
+      d.to = 1;
+      break;
+    case DriverType::slider:  // C along A's guide
+      d.joint = 2;
+      break;
+    case DriverType::link_angle:  // A's arm O -> B from the ground
+      d.link = 1;
+      d.from = 0;
+      d.to = 1;
+      break;
+  }
+  m.driver() = d;
+  return m;
+}
+
+// A generic pose, rate and acceleration (nothing closed, no angle a multiple of 90 degrees).
+Eigen::VectorXd pose(double scale = 1.0) {
+  Eigen::VectorXd q(9);
+  q << 0.11 * scale, -0.07 * scale, 0.6, 0.5 * scale, 0.2 * scale, -0.9, 0.3 * scale, -0.25 * scale,
+      1.7;
+  return q;
+}
+Eigen::VectorXd rate() {
+  Eigen::VectorXd v(9);
+  v << 0.3, -0.8, 1.9, -0.4, 0.7, -2.3, 1.1, 0.2, 0.8;
+  return v;
+}
+Eigen::VectorXd accel() {
+  Eigen::VectorXd a(9);
+  a << -1.2, 0.5, 3.1, 0.9, -0.3, 1.4, -2.2, 0.6, -1.7;
+  return a;
+}
+
+// A point of moving link k (-1: the ground) in world coordinates, by Eigen's rotation.
+Eigen::Vector2d world(const Eigen::VectorXd& q, int k, const Eigen::Vector2d& local) {
+  if (k < 0) return local;
+  return q.segment<2>(3 * k) + Eigen::Rotation2Dd(q(3 * k + 2)) * local;
+}
+Eigen::Vector2d world_direction(const Eigen::VectorXd& q, int k, const Eigen::Vector2d& local) {
+  return k < 0 ? local : Eigen::Vector2d(Eigen::Rotation2Dd(q(3 * k + 2)) * local);
+}
+double angle_of(const Eigen::VectorXd& q, int k) {
+  return k < 0 ? 0.0 : q(3 * k + 2);
+}
+double cross(const Eigen::Vector2d& u, const Eigen::Vector2d& w) {
+  return u.x() * w.y() - u.y() * w.x();
+}
+
+Eigen::VectorXd position(const ConstraintLayout& layout, const Eigen::VectorXd& q) {
+  Eigen::VectorXd phi(layout.rows());
+  layout.position(LinkFrames{q}, phi);
+  return phi;
+}
+Eigen::MatrixXd jacobian(const ConstraintLayout& layout, const Eigen::VectorXd& q) {
+  Eigen::MatrixXd jac(layout.rows(), q.size());
+  layout.jacobian(LinkFrames{q}, jac);
+  return jac;
+}
+
+class EveryKind : public testing::TestWithParam<DriverType> {};
+
+// Each joint type and driver appears in the layout, in joint order, then the driver.
+TEST_P(EveryKind, LayoutHasEveryKindInOrder) {
+  const Mechanism m = every_kind(GetParam());
+  const ConstraintLayout layout(m);
+  std::set<Kind> kinds;
+  int row = 0;
+  for (const ConstraintRows& c : layout.blocks()) {
+    EXPECT_EQ(c.first_row, row);
+    row += c.rows();
+    kinds.insert(c.kind);
+  }
+  EXPECT_EQ(row, layout.rows());
+  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1);
+  EXPECT_EQ(layout.joint_row_count(), layout.rows() - 1);
+  EXPECT_EQ(layout.driver_count(), 1);
+  EXPECT_EQ(layout.driver_row(0), layout.rows() - 1);
+  EXPECT_TRUE(kinds.count(Kind::revolute) && kinds.count(Kind::prismatic) &&
+              kinds.count(Kind::pin_in_slot));
+  EXPECT_TRUE(
+      kinds.count(GetParam() == DriverType::slider ? Kind::slider_driver : Kind::angle_driver));
+}
+
+// Each row is the geometry it stands for, computed here without the layout.
+TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
+  const Mechanism m = every_kind(GetParam());
+  const ConstraintLayout layout(m);
+  const Eigen::VectorXd q = pose();
+  const Eigen::VectorXd phi = position(layout, q);
+  Eigen::VectorXd expected(layout.rows());
+  int row = 0;
+  auto slide_offset = [&](const Joint& j, bool along) {
+    const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    const Line& line = m.links[j.link_a].lines[j.line];
+    const Eigen::Vector2d pin = world(q, kb, m.links[j.link_b].points[j.point_b].local);
+    const Eigen::Vector2d d = pin - world(q, ka, line.origin);
+    const Eigen::Vector2d u = world_direction(q, ka, line.direction);
+    return along ? u.dot(d) : cross(u, d);  // along the line, or its left normal
+  };
+  for (const Joint& j : m.joints) {
+    const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    if (j.type == JointType::revolute) {
+      expected.segment<2>(row) = world(q, ka, m.links[j.link_a].points[j.point_a].local) -
+                                 world(q, kb, m.links[j.link_b].points[j.point_b].local);
+      row += 2;
+      continue;
+    }
+    expected(row++) = slide_offset(j, false);
+    if (j.type == JointType::prismatic)
+      expected(row++) = angle_of(q, kb) - angle_of(q, ka) - j.relative_angle;
+  }
+  const Driver& d = m.driver();
+  if (d.type == DriverType::slider) {
+    expected(row) = slide_offset(m.joints[d.joint], true);
+  } else {
+    const Link& link = m.links[d.link];
+    const int k = m.moving_index(d.link);
+    const Eigen::Vector2d arm =
+        world(q, k, link.points[d.to].local) - world(q, k, link.points[d.from].local);
+    const int reference =
+        d.type == DriverType::joint_angle ? m.moving_index(m.joints[d.joint].link_a) : -1;
+    // The arm's world angle from the reference link's: equal modulo a turn.
+    const double measured = std::atan2(arm.y(), arm.x()) - angle_of(q, reference);
+    expected(row) = phi(row) + std::remainder(measured - phi(row), 2.0 * std::numbers::pi);
+  }
+  EXPECT_LT((phi - expected).lpNorm<Eigen::Infinity>(), 1e-14) << phi.transpose() << "\n"
+                                                               << expected.transpose();
+}
+
+// Where each joint is closed by construction, its rows are zero: B's point on A's, C on A's guide
+// at A's angle plus the held angle, and so on.
+TEST_P(EveryKind, ClosedJointsHaveZeroRows) {
+  const Mechanism m = every_kind(GetParam());
+  const ConstraintLayout layout(m);
+  for (const Joint& j : m.joints) {
+    // Link b placed so that this joint closes, from a generic pose.
+    Eigen::VectorXd q = pose();
+    const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    const Eigen::Vector2d pb = m.links[j.link_b].points[j.point_b].local;
+    Eigen::Vector2d target;
+    if (j.type == JointType::revolute) {
+      target = world(q, ka, m.links[j.link_a].points[j.point_a].local);
+    } else {
+      const Line& line = m.links[j.link_a].lines[j.line];
+      if (j.type == JointType::prismatic) q(3 * kb + 2) = angle_of(q, ka) + j.relative_angle;
+      target = world(q, ka, line.origin) + 0.37 * world_direction(q, ka, line.direction);
+    }
+    q.segment<2>(3 * kb) = target - Eigen::Rotation2Dd(q(3 * kb + 2)) * pb;
+    const Eigen::VectorXd phi = position(layout, q);
+    const ConstraintRows& c = layout.joint(m.find_joint(j.name));
+    for (int r = 0; r < c.rows(); ++r)
+      EXPECT_NEAR(phi(c.first_row + r), 0.0, 1e-15) << j.name << " row " << r;
+  }
+}
+
+// The angle rows keep their value when every length is in mm; the other rows scale with them.
+TEST_P(EveryKind, AngleRowsAreTheOnesThatDoNotScale) {
+  const ConstraintLayout metres(every_kind(GetParam())), millimetres(every_kind(GetParam(), 1e3));
+  const Eigen::VectorXd phi = position(metres, pose()), phi_mm = position(millimetres, pose(1e3));
+  int angles = 0;
+  for (int r = 0; r < metres.rows(); ++r) {
+    ASSERT_GT(std::abs(phi(r)), 1e-3) << "row " << r << " must be away from zero to tell";
+    const double ratio = phi_mm(r) / phi(r);
+    EXPECT_NEAR(ratio, metres.angle_row(r) ? 1.0 : 1e3, 1e-9 * ratio) << "row " << r;
+    EXPECT_EQ(metres.angle_row(r), millimetres.angle_row(r));
+    angles += metres.angle_row(r);
+  }
+  EXPECT_EQ(angles, 2 + (GetParam() == DriverType::slider ? 0 : 1));  // the prismatics' angles
+}
+
+// The Jacobian against central differences of the position rows (step 1e-6: truncation ~1e-12,
+// round-off ~1e-10).
+TEST_P(EveryKind, JacobianIsDerivativeOfPosition) {
+  const ConstraintLayout layout(every_kind(GetParam()));
+  const Eigen::VectorXd q = pose();
+  const Eigen::MatrixXd analytic = jacobian(layout, q);
+  const double h = 1e-6;
+  for (int i = 0; i < q.size(); ++i) {
+    Eigen::VectorXd plus = q, minus = q;
+    plus(i) += h;
+    minus(i) -= h;
+    const Eigen::VectorXd numeric = (position(layout, plus) - position(layout, minus)) / (2 * h);
+    EXPECT_LT((analytic.col(i) - numeric).lpNorm<Eigen::Infinity>(), 1e-8) << "column " << i;
+  }
+}
+
+// Along the exact trajectory q(t): J qdot is the rows' time derivative, and the velocity-squared
+// terms are d/dt (J(q) qdot) - J qddot.
+TEST_P(EveryKind, VelocityAndAccelerationAlongATrajectory) {
+  const ConstraintLayout layout(every_kind(GetParam()));
+  const Eigen::VectorXd q0 = pose(), v = rate(), a = accel();
+  auto q_at = [&](double t) { return Eigen::VectorXd(q0 + v * t + 0.5 * a * t * t); };
+  auto qdot_at = [&](double t) { return Eigen::VectorXd(v + a * t); };
+  auto velocity_constraint = [&](double t) {
+    return Eigen::VectorXd(jacobian(layout, q_at(t)) * qdot_at(t));
+  };
+  const double h = 1e-5;
+  const Eigen::VectorXd phi_dot =
+      (position(layout, q_at(h)) - position(layout, q_at(-h))) / (2 * h);
+  EXPECT_LT((velocity_constraint(0.0) - phi_dot).lpNorm<Eigen::Infinity>(), 1e-8);
+
+  const Eigen::VectorXd numeric =
+      (velocity_constraint(h) - velocity_constraint(-h)) / (2 * h) - jacobian(layout, q0) * a;
+  Eigen::VectorXd squared(layout.rows());
+  for (const ConstraintRows& c : layout.blocks()) c.velocity_squared(LinkFrames{q0}, v, squared);
+  EXPECT_LT((squared - numeric).lpNorm<Eigen::Infinity>(), 1e-7) << squared.transpose() << "\n"
+                                                                 << numeric.transpose();
+
+  // The right-hand sides: the driver's rate and acceleration in its row, the rest from the terms.
+  const DriverState driver{0.0, 0.0, 2.5, -4.0};
+  Eigen::VectorXd nu(layout.rows()), gamma(layout.rows());
+  layout.velocity_rhs({&driver, 1}, nu);
+  layout.acceleration_rhs(LinkFrames{q0}, v, {&driver, 1}, gamma);
+  for (int r = 0; r < layout.rows(); ++r) {
+    const bool driver_row = r == layout.driver_row(0);
+    EXPECT_EQ(nu(r), driver_row ? driver.rate : 0.0);
+    EXPECT_NEAR(gamma(r), -numeric(r) + (driver_row ? driver.accel : 0.0), 1e-7);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Drivers, EveryKind,
+                         testing::Values(DriverType::joint_angle, DriverType::slider,
+                                         DriverType::link_angle),
+                         [](const testing::TestParamInfo<DriverType>& info) {
+                           return std::string(to_string(info.param));
+                         });
+
+}  // namespace
+}  // namespace crosslink
