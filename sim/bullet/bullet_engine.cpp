@@ -1177,6 +1177,7 @@ class SceneStepper {
   const Eigen::VectorXd& step(long k) {
     const std::vector<double>& time = history_.time;
     scene_.step(time[static_cast<size_t>(k)] - time[static_cast<size_t>(k - 1)]);
+    ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
     if (forces_) forces_->read(k - 1, scene_, history_.pose.col(k - 1));
     read_coordinates(scene_, plan_, m_, frames_, q_);
     history_.pose.col(k) = q_;
@@ -1184,6 +1185,8 @@ class SceneStepper {
   }
   Scene& scene() { return scene_; }
   BulletForces* forces() { return forces_ ? &*forces_ : nullptr; }
+  // The model evaluations the steps made.
+  long evaluations() const { return evaluations_; }
 
  private:
   const Mechanism& m_;
@@ -1193,6 +1196,7 @@ class SceneStepper {
   Eigen::VectorXd q_;
   History history_;
   std::optional<BulletForces> forces_;
+  long evaluations_ = 0;
 };
 
 // The conditioning of the constraint Jacobian at a sampled pose, a status's measure (near a
@@ -1210,11 +1214,13 @@ void note_fallbacks(const Scene& scene, std::vector<std::string>& notes) {
     notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
 }
 
-// What a run cost, from its `taken` steps: the stepping time per simulated `cycle` seconds, and
-// in all since `begin`; then the notes become its message.
-void finish(const History& history, long taken, double cycle, double stepping, double stepping_cpu,
-            Clock::time_point begin, const std::vector<std::string>& notes, EngineRun& out) {
+// What a run cost, from its `taken` steps and the model `evaluations` they made: the stepping
+// time per simulated `cycle` seconds, and in all since `begin`; then the notes become its message.
+void finish(const History& history, long taken, long evaluations, double cycle, double stepping,
+            double stepping_cpu, Clock::time_point begin, const std::vector<std::string>& notes,
+            EngineRun& out) {
   out.cost.steps = taken;
+  out.cost.model_evaluations = evaluations;
   out.cost.simulated_seconds = history.time[static_cast<size_t>(taken)] - history.time.front();
   out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
   out.cost.wall_seconds_per_cycle =
@@ -2027,8 +2033,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
                          stepper.forces(), energy, judge, history, out.trajectory);
   note_dynamics(reference, p.span, config, gap_flag, grid.sample_step, judge, history, energy,
                 *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), 1.0, stepping, stepping_cpu,
-         begin, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(), 1.0,
+         stepping, stepping_cpu, begin, notes, out);
   return out;
 }
 
@@ -2131,8 +2137,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                 stepper.forces(), statuses, out.trajectory);
   note_kinematic(m, reference, p.span, config, statuses.judge(), history, kinematic.worst_gap(),
                  start, step, *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), m.cycle_period(), stepping,
-         stepping_cpu, begin, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(),
+         m.cycle_period(), stepping, stepping_cpu, begin, notes, out);
   return out;
 }
 

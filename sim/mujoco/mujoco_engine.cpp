@@ -704,6 +704,13 @@ class ForceReader {
   int driven_dof_ = -1;  // the driven tree joint's degree of freedom (-1: a tendon driver)
 };
 
+// The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
+// engine_forward.c: one mj_forward, then Euler and implicit advance from it, while
+// mj_RungeKutta(m, d, 4) evaluates three more stages with mj_forwardSkip).
+long stages_per_step(const std::string& integrator) {
+  return integrator == "RK4" ? 4 : 1;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics")
 
@@ -1090,6 +1097,7 @@ class KinematicStepper {
     if (read) forces_->after_step(step - 1, mm, d);
     mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
     ++taken_;
+    evaluations_ += stages_per_step(p_.config.integrator);
     // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
     while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
       ++interval_;
@@ -1113,6 +1121,7 @@ class KinematicStepper {
   }
   const Eigen::VectorXd& gaps() const { return gaps_; }
   long taken() const { return taken_; }
+  long evaluations() const { return evaluations_; }
 
  private:
   Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
@@ -1164,7 +1173,7 @@ class KinematicStepper {
   Eigen::VectorXd velocity_;
   double driver_offset_ = 0.0, coordinate0_ = 0.0;
   int interval_;  // the sample whose interval (S_i-1, S_i] holds the current step
-  long taken_ = 0;
+  long taken_ = 0, evaluations_ = 0;
 };
 
 // Sample stage: a sample's position, velocity and acceleration from the poses of its difference
@@ -1272,9 +1281,11 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
 }
 
 // What a run cost: its stepping time per simulated cycle (`cycle` seconds), and in all.
-void record_cost(long steps, double simulated, double cycle, double stepping_seconds,
-                 double stepping_cpu, std::chrono::steady_clock::time_point begin, RunCost& cost) {
+void record_cost(long steps, long evaluations, double simulated, double cycle,
+                 double stepping_seconds, double stepping_cpu,
+                 std::chrono::steady_clock::time_point begin, RunCost& cost) {
   cost.steps = steps;
+  cost.model_evaluations = evaluations;
   cost.simulated_seconds = simulated;
   if (simulated > 0.0) {
     cost.wall_seconds_per_cycle = stepping_seconds * cycle / simulated;
@@ -1445,6 +1456,7 @@ class DynamicsRun {
     if (read) force_reader_.read(d_, qpos_before_, h, reading_);
     mj_kinematics(mm_, d_);
     ++taken_;
+    evaluations_ += stages_per_step(p_.config.integrator);
     while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
       ++interval_;
     const double gap = loop_gap(p_.scene, cut_bodies_, d_);
@@ -1462,6 +1474,7 @@ class DynamicsRun {
   }
 
   long taken() const { return taken_; }
+  long evaluations() const { return evaluations_; }
   const Eigen::VectorXd& gaps() const { return gaps_; }
   bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
   Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
@@ -1572,7 +1585,7 @@ class DynamicsRun {
   std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;
   std::array<double, kRing> ring_work_{}, ring_power_{};
   std::vector<int> sample_of_;  // the sample on each step (-1: none)
-  long last_step_ = 0, taken_ = 0;
+  long last_step_ = 0, taken_ = 0, evaluations_ = 0;
   double h0_ = 0.0, initial_energy_ = 0.0;
   int drift_at_ = -1;
   int interval_;
@@ -1659,8 +1672,9 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   const StatusJudge judge = judge_dynamics(m, reference, p.span, watch, dynamics, run.trajectory);
   note_dynamics(reference, p, watch, judge, dynamics, run);
   const std::vector<double>& grid = p.grid.time;
-  record_cost(dynamics.taken(), grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0,
-              stepping_seconds, stepping_cpu, begin, run.cost);
+  record_cost(dynamics.taken(), dynamics.evaluations(),
+              grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0, stepping_seconds,
+              stepping_cpu, begin, run.cost);
   return run;
 }
 
@@ -1776,8 +1790,9 @@ class MujocoEngine final : public Engine {
                                               stepper.gaps(), run.trajectory);
     note_kinematic(reference, p.span, judge, stopped, stepper.gaps(), watch.gap, run);
     const double simulated = p.grid.time.back() - p.grid.time.front();
-    record_cost(stepper.taken(), simulated, m.cycle_period() > 0.0 ? m.cycle_period() : simulated,
-                stepping_seconds, stepping_cpu, begin, run.cost);
+    record_cost(stepper.taken(), stepper.evaluations(), simulated,
+                m.cycle_period() > 0.0 ? m.cycle_period() : simulated, stepping_seconds,
+                stepping_cpu, begin, run.cost);
     return run;
   }
 };
