@@ -2,6 +2,7 @@
 // the reference's times with the driver enforced every step, watches the loop gap, and reads
 // positions, velocities and accelerations at the sampled steps.
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/run_loop.h"
 #include "sim/sampling.h"
 #include "sim/settings.h"
 #include "sim/statuses.h"
@@ -30,8 +31,6 @@
 
 namespace crosslink::sim {
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 using mujoco_scene::MjcfOptions;
 using mujoco_scene::Scene;
@@ -308,17 +307,10 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
   return Start{state.q, state.qdot};
 }
 
-// Step times over the usable span: each sample interval is split into equal steps no longer
-// than the wanted step, so samples fall on step boundaries (a sweep's extra sample at a toggle
-// makes one interval shorter than the others). The grid starts at the first usable sample and
-// ends at the last: the engine is never driven outside them.
-struct TimeGrid {
-  std::vector<double> time;       // time at the end of forward step k (k = 0: the first sample)
-  std::vector<long> sample_step;  // step of each sample; -1 outside the usable span
-  double dt = 0.0;                // the longest step [s]
-  long steps_per_sample = 1;      // in the longest interval
-};
-
+// Step times over the usable span (sample_grid(): each sample interval split into equal steps no
+// longer than the wanted step, so samples fall on step boundaries; a sweep's extra sample at a
+// toggle makes one interval shorter than the others). The grid starts at the first usable sample
+// and ends at the last, no pre-roll: the engine is never driven outside them.
 TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& span) {
   const int n = reference.samples();
   for (int i = 1; i < n; ++i)
@@ -336,31 +328,9 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
   } else {
     wanted = setting_number("dt", c.dt, kPositive);
   }
-  // Steps per sample interval, counted (as doubles: they may be astronomical) before the grid
-  // takes any memory.
-  std::vector<double> per_interval;
-  for (int i = span.first + 1; i <= span.last; ++i)
-    per_interval.push_back(
-        std::max(1.0, std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9)));
+  const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
   check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0), wanted, c.max_steps);
-  TimeGrid grid;
-  grid.sample_step.assign(static_cast<size_t>(n), -1);
-  grid.time.push_back(reference.time(span.first));
-  grid.sample_step[static_cast<size_t>(span.first)] = 0;
-  for (int i = span.first + 1; i <= span.last; ++i) {
-    const double interval = reference.time(i) - reference.time(i - 1);
-    const long steps = static_cast<long>(per_interval[static_cast<size_t>(i - span.first - 1)]);
-    const double h = interval / static_cast<double>(steps);
-    for (long k = 1; k <= steps; ++k)
-      grid.time.push_back(k == steps ? reference.time(i)
-                                     : reference.time(i - 1) + static_cast<double>(k) * h);
-    grid.sample_step[static_cast<size_t>(i)] = static_cast<long>(grid.time.size()) - 1;
-    if (h > grid.dt) {
-      grid.dt = h;
-      grid.steps_per_sample = steps;
-    }
-  }
-  return grid;
+  return sample_grid(reference, span, per_interval, InnerTimes::step_multiples);
 }
 
 // The driver coordinate's target at time t (DrivenCoordinate: sign (driver - offset)).
@@ -1280,21 +1250,6 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
           {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
 }
 
-// What a run cost: its stepping time per simulated cycle (`cycle` seconds), and in all.
-void record_cost(long steps, long evaluations, double simulated, double cycle,
-                 double stepping_seconds, double stepping_cpu,
-                 std::chrono::steady_clock::time_point begin, RunCost& cost) {
-  cost.steps = steps;
-  cost.model_evaluations = evaluations;
-  cost.simulated_seconds = simulated;
-  if (simulated > 0.0) {
-    cost.wall_seconds_per_cycle = stepping_seconds * cycle / simulated;
-    cost.cpu_seconds_per_cycle = stepping_cpu * cycle / simulated;
-  }
-  cost.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-}
-
 // A kinematic run's notes and the events of its counts, after the statuses.
 void note_kinematic(const Trajectory& reference, const Span& span, const StatusJudge& judge,
                     bool stopped, const Eigen::VectorXd& gaps, double gap_threshold,
@@ -1662,19 +1617,18 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   run.settings = dynamics_settings(p, choice, watch);
 
   DynamicsRun dynamics(m, reference, p, start, choice, watch, std::move(model), run.trajectory);
-  const Clock::time_point stepping = Clock::now();
-  const double cpu_start = thread_cpu_seconds();
+  SteppingClock stepping;
   for (long step = 1; step <= dynamics.last_step() && dynamics.stopped().empty(); ++step)
     dynamics.step(step);
-  const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
-  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+  stepping.stop();
 
   const StatusJudge judge = judge_dynamics(m, reference, p.span, watch, dynamics, run.trajectory);
   note_dynamics(reference, p, watch, judge, dynamics, run);
   const std::vector<double>& grid = p.grid.time;
+  // Simulated: up to the last step taken.
   record_cost(dynamics.taken(), dynamics.evaluations(),
-              grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0, stepping_seconds,
-              stepping_cpu, begin, run.cost);
+              grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0, stepping, begin,
+              run.cost);
   return run;
 }
 
@@ -1765,8 +1719,7 @@ class MujocoEngine final : public Engine {
     KinematicSampler sampler(m, reference, p.grid.time);
 
     // Every sample is written as soon as the step completing its stencils is taken.
-    const Clock::time_point stepping = Clock::now();
-    const double cpu_start = thread_cpu_seconds();
+    SteppingClock stepping;
     bool stopped = false;
     int pending = p.span.first;  // the next sample to write
     for (long step = 1; step <= last_step && !stopped; ++step) {
@@ -1783,16 +1736,15 @@ class MujocoEngine final : public Engine {
         if (forces) forces->write(pending, plan.forces[i], state, run.trajectory);
       }
     }
-    const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
-    const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+    stepping.stop();
 
     const StatusJudge judge = judge_kinematic(m, reference, p.span, watch, s.size, sampler,
                                               stepper.gaps(), run.trajectory);
     note_kinematic(reference, p.span, judge, stopped, stepper.gaps(), watch.gap, run);
+    // Simulated: the whole grid, however far the steps went.
     const double simulated = p.grid.time.back() - p.grid.time.front();
     record_cost(stepper.taken(), stepper.evaluations(), simulated,
-                m.cycle_period() > 0.0 ? m.cycle_period() : simulated, stepping_seconds,
-                stepping_cpu, begin, run.cost);
+                m.cycle_period() > 0.0 ? m.cycle_period() : simulated, stepping, begin, run.cost);
     return run;
   }
 };
