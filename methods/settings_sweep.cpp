@@ -276,8 +276,7 @@ std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Tra
 
 double SweepRow::work() const {
   if (engine == "analytic" || !(dt > 0.0)) return kNaN;
-  const std::optional<std::string> integrator = setting(settings, "integrator");
-  return (integrator && *integrator == "RK4" ? 4.0 : 1.0) / dt;
+  return evaluations_per_step / dt;
 }
 
 bool SweepRow::meets(double accuracy_pct) const {
@@ -336,6 +335,9 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
   }
   row.wall_s_per_cycle = seconds_per_cycle(run);
   row.cpu_s_per_cycle = cpu_per_cycle(run);
+  if (run.cost.steps > 0)
+    row.evaluations_per_step =
+        static_cast<double>(run.cost.model_evaluations) / static_cast<double>(run.cost.steps);
   const Trajectory& ref = reference.trajectory;
   const Trajectory& tr = run.trajectory;
   const bool shaped = tr.samples() == ref.samples() && tr.status.size() == ref.status.size();

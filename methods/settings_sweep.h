@@ -4,10 +4,10 @@
 // nothing re-implemented), with its wall time per simulated cycle (per simulated second for a
 // dynamics case), the median of repeated runs; the observed order of convergence in dt; the
 // Pareto front of error against work; and the least-work setting that meets an accuracy asked
-// for. The front and the pick weigh the work (model evaluations, fixed by the time step and the
-// integrator), never a timing: CPU times moved by 17 to 66 % between identical sweeps on this
-// shared machine, so any rule on them moved the front; with the work two identical sweeps draw
-// the same front and pick the same setting. See docs/sweep.md.
+// for. The front and the pick weigh the work (the model evaluations the engine reports, fixed by
+// the time step and the integrator), never a timing: CPU times moved by 17 to 66 % between
+// identical sweeps on this shared machine, so any rule on them moved the front; with the work two
+// identical sweeps draw the same front and pick the same setting. See docs/sweep.md.
 //
 // Quantity classes of a row (max over the channels of the class, usable samples only):
 //   position      "position" and "angle" channels (both are position-level quantities; an angle's
@@ -166,9 +166,12 @@ struct SweepRow {
   double benchmark_error() const;
   // The cost: the CPU time per cycle, or the wall time where none was measured.
   double cost() const { return cpu_s_per_cycle > 0.0 ? cpu_s_per_cycle : wall_s_per_cycle; }
-  // The work: the engine's model evaluations per simulated second, its steps per second times
-  // its integrator's stages (MuJoCo's RK4 4, every other variant 1). The same in every run, it
-  // is what the front and the pick weigh. NaN for the analytic rows.
+  // The model evaluations the engine reported per step it took (RunCost; MuJoCo's RK4 4, its
+  // Euler and implicit 1, Bullet 1). NaN: the run took no step, or an analytic row.
+  double evaluations_per_step = std::numeric_limits<double>::quiet_NaN();
+  // The work: the engine's model evaluations per simulated second at the row's time step, its
+  // evaluations per step over dt. The same in every run, it is what the front and the pick
+  // weigh. NaN for the analytic rows and a run that took no step.
   double work() const;
   // "dt=0.001 integrator=Euler solver=Newton" (engine rows), "newton" (analytic).
   std::string setting_label() const;

@@ -9,6 +9,7 @@
 
 #include "analytic/trust.h"
 #include "sim/forces.h"
+#include "sim/run_loop.h"
 #include "sim/sampling.h"
 #include "sim/scene_graph.h"
 #include "sim/settings.h"
@@ -34,6 +35,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <stdexcept>
 
@@ -934,8 +936,6 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
 // ---------------------------------------------------------------------------------------------
 // Stages both runs share
 
-using Clock = std::chrono::steady_clock;
-
 // A run that could not be made: its reason, and every sample diverged (no engine value).
 EngineRun failed(EngineRun run, const std::string& message) {
   run.ok = false;
@@ -1168,6 +1168,7 @@ class SceneStepper {
   const Eigen::VectorXd& step(long k) {
     const std::vector<double>& time = history_.time;
     scene_.step(time[static_cast<size_t>(k)] - time[static_cast<size_t>(k - 1)]);
+    ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
     if (forces_) forces_->read(k - 1, scene_, history_.pose.col(k - 1));
     read_coordinates(scene_, plan_, m_, frames_, q_);
     history_.pose.col(k) = q_;
@@ -1175,6 +1176,8 @@ class SceneStepper {
   }
   Scene& scene() { return scene_; }
   BulletForces* forces() { return forces_ ? &*forces_ : nullptr; }
+  // The model evaluations the steps made.
+  long evaluations() const { return evaluations_; }
 
  private:
   const Mechanism& m_;
@@ -1184,6 +1187,7 @@ class SceneStepper {
   Eigen::VectorXd q_;
   History history_;
   std::optional<BulletForces> forces_;
+  long evaluations_ = 0;
 };
 
 // The conditioning of the constraint Jacobian at a sampled pose, a status's measure (near a
@@ -1201,17 +1205,13 @@ void note_fallbacks(const Scene& scene, std::vector<std::string>& notes) {
     notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
 }
 
-// What a run cost, from its `taken` steps: the stepping time per simulated `cycle` seconds, and
-// in all since `begin`; then the notes become its message.
-void finish(const History& history, long taken, double cycle, double stepping, double stepping_cpu,
-            Clock::time_point begin, const std::vector<std::string>& notes, EngineRun& out) {
-  out.cost.steps = taken;
-  out.cost.simulated_seconds = history.time[static_cast<size_t>(taken)] - history.time.front();
-  out.cost.wall_seconds = std::chrono::duration<double>(Clock::now() - begin).count();
-  out.cost.wall_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping * cycle / out.cost.simulated_seconds : 0.0;
-  out.cost.cpu_seconds_per_cycle =
-      out.cost.simulated_seconds > 0 ? stepping_cpu * cycle / out.cost.simulated_seconds : 0.0;
+// What a run cost (record_cost()), from its `taken` steps and the model `evaluations` they made,
+// simulated up to the last step taken; then the notes become its message.
+void finish(const History& history, long taken, long evaluations, double cycle,
+            const SteppingClock& stepping, Clock::time_point begin,
+            const std::vector<std::string>& notes, EngineRun& out) {
+  record_cost(taken, evaluations, history.time[static_cast<size_t>(taken)] - history.time.front(),
+              cycle, stepping, begin, out.cost);
   for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
 }
 
@@ -1352,28 +1352,20 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
 
 // Step times from the first to the last usable sample, never beyond (but for a periodic run's
 // pre-roll). Default: each sample interval split into equal steps (steps_per_sample in a regular
-// one), so every sample is a step boundary; an explicit dt: uniform steps up to the last sample.
+// one; sample_grid() with the pre-roll), so every sample is a step boundary; an explicit dt:
+// uniform steps up to the last sample.
 std::vector<double> kinematic_times(const Trajectory& reference, const Span& span,
                                     const Config& config, double dt, const KinematicStart& start) {
-  const double t0 = reference.time(span.first), t_end = reference.time(span.last);
   const long preroll = start.preroll;
+  if (config.dt == 0.0)
+    return sample_grid(reference, span, steps_per_interval(reference, span, dt),
+                       InnerTimes::interval_fractions, preroll, dt)
+        .time;
+  const double t_end = reference.time(span.last);
   std::vector<double> time = {start.t_start};
-  if (config.dt == 0.0) {
-    for (long k = preroll - 1; k >= 0; --k) time.push_back(t0 - static_cast<double>(k) * dt);
-    for (int i = span.first + 1; i <= span.last; ++i) {
-      const double span_i = reference.time(i) - reference.time(i - 1);
-      const long n = std::max(1L, static_cast<long>(std::ceil(span_i / dt - 1e-9)));
-      for (long k = 1; k <= n; ++k)
-        time.push_back(k == n ? reference.time(i)
-                              : reference.time(i - 1) +
-                                    span_i * static_cast<double>(k) / static_cast<double>(n));
-    }
-    for (long k = 1; k <= preroll; ++k) time.push_back(t_end + static_cast<double>(k) * dt);
-  } else {
-    const double t_stop = t_end + static_cast<double>(preroll) * dt;
-    for (long k = 1; start.t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
-      time.push_back(start.t_start + static_cast<double>(k) * dt);
-  }
+  const double t_stop = t_end + static_cast<double>(preroll) * dt;
+  for (long k = 1; start.t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
+    time.push_back(start.t_start + static_cast<double>(k) * dt);
   return time;
 }
 
@@ -1624,17 +1616,12 @@ void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span&
 // write_dynamics_samples() writes each sample with its forces (BulletForces), its energy balance
 // (EnergyWatch) and its status; note_dynamics() closes.
 
-// The steps: each sample interval split into equal steps, as many as steps_per_sample, or more
-// where the reference's fastest link would turn more than max_step_angle in a step, or as an
-// explicit dt asks (rounded so that samples fall on steps); one more step after the last sample,
-// so that it has a central difference. check_steps()'s std::exception when they are too many.
-struct DynamicsGrid {
-  std::vector<double> time;       // per step [s]
-  std::vector<long> sample_step;  // per sample: its step; -1 outside the usable span
-  double dt = 0.0;                // the longest step
-};
-
-DynamicsGrid dynamics_grid(const Trajectory& reference, const Span& span, const Config& config) {
+// The steps (sample_grid()): each sample interval split into equal steps, as many as
+// steps_per_sample, or more where the reference's fastest link would turn more than
+// max_step_angle in a step, or as an explicit dt asks (rounded so that samples fall on steps);
+// one more step after the last sample, so that it has a central difference. check_steps()'s
+// std::exception when they are too many.
+TimeGrid dynamics_grid(const Trajectory& reference, const Span& span, const Config& config) {
   const int first = span.first, last = span.last;
   double wanted = config.dt;
   if (wanted == 0.0) {
@@ -1648,24 +1635,10 @@ DynamicsGrid dynamics_grid(const Trajectory& reference, const Span& span, const 
     if (config.max_step_angle > 0.0 && fastest > 0.0)
       wanted = std::min(wanted, config.max_step_angle / fastest);
   }
-  DynamicsGrid g;
-  g.time = {reference.time(first)};
-  g.sample_step.assign(static_cast<size_t>(reference.samples()), -1);
-  g.sample_step[static_cast<size_t>(first)] = 0;
-  double count = 0.0;
-  for (int i = first + 1; i <= last; ++i)
-    count += std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9);
-  check_steps(count + 1.0, wanted, config.max_steps);
-  for (int i = first + 1; i <= last; ++i) {
-    const double span_i = reference.time(i) - reference.time(i - 1);
-    const long n = std::max(1L, static_cast<long>(std::ceil(span_i / wanted - 1e-9)));
-    for (long k = 1; k <= n; ++k)
-      g.time.push_back(k == n ? reference.time(i)
-                              : reference.time(i - 1) +
-                                    span_i * static_cast<double>(k) / static_cast<double>(n));
-    g.sample_step[static_cast<size_t>(i)] = static_cast<long>(g.time.size()) - 1;
-    g.dt = std::max(g.dt, span_i / static_cast<double>(n));
-  }
+  const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
+  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0) + 1.0, wanted,
+              config.max_steps);
+  TimeGrid g = sample_grid(reference, span, per_interval, InnerTimes::interval_fractions);
   g.time.push_back(g.time.back() + (g.time.back() - g.time[g.time.size() - 2]));
   return g;
 }
@@ -1965,7 +1938,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   out.trajectory.method = "bullet";
   shape(out.trajectory, original, reference, false, true);
   Prepared p;
-  DynamicsGrid grid;
+  TimeGrid grid;
   try {
     p = prepare(original, reference, overrides, out.trajectory);
     if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
@@ -2000,12 +1973,10 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   History& history = stepper.begin(grid.time, with_forces);
   JointGap gap(m, solver);
   DynamicsStepper dynamics(m, config, start.velocity, balance, gap, stepper, history);
-  const auto t_steps = Clock::now();
-  const double cpu_start = thread_cpu_seconds();
+  SteppingClock stepping;
   for (long k = 1; k <= history.steps() && dynamics.step(k); ++k) {
   }
-  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
-  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+  stepping.stop();
 
   DynamicsSampler sampler(m, solver, balance, history);
   sampler.integrate_work();
@@ -2018,8 +1989,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
                          stepper.forces(), energy, judge, history, out.trajectory);
   note_dynamics(reference, p.span, config, gap_flag, grid.sample_step, judge, history, energy,
                 *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), 1.0, stepping, stepping_cpu,
-         begin, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(), 1.0,
+         stepping, begin, notes, out);
   return out;
 }
 
@@ -2107,12 +2078,10 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                                               history.steps()));
   JointGap gap(m, solver);
   KinematicStepper kinematic(m, config, start, gap, stepper, history);
-  const auto t_steps = Clock::now();
-  const double cpu_start = thread_cpu_seconds();
+  SteppingClock stepping;
   for (long k = 1; k <= history.steps() && kinematic.step(k); ++k) {
   }
-  const double stepping = std::chrono::duration<double>(Clock::now() - t_steps).count();
-  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+  stepping.stop();
 
   const SamplePlan sample_plan = plan_samples(
       reference, p.span, history.time, nearest_steps(reference, p.span, history.time), with_forces);
@@ -2122,8 +2091,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                 stepper.forces(), statuses, out.trajectory);
   note_kinematic(m, reference, p.span, config, statuses.judge(), history, kinematic.worst_gap(),
                  start, step, *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), m.cycle_period(), stepping,
-         stepping_cpu, begin, notes, out);
+  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(),
+         m.cycle_period(), stepping, begin, notes, out);
   return out;
 }
 

@@ -2,6 +2,7 @@
 // the reference's times with the driver enforced every step, watches the loop gap, and reads
 // positions, velocities and accelerations at the sampled steps.
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/run_loop.h"
 #include "sim/sampling.h"
 #include "sim/settings.h"
 #include "sim/statuses.h"
@@ -30,8 +31,6 @@
 
 namespace crosslink::sim {
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 using mujoco_scene::MjcfOptions;
 using mujoco_scene::Scene;
@@ -308,17 +307,10 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
   return Start{state.q, state.qdot};
 }
 
-// Step times over the usable span: each sample interval is split into equal steps no longer
-// than the wanted step, so samples fall on step boundaries (a sweep's extra sample at a toggle
-// makes one interval shorter than the others). The grid starts at the first usable sample and
-// ends at the last: the engine is never driven outside them.
-struct TimeGrid {
-  std::vector<double> time;       // time at the end of forward step k (k = 0: the first sample)
-  std::vector<long> sample_step;  // step of each sample; -1 outside the usable span
-  double dt = 0.0;                // the longest step [s]
-  long steps_per_sample = 1;      // in the longest interval
-};
-
+// Step times over the usable span (sample_grid(): each sample interval split into equal steps no
+// longer than the wanted step, so samples fall on step boundaries; a sweep's extra sample at a
+// toggle makes one interval shorter than the others). The grid starts at the first usable sample
+// and ends at the last, no pre-roll: the engine is never driven outside them.
 TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& span) {
   const int n = reference.samples();
   for (int i = 1; i < n; ++i)
@@ -336,31 +328,9 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
   } else {
     wanted = setting_number("dt", c.dt, kPositive);
   }
-  // Steps per sample interval, counted (as doubles: they may be astronomical) before the grid
-  // takes any memory.
-  std::vector<double> per_interval;
-  for (int i = span.first + 1; i <= span.last; ++i)
-    per_interval.push_back(
-        std::max(1.0, std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9)));
+  const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
   check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0), wanted, c.max_steps);
-  TimeGrid grid;
-  grid.sample_step.assign(static_cast<size_t>(n), -1);
-  grid.time.push_back(reference.time(span.first));
-  grid.sample_step[static_cast<size_t>(span.first)] = 0;
-  for (int i = span.first + 1; i <= span.last; ++i) {
-    const double interval = reference.time(i) - reference.time(i - 1);
-    const long steps = static_cast<long>(per_interval[static_cast<size_t>(i - span.first - 1)]);
-    const double h = interval / static_cast<double>(steps);
-    for (long k = 1; k <= steps; ++k)
-      grid.time.push_back(k == steps ? reference.time(i)
-                                     : reference.time(i - 1) + static_cast<double>(k) * h);
-    grid.sample_step[static_cast<size_t>(i)] = static_cast<long>(grid.time.size()) - 1;
-    if (h > grid.dt) {
-      grid.dt = h;
-      grid.steps_per_sample = steps;
-    }
-  }
-  return grid;
+  return sample_grid(reference, span, per_interval, InnerTimes::step_multiples);
 }
 
 // The driver coordinate's target at time t (DrivenCoordinate: sign (driver - offset)).
@@ -704,6 +674,13 @@ class ForceReader {
   int driver_eq_ = -1;
   int driven_dof_ = -1;  // the driven tree joint's degree of freedom (-1: a tendon driver)
 };
+
+// The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
+// engine_forward.c: one mj_forward, then Euler and implicit advance from it, while
+// mj_RungeKutta(m, d, 4) evaluates three more stages with mj_forwardSkip).
+long stages_per_step(const std::string& integrator) {
+  return integrator == "RK4" ? 4 : 1;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics")
@@ -1091,6 +1068,7 @@ class KinematicStepper {
     if (read) forces_->after_step(step - 1, mm, d);
     mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
     ++taken_;
+    evaluations_ += stages_per_step(p_.config.integrator);
     // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
     while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
       ++interval_;
@@ -1114,6 +1092,7 @@ class KinematicStepper {
   }
   const Eigen::VectorXd& gaps() const { return gaps_; }
   long taken() const { return taken_; }
+  long evaluations() const { return evaluations_; }
 
  private:
   Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
@@ -1165,7 +1144,7 @@ class KinematicStepper {
   Eigen::VectorXd velocity_;
   double driver_offset_ = 0.0, coordinate0_ = 0.0;
   int interval_;  // the sample whose interval (S_i-1, S_i] holds the current step
-  long taken_ = 0;
+  long taken_ = 0, evaluations_ = 0;
 };
 
 // Sample stage: a sample's position, velocity and acceleration from the poses of its difference
@@ -1270,19 +1249,6 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
         (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
       out.events.push_back(
           {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
-}
-
-// What a run cost: its stepping time per simulated cycle (`cycle` seconds), and in all.
-void record_cost(long steps, double simulated, double cycle, double stepping_seconds,
-                 double stepping_cpu, std::chrono::steady_clock::time_point begin, RunCost& cost) {
-  cost.steps = steps;
-  cost.simulated_seconds = simulated;
-  if (simulated > 0.0) {
-    cost.wall_seconds_per_cycle = stepping_seconds * cycle / simulated;
-    cost.cpu_seconds_per_cycle = stepping_cpu * cycle / simulated;
-  }
-  cost.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
 }
 
 // A kinematic run's notes and the events of its counts, after the statuses.
@@ -1446,6 +1412,7 @@ class DynamicsRun {
     if (read) force_reader_.read(d_, qpos_before_, h, reading_);
     mj_kinematics(mm_, d_);
     ++taken_;
+    evaluations_ += stages_per_step(p_.config.integrator);
     while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
       ++interval_;
     const double gap = loop_gap(p_.scene, cut_bodies_, d_);
@@ -1463,6 +1430,7 @@ class DynamicsRun {
   }
 
   long taken() const { return taken_; }
+  long evaluations() const { return evaluations_; }
   const Eigen::VectorXd& gaps() const { return gaps_; }
   bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
   Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
@@ -1573,7 +1541,7 @@ class DynamicsRun {
   std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;
   std::array<double, kRing> ring_work_{}, ring_power_{};
   std::vector<int> sample_of_;  // the sample on each step (-1: none)
-  long last_step_ = 0, taken_ = 0;
+  long last_step_ = 0, taken_ = 0, evaluations_ = 0;
   double h0_ = 0.0, initial_energy_ = 0.0;
   int drift_at_ = -1;
   int interval_;
@@ -1650,18 +1618,18 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   run.settings = dynamics_settings(p, choice, watch);
 
   DynamicsRun dynamics(m, reference, p, start, choice, watch, std::move(model), run.trajectory);
-  const Clock::time_point stepping = Clock::now();
-  const double cpu_start = thread_cpu_seconds();
+  SteppingClock stepping;
   for (long step = 1; step <= dynamics.last_step() && dynamics.stopped().empty(); ++step)
     dynamics.step(step);
-  const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
-  const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+  stepping.stop();
 
   const StatusJudge judge = judge_dynamics(m, reference, p.span, watch, dynamics, run.trajectory);
   note_dynamics(reference, p, watch, judge, dynamics, run);
   const std::vector<double>& grid = p.grid.time;
-  record_cost(dynamics.taken(), grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0,
-              stepping_seconds, stepping_cpu, begin, run.cost);
+  // Simulated: up to the last step taken.
+  record_cost(dynamics.taken(), dynamics.evaluations(),
+              grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0, stepping, begin,
+              run.cost);
   return run;
 }
 
@@ -1752,8 +1720,7 @@ class MujocoEngine final : public Engine {
     KinematicSampler sampler(m, reference, p.grid.time);
 
     // Every sample is written as soon as the step completing its stencils is taken.
-    const Clock::time_point stepping = Clock::now();
-    const double cpu_start = thread_cpu_seconds();
+    SteppingClock stepping;
     bool stopped = false;
     int pending = p.span.first;  // the next sample to write
     for (long step = 1; step <= last_step && !stopped; ++step) {
@@ -1770,15 +1737,15 @@ class MujocoEngine final : public Engine {
         if (forces) forces->write(pending, plan.forces[i], state, run.trajectory);
       }
     }
-    const double stepping_seconds = std::chrono::duration<double>(Clock::now() - stepping).count();
-    const double stepping_cpu = thread_cpu_seconds() - cpu_start;
+    stepping.stop();
 
     const StatusJudge judge = judge_kinematic(m, reference, p.span, watch, s.size, sampler,
                                               stepper.gaps(), run.trajectory);
     note_kinematic(reference, p.span, judge, stopped, stepper.gaps(), watch.gap, run);
+    // Simulated: the whole grid, however far the steps went.
     const double simulated = p.grid.time.back() - p.grid.time.front();
-    record_cost(stepper.taken(), simulated, m.cycle_period() > 0.0 ? m.cycle_period() : simulated,
-                stepping_seconds, stepping_cpu, begin, run.cost);
+    record_cost(stepper.taken(), stepper.evaluations(), simulated,
+                m.cycle_period() > 0.0 ? m.cycle_period() : simulated, stepping, begin, run.cost);
     return run;
   }
 };

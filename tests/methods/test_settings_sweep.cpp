@@ -74,10 +74,12 @@ TEST(ParetoFront, TheWorkNotTheTimingDecides) {
   for (SweepRow* r : {&newton, &cg, &rk4}) {
     r->engine = "mujoco";
     r->dt = 1e-3;
+    r->evaluations_per_step = 1.0;
   }
   newton.cpu_s_per_cycle = 1.0;
   cg.cpu_s_per_cycle = 3.0;  // a loaded machine's timing
   rk4.settings = {{"integrator", "RK4"}};
+  rk4.evaluations_per_step = 4.0;  // as MuJoCo's RK4 run reports (RunCost)
   EXPECT_DOUBLE_EQ(newton.work(), 1000.0);
   EXPECT_DOUBLE_EQ(cg.work(), 1000.0);
   EXPECT_DOUBLE_EQ(rk4.work(), 4000.0);
@@ -89,6 +91,10 @@ TEST(ParetoFront, TheWorkNotTheTimingDecides) {
   SweepRow analytic;
   analytic.engine = "analytic";
   EXPECT_TRUE(std::isnan(analytic.work()));
+  SweepRow refused;  // a run that took no step did no work
+  refused.engine = "mujoco";
+  refused.dt = 1e-3;
+  EXPECT_TRUE(std::isnan(refused.work()));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -149,7 +155,7 @@ SweepRow row(std::string variant, double dt, double cost, std::array<double, 3> 
   r.wall_s_per_cycle = cost;
   r.max_pct = {e[0], e[1], e[2], force};
   r.status = status;
-  if (r.variant.starts_with("RK4")) r.settings = {{"integrator", "RK4"}};  // 4 stages of work
+  r.evaluations_per_step = r.variant.starts_with("RK4") ? 4.0 : 1.0;  // RK4: 4 stages of work
   return r;
 }
 

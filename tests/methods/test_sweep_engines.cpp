@@ -14,6 +14,8 @@
 #include <string>
 
 #include "analytic/loader.h"
+#include "methods/engines.h"
+#include "methods/registry.h"
 #include "methods/settings_sweep.h"
 
 namespace crosslink::methods {
@@ -38,6 +40,53 @@ GridPoint point(const char* engine, const char* variant, double dt) {
 double h() {
   return 1.0 / 1440.0;
 }  // the crank-rocker's sample interval: 1 degree
+
+// The work an engine reports (RunCost::model_evaluations) is the steps it took times the model
+// evaluations each makes: MuJoCo 2.2's mj_step (engine_forward.c) evaluates the model once and
+// then advances with Euler or implicit, while RK4 (mj_RungeKutta, N = 4) evaluates three stages
+// more; Bullet's stepSimulation(dt, 0, dt) takes one internal step. The sweep's work column is
+// that figure per step over the time step, in a kinematic case and a dynamics case.
+TEST(SweepEngines, EnginesReportTheModelEvaluationsTheyMade) {
+  struct Case {
+    const char* engine;
+    const char* variant;
+    long stages;
+  };
+  const Case kinematic[] = {
+      {"mujoco", "Euler/Newton", 1},
+      {"mujoco", "RK4/Newton, driver watch 0.05 rad", 4},
+      {"mujoco", "implicit/Newton, driver watch 0.05 rad", 1},
+      {"bullet", "rigid/MLCP Dantzig erp 1", 1},
+      {"bullet", "multibody/MLCP Dantzig erp 1", 1},
+  };
+  const Case dynamics[] = {
+      {"mujoco", "RK4/Newton", 4},
+      {"mujoco", "implicit/Newton", 1},
+      {"bullet", "rigid/MLCP Dantzig erp 1", 1},
+  };
+  const auto check = [](const Mechanism& m, ReferenceLadder& ladder, const Case& c, double dt) {
+    SCOPED_TRACE(fmt::format("{} {} {}", m.name, c.engine, c.variant));
+    GridPoint p;
+    for (const Variant& v : engine_variants(c.engine, m.dynamics.has_value()))
+      if (v.name == c.variant) p = {c.engine, v.name, dt, v.settings(dt)};
+    ASSERT_EQ(p.variant, c.variant);
+    double snapped = 0.0;
+    const MethodRun& reference = ladder.for_dt(dt, &snapped);
+    sim::Settings settings = p.settings;
+    settings.emplace_back("dt", fmt::format("{:.12g}", snapped));
+    const MethodRun run = run_method(c.engine, m, reference, settings);
+    ASSERT_TRUE(run.available) << run.message;
+    EXPECT_GT(run.cost.steps, 0);
+    EXPECT_EQ(run.cost.model_evaluations, run.cost.steps * c.stages);
+    const SweepRow row = evaluate_setting(m, ladder, p);
+    EXPECT_EQ(row.work(), static_cast<double>(c.stages) / row.dt);
+  };
+  ReferenceLadder kinematic_ladder(crank_rocker(), {});
+  for (const Case& c : kinematic) check(crank_rocker(), kinematic_ladder, c, h() / 2);
+  const Mechanism pendulum = load_mechanism(mechanism_path("iftomm_a01_pendulum"));
+  ReferenceLadder dynamics_ladder(pendulum, {});
+  for (const Case& c : dynamics) check(pendulum, dynamics_ladder, c, 1e-2);
+}
 
 // MuJoCo, Euler with the Newton solver and deadbeat loops: second order in dt (engine-notes:
 // "errors scale as dt^2"), on every class, over h/2 .. h/16.
