@@ -41,6 +41,14 @@ void add_at(const Mechanism& m, Eigen::VectorXd& out, int link, const Eigen::Vec
   out.segment<2>(3 * k) += force;
   out(3 * k + 2) += cross(offset, force) + couple;
 }
+// The sum over the moving links of term(link, its motion at the state).
+template <typename Term>
+double over_moving_links(const Mechanism& m, const KinematicState& state, Term term) {
+  double sum = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (!m.links[l].ground) sum += term(m.links[l], motion(m, static_cast<int>(l), state));
+  return sum;
+}
 }  // namespace
 
 bool ForceSample::finite() const {
@@ -190,40 +198,24 @@ std::optional<double> Kinetostatics::power_balance(const KinematicState& state) 
 }
 
 double Kinetostatics::kinetic_energy(const KinematicState& state) const {
-  const Mechanism& m = solver_.mechanism();
-  double energy = 0.0;
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const Link& link = m.links[l];
-    if (link.ground) continue;
-    const BodyMotion b = motion(m, static_cast<int>(l), state);
-    energy += 0.5 * (link.mass.mass * b.velocity(link.mass.com).squaredNorm() +
-                     link.mass.inertia * b.omega * b.omega);
-  }
-  return energy;
+  return over_moving_links(solver_.mechanism(), state, [](const Link& link, const BodyMotion& b) {
+    return 0.5 * (link.mass.mass * b.velocity(link.mass.com).squaredNorm() +
+                  link.mass.inertia * b.omega * b.omega);
+  });
 }
 
 double Kinetostatics::kinetic_energy_rate(const KinematicState& state) const {
-  const Mechanism& m = solver_.mechanism();
-  double rate = 0.0;
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const Link& link = m.links[l];
-    if (link.ground) continue;
-    const BodyMotion b = motion(m, static_cast<int>(l), state);
-    rate += link.mass.mass * b.velocity(link.mass.com).dot(b.acceleration(link.mass.com)) +
-            link.mass.inertia * b.omega * b.alpha;
-  }
-  return rate;
+  return over_moving_links(solver_.mechanism(), state, [](const Link& link, const BodyMotion& b) {
+    return link.mass.mass * b.velocity(link.mass.com).dot(b.acceleration(link.mass.com)) +
+           link.mass.inertia * b.omega * b.alpha;
+  });
 }
 
 double Kinetostatics::potential_energy(const KinematicState& state) const {
   const Mechanism& m = solver_.mechanism();
-  double energy = 0.0;
-  for (size_t l = 0; l < m.links.size(); ++l) {
-    const Link& link = m.links[l];
-    if (link.ground) continue;
-    energy -= link.mass.mass *
-              m.gravity.dot(motion(m, static_cast<int>(l), state).position(link.mass.com));
-  }
+  double energy = over_moving_links(m, state, [&](const Link& link, const BodyMotion& b) {
+    return -link.mass.mass * m.gravity.dot(b.position(link.mass.com));
+  });
   for (const Spring& s : m.springs) {
     const double stretch = spring_state(m, s, state).length - s.free_length;
     energy += 0.5 * s.stiffness * stretch * stretch;
