@@ -118,7 +118,9 @@ void print_physics(const Mechanism& m, std::string& out) {
 
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and
 // the transmission angle over the swept samples.
-void print_singular_positions(const Mechanism& m, const SweepOptions& options, std::string& out) {
+// Returns the sweep it printed from.
+Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& options,
+                                    std::string& out) {
   const double unit = m.driver().angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   std::vector<SingularPosition> singular;
@@ -150,6 +152,7 @@ void print_singular_positions(const Mechanism& m, const SweepOptions& options, s
           fb->c, mu->samples, mu->min * 180 / std::numbers::pi, mu->min_at / unit, unit_name,
           mu->max * 180 / std::numbers::pi, mu->max_at / unit, unit_name);
   }
+  return t;
 }
 
 // Which assembly the chain starts on, who chose it, and whether another closes there.
@@ -242,7 +245,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
                            ? ""
                            : " (limits: toggles; the chain cannot close beyond)");
   }
-  if (!m.driver().at_rest()) print_singular_positions(m, options, out);
+  if (!m.driver().at_rest()) report.sweep = print_singular_positions(m, options, out);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

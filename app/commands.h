@@ -37,6 +37,9 @@ void add_engines(CLI::App& app, std::function<int()>& run);
 struct CheckReport {
   int exit_code = kExitOk;
   std::string out, err;
+  // The sweep its singular positions come from (solve's default sweep with the same options),
+  // for a caller that goes on to solve; none at rest or when the chain cannot start.
+  std::optional<Trajectory> sweep;
 };
 CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
                          const SweepOptions& sweep = {});

@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <iterator>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -78,9 +79,10 @@ SweepOptions bounded_sweep(const Mechanism& m) {
   return options;
 }
 
-// What `solve` writes: the sweep by its default method, one pose, and its centres.
-void solve(const Mechanism& m) {
-  Trajectory t = sweep(m, bounded_sweep(m));
+// What `solve` writes: the sweep by its default method (check's, `swept`, when it made one: the
+// same call with the same options), one pose, and its centres.
+void solve(const Mechanism& m, const std::optional<Trajectory>& swept) {
+  Trajectory t = swept ? *swept : sweep(m, bounded_sweep(m));
   require_finite(t, "the Newton sweep");
   if (decompose(m).complete) {
     t = dyad_sweep(m, t);
@@ -169,7 +171,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const app::CheckReport report = app::check_report(m, {}, bounded_sweep(m));
     if (has_non_finite_word(report.out + report.err) && !has_non_finite_word(text))
       violation("check printed a non-finite value:\n" + report.out + report.err);
-    if (report.exit_code == app::kExitOk) solve(m);
+    if (report.exit_code == app::kExitOk) solve(m, report.sweep);
   } catch (const DefinitionError& e) {
     require_places(e);
   } catch (const std::invalid_argument&) {
