@@ -14,6 +14,7 @@
 #include "analytic/budget.h"
 #include "analytic/loader.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/text.h"
 
 namespace crosslink {
 namespace {

@@ -20,6 +20,7 @@
 
 #include "tests/common/cli.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/text.h"
 
 namespace {
 
@@ -364,9 +365,8 @@ TEST(Cli, AHostileHeaderIsBadInputNotACrash) {
 // The sewing machine with `line` added to its [driver] table; `line_number` gets its line.
 std::string sewing_with(const std::string& name, const std::string& line, int* line_number) {
   std::string text = read_file(kSewing);
-  const size_t at = text.find("\nspeed = 240");
-  *line_number = 2 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
-  text.insert(at + 1, line + "\n");
+  *line_number = crosslink::test::line_of(text, "\nspeed = 240") + 1;
+  text.insert(text.find("\nspeed = 240") + 1, line + "\n");
   return write_definition(name, text);
 }
 

@@ -13,6 +13,7 @@
 
 #include "tests/common/cli.h"
 #include "tests/common/sanitizers.h"
+#include "tests/common/text.h"
 
 namespace {
 
@@ -29,11 +30,8 @@ std::string fixture(const std::string& name) {
 
 // The line of `table` ("[dynamics]") in a definition: where its errors are located.
 int line_of(const std::string& path, const std::string& table) {
-  const std::string text = read_file(path);
-  const size_t at = text.find("\n" + table + "\n");
-  return at == std::string::npos
-             ? -1
-             : 2 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  const int before = crosslink::test::line_of(read_file(path), "\n" + table + "\n");
+  return before == 0 ? -1 : before + 1;
 }
 
 // A run that would take days (A01 at t = 1e9 s) stops at --max-solves with the case's [dynamics]

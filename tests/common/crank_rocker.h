@@ -50,13 +50,4 @@ inline CrankRockerText crank_rocker(
           crank_deg, law)};
 }
 
-// The 1-based line of `text` on which `marker` first begins.
-inline int line_of(const std::string& text, const std::string& marker) {
-  const size_t at = text.find(marker);
-  if (at == std::string::npos) return 0;
-  int line = 1;
-  for (size_t i = 0; i < at; ++i) line += text[i] == '\n';
-  return line;
-}
-
 }  // namespace crosslink::test

@@ -1,0 +1,16 @@
+// Where a marker stands in a definition's text, for tests that expect a diagnostic's place.
+#pragma once
+
+#include <algorithm>
+#include <string>
+
+namespace crosslink::test {
+
+// The 1-based line of `text` on which `marker` first begins (0: not there).
+inline int line_of(const std::string& text, const std::string& marker) {
+  const size_t at = text.find(marker);
+  if (at == std::string::npos) return 0;
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+}
+
+}  // namespace crosslink::test
