@@ -9,6 +9,7 @@
 
 #include "analytic/trust.h"
 #include "sim/forces.h"
+#include "sim/kinematic_run.h"
 #include "sim/run_loop.h"
 #include "sim/sampling.h"
 #include "sim/scene_graph.h"
@@ -106,7 +107,8 @@ const SettingSchema& bullet_settings() {
       {"dt",
        number,
        "auto",
-       "time step [s]; auto: sample interval / steps_per_sample",
+       "the longest time step [s], shortened to divide each sample interval; auto: sample interval "
+       "/ steps_per_sample",
        kPositive,
        0,
        {"auto"}},
@@ -1037,14 +1039,14 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
   return true;
 }
 
-// Build stage: the scene at configuration q, its driven coordinate at `coordinate0`; a dynamics
-// run's scene (`velocity` given: the mechanism's rates) has no driver and starts moving. "" or
+// Build stage: the scene at configuration q, its driven coordinate at `coordinate0` (a dynamics
+// run's scene is not `driven`), moving with the mechanism's rates `velocity` when given. "" or
 // why it could not be built.
 std::string build_scene(const Mechanism& m, const Plan& plan, const Config& config,
                         const Eigen::VectorXd& q, double coordinate0,
-                        const Eigen::VectorXd* velocity, std::unique_ptr<Scene>& scene) {
+                        const Eigen::VectorXd* velocity, bool driven,
+                        std::unique_ptr<Scene>& scene) {
   const std::vector<Pose> poses = node_poses(m, plan, q);
-  const bool driven = velocity == nullptr;
   try {
     if (config.formulation == "multibody")
       scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config, m.gravity, driven);
@@ -1056,40 +1058,6 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
   }
   return "";
 }
-
-// The loop gap a run watches at every pose: the joints' largest violation (angle rows times the
-// mechanism's size), and the driver row's.
-class JointGap {
- public:
-  JointGap(const Mechanism& m, const NewtonSolver& solver)
-      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()) {}
-  // With the driver at `driver_value`: the gap (infinite when it or the driver's row is not
-  // finite) and the driver row's error.
-  double at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
-    double gap = joints(q, driver_value);
-    driver_error = std::abs(phi_(solver_.layout().driver_row(0)));
-    if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
-    return gap;
-  }
-  // A dynamics run: the driver's row is measured at the engine's own coordinate, so it is zero.
-  double at(const Eigen::VectorXd& q) {
-    const double gap = joints(q, solver_.driver_value(q));
-    return std::isfinite(gap) ? gap : INFINITY;
-  }
-
- private:
-  double joints(const Eigen::VectorXd& q, double driver_value) {
-    solver_.residual(q, driver_value, phi_);
-    const ConstraintLayout& layout = solver_.layout();
-    double gap = 0.0;
-    for (int r = 0; r < layout.joint_row_count(); ++r)
-      gap = std::max(gap, std::abs(phi_(r)) * (layout.angle_row(r) ? size_ : 1.0));
-    return gap;
-  }
-  const NewtonSolver& solver_;
-  double size_;
-  Eigen::VectorXd phi_;
-};
 
 // Read-forces stage (rigid formulation): the btJointFeedback of the step that leaves each pose,
 // read right after that step in the mechanism's terms (read_rigid_forces) and kept per pose; a
@@ -1136,6 +1104,15 @@ struct History {
   }
 };
 
+// "" or why the scene's configuration `read` back is not the start `q_start` it was built at.
+std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
+                           const Eigen::VectorXd& q_start) {
+  const double mismatch = (read - q_start).cwiseAbs().maxCoeff();
+  if (mismatch < 1e-9 * std::max(m.size(), 1.0)) return "";
+  return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
+                     mismatch);
+}
+
 // Step stage: the scene's steps into the history; each run drives, loads and watches them its
 // own way around step(). The scene is read back as the mechanism's coordinates after each step
 // (angles on the turn of the pose before, so that they stay continuous), and the forces of the
@@ -1148,10 +1125,7 @@ class SceneStepper {
   }
   // "" or why the scene read back is not the start it was built at.
   std::string check_start(const Eigen::VectorXd& q_start) const {
-    const double mismatch = (q_ - q_start).cwiseAbs().maxCoeff();
-    if (mismatch < 1e-9 * std::max(m_.size(), 1.0)) return "";
-    return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
-                       mismatch);
+    return start_mismatch(m_, q_, q_start);
   }
   // The history over steps at `time`, from the scene's start read back.
   History& begin(std::vector<double> time, bool with_forces) {
@@ -1216,11 +1190,10 @@ void finish(const History& history, long taken, long evaluations, double cycle,
 }
 
 // ---------------------------------------------------------------------------------------------
-// A kinematic run, in stages: prepare() and the step length plan it; plan_scene() and
-// kinematic_start() place the scene, build_scene() builds it; the KinematicStepper takes the
-// steps into the history; plan_samples() gives each sample its stencils, and write_samples()
-// reads each off the history (KinematicSampler), with its forces (BulletForces) and its status
-// (KinematicStatuses); note_kinematic() closes.
+// A kinematic run: prepare() and the step length plan it (plan_kinematic(): span, grid, start);
+// plan_scene() and drive_map() place the scene, build_scene() builds it; BulletKinematicScene is
+// its backend to the shared run loop (sim/kinematic_run.h), which steps, samples, reads forces and
+// judges the statuses.
 
 // The step length: samples fall on step boundaries unless an explicit dt does not divide the
 // sample interval (then the local polynomial through the nearest steps is evaluated there). One
@@ -1272,66 +1245,24 @@ Settings kinematic_settings(const Config& config, const StepLength& step) {
   return out;
 }
 
-// Where a kinematic run starts, and the driver's target at each step.
-struct KinematicStart {
-  Eigen::VectorXd q;  // the scene's start
-  long preroll = 0;   // steps before the first sample
-  double t_start = 0.0;
-  double driver_offset = 0.0;  // the reference's driver value less the definition's
+// How the driver's value maps to the scene's driven coordinate: the coordinate at the start and
+// its rate against the driver value.
+struct DriveMap {
   double coordinate0 = 0.0;    // the driven coordinate at the start
-  double driver0 = 0.0;        // the driver's value at the start
+  double driver0 = 0.0;        // the driver's value at the start, as the reference counts it
+  double driver_offset = 0.0;  // the reference's driver value less the definition's law
   double sign = 1.0;           // d(driven coordinate)/d(driver value)
-  // The driver's value at time t, as the reference counts it.
-  double driver_at(const Driver& d, double t) const { return d.at_time(t).value + driver_offset; }
-  // The driven coordinate the scene is to reach at time t.
-  double target(const Driver& d, double t) const {
-    return coordinate0 + sign * (driver_at(d, t) - driver0);
-  }
+  // The driven coordinate the scene is to reach at the definition's driver value `law`.
+  double target(double law) const { return coordinate0 + sign * (law + driver_offset - driver0); }
 };
 
-// Start: the exact assembled configuration at the first usable sample. The engine is not driven
-// outside the usable samples: at their ends the samples are read with one-sided differences over
-// the steps after the start (or before the end). Only a sweep over the whole cycle, usable
-// throughout, is periodic: there the run starts kPreroll steps before the first sample and ends
-// kPreroll after the last (the end of the previous and the start of the next cycle), at the
-// default steps and at an explicit dt alike, so that every sample has a central stencil clear of
-// the start's transient. "" or why there is no start.
-std::string kinematic_start(const Mechanism& original, const Mechanism& m, const Plan& plan,
-                            const Config& config, const Trajectory& reference, const Span& span,
-                            const StepLength& step, const NewtonSolver& solver, KinematicStart& out,
-                            std::vector<std::string>& notes) {
+DriveMap drive_map(const Mechanism& m, const Plan& plan, const Config& config,
+                   const KinematicPlan& start) {
   const Driver& d = m.driver();
-  const int first = span.first, last = span.last, samples = reference.samples();
-  KinematicState state(m);
-  const double t0 = reference.time(first);
-  const double period = m.cycle_period();
-  const bool periodic =
-      first == 0 && last == samples - 1 && period > 0.0 &&
-      reference.time(last) - reference.time(first) + step.interval >= period * (1.0 - 1e-9);
-  out.preroll = periodic ? kPreroll : 0;
-  out.t_start = t0 - static_cast<double>(out.preroll) * step.dt;
-  state.q = reference_coordinates(original, reference, first);
-  state.driver = d.at_time(out.t_start);
-  state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
-  SolveReport start = solver.solve_position(state);
-  if (out.preroll > 0 && (start.status != PoseStatus::ok ||
-                          start.rcond < config.singular_rcond * typical_rcond(reference))) {
-    out.preroll = 0;  // not assembled there after all: start at the sample
-    out.t_start = t0;
-    state.q = reference_coordinates(original, reference, first);
-    state.driver = d.at_time(t0);
-    state.driver.value = reference.driver(first);
-    start = solver.solve_position(state);
-  }
-  if (start.status != PoseStatus::ok && config.perturb_link.empty())
-    return "cannot assemble the scene at the first usable sample: " + start.message;
-  if (start.status != PoseStatus::ok) {  // perturbed chain: start open, Bullet closes it
-    state.q = reference_coordinates(original, reference, first);
-    notes.push_back("perturbed chain does not assemble at the first sample; started open");
-  }
-  out.driver_offset = reference.driver(first) - d.at_time(t0).value;
-  out.q = state.q;
-  const std::vector<Pose> poses = node_poses(m, plan, out.q);
+  DriveMap out;
+  out.driver_offset = start.driver_offset;
+  out.driver0 = d.at_time(start.grid.time.front()).value + start.driver_offset;
+  const std::vector<Pose> poses = node_poses(m, plan, start.q);
   const Edge& de = plan.edges[plan.driver_edge];
   // Whether the tree runs the driven joint from a to b (a pivot written [link, ground] runs from
   // its b, the ground).
@@ -1340,271 +1271,55 @@ std::string kinematic_start(const Mechanism& original, const Mechanism& m, const
   // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
   const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
   out.coordinate0 = edge_sign * edge_coordinate(de, poses);
-  out.driver0 = state.driver.value;
   // d(edge coordinate)/d(driver value): -1 only for a link angle read off a ground pivot
   // written as [link, ground].
   const double driver_sign =
       (d.type == DriverType::link_angle && de.kind == Edge::Kind::revolute && de.b < 0) ? -1.0
                                                                                         : 1.0;
   out.sign = edge_sign * driver_sign;
-  return "";
+  return out;
 }
 
-// Step times from the first to the last usable sample, never beyond (but for a periodic run's
-// pre-roll). Default: each sample interval split into equal steps (steps_per_sample in a regular
-// one; sample_grid() with the pre-roll), so every sample is a step boundary; an explicit dt:
-// uniform steps up to the last sample.
-std::vector<double> kinematic_times(const Trajectory& reference, const Span& span,
-                                    const Config& config, double dt, const KinematicStart& start) {
-  const long preroll = start.preroll;
-  if (config.dt == 0.0)
-    return sample_grid(reference, span, steps_per_interval(reference, span, dt),
-                       InnerTimes::interval_fractions, preroll, dt)
-        .time;
-  const double t_end = reference.time(span.last);
-  std::vector<double> time = {start.t_start};
-  const double t_stop = t_end + static_cast<double>(preroll) * dt;
-  for (long k = 1; start.t_start + static_cast<double>(k) * dt <= t_stop + 1e-9 * dt; ++k)
-    time.push_back(start.t_start + static_cast<double>(k) * dt);
-  return time;
-}
-
-// Step stage of a kinematic run: the driver's target at the end of each step, the definition's
-// loads and springs at the pose it leaves, at that pose's velocity (a one-sided difference of the
-// last poses; the scene starts from rest), and the watch on the pose it reaches: NaN, the loop
-// gap, the driver.
-class KinematicStepper {
+// The scene stepped for the shared run loop (sim/kinematic_run.h): read back as the mechanism's
+// coordinates after each step (angles on the turn of the pose before), with the forces of the
+// pose a step leaves.
+class BulletKinematicScene final : public KinematicScene {
  public:
-  KinematicStepper(const Mechanism& m, const Config& config, const KinematicStart& start,
-                   JointGap& gap, SceneStepper& stepper, History& history)
-      : m_(m),
-        start_(start),
-        gap_(gap),
-        stepper_(stepper),
-        history_(history),
-        loads_(m),
-        velocity_(history.pose.rows()),
-        gap_diverge_(config.divergence_gap * m.size()),
-        driver_tolerance_(config.driver_threshold) {}
-
-  // The step to pose k; false when the run diverged there (history: where and why).
-  bool step(long k) {
-    const Driver& d = m_.driver();
-    const double t = history_.time[static_cast<size_t>(k)];
-    stepper_.scene().drive(start_.target(d, t));
-    apply_loads(k - 1);
-    const Eigen::VectorXd& q = stepper_.step(k);
-    double driver_error = 0.0;
-    const double gap = history_.gap(k) = gap_.at(q, start_.driver_at(d, t), driver_error);
-    worst_gap_ = std::max(worst_gap_, gap);
-    if (q.allFinite() && gap <= gap_diverge_ && !(driver_error > driver_tolerance_)) return true;
-    history_.last_good = k - 1;
-    const std::string why =
-        !q.allFinite() ? "NaN in the state"
-        : driver_error > driver_tolerance_
-            ? fmt::format("driver lost (off by {:.3e})", driver_error)
-            : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m", gap,
-                          gap_diverge_);
-    history_.divergence =
-        fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t, start_.driver_at(d, t), why);
-    return false;
+  BulletKinematicScene(const Mechanism& m, const Plan& plan, Scene& scene, const DriveMap& drive,
+                       const Eigen::VectorXd& q_start)
+      : m_(m), plan_(plan), scene_(scene), drive_(drive), q_(q_start) {
+    read_coordinates(scene_, plan_, m_, frames_, q_);
   }
-  double worst_gap() const { return worst_gap_; }
-
- private:
-  void apply_loads(long k) {
-    if (!loads_.any()) return;
-    if (k > 0)
-      recent_velocity(k, history_.time, history_.poses(), velocity_);
-    else
-      velocity_.setZero();
-    stepper_.scene().apply(
-        loads_.at(history_.pose.col(k), velocity_,
-                  start_.driver_at(m_.driver(), history_.time[static_cast<size_t>(k)])));
+  // "" or why the scene read back is not the start it was built at.
+  std::string check_start(const Eigen::VectorXd& q_start) const {
+    return start_mismatch(m_, q_, q_start);
   }
-  const Mechanism& m_;
-  const KinematicStart& start_;
-  JointGap& gap_;
-  SceneStepper& stepper_;
-  History& history_;
-  AppliedLoads loads_;
-  Eigen::VectorXd velocity_;
-  double gap_diverge_, driver_tolerance_;
-  double worst_gap_ = 0.0;
-};
-
-// Each sample's step: the one nearest it (lower_bound: the first step at or after the sample),
-// around which its difference stencil is taken.
-std::vector<long> nearest_steps(const Trajectory& reference, const Span& span,
-                                const std::vector<double>& time) {
-  const long steps = static_cast<long>(time.size()) - 1;
-  std::vector<long> nearest_step(static_cast<size_t>(reference.samples()), -1);
-  for (int i = span.first; i <= span.last; ++i) {
-    const double ti = reference.time(i);
-    const long k = std::lower_bound(time.begin(), time.end(), ti) - time.begin();
-    long nearest = std::min(k, steps);
-    if (k > 0 && k <= steps &&
-        ti - time[static_cast<size_t>(k - 1)] < time[static_cast<size_t>(k)] - ti)
-      nearest = k - 1;
-    nearest_step[static_cast<size_t>(i)] = nearest;
+  void drive(double driver_value) override { scene_.drive(drive_.target(driver_value)); }
+  void apply(const std::vector<BodyLoad>& loads) override { scene_.apply(loads); }
+  std::string step(double h, ForceReading* forces) override {
+    scene_.step(h);
+    ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
+    if (forces) read_rigid_forces(m_, scene_, plan_.edges[plan_.driver_edge].joint, q_, *forces);
+    read_coordinates(scene_, plan_, m_, frames_, q_);
+    return "";
   }
-  return nearest_step;
-}
-
-// Sample stage of a kinematic run: the polynomial through the steps of a sample's stencil at the
-// sample time (central differences when the sample is on a step; step 0, the exact start, a
-// transient without the residual of steady stepping, is never used, so the ends take one-sided
-// differences over the 4 nearest steps), and the statuses' measures there: the largest gap over
-// the stencil and the conditioning at the sampled pose. A sample the run did not reach is zero.
-class KinematicSampler {
- public:
-  KinematicSampler(const Mechanism& m, const NewtonSolver& solver, const Trajectory& reference,
-                   const History& history)
-      : m_(m),
-        solver_(solver),
-        reference_(reference),
-        history_(history),
-        state_(m),
-        conditioning_(m) {}
-
-  // Sample i over `stencil`; false when the run did not reach it.
-  bool sample(int i, const std::vector<long>& stencil) {
-    state_.driver = m_.driver().at_time(reference_.time(i));
-    state_.driver.value = reference_.driver(i);
-    gap_ = 0.0;
-    rcond_ = 1.0;
-    if (stencil.back() > history_.last_good) {
-      state_.q.setZero();
-      state_.qdot.setZero();
-      state_.qddot.setZero();
-      return false;
-    }
-    difference_state(reference_.time(i), stencil, history_.time, history_.poses(), state_.q,
-                     state_.qdot, state_.qddot);
-    for (long n : stencil) gap_ = std::max(gap_, history_.gap(n));
-    rcond_ = conditioning_at(solver_, state_.q, conditioning_);
-    return true;
+  void read_pose(Eigen::VectorXd& q) override { q = q_; }
+  long evaluations() const override { return evaluations_; }
+  std::string note() const override {
+    std::vector<std::string> notes;
+    note_fallbacks(scene_, notes);
+    return notes.empty() ? "" : notes.front();
   }
-  const KinematicState& state() const { return state_; }
-  double gap() const { return gap_; }
-  double rcond() const { return rcond_; }
 
  private:
   const Mechanism& m_;
-  const NewtonSolver& solver_;
-  const Trajectory& reference_;
-  const History& history_;
-  KinematicState state_, conditioning_;
-  double gap_ = 0.0, rcond_ = 1.0;
+  const Plan& plan_;
+  Scene& scene_;
+  const DriveMap& drive_;
+  std::vector<Pose> frames_;
+  Eigen::VectorXd q_;  // the pose the last step reached
+  long evaluations_ = 0;
 };
-
-// Statuses stage of a kinematic run: the shared judge with Bullet's measures, and the branch: the
-// sampled configuration closed exactly on the definition (Newton at the reference's driver value,
-// even with perturb_link) must be the reference's.
-class KinematicStatuses {
- public:
-  KinematicStatuses(const Mechanism& original, const Trajectory& reference, const Span& span,
-                    const Config& config)
-      : original_(original),
-        reference_(reference),
-        definition_(original),
-        closed_(original),
-        judge_(reference, span,
-               {config.gap_threshold, config.singular_rcond, config.branch_distance}, true) {}
-  StatusJudge& judge() { return judge_; }
-  PoseStatus status(int i, const KinematicSampler& sampled, Trajectory& out) {
-    return judge_.judge(
-        i, sampled.gap(), sampled.rcond(),
-        [&] {
-          closed_.q = sampled.state().q;
-          closed_.driver = sampled.state().driver;
-          if (definition_.solve_position(closed_).status != PoseStatus::ok) return -1.0;
-          return configuration_distance(closed_.q, reference_coordinates(original_, reference_, i),
-                                        original_.size());
-        },
-        out);
-  }
-
- private:
-  const Mechanism& original_;
-  const Trajectory& reference_;
-  const NewtonSolver definition_;
-  KinematicState closed_;
-  StatusJudge judge_;
-};
-
-// Sample, read forces and judge each sample off the history: samples outside the usable span
-// keep the reference's flag and no value; a flagged sample inside it (a change point on a sample)
-// is run through and keeps its flag. A sample's forces are read when every step its force
-// stencil needs was taken.
-void write_samples(const Trajectory& reference, const SamplePlan& plan, const History& history,
-                   double worst_gap, const NewtonSolver& solver, KinematicSampler& sampler,
-                   BulletForces* forces, KinematicStatuses& statuses, Trajectory& out) {
-  for (int i = 0; i < reference.samples(); ++i) {
-    const auto row = static_cast<size_t>(i);
-    out.time(i) = reference.time(i);
-    out.driver(i) = reference.driver(i);
-    if (statuses.judge().outside(i, out)) continue;
-    SolveReport report;
-    report.status = sampler.sample(i, plan.stencil[row]) ? statuses.status(i, sampler, out)
-                                                         : statuses.judge().lost(i);
-    solver.write_sample(sampler.state(), report, out, i);
-    const ForceStencil& fs = plan.forces[row];
-    if (forces && report.status != PoseStatus::diverged && !fs.steps.empty() &&
-        fs.steps.back() + 1 <= history.last_good)
-      forces->write(i, fs, sampler.state(), out);
-    out.loop_gap(i) = report.status == PoseStatus::diverged ? worst_gap : sampler.gap();
-    out.time(i) = reference.time(i);
-    out.driver(i) = reference.driver(i);
-    out.rcond(i) = sampler.rcond();
-  }
-}
-
-// Notes stage of a kinematic run: the events of the statuses' counts, the notes, and the
-// divergence first.
-void note_kinematic(const Mechanism& m, const Trajectory& reference, const Span& span,
-                    const Config& config, const StatusJudge& judge, const History& history,
-                    double worst_gap, const KinematicStart& start, const StepLength& step,
-                    const Scene& scene, std::vector<std::string>& notes, EngineRun& run) {
-  Trajectory& tr = run.trajectory;
-  const int first = span.first, last = span.last, samples = reference.samples();
-  if (const int flagged = judge.loop_gaps())
-    tr.events.push_back({reference.driver(first), PoseStatus::loop_gap,
-                         fmt::format("{} samples with a loop gap above {:.3e} m (worst {:.3e} m)",
-                                     flagged, config.gap_threshold, worst_gap)});
-  if (const int near_singular = judge.singular())
-    tr.events.push_back(
-        {reference.driver(judge.first_singular()), PoseStatus::singular,
-         fmt::format("{} samples near a singular position (Jacobian rcond below {:.1e}, "
-                     "singular_rcond of the chain's own): the engine may have changed branch there",
-                     near_singular, judge.singular_limit())});
-  if (const int jumped = judge.jumped()) {
-    tr.events.push_back(
-        {reference.driver(judge.first_jump()), PoseStatus::branch_jump,
-         fmt::format("{} samples on another assembly mode than the "
-                     "reference (closed configuration more than {:.1e} of the size or rad away)",
-                     jumped, config.branch_distance)});
-    notes.push_back(branch_jump_note(jumped));
-  }
-  if (first > 0 || last < samples - 1)
-    notes.push_back(fmt::format(
-        "run over the reference's usable samples {} .. {} (driver {:.6g} .. {:.6g}); the {} "
-        "samples outside keep the reference's flag and carry no engine value",
-        first, last, reference.driver(first), reference.driver(last),
-        first + (samples - 1 - last)));
-  if (judge.kept()) notes.push_back(kept_note(judge.kept(), true));
-  if (!history.divergence.empty()) {
-    run.ok = false;
-    const long after = std::min(history.last_good + 1, history.steps());
-    tr.events.push_back({start.driver_at(m.driver(), history.time[static_cast<size_t>(after)]),
-                         PoseStatus::diverged, history.divergence});
-    notes.insert(notes.begin(), history.divergence);
-  }
-  note_fallbacks(scene, notes);
-  if (config.dt != 0.0 &&
-      std::abs(step.interval / step.dt - std::round(step.interval / step.dt)) > 1e-6)
-    notes.push_back("dt does not divide the sample interval: samples interpolated");
-}
 
 // ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
@@ -1963,7 +1678,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
       !why.empty())
     return failed(std::move(out), why);
   std::unique_ptr<Scene> scene;
-  if (why = build_scene(m, plan, config, start.state.q, 0.0, &start.velocity, scene); !why.empty())
+  if (why = build_scene(m, plan, config, start.state.q, 0.0, &start.velocity, false, scene);
+      !why.empty())
     return failed(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
   out.settings = dynamics_settings(config, reference, p.span, grid.dt, energy_scale, with_forces);
@@ -2040,16 +1756,19 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   }
   Config& config = p.config;
   const Mechanism& m = p.m;
-  const StepLength step = kinematic_step(reference, p.span, config);
+  StepLength step = kinematic_step(reference, p.span, config);
   out.settings = kinematic_settings(config, step);
-  // Refused before the scene is built: the history keeps every step.
+  const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * m.size(),
+                                config.driver_threshold, config.singular_rcond,
+                                config.branch_distance};
+  KinematicPlan start;
   try {
-    check_steps(
-        (reference.time(p.span.last) - reference.time(p.span.first)) / step.dt + 2.0 * kPreroll,
-        step.dt, config.max_steps);
+    start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions, kPreroll,
+                           config.max_steps, config.singular_rcond, !config.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed(std::move(out), e.what());
   }
+  step.dt = start.grid.dt;  // an explicit dt divides each sample interval
 
   Plan plan;
   std::vector<std::string> notes;
@@ -2057,42 +1776,15 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   if (!plan_scene(m, true, config, plan, notes, why)) return failed(std::move(out), why);
   out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
   const bool with_forces = config.formulation == "rigid";
-  shape(out.trajectory, original, reference, with_forces, false);
-  const NewtonSolver solver(m);
-  KinematicStart start;
-  if (why =
-          kinematic_start(original, m, plan, config, reference, p.span, step, solver, start, notes);
+  const DriveMap drive = drive_map(m, plan, config, start);
+  std::unique_ptr<Scene> scene;
+  if (why = build_scene(m, plan, config, start.q, drive.coordinate0, &start.qdot, true, scene);
       !why.empty())
     return failed(std::move(out), why);
-  std::unique_ptr<Scene> scene;
-  if (why = build_scene(m, plan, config, start.q, start.coordinate0, nullptr, scene); !why.empty())
-    return failed(std::move(out), why);
-  SceneStepper stepper(m, plan, *scene, start.q);
-  if (why = stepper.check_start(start.q); !why.empty()) return failed(std::move(out), why);
-
-  History& history =
-      stepper.begin(kinematic_times(reference, p.span, config, step.dt, start), with_forces);
-  if (history.steps() < 3)
-    return failed(std::move(out), fmt::format("only {} steps between the first and last usable "
-                                              "samples: too few for differences",
-                                              history.steps()));
-  JointGap gap(m, solver);
-  KinematicStepper kinematic(m, config, start, gap, stepper, history);
-  SteppingClock stepping;
-  for (long k = 1; k <= history.steps() && kinematic.step(k); ++k) {
-  }
-  stepping.stop();
-
-  const SamplePlan sample_plan = plan_samples(
-      reference, p.span, history.time, nearest_steps(reference, p.span, history.time), with_forces);
-  KinematicSampler sampler(m, solver, reference, history);
-  KinematicStatuses statuses(original, reference, p.span, config);
-  write_samples(reference, sample_plan, history, kinematic.worst_gap(), solver, sampler,
-                stepper.forces(), statuses, out.trajectory);
-  note_kinematic(m, reference, p.span, config, statuses.judge(), history, kinematic.worst_gap(),
-                 start, step, *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(),
-         m.cycle_period(), stepping, begin, notes, out);
+  BulletKinematicScene stepped(m, plan, *scene, drive, start.q);
+  if (why = stepped.check_start(start.q); !why.empty()) return failed(std::move(out), why);
+  for (const std::string& note : notes) add_note(start.note, note);
+  run_kinematic(original, m, reference, start, watch, with_forces, stepped, begin, out);
   return out;
 }
 

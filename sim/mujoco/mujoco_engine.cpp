@@ -27,6 +27,7 @@
 #include "analytic/newton.h"
 #include "analytic/planar.h"
 #include "sim/forces.h"
+#include "sim/kinematic_run.h"
 #include "sim/mujoco/scene.h"
 
 namespace crosslink::sim {
@@ -240,6 +241,12 @@ const SettingSchema& mujoco_settings() {
   return schema;
 }
 
+// singular_rcond in force: the setting, or with auto the run's own default.
+double singular_rcond(const Config& c, double automatic) {
+  return c.singular_rcond == "auto" ? automatic
+                                    : setting_number("singular_rcond", c.singular_rcond);
+}
+
 Config parse_settings(const Settings& overrides) {
   const SettingValues v(mujoco_settings(), "MuJoCo", overrides);
   Config c;
@@ -307,6 +314,15 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
   return Start{state.q, state.qdot};
 }
 
+// The longest step: dt, or with dt auto the step in which the reference's fastest link turns by
+// max_step_angle (errors grow as (omega dt)^2).
+double wanted_step(const Trajectory& reference, const Config& c, const Span& span) {
+  if (c.dt != "auto") return setting_number("dt", c.dt, kPositive);
+  const double fastest = fastest_rate(reference, span);
+  return fastest > 0.0 ? c.max_step_angle / fastest
+                       : reference.time(span.first + 1) - reference.time(span.first);
+}
+
 // Step times over the usable span (sample_grid(): each sample interval split into equal steps no
 // longer than the wanted step, so samples fall on step boundaries; a sweep's extra sample at a
 // toggle makes one interval shorter than the others). The grid starts at the first usable sample
@@ -316,26 +332,10 @@ TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& spa
   for (int i = 1; i < n; ++i)
     if (!(reference.time(i) > reference.time(i - 1)))
       throw std::runtime_error("the reference's times do not increase");
-  double wanted = 0.0;
-  if (c.dt == "auto") {
-    // The fastest link of the reference sets the step: errors grow as (omega dt)^2.
-    double fastest = 0.0;
-    for (int i = span.first; i <= span.last; ++i)
-      if (usable(reference.status[static_cast<size_t>(i)]))
-        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
-    wanted = fastest > 0.0 ? c.max_step_angle / fastest
-                           : reference.time(span.first + 1) - reference.time(span.first);
-  } else {
-    wanted = setting_number("dt", c.dt, kPositive);
-  }
+  const double wanted = wanted_step(reference, c, span);
   const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
   check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0), wanted, c.max_steps);
   return sample_grid(reference, span, per_interval, InnerTimes::step_multiples);
-}
-
-// The driver coordinate's target at time t (DrivenCoordinate: sign (driver - offset)).
-double driver_target(const Mechanism& m, const DrivenCoordinate& driven, double t) {
-  return driven.sign * (m.driver().at_time(t).value - driven.offset);
 }
 
 MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
@@ -421,6 +421,7 @@ struct Prepared {
   MjcfOptions options;
   std::string mjcf;
   bool periodic = false;  // the run covers whole cycles (a pre-roll on each side)
+  KinematicPlan plan;     // a kinematic run's (span, grid and start as above)
 };
 
 Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
@@ -428,40 +429,13 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   p.config = parse_settings(overrides);
   const Mechanism scene_mechanism = perturbed(m, p.config.perturb_link);
   p.span = usable_span(reference);
-  p.grid = time_grid(reference, p.config, p.span);
-  // A sweep over the whole cycle, usable throughout, is periodic: the run may start kPreroll
-  // steps before the first sample and end kPreroll after the last (the end of the previous
-  // cycle, the start of the next), so every sample has a central stencil clear of the start's
-  // transient. Otherwise the run stays within the usable samples (one-sided at the ends).
-  const int n = reference.samples();
-  const double period = m.cycle_period();
-  const double h0 = p.grid.time[1] - p.grid.time[0];
-  const double h1 = p.grid.time.back() - p.grid.time[p.grid.time.size() - 2];
-  const bool periodic =
-      p.span.first == 0 && p.span.last == n - 1 && period > 0.0 && n > 1 &&
-      reference.time(n - 1) - reference.time(0) + (reference.time(1) - reference.time(0)) >=
-          period * (1.0 - 1e-9);
-  std::optional<Start> start;
-  if (periodic) {
-    start = exact_start(scene_mechanism, reference, p.span.first,
-                        reference.time(0) - static_cast<double>(kPreroll) * h0);
-    if (start) {
-      std::vector<double> time;
-      for (long k = kPreroll; k >= 1; --k)
-        time.push_back(reference.time(0) - static_cast<double>(k) * h0);
-      time.insert(time.end(), p.grid.time.begin(), p.grid.time.end());
-      for (long k = 1; k <= kPreroll; ++k)
-        time.push_back(reference.time(n - 1) + static_cast<double>(k) * h1);
-      p.grid.time = std::move(time);
-      for (long& step : p.grid.sample_step)
-        if (step >= 0) step += kPreroll;
-      p.periodic = true;
-    }
-  }
-  if (!start)
-    start = exact_start(scene_mechanism, reference, p.span.first, reference.time(p.span.first));
-  if (!start) throw std::runtime_error("could not close the loops at the first usable sample");
-  p.start = *start;
+  p.plan = plan_kinematic(scene_mechanism, reference, wanted_step(reference, p.config, p.span),
+                          InnerTimes::step_multiples, kPreroll, p.config.max_steps,
+                          singular_rcond(p.config, kSingularRcond),
+                          !p.config.perturb_link.empty() && p.config.perturb_link != "none");
+  p.grid = p.plan.grid;
+  p.start = Start{p.plan.q, p.plan.qdot};
+  p.periodic = p.plan.preroll > 0;
   p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   p.options.driver_armature = driver_armature(p.config, p.scene, driver_inertia(m, reference));
@@ -837,10 +811,9 @@ void state_rates(const Mechanism& m, const Scene& s, const mjModel* mm, const mj
 }
 
 // ---------------------------------------------------------------------------------------------
-// A kinematic run, in stages: prepare() (the time grid, usable span and scene) and plan_samples()
-// (each sample's stencils) plan it; KinematicModel builds MuJoCo's model at the exact start;
-// KinematicStepper takes one step; KinematicSampler writes a sample's row and KinematicForces its
-// forces; judge_kinematic() gives the statuses after the run (docs/design.md, "Layout").
+// A kinematic run: prepare() plans it (plan_kinematic(): span, grid, start) and builds the scene;
+// MujocoKinematicScene is its backend to the shared run loop (sim/kinematic_run.h), which steps,
+// samples, reads forces and judges the statuses.
 
 // What a run's trajectory holds before anything is read: the reference's samples.
 void shape(Trajectory& out, const Mechanism& m, const Trajectory& reference, bool with_forces) {
@@ -849,25 +822,18 @@ void shape(Trajectory& out, const Mechanism& m, const Trajectory& reference, boo
   out.driver = reference.driver;
 }
 
-// The thresholds a kinematic run watches its steps and flags its samples by.
-struct KinematicWatch {
-  double gap = 0.0;             // a sample interval's largest cut gap above it: loop_gap [m]
-  double singular_rcond = 0.0;  // a sample conditioned worse: singular
-  double driver = 0.0;          // the driven joint further from its target: lost [rad or m]
-};
-
-KinematicWatch kinematic_watch(const Prepared& p) {
-  const Scene& s = p.scene;
-  const Config& c = p.config;
+// The thresholds a kinematic run watches its steps and flags its samples by; the run diverges
+// when a joint opens by the mechanism's size.
+KinematicWatch kinematic_watch(const Config& c, const Scene& s) {
   KinematicWatch w;
   w.gap =
       c.gap_threshold == "auto" ? 1e-4 * s.size : setting_number("gap_threshold", c.gap_threshold);
+  w.divergence_gap = s.size;
   const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
-  w.singular_rcond = c.singular_rcond == "auto"
-                         ? kSingularRcond
-                         : setting_number("singular_rcond", c.singular_rcond);
+  w.singular_rcond = singular_rcond(c, kSingularRcond);
   w.driver = c.driver_threshold == "auto" ? (angular_joint ? 1e-3 : 1e-3 * s.size)
                                           : setting_number("driver_threshold", c.driver_threshold);
+  w.branch_distance = kBranchDistance;
   return w;
 }
 
@@ -935,13 +901,6 @@ void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjDa
   }
 }
 
-// What the watch calls the driver coordinate: the driven joint, or a floating link's angle.
-std::string driver_name(const Mechanism& m, const Scene& s) {
-  return s.driven.floating ? fmt::format("the angle of link {}",
-                                         m.links[static_cast<size_t>(m.driver().link)].name)
-                           : fmt::format("joint {}", s.joints[s.driven.joint].name);
-}
-
 // Whether the constraint forces MuJoCo reads are the definition's reactions. A floating link's
 // angle is driven through its tendon, whose torque MuJoCo applies across each hinge of the path
 // from the ground: on the links between, the pairs cancel, and the hinges' forces are the
@@ -954,287 +913,93 @@ bool driver_reaction_readable(const Scene& s) {
   return true;
 }
 
-// Build stage: MuJoCo's data at the exact first usable sample (or the pre-roll's start) with
-// the exact velocities, and the ids the steps use.
-struct KinematicModel {
-  KinematicModel(const Mechanism& m, const Prepared& p, ModelPtr loaded)
-      : model(std::move(loaded)), mm(model.get()), data(mj_makeData(mm)), d(data.get()) {
+// Build stage: MuJoCo's model and data at the exact start (the plan's), moving with the exact
+// velocities, stepped for the shared run loop (sim/kinematic_run.h).
+class MujocoKinematicScene final : public KinematicScene {
+ public:
+  MujocoKinematicScene(const Mechanism& m, const Prepared& p, ModelPtr loaded, bool with_forces)
+      : p_(p),
+        model_(std::move(loaded)),
+        mm_(model_.get()),
+        data_(mj_makeData(mm_)),
+        d_(data_.get()),
+        reader_(m, p.scene, mm_, p.start.q),
+        stages_(stages_per_step(p.config.integrator)) {
     const Scene& s = p.scene;
-    driver_eq = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
+    driver_eq_ = mj_name2id(mm_, mjOBJ_EQUALITY, "driver");
     // A joint equality holds the driven joint's qpos, whichever way the joint runs against the
-    // driver (driver_target's sign); a tendon equality its length, the sum of the terms.
+    // driver (DrivenCoordinate::sign); a tendon equality its length, the sum of the terms.
     for (const auto& [joint, coefficient] : s.driven.terms) {
-      const int id = mj_name2id(mm, mjOBJ_JOINT, s.joints[joint].name.c_str());
-      driver_coordinate.emplace_back(mm->jnt_qposadr[id], s.driven.floating ? coefficient : 1.0);
+      const int id = mj_name2id(mm_, mjOBJ_JOINT, s.joints[joint].name.c_str());
+      coordinate0_ += (s.driven.floating ? coefficient : 1.0) * mm_->qpos0[mm_->jnt_qposadr[id]];
     }
-    cut_bodies = cut_body_ids(s, mm);
-    set_joint_rates(m, s, mm, d, p.start.q, p.start.qdot);
-  }
-  ModelPtr model;
-  mjModel* mm;
-  DataPtr data;
-  mjData* d;
-  // The driver coordinate of positions `qpos` (the driven joint's value, or a floating link's
-  // angle as its tendon's length): what the driver equality holds.
-  double coordinate(const mjtNum* qpos) const {
-    double sum = 0.0;
-    for (const auto& [address, coefficient] : driver_coordinate) sum += coefficient * qpos[address];
-    return sum;
-  }
-  int driver_eq = -1;
-  std::vector<std::pair<int, double>> driver_coordinate;  // (qpos address, coefficient)
-  std::vector<std::array<int, 2>> cut_bodies;
-};
-
-// What the steps keep for the samples: the poses and force readings of the last kRing steps, by
-// step mod kRing (a stencil reaches a few steps back at most).
-constexpr long kRing = 16;
-
-// Read-forces stage: MuJoCo's constraint forces of every pose a force stencil uses, read from the
-// step that leaves it (ForceReader), and their combination at each sample.
-class KinematicForces {
- public:
-  KinematicForces(const Mechanism& m, const Scene& s, const mjModel* mm, bool centred)
-      : m_(m), reader_(m, s, mm, centred), combined_(m.joints.size()) {
-    readings_.fill(ForceReading(m.joints.size()));
-    qpos_before_.resize(static_cast<size_t>(mm->nq));
-  }
-  // Around mj_step from pose k: its positions before, its forces after.
-  void before_step(const mjModel* mm, const mjData* d) {
-    std::copy(d->qpos, d->qpos + mm->nq, qpos_before_.begin());
-  }
-  void after_step(long k, const mjModel* mm, const mjData* d) {
-    reader_.read(d, qpos_before_, mm->opt.timestep, reading(k));
-  }
-  // Sample i's forces: its stencil's readings combined, at the sampled state.
-  void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out) {
-    combine_readings(
-        stencil, [&](long k) -> const ForceReading& { return reading(k); }, combined_);
-    write_forces(m_, state, combined_, out, i);
-  }
-
- private:
-  ForceReading& reading(long k) { return readings_[static_cast<size_t>(k % kRing)]; }
-  const Mechanism& m_;
-  ForceReader reader_;
-  std::array<ForceReading, kRing> readings_;
-  ForceReading combined_;
-  std::vector<mjtNum> qpos_before_;
-};
-
-// Step stage: one step of a kinematic run. Its length (the deadbeat softness follows it), the
-// driver's target at its end, the loads at the pose it leaves, and the watch on the pose it
-// reaches: NaN, the loop gap (kept per sample interval), the driver.
-class KinematicStepper {
- public:
-  KinematicStepper(const Mechanism& m, const Trajectory& reference, const Prepared& p,
-                   const KinematicWatch& watch, KinematicModel& model, const SamplePlan& plan,
-                   KinematicForces* forces)
-      : m_(m),
-        p_(p),
-        watch_(watch),
-        model_(model),
-        plan_(plan),
-        forces_(forces),
-        loads_(m),
-        reader_(m, p.scene, model.mm, p.start.q),
-        gaps_(Eigen::VectorXd::Zero(reference.samples())),
-        velocity_(m.coordinate_count()),
-        interval_(p.span.first) {
-    for (const SceneLink& link : p.scene.links)
+    for (const SceneLink& link : s.links)
       if (link.source >= 0 && !link.ground)
-        load_body_.push_back(mj_name2id(model.mm, mjOBJ_BODY, link.name.c_str()));
-    driver_offset_ =
-        reference.driver(p.span.first) - m.driver().at_time(reference.time(p.span.first)).value;
-    coordinate0_ = model.coordinate(model.mm->qpos0);
-    pose(0) = reader_.read(model.d);
-  }
-
-  // Takes the step to step `step`; "" or why the run stops there.
-  std::string step(long step) {
-    mjModel* mm = model_.mm;
-    mjData* d = model_.d;
-    const std::vector<double>& grid = p_.grid.time;
-    const double t = grid[static_cast<size_t>(step)];
-    set_step(t - grid[static_cast<size_t>(step - 1)]);
-    const double target = driver_target(m_, p_.scene.driven, t);
-    // The driver equality holds its coordinate's change from qpos0 at eq_data[0]: aim at the end
-    // of this step.
-    mm->eq_data[mjNEQDATA * model_.driver_eq] = target - coordinate0_;
-    apply_loads(step - 1);
-    const bool read = forces_ && plan_.read_forces[static_cast<size_t>(step - 1)];
-    if (read) forces_->before_step(mm, d);
-    mj_step(mm, d);
-    if (read) forces_->after_step(step - 1, mm, d);
-    mj_kinematics(mm, d);  // mj_step leaves xpos/xmat at the step's start
-    ++taken_;
-    evaluations_ += stages_per_step(p_.config.integrator);
-    // Watch: the gap, in the sample interval the step belongs to; NaN; the driver.
-    while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
-      ++interval_;
-    const double gap = loop_gap(p_.scene, model_.cut_bodies, d);
-    gaps_(interval_) = std::max(gaps_(interval_), gap);
-    pose(step) = reader_.read(d);
-    const double driver_error = std::abs(model_.coordinate(d->qpos) - target);
-    if (!pose(step).allFinite() || !std::isfinite(gap) || gap > p_.scene.size ||
-        d->warning[mjWARN_BADQACC].number > 0)
-      return fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)", t, gap);
-    if (driver_error > watch_.driver)
-      return fmt::format(
-          "lost the driver at t = {:.6g} s: {} is {:.3g} from its target (loop gap "
-          "{:.3g} m)",
-          t, driver_name(m_, p_.scene), driver_error, gap);
-    return "";
-  }
-
-  PoseAt poses() {
-    return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose(k); };
-  }
-  const Eigen::VectorXd& gaps() const { return gaps_; }
-  long taken() const { return taken_; }
-  long evaluations() const { return evaluations_; }
-
- private:
-  Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
-
-  // A step of a new length: the deadbeat softness follows it.
-  void set_step(double h) {
-    mjModel* mm = model_.mm;
-    if (mm->opt.timestep == h) return;
-    mm->opt.timestep = h;
-    for (int e = 0; e < mm->neq; ++e) {
-      const std::string& choice =
-          e == model_.driver_eq ? p_.config.driver_solref : p_.config.solref;
-      if (choice != "deadbeat") continue;
-      mm->eq_solref[mjNREF * e] = -1.0 / (h * h);
-      mm->eq_solref[mjNREF * e + 1] = -1.0 / h;
+        load_body_.push_back(mj_name2id(mm_, mjOBJ_BODY, link.name.c_str()));
+    set_joint_rates(m, s, mm_, d_, p.start.q, p.start.qdot);
+    mj_forward(mm_, d_);
+    if (with_forces) {
+      forces_.emplace(m, s, mm_, p.config.force_read == "centred");
+      qpos_before_.resize(static_cast<size_t>(mm_->nq));
     }
   }
 
-  // The definition's loads and springs on the bodies at pose k, at its velocity: a one-sided
-  // difference of the last poses (the exact velocity at the start).
-  void apply_loads(long k) {
-    if (!loads_.any()) return;
-    const double t = p_.grid.time[static_cast<size_t>(k)];
-    if (k == 0)
-      velocity_ = p_.start.qdot;
-    else
-      recent_velocity(k, p_.grid.time, poses(), velocity_);
-    const std::vector<BodyLoad>& on =
-        loads_.at(pose(k), velocity_, m_.driver().at_time(t).value + driver_offset_);
+  // The driver equality holds its coordinate's change from qpos0 at eq_data[0].
+  void drive(double driver_value) override {
+    const DrivenCoordinate& driven = p_.scene.driven;
+    mm_->eq_data[mjNEQDATA * driver_eq_] =
+        driven.sign * (driver_value - driven.offset) - coordinate0_;
+  }
+  void apply(const std::vector<BodyLoad>& on) override {
     for (size_t b = 0; b < on.size(); ++b) {
-      mjtNum* x = model_.d->xfrc_applied + 6 * load_body_[b];
+      mjtNum* x = d_->xfrc_applied + 6 * load_body_[b];
       x[0] = on[b].force.x() * p_.scene.mass_scale;  // in the scene's unit of mass
       x[1] = on[b].force.y() * p_.scene.mass_scale;
       x[5] = on[b].moment * p_.scene.mass_scale;
     }
   }
-
-  const Mechanism& m_;
-  const Prepared& p_;
-  const KinematicWatch& watch_;
-  KinematicModel& model_;
-  const SamplePlan& plan_;
-  KinematicForces* forces_;
-  AppliedLoads loads_;
-  std::vector<int> load_body_;  // per moving link: MuJoCo body id
-  PoseReader reader_;
-  std::array<Eigen::VectorXd, kRing> ring_;
-  Eigen::VectorXd gaps_;  // per sample: the largest cut gap in its interval
-  Eigen::VectorXd velocity_;
-  double driver_offset_ = 0.0, coordinate0_ = 0.0;
-  int interval_;  // the sample whose interval (S_i-1, S_i] holds the current step
-  long taken_ = 0, evaluations_ = 0;
-};
-
-// Sample stage: a sample's position, velocity and acceleration from the poses of its difference
-// stencil, written as a trajectory row by the exact solver's code (points and sliders from the
-// links' coordinates); its configuration is kept for the statuses.
-class KinematicSampler {
- public:
-  KinematicSampler(const Mechanism& m, const Trajectory& reference, const std::vector<double>& grid)
-      : m_(m),
-        reference_(reference),
-        grid_(grid),
-        writer_(m),
-        state_(m),
-        sample_q_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
-        recorded_(static_cast<size_t>(reference.samples()), false) {}
-
-  const KinematicState& write(int i, const std::vector<long>& stencil, const PoseAt& pose,
-                              Trajectory& out) {
-    difference_state(reference_.time(i), stencil, grid_, pose, state_.q, state_.qdot, state_.qddot);
-    state_.driver = m_.driver().at_time(reference_.time(i));
-    state_.driver.value = reference_.driver(i);
-    writer_.write_sample(state_, SolveReport{}, out, i);
-    recorded_[static_cast<size_t>(i)] = true;
-    sample_q_.col(i) = state_.q;
-    return state_;
+  std::string step(double h, ForceReading* forces) override {
+    set_step(h);
+    if (forces) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    mj_step(mm_, d_);
+    if (forces) forces_->read(d_, qpos_before_, h, *forces);
+    mj_kinematics(mm_, d_);  // mj_step leaves xpos/xmat at the step's start
+    evaluations_ += stages_;
+    return d_->warning[mjWARN_BADQACC].number > 0 ? "MuJoCo's accelerations are not finite" : "";
   }
-  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
-  Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
+  void read_pose(Eigen::VectorXd& q) override { q = reader_.read(d_); }
+  long evaluations() const override { return evaluations_; }
 
  private:
-  const Mechanism& m_;
-  const Trajectory& reference_;
-  const std::vector<double>& grid_;
-  const NewtonSolver writer_;
-  KinematicState state_;
-  Eigen::MatrixXd sample_q_;
-  std::vector<bool> recorded_;
+  // A step of a new length: the deadbeat softness follows it.
+  void set_step(double h) {
+    if (mm_->opt.timestep == h) return;
+    mm_->opt.timestep = h;
+    for (int e = 0; e < mm_->neq; ++e) {
+      const std::string& choice = e == driver_eq_ ? p_.config.driver_solref : p_.config.solref;
+      if (choice != "deadbeat") continue;
+      mm_->eq_solref[mjNREF * e] = -1.0 / (h * h);
+      mm_->eq_solref[mjNREF * e + 1] = -1.0 / h;
+    }
+  }
+
+  const Prepared& p_;
+  ModelPtr model_;
+  mjModel* mm_;
+  DataPtr data_;
+  mjData* d_;
+  PoseReader reader_;
+  std::optional<ForceReader> forces_;
+  std::vector<mjtNum> qpos_before_;
+  std::vector<int> load_body_;  // per moving link: MuJoCo body id
+  int driver_eq_ = -1;
+  double coordinate0_ = 0.0;  // the driver coordinate at qpos0
+  long stages_, evaluations_ = 0;
 };
 
-// Statuses stage of a kinematic run: the shared judge with MuJoCo's measures, the conditioning
-// of the definition's constraints at the engine's configuration (MuJoCo passes change points and
-// toggles silently: Newton from there, on a scratch state) and the configuration Newton closes
-// from it, which must be the reference's (another solution is another assembly mode; a model
-// error does not move it and stays a reported difference); an event on each singular sample and
-// on the first jump.
-StatusJudge judge_kinematic(const Mechanism& m, const Trajectory& reference, const Span& span,
-                            const KinematicWatch& watch, double size,
-                            const KinematicSampler& sampled, const Eigen::VectorXd& gaps,
-                            Trajectory& out) {
-  StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, kBranchDistance}, true);
-  const NewtonSolver solver(m);
-  KinematicState probe(m);
-  out.loop_gap = gaps;
-  for (int i = 0; i < reference.samples(); ++i) {
-    const auto row = static_cast<size_t>(i);
-    if (judge.outside(i, out)) continue;
-    if (!sampled.recorded(i)) {
-      out.status[row] = judge.lost(i);
-      continue;
-    }
-    probe.q = sampled.configuration(i);
-    probe.driver = m.driver().at_time(reference.time(i));
-    probe.driver.value = reference.driver(i);
-    const SolveReport projected = solver.solve_position(probe);
-    out.rcond(i) = projected.rcond;
-    double off = 0.0;
-    out.status[row] = judge.judge(
-        i, gaps(i), out.rcond(i),
-        [&] {
-          if (projected.status != PoseStatus::ok) return -1.0;
-          off = configuration_distance(probe.q, reference_coordinates(m, reference, i), size);
-          return off;
-        },
-        out);
-    // MuJoCo's events on the flags it gives itself (a reference's flag kept has its own event).
-    const bool own_flag = usable(reference.status[row]);
-    if (own_flag && out.status[row] == PoseStatus::singular)
-      out.events.push_back({reference.driver(i), PoseStatus::singular,
-                            fmt::format("the constraint Jacobian at the engine's configuration "
-                                        "is singular (rcond {:.2g})",
-                                        out.rcond(i))});
-    if (own_flag && out.status[row] == PoseStatus::branch_jump && judge.jumped() == 1)
-      out.events.push_back(
-          {reference.driver(i), PoseStatus::branch_jump,
-           fmt::format("the engine closes the loops on another assembly mode than the "
-                       "reference (closed configuration {:.3g} of the size or rad away)",
-                       off)});
-  }
-  return judge;
-}
+// What a dynamics run's steps keep for the samples: the poses and force readings of the last kRing
+// steps, by step mod kRing (a stencil reaches a few steps back at most).
+constexpr long kRing = 16;
 
 // The loop-gap note and an event where each run of loop_gap samples starts (both MuJoCo runs).
 void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
@@ -1249,30 +1014,6 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
         (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
       out.events.push_back(
           {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
-}
-
-// A kinematic run's notes and the events of its counts, after the statuses.
-void note_kinematic(const Trajectory& reference, const Span& span, const StatusJudge& judge,
-                    bool stopped, const Eigen::VectorXd& gaps, double gap_threshold,
-                    EngineRun& run) {
-  Trajectory& out = run.trajectory;
-  const int samples = reference.samples();
-  if (stopped && judge.first_lost() >= 0)
-    out.events.push_back({reference.driver(judge.first_lost()), PoseStatus::diverged, run.message});
-  const int outside = span.first + (samples - 1 - span.last);
-  if (outside > 0)
-    add_note(
-        run.message,
-        fmt::format(
-            "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); "
-            "the {} samples outside (flagged by the reference: {}) keep its flag and "
-            "carry no engine value",
-            span.first, span.last, reference.driver(span.first), reference.driver(span.last),
-            outside,
-            to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
-  add_note(run.message, kept_note(judge.kept(), true));
-  add_note(run.message, branch_jump_note(judge.jumped()));
-  note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1305,9 +1046,7 @@ DynamicsWatch dynamics_watch(const Mechanism& m, const Trajectory& reference, co
               ? 1e-4 * p.scene.size
               : setting_number("gap_threshold", p.config.gap_threshold);
   w.energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
-  w.singular_rcond = p.config.singular_rcond == "auto"
-                         ? kDynamicsSingularRcond
-                         : setting_number("singular_rcond", p.config.singular_rcond);
+  w.singular_rcond = singular_rcond(p.config, kDynamicsSingularRcond);
   return w;
 }
 
@@ -1698,54 +1437,12 @@ class MujocoEngine final : public Engine {
       run.settings = overrides;
       return failed(std::move(run), e.what());
     }
-    const Scene& s = p.scene;
-    const bool with_forces = driver_reaction_readable(s);
-    shape(run.trajectory, m, reference, with_forces);
-    const KinematicWatch watch = kinematic_watch(p);
+    const bool with_forces = driver_reaction_readable(p.scene);
+    const KinematicWatch watch = kinematic_watch(p.config, p.scene);
     run.settings = kinematic_settings(p, watch, with_forces);
-
-    KinematicModel model(m, p, std::move(loaded));
-    mj_forward(model.mm, model.d);
-    std::optional<KinematicForces> forces;
-    if (with_forces) forces.emplace(m, s, model.mm, p.config.force_read == "centred");
-    const long last_step = static_cast<long>(p.grid.time.size()) - 1;
-    if (last_step < 3)
-      return failed(std::move(run),
-                    fmt::format("only {} steps between the first and last usable samples: too few "
-                                "for differences",
-                                last_step));
-    const SamplePlan plan =
-        plan_samples(reference, p.span, p.grid.time, p.grid.sample_step, with_forces);
-    KinematicStepper stepper(m, reference, p, watch, model, plan, forces ? &*forces : nullptr);
-    KinematicSampler sampler(m, reference, p.grid.time);
-
-    // Every sample is written as soon as the step completing its stencils is taken.
-    SteppingClock stepping;
-    bool stopped = false;
-    int pending = p.span.first;  // the next sample to write
-    for (long step = 1; step <= last_step && !stopped; ++step) {
-      if (const std::string why = stepper.step(step); !why.empty()) {
-        run.ok = false;
-        run.message = why + (run.message.empty() ? "" : "; " + run.message);
-        stopped = true;
-        break;
-      }
-      for (; pending <= p.span.last && plan.complete_at(pending) <= step; ++pending) {
-        const auto i = static_cast<size_t>(pending);
-        const KinematicState& state =
-            sampler.write(pending, plan.stencil[i], stepper.poses(), run.trajectory);
-        if (forces) forces->write(pending, plan.forces[i], state, run.trajectory);
-      }
-    }
-    stepping.stop();
-
-    const StatusJudge judge = judge_kinematic(m, reference, p.span, watch, s.size, sampler,
-                                              stepper.gaps(), run.trajectory);
-    note_kinematic(reference, p.span, judge, stopped, stepper.gaps(), watch.gap, run);
-    // Simulated: the whole grid, however far the steps went.
-    const double simulated = p.grid.time.back() - p.grid.time.front();
-    record_cost(stepper.taken(), stepper.evaluations(), simulated,
-                m.cycle_period() > 0.0 ? m.cycle_period() : simulated, stepping, begin, run.cost);
+    MujocoKinematicScene scene(m, p, std::move(loaded), with_forces);
+    sim::run_kinematic(m, perturbed(m, p.config.perturb_link), reference, p.plan, watch,
+                       with_forces, scene, begin, run);
     return run;
   }
 };

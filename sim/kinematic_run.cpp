@@ -1,0 +1,385 @@
+#include "sim/kinematic_run.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "analytic/trust.h"
+#include "sim/statuses.h"
+
+namespace crosslink::sim {
+
+double fastest_rate(const Trajectory& reference, const Span& span) {
+  double fastest = 0.0;
+  if (reference.omega.cols() == 0) return fastest;
+  for (int i = span.first; i <= span.last; ++i)
+    if (usable(reference.status[static_cast<size_t>(i)]))
+      fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+  return fastest;
+}
+
+KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory& reference,
+                             double wanted, InnerTimes inner, long preroll, long max_steps,
+                             double singular_rcond, bool perturbed) {
+  const int n = reference.samples();
+  for (int i = 1; i < n; ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      throw std::runtime_error("the reference's times do not increase");
+  KinematicPlan p;
+  p.span = usable_span(reference);
+  const int first = p.span.first;
+  const std::vector<double> per_interval = steps_per_interval(reference, p.span, wanted);
+  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0) +
+                  2.0 * static_cast<double>(preroll),
+              wanted, max_steps);
+  const double t0 = reference.time(first);
+  const double h = (reference.time(first + 1) - t0) / per_interval.front();
+  const Driver& d = scene_mechanism.driver();
+  const double period = scene_mechanism.cycle_period();
+  const bool periodic =
+      first == 0 && p.span.last == n - 1 && period > 0.0 &&
+      reference.time(n - 1) - t0 + (reference.time(1) - t0) >= period * (1.0 - 1e-9);
+
+  // The exact state `roll` steps before the first sample, where the chain closes well
+  // conditioned.
+  const NewtonSolver solver(scene_mechanism);
+  KinematicState state(scene_mechanism);
+  const auto start = [&](long roll) {
+    const double t = t0 - static_cast<double>(roll) * h;
+    state.q = reference_coordinates(scene_mechanism, reference, first);
+    state.driver = d.at_time(t);
+    state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
+    const SolveReport report = solver.solve(state);
+    return report.status == PoseStatus::ok &&
+                   (roll == 0 || report.rcond >= singular_rcond * typical_rcond(reference))
+               ? std::string()
+           : report.message.empty() ? std::string("conditioned too badly")
+                                    : report.message;
+  };
+  p.preroll = periodic && start(preroll).empty() ? preroll : 0;
+  if (p.preroll == 0) {
+    if (const std::string why = start(0); !why.empty()) {
+      if (!perturbed)
+        throw std::runtime_error("cannot assemble the scene at the first usable sample: " + why);
+      state.q = reference_coordinates(scene_mechanism, reference, first);
+      state.qdot.setZero();
+      p.note = "the perturbed chain does not assemble at the first usable sample: started open";
+    }
+  }
+  p.q = state.q;
+  p.qdot = state.qdot;
+  p.driver_offset = reference.driver(first) - d.at_time(t0).value;
+  p.grid = sample_grid(reference, p.span, per_interval, inner, p.preroll, h);
+  return p;
+}
+
+double JointGap::joints(const Eigen::VectorXd& q, double driver_value) {
+  solver_.residual(q, driver_value, phi_);
+  const ConstraintLayout& layout = solver_.layout();
+  double gap = 0.0;
+  for (int r = 0; r < layout.joint_row_count(); ++r)
+    gap = std::max(gap, std::abs(phi_(r)) * (layout.angle_row(r) ? size_ : 1.0));
+  return gap;
+}
+
+double JointGap::at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
+  double gap = joints(q, driver_value);
+  driver_error = std::abs(phi_(solver_.layout().driver_row(0)));
+  if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
+  return gap;
+}
+
+double JointGap::at(const Eigen::VectorXd& q) {
+  const double gap = joints(q, solver_.driver_value(q));
+  return std::isfinite(gap) ? gap : INFINITY;
+}
+
+namespace {
+
+// What the steps keep for the samples: the poses and force readings of the last kRing steps, by
+// step mod kRing (a stencil reaches a few steps back at most).
+constexpr long kRing = 16;
+
+// The steps of a run: drive, load, step and read the scene, watch each pose it reaches (NaN, the
+// engine's own alarm, the joint gap, the driver), and keep the last poses and force readings.
+class Steps {
+ public:
+  Steps(const Mechanism& definition, const Mechanism& scene_mechanism, const KinematicPlan& plan,
+        const KinematicWatch& watch, const SamplePlan& samples, int sample_count,
+        KinematicScene& scene)
+      : definition_(definition),
+        plan_(plan),
+        watch_(watch),
+        samples_(samples),
+        scene_(scene),
+        solver_(scene_mechanism),
+        gap_(scene_mechanism, solver_),
+        loads_(definition),
+        velocity_(definition.coordinate_count()),
+        gaps_(Eigen::VectorXd::Zero(sample_count)),
+        interval_(plan.span.first) {
+    readings_.fill(ForceReading(definition.joints.size()));
+    pose(0) = plan.q;
+  }
+
+  // The step to pose k; "" or why the run stops there.
+  std::string step(long k) {
+    const std::vector<double>& time = plan_.grid.time;
+    const double t = time[static_cast<size_t>(k)];
+    const double law = definition_.driver().at_time(t).value;
+    scene_.drive(law);
+    apply_loads(k - 1);
+    const bool read =
+        !samples_.read_forces.empty() && samples_.read_forces[static_cast<size_t>(k - 1)];
+    std::string alarm =
+        scene_.step(t - time[static_cast<size_t>(k - 1)], read ? &reading_at(k - 1) : nullptr);
+    ++taken_;
+    scene_.read_pose(pose(k));
+    // The gap, in the sample interval the step belongs to; then what stops the run.
+    while (interval_ < plan_.span.last &&
+           k > plan_.grid.sample_step[static_cast<size_t>(interval_)])
+      ++interval_;
+    double driver_error = 0.0;
+    const double driver = law + plan_.driver_offset;
+    const double gap = gap_.at(pose(k), driver, driver_error);
+    gaps_(interval_) = std::max(gaps_(interval_), gap);
+    if (!pose(k).allFinite()) alarm = "NaN in the state";
+    if (alarm.empty() && gap > watch_.divergence_gap)
+      alarm = fmt::format("loop gap {:.3g} m beyond the divergence limit {:.3g} m", gap,
+                          watch_.divergence_gap);
+    if (!alarm.empty())
+      return fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t, driver, alarm);
+    if (driver_error > watch_.driver)
+      return fmt::format(
+          "lost the driver at t = {:.6g} s (driver {:.6g}): {:.3g} from its law, beyond {:.3g} "
+          "(loop gap {:.3g} m)",
+          t, driver, driver_error, watch_.driver, gap);
+    return "";
+  }
+
+  PoseAt poses() {
+    return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose(k); };
+  }
+  const ForceReading& reading(long k) const { return readings_[static_cast<size_t>(k % kRing)]; }
+  const Eigen::VectorXd& gaps() const { return gaps_; }
+  long taken() const { return taken_; }
+
+ private:
+  Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
+  ForceReading& reading_at(long k) { return readings_[static_cast<size_t>(k % kRing)]; }
+
+  // The definition's loads and springs at pose k, at its velocity: the exact one at the start,
+  // then a one-sided difference of the last poses.
+  void apply_loads(long k) {
+    if (!loads_.any()) return;
+    const double t = plan_.grid.time[static_cast<size_t>(k)];
+    if (k == 0)
+      velocity_ = plan_.qdot;
+    else
+      recent_velocity(k, plan_.grid.time, poses(), velocity_);
+    scene_.apply(
+        loads_.at(pose(k), velocity_, definition_.driver().at_time(t).value + plan_.driver_offset));
+  }
+
+  const Mechanism& definition_;
+  const KinematicPlan& plan_;
+  const KinematicWatch& watch_;
+  const SamplePlan& samples_;
+  KinematicScene& scene_;
+  const NewtonSolver solver_;  // the scene's chain: its joint gap
+  JointGap gap_;
+  AppliedLoads loads_;
+  Eigen::VectorXd velocity_;
+  std::array<Eigen::VectorXd, kRing> ring_;
+  std::array<ForceReading, kRing> readings_;
+  Eigen::VectorXd gaps_;  // per sample: the largest joint gap in its interval
+  int interval_;          // the sample whose interval (S_i-1, S_i] holds the current step
+  long taken_ = 0;
+};
+
+// A sample's position, velocity and acceleration from the poses of its difference stencil,
+// written as a trajectory row by the exact solver's code (points and sliders from the links'
+// coordinates), with its forces; its configuration is kept for the statuses.
+class Samples {
+ public:
+  Samples(const Mechanism& m, const Trajectory& reference, const std::vector<double>& time,
+          bool with_forces)
+      : m_(m),
+        with_forces_(with_forces),
+        reference_(reference),
+        time_(time),
+        writer_(m),
+        state_(m),
+        combined_(m.joints.size()),
+        configuration_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
+        recorded_(static_cast<size_t>(reference.samples()), false) {}
+
+  void write(int i, const SamplePlan& plan, Steps& steps, Trajectory& out) {
+    const auto row = static_cast<size_t>(i);
+    difference_state(reference_.time(i), plan.stencil[row], time_, steps.poses(), state_.q,
+                     state_.qdot, state_.qddot);
+    state_.driver = m_.driver().at_time(reference_.time(i));
+    state_.driver.value = reference_.driver(i);
+    writer_.write_sample(state_, SolveReport{}, out, i);
+    if (with_forces_) {
+      combine_readings(
+          plan.forces[row], [&](long k) -> const ForceReading& { return steps.reading(k); },
+          combined_);
+      write_forces(m_, state_, combined_, out, i);
+    }
+    recorded_[row] = true;
+    configuration_.col(i) = state_.q;
+  }
+  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
+  Eigen::VectorXd configuration(int i) const { return configuration_.col(i); }
+
+ private:
+  const Mechanism& m_;
+  bool with_forces_;
+  const Trajectory& reference_;
+  const std::vector<double>& time_;
+  const NewtonSolver writer_;
+  KinematicState state_;
+  ForceReading combined_;
+  Eigen::MatrixXd configuration_;
+  std::vector<bool> recorded_;
+};
+
+// Statuses: the shared judge over each sample's gap, the conditioning of the definition's
+// constraints at the engine's configuration (an engine passes change points and toggles
+// silently: Newton from there, at the reference's driver value) and the configuration Newton
+// closes from it, which must be the reference's (another solution is another assembly mode; a
+// model error does not move it and stays a reported difference); an event on each singular
+// sample and on the first jump.
+StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const Span& span,
+                          const KinematicWatch& watch, const Samples& sampled,
+                          const Eigen::VectorXd& gaps, Trajectory& out) {
+  StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, watch.branch_distance},
+                    true);
+  const NewtonSolver solver(m);
+  KinematicState probe(m);
+  out.loop_gap = gaps;
+  for (int i = 0; i < reference.samples(); ++i) {
+    const auto row = static_cast<size_t>(i);
+    if (judge.outside(i, out)) continue;
+    if (!sampled.recorded(i)) {
+      out.status[row] = judge.lost(i);
+      continue;
+    }
+    probe.q = sampled.configuration(i);
+    probe.driver = m.driver().at_time(reference.time(i));
+    probe.driver.value = reference.driver(i);
+    const SolveReport projected = solver.solve_position(probe);
+    out.rcond(i) = projected.rcond;
+    double off = 0.0;
+    out.status[row] = judge.judge(
+        i, gaps(i), out.rcond(i),
+        [&] {
+          if (projected.status != PoseStatus::ok) return -1.0;
+          off = configuration_distance(probe.q, reference_coordinates(m, reference, i), m.size());
+          return off;
+        },
+        out);
+    // The engine's events on the flags it gives itself (a reference's flag kept has its own).
+    const bool own_flag = usable(reference.status[row]);
+    if (own_flag && out.status[row] == PoseStatus::singular)
+      out.events.push_back({reference.driver(i), PoseStatus::singular,
+                            fmt::format("the constraint Jacobian at the engine's configuration "
+                                        "is singular (rcond {:.2g})",
+                                        out.rcond(i))});
+    if (own_flag && out.status[row] == PoseStatus::branch_jump && judge.jumped() == 1)
+      out.events.push_back(
+          {reference.driver(i), PoseStatus::branch_jump,
+           fmt::format("the engine closes the loops on another assembly mode than the "
+                       "reference (closed configuration {:.3g} of the size or rad away)",
+                       off)});
+  }
+  return judge;
+}
+
+// The run's notes and the events of its counts, after the statuses.
+void note_samples(const Trajectory& reference, const Span& span, const StatusJudge& judge,
+                  bool stopped, const Eigen::VectorXd& gaps, double gap_threshold, EngineRun& run) {
+  Trajectory& out = run.trajectory;
+  const int samples = reference.samples();
+  if (stopped && judge.first_lost() >= 0)
+    out.events.push_back({reference.driver(judge.first_lost()), PoseStatus::diverged, run.message});
+  const int outside = span.first + (samples - 1 - span.last);
+  if (outside > 0)
+    add_note(
+        run.message,
+        fmt::format(
+            "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); "
+            "the {} samples outside (flagged by the reference: {}) keep its flag and "
+            "carry no engine value",
+            span.first, span.last, reference.driver(span.first), reference.driver(span.last),
+            outside,
+            to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
+  add_note(run.message, kept_note(judge.kept(), true));
+  add_note(run.message, branch_jump_note(judge.jumped()));
+  if (judge.loop_gaps() == 0) return;
+  add_note(run.message,
+           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                       judge.loop_gaps(), gaps.maxCoeff(), gap_threshold));
+  for (int i = 0; i < out.samples(); ++i)
+    if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
+        (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
+      out.events.push_back(
+          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+}
+
+}  // namespace
+
+void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism,
+                   const Trajectory& reference, const KinematicPlan& plan,
+                   const KinematicWatch& watch, bool with_forces, KinematicScene& scene,
+                   Clock::time_point begin, EngineRun& run) {
+  Trajectory& out = run.trajectory;
+  out.resize(definition, reference.samples(), with_forces);
+  out.time = reference.time;
+  out.driver = reference.driver;
+  const std::vector<double>& time = plan.grid.time;
+  const long last_step = static_cast<long>(time.size()) - 1;
+  if (last_step < 3) {
+    run.ok = false;
+    run.message = fmt::format(
+        "only {} steps between the first and last usable samples: too few for differences",
+        last_step);
+    return;
+  }
+  const SamplePlan samples =
+      plan_samples(reference, plan.span, time, plan.grid.sample_step, with_forces);
+  Steps steps(definition, scene_mechanism, plan, watch, samples, reference.samples(), scene);
+  Samples sampled(definition, reference, time, with_forces);
+
+  // Every sample is written as soon as the step completing its stencils is taken.
+  SteppingClock stepping;
+  std::string stop;
+  int pending = plan.span.first;  // the next sample to write
+  for (long k = 1; k <= last_step; ++k) {
+    if (stop = steps.step(k); !stop.empty()) break;
+    for (; pending <= plan.span.last && samples.complete_at(pending) <= k; ++pending)
+      sampled.write(pending, samples, steps, out);
+  }
+  stepping.stop();
+
+  if (!stop.empty()) {
+    run.ok = false;
+    run.message = stop;
+  }
+  const StatusJudge judge =
+      judge_samples(definition, reference, plan.span, watch, sampled, steps.gaps(), out);
+  note_samples(reference, plan.span, judge, !stop.empty(), steps.gaps(), watch.gap, run);
+  add_note(run.message, plan.note);
+  add_note(run.message, scene.note());
+  const double simulated = time[static_cast<size_t>(steps.taken())] - time.front();
+  const double period = definition.cycle_period();
+  record_cost(steps.taken(), scene.evaluations(), simulated, period > 0.0 ? period : simulated,
+              stepping, begin, run.cost);
+}
+
+}  // namespace crosslink::sim
