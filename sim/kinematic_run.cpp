@@ -218,8 +218,18 @@ class Samples {
         configuration_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
         recorded_(static_cast<size_t>(reference.samples()), false) {}
 
-  void write(int i, const SamplePlan& plan, Steps& steps, Trajectory& out) {
+  // Sample i, once step `now` is taken.
+  void write(int i, long now, const SamplePlan& plan, Steps& steps, Trajectory& out) {
     const auto row = static_cast<size_t>(i);
+    // The ring holds the last kRing poses and readings: a stencil reaching further back would
+    // read a later step's.
+    const long oldest =
+        std::min(plan.stencil[row].front(), with_forces_ && !plan.forces[row].steps.empty()
+                                                ? plan.forces[row].steps.front()
+                                                : plan.stencil[row].front());
+    if (now - oldest >= kRing)
+      throw std::logic_error(
+          fmt::format("sample {} is written {} steps after its first pose", i, now - oldest));
     difference_state(reference_.time(i), plan.stencil[row], time_, steps.poses(), state_.q,
                      state_.qdot, state_.qddot);
     state_.driver = m_.driver().at_time(reference_.time(i));
@@ -363,7 +373,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   for (long k = 1; k <= last_step; ++k) {
     if (stop = steps.step(k); !stop.empty()) break;
     for (; pending <= plan.span.last && samples.complete_at(pending) <= k; ++pending)
-      sampled.write(pending, samples, steps, out);
+      sampled.write(pending, k, samples, steps, out);
   }
   stepping.stop();
 
