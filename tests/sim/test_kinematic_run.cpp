@@ -131,8 +131,12 @@ TEST(KinematicRun, ALostPoseStopsTheRunWhereItHappens) {
   for (int i = 0; i < c.reference.samples(); ++i) {
     const long S = c.plan.grid.sample_step[static_cast<size_t>(i)];
     const PoseStatus s = run.trajectory.status[static_cast<size_t>(i)];
-    if (S + 2 < at) EXPECT_EQ(s, PoseStatus::ok) << i;
-    if (S >= at) EXPECT_EQ(s, PoseStatus::diverged) << i;
+    if (S + 2 < at) {
+      EXPECT_EQ(s, PoseStatus::ok) << i;
+    }
+    if (S >= at) {
+      EXPECT_EQ(s, PoseStatus::diverged) << i;
+    }
   }
 }
 
