@@ -26,16 +26,10 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
                              double wanted, InnerTimes inner, long preroll, long max_steps,
                              double singular_rcond, bool perturbed) {
   const int n = reference.samples();
-  for (int i = 1; i < n; ++i)
-    if (!(reference.time(i) > reference.time(i - 1)))
-      throw std::runtime_error("the reference's times do not increase");
   KinematicPlan p;
-  p.span = usable_span(reference);
+  const std::vector<double> per_interval =
+      planned_steps(reference, p.span, wanted, 2.0 * static_cast<double>(preroll), max_steps);
   const int first = p.span.first;
-  const std::vector<double> per_interval = steps_per_interval(reference, p.span, wanted);
-  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0) +
-                  2.0 * static_cast<double>(preroll),
-              wanted, max_steps);
   const double t0 = reference.time(first);
   const double h = (reference.time(first + 1) - t0) / per_interval.front();
   const Driver& d = scene_mechanism.driver();
@@ -98,6 +92,35 @@ double JointGap::at(const Eigen::VectorXd& q) {
   return std::isfinite(gap) ? gap : INFINITY;
 }
 
+double IntervalGaps::keep(long k, double gap) {
+  while (interval_ < last_ && k > grid_.sample_step[static_cast<size_t>(interval_)]) ++interval_;
+  gaps_(interval_) = std::max(gaps_(interval_), gap);
+  return gap;
+}
+
+void judge_projected(
+    StatusJudge& judge, const Mechanism& m, const Trajectory& reference, const SampleRows& rows,
+    const Eigen::VectorXd& gaps, const std::function<DriverState(int)>& driver,
+    const std::function<PoseStatus(int, const SolveReport&, const KinematicState&)>& judged,
+    Trajectory& out) {
+  const NewtonSolver solver(m);
+  KinematicState probe(m);
+  out.loop_gap = gaps;
+  for (int i = 0; i < reference.samples(); ++i) {
+    if (judge.outside(i, out)) continue;
+    PoseStatus& status = out.status[static_cast<size_t>(i)];
+    if (!rows.recorded(i)) {
+      status = judge.lost(i);
+      continue;
+    }
+    probe.q = rows.configuration(i);
+    probe.driver = driver(i);
+    const SolveReport projected = solver.solve_position(probe);
+    out.rcond(i) = projected.rcond;
+    status = judged(i, projected, probe);
+  }
+}
+
 namespace {
 
 // What the steps keep for the samples: the poses and force readings of the last kRing steps, by
@@ -116,12 +139,9 @@ class Steps {
         watch_(watch),
         samples_(samples),
         scene_(scene),
-        solver_(scene_mechanism),
-        gap_(scene_mechanism, solver_),
+        gaps_(scene_mechanism, plan.grid, plan.span, sample_count),
         loads_(definition),
-        velocity_(definition.coordinate_count()),
-        gaps_(Eigen::VectorXd::Zero(sample_count)),
-        interval_(plan.span.first) {
+        velocity_(definition.coordinate_count()) {
     readings_.fill(ForceReading(definition.joints.size()));
     pose(0) = plan.q;
   }
@@ -139,14 +159,10 @@ class Steps {
         scene_.step(t - time[static_cast<size_t>(k - 1)], read ? &reading_at(k - 1) : nullptr);
     ++taken_;
     scene_.read_pose(pose(k));
-    // The gap, in the sample interval the step belongs to; then what stops the run.
-    while (interval_ < plan_.span.last &&
-           k > plan_.grid.sample_step[static_cast<size_t>(interval_)])
-      ++interval_;
+    // The gap, kept for its sample interval; then what stops the run.
     double driver_error = 0.0;
     const double driver = law + plan_.driver_offset;
-    const double gap = gap_.at(pose(k), driver, driver_error);
-    gaps_(interval_) = std::max(gaps_(interval_), gap);
+    const double gap = gaps_.at(k, pose(k), driver, driver_error);
     if (!pose(k).allFinite()) alarm = "NaN in the state";
     if (alarm.empty() && gap > watch_.divergence_gap)
       alarm = fmt::format("loop gap {:.3g} m beyond the divergence limit {:.3g} m", gap,
@@ -165,7 +181,7 @@ class Steps {
     return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose(k); };
   }
   const ForceReading& reading(long k) const { return readings_[static_cast<size_t>(k % kRing)]; }
-  const Eigen::VectorXd& gaps() const { return gaps_; }
+  const Eigen::VectorXd& gaps() const { return gaps_.gaps(); }
   long taken() const { return taken_; }
 
  private:
@@ -190,74 +206,40 @@ class Steps {
   const KinematicWatch& watch_;
   const SamplePlan& samples_;
   KinematicScene& scene_;
-  const NewtonSolver solver_;  // the scene's chain: its joint gap
-  JointGap gap_;
+  IntervalGaps gaps_;
   AppliedLoads loads_;
   Eigen::VectorXd velocity_;
   std::array<Eigen::VectorXd, kRing> ring_;
   std::array<ForceReading, kRing> readings_;
-  Eigen::VectorXd gaps_;  // per sample: the largest joint gap in its interval
-  int interval_;          // the sample whose interval (S_i-1, S_i] holds the current step
   long taken_ = 0;
 };
 
-// A sample's position, velocity and acceleration from the poses of its difference stencil,
-// written as a trajectory row by the exact solver's code (points and sliders from the links'
-// coordinates), with its forces; its configuration is kept for the statuses.
-class Samples {
- public:
-  Samples(const Mechanism& m, const Trajectory& reference, const std::vector<double>& time,
-          bool with_forces)
-      : m_(m),
-        with_forces_(with_forces),
-        reference_(reference),
-        time_(time),
-        writer_(m),
-        state_(m),
-        combined_(m.joints.size()),
-        configuration_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
-        recorded_(static_cast<size_t>(reference.samples()), false) {}
-
-  // Sample i, once step `now` is taken.
-  void write(int i, long now, const SamplePlan& plan, Steps& steps, Trajectory& out) {
-    const auto row = static_cast<size_t>(i);
-    // The ring holds the last kRing poses and readings: a stencil reaching further back would
-    // read a later step's.
-    const long oldest =
-        std::min(plan.stencil[row].front(), with_forces_ && !plan.forces[row].steps.empty()
-                                                ? plan.forces[row].steps.front()
-                                                : plan.stencil[row].front());
-    if (now - oldest >= kRing)
-      throw std::logic_error(
-          fmt::format("sample {} is written {} steps after its first pose", i, now - oldest));
-    difference_state(reference_.time(i), plan.stencil[row], time_, steps.poses(), state_.q,
-                     state_.qdot, state_.qddot);
-    state_.driver = m_.driver().at_time(reference_.time(i));
-    state_.driver.value = reference_.driver(i);
-    writer_.write_sample(state_, SolveReport{}, out, i);
-    if (with_forces_) {
-      combine_readings(
-          plan.forces[row], [&](long k) -> const ForceReading& { return steps.reading(k); },
-          combined_);
-      write_forces(m_, state_, combined_, out, i);
-    }
-    recorded_[row] = true;
-    configuration_.col(i) = state_.q;
-  }
-  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
-  Eigen::VectorXd configuration(int i) const { return configuration_.col(i); }
-
- private:
-  const Mechanism& m_;
-  bool with_forces_;
-  const Trajectory& reference_;
-  const std::vector<double>& time_;
-  const NewtonSolver writer_;
-  KinematicState state_;
-  ForceReading combined_;
-  Eigen::MatrixXd configuration_;
-  std::vector<bool> recorded_;
-};
+// Sample i, once step `now` is taken: its position, velocity and acceleration from the poses of
+// its difference stencil, its forces from the readings of its force stencil.
+void write_sample(int i, long now, const Mechanism& m, const Trajectory& reference,
+                  const std::vector<double>& time, const SamplePlan& plan, Steps& steps,
+                  SampleRows& rows, Trajectory& out) {
+  const auto row = static_cast<size_t>(i);
+  // The ring holds the last kRing poses and readings: a stencil reaching further back would read
+  // a later step's.
+  const long oldest =
+      std::min(plan.stencil[row].front(), rows.with_forces() && !plan.forces[row].steps.empty()
+                                              ? plan.forces[row].steps.front()
+                                              : plan.stencil[row].front());
+  if (now - oldest >= kRing)
+    throw std::logic_error(
+        fmt::format("sample {} is written {} steps after its first pose", i, now - oldest));
+  KinematicState& state = rows.state();
+  difference_state(reference.time(i), plan.stencil[row], time, steps.poses(), state.q, state.qdot,
+                   state.qddot);
+  state.driver = m.driver().at_time(reference.time(i));
+  state.driver.value = reference.driver(i);
+  if (rows.with_forces())
+    combine_readings(
+        plan.forces[row], [&](long k) -> const ForceReading& { return steps.reading(k); },
+        rows.forces());
+  rows.write(i, out);
+}
 
 // Statuses: the shared judge over each sample's gap, the conditioning of the definition's
 // constraints at the engine's configuration (an engine passes change points and toggles
@@ -266,48 +248,44 @@ class Samples {
 // model error does not move it and stays a reported difference); an event on each singular
 // sample and on the first jump.
 StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const Span& span,
-                          const KinematicWatch& watch, const Samples& sampled,
+                          const KinematicWatch& watch, const SampleRows& sampled,
                           const Eigen::VectorXd& gaps, Trajectory& out) {
   StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, watch.branch_distance},
                     true);
-  const NewtonSolver solver(m);
-  KinematicState probe(m);
-  out.loop_gap = gaps;
-  for (int i = 0; i < reference.samples(); ++i) {
-    const auto row = static_cast<size_t>(i);
-    if (judge.outside(i, out)) continue;
-    if (!sampled.recorded(i)) {
-      out.status[row] = judge.lost(i);
-      continue;
-    }
-    probe.q = sampled.configuration(i);
-    probe.driver = m.driver().at_time(reference.time(i));
-    probe.driver.value = reference.driver(i);
-    const SolveReport projected = solver.solve_position(probe);
-    out.rcond(i) = projected.rcond;
-    double off = 0.0;
-    out.status[row] = judge.judge(
-        i, gaps(i), out.rcond(i),
-        [&] {
-          if (projected.status != PoseStatus::ok) return -1.0;
-          off = configuration_distance(probe.q, reference_coordinates(m, reference, i), m.size());
-          return off;
-        },
-        out);
-    // The engine's events on the flags it gives itself (a reference's flag kept has its own).
-    const bool own_flag = usable(reference.status[row]);
-    if (own_flag && out.status[row] == PoseStatus::singular)
-      out.events.push_back({reference.driver(i), PoseStatus::singular,
-                            fmt::format("the constraint Jacobian at the engine's configuration "
-                                        "is singular (rcond {:.2g})",
-                                        out.rcond(i))});
-    if (own_flag && out.status[row] == PoseStatus::branch_jump && judge.jumped() == 1)
-      out.events.push_back(
-          {reference.driver(i), PoseStatus::branch_jump,
-           fmt::format("the engine closes the loops on another assembly mode than the "
-                       "reference (closed configuration {:.3g} of the size or rad away)",
-                       off)});
-  }
+  judge_projected(
+      judge, m, reference, sampled, gaps,
+      [&](int i) {
+        DriverState d = m.driver().at_time(reference.time(i));
+        d.value = reference.driver(i);
+        return d;
+      },
+      [&](int i, const SolveReport& projected, const KinematicState& closed) {
+        double off = 0.0;
+        const PoseStatus status = judge.judge(
+            i, gaps(i), projected.rcond,
+            [&] {
+              if (projected.status != PoseStatus::ok) return -1.0;
+              off = configuration_distance(closed.q, reference_coordinates(m, reference, i),
+                                           m.size());
+              return off;
+            },
+            out);
+        // The engine's events on the flags it gives itself (a reference's flag kept has its own).
+        const bool own_flag = usable(reference.status[static_cast<size_t>(i)]);
+        if (own_flag && status == PoseStatus::singular)
+          out.events.push_back({reference.driver(i), PoseStatus::singular,
+                                fmt::format("the constraint Jacobian at the engine's "
+                                            "configuration is singular (rcond {:.2g})",
+                                            projected.rcond)});
+        if (own_flag && status == PoseStatus::branch_jump && judge.jumped() == 1)
+          out.events.push_back(
+              {reference.driver(i), PoseStatus::branch_jump,
+               fmt::format("the engine closes the loops on another assembly mode than the "
+                           "reference (closed configuration {:.3g} of the size or rad away)",
+                           off)});
+        return status;
+      },
+      out);
   return judge;
 }
 
@@ -331,15 +309,7 @@ void note_samples(const Trajectory& reference, const Span& span, const StatusJud
             to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
   add_note(run.message, kept_note(judge.kept(), true));
   add_note(run.message, branch_jump_note(judge.jumped()));
-  if (judge.loop_gaps() == 0) return;
-  add_note(run.message,
-           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                       judge.loop_gaps(), gaps.maxCoeff(), gap_threshold));
-  for (int i = 0; i < out.samples(); ++i)
-    if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
-        (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
-      out.events.push_back(
-          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+  note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run);
 }
 
 }  // namespace
@@ -364,7 +334,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   const SamplePlan samples =
       plan_samples(reference, plan.span, time, plan.grid.sample_step, with_forces);
   Steps steps(definition, scene_mechanism, plan, watch, samples, reference.samples(), scene);
-  Samples sampled(definition, reference, time, with_forces);
+  SampleRows sampled(definition, reference.samples(), with_forces);
 
   // Every sample is written as soon as the step completing its stencils is taken.
   SteppingClock stepping;
@@ -373,7 +343,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   for (long k = 1; k <= last_step; ++k) {
     if (stop = steps.step(k); !stop.empty()) break;
     for (; pending <= plan.span.last && samples.complete_at(pending) <= k; ++pending)
-      sampled.write(pending, k, samples, steps, out);
+      write_sample(pending, k, definition, reference, time, samples, steps, sampled, out);
   }
   stepping.stop();
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "sim/forces.h"
 #include "sim/run_loop.h"
 #include "sim/sampling.h"
+#include "sim/statuses.h"
 
 namespace crosslink::sim {
 
@@ -93,6 +95,79 @@ class JointGap {
   double size_;
   Eigen::VectorXd phi_;
 };
+
+// The joints' gap of every pose a run's steps reach, kept as the largest in each sample's interval
+// (S_i-1, S_i] of the steps (a pre-roll's in the first and last samples').
+class IntervalGaps {
+ public:
+  IntervalGaps(const Mechanism& scene_mechanism, const TimeGrid& grid, const Span& span,
+               int samples)
+      : solver_(scene_mechanism),
+        gap_(scene_mechanism, solver_),
+        grid_(grid),
+        last_(span.last),
+        interval_(span.first),
+        gaps_(Eigen::VectorXd::Zero(samples)) {}
+  // Pose k's gap, with the driver row's error at `driver_value` (JointGap::at).
+  double at(long k, const Eigen::VectorXd& q, double driver_value, double& driver_error) {
+    return keep(k, gap_.at(q, driver_value, driver_error));
+  }
+  double at(long k, const Eigen::VectorXd& q) { return keep(k, gap_.at(q)); }
+  const Eigen::VectorXd& gaps() const { return gaps_; }  // per sample
+
+ private:
+  double keep(long k, double gap);
+  const NewtonSolver solver_;  // the scene's chain
+  JointGap gap_;
+  const TimeGrid& grid_;
+  int last_, interval_;  // the sample whose interval holds the current step
+  Eigen::VectorXd gaps_;
+};
+
+// A run's samples as it writes them: each a trajectory row by the exact solver's code (points and
+// sliders from the links' coordinates) from state(), with the forces of forces() when the run
+// reads them, and its configuration kept for the statuses.
+class SampleRows {
+ public:
+  SampleRows(const Mechanism& m, int samples, bool with_forces)
+      : m_(m),
+        with_forces_(with_forces),
+        writer_(m),
+        state_(m),
+        forces_(m.joints.size()),
+        configuration_(Eigen::MatrixXd::Zero(m.coordinate_count(), samples)),
+        recorded_(static_cast<size_t>(samples), false) {}
+  KinematicState& state() { return state_; }
+  ForceReading& forces() { return forces_; }
+  bool with_forces() const { return with_forces_; }
+  void write(int i, Trajectory& out) {
+    writer_.write_sample(state_, SolveReport{}, out, i);
+    if (with_forces_) write_forces(m_, state_, forces_, out, i);
+    recorded_[static_cast<size_t>(i)] = true;
+    configuration_.col(i) = state_.q;
+  }
+  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
+  Eigen::VectorXd configuration(int i) const { return configuration_.col(i); }
+
+ private:
+  const Mechanism& m_;
+  bool with_forces_;
+  const NewtonSolver writer_;
+  KinematicState state_;
+  ForceReading forces_;
+  Eigen::MatrixXd configuration_;
+  std::vector<bool> recorded_;
+};
+
+// Every sample's status and rcond (and out.loop_gap = `gaps`): outside the usable span the
+// reference's kept, not written by the run diverged, else `judged(i, projected, closed)` from the
+// Newton projection `projected` of the configuration the run wrote onto the definition's
+// constraints with the driver at `driver(i)`, `closed` the configuration it closes on.
+void judge_projected(
+    StatusJudge& judge, const Mechanism& m, const Trajectory& reference, const SampleRows& rows,
+    const Eigen::VectorXd& gaps, const std::function<DriverState(int)>& driver,
+    const std::function<PoseStatus(int, const SolveReport&, const KinematicState&)>& judged,
+    Trajectory& out);
 
 // Runs `scene` over `plan` and fills `run`: its trajectory (shaped for `definition` with forces
 // when `with_forces`) sampled at the reference's samples with each sample's status, its notes

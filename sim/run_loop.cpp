@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <stdexcept>
 
 namespace crosslink::sim {
 
@@ -12,6 +14,18 @@ std::vector<double> steps_per_interval(const Trajectory& reference, const Span& 
     out.push_back(
         std::max(1.0, std::ceil((reference.time(i) - reference.time(i - 1)) / wanted - 1e-9)));
   return out;
+}
+
+std::vector<double> planned_steps(const Trajectory& reference, Span& span, double wanted,
+                                  double extra, long max_steps) {
+  for (int i = 1; i < reference.samples(); ++i)
+    if (!(reference.time(i) > reference.time(i - 1)))
+      throw std::runtime_error("the reference's times do not increase");
+  span = usable_span(reference);
+  std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
+  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0) + extra, wanted,
+              max_steps);
+  return per_interval;
 }
 
 TimeGrid sample_grid(const Trajectory& reference, const Span& span,

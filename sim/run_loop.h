@@ -22,6 +22,12 @@ using Clock = std::chrono::steady_clock;
 std::vector<double> steps_per_interval(const Trajectory& reference, const Span& span,
                                        double wanted);
 
+// The steps per interval of the reference's usable span (set in `span`) for a run of `wanted`
+// steps, and `extra` more. std::runtime_error when the reference's times do not increase, there
+// is no span to run over (usable_span()), or the steps are more than `max_steps` (check_steps()).
+std::vector<double> planned_steps(const Trajectory& reference, Span& span, double wanted,
+                                  double extra, long max_steps);
+
 // Where the steps inside a sample interval (t0, t1] of n steps fall: at t0 + k h with h = (t1 -
 // t0) / n (MuJoCo's), or at t0 + (t1 - t0) k / n (Bullet's). The two round differently in the
 // last bit; each engine keeps its own so that its runs stay bit-identical.

@@ -101,4 +101,19 @@ void add_note(std::string& message, const std::string& note) {
   message = message.empty() ? note : message + "; " + note;
 }
 
+// The loop-gap note and an event where each run of loop_gap samples starts.
+void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
+                    const Trajectory& reference, EngineRun& run) {
+  if (flagged == 0) return;
+  add_note(run.message,
+           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
+                       flagged, gaps.maxCoeff(), threshold));
+  Trajectory& out = run.trajectory;
+  for (int i = 0; i < out.samples(); ++i)
+    if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
+        (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
+      out.events.push_back(
+          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+}
+
 }  // namespace crosslink::sim

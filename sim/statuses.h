@@ -9,6 +9,7 @@
 #include <string>
 
 #include "analytic/trajectory.h"
+#include "sim/engine.h"
 #include "sim/sampling.h"
 
 namespace crosslink::sim {
@@ -64,6 +65,11 @@ std::string dynamics_singular_note(int singular, double singular_rcond);
 std::string dynamics_span_note(const Trajectory& reference, Span span);  // "" over all samples
 std::string energy_drift_note(double threshold, double energy_scale, const Trajectory& reference,
                               int drift_at, double worst);
+
+// The loop-gap note (`flagged` samples, the largest of `gaps`, per sample) and an event where
+// each run of loop_gap samples starts.
+void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
+                    const Trajectory& reference, EngineRun& run);
 
 // Appends `note` to a run's message, "; " between notes (nothing for an empty note).
 void add_note(std::string& message, const std::string& note);

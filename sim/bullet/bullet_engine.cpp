@@ -8,6 +8,7 @@
 #include "sim/bullet/bullet_engine.h"
 
 #include "analytic/trust.h"
+#include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"
 #include "sim/run_loop.h"
@@ -1059,51 +1060,6 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
   return "";
 }
 
-// Read-forces stage (rigid formulation): the btJointFeedback of the step that leaves each pose,
-// read right after that step in the mechanism's terms (read_rigid_forces) and kept per pose; a
-// sample's forces are the readings of its force stencil's poses, weighted.
-class BulletForces {
- public:
-  BulletForces(const Mechanism& m, long steps, int driven_joint)
-      : m_(m),
-        driven_joint_(driven_joint),
-        readings_(static_cast<size_t>(steps + 1), ForceReading(m.joints.size())),
-        combined_(m.joints.size()) {}
-  void read(long k, const Scene& scene, const Eigen::VectorXd& q) {
-    read_rigid_forces(m_, scene, driven_joint_, q, readings_[static_cast<size_t>(k)]);
-  }
-  // Sample i's forces at `state`; a dynamics run's effort is the applied one (`effort`).
-  void write(int i, const ForceStencil& stencil, const KinematicState& state, Trajectory& out,
-             const double* effort = nullptr) {
-    combine_readings(
-        stencil,
-        [this](long k) -> const ForceReading& { return readings_[static_cast<size_t>(k)]; },
-        combined_);
-    if (effort) combined_.effort = *effort;
-    write_forces(m_, state, combined_, out, i);
-  }
-
- private:
-  const Mechanism& m_;
-  int driven_joint_;                    // the Mechanism joint the scene graph drives
-  std::vector<ForceReading> readings_;  // per pose
-  ForceReading combined_;
-};
-
-// What a run samples from: every pose the steps leave, as mechanism coordinates, and the joint
-// gap there; where the run stopped and why.
-struct History {
-  std::vector<double> time;  // per step [s]
-  Eigen::MatrixXd pose;      // per step: its pose
-  Eigen::VectorXd gap;       // per step: its loop gap (0 at the start)
-  long last_good = 0;        // the last pose before a divergence (the last step when none)
-  std::string divergence;    // "" or why the run diverged
-  long steps() const { return static_cast<long>(time.size()) - 1; }
-  PoseAt poses() const {
-    return [this](long k) -> Eigen::Ref<const Eigen::VectorXd> { return pose.col(k); };
-  }
-};
-
 // "" or why the scene's configuration `read` back is not the start `q_start` it was built at.
 std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
                            const Eigen::VectorXd& q_start) {
@@ -1113,80 +1069,10 @@ std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
                      mismatch);
 }
 
-// Step stage: the scene's steps into the history; each run drives, loads and watches them its
-// own way around step(). The scene is read back as the mechanism's coordinates after each step
-// (angles on the turn of the pose before, so that they stay continuous), and the forces of the
-// pose the step left are read from it.
-class SceneStepper {
- public:
-  SceneStepper(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start)
-      : m_(m), plan_(plan), scene_(scene), q_(q_start) {
-    read_coordinates(scene_, plan_, m_, frames_, q_);
-  }
-  // "" or why the scene read back is not the start it was built at.
-  std::string check_start(const Eigen::VectorXd& q_start) const {
-    return start_mismatch(m_, q_, q_start);
-  }
-  // The history over steps at `time`, from the scene's start read back.
-  History& begin(std::vector<double> time, bool with_forces) {
-    history_.time = std::move(time);
-    const long steps = history_.steps();
-    history_.pose.resize(q_.size(), steps + 1);
-    history_.gap = Eigen::VectorXd::Zero(steps + 1);
-    history_.pose.col(0) = q_;
-    history_.last_good = steps;
-    if (with_forces) forces_.emplace(m_, steps, plan_.edges[plan_.driver_edge].joint);
-    return history_;
-  }
-  // The step to pose k; its pose.
-  const Eigen::VectorXd& step(long k) {
-    const std::vector<double>& time = history_.time;
-    scene_.step(time[static_cast<size_t>(k)] - time[static_cast<size_t>(k - 1)]);
-    ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
-    if (forces_) forces_->read(k - 1, scene_, history_.pose.col(k - 1));
-    read_coordinates(scene_, plan_, m_, frames_, q_);
-    history_.pose.col(k) = q_;
-    return q_;
-  }
-  Scene& scene() { return scene_; }
-  BulletForces* forces() { return forces_ ? &*forces_ : nullptr; }
-  // The model evaluations the steps made.
-  long evaluations() const { return evaluations_; }
-
- private:
-  const Mechanism& m_;
-  const Plan& plan_;
-  Scene& scene_;
-  std::vector<Pose> frames_;
-  Eigen::VectorXd q_;
-  History history_;
-  std::optional<BulletForces> forces_;
-  long evaluations_ = 0;
-};
-
-// The conditioning of the constraint Jacobian at a sampled pose, a status's measure (near a
-// singular position the engine may take either branch without opening a gap).
-double conditioning_at(const NewtonSolver& solver, const Eigen::VectorXd& q,
-                       KinematicState& conditioning) {
-  conditioning.q = q;
-  conditioning.driver.value = solver.driver_value(q);
-  return solver.solve_position(conditioning).rcond;
-}
-
-// The notes a run ends with that both word alike.
-void note_fallbacks(const Scene& scene, std::vector<std::string>& notes) {
-  if (const int fb = scene.fallbacks(); fb > 0)
-    notes.push_back(fmt::format("the MLCP solve fell back to sequential impulse {} times", fb));
-}
-
-// What a run cost (record_cost()), from its `taken` steps and the model `evaluations` they made,
-// simulated up to the last step taken; then the notes become its message.
-void finish(const History& history, long taken, long evaluations, double cycle,
-            const SteppingClock& stepping, Clock::time_point begin,
-            const std::vector<std::string>& notes, EngineRun& out) {
-  record_cost(taken, evaluations, history.time[static_cast<size_t>(taken)] - history.time.front(),
-              cycle, stepping, begin, out.cost);
-  for (size_t i = 0; i < notes.size(); ++i) out.message += (i ? "; " : "") + notes[i];
+// The note a run ends with when the MLCP solve fell back ("" when it never did).
+std::string fallback_note(const Scene& scene) {
+  const int fb = scene.fallbacks();
+  return fb > 0 ? fmt::format("the MLCP solve fell back to sequential impulse {} times", fb) : "";
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1280,82 +1166,89 @@ DriveMap drive_map(const Mechanism& m, const Plan& plan, const Config& config,
   return out;
 }
 
-// The scene stepped for the shared run loop (sim/kinematic_run.h): read back as the mechanism's
-// coordinates after each step (angles on the turn of the pose before), with the forces of the
-// pose a step leaves.
-class BulletKinematicScene final : public KinematicScene {
+// The scene stepped and read back as the mechanism's coordinates after each step (angles on the
+// turn of the pose before), with the forces of the pose a step leaves: what both runs' scenes
+// share.
+class BulletSteps {
  public:
-  BulletKinematicScene(const Mechanism& m, const Plan& plan, Scene& scene, const DriveMap& drive,
-                       const Eigen::VectorXd& q_start)
-      : m_(m), plan_(plan), scene_(scene), drive_(drive), q_(q_start) {
+  BulletSteps(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start)
+      : m_(m), plan_(plan), scene_(scene), q_(q_start) {
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   // "" or why the scene read back is not the start it was built at.
   std::string check_start(const Eigen::VectorXd& q_start) const {
     return start_mismatch(m_, q_, q_start);
   }
-  void drive(double driver_value) override { scene_.drive(drive_.target(driver_value)); }
-  void apply(const std::vector<BodyLoad>& loads) override { scene_.apply(loads); }
-  std::string step(double h, ForceReading* forces) override {
+  void step(double h, ForceReading* forces) {
     scene_.step(h);
     ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
     if (forces) read_rigid_forces(m_, scene_, plan_.edges[plan_.driver_edge].joint, q_, *forces);
     read_coordinates(scene_, plan_, m_, frames_, q_);
-    return "";
   }
-  void read_pose(Eigen::VectorXd& q) override { q = q_; }
-  long evaluations() const override { return evaluations_; }
-  std::string note() const override {
-    std::vector<std::string> notes;
-    note_fallbacks(scene_, notes);
-    return notes.empty() ? "" : notes.front();
-  }
+  Scene& scene() { return scene_; }
+  const Eigen::VectorXd& pose() const { return q_; }  // the pose the last step reached
+  long evaluations() const { return evaluations_; }
+  std::string note() const { return fallback_note(scene_); }
 
  private:
   const Mechanism& m_;
   const Plan& plan_;
   Scene& scene_;
-  const DriveMap& drive_;
   std::vector<Pose> frames_;
-  Eigen::VectorXd q_;  // the pose the last step reached
+  Eigen::VectorXd q_;
   long evaluations_ = 0;
+};
+
+// What a Bullet scene answers the same in both run loops (KinematicScene and DynamicsScene).
+template <class Loop>
+class BulletLoopScene : public Loop {
+ public:
+  explicit BulletLoopScene(BulletSteps& steps) : steps_(steps) {}
+  void apply(const std::vector<BodyLoad>& loads) override { steps_.scene().apply(loads); }
+  void read_pose(Eigen::VectorXd& q) override { q = steps_.pose(); }
+  long evaluations() const override { return steps_.evaluations(); }
+  std::string note() const override { return steps_.note(); }
+
+ protected:
+  BulletSteps& steps_;
+};
+
+// A kinematic run's scene for the shared run loop (sim/kinematic_run.h): driven to its target.
+class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
+ public:
+  BulletKinematicScene(BulletSteps& steps, const DriveMap& drive)
+      : BulletLoopScene(steps), drive_(drive) {}
+  void drive(double driver_value) override { steps_.scene().drive(drive_.target(driver_value)); }
+  std::string step(double h, ForceReading* forces) override {
+    steps_.step(h, forces);
+    return "";
+  }
+
+ private:
+  const DriveMap& drive_;
 };
 
 // ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
 // no driver, started from the exact state of the reference's first usable sample, the loads and
 // the applied effort on the bodies every step, sampled at the reference's times (which fall on
-// step boundaries). In stages: prepare() and dynamics_grid() plan it; plan_scene() and
-// dynamics_start() place the scene, build_scene() builds it; the DynamicsStepper takes the steps
-// into the history; the DynamicsSampler differences it and integrates the work, and
-// write_dynamics_samples() writes each sample with its forces (BulletForces), its energy balance
-// (EnergyWatch) and its status; note_dynamics() closes.
+// step boundaries). prepare() and dynamics_step() plan it (plan_dynamics()); plan_scene() and
+// build_scene() build it; BulletDynamicsScene is its backend to the shared run loop
+// (sim/dynamics_run.h).
 
-// The steps (sample_grid()): each sample interval split into equal steps, as many as
-// steps_per_sample, or more where the reference's fastest link would turn more than
-// max_step_angle in a step, or as an explicit dt asks (rounded so that samples fall on steps);
-// one more step after the last sample, so that it has a central difference. check_steps()'s
-// std::exception when they are too many.
-TimeGrid dynamics_grid(const Trajectory& reference, const Span& span, const Config& config) {
-  const int first = span.first, last = span.last;
-  double wanted = config.dt;
-  if (wanted == 0.0) {
-    double fastest = 0.0, longest = 0.0;
-    for (int i = first; i <= last; ++i) {
-      if (usable(reference.status[static_cast<size_t>(i)]))
-        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
-      if (i > first) longest = std::max(longest, reference.time(i) - reference.time(i - 1));
-    }
-    wanted = longest / config.steps_per_sample;
-    if (config.max_step_angle > 0.0 && fastest > 0.0)
-      wanted = std::min(wanted, config.max_step_angle / fastest);
-  }
-  const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
-  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0) + 1.0, wanted,
-              config.max_steps);
-  TimeGrid g = sample_grid(reference, span, per_interval, InnerTimes::interval_fractions);
-  g.time.push_back(g.time.back() + (g.time.back() - g.time[g.time.size() - 2]));
-  return g;
+// The longest step (plan_dynamics() splits each sample interval into equal steps no longer): the
+// longest interval over steps_per_sample, shorter where the reference's fastest link would turn
+// more than max_step_angle in a step, or an explicit dt.
+double dynamics_step(const Trajectory& reference, const Span& span, const Config& config) {
+  if (config.dt != 0.0) return config.dt;
+  double longest = 0.0;
+  for (int i = span.first + 1; i <= span.last; ++i)
+    longest = std::max(longest, reference.time(i) - reference.time(i - 1));
+  const double fastest = fastest_rate(reference, span);
+  double wanted = longest / config.steps_per_sample;
+  if (config.max_step_angle > 0.0 && fastest > 0.0)
+    wanted = std::min(wanted, config.max_step_angle / fastest);
+  return wanted;
 }
 
 Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
@@ -1381,270 +1274,30 @@ Settings dynamics_settings(const Config& config, const Trajectory& reference, co
   return out;
 }
 
-// Start of a dynamics run: the exact state of the reference's first usable sample (with
-// perturb_link the chain closed by Newton at its coordinate and rate), and the velocity the
-// bodies start at: semi-implicit Euler keeps the velocity half a step behind the positions
-// (x_k+1 = x_k + h v_k+1), so a staggered start is v0 - h/2 a0 (a0 the exact acceleration). ""
-// or why there is no start.
-struct DynamicsStart {
-  ReferenceState state;
-  Eigen::VectorXd velocity;  // the bodies' at the start
-};
-
-std::string dynamics_start(const Mechanism& original, const Mechanism& m,
-                           const Trajectory& reference, const Config& config, int first, double h0,
-                           const NewtonSolver& solver, DynamicsLoads& balance, DynamicsStart& out) {
-  ReferenceState& start = out.state;
-  start = reference_state(original, reference, first);
-  if (!config.perturb_link.empty()) {
-    KinematicState state(m);
-    state.q = start.q;
-    state.driver = {reference.time(first), reference.driver(first),
-                    balance.rate(start.q, start.qdot), 0.0};
-    if (solver.solve(state).status != PoseStatus::ok)
-      return "the perturbed chain does not close at the first sample";
-    start.q = state.q;
-    start.qdot = state.qdot;
-  }
-  out.velocity =
-      config.staggered_start ? Eigen::VectorXd(start.qdot - 0.5 * h0 * start.qddot) : start.qdot;
-  return "";
-}
-
-// Step stage of a dynamics run: no driver (slides' frames follow their sliders), the loads and
-// the effort at the pose a step leaves, at the engine's velocity there (the backward difference
-// x_k - x_k-1 over h, semi-implicit Euler's v_k; the start's velocity at k = 0), and the watch on
-// the pose it reaches: NaN, the loop gap.
-class DynamicsStepper {
+// A dynamics run's scene for the shared run loop (sim/dynamics_run.h): no driver (slides' frames
+// follow their sliders), the loads at the pose a step leaves, read back as the mechanism's
+// coordinates after each step, the forces of the pose a step leaves. Semi-implicit Euler keeps
+// the velocity half a step behind the positions (x_k+1 = x_k + h v_k+1), so a staggered start is
+// v0 - h/2 a0 (a0 the exact acceleration). The start is a transient in Bullet: its first step's
+// constraint solve has no position error of a previous step to correct, while every later one
+// does (each step's velocity constraint is taken at the step's start, and the position error
+// this leaves is closed by the next step's ERP), so the first step's impulses, and a stencil
+// through pose 0, are off by up to 5 % of the peak reaction (A02; measured): there is no pose
+// before the start, and the loop reads the first sample one-sided and its forces from pose 2 on.
+class BulletDynamicsScene final : public BulletLoopScene<DynamicsScene> {
  public:
-  DynamicsStepper(const Mechanism& m, const Config& config, const Eigen::VectorXd& start_velocity,
-                  DynamicsLoads& balance, JointGap& gap, SceneStepper& stepper, History& history)
-      : start_velocity_(start_velocity),
-        balance_(balance),
-        gap_(gap),
-        stepper_(stepper),
-        history_(history),
-        velocity_(history.pose.rows()),
-        gap_diverge_(config.divergence_gap * m.size()) {}
-
-  // The step to pose k; false when the run diverged there (history: where and why).
-  bool step(long k) {
-    const std::vector<double>& time = history_.time;
-    const double t0 = time[static_cast<size_t>(k - 1)];
-    stepper_.scene().drive(0.0);
-    if (balance_.any()) {
-      velocity_ = k == 1 ? start_velocity_
-                         : Eigen::VectorXd((history_.pose.col(k - 1) - history_.pose.col(k - 2)) /
-                                           (t0 - time[static_cast<size_t>(k - 2)]));
-      stepper_.scene().apply(balance_.at(t0, history_.pose.col(k - 1), velocity_));
-    }
-    const Eigen::VectorXd& q = stepper_.step(k);
-    const double gap = history_.gap(k) = gap_.at(q);
-    if (q.allFinite() && gap <= gap_diverge_) return true;
-    history_.last_good = k - 1;
-    history_.divergence = fmt::format(
-        "diverged at t = {:.6g} s: {}", time[static_cast<size_t>(k)],
-        !q.allFinite() ? std::string("NaN in the state")
-                       : fmt::format("loop gap {:.3e} m beyond the divergence limit {:.3e} m", gap,
-                                     gap_diverge_));
-    return false;
+  BulletDynamicsScene(BulletSteps& steps, Eigen::VectorXd start_velocity)
+      : BulletLoopScene(steps), start_velocity_(std::move(start_velocity)) {}
+  Eigen::VectorXd start_velocity() const override { return start_velocity_; }
+  std::string step(double /*t0*/, double h, ForceReading* forces) override {
+    steps_.scene().drive(0.0);
+    steps_.step(h, forces);
+    return "";
   }
 
  private:
-  const Eigen::VectorXd& start_velocity_;
-  DynamicsLoads& balance_;
-  JointGap& gap_;
-  SceneStepper& stepper_;
-  History& history_;
-  Eigen::VectorXd velocity_;
-  double gap_diverge_;
+  Eigen::VectorXd start_velocity_;
 };
-
-// Sample stage of a dynamics run: velocity and acceleration at step k from central differences
-// over k-1, k, k+1; at the start, one-sided over steps 1..4. The start is a transient in Bullet:
-// its first step's constraint solve has no position error of a previous step to correct, while
-// every later one does (each step's velocity constraint is taken at the step's start, and the
-// position error this leaves is closed by the next step's ERP), so the first step's impulses,
-// and a stencil through pose 0, are off by up to 5 % of the peak reaction (A02; measured). The
-// forces likewise come from clean poses (force_stencil: 2 .. last - 1), extrapolated to the
-// first sample. Also the work of the effort, the loads and the dampers: the trapezoid rule over
-// the steps, the power at each step from its central difference.
-class DynamicsSampler {
- public:
-  DynamicsSampler(const Mechanism& m, const NewtonSolver& solver, DynamicsLoads& balance,
-                  const History& history)
-      : solver_(solver),
-        balance_(balance),
-        history_(history),
-        state_(m),
-        conditioning_(m),
-        work_(static_cast<size_t>(history.steps() + 1), 0.0) {}
-
-  void integrate_work() {
-    if (!balance_.any() || history_.last_good < 4) return;
-    Eigen::VectorXd velocity(history_.pose.rows());
-    double previous = 0.0;
-    for (long k = 0; k < history_.last_good; ++k) {
-      derivatives(k, velocity, nullptr);
-      const double power = balance_.power(time(k), history_.pose.col(k), velocity);
-      if (k > 0)
-        work_[static_cast<size_t>(k)] =
-            work_[static_cast<size_t>(k - 1)] + 0.5 * (time(k) - time(k - 1)) * (previous + power);
-      previous = power;
-    }
-  }
-  // Whether the sample on step S was reached: the step after it taken (after step 4 at the
-  // start).
-  bool reached(long S) const {
-    const long last_good = history_.last_good;
-    return S + 1 <= last_good && (S >= 1 || last_good >= 4);
-  }
-  // The sample on step S, and the statuses' measures there: the largest gap around it and the
-  // conditioning at its pose.
-  void sample(long S) {
-    const double t = time(S);
-    state_.q = history_.pose.col(S);
-    derivatives(S, state_.qdot, &state_.qddot);
-    const double coordinate = solver_.driver_value(state_.q);
-    state_.driver = {t, coordinate, balance_.rate(state_.q, state_.qdot), 0.0};
-    const Eigen::VectorXd& gaps = history_.gap;
-    gap_ = std::max({gaps(std::max(S - 1, 0L)), gaps(S), gaps(S + 1)});
-    rcond_ = conditioning_at(solver_, state_.q, conditioning_);
-  }
-  const KinematicState& state() const { return state_; }
-  double gap() const { return gap_; }
-  double rcond() const { return rcond_; }
-  double work(long k) const { return work_[static_cast<size_t>(k)]; }
-  double time(long k) const { return history_.time[static_cast<size_t>(k)]; }
-
- private:
-  void derivatives(long k, Eigen::VectorXd& qdot, Eigen::VectorXd* qddot) const {
-    std::vector<long> nodes;
-    if (k >= 1)
-      nodes = {k - 1, k, k + 1};
-    else
-      nodes = {1, 2, 3, 4};
-    std::vector<double> times;
-    for (long n : nodes) times.push_back(time(n));
-    const auto wts = stencil_weights(time(k), times);
-    qdot.setZero();
-    if (qddot) qddot->setZero();
-    for (size_t n = 0; n < nodes.size(); ++n) {
-      qdot += wts[1][n] * history_.pose.col(nodes[n]);
-      if (qddot) *qddot += wts[2][n] * history_.pose.col(nodes[n]);
-    }
-  }
-  const NewtonSolver& solver_;
-  DynamicsLoads& balance_;
-  const History& history_;
-  KinematicState state_, conditioning_;
-  std::vector<double> work_;  // per step: the work done since the start [J]
-  double gap_ = 0.0, rcond_ = 1.0;
-};
-
-// The energy balance of a dynamics run's samples: kinetic plus potential energy less the work
-// done, against the start's; where it first drifts past energy_threshold, and the divergence
-// beyond divergence_energy (of the energy the exact motion moves).
-class EnergyWatch {
- public:
-  EnergyWatch(const Config& config, double energy_scale, double initial_energy)
-      : config_(config), scale_(energy_scale), initial_(initial_energy) {}
-  // Sample i's row; true when its balance is off by more than the divergence allows.
-  bool write(int i, const KinematicState& s, double work, DynamicsLoads& balance, Trajectory& out) {
-    const double kinetic = balance.kinetic(s.q, s.qdot);
-    const double potential = balance.potential(s.q);
-    error_ = kinetic + potential - work - initial_;
-    out.energy.row(i) << kinetic, potential, work, error_;
-    worst_ = std::max(worst_, std::abs(error_));
-    if (drift_at_ < 0 && std::abs(error_) > config_.energy_threshold * scale_) drift_at_ = i;
-    return !(std::abs(error_) <= config_.divergence_energy * scale_);
-  }
-  std::string divergence(double t) const {
-    return fmt::format(
-        "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
-        "energy the exact motion moves ({:.3g} J)",
-        t, error_, std::abs(error_) / scale_, scale_);
-  }
-  int drift_at() const { return drift_at_; }
-  double worst() const { return worst_; }
-  double scale() const { return scale_; }
-
- private:
-  const Config& config_;
-  double scale_, initial_;
-  double error_ = 0.0, worst_ = 0.0;
-  int drift_at_ = -1;
-};
-
-// Sample, read forces, balance the energy and judge each sample off the history: samples outside
-// the usable span keep the reference's flag. An energy divergence ends the engine's motion at
-// its sample (history.last_good).
-void write_dynamics_samples(const Mechanism& original, const Trajectory& reference,
-                            const std::vector<long>& sample_step, const NewtonSolver& solver,
-                            DynamicsSampler& sampler, DynamicsLoads& balance, BulletForces* forces,
-                            EnergyWatch& energy, StatusJudge& judge, History& history,
-                            Trajectory& out) {
-  for (int i = 0; i < reference.samples(); ++i) {
-    const auto row = static_cast<size_t>(i);
-    if (judge.outside(i, out)) continue;
-    const long S = sample_step[row];
-    if (!sampler.reached(S)) {
-      out.status[row] = judge.lost(i);
-      continue;
-    }
-    const double t = sampler.time(S);
-    sampler.sample(S);
-    const KinematicState& state = sampler.state();
-    SolveReport report;
-    report.status = judge.judge(i, sampler.gap(), sampler.rcond(), nullptr, out);
-    solver.write_sample(state, report, out, i);
-    out.driver(i) = state.driver.value;
-    out.time(i) = reference.time(i);
-    out.rcond(i) = sampler.rcond();
-    out.loop_gap(i) = sampler.gap();
-    if (forces) {
-      const double effort = original.dynamics->effort_at(t);
-      forces->write(i, force_stencil(t, history.last_good, history.time), state, out, &effort);
-    }
-    if (energy.write(i, state, sampler.work(S), balance, out) && history.divergence.empty()) {
-      history.divergence = energy.divergence(t);
-      history.last_good = S;
-    }
-  }
-}
-
-// Notes stage of a dynamics run: the divergence first (samples after an energy divergence are
-// not the engine's motion any more), the energy drift, then the counts.
-void note_dynamics(const Trajectory& reference, const Span& span, const Config& config,
-                   double gap_flag, const std::vector<long>& sample_step, const StatusJudge& judge,
-                   const History& history, const EnergyWatch& energy, const Scene& scene,
-                   std::vector<std::string>& notes, EngineRun& run) {
-  Trajectory& tr = run.trajectory;
-  if (!history.divergence.empty()) {
-    run.ok = false;
-    notes.insert(notes.begin(), history.divergence);
-    const int first_lost = judge.first_lost();
-    tr.events.push_back({first_lost >= 0 ? reference.driver(first_lost) : 0.0, PoseStatus::diverged,
-                         history.divergence});
-    for (int i = span.first; i <= span.last; ++i)
-      if (sample_step[static_cast<size_t>(i)] > history.last_good)
-        tr.status[static_cast<size_t>(i)] = PoseStatus::diverged;
-  }
-  if (energy.drift_at() >= 0) {
-    const std::string text = energy_drift_note(config.energy_threshold, energy.scale(), reference,
-                                               energy.drift_at(), energy.worst());
-    notes.push_back(text);
-    tr.events.push_back({reference.driver(energy.drift_at()), PoseStatus::ok, text});
-  }
-  for (const std::string& note :
-       {dynamics_span_note(reference, span), kept_note(judge.kept(), false),
-        dynamics_singular_note(judge.singular(), judge.singular_limit())})
-    if (!note.empty()) notes.push_back(note);
-  if (const int flagged = judge.loop_gaps())
-    notes.push_back(fmt::format("{} samples flagged loop_gap (above {:.3g} m; largest {:.3g} m)",
-                                flagged, gap_flag, history.gap.maxCoeff()));
-  note_fallbacks(scene, notes);
-}
 
 EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
                        const Settings& overrides) {
@@ -1653,11 +1306,13 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   out.trajectory.method = "bullet";
   shape(out.trajectory, original, reference, false, true);
   Prepared p;
-  TimeGrid grid;
+  DynamicsPlan start;
   try {
     p = prepare(original, reference, overrides, out.trajectory);
     if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
-    grid = dynamics_grid(reference, p.span, p.config);
+    start = plan_dynamics(original, p.m, reference, dynamics_step(reference, p.span, p.config),
+                          InnerTimes::interval_fractions, p.config.max_steps,
+                          !p.config.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed(std::move(out), e.what());
   }
@@ -1669,44 +1324,25 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   std::string why;
   if (!plan_scene(m, false, config, plan, notes, why)) return failed(std::move(out), why);
   const bool with_forces = config.formulation == "rigid";
-  shape(out.trajectory, original, reference, with_forces, true);
-  const NewtonSolver solver(m);
-  DynamicsLoads balance(original);
-  DynamicsStart start;
-  if (why = dynamics_start(original, m, reference, config, p.span.first,
-                           grid.time[1] - grid.time[0], solver, balance, start);
-      !why.empty())
-    return failed(std::move(out), why);
+  const std::vector<double>& time = start.grid.time;
+  const Eigen::VectorXd velocity =
+      config.staggered_start
+          ? Eigen::VectorXd(start.start.qdot - 0.5 * (time[1] - time[0]) * start.start.qddot)
+          : start.start.qdot;
   std::unique_ptr<Scene> scene;
-  if (why = build_scene(m, plan, config, start.state.q, 0.0, &start.velocity, false, scene);
-      !why.empty())
+  if (why = build_scene(m, plan, config, start.start.q, 0.0, &velocity, false, scene); !why.empty())
     return failed(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  out.settings = dynamics_settings(config, reference, p.span, grid.dt, energy_scale, with_forces);
-  SceneStepper stepper(m, plan, *scene, start.state.q);
-  if (why = stepper.check_start(start.state.q); !why.empty()) return failed(std::move(out), why);
-
-  History& history = stepper.begin(grid.time, with_forces);
-  JointGap gap(m, solver);
-  DynamicsStepper dynamics(m, config, start.velocity, balance, gap, stepper, history);
-  SteppingClock stepping;
-  for (long k = 1; k <= history.steps() && dynamics.step(k); ++k) {
-  }
-  stepping.stop();
-
-  DynamicsSampler sampler(m, solver, balance, history);
-  sampler.integrate_work();
-  EnergyWatch energy(
-      config, energy_scale,
-      balance.kinetic(start.state.q, start.state.qdot) + balance.potential(start.state.q));
-  const double gap_flag = config.gap_threshold;
-  StatusJudge judge(reference, p.span, {gap_flag, config.singular_rcond, 0.0}, false);
-  write_dynamics_samples(original, reference, grid.sample_step, solver, sampler, balance,
-                         stepper.forces(), energy, judge, history, out.trajectory);
-  note_dynamics(reference, p.span, config, gap_flag, grid.sample_step, judge, history, energy,
-                *scene, notes, out);
-  finish(history, std::min(history.last_good + 1, history.steps()), stepper.evaluations(), 1.0,
-         stepping, begin, notes, out);
+  out.settings =
+      dynamics_settings(config, reference, p.span, start.grid.dt, energy_scale, with_forces);
+  BulletSteps steps(m, plan, *scene, start.start.q);
+  if (why = steps.check_start(start.start.q); !why.empty()) return failed(std::move(out), why);
+  BulletDynamicsScene stepped(steps, velocity);
+  const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * m.size(),
+                               config.singular_rcond,   energy_scale,
+                               config.energy_threshold, config.divergence_energy};
+  run_dynamics(original, m, reference, start, watch, with_forces, stepped, begin, out);
+  for (const std::string& note : notes) add_note(out.message, note);
   return out;
 }
 
@@ -1781,8 +1417,9 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   if (why = build_scene(m, plan, config, start.q, drive.coordinate0, &start.qdot, true, scene);
       !why.empty())
     return failed(std::move(out), why);
-  BulletKinematicScene stepped(m, plan, *scene, drive, start.q);
-  if (why = stepped.check_start(start.q); !why.empty()) return failed(std::move(out), why);
+  BulletSteps steps(m, plan, *scene, start.q);
+  if (why = steps.check_start(start.q); !why.empty()) return failed(std::move(out), why);
+  BulletKinematicScene stepped(steps, drive);
   for (const std::string& note : notes) add_note(start.note, note);
   run_kinematic(original, m, reference, start, watch, with_forces, stepped, begin, out);
   return out;

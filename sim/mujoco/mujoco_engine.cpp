@@ -26,6 +26,7 @@
 
 #include "analytic/newton.h"
 #include "analytic/planar.h"
+#include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"
 #include "sim/mujoco/scene.h"
@@ -323,21 +324,6 @@ double wanted_step(const Trajectory& reference, const Config& c, const Span& spa
                        : reference.time(span.first + 1) - reference.time(span.first);
 }
 
-// Step times over the usable span (sample_grid(): each sample interval split into equal steps no
-// longer than the wanted step, so samples fall on step boundaries; a sweep's extra sample at a
-// toggle makes one interval shorter than the others). The grid starts at the first usable sample
-// and ends at the last, no pre-roll: the engine is never driven outside them.
-TimeGrid time_grid(const Trajectory& reference, const Config& c, const Span& span) {
-  const int n = reference.samples();
-  for (int i = 1; i < n; ++i)
-    if (!(reference.time(i) > reference.time(i - 1)))
-      throw std::runtime_error("the reference's times do not increase");
-  const double wanted = wanted_step(reference, c, span);
-  const std::vector<double> per_interval = steps_per_interval(reference, span, wanted);
-  check_steps(std::accumulate(per_interval.begin(), per_interval.end(), 0.0), wanted, c.max_steps);
-  return sample_grid(reference, span, per_interval, InnerTimes::step_multiples);
-}
-
 MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   MjcfOptions o;
   o.dt = dt;
@@ -422,6 +408,7 @@ struct Prepared {
   std::string mjcf;
   bool periodic = false;  // the run covers whole cycles (a pre-roll on each side)
   KinematicPlan plan;     // a kinematic run's (span, grid and start as above)
+  DynamicsPlan dynamics;  // a dynamics run's
 };
 
 Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
@@ -478,25 +465,6 @@ class PoseReader {
   Eigen::VectorXd last_;
   std::vector<std::pair<int, int>> bodies_;  // (moving index, MuJoCo body id)
 };
-
-// Largest gap of any cut joint [m], from the bodies' world frames and the scene's points.
-double loop_gap(const Scene& s, const std::vector<std::array<int, 2>>& cut_bodies,
-                const mjData* d) {
-  double gap = 0.0;
-  for (size_t c = 0; c < s.cuts.size(); ++c) {
-    const SceneJoint& j = s.joints[s.cuts[c]];
-    Eigen::Vector3d p[2];
-    const Eigen::Vector2d local[2] = {j.ua, j.ub};
-    for (int side = 0; side < 2; ++side) {
-      const int body = cut_bodies[c][side];
-      const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> mat(d->xmat + 9 * body);
-      p[side] = Eigen::Map<const Eigen::Vector3d>(d->xpos + 3 * body) +
-                mat * Eigen::Vector3d(local[side].x(), local[side].y(), 0.0);
-    }
-    gap = std::max(gap, (p[0] - p[1]).norm());
-  }
-  return gap;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Reading forces
@@ -680,44 +648,19 @@ DynamicsChoices dynamics_choices(const Config& c) {
   return out;
 }
 
-// The exact initial state: the reference's first usable sample (its positions, velocities and
-// accelerations are the exact reference's, to about 1e-10). With perturb_link the scene's chain
-// is closed by Newton at the reference's coordinate and rate.
-ReferenceState dynamics_start(const Mechanism& m, const Mechanism& scene_mechanism,
-                              const Trajectory& reference, int first) {
-  ReferenceState start = reference_state(m, reference, first);
-  if (&m == &scene_mechanism) return start;
-  DynamicsLoads balance(m);
-  KinematicState state(scene_mechanism);
-  state.q = start.q;
-  state.driver = {reference.time(first), reference.driver(first), balance.rate(start.q, start.qdot),
-                  0.0};
-  const NewtonSolver solver(scene_mechanism);
-  const SolveReport report = solver.solve(state);
-  if (report.status != PoseStatus::ok)
-    throw std::runtime_error("the perturbed chain does not close at the first sample: " +
-                             report.message);
-  start.q = state.q;
-  start.qdot = state.qdot;
-  return start;
-}
-
 Prepared prepare_dynamics(const Mechanism& m, const Trajectory& reference,
-                          const Settings& overrides, ReferenceState* start_out = nullptr) {
+                          const Settings& overrides) {
   Prepared p;
   p.config = parse_settings(overrides);
   const bool perturb = p.config.perturb_link != "none" && !p.config.perturb_link.empty();
-  const Mechanism perturbed_mechanism = perturb ? perturbed(m, p.config.perturb_link) : Mechanism();
-  const Mechanism& scene_mechanism = perturb ? perturbed_mechanism : m;
+  const Mechanism scene_mechanism = perturbed(m, p.config.perturb_link);
   p.span = usable_span(reference);
-  p.grid = time_grid(reference, p.config, p.span);
-  // One step past the last sample, so that it has a central stencil too.
-  const double h = p.grid.time.back() - p.grid.time[p.grid.time.size() - 2];
-  p.grid.time.push_back(p.grid.time.back() + h);
-  const ReferenceState start = dynamics_start(m, scene_mechanism, reference, p.span.first);
-  p.start = Start{start.q, start.qdot};
-  if (start_out) *start_out = start;
-  p.scene = mujoco_scene::build_scene(scene_mechanism, start.q);
+  p.dynamics =
+      plan_dynamics(m, scene_mechanism, reference, wanted_step(reference, p.config, p.span),
+                    InnerTimes::step_multiples, p.config.max_steps, perturb);
+  p.grid = p.dynamics.grid;
+  p.start = Start{p.dynamics.start.q, p.dynamics.start.qdot};
+  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   p.options.driven = false;
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
@@ -877,19 +820,6 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
   return out;
 }
 
-// MuJoCo body ids of each cut joint's two links (the world for the ground), for the loop gap.
-std::vector<std::array<int, 2>> cut_body_ids(const Scene& s, const mjModel* mm) {
-  std::vector<std::array<int, 2>> ids;
-  for (int c : s.cuts) {
-    const SceneJoint& j = s.joints[c];
-    auto body = [&](int link) {
-      return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
-    };
-    ids.push_back({body(j.a), body(j.b)});
-  }
-  return ids;
-}
-
 // The tree joints' rates of the state (q, qdot) into d->qvel: the scene starts on the exact
 // configuration moving with the exact velocities.
 void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjData* d,
@@ -997,24 +927,9 @@ class MujocoKinematicScene final : public KinematicScene {
   long stages_, evaluations_ = 0;
 };
 
-// What a dynamics run's steps keep for the samples: the poses and force readings of the last kRing
-// steps, by step mod kRing (a stencil reaches a few steps back at most).
+// The states a dynamics run keeps for its state readout: the last kRing steps', by step mod kRing
+// (a sample is read one step after its own).
 constexpr long kRing = 16;
-
-// The loop-gap note and an event where each run of loop_gap samples starts (both MuJoCo runs).
-void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
-                    const Trajectory& reference, EngineRun& run) {
-  if (flagged == 0) return;
-  add_note(run.message,
-           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                       flagged, gaps.maxCoeff(), threshold));
-  Trajectory& out = run.trajectory;
-  for (int i = 0; i < out.samples(); ++i)
-    if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
-        (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
-      out.events.push_back(
-          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
-}
 
 // ---------------------------------------------------------------------------------------------
 // A dynamics run, in stages: prepare_dynamics() plans it; DynamicsRun builds the scene at the
@@ -1031,22 +946,19 @@ void shape_dynamics(Trajectory& out, const Mechanism& m, const Trajectory& refer
   out.driver = reference.driver;
 }
 
-// The thresholds and the scale a dynamics run flags and stops by.
-struct DynamicsWatch {
-  double gap = 0.0;  // a sample interval's largest cut gap above it: loop_gap [m]
-  // The energy the exact motion moves (a mechanism at rest in equilibrium moves none: then any
-  // change is judged against 1e-12 J).
-  double energy_scale = 0.0;
-  double singular_rcond = 0.0;
-};
-
+// The thresholds and the scale a dynamics run flags and stops by; the run diverges when a joint
+// opens by the mechanism's size. The energy scale is the energy the exact motion moves (a
+// mechanism at rest in equilibrium moves none: then any change is judged against 1e-12 J).
 DynamicsWatch dynamics_watch(const Mechanism& m, const Trajectory& reference, const Prepared& p) {
   DynamicsWatch w;
   w.gap = p.config.gap_threshold == "auto"
               ? 1e-4 * p.scene.size
               : setting_number("gap_threshold", p.config.gap_threshold);
+  w.divergence_gap = p.scene.size;
   w.energy_scale = std::max(reference_energy_scale(m, reference), 1e-12);
   w.singular_rcond = singular_rcond(p.config, kDynamicsSingularRcond);
+  w.energy_threshold = p.config.energy_threshold;
+  w.divergence_energy = p.config.divergence_energy;
   return w;
 }
 
@@ -1072,21 +984,17 @@ Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
   return out;
 }
 
-// The stages of a dynamics run that share its scene and step history.
-class DynamicsRun {
+// A dynamics run's scene for the shared run loop (sim/dynamics_run.h): MuJoCo's model at the
+// exact start with the loads' callback; MuJoCo's own acceleration at the exact state sets the
+// staggered velocity and the pose one step before the start (central differences at the first
+// sample); the state of the last kRing steps kept for the state readout.
+class MujocoDynamicsScene final : public DynamicsScene {
  public:
-  // Build: the scene at the exact start with the loads' callback; MuJoCo's own acceleration at
-  // the exact state sets the staggered velocity and the pose one step before the start (central
-  // differences at the first sample).
-  DynamicsRun(const Mechanism& m, const Trajectory& reference, const Prepared& p,
-              const ReferenceState& start, const DynamicsChoices& choice,
-              const DynamicsWatch& watch, ModelPtr loaded, Trajectory& out)
+  MujocoDynamicsScene(const Mechanism& m, const Prepared& p, const DynamicsChoices& choice,
+                      ModelPtr loaded)
       : m_(m),
         p_(p),
         choice_(choice),
-        watch_(watch),
-        out_(out),
-        grid_(p.grid.time),
         model_(std::move(loaded)),
         mm_(model_.get()),
         data_(mj_makeData(mm_)),
@@ -1095,94 +1003,65 @@ class DynamicsRun {
         sd_(state_data_.get()),
         hook_(m, p.scene, mm_),
         force_reader_(m, p.scene, mm_, p.config.force_read == "centred"),
-        balance_(m),
-        reader_(m, p.scene, mm_, start.q),
-        writer_(m),
-        state_(m),
-        reading_(m.joints.size()),
+        reader_(m, p.scene, mm_, p.start.q),
         qpos_before_(static_cast<size_t>(mm_->nq)),
-        gaps_(Eigen::VectorXd::Zero(reference.samples())),
-        recorded_(static_cast<size_t>(reference.samples()), false),
-        sample_q_(Eigen::MatrixXd::Zero(m.coordinate_count(), reference.samples())),
-        interval_(p.span.first) {
-    const Scene& s = p.scene;
+        stages_(stages_per_step(p.config.integrator)) {
     const int nq = mm_->nq, nv = mm_->nv;
-    cut_bodies_ = cut_body_ids(s, mm_);
+    const std::vector<double>& grid = p.grid.time;
     // The scene's joints map the definition's links.
-    set_joint_rates(m, s, mm_, d_, start.q, start.qdot);
-    last_step_ = static_cast<long>(grid_.size()) - 1;
-    h0_ = grid_[1] - grid_[0];
-    d_->time = grid_[0];
+    set_joint_rates(m, p.scene, mm_, d_, p.start.q, p.start.qdot);
+    const double h0 = grid[1] - grid[0];
+    d_->time = grid[0];
     scope_.emplace(hook_.any() ? &hook_ : nullptr);
     mj_forward(mm_, d_);
     std::vector<mjtNum> v0(d_->qvel, d_->qvel + nv), w(static_cast<size_t>(nv));
-    for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0_ * d_->qacc[i];
+    for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d_->qacc[i];
     if (choice.staggered) std::copy(w.begin(), w.end(), d_->qvel);
     std::copy(d_->qpos, d_->qpos + nq, sd_->qpos);
     const bool euler_like = p.config.integrator != "RK4";
-    mj_integratePos(mm_, sd_->qpos, euler_like ? d_->qvel : w.data(), -h0_);
+    mj_integratePos(mm_, sd_->qpos, euler_like ? d_->qvel : w.data(), -h0);
     mj_kinematics(mm_, sd_);
-    PoseReader before_reader(m, s, mm_, start.q);
+    PoseReader before_reader(m, p.scene, mm_, p.start.q);
     before_start_ = before_reader.read(sd_);
-    ring_[slot(0)] = reader_.read(d_);
     keep_state(0);
-    sample_of_.assign(static_cast<size_t>(last_step_ + 1), -1);
-    for (int i = p.span.first; i <= p.span.last; ++i)
-      sample_of_[static_cast<size_t>(p.grid.sample_step[static_cast<size_t>(i)])] = i;
-    initial_energy_ = balance_.kinetic(start.q, start.qdot) + balance_.potential(start.q);
   }
 
-  long last_step() const { return last_step_; }
-  // Why the run stopped ("" while it runs): divergence, or an energy balance beyond the limit.
-  const std::string& stopped() const { return stopped_; }
-
-  // Step: one mj_step, the forces of a sampled pose read from the step leaving it (difference
-  // readout), the watch (NaN, loop gap, MuJoCo's bad acceleration), then the work up to the
-  // step before and the sample on it, whose central stencil this step completes.
-  void step(long step) {
-    const double t0 = grid_[static_cast<size_t>(step - 1)];
-    const double h = grid_[static_cast<size_t>(step)] - t0;
+  bool evaluates_loads() const override { return true; }
+  std::string step(double t0, double h, ForceReading* forces) override {
     set_step(h);
     d_->time = t0;
-    const int leaving = sample_of_[static_cast<size_t>(step - 1)];
-    const bool read = leaving >= 0 && !choice_.state_readout;
-    if (read) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    if (forces) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
     mj_step(mm_, d_);
-    if (read) force_reader_.read(d_, qpos_before_, h, reading_);
+    if (forces) force_reader_.read(d_, qpos_before_, h, *forces);
     mj_kinematics(mm_, d_);
-    ++taken_;
-    evaluations_ += stages_per_step(p_.config.integrator);
-    while (interval_ < p_.span.last && step > p_.grid.sample_step[static_cast<size_t>(interval_)])
-      ++interval_;
-    const double gap = loop_gap(p_.scene, cut_bodies_, d_);
-    gaps_(interval_) = std::max(gaps_(interval_), gap);
-    ring_[slot(step)] = reader_.read(d_);
-    keep_state(step);
-    if (!ring_[slot(step)].allFinite() || !std::isfinite(gap) || gap > p_.scene.size ||
-        d_->warning[mjWARN_BADQACC].number > 0) {
-      stopped_ = fmt::format("diverged at t = {:.6g} s (loop gap {:.3g} m)",
-                             grid_[static_cast<size_t>(step)], gap);
-      return;
-    }
-    accumulate_work(step - 1, h);
-    if (leaving >= 0) record(leaving, step - 1);
+    evaluations_ += stages_;
+    keep_state(++taken_);
+    return d_->warning[mjWARN_BADQACC].number > 0 ? "MuJoCo's accelerations are not finite" : "";
   }
-
-  long taken() const { return taken_; }
-  long evaluations() const { return evaluations_; }
-  const Eigen::VectorXd& gaps() const { return gaps_; }
-  bool recorded(int i) const { return recorded_[static_cast<size_t>(i)]; }
-  Eigen::VectorXd configuration(int i) const { return sample_q_.col(i); }
-  int drift_at() const { return drift_at_; }
+  void read_pose(Eigen::VectorXd& q) override { q = reader_.read(d_); }
+  bool pose_before_start(double /*h*/, Eigen::VectorXd& q) override {
+    q = before_start_;
+    return true;
+  }
+  bool reads_state() const override { return choice_.state_readout; }
+  // MuJoCo's forces and rates at the state it integrated to step S (mj_forward there).
+  void read_state(long S, double t, Eigen::VectorXd& qdot, Eigen::VectorXd& qddot,
+                  ForceReading& forces) override {
+    const size_t k = static_cast<size_t>(S % kRing);
+    std::copy(ring_qpos_[k].begin(), ring_qpos_[k].end(), sd_->qpos);
+    std::copy(ring_qvel_[k].begin(), ring_qvel_[k].end(), sd_->qvel);
+    sd_->time = t;
+    mj_forward(mm_, sd_);
+    force_reader_.read_state(sd_, forces);
+    state_rates(m_, p_.scene, mm_, sd_, qdot, qddot);
+  }
+  long evaluations() const override { return evaluations_; }
 
  private:
-  static size_t slot(long k) { return static_cast<size_t>(((k % kRing) + kRing) % kRing); }
-  const Eigen::VectorXd& pose(long k) const { return k < 0 ? before_start_ : ring_[slot(k)]; }
   void keep_state(long k) {
-    ring_qpos_[slot(k)].assign(d_->qpos, d_->qpos + mm_->nq);
-    ring_qvel_[slot(k)].assign(d_->qvel, d_->qvel + mm_->nv);
+    ring_qpos_[static_cast<size_t>(k % kRing)].assign(d_->qpos, d_->qpos + mm_->nq);
+    ring_qvel_[static_cast<size_t>(k % kRing)].assign(d_->qvel, d_->qvel + mm_->nv);
   }
-
   // A step of a new length: the deadbeat softness follows it.
   void set_step(double h) {
     if (mm_->opt.timestep == h) return;
@@ -1194,67 +1073,9 @@ class DynamicsRun {
       }
   }
 
-  // The work up to step k: the power there from the poses on either side, the trapezoid rule.
-  void accumulate_work(long k, double h) {
-    if (!balance_.any()) return;
-    const double hb = grid_[static_cast<size_t>(k)] -
-                      (k > 0 ? grid_[static_cast<size_t>(k - 1)] : grid_[0] - h0_);
-    const auto wts = stencil_weights(0.0, {-hb, 0.0, h});
-    const Eigen::VectorXd velocity =
-        wts[1][0] * pose(k - 1) + wts[1][1] * pose(k) + wts[1][2] * pose(k + 1);
-    ring_power_[slot(k)] = balance_.power(grid_[static_cast<size_t>(k)], pose(k), velocity);
-    ring_work_[slot(k)] = k == 0 ? 0.0
-                                 : ring_work_[slot(k - 1)] +
-                                       0.5 * hb * (ring_power_[slot(k - 1)] + ring_power_[slot(k)]);
-  }
-
-  // Sample and read forces: sample i on step S, from the central differences of the poses
-  // around it (or MuJoCo's state there, "state" readout), its forces, and its energy balance.
-  void record(int i, long S) {
-    const double t = grid_[static_cast<size_t>(S)];
-    state_.q = pose(S);
-    if (choice_.state_readout) {
-      std::copy(ring_qpos_[slot(S)].begin(), ring_qpos_[slot(S)].end(), sd_->qpos);
-      std::copy(ring_qvel_[slot(S)].begin(), ring_qvel_[slot(S)].end(), sd_->qvel);
-      sd_->time = t;
-      mj_forward(mm_, sd_);
-      force_reader_.read_state(sd_, reading_);
-      state_rates(m_, p_.scene, mm_, sd_, state_.qdot, state_.qddot);
-    } else {
-      const double hb = t - (S > 0 ? grid_[static_cast<size_t>(S - 1)] : t - h0_);
-      const double ha = grid_[static_cast<size_t>(S + 1)] - t;
-      const auto wts = stencil_weights(0.0, {-hb, 0.0, ha});
-      state_.qdot = wts[1][0] * pose(S - 1) + wts[1][1] * pose(S) + wts[1][2] * pose(S + 1);
-      state_.qddot = wts[2][0] * pose(S - 1) + wts[2][1] * pose(S) + wts[2][2] * pose(S + 1);
-    }
-    const double coordinate = balance_.coordinate(state_.q);
-    state_.driver = {t, coordinate, balance_.rate(state_.q, state_.qdot), 0.0};
-    writer_.write_sample(state_, SolveReport{}, out_, i);
-    out_.driver(i) = coordinate;
-    reading_.effort = m_.dynamics->effort_at(t);
-    write_forces(m_, state_, reading_, out_, i);
-    const double kinetic = balance_.kinetic(state_.q, state_.qdot);
-    const double potential = balance_.potential(state_.q);
-    const double work = ring_work_[slot(S)];
-    const double error = kinetic + potential - work - initial_energy_;
-    out_.energy.row(i) << kinetic, potential, work, error;
-    recorded_[static_cast<size_t>(i)] = true;
-    sample_q_.col(i) = state_.q;
-    const double scale = watch_.energy_scale;
-    if (drift_at_ < 0 && std::abs(error) > p_.config.energy_threshold * scale) drift_at_ = i;
-    if (!(std::abs(error) <= p_.config.divergence_energy * scale))
-      stopped_ = fmt::format(
-          "diverged at t = {:.6g} s: the energy balance is off by {:.3g} J, {:.3g} times the "
-          "energy the exact motion moves ({:.3g} J)",
-          t, error, std::abs(error) / scale, scale);
-  }
-
   const Mechanism& m_;
   const Prepared& p_;
   const DynamicsChoices& choice_;
-  const DynamicsWatch& watch_;
-  Trajectory& out_;
-  const std::vector<double>& grid_;
   ModelPtr model_;
   mjModel* mm_;
   DataPtr data_, state_data_;
@@ -1263,112 +1084,34 @@ class DynamicsRun {
   LoadHook hook_;
   std::optional<HookScope> scope_;  // declared after hook_: ends before it
   ForceReader force_reader_;
-  DynamicsLoads balance_;
   PoseReader reader_;
-  const NewtonSolver writer_;
-  KinematicState state_;
-  ForceReading reading_;
   std::vector<mjtNum> qpos_before_;
-  Eigen::VectorXd gaps_;
-  std::vector<bool> recorded_;
-  Eigen::MatrixXd sample_q_;
-  std::vector<std::array<int, 2>> cut_bodies_;
   Eigen::VectorXd before_start_;
-  // Per step (ring of the last kRing): poses, the state (for the state readout), the work done
-  // so far and the power at the step.
-  std::array<Eigen::VectorXd, kRing> ring_;
-  std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;
-  std::array<double, kRing> ring_work_{}, ring_power_{};
-  std::vector<int> sample_of_;  // the sample on each step (-1: none)
-  long last_step_ = 0, taken_ = 0, evaluations_ = 0;
-  double h0_ = 0.0, initial_energy_ = 0.0;
-  int drift_at_ = -1;
-  int interval_;
-  std::string stopped_;
+  std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;  // per step, the last kRing
+  long stages_, taken_ = 0, evaluations_ = 0;
 };
 
-// Statuses stage of a dynamics run: the shared judge, with the conditioning of the definition's
-// constraints at the engine's configuration (no branch check: the motion is the engine's own).
-StatusJudge judge_dynamics(const Mechanism& m, const Trajectory& reference, const Span& span,
-                           const DynamicsWatch& watch, const DynamicsRun& sampled,
-                           Trajectory& out) {
-  StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, 0.0}, false);
-  const NewtonSolver solver(m);
-  KinematicState probe(m);
-  out.loop_gap = sampled.gaps();
-  for (int i = 0; i < reference.samples(); ++i) {
-    const auto row = static_cast<size_t>(i);
-    if (judge.outside(i, out)) continue;
-    if (!sampled.recorded(i)) {
-      out.status[row] = judge.lost(i);
-      continue;
-    }
-    probe.q = sampled.configuration(i);
-    probe.driver.value = out.driver(i);
-    out.rcond(i) = solver.solve_position(probe).rcond;
-    out.status[row] = judge.judge(i, sampled.gaps()(i), out.rcond(i), nullptr, out);
-  }
-  return judge;
-}
-
-// A dynamics run's notes and the events of its counts.
-void note_dynamics(const Trajectory& reference, const Prepared& p, const DynamicsWatch& watch,
-                   const StatusJudge& judge, const DynamicsRun& sampled, EngineRun& run) {
-  Trajectory& out = run.trajectory;
-  const std::string& stopped = sampled.stopped();
-  if (!stopped.empty()) {
-    run.ok = false;
-    add_note(run.message, stopped);
-    const int lost = judge.first_lost();
-    out.events.push_back({lost >= 0 ? reference.driver(lost) : 0.0, PoseStatus::diverged, stopped});
-  }
-  if (const int drift_at = sampled.drift_at(); drift_at >= 0) {
-    const std::string text =
-        energy_drift_note(p.config.energy_threshold, watch.energy_scale, reference, drift_at,
-                          out.energy.col(3).cwiseAbs().maxCoeff());
-    add_note(run.message, text);
-    out.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
-  }
-  add_note(run.message, dynamics_span_note(reference, p.span));
-  add_note(run.message, kept_note(judge.kept(), false));
-  add_note(run.message, dynamics_singular_note(judge.singular(), judge.singular_limit()));
-  note_loop_gaps(judge.loop_gaps(), sampled.gaps(), watch.gap, reference, run);
-}
-
-// A dynamics run: plan, build, then each step (with the samples it completes), the statuses.
+// A dynamics run: plan, build, then the shared run loop.
 EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Settings& overrides) {
   const Clock::time_point begin = Clock::now();
   EngineRun run;
   run.trajectory.method = "mujoco";
   shape_dynamics(run.trajectory, m, reference, false);
   Prepared p;
-  ReferenceState start;
   ModelPtr model;
   try {
-    p = prepare_dynamics(m, reference, overrides, &start);
+    p = prepare_dynamics(m, reference, overrides);
     model = load_model(p.mjcf);
   } catch (const std::exception& e) {
     run.settings = overrides;
     return failed(std::move(run), e.what());
   }
   const DynamicsChoices choice = dynamics_choices(p.config);
-  shape_dynamics(run.trajectory, m, reference, true);
   const DynamicsWatch watch = dynamics_watch(m, reference, p);
   run.settings = dynamics_settings(p, choice, watch);
-
-  DynamicsRun dynamics(m, reference, p, start, choice, watch, std::move(model), run.trajectory);
-  SteppingClock stepping;
-  for (long step = 1; step <= dynamics.last_step() && dynamics.stopped().empty(); ++step)
-    dynamics.step(step);
-  stepping.stop();
-
-  const StatusJudge judge = judge_dynamics(m, reference, p.span, watch, dynamics, run.trajectory);
-  note_dynamics(reference, p, watch, judge, dynamics, run);
-  const std::vector<double>& grid = p.grid.time;
-  // Simulated: up to the last step taken.
-  record_cost(dynamics.taken(), dynamics.evaluations(),
-              grid[static_cast<size_t>(dynamics.taken())] - grid.front(), 1.0, stepping, begin,
-              run.cost);
+  MujocoDynamicsScene scene(m, p, choice, std::move(model));
+  sim::run_dynamics(m, perturbed(m, p.config.perturb_link), reference, p.dynamics, watch, true,
+                    scene, begin, run);
   return run;
 }
 
