@@ -91,11 +91,14 @@ void check_settings(const Mechanism& m, const std::vector<std::string>& all,
       methods::check_engine_settings(engine, m,
                                      settings_for(engine, running ? all : prefixed[engine]));
     } catch (const std::invalid_argument& e) {
-      // A name one engine knows may be meant for that engine alone.
-      const bool bare = running && std::string_view(e.what()).starts_with("unknown") &&
-                        std::any_of(all.begin(), all.end(), [](const std::string& s) {
-                          return s.substr(0, s.find('=')).find(':') == std::string::npos;
-                        });
+      // A name one engine knows (or only reports) may be meant for another engine alone.
+      const std::string_view what = e.what();
+      const bool bare =
+          running &&
+          (what.starts_with("unknown") || what.ends_with("is reported by the run, not set")) &&
+          std::any_of(all.begin(), all.end(), [](const std::string& s) {
+            return s.substr(0, s.find('=')).find(':') == std::string::npos;
+          });
       throw std::invalid_argument(fmt::format(
           "--set: {}{}", e.what(),
           bare ? "; a bare KEY=VALUE goes to every engine that runs, ENGINE:KEY=VALUE to one"

@@ -107,6 +107,19 @@ std::vector<EngineEntry> make_table() {
   };
 }
 
+// The runs that print a setting.
+const char* runs_of(const sim::SettingSpec& s) {
+  switch (s.applies_to) {
+    case sim::AppliesTo::kinematic:
+      return "kinematic";
+    case sim::AppliesTo::dynamics:
+      return "dynamics";
+    case sim::AppliesTo::both:
+      break;
+  }
+  return "both";
+}
+
 }  // namespace
 
 const std::vector<EngineEntry>& engine_table() {
@@ -134,10 +147,11 @@ std::string settings_markdown(const EngineEntry& engine) {
       text.replace(at, 1, "\\|");
     return text;
   };
-  std::string out = "| setting | default | takes | what |\n|---|---|---|---|\n";
+  std::string out = "| setting | default | takes | runs | what |\n|---|---|---|---|---|\n";
   for (const sim::SettingSpec& s : engine.make()->settings_schema())
-    out += fmt::format("| `{}` | `{}` | {} | {} |\n", s.name, s.default_value,
-                       cell(sim::allowed_values(s)), cell(s.doc));
+    out += fmt::format("| `{}` | {} | {} | {} | {} |\n", s.name,
+                       s.reported ? "" : fmt::format("`{}`", s.default_value),
+                       cell(sim::allowed_values(s)), runs_of(s), cell(s.doc));
   return out;
 }
 
@@ -150,9 +164,14 @@ std::string engines_listing(bool markdown) {
       continue;
     }
     out += fmt::format("{}{}  {}\n", out.empty() ? "" : "\n", e.name, e.description);
-    for (const sim::SettingSpec& s : e.make()->settings_schema())
-      out += fmt::format("  {} (default {}; {})\n      {}\n", s.name, s.default_value,
-                         sim::allowed_values(s), s.doc);
+    for (const sim::SettingSpec& s : e.make()->settings_schema()) {
+      const std::string runs =
+          s.applies_to == sim::AppliesTo::both ? "" : fmt::format("; {} runs", runs_of(s));
+      out += s.reported ? fmt::format("  {} ({}{})\n      {}\n", s.name, sim::allowed_values(s),
+                                      runs, s.doc)
+                        : fmt::format("  {} (default {}; {}{})\n      {}\n", s.name,
+                                      s.default_value, sim::allowed_values(s), runs, s.doc);
+    }
   }
   return out;
 }

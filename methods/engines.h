@@ -41,10 +41,11 @@ const EngineEntry* find_engine(std::string_view name);
 // "mujoco", "bullet": the table's names in order.
 std::vector<std::string> engine_names();
 
-// `crosslink engines`: each engine with its settings (default, what it takes, what it does); as
-// Markdown tables (`markdown`), the reference of docs/engines.md ("Settings"), one per engine.
+// `crosslink engines`: each engine with its settings (default, what it takes, the runs it applies
+// to, what it does) and the values its runs report; as Markdown tables (`markdown`), the
+// reference of docs/engines.md ("Settings"), one per engine.
 std::string engines_listing(bool markdown);
-// One engine's Markdown table: | setting | default | takes | what |.
+// One engine's Markdown table: | setting | default | takes | runs | what |.
 std::string settings_markdown(const EngineEntry& engine);
 
 // Every engine's default tolerances for a kinematic or a dynamics case (compare::Tolerances).

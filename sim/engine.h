@@ -33,7 +33,9 @@ using crosslink::RunCost;  // sim::RunCost: the run record every engine fills
 
 struct EngineRun {
   Trajectory trajectory;  // same samples (driver values) as the reference sweep
-  Settings settings;      // every setting in force, defaults included
+  // Every setting in force, defaults included, and the values the run reports: its schema's
+  // entries for its kind of run, in the schema's order (printed_settings).
+  Settings settings;
   RunCost cost;
   bool ok = true;       // false: the run diverged or could not be built
   std::string message;  // why not ok, or notes (e.g. the samples outside a limited sweep)

@@ -97,6 +97,7 @@ std::string or_words(std::string what, const std::vector<std::string>& words) {
 }  // namespace
 
 std::string allowed_values(const SettingSpec& spec) {
+  if (spec.reported) return "reported by the run, not set";
   switch (spec.kind) {
     case SettingKind::number:
       return or_words(describe(spec.range), spec.words);
@@ -110,27 +111,74 @@ std::string allowed_values(const SettingSpec& spec) {
   return spec.allowed;
 }
 
+bool applies(const SettingSpec& spec, RunKind run) {
+  return spec.applies_to == AppliesTo::both ||
+         (spec.applies_to == AppliesTo::kinematic) == (run == RunKind::kinematic);
+}
+
+RunSettings printed_settings(const SettingSchema& schema, RunKind run,
+                             const RunSettings& in_force) {
+  const char* const kind = run == RunKind::kinematic ? "kinematic" : "dynamics";
+  auto named = [&](std::string_view name) {
+    return std::find_if(in_force.begin(), in_force.end(),
+                        [&](const auto& value) { return value.first == name; });
+  };
+  RunSettings out;
+  for (const SettingSpec& s : schema) {
+    if (!applies(s, run)) continue;
+    const auto value = named(s.name);
+    if (value == in_force.end())
+      throw std::logic_error(fmt::format("a {} run gives no value for {}", kind, s.name));
+    out.push_back(*value);
+  }
+  for (auto value = in_force.begin(); value != in_force.end(); ++value) {
+    const std::string& name = value->first;
+    if (named(name) != value)
+      throw std::logic_error(fmt::format("a {} run gives {} twice", kind, name));
+    if (std::none_of(schema.begin(), schema.end(),
+                     [&](const SettingSpec& s) { return s.name == name && applies(s, run); }))
+      throw std::logic_error(
+          fmt::format("a {} run gives {}, which its schema does not declare for it", kind, name));
+  }
+  return out;
+}
+
 SettingSpec shared_setting(std::string_view name) {
   using enum SettingKind;
   if (name == "max_steps")
-    return {"max_steps",
-            count,
-            std::to_string(kDefaultMaxSteps),
-            "the most steps of a run (refused before it starts)",
-            {},
-            kMostSteps};
+    return {.name = "max_steps",
+            .kind = count,
+            .default_value = std::to_string(kDefaultMaxSteps),
+            .doc = "the most steps of a run (refused before it starts)",
+            .most = kMostSteps};
   if (name == "perturb_link")
-    return {"perturb_link",
-            text,
-            "none",
-            "test hook: that link's points scaled in the scene only",
-            {},
-            0,
-            {},
-            "none, or <moving link>:<positive factor>"};
+    return {.name = "perturb_link",
+            .kind = text,
+            .default_value = "none",
+            .doc = "test hook: that link's points scaled in the scene only",
+            .allowed = "none, or <moving link>:<positive factor>"};
   if (name == "divergence_energy")
-    return {"divergence_energy", number, "1",
-            "forward dynamics: beyond it (of the energy scale) the run stops: diverged", kPositive};
+    return {.name = "divergence_energy",
+            .kind = number,
+            .default_value = "1",
+            .doc = "forward dynamics: beyond it (of the energy scale) the run stops: diverged",
+            .range = kPositive,
+            .applies_to = AppliesTo::dynamics};
+  // Reported by every engine's runs.
+  if (name == "mass_model")
+    return {.name = "mass_model",
+            .doc = "the masses and inertias the scene is built with",
+            .reported = true};
+  if (name == "driver")
+    return {.name = "driver",
+            .doc = "forward dynamics: what moves the driven coordinate",
+            .applies_to = AppliesTo::dynamics,
+            .reported = true};
+  if (name == "energy_scale")
+    return {.name = "energy_scale",
+            .doc = "forward dynamics: the energy [J] the energy thresholds are fractions of",
+            .applies_to = AppliesTo::dynamics,
+            .reported = true};
   throw std::logic_error(fmt::format("no shared setting {}", name));
 }
 
@@ -145,11 +193,15 @@ SettingValues::SettingValues(const SettingSchema& schema, std::string_view engin
                                  [&](const SettingSpec& s) { return s.name == name; });
     if (it == schema.end()) {
       std::string known;
-      for (const SettingSpec& s : schema) known += (known.empty() ? "" : ", ") + s.name;
+      for (const SettingSpec& s : schema)
+        if (!s.reported) known += (known.empty() ? "" : ", ") + s.name;
       throw std::invalid_argument(
           fmt::format("unknown {} setting \"{}\" (known: {})", engine, name, known));
     }
     const SettingSpec& spec = *it;
+    if (spec.reported)
+      throw std::invalid_argument(
+          fmt::format("{} setting \"{}\" is reported by the run, not set", engine, name));
     const bool word = std::find(spec.words.begin(), spec.words.end(), value) != spec.words.end();
     if (spec.kind == SettingKind::choice && !word) refuse(name, value, allowed_values(spec));
     if (spec.kind == SettingKind::number && !word && !within(value, spec.range))
@@ -163,8 +215,8 @@ SettingValues::SettingValues(const SettingSchema& schema, std::string_view engin
 
 const SettingSpec& SettingValues::spec(std::string_view name) const {
   for (const SettingSpec& s : schema_)
-    if (s.name == name) return s;
-  throw std::logic_error(fmt::format("setting {} is not declared", name));
+    if (s.name == name && !s.reported) return s;
+  throw std::logic_error(fmt::format("setting {} is not declared (or only reported)", name));
 }
 
 const std::string& SettingValues::text(std::string_view name) const {

@@ -1,9 +1,10 @@
 // The settings schema every engine declares once (SettingSpec: name, kind, default, the values it
-// takes, one line of doc), and the readers behind it: parsing and checking --set NAME=VALUE
-// before any run (SettingValues), the listing of `crosslink engines` and the table of
-// docs/engines.md (tests/methods/test_engines.cpp holds the table to the declarations). Each
-// reader throws std::invalid_argument naming the setting, its text and what it takes, so that a
-// bad value is bad input (exit 2), never a failed run.
+// takes, the runs it applies to, one line of doc), and the readers behind it: parsing and checking
+// --set NAME=VALUE before any run (SettingValues), the record every run prints
+// (printed_settings), the listing of `crosslink engines` and the table of docs/engines.md
+// (tests/methods/test_engines.cpp holds the table and the runs' records to the declarations).
+// Each reader of input throws std::invalid_argument naming the setting, its text and what it
+// takes, so that a bad value is bad input (exit 2), never a failed run.
 #pragma once
 
 #include <limits>
@@ -44,31 +45,52 @@ enum class SettingKind {
   text,    // free text the engine checks itself (`allowed` says what it takes)
 };
 
+// The kind of run a setting applies to: a kinematic run follows the driver's law; a dynamics run
+// integrates forward dynamics under the applied effort.
+enum class RunKind { kinematic, dynamics };
+enum class AppliesTo { both, kinematic, dynamics };
+
 struct SettingSpec {
   std::string name;
   SettingKind kind = SettingKind::number;
-  std::string default_value;  // the value a run reads when the setting is not given
-  std::string doc;            // one line: what it does
-  SettingRange range = {};    // number
+  std::string default_value = {};  // the value a run reads when the setting is not given
+  std::string doc = {};            // one line: what it does
+  SettingRange range = {};         // number
   long most = std::numeric_limits<int>::max();  // count
   std::vector<std::string> words = {};          // choice: its values; number, count: besides
   std::string allowed = {};                     // text: what it takes
+  AppliesTo applies_to = AppliesTo::both;       // the runs that print it
+  // A value the run reports (the steps it took, its mass model), not one the user sets: --set
+  // refuses it; kind, default and values are unused.
+  bool reported = false;
 };
 using SettingSchema = std::vector<SettingSpec>;
 
 // A setting every engine declares alike, by name: "max_steps", "perturb_link",
-// "divergence_energy" (std::logic_error for another name).
+// "divergence_energy", and the reported "mass_model", "driver", "energy_scale" (std::logic_error
+// for another name).
 SettingSpec shared_setting(std::string_view name);
 
-// What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit".
+// What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit"; "reported
+// by the run, not set" for a reported value.
 std::string allowed_values(const SettingSpec& spec);
+
+// Whether `spec` is printed by a run of this kind.
+bool applies(const SettingSpec& spec, RunKind run);
+
+// What a run prints (EngineRun::settings): every entry `schema` declares for this kind of run,
+// set or reported, in the schema's order, each with its value in force from `in_force` (by name:
+// auto resolved, the step the run took). Throws std::logic_error when a declared entry has no
+// value, or a value is given twice or for a name not declared for this kind of run: the printed
+// list is the schema's.
+RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force);
 
 // An engine's settings read against its schema: every declared setting's text (its default
 // unless given; a later override wins), each override checked by its kind before any run.
 class SettingValues {
  public:
   // Throws std::invalid_argument for a name `schema` does not declare ("unknown <engine> setting
-  // ..." with the names it knows) or a value its kind does not take.
+  // ..." with the names it knows), a value it reports, or a value its kind does not take.
   SettingValues(const SettingSchema& schema, std::string_view engine, const RunSettings& overrides);
   const std::string& text(std::string_view name) const;
   bool given(std::string_view name) const;  // overridden, not the default
@@ -77,7 +99,7 @@ class SettingValues {
   long count(std::string_view name) const;     // a count setting that holds a count
 
  private:
-  const SettingSpec& spec(std::string_view name) const;
+  const SettingSpec& spec(std::string_view name) const;  // a declared setting, not reported
   const SettingSchema& schema_;
   std::vector<std::string> text_;  // per declared setting
   std::vector<bool> given_;

@@ -87,86 +87,109 @@ struct Config {
   double divergence_energy = 1.0;  // beyond it the run stops: diverged
 };
 
-// Every setting, its default and what it takes (sim/settings.h; docs/engines.md, "Bullet").
+// Every setting, its default and what it takes, and the values a run reports, in the order a run
+// prints them (sim/settings.h; docs/engines.md, "Bullet").
 const SettingSchema& bullet_settings() {
   using enum SettingKind;
+  using enum AppliesTo;
   static const SettingSchema schema = {
-      {"formulation",
-       choice,
-       "rigid",
-       "rigid bodies with joints, or a Featherstone multibody",
-       {},
-       0,
-       {"multibody", "rigid"}},
-      {"solver",
-       choice,
-       "mlcp_dantzig",
-       "the joint solver",
-       {},
-       0,
-       {"mlcp_dantzig", "sequential_impulse"}},
-      {"dt",
-       number,
-       "auto",
-       "the longest time step [s], shortened to divide each sample interval; auto: sample interval "
-       "/ steps_per_sample",
-       kPositive,
-       0,
-       {"auto"}},
-      {"steps_per_sample", count, "2", "auto dt: steps per sample interval (at least)"},
-      {"max_step_angle", number, "0.01",
-       "auto dt: the most the fastest link turns in a step "
-       "[rad] (0: off; forward dynamics: 0.0025)",
-       kNonNegative},
-      {"iterations",
-       count,
-       "50",
-       "sequential impulse's iterations (and the MLCP's fallback)",
-       {},
-       kMostIterations},
-      {"erp", number, "1", "error reduction per step", {0.0, 1.0, true}},
-      {"gap_threshold",
-       number,
-       "auto",
-       "a larger joint gap [m] in a sample's stencil flags "
-       "loop_gap; auto: 1e-4 x size",
-       kPositive,
-       0,
-       {"auto"}},
-      {"singular_rcond", number, "0.03",
-       "samples conditioned worse than this fraction of the "
-       "chain's own are singular",
-       kRcond},
-      {"branch_distance", number, "0.0001",
-       "a closed configuration this far from the "
-       "reference's (of the size, or rad) is branch_jump",
-       kPositive},
-      {"divergence_gap", number, "0.1", "beyond this gap (of the size) the run stops: diverged",
-       kPositive},
-      {"driver_threshold",
-       number,
-       "auto",
-       "a driver further from its law [rad or m] is lost; "
-       "auto: 1e-4 rad (1e-4 x size for a slider)",
-       kPositive,
-       0,
-       {"auto"}},
-      {"split_impulse", choice, "0", "Bullet's split impulse", {}, 0, {"0", "1"}},
-      shared_setting("max_steps"),
-      {"start",
-       choice,
-       "staggered",
-       "forward dynamics: staggered (v0 - h/2 a0) or exact start",
-       {},
-       0,
-       {"staggered", "exact"}},
-      {"energy_threshold", number, "0.001",
-       "forward dynamics: an energy error over the energy "
-       "scale beyond it is a note",
-       kPositive},
+      {.name = "formulation",
+       .kind = choice,
+       .default_value = "rigid",
+       .doc = "rigid bodies with joints, or a Featherstone multibody",
+       .words = {"multibody", "rigid"}},
+      {.name = "solver",
+       .kind = choice,
+       .default_value = "mlcp_dantzig",
+       .doc = "the joint solver",
+       .words = {"mlcp_dantzig", "sequential_impulse"}},
+      {.name = "dt",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "the longest time step [s], shortened to divide each sample interval; auto: sample "
+              "interval / steps_per_sample",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "steps_per_sample",
+       .kind = count,
+       .default_value = "2",
+       .doc = "auto dt: steps per sample interval (at least)"},
+      {.name = "max_step_angle",
+       .kind = number,
+       .default_value = "0.01",
+       .doc = "auto dt: the most the fastest link turns in a step [rad] (0: off; forward "
+              "dynamics: 0.0025)",
+       .range = kNonNegative},
+      {.name = "iterations",
+       .kind = count,
+       .default_value = "50",
+       .doc = "sequential impulse's iterations (and the MLCP's fallback)",
+       .most = kMostIterations},
+      {.name = "erp",
+       .kind = number,
+       .default_value = "1",
+       .doc = "error reduction per step",
+       .range = {0.0, 1.0, true}},
+      {.name = "precision",
+       .kind = choice,
+       .default_value = "float64",
+       .doc = "the Bullet build linked",
+       .words = {"float64"}},
+      {.name = "gap_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a larger joint gap [m] in a sample's stencil flags loop_gap; auto: 1e-4 x size",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "divergence_gap",
+       .kind = number,
+       .default_value = "0.1",
+       .doc = "beyond this gap (of the size) the run stops: diverged",
+       .range = kPositive},
+      {.name = "driver_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a driver further from its law [rad or m] is lost; auto: 1e-4 rad (1e-4 x size "
+              "for a slider)",
+       .range = kPositive,
+       .words = {"auto"},
+       .applies_to = kinematic},
+      {.name = "split_impulse",
+       .kind = choice,
+       .default_value = "0",
+       .doc = "Bullet's split impulse",
+       .words = {"0", "1"}},
+      shared_setting("mass_model"),
+      shared_setting("driver"),
+      {.name = "start",
+       .kind = choice,
+       .default_value = "staggered",
+       .doc = "forward dynamics: staggered (v0 - h/2 a0) or exact start",
+       .words = {"staggered", "exact"},
+       .applies_to = dynamics},
+      {.name = "forces", .doc = "how the joint forces are read", .reported = true},
+      {.name = "singular_rcond",
+       .kind = number,
+       .default_value = "0.03",
+       .doc = "samples conditioned worse than this fraction of the chain's own are singular",
+       .range = kRcond},
+      {.name = "branch_distance",
+       .kind = number,
+       .default_value = "0.0001",
+       .doc = "a closed configuration this far from the reference's (of the size, or rad) is "
+              "branch_jump",
+       .range = kPositive,
+       .applies_to = kinematic},
+      {.name = "energy_threshold",
+       .kind = number,
+       .default_value = "0.001",
+       .doc = "forward dynamics: an energy error over the energy scale beyond it is a note",
+       .range = kPositive,
+       .applies_to = dynamics},
       shared_setting("divergence_energy"),
-      {"precision", choice, "float64", "the Bullet build linked", {}, 0, {"float64"}},
+      shared_setting("energy_scale"),
       shared_setting("perturb_link"),
+      shared_setting("max_steps"),
   };
   return schema;
 }
@@ -988,8 +1011,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   return p;
 }
 
-// The settings rows both runs report first, in this order (`steps_per_sample`: each run's own
-// account of it).
+// The values in force both runs print (`steps_per_sample`: each run's own account of it).
 Settings common_settings(const Config& config, double dt, const std::string& steps_per_sample) {
   return {{"formulation", config.formulation},
           {"solver", config.solver},
@@ -1001,7 +1023,12 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
           {"erp", format_number(config.erp)},
           {"precision", btIsDoublePrecision() ? "float64" : "float32"},
           {"gap_threshold", format_number(config.gap_threshold)},
-          {"divergence_gap", format_number(config.divergence_gap)}};
+          {"divergence_gap", format_number(config.divergence_gap)},
+          {"split_impulse", config.split_impulse ? "1" : "0"},
+          {"mass_model", "the definition's (Link::mass)"},
+          {"singular_rcond", format_number(config.singular_rcond)},
+          {"perturb_link", config.perturb_link},
+          {"max_steps", std::to_string(config.max_steps)}};
 }
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
@@ -1115,20 +1142,16 @@ StepLength kinematic_step(const Trajectory& reference, const Span& span, const C
 }
 
 Settings kinematic_settings(const Config& config, const StepLength& step) {
-  Settings out = common_settings(config, step.dt,
-                                 config.dt == 0.0 ? std::to_string(step.steps_per_sample)
-                                                  : format_number(step.interval / step.dt));
+  Settings values = common_settings(config, step.dt,
+                                    config.dt == 0.0 ? std::to_string(step.steps_per_sample)
+                                                     : format_number(step.interval / step.dt));
   const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
-                         {"split_impulse", config.split_impulse ? "1" : "0"},
-                         {"mass_model", "the definition's (Link::mass)"},
                          {"forces", config.formulation == "rigid"
                                         ? "btJointFeedback of the step leaving each sampled pose"
                                         : "not read (multibody joint feedback is wrong in 3.24)"},
-                         {"singular_rcond", format_number(config.singular_rcond)},
-                         {"branch_distance", format_number(config.branch_distance)},
-                         {"perturb_link", config.perturb_link}};
-  out.insert(out.end(), more.begin(), more.end());
-  return out;
+                         {"branch_distance", format_number(config.branch_distance)}};
+  values.insert(values.end(), more.begin(), more.end());
+  return printed_settings(bullet_settings(), RunKind::kinematic, values);
 }
 
 // How the driver's value maps to the scene's driven coordinate: the coordinate at the start and
@@ -1254,24 +1277,20 @@ double dynamics_step(const Trajectory& reference, const Span& span, const Config
 Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
                            double dt, double energy_scale, bool with_forces) {
   const double interval = reference.time(span.first + 1) - reference.time(span.first);
-  Settings out = common_settings(config, dt,
-                                 config.dt == 0.0
-                                     ? std::to_string(static_cast<long>(std::round(interval / dt)))
-                                     : "unused (dt given)");
+  Settings values = common_settings(
+      config, dt,
+      config.dt == 0.0 ? std::to_string(static_cast<long>(std::round(interval / dt)))
+                       : "unused (dt given)");
   const Settings more = {
-      {"split_impulse", config.split_impulse ? "1" : "0"},
-      {"mass_model", "the definition's (Link::mass)"},
       {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
       {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
       {"forces", with_forces ? "btJointFeedback of the step leaving each sample"
                              : "not read (multibody joint feedback is wrong in 3.24)"},
-      {"singular_rcond", format_number(config.singular_rcond)},
       {"energy_threshold", format_number(config.energy_threshold)},
       {"divergence_energy", format_number(config.divergence_energy)},
-      {"energy_scale", fmt::format("{:.6g} J", energy_scale)},
-      {"perturb_link", config.perturb_link}};
-  out.insert(out.end(), more.begin(), more.end());
-  return out;
+      {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
+  values.insert(values.end(), more.begin(), more.end());
+  return printed_settings(bullet_settings(), RunKind::dynamics, values);
 }
 
 // A dynamics run's scene for the shared run loop (sim/dynamics_run.h): no driver (slides' frames

@@ -136,108 +136,132 @@ struct Config {
   std::string singular_rcond = "auto";
 };
 
-// Every setting, its default and what it takes (sim/settings.h; docs/engines.md, "MuJoCo").
+// Every setting, its default and what it takes, and the values a run reports, in the order a run
+// prints them (sim/settings.h; docs/engines.md, "MuJoCo").
 const SettingSchema& mujoco_settings() {
   using enum SettingKind;
+  using enum AppliesTo;
   static const SettingSchema schema = {
-      {"dt",
-       number,
-       "auto",
-       "time step [s]; auto: the longest dividing each sample interval "
-       "within max_step_angle",
-       kPositive,
-       0,
-       {"auto"}},
-      {"max_step_angle", number, "0.0025",
-       "auto dt: the most the fastest link turns in a step "
-       "[rad]",
-       kPositive},
-      {"integrator", choice, "Euler", "MuJoCo's integrator", {}, 0, {"Euler", "RK4", "implicit"}},
-      {"solver", choice, "Newton", "MuJoCo's constraint solver", {}, 0, {"Newton", "CG", "PGS"}},
-      {"iterations", count, "20", "the solver's iterations per step", {}, kMostIterations},
-      {"tolerance", number, "1e-10", "the solver's tolerance (0: every iteration runs)",
-       kNonNegative},
-      {"solref",
-       text,
-       "deadbeat",
-       "the loop constraints' solref",
-       {},
-       0,
-       {},
-       "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
-      {"solimp", text, kSolimp, "the loop constraints' solimp", {}, 0, {}, "3 to 5 numbers"},
-      {"driver_solref",
-       text,
-       "deadbeat",
-       "the driver's solref",
-       {},
-       0,
-       {},
-       "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
-      {"driver_solimp", text, kSolimp, "the driver's solimp", {}, 0, {}, "3 to 5 numbers"},
-      {"gap_threshold",
-       number,
-       "auto",
-       "a larger cut gap [m] since the previous sample flags "
-       "loop_gap; auto: 1e-4 x size",
-       kPositive,
-       0,
-       {"auto"}},
-      {"driver_threshold",
-       number,
-       "auto",
-       "a driven joint further from its target [rad or m] is "
-       "lost; auto: 1e-3 rad (1e-3 x size for a slider)",
-       kPositive,
-       0,
-       {"auto"}},
+      {.name = "dt",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "time step [s]; auto: the longest dividing each sample interval within "
+              "max_step_angle",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "steps_per_sample",
+       .doc = "the steps in the sample interval of the longest step",
+       .reported = true},
+      {.name = "max_step_angle",
+       .kind = number,
+       .default_value = "0.0025",
+       .doc = "auto dt: the most the fastest link turns in a step [rad]",
+       .range = kPositive},
+      {.name = "integrator",
+       .kind = choice,
+       .default_value = "Euler",
+       .doc = "MuJoCo's integrator",
+       .words = {"Euler", "RK4", "implicit"}},
+      {.name = "solver",
+       .kind = choice,
+       .default_value = "Newton",
+       .doc = "MuJoCo's constraint solver",
+       .words = {"Newton", "CG", "PGS"}},
+      {.name = "iterations",
+       .kind = count,
+       .default_value = "20",
+       .doc = "the solver's iterations per step",
+       .most = kMostIterations},
+      {.name = "tolerance",
+       .kind = number,
+       .default_value = "1e-10",
+       .doc = "the solver's tolerance (0: every iteration runs)",
+       .range = kNonNegative},
+      {.name = "solref",
+       .kind = text,
+       .default_value = "deadbeat",
+       .doc = "the loop constraints' solref",
+       .allowed = "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
+      {.name = "solimp",
+       .kind = text,
+       .default_value = kSolimp,
+       .doc = "the loop constraints' solimp",
+       .allowed = "3 to 5 numbers"},
+      {.name = "driver_solref",
+       .kind = text,
+       .default_value = "deadbeat",
+       .doc = "the driver's solref",
+       .allowed = "deadbeat (-1/dt^2, -1/dt), or 2 numbers",
+       .applies_to = kinematic},
+      {.name = "driver_solimp",
+       .kind = text,
+       .default_value = kSolimp,
+       .doc = "the driver's solimp",
+       .allowed = "3 to 5 numbers",
+       .applies_to = kinematic},
+      {.name = "driver_armature",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "armature of the driven joint; auto: 1e-2 of the inertia it moves",
+       .range = kNonNegative,
+       .words = {"auto"},
+       .applies_to = kinematic},
+      {.name = "gap_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a larger cut gap [m] since the previous sample flags loop_gap; auto: 1e-4 x size",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "driver_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a driven joint further from its target [rad or m] is lost; auto: 1e-3 rad (1e-3 "
+              "x size for a slider)",
+       .range = kPositive,
+       .words = {"auto"},
+       .applies_to = kinematic},
+      {.name = "singular_rcond",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "samples conditioned worse than this fraction of the chain's own are singular; "
+              "auto: 1e-5 (dynamics 0.03)",
+       .range = kRcond,
+       .words = {"auto"}},
       shared_setting("perturb_link"),
-      {"force_read",
-       choice,
-       "centred",
-       "forces at the sampled pose's velocity, or efc_force as "
-       "solved",
-       {},
-       0,
-       {"centred", "raw"}},
-      {"driver_armature",
-       number,
-       "auto",
-       "armature of the driven joint; auto: 1e-2 of the "
-       "inertia it moves",
-       kNonNegative,
-       0,
-       {"auto"}},
-      shared_setting("max_steps"),
-      {"start",
-       choice,
-       "auto",
-       "forward dynamics: staggered (v0 - h/2 a0) or exact start; auto: "
-       "staggered for Euler and implicit",
-       {},
-       0,
-       {"auto", "staggered", "exact"}},
-      {"readout",
-       choice,
-       "auto",
-       "forward dynamics: rates from position differences or the "
-       "state; auto: state for RK4",
-       {},
-       0,
-       {"auto", "differences", "state"}},
-      {"energy_threshold", number, "0.001",
-       "forward dynamics: an energy error over the energy "
-       "scale beyond it is an event",
-       kPositive},
+      shared_setting("mass_model"),
+      {.name = "force_read",
+       .kind = choice,
+       .default_value = "centred",
+       .doc = "forces at the sampled pose's velocity, or efc_force as solved",
+       .words = {"centred", "raw"}},
+      {.name = "derivatives",
+       .doc = "how rates are read from the step positions",
+       .applies_to = kinematic,
+       .reported = true},
+      shared_setting("driver"),
+      {.name = "start",
+       .kind = choice,
+       .default_value = "auto",
+       .doc = "forward dynamics: staggered (v0 - h/2 a0) or exact start; auto: staggered for "
+              "Euler and implicit",
+       .words = {"auto", "staggered", "exact"},
+       .applies_to = dynamics},
+      {.name = "readout",
+       .kind = choice,
+       .default_value = "auto",
+       .doc = "forward dynamics: rates from position differences or the state; auto: state for "
+              "RK4",
+       .words = {"auto", "differences", "state"},
+       .applies_to = dynamics},
+      {.name = "energy_threshold",
+       .kind = number,
+       .default_value = "0.001",
+       .doc = "forward dynamics: an energy error over the energy scale beyond it is an event",
+       .range = kPositive,
+       .applies_to = dynamics},
       shared_setting("divergence_energy"),
-      {"singular_rcond",
-       number,
-       "auto",
-       "samples conditioned worse than this fraction of the "
-       "chain's own are singular; auto: 1e-5 (dynamics 0.03)",
-       kRcond,
-       0,
-       {"auto"}},
+      shared_setting("energy_scale"),
+      shared_setting("max_steps"),
   };
   return schema;
 }
@@ -780,7 +804,7 @@ KinematicWatch kinematic_watch(const Config& c, const Scene& s) {
   return w;
 }
 
-// What both runs record first: the step and MuJoCo's solver options.
+// The values in force both runs print: the step, MuJoCo's solver options and the scene.
 Settings step_settings(const Prepared& p) {
   return {
       {"dt", fmt::format("{:.9g}", p.grid.dt)},
@@ -793,14 +817,17 @@ Settings step_settings(const Prepared& p) {
       {"tolerance", fmt::format("{:g}", p.options.tolerance)},
       {"solref", numbers(p.options.solref)},
       {"solimp", numbers(p.options.solimp)},
+      {"perturb_link", p.config.perturb_link},
+      {"mass_model", "the definition's (Link::mass)"},
+      {"max_steps", std::to_string(p.config.max_steps)},
   };
 }
 
 // The settings record of a kinematic run: every setting in force, defaults included.
 Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool with_forces) {
-  Settings out = step_settings(p);
-  out.insert(
-      out.end(),
+  Settings values = step_settings(p);
+  values.insert(
+      values.end(),
       {
           {"driver_solref", numbers(p.options.driver_solref)},
           {"driver_solimp", numbers(p.options.driver_solimp)},
@@ -808,8 +835,6 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
           {"gap_threshold", fmt::format("{:.6g}", w.gap)},
           {"driver_threshold", fmt::format("{:.6g}", w.driver)},
           {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
-          {"perturb_link", p.config.perturb_link},
-          {"mass_model", "the definition's (Link::mass)"},
           {"force_read", with_forces ? p.config.force_read
                                      : "none (a slide on the driver tendon's path would carry the "
                                        "driver's reaction)"},
@@ -817,7 +842,7 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
            "3-point central differences of step positions; 4-point one-sided at the first and "
            "last usable samples"},
       });
-  return out;
+  return printed_settings(mujoco_settings(), RunKind::kinematic, values);
 }
 
 // The tree joints' rates of the state (q, qdot) into d->qvel: the scene starts on the exact
@@ -965,13 +990,14 @@ DynamicsWatch dynamics_watch(const Mechanism& m, const Trajectory& reference, co
 // The settings record of a dynamics run.
 Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
                            const DynamicsWatch& w) {
-  Settings out = step_settings(p);
-  out.insert(
-      out.end(),
+  Settings values = step_settings(p);
+  values.insert(
+      values.end(),
       {
           {"gap_threshold", fmt::format("{:.6g}", w.gap)},
-          {"perturb_link", p.config.perturb_link},
-          {"mass_model", "the definition's (Link::mass)"},
+          {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
+          // The state readout takes MuJoCo's forces at the sampled state as they are.
+          {"force_read", choice.state_readout ? "unused (state readout)" : p.config.force_read},
           {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
           {"start", choice.staggered ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
           {"readout", choice.state_readout ? "state (MuJoCo's velocity; mj_forward acceleration)"
@@ -979,9 +1005,8 @@ Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
           {"energy_threshold", fmt::format("{:g}", p.config.energy_threshold)},
           {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
           {"energy_scale", fmt::format("{:.6g} J", w.energy_scale)},
-          {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
       });
-  return out;
+  return printed_settings(mujoco_settings(), RunKind::dynamics, values);
 }
 
 // A dynamics run's scene for the shared run loop (sim/dynamics_run.h): MuJoCo's model at the

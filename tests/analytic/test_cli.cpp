@@ -973,6 +973,14 @@ TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
   EXPECT_NE(bare.err.find("unknown Bullet setting \"integrator\" (known: formulation,"),
             std::string::npos)
       << bare.err;
+  // A value a run reports is not input: Bullet's steps_per_sample is a setting, MuJoCo's the
+  // count its run reports.
+  const CommandRun reported = crosslink(compare + " --set steps_per_sample=3");
+  EXPECT_EQ(reported.exit_code, 2);
+  EXPECT_NE(reported.err.find("MuJoCo setting \"steps_per_sample\" is reported by the run, not "
+                              "set; a bare KEY=VALUE goes to every engine that runs"),
+            std::string::npos)
+      << reported.err;
   // ENGINE:KEY is checked whether that engine runs or not; the prefix must be an engine.
   const CommandRun idle = crosslink(compare + " --engines analytic --set bullet:erp=2");
   EXPECT_EQ(idle.exit_code, 2);

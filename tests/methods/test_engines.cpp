@@ -17,6 +17,9 @@ namespace {
 
 const std::string kFourbar =
     std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/fourbar_crank_rocker.toml";
+// A dynamics case ([dynamics]) whose engine runs take well under a second.
+const std::string kSqueezer =
+    std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/andrews_squeezer.toml";
 
 std::string read(const std::string& path) {
   std::ifstream in(path);
@@ -47,6 +50,17 @@ TEST(EngineTable, EverySettingRefusesWhatItsKindDoesNotTakeAndTakesItsDefault) {
   for (const EngineEntry& e : engine_table()) {
     const auto engine = e.make();
     for (const sim::SettingSpec& s : engine->settings_schema()) {
+      if (s.reported) {  // what a run reports is not input
+        try {
+          engine->check_settings(m, {{s.name, "1"}});
+          ADD_FAILURE() << e.name << ':' << s.name << " was set";
+        } catch (const std::invalid_argument& error) {
+          EXPECT_NE(std::string(error.what()).find("is reported by the run, not set"),
+                    std::string::npos)
+              << error.what();
+        }
+        continue;
+      }
       EXPECT_NO_THROW(engine->check_settings(m, {{s.name, s.default_value}}))
           << e.name << ':' << s.name;
       const char* bad = s.kind == sim::SettingKind::count ? "2.5" : "not-a-value";
@@ -86,6 +100,26 @@ TEST(EngineTable, SharedKeysReachEveryEngine) {
                                   [](const auto& s) { return s.first == "gap_threshold"; });
     ASSERT_NE(row, run.settings.end()) << e.name;
     EXPECT_EQ(row->second, "0.5") << e.name;
+  }
+}
+
+// What a run prints (EngineRun::settings, in every report) is its engine's schema: every entry
+// declared for its kind of run, set or reported, in the declared order, and nothing else.
+TEST(EngineTable, EveryRunPrintsItsSchema) {
+  for (const std::string& path : {kFourbar, kSqueezer}) {
+    const Mechanism m = load_mechanism(path);
+    const sim::RunKind kind = m.dynamics ? sim::RunKind::dynamics : sim::RunKind::kinematic;
+    const MethodRun reference = run_reference(m);
+    for (const EngineEntry& e : engine_table()) {
+      std::vector<std::string> declared;
+      for (const sim::SettingSpec& s : e.make()->settings_schema())
+        if (sim::applies(s, kind)) declared.push_back(s.name);
+      const MethodRun run = run_method(e.name, m, reference, {});
+      ASSERT_TRUE(run.ok) << e.name << " on " << path << ": " << run.message;
+      std::vector<std::string> printed;
+      for (const auto& setting : run.settings) printed.push_back(setting.first);
+      EXPECT_EQ(printed, declared) << e.name << " on " << path;
+    }
   }
 }
 
