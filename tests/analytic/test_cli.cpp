@@ -1287,6 +1287,91 @@ TEST(Cli, ASamplePastTheLimitHasItsOwnTime) {
   EXPECT_GT(past, 0);
 }
 
+// `sweep` wrote a line per run (273 on the sewing machine). In a log (stderr not a terminal):
+// one line per finished series, an engine variant over its time steps; on a terminal one line
+// that every run rewrites.
+TEST(Cli, SweepProgressIsALinePerSeriesInALogAndOneLineOnATerminal) {
+  const std::string args = std::string(" sweep mechanisms/fourbar_crank_rocker.toml ") +
+                           "--engines bullet --dt 2.8e-3,3.5e-4 --repeat 1";
+  const CommandRun log = crosslink(args);
+  ASSERT_EQ(log.exit_code, 0) << log.err;
+  // The series: the variants of the orders table, each run at both time steps.
+  const size_t orders = log.out.find("Observed order");
+  ASSERT_NE(orders, std::string::npos);
+  std::istringstream table(log.out.substr(orders));
+  std::string line;
+  std::getline(table, line);
+  int series = 0;
+  while (std::getline(table, line) && line.rfind("  bullet ", 0) == 0) ++series;
+  ASSERT_GT(series, 1);
+  std::istringstream lines(log.err);
+  int progress = 0;
+  while (std::getline(lines, line)) {
+    EXPECT_NE(line.find(": 2 runs, dt 0.00278 to 0.000347 s"), std::string::npos) << line;
+    ++progress;
+  }
+  EXPECT_EQ(progress, series) << log.err;
+
+  if (std::system("command -v script >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "no `script` to give the command a terminal";
+  const std::filesystem::path typescript = scratch_dir() / "typescript.txt";
+  const int code = std::system(("script -qec '\"" + std::string(CROSSLINK_BINARY) + "\"" + args +
+                                "' \"" + typescript.string() + "\" >/dev/null 2>&1")
+                                   .c_str());
+  ASSERT_TRUE(WIFEXITED(code) && WEXITSTATUS(code) == 0) << code;
+  const std::string screen = read_file(typescript);
+  // Every run rewrote the line ("\r[k/N] ..."), and no progress line was ended but the last.
+  const int runs = 2 * series;
+  EXPECT_NE(screen.find(fmt::format("\r[{}/{}] ", runs, runs)), std::string::npos) << screen;
+  std::istringstream rows(screen);
+  int progress_lines = 0;
+  while (std::getline(rows, line))
+    progress_lines += line.find(fmt::format("/{}] ", runs)) != std::string::npos;
+  EXPECT_EQ(progress_lines, 1) << screen;
+}
+
+// `sweep` said `ok` of a series whose error grows as its step shrinks: MuJoCo RK4 against a
+// per-step driver target (docs/sweep.md: accelerations grow as 1 / dt). Such a series says so on
+// the console and in the CSV's message; Euler's falls at second order and says nothing.
+TEST(Cli, SweepFlagsASeriesWhoseErrorDoesNotFallWithTheStep) {
+  const std::string csv = (scratch_dir() / "rk4.csv").string();
+  const CommandRun run = crosslink(
+      "sweep mechanisms/fourbar_crank_rocker.toml --engines mujoco --dt 2e-4,1e-4,5e-5 "
+      "--repeat 1 --quiet --csv \"" +
+      csv + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream lines(read_file(csv));
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = rfc4180_fields(line);
+  const auto column = [&](const std::string& name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  // Per variant, the acceleration errors coarse to fine and the messages.
+  std::map<std::string, std::vector<double>> acceleration;
+  std::map<std::string, std::string> message;
+  while (std::getline(lines, line)) {
+    const std::vector<std::string> f = rfc4180_fields(line);
+    if (f[0] != "mujoco" || f[column("status")] != "ok") continue;
+    acceleration[f[column("variant")]].push_back(std::stod(f[column("max_pct_acceleration")]));
+    message[f[column("variant")]] = f[column("message")];
+  }
+  const std::string rk4 = "RK4/Newton, driver watch 0.05 rad", euler = "Euler/Newton";
+  ASSERT_EQ(acceleration[rk4].size(), 3u) << run.out;
+  ASSERT_EQ(acceleration[euler].size(), 3u) << run.out;
+  // The measured errors themselves: RK4's grows from the coarsest step to the finest, Euler's
+  // falls.
+  EXPECT_GT(acceleration[rk4].back(), acceleration[rk4].front());
+  EXPECT_LT(acceleration[euler].back(), acceleration[euler].front() / 4);
+  EXPECT_NE(message[rk4].find("acceleration"), std::string::npos) << message[rk4];
+  EXPECT_NE(message[rk4].find("error does not fall as dt shrinks"), std::string::npos)
+      << message[rk4];
+  EXPECT_EQ(message[euler].find("does not fall"), std::string::npos) << message[euler];
+  EXPECT_NE(run.out.find("ok; velocity, acceleration, force error does not fall as dt shrinks"),
+            std::string::npos)
+      << run.out;
+}
+
 // `compare` with the reference alone printed "PASS (0 channel comparisons)": nothing was
 // compared, which is no pass; exit 2 as for a command line that asks for nothing to judge.
 TEST(Cli, CompareWithTheReferenceAloneHasNothingToCompare) {
