@@ -1252,6 +1252,8 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       none.q.setZero();
       none.qdot.setZero();
       none.qddot.setZero();
+      // The sample's own time and driver state, not the last pose's.
+      none.driver = d.at_time(grid.time(row));
       none.driver.value = grid.driver(row);
       newton.write_sample(none, r, out, row);
       return;

@@ -3,14 +3,17 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "analytic/budget.h"
 #include "analytic/sweep.h"
 #include "methods/registry.h"
+#include "methods/settings_sweep.h"
 
 namespace crosslink::methods {
 struct GridPoint;
@@ -67,7 +70,29 @@ void check_engine_steps(double span, double dt, long max_steps, const std::strin
 // Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
 // empty text; throws std::invalid_argument otherwise), and the progress line of a long search.
 std::optional<double> parse_accuracy(const std::string& text);
-void print_progress(int index, int total, const methods::GridPoint& point);
+// The progress of a long search on stderr: on a terminal one line each run rewrites; otherwise
+// (a log, a CI job) one line per finished series, an engine variant over its time steps (a
+// timing round of it: "(timing)"), when its engine's grid or round ends. finish() ends the line
+// or writes the series still open.
+class ProgressLines {
+ public:
+  ProgressLines();  // stderr; a terminal when isatty says so
+  ProgressLines(std::FILE* out, bool terminal);
+  methods::Progress progress();  // the callback; this object must outlive it
+  void finish();
+
+ private:
+  struct Series {
+    std::string engine, variant;
+    std::vector<double> dts;
+    int index = 0, total = 0;  // of its last run
+  };
+  void run(int index, int total, const methods::GridPoint& point);
+  std::FILE* out_;
+  bool terminal_;
+  bool rewritten_ = false;  // a terminal line is open
+  std::vector<Series> open_;
+};
 // compare --accuracy: `base` plus the cheapest settings of `engine` meeting `accuracy_pct` on
 // every class against `reference` (time steps on its sample boundaries, coarse to fine, stopping
 // at the first that meets it); says on `out` what it chose and what it costs. Without a setting

@@ -205,6 +205,8 @@ int run_compare(CompareArgs args) {
     write_file(args.report, page.str());
     fmt::print(json_stdout ? stderr : stdout, "report: {}\n", args.report);
   }
+  // Nothing compared is no PASS: the command asked for no comparison (docs/compare.md).
+  if (cmp.nothing_compared()) return kExitBadInput;
   return cmp.pass() ? kExitOk : kExitFail;
 }
 

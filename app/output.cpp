@@ -213,12 +213,16 @@ std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
                       const std::vector<std::string>& channels, const std::string& note,
                       const Columns& extra) {
-  const double driver_unit = m.driver().angular() ? m.units.angle : m.units.length;
   const std::string& driver_unit_name =
       m.driver().angular() ? m.units.angle_name : m.units.length_name;
-  std::string header = fmt::format("{:>10} {:>8}", by_time ? "t" : "driver", "status");
-  std::string units =
-      fmt::format("{:>10} {:>8}", by_time ? "[s]" : "[" + driver_unit_name + "]", "");
+  // An angle past one turn is shown within its turn, the whole turns in a column of their own.
+  bool turns = false;
+  for (int r = 0; r < t.samples() && !by_time; ++r)
+    turns = turns || compare::driver_turns(m, t.driver(r)).turns != 0;
+  std::string header = fmt::format("{:>10}{} {:>8}", by_time ? "t" : "driver",
+                                   turns ? fmt::format(" {:>5}", "turns") : "", "status");
+  std::string units = fmt::format("{:>10}{} {:>8}", by_time ? "[s]" : "[" + driver_unit_name + "]",
+                                  turns ? fmt::format(" {:>5}", "") : "", "");
   std::vector<Eigen::VectorXd> columns;
   std::vector<compare::DisplayUnit> shown;
   for (const std::string& name : channels) {
@@ -235,8 +239,12 @@ void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int
   fmt::print("{}  ({})\n{}\n{}\n", m.name, note, header, units);
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
-    std::string line = fmt::format(
-        "{:>10.4f} {:>8}", by_time ? t.time(r) : t.driver(r) / driver_unit, to_string(status));
+    const compare::DriverTurns d = compare::driver_turns(m, t.driver(r));
+    std::string line = fmt::format("{:>10.4f}{} {:>8}", by_time ? t.time(r) : d.within,
+                                   !turns         ? ""
+                                   : d.turns == 0 ? fmt::format(" {:>5}", 0)
+                                                  : fmt::format(" {:>+5d}", d.turns),
+                                   to_string(status));
     for (size_t c = 0; c < channels.size(); ++c) {
       const int width = std::max<int>(12, static_cast<int>(channels[c].size()));
       line += value_exists(status, Trajectory::quantity_of(channels[c]))
@@ -254,7 +262,6 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
   const double L = m.units.length, A = m.units.angle;
   const std::string& ln = m.units.length_name;
   const std::string& an = m.units.angle_name;
-  const double driver_unit = m.driver().angular() ? A : L;
   const PoseStatus status = t.status[static_cast<size_t>(row)];
   // A value that does not exist is a blank of the column's width.
   const auto pos = [&](double v, int width, int digits) {
@@ -265,9 +272,8 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     return usable(status) ? fmt::format(" {:>{}.{}f}", v, width, digits)
                           : fmt::format(" {:>{}}", "", width);
   };
-  fmt::print("{}  driver = {:.4f} {}  t = {:.6g} s  status: {}\n", m.name,
-             t.driver(row) / driver_unit, m.driver().angular() ? an : ln, t.time(row),
-             to_string(status));
+  fmt::print("{}  driver = {}  t = {:.6g} s  status: {}\n", m.name,
+             compare::driver_text(m, t.driver(row), 4), t.time(row), to_string(status));
   fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
              "omega [rad/s]", "alpha [rad/s^2]");
   for (size_t l = 0; l < t.link_names.size(); ++l) {
@@ -296,6 +302,16 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
       fmt::print("{:<20}{}{}{}\n", t.slider_names[s], pos(t.s(row, c) / L, 12, 4),
                  rate(t.sdot(row, c) / L, 14, 3), rate(t.sddot(row, c) / L, 16, 2));
     }
+  }
+  if (!t.has_forces) return;
+  // The sweep's force channels (print_table_rows: the file's units, 4 decimals), one a line.
+  fmt::print("\n{:<24} {:>14}  {}\n", "force channel", "value", "unit");
+  for (const std::string& name : t.channel_names()) {
+    const Quantity q = Trajectory::quantity_of(name);
+    if (q != Quantity::force && q != Quantity::torque) continue;
+    const compare::DisplayUnit shown = compare::display_unit(m, name);
+    fmt::print("{:<24}{}  {}\n", name, rate((*t.channel(name))(row) / shown.scale, 14, 4),
+               shown.name);
   }
 }
 

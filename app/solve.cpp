@@ -112,6 +112,23 @@ int run_solve(const SolveArgs& args) {
   else
     check_sweep_work(m, options, args.limits);
   Trajectory t = single ? solve_at(m, at, options) : sweep(m, options);
+  if (single && t.status[0] == PoseStatus::cannot_assemble) {
+    // No pose exists: an error in every format, with the range `check` finds where it is known.
+    const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
+    std::string where;
+    if (m.driver().law.kind == MotionLaw::Kind::constant_speed && !m.driver().at_rest()) {
+      const AssemblingRange range = assembling_range(m, options);
+      if (range.unknown.empty() && !range.full_cycle && range.lower < range.upper)
+        where = fmt::format(
+            ": outside the driver's assembling range, {}, as `crosslink check` reports it",
+            range.explain(m));
+    }
+    fmt::print(stderr, "{}\n",
+               Diagnostic{m.driver().where, fmt::format("cannot_assemble at driver = {:g} {}{}",
+                                                        *args.at, unit_name, where)}
+                   .str());
+    return kExitBadInput;
+  }
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
   // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
   // sweep follows that; auto keeps it.

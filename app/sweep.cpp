@@ -8,6 +8,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -40,18 +44,67 @@ std::optional<double> parse_accuracy(const std::string& text) {
   return value;
 }
 
-void print_progress(int index, int total, const methods::GridPoint& point) {
-  fmt::print(stderr, "[{}/{}] {} dt={:.3g} {} ...\n", index, total, point.engine, point.dt,
-             point.variant);
+ProgressLines::ProgressLines() : ProgressLines(stderr, ::isatty(::fileno(stderr)) != 0) {}
+
+ProgressLines::ProgressLines(std::FILE* out, bool terminal) : out_(out), terminal_(terminal) {}
+
+methods::Progress ProgressLines::progress() {
+  return
+      [this](int index, int total, const methods::GridPoint& point) { run(index, total, point); };
+}
+
+void ProgressLines::run(int index, int total, const methods::GridPoint& point) {
+  if (terminal_) {
+    // Back to the line's start, the new text, the rest of the old one cleared.
+    fmt::print(out_, "\r[{}/{}] {} dt={:.3g} {} ...\033[K", index, total, point.engine, point.dt,
+               point.variant);
+    std::fflush(out_);
+    rewritten_ = true;
+    return;
+  }
+  // The grid runs time step by time step, every variant of an engine at each: a series ends with
+  // its engine's grid (or timing round), seen when another engine starts or a series it holds
+  // comes back to a time step it has run.
+  const auto same = [&](const Series& s) {
+    return s.engine == point.engine && s.variant == point.variant;
+  };
+  const auto it = std::find_if(open_.begin(), open_.end(), same);
+  if (!open_.empty() &&
+      (open_.front().engine != point.engine ||
+       (it != open_.end() && std::find(it->dts.begin(), it->dts.end(), point.dt) != it->dts.end())))
+    finish();
+  auto series = std::find_if(open_.begin(), open_.end(), same);
+  if (series == open_.end())
+    series = open_.insert(open_.end(), {point.engine, point.variant, {}, 0, 0});
+  series->dts.push_back(point.dt);
+  series->index = index;
+  series->total = total;
+}
+
+void ProgressLines::finish() {
+  if (rewritten_) fmt::print(out_, "\n");
+  rewritten_ = false;
+  // In the order they finished (a series whose first time step diverged starts late).
+  std::sort(open_.begin(), open_.end(),
+            [](const Series& a, const Series& b) { return a.index < b.index; });
+  for (const Series& s : open_)
+    fmt::print(out_, "[{}/{}] {} {}: {} run{}, dt {:.3g} to {:.3g} s\n", s.index, s.total, s.engine,
+               s.variant, s.dts.size(), s.dts.size() == 1 ? "" : "s",
+               *std::max_element(s.dts.begin(), s.dts.end()),
+               *std::min_element(s.dts.begin(), s.dts.end()));
+  open_.clear();
+  std::fflush(out_);
 }
 
 sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
                                 const compare::MethodRun& reference, const std::string& engine,
                                 double accuracy_pct, const sim::Settings& base, std::FILE* out) {
   methods::ReferenceLadder ladder(mechanism, options, reference);
+  ProgressLines lines;
   const methods::Selection s = methods::cheapest_setting(
       mechanism, ladder, engine, accuracy_pct, methods::accuracy_time_steps(ladder.interval()),
-      base, print_progress);
+      base, lines.progress());
+  lines.finish();
   fmt::print(out, "{}\n", s.summary());
   return s.found ? s.chosen.overrides : base;
 }
@@ -107,7 +160,8 @@ int run_sweep(const SweepArgs& args) {
   options.base = with_max_steps(args.max_steps, {});
   options.repeat = args.repeat;
   options.accuracy_pct = parse_accuracy(args.accuracy);
-  if (!args.quiet) options.progress = print_progress;
+  ProgressLines lines;
+  if (!args.quiet) options.progress = lines.progress();
 
   // Fail on an unwritable report before the long part.
   compare::HtmlOptions html;
@@ -121,6 +175,7 @@ int run_sweep(const SweepArgs& args) {
   }
 
   const methods::SettingsSweep sweep = methods::run_settings_sweep(m, options);
+  lines.finish();
   methods::print_sweep(sweep, stdout);
   if (!args.csv.empty()) {
     std::ostringstream text;

@@ -63,6 +63,12 @@ struct Comparison {
   const MethodRun& reference() const { return methods.front(); }
   const MethodRun* method(std::string_view name) const;
   bool pass() const;
+  // No method but the reference ran (asked for alone, or every other one not run) and the
+  // definition has no [[reference]] values to set beside it: nothing was compared, so there is
+  // no verdict to pass.
+  bool nothing_compared() const {
+    return channels.empty() && failed_methods.empty() && references.empty();
+  }
   int failures() const;  // channels with verdict fail
   // How many channels have each verdict, the computed ones and the prescribed ones apart.
   struct Counts {

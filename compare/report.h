@@ -21,6 +21,17 @@ struct DisplayUnit {
 };
 DisplayUnit display_unit(const Mechanism& mechanism, std::string_view channel);
 DisplayUnit driver_unit(const Mechanism& mechanism);
+// A driver value [SI] as the console tables show it, in the file's units: an angle past one turn
+// (|value| > 360 deg) within its turn, with the whole turns it is past counted (548.37 deg is
+// 188.37 deg, turns +1; 720 deg is 360 deg, turns +1; -400 deg is -40 deg, turns -1). JSON and
+// CSV keep the value as swept (docs/json.md).
+struct DriverTurns {
+  double within = 0.0;  // file units
+  long turns = 0;
+};
+DriverTurns driver_turns(const Mechanism& mechanism, double value);
+// "188.37 deg +1 turn", "45.00 deg", "12.50 mm" with `decimals`.
+std::string driver_text(const Mechanism& mechanism, double value, int decimals);
 
 struct ConsoleOptions {
   bool all = false;     // every channel x method row instead of the summary

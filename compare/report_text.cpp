@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <tuple>
 
 #include "compare/report.h"
@@ -38,6 +40,25 @@ DisplayUnit driver_unit(const Mechanism& m) {
                               : DisplayUnit{m.units.length, m.units.length_name};
 }
 
+DriverTurns driver_turns(const Mechanism& m, double value) {
+  const DisplayUnit du = driver_unit(m);
+  const double v = value / du.scale;
+  if (!m.driver().angular() || !std::isfinite(v)) return {v, 0};
+  const double turn = 2.0 * std::numbers::pi / du.scale;
+  // Within (-turn, turn], or [-turn, 0) below zero: a cycle's last sample is 360 deg, no turn on.
+  double within = std::fmod(v, turn);
+  if (within == 0.0 && v != 0.0) within = std::copysign(turn, v);
+  return {within, std::lround((v - within) / turn)};
+}
+
+std::string driver_text(const Mechanism& m, double value, int decimals) {
+  const DriverTurns t = driver_turns(m, value);
+  return fmt::format(
+      "{:.{}f} {}{}", t.within, decimals, driver_unit(m).name,
+      t.turns == 0 ? ""
+                   : fmt::format(" {:+d} turn{}", t.turns, std::labs(t.turns) == 1 ? "" : "s"));
+}
+
 namespace {
 
 // How close a row is to failing: max % of peak over its tolerance.
@@ -52,9 +73,10 @@ std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
   if (cmp.mechanism->dynamics)  // samples in time
     return fmt::format("t = {:.3f} s #{}", cmp.reference().trajectory.time(c.metrics.worst_sample),
                        c.metrics.worst_sample);
-  const DisplayUnit du = driver_unit(*cmp.mechanism);
-  const double v = cmp.reference().trajectory.driver(c.metrics.worst_sample) / du.scale;
-  return fmt::format("{:.2f} {} #{}", v, du.name, c.metrics.worst_sample);
+  return fmt::format(
+      "{} #{}",
+      driver_text(*cmp.mechanism, cmp.reference().trajectory.driver(c.metrics.worst_sample), 2),
+      c.metrics.worst_sample);
 }
 
 std::string settings_text(const RunSettings& settings) {
@@ -136,9 +158,9 @@ void print_kept_out(std::FILE* out, const Comparison& cmp) {
   }
   for (const Trajectory::Event& e : ref.events)
     if (e.kind == PoseStatus::exact_methods_disagree) {
-      const DisplayUnit du = driver_unit(*cmp.mechanism);
       print_wrapped(
-          out, fmt::format("reference at {:.4f} {}: {}", e.driver / du.scale, du.name, e.message),
+          out,
+          fmt::format("reference at {}: {}", driver_text(*cmp.mechanism, e.driver, 4), e.message),
           2, 100);
     }
 }
@@ -294,9 +316,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     if (c.verdict == Verdict::fail) {
       const DisplayUnit u = display_unit(m, c.metrics.channel);
       const int k = c.metrics.worst_sample;
-      const std::string where =
-          dynamics ? fmt::format("t = {:.4f} s", ref.time(k))
-                   : fmt::format("driver = {:.4f} {}", ref.driver(k) / du.scale, du.name);
+      const std::string where = dynamics ? fmt::format("t = {:.4f} s", ref.time(k))
+                                         : "driver = " + driver_text(m, ref.driver(k), 4);
       fmt::print(out,
                  "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at {} "
                  "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",
@@ -307,6 +328,13 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     }
   // A method that failed as a whole is named on the verdict line itself: its channels are not
   // among the counts (a scene MuJoCo refused read "FAIL (70 channel comparisons: 70 pass, 0 fail").
+  if (cmp.nothing_compared()) {
+    fmt::print(out,
+               "verdict: NOTHING TO COMPARE (only the reference, {}, ran: 0 channel "
+               "comparisons; name another method with --engines)\n",
+               cmp.reference().name);
+    return;
+  }
   std::string failed;
   for (const std::string& name : cmp.failed_methods) failed += failure(name) + "; ";
   fmt::print(out, "verdict: {} ({}{})\n", cmp.pass() ? "PASS" : "FAIL", failed, cmp.counts_text());

@@ -574,6 +574,38 @@ ConvergenceFit convergence_order(const std::vector<double>& dt, const std::vecto
   return fit;
 }
 
+bool error_falls(const std::vector<double>& dt, const std::vector<double>& error) {
+  // The two finest steps with a finite error: does the finer still buy accuracy?
+  const size_t none = dt.size();
+  size_t finest = none, next = none;
+  for (size_t i = 0; i < dt.size(); ++i) {
+    if (!std::isfinite(error[i]) || !std::isfinite(dt[i])) continue;
+    if (finest == none || dt[i] < dt[finest]) {
+      next = finest;
+      finest = i;
+    } else if (next == none || dt[i] < dt[next]) {
+      next = i;
+    }
+  }
+  if (next == none || !(dt[finest] < dt[next])) return true;
+  return (1.0 + kErrorTie) * error[finest] < error[next];
+}
+
+std::string OrderRow::not_falling_text() const {
+  if (not_falling.empty()) return {};
+  std::string classes;
+  for (ErrorClass c : not_falling)
+    classes += fmt::format("{}{}", classes.empty() ? "" : ", ", to_string(c));
+  return classes + " error does not fall as dt shrinks";
+}
+
+std::string with_series_note(const SettingsSweep& sweep, const SweepRow& row, std::string text) {
+  for (const OrderRow& o : sweep.orders)
+    if (o.engine == row.engine && o.variant == row.variant && !o.not_falling.empty())
+      text += (text.empty() ? "" : "; ") + o.not_falling_text();
+  return text;
+}
+
 void analyse(SettingsSweep& sweep) {
   // Pareto fronts over the engine settings with status ok (the analytic methods are drawn for
   // scale: Newton is the reference itself).
@@ -600,7 +632,7 @@ void analyse(SettingsSweep& sweep) {
       return o.engine == r.engine && o.variant == r.variant;
     });
     if (seen) continue;
-    OrderRow o{r.engine, r.variant, {}};
+    OrderRow o{r.engine, r.variant, {}, {}};
     for (ErrorClass c : kErrorClasses) {
       std::vector<double> dts, errors;
       for (size_t j : engine_rows) {
@@ -610,6 +642,7 @@ void analyse(SettingsSweep& sweep) {
         errors.push_back(s.status == RunStatus::ok ? s.error(c) : kNaN);
       }
       o.fit[index_of(c)] = convergence_order(dts, errors);
+      if (!error_falls(dts, errors)) o.not_falling.push_back(c);
     }
     sweep.orders.push_back(std::move(o));
   }
@@ -849,8 +882,8 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << ',' << r.flagged_samples << ',' << r.samples << ',' << r.pareto[0] << ',' << r.pareto[1]
         << ',' << r.pareto[2] << ',' << csv_number(r.raw_pct[0]) << ',' << csv_number(r.raw_pct[1])
         << ',' << csv_number(r.raw_pct[2]) << ',' << csv_field(settings_text(r.settings)) << ','
-        << csv_field(r.message) << ',' << csv_number(r.end_pct[0]) << ','
-        << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
+        << csv_field(with_series_note(sweep, r, r.message)) << ',' << csv_number(r.end_pct[0])
+        << ',' << csv_number(r.end_pct[1]) << ',' << csv_number(r.end_pct[2]) << ','
         << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle)
         << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << ','
         << csv_number(r.max_pct[3]) << ',' << r.pareto[3] << ',' << csv_number(r.raw_pct[3]) << ','
@@ -877,11 +910,12 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
   for (const SweepRow& r : sweep.rows) {
     const bool on_front = std::any_of(r.pareto.begin(), r.pareto.end(), [](bool b) { return b; });
     const std::string front = on_front ? " *" : "";
-    const std::string status = r.status == RunStatus::flagged
-                                   ? fmt::format("flagged ({} samples)", r.flagged_samples)
-                               : r.status == RunStatus::ok && r.flagged_samples > 0
-                                   ? fmt::format("ok ({} samples singular)", r.flagged_samples)
-                                   : std::string(to_string(r.status));
+    const std::string status = with_series_note(
+        sweep, r,
+        r.status == RunStatus::flagged ? fmt::format("flagged ({} samples)", r.flagged_samples)
+        : r.status == RunStatus::ok && r.flagged_samples > 0
+            ? fmt::format("ok ({} samples singular)", r.flagged_samples)
+            : std::string(to_string(r.status)));
     const std::string dt = std::isnan(r.dt) ? std::string("-") : format_dt(r.dt);
     if (sweep.dynamics)
       fmt::print(out,
@@ -906,7 +940,7 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
                  std::isnan(f.order) ? std::string("n/a")
                                      : fmt::format("{:.2f} ({} pts)", f.order, f.points));
     }
-    fmt::print(out, "\n");
+    fmt::print(out, "{}\n", o.not_falling.empty() ? "" : "; " + o.not_falling_text());
   }
   if (!sweep.limits.empty()) {
     fmt::print(out,

@@ -243,10 +243,21 @@ struct ConvergenceFit {
 ConvergenceFit convergence_order(const std::vector<double>& dt, const std::vector<double>& error,
                                  double saturation_pct = 10.0, double floor_order = 0.5);
 
+// Whether an error series still falls as its step shrinks: of its finite points, the error at the
+// smallest dt is below the error at the next smallest by more than kErrorTie. A series whose
+// error stays or grows there (MuJoCo RK4's velocity and acceleration against a per-step driver
+// target, docs/sweep.md) does not: the finer step bought nothing. True with fewer than two finite
+// points (nothing to say).
+bool error_falls(const std::vector<double>& dt, const std::vector<double>& error);
+
 // The order of one (engine, variant) series per class.
 struct OrderRow {
   std::string engine, variant;
   std::array<ConvergenceFit, kErrorClasses.size()> fit;  // ErrorClass order
+  // The classes whose error over the series' rows with status ok does not fall (error_falls).
+  std::vector<ErrorClass> not_falling;
+  // "velocity, acceleration error does not fall as dt shrinks", or empty.
+  std::string not_falling_text() const;
 };
 
 // The cheapest setting of one engine meeting an accuracy, searched from coarse to fine: every
@@ -318,6 +329,10 @@ struct SettingsSweep {
 
 // The whole sweep: analytic rows, every engine's grid, orders, Pareto fronts, selections.
 SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweepOptions& options);
+
+// `text` (a row's status or message) with what the series of `row` says of it
+// (OrderRow::not_falling_text()) after a "; ", where it says something.
+std::string with_series_note(const SettingsSweep& sweep, const SweepRow& row, std::string text);
 
 // Fills orders and pareto flags from rows (run_settings_sweep calls it).
 void analyse(SettingsSweep& sweep);

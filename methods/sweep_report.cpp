@@ -38,12 +38,13 @@ std::string error_cell(const SweepRow& r, size_t k) {
   return "-";
 }
 
-std::string status_text(const SweepRow& r) {
+std::string status_text(const SettingsSweep& sweep, const SweepRow& r) {
   if (r.status == RunStatus::flagged)
     return fmt::format("flagged ({} of {} samples)", r.flagged_samples, r.samples);
   if (r.status == RunStatus::ok && r.flagged_samples > 0)  // a dynamics run's singular samples
-    return fmt::format("ok ({} of {} samples singular)", r.flagged_samples, r.samples);
-  return std::string(to_string(r.status));
+    return with_series_note(
+        sweep, r, fmt::format("ok ({} of {} samples singular)", r.flagged_samples, r.samples));
+  return with_series_note(sweep, r, std::string(to_string(r.status)));
 }
 
 // The classes some row has a value of: forces only where an engine reads them (no empty charts).
@@ -158,6 +159,8 @@ std::string orders_table(const SettingsSweep& sweep) {
                         "</small></td>",
                         f.order, f.points, f.dt_max, f.dt_min);
     }
+    if (!o.not_falling.empty())
+      html += fmt::format("<td class=\"status-flagged\">{}</td>", o.not_falling_text());
     html += "</tr>\n";
   }
   return html + "</table>\n";
@@ -204,7 +207,8 @@ std::string rows_table(const SettingsSweep& sweep) {
         r.status == RunStatus::ok ? "" : std::string("status-") + std::string(to_string(r.status)),
         html_escape(r.engine), html_escape(r.variant), cell(r.dt, "{:.4g}"),
         cell(r.cost(), "{:.4g}"), error_cell(r, 0), error_cell(r, 1), error_cell(r, 2),
-        error_cell(r, 3), cell(r.max_loop_gap), html_escape(status_text(r)), front, settings);
+        error_cell(r, 3), cell(r.max_loop_gap), html_escape(status_text(sweep, r)), front,
+        settings);
   }
   return html + "</table>\n";
 }

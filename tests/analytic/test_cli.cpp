@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -906,12 +907,14 @@ TEST(Cli, SolveSweepTableShowsTheChosenColumnsInFileUnits) {
   for (const char* column : {"angle.coupler", "omega.coupler", "alpha.coupler", "s.needle",
                              "sdot.needle", "sddot.needle"})
     EXPECT_NE(std::find(names.begin(), names.end(), column), names.end()) << header;
-  // Units: the definition's cm and deg (the first unit is the driver's).
-  ASSERT_EQ(unit_names.size() + 1, names.size()) << units;  // "status" has no unit
+  // Units: the definition's cm and deg (the first unit is the driver's). "turns" (the crank
+  // from 135 to 495 deg passes one turn) and "status" have none.
+  ASSERT_EQ(names[1], "turns") << header;
+  ASSERT_EQ(unit_names.size() + 2, names.size()) << units;
   EXPECT_EQ(unit_names[0], "[deg]");
   const auto unit_of = [&](const std::string& column) {
     const auto at = std::find(names.begin(), names.end(), column) - names.begin();
-    return unit_names[static_cast<size_t>(at - 1)];
+    return unit_names[static_cast<size_t>(at - 2)];
   };
   EXPECT_EQ(unit_of("alpha.coupler"), "[rad/s^2]");
   EXPECT_EQ(unit_of("sddot.needle"), "[cm/s^2]");
@@ -943,9 +946,9 @@ TEST(Cli, SolveSweepTableShowsTheChosenColumnsInFileUnits) {
   std::getline(chosen_lines, header);
   std::vector<std::string> chosen_names;
   for (std::istringstream in(header); in >> title;) chosen_names.push_back(title);
-  ASSERT_GE(chosen_names.size(), 5u) << header;
-  EXPECT_EQ(chosen_names[2], "x.F");
-  EXPECT_EQ(chosen_names[3].rfind("vy.", 0), 0u);
+  ASSERT_GE(chosen_names.size(), 6u) << header;  // driver, turns, status, then the columns
+  EXPECT_EQ(chosen_names[3], "x.F");
+  EXPECT_EQ(chosen_names[4].rfind("vy.", 0), 0u);
   EXPECT_EQ(chosen_names.back(), "alpha.coupler");
 
   const CommandRun unknown = crosslink(std::string("solve ") + kSewing + " --columns speed");
@@ -1175,6 +1178,218 @@ TEST(Cli, VersionAndStandardInput) {
   const CommandRun error = crosslink("check - < \"" + bad + "\"");
   EXPECT_EQ(error.exit_code, 2);
   EXPECT_EQ(error.err.rfind("<stdin>:", 0), 0u) << error.err;
+}
+
+// Issue 23, item 3. `solve --at` outside the driver's assembling range printed a pose of blanks at
+// "t = 0 s" (the JSON and CSV a sample of nulls): an error in every format, naming the value and
+// the range `check` reports, nothing on stdout. The non-Grashof four-bar (crank a = 40, coupler
+// b = 30, rocker c = 35, ground d = 60 mm) cannot close past the toggles where coupler and rocker
+// are in line: cos theta = (a^2 + d^2 - (b + c)^2) / (2 a d).
+TEST(Cli, SolveAtOutsideTheAssemblingRangeNamesTheRange) {
+  const double a = 40, b = 30, c = 35, d = 60;
+  const double limit = std::acos((a * a + d * d - (b + c) * (b + c)) / (2 * a * d)) / kDeg;
+  const std::string path = "mechanisms/singular/fourbar_non_grashof.toml";
+  const std::string expected = fmt::format(
+      "{}:{}:1: error: cannot_assemble at driver = 100 deg: outside the driver's assembling "
+      "range, {:.6f} to {:.6f} deg",
+      path, crosslink::test::line_of(read_file(path), "[driver]"), -limit, limit);
+  for (const char* format : {"table", "json", "csv"}) {
+    const CommandRun run = crosslink("solve " + path + " --at 100 --format " + format);
+    EXPECT_EQ(run.exit_code, 2) << format;
+    EXPECT_EQ(run.out, "") << format;
+    EXPECT_NE(run.err.find(expected), std::string::npos) << format << ": " << run.err;
+  }
+}
+
+// `solve --at` of a definition with masses prints the forces the sweep has, the same channels in
+// the same units (the file's: N, N mm), against the sweep's own sample at the drawn 30 degrees.
+TEST(Cli, SolveAtPrintsTheForcesOfTheSweep) {
+  const std::string path = "mechanisms/singular/fourbar_non_grashof.toml";
+  const CommandRun sweep = crosslink("solve " + path + " --format csv");
+  ASSERT_EQ(sweep.exit_code, 0) << sweep.err;
+  std::istringstream lines(sweep.out);
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = csv_fields(line);
+  std::vector<std::string> at_start;
+  while (std::getline(lines, line))
+    if (const std::vector<std::string> f = csv_fields(line); std::stod(f[2]) == 30 * kDeg)
+      at_start = f;
+  ASSERT_EQ(at_start.size(), header.size());
+  const CommandRun at = crosslink("solve " + path + " --at 30");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  int forces = 0;
+  for (size_t c = 0; c < header.size(); ++c) {
+    const std::string kind = header[c].substr(0, header[c].find('.'));
+    const bool torque = kind == "torque" || kind == "shaking_moment";
+    if (!torque && kind != "fx" && kind != "fy" && kind != "f" && kind != "shaking_fx" &&
+        kind != "shaking_fy")
+      continue;
+    ++forces;
+    const size_t row = at.out.find("\n" + header[c] + " ");
+    ASSERT_NE(row, std::string::npos) << header[c] << " not in\n" << at.out;
+    std::istringstream fields(at.out.substr(row + 1 + header[c].size()));
+    double value = 0;
+    std::string unit;
+    fields >> value >> std::ws;
+    std::getline(fields, unit);
+    EXPECT_EQ(unit, torque ? "N mm" : "N") << header[c];
+    // Four decimals in N, or N mm for a torque (1 N m = 1000 N mm).
+    EXPECT_NEAR(value, std::stod(at_start[c]) * (torque ? 1000 : 1), 0.5e-4) << header[c];
+  }
+  EXPECT_EQ(forces, 1 + 3 * 4 + 3);  // torque, fx fy f of the four joints, the shaking
+}
+
+// Driver values past one turn: within the turn, the whole turns counted, on the console; JSON
+// and CSV keep the value as swept (docs/json.md). The sewing machine's crank starts at 135 deg.
+TEST(Cli, ADriverPastOneTurnShowsTheAngleWithinItsTurn) {
+  const CommandRun second = crosslink(std::string("solve ") + kSewing + " --at 548.37");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_NE(second.out.find(fmt::format("driver = {:.4f} deg +1 turn ", 548.37 - 360)),
+            std::string::npos)
+      << second.out.substr(0, 200);
+  const CommandRun back = crosslink(std::string("solve ") + kSewing + " --at -400");
+  ASSERT_EQ(back.exit_code, 0) << back.err;
+  EXPECT_NE(back.out.find(fmt::format("driver = {:.4f} deg -1 turn ", -400 + 360.0)),
+            std::string::npos)
+      << back.out.substr(0, 200);
+  const nlohmann::json j = solve_json("--at 548.37");
+  EXPECT_NEAR(j.at("driver").get<double>(), 548.37 * kDeg, 1e-12);
+  // The sweep from 135 to 495 deg: 400 deg is 40 deg in the column of turns' +1.
+  const CommandRun table = crosslink(std::string("solve ") + kSewing);
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_NE(table.out.find("    driver turns   status"), std::string::npos)
+      << table.out.substr(0, 300);
+  EXPECT_NE(table.out.find(fmt::format("\n{:>10.4f}    +1       ok ", 400 - 360.0)),
+            std::string::npos);
+  EXPECT_NE(table.out.find(fmt::format("\n{:>10.4f}     0       ok ", 200.0)), std::string::npos);
+}
+
+// A sample past the limit of the assembling range (an explicit range beyond the toggle) has no
+// pose; its time is still its own, (driver - start) / speed, as the Newton sweep's. The dyads kept
+// the time of the last pose they solved (0.1333 s on every sample past 78.28 deg), and `solve
+// --at` out of range said "t = 0 s".
+TEST(Cli, ASamplePastTheLimitHasItsOwnTime) {
+  std::string text = read_file("mechanisms/singular/fourbar_non_grashof.toml");
+  text.replace(text.find("speed_unit = \"rpm\""), 18, "speed_unit = \"rpm\"\nrange = [0, 90]");
+  const std::string file = write_definition("past_the_limit.toml", text);
+  const double start = 30 * kDeg, speed = 2 * kPi;  // 60 rpm
+  std::vector<std::vector<std::string>> runs[2];
+  const char* const methods[2] = {"dyads", "newton"};
+  for (int k = 0; k < 2; ++k) {
+    const CommandRun csv = crosslink("solve " + file + " --method " + methods[k] + " --format csv");
+    ASSERT_EQ(csv.exit_code, 0) << csv.err;
+    std::istringstream lines(csv.out);
+    std::string line;
+    std::getline(lines, line);
+    while (std::getline(lines, line)) runs[k].push_back(csv_fields(line));
+  }
+  ASSERT_EQ(runs[0].size(), runs[1].size());
+  int past = 0;
+  for (size_t r = 0; r < runs[0].size(); ++r) {
+    const double driver = std::stod(runs[0][r][2]), time = std::stod(runs[0][r][1]);
+    EXPECT_NEAR(time, (driver - start) / speed, 1e-15) << "dyads sample " << r;
+    EXPECT_EQ(runs[0][r][1], runs[1][r][1]) << "sample " << r;
+    past += runs[0][r][3] == "cannot_assemble";
+  }
+  EXPECT_GT(past, 0);
+}
+
+// `sweep` wrote a line per run (273 on the sewing machine). In a log (stderr not a terminal):
+// one line per finished series, an engine variant over its time steps; on a terminal one line
+// that every run rewrites.
+TEST(Cli, SweepProgressIsALinePerSeriesInALogAndOneLineOnATerminal) {
+  const std::string args = std::string(" sweep mechanisms/fourbar_crank_rocker.toml ") +
+                           "--engines bullet --dt 2.8e-3,3.5e-4 --repeat 1";
+  const CommandRun log = crosslink(args);
+  ASSERT_EQ(log.exit_code, 0) << log.err;
+  // The series: the variants of the orders table, each run at both time steps.
+  const size_t orders = log.out.find("Observed order");
+  ASSERT_NE(orders, std::string::npos);
+  std::istringstream table(log.out.substr(orders));
+  std::string line;
+  std::getline(table, line);
+  int series = 0;
+  while (std::getline(table, line) && line.rfind("  bullet ", 0) == 0) ++series;
+  ASSERT_GT(series, 1);
+  std::istringstream lines(log.err);
+  int progress = 0;
+  while (std::getline(lines, line)) {
+    EXPECT_NE(line.find(": 2 runs, dt 0.00278 to 0.000347 s"), std::string::npos) << line;
+    ++progress;
+  }
+  EXPECT_EQ(progress, series) << log.err;
+
+  if (std::system("command -v script >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "no `script` to give the command a terminal";
+  const std::filesystem::path typescript = scratch_dir() / "typescript.txt";
+  const int code = std::system(("script -qec '\"" + std::string(CROSSLINK_BINARY) + "\"" + args +
+                                "' \"" + typescript.string() + "\" >/dev/null 2>&1")
+                                   .c_str());
+  ASSERT_TRUE(WIFEXITED(code) && WEXITSTATUS(code) == 0) << code;
+  const std::string screen = read_file(typescript);
+  // Every run rewrote the line ("\r[k/N] ..."), and no progress line was ended but the last.
+  const int runs = 2 * series;
+  EXPECT_NE(screen.find(fmt::format("\r[{}/{}] ", runs, runs)), std::string::npos) << screen;
+  std::istringstream rows(screen);
+  int progress_lines = 0;
+  while (std::getline(rows, line))
+    progress_lines += line.find(fmt::format("/{}] ", runs)) != std::string::npos;
+  EXPECT_EQ(progress_lines, 1) << screen;
+}
+
+// `sweep` said `ok` of a series whose error grows as its step shrinks: MuJoCo RK4 against a
+// per-step driver target (docs/sweep.md: accelerations grow as 1 / dt). Such a series says so on
+// the console and in the CSV's message; Euler's falls at second order and says nothing.
+TEST(Cli, SweepFlagsASeriesWhoseErrorDoesNotFallWithTheStep) {
+  const std::string csv = (scratch_dir() / "rk4.csv").string();
+  const CommandRun run = crosslink(
+      "sweep mechanisms/fourbar_crank_rocker.toml --engines mujoco --dt 2e-4,1e-4,5e-5 "
+      "--repeat 1 --quiet --csv \"" +
+      csv + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream lines(read_file(csv));
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = rfc4180_fields(line);
+  const auto column = [&](const std::string& name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  // Per variant, the acceleration errors coarse to fine and the messages.
+  std::map<std::string, std::vector<double>> acceleration;
+  std::map<std::string, std::string> message;
+  while (std::getline(lines, line)) {
+    const std::vector<std::string> f = rfc4180_fields(line);
+    if (f[0] != "mujoco" || f[column("status")] != "ok") continue;
+    acceleration[f[column("variant")]].push_back(std::stod(f[column("max_pct_acceleration")]));
+    message[f[column("variant")]] = f[column("message")];
+  }
+  const std::string rk4 = "RK4/Newton, driver watch 0.05 rad", euler = "Euler/Newton";
+  ASSERT_EQ(acceleration[rk4].size(), 3u) << run.out;
+  ASSERT_EQ(acceleration[euler].size(), 3u) << run.out;
+  // The measured errors themselves: RK4's grows from the coarsest step to the finest, Euler's
+  // falls.
+  EXPECT_GT(acceleration[rk4].back(), acceleration[rk4].front());
+  EXPECT_LT(acceleration[euler].back(), acceleration[euler].front() / 4);
+  EXPECT_NE(message[rk4].find("acceleration"), std::string::npos) << message[rk4];
+  EXPECT_NE(message[rk4].find("error does not fall as dt shrinks"), std::string::npos)
+      << message[rk4];
+  EXPECT_EQ(message[euler].find("does not fall"), std::string::npos) << message[euler];
+  EXPECT_NE(run.out.find("ok; velocity, acceleration, force error does not fall as dt shrinks"),
+            std::string::npos)
+      << run.out;
+}
+
+// `compare` with the reference alone printed "PASS (0 channel comparisons)": nothing was
+// compared, which is no pass; exit 2 as for a command line that asks for nothing to judge.
+TEST(Cli, CompareWithTheReferenceAloneHasNothingToCompare) {
+  const CommandRun run =
+      crosslink("compare mechanisms/fourbar_crank_rocker.toml --engines analytic");
+  EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
+  EXPECT_NE(run.out.find("verdict: NOTHING TO COMPARE (only the reference, analytic, ran"),
+            std::string::npos)
+      << run.out;
+  EXPECT_EQ(run.out.find("PASS"), std::string::npos) << run.out;
 }
 
 }  // namespace

@@ -141,6 +141,24 @@ TEST(ConvergenceOrder, NoOrderFromFewerThanTwoPoints) {
   EXPECT_TRUE(std::isnan(convergence_order({}, {}).order));
 }
 
+// Issue 23: a series whose error stays or grows at its finest step is told apart from one that
+// still falls (first or second order), whatever the order of the points and the ones missing.
+TEST(ErrorFalls, TellsASeriesThatStillFallsFromOneThatStaysOrGrows) {
+  const std::vector<double> dt = {4e-4, 2e-4, 1e-4, 5e-5};
+  EXPECT_TRUE(error_falls(dt, {16.0, 4.0, 1.0, 0.25}));  // second order
+  EXPECT_TRUE(error_falls(dt, {8.0, 4.0, 2.0, 1.0}));    // first order
+  // MuJoCo RK4 on the crank-rocker (docs/sweep.md): velocity stalls, acceleration grows.
+  EXPECT_FALSE(error_falls(dt, {0.919, 0.491, 0.443, 0.443}));
+  EXPECT_FALSE(error_falls(dt, {1.65, 113.0, 264.0, 529.0}));
+  // Within the tie (10 %) is no fall; the finest two finite points decide, in any order.
+  EXPECT_FALSE(error_falls(dt, {4.0, 2.0, 1.0, 0.95}));
+  EXPECT_TRUE(error_falls({5e-5, 4e-4, 1e-4, 2e-4}, {0.25, 16.0, kNaN, 4.0}));
+  EXPECT_FALSE(error_falls({5e-5, 4e-4, 1e-4, 2e-4}, {5.0, 16.0, kNaN, 4.0}));
+  // Fewer than two finite points: nothing to say.
+  EXPECT_TRUE(error_falls(dt, {kNaN, kNaN, kNaN, 3.0}));
+  EXPECT_TRUE(error_falls({}, {}));
+}
+
 // ---------------------------------------------------------------------------------------------
 // The cheapest setting
 
