@@ -32,8 +32,8 @@ constexpr SettingRange kRcond{0.0, 1.0};  // a reciprocal condition number
 // defaults are 20 and 50), and the count stays an int.
 constexpr int kMostIterations = 1'000'000;
 
-// A run's time and memory grow with its steps (Bullet keeps every step's configuration): 2
-// million steps are about 5 s of MuJoCo and 240 MB of Bullet history for 15 coordinates.
+// A run's time grows with its steps (its memory does not: the run loops keep the last 16 poses):
+// 2 million steps are about 5 s of MuJoCo.
 constexpr long kDefaultMaxSteps = 2'000'000;
 // The most steps a run may be allowed (the command line's --max-steps bound).
 constexpr long kMostSteps = 1'000'000'000'000'000'000;

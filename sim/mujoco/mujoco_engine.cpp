@@ -957,9 +957,8 @@ class MujocoKinematicScene final : public KinematicScene {
 constexpr long kRing = 16;
 
 // ---------------------------------------------------------------------------------------------
-// A dynamics run, in stages: prepare_dynamics() plans it; DynamicsRun builds the scene at the
-// exact start (staggered), takes each step, accumulates the work and writes each sample once
-// the step after it is taken (with its forces); judge_dynamics() gives the statuses after it.
+// A dynamics run: prepare_dynamics() plans it (plan_dynamics()) and builds the scene;
+// MujocoDynamicsScene is its backend to the shared run loop (sim/dynamics_run.h).
 
 // A dynamics run's trajectory before anything is read: the reference's samples and an energy
 // balance.
