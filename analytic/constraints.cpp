@@ -281,6 +281,29 @@ double SparseJacobian::coeff(int row, int column) const {
   return e < 0 ? 0.0 : values_[static_cast<size_t>(e)];
 }
 
+SparseJacobian SparseJacobian::with_full_row(int row) const {
+  std::vector<std::pair<int, int>> entries;
+  for (int c = 0; c < cols(); ++c) {
+    for (int e = column_start(c); e < column_start(c + 1); ++e)
+      if (row_index(e) != row) entries.emplace_back(c, row_index(e));
+    entries.emplace_back(c, row);
+  }
+  std::sort(entries.begin(), entries.end());
+  SparseJacobian out;
+  out.set_pattern(rows_, cols(), entries);
+  return out;
+}
+
+double SparseJacobian::row_norm(int row) const {
+  double sum = 0.0;
+  for (int i = row_start_[static_cast<size_t>(row)]; i < row_start_[static_cast<size_t>(row) + 1];
+       ++i) {
+    const double v = values_[static_cast<size_t>(row_entries_[static_cast<size_t>(i)].second)];
+    sum += v * v;
+  }
+  return std::sqrt(sum);
+}
+
 Eigen::MatrixXd SparseJacobian::dense() const {
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows_, cols());
   for (int c = 0; c < cols(); ++c)

@@ -152,6 +152,10 @@ class SparseJacobian {
   double value(int e) const { return values_[static_cast<size_t>(e)]; }
   double& value(int e) { return values_[static_cast<size_t>(e)]; }
   Eigen::MatrixXd dense() const;  // for tests and checks
+  // This pattern with row `row` full (a bordered system's dense row), its values zero.
+  SparseJacobian with_full_row(int row) const;
+  // The Euclidean norm of row `row`, its entries summed in column order.
+  double row_norm(int row) const;
 
  private:
   int slot(int row, int column) const;

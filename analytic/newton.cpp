@@ -192,6 +192,16 @@ Eigen::MatrixXd SmallLU::packed() const {
   return out;
 }
 
+double SmallLU::determinant() const {
+  double product = n_ > 0 ? diagonal_[0] : 1.0;
+  int swaps = 0;
+  for (int j = 0; j < n_; ++j) {
+    if (j > 0) product *= diagonal_[static_cast<size_t>(j)];
+    swaps += transpositions_[static_cast<size_t>(j)] != j;
+  }
+  return (swaps % 2 ? -1.0 : 1.0) * product;
+}
+
 void SmallLU::grow() {
   const size_t room = 2 * l_rows_.size() + static_cast<size_t>(n_);
   l_rows_.resize(room);

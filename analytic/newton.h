@@ -62,6 +62,8 @@ class SmallLU {
   // row swapped with each row: for checks against a dense LU.
   Eigen::MatrixXd packed() const;
   const std::vector<int>& transpositions() const { return transpositions_; }
+  // det A: the product of U's diagonal in order, signed by the row swaps (as Eigen's).
+  double determinant() const;
   int factor_nonzeros() const {
     return l_start_[static_cast<size_t>(n_)] + u_start_[static_cast<size_t>(n_)];
   }
