@@ -1,5 +1,6 @@
 #include "analytic/constraints.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace crosslink {
@@ -13,20 +14,63 @@ double angle_of(const Eigen::VectorXd& q, int k) {
 }
 
 // Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
+template <class Matrix>
 void projection_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& origin_a,
                          const Eigen::Vector2d& axis_a, int kb, const Eigen::Vector2d& point_b,
-                         Eigen::MatrixXd& jac, int row) {
+                         Matrix& jac, int row) {
   const BodyMotion a = frames.of(ka);
   const BodyMotion b = frames.of(kb);
   const Eigen::Vector2d w = a.turn(axis_a);
   const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
   if (ka >= 0) {
-    jac.block<1, 2>(row, 3 * ka) = -w.transpose();
+    jac(row, 3 * ka) = -w.x();
+    jac(row, 3 * ka + 1) = -w.y();
     jac(row, 3 * ka + 2) = perp(w).dot(d) - w.dot(perp(a.turn(origin_a)));
   }
   if (kb >= 0) {
-    jac.block<1, 2>(row, 3 * kb) += w.transpose();
+    jac(row, 3 * kb) += w.x();
+    jac(row, 3 * kb + 1) += w.y();
     jac(row, 3 * kb + 2) += w.dot(perp(b.turn(point_b)));
+  }
+}
+
+// A revolute joint's two rows on link k: sign (I, perp(turn(point))), the identity's zeros
+// written too (as -I writes -0), so every holder gets the same entries.
+template <class Matrix>
+void revolute_gradient(const LinkFrames& frames, int k, const Eigen::Vector2d& point, double sign,
+                       Matrix& jac, int row) {
+  const Eigen::Vector2d arm = perp(frames.of(k).turn(point));
+  jac(row, 3 * k) = sign * 1.0;
+  jac(row + 1, 3 * k) = sign * 0.0;
+  jac(row, 3 * k + 1) = sign * 0.0;
+  jac(row + 1, 3 * k + 1) = sign * 1.0;
+  jac(row, 3 * k + 2) = sign > 0 ? arm.x() : -arm.x();
+  jac(row + 1, 3 * k + 2) = sign > 0 ? arm.y() : -arm.y();
+}
+
+// The block's rows of dPhi/dq, entry by entry, into a dense matrix or the layout's pattern.
+template <class Matrix>
+void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac) {
+  using Kind = ConstraintRows::Kind;
+  const int row = c.first_row, a = c.a, b = c.b;
+  switch (c.kind) {
+    case Kind::revolute:
+      if (a >= 0) revolute_gradient(frames, a, c.point_a, 1.0, jac, row);
+      if (b >= 0) revolute_gradient(frames, b, c.point_b, -1.0, jac, row);
+      return;
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+      projection_gradient(frames, a, c.point_a, c.axis, b, c.point_b, jac, row);
+      if (c.kind == Kind::prismatic) {
+        if (a >= 0) jac(row + 1, 3 * a + 2) = -1.0;
+        if (b >= 0) jac(row + 1, 3 * b + 2) = 1.0;
+      }
+      return;
+    case Kind::angle_driver:
+      if (b >= 0) jac(row, 3 * b + 2) += 1.0;
+      if (a >= 0) jac(row, 3 * a + 2) -= 1.0;
+      return;
   }
 }
 
@@ -128,32 +172,11 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
 }
 
 void ConstraintRows::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
-  const int row = first_row;
-  switch (kind) {
-    case Kind::revolute:
-      if (a >= 0) {
-        jac.block<2, 2>(row, 3 * a).setIdentity();
-        jac.block<2, 1>(row, 3 * a + 2) = perp(frames.of(a).turn(point_a));
-      }
-      if (b >= 0) {
-        jac.block<2, 2>(row, 3 * b) = -Eigen::Matrix2d::Identity();
-        jac.block<2, 1>(row, 3 * b + 2) = -perp(frames.of(b).turn(point_b));
-      }
-      return;
-    case Kind::prismatic:
-    case Kind::pin_in_slot:
-    case Kind::slider_driver:
-      projection_gradient(frames, a, point_a, axis, b, point_b, jac, row);
-      if (kind == Kind::prismatic) {
-        if (a >= 0) jac(row + 1, 3 * a + 2) = -1.0;
-        if (b >= 0) jac(row + 1, 3 * b + 2) = 1.0;
-      }
-      return;
-    case Kind::angle_driver:
-      if (b >= 0) jac(row, 3 * b + 2) += 1.0;
-      if (a >= 0) jac(row, 3 * a + 2) -= 1.0;
-      return;
-  }
+  write_jacobian(*this, frames, jac);
+}
+
+void ConstraintRows::jacobian(const LinkFrames& frames, SparseJacobian& jac) const {
+  write_jacobian(*this, frames, jac);
 }
 
 ConstraintLayout::ConstraintLayout(const Mechanism& m) {
@@ -182,6 +205,110 @@ void ConstraintLayout::residual(const LinkFrames& frames, std::span<const Driver
 void ConstraintLayout::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
   jac.setZero();
   for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
+}
+
+void ConstraintLayout::jacobian(const LinkFrames& frames, SparseJacobian& jac) const {
+  jac.setZero();
+  for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
+}
+
+namespace {
+// Records the entries a block writes, whatever their values.
+struct PatternRecorder {
+  std::vector<std::pair<int, int>> entries;  // (column, row)
+  double scratch = 0.0;
+  double& operator()(int row, int column) {
+    entries.emplace_back(column, row);
+    return scratch;
+  }
+};
+}  // namespace
+
+SparseJacobian::SparseJacobian(const ConstraintLayout& layout, int columns) {
+  // Where each block writes does not depend on q: record it at q = 0.
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(columns);
+  PatternRecorder recorder;
+  for (const ConstraintRows& c : layout.blocks()) write_jacobian(c, LinkFrames{q}, recorder);
+  std::sort(recorder.entries.begin(), recorder.entries.end());
+  recorder.entries.erase(std::unique(recorder.entries.begin(), recorder.entries.end()),
+                         recorder.entries.end());
+  set_pattern(layout.rows(), columns, recorder.entries);
+}
+
+SparseJacobian::SparseJacobian(const Eigen::MatrixXd& dense) {
+  std::vector<std::pair<int, int>> entries;
+  for (int c = 0; c < dense.cols(); ++c)
+    for (int r = 0; r < dense.rows(); ++r)
+      if (dense(r, c) != 0.0) entries.emplace_back(c, r);
+  set_pattern(static_cast<int>(dense.rows()), static_cast<int>(dense.cols()), entries);
+  for (const auto& [c, r] : entries) (*this)(r, c) = dense(r, c);
+}
+
+void SparseJacobian::set_pattern(int rows, int columns,
+                                 const std::vector<std::pair<int, int>>& entries) {
+  rows_ = rows;
+  column_start_.assign(static_cast<size_t>(columns) + 1, 0);
+  row_index_.clear();
+  for (const auto& [column, row] : entries) {
+    ++column_start_[static_cast<size_t>(column) + 1];
+    row_index_.push_back(row);
+  }
+  for (int c = 0; c < columns; ++c)
+    column_start_[static_cast<size_t>(c) + 1] += column_start_[static_cast<size_t>(c)];
+  values_.assign(row_index_.size(), 0.0);
+  // By row: each entry's column and place, for writing by (row, column).
+  row_start_.assign(static_cast<size_t>(rows_) + 1, 0);
+  for (int r : row_index_) ++row_start_[static_cast<size_t>(r) + 1];
+  for (int r = 0; r < rows_; ++r)
+    row_start_[static_cast<size_t>(r) + 1] += row_start_[static_cast<size_t>(r)];
+  row_entries_.resize(row_index_.size());
+  std::vector<int> next(row_start_.begin(), row_start_.end() - 1);
+  for (int c = 0; c < columns; ++c)
+    for (int e = column_start(c); e < column_start(c + 1); ++e)
+      row_entries_[static_cast<size_t>(next[static_cast<size_t>(row_index(e))]++)] = {c, e};
+}
+
+int SparseJacobian::slot(int row, int column) const {
+  for (int i = row_start_[static_cast<size_t>(row)]; i < row_start_[static_cast<size_t>(row) + 1];
+       ++i)
+    if (row_entries_[static_cast<size_t>(i)].first == column)
+      return row_entries_[static_cast<size_t>(i)].second;
+  return -1;
+}
+
+double SparseJacobian::coeff(int row, int column) const {
+  const int e = slot(row, column);
+  return e < 0 ? 0.0 : values_[static_cast<size_t>(e)];
+}
+
+SparseJacobian SparseJacobian::with_full_row(int row) const {
+  std::vector<std::pair<int, int>> entries;
+  for (int c = 0; c < cols(); ++c) {
+    for (int e = column_start(c); e < column_start(c + 1); ++e)
+      if (row_index(e) != row) entries.emplace_back(c, row_index(e));
+    entries.emplace_back(c, row);
+  }
+  std::sort(entries.begin(), entries.end());
+  SparseJacobian out;
+  out.set_pattern(rows_, cols(), entries);
+  return out;
+}
+
+double SparseJacobian::row_norm(int row) const {
+  double sum = 0.0;
+  for (int i = row_start_[static_cast<size_t>(row)]; i < row_start_[static_cast<size_t>(row) + 1];
+       ++i) {
+    const double v = values_[static_cast<size_t>(row_entries_[static_cast<size_t>(i)].second)];
+    sum += v * v;
+  }
+  return std::sqrt(sum);
+}
+
+Eigen::MatrixXd SparseJacobian::dense() const {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows_, cols());
+  for (int c = 0; c < cols(); ++c)
+    for (int e = column_start(c); e < column_start(c + 1); ++e) out(row_index(e), c) = value(e);
+  return out;
 }
 
 void ConstraintLayout::velocity_rhs(std::span<const DriverState> drivers,

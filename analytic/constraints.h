@@ -17,8 +17,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -40,6 +42,8 @@ struct LinkFrames {
     return BodyMotion::of(k, q, qdot, qddot, (*cos)(k), (*sin)(k));
   }
 };
+
+class SparseJacobian;
 
 // One joint's or one driver's rows: [first_row, first_row + rows()) of Phi.
 struct ConstraintRows {
@@ -74,7 +78,9 @@ struct ConstraintRows {
   void velocity_squared(const LinkFrames& frames, const Eigen::VectorXd& qdot,
                         Eigen::VectorXd& out) const;
   // Writes the block's rows of dPhi/dq into `jac`, whose other entries of those rows are zero.
+  // The same entries, in the same order, whatever holds them (dense, or the layout's pattern).
   void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;
+  void jacobian(const LinkFrames& frames, SparseJacobian& jac) const;
   // A one-row block's value: a driver's measured coordinate.
   double value(const LinkFrames& frames) const;
 };
@@ -102,6 +108,7 @@ class ConstraintLayout {
   void residual(const LinkFrames& frames, std::span<const DriverState> drivers,
                 Eigen::VectorXd& phi) const;
   void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;  // all of dPhi/dq
+  void jacobian(const LinkFrames& frames, SparseJacobian& jac) const;   // the same, its pattern
   // nu: each driver's rate in its row, 0 in the joints' rows.
   void velocity_rhs(std::span<const DriverState> drivers, Eigen::VectorXd& nu) const;
   // gamma = -(velocity-squared terms of d2Phi/dt2) + each driver's acceleration in its row.
@@ -113,6 +120,53 @@ class ConstraintLayout {
   size_t joint_count_ = 0;
   int joints_ = 0, rows_ = 0;
   std::vector<char> angle_rows_;  // per row
+};
+
+}  // namespace crosslink
+
+namespace crosslink {
+
+// dPhi/dq held as its pattern only: the entries the layout's rows write (3 to 6 a row, whatever
+// q is), by column. A chain of b bodies has about 15 b of them against the dense 9 b^2, so
+// building, scaling and factorising it cost in proportion to the bodies (docs/design.md, "One
+// factorisation per pose").
+class SparseJacobian {
+ public:
+  SparseJacobian() = default;
+  // The pattern of `layout`'s rows over `columns` coordinates (3 per moving link).
+  SparseJacobian(const ConstraintLayout& layout, int columns);
+  // The pattern and values of a dense matrix's nonzeros (for checks).
+  explicit SparseJacobian(const Eigen::MatrixXd& dense);
+
+  int rows() const { return rows_; }
+  int cols() const { return static_cast<int>(column_start_.size()) - 1; }
+  int nonzeros() const { return static_cast<int>(row_index_.size()); }
+  // The entry (row, column) of the pattern; it must be one.
+  double& operator()(int row, int column) { return values_[slot(row, column)]; }
+  // Entry (row, column), 0 off the pattern.
+  double coeff(int row, int column) const;
+  void setZero() { std::fill(values_.begin(), values_.end(), 0.0); }
+  // Column c's entries are [column_start(c), column_start(c + 1)), rows increasing.
+  int column_start(int c) const { return column_start_[static_cast<size_t>(c)]; }
+  int row_index(int e) const { return row_index_[static_cast<size_t>(e)]; }
+  double value(int e) const { return values_[static_cast<size_t>(e)]; }
+  double& value(int e) { return values_[static_cast<size_t>(e)]; }
+  Eigen::MatrixXd dense() const;  // for tests and checks
+  // This pattern with row `row` full (a bordered system's dense row), its values zero.
+  SparseJacobian with_full_row(int row) const;
+  // The Euclidean norm of row `row`, its entries summed in column order.
+  double row_norm(int row) const;
+
+ private:
+  int slot(int row, int column) const;
+  // The pattern of (column, row) entries, sorted and unique.
+  void set_pattern(int rows, int columns, const std::vector<std::pair<int, int>>& entries);
+  int rows_ = 0;
+  std::vector<int> column_start_, row_index_;
+  std::vector<double> values_;
+  // Row r's entries: (column, index into values_) in [row_start_[r], row_start_[r + 1]).
+  std::vector<int> row_start_;
+  std::vector<std::pair<int, int>> row_entries_;
 };
 
 }  // namespace crosslink

@@ -137,7 +137,7 @@ class EquationOfMotion {
     constexpr std::array<double, 8> offsets = {-4.0, -3.0, -2.0, -1.0, 1.0, 2.0, 3.0, 4.0};
     constexpr std::array<double, 8> weights = {-1.0 / 70, 4.0 / 35, -2.0 / 5, 4.0 / 5,
                                                4.0 / 5,   -2.0 / 5, 4.0 / 35, -1.0 / 70};
-    const double unit = m_.driver().angular() ? 1.0 : m_.size(), step = 5e-3 * unit;
+    const double unit = m_.driver().angular() ? 1.0 : solver_.length_scale(), step = 5e-3 * unit;
     double delta = step;
     for (const int side : {-1, 1})
       while (move_to(t, d + side * delta) < interpolated_rcond_) {
@@ -217,7 +217,8 @@ class EquationOfMotion {
       }
       // Newton may only polish the predicted pose: a large correction is another branch.
       const double predicted = (h * s_last_).lpNorm<Eigen::Infinity>();
-      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() > 0.1 * predicted + 1e-9 * m_.size())
+      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() >
+          0.1 * predicted + 1e-9 * solver_.length_scale())
         throw Stopped{
             t, PoseStatus::branch_jump,
             fmt::format("the only pose near coordinate {:.12g} is on another branch", target)};

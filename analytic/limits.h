@@ -15,10 +15,12 @@ constexpr int kNesting = 16;                // arrays and inline tables inside o
 // exponents and parentheses inside one another.
 constexpr int kExpressionNesting = 64;
 
-// Counts. The solver's Jacobian is dense in 3 coordinates per moving link; validation compares
-// names pairwise.
-constexpr int kLinks = 100;
-constexpr int kJoints = 200;
+// Counts. The solver's Jacobian and its LU are sparse (their work grows with the links), the
+// tracer's two SVDs at a sweep's start are dense in 3 coordinates per moving link, validation
+// compares names pairwise: 400 links hold IFToMM A02 with N = 160 (321 bars, 481 joints), the
+// size its cost is measured at (bench/a02.h).
+constexpr int kLinks = 400;
+constexpr int kJoints = 800;
 constexpr int kPoints = 1000;             // over all links
 constexpr int kLines = 1000;              // over all links
 constexpr int kTableRows = 10000;         // a table law's rows (each evaluation visits them all)

@@ -2,9 +2,10 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/QR>
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 
@@ -19,8 +20,8 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   qddot.setZero(n);
   phi.setZero(n);
   rhs.setZero(n);
-  jacobian.setZero(n, n);
-  lu = SmallLU(n);
+  jacobian = SparseJacobian(ConstraintLayout(mechanism), n);
+  lu = SmallLU(n, jacobian.nonzeros());
   q_start.setZero(n);
   estimate.setZero(n);
   estimate_rhs.setZero(n);
@@ -30,136 +31,226 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   sin_theta.setZero(mechanism.moving_count());
 }
 
-SmallLU::SmallLU(Eigen::Index size) : Eigen::PartialPivLU<Eigen::MatrixXd>(size) {
-  const Eigen::Index triangle = size * (size - 1) / 2;
-  l_start_.setZero(size + 1);
-  u_start_.setZero(size + 1);
-  for (Eigen::Index j = 0; j <= size; ++j) u_start_(j) = static_cast<int>(j * (j - 1) / 2);
-  u_end_ = u_start_;
-  l_rows_.setZero(triangle);
-  u_rows_.setZero(triangle);
-  l_values_.setZero(triangle);
-  u_values_.setZero(triangle);
-  inverse_diagonal_.setZero(size);
-  pivot_rows_.setZero(size);
+namespace {
+// Room for the factors: a matrix this small may fill completely (n (n - 1) / 2 each of L and
+// U, as the dense loops had); a larger one is a chain whose factors hold a few times its
+// entries, and grows its room the once it needs more.
+constexpr int kDenseRoom = 64;
+int factor_room(int n, int nonzeros) {
+  return n <= kDenseRoom ? n * (n - 1) / 2 : 4 * nonzeros + n;
+}
+}  // namespace
+
+SmallLU::SmallLU(int size, int nonzeros) : n_(size) {
+  const auto n = static_cast<size_t>(size);
+  const auto room = static_cast<size_t>(factor_room(size, nonzeros));
+  l_start_.assign(n + 1, 0);
+  u_start_.assign(n + 1, 0);
+  l_rows_.assign(room, 0);
+  u_rows_.assign(room, 0);
+  l_values_.assign(room, 0.0);
+  u_values_.assign(room, 0.0);
+  transpositions_.assign(n, 0);
+  diagonal_.assign(n, 0.0);
+  inverse_diagonal_.assign(n, 0.0);
+  work_.assign(n, 0.0);
+  pivot_step_.assign(n, -1);
+  place_.assign(n, 0);
+  row_at_.assign(n, 0);
+  touched_.assign(n, 0);
+  heap_.assign(n, 0);
+  pivot_row_.assign(n, 0);
+  seen_.assign(n, 0);
 }
 
-void SmallLU::factorize(const Eigen::MatrixXd& a, double l1_norm) {
-  // Eigen's unblocked_lu (right-looking, partial pivoting) in plain loops on column-major
-  // storage, visiting only the nonzeros of the pivot column and of the pivot row.
-  const Eigen::Index n = a.rows();
-  m_lu = a;  // same size as constructed: a copy, no allocation
-  m_l1_norm = l1_norm;
-  double* lu = m_lu.data();
-  int* transpositions = m_rowsTranspositions.indices().data();
-  int* below = pivot_rows_.data();
-  // U's column j has room for j entries from start(j) = j (j - 1) / 2; end(j) moves on as they
-  // come.
-  int* u_rows = u_rows_.data();
-  double* u_values = u_values_.data();
-  int* u_end = u_end_.data();
-  for (Eigen::Index j = 0; j < n; ++j) u_end[j] = u_start_(j);
-  int swaps = 0;
-  for (Eigen::Index k = 0; k < n; ++k) {
-    double* column_k = lu + k * n;
-    Eigen::Index pivot_row = k;
-    double biggest = std::abs(column_k[k]);
-    for (Eigen::Index i = k + 1; i < n; ++i) {
-      const double magnitude = std::abs(column_k[i]);
-      if (magnitude > biggest) {
-        biggest = magnitude;
-        pivot_row = i;
+void SmallLU::factorize(const SparseJacobian& a) {
+  // Left-looking: for each column j, x = (P A)(:, j) with L's columns k < j applied in
+  // increasing k (x_k, final by then, is U(k, j)), then the pivot among the rows not yet
+  // pivoted. A right-looking elimination (Eigen's unblocked LU, dgetf2) applies the same
+  // updates to each entry in the same order, skipping the same zeros, so the numbers are
+  // identical. Rows are kept by their index in A; `place_` follows the swaps, which decide ties.
+  const int n = n_;
+  double* x = work_.data();
+  int* step_of = pivot_step_.data();
+  int *place = place_.data(), *row_at = row_at_.data();
+  for (int i = 0; i < n; ++i) {
+    step_of[i] = -1;
+    place[i] = i;
+    row_at[i] = i;
+  }
+  int l_count = 0, u_count = 0;
+  for (int j = 0; j < n; ++j) {
+    l_start_[static_cast<size_t>(j)] = l_count;
+    u_start_[static_cast<size_t>(j)] = u_count;
+    // Scatter column j; note the rows it reaches and the pivoted ones' steps.
+    int touched = 0, heap = 0;
+    auto reach = [&](int row) {
+      if (seen_[static_cast<size_t>(row)]) return;
+      seen_[static_cast<size_t>(row)] = 1;
+      touched_[static_cast<size_t>(touched++)] = row;
+      if (step_of[row] >= 0) {
+        heap_[static_cast<size_t>(heap++)] = step_of[row];
+        std::push_heap(heap_.begin(), heap_.begin() + heap, std::greater<>());
       }
+    };
+    for (int e = a.column_start(j); e < a.column_start(j + 1); ++e) {
+      const int row = a.row_index(e);
+      x[row] = a.value(e);
+      reach(row);
     }
-    transpositions[k] = static_cast<int>(pivot_row);
-    int count = 0;
-    if (biggest != 0.0) {
-      if (pivot_row != k) {
-        for (Eigen::Index j = 0; j < n; ++j) std::swap(lu[k + j * n], lu[pivot_row + j * n]);
-        ++swaps;
-      }
-      // Scaled by the pivot's reciprocal (as LAPACK's dgetf2 does); the nonzeros listed
-      // without a branch on each entry.
-      const double inverse_pivot = 1.0 / column_k[k];
-      for (Eigen::Index i = k + 1; i < n; ++i) {
-        column_k[i] *= inverse_pivot;
-        below[count] = static_cast<int>(i);
-        count += column_k[i] != 0.0;
-      }
-    }
-    // Row k of U is final from here on (later steps and swaps touch rows below k only): its
-    // nonzeros go to the end of their columns' lists, in increasing row order.
-    for (Eigen::Index j = k + 1; j < n; ++j) {
-      double* column_j = lu + j * n;
-      const double u = column_j[k];
+    // L's earlier columns, in increasing step: each discovers later steps only.
+    while (heap > 0) {
+      std::pop_heap(heap_.begin(), heap_.begin() + heap, std::greater<>());
+      const int k = heap_[static_cast<size_t>(--heap)];
+      const double u = x[pivot_row_[static_cast<size_t>(k)]];
       if (u == 0.0) continue;
-      u_rows[u_end[j]] = static_cast<int>(k);
-      u_values[u_end[j]++] = u;
-      for (int c = 0; c < count; ++c) column_j[below[c]] -= column_k[below[c]] * u;
+      if (u_count == static_cast<int>(u_rows_.size())) grow();
+      u_rows_[static_cast<size_t>(u_count)] = k;
+      u_values_[static_cast<size_t>(u_count++)] = u;
+      for (int e = l_start_[static_cast<size_t>(k)]; e < l_start_[static_cast<size_t>(k) + 1];
+           ++e) {
+        const int row = l_rows_[static_cast<size_t>(e)];
+        reach(row);
+        x[row] -= l_values_[static_cast<size_t>(e)] * u;
+      }
+    }
+    // The pivot: the largest magnitude among the rows not pivoted, the first place on ties;
+    // the row at place j first (dgetf2 starts its search there, even at a zero).
+    int pivot = row_at[j];
+    double biggest = std::abs(seen_[static_cast<size_t>(pivot)] ? x[pivot] : 0.0);
+    for (int t = 0; t < touched; ++t) {
+      const int row = touched_[static_cast<size_t>(t)];
+      if (step_of[row] >= 0) continue;
+      const double magnitude = std::abs(x[row]);
+      if (magnitude > biggest || (magnitude == biggest && place[row] < place[pivot])) {
+        biggest = magnitude;
+        pivot = row;
+      }
+    }
+    const double diagonal = seen_[static_cast<size_t>(pivot)] ? x[pivot] : 0.0;
+    transpositions_[static_cast<size_t>(j)] = place[pivot];
+    {  // swap the places of the row at j and the pivot row
+      const int other = row_at[j], at = place[pivot];
+      row_at[at] = other;
+      place[other] = at;
+      row_at[j] = pivot;
+      place[pivot] = j;
+    }
+    step_of[pivot] = j;
+    pivot_row_[static_cast<size_t>(j)] = pivot;
+    diagonal_[static_cast<size_t>(j)] = diagonal;
+    inverse_diagonal_[static_cast<size_t>(j)] = 1.0 / diagonal;
+    // L's column j: the other rows reached, scaled by the pivot's reciprocal (as dgetf2), the
+    // nonzeros only. With a zero pivot the column is singular and eliminates nothing.
+    if (biggest != 0.0) {
+      const double inverse_pivot = 1.0 / diagonal;
+      for (int t = 0; t < touched; ++t) {
+        const int row = touched_[static_cast<size_t>(t)];
+        if (step_of[row] >= 0) continue;
+        const double l = x[row] * inverse_pivot;
+        if (l == 0.0) continue;
+        if (l_count == static_cast<int>(l_rows_.size())) grow();
+        l_rows_[static_cast<size_t>(l_count)] = row;
+        l_values_[static_cast<size_t>(l_count++)] = l;
+      }
+    }
+    for (int t = 0; t < touched; ++t) {
+      const int row = touched_[static_cast<size_t>(t)];
+      x[row] = 0.0;
+      seen_[static_cast<size_t>(row)] = 0;
     }
   }
-  m_det_p = (swaps % 2) ? -1 : 1;
-  m_p = m_rowsTranspositions;  // same size: no allocation
-  m_isInitialized = true;
+  l_start_[static_cast<size_t>(n)] = l_count;
+  u_start_[static_cast<size_t>(n)] = u_count;
+  // L's rows by their final place, increasing within each column (insertion sort: a column
+  // holds a few entries).
+  for (int j = 0; j < n; ++j) {
+    const int begin = l_start_[static_cast<size_t>(j)], end = l_start_[static_cast<size_t>(j) + 1];
+    for (int e = begin; e < end; ++e) {
+      const int row = place[l_rows_[static_cast<size_t>(e)]];
+      const double value = l_values_[static_cast<size_t>(e)];
+      int i = e;
+      for (; i > begin && l_rows_[static_cast<size_t>(i) - 1] > row; --i) {
+        l_rows_[static_cast<size_t>(i)] = l_rows_[static_cast<size_t>(i) - 1];
+        l_values_[static_cast<size_t>(i)] = l_values_[static_cast<size_t>(i) - 1];
+      }
+      l_rows_[static_cast<size_t>(i)] = row;
+      l_values_[static_cast<size_t>(i)] = value;
+    }
+  }
+}
 
-  // The factors' nonzeros, column by column.
-  // L's nonzeros, column by column (later swaps move its rows, so only now).
-  int l_count = 0;
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const double* column = lu + j * n;
-    l_start_(j) = l_count;
-    // Each entry is written and the count moves on past the nonzeros only (no branch).
-    inverse_diagonal_(j) = 1.0 / column[j];
-    for (Eigen::Index i = j + 1; i < n; ++i) {
-      l_rows_(l_count) = static_cast<int>(i);
-      l_values_(l_count) = column[i];
-      l_count += column[i] != 0.0;
-    }
+Eigen::MatrixXd SmallLU::packed() const {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(n_, n_);
+  for (int j = 0; j < n_; ++j) {
+    out(j, j) = diagonal_[static_cast<size_t>(j)];
+    for (int e = l_start_[static_cast<size_t>(j)]; e < l_start_[static_cast<size_t>(j) + 1]; ++e)
+      out(l_rows_[static_cast<size_t>(e)], j) = l_values_[static_cast<size_t>(e)];
+    for (int e = u_start_[static_cast<size_t>(j)]; e < u_start_[static_cast<size_t>(j) + 1]; ++e)
+      out(u_rows_[static_cast<size_t>(e)], j) = u_values_[static_cast<size_t>(e)];
   }
-  l_start_(n) = l_count;
+  return out;
+}
+
+double SmallLU::determinant() const {
+  double product = n_ > 0 ? diagonal_[0] : 1.0;
+  int swaps = 0;
+  for (int j = 0; j < n_; ++j) {
+    if (j > 0) product *= diagonal_[static_cast<size_t>(j)];
+    swaps += transpositions_[static_cast<size_t>(j)] != j;
+  }
+  return (swaps % 2 ? -1.0 : 1.0) * product;
+}
+
+void SmallLU::grow() {
+  const size_t room = 2 * l_rows_.size() + static_cast<size_t>(n_);
+  l_rows_.resize(room);
+  u_rows_.resize(room);
+  l_values_.resize(room);
+  u_values_.resize(room);
 }
 
 void SmallLU::solve_in_place(double* b) const {
   // P b, then L (unit lower) and U by column-oriented substitution.
-  const Eigen::Index n = m_lu.rows();
-  const int* transpositions = m_rowsTranspositions.indices().data();
+  const int n = n_;
   const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
-  const int *u_start = u_start_.data(), *u_end = u_end_.data(), *u_rows = u_rows_.data();
+  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
   const double *l_values = l_values_.data(), *u_values = u_values_.data();
-  for (Eigen::Index k = 0; k < n; ++k)
-    if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
+  for (int k = 0; k < n; ++k)
+    if (transpositions_[static_cast<size_t>(k)] != k)
+      std::swap(b[k], b[transpositions_[static_cast<size_t>(k)]]);
   // As Eigen's column-major triangular solves, a column whose unknown is zero is skipped.
-  for (Eigen::Index j = 0; j < n; ++j) {
+  for (int j = 0; j < n; ++j) {
     const double x = b[j];
     if (x == 0.0) continue;
     for (int e = l_start[j]; e < l_start[j + 1]; ++e) b[l_rows[e]] -= l_values[e] * x;
   }
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
+  for (int j = n - 1; j >= 0; --j) {
     if (b[j] == 0.0) continue;
-    const double x = b[j] *= inverse_diagonal_(j);
-    for (int e = u_start[j]; e < u_end[j]; ++e) b[u_rows[e]] -= u_values[e] * x;
+    const double x = b[j] *= inverse_diagonal_[static_cast<size_t>(j)];
+    for (int e = u_start[j]; e < u_start[j + 1]; ++e) b[u_rows[e]] -= u_values[e] * x;
   }
 }
 
 void SmallLU::solve_transposed_in_place(double* b) const {
   // A^-T = P^T L^-T U^-T: U^T and L^T by dot products down the columns, then P^T.
-  const Eigen::Index n = m_lu.rows();
-  const int* transpositions = m_rowsTranspositions.indices().data();
+  const int n = n_;
   const int *l_start = l_start_.data(), *l_rows = l_rows_.data();
-  const int *u_start = u_start_.data(), *u_end = u_end_.data(), *u_rows = u_rows_.data();
+  const int *u_start = u_start_.data(), *u_rows = u_rows_.data();
   const double *l_values = l_values_.data(), *u_values = u_values_.data();
-  for (Eigen::Index j = 0; j < n; ++j) {
+  for (int j = 0; j < n; ++j) {
     double sum = b[j];
-    for (int e = u_start[j]; e < u_end[j]; ++e) sum -= u_values[e] * b[u_rows[e]];
-    b[j] = sum * inverse_diagonal_(j);
+    for (int e = u_start[j]; e < u_start[j + 1]; ++e) sum -= u_values[e] * b[u_rows[e]];
+    b[j] = sum * inverse_diagonal_[static_cast<size_t>(j)];
   }
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
+  for (int j = n - 1; j >= 0; --j) {
     double sum = b[j];
     for (int e = l_start[j]; e < l_start[j + 1]; ++e) sum -= l_values[e] * b[l_rows[e]];
     b[j] = sum;
   }
-  for (Eigen::Index k = n - 1; k >= 0; --k)
-    if (transpositions[k] != k) std::swap(b[k], b[transpositions[k]]);
+  for (int k = n - 1; k >= 0; --k)
+    if (transpositions_[static_cast<size_t>(k)] != k)
+      std::swap(b[k], b[transpositions_[static_cast<size_t>(k)]]);
 }
 
 NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
@@ -205,15 +296,49 @@ void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) cons
   layout_.jacobian(LinkFrames{q}, jac);
 }
 
+namespace {
+// The L1 norm of a column-compressed matrix, max_c sum_r |a_rc|, summed as Eigen sums a dense
+// column of n entries (two packets of two doubles: entry i into lane i mod 4 up to the last
+// multiple of 4, a packet of two after it, one entry last; the lanes combined as Eigen's redux
+// does), so it is the dense cwiseAbs().colwise().sum().maxCoeff() bit for bit: the zeros the
+// sparse column leaves out add nothing exactly.
+double l1_norm(const SparseJacobian& a) {
+  const int n = a.rows();
+  const int lanes_end = n / 4 * 4, pair_end = n / 2 * 2;
+  double norm = 0.0;
+  for (int c = 0; c < a.cols(); ++c) {
+    double lane[4] = {0.0, 0.0, 0.0, 0.0}, pair[2] = {0.0, 0.0}, last = 0.0;
+    for (int e = a.column_start(c); e < a.column_start(c + 1); ++e) {
+      const int r = a.row_index(e);
+      const double v = std::abs(a.value(e));
+      if (r < lanes_end)
+        lane[r % 4] += v;
+      else if (r < pair_end)
+        pair[r - lanes_end] += v;
+      else
+        last += v;
+    }
+    const double sum = (((lane[0] + lane[2]) + pair[0]) + ((lane[1] + lane[3]) + pair[1])) + last;
+    norm = std::max(norm, sum);
+  }
+  return norm;
+}
+}  // namespace
+
 void NewtonSolver::factorize(KinematicState& state) const {
   // state's frames must be those of state.q (update_frames).
-  layout_.jacobian(frames(state), state.jacobian);
-  // S_r J S_c: only angle rows and angle columns have a scale other than 1.
-  for (int r : scaled_rows_) state.jacobian.row(r) *= row_scale_(r);
-  for (Eigen::Index c = 2; c < state.jacobian.cols(); c += 3)
-    state.jacobian.col(c) *= col_scale_(c);
-  state.jacobian_norm = state.jacobian.cwiseAbs().colwise().sum().maxCoeff();
-  state.lu.factorize(state.jacobian, state.jacobian_norm);
+  SparseJacobian& jac = state.jacobian;
+  layout_.jacobian(frames(state), jac);
+  // S_r J S_c: only angle rows and angle columns have a scale other than 1 (rows first, as the
+  // dense matrix was scaled).
+  for (int c = 0; c < jac.cols(); ++c)
+    for (int e = jac.column_start(c); e < jac.column_start(c + 1); ++e) {
+      const int r = jac.row_index(e);
+      if (row_scale_(r) != 1.0) jac.value(e) *= row_scale_(r);
+      if (c % 3 == 2) jac.value(e) *= col_scale_(c);
+    }
+  state.jacobian_norm = l1_norm(jac);
+  state.lu.factorize(jac);
 }
 
 double NewtonSolver::rcond(KinematicState& state) const {

@@ -11,8 +11,8 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <Eigen/LU>
 #include <string>
+#include <vector>
 
 #include "analytic/constraints.h"
 #include "analytic/mechanism.h"
@@ -35,33 +35,54 @@ struct SolveReport {
   std::string message;    // empty when ok
 };
 
-// Eigen's PartialPivLU with the factors computed by plain loops for small matrices. At the sizes
-// of planar linkages (n = 3 per moving link, ~9 to 30) Eigen's dynamic-size LU spends most of its
-// time in per-column expression overhead; the loops below do the same arithmetic (partial
-// pivoting on the largest magnitude, first one on ties, the same transpositions) on the same
-// column-major storage. The base class stays usable (rcond(), solve(), matrixLU()).
-//
-// The constraint Jacobian in absolute coordinates is sparse (3 to 6 entries a row) and so are
-// its factors: the elimination visits only the nonzeros of each pivot column and row, and the
-// factors are also kept column-compressed, so a solve costs about their number of entries
-// rather than n^2. Skipped terms are exact zeros, so the numbers are those of the dense loops.
-class SmallLU : public Eigen::PartialPivLU<Eigen::MatrixXd> {
+// LU with partial pivoting of the sparse Jacobian: PA = LU, the same pivots (the largest
+// magnitude in the column, the first one on ties), the same transpositions and the same
+// arithmetic in the same order as LAPACK's unblocked dgetf2 (Eigen's PartialPivLU on a small
+// matrix), so its factors are those of the dense loops bit for bit. It visits only nonzeros: the
+// factors are computed column by column (left-looking, as Gilbert and Peierls): column j of A,
+// permuted, has the earlier columns of L applied in increasing order (a right-looking
+// elimination applies them in that order too), then its pivot is chosen among the rows not yet
+// pivoted. A chain's factors have a few entries per row, so a factorisation and a solve cost in
+// proportion to the bodies; the dense loops did n^2 work per factorisation (pivot searches,
+// row swaps across all columns, scans for U's rows), which dominated at 81 bodies.
+class SmallLU {
  public:
   SmallLU() = default;
-  explicit SmallLU(Eigen::Index size);
-  // Factorises the square matrix `a` (of the size given at construction) whose L1 norm is
-  // `l1_norm`. Allocates nothing.
-  void factorize(const Eigen::MatrixXd& a, double l1_norm);
+  // Room for the factors of an n x n matrix with `nonzeros` entries; the factors of a
+  // mechanism's Jacobian fit (room grows, once, if a pivot order ever fills more).
+  SmallLU(int size, int nonzeros);
+  // Factorises `a` (square, of the size given at construction). Allocates nothing.
+  void factorize(const SparseJacobian& a);
   // b := A^-1 b and b := A^-T b in place, with PA = LU. No allocation.
   void solve_in_place(double* b) const;
   void solve_transposed_in_place(double* b) const;
+  int size() const { return n_; }
+  // Entries of L and U below and above the diagonal: the cost of a substitution.
+  // The factors packed as LAPACK leaves them (L below the diagonal, U on and above it) and the
+  // row swapped with each row: for checks against a dense LU.
+  Eigen::MatrixXd packed() const;
+  const std::vector<int>& transpositions() const { return transpositions_; }
+  // det A: the product of U's diagonal in order, signed by the row swaps (as Eigen's).
+  double determinant() const;
+  int factor_nonzeros() const {
+    return l_start_[static_cast<size_t>(n_)] + u_start_[static_cast<size_t>(n_)];
+  }
 
  private:
-  // Strictly lower (L) and strictly upper (U) parts by column: the entries of column j are
-  // [l_start(j), l_start(j + 1)) and [u_start(j), u_end(j)) of rows/values (U's columns have
-  // fixed room, j entries). pivot_rows_ is the elimination's scratch.
-  Eigen::VectorXi l_start_, l_rows_, u_start_, u_end_, u_rows_, pivot_rows_;
-  Eigen::VectorXd l_values_, u_values_, inverse_diagonal_;  // 1 / U(j, j)
+  void grow();  // more room for L and U
+  int n_ = 0;
+  // Strictly lower (L) and strictly upper (U) parts by column: column j's entries are
+  // [l_start(j), l_start(j + 1)) and [u_start(j), u_start(j + 1)) of rows/values, rows
+  // increasing (the order the transposed solve sums them in). transpositions_[k]: the row
+  // swapped with row k at step k.
+  std::vector<int> l_start_, l_rows_, u_start_, u_rows_, transpositions_;
+  std::vector<double> l_values_, u_values_, diagonal_, inverse_diagonal_;  // U(j, j), 1 / U(j, j)
+  // Scratch of a factorisation, indexed by the rows of A: the column being eliminated, the
+  // step each row was pivoted at (-1: not yet), each row's place after the swaps so far and
+  // the row at each place, the rows the column reaches, the steps to apply (a heap).
+  std::vector<double> work_;
+  std::vector<int> pivot_step_, place_, row_at_, touched_, heap_, pivot_row_;
+  std::vector<char> seen_;
 };
 
 // Working storage for one mechanism, sized once; a solve allocates nothing.
@@ -73,7 +94,7 @@ struct KinematicState {
   DriverState driver;
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
-  Eigen::MatrixXd jacobian;
+  SparseJacobian jacobian;  // scaled: S_r J S_c (NewtonSolver::jacobian_entry unscales)
   SmallLU lu;
   // Whether `lu` holds the factorisation of J at a solved pose (the last solve_position's), and
   // that pose's rcond: solve_position then starts with chord iterations on those factors.
@@ -133,7 +154,7 @@ class NewtonSolver {
   void multipliers(KinematicState& state, const Eigen::VectorXd& b, Eigen::VectorXd& lambda) const;
   // Entry (row, column) of the unscaled Jacobian at that pose.
   double jacobian_entry(const KinematicState& state, int row, int column) const {
-    return state.jacobian(row, column) / (row_scale_(row) * col_scale_(column));
+    return state.jacobian.coeff(row, column) / (row_scale_(row) * col_scale_(column));
   }
   // The rows of Phi: each joint's and the driver's, their equations and which are angles.
   const ConstraintLayout& layout() const { return layout_; }

@@ -215,11 +215,31 @@ class Tracer {
   };
 
  private:
-  // Expressions, evaluated where they are assigned: the trace allocates nothing per step.
-  auto constraint_rows() const {
-    return row_.asDiagonal() * jac_.topRows(joints_) * column_.asDiagonal();
+  // J at q into jac_ (its pattern: the trace's Newton steps cost in proportion to the bodies)
+  // and the driver's gradient in z into gradient_.
+  void jacobian_at(const Eigen::VectorXd& q) {
+    solver_.layout().jacobian(LinkFrames{q}, jac_);
+    gradient_.setZero();
+    for (int c = 0; c < n_; ++c)
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+        if (jac_.row_index(e) == driver_row_) gradient_(c) = jac_.value(e) * column_(c);
   }
-  auto driver_gradient() const { return jac_.row(driver_row_).transpose().cwiseProduct(column_); }
+  // The constraint rows C of jac_ in z, dimensionless, as a dense matrix (for the SVD).
+  Eigen::MatrixXd constraint_rows() const {
+    return row_.asDiagonal() * jac_.dense().topRows(joints_) * column_.asDiagonal();
+  }
+  // [C; last] from jac_, factorised.
+  void factorise(const Eigen::VectorXd& last) {
+    for (int c = 0; c < n_; ++c) {
+      int a = aug_.column_start(c);
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e) {
+        const int r = jac_.row_index(e);
+        if (r < joints_) aug_.value(a++) = row_(r) * jac_.value(e) * column_(c);
+      }
+      aug_.value(a) = last(c);  // the last row, below C's rows
+    }
+    lu_.factorize(aug_);
+  }
 
  public:
   explicit Tracer(const NewtonSolver& solver)
@@ -234,8 +254,11 @@ class Tracer {
     row_.setOnes(joints_);
     for (int r = 0; r < joints_; ++r)
       if (!solver.layout().angle_row(r)) row_(r) = 1.0 / L;
-    jac_.setZero(n_, n_);
-    aug_.setZero(n_, n_);
+    jac_ = SparseJacobian(solver.layout(), n_);
+    aug_ = jac_.with_full_row(joints_);
+    lu_ = SmallLU(n_, aug_.nonzeros());
+    gradient_.setZero(n_);
+    t_.setZero(n_);
     phi_.setZero(n_);
     rhs_.setZero(n_);
     dz_.setZero(n_);
@@ -248,20 +271,20 @@ class Tracer {
   // A node at a solved pose; the tangent (null vector of C, by SVD so that it exists at a
   // singular start too) is oriented so the driver moves toward `direction`.
   bool start(const Eigen::VectorXd& q, double direction, Node& out) {
-    solver_.jacobian(q, jac_);
+    jacobian_at(q);
     const Eigen::MatrixXd c = constraint_rows();
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(c, Eigen::ComputeFullV);
     Node seed;
     seed.q = q;
     seed.t = svd.matrixV().col(n_ - 1);
-    if (driver_gradient().dot(seed.t) * direction < 0.0) seed.t = -seed.t;
+    if (gradient_.dot(seed.t) * direction < 0.0) seed.t = -seed.t;
     return correct(seed, 0.0, out);
   }
 
   // The smallest singular value of the constraint rows C at q over their largest: 0 at a change
   // point, where C loses rank and two branches cross.
   double crossing_ratio(const Eigen::VectorXd& q) {
-    solver_.jacobian(q, jac_);
+    jacobian_at(q);
     const Eigen::VectorXd sigma =
         Eigen::JacobiSVD<Eigen::MatrixXd>(constraint_rows()).singularValues();
     return sigma.size() > 0 && sigma(0) > 0.0 ? sigma(sigma.size() - 1) / sigma(0) : 0.0;
@@ -307,33 +330,27 @@ class Tracer {
           rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0) ||
           round_off;
       if (converged || !factorised) {
-        solver_.jacobian(q, jac_);
-        aug_.topRows(joints_) = constraint_rows();
-        if (converged)
-          aug_.row(joints_) = orient.transpose();
-        else if (value)
-          aug_.row(joints_) = driver_gradient().transpose();
-        else
-          aug_.row(joints_) = from.t.transpose();
-        lu_.compute(aug_);
+        jacobian_at(q);
+        factorise(converged ? orient : value ? gradient_ : from.t);
         factorised = true;
       }
       if (converged) {
-        dz_.setZero();
-        dz_(joints_) = 1.0;
-        const Eigen::VectorXd t = lu_.solve(dz_);
-        if (!t.allFinite() || t.norm() == 0.0) return false;
+        t_.setZero();
+        t_(joints_) = 1.0;
+        lu_.solve_in_place(t_.data());
+        if (!t_.allFinite() || t_.norm() == 0.0) return false;
         double row_norms = 1.0;
-        for (int r = 0; r < joints_; ++r) row_norms *= aug_.row(r).norm();
-        out.orientation = lu_.determinant() * t.norm() / row_norms;
-        out.t = t.normalized();
+        for (int r = 0; r < joints_; ++r) row_norms *= aug_.row_norm(r);
+        out.orientation = lu_.determinant() * t_.norm() / row_norms;
+        out.t = t_.normalized();
         out.q = q;
         out.s = value ? from.t.dot((q - from.q).cwiseQuotient(column_)) : s;
         out.driver = solver_.driver_value(q);
-        out.t_driver = driver_gradient().dot(out.t);
+        out.t_driver = gradient_.dot(out.t);
         return true;
       }
-      dz_ = lu_.solve(rhs_);
+      dz_ = rhs_;
+      lu_.solve_in_place(dz_.data());
       if (!dz_.allFinite()) return false;
       const double step = dz_.lpNorm<Eigen::Infinity>();
       if (step > 0.25 * last_step) factorised = false;
@@ -369,9 +386,11 @@ class Tracer {
   int driver_row_;          // the driver's row of Phi and J
   Eigen::VectorXd column_;  // q = column_ .* z
   Eigen::VectorXd row_;     // dimensionless constraint rows
-  Eigen::MatrixXd jac_, aug_;
-  Eigen::VectorXd phi_, rhs_, dz_, dq_;
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+  SparseJacobian jac_;      // J at the last q (unscaled)
+  SparseJacobian aug_;      // [C; last row] in z: C's pattern and a full last row
+  SmallLU lu_;
+  Eigen::VectorXd gradient_;  // the driver's row of J in z
+  Eigen::VectorXd phi_, rhs_, dz_, dq_, t_;
   double tolerance_, length_ = 1.0;
   bool angular_ = true;
 };

@@ -6,15 +6,20 @@
 //                                    against the Test Set for IVP Solvers' reference (its scd
 //                                    measure) and against our own converged solution (rkf78 and
 //                                    dopri5 at 1e-15 agreeing), evaluations of the equation
-//   A02/N:<n>                        IFToMM A02, 10 s at its 400 output steps, N = 2, 10, 40;
-//                                    counters: evaluations, wall seconds per simulated second
+//   A02/N:<n>                        IFToMM A02, 10 s at its 400 output steps, N = 2, 10, 40,
+//                                    160 (written at build time by scripts/generate_a02.py, so
+//                                    that only this benchmark reads it); counters: evaluations,
+//                                    wall seconds per simulated second, and growth_exponent: the
+//                                    least-squares slope of log time against log bodies over the
+//                                    sizes run so far in this run
 //   A02/<engine>/N:<n>               the same run by MuJoCo and Bullet at their defaults, from the
 //                                    exact initial state (the reference's own run is not timed);
 //                                    counters: engine steps and time step, the stepping CPU
 //                                    seconds per simulated second (RunCost), and the IFToMM
 //                                    error of B0 against the reference [m, m/s]
 //
-// Run from the source root (N = 40 takes minutes: the reference 16 s, each engine longer):
+// Run from the source root (N = 40 takes minutes for each engine; the reference N = 160 takes
+// seconds):
 //   build/bench/bench_dynamics --benchmark_min_time=0.5
 //   build/bench/bench_dynamics --benchmark_filter='A02/'   # cost against size only
 #include <benchmark/benchmark.h>
@@ -27,6 +32,7 @@
 
 #include "analytic/dynamics.h"
 #include "analytic/loader.h"
+#include "bench/a02.h"
 #include "methods/registry.h"
 #include "methods/settings_sweep.h"
 
@@ -95,32 +101,23 @@ void andrews_reference(benchmark::State& state) {
   state.counters["digits_converged_check"] = check;
 }
 
-// IFToMM A02 with N four-bar loops (2N + 1 moving bars).
-const Mechanism& a02(int n) {
-  static std::map<int, Mechanism> cache;
-  auto it = cache.find(n);
-  if (it == cache.end())
-    it = cache
-             .emplace(
-                 n, load_mechanism(n == 2 ? std::string("mechanisms/iftomm_a02_double_fourbar.toml")
-                                          : "mechanisms/scaling/iftomm_a02_nfourbar_" +
-                                                std::to_string(n) + ".toml"))
-             .first;
-  return it->second;
-}
-
 void a02_reference(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const Mechanism& m = a02(n);
+  const Mechanism& m = bench::a02(n);
   Simulation s;
+  double seconds = 0.0;
   for (auto _ : state) {
+    const double start = bench::thread_seconds();
     s = simulate(m);
+    seconds += bench::thread_seconds() - start;
     benchmark::DoNotOptimize(s.trajectory.angle.data());
   }
   if (!s.ok) {
     state.SkipWithError(s.message.c_str());
     return;
   }
+  static bench::Growth growth;
+  growth.add(state, m.moving_count(), seconds / static_cast<double>(state.iterations()));
   state.counters["bodies"] = static_cast<double>(m.moving_count());
   state.counters["evaluations"] = static_cast<double>(s.evaluations);
   state.counters["s_per_simulated_s"] =
@@ -133,7 +130,7 @@ void a02_reference(benchmark::State& state) {
 template <const char* engine>
 void a02_engine(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const Mechanism& m = a02(n);
+  const Mechanism& m = bench::a02(n);
   static std::map<int, compare::MethodRun> references;
   auto ref = references.find(n);
   if (ref == references.end()) ref = references.emplace(n, methods::run_reference(m)).first;
@@ -168,6 +165,7 @@ BENCHMARK(a02_reference)
     ->Arg(2)
     ->Arg(10)
     ->Arg(40)
+    ->Arg(160)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 BENCHMARK(a02_engine<kMujoco>)

@@ -12,6 +12,11 @@
 //                            whole run (scene build, steps, sampling); counters: steps per cycle,
 //                            wall time per step, and the run's own stepping time per cycle
 //
+//   A02/newton/N:<n>         the exact sweep of IFToMM A02 with N = 2, 10, 40, 160 four-bar loops
+//                            (one driver cycle of its crank, driven at its initial rate);
+//                            counters: bodies, samples, growth_exponent (the least-squares slope
+//                            of log time against log bodies over the sizes run so far)
+//
 // Run from the source root:
 //   build/bench/bench_sweep --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
@@ -19,7 +24,9 @@
 
 #include <string>
 
+
 #include "analytic/loader.h"
+#include "bench/a02.h"
 #include "methods/registry.h"
 
 namespace crosslink {
@@ -41,6 +48,22 @@ void newton_cycle(benchmark::State& state) {
     benchmark::DoNotOptimize(t.alpha.data());
   }
   state.counters["poses"] = reference().trajectory.samples();
+}
+
+void a02_sweep(benchmark::State& state) {
+  const Mechanism& m = bench::a02(static_cast<int>(state.range(0)));
+  Trajectory t;
+  double seconds = 0.0;
+  for (auto _ : state) {
+    const double start = bench::thread_seconds();
+    t = sweep(m);
+    seconds += bench::thread_seconds() - start;
+    benchmark::DoNotOptimize(t.alpha.data());
+  }
+  static bench::Growth growth;
+  growth.add(state, m.moving_count(), seconds / static_cast<double>(state.iterations()));
+  state.counters["bodies"] = m.moving_count();
+  state.counters["samples"] = t.samples();
 }
 
 void reference_cycle(benchmark::State& state) {
@@ -89,6 +112,14 @@ void engine_cycle(benchmark::State& state, const std::string& engine) {
 }
 
 BENCHMARK(newton_cycle)->Name("Cycle/newton")->Unit(benchmark::kMillisecond);
+BENCHMARK(a02_sweep)
+    ->Name("A02/newton/N")
+    ->Arg(2)
+    ->Arg(10)
+    ->Arg(40)
+    ->Arg(160)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 BENCHMARK(reference_cycle)->Name("Cycle/reference")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(method_cycle, dyads, std::string("dyads"))
     ->Name("Cycle/dyads")

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "analytic/dynamics.h"
+#include "analytic/limits.h"
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "tests/common/crank_rocker.h"
@@ -633,16 +634,19 @@ std::string many_links(int n) {
   return text;
 }
 
-TEST(Limits, MoreThanAHundredLinksAreRefusedAtTheHundredAndFirst) {
-  // Ground and 100 moving links make 101 [[link]] tables; the 101st (index 100) is the fault.
-  const std::string text = many_links(100);
+TEST(Limits, MoreLinksThanTheLimitAreRefusedAtTheFirstPastIt) {
+  // Ground and kLinks moving links make kLinks + 1 [[link]] tables; the one at index kLinks is
+  // the fault.
+  constexpr int n = limits::kLinks;
+  const std::string text = many_links(n);
   const std::vector<Diagnostic> found = diagnostics_of(text);
   ASSERT_EQ(found.size(), 1u);
-  EXPECT_EQ(found[0].where.line, place_of(text, "[[link]]", 100).line) << found[0].str();
-  EXPECT_NE(found[0].message.find("101 [[link]] tables: the limit is 100"), std::string::npos)
+  EXPECT_EQ(found[0].where.line, place_of(text, "[[link]]", n).line) << found[0].str();
+  EXPECT_NE(found[0].message.find(fmt::format("{} [[link]] tables: the limit is {}", n + 1, n)),
+            std::string::npos)
       << found[0].message;
-  // A hundred pass the count and fail later, for want of joints.
-  const std::vector<Diagnostic> fewer = diagnostics_of(many_links(99));
+  // kLinks pass the count and fail later, for want of joints.
+  const std::vector<Diagnostic> fewer = diagnostics_of(many_links(n - 1));
   const Diagnostic* joints = find(fewer, {"[[joint]]"});
   ASSERT_NE(joints, nullptr);
   EXPECT_EQ(joints->where.line, 1);
