@@ -12,6 +12,7 @@ PACKAGES=(
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
+  python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
