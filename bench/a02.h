@@ -5,8 +5,6 @@
 
 #include <benchmark/benchmark.h>
 
-#include <time.h>
-
 #include <cmath>
 #include <map>
 #include <string>
@@ -14,6 +12,7 @@
 #include <vector>
 
 #include "analytic/loader.h"
+#include "sim/sampling.h"
 
 namespace crosslink::bench {
 
@@ -31,16 +30,22 @@ inline const Mechanism& a02(int n) {
   return it->second;
 }
 
-// The thread's CPU time [s]: on a shared machine the wall time of one run swings with the load.
-inline double thread_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+// Runs `run` once per benchmark iteration; its mean CPU time of the thread [s]
+// (sim::thread_cpu_seconds: on a shared machine the wall time of one run swings with the load).
+template <class Run>
+double thread_seconds_per_run(benchmark::State& state, Run&& run) {
+  double seconds = 0.0;
+  for (auto _ : state) {
+    const double start = sim::thread_cpu_seconds();
+    run();
+    seconds += sim::thread_cpu_seconds() - start;
+  }
+  return seconds / static_cast<double>(state.iterations());
 }
 
 // The growth exponent of a cost against the number of bodies within one run: each size's time
-// (CPU seconds) is added as it is measured (sizes in increasing order), and from the second size on the
-// counter growth_exponent is the least-squares slope of log time against log bodies so far.
+// (CPU seconds) is added as it is measured (sizes in increasing order), and from the second size on
+// the counter growth_exponent is the least-squares slope of log time against log bodies so far.
 class Growth {
  public:
   void add(benchmark::State& state, double bodies, double seconds) {

@@ -105,19 +105,16 @@ void a02_reference(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const Mechanism& m = bench::a02(n);
   Simulation s;
-  double seconds = 0.0;
-  for (auto _ : state) {
-    const double start = bench::thread_seconds();
+  const double seconds = bench::thread_seconds_per_run(state, [&] {
     s = simulate(m);
-    seconds += bench::thread_seconds() - start;
     benchmark::DoNotOptimize(s.trajectory.angle.data());
-  }
+  });
   if (!s.ok) {
     state.SkipWithError(s.message.c_str());
     return;
   }
   static bench::Growth growth;
-  growth.add(state, m.moving_count(), seconds / static_cast<double>(state.iterations()));
+  growth.add(state, m.moving_count(), seconds);
   state.counters["bodies"] = static_cast<double>(m.moving_count());
   state.counters["evaluations"] = static_cast<double>(s.evaluations);
   state.counters["s_per_simulated_s"] =

@@ -24,7 +24,6 @@
 
 #include <string>
 
-
 #include "analytic/loader.h"
 #include "bench/a02.h"
 #include "methods/registry.h"
@@ -53,15 +52,12 @@ void newton_cycle(benchmark::State& state) {
 void a02_sweep(benchmark::State& state) {
   const Mechanism& m = bench::a02(static_cast<int>(state.range(0)));
   Trajectory t;
-  double seconds = 0.0;
-  for (auto _ : state) {
-    const double start = bench::thread_seconds();
+  const double seconds = bench::thread_seconds_per_run(state, [&] {
     t = sweep(m);
-    seconds += bench::thread_seconds() - start;
     benchmark::DoNotOptimize(t.alpha.data());
-  }
+  });
   static bench::Growth growth;
-  growth.add(state, m.moving_count(), seconds / static_cast<double>(state.iterations()));
+  growth.add(state, m.moving_count(), seconds);
   state.counters["bodies"] = m.moving_count();
   state.counters["samples"] = t.samples();
 }

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numeric>
 #include <stdexcept>
 
 #include "analytic/newton.h"
@@ -112,8 +111,6 @@ class DynamicsSteps {
     if (before) before_ = *before;
     if (!scene_.evaluates_loads() && balance_.any()) start_velocity_ = scene_.start_velocity();
   }
-
-  bool before_start() const { return before_start_; }
 
   // The step to pose k; "" or why the run stops there.
   std::string step(long k) {

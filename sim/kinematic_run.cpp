@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numeric>
 #include <stdexcept>
 
 #include "analytic/trust.h"
@@ -153,8 +152,7 @@ class Steps {
     const double law = definition_.driver().at_time(t).value;
     scene_.drive(law);
     apply_loads(k - 1);
-    const bool read =
-        !samples_.read_forces.empty() && samples_.read_forces[static_cast<size_t>(k - 1)];
+    const bool read = samples_.read_forces[static_cast<size_t>(k - 1)];
     std::string alarm =
         scene_.step(t - time[static_cast<size_t>(k - 1)], read ? &reading_at(k - 1) : nullptr);
     ++taken_;

@@ -37,7 +37,6 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
-#include <numeric>
 #include <optional>
 #include <stdexcept>
 

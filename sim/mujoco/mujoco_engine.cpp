@@ -19,7 +19,6 @@
 #include <memory>
 #include <mutex>
 #include <numbers>
-#include <numeric>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
