@@ -228,17 +228,81 @@ class Tracer {
   Eigen::MatrixXd constraint_rows() const {
     return row_.asDiagonal() * jac_.dense().topRows(joints_) * column_.asDiagonal();
   }
-  // [C; last] from jac_, factorised.
+  // The unit tangent t at jac_'s pose from the sparse factors of [C; driver row]: C t = 0,
+  // driver . t = 1, normalised. False where that system is singular to working precision (a
+  // toggle, where the driver does not move along the curve, or a change point).
+  bool driver_tangent(Eigen::VectorXd& t) {
+    factorise(gradient_);
+    t = Eigen::VectorXd::Unit(n_, joints_);
+    solve(t);
+    const double norm = t.norm();
+    if (!std::isfinite(norm) || norm * gradient_.norm() > kTangentLimit) return false;
+    t /= norm;
+    return true;
+  }
+  // y = C x, C in z (its first joints_ entries of y).
+  void constraint_product(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    y.setZero();
+    for (int c = 0; c < n_; ++c)
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+        if (const int r = jac_.row_index(e); r < joints_)
+          y(r) += row_(r) * jac_.value(e) * column_(c) * x(c);
+  }
+  // |t| |driver row| beyond which [C; driver row] is taken as singular: a driver 1e-8 of a
+  // regular pose's rate, far inside the tracer's own toggle zone.
+  static constexpr double kTangentLimit = 1e8;
+  // Up to 8 moving links [C; last] is factorised as it is, and the start's tangent taken by SVD:
+  // there the full row's fill costs about what the bordered form's extra solves do (A02 with
+  // N = 2, 15 coordinates: 79 entries in the factors); and so is a last row of a driver's few
+  // entries, which fills nothing.
+  static constexpr int kDirectSize = 24, kSparseRow = 8;
+  static constexpr int kSingularIterations = 30;
+  // [C; last] from jac_, factorised. A chain past SmallLU's dense size with a full last row (a
+  // tangent) is factorised as B = [C; e_m], m the row's largest entry, and the row put back by
+  // Sherman–Morrison: pivoted early, a full row fills every later column (A02 with N = 160:
+  // 50,000 entries in the factors against 2,500 for J, and a trace's cost growing as n^2), while
+  // B keeps the chain's pattern and is regular wherever [C; last] is, within |last| / |last_m|
+  // <= sqrt(n) of its conditioning (the local parametrisation of Rheinboldt's continuation).
   void factorise(const Eigen::VectorXd& last) {
+    bordered_ = n_ > kDirectSize && (last.array() != 0.0).count() > kSparseRow;
+    if (bordered_) last.cwiseAbs().maxCoeff(&border_);
     for (int c = 0; c < n_; ++c) {
       int a = aug_.column_start(c);
       for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e) {
         const int r = jac_.row_index(e);
         if (r < joints_) aug_.value(a++) = row_(r) * jac_.value(e) * column_(c);
       }
-      aug_.value(a) = last(c);  // the last row, below C's rows
+      // the last row, below C's rows
+      aug_.value(a) = !bordered_ ? last(c) : c == border_ ? 1.0 : 0.0;
     }
     lu_.factorize(aug_);
+    transposed_ready_ = false;
+    if (!bordered_) return;
+    last_ = last;
+    border_solution_ = Eigen::VectorXd::Unit(n_, joints_);  // B u = e_n: C u = 0, u_m = 1
+    lu_.solve_in_place(border_solution_.data());
+    border_product_ = last.dot(border_solution_);  // 1 + (last - e_m) . u
+  }
+  // b := [C; last]^-1 b.
+  void solve(Eigen::VectorXd& b) const {
+    lu_.solve_in_place(b.data());
+    if (bordered_) b -= border_solution_ * ((last_.dot(b) - b(border_)) / border_product_);
+  }
+  // b := [C; last]^-T b.
+  void solve_transposed(Eigen::VectorXd& b) {
+    lu_.solve_transposed_in_place(b.data());
+    if (!bordered_) return;
+    if (!transposed_ready_) {  // B^-T (last - e_m)
+      border_transposed_ = last_;
+      border_transposed_(border_) -= 1.0;
+      lu_.solve_transposed_in_place(border_transposed_.data());
+      transposed_ready_ = true;
+    }
+    b -= border_transposed_ * (b(joints_) / border_product_);
+  }
+  // det [C; last] (matrix determinant lemma for the bordered form).
+  double determinant() const {
+    return bordered_ ? lu_.determinant() * border_product_ : lu_.determinant();
   }
 
  public:
@@ -268,15 +332,18 @@ class Tracer {
     angular_ = m.driver().angular();
   }
 
-  // A node at a solved pose; the tangent (null vector of C, by SVD so that it exists at a
-  // singular start too) is oriented so the driver moves toward `direction`.
+  // A node at a solved pose; the tangent (null vector of C) is oriented so the driver moves
+  // toward `direction`.
   bool start(const Eigen::VectorXd& q, double direction, Node& out) {
     jacobian_at(q);
-    const Eigen::MatrixXd c = constraint_rows();
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(c, Eigen::ComputeFullV);
     Node seed;
     seed.q = q;
-    seed.t = svd.matrixV().col(n_ - 1);
+    if (n_ <= kDirectSize || !driver_tangent(seed.t)) {
+      // A small chain, or one drawn at a toggle or a change point: by SVD, which gives a null
+      // vector there too (dense, n^3: for a long chain only when drawn singular).
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(constraint_rows(), Eigen::ComputeFullV);
+      seed.t = svd.matrixV().col(n_ - 1);
+    }
     if (gradient_.dot(seed.t) * direction < 0.0) seed.t = -seed.t;
     return correct(seed, 0.0, out);
   }
@@ -285,9 +352,41 @@ class Tracer {
   // point, where C loses rank and two branches cross.
   double crossing_ratio(const Eigen::VectorXd& q) {
     jacobian_at(q);
-    const Eigen::VectorXd sigma =
-        Eigen::JacobiSVD<Eigen::MatrixXd>(constraint_rows()).singularValues();
-    return sigma.size() > 0 && sigma(0) > 0.0 ? sigma(sigma.size() - 1) / sigma(0) : 0.0;
+    Eigen::VectorXd t;
+    if (n_ <= kDirectSize || !driver_tangent(t)) {  // small, or next to a singular position
+      const Eigen::VectorXd sigma =
+          Eigen::JacobiSVD<Eigen::MatrixXd>(constraint_rows()).singularValues();
+      return sigma.size() > 0 && sigma(0) > 0.0 ? sigma(sigma.size() - 1) / sigma(0) : 0.0;
+    }
+    // With t the unit null vector of C, [C; t] has C's singular values and 1 (C^T C + t t^T).
+    // Its smallest by inverse iteration on the sparse factors, C's largest by power iteration:
+    // both estimates converge from the side that makes the ratio larger, which for a test
+    // against 1e-10 (six orders below a regular pose's) is the safe side of a refusal.
+    factorise(t);
+    Eigen::VectorXd x = Eigen::VectorXd::Ones(n_) / std::sqrt(static_cast<double>(n_)), y(n_);
+    double inverse_square = 0.0;  // 1 / sigma_min^2 of [C; t]
+    for (int it = 0; it < kSingularIterations; ++it) {
+      solve_transposed(x);
+      solve(x);
+      inverse_square = x.norm();
+      if (!std::isfinite(inverse_square) || inverse_square == 0.0) return 0.0;
+      x /= inverse_square;
+    }
+    x.setOnes();
+    x /= std::sqrt(static_cast<double>(n_));
+    double largest_square = 0.0;  // sigma_max^2 of C
+    for (int it = 0; it < kSingularIterations; ++it) {
+      constraint_product(x, y);
+      x.setZero();
+      for (int c = 0; c < n_; ++c)
+        for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+          if (const int r = jac_.row_index(e); r < joints_)
+            x(c) += row_(r) * jac_.value(e) * column_(c) * y(r);
+      largest_square = x.norm();
+      if (largest_square == 0.0) return 0.0;
+      x /= largest_square;
+    }
+    return 1.0 / std::sqrt(inverse_square * largest_square);
   }
 
   // The point of the curve on the hyperplane t_from . (z - z_from) = s, by Newton from a
@@ -337,11 +436,11 @@ class Tracer {
       if (converged) {
         t_.setZero();
         t_(joints_) = 1.0;
-        lu_.solve_in_place(t_.data());
+        solve(t_);
         if (!t_.allFinite() || t_.norm() == 0.0) return false;
         double row_norms = 1.0;
         for (int r = 0; r < joints_; ++r) row_norms *= aug_.row_norm(r);
-        out.orientation = lu_.determinant() * t_.norm() / row_norms;
+        out.orientation = determinant() * t_.norm() / row_norms;
         out.t = t_.normalized();
         out.q = q;
         out.s = value ? from.t.dot((q - from.q).cwiseQuotient(column_)) : s;
@@ -350,7 +449,7 @@ class Tracer {
         return true;
       }
       dz_ = rhs_;
-      lu_.solve_in_place(dz_.data());
+      solve(dz_);
       if (!dz_.allFinite()) return false;
       const double step = dz_.lpNorm<Eigen::Infinity>();
       if (step > 0.25 * last_step) factorised = false;
@@ -389,6 +488,12 @@ class Tracer {
   SparseJacobian jac_;      // J at the last q (unscaled)
   SparseJacobian aug_;      // [C; last row] in z: C's pattern and a full last row
   SmallLU lu_;
+  // The bordered form (factorise): whether it is in use, m, the last row, u = B^-1 e_n,
+  // last . u, and B^-T (last - e_m) once a transposed solve asks for it.
+  bool bordered_ = false, transposed_ready_ = false;
+  int border_ = 0;
+  Eigen::VectorXd last_, border_solution_, border_transposed_;
+  double border_product_ = 1.0;
   Eigen::VectorXd gradient_;  // the driver's row of J in z
   Eigen::VectorXd phi_, rhs_, dz_, dq_, t_;
   double tolerance_, length_ = 1.0;
