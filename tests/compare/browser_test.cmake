@@ -21,10 +21,23 @@ execute_process(COMMAND "${CROSSLINK}" ${SUBCOMMAND} "${MECHANISM}" --report "${
 if(NOT EXISTS "${report}" OR code GREATER 1)
   message(FATAL_ERROR "crosslink ${SUBCOMMAND} --report failed (exit ${code})")
 endif()
+# With -DLAYOUT=ON, the layout rules of docs/report.md ("How it is tested") are measured in the
+# rendered page by report_layout_check.js, appended to a copy of the report that is opened
+# instead (one browser run serves both checks).
+set(opened "${report}")
+if(LAYOUT)
+  file(READ "${report}" page)
+  file(READ "${CMAKE_CURRENT_LIST_DIR}/report_layout_check.js" checker)
+  string(FIND "${page}" "</body>" body_end REVERSE)
+  string(SUBSTRING "${page}" 0 ${body_end} page)
+  set(opened "${OUT}/report.checked.html")
+  file(WRITE "${opened}" "${page}<script>\n${checker}\n</script>\n</body>\n</html>\n")
+endif()
 set(flags --headless --no-sandbox --disable-gpu --disable-background-networking
           --disable-component-update --no-first-run --user-data-dir=${OUT}/profile
           --enable-logging=stderr --v=0 --virtual-time-budget=20000)
-execute_process(COMMAND "${CHROMIUM}" ${flags} --dump-dom "file://${report}"
+execute_process(COMMAND "${CHROMIUM}" ${flags} --window-size=1200,3000 --dump-dom
+                        "file://${opened}"
                 OUTPUT_VARIABLE dom ERROR_VARIABLE log TIMEOUT 120)
 file(WRITE "${OUT}/report.dom.html" "${dom}")
 file(WRITE "${OUT}/chromium.log" "${log}")
@@ -48,19 +61,10 @@ if(NOT EXISTS "${OUT}/report.png")
 endif()
 message("screenshot: ${OUT}/report.png")
 
-# With -DLAYOUT=ON, the layout rules of docs/report.md ("How it is tested"), measured in the
-# rendered page by report_layout_check.js, appended to a copy of the report.
+# The layout rules, as report_layout_check.js measured them.
 if(NOT LAYOUT)
   return()
 endif()
-file(READ "${report}" page)
-file(READ "${CMAKE_CURRENT_LIST_DIR}/report_layout_check.js" checker)
-string(FIND "${page}" "</body>" body_end REVERSE)
-string(SUBSTRING "${page}" 0 ${body_end} page)
-file(WRITE "${OUT}/report.checked.html" "${page}<script>\n${checker}\n</script>\n</body>\n</html>\n")
-execute_process(COMMAND "${CHROMIUM}" ${flags} --window-size=1200,3000 --dump-dom
-                        "file://${OUT}/report.checked.html"
-                OUTPUT_VARIABLE dom ERROR_QUIET TIMEOUT 120)
 string(REGEX MATCH "<pre id=\"layout-check\">([^<]*)</pre>" _ "${dom}")
 set(measured "${CMAKE_MATCH_1}")
 string(REPLACE "&quot;" "\"" measured "${measured}")

@@ -17,15 +17,8 @@
   const marks = (root, name) => [...root.querySelectorAll('g.' + name + '_marks > *')]
       .filter((e) => { const r = box(e); return r.width > 0 || r.height > 0; });
 
-  function measure(status) {
-    const result = {status};
-    const drawing = document.querySelector('#drawing svg');
-    // The plot area: the root group's background (width x height of the unit spec).
-    const frame = box(drawing.querySelector('g.role-frame.root path.background') ||
-                      drawing.querySelector('path.background'));
-    result.frame = {width: frame.width, height: frame.height};
-
-    // Labels: every text mark of the drawing (axis, legend and title texts have other roles).
+  // The drawing's text labels and the pairs of them that overlap (by more than 0.5 px both ways).
+  function labelOverlaps(drawing) {
     const labels = [...drawing.querySelectorAll('g.mark-text.role-mark text')]
         .filter((t) => t.textContent !== '');
     const boxes = labels.map((t) => ({text: t.textContent, r: box(t)}));
@@ -37,6 +30,19 @@
         const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
         if (w > 0.5 && h > 0.5) overlaps.push(boxes[i].text + ' / ' + boxes[j].text);
       }
+    return {boxes, overlaps};
+  }
+
+  function measure(status) {
+    const result = {status};
+    const drawing = document.querySelector('#drawing svg');
+    // The plot area: the root group's background (width x height of the unit spec).
+    const frame = box(drawing.querySelector('g.role-frame.root path.background') ||
+                      drawing.querySelector('path.background'));
+    result.frame = {width: frame.width, height: frame.height};
+
+    // Labels: every text mark of the drawing (axis, legend and title texts have other roles).
+    const {boxes, overlaps} = labelOverlaps(drawing);
     result.labels = boxes.length;
     result.label_overlaps = overlaps;
     // Every point of the drawing is named on it.
@@ -140,8 +146,32 @@
     try {
       result = measure(status);
     } catch (e) {
-      result = {error: String(e), failures: ['the layout check failed: ' + String(e)]};
+      out.textContent = JSON.stringify({error: String(e),
+                                        failures: ['the layout check failed: ' + String(e)]});
+      return;
     }
-    out.textContent = JSON.stringify(result);
+    // The labels are placed again at every pose the slider shows: move it to four more samples
+    // (a quarter of the sweep apart) and measure again.
+    const slider = document.getElementById('sample');
+    const n = Number(slider.max) + 1;
+    const samples = [1, 2, 3, 4].map((i) => Math.min(n - 1, Math.round(i * n / 4)));
+    result.slider = [];
+    (function next(i) {
+      if (i > 0) {
+        const {boxes, overlaps} = labelOverlaps(document.querySelector('#drawing svg'));
+        result.slider.push({sample: samples[i - 1], labels: boxes.length, overlaps,
+                            shown: document.getElementById('sample-value').textContent});
+        if (overlaps.length)
+          result.failures.push('at sample ' + samples[i - 1] + ' of the slider, ' +
+                               overlaps.length + ' pairs of labels overlap: ' + overlaps.join(', '));
+      }
+      if (i === samples.length) {
+        out.textContent = JSON.stringify(result);
+        return;
+      }
+      slider.value = String(samples[i]);
+      slider.dispatchEvent(new Event('input'));
+      setTimeout(() => next(i + 1), 300);
+    })(0);
   })();
 })();
