@@ -283,7 +283,8 @@
                    py: (tail[1] + tip[1]) / 2, tail, tip,
                    // Clockwise from up, as Vega turns a point's shape (pixel y grows down).
                    angle: Math.atan2(ux, -uy) * 180 / Math.PI,
-                   label: c.name + ' ' + beyond.toPrecision(3) + ' ' + D.unit + ' beyond',
+                   // Three digits, never in exponent form ("1130 mm", not "1.13e+3 mm").
+                   label: c.name + ' ' + Number(beyond.toPrecision(3)) + ' ' + D.unit + ' beyond',
                    cx: c.x, cy: c.y});
     }
     return {inFrame, arrows};

@@ -156,6 +156,7 @@
     const n = Number(slider.max) + 1;
     const samples = [1, 2, 3, 4].map((i) => Math.min(n - 1, Math.round(i * n / 4)));
     result.slider = [];
+    const drawn = slider.value;
     (function next(i) {
       if (i > 0) {
         const {boxes, overlaps} = labelOverlaps(document.querySelector('#drawing svg'));
@@ -165,8 +166,10 @@
           result.failures.push('at sample ' + samples[i - 1] + ' of the slider, ' +
                                overlaps.length + ' pairs of labels overlap: ' + overlaps.join(', '));
       }
-      if (i === samples.length) {
-        out.textContent = JSON.stringify(result);
+      if (i === samples.length) {  // back to the drawn pose, for the dumped DOM
+        slider.value = drawn;
+        slider.dispatchEvent(new Event('input'));
+        setTimeout(() => { out.textContent = JSON.stringify(result); }, 300);
         return;
       }
       slider.value = String(samples[i]);
