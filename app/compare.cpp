@@ -200,6 +200,10 @@ int run_compare(CompareArgs args) {
     compare::HtmlOptions html;
     if (args.at) html.at = *args.at * driver_scale;
     html.asset_dirs = installed_asset_dirs();
+    if (args.step != 0.0) html.step = options.step;
+    html.tolerances = args.tolerances;
+    html.settings = args.settings;
+    html.accuracy = accuracy;
     std::ostringstream page;
     compare::write_html(cmp, html, page);
     write_file(args.report, page.str());

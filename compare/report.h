@@ -57,6 +57,11 @@ struct HtmlOptions {
   // Folders to look for vega.min.js, vega-lite.min.js, vega-embed.min.js in (flat, or as an npm
   // node_modules tree), before $CROSSLINK_REPORT_ASSETS and the compiled-in source tree.
   std::vector<std::string> asset_dirs;
+  // What the command line set, so that the page tells it from the defaults ("Settings in force").
+  std::optional<double> step;           // --step [rad or m]; nullopt: the default
+  std::vector<std::string> tolerances;  // --tolerance as given: "velocity=0.5", "dyads:angle=1"
+  std::vector<std::string> settings;    // --set as given: "dt=1e-4", "mujoco:dt=1e-4"
+  std::optional<double> accuracy;       // --accuracy [%]: the engines' tolerance, chosen dt
 };
 // The folder the chart scripts were found in, or nullopt (the message says where it looked).
 std::optional<std::string> find_report_assets(const std::vector<std::string>& extra_dirs,

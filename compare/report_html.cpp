@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -116,6 +117,18 @@ double severity(const ChannelResult& c) {
   return c.tolerance > 0.0 ? c.metrics.max_pct_of_peak / c.tolerance : c.metrics.max_pct_of_peak;
 }
 
+// The moving links whose mass properties are the default model (default_mass_properties: the
+// definition gives none), and those the definition gives, each a comma-separated list.
+std::pair<std::string, std::string> links_by_mass_source(const Mechanism& m) {
+  std::string assumed, given;
+  for (const Link& link : m.links)
+    if (!link.ground) {
+      std::string& list = link.mass.assumed ? assumed : given;
+      list += (list.empty() ? "" : ", ") + link.name;
+    }
+  return {assumed, given};
+}
+
 // The drawing at one driver value: link segments, guide lines, points.
 json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& length) {
   json d;
@@ -201,6 +214,12 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
                              {"label", fmt::format("{} {:.4g} {}", joint.name,
                                                    f.norm() / force_unit, m.units.force_name)}});
     }
+    // Which masses the reactions come from: the page says when it is the default model.
+    const auto [assumed, given] = links_by_mass_source(m);
+    d["masses"] = assumed.empty() ? "the definition's masses"
+                  : !given.empty()
+                      ? "the definition's masses and the default uniform bars"
+                      : "the default mass model, uniform bars (the definition gives no mass)";
     const bool torque = m.driver().angular();
     d["effort"] =
         fmt::format("driver {} {:.6g} {}", torque ? "torque" : "force",
@@ -289,15 +308,147 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
   return r;
 }
 
-std::string methods_table(const Comparison& cmp) {
+// Whether a --set or --tolerance assignment ("KEY=V" or "PREFIX:KEY=V") is meant for `method`
+// and names `key`: a bare one goes to every engine (`bare_applies`), a prefixed one to its own.
+bool assigns(std::string_view text, std::string_view method, std::string_view key,
+             bool bare_applies) {
+  std::string_view name = text.substr(0, text.find('='));
+  if (const size_t colon = name.find(':'); colon != std::string_view::npos) {
+    if (name.substr(0, colon) != method) return false;
+    name = name.substr(colon + 1);
+  } else if (!bare_applies) {
+    return false;
+  }
+  return name == key;
+}
+
+// The exact methods' tolerances are fixed (tolerance.h): a bare CLASS=V or [tolerance] is not
+// theirs.
+bool exact_method(std::string_view method) {
+  return method == "dyads" || method == "ic";
+}
+
+std::optional<double> definition_tolerance(const ToleranceOverrides& t, Quantity q) {
+  switch (q) {
+    case Quantity::position:
+      return t.position;
+    case Quantity::angle:
+      return t.angle;
+    case Quantity::velocity:
+      return t.velocity;
+    case Quantity::acceleration:
+      return t.acceleration;
+    case Quantity::force:
+      return t.force;
+    case Quantity::torque:
+      return t.torque;
+    case Quantity::energy:
+      return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+// Where one method's tolerance of one class comes from, later wins as tolerance.h applies them.
+std::string tolerance_source(const Mechanism& m, const HtmlOptions& options,
+                             const std::string& method, Quantity q) {
+  const bool engine = !exact_method(method);
+  std::string source = "default";
+  if (engine && definition_tolerance(m.tolerances, q)) source = "the definition's [tolerance]";
+  if (engine && options.accuracy) source = "--accuracy";
+  for (const std::string& t : options.tolerances)
+    if (assigns(t, method, to_string(q), engine)) source = "--tolerance " + t;
+  return source;
+}
+
+// Every value the page relies on that the definition or the command line may leave to a
+// default, with where each one came from.
+std::string settings_in_force(const Comparison& cmp, const HtmlOptions& options) {
+  const Mechanism& m = *cmp.mechanism;
+  const DisplayUnit du = driver_unit(m);
+  std::string html = "<ul id=\"settings-in-force\">\n";
+  if (m.dynamics) {
+    html += "<li>samples: every [dynamics] interval of the definition, over its duration</li>\n";
+  } else {
+    html += fmt::format("<li>sweep: {}</li>\n",
+                        m.driver().range
+                            ? std::string("over the definition's driver range")
+                            : std::string("one cycle from the driver's start, or its assembling "
+                                          "range (default: the definition gives no range)"));
+    html += options.step ? fmt::format("<li>step between samples: {:.6g} {} (--step)</li>\n",
+                                       *options.step / du.scale, escape(du.name))
+                         : std::string(
+                               "<li>step between samples: the default, 1 deg for an angle, "
+                               "1/360 of the swept range for a slider (--step sets it)</li>\n");
+  }
+  html += options.at ? std::string("<li>drawing: at --at</li>\n")
+                     : std::string(
+                           "<li>drawing: at the driver's start (default; --at sets "
+                           "it)</li>\n");
+  const auto [assumed, given] = links_by_mass_source(m);
+  html += fmt::format(
+      "<li>mass model (every force, torque and energy channel and the drawing's reactions): "
+      "{}</li>\n",
+      assumed.empty() ? std::string("the definition's masses for every link")
+      : given.empty()
+          ? std::string("the default for every link (the definition gives no mass): a uniform "
+                        "slender bar between the link's two farthest points, 1 kg per mechanism "
+                        "size of length, 10:1 slender")
+          : fmt::format("the default uniform bar for {}; the definition's for {}", escape(assumed),
+                        escape(given)));
+  // Tolerances: method x class, each with its source.
+  std::vector<std::string> methods;
+  std::vector<Quantity> classes;
+  std::map<std::pair<std::string, Quantity>, double> value;
+  for (const ChannelResult& c : cmp.channels) {
+    if (c.prescribed) continue;
+    if (std::find(methods.begin(), methods.end(), c.method) == methods.end())
+      methods.push_back(c.method);
+    if (std::find(classes.begin(), classes.end(), c.metrics.quantity) == classes.end())
+      classes.push_back(c.metrics.quantity);
+    value.emplace(std::pair(c.method, c.metrics.quantity), c.tolerance);
+  }
+  std::sort(classes.begin(), classes.end());
+  html +=
+      "<li>verdict tolerances [% of peak] and where each comes from:\n"
+      "<table class=\"tolerances\"><tr><th>method</th>";
+  for (Quantity q : classes) html += fmt::format("<th>{}</th>", to_string(q));
+  html += "</tr>\n";
+  for (const std::string& method : methods) {
+    html += fmt::format("<tr><td>{}</td>", escape(method));
+    for (Quantity q : classes) {
+      const auto v = value.find({method, q});
+      html += v == value.end() ? std::string("<td></td>")
+                               : fmt::format("<td>{:.3g} <small>({})</small></td>", v->second,
+                                             escape(tolerance_source(m, options, method, q)));
+    }
+    html += "</tr>\n";
+  }
+  html += "</table></li>\n";
+  html += fmt::format(
+      "<li>engine settings: as listed under \"Methods: settings and cost\"; those marked "
+      "<b>--set</b> the command line set{}, every other one is the engine's default (`crosslink "
+      "engines` lists them)</li>\n",
+      options.accuracy
+          ? fmt::format(", and the time step --accuracy {:g} % chose", *options.accuracy)
+          : "");
+  return html + "</ul>\n";
+}
+
+std::string methods_table(const Comparison& cmp, const HtmlOptions& options) {
   std::string html = std::string("<table><tr><th>method</th><th>status</th><th>wall [s]</th><th>") +
                      (cmp.mechanism->dynamics ? "per simulated s [s]" : "per cycle [s]") +
                      "</th>"
                      "<th>steps</th><th>settings</th></tr>\n";
   for (const MethodRun& run : cmp.methods) {
     std::string settings;
-    for (const auto& [k, v] : run.settings)
-      settings += fmt::format("<code>{}={}</code> ", escape(k), escape(v));
+    for (const auto& [k, v] : run.settings) {
+      const bool set =
+          std::any_of(options.settings.begin(), options.settings.end(), [&](const std::string& s) {
+            return assigns(s, run.name, k, !exact_method(run.name) && run.name != "analytic");
+          });
+      settings +=
+          fmt::format("<code>{}={}</code>{} ", escape(k), escape(v), set ? " <b>--set</b>" : "");
+    }
     const std::string status = !run.available ? "not run: " + run.message
                                : run.ok ? "ok" + (run.message.empty() ? "" : ": " + run.message)
                                         : "FAILED: " + run.message;
@@ -312,39 +463,85 @@ std::string methods_table(const Comparison& cmp) {
   return html + "</table>\n";
 }
 
+// The verdict table, one group per kind of channel (position, angle, velocity, ..., and the
+// values the definition prescribes last): a summary line (count, worst % of peak, verdict), the
+// rows closest to failing first (every failing one, at least kShownRows), the rest folded.
 std::string verdict_table(const Comparison& cmp) {
+  constexpr size_t kShownRows = 5;
   const Mechanism& m = *cmp.mechanism;
   const DisplayUnit du = driver_unit(m);
-  std::vector<const ChannelResult*> rows;
-  for (const ChannelResult& c : cmp.channels) rows.push_back(&c);
-  std::stable_sort(rows.begin(), rows.end(),
-                   [](auto* a, auto* b) { return severity(*a) > severity(*b); });
-  std::string html =
-      "<table class=\"verdicts\"><tr><th>channel</th><th>quantity</th><th>method</th>"
-      "<th>max % of peak</th><th>RMS % of peak</th><th>max local %</th><th>max |d|</th>"
-      "<th>worst at</th><th>tolerance %</th><th>verdict</th></tr>\n";
-  for (const ChannelResult* c : rows) {
-    const DisplayUnit u = display_unit(m, c->metrics.channel);
-    const int k = c->metrics.worst_sample;
+  const std::string header =
+      "<tr><th>channel</th><th>method</th><th>max % of peak</th><th>RMS % of peak</th>"
+      "<th>max local %</th><th>max |d|</th><th>worst at</th><th>tolerance %</th>"
+      "<th>verdict</th></tr>\n";
+  const auto row = [&](const ChannelResult& c) {
+    const DisplayUnit u = display_unit(m, c.metrics.channel);
+    const int k = c.metrics.worst_sample;
     // No sample in the verdict: no metric exists ("-"), not 0.
     const auto metric = [&](double v) {
-      return c->metrics.usable > 0 ? fmt::format("{:.3g}", v) : std::string("-");
+      return c.metrics.usable > 0 ? fmt::format("{:.3g}", v) : std::string("-");
     };
-    html += fmt::format(
-        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+    return fmt::format(
+        "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
         "<td>{}</td><td>{} {}</td><td>{}</td><td>{:.3g}</td><td>{}</td></tr>\n",
-        c->verdict == Verdict::fail ? "fail" : "", escape(c->metrics.channel),
-        to_string(c->metrics.quantity), escape(c->method), metric(c->metrics.max_pct_of_peak),
-        metric(c->metrics.rms_pct_of_peak), metric(c->metrics.max_local_pct),
-        metric(c->metrics.max_abs / u.scale), escape(u.name),
+        c.verdict == Verdict::fail ? "fail" : "", escape(c.metrics.channel), escape(c.method),
+        metric(c.metrics.max_pct_of_peak), metric(c.metrics.rms_pct_of_peak),
+        metric(c.metrics.max_local_pct), metric(c.metrics.max_abs / u.scale), escape(u.name),
         k < 0 ? std::string("-")
         : m.dynamics
             ? fmt::format("t = {:.3f} s (#{})", cmp.reference().trajectory.time(k), k)
             : fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
                           escape(du.name), k),
-        c->tolerance, to_string(c->verdict));
+        c.tolerance, to_string(c.verdict));
+  };
+  // Groups in Quantity order, the prescribed values apart (key: quantity, or -1 for them).
+  std::map<int, std::vector<const ChannelResult*>> groups;
+  for (const ChannelResult& c : cmp.channels)
+    groups[c.prescribed ? std::numeric_limits<int>::max() : static_cast<int>(c.metrics.quantity)]
+        .push_back(&c);
+  if (groups.empty()) return "<p>No channel was compared.</p>\n";
+  std::string html;
+  for (auto& [key, rows] : groups) {
+    std::stable_sort(rows.begin(), rows.end(),
+                     [](auto* a, auto* b) { return severity(*a) > severity(*b); });
+    const bool prescribed = key == std::numeric_limits<int>::max();
+    const std::string name = prescribed ? "values the definition prescribes"
+                                        : std::string(to_string(static_cast<Quantity>(key)));
+    int fail = 0, pass = 0;
+    for (const ChannelResult* c : rows) {
+      fail += c->verdict == Verdict::fail;
+      pass += c->verdict == Verdict::pass;
+    }
+    const ChannelResult& worst = *rows.front();
+    const std::string verdict = fail ? "FAIL" : pass ? "PASS" : "n/a";
+    html += fmt::format(
+        "<section class=\"verdict-group\" data-group=\"{}\">\n<h3>{}: {} comparison{} ({} pass, "
+        "{} fail, {} n/a); worst {} % of peak ({} {}, tolerance {:.3g} %): <b "
+        "class=\"verdict-{}\">{}</b></h3>\n",
+        escape(name), escape(name), rows.size(), rows.size() == 1 ? "" : "s", pass, fail,
+        static_cast<int>(rows.size()) - pass - fail,
+        worst.metrics.usable > 0 ? fmt::format("{:.3g}", worst.metrics.max_pct_of_peak) : "-",
+        escape(worst.method), escape(worst.metrics.channel), worst.tolerance,
+        fail ? "fail" : "pass", verdict);
+    // The prescribed values agree by construction: all folded.
+    const size_t shown = prescribed ? 0 : std::max(kShownRows, static_cast<size_t>(fail));
+    const size_t split = std::min(shown, rows.size());
+    if (split > 0) {
+      html += "<table class=\"verdicts\">" + header;
+      for (size_t i = 0; i < split; ++i) html += row(*rows[i]);
+      html += "</table>\n";
+    }
+    if (split < rows.size()) {
+      html += fmt::format(
+          "<details><summary>{} {}row{}, closest to failing first</summary>\n<table "
+          "class=\"verdicts\">{}",
+          rows.size() - split, split ? "more " : "", rows.size() - split == 1 ? "" : "s", header);
+      for (size_t i = split; i < rows.size(); ++i) html += row(*rows[i]);
+      html += "</table>\n</details>\n";
+    }
+    html += "</section>\n";
   }
-  return html + "</table>\n";
+  return html;
 }
 
 // [[reference]] rows grouped by (quantity, driver value): every printed value, the exact one
@@ -448,21 +645,18 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   data["drawing"]["at"] = at / du.scale;
   data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
   std::string centres_note = "No instantaneous centres: the drawn pose is singular.";
-  // Instantaneous centres I(i,j), links numbered from 1 in definition order; those far outside
-  // the mechanism (or at infinity) are listed, not drawn.
+  // Instantaneous centres I(i,j), links numbered from 1 in definition order. Every placed one is
+  // drawn (the page frames the linkage and points at a centre outside the frame with an arrow);
+  // those at infinity are listed.
   if (usable(pose.status.at(0))) {
     const InstantCentres ic = instant_centres(m, pose, 0);
     const DisplayUnit length = display_unit(m, "x.any");
-    Eigen::Vector2d middle = Eigen::Vector2d::Zero();
-    for (Eigen::Index p = 0; p < pose.x.cols(); ++p)
-      middle += Eigen::Vector2d(pose.x(0, p), pose.y(0, p));
-    middle /= std::max<Eigen::Index>(1, pose.x.cols());
-    std::vector<std::string> far;
+    std::vector<std::string> at_infinity;
     for (const InstantCentre& c : ic.centres) {
       const std::string name = fmt::format("I{},{}", c.i + 1, c.j + 1);
       if (!c.placed()) continue;
-      if (c.at_infinity() || (c.position() - middle).norm() > 1.5 * m.size()) {
-        far.push_back(name + (c.at_infinity() ? " (at infinity)" : ""));
+      if (c.at_infinity()) {
+        at_infinity.push_back(name);
         continue;
       }
       data["drawing"]["centres"].push_back({{"name", name},
@@ -474,11 +668,13 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     for (size_t l = 0; l < m.links.size(); ++l)
       links += fmt::format("{}{} {}", l ? ", " : "", l + 1, m.links[l].name);
     centres_note = fmt::format(
-        "Instantaneous centres (red diamonds) I<i>,<j>, links numbered {}."
-        "{}",
-        links, far.empty() ? "" : " Not drawn (far away): ");
-    for (size_t i = 0; i < far.size(); ++i) centres_note += (i ? ", " : "") + far[i];
-    centres_note += ".";
+        "Instantaneous centres (red diamonds) I<i>,<j>, links numbered {}; a centre outside the "
+        "frame is a red arrow at its edge pointing at it, labelled with its distance beyond the "
+        "arrow's tip.{}",
+        links, at_infinity.empty() ? "" : " At infinity (a pair in relative translation): ");
+    for (size_t i = 0; i < at_infinity.size(); ++i)
+      centres_note += (i ? ", " : "") + at_infinity[i];
+    if (!at_infinity.empty()) centres_note += ".";
   }
 
   std::string legend;
@@ -514,6 +710,7 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
       "drawing.</small></p>\n",
       std::max(0, cmp.reference().trajectory.samples() - 1));
   out << "<p><small>" << escape(centres_note) << "</small></p>\n";
+  out << "<p><small id=\"drawing-left-out\"></small></p>\n";
   out << (m.dynamics ? "<h2>Channels against time</h2>\n"
                      : "<h2>Channels against the driver</h2>\n")
       << "<p>Every method overlaid on the exact values; "
@@ -526,7 +723,9 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     out << "<h2>Published values ([[reference]])</h2>\n<p>Each cell: % difference of the row's "
            "value from the column's, 100 |row - column| / |column|.</p>\n"
         << references_table(cmp);
-  out << "<h2>Methods: settings and cost</h2>\n" << methods_table(cmp);
+  out << "<h2>Methods: settings and cost</h2>\n" << methods_table(cmp, options);
+  out << "<h2>Settings in force: defaults and what set the others</h2>\n"
+      << settings_in_force(cmp, options);
   out << "<h2>Legend</h2>\n<dl>\n" << legend << "</dl>\n";
   write_page_tail(data.dump(), kReportPageScript, out);
 }

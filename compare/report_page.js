@@ -32,6 +32,11 @@
     bullet: {colour: '#d62728', dash: [4, 2, 1, 2]},
   };
   const style = (m) => methodStyle[m] || {colour: '#8c564b', dash: [1, 1]};
+  const driverSpan = (() => {
+    let lo = Infinity, hi = -Infinity;
+    for (const v of R.driver.values) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    return lo < hi ? [lo, hi] : [lo - 1, hi + 1];  // one sample: a span around it
+  })();
   const colorScale = {domain: methodOrder, range: methodOrder.map((m) => style(m).colour)};
   const dashScale = {domain: methodOrder, range: methodOrder.map((m) => style(m).dash)};
 
@@ -66,7 +71,9 @@
   // flagged samples shaded), and below it each method's difference from the exact values.
   function chartSpec(name) {
     const unit = R.channels[name].unit;
-    const axisX = {field: 'driver', type: 'quantitative', title: driverTitle};
+    // The axis spans the sweep, from its first driver value (a sweep from 90 deg starts at 90).
+    const axisX = {field: 'driver', type: 'quantitative', title: driverTitle,
+                   scale: {domain: driverSpan, nice: false, zero: false}};
     // Colour and dash share the field and title, so one legend shows both.
     const colour = {field: 'method', type: 'nominal', scale: colorScale, title: 'method'};
     const dash = {field: 'method', type: 'nominal', scale: dashScale, title: 'method'};
@@ -127,18 +134,20 @@
     for (let k = 0; k < R.driver.values.length; k++)
       if (Math.abs(R.driver.values[k] - D.at) < Math.abs(R.driver.values[k0] - D.at)) k0 = k;
   }
-  // Coincident centres share one label ("I1,2 = I3,4"), so labels do not overprint.
-  function centreLabels() {
+  // Coincident centres share one name ("I1,2 = I3,4"), so that labels do not overprint.
+  function centreGroups() {
     const groups = new Map();
     for (const c of D.centres) {
       const key = c.x.toPrecision(6) + ',' + c.y.toPrecision(6);
-      if (!groups.has(key)) groups.set(key, {x: c.x, y: c.y, names: []});
+      if (!groups.has(key)) groups.set(key, {x: c.x, y: c.y, names: [], how: []});
       groups.get(key).names.push(c.name);
+      groups.get(key).how.push(c.name + ': ' + c.how);
     }
-    return [...groups.values()].map((g) => ({x: g.x, y: g.y, name: g.names.join(' = ')}));
+    return [...groups.values()].map((g) => ({x: g.x, y: g.y, name: g.names.join(' = '),
+                                               how: g.how.join('; ')}));
   }
   // Paths of the moving points over the sweep (coupler curves), broken where a sample has none.
-  function paths() {
+  const pathRows = (() => {
     const rows = [];
     for (const p of D.points) {
       if (p.kind === 'ground pivot') continue;
@@ -146,7 +155,142 @@
         rows.push({name: p.name, k, x: at('x.' + p.name, k), y: at('y.' + p.name, k)});
     }
     return rows;
+  })();
+
+  // The frame: the linkage's extent over the sweep (every point at every sample, and the drawn
+  // pose) with a margin, at one scale on both axes, as large as the page allows in the
+  // linkage's longer direction. Nothing else sets it: a centre outside it is an arrow at its edge, and guides
+  // and reactions are clipped.
+  const frame = (() => {
+    let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
+    const add = (x, y) => {
+      if (x === null || y === null) return;
+      x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+    };
+    for (const p of D.points) add(p.x, p.y);
+    for (const r of pathRows) add(r.x, r.y);
+    const margin = 28, maxWidth = 640, maxHeight = 560, minWidth = 400, minHeight = 240;
+    const size = Math.max(x1 - x0, y1 - y0) || 1;  // a still point: any scale
+    const ex = Math.max(x1 - x0, 1e-9 * size), ey = Math.max(y1 - y0, 1e-9 * size);
+    const s = Math.min((maxWidth - 2 * margin) / ex, (maxHeight - 2 * margin) / ey);  // px per unit
+    const width = Math.max(minWidth, Math.min(maxWidth, ex * s + 2 * margin));
+    const height = Math.max(minHeight, Math.min(maxHeight, ey * s + 2 * margin));
+    const left = (x0 + x1) / 2 - width / (2 * s), bottom = (y0 + y1) / 2 - height / (2 * s);
+    return {
+      s, width, height, left, bottom,
+      toPx: (x, y) => [(x - left) * s, height - (y - bottom) * s],
+      fromPx: (px, py) => [left + px / s, bottom + (height - py) / s],
+      inside: (px, py) => px >= 0 && px <= width && py >= 0 && py <= height,
+    };
+  })();
+
+  // Label placement, greedy in pixels: each label in turn (points first, then centres, arrows,
+  // reactions) takes the first candidate position around its anchor (nearest ring first) whose
+  // box stays in the frame and meets no placed label, marker, link, arrow or leader line; one
+  // away from its anchor gets a leader line. A label with no room is left out and listed under
+  // the drawing (its tooltip keeps it).
+  const textWidth = (() => {
+    const ctx = document.createElement('canvas').getContext('2d');
+    return (text, size) => {
+      ctx.font = size + 'px sans-serif';
+      return ctx.measureText(text).width;
+    };
+  })();
+  const overlaps = (a, b) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+  // Whether segment (a, b) passes within hw of box r (Liang-Barsky clip on the grown box).
+  function crosses(r, s) {
+    const x0 = r.x0 - s.hw, x1 = r.x1 + s.hw, y0 = r.y0 - s.hw, y1 = r.y1 + s.hw;
+    const dx = s.bx - s.ax, dy = s.by - s.ay;
+    let t0 = 0, t1 = 1;
+    for (const [p, q] of [[-dx, s.ax - x0], [dx, x1 - s.ax], [-dy, s.ay - y0], [dy, y1 - s.ay]]) {
+      if (p === 0) {
+        if (q < 0) return false;
+      } else {
+        const t = q / p;
+        if (p < 0) t0 = Math.max(t0, t); else t1 = Math.min(t1, t);
+        if (t0 > t1) return false;
+      }
+    }
+    return true;
   }
+  const directions = [[1, -1], [1, 0], [-1, -1], [-1, 0], [1, 1], [-1, 1], [0, -1], [0, 1]];
+  const rings = [2, 7, 13, 21, 31, 44, 60, 80];
+  function placeLabels(items, boxes, segments) {
+    const placed = [], leaders = [], left = [];
+    for (const it of items) {
+      const w = textWidth(it.text, it.size) + 2, h = it.size * 1.25;
+      let found = null;
+      for (const r of rings) {
+        for (const [ux, uy] of directions) {
+          const gap = it.clear + r;
+          const cx = it.px + ux * (gap + w / 2), cy = it.py + uy * (gap + h / 2);
+          const box = {x0: cx - w / 2, x1: cx + w / 2, y0: cy - h / 2, y1: cy + h / 2};
+          if (box.x0 < 1 || box.y0 < 1 || box.x1 > frame.width - 1 || box.y1 > frame.height - 1)
+            continue;
+          if (boxes.some((b) => overlaps(box, b)) || segments.some((s) => crosses(box, s)))
+            continue;
+          // A leader from the anchor's marker to the box's nearest point.
+          let leader = null;
+          if (r > rings[1]) {
+            const nx = Math.min(Math.max(it.px, box.x0), box.x1);
+            const ny = Math.min(Math.max(it.py, box.y0), box.y1);
+            const d = Math.hypot(nx - it.px, ny - it.py);
+            leader = {ax: it.px + (nx - it.px) * it.clear / d, ay: it.py + (ny - it.py) * it.clear / d,
+                      bx: nx, by: ny, hw: 0.5};
+            const inner = {x0: box.x0 + 1, x1: box.x1 - 1, y0: box.y0 + 1, y1: box.y1 - 1};
+            if (placed.some((p) => crosses(p.box, leader) && !overlaps(p.box, inner))) continue;
+          }
+          found = {box, cx, cy, leader};
+          break;
+        }
+        if (found) break;
+      }
+      if (!found) {
+        left.push(it.text);
+        continue;
+      }
+      boxes.push(found.box);
+      if (found.leader) {
+        segments.push(found.leader);
+        const [x, y] = frame.fromPx(found.leader.ax, found.leader.ay);
+        const [x2, y2] = frame.fromPx(found.leader.bx, found.leader.by);
+        leaders.push({x, y, x2, y2});
+      }
+      const [x, y] = frame.fromPx(found.cx, found.cy);
+      placed.push({box: found.box, kind: it.kind, text: it.text, x, y});
+    }
+    return {placed, leaders, left};
+  }
+
+  // Centres inside the frame are drawn where they are; the others as an arrow at the frame's
+  // edge pointing at them, labelled with their name and distance beyond the arrow's tip.
+  function centreMarks() {
+    const inFrame = [], arrows = [];
+    const mx = frame.width / 2, my = frame.height / 2, inset = 6, length = 30;
+    for (const c of centreGroups()) {
+      const [px, py] = frame.toPx(c.x, c.y);
+      if (frame.inside(px, py)) {
+        inFrame.push({...c, px, py});
+        continue;
+      }
+      const d = Math.hypot(px - mx, py - my), ux = (px - mx) / d, uy = (py - my) / d;
+      const reach = Math.min(ux ? (mx - inset) / Math.abs(ux) : Infinity,
+                             uy ? (my - inset) / Math.abs(uy) : Infinity);
+      const tip = [mx + ux * reach, my + uy * reach], tail = [tip[0] - ux * length, tip[1] - uy * length];
+      const [x, y] = frame.fromPx(...tail), [x2, y2] = frame.fromPx(...tip);
+      const beyond = Math.hypot(c.x - x2, c.y - y2);
+      arrows.push({name: c.name, how: c.how, x, y, x2, y2, px: (tail[0] + tip[0]) / 2,
+                   py: (tail[1] + tip[1]) / 2, tail, tip,
+                   // Clockwise from up, as Vega turns a point's shape (pixel y grows down).
+                   angle: Math.atan2(ux, -uy) * 180 / Math.PI,
+                   // Three digits, never in exponent form ("1130 mm", not "1.13e+3 mm").
+                   label: c.name + ' ' + Number(beyond.toPrecision(3)) + ' ' + D.unit + ' beyond',
+                   cx: c.x, cy: c.y});
+    }
+    return {inFrame, arrows};
+  }
+  const centresAtK0 = centreMarks();
+
   function poseAt(k) {
     const here = k === k0;
     const segments = D.segments.map((s) => ({
@@ -158,53 +302,99 @@
       x: p.kind === 'ground pivot' ? p.x : at('x.' + p.name, k),
       y: p.kind === 'ground pivot' ? p.y : at('y.' + p.name, k),
     })).filter((p) => p.x !== null && p.y !== null);
+    const centres = here ? centresAtK0.inFrame : [], arrows = here ? centresAtK0.arrows : [];
+    const forces = here ? D.forces : [];
+
+    // What labels must not cover: markers as boxes, links and arrows as thick segments.
+    const boxes = [], lines = [];
+    const marker = (px, py, r) => boxes.push({x0: px - r, x1: px + r, y0: py - r, y1: py + r});
+    const line = (x, y, x2, y2, hw) => {
+      const [ax, ay] = frame.toPx(x, y), [bx, by] = frame.toPx(x2, y2);
+      lines.push({ax, ay, bx, by, hw});
+    };
+    for (const s of segments) line(s.x, s.y, s.x2, s.y2, 3.5);
+    for (const f of forces) line(f.x, f.y, f.x2, f.y2, 1.5);
+    for (const a of arrows) lines.push({ax: a.tail[0], ay: a.tail[1], bx: a.tip[0], by: a.tip[1], hw: 4});
+    const items = [];
+    for (const p of points) {
+      const [px, py] = frame.toPx(p.x, p.y);
+      marker(px, py, 5.5);
+      items.push({kind: 'point', text: p.name, size: 13, px, py, clear: 5});
+    }
+    for (const c of centres) {
+      marker(c.px, c.py, 4.5);
+      items.push({kind: 'centre', text: c.name, size: 10, px: c.px, py: c.py, clear: 4});
+    }
+    for (const a of arrows)
+      items.push({kind: 'arrow', text: a.label, size: 10, px: a.px, py: a.py, clear: 4});
+    for (const f of forces) {
+      const [px, py] = frame.toPx(f.x2, f.y2);
+      if (frame.inside(px, py)) marker(px, py, 4.5);
+      items.push({kind: 'force', text: f.label, size: 10, px, py, clear: 4});
+    }
+    const {placed, leaders, left} = placeLabels(items, boxes, lines);
+    const of = (kind) => placed.filter((p) => p.kind === kind).map(({text, x, y}) => ({text, x, y}));
     return {
       segments, points,
       guides: D.guides.filter((g) => here || !g.moving),
-      centres: here ? D.centres : [], centreLabels: here ? centreLabels() : [],
-      forces: here ? D.forces : [],
+      centres, arrows, forces,
+      pointLabels: of('point'), centreLabels: of('centre'), arrowLabels: of('arrow'),
+      forceLabels: of('force'), leaders, left,
     };
   }
 
   function drawingSpec() {
-    const xs = [], ys = [];
-    for (const p of D.points.concat(D.centres)) { xs.push(p.x); ys.push(p.y); }
-    for (const r of paths()) if (r.x !== null && r.y !== null) { xs.push(r.x); ys.push(r.y); }
-    const cx = (Math.min(...xs) + Math.max(...xs)) / 2, cy = (Math.min(...ys) + Math.max(...ys)) / 2;
-    let half = Math.max(Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)) / 2;
-    half = half * 1.15 + 1e-9;
-    const sx = {domain: [cx - half, cx + half], nice: false, zero: false};
-    const sy = {domain: [cy - half, cy + half], nice: false, zero: false};
+    const sx = {domain: [frame.left, frame.left + frame.width / frame.s], nice: false, zero: false};
+    const sy = {domain: [frame.bottom, frame.bottom + frame.height / frame.s], nice: false,
+                zero: false};
     const X = {field: 'x', type: 'quantitative', scale: sx, title: 'x [' + D.unit + ']'};
     const Y = {field: 'y', type: 'quantitative', scale: sy, title: 'y [' + D.unit + ']'};
     const X2 = {field: 'x2'}, Y2 = {field: 'y2'};
+    const tipX = {field: 'x2', type: 'quantitative', scale: sx};
+    const tipY = {field: 'y2', type: 'quantitative', scale: sy};
+    const labels = (name, data, size, colour) => ({
+      name, data: {name: data},
+      mark: {type: 'text', align: 'center', baseline: 'middle', font: 'sans-serif',
+             fontSize: size, color: colour},
+      encoding: {x: X, y: Y, text: {field: 'text'}},
+    });
     return {
       $schema: 'https://vega.github.io/schema/vega-lite/v6.json',
-      width: 460, height: 460,
-      datasets: {segments: [], points: [], guides: [], centres: [], centreLabels: [], forces: []},
+      width: frame.width, height: frame.height,
+      datasets: {segments: [], points: [], guides: [], centres: [], arrows: [], forces: [],
+                 pointLabels: [], centreLabels: [], arrowLabels: [], forceLabels: [], leaders: []},
+      // Layer names are the SVG groups' classes ("<name>_marks") the browser test measures.
       layer: [
-        {data: {values: paths()},
+        {name: 'paths', data: {values: pathRows},
          mark: {type: 'line', strokeWidth: 1, color: '#bbb', clip: true,
                 invalid: 'break-paths-filter-domains'},
          encoding: {x: X, y: Y, detail: {field: 'name'}, order: {field: 'k'}}},
-        {data: {name: 'guides'},
+        {name: 'guides', data: {name: 'guides'},
          mark: {type: 'rule', strokeDash: [6, 4], color: '#888', clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2}},
-        {data: {name: 'segments'}, mark: {type: 'rule', strokeWidth: 5, opacity: 0.75, clip: true},
+        {name: 'links', data: {name: 'segments'},
+         mark: {type: 'rule', strokeWidth: 5, opacity: 0.75, clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2,
                     color: {field: 'link', type: 'nominal', title: 'link'},
                     tooltip: [{field: 'link'}]}},
+        {name: 'leaders', data: {name: 'leaders'},
+         mark: {type: 'rule', strokeWidth: 0.7, color: '#777'},
+         encoding: {x: X, y: Y, x2: X2, y2: Y2}},
         // Centres under the points, small and hollow, so that a centre at a pivot leaves it seen.
-        {data: {name: 'centres'},
-         mark: {type: 'point', shape: 'diamond', filled: false, size: 50, color: '#d62728',
-                clip: true},
-         encoding: {x: X, y: Y, tooltip: [{field: 'name'}, {field: 'x', format: '.4f'},
-                                          {field: 'y', format: '.4f'}]}},
-        {data: {name: 'centreLabels'},
-         mark: {type: 'text', dx: 10, dy: 12, fontSize: 10, color: '#d62728', align: 'left',
-                clip: true},
-         encoding: {x: X, y: Y, text: {field: 'name'}}},
-        {data: {name: 'points'},
+        {name: 'centres', data: {name: 'centres'},
+         mark: {type: 'point', shape: 'diamond', filled: false, size: 50, color: '#d62728'},
+         encoding: {x: X, y: Y, tooltip: [{field: 'name'}, {field: 'how'},
+                                          {field: 'x', format: '.4f'}, {field: 'y', format: '.4f'}]}},
+        {name: 'centre_arrows', data: {name: 'arrows'},
+         mark: {type: 'rule', strokeWidth: 1.5, color: '#d62728'},
+         encoding: {x: X, y: Y, x2: X2, y2: Y2,
+                    tooltip: [{field: 'label'}, {field: 'how'}, {field: 'cx', format: '.4f'},
+                              {field: 'cy', format: '.4f'}]}},
+        {name: 'centre_arrow_heads', data: {name: 'arrows'},
+         mark: {type: 'point', shape: 'triangle-up', filled: true, size: 50, color: '#d62728'},
+         encoding: {x: tipX, y: tipY, angle: {field: 'angle', type: 'quantitative', scale: null},
+                    tooltip: [{field: 'label'}]}},
+        {name: 'points', data: {name: 'points'},
          mark: {type: 'point', filled: true, size: 70, color: '#222'},
          encoding: {x: X, y: Y,
                     shape: {field: 'kind', type: 'nominal', title: 'point',
@@ -212,24 +402,22 @@
                                     range: ['triangle-up', 'circle', 'square']}},
                     tooltip: [{field: 'name'}, {field: 'x', format: '.4f'},
                               {field: 'y', format: '.4f'}]}},
-        {data: {name: 'points'}, mark: {type: 'text', dx: 9, dy: -9, fontSize: 13},
-         encoding: {x: X, y: Y, text: {field: 'name'}}},
         // Joint reactions: first link on second, at the joint (exact kinetostatics).
-        {data: {name: 'forces'}, mark: {type: 'rule', strokeWidth: 2, color: '#2ca02c'},
+        {name: 'forces', data: {name: 'forces'},
+         mark: {type: 'rule', strokeWidth: 2, color: '#2ca02c', clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2, tooltip: [{field: 'label'}]}},
-        {data: {name: 'forces'},
-         mark: {type: 'point', shape: 'triangle-up', filled: true, size: 60, color: '#2ca02c'},
-         encoding: {x: {field: 'x2', type: 'quantitative', scale: sx},
-                    y: {field: 'y2', type: 'quantitative', scale: sy},
-                    angle: {field: 'angle', type: 'quantitative', scale: null},
+        {name: 'force_heads', data: {name: 'forces'},
+         mark: {type: 'point', shape: 'triangle-up', filled: true, size: 60, color: '#2ca02c',
+                clip: true},
+         encoding: {x: tipX, y: tipY, angle: {field: 'angle', type: 'quantitative', scale: null},
                     tooltip: [{field: 'label'}]}},
-        {data: {name: 'forces'},
-         mark: {type: 'text', dx: 6, dy: 12, fontSize: 10, color: '#2ca02c'},
-         encoding: {x: {field: 'x2', type: 'quantitative', scale: sx},
-                    y: {field: 'y2', type: 'quantitative', scale: sy},
-                    text: {field: 'label'}}},
+        labels('point_labels', 'pointLabels', 13, '#000'),
+        labels('centre_labels', 'centreLabels', 10, '#d62728'),
+        labels('arrow_labels', 'arrowLabels', 10, '#d62728'),
+        labels('force_labels', 'forceLabels', 10, '#2ca02c'),
       ],
-      title: D.effort ? {text: 'reactions (green): first link on second; ' + D.effort,
+      title: D.effort ? {text: 'reactions (green, from ' + D.masses + '): first link on second; ' +
+                               D.effort,
                          fontSize: 11, fontWeight: 'normal', anchor: 'start'} : undefined,
     };
   }
@@ -248,8 +436,12 @@
     const slider = document.getElementById('sample');
     const label = document.getElementById('sample-value');
     const show = () => {
-      const pose = poseAt(sample);
+      const {left, ...pose} = poseAt(sample);
       for (const name of Object.keys(pose)) replace(result.view, name, pose[name]);
+      const note = document.getElementById('drawing-left-out');
+      if (note)
+        note.textContent = left.length ? 'Labels left out for room (their marks have tooltips): ' +
+                                         left.join(', ') + '.' : '';
       label.textContent = driverTitle.replace(/ \[.*\]$/, '') + ' = ' +
                           R.driver.values[sample] + ' ' + R.driver.unit +
                           (R.driver.usable[sample] ? '' : ' (flagged)');
