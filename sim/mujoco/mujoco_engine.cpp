@@ -70,12 +70,17 @@ void on_warning(const char* message) {
   throw std::runtime_error(std::string("MuJoCo error: ") + message);
 }
 
-// The handlers are installed, and the warnings gathered, for the life of one run.
+// The handlers are installed once per process (MuJoCo's mju_user_* are process-wide, read by
+// every thread's runs; the warnings they gather are the thread's own), the warnings gathered for
+// the life of one run.
 class MessageCapture {
  public:
   MessageCapture() {
-    mju_user_warning = on_warning;
-    mju_user_error = on_error;
+    static std::once_flag once;
+    std::call_once(once, [] {
+      mju_user_warning = on_warning;
+      mju_user_error = on_error;
+    });
     t_warnings.clear();
   }
   MessageCapture(const MessageCapture&) = delete;
