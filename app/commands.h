@@ -64,6 +64,8 @@ inline CLI::Validator positive_number() {
 }
 void add_max_solves(CLI::App& cmd, WorkLimits& limits);
 void add_max_steps(CLI::App& cmd, long& max_steps);
+// --jobs N: the threads of a compare or sweep (methods/jobs.h), set to the machine's cores.
+void add_jobs(CLI::App& cmd, int& jobs);
 sim::Settings with_max_steps(long max_steps, const sim::Settings& settings);
 void check_engine_steps(double span, double dt, long max_steps, const std::string& option);
 
@@ -99,6 +101,7 @@ class ProgressLines {
 // that meets it: `base`, and says so.
 sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
                                 const compare::MethodRun& reference, const std::string& engine,
-                                double accuracy_pct, const sim::Settings& base, std::FILE* out);
+                                double accuracy_pct, const sim::Settings& base, std::FILE* out,
+                                int jobs);
 
 }  // namespace crosslink::app

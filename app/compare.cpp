@@ -18,6 +18,7 @@
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "methods/engines.h"
+#include "methods/jobs.h"
 #include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::app {
@@ -36,6 +37,7 @@ struct CompareArgs {
   std::vector<std::string> settings;    // "dt=1e-4", "mujoco:dt=1e-4"
   std::string accuracy;                 // "1" or "1%": cheapest engine settings (sweep.cpp)
   bool all = false;
+  int jobs = 1;
   WorkLimits limits;
   long max_steps = sim::kDefaultMaxSteps;
 };
@@ -171,14 +173,24 @@ int run_compare(CompareArgs args) {
         sim::mujoco_mjcf(m, runs.front().trajectory, settings_for("mujoco", args.settings));
     write_file(args.export_mjcf, mjcf);
   }
+  // Each method's settings first (an --accuracy search runs engine by engine, its runs over the
+  // threads, and says what it chose in order), then every method at once, each into its slot.
+  std::vector<std::string> others;
+  std::vector<sim::Settings> others_settings;
   for (const std::string& n : names) {
     if (n == "analytic") continue;
     sim::Settings settings = with_max_steps(args.max_steps, settings_for(n, args.settings));
     if (accuracy && methods::find_engine(n))
       settings = cheapest_settings(m, options, runs.front(), n, *accuracy, settings,
-                                   args.json == "-" ? stderr : stdout);
-    runs.push_back(methods::run_method(n, m, runs.front(), settings));
+                                   args.json == "-" ? stderr : stdout, args.jobs);
+    others.push_back(n);
+    others_settings.push_back(std::move(settings));
   }
+  const size_t first = runs.size();
+  runs.resize(first + others.size());
+  methods::run_jobs(args.jobs, others.size(), [&](size_t k) {
+    runs[first + k] = methods::run_method(others[k], m, runs.front(), others_settings[k]);
+  });
 
   const compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);
 
@@ -250,6 +262,7 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   add_max_samples(*cmd, args->limits);
   add_max_solves(*cmd, args->limits);
   add_max_steps(*cmd, args->max_steps);
+  add_jobs(*cmd, args->jobs);
   cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }
 

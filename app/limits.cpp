@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "app/commands.h"
+#include "methods/jobs.h"
 #include "sim/sampling.h"
 
 namespace crosslink::app {
@@ -49,6 +50,14 @@ void add_max_steps(CLI::App& cmd, long& max_steps) {
                  "it starts")
       ->check(number_in(1.0, 1e18))
       ->capture_default_str();
+}
+
+void add_jobs(CLI::App& cmd, int& jobs) {
+  jobs = methods::default_jobs();
+  cmd.add_option("--jobs", jobs,
+                 "threads the runs share (default: the machine's cores); results are the same "
+                 "for every N, 1 runs them in turn")
+      ->check(CLI::Range(1, methods::kMaxJobs));
 }
 
 sim::Settings with_max_steps(long max_steps, const sim::Settings& settings) {

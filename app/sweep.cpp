@@ -98,12 +98,13 @@ void ProgressLines::finish() {
 
 sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
                                 const compare::MethodRun& reference, const std::string& engine,
-                                double accuracy_pct, const sim::Settings& base, std::FILE* out) {
+                                double accuracy_pct, const sim::Settings& base, std::FILE* out,
+                                int jobs) {
   methods::ReferenceLadder ladder(mechanism, options, reference);
   ProgressLines lines;
   const methods::Selection s = methods::cheapest_setting(
       mechanism, ladder, engine, accuracy_pct, methods::accuracy_time_steps(ladder.interval()),
-      base, lines.progress());
+      base, lines.progress(), 1, jobs);
   lines.finish();
   fmt::print(out, "{}\n", s.summary());
   return s.found ? s.chosen.overrides : base;
@@ -124,6 +125,7 @@ struct SweepArgs {
   std::string report, csv, accuracy;
   double step = 0.0;
   int repeat = 3;
+  int jobs = 1;
   bool quiet = false;
   WorkLimits limits;
   long max_steps = sim::kDefaultMaxSteps;
@@ -159,6 +161,7 @@ int run_sweep(const SweepArgs& args) {
   if (!dynamics) check_sweep_work(m, options.sweep, args.limits);
   options.base = with_max_steps(args.max_steps, {});
   options.repeat = args.repeat;
+  options.jobs = args.jobs;
   options.accuracy_pct = parse_accuracy(args.accuracy);
   ProgressLines lines;
   if (!args.quiet) options.progress = lines.progress();
@@ -226,6 +229,7 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
   cmd->add_flag("--quiet", args->quiet, "no progress lines on stderr");
   add_max_samples(*cmd, args->limits);
   add_max_steps(*cmd, args->max_steps);
+  add_jobs(*cmd, args->jobs);
   cmd->callback([&run, args] { run = [args] { return run_sweep(*args); }; });
 }
 

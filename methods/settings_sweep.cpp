@@ -13,6 +13,7 @@
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "compare/tolerance.h"
+#include "methods/jobs.h"
 
 namespace crosslink::methods {
 namespace {
@@ -207,6 +208,7 @@ const MethodRun& ReferenceLadder::for_dt(double dt, double* snapped) {
     *snapped = h / static_cast<double>(n);
     return *base_;
   }
+  const std::lock_guard<std::mutex> hold(coarse_lock_);
   auto it = coarse_.find(m);
   if (it == coarse_.end()) {
     // A sweep through every m-th driver value: its samples fall every m h.
@@ -389,25 +391,44 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
 }
 
 void retime(const Mechanism& mechanism, ReferenceLadder& ladder, std::vector<SweepRow>& rows,
-            size_t first, int repeat, const Progress& progress) {
+            size_t first, int repeat, const Progress& progress, int jobs) {
   std::vector<std::vector<double>> wall(rows.size()), cpu(rows.size());
   for (size_t i = first; i < rows.size(); ++i) {
     wall[i] = {rows[i].wall_s_per_cycle};
     cpu[i] = {rows[i].cpu_s_per_cycle};
   }
-  const int count = static_cast<int>(rows.size() - first);
+  // The runs, round by round (every row once per round), each a job; its times go to its own
+  // slot, and the medians do not depend on the order they came in.
+  struct Rerun {
+    int round;
+    size_t row;
+    double wall = 0.0, cpu = 0.0;
+  };
+  std::vector<Rerun> reruns;
   for (int round = 1; round < repeat; ++round)
-    for (size_t i = first; i < rows.size(); ++i) {
-      if (rows[i].status == RunStatus::diverged) continue;  // nothing to time
-      if (progress)
-        progress(round * count + static_cast<int>(i - first) + 1, repeat * count,
-                 {rows[i].engine, rows[i].variant + " (timing)", rows[i].dt, {}});
-      double dt = 0.0;
-      const MethodRun& reference = ladder.for_dt(rows[i].dt, &dt);
-      const MethodRun again = run_method(rows[i].engine, mechanism, reference, rows[i].overrides);
-      wall[i].push_back(seconds_per_cycle(again));
-      cpu[i].push_back(cpu_per_cycle(again));
-    }
+    for (size_t i = first; i < rows.size(); ++i)
+      if (rows[i].status != RunStatus::diverged) reruns.push_back({round, i});  // else no timing
+  const int count = static_cast<int>(rows.size() - first);
+  run_jobs(
+      jobs, reruns.size(),
+      [&](size_t k) {
+        const SweepRow& row = rows[reruns[k].row];
+        double dt = 0.0;
+        const MethodRun& reference = ladder.for_dt(row.dt, &dt);
+        const MethodRun again = run_method(row.engine, mechanism, reference, row.overrides);
+        reruns[k].wall = seconds_per_cycle(again);
+        reruns[k].cpu = cpu_per_cycle(again);
+      },
+      [&](size_t k) {
+        if (!progress) return;
+        const SweepRow& row = rows[reruns[k].row];
+        progress(reruns[k].round * count + static_cast<int>(reruns[k].row - first) + 1,
+                 repeat * count, {row.engine, row.variant + " (timing)", row.dt, {}});
+      });
+  for (const Rerun& r : reruns) {
+    wall[r.row].push_back(r.wall);
+    cpu[r.row].push_back(r.cpu);
+  }
   for (size_t i = first; i < rows.size(); ++i) {
     rows[i].wall_s_per_cycle = median(wall[i]);
     rows[i].cpu_s_per_cycle = median(cpu[i]);
@@ -777,20 +798,29 @@ std::string Selection::summary() const {
 Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            std::string_view engine, double accuracy_pct,
                            const std::vector<double>& dts, const sim::Settings& base,
-                           const Progress& progress, int repeat) {
+                           const Progress& progress, int repeat, int jobs) {
   if (!(accuracy_pct > 0.0)) throw std::invalid_argument("the accuracy must be a positive %");
   const std::vector<GridPoint> grid = engine_grid(engine, dts, mechanism.dynamics.has_value());
   std::vector<SweepRow> rows;
   Selection s;
-  size_t level_start = 0;
-  for (size_t i = 0; i < grid.size(); ++i) {
-    if (progress) progress(static_cast<int>(i + 1), static_cast<int>(grid.size()), grid[i]);
-    rows.push_back(evaluate_setting(mechanism, ladder, grid[i], base));
-    // Stop at the end of the first time step where a variant meets the accuracy.
-    const bool level_done = i + 1 == grid.size() || grid[i + 1].dt != grid[i].dt;
-    if (!level_done) continue;
-    retime(mechanism, ladder, rows, level_start, repeat);  // the level's variants in turn
-    level_start = rows.size();
+  // A time step's variants at once, then the next finer step: stop at the end of the first time
+  // step where a variant meets the accuracy.
+  for (size_t level_start = 0; level_start < grid.size();) {
+    size_t level_end = level_start + 1;
+    while (level_end < grid.size() && grid[level_end].dt == grid[level_start].dt) ++level_end;
+    rows.resize(level_end);
+    run_jobs(
+        jobs, level_end - level_start,
+        [&](size_t k) {
+          rows[level_start + k] = evaluate_setting(mechanism, ladder, grid[level_start + k], base);
+        },
+        [&](size_t k) {
+          if (progress)
+            progress(static_cast<int>(level_start + k + 1), static_cast<int>(grid.size()),
+                     grid[level_start + k]);
+        });
+    retime(mechanism, ladder, rows, level_start, repeat, {}, jobs);  // the level's variants
+    level_start = level_end;
     s = select_cheapest(engine, accuracy_pct, rows);
     if (s.found) break;
   }
@@ -807,9 +837,9 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   out.sample_interval = ladder.interval();
   out.samples = ladder.base().trajectory.samples();
   out.dynamics = mechanism.dynamics.has_value();
-  out.rows = analytic_rows(mechanism, options.sweep, std::max(3, options.repeat), &out.skipped);
 
-  // Snap the time steps first: two requests that land on the same step run once.
+  // Snap the time steps first: two requests that land on the same step run once (and every
+  // coarse reference is made here, before the threads).
   std::vector<double> snapped;
   for (double dt : options.dts) {
     double s = 0.0;
@@ -818,32 +848,70 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
                      [&](double t) { return std::abs(t - s) <= 1e-9 * s; }))
       snapped.push_back(s);
   }
-  const size_t first_engine_row = out.rows.size();
   std::vector<GridPoint> grid;
+  std::vector<std::string> not_engines;
   for (const std::string& engine : options.engines) {
     if (!find_engine(engine)) {
-      out.skipped.push_back(
+      not_engines.push_back(
           fmt::format("{}: not an engine ({})", engine, fmt::join(engine_names(), ", ")));
       continue;
     }
     const std::vector<GridPoint> g = engine_grid(engine, snapped, out.dynamics);
     grid.insert(grid.end(), g.begin(), g.end());
   }
+
+  // One pool: job 0 the analytic rows, job i the grid point i - 1, each into its own slot.
+  const auto unable_to_realise = [](const SweepRow& row) {
+    return row.status == RunStatus::diverged && row.wall_s_per_cycle == 0.0 &&
+           row.message.find("cannot realise") != std::string::npos;
+  };
+  std::vector<std::string> analytic_skipped;
+  std::vector<std::optional<SweepRow>> runs(grid.size());
+  // An engine that cannot realise the mechanism runs nothing more of it: its jobs not yet started
+  // are not run (those already running are dropped below, as a serial run never ran them).
+  std::mutex unable_lock;
+  std::vector<std::string> unable;
+  const auto is_unable = [&](const std::string& engine) {
+    const std::lock_guard<std::mutex> hold(unable_lock);
+    return std::find(unable.begin(), unable.end(), engine) != unable.end();
+  };
+  run_jobs(
+      options.jobs, grid.size() + 1,
+      [&](size_t k) {
+        if (k == 0) {
+          out.rows = analytic_rows(mechanism, options.sweep, std::max(3, options.repeat),
+                                   &analytic_skipped);
+          return;
+        }
+        const GridPoint& point = grid[k - 1];
+        if (is_unable(point.engine)) return;
+        SweepRow row = evaluate_setting(mechanism, ladder, point, options.base);
+        if (unable_to_realise(row)) {
+          const std::lock_guard<std::mutex> hold(unable_lock);
+          unable.push_back(point.engine);
+        }
+        runs[k - 1] = std::move(row);
+      },
+      [&](size_t k) {
+        if (k > 0 && options.progress && !is_unable(grid[k - 1].engine))
+          options.progress(static_cast<int>(k), static_cast<int>(grid.size()), grid[k - 1]);
+      });
+  out.skipped = analytic_skipped;
+  out.skipped.insert(out.skipped.end(), not_engines.begin(), not_engines.end());
+  const size_t first_engine_row = out.rows.size();
   for (size_t i = 0; i < grid.size(); ++i) {
-    if (options.progress)
-      options.progress(static_cast<int>(i + 1), static_cast<int>(grid.size()), grid[i]);
-    SweepRow row = evaluate_setting(mechanism, ladder, grid[i], options.base);
-    // An engine that cannot realise the mechanism: say so once, run nothing more of it.
-    if (row.status == RunStatus::diverged && row.wall_s_per_cycle == 0.0 &&
-        row.message.find("cannot realise") != std::string::npos) {
-      out.skipped.push_back(grid[i].engine + ": " + row.message);
+    if (!runs[i]) continue;  // not run: its engine could not realise the mechanism
+    // An engine that cannot realise the mechanism: say so once, nothing more of it.
+    if (unable_to_realise(*runs[i])) {
+      out.skipped.push_back(grid[i].engine + ": " + runs[i]->message);
       const std::string engine = grid[i].engine;
       while (i + 1 < grid.size() && grid[i + 1].engine == engine) ++i;
       continue;
     }
-    out.rows.push_back(std::move(row));
+    out.rows.push_back(std::move(*runs[i]));
   }
-  retime(mechanism, ladder, out.rows, first_engine_row, options.repeat, options.progress);
+  retime(mechanism, ladder, out.rows, first_engine_row, options.repeat, options.progress,
+         options.jobs);
   analyse(out);
   if (options.accuracy_pct)
     for (const std::string& engine : options.engines)

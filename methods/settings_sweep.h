@@ -25,6 +25,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -107,7 +108,8 @@ class ReferenceLadder {
   ReferenceLadder(const Mechanism& mechanism, const SweepOptions& options, MethodRun base);
   const MethodRun& base() const { return *base_; }
   double interval() const { return interval_; }  // h [s]
-  // The reference for a requested dt and the snapped dt [s].
+  // The reference for a requested dt and the snapped dt [s]. Safe to call from the sweep's
+  // threads (a coarse reference is made once, under a lock; what it returns stays in place).
   const MethodRun& for_dt(double dt, double* snapped);
 
  private:
@@ -116,6 +118,7 @@ class ReferenceLadder {
   std::unique_ptr<MethodRun> base_;
   double interval_ = 0.0, base_step_ = 0.0;
   std::map<long, std::unique_ptr<MethodRun>> coarse_;  // by m
+  std::mutex coarse_lock_;
 };
 
 enum class RunStatus {
@@ -203,7 +206,7 @@ using Progress = std::function<void(int, int, const GridPoint&)>;
 // round), so that a burst of load on the machine falls on one run of many settings, which the
 // median drops, rather than on every run of one setting. A diverged row is not rerun.
 void retime(const Mechanism& mechanism, ReferenceLadder& ladder, std::vector<SweepRow>& rows,
-            size_t first, int repeat, const Progress& progress = {});
+            size_t first, int repeat, const Progress& progress = {}, int jobs = 1);
 
 // The analytic methods as rows: Newton (error 0 by definition: it is the reference) and dyads
 // (errors against Newton), their cost from timing their sweeps (median of `repeat`). A method
@@ -281,7 +284,7 @@ Selection select_cheapest(std::string_view engine, double accuracy_pct,
 Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            std::string_view engine, double accuracy_pct,
                            const std::vector<double>& dts, const sim::Settings& base = {},
-                           const Progress& progress = {}, int repeat = 1);
+                           const Progress& progress = {}, int repeat = 1, int jobs = 1);
 
 // The IFToMM accuracy limits in the benchmark's error measure (benchmark_error()).
 constexpr std::array<double, 2> kBenchmarkLimits = {1e-1, 1e-3};
@@ -313,6 +316,7 @@ struct SettingsSweepOptions {
   int repeat = 1;                      // median of N runs per setting (the command: 3)
   std::optional<double> accuracy_pct;  // also select the cheapest setting per engine
   Progress progress;
+  int jobs = 1;  // threads the settings and repeats run over (methods/jobs.h)
 };
 
 struct SettingsSweep {

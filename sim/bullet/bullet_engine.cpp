@@ -31,11 +31,13 @@
 #include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <BulletDynamics/MLCPSolvers/btDantzigSolver.h>
 #include <BulletDynamics/MLCPSolvers/btMLCPSolver.h>
+#include <LinearMath/btQuickprof.h>
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -407,10 +409,36 @@ class Scene {
 
 // A Dantzig solver that accepts any finite impulse: large impulses mean a locked or singular
 // chain, which the loop-gap watch reports; the default bound (1000) would silently fall back.
+// One solve at a time in the process: Bullet 3.24's btSolveDantzigLCP keeps its failure flag in
+// a global (s_error, btDantzigLCP.cpp), reset at each solve's start, so a solve on another thread
+// could clear or set the flag this solve returns, and with it whether btMLCPSolver falls back to
+// sequential impulse. Everything else a step touches is its world's own (docs/engines.md,
+// "Threads").
 class UnboundedDantzig : public btDantzigSolver {
  public:
   UnboundedDantzig() { m_acceptableUpperLimitSolution = 1e300; }
+  bool solveMLCP(const btMatrixXu& A, const btVectorXu& b, btVectorXu& x, const btVectorXu& lo,
+                 const btVectorXu& hi, const btAlignedObjectArray<int>& limitDependency,
+                 int numIterations, bool useSparsity = true) override {
+    static std::mutex one_solve;
+    const std::lock_guard<std::mutex> hold(one_solve);
+    return btDantzigSolver::solveMLCP(A, b, x, lo, hi, limitDependency, numIterations, useSparsity);
+  }
 };
+
+// Bullet 3.24 as Debian builds it times every step's phases (BT_PROFILE) into one profile tree per
+// thread, numbered by an unguarded counter (btQuickprof.cpp: two threads starting together can
+// share a tree, and a tree's nodes are allocated as it grows). Nothing here reads the profile:
+// its zones are made empty, once per process, before any world exists.
+void no_profile_zone(const char*) {}
+void no_profile_leave() {}
+void silence_profiler() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    btSetCustomEnterProfileZoneFunc(no_profile_zone);
+    btSetCustomLeaveProfileZoneFunc(no_profile_leave);
+  });
+}
 
 // Joint-solver settings of both formulations: iterations, ERP (no softening), split impulse
 // (off by default).
@@ -1074,6 +1102,11 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
                         const Eigen::VectorXd* velocity, bool driven,
                         std::unique_ptr<Scene>& scene) {
   const std::vector<Pose> poses = node_poses(m, plan, q);
+  silence_profiler();
+  // btRigidBody numbers its bodies from a global counter (btRigidBody.cpp's uniqueId, a debug id
+  // no solve reads): one scene is built at a time, so that no two threads count at once.
+  static std::mutex one_build;
+  const std::lock_guard<std::mutex> hold(one_build);
   try {
     if (config.formulation == "multibody")
       scene = std::make_unique<MultiBodyScene>(plan, poses, coordinate0, config, m.gravity, driven);

@@ -58,6 +58,13 @@ EngineRun failed(EngineRun run, std::string message) {
 thread_local std::vector<std::pair<std::string, int>> t_warnings;
 
 void on_warning(const char* message) {
+  // A full constraint or contact buffer drops rows from the solve: the run is wrong, not noted.
+  // The scene's <size> holds every row it can make (scene.cpp), so this is crosslink's error.
+  if (std::string_view(message).starts_with("Pre-allocated"))
+    throw std::runtime_error(fmt::format(
+        "MuJoCo error: {} (crosslink sizes the scene's buffers from its equalities, <size> in "
+        "the MJCF: this scene made more rows; docs/engines.md, \"Sizes\")",
+        message));
   for (auto& [text, count] : t_warnings)
     if (text == message) {
       ++count;
@@ -67,15 +74,25 @@ void on_warning(const char* message) {
 }
 
 [[noreturn]] void on_error(const char* message) {
+  // The stack is sized by MuJoCo's own rule from the scene's rows (scene.cpp): say so.
+  if (std::string_view(message) == "Stack overflow")
+    throw std::runtime_error(
+        "MuJoCo error: Stack overflow (its stack, mjModel.nstack, is sized by MuJoCo's rule "
+        "from the scene's <size>; docs/engines.md, \"Sizes\")");
   throw std::runtime_error(std::string("MuJoCo error: ") + message);
 }
 
-// The handlers are installed, and the warnings gathered, for the life of one run.
+// The handlers are installed once per process (MuJoCo's mju_user_* are process-wide, read by
+// every thread's runs; the warnings they gather are the thread's own), the warnings gathered for
+// the life of one run.
 class MessageCapture {
  public:
   MessageCapture() {
-    mju_user_warning = on_warning;
-    mju_user_error = on_error;
+    static std::once_flag once;
+    std::call_once(once, [] {
+      mju_user_warning = on_warning;
+      mju_user_error = on_error;
+    });
     t_warnings.clear();
   }
   MessageCapture(const MessageCapture&) = delete;

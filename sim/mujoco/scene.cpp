@@ -331,10 +331,16 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
         "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
         clock->torque);
-  out += "  <equality>\n";
+  // The constraint rows are the equalities' alone (3 per connect, 1 per tendon or joint
+  // equality): no limits, friction loss or contacts. <size> holds MuJoCo to them: without it
+  // MuJoCo 2.2.2 sizes every mjData for 500 rows and 100 contacts (about 13 MB, zeroed at each
+  // mj_makeData), and its stack from those by its own rule (user_model.cc: 5 (njmax + neq +
+  // nv)^2 + 20 per element, at least 1000), which stays its rule here, from these rows.
+  int rows = 3 * static_cast<int>(s.cuts.size());
+  std::string equality = "  <equality>\n";
   for (int j : s.cuts) {
     const SceneJoint& sj = s.joints[j];
-    out += fmt::format(
+    equality += fmt::format(
         "    <connect name=\"{}\" body1=\"{}\" body2=\"{}\" anchor=\"{:.17g} {:.17g} 0\" "
         "solref=\"{}\" solimp=\"{}\"/>\n",
         escape(sj.name), s.links[sj.a].ground ? "world" : escape(s.links[sj.a].name),
@@ -342,22 +348,25 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         vec(o.solref), vec(o.solimp));
   }
   // MuJoCo's equalities hold changes from qpos0 (the start): the driver's equals the clock's.
+  if (clock || driver_tendon_written || o.driven) ++rows;
   if (clock)
-    out += fmt::format(
+    equality += fmt::format(
         "    <tendon name=\"driver\" tendon1=\"driver\" tendon2=\"clock\" polycoef=\"0 1 0 0 0\" "
         "solref=\"{}\" solimp=\"{}\"/>\n",
         vec(o.driver_solref), vec(o.driver_solimp));
   else if (driver_tendon_written)
-    out += fmt::format(
+    equality += fmt::format(
         "    <tendon name=\"driver\" tendon1=\"driver\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
         "solimp=\"{}\"/>\n",
         vec(o.driver_solref), vec(o.driver_solimp));
   else if (o.driven)
-    out += fmt::format(
+    equality += fmt::format(
         "    <joint name=\"driver\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
         "solimp=\"{}\"/>\n",
         escape(s.joints[s.driven.joint].name), vec(o.driver_solref), vec(o.driver_solimp));
-  out += "  </equality>\n";
+  equality += "  </equality>\n";
+  out += fmt::format("  <size njmax=\"{}\" nconmax=\"0\"/>\n", rows);
+  out += equality;
   if (alone) {  // "start": the exact start's velocities (MuJoCo's simulate loads it by its Key)
     std::string qvel;
     for (int j : written)

@@ -15,6 +15,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -1390,6 +1391,112 @@ TEST(Cli, CompareWithTheReferenceAloneHasNothingToCompare) {
             std::string::npos)
       << run.out;
   EXPECT_EQ(run.out.find("PASS"), std::string::npos) << run.out;
+}
+
+// --jobs (issue 22): the runs of a sweep or a comparison over a pool of threads give what one
+// thread gives. A second run of the same command is the independent source: the engines are
+// deterministic, so a serial run is the expected result of a parallel one, field by field; only
+// the timings (cost columns, *seconds* keys) differ between any two runs.
+
+// The CSV with the named columns blanked.
+std::string without_columns(const std::string& csv, const std::vector<std::string>& names) {
+  std::istringstream lines(csv);
+  std::string line, out;
+  std::vector<size_t> blank;
+  for (bool header = true; std::getline(lines, line); header = false) {
+    std::vector<std::string> f = rfc4180_fields(line);
+    if (header)
+      for (size_t c = 0; c < f.size(); ++c)
+        if (std::find(names.begin(), names.end(), f[c]) != names.end()) blank.push_back(c);
+    for (size_t c : blank)
+      if (!header && c < f.size()) f[c].clear();
+    for (size_t c = 0; c < f.size(); ++c) out += (c ? "|" : "") + f[c];
+    out += "\n";
+  }
+  return out;
+}
+
+// A JSON document without its timing keys (any key naming seconds) and texts ("...; 0.0011 s",
+// the reference's cross-check).
+nlohmann::json without_timings(const nlohmann::json& j) {
+  if (j.is_string())
+    return std::regex_replace(j.get<std::string>(), std::regex("; [0-9.e+-]+ s\\b"), "; T s");
+  if (j.is_object()) {
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto& [key, value] : j.items())
+      if (key.find("seconds") == std::string::npos) out[key] = without_timings(value);
+    return out;
+  }
+  if (j.is_array()) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& value : j) out.push_back(without_timings(value));
+    return out;
+  }
+  return j;
+}
+
+TEST(Cli, SweepOverTwoThreadsWritesTheCsvOfOne) {
+  std::map<int, std::string> csv, out, err;
+  for (int jobs : {1, 2}) {
+    const std::string path = (scratch_dir() / fmt::format("jobs{}.csv", jobs)).string();
+    const CommandRun run = crosslink(fmt::format(
+        "sweep mechanisms/fourbar_crank_rocker.toml --dt 1e-3,2e-4 --repeat 2 --accuracy 1 "
+        "--jobs {} --csv \"{}\"",
+        jobs, path));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    // The cost columns, and the time in the reference's cross-check text.
+    csv[jobs] = std::regex_replace(
+        without_columns(read_file(path), {"wall_s_per_cycle", "cpu_s_per_cycle"}),
+        std::regex("; [0-9.e+-]+ s\\b"), "; T s");
+    out[jobs] = run.out;
+    err[jobs] = run.err;
+  }
+  EXPECT_GT(std::count(csv[1].begin(), csv[1].end(), '\n'), 20) << csv[1];  // both engines ran
+  EXPECT_EQ(csv[2], csv[1]);
+  // The progress lines (a log's: one per series) come whole and in the grid's order, as a
+  // serial run writes them, however the runs finish.
+  EXPECT_NE(err[1].find("mujoco Euler/Newton: 2 runs"), std::string::npos) << err[1];
+  EXPECT_EQ(err[2], err[1]);
+  // The console's choices (their costs aside) are the same too.
+  const auto chose = [](const std::string& text) {
+    std::string lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);)
+      if (line.find("chose") != std::string::npos)
+        lines += line.substr(0, line.find(" runs:")) + "\n";
+    return lines;
+  };
+  EXPECT_FALSE(chose(out[1]).empty()) << out[1];
+  EXPECT_EQ(chose(out[2]), chose(out[1]));
+}
+
+TEST(Cli, CompareOverTwoThreadsWritesTheJsonAndCsvOfOne) {
+  std::map<int, nlohmann::json> json;
+  std::map<int, std::string> csv;
+  for (int jobs : {1, 2}) {
+    const std::string j = (scratch_dir() / fmt::format("compare{}.json", jobs)).string(),
+                      c = (scratch_dir() / fmt::format("compare{}.csv", jobs)).string();
+    const CommandRun run = crosslink(
+        fmt::format("compare mechanisms/fourbar_crank_rocker.toml --jobs {} --json \"{}\" "
+                    "--csv \"{}\"",
+                    jobs, j, c));
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+    json[jobs] = without_timings(nlohmann::json::parse(read_file(j)));
+    csv[jobs] = read_file(c);
+  }
+  EXPECT_EQ(json[2], json[1]);
+  EXPECT_EQ(csv[2], csv[1]);
+  EXPECT_NE(csv[1].find("bullet"), std::string::npos);  // every method ran
+  EXPECT_NE(csv[1].find("mujoco"), std::string::npos);
+}
+
+TEST(Cli, JobsMustBeAPositiveCount) {
+  for (const char* jobs : {"0", "-1", "1.5", "x", "1025"}) {
+    const CommandRun run =
+        crosslink(std::string("compare mechanisms/fourbar_crank_rocker.toml --jobs ") + jobs);
+    EXPECT_EQ(run.exit_code, 2) << jobs << run.out;
+    EXPECT_NE(run.err.find("--jobs"), std::string::npos) << jobs << run.err;
+  }
 }
 
 }  // namespace

@@ -238,6 +238,46 @@ TEST(ExportedScene, DynamicsCaseStartsAtItsInitialRates) {
   EXPECT_LT(gap, 1e-4 * m.size());
 }
 
+// The scene's <size> (issue 22): MuJoCo sizes mjData for the rows the scene's equalities make,
+// counted here from the compiled model's own equality list (MuJoCo 2.2.2 makes 3 rows of a
+// connect, 1 of a joint or tendon equality; the scene has no limits, friction loss or contacts),
+// not for its defaults of 500 rows and 100 contacts (13 MB a mjData). Every integrator and
+// solver then steps it with every row in the buffer (no "buffer full" warning) and its stack
+// within MuJoCo's own bound (a stack overflow is mju_error).
+void expect_sized_from_equalities(mjModel* mm, mjData* d) {
+  int rows = 0;
+  for (int e = 0; e < mm->neq; ++e) rows += mm->eq_type[e] == mjEQ_CONNECT ? 3 : 1;
+  EXPECT_EQ(mm->njmax, rows);
+  EXPECT_EQ(mm->nconmax, 0);
+  for (int integrator : {mjINT_EULER, mjINT_RK4, mjINT_IMPLICIT})
+    for (int solver : {mjSOL_NEWTON, mjSOL_CG, mjSOL_PGS}) {
+      mm->opt.integrator = integrator;
+      mm->opt.solver = solver;
+      mj_resetData(mm, d);
+      for (int k = 0; k < 50; ++k) mj_step(mm, d);
+      EXPECT_EQ(d->nefc, rows) << integrator << " " << solver;
+      EXPECT_EQ(d->warning[mjWARN_CNSTRFULL].number, 0) << integrator << " " << solver;
+      EXPECT_LE(d->maxuse_stack, mm->nstack) << integrator << " " << solver;
+    }
+}
+
+TEST_P(ExportedScene, SizedFromItsEqualities) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + GetParam() + ".toml");
+  Loaded l = load_export(mujoco_mjcf(m, sweep(m), {}), GetParam() + "_size");
+  ASSERT_TRUE(l.model);
+  expect_sized_from_equalities(l.model.get(), l.data.get());
+}
+
+TEST(ExportedScene, DynamicsCaseSizedFromItsEqualities) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/iftomm_a02_double_fourbar.toml");
+  Loaded l = load_export(mujoco_mjcf(m, simulate(m).trajectory, {}), "a02_size");
+  ASSERT_TRUE(l.model);
+  EXPECT_GT(l.model->neq, 0);
+  expect_sized_from_equalities(l.model.get(), l.data.get());
+}
+
 INSTANTIATE_TEST_SUITE_P(Bundled, ExportedScene, ::testing::ValuesIn(test::bundled_stems()),
                          [](const auto& info) { return info.param; });
 
