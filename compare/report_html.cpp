@@ -526,6 +526,12 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     out << "<h2>Published values ([[reference]])</h2>\n<p>Each cell: % difference of the row's "
            "value from the column's, 100 |row - column| / |column|.</p>\n"
         << references_table(cmp);
+  if (!cmp.derived.empty())
+    out << "<h2>Derived quantities ([[derived]])</h2>\n<p>Exact: located on the exact solution. "
+           "Each method's from its samples (the parabola through the extreme sample and its "
+           "neighbours); its verdict on its difference from the same estimate on the "
+           "reference's samples, in % of the quantity's scale.</p>\n"
+        << derived_table_html(*cmp.mechanism, cmp.derived);
   out << "<h2>Methods: settings and cost</h2>\n" << methods_table(cmp);
   out << "<h2>Legend</h2>\n<dl>\n" << legend << "</dl>\n";
   write_page_tail(data.dump(), kReportPageScript, out);
