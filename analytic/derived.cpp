@@ -268,6 +268,9 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     out.lower = spec.range ? spec.range->first : std::min(t.driver(0), t.driver(n - 1));
     out.upper = spec.range ? spec.range->second : std::max(t.driver(0), t.driver(n - 1));
     for (int k = 0; k < n; ++k) {
+      // A whole cycle's repeated last sample is its first.
+      if (spec.range && cycle && std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12))
+        continue;
       double v = t.driver(k);
       // An angular driver's interval is read modulo a turn from its lower end.
       if (spec.range && cycle)

@@ -136,8 +136,8 @@ DerivedResults compare_derived(const Mechanism& m, const std::vector<MethodRun>&
         c.exact = f.value;
         c.estimate = value_of(find(out.estimate, exact.spec), f.name);
         c.scale = scale_of(m, *exact.spec, f.unit, ref, f.value);
-        c.tolerance =
-            tolerances.of(method.name, quantity_of(*exact.spec, f.unit, m.driver().angular()));
+        c.quantity_class = quantity_of(*exact.spec, f.unit, m.driver().angular());
+        c.tolerance = tolerances.of(method.name, c.quantity_class);
         c.verdict = Verdict::not_applicable;
         if (!c.value)
           c.reason = own && !own->reason.empty() ? own->reason : "the method has no such value";
@@ -254,7 +254,7 @@ void write_derived_csv(const DerivedResults& results, std::ostream& out) {
     const double scaled = c.pct_of_scale();
     out << fmt::format(
         "{},{},{},,,,,{},{},{},{},{},{},{},\n", csv_field(c.method),
-        csv_field("derived:" + c.quantity()), to_string(quantity_of(*c.spec, c.unit, true)),
+        csv_field("derived:" + c.quantity()), to_string(c.quantity_class),
         c.verdict == Verdict::not_applicable ? 0 : 1, csv_field(c.reason), number(c.exact),
         number(c.value), both ? csv_number(*c.value - *c.exact) : std::string(),
         std::isnan(scaled) ? std::string() : csv_number(scaled), csv_number(c.pct_vs_exact()));

@@ -22,6 +22,7 @@ struct DerivedCheck {
   const DerivedSpec* spec = nullptr;
   std::string field;  // "ratio", "at_max", ...
   DerivedUnit unit = DerivedUnit::channel;
+  Quantity quantity_class = Quantity::position;  // the class it is judged in
   std::string method;
   std::optional<double> value;     // the method's, from its samples (SI)
   std::optional<double> exact;     // located on the exact solution

@@ -382,9 +382,13 @@ std::string references_table(const Comparison& cmp) {
         values.push_back({v.method + (v.interpolated ? " (interpolated)" : "") +
                               (v.method == "ic" ? " (IC computed)" : ""),
                           v.value});
-    html +=
-        fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n", escape(first.quantity),
-                    first.driver_value / du.scale, escape(du.name), escape(u.name));
+    // A [[derived]] quantity is of the whole sweep.
+    html += first.derived
+                ? fmt::format("<h3><code>{}</code> of the sweep ([[derived]]) [{}]</h3>\n",
+                              escape(first.quantity), escape(u.name))
+                : fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n",
+                              escape(first.quantity), first.driver_value / du.scale,
+                              escape(du.name), escape(u.name));
     html += "<table class=\"refs\"><tr><th>value from</th><th>value</th>";
     for (size_t j = 0; j < values.size(); ++j) html += fmt::format("<th>% vs ({})</th>", j + 1);
     html += "</tr>\n";

@@ -44,7 +44,10 @@ TEST(Derived, OffsetSliderCrankStrokeAndDeadPointsAreTheClosedForms) {
                            "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\n"
                            "channel = \"s.slider\"\n"
                            "\n[[derived]]\nname = \"dead\"\nquantity = \"dead_points\"\n"
-                           "channel = \"s.slider\"\n";
+                           "channel = \"s.slider\"\n"
+                           // An interval across the cycle's start, read modulo a turn.
+                           "\n[[derived]]\nname = \"across\"\nquantity = \"stroke\"\n"
+                           "channel = \"s.slider\"\nrange = [-100, 200]\n";
   const Mechanism m = parse_mechanism(text, "slider_crank_offset.toml");
   const Trajectory t = sweep(m);
   const std::vector<DerivedValue> v = exact_of(m, t);
@@ -58,6 +61,9 @@ TEST(Derived, OffsetSliderCrankStrokeAndDeadPointsAreTheClosedForms) {
   EXPECT_NEAR(turn(field(v, "S.at_min")), kPi + std::asin(e / (l - r)), 1e-9);
   EXPECT_NEAR(turn(field(v, "dead")), kPi + std::asin(e / (l - r)), 1e-9);
   EXPECT_NEAR(turn(field(v, "dead.at_max")), std::asin(e / (l + r)), 1e-9);
+  EXPECT_NEAR(field(v, "across"), far - near, 1e-12);
+  EXPECT_NEAR(field(v, "across.at_max"), std::asin(e / (l + r)), 1e-9);
+  EXPECT_NEAR(field(v, "across.at_min"), kPi + std::asin(e / (l - r)), 1e-9);
 
   // From the samples alone (1 degree): the parabola's vertex, its value off by O(h^3), its
   // driver value by O(h^2) of the channel's curvature.
@@ -101,8 +107,10 @@ TEST(Derived, CrankShaperTimeRatioIsTwo) {
 // Crank-rocker a = 0.04, b = 0.12, c = 0.08, d = 0.10: cos mu = (b^2 + c^2 - a^2 - d^2 + 2 a d
 // cos theta) / (2 b c), extreme at theta = 0 (least) and pi (most).
 TEST(Derived, CrankRockerTransmissionExtremesAreTheClosedForm) {
-  const std::string text =
-      test::crank_rocker().text() + "\n[[derived]]\nname = \"tr\"\nquantity = \"transmission\"\n";
+  // Drawn at 60.37 degrees, so that no sample lies on an extreme (the parabola through three
+  // samples is exact on a symmetric extreme at a sample).
+  const std::string text = test::crank_rocker(60.37).text() +
+                           "\n[[derived]]\nname = \"tr\"\nquantity = \"transmission\"\n";
   const Mechanism m = parse_mechanism(text, "four_bar.toml");
   const std::vector<DerivedValue> v = exact_of(m, sweep(m));
   const double a = 0.04, b = 0.12, c = 0.08, d = 0.10;
