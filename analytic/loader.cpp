@@ -14,7 +14,9 @@
 #include <set>
 
 #include "analytic/branch.h"
+#include "analytic/derived.h"
 #include "analytic/expression.h"
+#include "analytic/fourbar.h"
 #include "analytic/limits.h"
 
 namespace crosslink {
@@ -987,6 +989,16 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   if (duration && r.diagnostics().empty()) check_law(r, m, value_scale);
 }
 
+// "Q", "Q.field": the [[derived]] quantities and their fields, for a message.
+std::string derived_names(const Mechanism& m) {
+  std::string out;
+  for (const DerivedSpec& d : m.derived) {
+    const std::vector<std::string> fields = derived_fields(d.kind);
+    out += fmt::format("{}{} (fields {})", out.empty() ? ": " : "; ", d.name, join(fields));
+  }
+  return out;
+}
+
 // SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
 std::optional<double> reference_factor(const Mechanism& m, std::string_view quantity) {
   const std::string_view kind = quantity.substr(0, quantity.find('.'));
@@ -1047,6 +1059,125 @@ double last_digit(std::string_view literal) {
   return std::pow(10.0, power - decimals);
 }
 
+// [[derived]]: a quantity read off the sweep (analytic/derived.h), named for [[reference]] and
+// [expect.derived].
+void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::array* array = r.tables(root, "derived", limits::kReferences);
+  if (!array) return;
+  const std::vector<std::string> objects = reference_objects(m);
+  using K = DerivedSpec::Kind;
+  const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,  K::dead_points,
+                                K::toggles,  K::transmission, K::straightness};
+  std::vector<std::string> kind_names;
+  for (const K k : kinds) kind_names.emplace_back(to_string(k));
+  const Driver& d = m.driver();
+  for (const toml::node& entry : *array) {
+    const toml::table& t = *entry.as_table();
+    r.known_keys(t, "[[derived]]", {"name", "quantity", "channel", "point", "range"});
+    DerivedSpec spec;
+    spec.where = r.at(t);
+    spec.name = r.string(t, "name", "[[derived]]", true).value_or("");
+    const std::string quantity = r.string(t, "quantity", "[[derived]]", true).value_or("");
+    bool ok = !spec.name.empty() && !quantity.empty();
+    if (!spec.name.empty()) {
+      if (spec.name.find_first_of(". ") != std::string::npos ||
+          reference_factor(m, spec.name + ".") || spec.name == "mu") {
+        r.error(r.at(t.get("name")),
+                fmt::format("[[derived]] name '{}' must be a word without '.' or spaces, not a "
+                            "channel kind (it is written \"{}\" or \"{}.<field>\" in "
+                            "[[reference]] and [expect.derived])",
+                            spec.name, spec.name, spec.name));
+        ok = false;
+      }
+      for (const DerivedSpec& other : m.derived)
+        if (other.name == spec.name) {
+          r.error(r.at(t.get("name")),
+                  fmt::format("[[derived]] name '{}' is already used at line {}", spec.name,
+                              other.where.line));
+          ok = false;
+        }
+    }
+    if (!quantity.empty()) {
+      const auto k = std::find(kind_names.begin(), kind_names.end(), quantity);
+      if (k == kind_names.end()) {
+        r.error(r.at(t.get("quantity")),
+                fmt::format("[[derived]]: unknown quantity '{}' (valid: {})", quantity,
+                            join(kind_names)));
+        ok = false;
+      } else {
+        spec.kind = kinds[static_cast<size_t>(k - kind_names.begin())];
+      }
+    }
+    if (!ok) continue;
+    const bool reads_channel = spec.kind == K::extremes || spec.kind == K::stroke ||
+                               spec.kind == K::time_ratio || spec.kind == K::dead_points;
+    const std::string valid_keys = spec.kind == K::straightness ? "point"
+                                   : reads_channel              ? "channel"
+                                                                : "range";
+    for (const char* key : {"channel", "point"})
+      if (const toml::node* n = t.get(key); n && valid_keys != key) {
+        r.error(r.at(n), fmt::format("[[derived]] quantity '{}' takes no '{}'", quantity, key));
+        ok = false;
+      }
+    if (reads_channel) {
+      spec.channel = r.string(t, "channel", "[[derived]]", true).value_or("");
+      const Quantity q = Trajectory::quantity_of(spec.channel);
+      if (spec.channel.empty()) {
+        ok = false;
+      } else if (!reference_factor(m, spec.channel) || !names_object(objects, spec.channel) ||
+                 q == Quantity::force || q == Quantity::torque) {
+        r.error(r.at(t.get("channel")),
+                fmt::format("[[derived]]: '{}' is not a kinematic channel of this linkage "
+                            "(kind.name, kind one of angle, omega, alpha, x, y, vx, vy, v, ax, "
+                            "ay, a, s, sdot, sddot; names: {})",
+                            spec.channel, join(objects)));
+        ok = false;
+      } else if (q != Quantity::position && q != Quantity::angle &&
+                 d.law.kind != MotionLaw::Kind::constant_speed) {
+        r.error(r.at(t.get("channel")),
+                fmt::format("[[derived]]: '{}' is a rate: its extremes over the driver need a "
+                            "driver at constant speed (the law here is '{}')",
+                            spec.channel, to_string(d.law.kind)));
+        ok = false;
+      }
+    }
+    if (spec.kind == K::straightness) {
+      spec.point = r.string(t, "point", "[[derived]]", true).value_or("");
+      const auto points = m.named_points();
+      if (!spec.point.empty() &&
+          std::none_of(points.begin(), points.end(),
+                       [&](const Mechanism::NamedPoint& p) { return p.name == spec.point; })) {
+        std::vector<std::string> names;
+        for (const auto& p : points) names.push_back(p.name);
+        r.error(r.at(t.get("point")),
+                fmt::format("[[derived]]: no point '{}' (points: {})", spec.point, join(names)));
+      }
+      if (spec.point.empty()) ok = false;
+    }
+    if (spec.kind == K::transmission) {
+      if (const auto fb = four_bar(m)) {
+        spec.channel = "mu." + fb->c;
+      } else {
+        r.error(r.at(t.get("quantity")),
+                "[[derived]] 'transmission': the transmission angle is defined here for a "
+                "four-bar (between its coupler and rocker at C); this linkage is not one");
+        ok = false;
+      }
+    }
+    if (const toml::node* range = t.get("range")) {
+      const Scale scale = driver_scale(m);
+      if (const auto v = r.numbers(*range, "[[derived]] 'range' ([lower, upper] driver values)",
+                                   {scale, scale})) {
+        if ((*v)[0] < (*v)[1])
+          spec.range = std::make_pair((*v)[0], (*v)[1]);
+        else
+          r.error(r.at(*range), "[[derived]] 'range' must be [lower, upper] with lower < upper");
+      }
+    }
+    if (ok) m.derived.push_back(spec);
+  }
+}
+
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "reference", limits::kReferences);
   if (!array) return;
@@ -1058,8 +1189,20 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
     ref.where = r.at(t);
     ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
     ref.source = r.string(t, "source", "[[reference]]", true).value_or("");
-    const std::optional<double> at = r.number(t, "at", "[[reference]]", true, driver_scale(m));
-    const std::optional<double> factor = reference_factor(m, ref.quantity);
+    const DerivedSpec* spec = nullptr;
+    const std::optional<DerivedUnit> derived = derived_unit_of(m, ref.quantity, &spec);
+    ref.derived = derived.has_value();
+    if (ref.derived && t.get("at"))
+      r.error(r.at(t.get("at")),
+              fmt::format("[[reference]]: '{}' is a [[derived]] quantity of the whole sweep: it "
+                          "takes no 'at'",
+                          ref.quantity));
+    const std::optional<double> at =
+        ref.derived ? std::optional<double>(0.0)
+                    : r.number(t, "at", "[[reference]]", true, driver_scale(m));
+    const std::optional<double> factor = ref.derived
+                                             ? std::optional(derived_factor(m, *spec, *derived))
+                                             : reference_factor(m, ref.quantity);
     const std::optional<double> value = r.number(
         t, "value", "[[reference]]", true, {factor.value_or(1.0), "", limits::kReferenceValue});
     if (!ref.quantity.empty() && !factor) {
@@ -1067,11 +1210,11 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
               fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
                           "one of angle, omega, alpha, x, y, vx, vy, v, ax, ay, a, s, sdot, "
                           "sddot, fx, fy, f, fn, moment, torque, force, shaking_fx, shaking_fy, "
-                          "shaking_moment)",
-                          ref.quantity));
+                          "shaking_moment; or a [[derived]] name{})",
+                          ref.quantity, derived_names(m)));
       continue;
     }
-    if (factor && !names_object(objects, ref.quantity)) {
+    if (factor && !ref.derived && !names_object(objects, ref.quantity)) {
       r.error(r.at(t.get("quantity")),
               fmt::format("[[reference]]: '{}' names no moving link, point, joint, slider, "
                           "driver or ground (valid names: {})",
@@ -1399,7 +1542,7 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
 void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "expect", "a mechanism", false);
   if (!t) return;
-  r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof"});
+  r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof", "derived"});
   Expectations e;
   e.where = r.at(*t);
   const Scale value_scale = driver_scale(m);
@@ -1425,6 +1568,21 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
       if (const auto x = r.number(v, fmt::format("[expect] '{}'", key), value_scale))
         out->push_back(*x);
   }
+  if (const toml::table* derived = r.table(*t, "derived", "[expect]", false))
+    for (const auto& [key, node] : *derived) {
+      const std::string quantity(key.str());
+      const DerivedSpec* spec = nullptr;
+      const std::optional<DerivedUnit> unit = derived_unit_of(m, quantity, &spec);
+      if (!unit) {
+        r.error(r.at(key.source()),
+                fmt::format("[expect.derived]: '{}' is no [[derived]] quantity or field{}",
+                            quantity, derived_names(m)));
+        continue;
+      }
+      if (const auto x = r.number(node, fmt::format("[expect.derived] '{}'", quantity),
+                                  {derived_factor(m, *spec, *unit), "", limits::kReferenceValue}))
+        e.derived.push_back({quantity, *x, r.at(node)});
+    }
   e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
   if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
       e.grashof != "non-Grashof")
@@ -1664,9 +1822,10 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
   r.set_root(root);
-  r.known_keys(root, "the definition",
-               {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
-                "tolerance", "expect", "gravity", "load", "spring", "dynamics", "branch"});
+  r.known_keys(
+      root, "the definition",
+      {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
+       "derived", "tolerance", "expect", "gravity", "load", "spring", "dynamics", "branch"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
@@ -1748,6 +1907,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_loads(r, m, root);
   read_springs(r, m, root);
   read_tolerances(r, m, root);
+  read_derived(r, m, root);
   read_references(r, m, root);
   read_expect(r, m, root);
   read_branches(r, m, root);

@@ -223,8 +223,32 @@ struct Reference {
   // rounding.
   double precision = 0.0;
   std::string source;  // where the value was printed
+  // A [[derived]] quantity's value ("Q", or one of its fields "S.at_max") instead of a channel at
+  // a driver value: `quantity` names it and driver_value is not used.
+  bool derived = false;
   SourceLocation where;
 };
+
+// A quantity a designer reads off a sweep ([[derived]], docs/mechanism-format.md), computed by
+// analytic/derived.h: exactly on the exact solution, or from any method's samples.
+struct DerivedSpec {
+  enum class Kind {
+    extremes,      // max and min of a channel over the interval, with the driver values there
+    stroke,        // max - min of a channel between its two reversals, and its end positions
+    time_ratio,    // slow stroke's time over the fast one's (constant speed, a full cycle)
+    dead_points,   // the driver values where a channel reverses (its link or slider turns back)
+    toggles,       // the driver values of the sweep's toggles (limits of the assembling range)
+    transmission,  // a four-bar's transmission angle mu.<C>: its extremes
+    straightness,  // a point's path: its deviation from the minimum-zone line, and its extent
+  };
+  std::string name;
+  Kind kind = Kind::extremes;
+  std::string channel;  // the channel it reads (straightness: none; transmission: mu.<C>)
+  std::string point;    // straightness: the point whose path it reads
+  std::optional<std::pair<double, double>> range;  // a driver interval [rad or m]; none: the sweep
+  SourceLocation where;
+};
+std::string_view to_string(DerivedSpec::Kind kind);
 
 // Verdict tolerances in % of the reference's peak over the cycle, per quantity class.
 // Absent entries fall back to the comparator's defaults.
@@ -239,6 +263,13 @@ struct Expectations {
   std::vector<double> toggles;                      // driver values of toggles (dead points)
   std::vector<double> change_points;                // driver values of change points
   std::string grashof;  // four-bars: "Grashof" | "change point" | "non-Grashof"; "" = not given
+  // [expect.derived]: a [[derived]] quantity ("Q") or field ("S.at_max") and its value (SI).
+  struct Derived {
+    std::string quantity;
+    double value = 0.0;
+    SourceLocation where;
+  };
+  std::vector<Derived> derived;
   SourceLocation where;
 };
 
@@ -273,6 +304,7 @@ struct Mechanism {
   std::vector<Load> loads;
   std::vector<Spring> springs;
   std::vector<Reference> references;
+  std::vector<DerivedSpec> derived;  // [[derived]]
   ToleranceOverrides tolerances;
   std::optional<Expectations> expect;  // [expect], when the definition has one
   std::vector<BranchChoice> branches;  // [[branch]]: the assembly at the start, by name

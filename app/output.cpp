@@ -118,15 +118,19 @@ nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::opt
 
 void print_trajectory_json(std::FILE* file, const Mechanism& m, const Trajectory& t,
                            std::optional<int> single, const std::string& event_key,
-                           const std::function<void(nlohmann::json&, int)>& extra) {
+                           const std::function<void(nlohmann::json&, int)>& extra,
+                           const nlohmann::json& more) {
   if (single || t.samples() == 0) {
-    fmt::print(file, "{}\n", trajectory_json(m, t, single, event_key, extra).dump(2));
+    nlohmann::json j = trajectory_json(m, t, single, event_key, extra);
+    if (more.is_object()) j.update(more);
+    fmt::print(file, "{}\n", j.dump(2));
     return;
   }
   // The document without its samples, each sample written as it is made, as dump(2) indents it
   // inside the document: the whole document held at once took 70 kB a sample on the A02 chain
   // at N = 10 (3.6 GB for 49,951 samples).
   nlohmann::json j = document_json(m, t, true, event_key);
+  if (more.is_object()) j.update(more);
   j["samples"] = nlohmann::json::array();
   const std::string text = j.dump(2);
   const std::string_view empty = "\n  \"samples\": []";  // a top-level key: indented by 2

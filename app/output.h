@@ -30,9 +30,11 @@ nlohmann::json trajectory_json(const Mechanism& m, const Trajectory& t, std::opt
 
 // trajectory_json(...).dump(2) and a newline on `file`, each sample written as it is made (the
 // memory of one sample's JSON, not of the document's).
+// `more`: top-level fields added to the document (null: none).
 void print_trajectory_json(std::FILE* file, const Mechanism& m, const Trajectory& t,
                            std::optional<int> single, const std::string& event_key = "driver",
-                           const std::function<void(nlohmann::json&, int)>& extra = {});
+                           const std::function<void(nlohmann::json&, int)>& extra = {},
+                           const nlohmann::json& more = nullptr);
 
 // One row per sample: sample, time, driver, status, every channel, then `extra`. A value that is
 // not usable (a flagged sample) is an empty field.

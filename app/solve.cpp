@@ -11,6 +11,7 @@
 #include "analytic/trust.h"
 #include "app/commands.h"
 #include "app/output.h"
+#include "compare/derived.h"
 
 namespace crosslink::app {
 namespace {
@@ -129,6 +130,9 @@ int run_solve(const SolveArgs& args) {
                    .str());
     return kExitBadInput;
   }
+  // [[derived]] quantities, located on the Newton sweep (its events hold the toggles).
+  const std::vector<DerivedValue> derived =
+      single ? std::vector<DerivedValue>{} : derived_exact(m, t);
   // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
   // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
   // sweep follows that; auto keeps it.
@@ -173,14 +177,19 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
                e.driver, e.message);
   if (args.format == "json")
-    print_trajectory_json(stdout, m, t, single ? std::optional<int>(0) : std::nullopt);
+    print_trajectory_json(stdout, m, t, single ? std::optional<int>(0) : std::nullopt, "driver", {},
+                          derived.empty()
+                              ? nlohmann::json()
+                              : nlohmann::json{{"derived", compare::derived_json(derived)}});
   else if (args.format == "csv")
     print_csv(t);
   else if (single) {
     print_table_at(m, t, 0);
     if (args.ic && usable(t.status[0])) print_instant_centres(m, t);
-  } else
+  } else {
     print_table_rows(m, t, false, 4, columns, "the file's units");
+    compare::print_derived_exact(stdout, m, derived);
+  }
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
                Diagnostic{m.driver().where,

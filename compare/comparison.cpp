@@ -86,14 +86,26 @@ Comparison::Counts Comparison::counts(bool prescribed) const {
 std::string Comparison::counts_text() const {
   const Counts computed = counts(false), fixed = counts(true);
   return fmt::format(
-      "{} channel comparisons: {} pass, {} fail, {} n/a; {} more of values the definition "
-      "prescribes (ground points, the driven coordinate): {} pass, {} fail, {} n/a",
-      computed.total(), computed.pass, computed.fail, computed.not_applicable, fixed.total(),
-      fixed.pass, fixed.fail, fixed.not_applicable);
+             "{} channel comparisons: {} pass, {} fail, {} n/a; {} more of values the definition "
+             "prescribes (ground points, the driven coordinate): {} pass, {} fail, {} n/a",
+             computed.total(), computed.pass, computed.fail, computed.not_applicable, fixed.total(),
+             fixed.pass, fixed.fail, fixed.not_applicable) +
+         derived_counts_text();
+}
+
+std::string Comparison::derived_counts_text() const {
+  if (derived.checks.empty()) return "";
+  Counts c;
+  for (const DerivedCheck& d : derived.checks)
+    (d.verdict == Verdict::pass   ? c.pass
+     : d.verdict == Verdict::fail ? c.fail
+                                  : c.not_applicable)++;
+  return fmt::format("; {} [[derived]] comparisons: {} pass, {} fail, {} n/a", c.total(), c.pass,
+                     c.fail, c.not_applicable);
 }
 
 bool Comparison::pass() const {
-  return failures() == 0 && failed_methods.empty();
+  return failures() == 0 && failed_methods.empty() && derived.failures() == 0;
 }
 
 std::optional<double> value_at(const Trajectory& trajectory, std::string_view channel,
@@ -241,11 +253,28 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     }
   }
 
+  out.derived = compare_derived(mechanism, out.methods, tolerances);
+
   // [[reference]] rows: exact at the printed driver value, every method on its sweep.
   const bool angular = mechanism.driver().angular();
   for (const Reference& r : mechanism.references) {
     ReferenceRow row;
     row.reference = r;
+    if (r.derived) {
+      // A [[derived]] quantity: exact as located, every other method's from its samples.
+      if (const std::optional<double> v = derived_value(out.derived.exact, r.quantity)) {
+        row.exact = *v;
+        row.exact_ok = true;
+        row.zero = 1e-9 * std::abs(*v);
+      }
+      if (const std::optional<double> v = derived_value(out.derived.estimate, r.quantity))
+        row.values.push_back({out.methods.front().name, *v, true});
+      for (const DerivedResults::Method& method : out.derived.methods)
+        if (const std::optional<double> v = derived_value(method.values, r.quantity))
+          row.values.push_back({method.name, *v, true});
+      out.references.push_back(std::move(row));
+      continue;
+    }
     const Eigen::VectorXd none;
     row.zero = 1e-9 * std::max(channel_peak(r.quantity, none, {}, size),
                                peak_floor(r.quantity, 0.0, 0.0, scales));

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "analytic/mechanism.h"
+#include "compare/derived.h"
 #include "compare/method_run.h"
 #include "compare/metrics.h"
 #include "compare/tolerance.h"
@@ -57,6 +58,7 @@ struct Comparison {
   std::vector<MethodRun> methods;  // methods[0]: the reference ("analytic")
   std::vector<ChannelResult> channels;
   std::vector<ReferenceRow> references;
+  DerivedResults derived;  // the [[derived]] quantities, exact and every method's
   // Methods asked for that ran but failed (diverged, wrong sample count): they fail the whole.
   std::vector<std::string> failed_methods;
 
@@ -67,7 +69,8 @@ struct Comparison {
   // definition has no [[reference]] values to set beside it: nothing was compared, so there is
   // no verdict to pass.
   bool nothing_compared() const {
-    return channels.empty() && failed_methods.empty() && references.empty();
+    return channels.empty() && failed_methods.empty() && references.empty() &&
+           derived.checks.empty();
   }
   int failures() const;  // channels with verdict fail
   // How many channels have each verdict, the computed ones and the prescribed ones apart.
@@ -79,6 +82,8 @@ struct Comparison {
   // "N channel comparisons: p pass, f fail, n n/a; M more of values the definition prescribes
   // (...): ..." as the console, HTML report and JSON say it.
   std::string counts_text() const;
+  // "; N [[derived]] comparisons: p pass, f fail, n n/a", or "" without [[derived]] checks.
+  std::string derived_counts_text() const;
 };
 
 // Compares every available method in `methods` (the first is the reference) channel by

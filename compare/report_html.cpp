@@ -579,9 +579,13 @@ std::string references_table(const Comparison& cmp) {
         values.push_back({v.method + (v.interpolated ? " (interpolated)" : "") +
                               (v.method == "ic" ? " (IC computed)" : ""),
                           v.value});
-    html +=
-        fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n", escape(first.quantity),
-                    first.driver_value / du.scale, escape(du.name), escape(u.name));
+    // A [[derived]] quantity is of the whole sweep.
+    html += first.derived
+                ? fmt::format("<h3><code>{}</code> of the sweep ([[derived]]) [{}]</h3>\n",
+                              escape(first.quantity), escape(u.name))
+                : fmt::format("<h3><code>{}</code> at driver = {:.6g} {} [{}]</h3>\n",
+                              escape(first.quantity), first.driver_value / du.scale,
+                              escape(du.name), escape(u.name));
     html += "<table class=\"refs\"><tr><th>value from</th><th>value</th>";
     for (size_t j = 0; j < values.size(); ++j) html += fmt::format("<th>% vs ({})</th>", j + 1);
     html += "</tr>\n";
@@ -723,6 +727,12 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     out << "<h2>Published values ([[reference]])</h2>\n<p>Each cell: % difference of the row's "
            "value from the column's, 100 |row - column| / |column|.</p>\n"
         << references_table(cmp);
+  if (!cmp.derived.empty())
+    out << "<h2>Derived quantities ([[derived]])</h2>\n<p>Exact: located on the exact solution. "
+           "Each method's from its samples (the parabola through the extreme sample and its "
+           "neighbours); its verdict on its difference from the same estimate on the "
+           "reference's samples, in % of the quantity's scale.</p>\n"
+        << derived_table_html(*cmp.mechanism, cmp.derived);
   out << "<h2>Methods: settings and cost</h2>\n" << methods_table(cmp, options);
   out << "<h2>Settings in force: defaults and what set the others</h2>\n"
       << settings_in_force(cmp, options);

@@ -15,6 +15,10 @@
 namespace crosslink::compare {
 
 DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
+  // A [[derived]] quantity or field ("Q", "S.at_max"): its own unit.
+  const DerivedSpec* spec = nullptr;
+  if (const std::optional<DerivedUnit> unit = derived_unit_of(m, channel, &spec))
+    return {derived_factor(m, *spec, *unit), derived_unit_name(m, *spec, *unit)};
   const std::string_view kind = channel.substr(0, channel.find('.'));
   const std::string& L = m.units.length_name;
   if (kind == "angle" || kind == "mu") return {m.units.angle, m.units.angle_name};
@@ -254,6 +258,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
 
   print_kept_out(out, cmp);
 
+  print_derived(out, m, cmp.derived);
+
   // [[reference]] rows: printed values against the exact one.
   if (!cmp.references.empty()) {
     fmt::print(out, "\n[[reference]] values (file units; %: difference from exact)\n");
@@ -278,9 +284,11 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       const std::string printed = r.reference.printed.empty()
                                       ? fmt::format("{:.5g}", r.reference.value / u.scale)
                                       : r.reference.printed;
-      fmt::print(out, "{:<18} {:>7.4g} {:>10} {:>11} {:>7} {:>15} {:>9}  {}\n",
-                 r.reference.quantity, r.reference.driver_value / du.scale, printed,
-                 r.exact_ok ? fmt::format("{:.6g}", shown_value(r.exact)) : "",
+      // A [[derived]] quantity is of the whole sweep: no driver value.
+      fmt::print(out, "{:<18} {:>7} {:>10} {:>11} {:>7} {:>15} {:>9}  {}\n", r.reference.quantity,
+                 r.reference.derived ? "sweep"
+                                     : fmt::format("{:.4g}", r.reference.driver_value / du.scale),
+                 printed, r.exact_ok ? fmt::format("{:.6g}", shown_value(r.exact)) : "",
                  pct(r.percent(r.reference.value, r.exact), "{:.3f}"),
                  r.exact_ok && r.reference.within_rounding(r.exact) ? "within rounding" : "",
                  pct(worst_method, "{:.2g}"), r.reference.source.substr(0, 40));
@@ -326,6 +334,10 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
     }
+  for (const DerivedCheck& c : cmp.derived.checks)
+    if (c.verdict == Verdict::fail)
+      fmt::print(out, "FAIL: derived {} {}: {:.4g} % of scale > tolerance {:.3g} %\n", c.quantity(),
+                 c.method, c.pct_of_scale(), c.tolerance);
   // A method that failed as a whole is named on the verdict line itself: its channels are not
   // among the counts (a scene MuJoCo refused read "FAIL (70 channel comparisons: 70 pass, 0 fail").
   if (cmp.nothing_compared()) {
@@ -430,7 +442,12 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"pct_difference_vs_exact",
           r.exact_ok ? json(r.percent(r.reference.value, r.exact)) : json(nullptr)},
          {"methods", methods}});
+    if (r.reference.derived) {
+      j["references"].back()["derived"] = true;
+      j["references"].back()["driver_value"] = nullptr;
+    }
   }
+  if (!cmp.derived.empty()) j["derived"] = derived_json(cmp.derived.exact, &cmp.derived);
   j["legend"] = json::object();
   for (const auto& [term, definition] : metric_legend()) j["legend"][term] = definition;
   return j;
@@ -473,6 +490,7 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
                          field(has_ref && has_value, c.metrics.local_pct(k)), ref.time(k));
     }
   }
+  write_derived_csv(cmp.derived, out);
 }
 
 }  // namespace crosslink::compare

@@ -11,8 +11,10 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <numbers>
 
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -128,6 +130,45 @@ TEST(Comparison, JsonHasTheDocumentedFields) {
   ASSERT_EQ(j["references"].size(), m.references.size());
   EXPECT_TRUE(j["references"][0]["methods"].contains("analytic"));
   EXPECT_TRUE(j["references"][0].contains("pct_difference_vs_exact"));
+}
+
+// The Whitworth quick return's time ratio and stroke, from MuJoCo's and Bullet's samples, against
+// the exact ones (closed forms: (360 - beta) / beta with cos(beta / 2) = CD / CA = 2/3, stroke
+// 2 DP = 150 mm) and the printed 2.735 (mechanisms/published/whitworth_quick_return.toml).
+TEST(Comparison, EnginesTimeRatioAndStrokeAgainstExact) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/published/whitworth_quick_return.toml");
+  std::vector<MethodRun> runs = {run_reference(m)};
+  for (const char* engine : {"mujoco", "bullet"})
+    runs.push_back(run_method(engine, m, runs.front()));
+  const Comparison c = compare_methods(m, std::move(runs),
+                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const double beta = 2.0 * std::acos(2.0 / 3.0);
+  const double ratio = (2.0 * std::numbers::pi - beta) / beta;
+  EXPECT_NEAR(*derived_value(c.derived.exact, "Q"), ratio, 1e-10);
+  EXPECT_NEAR(*derived_value(c.derived.exact, "ram_stroke"), 0.150, 1e-12);
+  int judged = 0;
+  for (const DerivedCheck& check : c.derived.checks) {
+    if (check.field != "ratio" && check.field != "stroke") continue;
+    if (!c.method(check.method)->available) continue;
+    ASSERT_TRUE(check.value.has_value()) << check.method << " " << check.quantity();
+    // Each engine within its tolerance of the reference's own estimate, and near the exact
+    // value: 1 degree samples put a parabola's vertex within 1e-3 of the ratio.
+    EXPECT_EQ(check.verdict, Verdict::pass)
+        << check.method << " " << check.quantity() << ": " << check.pct_of_scale() << " %";
+    EXPECT_LT(check.pct_vs_exact(), 0.05) << check.method << " " << check.quantity();
+    ++judged;
+  }
+  EXPECT_GE(judged, 2);  // at least one engine built in, both quantities
+  // The printed ratio is a [[reference]] row: within rounding of the exact one.
+  ASSERT_EQ(c.references.size(), 1u);
+  EXPECT_TRUE(c.references[0].exact_ok);
+  EXPECT_TRUE(c.references[0].reference.within_rounding(c.references[0].exact));
+  EXPECT_TRUE(c.pass());
+  const nlohmann::json j = to_json(c);
+  EXPECT_EQ(j["derived"][0]["name"], "Q");
+  EXPECT_TRUE(j["derived"][0]["fields"]["ratio"]["methods"].contains("mujoco") ||
+              !c.method("mujoco")->available);
 }
 
 TEST(ValueAt, OnGridAndInterpolated) {

@@ -1,0 +1,626 @@
+#include "analytic/derived.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include "analytic/newton.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// A scalar function of a pose, read from one row of a trajectory: its value and, where the
+// trajectory's rates give it, its derivative in the driver coordinate at driver rate `rate`.
+struct Scalar {
+  bool positions = true;  // the value reads positions only (it exists at a singular pose)
+  std::function<double(const Trajectory&, int)> value;
+  std::function<double(const Trajectory&, int, double rate)> slope;  // empty: none
+};
+
+double at(const Trajectory& t, const std::string& channel, int row) {
+  return (*t.channel(channel))(row);
+}
+
+// The channel's value, and its slope from the next derivative the trajectory holds (positions
+// from velocities, velocities from accelerations: at constant speed d/dt = rate d/d driver).
+Scalar channel_scalar(const std::string& channel) {
+  Scalar f;
+  const Quantity q = Trajectory::quantity_of(channel);
+  f.positions = q == Quantity::position || q == Quantity::angle;
+  f.value = [channel](const Trajectory& t, int row) { return at(t, channel, row); };
+  const std::string kind = channel.substr(0, channel.find('.'));
+  const std::string object = channel.substr(channel.find('.'));
+  static const std::vector<std::pair<std::string, std::string>> next = {
+      {"x", "vx"},  {"y", "vy"},  {"s", "sdot"},     {"angle", "omega"},
+      {"vx", "ax"}, {"vy", "ay"}, {"sdot", "sddot"}, {"omega", "alpha"}};
+  for (const auto& [from, to] : next)
+    if (kind == from)
+      f.slope = [rate_channel = to + object](const Trajectory& t, int row, double rate) {
+        return at(t, rate_channel, row) / rate;
+      };
+  if (kind == "v")
+    f.slope = [object](const Trajectory& t, int row, double rate) {
+      const double vx = at(t, "vx" + object, row), vy = at(t, "vy" + object, row);
+      const double v = std::hypot(vx, vy);
+      return v > 0.0
+                 ? (vx * at(t, "ax" + object, row) + vy * at(t, "ay" + object, row)) / (v * rate)
+                 : 0.0;
+    };
+  return f;
+}
+
+// The component of a point's position along the unit vector n.
+Scalar along(const std::string& point, Eigen::Vector2d n) {
+  Scalar f;
+  f.value = [point, n](const Trajectory& t, int row) {
+    return n.x() * at(t, "x." + point, row) + n.y() * at(t, "y." + point, row);
+  };
+  f.slope = [point, n](const Trajectory& t, int row, double rate) {
+    return (n.x() * at(t, "vx." + point, row) + n.y() * at(t, "vy." + point, row)) / rate;
+  };
+  return f;
+}
+
+// A sample of the interval: its row and driver value, shifted by whole cycles so that the
+// interval's samples increase along it.
+struct Sample {
+  int row;
+  double v;
+};
+
+struct Located {
+  double v = 0.0;
+  double value = 0.0;
+  bool reversal = true;  // inside the interval (the channel turns back), not at one of its ends
+};
+
+// Finds the extreme of f near a sample, and f at a driver value between two samples.
+class Locator {
+ public:
+  virtual ~Locator() = default;
+  virtual std::optional<Located> refine(const Scalar& f, const Sample& lo, const Sample& mid,
+                                        const Sample& hi, bool max) = 0;
+  virtual std::optional<double> value_at(const Scalar& f, double v, const Sample& a,
+                                         const Sample& b) = 0;
+};
+
+// Exact: Newton at any driver value from the coordinates of the sweep sample beside it.
+class ExactLocator : public Locator {
+ public:
+  ExactLocator(const Mechanism& m, const Trajectory& sweep)
+      : m_(m), sweep_(sweep), solver_(m), state_(m) {
+    one_.resize(m, 1);
+    const Driver& d = m.driver();
+    constant_speed_ = d.law.kind == MotionLaw::Kind::constant_speed && !d.at_rest();
+    rate_ = constant_speed_ ? d.law.speed : 1.0;
+  }
+  double rate() const { return rate_; }
+
+  // The exact pose at `v` (the interval's driver value of sample `near`), or nullptr; with
+  // `positions`, a singular pose too (its rates do not exist).
+  const Trajectory* pose(double v, const Sample& near, bool positions = false) {
+    const double driver = sweep_.driver(near.row) + (v - near.v);
+    coordinates(near.row);
+    state_.driver = {constant_speed_ ? (driver - m_.driver().start) / rate_ : 0.0, driver, rate_,
+                     0.0};
+    state_.factorized = false;
+    const SolveReport r = solver_.solve(state_);
+    if (!(positions ? has_position(r.status) : usable(r.status))) return nullptr;
+    solver_.write_sample(state_, r, one_, 0);
+    return &one_;
+  }
+
+  std::optional<Located> refine(const Scalar& f, const Sample& lo, const Sample& mid,
+                                const Sample& hi, bool max) override {
+    const double sign = max ? 1.0 : -1.0;
+    // Rising then falling (for a max): bisection on the exact slope. Where a bracket's end has
+    // no rate (a singular pose), golden section on the value below.
+    const Trajectory* p = f.slope ? pose(lo.v, mid) : nullptr;
+    const double fa = p ? sign * f.slope(*p, 0, rate_) : 0.0;
+    p = p ? pose(hi.v, mid) : nullptr;
+    if (p) {
+      double a = lo.v, b = hi.v;
+      const double fb = sign * f.slope(*p, 0, rate_);
+      if (fa >= 0.0 && fb <= 0.0) {
+        for (int i = 0; i < 200 && b - a > 4e-16 * (1.0 + std::abs(a)); ++i) {
+          const double c = 0.5 * (a + b);
+          p = pose(c, mid);
+          if (!p) return std::nullopt;
+          if (sign * f.slope(*p, 0, rate_) >= 0.0)
+            a = c;
+          else
+            b = c;
+        }
+        const double v = 0.5 * (a + b);
+        p = pose(v, mid);
+        if (!p) return std::nullopt;
+        return Located{v, f.value(*p, 0)};
+      }
+    }
+    // Golden-section search on the exact value.
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    double a = lo.v, b = hi.v;
+    double c = b - g * (b - a), d = a + g * (b - a);
+    auto value = [&](double v) -> std::optional<double> {
+      const Trajectory* p = pose(v, mid, f.positions);
+      if (!p) return std::nullopt;
+      return sign * f.value(*p, 0);
+    };
+    std::optional<double> fc = value(c), fd = value(d);
+    for (int i = 0; i < 200 && fc && fd && b - a > 1e-13 * (1.0 + std::abs(a)); ++i) {
+      if (*fc > *fd) {
+        b = d;
+        d = c;
+        fd = fc;
+        c = b - g * (b - a);
+        fc = value(c);
+      } else {
+        a = c;
+        c = d;
+        fc = fd;
+        d = a + g * (b - a);
+        fd = value(d);
+      }
+    }
+    const double v = 0.5 * (a + b);
+    const std::optional<double> fv = value(v);
+    if (!fv) return std::nullopt;
+    return Located{v, sign * *fv};
+  }
+
+  std::optional<double> value_at(const Scalar& f, double v, const Sample& a,
+                                 const Sample& b) override {
+    const Trajectory* p = pose(v, std::abs(v - a.v) <= std::abs(v - b.v) ? a : b, f.positions);
+    if (!p) return std::nullopt;
+    return f.value(*p, 0);
+  }
+
+ private:
+  // state_.q from a sample: each moving link's angle, and its frame's origin from where its
+  // first point is (a point name is one place).
+  void coordinates(int row) {
+    for (size_t l = 0; l < m_.links.size(); ++l) {
+      const int k = m_.moving_index(static_cast<int>(l));
+      if (k < 0) continue;
+      const Point& p = m_.links[l].points.front();
+      const auto c = static_cast<Eigen::Index>(
+          std::find(sweep_.point_names.begin(), sweep_.point_names.end(), p.name) -
+          sweep_.point_names.begin());
+      const double theta = sweep_.angle(row, k);
+      const Eigen::Vector2d world(sweep_.x(row, c), sweep_.y(row, c));
+      const Eigen::Vector2d origin =
+          world - Eigen::Vector2d(std::cos(theta) * p.local.x() - std::sin(theta) * p.local.y(),
+                                  std::sin(theta) * p.local.x() + std::cos(theta) * p.local.y());
+      state_.q.segment<3>(3 * k) << origin.x(), origin.y(), theta;
+    }
+  }
+
+  const Mechanism& m_;
+  const Trajectory& sweep_;
+  NewtonSolver solver_;
+  KinematicState state_;
+  Trajectory one_;
+  bool constant_speed_ = false;
+  double rate_ = 1.0;
+};
+
+// From samples alone: the vertex of the parabola through three samples; linear between two.
+class SampledLocator : public Locator {
+ public:
+  explicit SampledLocator(const Trajectory& t) : t_(t) {}
+  std::optional<Located> refine(const Scalar& f, const Sample& lo, const Sample& mid,
+                                const Sample& hi, bool) override {
+    const double x0 = lo.v - mid.v, x2 = hi.v - mid.v;
+    const double y0 = f.value(t_, lo.row), y1 = f.value(t_, mid.row), y2 = f.value(t_, hi.row);
+    // y = y1 + b x + c x^2 through (x0, y0), (0, y1), (x2, y2).
+    const double d0 = (y0 - y1) / x0, d2 = (y2 - y1) / x2;
+    const double c = (d2 - d0) / (x2 - x0), b = d0 - c * x0;
+    if (c == 0.0) return Located{mid.v, y1};
+    const double x = std::clamp(-b / (2.0 * c), x0, x2);
+    return Located{mid.v + x, y1 + b * x + c * x * x};
+  }
+  std::optional<double> value_at(const Scalar& f, double v, const Sample& a,
+                                 const Sample& b) override {
+    const double w = a.v == b.v ? 0.0 : (v - a.v) / (b.v - a.v);
+    return f.value(t_, a.row) + w * (f.value(t_, b.row) - f.value(t_, a.row));
+  }
+
+ private:
+  const Trajectory& t_;
+};
+
+// The samples of an interval, in driver order along it.
+struct Interval {
+  std::vector<Sample> samples;
+  bool periodic = false;  // the sweep's whole cycle: the last sample's neighbour is the first
+  double period = 0.0;
+  double lower = 0.0, upper = 0.0;  // the interval's ends (not periodic)
+  std::string empty_reason;
+};
+
+Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajectory& t,
+                     bool positions_only) {
+  Interval out;
+  const Driver& d = m.driver();
+  const int n = t.samples();
+  auto has = [&](int k) {
+    const PoseStatus s = t.status[static_cast<size_t>(k)];
+    return positions_only ? has_position(s) : usable(s);
+  };
+  const bool cycle = d.angular() && d.law.kind == MotionLaw::Kind::constant_speed && n > 2 &&
+                     std::abs(t.driver(n - 1) - t.driver(0)) >= kTwoPi * (1.0 - 1e-9);
+  if (!spec.range && cycle) {
+    out.periodic = true;
+    out.period = kTwoPi;
+    const double direction = t.driver(n - 1) > t.driver(0) ? 1.0 : -1.0;
+    // The cycle's samples in increasing driver order, its repeated last sample left out.
+    for (int k = 0; k < n; ++k) {
+      if (std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12)) continue;
+      if (has(k)) out.samples.push_back({k, t.driver(k)});
+    }
+    if (direction < 0.0) std::reverse(out.samples.begin(), out.samples.end());
+  } else {
+    out.lower = spec.range ? spec.range->first : std::min(t.driver(0), t.driver(n - 1));
+    out.upper = spec.range ? spec.range->second : std::max(t.driver(0), t.driver(n - 1));
+    for (int k = 0; k < n; ++k) {
+      // A whole cycle's repeated last sample is its first.
+      if (spec.range && cycle && std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12))
+        continue;
+      double v = t.driver(k);
+      // An angular driver's interval is read modulo a turn from its lower end.
+      if (spec.range && cycle)
+        v = out.lower + std::fmod(std::fmod(v - out.lower, kTwoPi) + kTwoPi, kTwoPi);
+      if (v >= out.lower - 1e-12 && v <= out.upper + 1e-12 && has(k)) out.samples.push_back({k, v});
+    }
+    std::sort(out.samples.begin(), out.samples.end(),
+              [](const Sample& a, const Sample& b) { return a.v < b.v; });
+  }
+  if (out.samples.size() < 3)
+    out.empty_reason =
+        fmt::format("the interval holds {} solved sample(s): 3 are needed", out.samples.size());
+  return out;
+}
+
+// The largest (max) or smallest value of f over the interval: every sample that is a local
+// extreme refined by the locator, and the interval's ends (not periodic).
+std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Interval& in,
+                               Locator& locator, bool max) {
+  const auto& s = in.samples;
+  const int n = static_cast<int>(s.size());
+  const double sign = max ? 1.0 : -1.0;
+  std::vector<double> y(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i)
+    y[static_cast<size_t>(i)] = sign * f.value(t, s[static_cast<size_t>(i)].row);
+  std::optional<Located> best;
+  auto consider = [&](std::optional<Located> c) {
+    if (c && (!best || sign * c->value > sign * best->value)) best = c;
+  };
+  for (int i = 0; i < n; ++i) {
+    const bool first = i == 0, last = i == n - 1;
+    if (!in.periodic && (first || last)) continue;
+    const int ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
+    const double yi = y[static_cast<size_t>(i)];
+    if (!(yi >= y[static_cast<size_t>(ip)] && yi > y[static_cast<size_t>(in_)])) continue;
+    Sample lo = s[static_cast<size_t>(ip)], hi = s[static_cast<size_t>(in_)];
+    if (first) lo.v -= in.period;
+    if (last) hi.v += in.period;
+    std::optional<Located> c = locator.refine(f, lo, s[static_cast<size_t>(i)], hi, max);
+    // A whole cycle's driver values are given within [0, 2 pi).
+    if (c && in.periodic) c->v = std::fmod(std::fmod(c->v, in.period) + in.period, in.period);
+    consider(c);
+  }
+  if (!in.periodic) {
+    for (const bool lower : {true, false}) {
+      const double v = lower ? in.lower : in.upper;
+      const Sample& a = lower ? s[0] : s[static_cast<size_t>(n - 1)];
+      const Sample& b = lower ? s[1] : s[static_cast<size_t>(n - 2)];
+      // An end that cannot be solved leaves the extreme unknown, never the other end's.
+      const std::optional<double> value = locator.value_at(f, v, a, b);
+      if (!value) return std::nullopt;
+      consider(Located{v, *value, false});
+    }
+  }
+  return best;
+}
+
+DerivedValue none(const DerivedSpec& spec, std::string reason) {
+  DerivedValue out;
+  out.spec = &spec;
+  for (const std::string& name : derived_fields(spec.kind))
+    out.fields.push_back({name, DerivedUnit::channel, std::nullopt});
+  out.reason = std::move(reason);
+  return out;
+}
+
+DerivedUnit unit_of(DerivedSpec::Kind kind, std::string_view field) {
+  using K = DerivedSpec::Kind;
+  if (field.starts_with("at_") || field.starts_with("toggle") || field == "increasing" ||
+      field == "decreasing")
+    return DerivedUnit::driver;
+  if (kind == K::time_ratio) return DerivedUnit::ratio;
+  if (kind == K::straightness)
+    return field == "direction" ? DerivedUnit::angle : DerivedUnit::length;
+  return DerivedUnit::channel;
+}
+
+DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajectory& t,
+                     Locator& locator, bool exact) {
+  using K = DerivedSpec::Kind;
+  DerivedValue out = none(spec, "");
+  for (DerivedField& f : out.fields) f.unit = unit_of(spec.kind, f.name);
+  auto set = [&](std::string_view name, double value) {
+    for (DerivedField& f : out.fields)
+      if (f.name == name) f.value = value;
+  };
+  auto fail = [&](std::string reason) {
+    DerivedValue v = none(spec, std::move(reason));
+    for (DerivedField& f : v.fields) f.unit = unit_of(spec.kind, f.name);
+    return v;
+  };
+  if (t.samples() == 0) return fail("the method has no samples");
+  if (spec.kind == K::toggles) {
+    if (!exact) return fail("toggles are located by the exact tracer, not read off samples");
+    std::vector<double> toggles;
+    for (const Trajectory::Event& e : t.events)
+      if (e.kind == PoseStatus::singular && e.message.starts_with("toggle:"))
+        toggles.push_back(e.driver);
+    if (toggles.empty()) return fail("the sweep meets no toggle");
+    out.fields.clear();
+    for (size_t i = 0; i < toggles.size(); ++i)
+      out.fields.push_back({fmt::format("toggle{}", i + 1), DerivedUnit::driver, toggles[i]});
+    return out;
+  }
+  const bool positions = spec.kind == K::straightness ||
+                         Trajectory::quantity_of(spec.channel) == Quantity::position ||
+                         Trajectory::quantity_of(spec.channel) == Quantity::angle;
+  const Interval in = interval_of(m, spec, t, positions);
+  if (!in.empty_reason.empty()) return fail(in.empty_reason);
+
+  if (spec.kind == K::straightness) {
+    // The minimum-zone line: the direction whose normal strip holding the path is narrowest,
+    // coarse over the samples, then by golden section on the located width.
+    auto width = [&](double theta, Locator& loc) -> std::optional<double> {
+      const Scalar f = along(spec.point, {-std::sin(theta), std::cos(theta)});
+      const auto hi = extreme(f, t, in, loc, true), lo = extreme(f, t, in, loc, false);
+      if (!hi || !lo) return std::nullopt;
+      return hi->value - lo->value;
+    };
+    SampledLocator coarse(t);
+    const int directions = 720;
+    double best = 0.0, best_width = INFINITY;
+    for (int i = 0; i < directions; ++i) {
+      const double theta = std::numbers::pi * i / directions;
+      const Scalar f = along(spec.point, {-std::sin(theta), std::cos(theta)});
+      double lo = INFINITY, hi = -INFINITY;
+      for (const Sample& s : in.samples) {
+        lo = std::min(lo, f.value(t, s.row));
+        hi = std::max(hi, f.value(t, s.row));
+      }
+      if (hi - lo < best_width) {
+        best_width = hi - lo;
+        best = theta;
+      }
+    }
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    double a = best - 2.0 * std::numbers::pi / directions,
+           b = best + 2.0 * std::numbers::pi / directions;
+    double c = b - g * (b - a), d = a + g * (b - a);
+    std::optional<double> wc = width(c, locator), wd = width(d, locator);
+    for (int i = 0; i < 60 && wc && wd; ++i) {
+      if (*wc < *wd) {
+        b = d;
+        d = c;
+        wd = wc;
+        c = b - g * (b - a);
+        wc = width(c, locator);
+      } else {
+        a = c;
+        c = d;
+        wc = wd;
+        d = a + g * (b - a);
+        wd = width(d, locator);
+      }
+    }
+    const double theta = 0.5 * (a + b);
+    const std::optional<double> w = width(theta, locator);
+    const Scalar u = along(spec.point, {std::cos(theta), std::sin(theta)});
+    const auto far = extreme(u, t, in, locator, true), near = extreme(u, t, in, locator, false);
+    if (!w || !far || !near) return fail("a pose of the path could not be solved");
+    set("deviation", 0.5 * *w);
+    set("extent", far->value - near->value);
+    set("direction", theta);
+    return out;
+  }
+
+  const Scalar f = channel_scalar(spec.channel);
+  const std::optional<Located> hi = extreme(f, t, in, locator, true);
+  const std::optional<Located> lo = extreme(f, t, in, locator, false);
+  if (!hi || !lo) return fail("a pose near an extreme could not be solved");
+  set("max", hi->value);
+  set("at_max", hi->v);
+  set("min", lo->value);
+  set("at_min", lo->v);
+  if (spec.kind == K::extremes || spec.kind == K::transmission) return out;
+  if (hi->value - lo->value <= 1e-12 * std::max(1.0, std::abs(hi->value)))
+    return fail(fmt::format("{} does not move over the interval", spec.channel));
+  for (const Located* e : {&*lo, &*hi})
+    if (!e->reversal)
+      return fail(
+          fmt::format("{} does not turn back inside the interval: its {} is at the interval's end",
+                      spec.channel, e == &*hi ? "max" : "min"));
+  set("stroke", hi->value - lo->value);
+  if (spec.kind != K::time_ratio) return out;
+  const Driver& d = m.driver();
+  if (d.law.kind != MotionLaw::Kind::constant_speed)
+    return fail("a time ratio needs a driver at constant speed (times are then driver spans)");
+  if (!in.periodic)
+    return fail("a time ratio needs the driver's whole cycle: the sweep is not periodic");
+  // Driver travel from the min to the max, the way the driver turns.
+  const double direction = d.law.speed > 0.0 ? 1.0 : -1.0;
+  const double rising = std::fmod(std::fmod(direction * (hi->v - lo->v), kTwoPi) + kTwoPi, kTwoPi);
+  const double falling = kTwoPi - rising;
+  set("increasing", rising);
+  set("decreasing", falling);
+  set("ratio", std::max(rising, falling) / std::min(rising, falling));
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> derived_fields(DerivedSpec::Kind kind) {
+  using K = DerivedSpec::Kind;
+  switch (kind) {
+    case K::extremes:
+      return {"max", "at_max", "min", "at_min"};
+    case K::stroke:
+      return {"stroke", "min", "at_min", "max", "at_max"};
+    case K::time_ratio:
+      return {"ratio", "increasing", "decreasing", "at_min", "at_max"};
+    case K::dead_points:
+      return {"at_min", "at_max", "min", "max"};
+    case K::toggles:
+      return {"toggle1", "toggle2"};
+    case K::transmission:
+      return {"min", "at_min", "max", "at_max"};
+    case K::straightness:
+      return {"deviation", "extent", "direction"};
+  }
+  return {};
+}
+
+const DerivedField* DerivedValue::field(std::string_view name) const {
+  if (fields.empty()) return nullptr;
+  if (name.empty() || (spec && name == spec->name)) return &fields.front();
+  for (const DerivedField& f : fields)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+std::vector<DerivedValue> derived_exact(const Mechanism& mechanism, const Trajectory& sweep) {
+  std::vector<DerivedValue> out;
+  ExactLocator locator(mechanism, sweep);
+  for (const DerivedSpec& spec : mechanism.derived)
+    out.push_back(compute(mechanism, spec, sweep, locator, true));
+  return out;
+}
+
+std::vector<DerivedValue> derived_sampled(const Mechanism& mechanism, const Trajectory& samples) {
+  std::vector<DerivedValue> out;
+  SampledLocator locator(samples);
+  for (const DerivedSpec& spec : mechanism.derived)
+    out.push_back(compute(mechanism, spec, samples, locator, false));
+  return out;
+}
+
+double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit) {
+  switch (unit) {
+    case DerivedUnit::driver:
+      return m.driver().angular() ? m.units.angle : m.units.length;
+    case DerivedUnit::ratio:
+      return 1.0;
+    case DerivedUnit::length:
+      return m.units.length;
+    case DerivedUnit::angle:
+      return m.units.angle;
+    case DerivedUnit::channel:
+      break;
+  }
+  switch (Trajectory::quantity_of(spec.channel)) {
+    case Quantity::angle:
+      return m.units.angle;
+    case Quantity::position:
+      return m.units.length;
+    case Quantity::velocity:
+      return spec.channel.starts_with("omega") ? 1.0 : m.units.length;
+    case Quantity::acceleration:
+      return spec.channel.starts_with("alpha") ? 1.0 : m.units.length;
+    default:
+      return 1.0;
+  }
+}
+
+std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit) {
+  const std::string& L = m.units.length_name;
+  switch (unit) {
+    case DerivedUnit::driver:
+      return m.driver().angular() ? m.units.angle_name : L;
+    case DerivedUnit::ratio:
+      return "";
+    case DerivedUnit::length:
+      return L;
+    case DerivedUnit::angle:
+      return m.units.angle_name;
+    case DerivedUnit::channel:
+      break;
+  }
+  switch (Trajectory::quantity_of(spec.channel)) {
+    case Quantity::angle:
+      return m.units.angle_name;
+    case Quantity::position:
+      return L;
+    case Quantity::velocity:
+      return spec.channel.starts_with("omega") ? "rad/s" : L + "/s";
+    case Quantity::acceleration:
+      return spec.channel.starts_with("alpha") ? "rad/s^2" : L + "/s^2";
+    default:
+      return "";
+  }
+}
+
+std::optional<DerivedUnit> derived_unit_of(const Mechanism& m, std::string_view quantity,
+                                           const DerivedSpec** spec) {
+  const size_t dot = quantity.find('.');
+  const std::string_view name = quantity.substr(0, dot);
+  for (const DerivedSpec& s : m.derived) {
+    if (s.name != name) continue;
+    const std::vector<std::string> fields = derived_fields(s.kind);
+    std::string field =
+        dot == std::string_view::npos ? fields.front() : std::string(quantity.substr(dot + 1));
+    if (s.kind == DerivedSpec::Kind::toggles && field.starts_with("toggle")) field = "toggle1";
+    if (std::find(fields.begin(), fields.end(), field) == fields.end()) return std::nullopt;
+    if (spec) *spec = &s;
+    return unit_of(s.kind, field);
+  }
+  return std::nullopt;
+}
+
+std::optional<double> derived_value(const std::vector<DerivedValue>& values,
+                                    std::string_view quantity) {
+  const size_t dot = quantity.find('.');
+  const std::string_view name = quantity.substr(0, dot);
+  for (const DerivedValue& v : values) {
+    if (!v.spec || v.spec->name != name) continue;
+    const DerivedField* f =
+        v.field(dot == std::string_view::npos ? std::string_view() : quantity.substr(dot + 1));
+    if (f) return f->value;
+  }
+  return std::nullopt;
+}
+
+std::string_view to_string(DerivedSpec::Kind kind) {
+  using K = DerivedSpec::Kind;
+  switch (kind) {
+    case K::extremes:
+      return "extremes";
+    case K::stroke:
+      return "stroke";
+    case K::time_ratio:
+      return "time_ratio";
+    case K::dead_points:
+      return "dead_points";
+    case K::toggles:
+      return "toggles";
+    case K::transmission:
+      return "transmission";
+    case K::straightness:
+      return "straightness";
+  }
+  return "";
+}
+
+}  // namespace crosslink

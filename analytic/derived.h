@@ -1,0 +1,80 @@
+// Derived quantities of a sweep ([[derived]]): what a designer reads off a linkage (a stroke and
+// its ends, a quick return's time ratio, dead points, toggles, extreme transmission angles, a
+// coupler path's straightness, a channel's extremes), as numbers with the driver values where
+// they occur.
+//
+// Two ways, one set of definitions (docs/mechanism-format.md, "Derived quantities"):
+//   exact    every event is located on the exact solution: a reversal of a position, angle or
+//            velocity channel by bisection on its exact rate (d channel / d driver, from the
+//            velocity or acceleration solve), an extreme of any other channel by golden-section
+//            search on its exact value, each pose by Newton from the sweep sample beside it;
+//            toggles are the sweep's own (located by the tracer to ~1e-12).
+//   sampled  from a method's samples alone (an engine's): each extreme by the vertex of the
+//            parabola through the extreme sample and its two neighbours, a value at an interval
+//            end by linear interpolation. On a smooth channel sampled every h the vertex's
+//            driver value is off by O(h^2) and its value by O(h^3) relative to the channel's
+//            curvature; the comparator applies the same estimate to the reference's own samples,
+//            so that a method is judged on its own error, and reports the estimate's error
+//            against the exact value beside it.
+// A quantity that does not exist (no reversal inside the interval, a time ratio of a sweep that
+// is not a constant-speed cycle, a method without samples) has no value and says why.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink {
+
+// How a field is measured, so it is printed in the file's unit and judged in its class.
+enum class DerivedUnit {
+  channel,  // the unit of the quantity's channel (a stroke of s.ram: length)
+  driver,   // a driver value (rad or m)
+  ratio,    // a pure number
+  length,   // m
+  angle,    // rad
+};
+
+struct DerivedField {
+  std::string name;  // "stroke", "max", "at_max", ...
+  DerivedUnit unit = DerivedUnit::channel;
+  std::optional<double> value;  // SI; none: it does not exist (DerivedValue::reason)
+};
+
+struct DerivedValue {
+  const DerivedSpec* spec = nullptr;
+  std::vector<DerivedField> fields;  // fields[0]: the quantity's own value
+  std::string reason;                // why the values do not exist (empty when they do)
+  // The field named `name` ("" or the quantity's name: the first), or nullptr.
+  const DerivedField* field(std::string_view name) const;
+};
+
+// Every [[derived]] quantity of `mechanism` from `sweep`, an exact sweep (sweep(), or the
+// reference of a comparison): its toggles are the sweep's events.
+std::vector<DerivedValue> derived_exact(const Mechanism& mechanism, const Trajectory& sweep);
+
+// The same from the samples of any method's trajectory (on the reference's driver values).
+std::vector<DerivedValue> derived_sampled(const Mechanism& mechanism, const Trajectory& samples);
+
+// The SI factor of a field as the file writes it (its value / factor is in file units), and the
+// unit's name ("mm", "deg", "" for a ratio).
+double derived_factor(const Mechanism& mechanism, const DerivedSpec& spec, DerivedUnit unit);
+std::string derived_unit_name(const Mechanism& mechanism, const DerivedSpec& spec,
+                              DerivedUnit unit);
+
+// The unit of "Q" or "Q.field" named in [[reference]] or [expect.derived], or nullopt when no
+// [[derived]] has that name or field. `spec` receives the quantity.
+std::optional<DerivedUnit> derived_unit_of(const Mechanism& mechanism, std::string_view quantity,
+                                           const DerivedSpec** spec = nullptr);
+// The names of the fields a kind of quantity has, its own value first.
+std::vector<std::string> derived_fields(DerivedSpec::Kind kind);
+
+// The value of "Q" or "Q.field" among `values`, or nullopt.
+std::optional<double> derived_value(const std::vector<DerivedValue>& values,
+                                    std::string_view quantity);
+
+}  // namespace crosslink
