@@ -113,7 +113,9 @@
              transform: [{filter: 'datum.method != ' + JSON.stringify(methodOrder[0])}],
              mark: {type: 'line', strokeWidth: 1.2, clip: true, invalid: gaps},
              encoding: {x: axisX,
-                        y: {field: 'pct', type: 'quantitative', title: 'difference [% of peak]'},
+                        // '~g': differences of 1e-13 % read as 1e-13, not as 0.0000000000001
+                        y: {field: 'pct', type: 'quantitative', title: 'difference [% of peak]',
+                            axis: {format: '.2~g'}},
                         color: colour, strokeDash: dash,
                         tooltip: [{field: 'method'}, {field: 'driver', format: '.2f'},
                                   {field: 'pct', format: '.3g'}]}},
