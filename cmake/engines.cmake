@@ -10,3 +10,6 @@ set_target_properties(mujoco::mujoco PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "$
 # Bullet 3.24, float64 build. A plain find_package(Bullet) would silently link the float build.
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(BULLET64 REQUIRED IMPORTED_TARGET bullet-float64)
+
+# Simbody 3.7: its own CMake package (SimTKsimbody, SimTKmath, SimTKcommon).
+find_package(Simbody 3.7 REQUIRED CONFIG)

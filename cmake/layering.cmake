@@ -28,7 +28,7 @@ endfunction()
 
 set(_compare_links "")
 crosslink_link_closure(crosslink_compare _compare_links)
-foreach(_forbidden crosslink_sim crosslink_mujoco crosslink_bullet crosslink_methods mujoco::mujoco
+foreach(_forbidden crosslink_sim crosslink_mujoco crosslink_bullet crosslink_simbody crosslink_methods mujoco::mujoco
                    PkgConfig::BULLET64)
   if(TARGET ${_forbidden} AND _forbidden IN_LIST _compare_links)
     message(FATAL_ERROR "crosslink_compare links ${_forbidden}: the comparator must know no engine "

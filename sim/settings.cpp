@@ -164,6 +164,53 @@ SettingSpec shared_setting(std::string_view name) {
             .doc = "forward dynamics: beyond it (of the energy scale) the run stops: diverged",
             .range = kPositive,
             .applies_to = AppliesTo::dynamics};
+  // Declared alike by Bullet and Simbody (MuJoCo's differ: its gap is a cut's, its driver and
+  // conditioning thresholds have other defaults).
+  if (name == "gap_threshold")
+    return {.name = "gap_threshold",
+            .kind = number,
+            .default_value = "auto",
+            .doc = "a larger joint gap [m] in a sample's stencil flags loop_gap; auto: 1e-4 x size",
+            .range = kPositive,
+            .words = {"auto"}};
+  if (name == "divergence_gap")
+    return {.name = "divergence_gap",
+            .kind = number,
+            .default_value = "0.1",
+            .doc = "beyond this gap (of the size) the run stops: diverged",
+            .range = kPositive};
+  if (name == "driver_threshold")
+    return {.name = "driver_threshold",
+            .kind = number,
+            .default_value = "auto",
+            .doc =
+                "a driver further from its law [rad or m] is lost; auto: 1e-4 rad (1e-4 x size "
+                "for a slider)",
+            .range = kPositive,
+            .words = {"auto"},
+            .applies_to = AppliesTo::kinematic};
+  if (name == "singular_rcond")
+    return {.name = "singular_rcond",
+            .kind = number,
+            .default_value = "0.03",
+            .doc = "samples conditioned worse than this fraction of the chain's own are singular",
+            .range = kRcond};
+  if (name == "branch_distance")
+    return {.name = "branch_distance",
+            .kind = number,
+            .default_value = "0.0001",
+            .doc =
+                "a closed configuration this far from the reference's (of the size, or rad) is "
+                "branch_jump",
+            .range = kPositive,
+            .applies_to = AppliesTo::kinematic};
+  if (name == "energy_threshold")
+    return {.name = "energy_threshold",
+            .kind = number,
+            .default_value = "0.001",
+            .doc = "forward dynamics: an energy error over the energy scale beyond it is a note",
+            .range = kPositive,
+            .applies_to = AppliesTo::dynamics};
   // Reported by every engine's runs.
   if (name == "mass_model")
     return {.name = "mass_model",

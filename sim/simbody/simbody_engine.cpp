@@ -1,0 +1,807 @@
+// Simbody 3.7 scene of a Mechanism: build, step, sample. See docs/engines.md, "Simbody".
+//
+// Reduced coordinates: one mobilizer per joint of the scene graph's spanning tree (a pin about z
+// for a hinge, a slider for a slide), each cut hinge closed by a ball constraint (its z row is
+// redundant; Simbody accepts it), the driven mobilizer's coordinate prescribed by the driver's
+// law at position, velocity and acceleration level (Motion::Custom). Simbody integrates with
+// error control and projects onto the constraints after every step, so the motion is accurate
+// to its accuracy setting rather than to a power of the step; the forces are read at each
+// state from the constraint multipliers and the mobilizers' reactions.
+#include "sim/simbody/simbody_engine.h"
+
+#include <fmt/format.h>
+#include "sim/simbody/simbody_cxx20.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+
+#include "analytic/planar.h"
+#include "sim/dynamics_run.h"
+#include "sim/forces.h"
+#include "sim/kinematic_run.h"
+#include "sim/run_loop.h"
+#include "sim/sampling.h"
+#include "sim/scene_graph.h"
+#include "sim/settings.h"
+#include "sim/statuses.h"
+
+namespace crosslink::sim {
+namespace {
+
+constexpr long kPreroll = 4;  // periodic sweeps: steps before the first sample (and after the
+                              // last); the start is exact, so this only centres the stencils
+constexpr long kRing = 16;    // states kept for the dynamics run's state readout
+// Forward dynamics reads rates and forces from Simbody's state, so the reported poses' spacing
+// only sets the trapezoid rule of the loads' work: at 0.02 rad the Andrews squeezer's work is
+// within 5e-5 % of the exact one (0.0025: 8e-7 %) at a third of the cost.
+constexpr double kDynamicsMaxStepAngle = 0.02;
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+
+struct Config {
+  std::string integrator = "merson";
+  double accuracy = 1e-8;
+  double constraint_tolerance = 1e-10;
+  double max_step = 0.0;    // 0: Simbody chooses (auto)
+  double fixed_step = 0.0;  // 0: error-controlled
+  bool interpolate = false;
+  double dt = 0.0;  // the reported poses' spacing; 0: auto (max_step_angle)
+  double max_step_angle = 0.0025;
+  bool max_step_angle_given = false;  // else a dynamics run uses kDynamicsMaxStepAngle
+  double gap_threshold = 0.0;         // [m]; 0 (auto): 1e-4 of the size
+  double divergence_gap = 0.1;        // of the size
+  double driver_threshold = 0.0;      // 0 (auto): 1e-4 rad, or 1e-4 of the size
+  double singular_rcond = 0.03;
+  double branch_distance = 1e-4;
+  double energy_threshold = 1e-3;
+  double divergence_energy = 1.0;
+  std::string perturb_link;
+  long max_steps = kDefaultMaxSteps;
+};
+
+const SettingSchema& simbody_settings() {
+  using enum SettingKind;
+  using enum AppliesTo;
+  static const SettingSchema schema = {
+      {.name = "integrator",
+       .kind = choice,
+       .default_value = "merson",
+       .doc = "Simbody's integrator: Runge-Kutta-Merson, -Feldberg, RK3, RK2 (error-controlled), "
+              "semi-explicit Euler 2, Verlet, explicit Euler, CPodes (BDF)",
+       .words = {"merson", "feldberg", "rk3", "rk2", "semi_explicit_euler2", "verlet",
+                 "explicit_euler", "cpodes"}},
+      {.name = "accuracy",
+       .kind = number,
+       .default_value = "1e-08",
+       .doc = "the integrator's relative accuracy per step (error control)",
+       .range = {0.0, 1.0, true}},
+      {.name = "constraint_tolerance",
+       .kind = number,
+       .default_value = "1e-10",
+       .doc = "the constraints' tolerance Simbody projects to after each step",
+       .range = {0.0, 1.0, true}},
+      {.name = "max_step",
+       .kind = number,
+       .default_value = "auto",
+       .doc =
+           "the longest internal step [s]; auto: Simbody's choice (at most dt unless interpolate)",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "fixed_step",
+       .kind = number,
+       .default_value = "off",
+       .doc = "internal steps of this length [s] without error control; off: error-controlled",
+       .range = kPositive,
+       .words = {"off"}},
+      {.name = "interpolate",
+       .kind = choice,
+       .default_value = "0",
+       .doc = "1: reported poses interpolated between Simbody's own steps (and projected); 0: "
+              "Simbody steps to each",
+       .words = {"0", "1"}},
+      {.name = "dt",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "the spacing of the poses the run reports [s] (Simbody steps to each); auto: "
+              "max_step_angle",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "max_step_angle",
+       .kind = number,
+       .default_value = "0.0025",
+       .doc = "auto dt: the most the fastest link turns between two reported poses [rad] "
+              "(forward dynamics: 0.02)",
+       .range = kPositive},
+      shared_setting("gap_threshold"),
+      shared_setting("divergence_gap"),
+      shared_setting("driver_threshold"),
+      shared_setting("mass_model"),
+      shared_setting("driver"),
+      {.name = "forces", .doc = "how the joint forces are read", .reported = true},
+      shared_setting("singular_rcond"),
+      shared_setting("branch_distance"),
+      shared_setting("energy_threshold"),
+      shared_setting("divergence_energy"),
+      shared_setting("energy_scale"),
+      shared_setting("perturb_link"),
+      shared_setting("max_steps"),
+  };
+  return schema;
+}
+
+Config parse_settings(const Settings& overrides) {
+  const SettingValues v(simbody_settings(), "Simbody", overrides);
+  Config c;
+  c.integrator = v.text("integrator");
+  c.accuracy = v.number("accuracy");
+  c.constraint_tolerance = v.number("constraint_tolerance");
+  c.max_step = v.is("max_step", "auto") ? 0.0 : v.number("max_step");
+  c.fixed_step = v.is("fixed_step", "off") ? 0.0 : v.number("fixed_step");
+  c.interpolate = v.is("interpolate", "1");
+  c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
+  c.max_step_angle = v.number("max_step_angle");
+  c.max_step_angle_given = v.given("max_step_angle");
+  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
+  c.divergence_gap = v.number("divergence_gap");
+  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
+  c.singular_rcond = v.number("singular_rcond");
+  c.branch_distance = v.number("branch_distance");
+  c.energy_threshold = v.number("energy_threshold");
+  c.divergence_energy = v.number("divergence_energy");
+  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
+  c.max_steps = v.count("max_steps");
+  return c;
+}
+
+std::string format_number(double v) {
+  return fmt::format("{:.6g}", v);
+}
+
+// A Simbody exception's message on one line (it spans several, with the nested exceptions).
+std::string simbody_error(const std::exception& e) {
+  std::string out = "Simbody: ";
+  bool space = false;
+  for (const char* c = e.what(); *c; ++c) {
+    const bool blank = std::isspace(static_cast<unsigned char>(*c)) != 0;
+    if (blank && !space) out += ' ';
+    if (!blank) out += *c;
+    space = blank;
+  }
+  while (!out.empty() && out.back() == ' ') out.pop_back();
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The scene graph in Simbody's terms
+
+SimTK::Vec3 vec3(const Eigen::Vector2d& v) {
+  return {v.x(), v.y(), 0.0};
+}
+Eigen::Vector2d vec2(const SimTK::Vec3& v) {
+  return {v[0], v[1]};
+}
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// The graph's tree policy for Simbody: MuJoCo's (no planar joints, no split loops), which both
+// reduced-coordinate engines then share. A link's driven angle must be one mobilizer's.
+SceneGraph simbody_graph(const Mechanism& m) {
+  SceneGraph g = scene_graph(m, TreePolicy{});
+  if (g.cut_slide >= 0)
+    throw std::runtime_error("a loop of slides only: Simbody's scene closes cuts at hinges");
+  return g;
+}
+
+// Why the scene cannot drive this mechanism's driver ("" when it can): a driven angle that is a
+// sum of mobilizer angles (a link without a ground pivot) would need a constraint of its own.
+std::string driver_problem(const SceneGraph& g) {
+  if (g.driven.front().floating)
+    return "the driven link has no ground pivot: its angle is a sum of mobilizer angles, which "
+           "the Simbody scene does not prescribe";
+  return "";
+}
+
+// The mobilizer coordinate of tree joint j per unit of the joint's value (theta_b - theta_a, or
+// the slide's s): +1 when the tree runs from a to b, else -1.
+double orientation(const SceneJoint& j) {
+  return j.child == j.b ? 1.0 : -1.0;
+}
+
+// The driven mobilizer's prescribed coordinate: the driver's law relative to its value at the
+// start (so a perturbed chain starts where it was assembled), at position, velocity and
+// acceleration level, exactly.
+class DriveMotion final : public SimTK::Motion::Custom::Implementation {
+ public:
+  DriveMotion(const Driver& driver, double t0, double coordinate0, double scale)
+      : driver_(driver),
+        law0_(driver.at_time(t0).value),
+        coordinate0_(coordinate0),
+        scale_(scale) {}
+  SimTK::Motion::Level getLevel(const SimTK::State&) const override {
+    return SimTK::Motion::Position;
+  }
+  void calcPrescribedPosition(const SimTK::State& s, int, SimTK::Real* q) const override {
+    q[0] = coordinate0_ + scale_ * (driver_.at_time(s.getTime()).value - law0_);
+  }
+  void calcPrescribedPositionDot(const SimTK::State& s, int, SimTK::Real* qdot) const override {
+    qdot[0] = scale_ * driver_.at_time(s.getTime()).rate;
+  }
+  void calcPrescribedPositionDotDot(const SimTK::State& s, int,
+                                    SimTK::Real* qdotdot) const override {
+    qdotdot[0] = scale_ * driver_.at_time(s.getTime()).accel;
+  }
+
+ private:
+  Driver driver_;
+  double law0_, coordinate0_, scale_;
+};
+
+// The moving links' bodies read back as the mechanism's coordinates (x, y, theta per moving link;
+// the body frame is the link frame), each angle on the turn of the one q holds.
+class Readback {
+ public:
+  Readback(const Mechanism& m, const SceneGraph& g, const std::vector<SimTK::MobilizedBody>& body) {
+    for (size_t b = 0; b < g.bodies.size(); ++b)
+      if (g.bodies[b].source >= 0 && !g.bodies[b].ground)
+        links_.push_back({m.moving_index(g.bodies[b].source), body[b]});
+  }
+  // Position stage.
+  void pose(const SimTK::State& s, Eigen::VectorXd& q) const {
+    for (const auto& [k, body] : links_) {
+      const SimTK::Transform& X = body.getBodyTransform(s);
+      const SimTK::Mat33& R = X.R().asMat33();
+      const double raw = std::atan2(R(1, 0), R(0, 0));
+      q(3 * k) = X.p()[0];
+      q(3 * k + 1) = X.p()[1];
+      q(3 * k + 2) += std::remainder(raw - q(3 * k + 2), 2.0 * std::numbers::pi);
+    }
+  }
+  // Velocity stage (and Acceleration with qddot).
+  void rates(const SimTK::State& s, Eigen::VectorXd& qdot, Eigen::VectorXd* qddot) const {
+    for (const auto& [k, body] : links_) {
+      const SimTK::Vec3& v = body.getBodyOriginVelocity(s);
+      qdot.segment<3>(3 * k) << v[0], v[1], body.getBodyAngularVelocity(s)[2];
+      if (!qddot) continue;
+      const SimTK::Vec3& a = body.getBodyOriginAcceleration(s);
+      qddot->segment<3>(3 * k) << a[0], a[1], body.getBodyAngularAcceleration(s)[2];
+    }
+  }
+
+ private:
+  std::vector<std::pair<int, SimTK::MobilizedBody>> links_;  // (moving index, body)
+};
+
+// The definition's loads on the moving links, at their centres of mass: set for the next step
+// (a kinematic run, where they change no motion), or evaluated by Simbody at every state from
+// the state itself (a dynamics run: DynamicsLoads at its time, positions and velocities).
+class LoadForce final : public SimTK::Force::Custom::Implementation {
+ public:
+  LoadForce(const Mechanism& m, const SceneGraph& g, const std::vector<SimTK::MobilizedBody>& body,
+            const Readback& readback, const Eigen::VectorXd& q0, bool dynamics)
+      : readback_(readback), q_(q0), qdot_(Eigen::VectorXd::Zero(q0.size())) {
+    for (size_t b = 0; b < g.bodies.size(); ++b)
+      if (g.bodies[b].source >= 0 && !g.bodies[b].ground) {
+        body_.push_back(body[b]);
+        centre_.push_back(vec3(g.bodies[b].centre));
+      }
+    if (dynamics) {
+      dynamics_.emplace(m);
+      if (!dynamics_->any()) dynamics_.reset();
+    }
+  }
+  void set(const std::vector<BodyLoad>& loads) { fixed_ = loads; }
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& forces,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
+    const std::vector<BodyLoad>* loads = &fixed_;
+    if (dynamics_) {
+      readback_.pose(s, q_);
+      readback_.rates(s, qdot_, nullptr);
+      loads = &dynamics_->at(s.getTime(), q_, qdot_);
+    }
+    for (size_t k = 0; k < loads->size() && k < body_.size(); ++k) {
+      const BodyLoad& l = (*loads)[k];
+      body_[k].applyForceToBodyPoint(s, centre_[k], vec3(l.force), forces);
+      body_[k].applyBodyTorque(s, SimTK::Vec3(0, 0, l.moment), forces);
+    }
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State&) const override { return 0.0; }
+
+ private:
+  const Readback& readback_;
+  std::vector<SimTK::MobilizedBody> body_;  // per moving link
+  std::vector<SimTK::Vec3> centre_;         // its centre of mass, local
+  std::vector<BodyLoad> fixed_;
+  mutable std::optional<DynamicsLoads> dynamics_;
+  mutable Eigen::VectorXd q_, qdot_;
+};
+
+// The Simbody system of a scene graph at configuration q with rates qdot, at time t0; its driven
+// mobilizer prescribed by the driver's law when `driven`. Throws (std::exception) when Simbody
+// refuses it.
+class Scene {
+ public:
+  Scene(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd& q,
+        const Eigen::VectorXd& qdot, double t0, bool driven)
+      : m_(m), g_(g), matter_(system_), forces_(system_) {
+    body_.resize(g.bodies.size());
+    body_[0] = matter_.Ground();
+    for (int ji : g.tree_order) {
+      const SceneJoint& j = g.joints[static_cast<size_t>(ji)];
+      const SceneBody& child = g.bodies[static_cast<size_t>(j.child)];
+      const SimTK::Vec3 centre = vec3(child.centre);
+      const SimTK::MassProperties mass(child.mass, centre,
+                                       SimTK::Inertia(child.inertia, child.inertia, child.inertia)
+                                           .shiftFromMassCenter(centre, child.mass));
+      const bool forward = j.child == j.b;
+      SimTK::MobilizedBody& parent = body_[static_cast<size_t>(j.parent)];
+      if (j.kind == SceneJoint::Kind::hinge) {
+        // q = theta_child - theta_parent: both frames keep their body's orientation.
+        const SimTK::Transform on_parent(vec3(forward ? j.ua : j.ub));
+        const SimTK::Transform on_child(vec3(forward ? j.ub : j.ua));
+        body_[static_cast<size_t>(j.child)] =
+            SimTK::MobilizedBody::Pin(parent, on_parent, SimTK::Body::Rigid(mass), on_child);
+      } else if (j.kind == SceneJoint::Kind::slide) {
+        // Frames along the line on the guide (a) and turned by the relative angle on the
+        // slider (b): q = s from the guide, -s from the slider.
+        const double along = std::atan2(j.direction.y(), j.direction.x());
+        const SimTK::Transform guide(SimTK::Rotation(along, SimTK::ZAxis), vec3(j.origin));
+        const SimTK::Transform slider(SimTK::Rotation(along - j.relative_angle, SimTK::ZAxis),
+                                      vec3(j.ub));
+        body_[static_cast<size_t>(j.child)] = SimTK::MobilizedBody::Slider(
+            parent, forward ? guide : slider, SimTK::Body::Rigid(mass), forward ? slider : guide);
+      } else {
+        throw std::runtime_error("a planar joint in Simbody's tree");
+      }
+    }
+    for (int ji : g.cuts) {
+      const SceneJoint& j = g.joints[static_cast<size_t>(ji)];
+      ball_.emplace_back(ji, SimTK::Constraint::Ball(body_[static_cast<size_t>(j.a)], vec3(j.ua),
+                                                     body_[static_cast<size_t>(j.b)], vec3(j.ub)));
+    }
+    SimTK::Force::UniformGravity(forces_, matter_, vec3(m.gravity));
+    readback_.emplace(m, g, body_);
+    load_ = new LoadForce(m, g, body_, *readback_, q, !driven);
+    SimTK::Force::Custom(forces_, load_);  // Simbody owns load_
+    const DrivenCoordinate& d = g.driven.front();
+    const SceneJoint& dj = g.joints[static_cast<size_t>(d.joint)];
+    driven_coordinate_ = orientation(dj) * joint_value(dj, q, qdot)[0];
+    if (driven) {
+      SimTK::MobilizedBody& mobod = body_[static_cast<size_t>(dj.child)];
+      SimTK::Motion::Custom(
+          mobod, new DriveMotion(m.driver(), t0, driven_coordinate_, orientation(dj) * d.sign));
+    }
+    system_.realizeTopology();
+    state_ = system_.getDefaultState();
+    state_.setTime(t0);
+    for (int ji : g.tree_order) {
+      const SceneJoint& j = g.joints[static_cast<size_t>(ji)];
+      const Eigen::Vector2d value = orientation(j) * joint_value(j, q, qdot);
+      body_[static_cast<size_t>(j.child)].setOneQ(state_, 0, value[0]);
+      body_[static_cast<size_t>(j.child)].setOneU(state_, 0, value[1]);
+    }
+    system_.realize(state_, SimTK::Stage::Position);
+  }
+
+  const SimTK::MultibodySystem& system() const { return system_; }
+  const SimTK::SimbodyMatterSubsystem& matter() const { return matter_; }
+  const SimTK::State& start() const { return state_; }
+  const Readback& readback() const { return *readback_; }
+  LoadForce& loads() { return *load_; }
+
+  // The constraint forces at state s (Acceleration stage), in the mechanism's terms: a tree
+  // joint's from its mobilizer's reaction, a cut hinge's from its ball; with `effort`, the
+  // driver's effort from the driven mobilizer's reaction along its coordinate.
+  void read_forces(const SimTK::State& s, bool effort, ForceReading& out) const {
+    out.set_zero();
+    const DrivenCoordinate& d = g_.driven.front();
+    for (size_t ji = 0; ji < g_.joints.size(); ++ji) {
+      const SceneJoint& j = g_.joints[ji];
+      const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
+      // A pin-in-slot's force is its pin's (the block between is massless to 1e-6).
+      if (mj.type == JointType::pin_in_slot && j.kind == SceneJoint::Kind::slide) continue;
+      const SimTK::MobilizedBody& b = body_[static_cast<size_t>(j.b)];
+      const Eigen::Vector2d point_b = vec2(b.getBodyTransform(s) * vec3(j.ub));
+      Eigen::Vector2d on_b = Eigen::Vector2d::Zero();
+      double couple_b = 0.0;  // on b about its point ub
+      if (j.in_tree) {
+        const SimTK::MobilizedBody& child = body_[static_cast<size_t>(j.child)];
+        const SimTK::SpatialVec r = child.findMobilizerReactionOnBodyAtMInGround(s);
+        const Eigen::Vector2d at = vec2(child.getBodyTransform(s) * child.getOutboardFrame(s).p());
+        const Eigen::Vector2d f = vec2(r[1]);
+        const double sign = orientation(j);  // the reaction on a is minus that on b
+        on_b = sign * f;
+        couple_b = sign * (r[0][2] + cross2(at - point_b, f));
+      } else {
+        const auto it = std::find_if(ball_.begin(), ball_.end(), [&](const auto& c) {
+          return c.first == static_cast<int>(ji);
+        });
+        // Simbody reports the reaction with a constraint force's sign (the opposite of an applied
+        // force's; SimbodyEngine.FourBarForcesMatchTheExactReference holds it).
+        on_b = -vec2(b.getBodyRotation(s) * it->second.getBallReactionForceOnBody2(s));
+      }
+      if (j.kind == SceneJoint::Kind::slide) out.couple[static_cast<size_t>(j.source)] = couple_b;
+      if (effort && static_cast<int>(ji) == d.joint) {
+        if (j.kind == SceneJoint::Kind::slide) {
+          const Eigen::Vector2d u =
+              vec2(body_[static_cast<size_t>(j.a)].getBodyRotation(s) * vec3(j.direction));
+          const double axial = on_b.dot(u);
+          out.effort = d.sign * axial;
+          on_b -= axial * u;
+        } else {
+          out.effort = d.sign * couple_b;
+        }
+      }
+      out.joint_force[static_cast<size_t>(j.source)] = on_b;
+    }
+  }
+
+ private:
+  // A joint's value and rate (theta_b - theta_a, or the slide's s) from the mechanism's state.
+  Eigen::Vector2d joint_value(const SceneJoint& j, const Eigen::VectorXd& q,
+                              const Eigen::VectorXd& qdot) const {
+    const BodyMotion a = body_motion(m_, g_.bodies[static_cast<size_t>(j.a)], q, &qdot);
+    const BodyMotion b = body_motion(m_, g_.bodies[static_cast<size_t>(j.b)], q, &qdot);
+    if (j.kind == SceneJoint::Kind::hinge) return {b.theta - a.theta, b.omega - a.omega};
+    const Projection p = project(a, j.origin, j.direction, b, j.ub);
+    return {p.value, p.rate};
+  }
+
+  const Mechanism& m_;
+  const SceneGraph& g_;
+  SimTK::MultibodySystem system_;
+  SimTK::SimbodyMatterSubsystem matter_;
+  SimTK::GeneralForceSubsystem forces_;
+  std::vector<SimTK::MobilizedBody> body_;                     // per scene body; 0 the ground
+  std::vector<std::pair<int, SimTK::Constraint::Ball>> ball_;  // (cut joint, its ball)
+  std::optional<Readback> readback_;
+  LoadForce* load_ = nullptr;
+  double driven_coordinate_ = 0.0;
+  SimTK::State state_;
+};
+
+std::unique_ptr<SimTK::Integrator> make_integrator(const Config& c,
+                                                   const SimTK::MultibodySystem& system) {
+  std::unique_ptr<SimTK::Integrator> out;
+  const std::string& name = c.integrator;
+  if (name == "merson")
+    out = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(system);
+  else if (name == "feldberg")
+    out = std::make_unique<SimTK::RungeKuttaFeldbergIntegrator>(system);
+  else if (name == "rk3")
+    out = std::make_unique<SimTK::RungeKutta3Integrator>(system);
+  else if (name == "rk2")
+    out = std::make_unique<SimTK::RungeKutta2Integrator>(system);
+  else if (name == "semi_explicit_euler2")
+    out = std::make_unique<SimTK::SemiExplicitEuler2Integrator>(system);
+  else if (name == "verlet")
+    out = std::make_unique<SimTK::VerletIntegrator>(system);
+  else if (name == "explicit_euler")
+    out = std::make_unique<SimTK::ExplicitEulerIntegrator>(system);
+  else
+    out = std::make_unique<SimTK::CPodesIntegrator>(system, SimTK::CPodes::BDF,
+                                                    SimTK::CPodes::Newton);
+  out->setAccuracy(c.accuracy);
+  out->setConstraintTolerance(c.constraint_tolerance);
+  if (c.max_step > 0.0) out->setMaximumStepSize(c.max_step);
+  if (c.fixed_step > 0.0) out->setFixedStepSize(c.fixed_step);
+  out->setAllowInterpolation(c.interpolate);
+  out->setProjectInterpolatedStates(true);
+  return out;
+}
+
+// The scene stepped by its integrator to each reported pose, read back as the mechanism's
+// coordinates: what both runs' scenes share. A Simbody exception becomes the step's alarm (the
+// run stops there, diverged), never a crash.
+class SimbodySteps {
+ public:
+  SimbodySteps(Scene& scene, const Config& c, const Eigen::VectorXd& q0)
+      : scene_(scene), q_(q0), scratch_(scene.start()) {
+    integrator_ = make_integrator(c, scene.system());
+    integrator_->initialize(scene.start());
+    scene_.readback().pose(integrator_->getState(), q_);
+  }
+  // Advances to time t1; "" or why the integrator could not.
+  std::string advance(double t1) {
+    try {
+      while (integrator_->getTime() < t1) {
+        integrator_->stepTo(t1);
+        if (integrator_->isSimulationOver())
+          return "Simbody's integrator stopped: " +
+                 SimTK::Integrator::getTerminationReasonString(integrator_->getTerminationReason());
+      }
+    } catch (const std::exception& e) {
+      return simbody_error(e);
+    }
+    scene_.readback().pose(integrator_->getState(), q_);
+    return "";
+  }
+  // The forces at the current state, with the loads set since it was realized.
+  std::string forces(bool effort, ForceReading& out) {
+    try {
+      scratch_ = integrator_->getState();
+      scratch_.invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
+      scene_.system().realize(scratch_, SimTK::Stage::Acceleration);
+      scene_.read_forces(scratch_, effort, out);
+    } catch (const std::exception& e) {
+      return simbody_error(e);
+    }
+    return "";
+  }
+  const SimTK::Integrator& integrator() const { return *integrator_; }
+  const Eigen::VectorXd& pose() const { return q_; }
+  Scene& scene() { return scene_; }
+  SimTK::State& scratch() { return scratch_; }
+  long evaluations() const { return integrator_->getNumRealizations(); }
+  std::string note(const Config& c) const {
+    return fmt::format("Simbody {} took {} internal steps ({} realizations, {} projections)",
+                       c.integrator, integrator_->getNumStepsTaken(),
+                       integrator_->getNumRealizations(), integrator_->getNumProjections());
+  }
+
+ private:
+  Scene& scene_;
+  std::unique_ptr<SimTK::Integrator> integrator_;
+  Eigen::VectorXd q_;
+  SimTK::State scratch_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Runs
+
+EngineRun failed(EngineRun run, const std::string& message) {
+  run.ok = false;
+  run.message = message;
+  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+  return run;
+}
+
+// The settings, the mechanism the scene is built from (perturb_link) and the thresholds' auto
+// values, refused (std::exception) before anything is built.
+struct Prepared {
+  Config config;
+  Mechanism m;
+  Span span;
+  SceneGraph graph;
+};
+
+Prepared prepare(const Mechanism& original, const Trajectory& reference,
+                 const Settings& overrides) {
+  Prepared p;
+  p.config = parse_settings(overrides);
+  p.m = perturbed(original, p.config.perturb_link);
+  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0)
+    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
+  p.span = usable_span(reference);
+  p.graph = simbody_graph(p.m);
+  return p;
+}
+
+// The reported poses' spacing: dt, or the step in which the reference's fastest link turns by
+// max_step_angle (central differences of the poses err as (omega dt)^2).
+double wanted_step(const Trajectory& reference, const Config& c, const Span& span) {
+  if (c.dt != 0.0) return c.dt;
+  const double fastest = fastest_rate(reference, span);
+  return fastest > 0.0 ? c.max_step_angle / fastest
+                       : reference.time(span.first + 1) - reference.time(span.first);
+}
+
+Settings common_settings(const Config& c, double dt) {
+  return {{"integrator", c.integrator},
+          {"accuracy", format_number(c.accuracy)},
+          {"constraint_tolerance", format_number(c.constraint_tolerance)},
+          {"max_step", c.max_step > 0.0 ? format_number(c.max_step) : "auto"},
+          {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
+          {"interpolate", c.interpolate ? "1" : "0"},
+          {"dt", format_number(dt)},
+          {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"},
+          {"gap_threshold", format_number(c.gap_threshold)},
+          {"divergence_gap", format_number(c.divergence_gap)},
+          {"mass_model", "the definition's (Link::mass)"},
+          {"singular_rcond", format_number(c.singular_rcond)},
+          {"perturb_link", c.perturb_link},
+          {"max_steps", std::to_string(c.max_steps)}};
+}
+
+// A kinematic run's scene for the shared run loop: the driven mobilizer follows the law by
+// itself (Motion::Custom), so drive() has nothing to do; forces at the pose a step leaves.
+class SimbodyKinematicScene final : public KinematicScene {
+ public:
+  SimbodyKinematicScene(SimbodySteps& steps, const Config& c) : steps_(steps), c_(c) {}
+  void drive(double) override {}
+  void apply(const std::vector<BodyLoad>& loads) override { steps_.scene().loads().set(loads); }
+  std::string step(double h, ForceReading* forces) override {
+    if (forces)
+      if (std::string why = steps_.forces(true, *forces); !why.empty()) return why;
+    return steps_.advance(steps_.integrator().getTime() + h);
+  }
+  void read_pose(Eigen::VectorXd& q) override { q = steps_.pose(); }
+  long evaluations() const override { return steps_.evaluations(); }
+  std::string note() const override { return steps_.note(c_); }
+
+ private:
+  SimbodySteps& steps_;
+  const Config& c_;
+};
+
+// A dynamics run's scene for the shared run loop: Simbody evaluates the loads itself at every
+// state (LoadForce), and the samples take its own state (rates and forces at the state it
+// integrated to), kept for the last kRing steps.
+class SimbodyDynamicsScene final : public DynamicsScene {
+ public:
+  SimbodyDynamicsScene(SimbodySteps& steps, const Config& c) : steps_(steps), c_(c) { keep(0); }
+  bool evaluates_loads() const override { return true; }
+  std::string step(double t0, double h, ForceReading* forces) override {
+    if (forces)
+      if (std::string why = steps_.forces(false, *forces); !why.empty()) return why;
+    std::string why = steps_.advance(t0 + h);
+    keep(++taken_);
+    return why;
+  }
+  void read_pose(Eigen::VectorXd& q) override { q = steps_.pose(); }
+  bool reads_state() const override { return true; }
+  void read_state(long S, double t, Eigen::VectorXd& qdot, Eigen::VectorXd& qddot,
+                  ForceReading& forces) override {
+    const Kept& k = ring_[static_cast<size_t>(S % kRing)];
+    SimTK::State& s = steps_.scratch();
+    s.setTime(t);
+    s.updQ() = k.q;
+    s.updU() = k.u;
+    const Scene& scene = steps_.scene();
+    scene.system().realize(s, SimTK::Stage::Acceleration);
+    scene.readback().rates(s, qdot, &qddot);
+    scene.read_forces(s, false, forces);
+  }
+  long evaluations() const override { return steps_.evaluations(); }
+  std::string note() const override { return steps_.note(c_); }
+
+ private:
+  struct Kept {
+    SimTK::Vector q, u;
+  };
+  void keep(long k) {
+    const SimTK::State& s = steps_.integrator().getState();
+    Kept& kept = ring_[static_cast<size_t>(k % kRing)];
+    kept.q = s.getQ();
+    kept.u = s.getU();
+  }
+  SimbodySteps& steps_;
+  const Config& c_;
+  std::array<Kept, kRing> ring_;
+  long taken_ = 0;
+};
+
+EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
+                       const Settings& overrides) {
+  const auto begin = Clock::now();
+  EngineRun out;
+  out.trajectory.method = "simbody";
+  out.trajectory.resize(original, reference.samples(), true);
+  out.trajectory.add_energy();
+  out.trajectory.time = reference.time;
+  out.trajectory.driver = reference.driver;
+  Prepared p;
+  DynamicsPlan plan;
+  try {
+    p = prepare(original, reference, overrides);
+    if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
+    plan = plan_dynamics(original, p.m, reference, wanted_step(reference, p.config, p.span),
+                         InnerTimes::step_multiples, p.config.max_steps,
+                         !p.config.perturb_link.empty());
+  } catch (const std::exception& e) {
+    return failed(std::move(out), e.what());
+  }
+  const Config& c = p.config;
+  const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
+  Settings values = common_settings(c, plan.grid.dt);
+  values.insert(
+      values.end(),
+      {{"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
+       {"forces", "mobilizer reactions and ball constraint forces at each sampled state"},
+       {"energy_threshold", format_number(c.energy_threshold)},
+       {"divergence_energy", format_number(c.divergence_energy)},
+       {"energy_scale", fmt::format("{:.6g} J", energy_scale)}});
+  out.settings = printed_settings(simbody_settings(), RunKind::dynamics, values);
+  std::optional<Scene> scene;
+  std::optional<SimbodySteps> steps;
+  try {
+    scene.emplace(p.m, p.graph, plan.start.q, plan.start.qdot, plan.grid.time.front(), false);
+    steps.emplace(*scene, c, plan.start.q);
+  } catch (const std::exception& e) {
+    return failed(std::move(out), "scene build failed: " + simbody_error(e));
+  }
+  SimbodyDynamicsScene stepped(*steps, c);
+  const DynamicsWatch watch = {c.gap_threshold,    c.divergence_gap * p.m.size(),
+                               c.singular_rcond,   energy_scale,
+                               c.energy_threshold, c.divergence_energy};
+  sim::run_dynamics(original, p.m, reference, plan, watch, true, stepped, begin, out);
+  return out;
+}
+
+class SimbodyEngine final : public Engine {
+ public:
+  std::string name() const override { return "simbody"; }
+  const SettingSchema& settings_schema() const override { return simbody_settings(); }
+
+  bool supports(const Mechanism& mechanism, std::string* why) const override {
+    if (mobility(mechanism).mobility != 1) {
+      if (why) *why = "the chain's mobility is not 1";
+      return false;
+    }
+    try {
+      const SceneGraph g = simbody_graph(mechanism);
+      if (const std::string problem = driver_problem(g); !problem.empty() && !mechanism.dynamics) {
+        if (why) *why = problem;
+        return false;
+      }
+    } catch (const std::exception& e) {
+      if (why) *why = e.what();
+      return false;
+    }
+    return true;
+  }
+
+  void check_settings(const Mechanism& m, const Settings& overrides) const override {
+    (void)perturbed(m, parse_settings(overrides).perturb_link);
+  }
+
+  EngineRun run(const Mechanism& original, const Trajectory& reference,
+                const Settings& overrides) const override {
+    if (original.dynamics) return run_dynamics(original, reference, overrides);
+    const auto begin = Clock::now();
+    EngineRun out;
+    out.trajectory.method = "simbody";
+    out.trajectory.resize(original, reference.samples());
+    out.trajectory.time = reference.time;
+    out.trajectory.driver = reference.driver;
+    Prepared p;
+    KinematicPlan plan;
+    try {
+      p = prepare(original, reference, overrides);
+      if (const std::string problem = driver_problem(p.graph); !problem.empty())
+        throw std::runtime_error(problem);
+      plan = plan_kinematic(p.m, reference, wanted_step(reference, p.config, p.span),
+                            InnerTimes::step_multiples, kPreroll, p.config.max_steps,
+                            p.config.singular_rcond, !p.config.perturb_link.empty());
+    } catch (const std::exception& e) {
+      return failed(std::move(out), e.what());
+    }
+    const Config& c = p.config;
+    Settings values = common_settings(c, plan.grid.dt);
+    values.insert(values.end(),
+                  {{"driver_threshold", format_number(c.driver_threshold)},
+                   {"forces",
+                    "mobilizer reactions, ball constraint forces and the driven mobilizer's "
+                    "prescribed-motion force at the pose each step leaves"},
+                   {"branch_distance", format_number(c.branch_distance)}});
+    out.settings = printed_settings(simbody_settings(), RunKind::kinematic, values);
+    std::optional<Scene> scene;
+    std::optional<SimbodySteps> steps;
+    try {
+      scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true);
+      steps.emplace(*scene, c, plan.q);
+    } catch (const std::exception& e) {
+      return failed(std::move(out), "scene build failed: " + simbody_error(e));
+    }
+    SimbodyKinematicScene stepped(*steps, c);
+    const KinematicWatch watch = {c.gap_threshold, c.divergence_gap * p.m.size(),
+                                  c.driver_threshold, c.singular_rcond, c.branch_distance};
+    run_kinematic(original, p.m, reference, plan, watch, true, stepped, begin, out);
+    return out;
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> make_simbody_engine() {
+  return std::make_unique<SimbodyEngine>();
+}
+
+}  // namespace crosslink::sim
