@@ -1,4 +1,4 @@
-# The two physics engines, from Debian's packages.
+# The physics engines, from Debian's packages.
 
 # MuJoCo 2.2.2: Debian's exported target names /usr/include/libqhull_r/, which is not
 # installed, so configuring fails until that entry is removed from the include list.
@@ -10,3 +10,7 @@ set_target_properties(mujoco::mujoco PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "$
 # Bullet 3.24, float64 build. A plain find_package(Bullet) would silently link the float build.
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(BULLET64 REQUIRED IMPORTED_TARGET bullet-float64)
+
+# ODE 0.16, double precision (Debian's libode-dev; the engine refuses another build at start-up).
+# No CMake package: pkg-config.
+pkg_check_modules(ODE REQUIRED IMPORTED_TARGET ode)
