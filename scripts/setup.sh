@@ -10,6 +10,7 @@ PACKAGES=(
   libeigen3-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
+  libode-dev  # ODE 0.16, double precision (sim/ode/; pkg-config ode)
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
   python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py
