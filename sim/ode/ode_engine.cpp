@@ -560,13 +560,6 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
 // ---------------------------------------------------------------------------------------------
 // Runs
 
-EngineRun failed(EngineRun run, const std::string& message) {
-  run.ok = false;
-  run.message = message;
-  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-  return run;
-}
-
 // What a run needs before its time grid: the settings with their auto thresholds, the mechanism
 // the scene is built from (perturb_link), its scene graph and the usable span.
 struct Prepared {
@@ -721,15 +714,6 @@ class OdeDynamicsScene final : public OdeLoopScene<DynamicsScene> {
   Eigen::VectorXd start_velocity_;
 };
 
-// "" or why the scene read back is not the start it was built at.
-std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
-                           const Eigen::VectorXd& q_start) {
-  const double mismatch = (read - q_start).cwiseAbs().maxCoeff();
-  if (mismatch < 1e-9 * std::max(m.size(), 1.0)) return "";
-  return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
-                     mismatch);
-}
-
 EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& reference,
                            const Settings& overrides) {
   const auto begin = Clock::now();
@@ -765,14 +749,14 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
     OdeScene scene(p.m, p.graph, config, start.start.q, &velocity, false);
     OdeSteps steps(p.m, p.graph, scene, start.start.q);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.start.q); !why.empty())
-      return failed(std::move(out), why);
+      return failed_run(std::move(out), why);
     OdeDynamicsScene stepped(steps, velocity);
     const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * p.m.size(),
                                  config.singular_rcond,   energy_scale,
                                  config.energy_threshold, config.divergence_energy};
     run_dynamics(original, p.m, reference, start, watch, true, stepped, begin, out);
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   return out;
 }
@@ -805,7 +789,7 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
     OdeScene scene(p.m, p.graph, config, start.q, &start.qdot, true);
     OdeSteps steps(p.m, p.graph, scene, start.q);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.q); !why.empty())
-      return failed(std::move(out), why);
+      return failed_run(std::move(out), why);
     if (p.graph.driven.front().floating)
       add_note(start.note,
                "link-angle driver realised directly: an angular motor between the ground and the "
@@ -813,7 +797,7 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
     OdeKinematicScene stepped(steps, p.m, p.graph, start);
     run_kinematic(original, p.m, reference, start, watch, true, stepped, begin, out);
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   return out;
 }

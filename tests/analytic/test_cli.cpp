@@ -991,7 +991,7 @@ TEST(Cli, AnUnknownSettingIsBadInputBeforeAnyRun) {
       << idle.err;
   const CommandRun prefix = crosslink(compare + " --engines analytic --set adams:dt=1");
   EXPECT_EQ(prefix.exit_code, 2);
-  EXPECT_NE(prefix.err.find("'adams' is not an engine (engines: mujoco, bullet)"),
+  EXPECT_NE(prefix.err.find("'adams' is not an engine (engines: mujoco, bullet, ode)"),
             std::string::npos)
       << prefix.err;
   const CommandRun value = crosslink(compare + " --engines analytic,mujoco --set dt=fast");

@@ -111,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
 TEST(EngineForces, MasslessCrankOnAHeavyPistonAgrees) {
   const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
                                      "/mechanisms/published/khurmi_slider_crank_gas_force.toml");
-  for (const std::string engine : {"mujoco", "bullet"}) expect_forces_agree(engine, m);
+  for (const std::string engine : {"mujoco", "bullet", "ode"}) expect_forces_agree(engine, m);
   const EngineRun bare = make_mujoco_engine()->run(m, sweep(m), {{"driver_armature", "0"}});
   EXPECT_FALSE(bare.ok) << "MuJoCo held the driver without an armature";
 }
@@ -139,7 +139,7 @@ TEST(EngineForces, CanFail) {
   Mechanism heavy = m;
   heavy.links[static_cast<size_t>(heavy.find_link("coupler"))].mass.mass *= 1.1;
   const Trajectory exact = sweep(m);
-  for (const std::string engine : {"mujoco", "bullet"}) {
+  for (const std::string engine : {"mujoco", "bullet", "ode"}) {
     const EngineRun run = make(engine)->run(heavy, exact, {});
     ASSERT_TRUE(run.ok) << run.message;
     EXPECT_GT(force_agreement(m, exact, run.trajectory).reaction, 10 * tolerance(engine)) << engine;
