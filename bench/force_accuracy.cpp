@@ -19,6 +19,7 @@
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
 
 namespace {
 
@@ -32,8 +33,24 @@ struct Case {
 };
 
 std::vector<Case> cases(bool sweep) {
-  std::vector<Case> out = {{"mujoco", "default", {}}, {"bullet", "default", {}}};
+  std::vector<Case> out = {
+      {"mujoco", "default", {}}, {"bullet", "default", {}}, {"ode", "default", {}}};
   if (!sweep) return out;
+  // ODE: the step, its iterative solver, the ODE defaults it departs from (watches opened).
+  for (const char* steps : {"1", "4", "8", "16"})
+    out.push_back(
+        {"ode", fmt::format("steps_per_sample {}", steps), {{"steps_per_sample", steps}}});
+  const Settings open_ode = {{"driver_threshold", "1"}, {"gap_threshold", "1"}};
+  for (const auto& [label, setting] : std::vector<std::pair<std::string, Settings>>{
+           {"quick 20", {{"stepper", "quick"}}},
+           {"quick 100", {{"stepper", "quick"}, {"iterations", "100"}}},
+           {"erp 0.2", {{"erp", "0.2"}}},
+           {"cfm 1e-5", {{"cfm", "1e-5"}}},
+           {"finite_rotation 0", {{"finite_rotation", "0"}}}}) {
+    Settings s = open_ode;
+    s.insert(s.end(), setting.begin(), setting.end());
+    out.push_back({"ode", label, s});
+  }
   out.push_back({"mujoco", "force_read raw", {{"force_read", "raw"}}});
   for (const char* angle : {"0.01", "0.005", "0.00125", "0.000625"}) {
     out.push_back({"mujoco", fmt::format("max_step_angle {}", angle), {{"max_step_angle", angle}}});
@@ -111,6 +128,7 @@ int main(int argc, char** argv) {
         // The series on one mechanism, with gravity.
         if (c.label != "default" && (path.stem() != "fourbar_crank_rocker" || !gravity)) continue;
         const auto engine = c.engine == "mujoco" ? crosslink::sim::make_mujoco_engine()
+                            : c.engine == "ode"  ? crosslink::sim::make_ode_engine()
                                                  : crosslink::sim::make_bullet_engine();
         if (!engine->supports(m, nullptr)) continue;
         Settings settings = c.settings;

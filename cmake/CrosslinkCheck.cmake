@@ -4,7 +4,7 @@
 # Registers a ctest case that runs `crosslink compare FILE` and passes when every verdict passes
 # (exit 0; 1 = a failed verdict, 2 = bad input). Labels: crossval plus LABELS.
 #   ENGINES    methods to compare against the exact sweep (default: all built in):
-#              analytic dyads ic mujoco bullet
+#              analytic dyads ic mujoco bullet ode
 #   TOLERANCE  verdict tolerances in % of peak, "velocity=0.5" (engines) or
 #              "dyads:velocity=1e-6" (one method); the file's [tolerance] table applies first
 #   SETTINGS   engine settings "dt=1e-4" or "mujoco:dt=1e-4"

@@ -1,4 +1,4 @@
-# The two physics engines, from Debian's packages.
+# The physics engines, from Debian's packages.
 
 # MuJoCo 2.2.2: Debian's exported target names /usr/include/libqhull_r/, which is not
 # installed, so configuring fails until that entry is removed from the include list.
@@ -13,3 +13,6 @@ pkg_check_modules(BULLET64 REQUIRED IMPORTED_TARGET bullet-float64)
 
 # Simbody 3.7: its own CMake package (SimTKsimbody, SimTKmath, SimTKcommon).
 find_package(Simbody 3.7 REQUIRED CONFIG)
+# ODE 0.16, double precision (Debian's libode-dev; the engine refuses another build at start-up).
+# No CMake package: pkg-config.
+pkg_check_modules(ODE REQUIRED IMPORTED_TARGET ode)

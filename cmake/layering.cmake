@@ -28,8 +28,8 @@ endfunction()
 
 set(_compare_links "")
 crosslink_link_closure(crosslink_compare _compare_links)
-foreach(_forbidden crosslink_sim crosslink_mujoco crosslink_bullet crosslink_simbody crosslink_methods mujoco::mujoco
-                   PkgConfig::BULLET64)
+foreach(_forbidden crosslink_sim crosslink_mujoco crosslink_bullet crosslink_ode crosslink_simbody
+                   crosslink_methods mujoco::mujoco PkgConfig::BULLET64 PkgConfig::ODE)
   if(TARGET ${_forbidden} AND _forbidden IN_LIST _compare_links)
     message(FATAL_ERROR "crosslink_compare links ${_forbidden}: the comparator must know no engine "
                         "(docs/design.md, \"Layout\")")

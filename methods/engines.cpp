@@ -6,6 +6,7 @@
 
 #include "sim/bullet/bullet_engine.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
 #include "sim/simbody/simbody_engine.h"
 
 namespace crosslink::methods {
@@ -104,6 +105,33 @@ std::vector<EngineEntry> make_table() {
                {"multibody/SI 100 it erp 1", fixed({{"formulation", "multibody"},
                                                     {"solver", "sequential_impulse"},
                                                     {"iterations", "100"}})},
+           }},
+      {.name = "ode",
+       .description = "ODE 0.16 double-precision scene",
+       .make = sim::make_ode_engine,
+       // Bullet's rigid bodies' tolerances: the same scene (maximal coordinates, an exact solve,
+       // ERP 1, semi-implicit Euler) gives the same numbers to 3 digits on every bundled
+       // definition (measured with compare and bench/force_accuracy; docs/engines.md, "ODE").
+       .tolerances = with_forces(kKinematic, 0.3),
+       .dynamics_tolerances = with_forces(kDynamics, 0.3),
+       .variants =
+           {
+               {"dWorldStep erp 1 cfm 1e-10", fixed({})},
+               {"dWorldQuickStep 20 it", fixed({{"stepper", "quick"}})},
+               {"dWorldQuickStep 100 it", fixed({{"stepper", "quick"}, {"iterations", "100"}})},
+               {"dWorldStep erp 0.2 (ODE default)", fixed({{"erp", "0.2"}})},
+               {"dWorldStep cfm 1e-5 (ODE float default)", fixed({{"cfm", "1e-5"}})},
+               {"dWorldStep finite rotation off", fixed({{"finite_rotation", "0"}})},
+           },
+       // Forward dynamics: the same solvers and softness.
+       .dynamics_variants =
+           {
+               {"dWorldStep erp 1 cfm 1e-10", fixed({})},
+               {"dWorldQuickStep 20 it", fixed({{"stepper", "quick"}})},
+               {"dWorldQuickStep 100 it", fixed({{"stepper", "quick"}, {"iterations", "100"}})},
+               {"dWorldStep erp 0.2 (ODE default)", fixed({{"erp", "0.2"}})},
+               {"dWorldStep cfm 1e-5 (ODE float default)", fixed({{"cfm", "1e-5"}})},
+               {"dWorldStep finite rotation off", fixed({{"finite_rotation", "0"}})},
            }},
       // Simbody: reduced coordinates, error-controlled integration and constraint projection
       // (docs/engines.md, "Simbody"). Its forces are read at exact states (crank-rocker under

@@ -16,8 +16,8 @@
 
   const R = REPORT;
   const schema = 'https://vega.github.io/schema/vega-lite/v6.json';
-  const engineColour = {domain: ['analytic', 'mujoco', 'bullet'],
-                        range: ['#777777', '#1f77b4', '#d62728']};
+  const engineColour = {domain: ['analytic', 'mujoco', 'bullet', 'ode'],
+                        range: ['#777777', '#1f77b4', '#d62728', '#2ca02c']};
   // Twenty colours that stay apart (Tableau 20, dark and light of ten hues interleaved).
   const seriesPalette = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
                          '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#a0cbe8', '#ffbe7d',
@@ -99,7 +99,9 @@
                     legend: {labelLimit: 360}};
     const dash = {field: 'series', type: 'nominal', title: 'engine and variant',
                   scale: {domain: series,
-                          range: series.map((s) => (s.startsWith('bullet') ? [6, 3] : [1, 0]))},
+                          range: series.map((s) => (s.startsWith('bullet') ? [6, 3]
+                                                  : s.startsWith('ode')  ? [2, 2]
+                                                                         : [1, 0]))},
                   legend: {labelLimit: 360}};
     return {
       $schema: schema, width: 560, height: 320,

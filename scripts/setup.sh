@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
   libsimbody-dev  # Simbody 3.7 engine (sim/simbody/; its CMake package)
+  libode-dev  # ODE 0.16, double precision (sim/ode/; pkg-config ode)
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
   python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py

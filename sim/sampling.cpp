@@ -12,6 +12,14 @@
 
 namespace crosslink::sim {
 
+std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
+                           const Eigen::VectorXd& q_start) {
+  const double mismatch = (read - q_start).cwiseAbs().maxCoeff();
+  if (mismatch < 1e-9 * std::max(m.size(), 1.0)) return "";
+  return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
+                     mismatch);
+}
+
 double thread_cpu_seconds() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);

@@ -29,6 +29,11 @@ ReferenceState reference_state(const Mechanism& m, const Trajectory& reference, 
 // Largest difference between two configurations: positions per `size`, angles modulo 2 pi.
 double configuration_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double size);
 
+// "" or why an engine scene's configuration `read` back is not the start `q_start` it was built
+// at (off by 1e-9 of the size or more).
+std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
+                           const Eigen::VectorXd& q_start);
+
 // CPU time of the calling thread [s] (CLOCK_THREAD_CPUTIME_ID): what a run costs, without the
 // time other processes take the core.
 double thread_cpu_seconds();

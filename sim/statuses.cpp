@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <utility>
+
 #include "analytic/trust.h"
 
 namespace crosslink::sim {
@@ -94,6 +97,13 @@ std::string energy_drift_note(double threshold, double energy_scale, const Traje
       "energy drift: the balance is off by more than {:g} of the energy scale ({:.3g} J) from "
       "t = {:.6g} s (sample {}); worst {:.3g} J",
       threshold, energy_scale, reference.time(drift_at), drift_at, worst);
+}
+
+EngineRun failed_run(EngineRun run, std::string message) {
+  run.ok = false;
+  run.message = std::move(message);
+  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
+  return run;
 }
 
 void add_note(std::string& message, const std::string& note) {

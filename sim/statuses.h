@@ -74,4 +74,7 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
 // Appends `note` to a run's message, "; " between notes (nothing for an empty note).
 void add_note(std::string& message, const std::string& note);
 
+// A run that could not be made: its reason, and every sample diverged (no engine value).
+EngineRun failed_run(EngineRun run, std::string message);
+
 }  // namespace crosslink::sim

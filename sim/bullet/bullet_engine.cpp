@@ -958,14 +958,6 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
 // ---------------------------------------------------------------------------------------------
 // Stages both runs share
 
-// A run that could not be made: its reason, and every sample diverged (no engine value).
-EngineRun failed(EngineRun run, const std::string& message) {
-  run.ok = false;
-  run.message = message;
-  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-  return run;
-}
-
 // The trajectory a run writes before anything is read: the reference's samples, with forces when
 // the scene reads them, and an energy balance in a dynamics run.
 void shape(Trajectory& out, const Mechanism& original, const Trajectory& reference,
@@ -1086,15 +1078,6 @@ std::string build_scene(const Mechanism& m, const Plan& plan, const Config& conf
     return std::string("scene build failed: ") + e.what();
   }
   return "";
-}
-
-// "" or why the scene's configuration `read` back is not the start `q_start` it was built at.
-std::string start_mismatch(const Mechanism& m, const Eigen::VectorXd& read,
-                           const Eigen::VectorXd& q_start) {
-  const double mismatch = (read - q_start).cwiseAbs().maxCoeff();
-  if (mismatch < 1e-9 * std::max(m.size(), 1.0)) return "";
-  return fmt::format("scene does not reproduce the assembled configuration (off by {:.3e})",
-                     mismatch);
 }
 
 // The note a run ends with when the MLCP solve fell back ("" when it never did).
@@ -1334,7 +1317,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
                           InnerTimes::interval_fractions, p.config.max_steps,
                           !p.config.perturb_link.empty());
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   Config& config = p.config;
   const Mechanism& m = p.m;
@@ -1342,7 +1325,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   Plan plan;
   std::vector<std::string> notes;
   std::string why;
-  if (!plan_scene(m, false, config, plan, notes, why)) return failed(std::move(out), why);
+  if (!plan_scene(m, false, config, plan, notes, why)) return failed_run(std::move(out), why);
   const bool with_forces = config.formulation == "rigid";
   const std::vector<double>& time = start.grid.time;
   const Eigen::VectorXd velocity =
@@ -1351,12 +1334,12 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
           : start.start.qdot;
   std::unique_ptr<Scene> scene;
   if (why = build_scene(m, plan, config, start.start.q, 0.0, &velocity, false, scene); !why.empty())
-    return failed(std::move(out), why);
+    return failed_run(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
   out.settings =
       dynamics_settings(config, reference, p.span, start.grid.dt, energy_scale, with_forces);
   BulletSteps steps(m, plan, *scene, start.start.q);
-  if (why = steps.check_start(start.start.q); !why.empty()) return failed(std::move(out), why);
+  if (why = steps.check_start(start.start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletDynamicsScene stepped(steps, velocity);
   const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * m.size(),
                                config.singular_rcond,   energy_scale,
@@ -1408,7 +1391,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   try {
     p = prepare(original, reference, overrides, out.trajectory);
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   Config& config = p.config;
   const Mechanism& m = p.m;
@@ -1422,23 +1405,23 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions, kPreroll,
                            config.max_steps, config.singular_rcond, !config.perturb_link.empty());
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   step.dt = start.grid.dt;  // an explicit dt divides each sample interval
 
   Plan plan;
   std::vector<std::string> notes;
   std::string why;
-  if (!plan_scene(m, true, config, plan, notes, why)) return failed(std::move(out), why);
+  if (!plan_scene(m, true, config, plan, notes, why)) return failed_run(std::move(out), why);
   out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
   const bool with_forces = config.formulation == "rigid";
   const DriveMap drive = drive_map(m, plan, config, start);
   std::unique_ptr<Scene> scene;
   if (why = build_scene(m, plan, config, start.q, drive.coordinate0, &start.qdot, true, scene);
       !why.empty())
-    return failed(std::move(out), why);
+    return failed_run(std::move(out), why);
   BulletSteps steps(m, plan, *scene, start.q);
-  if (why = steps.check_start(start.q); !why.empty()) return failed(std::move(out), why);
+  if (why = steps.check_start(start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletKinematicScene stepped(steps, drive);
   for (const std::string& note : notes) add_note(start.note, note);
   run_kinematic(original, m, reference, start, watch, with_forces, stepped, begin, out);

@@ -38,14 +38,6 @@ using mujoco_scene::Scene;
 using mujoco_scene::SceneJoint;
 using mujoco_scene::SceneLink;
 
-// A run that could not be made: its reason, and every sample diverged (no engine value).
-EngineRun failed(EngineRun run, std::string message) {
-  run.ok = false;
-  run.message = std::move(message);
-  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-  return run;
-}
-
 // ---------------------------------------------------------------------------------------------
 // MuJoCo's messages
 
@@ -1144,7 +1136,7 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
     model = load_model(p.mjcf);
   } catch (const std::exception& e) {
     run.settings = overrides;
-    return failed(std::move(run), e.what());
+    return failed_run(std::move(run), e.what());
   }
   const DynamicsChoices choice = dynamics_choices(p.config);
   const DynamicsWatch watch = dynamics_watch(m, reference, p);
@@ -1198,7 +1190,7 @@ class MujocoEngine final : public Engine {
       else
         shape(run.trajectory, m, reference, false);
       run.settings = overrides;
-      run = failed(std::move(run), e.what());
+      run = failed_run(std::move(run), e.what());
     }
     capture.note(run.message);
     return run;
@@ -1218,7 +1210,7 @@ class MujocoEngine final : public Engine {
       loaded = load_model(p.mjcf);
     } catch (const std::exception& e) {
       run.settings = overrides;
-      return failed(std::move(run), e.what());
+      return failed_run(std::move(run), e.what());
     }
     const bool with_forces = driver_reaction_readable(p.scene);
     const KinematicWatch watch = kinematic_watch(p.config, p.scene);

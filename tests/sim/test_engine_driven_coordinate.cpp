@@ -13,6 +13,7 @@
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
 
 namespace crosslink::sim {
 namespace {
@@ -54,7 +55,8 @@ TEST(EngineDrivenCoordinate, LinkAngleAtAPivotWrittenLinkFirst) {
   const Trajectory exact = sweep(m);
   for (const auto& [engine, settings] :
        {std::pair{make_mujoco_engine(), Settings{}}, std::pair{make_bullet_engine(), Settings{}},
-        std::pair{make_bullet_engine(), Settings{{"formulation", "multibody"}}}}) {
+        std::pair{make_bullet_engine(), Settings{{"formulation", "multibody"}}},
+        std::pair{make_ode_engine(), Settings{}}}) {
     SCOPED_TRACE(engine->name() + (settings.empty() ? "" : " multibody"));
     std::string why;
     ASSERT_TRUE(engine->supports(m, &why)) << why;
@@ -63,8 +65,8 @@ TEST(EngineDrivenCoordinate, LinkAngleAtAPivotWrittenLinkFirst) {
     // The default velocity tolerance, 0.1 % of peak (the bundled crank-rocker: 0.01 %).
     EXPECT_LT(worst_omega(exact, run.trajectory), 1e-3);
     // The driver's torque, read at the pivot, against the exact kinetostatics, within the bounds
-    // test_engine_forces holds each engine to (MuJoCo 0.05 %, Bullet 0.25 % of peak); Bullet's
-    // multibody reads no forces.
+    // test_engine_forces holds each engine to (MuJoCo 0.05 %, Bullet and ODE 0.25 % of peak);
+    // Bullet's multibody reads no forces.
     if (run.trajectory.has_forces)
       EXPECT_LE(force_agreement(m, exact, run.trajectory).effort,
                 engine->name() == "mujoco" ? 0.05e-2 : 0.25e-2);

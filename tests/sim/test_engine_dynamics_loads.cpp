@@ -18,6 +18,7 @@
 #include "analytic/loader.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
 
 namespace crosslink::sim {
 namespace {
@@ -70,7 +71,8 @@ TEST(EngineDynamicsLoads, EffortLoadsSpringsAndWorkAgreeWithTheExactSimulation) 
   // work channel's difference and the engine's own balance [J], of 21 J of work): MuJoCo Euler
   // 8.1e-5, 7.5e-4, 1.6e-3; RK4 8.7e-7, 2.2e-5, 3.7e-5 (its stages see their own loads: held
   // over the step it would be first order, as Euler); Bullet rigid 1.9e-4, 7.4e-4, 2.6e-3;
-  // multibody 2.0e-4, 7.7e-4, 2.6e-3 (loads held over each step).
+  // multibody 2.0e-4, 7.7e-4, 2.6e-3 (loads held over each step); ODE 1.9e-4, 7.3e-4, 2.6e-3 (as
+  // Bullet's rigid bodies: the same discretisation).
   struct Case {
     const char* engine;
     Settings settings;
@@ -79,8 +81,11 @@ TEST(EngineDynamicsLoads, EffortLoadsSpringsAndWorkAgreeWithTheExactSimulation) 
   for (const Case& c : {Case{"mujoco", {}, 2.5e-4, 2.3e-3, 5e-3},
                         Case{"mujoco", {{"integrator", "RK4"}}, 2.6e-6, 6.6e-5, 1.1e-4},
                         Case{"bullet", {}, 5.7e-4, 2.2e-3, 7.7e-3},
-                        Case{"bullet", {{"formulation", "multibody"}}, 6e-4, 2.3e-3, 7.9e-3}}) {
-    const auto e = std::string(c.engine) == "mujoco" ? make_mujoco_engine() : make_bullet_engine();
+                        Case{"bullet", {{"formulation", "multibody"}}, 6e-4, 2.3e-3, 7.9e-3},
+                        Case{"ode", {}, 5.7e-4, 2.2e-3, 7.7e-3}}) {
+    const auto e = std::string(c.engine) == "mujoco" ? make_mujoco_engine()
+                   : std::string(c.engine) == "ode"  ? make_ode_engine()
+                                                     : make_bullet_engine();
     const EngineRun r = e->run(m, exact.trajectory, c.settings);
     ASSERT_TRUE(r.ok) << c.engine << ": " << r.message;
     const Agreement a = agreement(ref, r.trajectory);

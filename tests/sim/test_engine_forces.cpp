@@ -16,6 +16,7 @@
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink::sim {
@@ -34,11 +35,13 @@ double tolerance(const std::string& engine) {
 // Bullet's default step leaves the Jansen leg's reactions 0.34 % off at pin E (its peak force,
 // 192 degrees); half the step, 0.12 % (docs/engines.md): measured, so run there.
 Settings settings_for(const std::string& engine, const std::string& name) {
-  if (engine == "bullet" && name == "jansen_leg") return {{"max_step_angle", "0.005"}};
+  if ((engine == "bullet" || engine == "ode") && name == "jansen_leg")
+    return {{"max_step_angle", "0.005"}};
   return {};
 }
 
 std::unique_ptr<Engine> make(const std::string& engine) {
+  if (engine == "ode") return make_ode_engine();
   return engine == "mujoco" ? make_mujoco_engine() : make_bullet_engine();
 }
 
@@ -79,7 +82,7 @@ TEST_P(Bundled, AgreeWithExactKinetostaticsAtDefaults) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Bundled,
-                         ::testing::Combine(::testing::Values("mujoco", "bullet"),
+                         ::testing::Combine(::testing::Values("mujoco", "bullet", "ode"),
                                             ::testing::ValuesIn(test::bundled_stems())),
                          [](const ::testing::TestParamInfo<Param>& info) {
                            return std::get<0>(info.param) + "_" + std::get<1>(info.param);
@@ -94,7 +97,7 @@ TEST_P(Loaded, GravitySpringDamperForceAndTorque) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
-                         ::testing::Combine(::testing::Values("mujoco", "bullet"),
+                         ::testing::Combine(::testing::Values("mujoco", "bullet", "ode"),
                                             ::testing::Values("fourbar_crank_rocker",
                                                               "slider_crank_offset", "quick_return",
                                                               "watt_sixbar")),
@@ -108,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
 TEST(EngineForces, MasslessCrankOnAHeavyPistonAgrees) {
   const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
                                      "/mechanisms/published/khurmi_slider_crank_gas_force.toml");
-  for (const std::string engine : {"mujoco", "bullet"}) expect_forces_agree(engine, m);
+  for (const std::string engine : {"mujoco", "bullet", "ode"}) expect_forces_agree(engine, m);
   const EngineRun bare = make_mujoco_engine()->run(m, sweep(m), {{"driver_armature", "0"}});
   EXPECT_FALSE(bare.ok) << "MuJoCo held the driver without an armature";
 }
@@ -136,7 +139,7 @@ TEST(EngineForces, CanFail) {
   Mechanism heavy = m;
   heavy.links[static_cast<size_t>(heavy.find_link("coupler"))].mass.mass *= 1.1;
   const Trajectory exact = sweep(m);
-  for (const std::string engine : {"mujoco", "bullet"}) {
+  for (const std::string engine : {"mujoco", "bullet", "ode"}) {
     const EngineRun run = make(engine)->run(heavy, exact, {});
     ASSERT_TRUE(run.ok) << run.message;
     EXPECT_GT(force_agreement(m, exact, run.trajectory).reaction, 10 * tolerance(engine)) << engine;

@@ -1,0 +1,841 @@
+// ODE 0.16 (double precision) scene of a Mechanism: build, step, sample. See docs/engines.md,
+// "ODE".
+//
+// Maximal coordinates, as Bullet's rigid formulation: one ODE body per body of the scene graph
+// (the moving links, one block per pin-in-slot), its origin at its centre of mass (ODE requires
+// it), one ODE joint per scene joint (a hinge about z per revolute, a slider per slide), the loop
+// closed by the joints themselves (no tree). The hinges' out-of-plane rows (z and the two tilts)
+// are redundant around a loop; a CFM above 0 regularises them. The driven joint's motor takes the
+// velocity that lands the driven coordinate on the driver's law at the end of the step (ERP 1:
+// each step is a Newton step of the constraints towards the next driver value).
+#include "sim/ode/ode_engine.h"
+
+#include <fmt/format.h>
+#include <ode/ode.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <memory>
+#include <mutex>
+#include <numbers>
+#include <stdexcept>
+
+#include "analytic/newton.h"
+#include "analytic/planar.h"
+#include "sim/dynamics_run.h"
+#include "sim/forces.h"
+#include "sim/kinematic_run.h"
+#include "sim/run_loop.h"
+#include "sim/sampling.h"
+#include "sim/scene_graph.h"
+#include "sim/settings.h"
+#include "sim/statuses.h"
+
+namespace crosslink::sim {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
+                              // the last), so the start's transient stays out of the stencils
+// The default step's largest turn of the fastest link [rad]: kinematic runs as Bullet's (each step
+// is a Newton step towards the driver, error O(dt^2)); forward dynamics as MuJoCo's and Bullet's
+// (errors accumulate over a run).
+constexpr double kKinematicMaxStepAngle = 0.01;
+constexpr double kDynamicsMaxStepAngle = 0.0025;
+
+// ---------------------------------------------------------------------------------------------
+// ODE's process-wide state: initialised once; errors become exceptions.
+
+// The last dMessage of this thread (ODE's warnings, e.g. an LCP that failed): the step that made
+// it is flagged.
+thread_local std::string ode_message;
+
+std::string format_ode(int errnum, const char* msg, va_list ap) {
+  char text[1024];
+  std::vsnprintf(text, sizeof text, msg, ap);
+  return fmt::format("ODE {}: {}", errnum, text);
+}
+
+// ODE aborts (dDebug) or exits (dError) after these return: they throw instead.
+[[noreturn]] void ode_error(int errnum, const char* msg, va_list ap) {
+  throw std::runtime_error(format_ode(errnum, msg, ap));
+}
+void ode_warning(int errnum, const char* msg, va_list ap) {
+  ode_message = format_ode(errnum, msg, ap);
+}
+
+}  // namespace
+
+void ode_start() {
+  static std::once_flag once;
+  static bool double_precision = false;
+  std::call_once(once, [] {
+    dSetErrorHandler(ode_error);
+    dSetDebugHandler(ode_error);
+    dSetMessageHandler(ode_warning);
+    dInitODE2(0);
+    double_precision = dCheckConfiguration("ODE_double_precision") == 1;
+  });
+  if (!double_precision)
+    throw std::runtime_error(
+        "the ODE library linked is not the double-precision build (dCheckConfiguration("
+        "\"ODE_double_precision\") is 0): install Debian's libode-dev");
+  // Idempotent per thread; ODE's per-thread data (needed when built with its OU extension).
+  if (!dAllocateODEDataForThread(dAllocateMaskAll))
+    throw std::runtime_error("ODE could not allocate its data for this thread");
+}
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+
+struct Config {
+  std::string stepper = "world";  // world (dWorldStep) | quick (dWorldQuickStep)
+  int iterations = 20;            // quick's
+  double dt = 0.0;                // 0: auto
+  int steps_per_sample = 2;
+  double max_step_angle = 0.0;  // 0 given: off; auto below
+  bool max_step_angle_given = false;
+  double erp = 1.0;
+  double cfm = 1e-10;
+  bool finite_rotation = true;
+  double gap_threshold = 0.0;     // [m]; 0 (auto): 1e-4 of the size
+  double divergence_gap = 0.1;    // of the size
+  double driver_threshold = 0.0;  // [rad] or [m]; 0 (auto): 1e-4 rad, or 1e-4 of the size
+  double singular_rcond = 0.03;   // as Bullet's (a maximal-coordinate scene alike)
+  double branch_distance = 1e-4;
+  bool staggered_start = true;
+  double energy_threshold = 1e-3;
+  double divergence_energy = 1.0;
+  std::string perturb_link;
+  long max_steps = kDefaultMaxSteps;
+};
+
+const SettingSchema& ode_settings() {
+  using enum SettingKind;
+  using enum AppliesTo;
+  static const SettingSchema schema = {
+      {.name = "stepper",
+       .kind = choice,
+       .default_value = "world",
+       .doc = "world: dWorldStep (exact LCP); quick: dWorldQuickStep (iterative)",
+       .words = {"quick", "world"}},
+      {.name = "iterations",
+       .kind = count,
+       .default_value = "20",
+       .doc = "dWorldQuickStep's iterations",
+       .most = kMostIterations},
+      {.name = "dt",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "the longest time step [s], shortened to divide each sample interval; auto: sample "
+              "interval / steps_per_sample",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "steps_per_sample",
+       .kind = count,
+       .default_value = "2",
+       .doc = "auto dt: steps per sample interval (at least)"},
+      {.name = "max_step_angle",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "auto dt: the most the fastest link turns in a step [rad] (0: off); auto: 0.01, "
+              "forward dynamics 0.0025",
+       .range = kNonNegative,
+       .words = {"auto"}},
+      {.name = "erp",
+       .kind = number,
+       .default_value = "1",
+       .doc = "the world's error reduction per step",
+       .range = {0.0, 1.0}},
+      {.name = "cfm",
+       .kind = number,
+       .default_value = "1e-10",
+       .doc = "the world's constraint force mixing (above 0: the loops' out-of-plane rows are "
+              "redundant and ODE aborts at 0)",
+       .range = {0.0, 1.0, true}},
+      {.name = "finite_rotation",
+       .kind = choice,
+       .default_value = "1",
+       .doc = "dBodySetFiniteRotationMode: 1 the exact rotation update, 0 ODE's default "
+              "(loses (w dt)^3/12 a step)",
+       .words = {"0", "1"}},
+      {.name = "precision", .doc = "the ODE build linked", .reported = true},
+      {.name = "gap_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a larger joint gap [m] in a sample's stencil flags loop_gap; auto: 1e-4 x size",
+       .range = kPositive,
+       .words = {"auto"}},
+      {.name = "divergence_gap",
+       .kind = number,
+       .default_value = "0.1",
+       .doc = "beyond this gap (of the size) the run stops: diverged",
+       .range = kPositive},
+      {.name = "driver_threshold",
+       .kind = number,
+       .default_value = "auto",
+       .doc = "a driver further from its law [rad or m] is lost; auto: 1e-4 rad (1e-4 x size "
+              "for a slider)",
+       .range = kPositive,
+       .words = {"auto"},
+       .applies_to = kinematic},
+      shared_setting("mass_model"),
+      shared_setting("driver"),
+      {.name = "start",
+       .kind = choice,
+       .default_value = "staggered",
+       .doc = "forward dynamics: staggered (v0 - h/2 a0) or exact start",
+       .words = {"staggered", "exact"},
+       .applies_to = dynamics},
+      {.name = "forces", .doc = "how the joint forces are read", .reported = true},
+      {.name = "singular_rcond",
+       .kind = number,
+       .default_value = "0.03",
+       .doc = "samples conditioned worse than this fraction of the chain's own are singular",
+       .range = kRcond},
+      {.name = "branch_distance",
+       .kind = number,
+       .default_value = "0.0001",
+       .doc = "a closed configuration this far from the reference's (of the size, or rad) is "
+              "branch_jump",
+       .range = kPositive,
+       .applies_to = kinematic},
+      {.name = "energy_threshold",
+       .kind = number,
+       .default_value = "0.001",
+       .doc = "forward dynamics: an energy error over the energy scale beyond it is a note",
+       .range = kPositive,
+       .applies_to = dynamics},
+      shared_setting("divergence_energy"),
+      shared_setting("energy_scale"),
+      shared_setting("perturb_link"),
+      shared_setting("max_steps"),
+  };
+  return schema;
+}
+
+Config parse_settings(const Settings& overrides) {
+  const SettingValues v(ode_settings(), "ODE", overrides);
+  Config c;
+  c.stepper = v.text("stepper");
+  c.iterations = static_cast<int>(v.count("iterations"));
+  c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
+  c.steps_per_sample = static_cast<int>(v.count("steps_per_sample"));
+  c.max_step_angle_given = !v.is("max_step_angle", "auto");
+  c.max_step_angle = c.max_step_angle_given ? v.number("max_step_angle") : 0.0;
+  c.erp = v.number("erp");
+  c.cfm = v.number("cfm");
+  c.finite_rotation = v.is("finite_rotation", "1");
+  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
+  c.divergence_gap = v.number("divergence_gap");
+  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
+  c.singular_rcond = v.number("singular_rcond");
+  c.branch_distance = v.number("branch_distance");
+  c.staggered_start = v.is("start", "staggered");
+  c.energy_threshold = v.number("energy_threshold");
+  c.divergence_energy = v.number("divergence_energy");
+  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
+  c.max_steps = v.count("max_steps");
+  return c;
+}
+
+std::string format_number(double v) {
+  return fmt::format("{:.6g}", v);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+Eigen::Vector2d perp(const Eigen::Vector2d& v) {
+  return {-v.y(), v.x()};
+}
+Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
+  return Eigen::Rotation2Dd(angle) * v;
+}
+
+// A scene body's frame (the ground's is the world's) at mechanism coordinates q.
+BodyMotion frame_of(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
+                    const Eigen::VectorXd* qdot = nullptr) {
+  if (body.ground) return BodyMotion{};
+  return body_motion(m, body, q, qdot);
+}
+
+// The value of scene joint `j` at q: a hinge's theta_b - theta_a, a slide's s, a planar joint's
+// theta_b (angles continuous: q's are).
+double joint_value(const Mechanism& m, const SceneGraph& g, const SceneJoint& j,
+                   const Eigen::VectorXd& q) {
+  const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
+  const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
+  if (j.kind != SceneJoint::Kind::slide) return b.theta - a.theta;
+  const Eigen::Vector2d point = b.r + turn(b.theta, j.ub), origin = a.r + turn(a.theta, j.origin);
+  return turn(a.theta, j.direction).dot(point - origin);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene
+
+// Every body's mass, inertia and start pose must be finite and the masses and inertias positive:
+// ODE aborts the process on an invalid mass (dBodySetMass), so these are refused first.
+void check_bodies(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd& q) {
+  for (const SceneBody& b : g.bodies) {
+    if (b.ground) continue;
+    if (!(std::isfinite(b.mass) && b.mass > 0.0) || !(std::isfinite(b.inertia) && b.inertia > 0.0))
+      throw std::runtime_error(fmt::format(
+          "body {}: mass {} kg and inertia {} kg m^2 must be positive and finite for ODE", b.name,
+          b.mass, b.inertia));
+    if (!b.centre.allFinite())
+      throw std::runtime_error(fmt::format("body {}: its centre of mass is not finite", b.name));
+  }
+  if (!q.allFinite()) throw std::runtime_error("the start configuration is not finite");
+  if (!m.gravity.allFinite()) throw std::runtime_error("gravity is not finite");
+}
+
+// The worlds whose step an ODE error interrupted, with their threading implementations (~OdeScene).
+std::mutex interrupted_mutex;
+std::vector<std::pair<dWorldID, dThreadingImplementationID>> interrupted_worlds;
+
+// ODE's own record of one joint's last step: forces [N] on its bodies and torques [N m] about
+// their centres of mass, per scene body (body1 or body2 of the ODE joint).
+struct JointSide {
+  Eigen::Vector2d force = Eigen::Vector2d::Zero();
+  double torque = 0.0;
+};
+
+class OdeScene {
+ public:
+  // The scene at q (moving at qdot when given); `driven`: the driver's motor on its joint.
+  OdeScene(const Mechanism& m, const SceneGraph& g, const Config& config, const Eigen::VectorXd& q,
+           const Eigen::VectorXd* qdot, bool driven)
+      : m_(m), g_(g), quick_(config.stepper == "quick") {
+    check_bodies(m, g, q);
+    world_ = dWorldCreate();
+    threading_ = dThreadingAllocateSelfThreadedImplementation();
+    dWorldSetStepThreadingImplementation(world_, dThreadingImplementationGetFunctions(threading_),
+                                         threading_);
+    dWorldSetGravity(world_, m.gravity.x(), m.gravity.y(), 0.0);
+    dWorldSetERP(world_, config.erp);
+    dWorldSetCFM(world_, config.cfm);  // before the joints: their motors take it then
+    dWorldSetQuickStepNumIterations(world_, config.iterations);
+    dWorldSetAutoDisableFlag(world_, 0);
+    bodies_.assign(g.bodies.size(), nullptr);
+    for (size_t i = 0; i < g.bodies.size(); ++i) {
+      const SceneBody& sb = g.bodies[i];
+      if (sb.ground) continue;
+      dBodyID b = dBodyCreate(world_);
+      dMass mass;
+      dMassSetParameters(&mass, sb.mass, 0.0, 0.0, 0.0, sb.inertia, sb.inertia, sb.inertia, 0.0,
+                         0.0, 0.0);
+      dBodySetMass(b, &mass);
+      const BodyMotion f = frame_of(m, sb, q, qdot);
+      const Eigen::Vector2d arm = turn(f.theta, sb.centre), c = f.r + arm;
+      dBodySetPosition(b, c.x(), c.y(), 0.0);
+      const dQuaternion turn_z = {std::cos(0.5 * f.theta), 0.0, 0.0, std::sin(0.5 * f.theta)};
+      dBodySetQuaternion(b, turn_z);
+      if (qdot) {
+        const Eigen::Vector2d v = f.v + f.omega * perp(arm);
+        dBodySetLinearVel(b, v.x(), v.y(), 0.0);
+        dBodySetAngularVel(b, 0.0, 0.0, f.omega);
+      }
+      dBodySetFiniteRotationMode(b, config.finite_rotation ? 1 : 0);
+      dBodySetDamping(b, 0.0, 0.0);
+      bodies_[i] = b;
+    }
+    joints_.assign(g.joints.size(), nullptr);
+    body1_.assign(g.joints.size(), -1);
+    feedback_.resize(g.joints.size());
+    const DrivenCoordinate& dc = g.driven.front();  // one driver today
+    for (size_t ji = 0; ji < g.joints.size(); ++ji) {
+      const SceneJoint& j = g.joints[ji];
+      const bool motor = driven && static_cast<int>(ji) == dc.joint;
+      // ODE's body1 is always a moving body (the ground is body2, 0).
+      const int first = bodies_[static_cast<size_t>(j.a)] ? j.a : j.b;
+      const int second = first == j.a ? j.b : j.a;
+      const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
+      dJointID joint = nullptr;
+      if (j.kind == SceneJoint::Kind::hinge) {
+        joint = dJointCreateHinge(world_, nullptr);
+        dJointAttach(joint, bodies_[static_cast<size_t>(first)],
+                     bodies_[static_cast<size_t>(second)]);
+        const Eigen::Vector2d p = a.r + turn(a.theta, j.ua);
+        dJointSetHingeAnchor(joint, p.x(), p.y(), 0.0);
+        dJointSetHingeAxis(joint, 0.0, 0.0, 1.0);
+        if (motor) dJointSetHingeParam(joint, dParamFMax, dInfinity);
+      } else if (j.kind == SceneJoint::Kind::slide) {
+        joint = dJointCreateSlider(world_, nullptr);
+        dJointAttach(joint, bodies_[static_cast<size_t>(first)],
+                     bodies_[static_cast<size_t>(second)]);
+        const Eigen::Vector2d u = turn(a.theta, j.direction);
+        dJointSetSliderAxis(joint, u.x(), u.y(), 0.0);
+        if (motor) dJointSetSliderParam(joint, dParamFMax, dInfinity);
+      } else if (motor) {
+        // A floating link's driven angle: an angular motor about z between it and the ground.
+        joint = dJointCreateAMotor(world_, nullptr);
+        dJointAttach(joint, bodies_[static_cast<size_t>(first)], nullptr);
+        dJointSetAMotorMode(joint, dAMotorUser);
+        dJointSetAMotorNumAxes(joint, 1);
+        dJointSetAMotorAxis(joint, 0, 0, 0.0, 0.0, 1.0);
+        dJointSetAMotorParam(joint, dParamFMax, dInfinity);
+      } else {
+        continue;  // a planar joint is no constraint: the body is free in the plane
+      }
+      dJointSetFeedback(joint, &feedback_[ji]);
+      joints_[ji] = joint;
+      body1_[ji] = first;
+    }
+    if (driven) {
+      motor_ = joints_[static_cast<size_t>(dc.joint)];
+      // The motor's rate is body1's less body2's: the driven joint's value runs from a to b.
+      motor_sign_ = body1_[static_cast<size_t>(dc.joint)] == g.joints[dc.joint].b ? 1.0 : -1.0;
+      motor_kind_ = g.joints[dc.joint].kind;
+    }
+  }
+
+  ~OdeScene() {
+    if (interrupted_) {
+      // A step an ODE error interrupted leaves its jobs in the threading implementation's list,
+      // and freeing it then asserts (an error in a destructor: std::terminate). Kept, unused,
+      // until the process ends (reachable: no leak).
+      const std::lock_guard<std::mutex> lock(interrupted_mutex);
+      interrupted_worlds.emplace_back(world_, threading_);
+      return;
+    }
+    dWorldSetStepThreadingImplementation(world_, nullptr, nullptr);
+    dThreadingFreeImplementation(threading_);
+    dWorldDestroy(world_);  // its bodies and joints with it
+  }
+  OdeScene(const OdeScene&) = delete;
+  OdeScene& operator=(const OdeScene&) = delete;
+
+  // The driven joint's motor rate for the next step of h: from `value` to `target`.
+  void drive(double value, double target, double h) {
+    const double rate = motor_sign_ * (target - value) / h;
+    if (motor_kind_ == SceneJoint::Kind::hinge)
+      dJointSetHingeParam(motor_, dParamVel, rate);
+    else if (motor_kind_ == SceneJoint::Kind::slide)
+      dJointSetSliderParam(motor_, dParamVel, rate);
+    else
+      dJointSetAMotorParam(motor_, dParamVel, rate);
+  }
+
+  // The definition's loads on the links' bodies (Mechanism order), for the next step.
+  void apply(const std::vector<BodyLoad>& loads) {
+    for (size_t k = 0; k < loads.size(); ++k) {
+      dBodyID b = bodies_[k + 1];  // the moving links follow the ground
+      dBodyAddForce(b, loads[k].force.x(), loads[k].force.y(), 0.0);
+      dBodyAddTorque(b, 0.0, 0.0, loads[k].moment);
+    }
+  }
+
+  // One step; "" or ODE's warning of it.
+  std::string step(double h) {
+    ode_message.clear();
+    try {
+      if (quick_)
+        dWorldQuickStep(world_, h);
+      else
+        dWorldStep(world_, h);
+    } catch (const std::exception& e) {
+      interrupted_ = true;
+      throw std::runtime_error(fmt::format("a step failed inside ODE ({})", e.what()));
+    }
+    std::string message;
+    message.swap(ode_message);
+    return message;
+  }
+
+  // The mechanism's coordinates, each angle on the turn of the one q holds.
+  void read(Eigen::VectorXd& q) const {
+    for (size_t i = 0; i < g_.bodies.size(); ++i) {
+      const SceneBody& sb = g_.bodies[i];
+      if (sb.source < 0 || sb.ground) continue;
+      const int k = m_.moving_index(sb.source);
+      const dReal* c = dBodyGetPosition(bodies_[i]);
+      const dReal* r = dBodyGetRotation(bodies_[i]);  // 3x4, row-major
+      double theta = std::atan2(r[4], r[0]);
+      theta += 2.0 * kPi * std::round((q(3 * k + 2) - theta) / (2.0 * kPi));
+      q(3 * k + 2) = theta;
+      q.segment<2>(3 * k) = Eigen::Vector2d(c[0], c[1]) - turn(theta, sb.centre);
+    }
+  }
+
+  // What joint `j` exerted on scene body `body` in the last step (about its centre of mass);
+  // nothing on the ground.
+  JointSide on(size_t j, int body) const {
+    JointSide s;
+    if (!joints_[j] || !bodies_[static_cast<size_t>(body)]) return s;
+    const dJointFeedback& f = feedback_[j];
+    const bool first = body1_[j] == body;
+    const dReal* force = first ? f.f1 : f.f2;
+    s.force = {force[0], force[1]};
+    s.torque = first ? f.t1[2] : f.t2[2];
+    return s;
+  }
+
+ private:
+  const Mechanism& m_;
+  const SceneGraph& g_;
+  bool quick_;
+  dWorldID world_ = nullptr;
+  dThreadingImplementationID threading_ = nullptr;
+  std::vector<dBodyID> bodies_;  // per scene body; null for the ground
+  std::vector<dJointID> joints_;
+  std::vector<int> body1_;  // per joint: the scene body that is ODE's body1
+  std::vector<dJointFeedback> feedback_;
+  dJointID motor_ = nullptr;
+  double motor_sign_ = 1.0;
+  SceneJoint::Kind motor_kind_ = SceneJoint::Kind::hinge;
+  bool interrupted_ = false;  // a step threw (an ODE error inside it)
+};
+
+// Forces of the last step at pose q (the pose it left), in the mechanism's terms, converted as
+// Bullet's (read_rigid_forces): each joint's force on its second link (through the first when the
+// second is the ground; a pin-in-slot's through its pin), a prismatic couple about its point, and
+// the driver's effort: the driven joint's couple about its point (its force along the line for a
+// slider), or a floating link's angular motor torque.
+void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
+                 const Eigen::VectorXd& q, ForceReading& out) {
+  out.set_zero();
+  const Driver& d = m.driver();
+  const DrivenCoordinate& dc = g.driven.front();
+  const int driven_joint = dc.floating ? -1 : g.joints[static_cast<size_t>(dc.joint)].source;
+  // The couple scene joint `sj` exerts on `body` about the world point `point`, and its force.
+  const auto couple = [&](size_t sj, int body, const Eigen::Vector2d& point, Eigen::Vector2d& f) {
+    const JointSide s = scene.on(sj, body);
+    const SceneBody& sb = g.bodies[static_cast<size_t>(body)];
+    const BodyMotion frame = frame_of(m, sb, q);
+    f = s.force;
+    return s.torque - cross(point - frame.position(sb.centre), s.force);
+  };
+  for (size_t sj = 0; sj < g.joints.size(); ++sj) {
+    const SceneJoint& j = g.joints[sj];
+    // A pin-in-slot's force is its pin's (the block is massless but for 1e-6 of a link).
+    if (j.kind == SceneJoint::Kind::planar ||
+        (j.kind == SceneJoint::Kind::slide && g.bodies[static_cast<size_t>(j.b)].joint >= 0))
+      continue;
+    const size_t ji = static_cast<size_t>(j.source);
+    const Joint& mj = m.joints[ji];
+    const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
+    const Eigen::Vector2d point = b.position(j.ub);
+    Eigen::Vector2d on_b;
+    double couple_b = 0.0;
+    if (!g.bodies[static_cast<size_t>(j.b)].ground) {
+      couple_b = couple(sj, j.b, point, on_b);
+    } else {
+      Eigen::Vector2d on_a;
+      couple_b = -couple(sj, j.a, point, on_a);
+      on_b = -on_a;
+    }
+    if (mj.type == JointType::prismatic) out.couple[ji] = couple_b;
+    if (static_cast<int>(ji) == driven_joint && d.type != DriverType::link_angle) {
+      if (d.type == DriverType::slider) {
+        const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
+        const Eigen::Vector2d u = a.turn(m.links[mj.link_a].lines[mj.line].direction);
+        out.effort = on_b.dot(u);
+        on_b -= out.effort * u;
+      } else {
+        out.effort = couple_b;  // on the second link, the driven one
+      }
+    }
+    out.joint_force[ji] = on_b;
+  }
+  if (d.type != DriverType::link_angle) return;
+  if (dc.floating) {
+    out.effort = scene.on(static_cast<size_t>(dc.joint), dc.body).torque;
+    return;
+  }
+  // Realised at the link's ground pivot: its couple on the link about the pivot.
+  const SceneJoint& j = g.joints[static_cast<size_t>(dc.joint)];
+  const int link = g.bodies[static_cast<size_t>(j.b)].ground ? j.a : j.b;
+  const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
+  Eigen::Vector2d f;
+  out.effort = couple(static_cast<size_t>(dc.joint), link, b.position(j.ub), f);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runs
+
+// What a run needs before its time grid: the settings with their auto thresholds, the mechanism
+// the scene is built from (perturb_link), its scene graph and the usable span.
+struct Prepared {
+  Config config;
+  Mechanism m;
+  SceneGraph graph;
+  Span span;
+};
+
+// The scene graph's policy: a floating link's driven angle is a planar ground joint's (an angular
+// motor realises it directly); ODE needs no tree, so nothing else is chosen.
+TreePolicy ode_policy() {
+  TreePolicy policy;
+  policy.planar_joints = true;
+  return policy;
+}
+
+Prepared prepare(const Mechanism& original, const Trajectory& reference,
+                 const Settings& overrides) {
+  ode_start();
+  Prepared p;
+  p.config = parse_settings(overrides);
+  p.m = perturbed(original, p.config.perturb_link);
+  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0)
+    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
+  p.graph = scene_graph(p.m, ode_policy());
+  p.span = usable_span(reference);
+  return p;
+}
+
+// The longest step: the longest sample interval over steps_per_sample, shorter where the
+// reference's fastest link would turn more than max_step_angle in a step, or an explicit dt.
+double wanted_step(const Trajectory& reference, const Span& span, const Config& config,
+                   double max_step_angle) {
+  if (config.dt != 0.0) return config.dt;
+  double longest = 0.0;
+  for (int i = span.first + 1; i <= span.last; ++i)
+    longest = std::max(longest, reference.time(i) - reference.time(i - 1));
+  double wanted = longest / config.steps_per_sample;
+  const double fastest = fastest_rate(reference, span);
+  if (max_step_angle > 0.0 && fastest > 0.0) wanted = std::min(wanted, max_step_angle / fastest);
+  return wanted;
+}
+
+double max_step_angle(const Config& config, bool dynamics) {
+  if (config.max_step_angle_given) return config.max_step_angle;
+  return dynamics ? kDynamicsMaxStepAngle : kKinematicMaxStepAngle;
+}
+
+Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle) {
+  return {{"stepper", config.stepper},
+          {"iterations",
+           config.stepper == "quick" ? std::to_string(config.iterations) : "unused (dWorldStep)"},
+          {"dt", format_number(grid.dt)},
+          {"steps_per_sample",
+           config.dt == 0.0 ? std::to_string(grid.steps_per_sample) : "unused (dt given)"},
+          {"max_step_angle", config.dt == 0.0 ? format_number(step_angle) : "unused (dt given)"},
+          {"erp", format_number(config.erp)},
+          {"cfm", format_number(config.cfm)},
+          {"finite_rotation", config.finite_rotation ? "1" : "0"},
+          {"precision", "float64 (ODE_double_precision)"},
+          {"gap_threshold", format_number(config.gap_threshold)},
+          {"divergence_gap", format_number(config.divergence_gap)},
+          {"mass_model", "the definition's (Link::mass)"},
+          {"singular_rcond", format_number(config.singular_rcond)},
+          {"perturb_link", config.perturb_link},
+          {"max_steps", std::to_string(config.max_steps)}};
+}
+
+// The scene stepped and read back as the mechanism's coordinates after each step, with the
+// forces of the pose a step leaves: what both runs' scenes share.
+class OdeSteps {
+ public:
+  OdeSteps(const Mechanism& m, const SceneGraph& g, OdeScene& scene, const Eigen::VectorXd& q)
+      : m_(m), g_(g), scene_(scene), q_(q) {
+    scene_.read(q_);
+  }
+  std::string step(double h, ForceReading* forces) {
+    const std::string why = scene_.step(h);
+    ++evaluations_;  // one LCP solve of the model a step
+    if (forces) read_forces(m_, g_, scene_, q_, *forces);
+    scene_.read(q_);
+    return why;
+  }
+  OdeScene& scene() { return scene_; }
+  const Eigen::VectorXd& pose() const { return q_; }
+  long evaluations() const { return evaluations_; }
+
+ private:
+  const Mechanism& m_;
+  const SceneGraph& g_;
+  OdeScene& scene_;
+  Eigen::VectorXd q_;
+  long evaluations_ = 0;
+};
+
+template <class Loop>
+class OdeLoopScene : public Loop {
+ public:
+  explicit OdeLoopScene(OdeSteps& steps) : steps_(steps) {}
+  void apply(const std::vector<BodyLoad>& loads) override { steps_.scene().apply(loads); }
+  void read_pose(Eigen::VectorXd& q) override { q = steps_.pose(); }
+  long evaluations() const override { return steps_.evaluations(); }
+
+ protected:
+  OdeSteps& steps_;
+};
+
+// A kinematic run's scene: the motor lands the driven joint on the driver's law at the step's end.
+class OdeKinematicScene final : public OdeLoopScene<KinematicScene> {
+ public:
+  OdeKinematicScene(OdeSteps& steps, const Mechanism& m, const SceneGraph& g,
+                    const KinematicPlan& plan)
+      : OdeLoopScene(steps), m_(m), g_(g), joint_(g.joints[g.driven.front().joint]) {
+    const Driver& d = m.driver();
+    driver_offset_ = plan.driver_offset;
+    driver0_ = d.at_time(plan.grid.time.front()).value + plan.driver_offset;
+    coordinate0_ = joint_value(m, g, joint_, plan.q);
+    sign_ = g.driven.front().sign;
+  }
+  void drive(double driver_value) override {
+    target_ = coordinate0_ + sign_ * (driver_value + driver_offset_ - driver0_);
+  }
+  std::string step(double h, ForceReading* forces) override {
+    steps_.scene().drive(joint_value(m_, g_, joint_, steps_.pose()), target_, h);
+    return steps_.step(h, forces);
+  }
+
+ private:
+  const Mechanism& m_;
+  const SceneGraph& g_;
+  const SceneJoint& joint_;
+  double driver_offset_ = 0.0, driver0_ = 0.0, coordinate0_ = 0.0, sign_ = 1.0, target_ = 0.0;
+};
+
+// A dynamics run's scene: no driver. dWorldStep is semi-implicit Euler (x_k+1 = x_k + h v_k+1), so
+// a staggered start is v0 - h/2 a0, as Bullet's. Its first step is a transient as Bullet's (a
+// velocity-level step: the centripetal part of the constraint force comes one step late, the
+// driver torque of the first step 104 % off; engine notes), and there is no pose before the
+// start: the loop reads the first sample one-sided and its forces from pose 2 on.
+class OdeDynamicsScene final : public OdeLoopScene<DynamicsScene> {
+ public:
+  OdeDynamicsScene(OdeSteps& steps, Eigen::VectorXd start_velocity)
+      : OdeLoopScene(steps), start_velocity_(std::move(start_velocity)) {}
+  Eigen::VectorXd start_velocity() const override { return start_velocity_; }
+  std::string step(double /*t0*/, double h, ForceReading* forces) override {
+    return steps_.step(h, forces);
+  }
+
+ private:
+  Eigen::VectorXd start_velocity_;
+};
+
+EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& reference,
+                           const Settings& overrides) {
+  const auto begin = Clock::now();
+  EngineRun out;
+  out.trajectory.method = "ode";
+  out.trajectory.resize(original, reference.samples(), true);
+  out.trajectory.add_energy();
+  out.trajectory.time = reference.time;
+  out.trajectory.driver = reference.driver;
+  try {
+    Prepared p = prepare(original, reference, overrides);
+    const Config& config = p.config;
+    const double step_angle = max_step_angle(config, true);
+    const DynamicsPlan start = plan_dynamics(
+        original, p.m, reference, wanted_step(reference, p.span, config, step_angle),
+        InnerTimes::interval_fractions, config.max_steps, !config.perturb_link.empty());
+    const std::vector<double>& time = start.grid.time;
+    const Eigen::VectorXd velocity =
+        config.staggered_start
+            ? Eigen::VectorXd(start.start.qdot - 0.5 * (time[1] - time[0]) * start.start.qddot)
+            : start.start.qdot;
+    const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
+    Settings values = common_settings(config, start.grid, step_angle);
+    const Settings more = {
+        {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
+        {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
+        {"forces", "dJointFeedback of the step leaving each sample"},
+        {"energy_threshold", format_number(config.energy_threshold)},
+        {"divergence_energy", format_number(config.divergence_energy)},
+        {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
+    values.insert(values.end(), more.begin(), more.end());
+    out.settings = printed_settings(ode_settings(), RunKind::dynamics, values);
+    OdeScene scene(p.m, p.graph, config, start.start.q, &velocity, false);
+    OdeSteps steps(p.m, p.graph, scene, start.start.q);
+    if (const std::string why = start_mismatch(p.m, steps.pose(), start.start.q); !why.empty())
+      return failed_run(std::move(out), why);
+    OdeDynamicsScene stepped(steps, velocity);
+    const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * p.m.size(),
+                                 config.singular_rcond,   energy_scale,
+                                 config.energy_threshold, config.divergence_energy};
+    run_dynamics(original, p.m, reference, start, watch, true, stepped, begin, out);
+  } catch (const std::exception& e) {
+    return failed_run(std::move(out), e.what());
+  }
+  return out;
+}
+
+EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& reference,
+                            const Settings& overrides) {
+  const auto begin = Clock::now();
+  EngineRun out;
+  out.trajectory.method = "ode";
+  out.trajectory.resize(original, reference.samples());
+  out.trajectory.time = reference.time;
+  out.trajectory.driver = reference.driver;
+  try {
+    Prepared p = prepare(original, reference, overrides);
+    const Config& config = p.config;
+    const double step_angle = max_step_angle(config, false);
+    KinematicPlan start =
+        plan_kinematic(p.m, reference, wanted_step(reference, p.span, config, step_angle),
+                       InnerTimes::interval_fractions, kPreroll, config.max_steps,
+                       config.singular_rcond, !config.perturb_link.empty());
+    Settings values = common_settings(config, start.grid, step_angle);
+    const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
+                           {"forces", "dJointFeedback of the step leaving each sampled pose"},
+                           {"branch_distance", format_number(config.branch_distance)}};
+    values.insert(values.end(), more.begin(), more.end());
+    out.settings = printed_settings(ode_settings(), RunKind::kinematic, values);
+    const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * p.m.size(),
+                                  config.driver_threshold, config.singular_rcond,
+                                  config.branch_distance};
+    OdeScene scene(p.m, p.graph, config, start.q, &start.qdot, true);
+    OdeSteps steps(p.m, p.graph, scene, start.q);
+    if (const std::string why = start_mismatch(p.m, steps.pose(), start.q); !why.empty())
+      return failed_run(std::move(out), why);
+    if (p.graph.driven.front().floating)
+      add_note(start.note,
+               "link-angle driver realised directly: an angular motor between the ground and the "
+               "link");
+    OdeKinematicScene stepped(steps, p.m, p.graph, start);
+    run_kinematic(original, p.m, reference, start, watch, true, stepped, begin, out);
+  } catch (const std::exception& e) {
+    return failed_run(std::move(out), e.what());
+  }
+  return out;
+}
+
+class OdeEngine final : public Engine {
+ public:
+  std::string name() const override { return "ode"; }
+  const SettingSchema& settings_schema() const override { return ode_settings(); }
+
+  bool supports(const Mechanism& mechanism, std::string* why) const override {
+    if (mobility(mechanism).mobility != 1) {
+      if (why) *why = "the chain's mobility is not 1";
+      return false;
+    }
+    try {
+      (void)scene_graph(mechanism, ode_policy());
+    } catch (const std::exception& e) {
+      if (why) *why = e.what();
+      return false;
+    }
+    return true;
+  }
+
+  void check_settings(const Mechanism& m, const Settings& overrides) const override {
+    (void)perturbed(m, parse_settings(overrides).perturb_link);
+  }
+
+  EngineRun run(const Mechanism& original, const Trajectory& reference,
+                const Settings& overrides) const override {
+    if (original.dynamics) return run_ode_dynamics(original, reference, overrides);
+    return run_ode_kinematic(original, reference, overrides);
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> make_ode_engine() {
+  return std::make_unique<OdeEngine>();
+}
+
+}  // namespace crosslink::sim
