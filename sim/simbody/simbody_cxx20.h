@@ -26,5 +26,10 @@ bool operator==(const Index& a, const Index& b) {
 
 }  // namespace SimTK
 
+// MultibodyGraphMaker (which crosslink does not use: the scene graph is its own) holds vectors of
+// its own incomplete types, which clang's C++20 library rejects where GCC 12's accepts them: its
+// include guard is defined so that Simbody.h skips it (no other Simbody header names it).
+#define SimTK_SIMMATH_MULTIBODY_GRAPH_MAKER_H_
 #include <Simbody.h>
+#undef SimTK_SIMMATH_MULTIBODY_GRAPH_MAKER_H_
 #pragma pop_macro("NDEBUG")
