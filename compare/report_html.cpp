@@ -441,7 +441,9 @@ std::string methods_table(const Comparison& cmp, const HtmlOptions& options) {
                      "<th>steps</th><th>settings</th></tr>\n";
   for (const MethodRun& run : cmp.methods) {
     std::string settings;
-    for (const auto& [k, v] : run.settings) {
+    for (const auto& entry : run.settings) {
+      // Named, not a structured binding: clang (the sanitizer build) lets no lambda capture one.
+      const std::string &k = entry.first, &v = entry.second;
       const bool set =
           std::any_of(options.settings.begin(), options.settings.end(), [&](const std::string& s) {
             return assigns(s, run.name, k, !exact_method(run.name) && run.name != "analytic");
