@@ -29,6 +29,16 @@ std::pair<double, std::string> worst_ratio(const SweepRow& r, const ClassLimits&
   return {worst, which};
 }
 
+// The engines with a row, in the order of their first row.
+std::vector<std::string> engines_of(const std::vector<SweepRow>& rows) {
+  std::vector<std::string> engines;
+  for (const SweepRow& r : rows)
+    if (r.engine != "analytic" &&
+        std::find(engines.begin(), engines.end(), r.engine) == engines.end())
+      engines.push_back(r.engine);
+  return engines;
+}
+
 }  // namespace
 
 std::string EngineRank::text() const {
@@ -64,12 +74,7 @@ ClassLimits common_tolerances(const std::vector<std::string>& engines, bool dyna
 EngineRanking rank_engines(const std::vector<SweepRow>& rows, const ClassLimits& limits,
                            std::string rule) {
   EngineRanking out{limits, std::move(rule), {}};
-  std::vector<std::string> engines;
-  for (const SweepRow& r : rows)
-    if (r.engine != "analytic" &&
-        std::find(engines.begin(), engines.end(), r.engine) == engines.end())
-      engines.push_back(r.engine);
-  for (const std::string& engine : engines) {
+  for (const std::string& engine : engines_of(rows)) {
     EngineRank rank;
     rank.engine = engine;
     const Selection s = select_cheapest(engine, limits, rows);
@@ -112,12 +117,7 @@ EngineRanking rank_engines(const SettingsSweep& sweep) {
                         fmt::format("--accuracy {:g} %: every class (and the energy balance) "
                                     "within {:g} % of peak",
                                     *accuracy_pct, *accuracy_pct));
-  std::vector<std::string> engines;
-  for (const SweepRow& r : sweep.rows)
-    if (r.engine != "analytic" &&
-        std::find(engines.begin(), engines.end(), r.engine) == engines.end())
-      engines.push_back(r.engine);
-  const ClassLimits limits = common_tolerances(engines, sweep.dynamics);
+  const ClassLimits limits = common_tolerances(engines_of(sweep.rows), sweep.dynamics);
   std::string rule = fmt::format(
       "no --accuracy: each class within the tightest default tolerance of the engines ranked "
       "(position {:g}, velocity {:g}, acceleration {:g}, force {:g} % of peak",

@@ -161,7 +161,9 @@ std::string ranking_table(const SettingsSweep& sweep, const EngineRanking& ranki
       "<h2>Engines ranked</h2>\n<p>Rule: {}. Each engine's cheapest setting meeting it (the "
       "coarsest time step where a variant does, the least work there); engines that meet it by "
       "that setting's CPU time, cheapest first; then those that never do, by their best run with "
-      "status ok (the least ratio of a class's error to its limit), last those with none.</p>\n"
+      "status ok (the least ratio of a class's error to its limit), last those with none. A "
+      "setting that reads no forces (force %: -) is judged on its motion, as --accuracy "
+      "judges it.</p>\n"
       "<table id=\"ranking\"><tr><th>rank</th><th>engine</th><th>setting</th><th>{}</th>"
       "<th>position %</th><th>velocity %</th><th>acceleration %</th><th>force %</th>{}"
       "<th>meets</th></tr>\n",
