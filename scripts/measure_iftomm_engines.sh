@@ -22,3 +22,5 @@ run mechanisms/iftomm_a01_pendulum.toml --engines simbody --repeat 1 --dt 0.5 \
 # A01's 2000 s: ODE only (MuJoCo's and Bullet's grid is docs/dynamics.md's, "IFToMM A01").
 run mechanisms/iftomm_a01_pendulum.toml --engines ode --repeat 1 \
     --dt 1e-2,5e-3,2e-3,1e-3 --csv "$OUT/iftomm_a01_ode.csv"
+run mechanisms/iftomm_a01_pendulum.toml --engines ode --repeat 1 --dt 3e-4 --max-steps 7000000 \
+    --csv "$OUT/iftomm_a01_ode_fine.csv"
