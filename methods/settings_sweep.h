@@ -362,7 +362,8 @@ void analyse(SettingsSweep& sweep);
 // raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
 // end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
 // tip_position_error, tip_velocity_error, max_pct_force, pareto_force, raw_pct_force,
-// end_pct_force, work. SI units.
+// end_pct_force, work, rank (sweep_ranking.h: the engine's place on the row it is ranked by).
+// SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).
