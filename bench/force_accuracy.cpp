@@ -6,6 +6,8 @@
 // from the source root:
 //   build/bench/force_accuracy            defaults only
 //   build/bench/force_accuracy --sweep    also the stabilisation and step series
+//   build/bench/force_accuracy --sweep fourbar_crank_rocker
+//                                         one mechanism (the four engines' chart, docs/engines.md)
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -20,6 +22,7 @@
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/ode/ode_engine.h"
+#include "sim/simbody/simbody_engine.h"
 
 namespace {
 
@@ -33,9 +36,17 @@ struct Case {
 };
 
 std::vector<Case> cases(bool sweep) {
-  std::vector<Case> out = {
-      {"mujoco", "default", {}}, {"bullet", "default", {}}, {"ode", "default", {}}};
+  std::vector<Case> out = {{"mujoco", "default", {}},
+                           {"bullet", "default", {}},
+                           {"ode", "default", {}},
+                           {"simbody", "default", {}}};
   if (!sweep) return out;
+  // Simbody: the spacing of its reported poses (max_step_angle; its integrator steps to each,
+  // with steps of its own in between under its error control): its error falls at fourth order
+  // in it (measured: docs/engines.md, "Four engines side by side").
+  for (const char* angle : {"0.01", "0.005", "0.00125"})
+    out.push_back(
+        {"simbody", fmt::format("max_step_angle {}", angle), {{"max_step_angle", angle}}});
   // ODE: the step, its iterative solver, the ODE defaults it departs from (watches opened).
   for (const char* steps : {"1", "4", "8", "16"})
     out.push_back(
@@ -106,19 +117,20 @@ std::string setting(const Settings& s, const std::string& name) {
 
 int main(int argc, char** argv) {
   const bool sweep = argc > 1 && std::strcmp(argv[1], "--sweep") == 0;
+  const std::string only = argc > 2 ? argv[2] : "";  // one mechanism's stem
   // The kinematic definitions (a dynamics case's forces are compared along its forward
   // dynamics: bench/dynamics_accuracy), bundled and published.
   std::vector<std::pair<std::filesystem::path, Mechanism>> files;
   for (const char* folder : {"mechanisms", "mechanisms/published"})
     for (const auto& e : std::filesystem::directory_iterator(folder))
-      if (e.path().extension() == ".toml")
+      if (e.path().extension() == ".toml" && (only.empty() || e.path().stem() == only))
         if (Mechanism m = crosslink::load_mechanism(e.path().string()); !m.dynamics)
           files.emplace_back(e.path(), std::move(m));
   std::sort(files.begin(), files.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
   fmt::print(
       "engine,mechanism,gravity,setting,dt,steps,effort_pct,reaction_pct,worst_joint,couple_pct,"
-      "shaking_pct,s_per_cycle,note\n");
+      "shaking_pct,s_per_cycle,note,cpu_s_per_cycle\n");
   for (const auto& [path, defined] : files)
     for (const bool gravity : {false, true}) {
       Mechanism m = defined;
@@ -127,9 +139,10 @@ int main(int argc, char** argv) {
       for (const Case& c : cases(sweep)) {
         // The series on one mechanism, with gravity.
         if (c.label != "default" && (path.stem() != "fourbar_crank_rocker" || !gravity)) continue;
-        const auto engine = c.engine == "mujoco" ? crosslink::sim::make_mujoco_engine()
-                            : c.engine == "ode"  ? crosslink::sim::make_ode_engine()
-                                                 : crosslink::sim::make_bullet_engine();
+        const auto engine = c.engine == "mujoco"    ? crosslink::sim::make_mujoco_engine()
+                            : c.engine == "ode"     ? crosslink::sim::make_ode_engine()
+                            : c.engine == "simbody" ? crosslink::sim::make_simbody_engine()
+                                                    : crosslink::sim::make_bullet_engine();
         if (!engine->supports(m, nullptr)) continue;
         Settings settings = c.settings;
         // "@2dt", "@4dt": MuJoCo's time-constant solref (n dt, 1) at the default step.
@@ -144,10 +157,11 @@ int main(int argc, char** argv) {
             crosslink::sim::force_agreement(m, exact, run.trajectory);
         std::string note = run.ok ? "" : "not ok";
         if (!run.trajectory.has_forces) note = "no forces";
-        fmt::print("{},{},{},{},{},{},{:.3g},{:.3g},{},{:.3g},{:.3g},{:.4f},{}\n", c.engine,
+        fmt::print("{},{},{},{},{},{},{:.3g},{:.3g},{},{:.3g},{:.3g},{:.4f},{},{:.4g}\n", c.engine,
                    path.stem().string(), gravity ? 1 : 0, c.label, setting(run.settings, "dt"),
                    run.cost.steps, 100 * a.effort, 100 * a.reaction, a.worst_joint, 100 * a.couple,
-                   100 * a.shaking, run.cost.wall_seconds_per_cycle, note);
+                   100 * a.shaking, run.cost.wall_seconds_per_cycle, note,
+                   run.cost.cpu_seconds_per_cycle);
         std::fflush(stdout);
       }
     }

@@ -14,6 +14,7 @@
 #include "compare/report.h"
 #include "compare/tolerance.h"
 #include "methods/jobs.h"
+#include "methods/sweep_ranking.h"
 
 namespace crosslink::methods {
 namespace {
@@ -282,13 +283,17 @@ double SweepRow::work() const {
 }
 
 bool SweepRow::meets(double accuracy_pct) const {
+  return meets(ClassLimits::uniform(accuracy_pct));
+}
+
+bool SweepRow::meets(const ClassLimits& limits) const {
   if (status != RunStatus::ok) return false;
   for (ErrorClass c : kErrorClasses) {
     const double e = error(c);
     if (c == ErrorClass::force && std::isnan(e)) continue;  // forces not read
-    if (!(e <= accuracy_pct)) return false;                 // NaN fails
+    if (!(e <= limits.pct[index_of(c)])) return false;      // NaN fails
   }
-  return std::isnan(energy_pct) || energy_pct <= accuracy_pct;
+  return std::isnan(energy_pct) || energy_pct <= limits.energy_pct;
 }
 
 SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
@@ -733,12 +738,13 @@ namespace {
 
 // Of rows at one time step, the least work that meets the accuracy, or nullptr: of the rows with
 // the lowest work, the first (the grid's order).
-const SweepRow* least_work_meeting(const std::vector<const SweepRow*>& rows, double accuracy_pct) {
+const SweepRow* least_work_meeting(const std::vector<const SweepRow*>& rows,
+                                   const ClassLimits& limits) {
   double lowest = std::numeric_limits<double>::infinity();
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct)) lowest = std::min(lowest, r->work());
+    if (r->meets(limits)) lowest = std::min(lowest, r->work());
   for (const SweepRow* r : rows)
-    if (r->meets(accuracy_pct) && r->work() <= lowest) return r;
+    if (r->meets(limits) && r->work() <= lowest) return r;
   return nullptr;
 }
 
@@ -746,9 +752,16 @@ const SweepRow* least_work_meeting(const std::vector<const SweepRow*>& rows, dou
 
 Selection select_cheapest(std::string_view engine, double accuracy_pct,
                           const std::vector<SweepRow>& rows) {
+  Selection s = select_cheapest(engine, ClassLimits::uniform(accuracy_pct), rows);
+  s.accuracy_pct = accuracy_pct;
+  return s;
+}
+
+Selection select_cheapest(std::string_view engine, const ClassLimits& limits,
+                          const std::vector<SweepRow>& rows) {
   Selection s;
   s.engine = std::string(engine);
-  s.accuracy_pct = accuracy_pct;
+  s.accuracy_pct = kNaN;
   std::vector<double> dts;
   for (const SweepRow& r : rows)
     if (r.engine == engine) dts.push_back(r.dt);
@@ -761,7 +774,7 @@ Selection select_cheapest(std::string_view engine, double accuracy_pct,
         level.push_back(&r);
         s.tried.push_back(r);
       }
-    if (const SweepRow* best = least_work_meeting(level, accuracy_pct)) {
+    if (const SweepRow* best = least_work_meeting(level, limits)) {
       s.found = true;
       s.chosen = *best;
       break;
@@ -913,6 +926,7 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
   retime(mechanism, ladder, out.rows, first_engine_row, options.repeat, options.progress,
          options.jobs);
   analyse(out);
+  out.accuracy_pct = options.accuracy_pct;
   if (options.accuracy_pct)
     for (const std::string& engine : options.engines)
       if (std::any_of(out.rows.begin(), out.rows.end(),
@@ -941,7 +955,17 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
          "raw_pct_velocity,raw_pct_acceleration,settings,message,end_pct_position,"
          "end_pct_velocity,end_pct_acceleration,max_pct_energy,repeats,cpu_s_per_cycle,"
          "tip_position_error,tip_velocity_error,max_pct_force,pareto_force,raw_pct_force,"
-         "end_pct_force,work\n";
+         "end_pct_force,work,rank\n";
+  // The engine's place in the ranking (sweep_ranking.h) on the row it is ranked by.
+  const EngineRanking ranking = rank_engines(sweep);
+  const auto rank_of = [&](const SweepRow& r) {
+    for (size_t i = 0; i < ranking.engines.size(); ++i) {
+      const EngineRank& e = ranking.engines[i];
+      if (e.has_row && e.engine == r.engine && e.row.variant == r.variant && e.row.dt == r.dt)
+        return std::to_string(i + 1);
+    }
+    return std::string();
+  };
   for (const SweepRow& r : sweep.rows) {
     out << csv_field(r.engine) << ',' << csv_field(r.setting_label()) << ',' << csv_number(r.dt)
         << ',' << csv_number(r.wall_s_per_cycle) << ',' << csv_number(r.max_pct[0]) << ','
@@ -955,7 +979,7 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << csv_number(r.energy_pct) << ',' << r.repeats << ',' << csv_number(r.cpu_s_per_cycle)
         << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << ','
         << csv_number(r.max_pct[3]) << ',' << r.pareto[3] << ',' << csv_number(r.raw_pct[3]) << ','
-        << csv_number(r.end_pct[3]) << ',' << csv_number(r.work()) << '\n';
+        << csv_number(r.end_pct[3]) << ',' << csv_number(r.work()) << ',' << rank_of(r) << '\n';
   }
 }
 
@@ -1022,6 +1046,10 @@ void print_sweep(const SettingsSweep& sweep, std::FILE* out) {
   }
   for (const std::string& s : sweep.skipped) fmt::print(out, "not run: {}\n", s);
   for (const Selection& s : sweep.selections) fmt::print(out, "{}\n", s.summary());
+  const EngineRanking ranking = rank_engines(sweep);
+  fmt::print(out, "\nEngines ranked ({}):\n", ranking.rule);
+  for (size_t i = 0; i < ranking.engines.size(); ++i)
+    fmt::print(out, "  {}. {}\n", i + 1, ranking.engines[i].text());
 }
 
 std::string benchmark_limit_text(const BenchmarkLimit& b) {

@@ -67,6 +67,15 @@ constexpr ClassValues kNoValues = {
     std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
     std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
 
+// What a row must meet: a limit per class [% of peak] (ErrorClass order; the force class only
+// where the engine reads forces) and on the energy balance [% of the energy scale] (a dynamics
+// case). `--accuracy X` is X on every class and on the energy.
+struct ClassLimits {
+  ClassValues pct = kNoValues;
+  double energy_pct = std::numeric_limits<double>::quiet_NaN();
+  static ClassLimits uniform(double pct) { return {{pct, pct, pct, pct}, pct}; }
+};
+
 // One setting of one engine: every override passed to the engine, dt included.
 struct GridPoint {
   std::string engine;      // an engine_names() entry
@@ -180,6 +189,8 @@ struct SweepRow {
   std::string setting_label() const;
   // Whether the row meets `accuracy_pct` on every class with status ok (forces where read).
   bool meets(double accuracy_pct) const;
+  // The same against a limit per class (and on the energy where the row has one).
+  bool meets(const ClassLimits& limits) const;
 };
 
 // The IFToMM benchmarks' error measure (A01 and A02: "the time-history of the position and
@@ -280,6 +291,9 @@ struct Selection {
 // among equals the earlier row (the grid's variant order, the engine's default first).
 Selection select_cheapest(std::string_view engine, double accuracy_pct,
                           const std::vector<SweepRow>& rows);
+// The same rule against a limit per class (Selection::accuracy_pct: NaN).
+Selection select_cheapest(std::string_view engine, const ClassLimits& limits,
+                          const std::vector<SweepRow>& rows);
 
 Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            std::string_view engine, double accuracy_pct,
@@ -324,6 +338,7 @@ struct SettingsSweep {
   std::vector<SweepRow> rows;  // analytic rows first, then every engine's grid
   std::vector<OrderRow> orders;
   std::vector<Selection> selections;   // with accuracy_pct
+  std::optional<double> accuracy_pct;  // --accuracy: the selections' and the ranking's
   std::vector<std::string> skipped;    // engines not built or unable to realise the mechanism
   double sample_interval = 0.0;        // base reference [s]
   int samples = 0;                     // base reference
@@ -347,7 +362,8 @@ void analyse(SettingsSweep& sweep);
 // raw_pct_velocity, raw_pct_acceleration, settings, message, end_pct_position,
 // end_pct_velocity, end_pct_acceleration, max_pct_energy, repeats, cpu_s_per_cycle,
 // tip_position_error, tip_velocity_error, max_pct_force, pareto_force, raw_pct_force,
-// end_pct_force, work. SI units.
+// end_pct_force, work, rank (sweep_ranking.h: the engine's place on the row it is ranked by).
+// SI units.
 void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "methods/settings_sweep.h"
+#include "methods/sweep_ranking.h"
 
 namespace crosslink::methods {
 
@@ -81,6 +82,17 @@ json report_data(const SettingsSweep& sweep) {
   r["dynamics"] = sweep.dynamics;
   r["costTitle"] =
       sweep.dynamics ? "CPU time per simulated second [s]" : "CPU time per simulated cycle [s]";
+  const EngineRanking ranking = rank_engines(sweep);
+  r["ranking"]["rule"] = ranking.rule;
+  r["ranking"]["engines"] = json::array();
+  for (const EngineRank& e : ranking.engines)
+    r["ranking"]["engines"].push_back(
+        {{"engine", e.engine},
+         {"met", e.met},
+         {"setting", e.has_row ? json(e.row.setting_label()) : json(nullptr)},
+         {"cost", e.has_row ? finite_or_null(e.row.cost()) : json(nullptr)},
+         {"worst_class", e.has_row ? json(e.worst_class) : json(nullptr)},
+         {"worst_ratio", finite_or_null(e.worst_ratio)}});
   r["rows"] = json::array();
   for (const SweepRow& row : sweep.rows) {
     json j;
@@ -140,6 +152,44 @@ json report_data(const SettingsSweep& sweep) {
     r["rows"].push_back(j);
   }
   return r;
+}
+
+// The engines ranked (sweep_ranking.h): one row each, in rank order, the setting it is ranked
+// by and that setting's errors against the limits.
+std::string ranking_table(const SettingsSweep& sweep, const EngineRanking& ranking) {
+  std::string html = fmt::format(
+      "<h2>Engines ranked</h2>\n<p>Rule: {}. Each engine's cheapest setting meeting it (the "
+      "coarsest time step where a variant does, the least work there); engines that meet it by "
+      "that setting's CPU time, cheapest first; then those that never do, by their best run with "
+      "status ok (the least ratio of a class's error to its limit), last those with none. A "
+      "setting that reads no forces (force %: -) is judged on its motion, as --accuracy "
+      "judges it.</p>\n"
+      "<table id=\"ranking\"><tr><th>rank</th><th>engine</th><th>setting</th><th>{}</th>"
+      "<th>position %</th><th>velocity %</th><th>acceleration %</th><th>force %</th>{}"
+      "<th>meets</th></tr>\n",
+      html_escape(ranking.rule), sweep.dynamics ? "CPU per simulated s [s]" : "CPU per cycle [s]",
+      sweep.dynamics ? "<th>energy %</th>" : "");
+  int place = 0;
+  for (const EngineRank& e : ranking.engines) {
+    ++place;
+    if (!e.has_row) {
+      html += fmt::format(
+          "<tr class=\"status-diverged\"><td>{}</td><td>{}</td><td colspan=\"{}\">no run "
+          "with status ok</td><td>no</td></tr>\n",
+          place, html_escape(e.engine), sweep.dynamics ? 7 : 6);
+      continue;
+    }
+    const SweepRow& r = e.row;
+    html += fmt::format("<tr{}><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+                        e.met ? "" : " class=\"status-flagged\"", place, html_escape(e.engine),
+                        html_escape(r.setting_label()), cell(r.cost(), "{:.4g}"));
+    for (size_t k = 0; k < kErrorClasses.size(); ++k) html += "<td>" + error_cell(r, k) + "</td>";
+    if (sweep.dynamics) html += "<td>" + cell(r.energy_pct) + "</td>";
+    html += fmt::format("<td>{}</td></tr>\n", e.met ? std::string("yes")
+                                                    : fmt::format("no: {} {:.3g} times its limit",
+                                                                  e.worst_class, e.worst_ratio));
+  }
+  return html + "</table>\n";
 }
 
 std::string orders_table(const SettingsSweep& sweep) {
@@ -257,6 +307,7 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
         sweep.rows.empty() ? 1 : sweep.rows.back().repeats, kWorkText);
   for (const std::string& s : sweep.skipped)
     out << "<p><b>Not run:</b> " << html_escape(s) << "</p>\n";
+  out << ranking_table(sweep, rank_engines(sweep));
   out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
          "run)</p>\n";
   if (!sweep.selections.empty()) {

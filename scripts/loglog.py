@@ -7,9 +7,10 @@ convergence) is written in the legend, where it has two points or more.
 import csv
 import math
 
-# The reports' colours: the reference black, MuJoCo blue, Bullet red; each engine's variants
-# get their own dash and marker.
-BASE = {"reference": "#222222", "MuJoCo": "#1f77b4", "Bullet": "#d62728"}
+# The reports' colours: the reference black, MuJoCo blue, Bullet red, ODE green, Simbody purple;
+# each engine's variants get their own dash and marker.
+BASE = {"reference": "#222222", "MuJoCo": "#1f77b4", "Bullet": "#d62728", "ODE": "#2ca02c",
+        "Simbody": "#9467bd"}
 DASHES = ["", "6,3", "2,2", "8,3,2,3", "1,3", "10,4"]
 MARKERS = ["circle", "square", "triangle", "diamond", "cross", "plus"]
 
@@ -29,7 +30,8 @@ def slope(points):
     xs = [math.log(x) for x, _ in points]
     ys = [math.log(y) for _, y in points]
     mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
-    return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+    spread = sum((x - mx) ** 2 for x in xs)
+    return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / spread if spread else math.nan
 
 
 def chart(series, x_label, y_label, legend="{name}: slope {slope:.2f}", width=720, legend_width=290):

@@ -19,6 +19,9 @@
 #include <numbers>
 #include <optional>
 #include <stdexcept>
+#include <vector>
+
+#include <Eigen/SVD>
 
 #include "analytic/planar.h"
 #include "sim/dynamics_run.h"
@@ -496,6 +499,44 @@ std::unique_ptr<SimTK::Integrator> make_integrator(const Config& c,
   return out;
 }
 
+// The reciprocal condition of the loop constraints' position Jacobian (Simbody's Pq, its rows out
+// of the plane, identically zero, left out) at state s: its smallest singular value over its
+// largest; 1 without a loop. It is what Simbody's projection onto the loops solves with.
+double loops_rcond(const Scene& scene, const SimTK::State& s) {
+  SimTK::State at = s;
+  scene.system().realize(at, SimTK::Stage::Position);
+  SimTK::Matrix pq;
+  scene.matter().calcPq(at, pq);
+  Eigen::MatrixXd j(pq.nrow(), pq.ncol());
+  for (int r = 0; r < pq.nrow(); ++r)
+    for (int c = 0; c < pq.ncol(); ++c) j(r, c) = pq(r, c);
+  const double largest_row = j.rows() > 0 ? j.rowwise().norm().maxCoeff() : 0.0;
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index r = 0; r < j.rows(); ++r)
+    if (j.row(r).norm() > 1e-12 * largest_row) kept.push_back(r);
+  if (kept.empty()) return 1.0;
+  const Eigen::VectorXd sv =
+      Eigen::JacobiSVD<Eigen::MatrixXd>(j(kept, Eigen::all)).singularValues();
+  return sv.size() < static_cast<Eigen::Index>(kept.size()) || sv[0] == 0.0 ? 0.0
+                                                                            : sv.tail(1)[0] / sv[0];
+}
+
+// Why the integrator stopped, with the loops' conditioning where it stopped against the start's:
+// at a singular position (a change point, a toggle, A02's parallel bars) the projection onto
+// rank-deficient loop constraints has no unique solution and the step fails.
+std::string stopped_at(const Scene& scene, const SimTK::State& s, const std::string& why) {
+  try {
+    const double there = loops_rcond(scene, s), start = loops_rcond(scene, scene.start());
+    return fmt::format(
+        "{} (the loop constraints' Jacobian at t = {:.6g} s: reciprocal condition {:.2g}, {:.2g} "
+        "of the start's {:.2g}{})",
+        why, s.getTime(), there, there / start, start,
+        there < 1e-3 * start ? ": a singular position of the loops" : "");
+  } catch (const std::exception&) {
+    return why;
+  }
+}
+
 // The scene stepped by its integrator to each reported pose, read back as the mechanism's
 // coordinates: what both runs' scenes share. A Simbody exception becomes the step's alarm (the
 // run stops there, diverged), never a crash.
@@ -513,11 +554,13 @@ class SimbodySteps {
       while (integrator_->getTime() < t1) {
         integrator_->stepTo(t1);
         if (integrator_->isSimulationOver())
-          return "Simbody's integrator stopped: " +
-                 SimTK::Integrator::getTerminationReasonString(integrator_->getTerminationReason());
+          return stopped_at(
+              scene_, integrator_->getState(),
+              "Simbody's integrator stopped: " + SimTK::Integrator::getTerminationReasonString(
+                                                     integrator_->getTerminationReason()));
       }
     } catch (const std::exception& e) {
-      return simbody_error(e);
+      return stopped_at(scene_, integrator_->getState(), simbody_error(e));
     }
     scene_.readback().pose(integrator_->getState(), q_);
     return "";

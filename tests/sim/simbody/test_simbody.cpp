@@ -118,6 +118,21 @@ TEST(SimbodyEngine, ASimbodyExceptionIsAFlaggedRunNotACrash) {
   EXPECT_FALSE(run.ok);
   EXPECT_NE(run.message.find("Simbody"), std::string::npos) << run.message;
   for (PoseStatus s : run.trajectory.status) EXPECT_FALSE(usable(s));
+  // Away from any singular position the loops are well conditioned: the message does not say so.
+  EXPECT_EQ(run.message.find("singular position"), std::string::npos) << run.message;
+}
+
+// A change-point four-bar (a + c = b + d) folds flat once a turn, where its loop's position
+// Jacobian loses rank (every link on one line: the joints' velocity directions are parallel).
+// Driven through it, Simbody's projection cannot be solved and its integrator stops there; the
+// run's message names the reason with the loop's conditioning where it stopped.
+TEST(SimbodyEngine, AStopAtAChangePointIsNamedAsASingularPosition) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/singular/fourbar_change_point_crank_rocker.toml");
+  const Trajectory exact = sweep(m);
+  const EngineRun run = make_simbody_engine()->run(m, exact, {});
+  EXPECT_FALSE(run.ok);
+  EXPECT_NE(run.message.find("a singular position of the loops"), std::string::npos) << run.message;
 }
 
 }  // namespace
