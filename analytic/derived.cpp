@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 #include "analytic/newton.h"
@@ -87,6 +88,11 @@ class Locator {
                                         const Sample& hi, bool max) = 0;
   virtual std::optional<double> value_at(const Scalar& f, double v, const Sample& a,
                                          const Sample& b) = 0;
+  // A point's position at driver value v, from the samples lo, near, hi around it (near the
+  // nearest).
+  virtual std::optional<Eigen::Vector2d> position(const std::string& point, double v,
+                                                  const Sample& lo, const Sample& near,
+                                                  const Sample& hi) = 0;
 };
 
 // Exact: Newton at any driver value from the coordinates of the sweep sample beside it.
@@ -180,6 +186,13 @@ class ExactLocator : public Locator {
     return f.value(*p, 0);
   }
 
+  std::optional<Eigen::Vector2d> position(const std::string& point, double v, const Sample&,
+                                          const Sample& near, const Sample&) override {
+    const Trajectory* p = pose(v, near, true);
+    if (!p) return std::nullopt;
+    return Eigen::Vector2d(at(*p, "x." + point, 0), at(*p, "y." + point, 0));
+  }
+
  private:
   // state_.q from a sample: each moving link's angle, and its frame's origin from where its
   // first point is (a point name is one place).
@@ -228,6 +241,19 @@ class SampledLocator : public Locator {
                                  const Sample& b) override {
     const double w = a.v == b.v ? 0.0 : (v - a.v) / (b.v - a.v);
     return f.value(t_, a.row) + w * (f.value(t_, b.row) - f.value(t_, a.row));
+  }
+  // The parabola through the three samples (Lagrange), in x and in y.
+  std::optional<Eigen::Vector2d> position(const std::string& point, double v, const Sample& lo,
+                                          const Sample& near, const Sample& hi) override {
+    Eigen::Vector2d p = Eigen::Vector2d::Zero();
+    const Sample* s[3] = {&lo, &near, &hi};
+    for (int i = 0; i < 3; ++i) {
+      double w = 1.0;
+      for (int j = 0; j < 3; ++j)
+        if (j != i) w *= (v - s[j]->v) / (s[i]->v - s[j]->v);
+      p += w * Eigen::Vector2d(at(t_, "x." + point, s[i]->row), at(t_, "y." + point, s[i]->row));
+    }
+    return p;
   }
 
  private:
@@ -286,6 +312,55 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   return out;
 }
 
+// A local extreme of f located between its sample's neighbours (lo, mid, hi).
+struct Turn {
+  Located at;
+  double v;  // at.v before a whole cycle's wrap: within [lo.v, hi.v]
+  Sample lo, mid, hi;
+};
+
+// Every sample inside the interval that is a local max (or min) of f, refined by the locator
+// (a whole cycle's first and last samples neighbour each other); with `limit`, only that many
+// of the largest (smallest).
+std::vector<Turn> turns(const Scalar& f, const Trajectory& t, const Interval& in, Locator& locator,
+                        bool max, size_t limit = 0) {
+  const auto& s = in.samples;
+  const int n = static_cast<int>(s.size());
+  const double sign = max ? 1.0 : -1.0;
+  std::vector<double> y(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i)
+    y[static_cast<size_t>(i)] = sign * f.value(t, s[static_cast<size_t>(i)].row);
+  std::vector<int> local;
+  for (int i = 0; i < n; ++i) {
+    const bool first = i == 0, last = i == n - 1;
+    if (!in.periodic && (first || last)) continue;
+    const int ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
+    const double yi = y[static_cast<size_t>(i)];
+    if (yi >= y[static_cast<size_t>(ip)] && yi > y[static_cast<size_t>(in_)]) local.push_back(i);
+  }
+  if (limit > 0 && local.size() > limit) {
+    std::stable_sort(local.begin(), local.end(), [&](int a, int b) {
+      return y[static_cast<size_t>(a)] > y[static_cast<size_t>(b)];
+    });
+    local.resize(limit);
+  }
+  std::vector<Turn> out;
+  for (const int i : local) {
+    const bool first = i == 0, last = i == n - 1;
+    const int ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
+    Sample lo = s[static_cast<size_t>(ip)], hi = s[static_cast<size_t>(in_)];
+    if (first) lo.v -= in.period;
+    if (last) hi.v += in.period;
+    std::optional<Located> c = locator.refine(f, lo, s[static_cast<size_t>(i)], hi, max);
+    if (!c) continue;
+    const double v = c->v;
+    // A whole cycle's driver values are given within [0, 2 pi).
+    if (in.periodic) c->v = std::fmod(std::fmod(c->v, in.period) + in.period, in.period);
+    out.push_back({*c, v, lo, s[static_cast<size_t>(i)], hi});
+  }
+  return out;
+}
+
 // The largest (max) or smallest value of f over the interval: every sample that is a local
 // extreme refined by the locator, and the interval's ends (not periodic).
 std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Interval& in,
@@ -293,27 +368,11 @@ std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Inter
   const auto& s = in.samples;
   const int n = static_cast<int>(s.size());
   const double sign = max ? 1.0 : -1.0;
-  std::vector<double> y(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i)
-    y[static_cast<size_t>(i)] = sign * f.value(t, s[static_cast<size_t>(i)].row);
   std::optional<Located> best;
   auto consider = [&](std::optional<Located> c) {
     if (c && (!best || sign * c->value > sign * best->value)) best = c;
   };
-  for (int i = 0; i < n; ++i) {
-    const bool first = i == 0, last = i == n - 1;
-    if (!in.periodic && (first || last)) continue;
-    const int ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
-    const double yi = y[static_cast<size_t>(i)];
-    if (!(yi >= y[static_cast<size_t>(ip)] && yi > y[static_cast<size_t>(in_)])) continue;
-    Sample lo = s[static_cast<size_t>(ip)], hi = s[static_cast<size_t>(in_)];
-    if (first) lo.v -= in.period;
-    if (last) hi.v += in.period;
-    std::optional<Located> c = locator.refine(f, lo, s[static_cast<size_t>(i)], hi, max);
-    // A whole cycle's driver values are given within [0, 2 pi).
-    if (c && in.periodic) c->v = std::fmod(std::fmod(c->v, in.period) + in.period, in.period);
-    consider(c);
-  }
+  for (const Turn& turn : turns(f, t, in, locator, max)) consider(turn.at);
   if (!in.periodic) {
     for (const bool lower : {true, false}) {
       const double v = lower ? in.lower : in.upper;
@@ -326,6 +385,239 @@ std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Inter
     }
   }
   return best;
+}
+
+// Circularity: the zone between two concentric circles holding a point's path.
+struct Annulus {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double inner = 0.0, outer = 0.0;
+  double width() const { return outer - inner; }
+};
+
+Annulus about(const std::vector<Eigen::Vector2d>& q, const Eigen::Vector2d& c) {
+  Annulus a{c, INFINITY, -INFINITY};
+  for (const Eigen::Vector2d& p : q) {
+    a.inner = std::min(a.inner, (p - c).norm());
+    a.outer = std::max(a.outer, (p - c).norm());
+  }
+  return a;
+}
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// The narrowest annulus holding a few points: its centre is equidistant from three of them (a
+// vertex of their nearest- or farthest-point Voronoi diagram) or from two pairs (two points on
+// each circle: where the pairs' bisectors cross), so every such centre is tried. None when no
+// centre is finite (the points are collinear).
+std::optional<Annulus> narrowest_annulus(std::vector<Eigen::Vector2d> q) {
+  // About the first point, so that |p|^2 keeps the digits of the differences.
+  const Eigen::Vector2d origin = q.front();
+  for (Eigen::Vector2d& p : q) p -= origin;
+  std::optional<Annulus> best;
+  // The centre c with (b - a).c = (|b|^2 - |a|^2) / 2 and (d - c').c = (|d|^2 - |c'|^2) / 2.
+  auto bisectors = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
+                       const Eigen::Vector2d& d) {
+    const Eigen::Vector2d u = b - a, w = d - c;
+    const double det = cross(u, w);
+    if (!(std::abs(det) > 1e-14 * u.norm() * w.norm())) return;
+    const double e = 0.5 * (b.squaredNorm() - a.squaredNorm()),
+                 f = 0.5 * (d.squaredNorm() - c.squaredNorm());
+    const Eigen::Vector2d centre((e * w.y() - f * u.y()) / det, (u.x() * f - w.x() * e) / det);
+    const Annulus zone = about(q, centre);
+    if (!best || zone.width() < best->width()) best = zone;
+  };
+  const size_t m = q.size();
+  for (size_t i = 0; i < m; ++i)
+    for (size_t j = i + 1; j < m; ++j) {
+      for (size_t k = j + 1; k < m; ++k) bisectors(q[i], q[j], q[i], q[k]);  // three equidistant
+      for (size_t k = i + 1; k < m; ++k)                                     // two pairs
+        for (size_t l = k + 1; l < m; ++l)
+          if (k != j && l != j) bisectors(q[i], q[j], q[k], q[l]);
+    }
+  if (best) best->centre += origin;
+  return best;
+}
+
+// The distance of a point from c, with its rate.
+Scalar distance_from(const std::string& point, const Eigen::Vector2d& c) {
+  Scalar f;
+  f.value = [point, c](const Trajectory& t, int row) {
+    return std::hypot(at(t, "x." + point, row) - c.x(), at(t, "y." + point, row) - c.y());
+  };
+  f.slope = [point, c](const Trajectory& t, int row, double rate) {
+    const double dx = at(t, "x." + point, row) - c.x(), dy = at(t, "y." + point, row) - c.y();
+    const double r = std::hypot(dx, dy);
+    return r > 0.0 ? (dx * at(t, "vx." + point, row) + dy * at(t, "vy." + point, row)) / (r * rate)
+                   : 0.0;
+  };
+  return f;
+}
+
+// The polar angle of a point about c on the branch within pi of `branch`, with its rate.
+Scalar polar_angle(const std::string& point, const Eigen::Vector2d& c, double branch) {
+  Scalar f;
+  f.value = [point, c, branch](const Trajectory& t, int row) {
+    const double a = std::atan2(at(t, "y." + point, row) - c.y(), at(t, "x." + point, row) - c.x());
+    return branch + std::remainder(a - branch, kTwoPi);
+  };
+  f.slope = [point, c](const Trajectory& t, int row, double rate) {
+    const Eigen::Vector2d r(at(t, "x." + point, row) - c.x(), at(t, "y." + point, row) - c.y());
+    const Eigen::Vector2d v(at(t, "vx." + point, row), at(t, "vy." + point, row));
+    return r.squaredNorm() > 0.0 ? cross(r, v) / (r.squaredNorm() * rate) : 0.0;
+  };
+  return f;
+}
+
+// The path's points nearest to and farthest from c: the located turns of its distance (the few
+// largest and smallest: the rest are not the zone's) and the interval's ends.
+std::optional<std::vector<Eigen::Vector2d>> radial_extremes(const std::string& point,
+                                                            const Eigen::Vector2d& c,
+                                                            const Trajectory& t, const Interval& in,
+                                                            Locator& locator) {
+  const Scalar f = distance_from(point, c);
+  std::vector<Eigen::Vector2d> out;
+  for (const bool max : {true, false})
+    for (const Turn& turn : turns(f, t, in, locator, max, 4)) {
+      const auto p = locator.position(point, turn.v, turn.lo, turn.mid, turn.hi);
+      if (!p) return std::nullopt;
+      out.push_back(*p);
+    }
+  if (!in.periodic) {
+    const auto& s = in.samples;
+    const size_t n = s.size();
+    const auto lower = locator.position(point, in.lower, s[1], s[0], s[2]);
+    const auto upper = locator.position(point, in.upper, s[n - 2], s[n - 1], s[n - 3]);
+    if (!lower || !upper) return std::nullopt;
+    out.push_back(*lower);
+    out.push_back(*upper);
+  }
+  return out;
+}
+
+// The minimum-zone circle of the point's path over the interval, from the centre c (Remez's
+// exchange, as for a Chebyshev fit): the path's extreme points about c and the last zone's
+// contacts give a narrower zone's centre; a zone of some of the path's points is never wider
+// than the path's own minimum zone, so once the path's zone about c is as narrow (to `within`
+// of its radius), c is the centre. `why` says why there is none.
+std::optional<Annulus> min_zone_circle(const std::string& point, Eigen::Vector2d c,
+                                       const Trajectory& t, const Interval& in, Locator& locator,
+                                       double within, std::string& why) {
+  std::vector<Eigen::Vector2d> contacts;
+  std::optional<Annulus> best;
+  double best_gap = INFINITY;
+  for (int iteration = 0; iteration < 40; ++iteration) {
+    const auto extremes = radial_extremes(point, c, t, in, locator);
+    if (!extremes) {
+      why = "a pose of the path could not be solved";
+      return std::nullopt;
+    }
+    const Annulus path = about(*extremes, c);
+    std::vector<Eigen::Vector2d> q = contacts;
+    q.insert(q.end(), extremes->begin(), extremes->end());
+    const std::optional<Annulus> next = narrowest_annulus(q);
+    double size = 0.0;
+    for (const Eigen::Vector2d& p : q) size = std::max(size, (p - q.front()).norm());
+    // A centre a million times the path's size away: the zone tends to the minimum-zone line.
+    if (!next || next->outer > 1e6 * size) {
+      why =
+          "no circle fits the path better than a straight line (the narrowest zone's radius "
+          "grows without bound)";
+      return std::nullopt;
+    }
+    const double gap = path.width() - next->width();
+    if (!best || path.width() < best->width()) {
+      best = path;
+      best_gap = gap;
+    } else if (iteration > 3) {
+      break;  // no narrower: round-off
+    }
+    if (gap <= within * path.outer) return path;
+    contacts.clear();
+    for (const Eigen::Vector2d& p : q) {
+      const double r = (p - next->centre).norm();
+      if (std::abs(r - next->inner) <= 1e-9 * next->outer ||
+          std::abs(r - next->outer) <= 1e-9 * next->outer)
+        contacts.push_back(p);
+    }
+    c = next->centre;
+  }
+  if (best && best_gap <= within * best->outer) return best;
+  why = "the minimum zone did not converge";
+  return std::nullopt;
+}
+
+// The algebraic least-squares circle through the samples (Kasa's), a start for the zone's
+// centre; none when the samples are collinear.
+std::optional<Eigen::Vector2d> least_squares_centre(const std::string& point, const Trajectory& t,
+                                                    const Interval& in) {
+  const auto n = static_cast<Eigen::Index>(in.samples.size());
+  const Eigen::Vector2d origin(at(t, "x." + point, in.samples[0].row),
+                               at(t, "y." + point, in.samples[0].row));
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd b(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int row = in.samples[static_cast<size_t>(i)].row;
+    const Eigen::Vector2d p =
+        Eigen::Vector2d(at(t, "x." + point, row), at(t, "y." + point, row)) - origin;
+    a.row(i) << p.x(), p.y(), 1.0;
+    b(i) = -p.squaredNorm();
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::Vector3d s = svd.singularValues();
+  if (!(s(2) > 1e-12 * s(0))) return std::nullopt;
+  const Eigen::Vector3d def = svd.solve(b);
+  if (!def.allFinite()) return std::nullopt;
+  return origin - 0.5 * Eigen::Vector2d(def(0), def(1));
+}
+
+// The angle the path spans seen from c: max - min of its polar angle followed along the path (a
+// whole cycle around c: a full turn per winding).
+std::optional<double> angular_extent(const std::string& point, const Eigen::Vector2d& c,
+                                     const Trajectory& t, const Interval& in, Locator& locator) {
+  const auto& s = in.samples;
+  const size_t n = s.size();
+  std::vector<double> phi(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double a =
+        std::atan2(at(t, "y." + point, s[i].row) - c.y(), at(t, "x." + point, s[i].row) - c.x());
+    phi[i] = i == 0 ? a : phi[i - 1] + std::remainder(a - phi[i - 1], kTwoPi);
+  }
+  if (in.periodic) {
+    const double winding =
+        std::round((phi[n - 1] + std::remainder(phi[0] - phi[n - 1], kTwoPi) - phi[0]) / kTwoPi);
+    if (winding != 0.0) return kTwoPi * std::abs(winding);
+  }
+  // Each extreme on the branch of its own samples.
+  double lo = INFINITY, hi = -INFINITY;
+  for (size_t i = 0; i < n; ++i) {
+    const bool first = i == 0, last = i + 1 == n;
+    if (!in.periodic && (first || last)) continue;
+    const size_t ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
+    for (const bool max : {true, false}) {
+      const double sign = max ? 1.0 : -1.0;
+      if (!(sign * phi[i] >= sign * phi[ip] && sign * phi[i] > sign * phi[in_])) continue;
+      Sample a = s[ip], b = s[in_];
+      if (first) a.v -= in.period;
+      if (last) b.v += in.period;
+      const std::optional<Located> e =
+          locator.refine(polar_angle(point, c, phi[i]), a, s[i], b, max);
+      if (!e) return std::nullopt;
+      lo = std::min(lo, e->value);
+      hi = std::max(hi, e->value);
+    }
+  }
+  if (!in.periodic)
+    for (const bool lower : {true, false}) {
+      const size_t i = lower ? 0 : n - 1, j = lower ? 1 : n - 2;
+      const std::optional<double> e =
+          locator.value_at(polar_angle(point, c, phi[i]), lower ? in.lower : in.upper, s[i], s[j]);
+      if (!e) return std::nullopt;
+      lo = std::min(lo, *e);
+      hi = std::max(hi, *e);
+    }
+  return hi - lo;
 }
 
 DerivedValue none(const DerivedSpec& spec, std::string reason) {
@@ -345,6 +637,7 @@ DerivedUnit unit_of(DerivedSpec::Kind kind, std::string_view field) {
   if (kind == K::time_ratio) return DerivedUnit::ratio;
   if (kind == K::straightness)
     return field == "direction" ? DerivedUnit::angle : DerivedUnit::length;
+  if (kind == K::circularity) return field == "extent" ? DerivedUnit::angle : DerivedUnit::length;
   return DerivedUnit::channel;
 }
 
@@ -375,7 +668,7 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
       out.fields.push_back({fmt::format("toggle{}", i + 1), DerivedUnit::driver, toggles[i]});
     return out;
   }
-  const bool positions = spec.kind == K::straightness ||
+  const bool positions = spec.kind == K::straightness || spec.kind == K::circularity ||
                          Trajectory::quantity_of(spec.channel) == Quantity::position ||
                          Trajectory::quantity_of(spec.channel) == Quantity::angle;
   const Interval in = interval_of(m, spec, t, positions);
@@ -437,6 +730,32 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return out;
   }
 
+  if (spec.kind == K::circularity) {
+    // Started from the samples' least-squares circle, the zone of the sampled path first (cheap;
+    // its points are O(h^3) off the path, so to 1e-6 of the radius), then of the located one (to
+    // round-off).
+    const std::optional<Eigen::Vector2d> start = least_squares_centre(spec.point, t, in);
+    if (!start)
+      return fail(
+          "the path is straight (its points are collinear): a circle through it has no "
+          "finite radius");
+    std::string why;
+    SampledLocator coarse(t);
+    std::optional<Annulus> zone = min_zone_circle(spec.point, *start, t, in, coarse, 1e-6, why);
+    if (zone && exact)
+      zone = min_zone_circle(spec.point, zone->centre, t, in, locator,
+                             4.0 * std::numeric_limits<double>::epsilon(), why);
+    if (!zone) return fail(why);
+    const std::optional<double> extent = angular_extent(spec.point, zone->centre, t, in, locator);
+    if (!extent) return fail("a pose of the path could not be solved");
+    set("deviation", 0.5 * zone->width());
+    set("radius", 0.5 * (zone->inner + zone->outer));
+    set("centre_x", zone->centre.x());
+    set("centre_y", zone->centre.y());
+    set("extent", *extent);
+    return out;
+  }
+
   const Scalar f = channel_scalar(spec.channel);
   const std::optional<Located> hi = extreme(f, t, in, locator, true);
   const std::optional<Located> lo = extreme(f, t, in, locator, false);
@@ -489,6 +808,8 @@ std::vector<std::string> derived_fields(DerivedSpec::Kind kind) {
       return {"min", "at_min", "max", "at_max"};
     case K::straightness:
       return {"deviation", "extent", "direction"};
+    case K::circularity:
+      return {"deviation", "radius", "centre_x", "centre_y", "extent"};
   }
   return {};
 }
@@ -619,6 +940,8 @@ std::string_view to_string(DerivedSpec::Kind kind) {
       return "transmission";
     case K::straightness:
       return "straightness";
+    case K::circularity:
+      return "circularity";
   }
   return "";
 }

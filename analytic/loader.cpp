@@ -1066,8 +1066,8 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   if (!array) return;
   const std::vector<std::string> objects = reference_objects(m);
   using K = DerivedSpec::Kind;
-  const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,  K::dead_points,
-                                K::toggles,  K::transmission, K::straightness};
+  const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,   K::dead_points,
+                                K::toggles,  K::transmission, K::straightness, K::circularity};
   std::vector<std::string> kind_names;
   for (const K k : kinds) kind_names.emplace_back(to_string(k));
   const Driver& d = m.driver();
@@ -1111,9 +1111,8 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
     if (!ok) continue;
     const bool reads_channel = spec.kind == K::extremes || spec.kind == K::stroke ||
                                spec.kind == K::time_ratio || spec.kind == K::dead_points;
-    const std::string valid_keys = spec.kind == K::straightness ? "point"
-                                   : reads_channel              ? "channel"
-                                                                : "range";
+    const bool reads_point = spec.kind == K::straightness || spec.kind == K::circularity;
+    const std::string valid_keys = reads_point ? "point" : reads_channel ? "channel" : "range";
     for (const char* key : {"channel", "point"})
       if (const toml::node* n = t.get(key); n && valid_keys != key) {
         r.error(r.at(n), fmt::format("[[derived]] quantity '{}' takes no '{}'", quantity, key));
@@ -1141,7 +1140,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
         ok = false;
       }
     }
-    if (spec.kind == K::straightness) {
+    if (reads_point) {
       spec.point = r.string(t, "point", "[[derived]]", true).value_or("");
       const auto points = m.named_points();
       if (!spec.point.empty() &&
@@ -1168,10 +1167,23 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
       const Scale scale = driver_scale(m);
       if (const auto v = r.numbers(*range, "[[derived]] 'range' ([lower, upper] driver values)",
                                    {scale, scale})) {
-        if ((*v)[0] < (*v)[1])
-          spec.range = std::make_pair((*v)[0], (*v)[1]);
-        else
+        const double unit = d.angular() ? m.units.angle : m.units.length;
+        const double turn = 2.0 * std::numbers::pi;
+        // A sweep over its own [driver] range holds no other driver values (a whole turn's
+        // or more is read modulo a turn).
+        const bool outside =
+            d.range && !(d.angular() && d.range->second - d.range->first >= turn) &&
+            ((*v)[0] < d.range->first - 1e-12 * unit || (*v)[1] > d.range->second + 1e-12 * unit);
+        if (!((*v)[0] < (*v)[1]))
           r.error(r.at(*range), "[[derived]] 'range' must be [lower, upper] with lower < upper");
+        else if (outside)
+          r.error(r.at(*range),
+                  fmt::format("[[derived]] 'range' [{:g}, {:g}] is outside the sweep, the "
+                              "[driver] range [{:g}, {:g}]",
+                              (*v)[0] / unit, (*v)[1] / unit, d.range->first / unit,
+                              d.range->second / unit));
+        else
+          spec.range = std::make_pair((*v)[0], (*v)[1]);
       }
     }
     if (ok) m.derived.push_back(spec);

@@ -240,11 +240,12 @@ struct DerivedSpec {
     toggles,       // the driver values of the sweep's toggles (limits of the assembling range)
     transmission,  // a four-bar's transmission angle mu.<C>: its extremes
     straightness,  // a point's path: its deviation from the minimum-zone line, and its extent
+    circularity,   // a point's path: its deviation from the minimum-zone circle, its radius, centre
   };
   std::string name;
   Kind kind = Kind::extremes;
   std::string channel;  // the channel it reads (straightness: none; transmission: mu.<C>)
-  std::string point;    // straightness: the point whose path it reads
+  std::string point;    // straightness, circularity: the point whose path it reads
   std::optional<std::pair<double, double>> range;  // a driver interval [rad or m]; none: the sweep
   SourceLocation where;
 };

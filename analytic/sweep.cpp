@@ -1032,8 +1032,10 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
 namespace {
 
 // Fills one sample per driver state, in order, by continuation from the assembled state: first
-// to the first sample, then from each sample to the next. Once the branch is lost (the chain
-// cannot close, or only another branch is near), later samples carry that status and zeros.
+// to the first sample, then from each sample to the next. Where the branch cannot be followed
+// (the chain does not close, or only another branch is near), the sample carries that status
+// and zeros, and so does every later one beyond that point the same way; a later sample back on
+// the near side is followed from there (a range that starts outside the assembling range).
 void sweep_values(const NewtonSolver& solver, KinematicState& state, const SolveReport& assembled,
                   const std::vector<DriverState>& drivers, double max_step, double small,
                   Trajectory& out) {
@@ -1042,26 +1044,31 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
   follower.start(assembled);
   SolveReport failure = assembled;
   bool lost = assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular;
+  // Where the branch stopped, and the way it was going (0: it has not).
+  double stopped_at = 0.0, stopped_way = 0.0;
   for (size_t i = 0; i < drivers.size(); ++i) {
     const int row = static_cast<int>(i);
-    if (!lost) {
-      const SolveReport r =
-          solver.polish(state, follower.advance_to(drivers[i].value, max_step, small));
+    const double target = drivers[i].value;
+    if (!lost && (target - stopped_at) * stopped_way <= 0.0) {
+      const double from = state.driver.value;
+      const SolveReport r = solver.polish(state, follower.advance_to(target, max_step, small));
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
-        if (r.status == PoseStatus::singular)
-          out.events.push_back({drivers[i].value, r.status, r.message});
+        if (r.status == PoseStatus::singular) out.events.push_back({target, r.status, r.message});
         record(state, r, drivers[i], out, row);
         continue;
       }
-      lost = true;
       failure = r;
       out.events.push_back({state.driver.value, r.status, r.message});
+      stopped_at = state.driver.value;
+      stopped_way = target > from ? 1.0 : -1.0;
     }
-    state.q.setZero();
-    state.qdot.setZero();
-    state.qddot.setZero();
-    state.driver = drivers[i];
-    solver.write_sample(state, failure, out, row);
+    // The flagged sample from a copy: the state stays where the branch stopped.
+    KinematicState flagged = state;
+    flagged.q.setZero();
+    flagged.qdot.setZero();
+    flagged.qddot.setZero();
+    flagged.driver = drivers[i];
+    solver.write_sample(flagged, failure, out, row);
   }
 }
 

@@ -156,8 +156,7 @@ void print_derived_exact(std::FILE* out, const Mechanism& m,
   fmt::print(out, "\n[[derived]] quantities (exact: located on the exact solution; file units)\n");
   for (const DerivedValue& v : exact) {
     const DerivedSpec& spec = *v.spec;
-    const std::string of =
-        spec.kind == DerivedSpec::Kind::straightness ? "point " + spec.point : spec.channel;
+    const std::string of = spec.point.empty() ? spec.channel : "point " + spec.point;
     fmt::print(out, "  {} ({}{}{})\n", spec.name, to_string(spec.kind), of.empty() ? "" : " of ",
                of);
     if (!v.reason.empty()) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <tuple>
 
 #include "analytic/derived.h"
 #include "analytic/loader.h"
@@ -216,6 +217,171 @@ range = ["atan(0.75)", 90]
   EXPECT_NEAR(std::sin(field(v, "flat.direction")), 0.0, 1e-6);  // horizontal
 }
 
+// A point of the crank-rocker's rocker (C, and E off its line) moves on a circle about the
+// ground pivot D = (0.10, 0): the minimum zone is that circle, its deviation round-off. The
+// rocker swings between the crank's two collinear positions with the coupler (AC = b + a and
+// b - a): the angle at D of the triangle A D C, cos = (d^2 + c^2 - AC^2) / (2 d c), gives the
+// path's extent about D.
+TEST(Derived, ARockersPointTracesItsCircleAboutThePivot) {
+  test::CrankRockerText text = test::crank_rocker(60.37);
+  text.moving.replace(text.moving.find("C = [0.08, 0]"), 13, "C = [0.08, 0], E = [0.05, 0.02]");
+  const Mechanism m = parse_mechanism(
+      text.text() +
+          "\n[[derived]]\nname = \"C\"\nquantity = \"circularity\"\npoint = \"C\"\n"
+          "\n[[derived]]\nname = \"E\"\nquantity = \"circularity\"\npoint = \"E\"\n",
+      "four_bar.toml");
+  const Trajectory t = sweep(m);
+  const double a = 0.04, b = 0.12, c = 0.08, d = 0.10;
+  const double swing = std::acos((d * d + c * c - (b + a) * (b + a)) / (2 * d * c)) -
+                       std::acos((d * d + c * c - (b - a) * (b - a)) / (2 * d * c));
+  // Exact: E, read off the rocker alone, to round-off; C, read off the coupler's pose, to the
+  // chain's closure (Newton's residual, about 1e-13 m here). From the samples alone (their
+  // parabolas' vertices, O(h^3) off the path): within 1e-7 m.
+  const std::vector<DerivedValue> v = exact_of(m, t), sampled = derived_sampled(m, t);
+  for (const auto& [values, on_c, on_e] :
+       {std::tuple{&v, 1e-12, 1e-15}, std::tuple{&sampled, 1e-7, 1e-7}}) {
+    for (const DerivedValue& value : *values) EXPECT_EQ(value.reason, "") << on_c;
+    EXPECT_LE(field(*values, "C"), on_c);
+    EXPECT_NEAR(field(*values, "C.radius"), c, on_c);
+    EXPECT_NEAR(field(*values, "C.centre_x"), d, 10 * on_c);
+    EXPECT_NEAR(field(*values, "C.centre_y"), 0.0, 10 * on_c);
+    EXPECT_LE(field(*values, "E"), on_e);
+    EXPECT_NEAR(field(*values, "E.radius"), std::hypot(0.05, 0.02), on_e);
+    EXPECT_NEAR(field(*values, "E.centre_x"), d, 10 * on_e);
+    EXPECT_NEAR(field(*values, "E.centre_y"), 0.0, 10 * on_e);
+  }
+  // The swing is located on the exact path; the samples' parabola is off by O(h^3).
+  EXPECT_NEAR(field(v, "C.extent"), swing, 1e-11);
+  EXPECT_NEAR(field(v, "E.extent"), swing, 1e-11);
+  EXPECT_GT(std::abs(field(sampled, "C.extent") - swing), 1e-11);
+}
+
+// An elliptic trammel: a rod AB of length 2 with A on the x axis and B on the y axis; its point
+// P, 0.75 from A, runs on the ellipse x = 1.25 cos u, y = 0.75 sin u (a = 1.25, b = 0.75) once
+// per turn of the rod. The minimum-zone annulus is centred on the ellipse's centre, with outer
+// radius a and inner b: its contacts alternate outer (+-a, 0), inner (0, +-b), outer, inner around
+// the centre, four alternating extremes for the three parameters (centre, radius) of the fit, which
+// is Chebyshev's alternation criterion for the best (minimax) fit. So the deviation is
+// (a - b) / 2, the radius (a + b) / 2, and the path goes once around the centre. (With a < 3 b
+// the annulus, a - b wide, is narrower than the ellipse's narrowest strip, 2 b wide.)
+TEST(Derived, AnEllipsesMinimumZoneIsCentredWithHalfWidthHalfTheAxesDifference) {
+  const std::string text = R"toml(name = "Elliptic trammel"
+[units]
+length = "m"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0] }
+lines = { x_axis = { through = "O", angle = 0 }, y_axis = { through = "O", angle = 90 } }
+[[link]]
+name = "rod"
+points = { A = [0, 0], B = [2, 0], P = [0.75, 0] }
+pose = ["2*cos(59.63)", 0, 120.37]
+[[link]]
+name = "a_block"
+points = { A = [0, 0] }
+pose = ["2*cos(59.63)", 0, 0]
+[[link]]
+name = "b_block"
+points = { B = [0, 0] }
+pose = [0, "2*sin(59.63)", 0]
+[[joint]]
+type = "revolute"
+links = ["a_block", "rod"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["b_block", "rod"]
+point = "B"
+[[joint]]
+type = "prismatic"
+name = "a_slide"
+guide = "ground"
+line = "x_axis"
+slider = "a_block"
+point = "A"
+[[joint]]
+type = "prismatic"
+name = "b_slide"
+guide = "ground"
+line = "y_axis"
+slider = "b_block"
+point = "B"
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 120.37
+speed = 1
+[[derived]]
+name = "P"
+quantity = "circularity"
+point = "P"
+)toml";
+  const Mechanism m = parse_mechanism(text, "trammel.toml");
+  const Trajectory t = sweep(m);
+  const std::vector<DerivedValue> v = exact_of(m, t);
+  const double a = 1.25, b = 0.75;
+  EXPECT_NEAR(field(v, "P"), 0.5 * (a - b), 1e-12);
+  EXPECT_NEAR(field(v, "P.radius"), 0.5 * (a + b), 1e-12);
+  EXPECT_NEAR(field(v, "P.centre_x"), 0.0, 1e-12);
+  EXPECT_NEAR(field(v, "P.centre_y"), 0.0, 1e-12);
+  EXPECT_NEAR(field(v, "P.extent"), 2 * kPi, 1e-12);
+  // From the samples alone (1 degree, none on a contact): close, but an estimate.
+  const std::vector<DerivedValue> s = derived_sampled(m, t);
+  EXPECT_NEAR(field(s, "P"), 0.5 * (a - b), 1e-5);
+  EXPECT_GT(std::abs(field(s, "P") - 0.5 * (a - b)), 1e-14);
+}
+
+// A straight path (the slider's point) has no best-fit circle: no value, with the reason.
+TEST(Derived, AStraightPathsCircleIsNoneWithItsReason) {
+  const std::string text = test::source_text("mechanisms/slider_crank_offset.toml") +
+                           "\n[[derived]]\nname = \"C\"\nquantity = \"circularity\"\n"
+                           "point = \"C\"\n";
+  const Mechanism m = parse_mechanism(text, "slider_crank_offset.toml");
+  const Trajectory t = sweep(m);
+  for (const std::vector<DerivedValue>& values : {exact_of(m, t), derived_sampled(m, t)}) {
+    ASSERT_EQ(values.size(), 1u);
+    EXPECT_NE(values[0].reason.find("no finite radius"), std::string::npos) << values[0].reason;
+    for (const DerivedField& f : values[0].fields) EXPECT_FALSE(f.value.has_value()) << f.name;
+  }
+}
+
+// The crank-rocker's rocker angle (a = 0.04, b = 0.12, c = 0.08, d = 0.10): its extremes where
+// crank and coupler lie in line, psi = 180 deg - angle ADC with cos ADC = (d^2 + c^2 - AC^2) /
+// (2 d c), AC = b + a (least) and b - a (most); the crank then points at C (extended) or away
+// from it (folded).
+TEST(Derived, CrankRockerRockerExtremesAreTheClosedForm) {
+  const std::string text =
+      test::crank_rocker(60.37).text() +
+      "\n[[derived]]\nname = \"rock\"\nquantity = \"extremes\"\nchannel = \"angle.rocker\"\n";
+  const Mechanism m = parse_mechanism(text, "four_bar.toml");
+  const std::vector<DerivedValue> v = exact_of(m, sweep(m));
+  const double a = 0.04, b = 0.12, c = 0.08, d = 0.10;
+  auto rocker = [&](double ac) { return kPi - std::acos((d * d + c * c - ac * ac) / (2 * d * c)); };
+  auto crank_at = [&](double psi) { return std::atan2(c * std::sin(psi), d + c * std::cos(psi)); };
+  EXPECT_NEAR(field(v, "rock.min"), rocker(a + b), 1e-12);
+  EXPECT_NEAR(field(v, "rock.max"), rocker(b - a), 1e-12);
+  EXPECT_NEAR(turn(field(v, "rock.at_min")), turn(crank_at(rocker(a + b))), 1e-9);
+  EXPECT_NEAR(turn(field(v, "rock.at_max")), turn(crank_at(rocker(b - a)) + kPi), 1e-9);
+}
+
+// The non-Grashof four-bar of mechanisms/singular/ (a = 40, b = 30, c = 35, d = 60 mm) reaches
+// its toggles where coupler and rocker lie in line: cos theta = (a^2 + d^2 - (b + c)^2) / (2 a d),
+// at +-theta.
+TEST(Derived, NonGrashofTogglesAreTheClosedForm) {
+  const std::string text = test::source_text("mechanisms/singular/fourbar_non_grashof.toml") +
+                           "\n[[derived]]\nname = \"T\"\nquantity = \"toggles\"\n";
+  const Mechanism m = parse_mechanism(text, "fourbar_non_grashof.toml");
+  const std::vector<DerivedValue> v = exact_of(m, sweep(m));
+  const double a = 40, b = 30, c = 35, d = 60;
+  const double theta = std::acos((a * a + d * d - (b + c) * (b + c)) / (2 * a * d));
+  const double t1 = field(v, "T.toggle1"), t2 = field(v, "T.toggle2");
+  EXPECT_NEAR(std::min(t1, t2), -theta, 1e-10);
+  EXPECT_NEAR(std::max(t1, t2), theta, 1e-10);
+}
+
 // Every bundled definition's [expect.derived] (each derived in closed form beside it).
 TEST(Derived, BundledExpectationsHold) {
   std::vector<std::string> files = test::bundled_files(true, false);
@@ -275,7 +441,7 @@ TEST(Derived, WrongInputIsLocated) {
   EXPECT_EQ(error_of(lines),
             fmt::format("m.toml:{}:12: error: [[derived]]: unknown quantity 'strok' (valid: "
                         "extremes, stroke, time_ratio, dead_points, toggles, transmission, "
-                        "straightness)",
+                        "straightness, circularity)",
                         test::line_of(lines, "quantity = \"strok\"")));
   const std::string channel =
       base + "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\nchannel = \"s.nothing\"\n";
@@ -296,6 +462,31 @@ TEST(Derived, WrongInputIsLocated) {
   const std::string transmission =
       base + "\n[[derived]]\nname = \"T\"\nquantity = \"transmission\"\n";
   EXPECT_NE(error_of(transmission).find("is not one"), std::string::npos) << error_of(transmission);
+  // A circle of no point, of a point that does not exist, over an interval outside the sweep.
+  const std::string no_point = base + "\n[[derived]]\nname = \"R\"\nquantity = \"circularity\"\n";
+  EXPECT_NE(error_of(no_point).find(fmt::format("m.toml:{}:1: error: [[derived]]",
+                                                test::line_of(no_point, "[[derived]]"))),
+            std::string::npos)
+      << error_of(no_point);
+  EXPECT_NE(error_of(no_point).find("'point'"), std::string::npos) << error_of(no_point);
+  const std::string nowhere =
+      base + "\n[[derived]]\nname = \"R\"\nquantity = \"circularity\"\npoint = \"Q\"\n";
+  EXPECT_NE(error_of(nowhere).find(fmt::format("m.toml:{}:9: error: [[derived]]: no point 'Q' "
+                                               "(points: ",
+                                               test::line_of(nowhere, "point = \"Q\""))),
+            std::string::npos)
+      << error_of(nowhere);
+  std::string ranged = base;
+  ranged.replace(ranged.find("start = 0\n"), 10, "start = 0\nrange = [0, 120]\n");
+  ranged +=
+      "\n[[derived]]\nname = \"R\"\nquantity = \"circularity\"\npoint = \"B\"\n"
+      "range = [100, 150]\n";
+  EXPECT_NE(error_of(ranged).find(fmt::format("m.toml:{}:9: error: [[derived]] 'range' [100, "
+                                              "150] is outside the sweep, the [driver] range "
+                                              "[0, 120]",
+                                              test::line_of(ranged, "range = [100, 150]"))),
+            std::string::npos)
+      << error_of(ranged);
   const std::string expect = base +
                              "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\nchannel = "
                              "\"s.slider\"\n[expect.derived]\n\"S.middle\" = 3\n";

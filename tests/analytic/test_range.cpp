@@ -87,5 +87,38 @@ TEST(Range, ANegativeSpeedSweepsTheRangeDownward) {
   EXPECT_NEAR(degrees[3], 10.5, 1e-12);
 }
 
+// A range that starts outside the assembling range. The crank-rocker driven at its rocker DC
+// turns back where crank and coupler lie in line, the rocker at psi = 180 deg - angle ADC with
+// cos ADC = (d^2 + c^2 - (a + b)^2) / (2 d c): 54.90 deg. Over [40, 100] the samples below that
+// are flagged and the ones above solved, equal to the dyads' closed form (every sample was
+// flagged: the continuation from the start to 40 deg stopped at the limit and gave up).
+TEST(Range, ARangeStartingOutsideTheAssemblingRangeSolvesTheSamplesInside) {
+  std::string text = test::source_text("mechanisms/fourbar_crank_rocker.toml");
+  const std::string driver = "joint = \"A\"\nto = \"B\"\nstart = 0\n";
+  text.replace(text.find(driver), driver.size(),
+               "joint = \"D\"\nto = \"C\"\nstart = 62.72\nrange = [40, 100]\n");
+  const Mechanism m = parse_mechanism(text, "rocker_driven.toml");
+  const double a = 0.04, b = 0.12, c = 0.08, d = 0.10;
+  const double limit =
+      std::numbers::pi - std::acos((d * d + c * c - (a + b) * (a + b)) / (2 * d * c));
+  const Trajectory t = sweep(m);
+  const Trajectory closed = dyad_sweep(m, t);
+  int solved = 0, flagged = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    const PoseStatus s = t.status[static_cast<size_t>(k)];
+    if (t.driver(k) < limit - 1e-9) {
+      EXPECT_EQ(s, PoseStatus::cannot_assemble) << t.driver(k) / kDeg;
+      ++flagged;
+      continue;
+    }
+    ASSERT_TRUE(has_position(s)) << t.driver(k) / kDeg << " " << to_string(s);
+    for (int l = 0; l < t.angle.cols(); ++l)
+      EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << t.driver(k) / kDeg;
+    ++solved;
+  }
+  EXPECT_EQ(flagged, 16);  // 40, 40.72, ..., 54.72
+  EXPECT_EQ(solved, 46);   // 55.72, ..., 99.72 and 100
+}
+
 }  // namespace
 }  // namespace crosslink
