@@ -71,6 +71,16 @@ void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& j
       if (b >= 0) jac(row, 3 * b + 2) += 1.0;
       if (a >= 0) jac(row, 3 * a + 2) -= 1.0;
       return;
+    case Kind::gear:
+      if (a >= 0) jac(row, 3 * a + 2) = 1.0;
+      if (b >= 0) jac(row, 3 * b + 2) = c.ratio;
+      if (c.c >= 0) jac(row, 3 * c.c + 2) = -(1.0 + c.ratio);
+      return;
+    case Kind::rack_pinion:
+      projection_gradient(frames, a, c.point_a, c.axis, b, c.point_b, jac, row);
+      if (c.c >= 0) jac(row, 3 * c.c + 2) = -c.ratio;
+      if (a >= 0) jac(row, 3 * a + 2) += c.ratio;
+      return;
   }
 }
 
@@ -105,6 +115,23 @@ ConstraintRows driver_rows(const Mechanism& m, const Driver& d) {
 
 ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
   ConstraintRows c;
+  c.ratio = j.ratio;
+  c.angle = j.phase;
+  if (j.type == JointType::gear) {
+    c.kind = Kind::gear;
+    c.a = m.moving_index(j.link_a);
+    c.b = m.moving_index(j.link_b);
+    c.c = m.moving_index(j.carrier);
+    return c;
+  }
+  if (j.type == JointType::rack_pinion) {  // the slide's travel, as a slider driver reads it
+    c = driver_rows(m, Driver{.type = DriverType::slider, .joint = j.slide});
+    c.kind = Kind::rack_pinion;
+    c.c = m.moving_index(j.link_a);
+    c.ratio = j.ratio;
+    c.angle = j.phase;
+    return c;
+  }
   c.a = m.moving_index(j.link_a);
   c.b = m.moving_index(j.link_b);
   c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
@@ -124,9 +151,18 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
 }  // namespace
 
 double ConstraintRows::value(const LinkFrames& frames) const {
-  if (kind == Kind::angle_driver)
-    return angle_of(frames.q, b) + angle - angle_of(frames.q, a);  // linear in q
-  return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
+  const Eigen::VectorXd& q = frames.q;
+  switch (kind) {
+    case Kind::angle_driver:
+      return angle_of(q, b) + angle - angle_of(q, a);  // linear in q
+    case Kind::gear:
+      return angle_of(q, a) - angle_of(q, c) + ratio * (angle_of(q, b) - angle_of(q, c)) - angle;
+    case Kind::rack_pinion:
+      return project(frames.of(a), point_a, axis, frames.of(b), point_b).value -
+             ratio * (angle_of(q, c) - angle_of(q, a)) - angle;
+    default:
+      return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
+  }
 }
 
 void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
@@ -145,6 +181,8 @@ void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) co
     case Kind::pin_in_slot:
     case Kind::angle_driver:
     case Kind::slider_driver:
+    case Kind::gear:
+    case Kind::rack_pinion:
       phi(first_row) = value(frames);
       return;
   }
@@ -161,11 +199,13 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
     case Kind::prismatic:
     case Kind::pin_in_slot:
     case Kind::slider_driver:
+    case Kind::rack_pinion:  // its angle term is linear in q
       out(first_row) =
           project(frames.of(a, &qdot), point_a, axis, frames.of(b, &qdot), point_b).accel;
       if (kind == Kind::prismatic) out(first_row + 1) = 0.0;  // an angle is linear in q
       return;
     case Kind::angle_driver:
+    case Kind::gear:
       out(first_row) = 0.0;
       return;
   }

@@ -13,7 +13,8 @@
 // place a joint type's equations are written.
 //
 // Rows: the joints in Mechanism::joints order (revolute 2, prismatic 2: its line then its
-// relative angle, pin-in-slot 1: its line), then one row per driver in Mechanism::drivers order.
+// relative angle, pin-in-slot 1: its line, gear pair and rack 1: the rolling of the pitch
+// circles), then one row per driver in Mechanism::drivers order.
 #pragma once
 
 #include <Eigen/Core>
@@ -53,23 +54,29 @@ struct ConstraintRows {
     pin_in_slot,    // n_a . (P_b - O_a) = 0                                   (1 row)
     angle_driver,   // theta_b + angle - theta_a - d(t) = 0                    (1 row)
     slider_driver,  // u_a . (P_b - O_a) - d(t) = 0                            (1 row)
+    gear,           // theta_a - theta_c + ratio (theta_b - theta_c) - phase = 0   (1 row)
+    rack_pinion,    // u_a . (P_b - O_a) - ratio (theta_c - theta_a) - phase = 0  (1 row)
   };
   Kind kind = Kind::revolute;
   int first_row = 0;
   int a = -1, b = -1;  // moving index of the first link (the guide) and the second (-1: ground)
+  // Gear pairs: the third link: a gear pair's carrier, a rack's pinion (its guide is a).
+  int c = -1;
+  double ratio = 0.0;  // gear pairs: the signed ratio (Joint::ratio)
   // Local coordinates: revolute, the points that coincide on a and on b; slides, the line's
   // origin on a and the pin on b.
   Eigen::Vector2d point_a = Eigen::Vector2d::Zero(), point_b = Eigen::Vector2d::Zero();
   // Slides: the axis fixed in a that the pin's offset is projected on: the line's normal n for a
   // joint's line row, its direction u for a slider driver.
   Eigen::Vector2d axis = Eigen::Vector2d::Zero();
-  // Prismatic: theta_b - theta_a held [rad]; angle driver: the measured arm's angle in b's frame.
+  // Prismatic: theta_b - theta_a held [rad]; angle driver: the measured arm's angle in b's frame;
+  // gear pairs: the phase [rad or m].
   double angle = 0.0;
 
   int rows() const { return kind == Kind::revolute || kind == Kind::prismatic ? 2 : 1; }
   // Whether row `r` of the block (0-based) is an angle equation [rad] rather than a length [m].
   bool angle_row(int r) const {
-    return (kind == Kind::prismatic && r == 1) || kind == Kind::angle_driver;
+    return (kind == Kind::prismatic && r == 1) || kind == Kind::angle_driver || kind == Kind::gear;
   }
   // Writes the block's rows of Phi at the frames (a driver's row: its measured value, d(t) not
   // taken off).

@@ -172,6 +172,14 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
 
 Decomposition decompose(const Mechanism& m) {
   Decomposition out;
+  for (const Joint& j : m.joints)
+    if (j.is_gearing()) {
+      out.reason = fmt::format(
+          "{} '{}' couples two rotations (or a rotation and a travel), which no dyad places: "
+          "left to Newton",
+          j.type == JointType::gear ? "gear pair" : "rack and pinion", j.name);
+      return out;
+    }
   const int n = static_cast<int>(m.links.size());
   std::vector<char> placed(static_cast<size_t>(n), 0), used(m.joints.size(), 0);
   placed[static_cast<size_t>(m.ground())] = 1;

@@ -185,6 +185,12 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
     InstantCentre& c = out.centres[static_cast<size_t>(pair_index(n, jt.link_a, jt.link_b))];
     const BodyMotion a = motion_of(m, jt.link_a, q, nullptr);
     const BodyMotion b = motion_of(m, jt.link_b, q, nullptr);
+    if (jt.is_gearing()) {  // rolling without slip: the pitch point has no relative velocity
+      c.found = InstantCentre::Found::primary;
+      c.point << motion_of(m, jt.carrier, q, nullptr).position(pitch_point(m, jt)), 1.0;
+      c.how = fmt::format("primary: {} {}, at the pitch point", to_string(jt.type), jt.name);
+      continue;
+    }
     if (jt.type == JointType::revolute) {
       c.found = InstantCentre::Found::primary;
       c.point << a.position(m.links[jt.link_a].points[jt.point_a].local), 1.0;

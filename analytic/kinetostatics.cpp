@@ -2,7 +2,9 @@
 
 #include "analytic/planar.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace crosslink {
 namespace {
@@ -77,8 +79,100 @@ void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::Vecto
   }
 }
 
+namespace {
+// The revolute joints at the point named `centre` from `link` to `carrier`, breadth first; each
+// signed so that +1 adds a force passed from the gear's side to the carrier's to "the force of
+// its first link on its second".
+std::vector<std::pair<int, double>> centre_path(const Mechanism& m, int link, int carrier,
+                                                const std::string& centre) {
+  std::vector<int> via(m.links.size(), -2);  // the joint a link was reached by
+  std::vector<int> queue = {link};
+  via[static_cast<size_t>(link)] = -1;
+  for (size_t next = 0; next < queue.size(); ++next) {
+    const int x = queue[next];
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      const Joint& j = m.joints[ji];
+      if (j.type != JointType::revolute || m.links[j.link_a].points[j.point_a].name != centre)
+        continue;
+      const int y = j.link_a == x ? j.link_b : j.link_b == x ? j.link_a : -1;
+      if (y < 0 || via[static_cast<size_t>(y)] != -2) continue;
+      via[static_cast<size_t>(y)] = static_cast<int>(ji);
+      queue.push_back(y);
+    }
+  }
+  std::vector<std::pair<int, double>> path;
+  for (int y = carrier; y != link && via[static_cast<size_t>(y)] >= 0;) {
+    const Joint& j = m.joints[static_cast<size_t>(via[static_cast<size_t>(y)])];
+    const int x = j.link_a == y ? j.link_b : j.link_a;  // one step nearer the gear
+    path.emplace_back(via[static_cast<size_t>(y)], j.link_a == x ? 1.0 : -1.0);
+    y = x;
+  }
+  return path;
+}
+}  // namespace
+
 Kinetostatics::Kinetostatics(const NewtonSolver& solver)
-    : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {}
+    : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {
+  const Mechanism& m = solver.mechanism();
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (!j.is_gearing()) continue;
+    const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
+    Gearing g;
+    g.joint = static_cast<int>(ji);
+    g.path_a = centre_path(m, j.link_a, j.carrier, carrier.points[j.centre_a].name);
+    if (j.type == JointType::gear)
+      g.path_b = centre_path(m, j.link_b, j.carrier, carrier.points[j.centre_b].name);
+    else
+      g.slide = static_cast<int>(std::find(slide_joints_.begin(), slide_joints_.end(), j.slide) -
+                                 slide_joints_.begin());
+    gearings_.push_back(std::move(g));
+  }
+}
+
+void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
+                                    ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(g.joint)];
+  const int row = solver_.layout().joint(g.joint).first_row;
+  const BodyMotion carrier = motion(m, j.carrier, state);
+  const Link& c = m.links[static_cast<size_t>(j.carrier)];
+  const Eigen::Vector2d pitch = carrier.position(pitch_point(m, j));
+  // The couple the row puts on one moving gear (the first unless it is the ground), the tooth
+  // force on that gear whose moment about its centre it is, and the separating force.
+  const bool first = m.moving_index(j.link_a) >= 0;
+  const int k = m.moving_index(first ? j.link_a : j.link_b);
+  const double radius = first ? j.radius_a : j.radius_b;
+  const double couple = -solver_.jacobian_entry(state, row, 3 * k + 2) * out.lambda(row);
+  const Eigen::Vector2d arm =
+      pitch -
+      carrier.position(c.points[static_cast<size_t>(first ? j.centre_a : j.centre_b)].local);
+  const double tangential = couple / radius;
+  // A ring (the larger gear of an internal pair) is pushed outward, every other gear inward.
+  const bool ring =
+      j.type == JointType::gear && j.ratio < 0.0 && radius > (first ? j.radius_b : j.radius_a);
+  const Eigen::Vector2d tooth =
+      (tangential * perp(arm) +
+       std::abs(tangential) * std::tan(j.pressure_angle) * (ring ? arm : Eigen::Vector2d(-arm))) /
+      radius;
+  const Eigen::Vector2d on_a = first ? tooth : Eigen::Vector2d(-tooth);
+  out.joint_force[static_cast<size_t>(g.joint)] = -on_a;  // of the first gear on the second
+  for (const auto& [ji, sign] : g.path_a) out.joint_force[static_cast<size_t>(ji)] += sign * on_a;
+  for (const auto& [ji, sign] : g.path_b) out.joint_force[static_cast<size_t>(ji)] -= sign * on_a;
+  if (g.slide < 0) return;
+  // The rack: its row pushed it along the line at its slide's point; the teeth push at the pitch
+  // point. The slide carries the normal part and the couple of the difference.
+  const Joint& slide = m.joints[static_cast<size_t>(j.slide)];
+  const BodyMotion guide = motion(m, slide.link_a, state), rack = motion(m, slide.link_b, state);
+  const Eigen::Vector2d normal =
+      guide.turn(perp(m.links[slide.link_a].lines[static_cast<size_t>(slide.line)].direction));
+  const Eigen::Vector2d on_rack = -on_a;
+  const Eigen::Vector2d point =
+      rack.position(m.links[slide.link_b].points[static_cast<size_t>(slide.point_b)].local);
+  out.joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(normal) * normal;
+  out.normal[static_cast<size_t>(g.slide)] -= on_rack.dot(normal);
+  out.moment[static_cast<size_t>(g.slide)] -= cross(pitch - point, on_rack);
+}
 
 ForceSample Kinetostatics::make_sample() const {
   const Mechanism& m = solver_.mechanism();
@@ -122,6 +216,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   size_t slide = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
+    if (j.is_gearing()) continue;  // add_tooth_force, once the others' reactions are known
     const ConstraintRows& rows_of = layout.joint(static_cast<int>(ji));
     const int row = rows_of.first_row, rows = rows_of.rows();
     // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
@@ -151,6 +246,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
         from_b ? g(2) - cross(point - b.r, on_b) : -(g(2) - cross(point - a.r, -on_b));
     ++slide;
   }
+  for (const Gearing& g : gearings_) add_tooth_force(g, state, out);
 
   // On the ground: applied gravity and loads less the rate of the moving links' momentum.
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();

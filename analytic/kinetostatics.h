@@ -17,6 +17,14 @@
 // kinetic energy plus that of the potential energy of gravity and springs, plus the power
 // dissipated in dampers, minus the power of the loads; divided by the driver's rate.
 //
+// Gear pairs and racks. Their rows couple rotations (and a travel), so the multiplier of such a
+// row acts on its links as pure couples, whereas the teeth push at the pitch point: a force whose
+// moment about each gear's centre is that couple, plus the separating force of the pressure
+// angle, which the centres' pivots carry. Both systems hold the same motion; the reactions of the
+// joints between each gear and its carrier (and of a rack's slide) take the difference: a joint
+// on the path from a gear to its carrier at its centre passes the tooth force on. The mesh
+// force, of the first gear on the second at the pitch point, is the gear pair's joint force.
+//
 // Shaking force and moment: what the mechanism exerts on the ground (through its joints, the
 // driver and springs anchored on it) is the applied gravity and loads minus the rate of change of
 // the moving links' momentum (linear, and angular about the world origin).
@@ -89,8 +97,20 @@ class Kinetostatics {
                           bool inertia = true) const;
 
  private:
+  // What a force on a gear at its centre passes through: the revolute joints from the gear to its
+  // carrier at the centre, each with the sign it adds that force to its joint force with.
+  using CentrePath = std::vector<std::pair<int, double>>;
+  struct Gearing {
+    int joint = -1;
+    CentrePath path_a, path_b;  // path_b: a gear pair's second gear
+    int slide = -1;             // a rack's slide, its index in slide_joints_
+  };
+  // The tooth force at the multipliers, and what it changes in the other joints' reactions.
+  void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
+
   const NewtonSolver& solver_;
   std::vector<int> slide_joints_;
+  std::vector<Gearing> gearings_;
 };
 
 }  // namespace crosslink

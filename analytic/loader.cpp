@@ -699,11 +699,224 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     }
     return joint;
   }
+  if (type == "gear" || type == "rack_pinion") {  // completed by read_gearing
+    joint.type = type == "gear" ? JointType::gear : JointType::rack_pinion;
+    return joint;
+  }
   r.error(t.get("type") ? r.at(t.get("type")) : joint.where,
           fmt::format("{}: unknown joint type '{}' (valid types: revolute, prismatic, "
-                      "pin_in_slot)",
+                      "pin_in_slot, gear, rack_pinion)",
                       what, type));
   return joint;
+}
+
+// A link's frame in the world as drawn (the origin where no pose is given).
+Eigen::Vector3d drawn_pose(const Link& link) {
+  return link.pose.value_or(Eigen::Vector3d::Zero());
+}
+Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local) {
+  const Eigen::Vector3d p = drawn_pose(link);
+  return p.head<2>() + Eigen::Rotation2Dd(p(2)) * local;
+}
+
+// The point of the carrier that gear `gear` turns about: the one point name the two links share
+// (one name is one place, joined by revolutes: check_structure). -1, reported, when there is none
+// or more than one.
+int gear_centre(Reader& r, const Mechanism& m, int gear, int carrier, const toml::node* at,
+                std::string_view what) {
+  std::vector<int> shared;
+  for (const Point& p : m.links[gear].points)
+    if (const int c = m.links[carrier].find_point(p.name); c >= 0) shared.push_back(c);
+  if (shared.size() == 1) return shared.front();
+  std::vector<std::string> names;
+  for (int c : shared) names.push_back(m.links[carrier].points[c].name);
+  r.error(r.at(at),
+          shared.empty()
+              ? fmt::format("{}: '{}' turns about no point of its carrier '{}' (a gear turns "
+                            "about a point of the link both centres are fixed on: give the two "
+                            "links that point's name, joined by a revolute)",
+                            what, m.links[gear].name, m.links[carrier].name)
+              : fmt::format("{}: '{}' shares {} points with its carrier '{}' ({}): a gear turns "
+                            "about one",
+                            what, m.links[gear].name, shared.size(), m.links[carrier].name,
+                            join(names)));
+  return -1;
+}
+
+// A gear pair's or a rack and pinion's links, centres, pitch radii, ratio and phase
+// (docs/mechanism-format.md, "Gear pairs"), once every joint is read: a rack names its slide.
+void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
+  Joint& joint = m.joints[static_cast<size_t>(index)];
+  const bool gear = joint.type == JointType::gear;
+  const std::string what = fmt::format("joint #{} ({})", index + 1, to_string(joint.type));
+  const Scale length = length_scale(m.units), angle = angle_scale(m.units);
+  joint.pressure_angle = 20.0 * std::numbers::pi / 180.0;  // ISO 53's standard involute
+  if (const auto p = r.number(t, "pressure_angle", what, false, angle)) {
+    if (!(*p >= 0.0 && *p < 0.5 * std::numbers::pi))
+      r.error(r.at(t.get("pressure_angle")),
+              fmt::format("{}: 'pressure_angle' must be from 0 to less than 90 degrees", what));
+    joint.pressure_angle = *p;
+  }
+  const std::optional<double> phase = r.number(t, "phase", what, false, gear ? angle : length);
+  if (gear) {
+    r.known_keys(
+        t, what,
+        {"type", "name", "gears", "carrier", "teeth", "radii", "mesh", "phase", "pressure_angle"});
+    const toml::node* gears = t.get("gears");
+    const auto* array = gears ? gears->as_array() : nullptr;
+    if (!array || array->size() != 2 || !(*array)[0].is_string() || !(*array)[1].is_string()) {
+      r.error(gears ? r.at(*gears) : joint.where,
+              fmt::format("{} needs 'gears' = [\"first\", \"second\"] (the two gear links)", what));
+      return;
+    }
+    int* ends[2] = {&joint.link_a, &joint.link_b};
+    for (size_t e = 0; e < 2; ++e) {
+      const std::string name = *(*array)[e].value<std::string>();
+      *ends[e] = m.find_link(name);
+      if (*ends[e] < 0)
+        r.error(r.at((*array)[e]), fmt::format("{}: unknown link '{}' (valid links: {})", what,
+                                               name, join(link_names(m))));
+    }
+    joint.carrier = t.get("carrier") ? resolve_link(r, m, t, "carrier", what) : m.ground();
+    if (joint.link_a < 0 || joint.link_b < 0 || joint.carrier < 0) return;
+    joint.name = r.string(t, "name", what, false)
+                     .value_or(m.links[joint.link_a].name + "/" + m.links[joint.link_b].name);
+    if (joint.link_a == joint.link_b || joint.link_a == joint.carrier ||
+        joint.link_b == joint.carrier) {
+      r.error(r.at(*gears), fmt::format("{}: the two gears and the carrier ('{}') must be three "
+                                        "different links",
+                                        what, m.links[joint.carrier].name));
+      return;
+    }
+    const std::optional<std::string> mesh = r.string(t, "mesh", what, false);
+    if (mesh && *mesh != "external" && *mesh != "internal")
+      r.error(r.at(t.get("mesh")),
+              fmt::format("{}: 'mesh' is \"external\" or \"internal\", not '{}'", what, *mesh));
+    const bool internal = mesh.value_or("external") == "internal";
+    joint.centre_a = gear_centre(r, m, joint.link_a, joint.carrier, gears, what);
+    joint.centre_b = gear_centre(r, m, joint.link_b, joint.carrier, gears, what);
+    if (joint.centre_a < 0 || joint.centre_b < 0) return;
+    const Link& carrier = m.links[joint.carrier];
+    const double d =
+        (carrier.points[joint.centre_b].local - carrier.points[joint.centre_a].local).norm();
+    const toml::node* teeth = t.get("teeth");
+    const toml::node* radii = t.get("radii");
+    if ((teeth != nullptr) == (radii != nullptr)) {
+      r.error(teeth ? r.at(*teeth) : joint.where,
+              fmt::format("{} needs exactly one of 'teeth' = [z1, z2] or 'radii' = [r1, r2] (the "
+                          "pitch radii)",
+                          what));
+      return;
+    }
+    if (teeth) {
+      const auto z = r.numbers(*teeth, fmt::format("'teeth' in {}", what),
+                               {Scale{1.0, "", 1e6}, Scale{1.0, "", 1e6}});
+      if (!z) return;
+      if (!((*z)[0] >= 1 && (*z)[1] >= 1 && std::floor((*z)[0]) == (*z)[0] &&
+            std::floor((*z)[1]) == (*z)[1])) {
+        r.error(r.at(*teeth), fmt::format("{}: 'teeth' are two whole numbers of at least 1", what));
+        return;
+      }
+      // The pitch circles roll on each other: their radii are in the teeth's ratio and add up
+      // to the centre distance (external), or differ by it (internal).
+      const double sum = internal ? std::abs((*z)[1] - (*z)[0]) : (*z)[0] + (*z)[1];
+      if (sum == 0.0 || d == 0.0) {
+        r.error(r.at(*teeth),
+                fmt::format("{}: an internal pair needs a ring with more teeth than its pinion "
+                            "and centres apart",
+                            what));
+        return;
+      }
+      joint.radius_a = d * (*z)[0] / sum;
+      joint.radius_b = d * (*z)[1] / sum;
+    } else {
+      const auto rr = r.numbers(*radii, fmt::format("'radii' in {}", what), {length, length});
+      if (!rr) return;
+      joint.radius_a = (*rr)[0];
+      joint.radius_b = (*rr)[1];
+      const double need =
+          internal ? std::abs(joint.radius_b - joint.radius_a) : joint.radius_a + joint.radius_b;
+      if (!(joint.radius_a > 0.0 && joint.radius_b > 0.0) ||
+          std::abs(need - d) > 1e-9 * std::max(d, need)) {
+        r.error(
+            r.at(*radii),
+            fmt::format("{}: pitch circles of radii {:g} and {:g} {} mesh {} {:g} {} apart; "
+                        "the centres '{}' and '{}' on '{}' are {:g} {} apart",
+                        what, joint.radius_a / m.units.length, joint.radius_b / m.units.length,
+                        m.units.length_name, internal ? "internally" : "externally",
+                        need / m.units.length, m.units.length_name,
+                        carrier.points[joint.centre_a].name, carrier.points[joint.centre_b].name,
+                        carrier.name, d / m.units.length, m.units.length_name));
+        return;
+      }
+    }
+    joint.ratio = (internal ? -1.0 : 1.0) * joint.radius_b / joint.radius_a;
+    // The gears mesh as drawn (0 where no pose is given), as a prismatic keeps its drawn angle.
+    auto turned = [&](int l) { return drawn_pose(m.links[l])(2) - drawn_pose(carrier)(2); };
+    joint.phase = phase.value_or(turned(joint.link_a) + joint.ratio * turned(joint.link_b));
+    return;
+  }
+
+  r.known_keys(t, what, {"type", "name", "pinion", "rack", "radius", "phase", "pressure_angle"});
+  joint.link_a = resolve_link(r, m, t, "pinion", what);
+  const std::optional<std::string> rack = r.string(t, "rack", what, true);
+  const std::optional<double> radius = r.number(t, "radius", what, true, length);
+  if (joint.link_a < 0 || !rack || !radius) return;
+  joint.slide = m.find_joint(*rack);
+  if (joint.slide < 0 || m.joints[joint.slide].type != JointType::prismatic) {
+    std::vector<std::string> names;
+    for (const Joint& j : m.joints)
+      if (j.type == JointType::prismatic) names.push_back(j.name);
+    r.error(r.at(t.get("rack")),
+            fmt::format("{}: 'rack' names the prismatic joint that carries the rack; '{}' is {} "
+                        "(prismatic joints: {})",
+                        what, *rack, joint.slide < 0 ? "no joint" : "not prismatic", join(names)));
+    joint.slide = -1;
+    return;
+  }
+  const Joint& slide = m.joints[joint.slide];
+  joint.carrier = slide.link_a;
+  joint.link_b = slide.link_b;
+  joint.name = r.string(t, "name", what, false)
+                   .value_or(m.links[joint.link_a].name + "/" + m.links[joint.link_b].name);
+  if (joint.link_a == m.ground()) {
+    r.error(r.at(t.get("pinion")),
+            fmt::format("{}: the pinion turns on the rack's guide; the ground cannot be it", what));
+    return;
+  }
+  if (joint.link_a == joint.carrier || joint.link_a == joint.link_b) {
+    r.error(
+        r.at(t.get("pinion")),
+        fmt::format("{}: the pinion must be another link than the rack's guide and slider", what));
+    return;
+  }
+  if (!(*radius > 0.0)) {
+    r.error(r.at(t.get("radius")),
+            fmt::format("{}: 'radius' (the pitch radius) must be positive", what));
+    return;
+  }
+  joint.radius_a = *radius;
+  joint.centre_a = gear_centre(r, m, joint.link_a, joint.carrier, t.get("pinion"), what);
+  if (joint.centre_a < 0) return;
+  const Link& guide = m.links[joint.carrier];
+  const Line& line = guide.lines[static_cast<size_t>(slide.line)];
+  const double side = perp(line.direction).dot(guide.points[joint.centre_a].local - line.origin);
+  if (std::abs(side) <= 1e-9 * m.size()) {
+    r.error(r.at(t.get("pinion")),
+            fmt::format("{}: the pinion's centre '{}' is on the rack's line '{}': the pinion "
+                        "rolls on one side of it",
+                        what, guide.points[joint.centre_a].name, line.name));
+    return;
+  }
+  // Rolling without slip: the rack moves with the pinion's point on the side of the line,
+  // s' = r (theta_p - theta_guide)' when the centre is on the line's left.
+  joint.ratio = side > 0.0 ? *radius : -*radius;
+  const Link& rack_link = m.links[joint.link_b];
+  const Eigen::Vector2d origin = drawn_point(guide, line.origin);
+  const Eigen::Vector2d u = Eigen::Rotation2Dd(drawn_pose(guide)(2)) * line.direction;
+  const double s = u.dot(drawn_point(rack_link, rack_link.points[slide.point_b].local) - origin);
+  joint.phase = phase.value_or(
+      s - joint.ratio * (drawn_pose(m.links[joint.link_a])(2) - drawn_pose(guide)(2)));
 }
 
 // A polynomial or table law must stay within the magnitudes of a driver, its rates and
@@ -1724,18 +1937,19 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
     const int off = std::abs(mob.mobility - 1);
     const std::string freedoms = fmt::format("freedom{}", off == 1 ? "" : "s");
     const std::string verdict =
-        mob.mobility < 1 ? fmt::format(
-                               "the chain is over-constrained, {} {} too few for the one driver: a "
-                               "joint too many (a revolute or prismatic takes 2, a pin_in_slot 1), "
-                               "a revolute or prismatic where a pin_in_slot belongs, or a link "
-                               "missing",
-                               off, freedoms)
-                         : fmt::format(
-                               "the chain is under-constrained, {} {} more than the one driver "
-                               "fixes: a joint missing (a revolute or prismatic takes 2, a "
-                               "pin_in_slot 1), a pin_in_slot where a revolute or prismatic "
-                               "belongs, or a link too many",
-                               off, freedoms);
+        mob.mobility < 1
+            ? fmt::format(
+                  "the chain is over-constrained, {} {} too few for the one driver: a "
+                  "joint too many (a revolute or prismatic takes 2, a pin_in_slot or gear pair 1), "
+                  "a revolute or prismatic where a pin_in_slot belongs, or a link "
+                  "missing",
+                  off, freedoms)
+            : fmt::format(
+                  "the chain is under-constrained, {} {} more than the one driver "
+                  "fixes: a joint missing (a revolute or prismatic takes 2, a "
+                  "pin_in_slot or gear pair 1), a pin_in_slot where a revolute or prismatic "
+                  "belongs, or a link too many",
+                  off, freedoms);
     r.error(r.at(driver), fmt::format("mobility {} with 1 driver. Grübler–Kutzbach: {} ({} "
                                       "links, {} full joints, {} half joints): the joints take "
                                       "{} of the {} freedoms of the {} moving links. {}",
@@ -1910,6 +2124,9 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   } else {
     for (size_t i = 0; i < joint_array->size(); ++i)
       m.joints.push_back(read_joint(r, m, *(*joint_array)[i].as_table(), static_cast<int>(i)));
+    for (size_t i = 0; i < joint_array->size(); ++i)
+      if (m.joints[i].is_gearing())
+        read_gearing(r, m, *(*joint_array)[i].as_table(), static_cast<int>(i));
   }
   r.throw_if_any();
 

@@ -1,5 +1,7 @@
 #include "analytic/mechanism.h"
 
+#include "analytic/planar.h"
+
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
@@ -52,6 +54,10 @@ std::string_view to_string(JointType type) {
       return "prismatic";
     case JointType::pin_in_slot:
       return "pin_in_slot";
+    case JointType::gear:
+      return "gear";
+    case JointType::rack_pinion:
+      return "rack_pinion";
   }
   return "?";
 }
@@ -194,6 +200,22 @@ std::vector<int> Mechanism::slide_joints() const {
   for (size_t i = 0; i < joints.size(); ++i)
     if (joints[i].is_slide()) slides.push_back(static_cast<int>(i));
   return slides;
+}
+
+Eigen::Vector2d pitch_point(const Mechanism& m, const Joint& j) {
+  const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
+  const Eigen::Vector2d a = carrier.points[static_cast<size_t>(j.centre_a)].local;
+  if (j.type == JointType::rack_pinion) {  // toward the rack's line, a pitch radius from the centre
+    const Joint& slide = m.joints[static_cast<size_t>(j.slide)];
+    const Eigen::Vector2d normal = perp(carrier.lines[static_cast<size_t>(slide.line)].direction);
+    return a - (j.ratio > 0.0 ? j.radius_a : -j.radius_a) * normal;
+  }
+  const Eigen::Vector2d b = carrier.points[static_cast<size_t>(j.centre_b)].local;
+  const Eigen::Vector2d ab = (b - a).normalized();
+  if (j.ratio > 0.0) return a + j.radius_a * ab;  // external: between the centres
+  // Internal: on the far side of the pinion's centre from the ring's.
+  if (j.radius_a < j.radius_b) return a - j.radius_a * ab;
+  return b + j.radius_b * ab;
 }
 
 std::vector<Mechanism::NamedPoint> Mechanism::named_points() const {

@@ -80,6 +80,12 @@ enum class JointType {
   prismatic,    // point `point_b` of link_b (the slider) stays on line `line` of link_a (the
                 // guide), and the two links keep their relative angle
   pin_in_slot,  // point `point_b` of link_b stays on line `line` of link_a; rotation free
+  // Higher pairs (Kutzbach's j2: one freedom taken), coupling rotations by rolling pitch circles:
+  gear,         // gear link_a meshes with gear link_b, both turning about points of `carrier`:
+                // (theta_a - theta_c) + ratio (theta_b - theta_c) = phase
+  rack_pinion,  // pinion link_a turning about a point of the guide (`carrier`) of prismatic
+                // joint `slide`, whose slider link_b is the rack: s - ratio (theta_a - theta_c)
+                // = phase, s the slide's travel along its line
 };
 std::string_view to_string(JointType type);
 
@@ -92,10 +98,22 @@ struct Joint {
   int point_b = -1;  // point index on link_b
   int line = -1;     // prismatic, pin_in_slot: line index on link_a
   double relative_angle = 0.0;  // prismatic: theta_b - theta_a, held constant [rad]
+  // Gear pairs (gear, rack_pinion). The ratio is signed: a gear pair's + r_b / r_a when external
+  // (the gears turn opposite ways relative to the carrier), - r_b / r_a when internal; a rack's
+  // +r or -r [m/rad], the sign by the side of the rack's line the pinion's centre is on.
+  int carrier = -1;  // the link both centres are fixed on (ground by default; the guide of a rack)
+  int slide = -1;    // rack_pinion: the prismatic joint that carries the rack
+  int centre_a = -1, centre_b = -1;  // the centres on the carrier (points of it); rack: centre_a
+  double ratio = 0.0;
+  double phase = 0.0;                     // [rad] for a gear pair, [m] for a rack
+  double radius_a = 0.0, radius_b = 0.0;  // pitch radii [m] (a rack's: radius_a)
+  double pressure_angle = 0.0;            // of the teeth: the line of action's tilt [rad]
   SourceLocation where;
 
-  bool is_slide() const { return type != JointType::revolute; }
-  int dof() const { return type == JointType::pin_in_slot ? 2 : 1; }  // freedoms it allows
+  bool is_slide() const { return type == JointType::prismatic || type == JointType::pin_in_slot; }
+  bool is_gearing() const { return type == JointType::gear || type == JointType::rack_pinion; }
+  // Freedoms it allows between its two links (a higher pair allows 2: Kutzbach's j2).
+  int dof() const { return type == JointType::pin_in_slot || is_gearing() ? 2 : 1; }
 };
 
 // A unit as the definition wrote it, to show a value back in it: file value = SI value / si.
@@ -340,11 +358,16 @@ struct Mechanism {
   double cycle_period() const;  // [s]
 };
 
+// A gear pair's or a rack and pinion's pitch point in its carrier's frame: where the pitch
+// circles (or the pinion's circle and the rack's pitch line) touch. It is the two gears'
+// relative instantaneous centre, and the tooth force acts there.
+Eigen::Vector2d pitch_point(const Mechanism& m, const Joint& gear);
+
 // Grübler–Kutzbach count: M = 3 (n - 1) - 2 j1 - j2.
 struct Mobility {
   int links = 0;        // n, ground included
   int full_joints = 0;  // j1: revolute and prismatic
-  int half_joints = 0;  // j2: pin-in-slot
+  int half_joints = 0;  // j2: pin-in-slot, gear pairs, racks and pinions
   int mobility = 0;
   std::string explain() const;  // "M = 3(6-1) - 2*7 - 0 = 1"
 };

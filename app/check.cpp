@@ -15,6 +15,18 @@ namespace crosslink::app {
 namespace {
 
 std::string joint_text(const Mechanism& m, const Joint& j) {
+  const double mm = m.units.length;
+  const std::string& unit = m.units.length_name;
+  if (j.type == JointType::gear)
+    return fmt::format(
+        "gear         {} - {} about {} ({}, pitch radii {:g} and {:g} {}, ratio "
+        "{:g})",
+        m.links[j.link_a].name, m.links[j.link_b].name, m.links[j.carrier].name,
+        j.ratio > 0.0 ? "external" : "internal", j.radius_a / mm, j.radius_b / mm, unit, j.ratio);
+  if (j.type == JointType::rack_pinion)
+    return fmt::format("rack_pinion  {} on the rack {} of slide {} (pitch radius {:g} {})",
+                       m.links[j.link_a].name, m.links[j.link_b].name, m.joints[j.slide].name,
+                       j.radius_a / mm, unit);
   if (j.type == JointType::revolute)
     return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name, m.links[j.link_b].name,
                        m.links[j.link_a].points[j.point_a].name);

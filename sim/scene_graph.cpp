@@ -221,6 +221,12 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
 }
 
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
+  for (const Joint& j : m.joints)
+    if (j.is_gearing())
+      throw std::runtime_error(fmt::format(
+          "joint '{}' is a {}: the engines' scenes do not couple rotations yet (a joint equality "
+          "in MuJoCo, a gear constraint in Bullet), so only the exact methods run it",
+          j.name, j.type == JointType::gear ? "gear pair" : "rack and pinion"));
   SceneGraph g;
 
   // Bodies: ground first, then the moving links in Mechanism order.

@@ -32,8 +32,9 @@ Point point(const char* name, double x, double y) {
 
 // Ground G and three moving links A, B, C with every joint type, the ground on either side of a
 // slide: revolute G-A, revolute A-B, prismatic A-C (A the guide), pin-in-slot G-B (G the slot),
-// prismatic G-C. Not a mechanism of mobility one: the layout does not need a square system. The
-// driver is of `type`; `scale` multiplies every length (1000: the same mechanism in mm).
+// prismatic G-C, a gear pair A-C about B and A as a pinion on the rack C of G-C. Not a mechanism of
+// mobility one: the layout does not need a square system. The driver is of `type`; `scale`
+// multiplies every length (1000: the same mechanism in mm).
 Mechanism every_kind(DriverType type, double scale = 1.0) {
   Mechanism m;
   const double s = scale;
@@ -72,6 +73,19 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
               joint("AC", JointType::prismatic, 1, 3, -1, 0, 0, 0.35),
               joint("GB", JointType::pin_in_slot, 0, 2, -1, 1, 0, 0.0),
               joint("GC", JointType::prismatic, 0, 3, -1, 0, 1, -1.1)};
+  // A gear pair A-C about the moving carrier B, and a rack and pinion: A rolling on the rack C of
+  // slide GC (guide G).
+  Joint gear = joint("ACg", JointType::gear, 1, 3, -1, -1, -1, 0.0);
+  gear.carrier = 2;
+  gear.ratio = -1.7;
+  gear.phase = 0.3;
+  Joint rack = joint("GCr", JointType::rack_pinion, 1, 3, -1, -1, -1, 0.0);
+  rack.carrier = 0;
+  rack.slide = 4;
+  rack.ratio = 0.23 * s;
+  rack.phase = -0.05 * s;
+  m.joints.push_back(gear);
+  m.joints.push_back(rack);
   Driver d;
   d.type = type;
   switch (type) {
@@ -152,12 +166,13 @@ TEST_P(EveryKind, LayoutHasEveryKindInOrder) {
     kinds.insert(c.kind);
   }
   EXPECT_EQ(row, layout.rows());
-  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1);
+  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1);
   EXPECT_EQ(layout.joint_row_count(), layout.rows() - 1);
   EXPECT_EQ(layout.driver_count(), 1);
   EXPECT_EQ(layout.driver_row(0), layout.rows() - 1);
   EXPECT_TRUE(kinds.count(Kind::revolute) && kinds.count(Kind::prismatic) &&
-              kinds.count(Kind::pin_in_slot));
+              kinds.count(Kind::pin_in_slot) && kinds.count(Kind::gear) &&
+              kinds.count(Kind::rack_pinion));
   EXPECT_TRUE(
       kinds.count(GetParam() == DriverType::slider ? Kind::slider_driver : Kind::angle_driver));
 }
@@ -180,6 +195,16 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
   };
   for (const Joint& j : m.joints) {
     const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    const double turned_a = angle_of(q, ka) - angle_of(q, m.moving_index(j.carrier));
+    if (j.type == JointType::gear) {  // the turns relative to the carrier, in the ratio
+      expected(row++) =
+          turned_a + j.ratio * (angle_of(q, kb) - angle_of(q, m.moving_index(j.carrier))) - j.phase;
+      continue;
+    }
+    if (j.type == JointType::rack_pinion) {  // the rack's travel, the pinion's turn times r
+      expected(row++) = slide_offset(m.joints[j.slide], true) - j.ratio * turned_a - j.phase;
+      continue;
+    }
     if (j.type == JointType::revolute) {
       expected.segment<2>(row) = world(q, ka, m.links[j.link_a].points[j.point_a].local) -
                                  world(q, kb, m.links[j.link_b].points[j.point_b].local);
@@ -217,6 +242,22 @@ TEST_P(EveryKind, ClosedJointsHaveZeroRows) {
     // Link b placed so that this joint closes, from a generic pose.
     Eigen::VectorXd q = pose();
     const int ka = m.moving_index(j.link_a), kb = m.moving_index(j.link_b);
+    if (j.is_gearing()) {  // turn the first link until the pitch circles mesh
+      const double carrier = angle_of(q, m.moving_index(j.carrier));
+      if (j.type == JointType::gear) {
+        q(3 * ka + 2) = carrier + j.phase - j.ratio * (angle_of(q, kb) - carrier);
+      } else {  // the guide is the ground: the pinion turns by (travel - phase) / r
+        const Joint& slide = m.joints[j.slide];
+        const Line& rail = m.links[slide.link_a].lines[slide.line];
+        const double travel =
+            (world(q, kb, m.links[j.link_b].points[slide.point_b].local) - rail.origin)
+                .dot(rail.direction);
+        q(3 * ka + 2) = (travel - j.phase) / j.ratio;
+      }
+      const Eigen::VectorXd phi = position(layout, q);
+      EXPECT_NEAR(phi(layout.joint(m.find_joint(j.name)).first_row), 0.0, 1e-15) << j.name;
+      continue;
+    }
     const Eigen::Vector2d pb = m.links[j.link_b].points[j.point_b].local;
     Eigen::Vector2d target;
     if (j.type == JointType::revolute) {
@@ -246,7 +287,8 @@ TEST_P(EveryKind, AngleRowsAreTheOnesThatDoNotScale) {
     EXPECT_EQ(metres.angle_row(r), millimetres.angle_row(r));
     angles += metres.angle_row(r);
   }
-  EXPECT_EQ(angles, 2 + (GetParam() == DriverType::slider ? 0 : 1));  // the prismatics' angles
+  // The prismatics' angles and the gear pair's.
+  EXPECT_EQ(angles, 3 + (GetParam() == DriverType::slider ? 0 : 1));
 }
 
 // The Jacobian against central differences of the position rows (step 1e-6: truncation ~1e-12,

@@ -3,7 +3,8 @@
 //     at every sample of every bundled file (as defined, and loaded with gravity, a spring, a
 //     damper, a force and a torque) to 1e-9 of its peak;
 //   - Newton-Euler on every link: the extracted joint reactions, the driver's effort, gravity,
-//     loads and springs sum to m a_c and, about the centre of mass, to I alpha, to 1e-9;
+//     loads and springs sum to m a_c and, about the centre of mass, to I alpha, to 1e-9 (a gear
+//     pair's mesh force at its pitch point, as the teeth push: mechanisms/gears too);
 //   - the shaking force and moment equal the negated sum of the forces the ground's joints exert;
 //   - quasi-statics: under gravity alone at a crawl, the driver's effort is dV/d(driver), V the
 //     potential energy, by central differences of exact positions.
@@ -101,10 +102,13 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
     double scale = 0.0;
     for (size_t j = 0; j < m.joints.size(); ++j) {
       const Joint& joint = m.joints[j];
-      const Eigen::Vector2d at = body(joint.link_b)
-                                     .position(m.links[static_cast<size_t>(joint.link_b)]
-                                                   .points[static_cast<size_t>(joint.point_b)]
-                                                   .local);
+      // A gear pair's force acts at its pitch point, fixed on its carrier.
+      const Eigen::Vector2d at = joint.is_gearing()
+                                     ? body(joint.carrier).position(pitch_point(m, joint))
+                                     : body(joint.link_b)
+                                           .position(m.links[static_cast<size_t>(joint.link_b)]
+                                                         .points[static_cast<size_t>(joint.point_b)]
+                                                         .local);
       double couple = 0.0;
       const auto s = std::find(slides.begin(), slides.end(), static_cast<int>(j));
       if (s != slides.end()) couple = forces.moment[static_cast<size_t>(s - slides.begin())];
@@ -174,7 +178,14 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   });
 }
 
-INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(test::bundled_files(true)),
+// Every bundled definition, and the gear trains.
+std::vector<std::string> with_gears() {
+  std::vector<std::string> files = test::bundled_files(true);
+  for (std::string& f : test::gear_files()) files.push_back(std::move(f));
+  return files;
+}
+
+INSTANTIATE_TEST_SUITE_P(Mechanisms, EveryMechanism, ::testing::ValuesIn(with_gears()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            return std::filesystem::path(info.param).stem().string();
                          });

@@ -41,6 +41,16 @@ inline std::vector<std::string> bundled_files(bool singular, bool dynamics = tru
   return files;
 }
 
+// mechanisms/gears/*.toml: gear pairs and racks, which only the exact methods run, sorted.
+inline std::vector<std::string> gear_files() {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(
+           std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / "gears"))
+    if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 // The bundled kinematic definitions' stems (mechanisms/*.toml without the dynamics cases).
 inline std::vector<std::string> bundled_stems() {
   std::vector<std::string> stems;

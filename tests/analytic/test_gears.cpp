@@ -1,0 +1,266 @@
+// Gear pairs and racks (JointType::gear, rack_pinion) in the exact methods, against closed forms
+// that do not use crosslink's constraint rows:
+//   - an epicyclic train with its ring fixed against Willis' formula, positions to
+//     accelerations, and its instantaneous centres at the pitch points;
+//   - a slider-crank driving a pinion through a rack against the slider-crank's closed-form travel
+//     rolled onto the pinion's pitch circle;
+//   - the mesh force along the line of action: tilted from the pitch line's tangent by the
+//     pressure angle, pushing the teeth apart (Newton-Euler on every link, with the mesh force at
+//     the pitch point, is test_kinetostatics' ReactionsBalanceEveryLink over mechanisms/gears);
+//   - wrong definitions, each located at its key.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "analytic/instant_centres.h"
+#include "analytic/kinetostatics.h"
+#include "analytic/loader.h"
+#include "analytic/planar.h"
+#include "analytic/sweep.h"
+
+namespace crosslink {
+namespace {
+
+const double kPi = std::numbers::pi;
+
+std::string gear_file(const std::string& name) {
+  return std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/" + name;
+}
+
+int column(const std::vector<std::string>& names, const std::string& name) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  EXPECT_NE(it, names.end()) << name;
+  return static_cast<int>(it - names.begin());
+}
+
+// The angle a - b folded into (-pi, pi].
+double angle_between(double a, double b) {
+  return std::remainder(a - b, 2.0 * kPi);
+}
+
+// z_sun 24, z_planet 12, z_ring 48, ring fixed, arm at 60 rpm (the file's description).
+TEST(Gears, AnEpicyclicTrainFollowsWillisFormula) {
+  const Mechanism m = load_mechanism(gear_file("planetary_fixed_ring.toml"));
+  const Mobility mob = mobility(m);
+  EXPECT_EQ(mob.mobility, 1);
+  EXPECT_EQ(mob.half_joints, 2);  // each mesh takes one freedom
+  const Trajectory t = sweep(m);
+  ASSERT_GT(t.samples(), 300);
+  const int arm = column(t.link_names, "arm"), sun = column(t.link_names, "sun"),
+            planet = column(t.link_names, "planet");
+  const double w = 2.0 * kPi;  // 60 rpm
+  // Willis: (w_sun - w_arm) / (w_ring - w_arm) = -z_ring / z_sun with w_ring = 0, and
+  // (w_planet - w_arm) / (w_ring - w_arm) = z_ring / z_planet (an internal mesh turns alike).
+  const double sun_ratio = 1.0 + 48.0 / 24.0, planet_ratio = 1.0 - 48.0 / 12.0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
+    const double arm_angle = t.angle(k, arm);
+    EXPECT_NEAR(t.omega(k, arm), w, 1e-12 * w);
+    EXPECT_NEAR(t.omega(k, sun), sun_ratio * w, 1e-9 * w) << k;
+    EXPECT_NEAR(t.omega(k, planet), planet_ratio * w, 1e-9 * w) << k;
+    EXPECT_NEAR(t.alpha(k, sun), 0.0, 1e-9 * w * w) << k;
+    EXPECT_NEAR(t.alpha(k, planet), 0.0, 1e-9 * w * w) << k;
+    // Drawn meshing at 0 (every pose at angle 0): the angles keep the ratios.
+    EXPECT_NEAR(angle_between(t.angle(k, sun), sun_ratio * arm_angle), 0.0, 1e-9) << k;
+    EXPECT_NEAR(angle_between(t.angle(k, planet), planet_ratio * arm_angle), 0.0, 1e-9) << k;
+  }
+}
+
+// Rolling pitch circles have no relative velocity where they touch: the pitch point is the gears'
+// relative instantaneous centre, and the centres give every link's velocity.
+TEST(Gears, ThePitchPointsAreInstantCentres) {
+  const Mechanism m = load_mechanism(gear_file("planetary_fixed_ring.toml"));
+  const Trajectory t = sweep(m);
+  const int row = 37;
+  const InstantCentres ic = instant_centres(m, t, row);
+  const double arm_angle = t.angle(row, column(t.link_names, "arm"));
+  const Eigen::Vector2d along(std::cos(arm_angle), std::sin(arm_angle));
+  const int sun = m.find_link("sun"), planet = m.find_link("planet"), ground = m.ground();
+  // Sun-planet: 24 mm out along the arm; planet-ring: 24 + 2 x 12 = 48 mm out.
+  EXPECT_LT((ic.at(sun, planet).position() - 0.024 * along).norm(), 1e-12);
+  EXPECT_LT((ic.at(ground, planet).position() - 0.048 * along).norm(), 1e-12);
+  const CentreVelocities v = centre_velocities(m, ic, t, row);
+  ASSERT_TRUE(v.complete) << v.message;
+  for (int k = 0; k < static_cast<int>(t.link_names.size()); ++k)
+    EXPECT_NEAR(v.omega[static_cast<size_t>(k)], t.omega(row, k), 1e-9 * 2.0 * kPi)
+        << t.link_names[static_cast<size_t>(k)];
+}
+
+// s(theta) = r cos theta + sqrt(l^2 - r^2 sin^2 theta), r = 40 mm, l = 120 mm; the pinion turns
+// by (s - 160 mm) / 30 mm, its centre on the rack line's left.
+TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
+  const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
+  EXPECT_EQ(mobility(m).mobility, 1);
+  const Trajectory t = sweep(m);
+  ASSERT_GT(t.samples(), 300);
+  const int pinion = column(t.link_names, "pinion");
+  const double r = 0.040, l = 0.120, radius = 0.030, w = 4.0 * kPi;  // 120 rpm
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
+    const double th = t.driver(k), s = std::sin(th), c = std::cos(th);
+    const double g = std::sqrt(l * l - r * r * s * s);
+    const double g1 = -r * r * s * c / g;                          // dg/dtheta
+    const double g2 = -r * r * (c * c - s * s) / g - g1 * g1 / g;  // d2g/dtheta2
+    const double travel = r * c + g, rate = (-r * s + g1) * w, accel = (-r * c + g2) * w * w;
+    EXPECT_NEAR(angle_between(t.angle(k, pinion), (travel - 0.160) / radius), 0.0, 1e-9) << k;
+    EXPECT_NEAR(t.omega(k, pinion), rate / radius, 1e-9 * (r * w / radius)) << k;
+    EXPECT_NEAR(t.alpha(k, pinion), accel / radius, 1e-9 * (r * w * w / radius)) << k;
+  }
+}
+
+// The teeth push along the line of action: the mesh force makes the pressure angle with the
+// pitch line (a rack's line, the gears' common tangent), and its normal part pushes the teeth
+// apart (the rack away from the pinion's centre; each gear away from the other).
+TEST(Gears, TheMeshForceActsAlongTheLineOfAction) {
+  for (const char* name : {"rack_pinion_slider_crank.toml", "planetary_fixed_ring.toml"}) {
+    Mechanism m = load_mechanism(gear_file(name));
+    m.gravity = Eigen::Vector2d(0.0, -9.81);
+    const NewtonSolver solver(m);
+    const Kinetostatics kinetostatics(solver);
+    ForceSample forces = kinetostatics.make_sample();
+    const Trajectory t = sweep(m);
+    KinematicState state(m);
+    int checked = 0;
+    for (int k = 0; k < t.samples(); k += 7) {
+      state.q = coordinates_at(m, t, k);
+      state.driver = m.driver().at_time(t.time(k));
+      ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
+      kinetostatics.solve(state, forces);
+      for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+        const Joint& j = m.joints[ji];
+        if (!j.is_gearing()) continue;
+        const Eigen::Vector2d f = forces.joint_force[ji];  // of the first gear on the second
+        const BodyMotion carrier =
+            BodyMotion::of(m.moving_index(j.carrier), state.q, nullptr, nullptr);
+        const Eigen::Vector2d pitch = carrier.position(pitch_point(m, j));
+        const Eigen::Vector2d centre =
+            carrier.position(m.links[j.carrier].points[static_cast<size_t>(j.centre_a)].local);
+        // Along the first gear's radius through the pitch point, and across it.
+        const Eigen::Vector2d radial = (pitch - centre).normalized();
+        const double across = f.dot(perp(radial)), out = f.dot(radial);
+        if (std::abs(across) < 1e-6 * f.norm() + 1e-12) continue;
+        EXPECT_NEAR(std::abs(out), std::abs(across) * std::tan(20.0 * kPi / 180.0), 1e-9 * f.norm())
+            << name << " " << j.name;
+        // The second gear (or the rack) is pushed away from the first's centre, except where
+        // the first is the ring of an internal pair, which pushes its pinion inward.
+        const bool first_is_ring =
+            j.ratio < 0.0 && j.type == JointType::gear && j.radius_a > j.radius_b;
+        EXPECT_GT(first_is_ring ? -out : out, 0.0) << name << " " << j.name;
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 20) << name;
+  }
+}
+
+// Each fault of a gear pair or rack is reported at its key.
+std::string error_of(const std::string& text) {
+  try {
+    (void)parse_mechanism(text, "gear.toml");
+  } catch (const DefinitionError& e) {
+    std::string all;
+    for (const Diagnostic& d : e.diagnostics()) all += d.str() + "\n";
+    return all;
+  }
+  return "";
+}
+
+// Two gears on ground pivots 50 mm apart (pitch radii 20 and 30 mm), the first driven; `gear`
+// is the gear pair's table.
+std::string two_gears(const std::string& gear) {
+  return R"(name = "two gears"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], B = [50, 0] }
+lines = { l = { through = "A", angle = 0 } }
+[[link]]
+name = "g1"
+points = { A = [0, 0], P = [20, 0] }
+[[link]]
+name = "g2"
+points = { B = [0, 0], Q = [30, 0] }
+pose = [50, 0, 0]
+[[joint]]
+type = "revolute"
+links = ["ground", "g1"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["ground", "g2"]
+point = "B"
+)" + gear +
+         R"(
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "P"
+start = 0
+speed = 1
+)";
+}
+
+// The line of the first occurrence of `key` in `text` (1-based).
+int line_of(const std::string& text, const std::string& key) {
+  const size_t at = text.find(key);
+  EXPECT_NE(at, std::string::npos) << key;
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+}
+
+TEST(Gears, TwoGearsOnTheGroundTurnInverselyAsTheirRadii) {
+  const Mechanism m = parse_mechanism(
+      two_gears("[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nteeth = [20, 30]\n"),
+      "gear.toml");
+  EXPECT_EQ(mobility(m).mobility, 1);
+  const Joint& mesh = m.joints.back();
+  EXPECT_EQ(mesh.name, "g1/g2");
+  EXPECT_DOUBLE_EQ(mesh.radius_a, 0.020);
+  EXPECT_DOUBLE_EQ(mesh.radius_b, 0.030);
+  const Trajectory t = sweep(m);
+  for (int k = 0; k < t.samples(); ++k) EXPECT_NEAR(t.omega(k, 1), -20.0 / 30.0, 1e-12) << k;
+}
+
+TEST(Gears, EachFaultIsLocatedAtItsKey) {
+  struct Case {
+    std::string table, key, says;
+  };
+  const std::vector<Case> cases = {
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g3\"]\nteeth = [20, 30]\n", "\"g3\"",
+       "unknown link 'g3'"},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nteeth = [20, 30]\nradii = [20, "
+       "30]\n",
+       "teeth", "exactly one of 'teeth'"},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nradii = [20, 25]\n", "radii",
+       "are 50 mm apart"},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nteeth = [20, 30.5]\n", "teeth",
+       "two whole numbers"},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\ncarrier = \"g1\"\nteeth = [20, "
+       "30]\n",
+       "gears =", "three different links"},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nteeth = [20, 30]\nmesh = "
+       "\"sideways\"\n",
+       "mesh", "\"external\" or \"internal\""},
+      {"[[joint]]\ntype = \"gear\"\ngears = [\"g1\", \"g2\"]\nteeth = [20, 30]\nratio = 2\n",
+       "ratio", "unknown key 'ratio'"},
+      {"[[joint]]\ntype = \"rack_pinion\"\npinion = \"g1\"\nrack = \"B\"\nradius = 20\n",
+       "rack =", "'B' is not prismatic"},
+      // No mesh: two free gears, one driver.
+      {"", "[driver]", "mobility 2 with 1 driver"},
+  };
+  for (const Case& c : cases) {
+    const std::string text = two_gears(c.table);
+    const std::string error = error_of(text);
+    EXPECT_NE(error.find(c.says), std::string::npos) << error;
+    const std::string where = "gear.toml:" + std::to_string(line_of(text, c.key)) + ":";
+    EXPECT_EQ(error.rfind(where, 0), 0u) << where << " in " << error;
+  }
+}
+
+}  // namespace
+}  // namespace crosslink
