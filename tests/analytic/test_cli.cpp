@@ -317,7 +317,7 @@ TEST(Cli, CsvNamesWithCommasAndQuotesStayOneField) {
       write_definition("comma.toml", replaced_all(read_file("mechanisms/fourbar_crank_rocker.toml"),
                                                   "\"rocker\"", "\"rock,\\\"er\""));
   const std::string pendulum = write_definition(
-      "comma_pendulum.toml", replaced_all(read_file("mechanisms/andrews_squeezer.toml"),
+      "comma_pendulum.toml", replaced_all(read_file("mechanisms/iftomm_a01_pendulum.toml"),
                                           "\"pendulum\"", "\"pend,\\\"ulum\""));
   const std::filesystem::path compare_csv = scratch_dir() / "comma_compare.csv";
   struct Case {
@@ -429,7 +429,7 @@ TEST(Cli, SolveAtAFarOrNonFiniteValueIsRefused) {
 // (or, for --at nan, fail later without the option's name).
 TEST(Cli, EveryNumericOptionRefusesNanInfinityAndOutOfRange) {
   const std::string fourbar = " mechanisms/fourbar_crank_rocker.toml ";
-  const std::string pendulum = " mechanisms/andrews_squeezer.toml ";
+  const std::string pendulum = " mechanisms/iftomm_a01_pendulum.toml ";
   for (const auto& [command, option] : std::vector<std::pair<std::string, std::string>>{
            {"check" + fourbar + "--max-samples nan", "--max-samples"},
            {"check" + fourbar + "--max-samples 1e300", "--max-samples"},
