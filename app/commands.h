@@ -31,6 +31,7 @@ void add_solve(CLI::App& app, std::function<int()>& run);
 void add_simulate(CLI::App& app, std::function<int()>& run);
 void add_compare(CLI::App& app, std::function<int()>& run);
 void add_sweep(CLI::App& app, std::function<int()>& run);
+void add_merge(CLI::App& app, std::function<int()>& run);
 void add_engines(CLI::App& app, std::function<int()>& run);
 
 // `crosslink check` on a loaded definition: the report (stdout), the error when the drawn

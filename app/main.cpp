@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   add_simulate(app, run);
   add_compare(app, run);
   add_sweep(app, run);
+  add_merge(app, run);
   add_engines(app, run);
   try {
     app.parse(argc, argv);

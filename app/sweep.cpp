@@ -20,6 +20,7 @@
 #include "analytic/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
+#include "app/sweep_parts.h"
 #include "methods/settings_sweep.h"
 
 namespace crosslink::app {
@@ -119,10 +120,10 @@ constexpr size_t kMaxTimeSteps = 50;
 constexpr int kMaxRepeat = 100;
 
 struct SweepArgs {
-  std::string path;
+  std::vector<std::string> paths;
   std::string engines = fmt::format("{}", fmt::join(methods::engine_names(), ","));
   std::vector<double> dts;
-  std::string report, csv, accuracy;
+  std::string report, csv, json, accuracy, shard;
   double step = 0.0;
   int repeat = 3;
   int jobs = 1;
@@ -131,11 +132,26 @@ struct SweepArgs {
   long max_steps = sim::kDefaultMaxSteps;
 };
 
-int run_sweep(const SweepArgs& args) {
-  const Mechanism m = load_mechanism(args.path);
+// The options that change a row: a part records them and merge refuses parts whose differ.
+nlohmann::json sweep_settings(const SweepArgs& args) {
+  nlohmann::json j;
+  j["engines"] = split(args.engines);
+  j["dt"] = args.dts.empty() ? methods::default_time_steps() : args.dts;
+  j["step"] = args.step;
+  j["repeat"] = args.repeat;
+  j["accuracy"] = args.accuracy;
+  j["max_steps"] = args.max_steps;
+  j["max_samples"] = args.limits.max_samples;
+  return j;
+}
+
+// One definition's sweep options, checked. `several`: one of many, where --step applies to the
+// kinematic cases and a dynamics case keeps its interval.
+methods::SettingsSweepOptions sweep_options(const Mechanism& m, const SweepArgs& args,
+                                            bool several) {
   // A dynamics case: against its exact simulation, over its duration (docs/sweep.md).
   const bool dynamics = m.dynamics.has_value();
-  if (dynamics && args.step != 0.0)
+  if (dynamics && args.step != 0.0 && !several)
     throw std::invalid_argument(
         "--step: a dynamics case is sampled at its [dynamics] interval, not swept");
   methods::SettingsSweepOptions options;
@@ -156,15 +172,39 @@ int run_sweep(const SweepArgs& args) {
     if (!args.dts.empty() && span > 0.0)
       check_engine_steps(span, dt, args.max_steps, fmt::format("--dt {:g}", dt));
   }
-  if (args.step != 0.0)  // 0: the default
+  if (args.step != 0.0 && !dynamics)  // 0: the default
     options.sweep.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
   if (!dynamics) check_sweep_work(m, options.sweep, args.limits);
   options.base = with_max_steps(args.max_steps, {});
   options.repeat = args.repeat;
   options.jobs = args.jobs;
   options.accuracy_pct = parse_accuracy(args.accuracy);
-  ProgressLines lines;
-  if (!args.quiet) options.progress = lines.progress();
+  return options;
+}
+
+int run_sweep(const SweepArgs& args) {
+  const Shard shard = parse_shard(args.shard);
+  const bool from_stdin =
+      std::find(args.paths.begin(), args.paths.end(), std::string("-")) != args.paths.end();
+  if (from_stdin && (args.paths.size() > 1 || !args.json.empty() || !args.shard.empty()))
+    throw std::invalid_argument(
+        "a definition from standard input ('-') is swept alone, without --json or --shard (a "
+        "part names its definitions' files)");
+  // Standard input is read by the loader alone.
+  const std::vector<DefinitionFile> definitions =
+      from_stdin ? std::vector<DefinitionFile>{{"-", "", ""}} : definition_files(args.paths);
+  const bool several = definitions.size() > 1;
+  std::vector<size_t> swept;
+  for (size_t k = 0; k < definitions.size(); ++k)
+    if (shard.holds(k)) swept.push_back(k);
+  // Every definition of the shard is read and its options checked before any runs.
+  std::vector<Mechanism> mechanisms;
+  mechanisms.reserve(swept.size());
+  std::vector<methods::SettingsSweepOptions> options;
+  for (size_t k : swept) {
+    mechanisms.push_back(load_mechanism(definitions[k].path));
+    options.push_back(sweep_options(mechanisms.back(), args, several));
+  }
 
   // Fail on an unwritable report before the long part.
   compare::HtmlOptions html;
@@ -177,24 +217,20 @@ int run_sweep(const SweepArgs& args) {
           searched));
   }
 
-  const methods::SettingsSweep sweep = methods::run_settings_sweep(m, options);
-  lines.finish();
-  methods::print_sweep(sweep, stdout);
-  if (!args.csv.empty()) {
-    std::ostringstream text;
-    methods::write_sweep_csv(sweep, text);
-    write_file(args.csv, text.str());
-    fmt::print("csv: {}\n", args.csv);
+  std::vector<methods::SettingsSweep> sweeps;
+  for (size_t i = 0; i < swept.size(); ++i) {
+    if (several && !args.quiet)
+      fmt::print(stderr, "definition {} of {}: {}\n", swept[i] + 1, definitions.size(),
+                 definitions[swept[i]].path);
+    ProgressLines lines;
+    if (!args.quiet) options[i].progress = lines.progress();
+    sweeps.push_back(methods::run_settings_sweep(mechanisms[i], options[i]));
+    lines.finish();
   }
-  if (!args.report.empty()) {
-    std::ostringstream page;
-    methods::write_sweep_html(sweep, html, page);
-    write_file(args.report, page.str());
-    fmt::print("report: {}\n", args.report);
-  }
-  for (const methods::Selection& s : sweep.selections)
-    if (!s.found) return kExitFail;
-  return kExitOk;
+  const nlohmann::json document =
+      sweep_document(shard, sweep_settings(args), definitions, swept, sweeps);
+  return write_sweep_outputs({args.csv, args.report, args.json}, html, document, definitions, swept,
+                             sweeps);
 }
 
 }  // namespace
@@ -203,7 +239,9 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
   auto* cmd = app.add_subcommand(
       "sweep", "Speed against accuracy: every engine over a grid of its settings");
   auto args = std::make_shared<SweepArgs>();
-  cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
+  cmd->add_option("FILE", args->paths,
+                  "mechanism definitions (.toml), or folders of them (every *.toml below)")
+      ->required();
   cmd->add_option(
          "--engines", args->engines,
          "engines, comma-separated: " + fmt::format("{}", fmt::join(methods::engine_names(), ",")))
@@ -218,6 +256,11 @@ void add_sweep(CLI::App& app, std::function<int()>& run) {
       ->check(positive_number());
   cmd->add_option("--report", args->report, "write a self-contained HTML report");
   cmd->add_option("--csv", args->csv, "write one row per engine setting as CSV (SI)");
+  cmd->add_option("--json", args->json,
+                  "write the sweep as JSON: the part `crosslink merge` joins (docs/json.md)");
+  cmd->add_option("--shard", args->shard,
+                  "I/N: sweep only shard I (0 to N-1) of N, the definitions whose index is I "
+                  "modulo N; its --json is a part for `crosslink merge`");
   cmd->add_option("--accuracy", args->accuracy,
                   "X or X%: the cheapest setting per engine meeting X % of peak on every class");
   cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)")

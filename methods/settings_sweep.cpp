@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 
 #include "compare/comparison.h"
@@ -927,12 +928,18 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
          options.jobs);
   analyse(out);
   out.accuracy_pct = options.accuracy_pct;
-  if (options.accuracy_pct)
-    for (const std::string& engine : options.engines)
-      if (std::any_of(out.rows.begin(), out.rows.end(),
-                      [&](const SweepRow& r) { return r.engine == engine; }))
-        out.selections.push_back(select_cheapest(engine, *options.accuracy_pct, out.rows));
+  if (options.accuracy_pct) select_settings(out, options.engines, *options.accuracy_pct);
   return out;
+}
+
+void select_settings(SettingsSweep& sweep, const std::vector<std::string>& engines,
+                     double accuracy_pct) {
+  sweep.accuracy_pct = accuracy_pct;
+  sweep.selections.clear();
+  for (const std::string& engine : engines)
+    if (std::any_of(sweep.rows.begin(), sweep.rows.end(),
+                    [&](const SweepRow& r) { return r.engine == engine; }))
+      sweep.selections.push_back(select_cheapest(engine, accuracy_pct, sweep.rows));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -980,6 +987,28 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out) {
         << ',' << csv_number(r.tip_position_error) << ',' << csv_number(r.tip_velocity_error) << ','
         << csv_number(r.max_pct[3]) << ',' << r.pareto[3] << ',' << csv_number(r.raw_pct[3]) << ','
         << csv_number(r.end_pct[3]) << ',' << csv_number(r.work()) << ',' << rank_of(r) << '\n';
+  }
+}
+
+void write_sweeps_csv(const std::vector<SweptDefinition>& sweeps, std::ostream& out) {
+  for (size_t k = 0; k < sweeps.size(); ++k) {
+    std::ostringstream one;
+    write_sweep_csv(*sweeps[k].sweep, one);
+    const std::string text = one.str();
+    const std::string lead = csv_field(sweeps[k].path) + ',';
+    // Each record of one definition's CSV behind its path (a quoted field may hold a newline);
+    // the header once.
+    bool quoted = false, header = true, start = true;
+    for (char ch : text) {
+      if (start && !(header && k > 0)) out << (header ? std::string("definition,") : lead);
+      start = false;
+      if (ch == '"') quoted = !quoted;
+      if (!(header && k > 0)) out << ch;
+      if (ch == '\n' && !quoted) {
+        header = false;
+        start = true;
+      }
+    }
   }
 }
 

@@ -355,6 +355,10 @@ std::string with_series_note(const SettingsSweep& sweep, const SweepRow& row, st
 
 // Fills orders and pareto flags from rows (run_settings_sweep calls it).
 void analyse(SettingsSweep& sweep);
+// The cheapest setting of each engine of `engines` that has rows (select_cheapest), in that
+// order, into sweep.selections (run_settings_sweep calls it; so does `crosslink merge`).
+void select_settings(SettingsSweep& sweep, const std::vector<std::string>& engines,
+                     double accuracy_pct);
 
 // One row per setting: engine, setting, dt, wall_s_per_cycle, max_pct_position,
 // max_pct_velocity, max_pct_acceleration, max_loop_gap, status, then variant, flagged_samples,
@@ -368,6 +372,19 @@ void write_sweep_csv(const SettingsSweep& sweep, std::ostream& out);
 
 // The self-contained HTML page (the comparator's page frame and chart scripts, report.h).
 void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, std::ostream& out);
+
+// One page of several definitions' sweeps (`crosslink sweep` over several files, `crosslink
+// merge`): a list of them, then each one's sections as write_sweep_html writes them.
+struct SweptDefinition {
+  std::string path;  // as the command was given it
+  const SettingsSweep* sweep = nullptr;
+};
+void write_sweeps_html(const std::vector<SweptDefinition>& sweeps, const HtmlOptions& options,
+                       std::ostream& out);
+
+// The CSV of several definitions' sweeps: write_sweep_csv's columns after a first, `definition`
+// (the path as given), the definitions in order.
+void write_sweeps_csv(const std::vector<SweptDefinition>& sweeps, std::ostream& out);
 
 // Console summary: the table, orders and selections.
 void print_sweep(const SettingsSweep& sweep, std::FILE* out);

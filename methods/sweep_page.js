@@ -1,8 +1,10 @@
 // crosslink settings-sweep report: Vega-Lite charts of error against cost and against dt, built
 // from the REPORT object written by methods/sweep_report.cpp. Writes the outcome into
-// #render-status (data-status="ok" | "error") like the comparison report.
+// #render-status (data-status="ok" | "error") like the comparison report. A page of several
+// definitions runs it once per definition, REPORT.prefix naming that section's elements.
 (function () {
-  const statusEl = document.getElementById('render-status');
+  const P = '#' + (REPORT.prefix || '');
+  const statusEl = document.querySelector(P + 'render-status');
   const errors = [];
   function setStatus(state, text) {  // for the browser test; hidden once the charts render
     statusEl.dataset.status = state;
@@ -121,9 +123,9 @@
   const opts = {renderer: 'svg', actions: false};
   const jobs = [];
   for (const cls of R.classes) {
-    jobs.push(vegaEmbed('#cost-' + cls, costSpec(cls, false), opts));
-    if (R.dynamics) jobs.push(vegaEmbed('#end-' + cls, costSpec(cls, true), opts));
-    jobs.push(vegaEmbed('#dt-' + cls, dtSpec(cls), opts));
+    jobs.push(vegaEmbed(P + 'cost-' + cls, costSpec(cls, false), opts));
+    if (R.dynamics) jobs.push(vegaEmbed(P + 'end-' + cls, costSpec(cls, true), opts));
+    jobs.push(vegaEmbed(P + 'dt-' + cls, dtSpec(cls), opts));
   }
   Promise.all(jobs).then((results) => {
     let drawn = 0;

@@ -278,11 +278,10 @@ tr.status-flagged td, td.status-flagged { background: #fff3cd; }
 tr.status-diverged td { background: #fde0e0; }
 )css";
 
-}  // namespace
-
-void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, std::ostream& out) {
+// One definition's part of the page, its elements' ids led by `prefix` (a page of several
+// definitions; none on a page of one).
+void write_sweep_section(const SettingsSweep& sweep, const std::string& prefix, std::ostream& out) {
   const Mechanism& m = *sweep.mechanism;
-  write_page_head(fmt::format("crosslink sweep: {}", m.name), kSweepStyle, options.asset_dirs, out);
   out << fmt::format("<h1>Speed against accuracy: {}</h1>\n<p>{}</p>\n", html_escape(m.name),
                      html_escape(m.description));
   if (sweep.dynamics)
@@ -308,7 +307,8 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
   for (const std::string& s : sweep.skipped)
     out << "<p><b>Not run:</b> " << html_escape(s) << "</p>\n";
   out << ranking_table(sweep, rank_engines(sweep));
-  out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
+  out << "<p id=\"" << prefix
+      << "render-status\" data-status=\"pending\">charts not rendered (scripts did not "
          "run)</p>\n";
   if (!sweep.selections.empty()) {
     out << "<h2>Cheapest setting per engine</h2>\n<ul>\n";
@@ -327,13 +327,14 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
          "sample are drawn at the ceiling: that is where an engine's accuracy collapses.</p>\n";
   const std::vector<ErrorClass> classes = measured_classes(sweep);
   for (ErrorClass c : classes)
-    out << fmt::format("<h3>{0}</h3>\n<div id=\"cost-{0}\" class=\"chart\"></div>\n", to_string(c));
+    out << fmt::format("<h3>{0}</h3>\n<div id=\"{1}cost-{0}\" class=\"chart\"></div>\n",
+                       to_string(c), prefix);
   if (sweep.dynamics) {
     out << "<h2>Error at the end of the run against cost</h2>\n<p>The work-precision chart of "
            "the multibody benchmarks: the % of peak at the last sample.</p>\n";
     for (ErrorClass c : classes)
-      out << fmt::format("<h3>{0}</h3>\n<div id=\"end-{0}\" class=\"chart\"></div>\n",
-                         to_string(c));
+      out << fmt::format("<h3>{0}</h3>\n<div id=\"{1}end-{0}\" class=\"chart\"></div>\n",
+                         to_string(c), prefix);
   }
   if (!sweep.limits.empty())
     out << fmt::format(
@@ -349,7 +350,8 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
   out << "<h2>Error against time step</h2>\n<p>Each variant's series; the slope is the observed "
          "order of convergence (table below).</p>\n";
   for (ErrorClass c : classes)
-    out << fmt::format("<h3>{0}</h3>\n<div id=\"dt-{0}\" class=\"chart\"></div>\n", to_string(c));
+    out << fmt::format("<h3>{0}</h3>\n<div id=\"{1}dt-{0}\" class=\"chart\"></div>\n", to_string(c),
+                       prefix);
   out << "<h2>Observed order of convergence in dt</h2>\n<p>Least-squares slope of log error "
          "against log dt over the non-saturated points of each series with status ok: points "
          "at 10 % of peak or more are left out (not yet asymptotic, or collapsed), and so is "
@@ -367,7 +369,41 @@ void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, st
          "it flagged some (loop gap, singular, diverged), which stay out of the errors; "
          "diverged: the run did not finish.</dd>\n";
   out << "</dl>\n";
+}
+
+}  // namespace
+
+void write_sweep_html(const SettingsSweep& sweep, const HtmlOptions& options, std::ostream& out) {
+  write_page_head(fmt::format("crosslink sweep: {}", sweep.mechanism->name), kSweepStyle,
+                  options.asset_dirs, out);
+  write_sweep_section(sweep, "", out);
   write_page_tail(report_data(sweep).dump(), kSweepPageScript, out);
+}
+
+void write_sweeps_html(const std::vector<SweptDefinition>& sweeps, const HtmlOptions& options,
+                       std::ostream& out) {
+  write_page_head(fmt::format("crosslink sweep: {} definitions", sweeps.size()), kSweepStyle,
+                  options.asset_dirs, out);
+  out << fmt::format("<h1>Speed against accuracy: {} definitions</h1>\n<ul>\n", sweeps.size());
+  for (size_t k = 0; k < sweeps.size(); ++k)
+    out << fmt::format("<li><a href=\"#d{}\">{}</a> <code>{}</code></li>\n", k,
+                       html_escape(sweeps[k].sweep->mechanism->name), html_escape(sweeps[k].path));
+  out << "</ul>\n";
+  json reports = json::array();
+  for (size_t k = 0; k < sweeps.size(); ++k) {
+    const std::string prefix = fmt::format("d{}-", k);
+    out << fmt::format("<section id=\"d{}\">\n", k);
+    write_sweep_section(*sweeps[k].sweep, prefix, out);
+    out << "</section>\n";
+    json data = report_data(*sweeps[k].sweep);
+    data["prefix"] = prefix;
+    reports.push_back(std::move(data));
+  }
+  // The page script once per section, REPORT the section's own inside the loop's block.
+  write_page_tail(reports.dump(),
+                  std::string("for (const SECTION of REPORT) {\nconst REPORT = SECTION;\n") +
+                      kSweepPageScript + "\n}",
+                  out);
 }
 
 }  // namespace crosslink::methods

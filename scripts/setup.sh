@@ -15,6 +15,9 @@ PACKAGES=(
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
   python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py
+  # tests/cluster/slurm_sweep.sh (label cluster): slurmctld, slurmd and the client commands; it
+  # pulls munge, whose daemon the test's auth/none Slurm does not use
+  slurm-wlm
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

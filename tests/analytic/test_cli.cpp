@@ -1435,6 +1435,127 @@ nlohmann::json without_timings(const nlohmann::json& j) {
   return j;
 }
 
+// The JSON of a sweep without its costs: the cost keys and the timings in texts.
+nlohmann::json without_costs(const nlohmann::json& j) {
+  if (j.is_object()) {
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto& [key, value] : j.items())
+      if (key != "wall_s_per_cycle" && key != "cpu_s_per_cycle") out[key] = without_costs(value);
+    return out;
+  }
+  if (j.is_array()) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& value : j) out.push_back(without_costs(value));
+    return out;
+  }
+  return without_timings(j);
+}
+
+std::string csv_without_costs(const std::string& path) {
+  return std::regex_replace(
+      without_columns(read_file(path), {"wall_s_per_cycle", "cpu_s_per_cycle"}),
+      std::regex("; [0-9.e+-]+ s\\b"), "; T s");
+}
+
+// Three definitions (a kinematic one, one with forces, a dynamics case) at a cheap setting: a
+// single run, and the same split into two and three shards and merged.
+TEST(Cli, MergedShardsWriteTheSweepOfOneRun) {
+  const std::filesystem::path dir = scratch_dir() / "merge";
+  std::filesystem::create_directories(dir);
+  const std::string definitions =
+      "mechanisms/fourbar_crank_rocker.toml "
+      "mechanisms/published/khurmi_slider_crank_gas_force.toml "
+      "mechanisms/andrews_squeezer.toml";
+  const std::string common = "--engines mujoco --dt 1e-3 --repeat 1 --quiet";
+  const std::string settings = common + " --step 10";
+  const auto out = [&](const std::string& name) { return (dir / name).string(); };
+  CommandRun run =
+      crosslink(fmt::format("sweep {} {} --csv {} --json {} --report {}", definitions, settings,
+                            out("single.csv"), out("single.json"), out("single.html")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string single_csv = csv_without_costs(out("single.csv"));
+  const nlohmann::json single_json = nlohmann::json::parse(read_file(out("single.json")));
+  // One row per setting of each definition, led by its path; a page with a section of each.
+  EXPECT_EQ(single_csv.substr(0, single_csv.find('|')), "definition");
+  for (const char* name :
+       {"fourbar_crank_rocker", "khurmi_slider_crank_gas_force", "andrews_squeezer"})
+    EXPECT_TRUE(std::regex_search(
+        single_csv, std::regex(fmt::format("\nmechanisms/([a-z]+/)?{}\\.toml\\|mujoco\\|", name))))
+        << name;
+  const std::string page = read_file(out("single.html"));
+  for (const char* id :
+       {"id=\"d0-cost-position\"", "id=\"d1-render-status\"", "id=\"d2-dt-velocity\""})
+    EXPECT_NE(page.find(id), std::string::npos) << id;
+
+  for (int n : {2, 3}) {
+    std::string parts;
+    for (int i = 0; i < n; ++i) {
+      const std::string part = out(fmt::format("part{}of{}.json", i, n));
+      run = crosslink(
+          fmt::format("sweep {} {} --shard {}/{} --json {}", definitions, settings, i, n, part));
+      ASSERT_EQ(run.exit_code, 0) << run.err;
+      parts += " " + part;
+    }
+    run = crosslink(fmt::format(
+        "merge{} --csv {} --json {} --report {}", parts, out(fmt::format("merged{}.csv", n)),
+        out(fmt::format("merged{}.json", n)), out(fmt::format("merged{}.html", n))));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(csv_without_costs(out(fmt::format("merged{}.csv", n))), single_csv) << n;
+    EXPECT_EQ(without_costs(nlohmann::json::parse(read_file(out(fmt::format("merged{}.json", n))))),
+              without_costs(single_json))
+        << n;
+  }
+  // The page and the CSV are functions of the part: merged from the single run's own JSON they
+  // are that run's, byte for byte.
+  run = crosslink(fmt::format("merge {} --csv {} --report {}", out("single.json"), out("again.csv"),
+                              out("again.html")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(read_file(out("again.csv")), read_file(out("single.csv")));
+  EXPECT_TRUE(read_file(out("again.html")) == page);
+
+  // Parts that do not fit: each refused with exit 2 and a message saying why.
+  const auto refused = [&](const std::string& parts, const std::string& why) {
+    const CommandRun r = crosslink("merge " + parts + " --csv " + out("refused.csv"));
+    EXPECT_EQ(r.exit_code, 2) << parts;
+    EXPECT_NE(r.err.find(why), std::string::npos) << r.err;
+  };
+  refused(out("part0of2.json"), "shard 1/2 is missing");
+  refused(out("part0of2.json") + " " + out("part0of2.json"), "shard 0/2 given twice");
+  refused(out("part0of3.json") + " " + out("part1of2.json"), "is a shard of 3");
+  // Other settings.
+  run = crosslink(fmt::format("sweep {} {} --step 20 --shard 1/2 --json {}", definitions, common,
+                              out("other_step.json")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  refused(out("part0of2.json") + " " + out("other_step.json"), "differ from");
+  // A definition whose text changed (a comment more), under the same path.
+  const std::filesystem::path copy = dir / "copy";
+  for (const char* f : {"mechanisms/fourbar_crank_rocker.toml",
+                        "mechanisms/published/khurmi_slider_crank_gas_force.toml",
+                        "mechanisms/andrews_squeezer.toml"}) {
+    std::filesystem::create_directories((copy / f).parent_path());
+    std::ofstream(copy / f) << read_file(std::filesystem::path(CROSSLINK_SOURCE_DIR) / f)
+                            << (std::string(f).find("crank_rocker") != std::string::npos
+                                    ? "# changed\n"
+                                    : "");
+  }
+  run = crosslink(
+      fmt::format("sweep {} {} --shard 1/2 --json {}", definitions, settings, out("changed.json")),
+      copy);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  refused(out("part0of2.json") + " " + out("changed.json"), "definitions differ");
+  // Another crosslink version; a file that is no part.
+  nlohmann::json other = nlohmann::json::parse(read_file(out("part1of2.json")));
+  other["crosslink"] = "0.0.1";
+  std::ofstream(out("other_version.json")) << other.dump();
+  refused(out("part0of2.json") + " " + out("other_version.json"), "written by crosslink");
+  std::ofstream(out("not_a_part.json")) << "{\"rows\": []}";
+  refused(out("not_a_part.json"), "not a part of a sweep");
+  // A bad shard.
+  run = crosslink(fmt::format("sweep {} {} --shard 2/2", definitions, settings));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("--shard: expected I/N"), std::string::npos) << run.err;
+}
+
 TEST(Cli, SweepOverTwoThreadsWritesTheCsvOfOne) {
   std::map<int, std::string> csv, out, err;
   for (int jobs : {1, 2}) {

@@ -16,7 +16,8 @@ endif()
 if(NOT DEFINED SUBCOMMAND)
   set(SUBCOMMAND compare)
 endif()
-execute_process(COMMAND "${CROSSLINK}" ${SUBCOMMAND} "${MECHANISM}" --report "${report}" ${at_args}
+# MECHANISM may be a list (a sweep of several definitions: a status per section, all checked).
+execute_process(COMMAND "${CROSSLINK}" ${SUBCOMMAND} ${MECHANISM} --report "${report}" ${at_args}
                 RESULT_VARIABLE code OUTPUT_QUIET)
 if(NOT EXISTS "${report}" OR code GREATER 1)
   message(FATAL_ERROR "crosslink ${SUBCOMMAND} --report failed (exit ${code})")
@@ -44,11 +45,17 @@ file(WRITE "${OUT}/chromium.log" "${log}")
 execute_process(COMMAND "${CHROMIUM}" ${flags} --window-size=1200,3000
                         --screenshot=${OUT}/report.png "file://${report}"
                 OUTPUT_QUIET ERROR_QUIET TIMEOUT 120)
-string(REGEX MATCH "<p id=\"render-status\"[^>]*>[^<]*</p>" status "${dom}")
-message("status: ${status}")
-if(NOT status MATCHES "data-status=\"ok\"")
-  message(FATAL_ERROR "the report did not render: ${status}\nbrowser log: ${OUT}/chromium.log")
+string(REPLACE ";" "," flat "${dom}")  # a status's text may hold a ';', a CMake list's separator
+string(REGEX MATCHALL "<p id=\"[a-z0-9]*-?render-status\"[^>]*>[^<]*</p>" statuses "${flat}")
+if(NOT statuses)
+  message(FATAL_ERROR "the report has no render status\nbrowser log: ${OUT}/chromium.log")
 endif()
+foreach(status IN LISTS statuses)
+  message("status: ${status}")
+  if(NOT status MATCHES "data-status=\"ok\"")
+    message(FATAL_ERROR "the report did not render: ${status}\nbrowser log: ${OUT}/chromium.log")
+  endif()
+endforeach()
 # Console errors from the page (uncaught exceptions are already in the status).
 string(REGEX MATCHALL "CONSOLE\\([0-9]+\\)\\][^\n]*" console "${log}")
 foreach(line IN LISTS console)
