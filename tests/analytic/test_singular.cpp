@@ -334,6 +334,24 @@ TEST(Tracer, ALegThatSpendsItsBudgetLeavesTheRangeUnknown) {
   EXPECT_NE(range.unknown.find("budget of 20 steps"), std::string::npos) << range.explain(m);
 }
 
+// The tracer's step bounds each coordinate's move (0.02 rad of a link's turn), not the arclength
+// over all of them, so a chain of N loops turning together takes the steps of one loop: a crank
+// turn of 2 pi in steps of 0.02 rad is 315, within a budget of 400 for A02 with N = 2 and with
+// N = 10 alike (an arclength cap took 580 and 1,047 steps, the budget running out).
+TEST(Tracer, ItsStepsPerTurnDoNotGrowWithTheLoops) {
+  for (const std::string file : {"mechanisms/iftomm_a02_double_fourbar.toml",
+                                 "mechanisms/scaling/iftomm_a02_nfourbar_10.toml"}) {
+    const Mechanism m = load_mechanism(file);
+    SweepOptions options;
+    options.tracer_steps = 400;
+    std::vector<SingularPosition> events;
+    const Trajectory t = sweep(m, options, events);
+    ASSERT_GT(t.samples(), 300) << file;
+    for (const SingularPosition& e : events)
+      EXPECT_NE(e.kind, SingularKind::branch_jump) << file << ": " << e.message;
+  }
+}
+
 // Two slots turning parallel send the triangle off along them as the disk nears 90 degrees.
 // The held-driver rule ended each leg after 15,700 steps (160 s under the sanitizers, the fuzz
 // minute's seeds); a point's flight beyond the chain's reach ends it in a few hundred.
