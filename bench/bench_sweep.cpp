@@ -16,13 +16,18 @@
 //                            (one driver cycle of its crank, driven at its initial rate);
 //                            counters: bodies, samples, growth_exponent (the least-squares slope
 //                            of log time against log bodies over the sizes run so far)
+//   A02/mujoco/N:<n>         MuJoCo's driven run of the same cycle at its default settings (the
+//                            kinematic view: the [dynamics] case removed), on the Newton sweep's
+//                            samples: what the exact sweep's time at each N is set against
 //
 // Run from the source root:
 //   build/bench/bench_sweep --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
+#include <map>
 #include <string>
+#include <utility>
 
 #include "analytic/loader.h"
 #include "bench/a02.h"
@@ -60,6 +65,34 @@ void a02_sweep(benchmark::State& state) {
   growth.add(state, m.moving_count(), seconds);
   state.counters["bodies"] = m.moving_count();
   state.counters["samples"] = t.samples();
+}
+
+// A02's kinematic view (driven at its initial rate, as `sweep` runs it) and its reference, per N.
+const std::pair<Mechanism, compare::MethodRun>& a02_driven(int n) {
+  static std::map<int, std::pair<Mechanism, compare::MethodRun>> cache;
+  auto it = cache.find(n);
+  if (it == cache.end()) {
+    Mechanism m = bench::a02(n);
+    m.dynamics.reset();
+    compare::MethodRun reference = methods::run_reference(m);
+    it = cache.emplace(n, std::make_pair(std::move(m), std::move(reference))).first;
+  }
+  return it->second;
+}
+
+void a02_engine(benchmark::State& state, const std::string& engine) {
+  const auto& [m, reference] = a02_driven(static_cast<int>(state.range(0)));
+  long steps = 0;
+  const double seconds = bench::thread_seconds_per_run(state, [&] {
+    const compare::MethodRun run = methods::run_method(engine, m, reference);
+    if (!run.ok) state.SkipWithError((engine + ": " + run.message).c_str());
+    steps = run.cost.steps;
+    benchmark::DoNotOptimize(run.trajectory.alpha.data());
+  });
+  static bench::Growth growth;
+  growth.add(state, m.moving_count(), seconds);
+  state.counters["bodies"] = m.moving_count();
+  state.counters["steps_run"] = static_cast<double>(steps);
 }
 
 void reference_cycle(benchmark::State& state) {
@@ -114,6 +147,13 @@ BENCHMARK(a02_sweep)
     ->Arg(10)
     ->Arg(40)
     ->Arg(160)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+BENCHMARK_CAPTURE(a02_engine, mujoco, std::string("mujoco"))
+    ->Name("A02/mujoco/N")
+    ->Arg(2)
+    ->Arg(10)
+    ->Arg(40)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 BENCHMARK(reference_cycle)->Name("Cycle/reference")->Unit(benchmark::kMillisecond);
