@@ -4,6 +4,7 @@
 //     accelerations, and its instantaneous centres at the pitch points;
 //   - a slider-crank driving a pinion through a rack against the slider-crank's closed-form travel
 //     rolled onto the pinion's pitch circle;
+//   - a geared five-bar with equal gears, whose coupler point runs on its mirror line;
 //   - the mesh force along the line of action: tilted from the pitch line's tangent by the
 //     pressure angle, pushing the teeth apart (Newton-Euler on every link, with the mesh force at
 //     the pitch point, is test_kinetostatics' ReactionsBalanceEveryLink over mechanisms/gears);
@@ -108,6 +109,30 @@ TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
     EXPECT_NEAR(angle_between(t.angle(k, pinion), (travel - 0.160) / radius), 0.0, 1e-9) << k;
     EXPECT_NEAR(t.omega(k, pinion), rate / radius, 1e-9 * (r * w / radius)) << k;
     EXPECT_NEAR(t.alpha(k, pinion), accel / radius, 1e-9 * (r * w * w / radius)) << k;
+  }
+}
+
+// Equal external gears turn the cranks mirror-wise (theta_5 = 180 deg - theta_2), so the chain is
+// symmetric about x = 25 mm and C, where the couplers meet, runs on that line:
+// C_y = 20 sin t + sqrt(60^2 - (25 - 20 cos t)^2) mm.
+TEST(Gears, AGearedFiveBarWithEqualGearsMovesCOnItsMirrorLine) {
+  const Mechanism m = load_mechanism(gear_file("geared_fivebar.toml"));
+  EXPECT_EQ(mobility(m).mobility, 1);
+  const Trajectory t = sweep(m);
+  ASSERT_GT(t.samples(), 300);
+  const int c = column(t.point_names, "C"), crank5 = column(t.link_names, "crank5");
+  const double w = 2.0 * kPi;  // 60 rpm
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
+    const double th = t.driver(k), s = std::sin(th), co = std::cos(th);
+    const double gap = 0.025 - 0.020 * co, root = std::sqrt(0.060 * 0.060 - gap * gap);
+    const double y = 0.020 * s + root;
+    const double dy = 0.020 * co - gap * 0.020 * s / root;  // dC_y / d theta
+    EXPECT_NEAR(angle_between(t.angle(k, crank5), kPi - th), 0.0, 1e-9) << k;
+    EXPECT_NEAR(t.x(k, c), 0.025, 1e-12) << k;
+    EXPECT_NEAR(t.y(k, c), y, 1e-12) << k;
+    EXPECT_NEAR(t.vx(k, c), 0.0, 1e-9 * 0.080 * w) << k;
+    EXPECT_NEAR(t.vy(k, c), dy * w, 1e-9 * 0.080 * w) << k;
   }
 }
 
