@@ -22,6 +22,8 @@ done
 dir=$(mktemp -d /tmp/crosslink-slurm.XXXXXX)
 pids=()
 stop() {
+  # The jobs first (their slurmstepd outlive slurmd), then the daemons.
+  [ -n "${SLURM_CONF:-}" ] && { scancel --quiet --user "$(id -un)" 2>/dev/null; sleep 1; } || true
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
   for p in "${pids[@]}"; do
     for _ in $(seq 50); do kill -0 "$p" 2>/dev/null || break; sleep 0.1; done
@@ -120,7 +122,7 @@ echo "the single run ended $(($(date +%s) - start)) s after the submission"
 # messages ("...; 0.0011 s").
 python3 - "$dir/single.csv" "$dir/out/sweep.csv" "$dir/single.json" "$dir/out/sweep.json" <<'PY'
 import csv, json, re, sys
-COST = {'wall_s_per_cycle', 'cpu_s_per_cycle'}
+COST = {'wall_s_per_cycle', 'cpu_s_per_cycle', 'rank'}  # rank: engines ordered by CPU time
 def timing(s): return re.sub(r'; [0-9.e+-]+ s\b', '; T s', s)
 def table(path):
     rows = list(csv.reader(open(path)))
