@@ -115,10 +115,10 @@ ConstraintRows driver_rows(const Mechanism& m, const Driver& d) {
 
 ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
   ConstraintRows c;
-  c.ratio = j.ratio;
-  c.angle = j.phase;
   if (j.type == JointType::gear) {
     c.kind = Kind::gear;
+    c.ratio = j.ratio;
+    c.angle = j.phase;
     c.a = m.moving_index(j.link_a);
     c.b = m.moving_index(j.link_b);
     c.c = m.moving_index(j.carrier);

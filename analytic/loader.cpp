@@ -625,6 +625,11 @@ int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* nod
   return index;
 }
 
+// A link's frame in the world as drawn (the origin where no pose is given).
+Eigen::Vector3d drawn_pose(const Link& link) {
+  return link.pose.value_or(Eigen::Vector3d::Zero());
+}
+
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
   Joint joint;
   joint.where = r.at(t);
@@ -693,8 +698,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
         joint.relative_angle = *angle;
       } else if (joint.link_a >= 0 && joint.link_b >= 0) {
         // The slider keeps the relative angle it is drawn at (0 where a pose is not given).
-        auto drawn = [&](int l) { return m.links[l].pose ? (*m.links[l].pose)(2) : 0.0; };
-        joint.relative_angle = drawn(joint.link_b) - drawn(joint.link_a);
+        joint.relative_angle =
+            drawn_pose(m.links[joint.link_b])(2) - drawn_pose(m.links[joint.link_a])(2);
       }
     }
     return joint;
@@ -710,10 +715,6 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
   return joint;
 }
 
-// A link's frame in the world as drawn (the origin where no pose is given).
-Eigen::Vector3d drawn_pose(const Link& link) {
-  return link.pose.value_or(Eigen::Vector3d::Zero());
-}
 Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local) {
   const Eigen::Vector3d p = drawn_pose(link);
   return p.head<2>() + Eigen::Rotation2Dd(p(2)) * local;
