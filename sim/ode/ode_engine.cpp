@@ -300,6 +300,13 @@ void check_bodies(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd
 std::mutex interrupted_mutex;
 std::vector<std::pair<dWorldID, dThreadingImplementationID>> interrupted_worlds;
 
+// dWorldQuickStep reorders its rows at random by ODE's one process-wide generator (dRandInt), so
+// a quick-step run's numbers depended on the runs before it and, over threads, beside it. A
+// quick-step scene holds the generator for its run and starts it from ODE's initial seed (0):
+// every run gives the numbers of a lone run, serial or over `--jobs` threads.
+std::mutex quick_step_mutex;
+constexpr unsigned long kQuickStepSeed = 0;
+
 // ODE's own record of one joint's last step: forces [N] on its bodies and torques [N m] about
 // their centres of mass, per scene body (body1 or body2 of the ODE joint).
 struct JointSide {
@@ -314,6 +321,10 @@ class OdeScene {
            const Eigen::VectorXd* qdot, bool driven)
       : m_(m), g_(g), quick_(config.stepper == "quick") {
     check_bodies(m, g, q);
+    if (quick_) {
+      random_order_ = std::unique_lock<std::mutex>(quick_step_mutex);
+      dRandSetSeed(kQuickStepSeed);
+    }
     world_ = dWorldCreate();
     threading_ = dThreadingAllocateSelfThreadedImplementation();
     dWorldSetStepThreadingImplementation(world_, dThreadingImplementationGetFunctions(threading_),
@@ -490,7 +501,8 @@ class OdeScene {
   dJointID motor_ = nullptr;
   double motor_sign_ = 1.0;
   SceneJoint::Kind motor_kind_ = SceneJoint::Kind::hinge;
-  bool interrupted_ = false;  // a step threw (an ODE error inside it)
+  bool interrupted_ = false;                   // a step threw (an ODE error inside it)
+  std::unique_lock<std::mutex> random_order_;  // a quick-step run's hold on dRandInt's seed
 };
 
 // Forces of the last step at pose q (the pose it left), in the mechanism's terms, converted as
