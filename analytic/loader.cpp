@@ -18,6 +18,7 @@
 #include "analytic/expression.h"
 #include "analytic/fourbar.h"
 #include "analytic/limits.h"
+#include "analytic/trajectory.h"
 
 namespace crosslink {
 namespace {
@@ -1404,10 +1405,20 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+// Every channel a method writes for the mechanism, its forces' included; none while the definition
+// has errors (the mechanism may be incomplete: each was reported already).
+std::vector<std::string> channels_of(const Reader& r, const Mechanism& m) {
+  if (!r.diagnostics().empty() || m.ground() < 0) return {};
+  Trajectory shape;
+  shape.resize(m, 0, true);
+  return shape.channel_names();
+}
+
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "reference", limits::kReferences);
   if (!array) return;
   const std::vector<std::string> objects = reference_objects(m);
+  const std::vector<std::string> channels = channels_of(r, m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
     r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "precision", "source"});
@@ -1445,6 +1456,20 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
               fmt::format("[[reference]]: '{}' names no moving link, point, joint, slider, "
                           "driver or ground (valid names: {})",
                           ref.quantity, join(objects)));
+      continue;
+    }
+    // A kind that the named object does not have ("sdot.A" of a point A) would compare with
+    // nothing and pass: the kinds it has are listed.
+    if (factor && !ref.derived && !channels.empty() &&
+        std::find(channels.begin(), channels.end(), ref.quantity) == channels.end()) {
+      const std::string object = ref.quantity.substr(ref.quantity.find('.') + 1);
+      std::vector<std::string> its;
+      for (const std::string& c : channels)
+        if (c.substr(c.find('.') + 1) == object) its.push_back(c);
+      r.error(r.at(t.get("quantity")),
+              fmt::format("[[reference]]: '{}' is no channel of this mechanism ({})", ref.quantity,
+                          its.empty() ? fmt::format("'{}' has none", object)
+                                      : fmt::format("those of '{}': {}", object, join(its))));
       continue;
     }
     if (!at || !value || !factor) continue;

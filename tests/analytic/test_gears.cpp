@@ -5,6 +5,8 @@
 //   - a slider-crank driving a pinion through a rack against the slider-crank's closed-form travel
 //     rolled onto the pinion's pitch circle;
 //   - a geared five-bar with equal gears, whose coupler point runs on its mirror line;
+//   - published trains: a handout's epicyclic train and Ryan's rack and pinion against their
+//     printed speeds, and Constans and Dyer's geared five-bar against an independent solution;
 //   - the mesh force along the line of action: tilted from the pitch line's tangent by the
 //     pressure angle, pushing the teeth apart (Newton-Euler on every link, with the mesh force at
 //     the pitch point, is test_kinetostatics' ReactionsBalanceEveryLink over mechanisms/gears);
@@ -15,6 +17,8 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "analytic/instant_centres.h"
 #include "analytic/kinetostatics.h"
@@ -68,6 +72,58 @@ TEST(Gears, AnEpicyclicTrainFollowsWillisFormula) {
     EXPECT_NEAR(angle_between(t.angle(k, sun), sun_ratio * arm_angle), 0.0, 1e-9) << k;
     EXPECT_NEAR(angle_between(t.angle(k, planet), planet_ratio * arm_angle), 0.0, 1e-9) << k;
   }
+}
+
+// The printed answers of a published train are within their rounding of the exact values read
+// off the sweep at the reference's driver value (a grid sample).
+void expect_references_within_rounding(const Mechanism& m, const Trajectory& t) {
+  ASSERT_FALSE(m.references.empty());
+  for (const Reference& ref : m.references) {
+    int row = -1;
+    for (int k = 0; k < t.samples(); ++k)
+      if (std::abs(t.driver(k) - ref.driver_value) < 1e-12) row = k;
+    ASSERT_GE(row, 0) << ref.quantity;
+    const double exact = (*t.channel(ref.quantity))(row);
+    EXPECT_TRUE(ref.within_rounding(exact))
+        << ref.quantity << ": printed " << ref.printed << ", exact " << exact;
+  }
+}
+
+// The handout's problem (the file's citation): ring 72 fixed, sun 32, planet 20, arm at 18 rpm.
+// Willis with w_ring = 0: w_sun = w_arm (1 + 72/32), w_planet = w_arm (1 - 72/20); printed
+// 58.5 rpm anticlockwise and 46.8 rpm clockwise.
+TEST(Gears, TheHandoutsEpicyclicTrainGivesItsPrintedSpeeds) {
+  const Mechanism m = load_mechanism(gear_file("epicyclic_ring72_sun32.toml"));
+  EXPECT_EQ(mobility(m).mobility, 1);
+  const Trajectory t = sweep(m);
+  ASSERT_GT(t.samples(), 300);
+  const int sun = column(t.link_names, "sun"), planet = column(t.link_names, "planet");
+  const double w = 18.0 * 2.0 * kPi / 60.0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
+    EXPECT_NEAR(t.omega(k, sun), w * (1.0 + 72.0 / 32.0), 1e-9 * w) << k;
+    EXPECT_NEAR(t.omega(k, planet), w * (1.0 - 72.0 / 20.0), 1e-9 * w) << k;
+  }
+  expect_references_within_rounding(m, t);
+}
+
+// Ryan's answer (the file's citation): 13 teeth at 80 rpm on a 4 mm pitch rack travel 52 mm a
+// turn, 4160 mm a minute: the rack's rate is the pinion's rate times its pitch radius 13 x 4 /
+// (2 pi) mm, its travel the angle turned times that radius.
+TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
+  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
+  EXPECT_EQ(mobility(m).mobility, 1);
+  const Trajectory t = sweep(m);
+  ASSERT_GT(t.samples(), 300);
+  const int slide = column(t.slider_names, "rack_slide");
+  const double radius = 13.0 * 0.004 / (2.0 * kPi), w = 80.0 * 2.0 * kPi / 60.0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
+    EXPECT_NEAR(t.s(k, slide), radius * t.driver(k), 1e-12) << k;
+    EXPECT_NEAR(t.sdot(k, slide), radius * w, 1e-9 * radius * w) << k;  // 4160 mm a minute
+    EXPECT_NEAR(t.sddot(k, slide), 0.0, 1e-9 * radius * w * w) << k;
+  }
+  expect_references_within_rounding(m, t);
 }
 
 // Rolling pitch circles have no relative velocity where they touch: the pitch point is the gears'
@@ -133,6 +189,80 @@ TEST(Gears, AGearedFiveBarWithEqualGearsMovesCOnItsMirrorLine) {
     EXPECT_NEAR(t.y(k, c), y, 1e-12) << k;
     EXPECT_NEAR(t.vx(k, c), 0.0, 1e-9 * 0.080 * w) << k;
     EXPECT_NEAR(t.vy(k, c), dy * w, 1e-9 * 0.080 * w) << k;
+  }
+}
+
+// Constans and Dyer's geared five-bar (the file's citation) against an independent solution:
+// scripts/reference/geared_fivebar_constans_dyer.py (the circle intersection of B's and C's
+// circles, 2 x 2 solves for the rates and accelerations, checked there against central
+// differences and against the book's reader's code's angles to 9e-16 rad). Each value to 1e-9 of
+// its class's peak over the turn. With the links massless and 100 N downwards at P, the driver
+// torque and the tangential mesh force (gear 1 on gear 2, along +y at the pitch point (120, 0)
+// mm) by virtual work, as printed by the script.
+TEST(Gears, ConstansAndDyersGearedFiveBarMatchesTheIndependentSolution) {
+  Mechanism m = load_mechanism(gear_file("constans_dyer_geared_fivebar.toml"));
+  m.gravity = Eigen::Vector2d::Zero();
+  for (Link& l : m.links) l.mass = MassProperties{0.0, Eigen::Vector2d::Zero(), 0.0, false};
+  const int coupler1 = m.find_link("coupler1");
+  Load load;
+  load.name = "at_P";
+  load.link = coupler1;
+  load.point = "P";
+  for (const Point& p : m.links[static_cast<size_t>(coupler1)].points)
+    if (p.name == "P") load.local = p.local;
+  load.rows = {Eigen::Vector3d(0.0, 0.0, -100.0)};
+  m.loads.push_back(load);
+  const Trajectory t = sweep(m);
+  ASSERT_EQ(t.samples(), 361);
+  struct Expected {
+    double degrees, ex, ey, px, py, w3, w4, a3, a4, vx, vy, ax, ay;
+  };
+  const Expected rows[] = {{0, 0.210000000000, 0.233238075794, 0.123840172607, 0.199963129287,
+                            -20.000000000000, -20.000000000000, -77.174363314129, 77.174363314129,
+                            3.999262585745, 1.123196547860, 1.895958146251, -80.281614590859},
+                           {60, 0.306546317660, 0.062511537397, 0.256673061068, 0.140250820891,
+                            -1.927928591288, -5.764379101020, 252.531050299355, 85.680054137171,
+                            -0.969193133402, 0.220828382431, -15.904906331084, 39.138722819897},
+                           {210, 0.090857906322, 0.096717515474, -0.000376105439, 0.111108242327,
+                            5.879744665460, -8.756962994373, 120.984012232783, 13.649935938409,
+                            -0.406072775038, -0.430400898723, -13.888819346787, 12.612073588321}};
+  const int e = column(t.point_names, "E"), p = column(t.point_names, "P");
+  const int c1 = column(t.link_names, "coupler1"), c2 = column(t.link_names, "coupler2");
+  const auto peak = [](const Eigen::VectorXd& v) { return v.cwiseAbs().maxCoeff(); };
+  const double length = 0.370, rate = peak(t.omega.col(c1)) + peak(t.omega.col(c2)),
+               accel = peak(t.alpha.col(c1)) + peak(t.alpha.col(c2)),
+               speed = peak(t.vx.col(p)) + peak(t.vy.col(p)),
+               acceleration = peak(t.ax.col(p)) + peak(t.ay.col(p));
+  for (const Expected& r : rows) {
+    const int k = static_cast<int>(r.degrees);  // the 1 degree grid
+    ASSERT_NEAR(t.driver(k), r.degrees * kPi / 180.0, 1e-12);
+    EXPECT_NEAR(t.x(k, e), r.ex, 1e-9 * length) << r.degrees;
+    EXPECT_NEAR(t.y(k, e), r.ey, 1e-9 * length) << r.degrees;
+    EXPECT_NEAR(t.x(k, p), r.px, 1e-9 * length) << r.degrees;
+    EXPECT_NEAR(t.y(k, p), r.py, 1e-9 * length) << r.degrees;
+    EXPECT_NEAR(t.omega(k, c1), r.w3, 1e-9 * rate) << r.degrees;
+    EXPECT_NEAR(t.omega(k, c2), r.w4, 1e-9 * rate) << r.degrees;
+    EXPECT_NEAR(t.alpha(k, c1), r.a3, 1e-9 * accel) << r.degrees;
+    EXPECT_NEAR(t.alpha(k, c2), r.a4, 1e-9 * accel) << r.degrees;
+    EXPECT_NEAR(t.vx(k, p), r.vx, 1e-9 * speed) << r.degrees;
+    EXPECT_NEAR(t.vy(k, p), r.vy, 1e-9 * speed) << r.degrees;
+    EXPECT_NEAR(t.ax(k, p), r.ax, 1e-9 * acceleration) << r.degrees;
+    EXPECT_NEAR(t.ay(k, p), r.ay, 1e-9 * acceleration) << r.degrees;
+  }
+  // Massless: torque.driver [N m] and the mesh force's y component [N] (its x component is the
+  // teeth's separating force, |f_t| tan 20 deg).
+  const Eigen::VectorXd torque = *t.channel("torque.driver"), fx = *t.channel("fx.mesh"),
+                        fy = *t.channel("fy.mesh");
+  const double torque_peak = peak(torque), force_peak = peak(fy);
+  for (const auto& [degrees, tau, tangential] :
+       std::vector<std::tuple<int, double, double>>{{0, 11.231965478603, -4.266858452204},
+                                                    {30, -12.317451441113, -140.285602740999},
+                                                    {300, 16.708841175486, 178.480686258099}}) {
+    EXPECT_NEAR(torque(degrees), tau, 1e-9 * torque_peak) << degrees;
+    EXPECT_NEAR(fy(degrees), tangential, 1e-9 * force_peak) << degrees;
+    EXPECT_NEAR(std::abs(fx(degrees)), std::abs(tangential) * std::tan(20.0 * kPi / 180.0),
+                1e-9 * force_peak)
+        << degrees;
   }
 }
 

@@ -498,6 +498,27 @@ source = "test"
                     {"'omega.coupling'", "valid names: crank, coupler, rocker, A, D, B, C"});
 }
 
+// A kind its object does not have: before, "sdot.B" of a point was accepted, compared with
+// nothing ("-") and the comparison passed.
+TEST(Validation, ReferenceToAChannelItsObjectDoesNotHave) {
+  for (const auto& [quantity, kinds] : std::vector<std::pair<std::string, std::string>>{
+           {"sdot.B", "those of 'B': x.B, y.B, vx.B, vy.B, v.B, ax.B, ay.B, a.B"},
+           {"omega.B", "those of 'B'"},
+           {"x.coupler", "those of 'coupler': angle.coupler, omega.coupler, alpha.coupler"},
+           {"s.coupler", "those of 'coupler'"}}) {
+    const std::string text = four_bar() + fmt::format(R"(
+[[reference]]
+quantity = "{}"
+at = 60
+value = 1.0
+source = "test"
+)",
+                                                      quantity);
+    expect_diagnostic(text, place_of(text, "\"" + quantity + "\""),
+                      {fmt::format("'{}' is no channel of this mechanism", quantity), kinds});
+  }
+}
+
 // Issue 13: a reference keeps its value as printed, and the unit of its last digit: a
 // difference under half of it is within the printed rounding.
 TEST(Validation, ReferenceKeepsItsPrintedValueAndPrecision) {
