@@ -46,6 +46,14 @@ double angle_between(double a, double b) {
   return std::remainder(a - b, 2.0 * kPi);
 }
 
+// A bundled train's sweep: each has one freedom and assembles over its driver's whole turn.
+Trajectory swept(const Mechanism& m) {
+  EXPECT_EQ(mobility(m).mobility, 1);
+  Trajectory t = sweep(m);
+  EXPECT_GT(t.samples(), 300);
+  return t;
+}
+
 // z_sun 24, z_planet 12, z_ring 48, ring fixed, arm at 60 rpm (the file's description).
 TEST(Gears, AnEpicyclicTrainFollowsWillisFormula) {
   const Mechanism m = load_mechanism(gear_file("planetary_fixed_ring.toml"));
@@ -94,9 +102,7 @@ void expect_references_within_rounding(const Mechanism& m, const Trajectory& t) 
 // 58.5 rpm anticlockwise and 46.8 rpm clockwise.
 TEST(Gears, TheHandoutsEpicyclicTrainGivesItsPrintedSpeeds) {
   const Mechanism m = load_mechanism(gear_file("epicyclic_ring72_sun32.toml"));
-  EXPECT_EQ(mobility(m).mobility, 1);
-  const Trajectory t = sweep(m);
-  ASSERT_GT(t.samples(), 300);
+  const Trajectory t = swept(m);
   const int sun = column(t.link_names, "sun"), planet = column(t.link_names, "planet");
   const double w = 18.0 * 2.0 * kPi / 60.0;
   for (int k = 0; k < t.samples(); ++k) {
@@ -112,9 +118,7 @@ TEST(Gears, TheHandoutsEpicyclicTrainGivesItsPrintedSpeeds) {
 // (2 pi) mm, its travel the angle turned times that radius.
 TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
   const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
-  EXPECT_EQ(mobility(m).mobility, 1);
-  const Trajectory t = sweep(m);
-  ASSERT_GT(t.samples(), 300);
+  const Trajectory t = swept(m);
   const int slide = column(t.slider_names, "rack_slide");
   const double radius = 13.0 * 0.004 / (2.0 * kPi), w = 80.0 * 2.0 * kPi / 60.0;
   for (int k = 0; k < t.samples(); ++k) {
@@ -150,9 +154,7 @@ TEST(Gears, ThePitchPointsAreInstantCentres) {
 // by (s - 160 mm) / 30 mm, its centre on the rack line's left.
 TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
   const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
-  EXPECT_EQ(mobility(m).mobility, 1);
-  const Trajectory t = sweep(m);
-  ASSERT_GT(t.samples(), 300);
+  const Trajectory t = swept(m);
   const int pinion = column(t.link_names, "pinion");
   const double r = 0.040, l = 0.120, radius = 0.030, w = 4.0 * kPi;  // 120 rpm
   for (int k = 0; k < t.samples(); ++k) {
@@ -173,9 +175,7 @@ TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
 // C_y = 20 sin t + sqrt(60^2 - (25 - 20 cos t)^2) mm.
 TEST(Gears, AGearedFiveBarWithEqualGearsMovesCOnItsMirrorLine) {
   const Mechanism m = load_mechanism(gear_file("geared_fivebar.toml"));
-  EXPECT_EQ(mobility(m).mobility, 1);
-  const Trajectory t = sweep(m);
-  ASSERT_GT(t.samples(), 300);
+  const Trajectory t = swept(m);
   const int c = column(t.point_names, "C"), crank5 = column(t.link_names, "crank5");
   const double w = 2.0 * kPi;  // 60 rpm
   for (int k = 0; k < t.samples(); ++k) {
