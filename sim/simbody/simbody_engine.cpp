@@ -543,8 +543,12 @@ std::string stopped_at(const Scene& scene, const SimTK::State& s, const std::str
 class SimbodySteps {
  public:
   SimbodySteps(Scene& scene, const Config& c, const Eigen::VectorXd& q0)
-      : scene_(scene), q_(q0), scratch_(scene.start()) {
+      : scene_(scene), q_(q0), scratch_(scene.start()), max_steps_(c.max_steps) {
     integrator_ = make_integrator(c, scene.system());
+    // Control comes back every so many internal steps, so that a run whose step collapses (at a
+    // singular passage CPodes' step fell to 1e-17 s, where t + h = t, and stepped on for hours
+    // on IFToMM A02) stops with its reason instead of stepping on.
+    integrator_->setInternalStepLimit(kInternalStepsPerCall);
     integrator_->initialize(scene.start());
     scene_.readback().pose(integrator_->getState(), q_);
   }
@@ -552,12 +556,24 @@ class SimbodySteps {
   std::string advance(double t1) {
     try {
       while (integrator_->getTime() < t1) {
-        integrator_->stepTo(t1);
+        const double before = integrator_->getTime();
+        const SimTK::Integrator::SuccessfulStepStatus status = integrator_->stepTo(t1);
         if (integrator_->isSimulationOver())
           return stopped_at(
               scene_, integrator_->getState(),
               "Simbody's integrator stopped: " + SimTK::Integrator::getTerminationReasonString(
                                                      integrator_->getTerminationReason()));
+        if (status == SimTK::Integrator::ReachedStepLimit && integrator_->getTime() == before)
+          return stopped_at(
+              scene_, integrator_->getState(),
+              fmt::format("Simbody's integrator does not advance: its step fell to {:.2g} s, "
+                          "below the time's resolution",
+                          integrator_->getPreviousStepSizeTaken()));
+        if (integrator_->getNumStepsTaken() > max_steps_)
+          return stopped_at(scene_, integrator_->getState(),
+                            fmt::format("Simbody's integrator took more than {} internal steps, "
+                                        "the most of one run (max_steps), its last {:.2g} s",
+                                        max_steps_, integrator_->getPreviousStepSizeTaken()));
       }
     } catch (const std::exception& e) {
       return stopped_at(scene_, integrator_->getState(), simbody_error(e));
@@ -589,10 +605,12 @@ class SimbodySteps {
   }
 
  private:
+  static constexpr int kInternalStepsPerCall = 1'000;
   Scene& scene_;
   std::unique_ptr<SimTK::Integrator> integrator_;
   Eigen::VectorXd q_;
   SimTK::State scratch_;
+  long max_steps_;
 };
 
 // ---------------------------------------------------------------------------------------------

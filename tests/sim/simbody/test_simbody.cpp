@@ -135,5 +135,22 @@ TEST(SimbodyEngine, AStopAtAChangePointIsNamedAsASingularPosition) {
   EXPECT_NE(run.message.find("a singular position of the loops"), std::string::npos) << run.message;
 }
 
+// CPodes (BDF) driven into the change point cuts its step until t + h = t (5.6e-18 s at 1/3 s) and,
+// before, stepped on there for as long as one let it (IFToMM A02 N = 40: over 12 minutes): control
+// comes back every 1,000 internal steps, and a call that leaves the time where it was stops the
+// run with the step it fell to and the loops' conditioning there.
+TEST(SimbodyEngine, AStepThatCollapsesStopsTheRunWithItsReason) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/singular/fourbar_change_point_crank_rocker.toml");
+  SweepOptions options;
+  options.step = 10.0 * std::numbers::pi / 180.0;
+  const Trajectory exact = sweep(m, options);
+  const EngineRun run = make_simbody_engine()->run(m, exact, {{"integrator", "cpodes"}});
+  EXPECT_FALSE(run.ok);
+  EXPECT_NE(run.message.find("does not advance: its step fell to"), std::string::npos)
+      << run.message;
+  EXPECT_NE(run.message.find("a singular position of the loops"), std::string::npos) << run.message;
+}
+
 }  // namespace
 }  // namespace crosslink::sim
