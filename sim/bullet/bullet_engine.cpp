@@ -245,6 +245,12 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   policy.planar_joints = true;
   policy.split_loops = multibody;
   const SceneGraph g = scene_graph(m, policy);
+  refuse_couplings(
+      m, g,
+      "crosslink's Bullet scene does not build Bullet 3.24's gear constraints yet "
+      "(btGearConstraint holds a ratio of two rigid bodies' absolute rotation rates, "
+      "with no carrier and no rack; btMultiBodyGearConstraint one of two joints' rates, "
+      "both at the velocity level)");
   if (split_error) *split_error = g.split_error;
   const auto node = [](int body) { return body - 1; };
   Plan plan;
