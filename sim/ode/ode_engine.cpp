@@ -581,9 +581,9 @@ TreePolicy ode_policy() {
 SceneGraph ode_graph(const Mechanism& m) {
   SceneGraph g = scene_graph(m, ode_policy());
   refuse_couplings(m, g,
-                   "crosslink's ODE scene does not build ODE 0.16's one meshing joint, the "
-                   "transmission joint (dJointCreateTransmission, two wheels on parallel axes; no "
-                   "rack), yet");
+                   "crosslink's ODE scene does not yet build ODE 0.16's one meshing joint, the "
+                   "transmission joint (dJointCreateTransmission: two wheels on parallel axes, no "
+                   "rack)");
   return g;
 }
 
