@@ -117,33 +117,37 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (!j.is_gearing()) continue;
-    const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
     Gearing g;
-    g.joint = static_cast<int>(ji);
-    g.path_a = centre_path(m, j.link_a, j.carrier, carrier.points[j.centre_a].name);
-    if (j.type == JointType::gear)
-      g.path_b = centre_path(m, j.link_b, j.carrier, carrier.points[j.centre_b].name);
-    else
+    g.paths = gear_paths(m, static_cast<int>(ji));
+    if (j.type == JointType::rack_pinion)
       g.slide = static_cast<int>(std::find(slide_joints_.begin(), slide_joints_.end(), j.slide) -
                                  slide_joints_.begin());
     gearings_.push_back(std::move(g));
   }
 }
 
-void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
-                                    ForceSample& out) const {
-  const Mechanism& m = solver_.mechanism();
+GearPaths gear_paths(const Mechanism& m, int joint) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
+  GearPaths g;
+  g.joint = joint;
+  g.path_a = centre_path(m, j.link_a, j.carrier, carrier.points[j.centre_a].name);
+  if (j.type == JointType::gear)
+    g.path_b = centre_path(m, j.link_b, j.carrier, carrier.points[j.centre_b].name);
+  return g;
+}
+
+void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
+                      double couple, std::vector<Eigen::Vector2d>& joint_force,
+                      double* slide_normal, double* slide_moment) {
   const Joint& j = m.joints[static_cast<size_t>(g.joint)];
-  const int row = solver_.layout().joint(g.joint).first_row;
   const BodyMotion carrier = motion(m, j.carrier, state);
   const Link& c = m.links[static_cast<size_t>(j.carrier)];
   const Eigen::Vector2d pitch = carrier.position(pitch_point(m, j));
-  // The couple the row puts on one moving gear (the first unless it is the ground), the tooth
-  // force on that gear whose moment about its centre it is, and the separating force.
+  // The tooth force on the first moving gear whose moment about its centre is the couple, and
+  // the separating force.
   const bool first = m.moving_index(j.link_a) >= 0;
-  const int k = m.moving_index(first ? j.link_a : j.link_b);
   const double radius = first ? j.radius_a : j.radius_b;
-  const double couple = -solver_.jacobian_entry(state, row, 3 * k + 2) * out.lambda(row);
   const Eigen::Vector2d arm =
       pitch -
       carrier.position(c.points[static_cast<size_t>(first ? j.centre_a : j.centre_b)].local);
@@ -156,10 +160,10 @@ void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& stat
        std::abs(tangential) * std::tan(j.pressure_angle) * (ring ? arm : Eigen::Vector2d(-arm))) /
       radius;
   const Eigen::Vector2d on_a = first ? tooth : Eigen::Vector2d(-tooth);
-  out.joint_force[static_cast<size_t>(g.joint)] = -on_a;  // of the first gear on the second
-  for (const auto& [ji, sign] : g.path_a) out.joint_force[static_cast<size_t>(ji)] += sign * on_a;
-  for (const auto& [ji, sign] : g.path_b) out.joint_force[static_cast<size_t>(ji)] -= sign * on_a;
-  if (g.slide < 0) return;
+  joint_force[static_cast<size_t>(g.joint)] = -on_a;  // of the first gear on the second
+  for (const auto& [ji, sign] : g.path_a) joint_force[static_cast<size_t>(ji)] += sign * on_a;
+  for (const auto& [ji, sign] : g.path_b) joint_force[static_cast<size_t>(ji)] -= sign * on_a;
+  if (j.type != JointType::rack_pinion) return;
   // The rack: its row pushed it along the line at its slide's point; the teeth push at the pitch
   // point. The slide carries the normal part and the couple of the difference.
   const Joint& slide = m.joints[static_cast<size_t>(j.slide)];
@@ -169,9 +173,23 @@ void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& stat
   const Eigen::Vector2d on_rack = -on_a;
   const Eigen::Vector2d point =
       rack.position(m.links[slide.link_b].points[static_cast<size_t>(slide.point_b)].local);
-  out.joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(normal) * normal;
-  out.normal[static_cast<size_t>(g.slide)] -= on_rack.dot(normal);
-  out.moment[static_cast<size_t>(g.slide)] -= cross(pitch - point, on_rack);
+  joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(normal) * normal;
+  if (slide_normal) *slide_normal -= on_rack.dot(normal);
+  if (slide_moment) *slide_moment -= cross(pitch - point, on_rack);
+}
+
+void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
+                                    ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(g.paths.joint)];
+  const int row = solver_.layout().joint(g.paths.joint).first_row;
+  // The couple the row puts on one moving gear (the first unless it is the ground).
+  const int k = m.moving_index(m.moving_index(j.link_a) >= 0 ? j.link_a : j.link_b);
+  const double couple = -solver_.jacobian_entry(state, row, 3 * k + 2) * out.lambda(row);
+  const bool rack = g.slide >= 0;
+  pass_tooth_force(m, g.paths, state, couple, out.joint_force,
+                   rack ? &out.normal[static_cast<size_t>(g.slide)] : nullptr,
+                   rack ? &out.moment[static_cast<size_t>(g.slide)] : nullptr);
 }
 
 ForceSample Kinetostatics::make_sample() const {

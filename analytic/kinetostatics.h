@@ -67,6 +67,26 @@ struct ForceSample {
   bool finite() const;
 };
 
+// A gear pair's or rack's row (and an engine's coupling) acts on its links as couples, whereas
+// the teeth push at the pitch point. What a force on a gear at its centre passes through: the
+// revolute joints from the gear to its carrier at the centre, each with the sign it adds that
+// force to its joint force with.
+struct GearPaths {
+  int joint = -1;                                      // the gearing (Mechanism joint)
+  std::vector<std::pair<int, double>> path_a, path_b;  // path_b: a gear pair's second gear
+};
+GearPaths gear_paths(const Mechanism& m, int joint);
+
+// The tooth force of gearing `g` at `state` from `couple`, the couple its coupling puts on its
+// first moving gear (the first gear unless it is the ground) [N m]: written as the gearing's
+// joint force (of the first gear on the second at the pitch point) and passed through the joints
+// on the paths to the carrier; for a rack, the slide's force loses the tooth force's normal part
+// (also taken from `slide_normal`) and the slide's couple on the rack about its point
+// (`slide_moment`) the moment of the tooth force's offset from that point.
+void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
+                      double couple, std::vector<Eigen::Vector2d>& joint_force,
+                      double* slide_normal, double* slide_moment);
+
 class Kinetostatics {
  public:
   explicit Kinetostatics(const NewtonSolver& solver);
@@ -97,13 +117,9 @@ class Kinetostatics {
                           bool inertia = true) const;
 
  private:
-  // What a force on a gear at its centre passes through: the revolute joints from the gear to its
-  // carrier at the centre, each with the sign it adds that force to its joint force with.
-  using CentrePath = std::vector<std::pair<int, double>>;
   struct Gearing {
-    int joint = -1;
-    CentrePath path_a, path_b;  // path_b: a gear pair's second gear
-    int slide = -1;             // a rack's slide, its index in slide_joints_
+    GearPaths paths;
+    int slide = -1;  // a rack's slide, its index in slide_joints_
   };
   // The tooth force at the multipliers, and what it changes in the other joints' reactions.
   void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;

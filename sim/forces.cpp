@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <optional>
 
 #include "analytic/kinetostatics.h"
 #include "analytic/planar.h"
@@ -154,6 +156,7 @@ void ForceReading::set_zero() {
   effort = 0.0;
   for (Eigen::Vector2d& f : joint_force) f.setZero();
   std::fill(couple.begin(), couple.end(), 0.0);
+  std::fill(gear_couple.begin(), gear_couple.end(), 0.0);
 }
 
 void ForceReading::add(double weight, const ForceReading& other) {
@@ -161,11 +164,34 @@ void ForceReading::add(double weight, const ForceReading& other) {
   for (size_t j = 0; j < joint_force.size(); ++j) {
     joint_force[j] += weight * other.joint_force[j];
     couple[j] += weight * other.couple[j];
+    gear_couple[j] += weight * other.gear_couple[j];
   }
 }
 
-void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& reading,
+namespace {
+// The reading with each gearing's couple moved onto its teeth at `state` (pass_tooth_force).
+ForceReading with_tooth_forces(const Mechanism& m, const KinematicState& state,
+                               const ForceReading& reading) {
+  ForceReading out = reading;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (!j.is_gearing()) continue;
+    pass_tooth_force(
+        m, gear_paths(m, static_cast<int>(ji)), state, reading.gear_couple[ji], out.joint_force,
+        nullptr,
+        j.type == JointType::rack_pinion ? &out.couple[static_cast<size_t>(j.slide)] : nullptr);
+  }
+  return out;
+}
+}  // namespace
+
+void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& engine,
                   Trajectory& out, int row) {
+  const bool gearing =
+      std::any_of(m.joints.begin(), m.joints.end(), [](const Joint& j) { return j.is_gearing(); });
+  std::optional<ForceReading> moved;
+  if (gearing) moved = with_tooth_forces(m, state, engine);
+  const ForceReading& reading = moved ? *moved : engine;
   const int ground = m.ground();
   auto motion = [&](int link) {
     return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, nullptr);
@@ -183,7 +209,10 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     out.fx(row, static_cast<Eigen::Index>(ji)) = f.x();
     out.fy(row, static_cast<Eigen::Index>(ji)) = f.y();
     const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
-    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+    // A gearing's force acts at its pitch point.
+    const Eigen::Vector2d point = j.is_gearing()
+                                      ? motion(j.carrier).position(pitch_point(m, j))
+                                      : b.position(m.links[j.link_b].points[j.point_b].local);
     if (j.is_slide()) {
       const Line& line = m.links[j.link_a].lines[j.line];
       out.fn(row, slide) = f.dot(a.turn(perp(line.direction)));
@@ -319,6 +348,51 @@ ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
         return (engine.shaking.row(i).head<2>() - exact.shaking.row(i).head<2>()).norm();
       },
       [&](int i) { return exact.shaking.row(i).head<2>().norm(); }));
+  return a;
+}
+
+GearingAgreement gearing_agreement(const Mechanism& m, const Trajectory& exact,
+                                   const Trajectory& engine, int joint) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  // Each link's angle difference, taken to the nearest turn (an engine may wrap its angles), so
+  // the coupling's difference is that of the differences.
+  const auto turned = [&](int i, int link) {
+    const int k = m.moving_index(link);
+    if (k < 0) return 0.0;  // the ground
+    const double d = engine.angle(i, k) - exact.angle(i, k);
+    return d - 2.0 * std::numbers::pi * std::round(d / (2.0 * std::numbers::pi));
+  };
+  const auto slides = m.slide_joints();
+  const auto rack =
+      static_cast<Eigen::Index>(std::find(slides.begin(), slides.end(), j.slide) - slides.begin());
+  const auto difference = [&](int i) {
+    const double pinion = turned(i, j.link_a) - turned(i, j.carrier);
+    return j.type == JointType::gear
+               ? pinion + j.ratio * (turned(i, j.link_b) - turned(i, j.carrier))
+               : engine.s(i, rack) - exact.s(i, rack) - j.ratio * pinion;
+  };
+  GearingAgreement a;
+  double error = 0.0, peak = 0.0;
+  const bool forces = exact.has_forces && engine.has_forces;
+  const auto c = static_cast<Eigen::Index>(joint);
+  for (int i = 0; i < exact.samples(); ++i) {
+    if (!usable(engine.status[static_cast<size_t>(i)])) continue;
+    ++a.compared;
+    a.drift = std::max(a.drift, std::abs(difference(i)));
+    if (!forces) continue;
+    const Eigen::Vector2d f(exact.fx(i, c), exact.fy(i, c));
+    error = std::max(error, (Eigen::Vector2d(engine.fx(i, c), engine.fy(i, c)) - f).norm());
+    peak = std::max(peak, f.norm());
+  }
+  if (!forces) return a;
+  // A mesh force zero by design (a sun that turns at constant speed, unloaded) against 1e-3 of
+  // the largest reaction, as force_agreement scales an effort.
+  double reaction_peak = 0.0;
+  for (int i = 0; i < exact.samples(); ++i)
+    for (Eigen::Index k = 0; k < exact.fx.cols(); ++k)
+      reaction_peak = std::max(reaction_peak, std::hypot(exact.fx(i, k), exact.fy(i, k)));
+  peak = std::max(peak, 1e-3 * reaction_peak);
+  if (peak > 0.0) a.mesh = error / peak;
   return a;
 }
 

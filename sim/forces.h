@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,8 +98,15 @@ struct ForceReading {
   std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
   std::vector<double> couple;                // per joint: prismatic couple on the slider about
                                              // its point [N m]; 0 otherwise
+  // Per joint: a gear pair's or rack's coupling as the couple it puts on the gearing's first
+  // moving gear [N m] (write_forces moves it onto the teeth: pass_tooth_force); 0 otherwise. An
+  // engine's coupling acts as couples, as the exact method's row does, so the joints' forces read
+  // beside it are those the exact method has before its own tooth force is passed on.
+  std::vector<double> gear_couple;
   explicit ForceReading(size_t joints = 0)
-      : joint_force(joints, Eigen::Vector2d::Zero()), couple(joints, 0.0) {}
+      : joint_force(joints, Eigen::Vector2d::Zero()),
+        couple(joints, 0.0),
+        gear_couple(joints, 0.0) {}
   void set_zero();
   void add(double weight, const ForceReading& other);  // this += weight * other
 };
@@ -143,5 +151,19 @@ struct ForceAgreement {
 };
 ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
                                const Trajectory& engine);
+
+// How far an engine holds gearing `joint` (a gear pair or a rack) and reads its mesh force, over
+// the samples the engine calls usable: the drift, the worst difference of the coupling
+// (theta_a - theta_c) + ratio (theta_b - theta_c) [rad], or a rack's s - ratio (theta_a -
+// theta_c) [m], from the exact one (which holds it to the solver's tolerance); and the mesh
+// force's worst vector difference over its exact peak, at least 1e-3 of the largest exact
+// reaction (no forces: none).
+struct GearingAgreement {
+  double drift = 0.0;
+  std::optional<double> mesh;
+  int compared = 0;
+};
+GearingAgreement gearing_agreement(const Mechanism& m, const Trajectory& exact,
+                                   const Trajectory& engine, int joint);
 
 }  // namespace crosslink::sim

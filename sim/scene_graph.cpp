@@ -207,6 +207,52 @@ std::vector<int> tree_path(const SceneGraph& g, int body) {
   return out;
 }
 
+// Gearing `joint` over the tree's coordinates (SceneCoupling).
+SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
+                       const std::vector<int>& body_of_link, const std::vector<int>& joint_of) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  SceneCoupling c;
+  c.source = joint;
+  // coefficient x (the link's angle), as the tree's hinges (or planar joint) up to the ground.
+  const auto add_angle = [&](int link, double coefficient) {
+    for (int t : tree_path(g, body_of_link[static_cast<size_t>(link)])) {
+      const SceneJoint& sj = g.joints[static_cast<size_t>(t)];
+      if (sj.kind == SceneJoint::Kind::slide) continue;  // the angle is the guide's
+      const double sign =
+          sj.kind == SceneJoint::Kind::planar || sj.child == sj.b ? coefficient : -coefficient;
+      const auto it = std::find_if(c.terms.begin(), c.terms.end(),
+                                   [&](const auto& term) { return term.first == t; });
+      if (it == c.terms.end())
+        c.terms.emplace_back(t, sign);
+      else
+        it->second += sign;
+    }
+  };
+  if (j.type == JointType::gear) {
+    add_angle(j.link_a, 1.0);
+    add_angle(j.link_b, j.ratio);
+    add_angle(j.carrier, -(1.0 + j.ratio));
+    c.on_first = m.moving_index(j.link_a) >= 0 ? 1.0 : j.ratio;
+  } else {
+    if (m.moving_index(j.link_a) < 0)
+      throw std::runtime_error(fmt::format(
+          "joint '{}': the pinion of a rack and pinion is the ground; no engine scene takes it",
+          j.name));
+    c.slide = joint_of[static_cast<size_t>(j.slide)];
+    if (!g.joints[static_cast<size_t>(c.slide)].in_tree)
+      throw std::runtime_error(fmt::format(
+          "joint '{}': the rack's slide '{}' closes a loop, so it is no coordinate of the tree the "
+          "rack and pinion couples",
+          j.name, m.joints[static_cast<size_t>(j.slide)].name));
+    c.terms.emplace_back(c.slide, 1.0);
+    add_angle(j.link_a, -j.ratio);
+    add_angle(j.carrier, j.ratio);
+    c.on_first = -j.ratio;
+  }
+  std::erase_if(c.terms, [](const auto& term) { return term.second == 0.0; });
+  return c;
+}
+
 }  // namespace
 
 BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
@@ -221,12 +267,6 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
 }
 
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
-  for (const Joint& j : m.joints)
-    if (j.is_gearing())
-      throw std::runtime_error(fmt::format(
-          "joint '{}' is a {}: the engines' scenes do not couple rotations yet (a joint equality "
-          "in MuJoCo, a gear constraint in Bullet), so only the exact methods run it",
-          j.name, j.type == JointType::gear ? "gear pair" : "rack and pinion"));
   SceneGraph g;
 
   // Bodies: ground first, then the moving links in Mechanism order.
@@ -248,9 +288,10 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   }
 
   // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin.
-  std::vector<int> joint_of(m.joints.size());
+  std::vector<int> joint_of(m.joints.size(), -1);
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
+    if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
     SceneJoint sj;
     sj.name = j.name;
     sj.source = static_cast<int>(ji);
@@ -351,7 +392,19 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
           "turns",
           g.bodies[d.body].name));
   }
+
+  for (size_t ji = 0; ji < m.joints.size(); ++ji)
+    if (m.joints[ji].is_gearing())
+      g.couplings.push_back(coupling(m, static_cast<int>(ji), g, body_of_link, joint_of));
   return g;
+}
+
+void refuse_couplings(const Mechanism& m, const SceneGraph& g, const std::string& why) {
+  if (g.couplings.empty()) return;
+  const Joint& j = m.joints[static_cast<size_t>(g.couplings.front().source)];
+  throw std::runtime_error(fmt::format("joint '{}' is a {}: {}", j.name,
+                                       j.type == JointType::gear ? "gear pair" : "rack and pinion",
+                                       why));
 }
 
 }  // namespace crosslink::sim

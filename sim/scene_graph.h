@@ -38,8 +38,8 @@ struct SceneBody {
 //           fixed at relative_angle; value = s = direction . (P_b - origin) [m]
 //   planar: b moves freely in the plane of a (the ground); its value is theta_b [rad]. Only
 //           TreePolicy::planar_joints adds one.
-// A coupling between two joints' values (a gear, a rack and pinion: issue 20) will be a fourth
-// kind, never in the tree: every engine closes it as a constraint, as it closes a cut.
+// A coupling between joints' values (a gear pair, a rack and pinion) is no joint of the graph: it
+// is a SceneCoupling, never in the tree, which every engine closes as a constraint.
 struct SceneJoint {
   enum class Kind { hinge, slide, planar };
   Kind kind = Kind::hinge;
@@ -71,6 +71,22 @@ struct DrivenCoordinate {
   std::vector<std::pair<int, double>> terms;  // (joint, coefficient)
 };
 
+// A gear pair or a rack and pinion (JointType::gear, rack_pinion) over the tree's coordinates:
+// the coupling phi = (theta_a - theta_c) + ratio (theta_b - theta_c) of a gear pair, or
+// s - ratio (theta_a - theta_c) of a rack (theta_c the carrier's angle, s the rack's slide), is
+// the sum of coefficient x value over `terms`, tree joints only (a body's angle is the sum of the
+// hinges on its tree path, or its planar joint's), plus a constant the engine takes from its
+// assembled start. An engine holds it there, as it holds a cut closed.
+struct SceneCoupling {
+  int source = -1;                            // the Mechanism joint
+  std::vector<std::pair<int, double>> terms;  // (scene joint, coefficient), each joint once
+  // d phi / d theta of the gearing's first moving gear (the first gear unless it is the ground):
+  // the coupling's generalised force times it is the couple on that gear (pass_tooth_force).
+  double on_first = 1.0;
+  int slide = -1;  // a rack: its slide's scene joint (coefficient 1), whose force carries the
+                   // coupling's push along the line besides its own reaction
+};
+
 // How an engine's tree is to be grown: each choice below is where the two engines' models differ,
 // kept because changing either would change that engine's numbers (docs/design.md, "Scene graph").
 struct TreePolicy {
@@ -100,6 +116,7 @@ struct SceneGraph {
   std::vector<int> tree_order;           // tree joints, parents before children
   std::vector<int> cuts;                 // joints left out of the tree, in joint order
   std::vector<DrivenCoordinate> driven;  // per driver of the Mechanism
+  std::vector<SceneCoupling> couplings;  // per gear pair or rack, in joint order
   // A slide among the cuts (a loop of slides only), which no point constraint closes; -1: none.
   int cut_slide = -1;
   // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).
@@ -114,5 +131,9 @@ BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const 
 // The scene graph of `mechanism` under `policy`. Throws std::runtime_error when no engine can
 // realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.
 SceneGraph scene_graph(const Mechanism& mechanism, const TreePolicy& policy = {});
+
+// For an engine that does not realise gear pairs or racks: throws std::runtime_error naming the
+// first of them in `g` with `why` (the engine's reason), when there is one.
+void refuse_couplings(const Mechanism& mechanism, const SceneGraph& g, const std::string& why);
 
 }  // namespace crosslink::sim

@@ -21,6 +21,7 @@
 #include <fmt/format.h>
 
 #include <BulletCollision/CollisionShapes/btEmptyShape.h>
+#include <BulletDynamics/ConstraintSolver/btGearConstraint.h>
 #include <BulletDynamics/ConstraintSolver/btGeneric6DofSpring2Constraint.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
@@ -245,6 +246,23 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   policy.planar_joints = true;
   policy.split_loops = multibody;
   const SceneGraph g = scene_graph(m, policy);
+  // A gear pair about the ground: btGearConstraint between the two rigid bodies. No other
+  // gearing (docs/engines.md, "Gear couplings").
+  for (const SceneCoupling& c : g.couplings) {
+    const Joint& j = m.joints[static_cast<size_t>(c.source)];
+    if (multibody)
+      throw std::runtime_error(fmt::format(
+          "joint '{}' is a {}: crosslink's Bullet multibody scene does not build "
+          "btMultiBodyGearConstraint (two joints' rates); the rigid formulation builds a gear pair "
+          "about the ground",
+          j.name, j.type == JointType::gear ? "gear pair" : "rack and pinion"));
+    if (j.type != JointType::gear || j.carrier != m.ground())
+      throw std::runtime_error(fmt::format(
+          "joint '{}' is a {}: Bullet 3.24's btGearConstraint holds a ratio of two rigid bodies' "
+          "absolute rotation rates, so it realises a gear pair about the ground only, not one "
+          "about a moving carrier or a rack",
+          j.name, j.type == JointType::gear ? "gear pair on a moving carrier" : "rack and pinion"));
+  }
   if (split_error) *split_error = g.split_error;
   const auto node = [](int body) { return body - 1; };
   Plan plan;
@@ -659,9 +677,20 @@ class RigidScene final : public Scene {
       world_->addRigidBody(body, 0, 0);
       bodies_.push_back(body);
     }
+    gear_.assign(m.joints.size(), nullptr);
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       const Joint& j = m.joints[ji];
       const int a = plan_node(m, j.link_a), b = plan_node(m, j.link_b);
+      if (j.is_gearing()) {
+        // Its row: omega_a + ratio omega_b = 0 about z, the gear pair's rate about the ground
+        // (make_plan refuses any other), at the velocity level only.
+        gear_[ji] =
+            new btGearConstraint(body(a), body(b), btVector3(0, 0, 1), btVector3(0, 0, 1), j.ratio);
+        world_->addConstraint(gear_[ji], true);
+        joint_constraint_.push_back(nullptr);
+        joint_lock_.emplace_back();
+        continue;
+      }
       const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
       btTransform fa, fb;
       if (j.type == JointType::revolute) {
@@ -691,8 +720,10 @@ class RigidScene final : public Scene {
     joint_feedback_.resize(joint_constraint_.size());
     for (size_t ji = 0; ji < joint_constraint_.size(); ++ji) {
       // setJointFeedback is what fills it (enableFeedback alone does not: bullet3 issue 593).
-      joint_constraint_[ji]->setJointFeedback(&joint_feedback_[ji]);
-      joint_constraint_[ji]->enableFeedback(true);
+      btTypedConstraint* c = joint_constraint_[ji];
+      if (!c) c = gear_[ji];
+      c->setJointFeedback(&joint_feedback_[ji]);
+      c->enableFeedback(true);
     }
     // The driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
@@ -730,6 +761,9 @@ class RigidScene final : public Scene {
   }
 
   ~RigidScene() override {
+    for (auto* c : gear_)
+      if (c) world_->removeConstraint(c);
+    for (auto* c : gear_) delete c;
     for (auto* c : constraints_) world_->removeConstraint(c);
     for (auto* b : bodies_) world_->removeRigidBody(b);
     world_->removeRigidBody(ground_);
@@ -859,7 +893,9 @@ class RigidScene final : public Scene {
   btEmptyShape empty_;
   btRigidBody* ground_ = nullptr;
   std::vector<btRigidBody*> bodies_;
-  std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;
+  std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;  // per joint;
+                                                                                 // null: a gear
+  std::vector<btGearConstraint*> gear_;  // per joint: a gear pair's, or null
   std::vector<Lock> joint_lock_;
   btGeneric6DofSpring2Constraint* driver_ = nullptr;
   std::vector<btJointFeedback> joint_feedback_;
@@ -892,6 +928,11 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
+    if (j.is_gearing()) {  // the couple on the first moving gear (write_forces: the teeth)
+      out.gear_couple[ji] =
+          m.moving_index(j.link_a) >= 0 ? fb.m_appliedTorqueBodyA.z() : fb.m_appliedTorqueBodyB.z();
+      continue;
+    }
     const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
     const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
     const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);

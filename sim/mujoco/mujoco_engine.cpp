@@ -527,6 +527,9 @@ class ForceReader {
     }
     for (const SceneJoint& j : s.joints)
       cut_eq_.push_back(j.in_tree ? -1 : mj_name2id(mm, mjOBJ_EQUALITY, j.name.c_str()));
+    for (const SceneCoupling& c : s.couplings)
+      coupling_eq_.push_back(
+          mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(c.source)].name.c_str()));
   }
 
   // `d` right after mj_step from pose k (its forward data: efc_*, qacc, qfrc_bias, xfrc_applied);
@@ -620,10 +623,23 @@ class ForceReader {
       }
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
+    // A coupling's tendon force f acts on each of its joints as coefficient x f: the couple on
+    // its first moving gear, and on a rack's slide a push along the line, which cfrc_int counts
+    // in the slide's force and the exact method does not.
+    for (size_t c = 0; c < s_.couplings.size(); ++c) {
+      const SceneCoupling& coupling = s_.couplings[c];
+      const double f = force(row_of(coupling_eq_[c]));
+      out.gear_couple[static_cast<size_t>(coupling.source)] = coupling.on_first * f;
+      if (coupling.slide < 0) continue;
+      const SceneJoint& slide = s_.joints[static_cast<size_t>(coupling.slide)];
+      out.joint_force[static_cast<size_t>(slide.source)] -=
+          f * world_direction(d2, slide.a, slide.direction);
+    }
     // Back from the scene's unit of mass (Scene::mass_scale).
     out.effort /= s_.mass_scale;
     for (Eigen::Vector2d& f : out.joint_force) f /= s_.mass_scale;
     for (double& c : out.couple) c /= s_.mass_scale;
+    for (double& c : out.gear_couple) c /= s_.mass_scale;
   }
 
   static double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -643,8 +659,9 @@ class ForceReader {
   const mjModel* mm_;
   bool centred_;
   DataPtr scratch_;
-  std::vector<int> body_;    // per scene link: MuJoCo body id (world 0)
-  std::vector<int> cut_eq_;  // per scene joint: its connect equality, -1 in the tree
+  std::vector<int> body_;         // per scene link: MuJoCo body id (world 0)
+  std::vector<int> cut_eq_;       // per scene joint: its connect equality, -1 in the tree
+  std::vector<int> coupling_eq_;  // per coupling: its tendon equality
   int driver_eq_ = -1;
   int driven_dof_ = -1;  // the driven tree joint's degree of freedom (-1: a tendon driver)
 };

@@ -74,6 +74,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   s.tree_order = std::move(graph.tree_order);
   s.cuts = std::move(graph.cuts);
   s.driven = std::move(graph.driven.front());  // one driver today
+  s.couplings = std::move(graph.couplings);
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
   // scene that loads as it is keeps its unit).
@@ -315,15 +316,21 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   out += "  </worldbody>\n";
   // The driver as a tendon: the clock's, and a floating link's angle in crosslink's runs.
   const bool driver_tendon_written = clock || (o.driven && s.driven.floating);
-  if (driver_tendon_written) {
-    out += "  <tendon>\n    <fixed name=\"driver\">\n";
-    for (const auto& [joint, coefficient] : s.driven.terms)
+  const auto fixed = [&](const std::string& name,
+                         const std::vector<std::pair<int, double>>& terms) {
+    out += fmt::format("    <fixed name=\"{}\">\n", escape(name));
+    for (const auto& [joint, coefficient] : terms)
       out += fmt::format("      <joint joint=\"{}\" coef=\"{:.17g}\"/>\n",
                          escape(s.joints[joint].name), coefficient);
     out += "    </fixed>\n";
+  };
+  if (driver_tendon_written || !s.couplings.empty()) {
+    out += "  <tendon>\n";
+    if (driver_tendon_written) fixed("driver", s.driven.terms);
     if (clock)
       out +=
           "    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n    </fixed>\n";
+    for (const SceneCoupling& c : s.couplings) fixed(m.joints[c.source].name, c.terms);
     out += "  </tendon>\n";
   }
   if (clock && clock->torque != 0.0)  // a constant torque: no gain, the bias alone
@@ -346,6 +353,13 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         escape(sj.name), s.links[sj.a].ground ? "world" : escape(s.links[sj.a].name),
         s.links[sj.b].ground ? "world" : escape(s.links[sj.b].name), sj.ua.x(), sj.ua.y(),
         vec(o.solref), vec(o.solimp));
+  }
+  for (const SceneCoupling& c : s.couplings) {
+    ++rows;
+    equality += fmt::format(
+        "    <tendon name=\"{0}\" tendon1=\"{0}\" polycoef=\"0 0 0 0 0\" solref=\"{1}\" "
+        "solimp=\"{2}\"/>\n",
+        escape(m.joints[c.source].name), vec(o.solref), vec(o.solimp));
   }
   // MuJoCo's equalities hold changes from qpos0 (the start): the driver's equals the clock's.
   if (clock || driver_tendon_written || o.driven) ++rows;

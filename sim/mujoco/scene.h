@@ -38,6 +38,10 @@ struct Scene {
   // tree's path from the ground to the link (DrivenCoordinate::terms): their sum is the link's
   // absolute angle, so the definition's own driver is driven and its torque read.
   DrivenCoordinate driven;
+  // Gear pairs and racks: each a fixed tendon over its terms, named after its joint, held at its
+  // length at qpos0 (the assembled start) by a tendon equality of the same name with the loop
+  // constraints' solref and solimp.
+  std::vector<SceneCoupling> couplings;
   double size = 1.0;  // Mechanism::size() [m]
   // The scene's unit of mass in kg is 1 / mass_scale: every mass and inertia of the scene is the
   // mechanism's times mass_scale, and so is every force MuJoCo applies or reports. MuJoCo refuses

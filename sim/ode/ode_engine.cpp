@@ -589,6 +589,16 @@ TreePolicy ode_policy() {
   return policy;
 }
 
+// ODE's graph; gear pairs and racks refused (docs/engines.md, "Gear couplings").
+SceneGraph ode_graph(const Mechanism& m) {
+  SceneGraph g = scene_graph(m, ode_policy());
+  refuse_couplings(m, g,
+                   "crosslink's ODE scene does not yet build ODE 0.16's one meshing joint, the "
+                   "transmission joint (dJointCreateTransmission: two wheels on parallel axes, no "
+                   "rack)");
+  return g;
+}
+
 Prepared prepare(const Mechanism& original, const Trajectory& reference,
                  const Settings& overrides) {
   ode_start();
@@ -598,7 +608,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
   if (p.config.driver_threshold == 0.0)
     p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
-  p.graph = scene_graph(p.m, ode_policy());
+  p.graph = ode_graph(p.m);
   p.span = usable_span(reference);
   return p;
 }
@@ -825,7 +835,7 @@ class OdeEngine final : public Engine {
       return false;
     }
     try {
-      (void)scene_graph(mechanism, ode_policy());
+      (void)ode_graph(mechanism);
     } catch (const std::exception& e) {
       if (why) *why = e.what();
       return false;

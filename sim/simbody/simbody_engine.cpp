@@ -368,6 +368,25 @@ class Scene {
       ball_.emplace_back(ji, SimTK::Constraint::Ball(body_[static_cast<size_t>(j.a)], vec3(j.ua),
                                                      body_[static_cast<size_t>(j.b)], vec3(j.ub)));
     }
+    // A gear pair or rack: a coordinate coupler holding its linear function of the mobilities
+    // (SceneCoupling, with each q = orientation x value) at its start value.
+    for (const SceneCoupling& c : g.couplings) {
+      const int n = static_cast<int>(c.terms.size());
+      SimTK::Vector coefficients(n + 1);
+      std::vector<SimTK::MobilizedBodyIndex> mobods;
+      std::vector<SimTK::MobilizerQIndex> qs;
+      double start = 0.0;
+      for (int k = 0; k < n; ++k) {
+        const auto& [ji, coefficient] = c.terms[static_cast<size_t>(k)];
+        const SceneJoint& j = g.joints[static_cast<size_t>(ji)];
+        coefficients[k] = coefficient * orientation(j);
+        start += coefficient * joint_value(j, q, qdot)[0];
+        mobods.push_back(body_[static_cast<size_t>(j.child)].getMobilizedBodyIndex());
+        qs.emplace_back(0);
+      }
+      coefficients[n] = -start;
+      couplers_.emplace_back(matter_, new SimTK::Function::Linear(coefficients), mobods, qs);
+    }
     SimTK::Force::UniformGravity(forces_, matter_, vec3(m.gravity));
     readback_.emplace(m, g, body_);
     load_ = new LoadForce(m, g, body_, *readback_, q, !driven);
@@ -404,6 +423,19 @@ class Scene {
   void read_forces(const SimTK::State& s, bool effort, ForceReading& out) const {
     out.set_zero();
     const DrivenCoordinate& d = g_.driven.front();
+    // A coupler's multiplier lambda applies -lambda x coefficient along each of its coordinates
+    // (a constraint force's sign, as the balls'): as a couple on the first moving gear it is the
+    // gear's (write_forces puts it on the teeth); a mobilizer's reaction counts what falls on its
+    // coordinate, which the exact method leaves out of the joint's force (a rack's slide: a push
+    // along the line) and of the driver's effort.
+    std::vector<double> coupled(couplers_.empty() ? 0 : g_.joints.size(), 0.0);
+    for (size_t k = 0; k < couplers_.size(); ++k) {
+      const SceneCoupling& c = g_.couplings[k];
+      const double applied = -couplers_[k].getMultipliersAsVector(s)[0];
+      out.gear_couple[static_cast<size_t>(c.source)] = c.on_first * applied;
+      for (const auto& [ji, coefficient] : c.terms)
+        coupled[static_cast<size_t>(ji)] += coefficient * applied;
+    }
     for (size_t ji = 0; ji < g_.joints.size(); ++ji) {
       const SceneJoint& j = g_.joints[ji];
       const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
@@ -430,6 +462,13 @@ class Scene {
         on_b = -vec2(b.getBodyRotation(s) * it->second.getBallReactionForceOnBody2(s));
       }
       if (j.kind == SceneJoint::Kind::slide) out.couple[static_cast<size_t>(j.source)] = couple_b;
+      if (!coupled.empty() && coupled[ji] != 0.0) {
+        if (j.kind == SceneJoint::Kind::slide)
+          on_b -= coupled[ji] *
+                  vec2(body_[static_cast<size_t>(j.a)].getBodyRotation(s) * vec3(j.direction));
+        else
+          couple_b -= coupled[ji];
+      }
       if (effort && static_cast<int>(ji) == d.joint) {
         if (j.kind == SceneJoint::Kind::slide) {
           const Eigen::Vector2d u =
@@ -461,8 +500,9 @@ class Scene {
   SimTK::MultibodySystem system_;
   SimTK::SimbodyMatterSubsystem matter_;
   SimTK::GeneralForceSubsystem forces_;
-  std::vector<SimTK::MobilizedBody> body_;                     // per scene body; 0 the ground
-  std::vector<std::pair<int, SimTK::Constraint::Ball>> ball_;  // (cut joint, its ball)
+  std::vector<SimTK::MobilizedBody> body_;                      // per scene body; 0 the ground
+  std::vector<std::pair<int, SimTK::Constraint::Ball>> ball_;   // (cut joint, its ball)
+  std::vector<SimTK::Constraint::CoordinateCoupler> couplers_;  // per SceneCoupling
   std::optional<Readback> readback_;
   LoadForce* load_ = nullptr;
   double driven_coordinate_ = 0.0;

@@ -41,7 +41,7 @@ inline std::vector<std::string> bundled_files(bool singular, bool dynamics = tru
   return files;
 }
 
-// mechanisms/gears/*.toml: gear pairs and racks, which only the exact methods run, sorted.
+// mechanisms/gears/*.toml: gear pairs and racks, sorted.
 inline std::vector<std::string> gear_files() {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(

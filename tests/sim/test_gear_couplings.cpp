@@ -1,0 +1,132 @@
+// The engines' gear couplings (sim/scene_graph.h, SceneCoupling) on the bundled gear definitions
+// against the exact solution (analytic/newton.h holds each coupling to its tolerance; the mesh
+// force is the exact kinetostatics' tooth force, checked by power balance and Newton-Euler in
+// test_kinetostatics): how far each engine holds the ratio, and its mesh force, at its defaults.
+// Measured by bench/gear_accuracy (docs/engines.md, "Gear couplings: drift and mesh force against
+// the step").
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "analytic/loader.h"
+#include "analytic/sweep.h"
+#include "sim/bullet/bullet_engine.h"
+#include "sim/forces.h"
+#include "sim/mujoco/mujoco_engine.h"
+#include "sim/ode/ode_engine.h"
+#include "sim/simbody/simbody_engine.h"
+#include "tests/common/mechanisms.h"
+
+namespace crosslink::sim {
+namespace {
+
+// The default force tolerance of `crosslink compare` (0.05 % of peak).
+constexpr double kForceTolerance = 0.05e-2;
+// MuJoCo's default step turns the fastest link by max_step_angle = 0.0025 rad. Its coupling is a
+// deadbeat equality, which takes out a position error in one step, so the drift cannot build up:
+// it stays within one Euler step's local error of each of the coupling's angles, (omega dt)^2 / 2
+// weighted by 1 and |ratio| (a rack: by the pinion's radius, the ratio, in metres).
+constexpr double kMaxStepAngle = 0.0025;
+double mujoco_drift_bound(const Joint& j) {
+  const double local = 0.5 * kMaxStepAngle * kMaxStepAngle;
+  return j.type == JointType::gear ? (1.0 + std::abs(j.ratio)) * local : std::abs(j.ratio) * local;
+}
+// Simbody projects every constraint, the coupler too, onto its constraint_tolerance (1e-10, a
+// coupling's own unit) after each step.
+constexpr double kSimbodyConstraintTolerance = 1e-10;
+
+void expect_couplings_hold(Engine& engine, const std::string& file, double (*bound)(const Joint&)) {
+  SCOPED_TRACE(engine.name() + " on " + file);
+  const Mechanism m = load_mechanism(file);
+  std::string why;
+  ASSERT_TRUE(engine.supports(m, &why)) << why;
+  const Trajectory exact = sweep(m);
+  const EngineRun run = engine.run(m, exact, {});
+  ASSERT_TRUE(run.ok) << run.message;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (!j.is_gearing()) continue;
+    SCOPED_TRACE(j.name);
+    const GearingAgreement g = gearing_agreement(m, exact, run.trajectory, static_cast<int>(ji));
+    EXPECT_EQ(g.compared, exact.samples());
+    EXPECT_LE(g.drift, bound(j));
+    ASSERT_TRUE(g.mesh.has_value());
+    EXPECT_LE(*g.mesh, kForceTolerance);
+  }
+  // The driver's effort, which the coupling's own force must not reach, and a rack's slide's
+  // couple, which the tooth force's offset changes. (The joints' reactions, the bearings the
+  // tooth force passes through among them, are compared by crossval.gears.*: a planetary's sun
+  // carries no load, so its bearing's exact force is zero by design and force_agreement's ratio
+  // to its own peak is no measure there.)
+  const ForceAgreement f = force_agreement(m, exact, run.trajectory);
+  EXPECT_LE(f.effort, kForceTolerance);
+  EXPECT_LE(f.couple, kForceTolerance);
+}
+
+TEST(GearCouplings, MuJoCoHoldsEachRatioAndReadsTheMeshForce) {
+  const auto engine = make_mujoco_engine();
+  for (const std::string& file : test::gear_files())
+    expect_couplings_hold(*engine, file, mujoco_drift_bound);
+}
+
+// The drift is the step's local error, not an accumulation: halving the step quarters it
+// (second order), where a coupling held at the velocity level alone would drift with the number
+// of steps.
+TEST(GearCouplings, MuJoCoDriftFallsAtSecondOrderInTheStep) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/geared_fivebar.toml");
+  const Trajectory exact = sweep(m);
+  const auto engine = make_mujoco_engine();
+  const int mesh = m.find_joint("mesh");
+  double drift[2];
+  for (int k = 0; k < 2; ++k) {
+    const EngineRun run = engine->run(m, exact, {{"max_step_angle", k == 0 ? "0.005" : "0.0025"}});
+    ASSERT_TRUE(run.ok) << run.message;
+    drift[k] = gearing_agreement(m, exact, run.trajectory, mesh).drift;
+  }
+  ASSERT_GT(drift[1], 0.0);
+  EXPECT_GT(drift[0] / drift[1], 3.0);  // 4 at second order
+}
+
+// On the geared five-bar (1.4 s; the other two run in crossval.simbody.gears.*, label slow).
+TEST(GearCouplings, SimbodyHoldsTheRatioToItsConstraintTolerance) {
+  const auto engine = make_simbody_engine();
+  expect_couplings_hold(*engine,
+                        std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/geared_fivebar.toml",
+                        [](const Joint&) { return kSimbodyConstraintTolerance; });
+}
+
+// Bullet's rigid formulation: btGearConstraint's row omega_a + ratio omega_b = 0, solved exactly
+// by the MLCP, and the rigid bodies' angle update, linear in the rate, move the coupling by
+// rounding alone: at most 4 eps of a turn, times 1 + |ratio|, per step.
+double bullet_drift_bound(const Joint& j) {
+  constexpr double kSteps = 2528;  // at its default step on the geared five-bar (gear_accuracy)
+  return kSteps * 4.0 * std::numeric_limits<double>::epsilon() * 2.0 * std::numbers::pi *
+         (1.0 + std::abs(j.ratio));
+}
+
+TEST(GearCouplings, BulletHoldsAGearPairAboutTheGroundToRounding) {
+  const auto engine = make_bullet_engine();
+  expect_couplings_hold(*engine,
+                        std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/geared_fivebar.toml",
+                        bullet_drift_bound);
+}
+
+// What an engine does not build it refuses, naming the gearing and why, rather than run the
+// mechanism with its gears left out: a rack in Bullet (btGearConstraint couples two bodies'
+// rotation rates) and ODE (no coupling built).
+TEST(GearCouplings, BulletAndOdeRefuseARackNamingIt) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/gears/rack_pinion_slider_crank.toml");
+  for (const auto& engine : {make_bullet_engine(), make_ode_engine()}) {
+    std::string why;
+    EXPECT_FALSE(engine->supports(m, &why)) << engine->name();
+    EXPECT_NE(why.find("joint 'mesh' is a rack and pinion"), std::string::npos) << why;
+  }
+}
+
+}  // namespace
+}  // namespace crosslink::sim
