@@ -172,6 +172,13 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
 
 Decomposition decompose(const Mechanism& m) {
   Decomposition out;
+  if (m.several_drivers()) {
+    out.reason = fmt::format(
+        "{} drivers: the dyads are placed outward from one driver yet (issue 20, item 4): left "
+        "to Newton",
+        m.drivers.size());
+    return out;
+  }
   for (const Joint& j : m.joints)
     if (j.is_gearing()) {
       out.reason = fmt::format(
