@@ -8,6 +8,7 @@
 //     and potential energy less the load's power, from those kinematics) and an independent
 //     Newton-Euler solve of the four links (12 equations: 5 pin forces and 2 torques), to 1e-9
 //     of peak;
+//   - the closed-form dyads (two input cranks and one RRR dyad) equal Newton there;
 //   - a five-bar whose couplers stretch straight along the way: the chain stops there (never a
 //     silent change of branch), located at the closed-form time, the later samples flagged;
 //   - every fault of a definition with several drivers located at its key.
@@ -18,6 +19,7 @@
 #include <numbers>
 #include <string>
 
+#include "analytic/dyads.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 
@@ -237,6 +239,33 @@ TEST(FiveBarTwoCranks, BothTorquesBalanceThePowerAndEveryLink) {
   for (int j = 0; j < 5; ++j) {
     expect_channel(t, std::string("fx.") + joints[j], newton_euler.col(2 * j));
     expect_channel(t, std::string("fy.") + joints[j], newton_euler.col(2 * j + 1));
+  }
+}
+
+// The five-bar with both cranks driven is one RRR dyad once the cranks are placed by their
+// drivers (two input links): the closed form over Newton's samples equals Newton to 1e-9 of
+// each channel's peak, forces included.
+TEST(FiveBarTwoCranks, TheDyadsPlaceItAsOneRrrDyadAndAgreeWithNewton) {
+  const Mechanism m = load_mechanism(file());
+  const Decomposition groups = decompose(m);
+  ASSERT_TRUE(groups.complete) << groups.reason;
+  ASSERT_EQ(groups.groups.size(), 3u);
+  EXPECT_EQ(groups.groups[0].kind, AssurGroup::Kind::input);
+  EXPECT_EQ(groups.groups[1].kind, AssurGroup::Kind::input);
+  EXPECT_EQ(groups.groups[2].kind, AssurGroup::Kind::dyad);
+  EXPECT_NE(groups.groups[2].name.find("RRR dyad"), std::string::npos) << groups.groups[2].name;
+  const Trajectory newton = sweep(m);
+  const Trajectory closed = dyad_sweep(m, newton, true);
+  ASSERT_EQ(closed.samples(), newton.samples());
+  for (int k = 0; k < closed.samples(); ++k)
+    ASSERT_EQ(closed.status[static_cast<size_t>(k)], PoseStatus::ok) << "t = " << closed.time(k);
+  for (const std::string& name : newton.channel_names()) {
+    const Eigen::VectorXd expected = *newton.channel(name);
+    const double peak = expected.cwiseAbs().maxCoeff();
+    if (peak == 0.0) continue;
+    const Eigen::VectorXd got = *closed.channel(name);
+    for (int k = 0; k < closed.samples(); ++k)
+      EXPECT_NEAR(got(k), expected(k), 1e-9 * peak) << name << " at t = " << closed.time(k);
   }
 }
 
