@@ -95,10 +95,33 @@ void check_step(const Mechanism& m, const SweepOptions& options) {
   throw std::invalid_argument(fmt::format("{}: --step must be a positive number", m.file));
 }
 
+// Several drivers: the follower in time keeps every driver within its continuation step (1
+// degree, or the size's arc over 1 degree) between solves, from 0 to `until` [s] over
+// `intervals` equal intervals; the steps are at most the sum of the drivers' travels so counted.
+double timed_steps(const Mechanism& m, double until, int intervals) {
+  double steps = static_cast<double>(intervals);
+  for (const Driver& d : m.drivers) {
+    const double limit = (d.angular() ? 1.0 : m.size()) * kDegree;
+    double previous = d.start;
+    for (int k = 1; k <= intervals; ++k) {
+      const double value = d.at_time(until * k / intervals).value;
+      steps += std::abs(value - previous) / limit;
+      previous = value;
+    }
+  }
+  return steps;
+}
+
 }  // namespace
 
 void check_sweep_work(const Mechanism& m, const SweepOptions& options, const WorkLimits& limits) {
   check_step(m, options);
+  if (m.several_drivers()) {  // 361 samples in time over the longest cycle
+    const Cause cause{"the drivers' laws over their longest cycle", m.driver().where};
+    check_count(m, cause, timed_steps(m, m.cycle_period(), 360), "continuation steps", limits);
+    check_values(m, cause, 361.0, limits);
+    return;
+  }
   const Driver& d = m.driver();
   if (d.at_rest())
     throw DefinitionError(
@@ -199,6 +222,15 @@ void check_continuation(const Mechanism& m, double driver_value, const SweepOpti
 void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOptions& options,
                          const WorkLimits& limits) {
   check_step(m, options);
+  if (m.several_drivers()) {  // the value is a time, reached from 0 by the follower in time
+    const Cause cause{fmt::format("--at {:g} s", driver_value), {}};
+    if (!(driver_value >= 0.0 && driver_value <= limits::kDuration))
+      refuse(
+          m, cause,
+          fmt::format("is not a time of the drivers' laws: from 0 to {:g} s", limits::kDuration));
+    check_count(m, cause, timed_steps(m, driver_value, 3600), "continuation steps", limits);
+    return;
+  }
   const DriverUnit u = driver_unit(m);
   check_continuation(m, driver_value, options, limits,
                      {fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}});

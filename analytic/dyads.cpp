@@ -35,9 +35,8 @@ double unwrap(double raw, double previous) {
   return previous + (std::abs(step) < kPi ? step : std::remainder(step, 2.0 * kPi));
 }
 
-// Angle of the driver's measured arm in its link's frame (the driver row of newton.cpp).
-double arm_angle(const Mechanism& m) {
-  const Driver& d = m.driver();
+// Angle of a driver's measured arm in its link's frame (the driver row of newton.cpp).
+double arm_angle(const Mechanism& m, const Driver& d) {
   if (d.from < 0 || d.to < 0) return 0.0;
   return angle_of(m.links[d.link].points[d.to].local - m.links[d.link].points[d.from].local);
 }
@@ -58,10 +57,18 @@ int equations(const Tie& t) {
   return t.kind == Tie::Kind::pin ? 2 : 1;
 }
 
-// The ties of unplaced link u to placed links, from unused joints and the driver.
+// The driver on joint `joint` of the given type, or -1.
+int driver_on(const Mechanism& m, int joint, DriverType type) {
+  for (size_t i = 0; i < m.drivers.size(); ++i)
+    if (m.drivers[i].type == type && m.drivers[i].joint == joint) return static_cast<int>(i);
+  return -1;
+}
+
+// The ties of unplaced link u to placed links, from unused joints and the drivers (each driver
+// is a tie of the link it turns or slides). A link_angle driver's tie has no joint: its `joint`
+// is -1 - the driver's index (-1 for the first).
 std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& placed,
                          const std::vector<char>& used) {
-  const Driver& d = m.driver();
   std::vector<Tie> ties;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
@@ -73,16 +80,17 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
       pin.on_known = j.link_a == other ? j.point_a : j.point_b;
       pin.on_link = j.link_a == u ? j.point_a : j.point_b;
       ties.push_back(pin);
-      if (d.type == DriverType::joint_angle && d.joint == joint) {
+      if (const int d = driver_on(m, joint, DriverType::joint_angle); d >= 0) {
         // Newton's driver row: theta_b + arm - theta_a = value.
+        const double arm = arm_angle(m, m.drivers[static_cast<size_t>(d)]);
         Tie angle{.kind = Tie::Kind::angle, .joint = joint, .known = other};
-        angle.offset = u == j.link_b ? -arm_angle(m) : arm_angle(m);
+        angle.offset = u == j.link_b ? -arm : arm;
         angle.driver_sign = u == j.link_b ? 1.0 : -1.0;
         ties.push_back(angle);
       }
       continue;
     }
-    if (d.type == DriverType::slider && d.joint == joint) {
+    if (driver_on(m, joint, DriverType::slider) >= 0) {
       // The driven slider's point sits at s = driver along the placed guide: a moving pin. (A
       // placed slider does not place its guide this way: the joint stays unused.)
       if (u != j.link_b) continue;
@@ -102,12 +110,13 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
       ties.push_back(angle);
     }
   }
-  if (d.type == DriverType::link_angle && d.link == u)
-    ties.push_back(Tie{.kind = Tie::Kind::angle,
-                       .joint = -1,
-                       .known = -1,
-                       .offset = -arm_angle(m),
-                       .driver_sign = 1.0});
+  for (size_t i = 0; i < m.drivers.size(); ++i)
+    if (m.drivers[i].type == DriverType::link_angle && m.drivers[i].link == u)
+      ties.push_back(Tie{.kind = Tie::Kind::angle,
+                         .joint = -1 - static_cast<int>(i),
+                         .known = -1,
+                         .offset = -arm_angle(m, m.drivers[i]),
+                         .driver_sign = 1.0});
   return ties;
 }
 
@@ -243,7 +252,9 @@ Decomposition decompose(const Mechanism& m) {
       const Joint& j = m.joints[ji];
       if (used[ji] || j.type == JointType::pin_in_slot) continue;
       if (placed[static_cast<size_t>(j.link_a)] || placed[static_cast<size_t>(j.link_b)]) continue;
-      if (m.driver().joint == static_cast<int>(ji) && m.driver().type != DriverType::link_angle)
+      if (std::any_of(m.drivers.begin(), m.drivers.end(), [&](const Driver& d) {
+            return d.joint == static_cast<int>(ji) && d.type != DriverType::link_angle;
+          }))
         continue;  // a driven joint between two unplaced links
       AssurGroup g;
       g.kind = AssurGroup::Kind::dyad;
@@ -283,11 +294,14 @@ Decomposition decompose(const Mechanism& m) {
     }
     std::string why =
         "the rest is a group of class III or higher (e.g. a link held by three sliding pins)";
-    if (m.driver().type == DriverType::link_angle && !placed[static_cast<size_t>(m.driver().link)])
-      why = fmt::format(
-          "the driver turns the floating link '{}', whose angle alone does not "
-          "place it, so the chain cannot be solved outward from the driver",
-          m.links[m.driver().link].name);
+    for (const Driver& d : m.drivers)
+      if (d.type == DriverType::link_angle && !placed[static_cast<size_t>(d.link)]) {
+        why = fmt::format(
+            "the driver turns the floating link '{}', whose angle alone does not "
+            "place it, so the chain cannot be solved outward from the driver",
+            m.links[d.link].name);
+        break;
+      }
     out.reason = fmt::format(
         "no dyad or single link can be placed after {{{}}}; unplaced: {}. {}: left to Newton",
         placed_names, left, why);
@@ -400,6 +414,32 @@ SlotGeometry slot_of(const Mechanism& m, int joint) {
           m.links[j.link_b].points[j.point_b].local};
 }
 
+// The sweep's parameter of a state: the driver's value, or with several drivers the time (each
+// driver at its law's value then).
+double parameter(const DyadState& s) {
+  return s.kinematics.other_drivers.empty() ? s.kinematics.driver.value : s.kinematics.driver.time;
+}
+void set_parameter(const Mechanism& m, DyadState& s, double p) {
+  if (s.kinematics.other_drivers.empty())
+    s.kinematics.driver.value = p;
+  else
+    s.kinematics.drive_at(m, p);
+}
+
+// The state of the driver a tie reads: the one driver's, or among several the one on the tie's
+// joint (a link_angle driver's tie holds -1 - its index).
+const DriverState& tie_driver(const Mechanism& m, const Tie& t, const DyadState& s) {
+  if (s.kinematics.other_drivers.empty()) [[likely]]
+    return s.kinematics.driver;
+  if (t.joint < 0) return s.kinematics.driver_state(-1 - t.joint);
+  for (int d = 0; d < s.kinematics.driver_count(); ++d) {
+    const Driver& driver = m.drivers[static_cast<size_t>(d)];
+    if (driver.joint == t.joint && driver.type != DriverType::link_angle)
+      return s.kinematics.driver_state(d);
+  }
+  return s.kinematics.driver;
+}
+
 // The velocity (accel false) or acceleration of a pin tie's point, its known link's local point
 // given (unused when the pin slides with the driver).
 Eigen::Vector2d sliding_pin_rate(const Mechanism& m, const Tie& t, bool accel, const DyadState& s);
@@ -415,7 +455,7 @@ inline Eigen::Vector2d pin_rate(const Mechanism& m, const Tie& t, const Eigen::V
                                                    const DyadState& s) {
   const BodyMotion& k = s.motion[t.known];
   const Line& line = m.links[t.known].lines[t.line];
-  const DriverState& d = s.kinematics.driver;
+  const DriverState& d = tie_driver(m, t, s);
   const Eigen::Vector2d local = line.origin + d.value * line.direction;
   if (!accel) return k.velocity(local) + d.rate * k.turn(line.direction);
   return k.acceleration(local) + 2.0 * d.rate * k.turn_rate(line.direction) +
@@ -429,12 +469,12 @@ Eigen::Vector2d pin_position(const Mechanism& m, const Tie& t, const Eigen::Vect
   const BodyMotion& k = s.motion[t.known];
   if (!t.driver_slide) return k.position(on_known);
   const Line& line = m.links[t.known].lines[t.line];
-  return k.position(line.origin + s.kinematics.driver.value * line.direction);
+  return k.position(line.origin + tie_driver(m, t, s).value * line.direction);
 }
 
 // theta, omega, alpha of a link from its angle tie.
-Eigen::Vector3d angle_state(const Tie& t, const DyadState& s) {
-  const DriverState& d = s.kinematics.driver;
+Eigen::Vector3d angle_state(const Mechanism& m, const Tie& t, const DyadState& s) {
+  const DriverState& d = tie_driver(m, t, s);
   Eigen::Vector3d a(t.offset + t.driver_sign * d.value, t.driver_sign * d.rate,
                     t.driver_sign * d.accel);
   if (t.known >= 0) {
@@ -521,7 +561,7 @@ void DyadSolver::roots(const AssurGroup& g, const Plan& plan, DyadState& s, Root
     const Plan::Side& side = plan.side[i];
     if (side.has_angle) {
       const Tie& t = side.angle;
-      const DriverState& d = s.kinematics.driver;
+      const DriverState& d = tie_driver(m, t, s);
       double theta = t.offset + t.driver_sign * d.value;
       if (t.known >= 0) theta += s.motion[t.known].theta;
       set_angle(s.motion[g.link[i]], theta);
@@ -694,6 +734,7 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
     s.motion[l] = BodyMotion::of(m.moving_index(static_cast<int>(l)), assembled.q, &assembled.qdot,
                                  &assembled.qddot);
   s.kinematics.driver = assembled.driver;
+  s.kinematics.other_drivers = assembled.other_drivers;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
   s.assembly_mode.assign(groups.size(), 0);
   s.previous.assign(groups.size(), Eigen::Vector2d::Zero());
@@ -701,7 +742,7 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   s.rate_matrix.assign(groups.size(), Eigen::Matrix2d::Identity());
   s.rate_matrix_valid = false;
   s.history = 0;
-  s.previous_driver = s.before_previous_driver = assembled.driver.value;
+  s.previous_driver = s.before_previous_driver = parameter(s);
   // Each two-solution group takes the root nearest the assembled pose of its links.
   const std::vector<BodyMotion> drawn = s.motion;
   Roots r;
@@ -742,7 +783,7 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
   s.rate_matrix_valid = false;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
   // The prediction is linear in the driver, so unequal steps scale the last difference.
-  const double d = s.kinematics.driver.value;
+  const double d = parameter(s);
   const double last_step = s.previous_driver - s.before_previous_driver;
   const double extrapolation = last_step != 0.0 ? (d - s.previous_driver) / last_step : 1.0;
   Roots r;
@@ -848,7 +889,7 @@ DyadSolver::Rate DyadSolver::prepare_rate(const AssurGroup& g, const Plan& plan,
   rate.link = &u;
   if (side.has_angle) {
     rate.fixed = true;
-    rate.angular = angle_state(side.angle, s)(accel ? 2 : 1);
+    rate.angular = angle_state(mechanism_, side.angle, s)(accel ? 2 : 1);
   }
   if (side.has_pin) {
     // About the pin: omega from the angle tie or the unknown rate.
@@ -970,7 +1011,7 @@ void DyadSolver::input_rates(const AssurGroup& g, const Plan& plan, bool accel,
                              DyadState& s) const {
   const Plan::Side& side = plan.side[0];
   const Tie& t = side.angle;
-  const DriverState& d = s.kinematics.driver;
+  const DriverState& d = tie_driver(mechanism_, t, s);
   BodyMotion& u = s.motion[g.link[0]];
   double angular = t.driver_sign * (accel ? d.accel : d.rate);
   if (t.known >= 0) angular += accel ? s.motion[t.known].alpha : s.motion[t.known].omega;
@@ -1098,14 +1139,15 @@ class DyadMarch {
     SolveReport last;
     double allowed = max_step_;
     bool first = true;
-    while (first || state_.kinematics.driver.value != target) {
+    while (first || parameter(state_) != target) {
       first = false;
       // Equal substeps to the target: a short remainder would make the next prediction
       // extrapolate from two solves too close to tell their difference from round-off.
-      const double d0 = state_.kinematics.driver.value, remaining = target - d0;
+      const double d0 = parameter(state_), remaining = target - d0;
       const double h = remaining / std::max(1.0, std::ceil(std::abs(remaining) / allowed - 1e-9));
       saved_ = state_;
-      state_.kinematics.driver.value = std::abs(h) < std::abs(remaining) ? d0 + h : target;
+      set_parameter(solver_.mechanism(), state_,
+                    std::abs(h) < std::abs(remaining) ? d0 + h : target);
       const SolveReport report = solver_.solve_position(state_);
       const bool shortest = std::abs(h) <= min_step_;
       // Refused: a group cannot assemble (perhaps a step past a limit the target stops short
@@ -1164,6 +1206,19 @@ bool coordinates_of(const Mechanism& m, const Trajectory& t, int row, Eigen::Vec
 
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
   const Driver& d = mechanism.driver();
+  // The sweep's parameter at a sample: the driver's value, or with several drivers the time.
+  const bool timed = mechanism.several_drivers();
+  const auto parameter_at = [&](int row) { return timed ? grid.time(row) : grid.driver(row); };
+  const double start_value = timed ? 0.0 : d.start;
+  // A sample's own time and drivers' states.
+  const auto drive = [&](KinematicState& k, int row) {
+    if (timed) {
+      k.drive_at(mechanism, grid.time(row));
+      return;
+    }
+    k.driver = d.at_time(grid.time(row));
+    k.driver.value = grid.driver(row);
+  };
   Trajectory out;
   out.method = "dyads";
   out.resize(mechanism, grid.samples(), forces);
@@ -1184,15 +1239,31 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   }
   if (failure != PoseStatus::ok) {
     out.status.assign(static_cast<size_t>(out.samples()), failure);
-    out.events.push_back({d.start, failure, why});
+    out.events.push_back({start_value, failure, why});
     return out;
   }
   const DyadSolver solver(mechanism, std::move(decomposition));
   DyadState state(mechanism);
   solver.set_modes(assembled, state);
   // The driver tells apart values 1e-10 rad (or 1e-10 of the size) apart, as the Newton sweep.
-  const double unit = d.angular() ? 1.0 : mechanism.size();
-  DyadMarch march(solver, state, continuation_step(mechanism), unit * 1e-10);
+  // Several drivers: steps in time in which no driver moves more than its continuation step
+  // (1 degree, or the size's arc over 1 degree), down to 1e-12 of the sweep's time.
+  double unit = d.angular() ? 1.0 : mechanism.size();
+  double max_step = continuation_step(mechanism), min_step = unit * 1e-10;
+  if (timed && grid.samples() > 1) {
+    max_step = grid.time(grid.samples() - 1);
+    for (int row = 1; row < grid.samples(); ++row)
+      for (const Driver& driver : mechanism.drivers) {
+        const double moved = std::abs(driver.at_time(grid.time(row)).value -
+                                      driver.at_time(grid.time(row - 1)).value);
+        const double limit = (driver.angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
+        max_step = std::min(max_step, (grid.time(row) - grid.time(row - 1)) /
+                                          std::max(1.0, std::ceil(moved / limit)));
+      }
+    min_step = 1e-12 * grid.time(grid.samples() - 1);
+    unit = max_step * 180.0 / kPi;  // a step that moves a driver about 1 rad
+  }
+  DyadMarch march(solver, state, max_step, min_step);
   // Forces: the multipliers (kinetostatics method 1) at each closed-form pose, with the
   // constraint Jacobian factorised there.
   const Kinetostatics kinetostatics(newton);
@@ -1230,10 +1301,14 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       // to round-off, where continuity cannot tell the two assemblies apart either. Its pose is
       // the root nearest the reference's, and the march goes on from the last pose it solved.
       DyadState side = state;
-      reference.driver = DriverState{};
-      reference.driver.value = grid.driver(row);
+      if (timed) {
+        reference.drive_at(mechanism, grid.time(row));
+      } else {
+        reference.driver = DriverState{};
+        reference.driver.value = grid.driver(row);
+      }
       solver.set_modes(reference, side);
-      side.kinematics.driver.value = grid.driver(row);
+      set_parameter(mechanism, side, parameter_at(row));
       SolveReport r = solver.solve_position(side);
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         r.status = PoseStatus::singular;
@@ -1242,33 +1317,29 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
         r.status = PoseStatus::singular;  // the loci touch within round-off: the reference's pose
         side.kinematics.q = reference.q;
       }
-      side.kinematics.driver = d.at_time(grid.time(row));
-      side.kinematics.driver.value = grid.driver(row);
+      drive(side.kinematics, row);
       side.kinematics.qdot.setZero();
       side.kinematics.qddot.setZero();
       newton.write_sample(side.kinematics, r, out, row);
       return;
     }
-    const double from = state.kinematics.driver.value;
-    SolveReport r = march.advance_to(grid.driver(row));
+    const double from = parameter(state);
+    SolveReport r = march.advance_to(parameter_at(row));
     for (const DyadState::ModeChange& c : march.changes()) note_mode_change(c, from);
     if (r.status == PoseStatus::cannot_assemble) {
       if (out.events.empty() || out.events.back().kind != PoseStatus::cannot_assemble)
-        out.events.push_back({state.kinematics.driver.value, r.status, r.message});
+        out.events.push_back({parameter(state), r.status, r.message});
       // The sample has no pose; the march resumes from the last one it solved.
       KinematicState none = state.kinematics;
       none.q.setZero();
       none.qdot.setZero();
       none.qddot.setZero();
       // The sample's own time and driver state, not the last pose's.
-      none.driver = d.at_time(grid.time(row));
-      none.driver.value = grid.driver(row);
+      drive(none, row);
       newton.write_sample(none, r, out, row);
       return;
     }
-    DriverState s = d.at_time(grid.time(row));
-    s.value = grid.driver(row);
-    state.kinematics.driver = s;
+    drive(state.kinematics, row);
     if (r.status == PoseStatus::ok) {
       solver.solve_velocity(state);
       solver.solve_acceleration(state);
@@ -1282,6 +1353,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     at_pose.qdot = state.kinematics.qdot;
     at_pose.qddot = state.kinematics.qddot;
     at_pose.driver = state.kinematics.driver;
+    at_pose.other_drivers = state.kinematics.other_drivers;
     if (newton.solve_position(at_pose).status != PoseStatus::ok) {
       // The constraint Jacobian is singular here: the reactions are not determined.
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
@@ -1304,15 +1376,20 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   int first = -1;
   for (int i = 0; i < grid.samples(); ++i)
     if (grid.status[static_cast<size_t>(i)] == PoseStatus::ok &&
-        (first < 0 || std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)))
+        (first < 0 ||
+         std::abs(parameter_at(i) - start_value) < std::abs(parameter_at(first) - start_value)))
       first = i;
   if (first >= 0 && coordinates_of(mechanism, grid, first, reference.q)) {
-    reference.driver.value = grid.driver(first);
+    if (timed)
+      reference.drive_at(mechanism, grid.time(first));
+    else
+      reference.driver.value = grid.driver(first);
     solver.set_modes(reference, state);
   } else {
     first = 0;
     for (int i = 1; i < grid.samples(); ++i)
-      if (std::abs(grid.driver(i) - d.start) < std::abs(grid.driver(first) - d.start)) first = i;
+      if (std::abs(parameter_at(i) - start_value) < std::abs(parameter_at(first) - start_value))
+        first = i;
   }
   solve_row(first);
   const DyadState at_first = state;
@@ -1321,11 +1398,12 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   // the reference keeps clear of singular positions), so that a step crossing a change point
   // right after it is predicted, not guessed.
   auto seed = [&](int toward) {
-    if (toward < 0 || toward >= grid.samples() || grid.driver(toward) == grid.driver(first)) return;
-    const double behind =
-        grid.driver(first) - 1e-4 * unit * (grid.driver(toward) > grid.driver(first) ? 1.0 : -1.0);
+    if (toward < 0 || toward >= grid.samples() || parameter_at(toward) == parameter_at(first))
+      return;
+    const double behind = parameter_at(first) -
+                          1e-4 * unit * (parameter_at(toward) > parameter_at(first) ? 1.0 : -1.0);
     if (march.advance_to(behind).status == PoseStatus::cannot_assemble) return;
-    march.advance_to(grid.driver(first));
+    march.advance_to(parameter_at(first));
   };
   seed(first + 1);
   for (int i = first + 1; i < grid.samples(); ++i) solve_row(i);

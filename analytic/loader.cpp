@@ -23,6 +23,9 @@
 namespace crosslink {
 namespace {
 
+// [[driver]] tables: each is a row of the Jacobian and a column of every sample.
+constexpr size_t kMostDrivers = 64;
+
 std::string join(const std::vector<std::string>& names) {
   if (names.empty()) return "(none)";
   std::string text;
@@ -101,6 +104,16 @@ class Reader {
     diagnostics_.push_back({std::move(where), std::move(message)});
   }
   const std::vector<Diagnostic>& diagnostics() const { return diagnostics_; }
+  // Rewrites `from` as `to` in the messages said from diagnostic `first` on: one [[driver]]'s
+  // faults name it as the one-driver form's name [driver].
+  void relabel(size_t first, std::string_view from, const std::string& to) {
+    for (size_t i = first; i < diagnostics_.size(); ++i) {
+      std::string& text = diagnostics_[i].message;
+      for (size_t at = text.find(from); at != std::string::npos;
+           at = text.find(from, at + to.size()))
+        text.replace(at, from.size(), to);
+    }
+  }
   void throw_if_any() const {
     if (!diagnostics_.empty()) throw DefinitionError(diagnostics_);
   }
@@ -289,12 +302,15 @@ Scale angle_scale(const Units& units) {
 }
 // The driver's start (as drawn), and the values it is swept or solved to: angles, or lengths
 // for a slider.
-Scale start_scale(const Mechanism& m) {
-  return m.driver().angular() ? angle_scale(m.units) : length_scale(m.units);
+Scale start_scale(const Mechanism& m, const Driver& d) {
+  return d.angular() ? angle_scale(m.units) : length_scale(m.units);
+}
+Scale driver_scale(const Mechanism& m, const Driver& d) {
+  if (!d.angular()) return length_scale(m.units);
+  return {m.units.angle, m.units.angle_name, limits::kDriverValue};
 }
 Scale driver_scale(const Mechanism& m) {
-  if (!m.driver().angular()) return length_scale(m.units);
-  return {m.units.angle, m.units.angle_name, limits::kDriverValue};
+  return driver_scale(m, m.driver());
 }
 
 std::vector<std::string> point_names(const Link& link) {
@@ -924,8 +940,7 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
 // A polynomial or table law must stay within the magnitudes of a driver, its rates and
 // accelerations too, at every time the solvers evaluate it: the sweep's 361 samples and the
 // 3601-point grid `solve --at` searches (both equal divisions of the duration).
-void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
-  const Driver& d = m.driver();
+void check_law(Reader& r, const Driver& d, const Scale& value_scale) {
   const int n = 3600;
   for (int k = 0; k <= n; ++k) {
     const double time = d.law.duration * k / n;
@@ -951,9 +966,8 @@ void check_law(Reader& r, const Mechanism& m, const Scale& value_scale) {
 
 // Constant acceleration from the start speed: value = start + speed t + acceleration t^2 / 2.
 // Without a duration an angular driver's cycle is the time it takes to turn once.
-void read_acceleration(Reader& r, Mechanism& m, const toml::table& t, const Scale& value_scale,
-                       bool duration_given) {
-  Driver& d = m.driver();
+void read_acceleration(Reader& r, const Mechanism& m, Driver& d, const toml::table& t,
+                       const Scale& value_scale, bool duration_given) {
   d.law.kind = MotionLaw::Kind::constant_acceleration;
   d.law.where = r.at(t.get("acceleration"));
   Scale scale{value_scale.si, "", limits::kAcceleration};
@@ -1000,17 +1014,19 @@ void read_acceleration(Reader& r, Mechanism& m, const toml::table& t, const Scal
     }
     d.law.duration = 2.0 * turn / (w + std::sqrt(discriminant));
   }
-  check_law(r, m, value_scale);
+  check_law(r, d, value_scale);
 }
 
-void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
-  const toml::table* t = r.table(root, "driver", "a mechanism", true);
-  if (!t) return;
-  Driver& d = m.driver();
+// One driver's table: [driver], or one of [[driver]] (`named`: it takes a 'name', read before).
+void read_driver(Reader& r, const Mechanism& m, Driver& d, const toml::table* t,
+                 const toml::table& root, bool named) {
   d.where = r.at(*t);
-  r.known_keys(*t, "[driver]",
-               {"type", "joint", "link", "from", "to", "start", "speed", "speed_unit",
-                "acceleration", "acceleration_unit", "polynomial", "table", "duration", "range"});
+  std::vector<std::string> keys = {
+      "type",       "joint", "link",       "from",         "to",
+      "start",      "speed", "speed_unit", "acceleration", "acceleration_unit",
+      "polynomial", "table", "duration",   "range"};
+  if (named) keys.push_back("name");
+  r.known_keys(*t, "[driver]", keys);
   const std::string type = r.string(*t, "type", "[driver]", true).value_or("");
   if (type == "joint_angle") {
     d.type = DriverType::joint_angle;
@@ -1080,8 +1096,8 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
   }
 
   // Driver values are in the file's angle unit, or its length unit for a slider.
-  const Scale value_scale = driver_scale(m);
-  d.start = r.number(*t, "start", "[driver]", true, start_scale(m)).value_or(0.0);
+  const Scale value_scale = driver_scale(m, d);
+  d.start = r.number(*t, "start", "[driver]", true, start_scale(m, d)).value_or(0.0);
   if (const toml::node* range = t->get("range")) {
     d.range_where = r.at(*range);
     if (const auto lr =
@@ -1144,7 +1160,7 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     d.law.speed_unit = {unit_name, speed_scale.si};
     const std::optional<double> speed = r.number(*t, "speed", "[driver]", true, speed_scale);
     d.law.speed = speed.value_or(0.0);
-    if (t->get("acceleration")) read_acceleration(r, m, *t, value_scale, duration.has_value());
+    if (t->get("acceleration")) read_acceleration(r, m, d, *t, value_scale, duration.has_value());
     return;
   }
   if (const toml::node* poly = t->get("polynomial")) {
@@ -1201,7 +1217,131 @@ void read_driver(Reader& r, Mechanism& m, const toml::table& root) {
     }
     d.start = d.law.table_value.front();
   }
-  if (duration && r.diagnostics().empty()) check_law(r, m, value_scale);
+  if (duration && r.diagnostics().empty()) check_law(r, d, value_scale);
+}
+
+// What a driver drives, for two drivers on one thing: a joint's coordinate, or a link's absolute
+// angle (a link_angle driver's, or a joint_angle driver's on a joint to the ground).
+std::string driven_thing(const Mechanism& m, const Driver& d) {
+  if (d.type == DriverType::link_angle ||
+      (d.type == DriverType::joint_angle && d.joint >= 0 &&
+       m.links[static_cast<size_t>(m.joints[static_cast<size_t>(d.joint)].link_a)].ground))
+    return d.link >= 0 ? fmt::format("the angle of link '{}'", m.links[d.link].name) : "";
+  return d.joint >= 0 ? fmt::format("joint '{}'", m.joints[d.joint].name) : "";
+}
+
+// [driver], or [[driver]] tables: several drivers, each named (docs/mechanism-format.md,
+// "Several drivers").
+void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::node* node = root.get("driver");
+  const toml::array* array = node ? node->as_array() : nullptr;
+  if (!array) {  // the one-driver form
+    if (const toml::table* t = r.table(root, "driver", "a mechanism", true))
+      read_driver(r, m, m.driver(), t, root, false);
+    return;
+  }
+  if (!array->is_array_of_tables() || array->empty()) {
+    r.error(r.at(*node), "'driver' must be a table ([driver]) or tables ([[driver]])");
+    return;
+  }
+  if (array->size() > kMostDrivers) {
+    r.error(r.at((*array)[kMostDrivers]),
+            fmt::format("{} [[driver]] tables: the limit is {}", array->size(), kMostDrivers));
+    return;
+  }
+  const bool several = array->size() > 1;
+  m.drivers.assign(array->size(), Driver{});
+  std::vector<std::string> taken;  // names a driver's channels would share
+  for (const Link& l : m.links) taken.push_back(l.name);
+  for (const Joint& j : m.joints) taken.push_back(j.name);
+  for (const Mechanism::NamedPoint& p : m.named_points()) taken.push_back(p.name);
+  for (size_t i = 0; i < array->size(); ++i) {
+    const toml::table* t = (*array)[i].as_table();
+    Driver& d = m.drivers[i];
+    const toml::node* name = t->get("name");
+    if (name) {
+      d.name = r.string(*t, "name", "[[driver]]", true).value_or("");
+      if (name->is_string() && d.name.empty())
+        r.error(r.at(*name), "[[driver]] 'name' must not be empty");
+    } else if (several) {
+      r.error(r.at(*t), fmt::format("[[driver]] needs a 'name' when there are several drivers "
+                                    "({} here): its channels are named after it "
+                                    "(torque.<name>, angle.<name>)",
+                                    array->size()));
+    }
+    const size_t first = r.diagnostics().size();
+    read_driver(r, m, d, t, root, true);
+    r.relabel(first, "[driver]",
+              d.name.empty() ? std::string("[[driver]]") : fmt::format("[[driver]] '{}'", d.name));
+    if (!several || d.name.empty()) continue;
+    if (std::find(taken.begin(), taken.end(), d.name) != taken.end())
+      r.error(r.at(*name), fmt::format("[[driver]] name '{0}' is already a link's, joint's or "
+                                       "point's name: its channels (angle.{0}, torque.{0}) "
+                                       "would be ambiguous; choose another",
+                                       d.name));
+    for (size_t k = 0; k < i; ++k)
+      if (m.drivers[k].name == d.name)
+        r.error(r.at(*name), fmt::format("duplicate driver name '{}' (first at line {}); driver "
+                                         "names must be unique",
+                                         d.name, m.drivers[k].where.line));
+  }
+  if (!several) return;
+  for (size_t i = 0; i < m.drivers.size(); ++i) {
+    const Driver& d = m.drivers[i];
+    const toml::table& t = *(*array)[i].as_table();
+    const std::string thing = driven_thing(m, d);
+    for (size_t k = 0; k < i && !thing.empty(); ++k)
+      if (driven_thing(m, m.drivers[k]) == thing) {
+        r.error(r.at(t.get("joint")  ? t.get("joint")
+                     : t.get("link") ? t.get("link")
+                                     : &t),
+                fmt::format("drivers '{}' and '{}' both drive {}: one coordinate takes one "
+                            "driver (drive another joint or link)",
+                            m.drivers[k].name, d.name, thing));
+        break;
+      }
+    if (d.range)
+      r.error(d.range_where,
+              fmt::format("[[driver]] '{}': 'range' sweeps one driver's values; with several "
+                          "drivers the sweep runs in time over the longest cycle (remove "
+                          "'range', or give 'duration')",
+                          d.name));
+    if (!root.get("dynamics") && d.law.kind == MotionLaw::Kind::constant_speed && !d.at_rest() &&
+        d.cycle() == 0.0)
+      r.error(d.law.where,
+              fmt::format("[[driver]] '{}': a slider at constant speed has no turn to set the "
+                          "sweep's time: give 'duration' (seconds)",
+                          d.name));
+  }
+}
+
+// With several drivers the sweep runs in time: what reads a sweep over one driver's values is
+// refused at its key.
+void check_several_drivers(Reader& r, const Mechanism& m, const toml::table& root) {
+  if (!m.several_drivers()) return;
+  const std::string count = fmt::format("{} drivers", m.drivers.size());
+  if (const toml::node* dynamics = root.get("dynamics"))
+    r.error(r.at(*dynamics),
+            fmt::format("[dynamics] moves one free coordinate; this definition has {} (forward "
+                        "dynamics with several drivers is not built yet)",
+                        count));
+  for (const Load& load : m.loads)
+    if (load.table)
+      r.error(load.where, fmt::format("a load's table is over the driver's value; with {} the "
+                                      "sweep runs in time: give a constant force or torque",
+                                      count));
+  for (const DerivedSpec& d : m.derived)
+    r.error(d.where, fmt::format("[[derived]] quantities are read over one driver's sweep; this "
+                                 "definition has {}",
+                                 count));
+  for (const Reference& ref : m.references)
+    r.error(ref.where, fmt::format("[[reference]] 'at' is a driver value; this definition has "
+                                   "{} (its sweep runs in time)",
+                                   count));
+  if (m.expect)
+    r.error(m.expect->where, fmt::format("[expect] gives one driver's values; this definition "
+                                         "has {}",
+                                         count));
 }
 
 // "Q", "Q.field": the [[derived]] quantities and their fields, for a message.
@@ -1958,6 +2098,27 @@ void check_structure(Reader& r, const Mechanism& m, const toml::node* driver) {
   if (!connected) return;  // its mobility count would only repeat the fault
 
   const Mobility mob = mobility(m);
+  const auto* several = driver ? driver->as_array() : nullptr;
+  if (several && several->is_array_of_tables() && several->size() > 1) {
+    const int count = static_cast<int>(several->size());
+    if (mob.mobility == count) return;
+    const std::string counted = fmt::format(
+        "mobility {} with {} drivers. Grübler–Kutzbach: {} ({} links, {} full "
+        "joints, {} half joints)",
+        mob.mobility, count, mob.explain(), mob.links, mob.full_joints, mob.half_joints);
+    // Too many: at the first driver beyond the mobility; too few: at the first driver.
+    if (mob.mobility < count)
+      r.error(r.at((*several)[static_cast<size_t>(std::max(mob.mobility, 0))]),
+              fmt::format("{}: each driver fixes one freedom, so this driver is one too many "
+                          "(drive {} of the coordinates, or free a joint)",
+                          counted, std::max(mob.mobility, 0)));
+    else
+      r.error(r.at((*several)[0]),
+              fmt::format("{}: {} freedom{} left undriven (add a [[driver]] for each, or a "
+                          "joint)",
+                          counted, mob.mobility - count, mob.mobility - count == 1 ? "" : "s"));
+    return;
+  }
   if (mob.mobility != 1) {
     // Say which side of the count is off: the links' freedoms or the joints' constraints.
     const int off = std::abs(mob.mobility - 1);
@@ -2157,7 +2318,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   r.throw_if_any();
 
   check_structure(r, m, root.get("driver"));
-  read_driver(r, m, root);
+  read_drivers(r, m, root);
   read_dynamics(r, m, root);
   read_loads(r, m, root);
   read_springs(r, m, root);
@@ -2166,6 +2327,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_references(r, m, root);
   read_expect(r, m, root);
   read_branches(r, m, root);
+  check_several_drivers(r, m, root);
   r.throw_if_any();
   apply_branches(m);  // the assembly they name, as drawn poses
   return m;

@@ -230,7 +230,20 @@ std::vector<Mechanism::NamedPoint> Mechanism::named_points() const {
   return named;
 }
 
+double Driver::cycle() const {
+  if (law.duration > 0.0) return law.duration;
+  const double speed = std::abs(law.speed);
+  if (law.kind != MotionLaw::Kind::constant_speed || speed == 0.0) return 0.0;
+  if (angular()) return 2.0 * std::numbers::pi / speed;
+  return range ? std::abs(range->second - range->first) / speed : 0.0;
+}
+
 double Mechanism::cycle_period() const {
+  if (several_drivers()) {
+    double longest = 0.0;
+    for (const Driver& d : drivers) longest = std::max(longest, d.cycle());
+    return longest;
+  }
   if (driver().law.kind != MotionLaw::Kind::constant_speed) return driver().law.duration;
   const double speed = std::abs(driver().law.speed);
   if (speed == 0.0) return 0.0;

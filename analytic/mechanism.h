@@ -157,6 +157,10 @@ enum class DriverType {
 std::string_view to_string(DriverType type);
 
 struct Driver {
+  // A [[driver]]'s name (its channels: angle.<name> or s.<name>, torque.<name> or force.<name>);
+  // empty for the one-driver form [driver], whose channels keep the names torque.driver and
+  // force.driver.
+  std::string name;
   DriverType type = DriverType::joint_angle;
   int joint = -1;  // joint_angle, slider
   int link = -1;   // link_angle: the link; joint_angle: link_b of the joint
@@ -172,6 +176,10 @@ struct Driver {
   // A constant speed of 0: a position problem, one pose at rest, with no cycle to sweep.
   bool at_rest() const { return law.kind == MotionLaw::Kind::constant_speed && law.speed == 0.0; }
   DriverState at_time(double t) const;  // from the motion law
+  // The time its law takes over one cycle [s]: a law in time's duration; at constant speed, a
+  // duration if given, else one turn of an angular driver or its range's length of a slider's
+  // (0: it has none, at rest or a slider without a range).
+  double cycle() const;
 };
 
 // The default mass model of a link whose definition gives no `mass`: a uniform slender bar
@@ -312,9 +320,12 @@ struct Mechanism {
   Units units;
   std::vector<Link> links;  // exactly one has ground = true
   std::vector<Joint> joints;
-  // The drivers, each one row of the constraints (analytic/constraints.h) and one effort. The
-  // loader accepts one [driver] table, so there is one, and a Mechanism starts with one.
+  // The drivers, each one row of the constraints (analytic/constraints.h) and one effort: one
+  // [driver] table or several [[driver]] tables. A Mechanism starts with one.
   std::vector<Driver> drivers = std::vector<Driver>(1);
+  // Several drivers: the sweep runs in time, each driver at its law's value at t, over
+  // cycle_period() (docs/mechanism-format.md, "Several drivers").
+  bool several_drivers() const { return drivers.size() > 1; }
   // The first driver: the sweep's parameter (its range, law, cycle and start). Every place that
   // still assumes a single driver reads it by this name.
   const Driver& driver() const { return drivers.front(); }
@@ -354,7 +365,8 @@ struct Mechanism {
     int point;
   };
   std::vector<NamedPoint> named_points() const;
-  // Length of one cycle of the driver: 2 pi for an angular driver at constant speed.
+  // Length of one cycle of the driver: 2 pi for an angular driver at constant speed. Several
+  // drivers: the longest of their cycles (Driver::cycle()).
   double cycle_period() const;  // [s]
 };
 

@@ -29,6 +29,13 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   previous_sign.setZero(n);
   cos_theta.setOnes(mechanism.moving_count());
   sin_theta.setZero(mechanism.moving_count());
+  other_drivers.resize(mechanism.drivers.size() - 1);
+  if (!other_drivers.empty()) driver_list.resize(mechanism.drivers.size());
+}
+
+void KinematicState::drive_at(const Mechanism& mechanism, double t) {
+  for (int d = 0; d < driver_count(); ++d)
+    driver_state(d) = mechanism.drivers[static_cast<size_t>(d)].at_time(t);
 }
 
 namespace {
@@ -260,9 +267,13 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
       length_scale_(mechanism.size()),
       named_points_(mechanism.named_points()),
       slide_joints_(mechanism.slide_joints()) {
-  // KinematicState holds one driver's state (see drivers()); the loader accepts one driver.
-  if (layout_.driver_count() != 1)
-    throw std::invalid_argument("the Newton solver takes a mechanism with one driver");
+  // A square system: one driver row per freedom (the loader refuses a mobility other than the
+  // number of drivers).
+  if (layout_.rows() != mechanism.coordinate_count())
+    throw std::invalid_argument(
+        fmt::format("the Newton solver takes as many drivers as freedoms: {} rows for {} "
+                    "coordinates",
+                    layout_.rows(), mechanism.coordinate_count()));
   // Rows that are angle equations are scaled by the mechanism's size and angle columns by its
   // inverse, so every row and column of the solved system is in metres: the LU's pivoting and
   // its condition estimate then do not depend on the file's units.
@@ -290,6 +301,11 @@ void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
                             Eigen::VectorXd& phi) const {
   const DriverState driver{0.0, driver_value, 0.0, 0.0};
   layout_.residual(LinkFrames{q}, {&driver, 1}, phi);
+}
+
+void NewtonSolver::residual(const Eigen::VectorXd& q, std::span<const DriverState> drivers,
+                            Eigen::VectorXd& phi) const {
+  layout_.residual(LinkFrames{q}, drivers, phi);
 }
 
 void NewtonSolver::jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const {
@@ -606,7 +622,7 @@ Eigen::VectorXd NewtonSolver::drawn_coordinates() const {
 
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
-  state.driver = mechanism_.driver().at_time(0.0);
+  state.drive_at(mechanism_, 0.0);
   SolveReport report = solve_position(state);
   if (report.status != PoseStatus::no_convergence) {
     if (report.status == PoseStatus::ok) {
@@ -625,7 +641,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
   double lambda = 1e-3;
   Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);
   Eigen::MatrixXd jac(n, n);
-  residual(state.q, state.driver.value, phi);
+  residual(state.q, drivers(state), phi);
   for (int it = 0; it < 500; ++it) {
     jacobian(state.q, jac);
     jac.array().colwise() *= row_scale_.array();
@@ -637,7 +653,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
     damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
     step = -damped.ldlt().solve(gradient);
     trial = state.q + step;
-    residual(trial, state.driver.value, trial_phi);
+    residual(trial, drivers(state), trial_phi);
     if (scaled_norm(trial_phi) < scaled_norm(phi) ||
         trial_phi.cwiseProduct(row_scale_).squaredNorm() < scaled_phi.squaredNorm()) {
       state.q = trial;
@@ -673,6 +689,8 @@ void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& 
   const Mechanism& m = mechanism_;
   out.time(row) = state.driver.time;
   out.driver(row) = state.driver.value;
+  for (Eigen::Index d = 0; d < out.driver_values.cols(); ++d)
+    out.driver_values(row, d) = state.driver_state(static_cast<int>(d)).value;
   out.status[static_cast<size_t>(row)] = report.status;
   out.rcond(row) = report.rcond;
   out.loop_gap(row) = 0.0;

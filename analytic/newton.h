@@ -11,6 +11,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -90,8 +92,22 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
-  // The driver's state; the solver passes it to the layout as the list of driver states (one).
+  // The drivers' states, one per driver: `driver` the first's (Mechanism::driver(), which every
+  // place that assumes a single driver reads), `other_drivers` the rest in Mechanism::drivers
+  // order. The solver passes them to the layout as one list.
   DriverState driver;
+  std::vector<DriverState> other_drivers;
+  int driver_count() const { return 1 + static_cast<int>(other_drivers.size()); }
+  DriverState& driver_state(int d) {
+    return d == 0 ? driver : other_drivers[static_cast<size_t>(d - 1)];
+  }
+  const DriverState& driver_state(int d) const {
+    return d == 0 ? driver : other_drivers[static_cast<size_t>(d - 1)];
+  }
+  // Every driver at time t, by its motion law.
+  void drive_at(const Mechanism& mechanism, double t);
+  // Scratch: the drivers' states in one list as the layout takes them (several drivers only).
+  std::vector<DriverState> driver_list;
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
   SparseJacobian jacobian;  // scaled: S_r J S_c (NewtonSolver::jacobian_entry unscales)
@@ -124,6 +140,9 @@ class NewtonSolver {
 
   // Constraint residual Phi(q) with the driver's row less `driver_value`.
   void residual(const Eigen::VectorXd& q, double driver_value, Eigen::VectorXd& phi) const;
+  // The same with each driver's row less its state's value (one state per driver).
+  void residual(const Eigen::VectorXd& q, std::span<const DriverState> drivers,
+                Eigen::VectorXd& phi) const;
   // Analytic Jacobian dPhi/dq (the drivers' rows included).
   void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
   // The driver coordinate measured at q (its definition, e.g. the angle of E->D).
@@ -164,9 +183,13 @@ class NewtonSolver {
                     int row) const;
 
  private:
-  // The drivers' states as the layout takes them: a list (of one).
-  static std::span<const DriverState> drivers(const KinematicState& state) {
-    return {&state.driver, 1};
+  // The drivers' states as the layout takes them: a list (the one driver's in place).
+  static std::span<const DriverState> drivers(KinematicState& state) {
+    if (state.other_drivers.empty()) return {&state.driver, 1};
+    state.driver_list[0] = state.driver;
+    std::copy(state.other_drivers.begin(), state.other_drivers.end(),
+              state.driver_list.begin() + 1);
+    return state.driver_list;
   }
   // The frames at state.q with state's cos and sin (update_frames).
   static LinkFrames frames(const KinematicState& state) {

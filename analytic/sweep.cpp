@@ -175,7 +175,9 @@ class Recorder {
       // J is singular in floating point although Newton converged (two loops at a change point
       // at once): no rates, no reactions.
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
-      out.events.push_back({driver.value, PoseStatus::singular,
+      // Several drivers: the sweep runs in time, and its events are located in time.
+      const bool timed = solver_.mechanism().several_drivers();
+      out.events.push_back({timed ? driver.time : driver.value, PoseStatus::singular,
                             "Jacobian singular: rates and joint reactions are not determined"});
       return;
     }
@@ -884,6 +886,18 @@ void drop_rates(Trajectory& t, int row) {
   if (t.effort.rows() > row) t.effort.row(row).setZero();
 }
 
+// Flags the samples whose condition is far below the best of the sweep's samples (a sweep
+// without a traced curve): their positions stay, their rates and forces go.
+void drop_rates_beside_singular(Trajectory& out) {
+  double best = 0.0;
+  for (int k = 0; k < out.samples(); ++k)
+    if (has_position(out.status[static_cast<size_t>(k)])) best = std::max(best, out.rcond(k));
+  const SingularBand band(best);
+  for (int k = 0; k < out.samples(); ++k)
+    if (out.status[static_cast<size_t>(k)] == PoseStatus::ok && !band.why(out.rcond(k)).empty())
+      drop_rates(out, k);
+}
+
 // The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
 double best_rcond(const NewtonSolver& solver, const std::vector<Leg>& legs) {
   KinematicState state(solver.mechanism());
@@ -1290,13 +1304,211 @@ Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& option
   sweep_values(solver, state, assembled, drivers, std::min(max_step, continuation_step(mechanism)),
                small, out);
   // Without a traced curve, the best condition along the sweep is its samples'.
-  double best = 0.0;
-  for (int k = 0; k < out.samples(); ++k)
-    if (has_position(out.status[static_cast<size_t>(k)])) best = std::max(best, out.rcond(k));
-  const SingularBand band(best);
-  for (int k = 0; k < out.samples(); ++k)
-    if (out.status[static_cast<size_t>(k)] == PoseStatus::ok && !band.why(out.rcond(k)).empty())
-      drop_rates(out, k);
+  drop_rates_beside_singular(out);
+  std::stable_sort(out.events.begin(), out.events.end(),
+                   [](const auto& a, const auto& b) { return a.driver < b.driver; });
+  return out;
+}
+
+}  // namespace
+
+namespace {
+
+// Several drivers: the sweep in time (docs/mechanism-format.md, "Several drivers"), each driver
+// at its law's value at t over [0, cycle_period()] in 360 equal intervals. From the assembled
+// pose the state follows the drivers by predictor-corrector in time: the predictor is the
+// Taylor step q + qdot h + qddot h^2 / 2 with the rates at the last pose, the corrector Newton,
+// and a step is taken only when Newton's correction is small against the predicted move (as the
+// Follower's), so the chain never changes branch silently: a step that cannot be taken however
+// short stops the branch there (an event), and the later samples are flagged. Where the
+// Jacobian's determinant changes sign between two poses the path crossed a singular position:
+// it is located by bisection in t (an event) and the nearest sample is flagged singular. Which
+// kind it is (a driver's chain at a toggle, or the drivers no longer determining the chain) is a
+// later slice (issue 20, item 4). Events are located in time.
+class TimedFollower {
+ public:
+  TimedFollower(const NewtonSolver& solver, KinematicState& state)
+      : solver_(solver),
+        m_(solver.mechanism()),
+        state_(state),
+        q0_(state.q.size()),
+        predicted_(state.q.size()) {}
+
+  // Moves the solved state (J factorised, rates solved) from its time to `target` in steps of
+  // at most `max_step`. Singular positions crossed on the way are added to `crossings` (their
+  // times). On failure the state is left at the last time reached and the report says why.
+  SolveReport advance_to(double target, double max_step, double min_step, SolveReport last,
+                         std::vector<double>& crossings) {
+    double h = max_step;
+    while (state_.driver.time < target) {
+      const double t0 = state_.driver.time;
+      // The last step lands on the target exactly.
+      const double t1 = target - t0 <= h ? target : t0 + h;
+      h = t1 - t0;
+      solver_.solve_velocity(state_);
+      solver_.solve_acceleration(state_);
+      const bool rates =
+          last.status == PoseStatus::ok && state_.qdot.allFinite() && state_.qddot.allFinite();
+      const double sign0 = sign_of(state_.lu.determinant());
+      q0_ = state_.q;
+      predicted_ = q0_;
+      if (rates) predicted_ += h * state_.qdot + (0.5 * h * h) * state_.qddot;
+      state_.q = predicted_;
+      state_.drive_at(m_, t1);
+      SolveReport report = solver_.solve_position(state_);
+      const bool converged =
+          report.status == PoseStatus::ok || report.status == PoseStatus::singular;
+      const double move = solver_.size_free_norm(predicted_ - q0_);
+      const bool small = rates ? solver_.size_free_norm(state_.q - predicted_) <= 0.1 * move + 1e-10
+                               : solver_.size_free_norm(state_.q - q0_) <= 4.0 * std::sqrt(h);
+      if (converged && small) {
+        if (sign_of(state_.lu.determinant()) != sign0 && sign0 != 0.0)
+          crossings.push_back(locate(t0, t1, sign0));
+        last = report;
+        h = std::min(2.0 * h, max_step);
+        continue;
+      }
+      state_.q = q0_;
+      state_.drive_at(m_, t0);
+      last = solver_.solve_position(state_);
+      h *= 0.5;
+      if (h < min_step) {
+        // Newton may still converge on the near side of a fold: a fold has no solution at all
+        // a little beyond it, another branch has.
+        const bool jump = converged && solvable_at(t0 + 1e6 * min_step);
+        report.status = jump ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
+        report.message = jump ? fmt::format(
+                                    "at t = {:.12g} s{} the only nearby solution is on another "
+                                    "branch",
+                                    t0, drivers_text())
+                              : fmt::format("the chain does not close beyond t = {:.12g} s{}", t0,
+                                            drivers_text());
+        return report;
+      }
+    }
+    return last;
+  }
+
+  // " (angle.a = ..., s.b = ...)": every driver's value at the state, in SI.
+  std::string drivers_text() const {
+    std::string text;
+    for (int d = 0; d < state_.driver_count(); ++d) {
+      const Driver& driver = m_.drivers[static_cast<size_t>(d)];
+      text +=
+          fmt::format("{}{}.{} = {:.9g}", text.empty() ? " (" : ", ",
+                      driver.angular() ? "angle" : "s", driver.name, state_.driver_state(d).value);
+    }
+    return text.empty() ? text : text + ")";
+  }
+
+ private:
+  // Whether Newton from the current pose closes the chain at time t; the state is restored.
+  bool solvable_at(double t) {
+    q0_ = state_.q;
+    const double t0 = state_.driver.time;
+    state_.drive_at(m_, t);
+    const PoseStatus s = solver_.solve_position(state_).status;
+    state_.q = q0_;
+    state_.drive_at(m_, t0);
+    solver_.solve_position(state_);
+    return s == PoseStatus::ok || s == PoseStatus::singular;
+  }
+
+  // The time in (a, b) where det J changes sign from `sign_a`, by bisection (each trial solved
+  // by Newton from the poses at a and b interpolated); the state is put back at b.
+  double locate(double a, double b, double sign_a) {
+    const Eigen::VectorXd q_b = state_.q, q_a = q0_;
+    double lo = a, hi = b;
+    for (int it = 0; it < 60 && hi - lo > 1e-13 * std::max(1.0, std::abs(hi)); ++it) {
+      const double mid = 0.5 * (lo + hi);
+      state_.q = q_a + (mid - a) / (b - a) * (q_b - q_a);
+      state_.drive_at(m_, mid);
+      const SolveReport r = solver_.solve_position(state_);
+      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular) break;
+      if (sign_of(state_.lu.determinant()) == sign_a)
+        lo = mid;
+      else
+        hi = mid;
+    }
+    state_.q = q_b;
+    state_.drive_at(m_, b);
+    solver_.solve_position(state_);
+    return 0.5 * (lo + hi);
+  }
+
+  const NewtonSolver& solver_;
+  const Mechanism& m_;
+  KinematicState& state_;
+  Eigen::VectorXd q0_, predicted_;
+};
+
+// The samples at `times` (increasing from 0), followed from the assembled state at t = 0.
+Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
+                       const SolveReport& assembled, const std::vector<double>& times) {
+  const Mechanism& m = solver.mechanism();
+  Trajectory out;
+  out.method = "newton";
+  out.resize(m, static_cast<int>(times.size()), true);
+  Recorder record(solver);
+  TimedFollower follower(solver, state);
+  SolveReport failure = assembled;
+  bool lost = assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular;
+  if (lost) out.events.push_back({0.0, assembled.status, assembled.message});
+  SolveReport last = assembled;
+  std::vector<double> crossings;
+  double before = 0.0;  // the time of the last sample
+  for (size_t sample = 0; sample < times.size(); ++sample) {
+    const int i = static_cast<int>(sample);
+    const double t = times[sample];
+    if (!lost && t > before) {
+      // Substeps: no driver moves more than a continuation step (1 degree, or a slider's
+      // arc of the mechanism's size over 1 degree) between two solves.
+      double parts = 1.0;
+      for (int d = 0; d < state.driver_count(); ++d) {
+        const Driver& driver = m.drivers[static_cast<size_t>(d)];
+        const double limit = (driver.angular() ? 1.0 : m.size()) * kPi / 180.0;
+        const double moved = std::abs(driver.at_time(t).value - driver.at_time(before).value);
+        parts = std::max(parts, std::ceil(moved / limit));
+      }
+      last = follower.advance_to(t, (t - before) / parts, 1e-12 * t, last, crossings);
+      if (last.status != PoseStatus::ok && last.status != PoseStatus::singular) {
+        lost = true;
+        failure = last;
+        out.events.push_back({state.driver.time, last.status, last.message});
+      }
+    }
+    before = t;
+    if (!lost) {
+      state.drive_at(m, t);
+      last = solver.polish(state, last);
+      if (last.status == PoseStatus::singular)
+        out.events.push_back(
+            {t, last.status, fmt::format("{}{}", last.message, follower.drivers_text())});
+      record(state, last, state.driver, out, i);
+      continue;
+    }
+    KinematicState flagged = state;
+    flagged.q.setZero();
+    flagged.qdot.setZero();
+    flagged.qddot.setZero();
+    flagged.drive_at(m, t);
+    solver.write_sample(flagged, failure, out, i);
+  }
+  drop_rates_beside_singular(out);
+  // A crossed singular position: an event, and the sample nearest it flagged.
+  for (const double at : crossings) {
+    out.events.push_back(
+        {at, PoseStatus::singular,
+         fmt::format("the Jacobian changes sign at t = {:.12g} s: a singular position (a "
+                     "driver's chain at a toggle, or the drivers no longer determining the "
+                     "chain; which is not classified yet)",
+                     at)});
+    const auto nearest = std::min_element(times.begin(), times.end(), [&](double a, double b) {
+      return std::abs(a - at) < std::abs(b - at);
+    });
+    const int k = static_cast<int>(nearest - times.begin());
+    if (has_position(out.status[static_cast<size_t>(k)])) drop_rates(out, k);
+  }
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });
   return out;
@@ -1343,6 +1555,14 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
+  if (mechanism.several_drivers()) {
+    // 360 equal intervals of the longest cycle (one sample when every driver is at rest).
+    const double period = mechanism.cycle_period();
+    const int intervals = period > 0.0 ? 360 : 0;
+    std::vector<double> times;
+    for (int k = 0; k <= intervals; ++k) times.push_back(period * k / intervals);
+    return timed_sweep(solver, state, assembled, times);
+  }
   const bool assembles =
       assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
   if (assembles) refuse_start_at_change_point(solver, state);
@@ -1399,6 +1619,15 @@ SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
 
 Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
   const Driver& d = mechanism.driver();
+  if (mechanism.several_drivers()) {  // the value is a time: the drivers followed up to it
+    if (!(driver_value >= 0.0))
+      throw std::invalid_argument(fmt::format(
+          "with several drivers the value is a time, from 0 s (here {:g} s)", driver_value));
+    const NewtonSolver solver(mechanism, options.newton);
+    KinematicState state(mechanism);
+    const SolveReport assembled = solver.assemble(state);
+    return timed_sweep(solver, state, assembled, {driver_value});
+  }
   // A driver that turns fully is at the same pose a whole number of turns nearer its start:
   // solved there, its links' angles moved on by their turns (a reference at 5e9 degrees took
   // 1.5 h of continuation).

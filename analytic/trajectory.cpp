@@ -83,6 +83,14 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
   slider_driver = !mechanism.driver().angular();
+  driver_names.clear();
+  driver_sliders.clear();
+  if (mechanism.several_drivers())
+    for (const Driver& d : mechanism.drivers) {
+      driver_names.push_back(d.name);
+      driver_sliders.push_back(!d.angular());
+    }
+  driver_values.setZero(samples, static_cast<Eigen::Index>(driver_names.size()));
   has_forces = with_forces;
   const int rows = with_forces ? samples : 0;
   const auto joints = static_cast<Eigen::Index>(joint_names.size());
@@ -133,7 +141,8 @@ bool Trajectory::flag_non_finite(int row) {
   clean(driver(row));
   clean(rcond(row));
   clean(loop_gap(row));
-  for (Eigen::MatrixXd* m : {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot})
+  for (Eigen::MatrixXd* m :
+       {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot, &driver_values})
     for (Eigen::Index c = 0; c < m->cols(); ++c) clean((*m)(row, c));
   if (has_energy)
     for (Eigen::Index c = 0; c < energy.cols(); ++c) clean(energy(row, c));
@@ -185,9 +194,13 @@ std::vector<std::string> Trajectory::channel_names() const {
     for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
   for (const std::string& slider : slider_names)
     for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
+  for (size_t d = 0; d < driver_names.size(); ++d)
+    names.push_back((driver_sliders[d] ? "s." : "angle.") + driver_names[d]);
   if (!transmission.empty()) names.push_back("mu." + transmission[1]);
   if (has_forces) {
-    names.push_back(slider_driver ? "force.driver" : "torque.driver");
+    if (driver_names.empty()) names.push_back(slider_driver ? "force.driver" : "torque.driver");
+    for (size_t d = 0; d < driver_names.size(); ++d)
+      names.push_back((driver_sliders[d] ? "force." : "torque.") + driver_names[d]);
     for (const std::string& joint : joint_names)
       for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
     for (const std::string& slider : slider_names)
@@ -226,6 +239,11 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "sdot") return sdot.col(j);
     if (kind == "sddot") return sddot.col(j);
   }
+  if (const int d = index_of(driver_names, object); d >= 0) {
+    const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
+    if (kind == (slider ? "s" : "angle")) return driver_values.col(d);
+    if (has_forces && kind == (slider ? "force" : "torque")) return effort.col(d);
+  }
   if (kind == "mu" && !transmission.empty() && object == transmission[1]) {
     const int b = index_of(point_names, transmission[0]),
               c = index_of(point_names, transmission[1]),
@@ -243,8 +261,9 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     return std::nullopt;
   }
   if (!has_forces) return std::nullopt;
-  // The one driver's effort (several drivers' channels will be named by driver).
-  if (object == "driver" && kind == (slider_driver ? "force" : "torque")) return effort.col(0);
+  // The one driver's effort (several drivers' are named by driver, above).
+  if (driver_names.empty() && object == "driver" && kind == (slider_driver ? "force" : "torque"))
+    return effort.col(0);
   if (const int j = index_of(joint_names, object); j >= 0) {
     if (kind == "fx") return fx.col(j);
     if (kind == "fy") return fy.col(j);

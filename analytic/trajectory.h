@@ -9,9 +9,13 @@
 //   x.<point> y.<point> vx.<point> vy.<point> v.<point>         [m, m/s]  (v = |velocity|)
 //   ax.<point> ay.<point> a.<point>                             [m/s^2]   (a = |acceleration|)
 //   s.<slider> sdot.<slider> sddot.<slider>                     [m, m/s, m/s^2]
+// Several drivers (each named, [[driver]]): each driver's value, named as its kind of coordinate
+//   angle.<driver> (angular) | s.<driver> (slider)              [rad | m]
 // Link angles are continuous (unwrapped) along a sweep. With forces (kinetostatics, has_forces):
 //   torque.driver (angular driver) | force.driver (slider)     [N m | N]  the driver's effort on
-//                                                               its driven link (CCW; along +s)
+//                                                               its driven link (CCW; along +s);
+//                                                               several drivers: torque.<driver>
+//                                                               | force.<driver>, one each
 //   fx.<joint> fy.<joint> f.<joint>                            [N]  force of the joint's first
 //                                                               link on its second, world axes
 //   fn.<slider> moment.<slider>                                [N, N m]  a slide joint's force
@@ -82,9 +86,16 @@ struct Trajectory {
   std::vector<std::string> joint_names;   // Mechanism::joints order
   std::string ground_name;
   bool slider_driver = false;  // the driver's effort is a force (else a torque)
+  // Several drivers (Mechanism::several_drivers()): their names and whether each is a slider, in
+  // Mechanism::drivers order; empty with one driver, whose channels keep their names.
+  std::vector<std::string> driver_names;
+  std::vector<char> driver_sliders;
 
   Eigen::VectorXd time;    // [s]
-  Eigen::VectorXd driver;  // driver coordinate [rad or m]
+  Eigen::VectorXd driver;  // driver coordinate [rad or m] (several drivers: the first's)
+  // Several drivers: each one's value, one column per driver [rad or m] (channels angle.<name>
+  // or s.<name>); with several drivers the sweep's parameter is `time`.
+  Eigen::MatrixXd driver_values;
   Eigen::MatrixXd angle, omega, alpha;
   Eigen::MatrixXd x, y, vx, vy, ax, ay;
   Eigen::MatrixXd s, sdot, sddot;

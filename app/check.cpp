@@ -35,8 +35,7 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
                      m.links[j.link_a].name, m.links[j.link_b].points[j.point_b].name);
 }
 
-std::string driver_text(const Mechanism& m) {
-  const Driver& d = m.driver();
+std::string driver_text(const Mechanism& m, const Driver& d) {
   const double unit = d.angular() ? m.units.angle : m.units.length;
   const std::string& unit_name = d.angular() ? m.units.angle_name : m.units.length_name;
   std::string what;
@@ -133,8 +132,13 @@ void print_physics(const Mechanism& m, std::string& out) {
 // Returns the sweep it printed from.
 Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& options,
                                     std::string& out) {
-  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
-  const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
+  // Several drivers: the sweep runs in time, and its events are located in time.
+  const bool timed = m.several_drivers();
+  const double unit = timed ? 1.0 : m.driver().angular() ? m.units.angle : m.units.length;
+  const std::string unit_name = timed                  ? "s"
+                                : m.driver().angular() ? m.units.angle_name
+                                                       : m.units.length_name;
+  const std::string_view at = timed ? "t" : "driver";
   std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
@@ -153,7 +157,7 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
                        unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
-      out += fmt::format("    {:<13} at driver = {:.9f} {}: {}\n", to_string(e.kind),
+      out += fmt::format("    {:<13} at {} = {:.9f} {}: {}\n", to_string(e.kind), at,
                          value(e.driver), unit_name, e.message);
   if (const auto fb = four_bar(m)) {
     out += fmt::format("  four-bar: {}\n", fb->explain(m));
@@ -218,7 +222,16 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   for (const Joint& j : m.joints) out += fmt::format("    {:<14} {}\n", j.name, joint_text(m, j));
   print_physics(m, out);
   out += fmt::format("  mobility: {}\n", mobility(m).explain());
-  out += fmt::format("  driver: {}\n", driver_text(m));
+  if (m.several_drivers()) {
+    out += fmt::format(
+        "  drivers ({}; the sweep runs in time over {:.6g} s, the longest of their "
+        "cycles):\n",
+        m.drivers.size(), m.cycle_period());
+    for (const Driver& d : m.drivers)
+      out += fmt::format("    {:<14} {}\n", d.name, driver_text(m, d));
+  } else {
+    out += fmt::format("  driver: {}\n", driver_text(m, m.driver()));
+  }
 
   const NewtonSolver solver(m);
   KinematicState state(m);
@@ -250,7 +263,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
     out +=
         "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "
         "positions over a sweep need a speed\n";
-  } else if (m.driver().law.kind == MotionLaw::Kind::constant_speed) {
+  } else if (m.driver().law.kind == MotionLaw::Kind::constant_speed && !m.several_drivers()) {
     const AssemblingRange range = assembling_range(m, options);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()

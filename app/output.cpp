@@ -21,7 +21,13 @@ nlohmann::json value(bool exists, double v) {
 nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
   if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
   nlohmann::json f;
-  f["driver"] = t.effort(row, 0);
+  if (t.driver_names.empty()) {
+    f["driver"] = t.effort(row, 0);
+  } else {  // several drivers: each one's effort by its name
+    f["drivers"] = nlohmann::json::object();
+    for (size_t d = 0; d < t.driver_names.size(); ++d)
+      f["drivers"][t.driver_names[d]] = t.effort(row, static_cast<Eigen::Index>(d));
+  }
   f["joints"] = nlohmann::json::object();
   size_t slide = 0;
   for (size_t j = 0; j < m.joints.size(); ++j) {
@@ -45,6 +51,11 @@ nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
   nlohmann::json j;
   j["time"] = t.time(row);
   j["driver"] = t.driver(row);
+  if (!t.driver_names.empty()) {  // several drivers: each one's value by its name
+    j["drivers"] = nlohmann::json::object();
+    for (size_t d = 0; d < t.driver_names.size(); ++d)
+      j["drivers"][t.driver_names[d]] = t.driver_values(row, static_cast<Eigen::Index>(d));
+  }
   j["status"] = std::string(to_string(t.status[static_cast<size_t>(row)]));
   j["links"] = nlohmann::json::object();
   const PoseStatus status = t.status[static_cast<size_t>(row)];
@@ -276,8 +287,20 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     return usable(status) ? fmt::format(" {:>{}.{}f}", v, width, digits)
                           : fmt::format(" {:>{}}", "", width);
   };
-  fmt::print("{}  driver = {}  t = {:.6g} s  status: {}\n", m.name,
-             compare::driver_text(m, t.driver(row), 4), t.time(row), to_string(status));
+  if (m.several_drivers()) {
+    std::string drivers;
+    for (size_t d = 0; d < t.driver_names.size(); ++d) {
+      const Driver& driver = m.drivers[d];
+      drivers += fmt::format(
+          "  {} = {:.4f} {}", t.driver_names[d],
+          t.driver_values(row, static_cast<Eigen::Index>(d)) / (driver.angular() ? A : L),
+          driver.angular() ? an : ln);
+    }
+    fmt::print("{}  t = {:.6g} s{}  status: {}\n", m.name, t.time(row), drivers, to_string(status));
+  } else {
+    fmt::print("{}  driver = {}  t = {:.6g} s  status: {}\n", m.name,
+               compare::driver_text(m, t.driver(row), 4), t.time(row), to_string(status));
+  }
   fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
              "omega [rad/s]", "alpha [rad/s^2]");
   for (size_t l = 0; l < t.link_names.size(); ++l) {

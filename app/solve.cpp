@@ -107,7 +107,12 @@ int run_solve(const SolveArgs& args) {
     names.resize(m, 0, true);
     columns = table_channels(m, names, args.columns);
   }
-  const double at = single ? *args.at * (m.driver().angular() ? m.units.angle : m.units.length) : 0;
+  // Several drivers: the sweep's parameter is time, and --at is a time [s].
+  const bool timed = m.several_drivers();
+  const double at = single ? *args.at * (timed                  ? 1.0
+                                         : m.driver().angular() ? m.units.angle
+                                                                : m.units.length)
+                           : 0;
   if (single)
     check_solve_at_work(m, at, options, args.limits);
   else
@@ -174,20 +179,20 @@ int run_solve(const SolveArgs& args) {
   t.flag_non_finite();  // the dyads' samples (Newton's are flagged as they are written)
   fmt::print(stderr, "{}: method: {}\n", m.file, why);
   for (const Trajectory::Event& e : t.events)
-    fmt::print(stderr, "{}: note: {} at driver = {:.10g}: {}\n", m.file, to_string(e.kind),
-               e.driver, e.message);
+    fmt::print(stderr, "{}: note: {} at {} = {:.10g}: {}\n", m.file, to_string(e.kind),
+               timed ? "t" : "driver", e.driver, e.message);
   if (args.format == "json")
-    print_trajectory_json(stdout, m, t, single ? std::optional<int>(0) : std::nullopt, "driver", {},
-                          derived.empty()
-                              ? nlohmann::json()
-                              : nlohmann::json{{"derived", compare::derived_json(derived)}});
+    print_trajectory_json(
+        stdout, m, t, single ? std::optional<int>(0) : std::nullopt, timed ? "time" : "driver", {},
+        derived.empty() ? nlohmann::json()
+                        : nlohmann::json{{"derived", compare::derived_json(derived)}});
   else if (args.format == "csv")
     print_csv(t);
   else if (single) {
     print_table_at(m, t, 0);
     if (args.ic && usable(t.status[0])) print_instant_centres(m, t);
   } else {
-    print_table_rows(m, t, false, 4, columns, "the file's units");
+    print_table_rows(m, t, timed, 4, columns, "the file's units");
     compare::print_derived_exact(stdout, m, derived);
   }
   if (single && !usable(t.status[0])) {

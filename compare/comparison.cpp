@@ -42,7 +42,6 @@ bool prescribed(const Mechanism& m, std::string_view channel) {
   const std::string_view kind = channel.substr(0, dot), object = channel.substr(dot + 1);
   const int ground = m.ground();
   if (ground < 0) return false;
-  const Driver& d = m.driver();
   const bool driven = !m.dynamics;  // in a dynamics case the driver's coordinate moves freely
   // Whether joint j joins `link` to the ground.
   const auto grounded = [&](int link, const Joint& j) {
@@ -52,19 +51,29 @@ bool prescribed(const Mechanism& m, std::string_view channel) {
                                                                   "v", "ax", "ay", "a"};
   if (std::find(kPointKinds.begin(), kPointKinds.end(), kind) != kPointKinds.end())
     return m.links[static_cast<size_t>(ground)].find_point(object) >= 0;
+  // Several drivers' own values (angle.<name>, s.<name>) follow their laws.
+  if ((kind == "angle" || kind == "s") && m.several_drivers() &&
+      std::any_of(m.drivers.begin(), m.drivers.end(),
+                  [&](const Driver& d) { return d.name == object; }))
+    return driven;
   if (kind == "angle" || kind == "omega" || kind == "alpha") {
     const int link = m.find_link(object);
     if (link < 0) return false;
     for (const Joint& j : m.joints)
       if (j.type == JointType::prismatic && grounded(link, j)) return true;
     if (!driven) return false;
-    if (d.type == DriverType::link_angle) return d.link == link;
-    return d.type == DriverType::joint_angle &&
-           grounded(link, m.joints[static_cast<size_t>(d.joint)]);
+    // Every driver's: several drivers each prescribe their link's angle.
+    return std::any_of(m.drivers.begin(), m.drivers.end(), [&](const Driver& d) {
+      if (d.type == DriverType::link_angle) return d.link == link;
+      return d.type == DriverType::joint_angle &&
+             grounded(link, m.joints[static_cast<size_t>(d.joint)]);
+    });
   }
   if (kind == "s" || kind == "sdot" || kind == "sddot")
-    return driven && d.type == DriverType::slider &&
-           m.joints[static_cast<size_t>(d.joint)].name == object;
+    return driven && std::any_of(m.drivers.begin(), m.drivers.end(), [&](const Driver& d) {
+             return d.type == DriverType::slider &&
+                    m.joints[static_cast<size_t>(d.joint)].name == object;
+           });
   return false;
 }
 

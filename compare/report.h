@@ -21,6 +21,9 @@ struct DisplayUnit {
 };
 DisplayUnit display_unit(const Mechanism& mechanism, std::string_view channel);
 DisplayUnit driver_unit(const Mechanism& mechanism);
+// Whether the samples are in time, the abscissa of the tables and charts: a forward-dynamics
+// case, or several drivers (each at its law's value at t).
+bool samples_in_time(const Mechanism& mechanism);
 // A driver value [SI] as the console tables show it, in the file's units: an angle past one turn
 // (|value| > 360 deg) within its turn, with the whole turns it is past counted (548.37 deg is
 // 188.37 deg, turns +1; 720 deg is 360 deg, turns +1; -400 deg is -40 deg, turns -1). JSON and

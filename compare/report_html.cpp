@@ -247,7 +247,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
   const Trajectory& ref = cmp.reference().trajectory;
   const DisplayUnit du = driver_unit(m);
   json r;
-  if (m.dynamics) {  // samples in time: the charts' axis is the time
+  if (samples_in_time(m)) {  // the charts' axis is the time
     r["driver"]["unit"] = "s";
     r["driver"]["title"] = "time [s]";
     r["driver"]["values"] = rounded(ref.time, 1.0);
@@ -491,7 +491,7 @@ std::string verdict_table(const Comparison& cmp) {
         metric(c.metrics.max_pct_of_peak), metric(c.metrics.rms_pct_of_peak),
         metric(c.metrics.max_local_pct), metric(c.metrics.max_abs / u.scale), escape(u.name),
         k < 0 ? std::string("-")
-        : m.dynamics
+        : samples_in_time(m)
             ? fmt::format("t = {:.3f} s (#{})", cmp.reference().trajectory.time(k), k)
             : fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
                           escape(du.name), k),
@@ -718,8 +718,8 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
       std::max(0, cmp.reference().trajectory.samples() - 1));
   out << "<p><small>" << escape(centres_note) << "</small></p>\n";
   out << "<p><small id=\"drawing-left-out\"></small></p>\n";
-  out << (m.dynamics ? "<h2>Channels against time</h2>\n"
-                     : "<h2>Channels against the driver</h2>\n")
+  out << (samples_in_time(m) ? "<h2>Channels against time</h2>\n"
+                             : "<h2>Channels against the driver</h2>\n")
       << "<p>Every method overlaid on the exact values; "
          "under each chart the signed difference from exact in % of the exact peak. A red band "
          "marks each sample flagged by the reference (singular, a limit, a loop gap: kept out of "

@@ -39,6 +39,10 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
   }
 }
 
+bool samples_in_time(const Mechanism& m) {
+  return m.dynamics.has_value() || m.several_drivers();
+}
+
 DisplayUnit driver_unit(const Mechanism& m) {
   return m.driver().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
                               : DisplayUnit{m.units.length, m.units.length_name};
@@ -74,7 +78,7 @@ double severity(const ChannelResult& c) {
 
 std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
   if (c.metrics.worst_sample < 0) return "-";
-  if (cmp.mechanism->dynamics)  // samples in time
+  if (samples_in_time(*cmp.mechanism))
     return fmt::format("t = {:.3f} s #{}", cmp.reference().trajectory.time(c.metrics.worst_sample),
                        c.metrics.worst_sample);
   return fmt::format(
@@ -324,8 +328,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     if (c.verdict == Verdict::fail) {
       const DisplayUnit u = display_unit(m, c.metrics.channel);
       const int k = c.metrics.worst_sample;
-      const std::string where = dynamics ? fmt::format("t = {:.4f} s", ref.time(k))
-                                         : "driver = " + driver_text(m, ref.driver(k), 4);
+      const std::string where = samples_in_time(m) ? fmt::format("t = {:.4f} s", ref.time(k))
+                                                   : "driver = " + driver_text(m, ref.driver(k), 4);
       fmt::print(out,
                  "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at {} "
                  "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",

@@ -267,6 +267,11 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
 }
 
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
+  if (m.several_drivers())
+    throw std::runtime_error(fmt::format(
+        "{} drivers: the engines' scenes drive one joint yet (issue 20), so only the exact "
+        "methods run it",
+        m.drivers.size()));
   SceneGraph g;
 
   // Bodies: ground first, then the moving links in Mechanism order.

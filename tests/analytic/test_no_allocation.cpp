@@ -194,6 +194,31 @@ speed = 1
   EXPECT_EQ(counts.mallocs, 0);
 }
 
+// Several drivers: each pose sets every driver by its law (KinematicState::drive_at), and Newton
+// passes them to the layout through the list sized with the state.
+TEST(NoAllocation, TwoDriverPoses) {
+  if (!kCounting) GTEST_SKIP() << kNotCounted;
+  const Mechanism m = load_mechanism("mechanisms/drivers/fivebar_two_cranks.toml");
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  ASSERT_EQ(solver.assemble(state).status, PoseStatus::ok);
+  state.drive_at(m, 1.0 / 360.0);
+  ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
+  int not_ok = 0;
+  g_news = 0;
+  g_mallocs = 0;
+  g_counting = true;
+  for (int k = 2; k < 180; ++k) {
+    state.drive_at(m, k / 360.0);
+    if (solver.solve(state).status != PoseStatus::ok) ++not_ok;
+  }
+  g_counting = false;
+  EXPECT_EQ(not_ok, 0);
+  EXPECT_TRUE(state.qddot.allFinite());
+  EXPECT_EQ(g_news.load(), 0);
+  EXPECT_EQ(g_mallocs.load(), 0);
+}
+
 TEST(NoAllocation, ConditionEstimateIsEigens) {
   // The allocation-free estimate must equal Eigen's PartialPivLU::rcond() of the same matrix
   // (15 x 15: Eigen factorises it by the unblocked loops, the same factors as SmallLU's).
