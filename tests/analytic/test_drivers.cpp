@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -336,6 +337,57 @@ to = "D"
 start = 180
 speed = 0
 )";
+
+// Minitaur's leg (mechanisms/drivers/minitaur_leg.toml: l1 = 0.1, l2 = 0.2 m from the robot's
+// controller library). At t = 0 the toe is at the library's closed-form extension below the hip,
+// FKext(m) = sqrt(l2^2 - (l1 sin m)^2) - l1 cos m with m = 60 deg (half the upper links' angle).
+// Along the motion (q1 = 150 deg + 3 t, q2 = 30 deg - t) the toe's position, velocity and
+// acceleration, and with massless links the motors' torques under the 50 N ground reaction
+// (tau = -J^T F), from an independent solution: the circle intersection and its derivatives,
+// checked against central differences and the library's FKext and its derivative to 1e-16
+// (scripts/reference/minitaur_leg.py, law B), each to 1e-9 of its class's peak.
+TEST(MinitaurLeg, TheToeAndTheMotorTorquesAreTheClosedForms) {
+  Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/drivers/minitaur_leg.toml");
+  for (Link& l : m.links) l.mass = MassProperties{0.0, Eigen::Vector2d::Zero(), 0.0, false};
+  const Trajectory t = sweep(m);
+  ASSERT_EQ(t.samples(), 361);
+  const auto col = [](const std::vector<std::string>& names, const std::string& name) {
+    return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
+  };
+  const int toe = col(t.point_names, "T");
+  ASSERT_LT(toe, static_cast<int>(t.point_names.size()));
+  const double extension =
+      std::sqrt(0.04 - std::pow(0.1 * std::sin(kPi / 3.0), 2)) - 0.1 * std::cos(kPi / 3.0);
+  EXPECT_NEAR(t.x(0, toe), 0.0, 1e-15);
+  EXPECT_NEAR(t.y(0, toe), -extension, 1e-15);
+  const Eigen::VectorXd tau1 = *t.channel("torque.motor1"), tau2 = *t.channel("torque.motor2");
+  const auto peak = [](const Eigen::VectorXd& v) { return v.cwiseAbs().maxCoeff(); };
+  const double length = 0.3, speed = peak(t.vx.col(toe)) + peak(t.vy.col(toe)),
+               accel = peak(t.ax.col(toe)) + peak(t.ay.col(toe)), torque = peak(tau1) + peak(tau2);
+  struct Expected {
+    int sample;  // t = sample x 0.4 / 360 s
+    double x, y, vx, vy, ax, ay, tau1, tau2;
+  };
+  for (const Expected& e :
+       {Expected{90, 0.014406129217, -0.143580767426, 0.159092898729, -0.140197767729,
+                 0.324925923416, -0.125632745354, 1.572395481392, -2.292701942264},
+        Expected{225, 0.042271810317, -0.165549824781, 0.214342988202, -0.148817702865,
+                 0.399298351537, 0.030541616397, 1.331823656840, -3.445414172713},
+        Expected{360, 0.078908322576, -0.186635733685, 0.273224663817, -0.125893756300,
+                 0.361800886132, 0.286243230055, 0.587317921551, -4.532734050360}}) {
+    const int k = e.sample;
+    ASSERT_NEAR(t.time(k), k * 0.4 / 360.0, 1e-15);
+    EXPECT_NEAR(t.x(k, toe), e.x, 1e-9 * length) << k;
+    EXPECT_NEAR(t.y(k, toe), e.y, 1e-9 * length) << k;
+    EXPECT_NEAR(t.vx(k, toe), e.vx, 1e-9 * speed) << k;
+    EXPECT_NEAR(t.vy(k, toe), e.vy, 1e-9 * speed) << k;
+    EXPECT_NEAR(t.ax(k, toe), e.ax, 1e-9 * accel) << k;
+    EXPECT_NEAR(t.ay(k, toe), e.ay, 1e-9 * accel) << k;
+    EXPECT_NEAR(tau1(k), e.tau1, 1e-9 * torque) << k;
+    EXPECT_NEAR(tau2(k), e.tau2, 1e-9 * torque) << k;
+  }
+}
 
 TEST(SeveralDrivers, TheSweepStopsWhereTheCouplersLieStraightNeverOnAnotherBranch) {
   const Mechanism m = parse_mechanism(stretching_fivebar(kTwoCranks), "stretched.toml");
