@@ -117,6 +117,10 @@ EngineRanking rank_engines(const SettingsSweep& sweep) {
                         fmt::format("--accuracy {:g} %: every class (and the energy balance) "
                                     "within {:g} % of peak",
                                     *accuracy_pct, *accuracy_pct));
+  // No engine ran (each "not run" line says why): no tolerance to take the tightest of, and no
+  // limit written as a number that does not exist.
+  if (engines_of(sweep.rows).empty())
+    return rank_engines(sweep.rows, {}, "no engine ran: nothing to rank");
   const ClassLimits limits = common_tolerances(engines_of(sweep.rows), sweep.dynamics);
   std::string rule = fmt::format(
       "no --accuracy: each class within the tightest default tolerance of the engines ranked "

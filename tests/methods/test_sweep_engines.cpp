@@ -423,4 +423,30 @@ TEST(SweepEngines, FourEnginesAreRankedByTheirOwnNumbers) {
 }
 
 }  // namespace
+// A sweep where no engine ran (a two-driver five-bar: every engine says why) ranks none, and its
+// rule writes no limit: before, the common tolerances of no engine were "inf % of peak".
+TEST(SweepEngines, ASweepWithoutEnginesRanksNoneAndWritesNoLimit) {
+  SettingsSweepOptions options;
+  options.engines = {"mujoco", "bullet"};
+  options.dts = {1e-3};
+  options.repeat = 1;
+  const SettingsSweep sweep =
+      run_settings_sweep(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                        "/mechanisms/drivers/fivebar_two_cranks.toml"),
+                         options);
+  EXPECT_EQ(sweep.skipped.size(), 2u);
+  const EngineRanking ranking = rank_engines(sweep);
+  EXPECT_TRUE(ranking.engines.empty());
+  EXPECT_EQ(ranking.rule, "no engine ran: nothing to rank");
+  std::FILE* file = std::tmpfile();
+  ASSERT_NE(file, nullptr);
+  print_sweep(sweep, file);
+  std::rewind(file);
+  std::string console;
+  for (int c; (c = std::fgetc(file)) != EOF;) console += static_cast<char>(c);
+  std::fclose(file);
+  EXPECT_NE(console.find("no engine ran: nothing to rank"), std::string::npos) << console;
+  EXPECT_EQ(console.find("inf"), std::string::npos) << console;
+}
+
 }  // namespace crosslink::methods
