@@ -1215,7 +1215,9 @@ void read_driver(Reader& r, const Mechanism& m, Driver& d, const toml::table* t,
       d.law.table_time.push_back((*tv)[0]);
       d.law.table_value.push_back((*tv)[1]);
     }
-    d.start = d.law.table_value.front();
+    // The value at t = 0: knots may start before it (the spline's end condition kept off the
+    // cycle); at a first knot at 0 this is its value exactly.
+    d.start = d.at_time(0.0).value;
   }
   if (duration && r.diagnostics().empty()) check_law(r, d, value_scale);
 }
