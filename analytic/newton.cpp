@@ -299,6 +299,11 @@ void NewtonSolver::update_frames(KinematicState& state) const {
 
 void NewtonSolver::residual(const Eigen::VectorXd& q, double driver_value,
                             Eigen::VectorXd& phi) const {
+  // One driver's value: a chain of several would read past it (the list overload takes theirs).
+  if (layout_.driver_count() != 1)
+    throw std::logic_error(
+        fmt::format("NewtonSolver::residual: one driver's value for a chain of {} drivers",
+                    layout_.driver_count()));
   const DriverState driver{0.0, driver_value, 0.0, 0.0};
   layout_.residual(LinkFrames{q}, {&driver, 1}, phi);
 }

@@ -1006,10 +1006,17 @@ std::string AssemblingRange::explain(const Mechanism& m) const {
 
 AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions& options,
                                  double /*tolerance: toggles are located to ~1e-12*/) {
+  AssemblingRange range;
+  // A range of one driver's value: with several the chain moves in time (the timed sweep).
+  if (mechanism.drivers.size() > 1) {
+    range.unknown =
+        fmt::format("the assembling range is one driver's; with {} drivers the sweep runs in time",
+                    mechanism.drivers.size());
+    return range;
+  }
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
-  AssemblingRange range;
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
   refuse_start_at_change_point(solver, state);

@@ -388,6 +388,12 @@ TEST(HeldDriver, EveryBundledRangeIsKnown) {
       continue;
     const Mechanism m = load_mechanism(entry.path().string());
     if (m.driver().law.kind != MotionLaw::Kind::constant_speed) continue;
+    // Several drivers have no range of one driver's value (it read past the one driver's row
+    // before: AddressSanitizer's stack-buffer-overflow in ConstraintLayout::residual).
+    if (m.drivers.size() > 1) {
+      EXPECT_NE(assembling_range(m).unknown.find("the sweep runs in time"), std::string::npos);
+      continue;
+    }
     EXPECT_EQ(assembling_range(m).unknown, "") << entry.path();
   }
 }

@@ -430,10 +430,10 @@ TEST(SweepEngines, ASweepWithoutEnginesRanksNoneAndWritesNoLimit) {
   options.engines = {"mujoco", "bullet"};
   options.dts = {1e-3};
   options.repeat = 1;
-  const SettingsSweep sweep =
-      run_settings_sweep(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
-                                        "/mechanisms/drivers/fivebar_two_cranks.toml"),
-                         options);
+  // The sweep keeps a pointer to its mechanism: it lives as long as the sweep.
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/drivers/fivebar_two_cranks.toml");
+  const SettingsSweep sweep = run_settings_sweep(m, options);
   EXPECT_EQ(sweep.skipped.size(), 2u);
   const EngineRanking ranking = rank_engines(sweep);
   EXPECT_TRUE(ranking.engines.empty());
