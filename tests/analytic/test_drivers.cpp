@@ -23,6 +23,7 @@
 #include "analytic/dyads.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "tests/common/text.h"
 
 namespace crosslink {
 namespace {
@@ -437,18 +438,7 @@ void expect_fault(const std::string& text, const std::string& message, int line,
   }
 }
 
-// The line of the n-th (1-based) line that starts with `start` in the text.
-int line_of(const std::string& text, const std::string& start, int n = 1) {
-  int line = 1;
-  for (size_t at = 0; at < text.size();) {
-    const size_t end = text.find('\n', at);
-    if (text.compare(at, start.size(), start) == 0 && --n == 0) return line;
-    if (end == std::string::npos) break;
-    at = end + 1;
-    ++line;
-  }
-  return -1;
-}
+using test::line_of;
 
 const std::string kThird = R"([[driver]]
 name = "third"

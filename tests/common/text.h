@@ -6,9 +6,10 @@
 
 namespace crosslink::test {
 
-// The 1-based line of `text` on which `marker` first begins (0: not there).
-inline int line_of(const std::string& text, const std::string& marker) {
-  const size_t at = text.find(marker);
+// The 1-based line of `text` on which the n-th (1-based) `marker` begins (0: not there).
+inline int line_of(const std::string& text, const std::string& marker, int n = 1) {
+  size_t at = text.find(marker);
+  while (at != std::string::npos && --n > 0) at = text.find(marker, at + marker.size());
   if (at == std::string::npos) return 0;
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
 }
