@@ -893,6 +893,12 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
     return;
   }
   const Joint& slide = m.joints[joint.slide];
+  // A rack whose own joint is refused (its line or point unknown) is not read further: its
+  // fault is already said at the prismatic.
+  if (slide.link_a < 0 || slide.link_b < 0 || slide.line < 0 || slide.point_b < 0) {
+    joint.slide = -1;
+    return;
+  }
   joint.carrier = slide.link_a;
   joint.link_b = slide.link_b;
   joint.name = r.string(t, "name", what, false)

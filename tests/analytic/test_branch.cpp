@@ -17,6 +17,7 @@
 #include "analytic/branch.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
+#include "tests/common/diagnostics.h"
 
 namespace crosslink {
 namespace {
@@ -40,14 +41,7 @@ std::string undrawn_crank_rocker(const std::string& extra, int start = 0) {
          "\n" + extra;
 }
 
-std::string error_of(const std::string& text) {
-  try {
-    parse_mechanism(text, "bad.toml");
-  } catch (const DefinitionError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 // Norton eq. 4.10: the rocker's angle theta4 at crank angle theta2 (both from AD).
 double norton_theta4(double theta2, bool open) {

@@ -13,6 +13,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"
 
@@ -428,12 +429,7 @@ TEST(Derived, AValueThatDoesNotExistIsNoneWithItsReason) {
 }
 
 std::string error_of(const std::string& text) {
-  try {
-    parse_mechanism(text, "m.toml");
-  } catch (const DefinitionError& e) {
-    return e.diagnostics().front().str();
-  }
-  return "";
+  return test::error_of(text, "m.toml");
 }
 
 TEST(Derived, WrongInputIsLocated) {

@@ -25,6 +25,9 @@
 #include "analytic/loader.h"
 #include "analytic/planar.h"
 #include "analytic/sweep.h"
+#include "tests/common/diagnostics.h"
+#include "tests/common/mechanisms.h"
+#include "tests/common/text.h"
 
 namespace crosslink {
 namespace {
@@ -313,14 +316,7 @@ TEST(Gears, TheMeshForceActsAlongTheLineOfAction) {
 
 // Each fault of a gear pair or rack is reported at its key.
 std::string error_of(const std::string& text) {
-  try {
-    (void)parse_mechanism(text, "gear.toml");
-  } catch (const DefinitionError& e) {
-    std::string all;
-    for (const Diagnostic& d : e.diagnostics()) all += d.str() + "\n";
-    return all;
-  }
-  return "";
+  return test::error_of(text, "gear.toml");
 }
 
 // Two gears on ground pivots 50 mm apart (pitch radii 20 and 30 mm), the first driven; `gear`
@@ -361,12 +357,7 @@ speed = 1
 )";
 }
 
-// The line of the first occurrence of `key` in `text` (1-based).
-int line_of(const std::string& text, const std::string& key) {
-  const size_t at = text.find(key);
-  EXPECT_NE(at, std::string::npos) << key;
-  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
-}
+using test::line_of;
 
 TEST(Gears, TwoGearsOnTheGroundTurnInverselyAsTheirRadii) {
   const Mechanism m = parse_mechanism(
@@ -415,6 +406,22 @@ TEST(Gears, EachFaultIsLocatedAtItsKey) {
     const std::string where = "gear.toml:" + std::to_string(line_of(text, c.key)) + ":";
     EXPECT_EQ(error.rfind(where, 0), 0u) << where << " in " << error;
   }
+}
+
+// A rack whose prismatic is refused (its line misnamed) is said once, at the prismatic: the
+// rack and pinion is not read on (it read the guide's line -1, found by fuzzing:
+// tests/fuzz/regressions/ryan_rack_slide_line_unknown.toml).
+TEST(Gears, ARackOnARefusedSlideIsNotReadOn) {
+  std::string text = test::source_text("mechanisms/gears/ryan_rack_and_pinion.toml");
+  const size_t at = text.find("lines = { guide");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 15, "lines = { gUide");
+  const std::vector<Diagnostic> found = test::diagnostics_of(text, "gear.toml");
+  ASSERT_EQ(found.size(), 1u) << error_of(text);
+  EXPECT_NE(found[0].message.find("line 'guide' is not on link 'ground' (its lines: gUide)"),
+            std::string::npos)
+      << found[0].str();
+  EXPECT_EQ(found[0].where.line, line_of(text, "line = \"guide\""));
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {
@@ -65,16 +66,7 @@ Place place_of(const std::string& text, const std::string& marker, int nth = 0) 
   return {line, column};
 }
 
-std::vector<Diagnostic> diagnostics_of(const std::string& text) {
-  try {
-    parse_mechanism(text, "bad.toml");
-  } catch (const DefinitionError& e) {
-    for (const Diagnostic& d : e.diagnostics()) EXPECT_EQ(d.where.file, "bad.toml");
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "the definition was accepted:\n" << text;
-  return {};
-}
+using test::diagnostics_of;
 
 // The diagnostic whose message holds every one of `phrases`; fails the test when none does.
 const Diagnostic* find(const std::vector<Diagnostic>& found,
