@@ -104,7 +104,7 @@ class DynamicsSteps {
         gaps_(scene_mechanism, plan.grid, plan.span, sample_count),
         balance_(definition),
         velocity_(definition.coordinate_count()) {
-    readings_.fill(ForceReading(definition.joints.size()));
+    readings_.fill(ForceReading(definition.joints.size(), definition.drivers.size()));
     scene_.read_pose(pose_at(0));
     h0_ = time_[1] - time_[0];
     before_start_ = before != nullptr;

@@ -137,6 +137,26 @@ double driver_inertia(const Mechanism& m, const Trajectory& reference) {
   return inertia;
 }
 
+double driver_inertia(const Mechanism& m, const Trajectory& reference, int d) {
+  if (!m.several_drivers()) return driver_inertia(m, reference);
+  DynamicsLoads energy(m);
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  double inertia = 0.0;
+  for (int k = 0; k < reference.samples(); ++k) {
+    if (!usable(reference.status[static_cast<size_t>(k)])) continue;
+    state.q = reference_coordinates(m, reference, k);
+    for (int e = 0; e < state.driver_count(); ++e)
+      state.driver_state(e) = {reference.time(k),
+                               e == 0 ? reference.driver(k) : reference.driver_values(k, e),
+                               e == d ? 1.0 : 0.0, 0.0};
+    if (solver.solve_position(state).status != PoseStatus::ok) continue;
+    solver.solve_velocity(state);
+    inertia = std::max(inertia, 2.0 * energy.kinetic(state.q, state.qdot));
+  }
+  return inertia;
+}
+
 double auxiliary_mass(const Mechanism& m) {
   double lightest = std::numeric_limits<double>::infinity();
   for (const Link& link : m.links)
@@ -154,6 +174,7 @@ MassProperties scene_mass(const Mechanism& m, int link) {
 
 void ForceReading::set_zero() {
   effort = 0.0;
+  std::fill(other_efforts.begin(), other_efforts.end(), 0.0);
   for (Eigen::Vector2d& f : joint_force) f.setZero();
   std::fill(couple.begin(), couple.end(), 0.0);
   std::fill(gear_couple.begin(), gear_couple.end(), 0.0);
@@ -161,6 +182,8 @@ void ForceReading::set_zero() {
 
 void ForceReading::add(double weight, const ForceReading& other) {
   effort += weight * other.effort;
+  for (size_t d = 0; d < other_efforts.size(); ++d)
+    other_efforts[d] += weight * other.other_efforts[d];
   for (size_t j = 0; j < joint_force.size(); ++j) {
     joint_force[j] += weight * other.joint_force[j];
     couple[j] += weight * other.couple[j];
@@ -196,7 +219,8 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
   auto motion = [&](int link) {
     return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, nullptr);
   };
-  out.effort(row, 0) = reading.effort;  // the engine drives one joint
+  for (int d = 0; d < static_cast<int>(m.drivers.size()); ++d)
+    out.effort(row, d) = reading.effort_of(d);
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();
   auto on_ground = [&](const Eigen::Vector2d& at, const Eigen::Vector2d& force, double couple) {
     shaking.head<2>() += force;
@@ -223,20 +247,23 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     if (j.link_a == ground) on_ground(point, -f, -reading.couple[ji]);
     if (j.link_b == ground) on_ground(point, f, reading.couple[ji]);
   }
-  // The driver's reaction on the ground.
-  const Driver& d = m.driver();
-  if (d.type == DriverType::link_angle) {
-    on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -reading.effort);
-  } else {
+  // Each driver's reaction on the ground.
+  for (int di = 0; di < static_cast<int>(m.drivers.size()); ++di) {
+    const Driver& d = m.drivers[static_cast<size_t>(di)];
+    const double effort = reading.effort_of(di);
+    if (d.type == DriverType::link_angle) {
+      on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -effort);
+      continue;
+    }
     const Joint& j = m.joints[static_cast<size_t>(d.joint)];
     const int sign = j.link_a == ground ? -1 : j.link_b == ground ? 1 : 0;
     if (sign != 0 && d.type == DriverType::joint_angle) {
-      on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), sign * reading.effort);
+      on_ground(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), sign * effort);
     } else if (sign != 0) {
       const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
       const Line& line = m.links[j.link_a].lines[j.line];
       on_ground(b.position(m.links[j.link_b].points[j.point_b].local),
-                sign * reading.effort * a.turn(line.direction), 0.0);
+                sign * effort * a.turn(line.direction), 0.0);
     }
   }
   // Springs anchored on the ground pull it towards their other end.

@@ -80,6 +80,10 @@ double reference_energy_scale(const Mechanism& m, const Trajectory& reference);
 // samples, 2 T / (rate of the coordinate)^2 with T the kinetic energy (Link::mass): what the
 // driver moves, in kg m^2 for an angle or kg for a slider; 0 when the coordinate is never moving.
 double driver_inertia(const Mechanism& m, const Trajectory& reference);
+// Driver d's (Mechanism::drivers order): with several drivers, the diagonal of the inertia along
+// the drivers, 2 T with driver d at unit rate and the others held, its largest over the
+// reference's usable samples; with one, driver_inertia().
+double driver_inertia(const Mechanism& m, const Trajectory& reference, int d);
 
 // Mass of a body an engine needs that the mechanism does not have (a pin-in-slot's sliding
 // block): 1e-6 of the lightest link, so its d'Alembert force m a is below 1e-6 of the forces
@@ -94,7 +98,10 @@ MassProperties scene_mass(const Mechanism& m, int link);
 
 // The forces one engine read at one pose, in the mechanism's terms.
 struct ForceReading {
-  double effort = 0.0;                       // the driver's torque [N m] or force [N]
+  // The drivers' efforts, torque [N m] or force [N]: `effort` the first's, `other_efforts` the
+  // rest in Mechanism::drivers order (as KinematicState holds their states).
+  double effort = 0.0;
+  std::vector<double> other_efforts;
   std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
   std::vector<double> couple;                // per joint: prismatic couple on the slider about
                                              // its point [N m]; 0 otherwise
@@ -103,10 +110,16 @@ struct ForceReading {
   // engine's coupling acts as couples, as the exact method's row does, so the joints' forces read
   // beside it are those the exact method has before its own tooth force is passed on.
   std::vector<double> gear_couple;
-  explicit ForceReading(size_t joints = 0)
-      : joint_force(joints, Eigen::Vector2d::Zero()),
+  explicit ForceReading(size_t joints = 0, size_t drivers = 1)
+      : other_efforts(drivers > 1 ? drivers - 1 : 0, 0.0),
+        joint_force(joints, Eigen::Vector2d::Zero()),
         couple(joints, 0.0),
         gear_couple(joints, 0.0) {}
+  // Driver d's effort (Mechanism::drivers order).
+  double& effort_of(int d) { return d == 0 ? effort : other_efforts[static_cast<size_t>(d - 1)]; }
+  double effort_of(int d) const {
+    return d == 0 ? effort : other_efforts[static_cast<size_t>(d - 1)];
+  }
   void set_zero();
   void add(double weight, const ForceReading& other);  // this += weight * other
 };

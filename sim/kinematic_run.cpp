@@ -31,7 +31,7 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   const int first = p.span.first;
   const double t0 = reference.time(first);
   const double h = (reference.time(first + 1) - t0) / per_interval.front();
-  const Driver& d = scene_mechanism.driver();
+  const std::vector<Driver>& drivers = scene_mechanism.drivers;
   const double period = scene_mechanism.cycle_period();
   const bool periodic =
       first == 0 && p.span.last == n - 1 && period > 0.0 &&
@@ -44,8 +44,12 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   const auto start = [&](long roll) {
     const double t = t0 - static_cast<double>(roll) * h;
     state.q = reference_coordinates(scene_mechanism, reference, first);
-    state.driver = d.at_time(t);
-    state.driver.value = reference.driver(first) + (state.driver.value - d.at_time(t0).value);
+    for (int di = 0; di < state.driver_count(); ++di) {
+      const Driver& d = drivers[static_cast<size_t>(di)];
+      DriverState& driver = state.driver_state(di);
+      driver = d.at_time(t);
+      driver.value = reference_driver(reference, first, di) + (driver.value - d.at_time(t0).value);
+    }
     const SolveReport report = solver.solve(state);
     return report.status == PoseStatus::ok &&
                    (roll == 0 || report.rcond >= singular_rcond * typical_rcond(reference))
@@ -65,13 +69,14 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   }
   p.q = state.q;
   p.qdot = state.qdot;
-  p.driver_offset = reference.driver(first) - d.at_time(t0).value;
+  for (size_t di = 0; di < drivers.size(); ++di)
+    p.driver_offset.push_back(reference_driver(reference, first, static_cast<int>(di)) -
+                              drivers[di].at_time(t0).value);
   p.grid = sample_grid(reference, p.span, per_interval, inner, p.preroll, h);
   return p;
 }
 
-double JointGap::joints(const Eigen::VectorXd& q, double driver_value) {
-  solver_.residual(q, driver_value, phi_);
+double JointGap::joints() const {
   const ConstraintLayout& layout = solver_.layout();
   double gap = 0.0;
   for (int r = 0; r < layout.joint_row_count(); ++r)
@@ -79,15 +84,23 @@ double JointGap::joints(const Eigen::VectorXd& q, double driver_value) {
   return gap;
 }
 
-double JointGap::at(const Eigen::VectorXd& q, double driver_value, double& driver_error) {
-  double gap = joints(q, driver_value);
-  driver_error = std::abs(phi_(solver_.layout().driver_row(0)));
-  if (!std::isfinite(driver_error) || !std::isfinite(gap)) gap = INFINITY;
+double JointGap::at(const Eigen::VectorXd& q, const std::vector<double>& driver_values,
+                    std::vector<double>& driver_errors) {
+  for (size_t d = 0; d < drivers_.size(); ++d) drivers_[d].value = driver_values[d];
+  solver_.residual(q, drivers_, phi_);
+  double gap = joints();
+  driver_errors.resize(drivers_.size());
+  for (size_t d = 0; d < drivers_.size(); ++d) {
+    driver_errors[d] = std::abs(phi_(solver_.layout().driver_row(static_cast<int>(d))));
+    if (!std::isfinite(driver_errors[d])) gap = INFINITY;
+  }
+  if (!std::isfinite(gap)) gap = INFINITY;
   return gap;
 }
 
 double JointGap::at(const Eigen::VectorXd& q) {
-  const double gap = joints(q, solver_.driver_value(q));
+  solver_.residual(q, solver_.driver_value(q), phi_);
+  const double gap = joints();
   return std::isfinite(gap) ? gap : INFINITY;
 }
 
@@ -113,10 +126,20 @@ void judge_projected(
       continue;
     }
     probe.q = rows.configuration(i);
+    reference_drivers(m, reference, i, probe);
     probe.driver = driver(i);
     const SolveReport projected = solver.solve_position(probe);
     out.rcond(i) = projected.rcond;
     status = judged(i, projected, probe);
+  }
+}
+
+void reference_drivers(const Mechanism& m, const Trajectory& reference, int i,
+                       KinematicState& state) {
+  for (int d = 0; d < state.driver_count(); ++d) {
+    DriverState& driver = state.driver_state(d);
+    driver = m.drivers[static_cast<size_t>(d)].at_time(reference.time(i));
+    driver.value = reference_driver(reference, i, d);
   }
 }
 
@@ -140,8 +163,11 @@ class Steps {
         scene_(scene),
         gaps_(scene_mechanism, plan.grid, plan.span, sample_count),
         loads_(definition),
-        velocity_(definition.coordinate_count()) {
-    readings_.fill(ForceReading(definition.joints.size()));
+        velocity_(definition.coordinate_count()),
+        law_(definition.drivers.size()),
+        driver_(definition.drivers.size()),
+        driver_errors_(definition.drivers.size()) {
+    readings_.fill(ForceReading(definition.joints.size(), definition.drivers.size()));
     pose(0) = plan.q;
   }
 
@@ -149,8 +175,8 @@ class Steps {
   std::string step(long k) {
     const std::vector<double>& time = plan_.grid.time;
     const double t = time[static_cast<size_t>(k)];
-    const double law = definition_.driver().at_time(t).value;
-    scene_.drive(law);
+    for (size_t d = 0; d < law_.size(); ++d) law_[d] = definition_.drivers[d].at_time(t).value;
+    scene_.drive(law_);
     apply_loads(k - 1);
     const bool read = samples_.read_forces[static_cast<size_t>(k - 1)];
     std::string alarm =
@@ -158,20 +184,30 @@ class Steps {
     ++taken_;
     scene_.read_pose(pose(k));
     // The gap, kept for its sample interval; then what stops the run.
-    double driver_error = 0.0;
-    const double driver = law + plan_.driver_offset;
-    const double gap = gaps_.at(k, pose(k), driver, driver_error);
+    for (size_t d = 0; d < law_.size(); ++d) driver_[d] = law_[d] + plan_.driver_offset[d];
+    const double gap = gaps_.at(k, pose(k), driver_, driver_errors_);
     if (!pose(k).allFinite()) alarm = "NaN in the state";
     if (alarm.empty() && gap > watch_.divergence_gap)
       alarm = fmt::format("loop gap {:.3g} m beyond the divergence limit {:.3g} m", gap,
                           watch_.divergence_gap);
+    const bool several = definition_.several_drivers();
     if (!alarm.empty())
-      return fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t, driver, alarm);
-    if (driver_error > watch_.driver)
+      return several ? fmt::format("diverged at t = {:.6g} s: {}", t, alarm)
+                     : fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t,
+                                   driver_.front(), alarm);
+    for (size_t d = 0; d < law_.size(); ++d) {
+      const double threshold = driver_threshold(d);
+      if (!(driver_errors_[d] > threshold)) continue;
+      if (!several)
+        return fmt::format(
+            "lost the driver at t = {:.6g} s (driver {:.6g}): {:.3g} from its law, beyond {:.3g} "
+            "(loop gap {:.3g} m)",
+            t, driver_[d], driver_errors_[d], threshold, gap);
       return fmt::format(
-          "lost the driver at t = {:.6g} s (driver {:.6g}): {:.3g} from its law, beyond {:.3g} "
-          "(loop gap {:.3g} m)",
-          t, driver, driver_error, watch_.driver, gap);
+          "lost the driver '{}' at t = {:.6g} s (its value {:.6g}): {:.3g} from its law, beyond "
+          "{:.3g} (loop gap {:.3g} m)",
+          definition_.drivers[d].name, t, driver_[d], driver_errors_[d], threshold, gap);
+    }
     return "";
   }
 
@@ -184,6 +220,13 @@ class Steps {
 
  private:
   Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
+  // Driver d's watch threshold: the watch's, in the first driver's unit (KinematicWatch::driver).
+  double driver_threshold(size_t d) const {
+    const bool first = definition_.driver().angular(), own = definition_.drivers[d].angular();
+    return first == own ? watch_.driver
+           : own        ? watch_.driver / definition_.size()
+                        : watch_.driver * definition_.size();
+  }
   ForceReading& reading_at(long k) { return readings_[static_cast<size_t>(k % kRing)]; }
 
   // The definition's loads and springs at pose k, at its velocity: the exact one at the start,
@@ -195,8 +238,8 @@ class Steps {
       velocity_ = plan_.qdot;
     else
       recent_velocity(k, plan_.grid.time, poses(), velocity_);
-    scene_.apply(
-        loads_.at(pose(k), velocity_, definition_.driver().at_time(t).value + plan_.driver_offset));
+    scene_.apply(loads_.at(pose(k), velocity_,
+                           definition_.driver().at_time(t).value + plan_.driver_offset.front()));
   }
 
   const Mechanism& definition_;
@@ -209,6 +252,9 @@ class Steps {
   Eigen::VectorXd velocity_;
   std::array<Eigen::VectorXd, kRing> ring_;
   std::array<ForceReading, kRing> readings_;
+  // Scratch per driver: its law's value at the step's end, as the reference counts it, its row's
+  // error there.
+  std::vector<double> law_, driver_, driver_errors_;
   long taken_ = 0;
 };
 
@@ -230,8 +276,7 @@ void write_sample(int i, long now, const Mechanism& m, const Trajectory& referen
   KinematicState& state = rows.state();
   difference_state(reference.time(i), plan.stencil[row], time, steps.poses(), state.q, state.qdot,
                    state.qddot);
-  state.driver = m.driver().at_time(reference.time(i));
-  state.driver.value = reference.driver(i);
+  reference_drivers(m, reference, i, state);
   if (rows.with_forces())
     combine_readings(
         plan.forces[row], [&](long k) -> const ForceReading& { return steps.reading(k); },
@@ -271,13 +316,13 @@ StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const
         // The engine's events on the flags it gives itself (a reference's flag kept has its own).
         const bool own_flag = usable(reference.status[static_cast<size_t>(i)]);
         if (own_flag && status == PoseStatus::singular)
-          out.events.push_back({reference.driver(i), PoseStatus::singular,
+          out.events.push_back({event_position(reference, i), PoseStatus::singular,
                                 fmt::format("the constraint Jacobian at the engine's "
                                             "configuration is singular (rcond {:.2g})",
                                             projected.rcond)});
         if (own_flag && status == PoseStatus::branch_jump && judge.jumped() == 1)
           out.events.push_back(
-              {reference.driver(i), PoseStatus::branch_jump,
+              {event_position(reference, i), PoseStatus::branch_jump,
                fmt::format("the engine closes the loops on another assembly mode than the "
                            "reference (closed configuration {:.3g} of the size or rad away)",
                            off)});
@@ -293,7 +338,8 @@ void note_samples(const Trajectory& reference, const Span& span, const StatusJud
   Trajectory& out = run.trajectory;
   const int samples = reference.samples();
   if (stopped && judge.first_lost() >= 0)
-    out.events.push_back({reference.driver(judge.first_lost()), PoseStatus::diverged, run.message});
+    out.events.push_back(
+        {event_position(reference, judge.first_lost()), PoseStatus::diverged, run.message});
   const int outside = span.first + (samples - 1 - span.last);
   if (outside > 0)
     add_note(
@@ -302,8 +348,8 @@ void note_samples(const Trajectory& reference, const Span& span, const StatusJud
             "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); "
             "the {} samples outside (flagged by the reference: {}) keep its flag and "
             "carry no engine value",
-            span.first, span.last, reference.driver(span.first), reference.driver(span.last),
-            outside,
+            span.first, span.last, event_position(reference, span.first),
+            event_position(reference, span.last), outside,
             to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
   add_note(run.message, kept_note(judge.kept(), true));
   add_note(run.message, branch_jump_note(judge.jumped()));
@@ -320,6 +366,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   out.resize(definition, reference.samples(), with_forces);
   out.time = reference.time;
   out.driver = reference.driver;
+  out.driver_values = reference.driver_values;
   const std::vector<double>& time = plan.grid.time;
   const long last_step = static_cast<long>(time.size()) - 1;
   if (last_step < 3) {

@@ -25,9 +25,9 @@ namespace crosslink::sim {
 class KinematicScene {
  public:
   virtual ~KinematicScene() = default;
-  // The driver's value by the definition's law (Driver::at_time) to reach at the end of the next
-  // step.
-  virtual void drive(double driver_value) = 0;
+  // Each driver's value by the definition's law (Driver::at_time), in Mechanism::drivers order,
+  // to reach at the end of the next step.
+  virtual void drive(const std::vector<double>& driver_values) = 0;
   // The definition's loads and springs on the moving links (Mechanism order) for the next step.
   virtual void apply(const std::vector<BodyLoad>& loads) = 0;
   // One step of `h` seconds; with `forces`, the constraint forces of the pose it leaves, in the
@@ -43,9 +43,12 @@ class KinematicScene {
 
 // The thresholds a run watches its steps and judges its samples by, in force (auto resolved).
 struct KinematicWatch {
-  double gap = 0.0;              // a larger joint gap [m] in a sample's interval: loop_gap
-  double divergence_gap = 0.0;   // a larger joint gap [m] at a step: the run diverged there
-  double driver = 0.0;           // the driver further from its law [rad, or m]: the run lost it
+  double gap = 0.0;             // a larger joint gap [m] in a sample's interval: loop_gap
+  double divergence_gap = 0.0;  // a larger joint gap [m] at a step: the run diverged there
+  // A driver further from its law [rad, or m]: the run lost it. In the first driver's unit; a
+  // driver of the other kind (an angle beside a slider) compares against it times or over the
+  // mechanism's size, as the auto threshold (1e-3 rad, or 1e-3 of the size) does.
+  double driver = 0.0;
   double singular_rcond = 0.0;   // the fraction of the chain's own conditioning: singular below
   double branch_distance = 0.0;  // a closed configuration further from the reference's [size or
                                  // rad]: branch_jump
@@ -60,13 +63,16 @@ struct KinematicWatch {
 struct KinematicPlan {
   Span span;
   TimeGrid grid;
-  long preroll = 0;            // steps before the first sample (and after the last)
-  Eigen::VectorXd q, qdot;     // the scene mechanism's exact state at grid.time[0]
-  double driver_offset = 0.0;  // the reference's driver value less the definition's law
-  std::string note;            // "" or how the start was made (a perturbed chain started open)
+  long preroll = 0;         // steps before the first sample (and after the last)
+  Eigen::VectorXd q, qdot;  // the scene mechanism's exact state at grid.time[0]
+  // Per driver (Mechanism::drivers order): the reference's value less the definition's law.
+  std::vector<double> driver_offset;
+  std::string note;  // "" or how the start was made (a perturbed chain started open)
 };
 // `wanted`: the longest step [s]; `inner`: where steps fall inside an interval; `singular_rcond`:
-// the pre-roll's start conditioned worse than this fraction of the chain's own is refused. Throws
+// the pre-roll's start conditioned worse than this fraction of the chain's own is refused. With
+// several drivers the reference is sampled in time, each driver at its law: the grid maps samples
+// to steps by time as for one, and a periodic run's pre-roll takes every law before t = 0. Throws
 // std::runtime_error when there is nothing to run over, the steps are too many (check_steps) or
 // the scene's chain does not close at the start (a perturbed chain then starts open, noted).
 KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory& reference,
@@ -82,18 +88,21 @@ double fastest_rate(const Trajectory& reference, const Span& span);
 class JointGap {
  public:
   JointGap(const Mechanism& m, const NewtonSolver& solver)
-      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()) {}
-  // With the driver at `driver_value` (as the reference counts it): the gap (infinite when it
-  // or the driver's row is not finite) and the driver row's error.
-  double at(const Eigen::VectorXd& q, double driver_value, double& driver_error);
+      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()), drivers_(m.drivers.size()) {}
+  // With each driver at its value in `driver_values` (as the reference counts them, in
+  // Mechanism::drivers order): the gap (infinite when it or a driver's row is not finite) and
+  // each driver row's error in `driver_errors`.
+  double at(const Eigen::VectorXd& q, const std::vector<double>& driver_values,
+            std::vector<double>& driver_errors);
   // A dynamics run: the driver's row is measured at the engine's own coordinate, so it is zero.
   double at(const Eigen::VectorXd& q);
 
  private:
-  double joints(const Eigen::VectorXd& q, double driver_value);
+  double joints() const;  // the joint rows' gap of phi_
   const NewtonSolver& solver_;
   double size_;
   Eigen::VectorXd phi_;
+  std::vector<DriverState> drivers_;  // scratch: the drivers' values as the layout takes them
 };
 
 // The joints' gap of every pose a run's steps reach, kept as the largest in each sample's interval
@@ -108,9 +117,10 @@ class IntervalGaps {
         last_(span.last),
         interval_(span.first),
         gaps_(Eigen::VectorXd::Zero(samples)) {}
-  // Pose k's gap, with the driver row's error at `driver_value` (JointGap::at).
-  double at(long k, const Eigen::VectorXd& q, double driver_value, double& driver_error) {
-    return keep(k, gap_.at(q, driver_value, driver_error));
+  // Pose k's gap, with each driver row's error at `driver_values` (JointGap::at).
+  double at(long k, const Eigen::VectorXd& q, const std::vector<double>& driver_values,
+            std::vector<double>& driver_errors) {
+    return keep(k, gap_.at(q, driver_values, driver_errors));
   }
   double at(long k, const Eigen::VectorXd& q) { return keep(k, gap_.at(q)); }
   const Eigen::VectorXd& gaps() const { return gaps_; }  // per sample
@@ -134,7 +144,7 @@ class SampleRows {
         with_forces_(with_forces),
         writer_(m),
         state_(m),
-        forces_(m.joints.size()),
+        forces_(m.joints.size(), m.drivers.size()),
         configuration_(Eigen::MatrixXd::Zero(m.coordinate_count(), samples)),
         recorded_(static_cast<size_t>(samples), false) {}
   KinematicState& state() { return state_; }
@@ -162,12 +172,22 @@ class SampleRows {
 // Every sample's status and rcond (and out.loop_gap = `gaps`): outside the usable span the
 // reference's kept, not written by the run diverged, else `judged(i, projected, closed)` from the
 // Newton projection `projected` of the configuration the run wrote onto the definition's
-// constraints with the driver at `driver(i)`, `closed` the configuration it closes on.
+// constraints with the driver at `driver(i)` (several drivers: the others at the reference's
+// values, reference_drivers), `closed` the configuration it closes on.
 void judge_projected(
     StatusJudge& judge, const Mechanism& m, const Trajectory& reference, const SampleRows& rows,
     const Eigen::VectorXd& gaps, const std::function<DriverState(int)>& driver,
     const std::function<PoseStatus(int, const SolveReport&, const KinematicState&)>& judged,
     Trajectory& out);
+
+// Every driver's state at the reference's sample i: its law at the sample's time, at the
+// reference's value (the definition's law plus the plan's offset).
+void reference_drivers(const Mechanism& m, const Trajectory& reference, int i,
+                       KinematicState& state);
+// Driver d's value at the reference's sample i.
+inline double reference_driver(const Trajectory& reference, int i, int d) {
+  return d == 0 ? reference.driver(i) : reference.driver_values(i, d);
+}
 
 // Runs `scene` over `plan` and fills `run`: its trajectory (shaped for `definition` with forces
 // when `with_forces`) sampled at the reference's samples with each sample's status, its notes

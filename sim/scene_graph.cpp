@@ -267,11 +267,6 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
 }
 
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
-  if (m.several_drivers())
-    throw std::runtime_error(fmt::format(
-        "{} drivers: the engines' scenes drive one joint yet (issue 20), so only the exact "
-        "methods run it",
-        m.drivers.size()));
   SceneGraph g;
 
   // Bodies: ground first, then the moving links in Mechanism order.
@@ -342,7 +337,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     g.joints.push_back(pin);
   }
 
-  // One driver today (issue 20: Mechanism::drivers).
+  // One driven coordinate per driver (Mechanism::drivers order).
   for (const Driver& d : m.drivers)
     g.driven.push_back(drive(m, d, g, body_of_link, joint_of, policy));
 

@@ -23,7 +23,7 @@ bool StatusJudge::outside(int i, Trajectory& out) {
   out.rcond(i) = reference_.rcond(i);
   out.loop_gap(i) = 0.0;
   if (events_)
-    out.events.push_back({reference_.driver(i), reference_.status[row],
+    out.events.push_back({event_position(reference_, i), reference_.status[row],
                           "outside the reference's usable samples: not run, the reference's "
                           "flag kept"});
   return true;
@@ -39,7 +39,7 @@ PoseStatus StatusJudge::judge(int i, double gap, double rcond,
   const PoseStatus flag = reference_.status[static_cast<size_t>(i)];
   if (!usable(flag)) {
     if (events_)
-      out.events.push_back({reference_.driver(i), flag,
+      out.events.push_back({event_position(reference_, i), flag,
                             "the reference flags this sample: run through, the flag kept"});
     ++kept_;
     return flag;
@@ -122,8 +122,8 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
   for (int i = 0; i < out.samples(); ++i)
     if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
         (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
-      out.events.push_back(
-          {reference.driver(i), PoseStatus::loop_gap, fmt::format("loop gap {:.3g} m", gaps(i))});
+      out.events.push_back({event_position(reference, i), PoseStatus::loop_gap,
+                            fmt::format("loop gap {:.3g} m", gaps(i))});
 }
 
 }  // namespace crosslink::sim

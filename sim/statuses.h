@@ -14,6 +14,13 @@
 
 namespace crosslink::sim {
 
+// Where an event at the reference's sample i lies along the sweep (Trajectory::Event::driver):
+// the driver's value, or with several drivers, whose sweep runs in time, the time, as the exact
+// sweep's own events.
+inline double event_position(const Trajectory& reference, int i) {
+  return reference.driver_names.empty() ? reference.driver(i) : reference.time(i);
+}
+
 class StatusJudge {
  public:
   struct Thresholds {

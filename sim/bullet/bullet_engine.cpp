@@ -221,8 +221,10 @@ struct NodeRate {
 struct Plan {
   std::vector<SceneBody> nodes;  // the graph's bodies but the ground
   std::vector<Edge> edges;
-  int driver_edge = -1;        // edge whose coordinate is driven
-  bool driver_planar = false;  // link angle driven through a planar ground joint
+  // Per driver (Mechanism::drivers order): the edge whose coordinate is driven, and whether it is
+  // a link angle driven through a planar ground joint.
+  std::vector<int> driver_edges;
+  std::vector<char> driver_planar;
   // Spanning forest (multibody formulation)
   std::vector<int> order;        // nodes in insertion order (parents first)
   std::vector<int> parent_edge;  // per node; -1 none
@@ -281,8 +283,10 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
     e.joint = j.source;
     plan.edges.push_back(e);
   }
-  plan.driver_edge = g.driven.front().joint;  // one driver today
-  plan.driver_planar = g.driven.front().floating;
+  for (const DrivenCoordinate& d : g.driven) {
+    plan.driver_edges.push_back(d.joint);
+    plan.driver_planar.push_back(d.floating);
+  }
   plan.parent.assign(plan.nodes.size(), -1);
   plan.parent_edge.assign(plan.nodes.size(), -1);
   for (int j : g.tree_order) {
@@ -374,8 +378,9 @@ double edge_coordinate(const Edge& e, const std::vector<Pose>& poses) {
 class Scene {
  public:
   virtual ~Scene() = default;
-  // The driven joint coordinate to reach at the end of the next step.
-  virtual void drive(double target) = 0;
+  // Each driven joint coordinate to reach at the end of the next step (Plan::driver_edges order;
+  // none in forward dynamics).
+  virtual void drive(const std::vector<double>& targets) = 0;
   virtual void step(double dt) = 0;
   // Centre-of-mass frame (x, y, wrapped theta) of every node.
   virtual void read(std::vector<Pose>& com_frames) const = 0;
@@ -384,10 +389,10 @@ class Scene {
   // next step only.
   virtual void apply(const std::vector<BodyLoad>& loads) = 0;
   // Joint feedback of the last step (forces on each body in N, torques about each body's
-  // centre of mass in N m): per mechanism joint, and of a separate driver constraint (null
+  // centre of mass in N m): per mechanism joint, and of driver d's separate constraint (null
   // when the driver is a joint's own constraint). Null when the scene reads no forces.
   virtual const btJointFeedback* feedback(int /*joint*/) const { return nullptr; }
-  virtual const btJointFeedback* driver_feedback() const { return nullptr; }
+  virtual const btJointFeedback* driver_feedback(size_t /*d*/) const { return nullptr; }
   // Forward dynamics: the bodies set moving as the nodes at `poses` with `rates` (each node
   // frame origin's velocity and angular velocity).
   virtual void set_velocities(const std::vector<Pose>& poses,
@@ -438,8 +443,9 @@ void apply_solver_settings(btContactSolverInfo& info, const Config& config) {
 
 class MultiBodyScene final : public Scene {
  public:
-  MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses, double driver_target0,
-                 const Config& config, const Eigen::Vector2d& gravity, bool driven = true)
+  MultiBodyScene(const Plan& plan, const std::vector<Pose>& poses,
+                 const std::vector<double>& driver_targets0, const Config& config,
+                 const Eigen::Vector2d& gravity, bool driven = true)
       : plan_(plan) {
     if (config.solver == "mlcp_dantzig") {
       mlcp_ = new btMultiBodyMLCPConstraintSolver(&dantzig_);
@@ -454,6 +460,7 @@ class MultiBodyScene final : public Scene {
     // One fixed-base multibody per tree root; links in parent-first order.
     const int n = static_cast<int>(plan.nodes.size());
     where_.assign(n, {-1, -1});
+    driver_links_.assign(plan.driver_edges.size(), {nullptr, -1});
     std::vector<int> count;
     for (int v : plan.order) {
       const int r = root_of(plan, v);
@@ -501,10 +508,8 @@ class MultiBodyScene final : public Scene {
                            bt(node.centre - e.pa), true);
         mb->setJointPos(i, q);
       }
-      if (plan.parent_edge[v] == plan.driver_edge) {
-        driver_body_ = mb;
-        driver_link_ = i;
-      }
+      for (size_t d = 0; d < plan.driver_edges.size(); ++d)
+        if (plan.parent_edge[v] == plan.driver_edges[d]) driver_links_[d] = {mb, i};
     }
     for (btMultiBody* mb : bodies_) {
       mb->setLinearDamping(0.0);
@@ -546,20 +551,22 @@ class MultiBodyScene final : public Scene {
       world_->addMultiBodyConstraint(c);
       constraints_.push_back(c);
     }
-    if (driver_body_ && driven) {
-      motor_ = new btMultiBodyJointMotor(driver_body_, driver_link_, 0, 0.0, 1e300);
-      motor_->setErp(1.0);
-      drive(driver_target0);
-      world_->addMultiBodyConstraint(motor_);
-    }
+    // One joint motor per driver.
+    for (const auto& [body, link] : driver_links_)
+      if (body && driven) {
+        motors_.push_back(new btMultiBodyJointMotor(body, link, 0, 0.0, 1e300));
+        motors_.back()->setErp(1.0);
+      }
+    drive(driver_targets0);
+    for (btMultiBodyJointMotor* motor : motors_) world_->addMultiBodyConstraint(motor);
   }
 
   ~MultiBodyScene() override {
-    if (motor_) world_->removeMultiBodyConstraint(motor_);
+    for (auto* motor : motors_) world_->removeMultiBodyConstraint(motor);
     for (auto* c : constraints_) world_->removeMultiBodyConstraint(c);
     for (auto* c : colliders_) world_->removeCollisionObject(c);
     for (auto* mb : bodies_) world_->removeMultiBody(mb);
-    delete motor_;
+    for (auto* motor : motors_) delete motor;
     for (auto* c : constraints_) delete c;
     for (auto* c : colliders_) delete c;
     for (auto* mb : bodies_) delete mb;
@@ -568,11 +575,12 @@ class MultiBodyScene final : public Scene {
   }
 
   // Joint-motor row: rhs = (target - q)/dt + v_desired (kp = kd = 1, erp 1, v_desired 0), so
-  // the driven coordinate lands exactly on the target after the step.
-  void drive(double target) override {
-    if (!motor_) return;
-    motor_->setPositionTarget(target, 1.0);
-    motor_->setVelocityTarget(0.0, 1.0);
+  // each driven coordinate lands exactly on its target after the step.
+  void drive(const std::vector<double>& targets) override {
+    for (size_t d = 0; d < motors_.size(); ++d) {
+      motors_[d]->setPositionTarget(targets[d], 1.0);
+      motors_[d]->setVelocityTarget(0.0, 1.0);
+    }
   }
 
   void step(double dt) override { world_->stepSimulation(dt, 0, dt); }
@@ -631,10 +639,9 @@ class MultiBodyScene final : public Scene {
   std::vector<btMultiBody*> bodies_;
   std::vector<btMultiBodyLinkCollider*> colliders_;
   std::vector<btMultiBodyPoint2Point*> constraints_;
-  btMultiBodyJointMotor* motor_ = nullptr;
-  btMultiBody* driver_body_ = nullptr;
-  int driver_link_ = -1;
-  std::vector<std::pair<int, int>> where_;  // node -> (multibody, link)
+  std::vector<btMultiBodyJointMotor*> motors_;              // per driver; none in forward dynamics
+  std::vector<std::pair<btMultiBody*, int>> driver_links_;  // per driver: (multibody, link)
+  std::vector<std::pair<int, int>> where_;                  // node -> (multibody, link)
 };
 
 // Maximal coordinates: one rigid body per link, held in the plane by its linear and angular
@@ -644,7 +651,7 @@ class MultiBodyScene final : public Scene {
 class RigidScene final : public Scene {
  public:
   RigidScene(const Mechanism& m, const Plan& plan, const std::vector<Pose>& poses,
-             double driver_target0, const Config& config, bool driven = true)
+             const std::vector<double>& driver_targets0, const Config& config, bool driven = true)
       : plan_(plan) {
     if (config.solver == "mlcp_dantzig") {
       mlcp_ = new btMLCPSolver(&dantzig_);
@@ -725,39 +732,44 @@ class RigidScene final : public Scene {
       c->setJointFeedback(&joint_feedback_[ji]);
       c->enableFeedback(true);
     }
-    // The driver: the driven joint's own constraint with one more freedom locked, or for a link
+    // Each driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
     // its rotation (the absolute angle is realised directly). None in forward dynamics.
-    const Driver& d = m.driver();
     if (!driven) {
-      drive(0.0);
+      drive(driver_targets0);
       return;
     }
-    if (d.type == DriverType::link_angle && plan.driver_planar) {
-      const int v = plan.edges[plan.driver_edge].b;
-      const btTransform fb(btQuaternion::getIdentity(), btVector3(0, 0, 0));
-      const btTransform fa(btQuaternion::getIdentity(),
-                           bt(poses[v].r + turn(poses[v].theta, com(v))));
-      driver_ = new btGeneric6DofSpring2Constraint(*ground_, *bodies_[v], fa, fb);
-      driver_lock_.angular = true;
-      add(driver_, driver_lock_);
-      driver_rotation_ = true;
-      driver_->setJointFeedback(&driver_feedback_);
-      driver_->enableFeedback(true);
-      separate_driver_ = true;
-    } else {
-      const int ji = plan.edges[plan.driver_edge].joint;
-      driver_ = joint_constraint_[ji];
-      driver_lock_ = joint_lock_[ji];
-      driver_rotation_ = m.joints[ji].type == JointType::revolute;
-      if (driver_rotation_)
-        driver_lock_.angular = true;
-      else
-        driver_lock_.linear[0] = true;
+    drivers_.resize(m.drivers.size());  // sized once: each separate constraint points at its
+                                        // feedback
+    for (size_t di = 0; di < m.drivers.size(); ++di) {
+      const Driver& d = m.drivers[di];
+      DriverLock& driver = drivers_[di];
+      if (d.type == DriverType::link_angle && plan.driver_planar[di]) {
+        const int v = plan.edges[plan.driver_edges[di]].b;
+        const btTransform fb(btQuaternion::getIdentity(), btVector3(0, 0, 0));
+        const btTransform fa(btQuaternion::getIdentity(),
+                             bt(poses[v].r + turn(poses[v].theta, com(v))));
+        driver.constraint = new btGeneric6DofSpring2Constraint(*ground_, *bodies_[v], fa, fb);
+        driver.lock.angular = true;
+        add(driver.constraint, driver.lock);
+        driver.rotation = true;
+        driver.constraint->setJointFeedback(&driver.feedback);
+        driver.constraint->enableFeedback(true);
+        driver.separate = true;
+      } else {
+        const int ji = plan.edges[plan.driver_edges[di]].joint;
+        driver.constraint = joint_constraint_[ji];
+        driver.lock = joint_lock_[ji];
+        driver.rotation = m.joints[ji].type == JointType::revolute;
+        if (driver.rotation)
+          driver.lock.angular = true;
+        else
+          driver.lock.linear[0] = true;
+      }
+      driver.fa = driver.constraint->getFrameOffsetA();
+      driver.fb = driver.constraint->getFrameOffsetB();
     }
-    driver_fa_ = driver_->getFrameOffsetA();
-    driver_fb_ = driver_->getFrameOffsetB();
-    drive(driver_target0);
+    drive(driver_targets0);
   }
 
   ~RigidScene() override {
@@ -777,12 +789,16 @@ class RigidScene final : public Scene {
   // Rotation: the slider frame is turned back by the target so the lock sits at zero (a lock
   // at the target itself would jump by 2 pi where the relative angle wraps). Slide: the
   // linear lock moves to the target.
-  void drive(double target) override {
+  void drive(const std::vector<double>& targets) override {
     // Slides: frame A's origin follows the slider point along the line, so that the 6-dof
     // constraint's lever arms are taken at the contact point (with the frames apart its
     // Jacobian is not that of the point-on-line equation and a moving guide locks up).
     for (const Slide& sl : slides_) {
-      if (sl.constraint == driver_ && !driver_rotation_) continue;  // x measured from the origin
+      const auto driving = std::find_if(drivers_.begin(), drivers_.end(), [&](const auto& d) {
+        return d.constraint == sl.constraint;
+      });
+      const bool driven = driving != drivers_.end();
+      if (driven && !driving->rotation) continue;  // x measured from the origin
       btRigidBody& a = sl.constraint->getRigidBodyA();
       btRigidBody& b = sl.constraint->getRigidBodyB();
       const btVector3 p = b.getWorldTransform() * sl.fb.getOrigin();
@@ -790,17 +806,19 @@ class RigidScene final : public Scene {
       btTransform fa = sl.fa;
       fa.setOrigin(sl.origin + sl.axis * (local - sl.origin).dot(sl.axis));
       btTransform fb = sl.fb;
-      if (sl.constraint == driver_) fb = sl.constraint->getFrameOffsetB();
+      if (driven) fb = sl.constraint->getFrameOffsetB();
       sl.constraint->setFrames(fa, fb);
     }
-    if (!driver_) return;
-    if (driver_rotation_) {
-      btTransform fb = driver_fb_;
-      fb.setRotation(driver_fb_.getRotation() * rot_z(-target));
-      driver_->setFrames(driver_fa_, fb);
-      set_limits(driver_, driver_lock_, 0.0);
-    } else {
-      set_limits(driver_, driver_lock_, target);
+    for (size_t d = 0; d < drivers_.size(); ++d) {
+      DriverLock& driver = drivers_[d];
+      if (driver.rotation) {
+        btTransform fb = driver.fb;
+        fb.setRotation(driver.fb.getRotation() * rot_z(-targets[d]));
+        driver.constraint->setFrames(driver.fa, fb);
+        set_limits(driver.constraint, driver.lock, 0.0);
+      } else {
+        set_limits(driver.constraint, driver.lock, targets[d]);
+      }
     }
   }
 
@@ -837,8 +855,8 @@ class RigidScene final : public Scene {
       bodies_[v]->setAngularVelocity(btVector3(0, 0, rates[v].omega));
     }
   }
-  const btJointFeedback* driver_feedback() const override {
-    return separate_driver_ ? &driver_feedback_ : nullptr;
+  const btJointFeedback* driver_feedback(size_t d) const override {
+    return d < drivers_.size() && drivers_[d].separate ? &drivers_[d].feedback : nullptr;
   }
 
  private:
@@ -852,6 +870,16 @@ class RigidScene final : public Scene {
     btTransform fa, fb;
   };
   std::vector<Slide> slides_;
+  // A driver's lock: the constraint that holds it (the driven joint's own, or a separate one),
+  // the freedoms it locks, and its frames at the start.
+  struct DriverLock {
+    btGeneric6DofSpring2Constraint* constraint = nullptr;
+    Lock lock;
+    bool rotation = true;
+    btTransform fa, fb;
+    bool separate = false;     // a link angle's rotation lock between the ground and the link
+    btJointFeedback feedback;  // a separate constraint's
+  };
 
   int plan_node(const Mechanism& m, int link) const {
     return link == m.ground() ? -1 : node_of_link(plan_, link);
@@ -897,13 +925,8 @@ class RigidScene final : public Scene {
                                                                                  // null: a gear
   std::vector<btGearConstraint*> gear_;  // per joint: a gear pair's, or null
   std::vector<Lock> joint_lock_;
-  btGeneric6DofSpring2Constraint* driver_ = nullptr;
   std::vector<btJointFeedback> joint_feedback_;
-  btJointFeedback driver_feedback_;
-  bool separate_driver_ = false;
-  Lock driver_lock_;
-  bool driver_rotation_ = true;
-  btTransform driver_fa_, driver_fb_;
+  std::vector<DriverLock> drivers_;  // per driver; none in forward dynamics
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -917,14 +940,14 @@ std::string format_number(double v) {
 // btJointFeedback holds each constraint's impulse / dt on its bodies, the torques about each
 // body's centre of mass: a joint's couple is taken about its point, and a driven joint's own
 // constraint carries the driver's row too (its torque about the point, or its force along the
-// line, is the effort). `driven_joint`: the Mechanism joint the scene graph drives.
-void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
-                       const Eigen::VectorXd& q, ForceReading& out) {
+// line, is the effort). `driven_joints`: per driver, the Mechanism joint the scene graph drives.
+void read_rigid_forces(const Mechanism& m, const Scene& scene,
+                       const std::vector<int>& driven_joints, const Eigen::VectorXd& q,
+                       ForceReading& out) {
   auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return a.x() * b.y() - a.y() * b.x();
   };
   out.set_zero();
-  const Driver& d = m.driver();
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
@@ -950,33 +973,41 @@ void read_rigid_forces(const Mechanism& m, const Scene& scene, int driven_joint,
       couple_b = -(fb.m_appliedTorqueBodyA.z() - cross(point - com, on_a));
     }
     if (j.type == JointType::prismatic) out.couple[ji] = couple_b;
-    if (d.joint == static_cast<int>(ji) && !scene.driver_feedback()) {
+    for (size_t di = 0; di < m.drivers.size(); ++di) {
+      const Driver& d = m.drivers[di];
+      if (d.joint != static_cast<int>(ji) || scene.driver_feedback(di)) continue;
+      double& effort = out.effort_of(static_cast<int>(di));
       if (d.type == DriverType::slider) {
         const Eigen::Vector2d u = a.turn(m.links[j.link_a].lines[j.line].direction);
-        out.effort = on_b.dot(u);
-        on_b -= out.effort * u;
+        effort = on_b.dot(u);
+        on_b -= effort * u;
       } else {
-        out.effort = couple_b;  // on the second link, the driven one
+        effort = couple_b;  // on the second link, the driven one
       }
     }
     out.joint_force[ji] = on_b;
   }
-  if (d.type == DriverType::link_angle && !scene.driver_feedback()) {
-    // Realised at the link's ground pivot: the effort is that joint's couple.
-    const Joint& j = m.joints[static_cast<size_t>(driven_joint)];
-    const btJointFeedback& fb = *scene.feedback(driven_joint);
-    const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
-    const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
-    const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
-    const bool link_is_b = j.link_b == d.link;
-    const BodyMotion& l = link_is_b ? b : a;
-    const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
-    const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
-    const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
-    out.effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
-  } else if (const btJointFeedback* fb = scene.driver_feedback()) {
-    // A rotation lock between the ground and the link, frames at its centre of mass.
-    out.effort = fb->m_appliedTorqueBodyB.z();
+  for (size_t di = 0; di < m.drivers.size(); ++di) {
+    const Driver& d = m.drivers[di];
+    double& effort = out.effort_of(static_cast<int>(di));
+    if (d.type == DriverType::link_angle && !scene.driver_feedback(di)) {
+      // Realised at the link's ground pivot: the effort is that joint's couple.
+      const int driven_joint = driven_joints[di];
+      const Joint& j = m.joints[static_cast<size_t>(driven_joint)];
+      const btJointFeedback& fb = *scene.feedback(driven_joint);
+      const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+      const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), q, nullptr, nullptr);
+      const Eigen::Vector2d point = b.position(m.links[j.link_b].points[j.point_b].local);
+      const bool link_is_b = j.link_b == d.link;
+      const BodyMotion& l = link_is_b ? b : a;
+      const btVector3& f = link_is_b ? fb.m_appliedForceBodyB : fb.m_appliedForceBodyA;
+      const btVector3& t = link_is_b ? fb.m_appliedTorqueBodyB : fb.m_appliedTorqueBodyA;
+      const Eigen::Vector2d com = l.position(m.links[d.link].mass.com);
+      effort = t.z() - cross(point - com, Eigen::Vector2d(f.x(), f.y()));
+    } else if (const btJointFeedback* fb = scene.driver_feedback(di)) {
+      // A rotation lock between the ground and the link, frames at its centre of mass.
+      effort = fb->m_appliedTorqueBodyB.z();
+    }
   }
 }
 
@@ -1085,22 +1116,29 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
         "forces not read: the multibody formulation's joint feedback is wrong in Bullet 3.24 "
         "(bullet3 issues 2966, 4604)");
   if (!driven) return true;
-  if (plan.driver_planar)
-    notes.push_back(
-        "link-angle driver realised directly: the driven link's absolute angle is a joint "
-        "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
-        "locking only its rotation)");
-  if (plan.driver_edge >= 0 && plan.edges[plan.driver_edge].kind == Edge::Kind::revolute &&
-      m.driver().type == DriverType::link_angle)
-    notes.push_back("link-angle driver realised as the angle of its ground pivot");
+  for (size_t d = 0; d < plan.driver_edges.size(); ++d) {
+    const std::string which =
+        m.several_drivers() ? fmt::format(" ('{}')", m.drivers[d].name) : std::string();
+    if (plan.driver_planar[d])
+      notes.push_back(fmt::format(
+          "link-angle driver{} realised directly: the driven link's absolute angle is a joint "
+          "coordinate (multibody: rotation of a planar ground joint; rigid: a ground constraint "
+          "locking only its rotation)",
+          which));
+    const int e = plan.driver_edges[d];
+    if (e >= 0 && plan.edges[e].kind == Edge::Kind::revolute &&
+        m.drivers[d].type == DriverType::link_angle)
+      notes.push_back(
+          fmt::format("link-angle driver{} realised as the angle of its ground pivot", which));
+  }
   return true;
 }
 
-// Build stage: the scene at configuration q, its driven coordinate at `coordinate0` (a dynamics
-// run's scene is not `driven`), moving with the mechanism's rates `velocity` when given. "" or
-// why it could not be built.
+// Build stage: the scene at configuration q, its driven coordinates at `coordinate0` (per driver;
+// a dynamics run's scene is not `driven`), moving with the mechanism's rates `velocity` when
+// given. "" or why it could not be built.
 std::string build_scene(const Mechanism& m, const Plan& plan, const Config& config,
-                        const Eigen::VectorXd& q, double coordinate0,
+                        const Eigen::VectorXd& q, const std::vector<double>& coordinate0,
                         const Eigen::VectorXd* velocity, bool driven,
                         std::unique_ptr<Scene>& scene) {
   const std::vector<Pose> poses = node_poses(m, plan, q);
@@ -1179,7 +1217,7 @@ Settings kinematic_settings(const Config& config, const StepLength& step) {
   return printed_settings(bullet_settings(), RunKind::kinematic, values);
 }
 
-// How the driver's value maps to the scene's driven coordinate: the coordinate at the start and
+// How a driver's value maps to the scene's driven coordinate: the coordinate at the start and
 // its rate against the driver value.
 struct DriveMap {
   double coordinate0 = 0.0;    // the driven coordinate at the start
@@ -1190,14 +1228,15 @@ struct DriveMap {
   double target(double law) const { return coordinate0 + sign * (law + driver_offset - driver0); }
 };
 
+// Driver `di`'s (Mechanism::drivers order).
 DriveMap drive_map(const Mechanism& m, const Plan& plan, const Config& config,
-                   const KinematicPlan& start) {
-  const Driver& d = m.driver();
+                   const KinematicPlan& start, size_t di) {
+  const Driver& d = m.drivers[di];
   DriveMap out;
-  out.driver_offset = start.driver_offset;
-  out.driver0 = d.at_time(start.grid.time.front()).value + start.driver_offset;
+  out.driver_offset = start.driver_offset[di];
+  out.driver0 = d.at_time(start.grid.time.front()).value + out.driver_offset;
   const std::vector<Pose> poses = node_poses(m, plan, start.q);
-  const Edge& de = plan.edges[plan.driver_edge];
+  const Edge& de = plan.edges[plan.driver_edges[di]];
   // Whether the tree runs the driven joint from a to b (a pivot written [link, ground] runs from
   // its b, the ground).
   const bool driver_forward =
@@ -1221,6 +1260,7 @@ class BulletSteps {
  public:
   BulletSteps(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start)
       : m_(m), plan_(plan), scene_(scene), q_(q_start) {
+    for (int e : plan.driver_edges) driven_joints_.push_back(plan.edges[e].joint);
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   // "" or why the scene read back is not the start it was built at.
@@ -1230,7 +1270,7 @@ class BulletSteps {
   void step(double h, ForceReading* forces) {
     scene_.step(h);
     ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
-    if (forces) read_rigid_forces(m_, scene_, plan_.edges[plan_.driver_edge].joint, q_, *forces);
+    if (forces) read_rigid_forces(m_, scene_, driven_joints_, q_, *forces);
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   Scene& scene() { return scene_; }
@@ -1242,6 +1282,7 @@ class BulletSteps {
   const Mechanism& m_;
   const Plan& plan_;
   Scene& scene_;
+  std::vector<int> driven_joints_;  // per driver: the Mechanism joint the scene graph drives
   std::vector<Pose> frames_;
   Eigen::VectorXd q_;
   long evaluations_ = 0;
@@ -1264,16 +1305,20 @@ class BulletLoopScene : public Loop {
 // A kinematic run's scene for the shared run loop (sim/kinematic_run.h): driven to its target.
 class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
  public:
-  BulletKinematicScene(BulletSteps& steps, const DriveMap& drive)
-      : BulletLoopScene(steps), drive_(drive) {}
-  void drive(double driver_value) override { steps_.scene().drive(drive_.target(driver_value)); }
+  BulletKinematicScene(BulletSteps& steps, const std::vector<DriveMap>& drive)
+      : BulletLoopScene(steps), drive_(drive), targets_(drive.size()) {}
+  void drive(const std::vector<double>& driver_values) override {
+    for (size_t d = 0; d < drive_.size(); ++d) targets_[d] = drive_[d].target(driver_values[d]);
+    steps_.scene().drive(targets_);
+  }
   std::string step(double h, ForceReading* forces) override {
     steps_.step(h, forces);
     return "";
   }
 
  private:
-  const DriveMap& drive_;
+  const std::vector<DriveMap>& drive_;  // per driver
+  std::vector<double> targets_;         // scratch: per driver
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1334,7 +1379,7 @@ class BulletDynamicsScene final : public BulletLoopScene<DynamicsScene> {
       : BulletLoopScene(steps), start_velocity_(std::move(start_velocity)) {}
   Eigen::VectorXd start_velocity() const override { return start_velocity_; }
   std::string step(double /*t0*/, double h, ForceReading* forces) override {
-    steps_.scene().drive(0.0);
+    steps_.scene().drive({});  // no driver: the slides' frames follow
     steps_.step(h, forces);
     return "";
   }
@@ -1374,7 +1419,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
           ? Eigen::VectorXd(start.start.qdot - 0.5 * (time[1] - time[0]) * start.start.qddot)
           : start.start.qdot;
   std::unique_ptr<Scene> scene;
-  if (why = build_scene(m, plan, config, start.start.q, 0.0, &velocity, false, scene); !why.empty())
+  if (why = build_scene(m, plan, config, start.start.q, {}, &velocity, false, scene); !why.empty())
     return failed_run(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
   out.settings =
@@ -1395,8 +1440,8 @@ class BulletEngine final : public Engine {
   std::string name() const override { return "bullet"; }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != 1) {
-      if (why) *why = "the chain's mobility is not 1";
+    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
+      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
       return false;
     }
     try {
@@ -1456,9 +1501,14 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   if (!plan_scene(m, true, config, plan, notes, why)) return failed_run(std::move(out), why);
   out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
   const bool with_forces = config.formulation == "rigid";
-  const DriveMap drive = drive_map(m, plan, config, start);
+  std::vector<DriveMap> drive;
+  std::vector<double> coordinate0;
+  for (size_t d = 0; d < m.drivers.size(); ++d) {
+    drive.push_back(drive_map(m, plan, config, start, d));
+    coordinate0.push_back(drive.back().coordinate0);
+  }
   std::unique_ptr<Scene> scene;
-  if (why = build_scene(m, plan, config, start.q, drive.coordinate0, &start.qdot, true, scene);
+  if (why = build_scene(m, plan, config, start.q, coordinate0, &start.qdot, true, scene);
       !why.empty())
     return failed_run(std::move(out), why);
   BulletSteps steps(m, plan, *scene, start.q);

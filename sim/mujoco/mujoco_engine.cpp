@@ -8,9 +8,11 @@
 #include "sim/statuses.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -376,12 +378,14 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
 // it drives (Khurmi's massless crank on a 250 kg piston: 6e-6 against 22 kg m^2) gives way, and
 // the driver is lost. auto: whatever tops the joint's own inertia up to 1e-2 of `inertia` (the
 // generalised inertia the driver moves, driver_inertia()); the readers take the armature's share
-// back out of the effort. A tendon driver has no armature in 2.2.2.
-double driver_armature(const Config& c, const Scene& s, double inertia) {
+// back out of the effort. A tendon driver has no armature in 2.2.2. Several drivers: each driven
+// joint by the same rule, `inertia` the one its driver moves with the others held.
+double driver_armature(const Config& c, const Scene& s, const DrivenCoordinate& driven,
+                       double inertia) {
   if (c.driver_armature) return *c.driver_armature * s.mass_scale;
   inertia *= s.mass_scale;
-  if (s.driven.joint < 0 || s.driven.floating) return 0.0;
-  const SceneJoint& j = s.joints[static_cast<size_t>(s.driven.joint)];
+  if (driven.joint < 0 || driven.floating) return 0.0;
+  const SceneJoint& j = s.joints[static_cast<size_t>(driven.joint)];
   const SceneLink& child = s.links[static_cast<size_t>(j.child)];
   const Eigen::Vector2d at = j.child == j.b ? j.ub : j.ua;
   const double own = j.kind == SceneJoint::Kind::hinge
@@ -457,7 +461,9 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   p.periodic = p.plan.preroll > 0;
   p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
   p.options = mjcf_options(m, p.config, p.grid.dt);
-  p.options.driver_armature = driver_armature(p.config, p.scene, driver_inertia(m, reference));
+  for (size_t d = 0; d < p.scene.driven.size(); ++d)
+    p.options.driver_armature.push_back(driver_armature(
+        p.config, p.scene, p.scene.driven[d], driver_inertia(m, reference, static_cast<int>(d))));
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
   return p;
 }
@@ -520,10 +526,13 @@ class ForceReader {
       return s.links[link].ground ? 0 : mj_name2id(mm, mjOBJ_BODY, s.links[link].name.c_str());
     };
     for (size_t l = 0; l < s.links.size(); ++l) body_.push_back(body(static_cast<int>(l)));
-    driver_eq_ = mj_name2id(mm, mjOBJ_EQUALITY, "driver");
-    if (driver_eq_ >= 0 && !s.driven.floating) {
-      const int joint = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven.joint].name.c_str());
-      driven_dof_ = mm->jnt_dofadr[joint];
+    for (size_t d = 0; d < s.driven.size(); ++d) {
+      driver_eq_.push_back(mj_name2id(mm, mjOBJ_EQUALITY, s.driver_names[d].c_str()));
+      driven_dof_.push_back(-1);
+      if (driver_eq_.back() >= 0 && !s.driven[d].floating) {
+        const int joint = mj_name2id(mm, mjOBJ_JOINT, s.joints[s.driven[d].joint].name.c_str());
+        driven_dof_.back() = mm->jnt_dofadr[joint];
+      }
     }
     for (const SceneJoint& j : s.joints)
       cut_eq_.push_back(j.in_tree ? -1 : mj_name2id(mm, mjOBJ_EQUALITY, j.name.c_str()));
@@ -582,12 +591,14 @@ class ForceReader {
         if (d2->efc_type[r] == mjCNSTR_EQUALITY && d2->efc_id[r] == eq) return r;
       throw std::runtime_error("MuJoCo: no constraint row for an equality");
     };
-    if (driver_eq_ >= 0) {
+    for (size_t d = 0; d < driver_eq_.size(); ++d) {
+      if (driver_eq_[d] < 0) continue;
       // The driver moves the driven joint's armature too (driver_armature): its share, the
       // armature times the joint's acceleration, is not the linkage's.
-      double on_joint = force(row_of(driver_eq_));
-      if (driven_dof_ >= 0) on_joint -= mm_->dof_armature[driven_dof_] * d2->qacc[driven_dof_];
-      out.effort = s_.driven.sign * on_joint;
+      double on_joint = force(row_of(driver_eq_[d]));
+      const int dof = driven_dof_[d];
+      if (dof >= 0) on_joint -= mm_->dof_armature[dof] * d2->qacc[dof];
+      out.effort_of(static_cast<int>(d)) = s_.driven[d].sign * on_joint;
     }
     for (size_t ji = 0; ji < s_.joints.size(); ++ji) {
       const SceneJoint& j = s_.joints[ji];
@@ -615,12 +626,13 @@ class ForceReader {
         const Eigen::Vector2d at = world_point(d2, j.b, j.ub);
         out.couple[static_cast<size_t>(j.source)] = couple_b + cross2(about - at, on_b);
       }
-      if (driver_eq_ >= 0 && m_.driver().type == DriverType::slider &&
-          j.source == m_.driver().joint) {
-        // The driver's axial force is the effort, not the joint's reaction.
-        const Eigen::Vector2d u = world_direction(d2, j.a, j.direction);
-        on_b -= out.effort * u;
-      }
+      for (size_t d = 0; d < driver_eq_.size(); ++d)
+        if (driver_eq_[d] >= 0 && m_.drivers[d].type == DriverType::slider &&
+            j.source == m_.drivers[d].joint) {
+          // The driver's axial force is the effort, not the joint's reaction.
+          const Eigen::Vector2d u = world_direction(d2, j.a, j.direction);
+          on_b -= out.effort_of(static_cast<int>(d)) * u;
+        }
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
     // A coupling's tendon force f acts on each of its joints as coefficient x f: the couple on
@@ -637,6 +649,7 @@ class ForceReader {
     }
     // Back from the scene's unit of mass (Scene::mass_scale).
     out.effort /= s_.mass_scale;
+    for (double& e : out.other_efforts) e /= s_.mass_scale;
     for (Eigen::Vector2d& f : out.joint_force) f /= s_.mass_scale;
     for (double& c : out.couple) c /= s_.mass_scale;
     for (double& c : out.gear_couple) c /= s_.mass_scale;
@@ -662,8 +675,9 @@ class ForceReader {
   std::vector<int> body_;         // per scene link: MuJoCo body id (world 0)
   std::vector<int> cut_eq_;       // per scene joint: its connect equality, -1 in the tree
   std::vector<int> coupling_eq_;  // per coupling: its tendon equality
-  int driver_eq_ = -1;
-  int driven_dof_ = -1;  // the driven tree joint's degree of freedom (-1: a tendon driver)
+  std::vector<int> driver_eq_;    // per driver: its equality (-1: none, forward dynamics)
+  std::vector<int> driven_dof_;   // per driver: the driven tree joint's degree of freedom (-1: a
+                                  // tendon driver)
 };
 
 // The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
@@ -821,7 +835,8 @@ KinematicWatch kinematic_watch(const Config& c, const Scene& s) {
   w.gap =
       c.gap_threshold == "auto" ? 1e-4 * s.size : setting_number("gap_threshold", c.gap_threshold);
   w.divergence_gap = s.size;
-  const bool angular_joint = s.joints[s.driven.joint].kind == SceneJoint::Kind::hinge;
+  // The first driver's unit (KinematicWatch::driver).
+  const bool angular_joint = s.joints[s.driven.front().joint].kind == SceneJoint::Kind::hinge;
   w.singular_rcond = singular_rcond(c, kSingularRcond);
   w.driver = c.driver_threshold == "auto" ? (angular_joint ? 1e-3 : 1e-3 * s.size)
                                           : setting_number("driver_threshold", c.driver_threshold);
@@ -856,7 +871,7 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
       {
           {"driver_solref", numbers(p.options.driver_solref)},
           {"driver_solimp", numbers(p.options.driver_solimp)},
-          {"driver_armature", fmt::format("{:.6g}", p.options.driver_armature)},
+          {"driver_armature", fmt::format("{:.6g}", fmt::join(p.options.driver_armature, " "))},
           {"gap_threshold", fmt::format("{:.6g}", w.gap)},
           {"driver_threshold", fmt::format("{:.6g}", w.driver)},
           {"singular_rcond", fmt::format("{:g}", w.singular_rcond)},
@@ -887,9 +902,11 @@ void set_joint_rates(const Mechanism& m, const Scene& s, const mjModel* mm, mjDa
 // definition's; a slide on that path would carry the driver's reaction moment in its couple, so
 // then no forces are read (no bundled definition has one).
 bool driver_reaction_readable(const Scene& s) {
-  if (!s.driven.floating) return true;
-  for (int j : s.driven.path)
-    if (s.joints[static_cast<size_t>(j)].kind == SceneJoint::Kind::slide) return false;
+  for (const DrivenCoordinate& driven : s.driven) {
+    if (!driven.floating) continue;
+    for (int j : driven.path)
+      if (s.joints[static_cast<size_t>(j)].kind == SceneJoint::Kind::slide) return false;
+  }
   return true;
 }
 
@@ -906,12 +923,17 @@ class MujocoKinematicScene final : public KinematicScene {
         reader_(m, p.scene, mm_, p.start.q),
         stages_(stages_per_step(p.config.integrator)) {
     const Scene& s = p.scene;
-    driver_eq_ = mj_name2id(mm_, mjOBJ_EQUALITY, "driver");
     // A joint equality holds the driven joint's qpos, whichever way the joint runs against the
     // driver (DrivenCoordinate::sign); a tendon equality its length, the sum of the terms.
-    for (const auto& [joint, coefficient] : s.driven.terms) {
-      const int id = mj_name2id(mm_, mjOBJ_JOINT, s.joints[joint].name.c_str());
-      coordinate0_ += (s.driven.floating ? coefficient : 1.0) * mm_->qpos0[mm_->jnt_qposadr[id]];
+    for (size_t d = 0; d < s.driven.size(); ++d) {
+      driver_eq_.push_back(mj_name2id(mm_, mjOBJ_EQUALITY, s.driver_names[d].c_str()));
+      double coordinate0 = 0.0;
+      for (const auto& [joint, coefficient] : s.driven[d].terms) {
+        const int id = mj_name2id(mm_, mjOBJ_JOINT, s.joints[joint].name.c_str());
+        coordinate0 +=
+            (s.driven[d].floating ? coefficient : 1.0) * mm_->qpos0[mm_->jnt_qposadr[id]];
+      }
+      coordinate0_.push_back(coordinate0);
     }
     for (const SceneLink& link : s.links)
       if (link.source >= 0 && !link.ground)
@@ -924,11 +946,13 @@ class MujocoKinematicScene final : public KinematicScene {
     }
   }
 
-  // The driver equality holds its coordinate's change from qpos0 at eq_data[0].
-  void drive(double driver_value) override {
-    const DrivenCoordinate& driven = p_.scene.driven;
-    mm_->eq_data[mjNEQDATA * driver_eq_] =
-        driven.sign * (driver_value - driven.offset) - coordinate0_;
+  // Each driver equality holds its coordinate's change from qpos0 at eq_data[0].
+  void drive(const std::vector<double>& driver_values) override {
+    for (size_t d = 0; d < driver_eq_.size(); ++d) {
+      const DrivenCoordinate& driven = p_.scene.driven[d];
+      mm_->eq_data[mjNEQDATA * driver_eq_[d]] =
+          driven.sign * (driver_values[d] - driven.offset) - coordinate0_[d];
+    }
   }
   void apply(const std::vector<BodyLoad>& on) override {
     for (size_t b = 0; b < on.size(); ++b) {
@@ -956,7 +980,8 @@ class MujocoKinematicScene final : public KinematicScene {
     if (mm_->opt.timestep == h) return;
     mm_->opt.timestep = h;
     for (int e = 0; e < mm_->neq; ++e) {
-      const std::string& choice = e == driver_eq_ ? p_.config.driver_solref : p_.config.solref;
+      const bool driver = std::find(driver_eq_.begin(), driver_eq_.end(), e) != driver_eq_.end();
+      const std::string& choice = driver ? p_.config.driver_solref : p_.config.solref;
       if (choice != "deadbeat") continue;
       mm_->eq_solref[mjNREF * e] = -1.0 / (h * h);
       mm_->eq_solref[mjNREF * e + 1] = -1.0 / h;
@@ -971,9 +996,9 @@ class MujocoKinematicScene final : public KinematicScene {
   PoseReader reader_;
   std::optional<ForceReader> forces_;
   std::vector<mjtNum> qpos_before_;
-  std::vector<int> load_body_;  // per moving link: MuJoCo body id
-  int driver_eq_ = -1;
-  double coordinate0_ = 0.0;  // the driver coordinate at qpos0
+  std::vector<int> load_body_;       // per moving link: MuJoCo body id
+  std::vector<int> driver_eq_;       // per driver: its equality
+  std::vector<double> coordinate0_;  // per driver: its coordinate at qpos0
   long stages_, evaluations_ = 0;
 };
 
@@ -1338,6 +1363,12 @@ std::unique_ptr<Engine> make_mujoco_engine() {
 
 std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& settings) {
+  // The exported scene's clock turns one driver (scene.h, Clock).
+  if (mechanism.several_drivers())
+    throw std::runtime_error(fmt::format(
+        "{} drivers: the exported scene's clock turns one driver, so a scene with several is not "
+        "exported",
+        mechanism.drivers.size()));
   Prepared p = mechanism.dynamics ? prepare_dynamics(mechanism, reference, settings)
                                   : prepare(mechanism, reference, settings);
   // The exported scene starts at the definition's start: the usable sample nearest it (a

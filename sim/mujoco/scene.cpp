@@ -73,7 +73,9 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   }
   s.tree_order = std::move(graph.tree_order);
   s.cuts = std::move(graph.cuts);
-  s.driven = std::move(graph.driven.front());  // one driver today
+  s.driven = std::move(graph.driven);
+  for (const Driver& d : m.drivers)
+    s.driver_names.push_back(m.several_drivers() ? "driver:" + d.name : "driver");
   s.couplings = std::move(graph.couplings);
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
@@ -222,10 +224,10 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
         child.inertia);
     // The joint lives in the child's frame; its sign makes qpos = value (see SceneJoint).
     const bool child_is_b = sj.child == sj.b;
-    const std::string armature =
-        o.driver_armature > 0.0 && o.driven && !s.driven.floating && j == s.driven.joint
-            ? fmt::format(" armature=\"{:.17g}\"", o.driver_armature)
-            : "";
+    std::string armature;
+    for (size_t d = 0; d < s.driven.size() && d < o.driver_armature.size(); ++d)
+      if (o.driver_armature[d] > 0.0 && o.driven && !s.driven[d].floating && j == s.driven[d].joint)
+        armature = fmt::format(" armature=\"{:.17g}\"", o.driver_armature[d]);
     if (sj.kind == SceneJoint::Kind::hinge) {
       const Eigen::Vector2d at = child_is_b ? sj.ub : sj.ua;
       out += fmt::format(
@@ -314,8 +316,11 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         "    </body>\n",
         clock->inertia, clock->damping, clock->stiffness, clock->springref);
   out += "  </worldbody>\n";
-  // The driver as a tendon: the clock's, and a floating link's angle in crosslink's runs.
-  const bool driver_tendon_written = clock || (o.driven && s.driven.floating);
+  // A driver as a tendon: the clock's (one driver), and a floating link's angle in crosslink's
+  // runs.
+  const auto tendon_written = [&](size_t d) { return clock || (o.driven && s.driven[d].floating); };
+  bool driver_tendon_written = false;
+  for (size_t d = 0; d < s.driven.size(); ++d) driver_tendon_written |= tendon_written(d);
   const auto fixed = [&](const std::string& name,
                          const std::vector<std::pair<int, double>>& terms) {
     out += fmt::format("    <fixed name=\"{}\">\n", escape(name));
@@ -326,7 +331,8 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   };
   if (driver_tendon_written || !s.couplings.empty()) {
     out += "  <tendon>\n";
-    if (driver_tendon_written) fixed("driver", s.driven.terms);
+    for (size_t d = 0; d < s.driven.size(); ++d)
+      if (tendon_written(d)) fixed(s.driver_names[d], s.driven[d].terms);
     if (clock)
       out +=
           "    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n    </fixed>\n";
@@ -362,22 +368,26 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         escape(m.joints[c.source].name), vec(o.solref), vec(o.solimp));
   }
   // MuJoCo's equalities hold changes from qpos0 (the start): the driver's equals the clock's.
-  if (clock || driver_tendon_written || o.driven) ++rows;
-  if (clock)
-    equality += fmt::format(
-        "    <tendon name=\"driver\" tendon1=\"driver\" tendon2=\"clock\" polycoef=\"0 1 0 0 0\" "
-        "solref=\"{}\" solimp=\"{}\"/>\n",
-        vec(o.driver_solref), vec(o.driver_solimp));
-  else if (driver_tendon_written)
-    equality += fmt::format(
-        "    <tendon name=\"driver\" tendon1=\"driver\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
-        "solimp=\"{}\"/>\n",
-        vec(o.driver_solref), vec(o.driver_solimp));
-  else if (o.driven)
-    equality += fmt::format(
-        "    <joint name=\"driver\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
-        "solimp=\"{}\"/>\n",
-        escape(s.joints[s.driven.joint].name), vec(o.driver_solref), vec(o.driver_solimp));
+  for (size_t d = 0; d < s.driven.size(); ++d) {
+    if (clock || tendon_written(d) || o.driven) ++rows;
+    const std::string name = escape(s.driver_names[d]);
+    if (clock)
+      equality += fmt::format(
+          "    <tendon name=\"{0}\" tendon1=\"{0}\" tendon2=\"clock\" polycoef=\"0 1 0 0 0\" "
+          "solref=\"{1}\" solimp=\"{2}\"/>\n",
+          name, vec(o.driver_solref), vec(o.driver_solimp));
+    else if (tendon_written(d))
+      equality += fmt::format(
+          "    <tendon name=\"{0}\" tendon1=\"{0}\" polycoef=\"0 0 0 0 0\" solref=\"{1}\" "
+          "solimp=\"{2}\"/>\n",
+          name, vec(o.driver_solref), vec(o.driver_solimp));
+    else if (o.driven)
+      equality += fmt::format(
+          "    <joint name=\"{}\" joint1=\"{}\" polycoef=\"0 0 0 0 0\" solref=\"{}\" "
+          "solimp=\"{}\"/>\n",
+          name, escape(s.joints[s.driven[d].joint].name), vec(o.driver_solref),
+          vec(o.driver_solimp));
+  }
   equality += "  </equality>\n";
   out += fmt::format("  <size njmax=\"{}\" nconmax=\"0\"/>\n", rows);
   out += equality;

@@ -33,11 +33,15 @@ struct Scene {
   std::vector<SceneJoint> joints;
   std::vector<int> tree_order;  // tree joints, parents before children
   std::vector<int> cuts;        // joints closed by <connect>
-  // The driver coordinate MuJoCo holds, coordinate = sign * (driver - offset): the driven tree
-  // joint's value, or, for a floating link's angle, the fixed tendon over the hinges on the
-  // tree's path from the ground to the link (DrivenCoordinate::terms): their sum is the link's
-  // absolute angle, so the definition's own driver is driven and its torque read.
-  DrivenCoordinate driven;
+  // The driver coordinates MuJoCo holds, one per driver (Mechanism::drivers order), each
+  // coordinate = sign * (driver - offset): the driven tree joint's value, or, for a floating
+  // link's angle, the fixed tendon over the hinges on the tree's path from the ground to the link
+  // (DrivenCoordinate::terms): their sum is the link's absolute angle, so the definition's own
+  // driver is driven and its torque read.
+  std::vector<DrivenCoordinate> driven;
+  // Each driver's equality (and a floating link's tendon) name: "driver" for one driver,
+  // "driver:<name>" for each of several.
+  std::vector<std::string> driver_names;
   // Gear pairs and racks: each a fixed tendon over its terms, named after its joint, held at its
   // length at qpos0 (the assembled start) by a tendon equality of the same name with the loop
   // constraints' solref and solimp.
@@ -87,7 +91,8 @@ struct MjcfOptions {
   Eigen::Matrix<double, 5, 1> solimp;                           // loop constraints
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
-  double driver_armature = 0.0;  // rotor inertia on the driven tree joint [kg m^2, or kg]
+  // Per driver: the rotor inertia on its driven tree joint [kg m^2, or kg] (none: 0).
+  std::vector<double> driver_armature;
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off
   // Whether the driver equality is written: a forward-dynamics scene has none (the coordinate
   // moves freely under the applied effort).
@@ -95,7 +100,8 @@ struct MjcfOptions {
   std::optional<Standalone> standalone;  // the export's additions; none for crosslink's own runs
 };
 
-// The MJCF text. Joint names are the scene joints' names; the driver equality is "driver".
+// The MJCF text. Joint names are the scene joints' names; the driver equalities are
+// Scene::driver_names.
 // With `standalone`, the clock is a hinge "clock" and the driver a fixed tendon "driver".
 std::string to_mjcf(const Mechanism& mechanism, const Scene& scene, const MjcfOptions& options);
 

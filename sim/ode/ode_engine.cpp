@@ -316,7 +316,7 @@ struct JointSide {
 
 class OdeScene {
  public:
-  // The scene at q (moving at qdot when given); `driven`: the driver's motor on its joint.
+  // The scene at q (moving at qdot when given); `driven`: each driver's motor on its joint.
   OdeScene(const Mechanism& m, const SceneGraph& g, const Config& config, const Eigen::VectorXd& q,
            const Eigen::VectorXd* qdot, bool driven)
       : m_(m), g_(g), quick_(config.stepper == "quick") {
@@ -360,10 +360,12 @@ class OdeScene {
     joints_.assign(g.joints.size(), nullptr);
     body1_.assign(g.joints.size(), -1);
     feedback_.resize(g.joints.size());
-    const DrivenCoordinate& dc = g.driven.front();  // one driver today
     for (size_t ji = 0; ji < g.joints.size(); ++ji) {
       const SceneJoint& j = g.joints[ji];
-      const bool motor = driven && static_cast<int>(ji) == dc.joint;
+      const bool motor =
+          driven && std::any_of(g.driven.begin(), g.driven.end(), [&](const DrivenCoordinate& d) {
+            return d.joint == static_cast<int>(ji);
+          });
       // ODE's body1 is always a moving body (the ground is body2, 0).
       const int first = bodies_[static_cast<size_t>(j.a)] ? j.a : j.b;
       const int second = first == j.a ? j.b : j.a;
@@ -399,12 +401,15 @@ class OdeScene {
       joints_[ji] = joint;
       body1_[ji] = first;
     }
-    if (driven) {
-      motor_ = joints_[static_cast<size_t>(dc.joint)];
-      // The motor's rate is body1's less body2's: the driven joint's value runs from a to b.
-      motor_sign_ = body1_[static_cast<size_t>(dc.joint)] == g.joints[dc.joint].b ? 1.0 : -1.0;
-      motor_kind_ = g.joints[dc.joint].kind;
-    }
+    if (driven)
+      for (const DrivenCoordinate& dc : g.driven) {
+        Motor motor;
+        motor.joint = joints_[static_cast<size_t>(dc.joint)];
+        // The motor's rate is body1's less body2's: the driven joint's value runs from a to b.
+        motor.sign = body1_[static_cast<size_t>(dc.joint)] == g.joints[dc.joint].b ? 1.0 : -1.0;
+        motor.kind = g.joints[dc.joint].kind;
+        motors_.push_back(motor);
+      }
   }
 
   ~OdeScene() {
@@ -423,15 +428,16 @@ class OdeScene {
   OdeScene(const OdeScene&) = delete;
   OdeScene& operator=(const OdeScene&) = delete;
 
-  // The driven joint's motor rate for the next step of h: from `value` to `target`.
-  void drive(double value, double target, double h) {
-    const double rate = motor_sign_ * (target - value) / h;
-    if (motor_kind_ == SceneJoint::Kind::hinge)
-      dJointSetHingeParam(motor_, dParamVel, rate);
-    else if (motor_kind_ == SceneJoint::Kind::slide)
-      dJointSetSliderParam(motor_, dParamVel, rate);
+  // Driver d's motor rate for the next step of h: its joint from `value` to `target`.
+  void drive(size_t d, double value, double target, double h) {
+    const Motor& motor = motors_[d];
+    const double rate = motor.sign * (target - value) / h;
+    if (motor.kind == SceneJoint::Kind::hinge)
+      dJointSetHingeParam(motor.joint, dParamVel, rate);
+    else if (motor.kind == SceneJoint::Kind::slide)
+      dJointSetSliderParam(motor.joint, dParamVel, rate);
     else
-      dJointSetAMotorParam(motor_, dParamVel, rate);
+      dJointSetAMotorParam(motor.joint, dParamVel, rate);
   }
 
   // The definition's loads on the links' bodies (Mechanism order), for the next step.
@@ -498,9 +504,14 @@ class OdeScene {
   std::vector<dJointID> joints_;
   std::vector<int> body1_;  // per joint: the scene body that is ODE's body1
   std::vector<dJointFeedback> feedback_;
-  dJointID motor_ = nullptr;
-  double motor_sign_ = 1.0;
-  SceneJoint::Kind motor_kind_ = SceneJoint::Kind::hinge;
+  // A driver's motor: its driven joint (or a floating link's angular motor), and how its rate
+  // runs against the driven coordinate.
+  struct Motor {
+    dJointID joint = nullptr;
+    double sign = 1.0;
+    SceneJoint::Kind kind = SceneJoint::Kind::hinge;
+  };
+  std::vector<Motor> motors_;                  // per driver; none in forward dynamics
   bool interrupted_ = false;                   // a step threw (an ODE error inside it)
   std::unique_lock<std::mutex> random_order_;  // a quick-step run's hold on dRandInt's seed
 };
@@ -513,9 +524,11 @@ class OdeScene {
 void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
                  const Eigen::VectorXd& q, ForceReading& out) {
   out.set_zero();
-  const Driver& d = m.driver();
-  const DrivenCoordinate& dc = g.driven.front();
-  const int driven_joint = dc.floating ? -1 : g.joints[static_cast<size_t>(dc.joint)].source;
+  // Per driver: the Mechanism joint its scene joint realises (-1: a floating link's angle).
+  const auto driven_joint = [&](size_t di) {
+    const DrivenCoordinate& dc = g.driven[di];
+    return dc.floating ? -1 : g.joints[static_cast<size_t>(dc.joint)].source;
+  };
   // The couple scene joint `sj` exerts on `body` about the world point `point`, and its force.
   const auto couple = [&](size_t sj, int body, const Eigen::Vector2d& point, Eigen::Vector2d& f) {
     const JointSide s = scene.on(sj, body);
@@ -544,29 +557,36 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
       on_b = -on_a;
     }
     if (mj.type == JointType::prismatic) out.couple[ji] = couple_b;
-    if (static_cast<int>(ji) == driven_joint && d.type != DriverType::link_angle) {
+    for (size_t di = 0; di < m.drivers.size(); ++di) {
+      const Driver& d = m.drivers[di];
+      if (static_cast<int>(ji) != driven_joint(di) || d.type == DriverType::link_angle) continue;
+      double& effort = out.effort_of(static_cast<int>(di));
       if (d.type == DriverType::slider) {
         const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
         const Eigen::Vector2d u = a.turn(m.links[mj.link_a].lines[mj.line].direction);
-        out.effort = on_b.dot(u);
-        on_b -= out.effort * u;
+        effort = on_b.dot(u);
+        on_b -= effort * u;
       } else {
-        out.effort = couple_b;  // on the second link, the driven one
+        effort = couple_b;  // on the second link, the driven one
       }
     }
     out.joint_force[ji] = on_b;
   }
-  if (d.type != DriverType::link_angle) return;
-  if (dc.floating) {
-    out.effort = scene.on(static_cast<size_t>(dc.joint), dc.body).torque;
-    return;
+  for (size_t di = 0; di < m.drivers.size(); ++di) {
+    if (m.drivers[di].type != DriverType::link_angle) continue;
+    const DrivenCoordinate& dc = g.driven[di];
+    double& effort = out.effort_of(static_cast<int>(di));
+    if (dc.floating) {
+      effort = scene.on(static_cast<size_t>(dc.joint), dc.body).torque;
+      continue;
+    }
+    // Realised at the link's ground pivot: its couple on the link about the pivot.
+    const SceneJoint& j = g.joints[static_cast<size_t>(dc.joint)];
+    const int link = g.bodies[static_cast<size_t>(j.b)].ground ? j.a : j.b;
+    const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
+    Eigen::Vector2d f;
+    effort = couple(static_cast<size_t>(dc.joint), link, b.position(j.ub), f);
   }
-  // Realised at the link's ground pivot: its couple on the link about the pivot.
-  const SceneJoint& j = g.joints[static_cast<size_t>(dc.joint)];
-  const int link = g.bodies[static_cast<size_t>(j.b)].ground ? j.a : j.b;
-  const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
-  Eigen::Vector2d f;
-  out.effort = couple(static_cast<size_t>(dc.joint), link, b.position(j.ub), f);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -691,31 +711,44 @@ class OdeLoopScene : public Loop {
   OdeSteps& steps_;
 };
 
-// A kinematic run's scene: the motor lands the driven joint on the driver's law at the step's end.
+// A kinematic run's scene: each motor lands its driven joint on its driver's law at the step's
+// end.
 class OdeKinematicScene final : public OdeLoopScene<KinematicScene> {
  public:
   OdeKinematicScene(OdeSteps& steps, const Mechanism& m, const SceneGraph& g,
                     const KinematicPlan& plan)
-      : OdeLoopScene(steps), m_(m), g_(g), joint_(g.joints[g.driven.front().joint]) {
-    const Driver& d = m.driver();
-    driver_offset_ = plan.driver_offset;
-    driver0_ = d.at_time(plan.grid.time.front()).value + plan.driver_offset;
-    coordinate0_ = joint_value(m, g, joint_, plan.q);
-    sign_ = g.driven.front().sign;
+      : OdeLoopScene(steps), m_(m), g_(g) {
+    for (size_t di = 0; di < m.drivers.size(); ++di) {
+      Driven d{&g.joints[static_cast<size_t>(g.driven[di].joint)]};
+      d.driver_offset = plan.driver_offset[di];
+      d.driver0 = m.drivers[di].at_time(plan.grid.time.front()).value + d.driver_offset;
+      d.coordinate0 = joint_value(m, g, *d.joint, plan.q);
+      d.sign = g.driven[di].sign;
+      driven_.push_back(d);
+    }
   }
-  void drive(double driver_value) override {
-    target_ = coordinate0_ + sign_ * (driver_value + driver_offset_ - driver0_);
+  void drive(const std::vector<double>& driver_values) override {
+    for (size_t di = 0; di < driven_.size(); ++di) {
+      Driven& d = driven_[di];
+      d.target = d.coordinate0 + d.sign * (driver_values[di] + d.driver_offset - d.driver0);
+    }
   }
   std::string step(double h, ForceReading* forces) override {
-    steps_.scene().drive(joint_value(m_, g_, joint_, steps_.pose()), target_, h);
+    for (size_t di = 0; di < driven_.size(); ++di)
+      steps_.scene().drive(di, joint_value(m_, g_, *driven_[di].joint, steps_.pose()),
+                           driven_[di].target, h);
     return steps_.step(h, forces);
   }
 
  private:
+  // A driver's joint and how its value maps to the joint's coordinate.
+  struct Driven {
+    const SceneJoint* joint;
+    double driver_offset = 0.0, driver0 = 0.0, coordinate0 = 0.0, sign = 1.0, target = 0.0;
+  };
   const Mechanism& m_;
   const SceneGraph& g_;
-  const SceneJoint& joint_;
-  double driver_offset_ = 0.0, driver0_ = 0.0, coordinate0_ = 0.0, sign_ = 1.0, target_ = 0.0;
+  std::vector<Driven> driven_;  // per driver
 };
 
 // A dynamics run's scene: no driver. dWorldStep is semi-implicit Euler (x_k+1 = x_k + h v_k+1), so
@@ -812,10 +845,13 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
     OdeSteps steps(p.m, p.graph, scene, start.q);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.q); !why.empty())
       return failed_run(std::move(out), why);
-    if (p.graph.driven.front().floating)
-      add_note(start.note,
-               "link-angle driver realised directly: an angular motor between the ground and the "
-               "link");
+    for (size_t d = 0; d < p.graph.driven.size(); ++d)
+      if (p.graph.driven[d].floating)
+        add_note(start.note,
+                 fmt::format("link-angle driver{} realised directly: an angular motor "
+                             "between the ground and the link",
+                             p.m.several_drivers() ? fmt::format(" ('{}')", p.m.drivers[d].name)
+                                                   : std::string()));
     OdeKinematicScene stepped(steps, p.m, p.graph, start);
     run_kinematic(original, p.m, reference, start, watch, true, stepped, begin, out);
   } catch (const std::exception& e) {
@@ -830,8 +866,8 @@ class OdeEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return ode_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != 1) {
-      if (why) *why = "the chain's mobility is not 1";
+    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
+      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
       return false;
     }
     try {

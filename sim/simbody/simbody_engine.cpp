@@ -205,9 +205,10 @@ SceneGraph simbody_graph(const Mechanism& m) {
 // Why the scene cannot drive this mechanism's driver ("" when it can): a driven angle that is a
 // sum of mobilizer angles (a link without a ground pivot) would need a constraint of its own.
 std::string driver_problem(const SceneGraph& g) {
-  if (g.driven.front().floating)
-    return "the driven link has no ground pivot: its angle is a sum of mobilizer angles, which "
-           "the Simbody scene does not prescribe";
+  for (const DrivenCoordinate& d : g.driven)
+    if (d.floating)
+      return "the driven link has no ground pivot: its angle is a sum of mobilizer angles, which "
+             "the Simbody scene does not prescribe";
   return "";
 }
 
@@ -391,13 +392,14 @@ class Scene {
     readback_.emplace(m, g, body_);
     load_ = new LoadForce(m, g, body_, *readback_, q, !driven);
     SimTK::Force::Custom(forces_, load_);  // Simbody owns load_
-    const DrivenCoordinate& d = g.driven.front();
-    const SceneJoint& dj = g.joints[static_cast<size_t>(d.joint)];
-    driven_coordinate_ = orientation(dj) * joint_value(dj, q, qdot)[0];
-    if (driven) {
+    // Each driver's mobilizer prescribed by its own law.
+    for (size_t di = 0; driven && di < g.driven.size(); ++di) {
+      const DrivenCoordinate& d = g.driven[di];
+      const SceneJoint& dj = g.joints[static_cast<size_t>(d.joint)];
+      const double coordinate0 = orientation(dj) * joint_value(dj, q, qdot)[0];
       SimTK::MobilizedBody& mobod = body_[static_cast<size_t>(dj.child)];
       SimTK::Motion::Custom(
-          mobod, new DriveMotion(m.driver(), t0, driven_coordinate_, orientation(dj) * d.sign));
+          mobod, new DriveMotion(m.drivers[di], t0, coordinate0, orientation(dj) * d.sign));
     }
     system_.realizeTopology();
     state_ = system_.getDefaultState();
@@ -418,11 +420,10 @@ class Scene {
   LoadForce& loads() { return *load_; }
 
   // The constraint forces at state s (Acceleration stage), in the mechanism's terms: a tree
-  // joint's from its mobilizer's reaction, a cut hinge's from its ball; with `effort`, the
-  // driver's effort from the driven mobilizer's reaction along its coordinate.
+  // joint's from its mobilizer's reaction, a cut hinge's from its ball; with `effort`, each
+  // driver's effort from its driven mobilizer's reaction along its coordinate.
   void read_forces(const SimTK::State& s, bool effort, ForceReading& out) const {
     out.set_zero();
-    const DrivenCoordinate& d = g_.driven.front();
     // A coupler's multiplier lambda applies -lambda x coefficient along each of its coordinates
     // (a constraint force's sign, as the balls'): as a couple on the first moving gear it is the
     // gear's (write_forces puts it on the teeth); a mobilizer's reaction counts what falls on its
@@ -469,15 +470,17 @@ class Scene {
         else
           couple_b -= coupled[ji];
       }
-      if (effort && static_cast<int>(ji) == d.joint) {
+      for (size_t di = 0; effort && di < g_.driven.size(); ++di) {
+        const DrivenCoordinate& d = g_.driven[di];
+        if (static_cast<int>(ji) != d.joint) continue;
         if (j.kind == SceneJoint::Kind::slide) {
           const Eigen::Vector2d u =
               vec2(body_[static_cast<size_t>(j.a)].getBodyRotation(s) * vec3(j.direction));
           const double axial = on_b.dot(u);
-          out.effort = d.sign * axial;
+          out.effort_of(static_cast<int>(di)) = d.sign * axial;
           on_b -= axial * u;
         } else {
-          out.effort = d.sign * couple_b;
+          out.effort_of(static_cast<int>(di)) = d.sign * couple_b;
         }
       }
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
@@ -505,7 +508,6 @@ class Scene {
   std::vector<SimTK::Constraint::CoordinateCoupler> couplers_;  // per SceneCoupling
   std::optional<Readback> readback_;
   LoadForce* load_ = nullptr;
-  double driven_coordinate_ = 0.0;
   SimTK::State state_;
 };
 
@@ -716,7 +718,7 @@ Settings common_settings(const Config& c, double dt) {
 class SimbodyKinematicScene final : public KinematicScene {
  public:
   SimbodyKinematicScene(SimbodySteps& steps, const Config& c) : steps_(steps), c_(c) {}
-  void drive(double) override {}
+  void drive(const std::vector<double>&) override {}
   void apply(const std::vector<BodyLoad>& loads) override { steps_.scene().loads().set(loads); }
   std::string step(double h, ForceReading* forces) override {
     if (forces)
@@ -832,8 +834,8 @@ class SimbodyEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return simbody_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != 1) {
-      if (why) *why = "the chain's mobility is not 1";
+    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
+      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
       return false;
     }
     try {

@@ -17,16 +17,21 @@
 namespace crosslink::sim {
 namespace {
 
-// A scene whose every step is the exact pose at the law's value; from step `open_from` on one
-// link is moved by `shift` [m] (a loop that opens), and at step `nan_at` the pose is lost.
+// A scene whose every step is the exact pose at each driver's law's value; from step `open_from`
+// on one link is moved by `shift` [m] (a loop that opens), at step `nan_at` the pose is lost, and
+// from step `lag_from` on driver `lagging` is held `lag` behind its law.
 class ExactScene final : public KinematicScene {
  public:
   ExactScene(const Mechanism& m, const KinematicPlan& plan)
       : solver_(m), state_(m), offset_(plan.driver_offset) {
     state_.q = plan.q;
   }
-  void drive(double driver_value) override {
-    state_.driver = DriverState{0.0, driver_value + offset_, 0.0, 0.0};
+  void drive(const std::vector<double>& driver_values) override {
+    for (int d = 0; d < state_.driver_count(); ++d) {
+      double value = driver_values[static_cast<size_t>(d)] + offset_[static_cast<size_t>(d)];
+      if (d == lagging && evaluations_ + 1 >= lag_from) value -= lag;
+      state_.driver_state(d) = DriverState{0.0, value, 0.0, 0.0};
+    }
   }
   void apply(const std::vector<BodyLoad>&) override {}
   std::string step(double, ForceReading*) override {
@@ -42,22 +47,28 @@ class ExactScene final : public KinematicScene {
   long evaluations() const override { return evaluations_; }
   long open_from = std::numeric_limits<long>::max(), nan_at = -1;
   double shift = 0.0;
+  int lagging = -1;
+  long lag_from = std::numeric_limits<long>::max();
+  double lag = 0.0;
 
  private:
   const NewtonSolver solver_;
   KinematicState state_;
-  double offset_;
+  std::vector<double> offset_;
   long evaluations_ = 0;
 };
 
 struct Case {
-  Mechanism m = parse_mechanism(test::crank_rocker().text(), "crank_rocker.toml");
+  Mechanism m;
   Trajectory reference = sweep(m);
   KinematicWatch watch{1e-4 * m.size(), m.size(), 1e-3, 1e-5, 1e-4};
   // Steps of at most 0.0025 rad of the fastest link, pre-roll of 8 (MuJoCo's numbers).
   KinematicPlan plan =
       plan_kinematic(m, reference, 0.0025 / fastest_rate(reference, usable_span(reference)),
                      InnerTimes::step_multiples, 8, 1'000'000, watch.singular_rcond, false);
+  explicit Case(Mechanism mechanism = parse_mechanism(test::crank_rocker().text(),
+                                                      "crank_rocker.toml"))
+      : m(std::move(mechanism)) {}
   EngineRun run_with(ExactScene& scene) {
     EngineRun run;
     run_kinematic(m, m, reference, plan, watch, false, scene, Clock::now(), run);
@@ -138,6 +149,58 @@ TEST(KinematicRun, ALostPoseStopsTheRunWhereItHappens) {
       EXPECT_EQ(s, PoseStatus::diverged) << i;
     }
   }
+}
+
+// The two-crank five-bar (mechanisms/drivers/fivebar_two_cranks.toml), swept in time: the loop
+// drives each crank to its own law at every step's end, so exact poses give the reference's
+// samples (positions to Newton's tolerance, rates to the stencil's O(h^2)) and each driver's
+// channel its law's value; over a whole cycle the plan pre-rolls before t = 0, the grid's samples
+// at the reference's times.
+TEST(KinematicRun, EveryDriverIsDrivenToItsOwnLaw) {
+  Case c(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                        "/mechanisms/drivers/fivebar_two_cranks.toml"));
+  ASSERT_EQ(c.m.drivers.size(), 2u);
+  ASSERT_EQ(c.plan.preroll, 8);
+  for (int i = 0; i < c.reference.samples(); ++i)
+    EXPECT_NEAR(
+        c.plan.grid.time[static_cast<size_t>(c.plan.grid.sample_step[static_cast<size_t>(i)])],
+        c.reference.time(i), 1e-12)
+        << i;
+  ExactScene scene(c.m, c.plan);
+  const EngineRun run = c.run_with(scene);
+  ASSERT_TRUE(run.ok) << run.message;
+  const Trajectory& out = run.trajectory;
+  const double omega_peak = c.reference.omega.cwiseAbs().maxCoeff();
+  int compared = 0;
+  for (int i = 0; i < c.reference.samples(); ++i) {
+    if (!usable(c.reference.status[static_cast<size_t>(i)])) continue;
+    ++compared;
+    EXPECT_EQ(out.status[static_cast<size_t>(i)], PoseStatus::ok) << i;
+    EXPECT_NEAR((out.angle.row(i) - c.reference.angle.row(i)).cwiseAbs().maxCoeff(), 0.0, 1e-9);
+    EXPECT_LT((out.omega.row(i) - c.reference.omega.row(i)).cwiseAbs().maxCoeff(),
+              1e-5 * omega_peak)
+        << i;
+    for (int d = 0; d < 2; ++d)  // each driver at its own law at the sample's time
+      EXPECT_NEAR(out.driver_values(i, d),
+                  c.m.drivers[static_cast<size_t>(d)].at_time(c.reference.time(i)).value, 1e-12)
+          << i;
+  }
+  EXPECT_GT(compared, 100);
+}
+
+// The second crank held 10 times the watch's threshold behind its law from the middle of the run:
+// the run stops there, losing that driver by name.
+TEST(KinematicRun, ARunThatLosesOneOfSeveralDriversNamesIt) {
+  Case c(load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                        "/mechanisms/drivers/fivebar_two_cranks.toml"));
+  ExactScene scene(c.m, c.plan);
+  scene.lagging = 1;
+  scene.lag_from = static_cast<long>(c.plan.grid.time.size()) / 2;
+  scene.lag = 10.0 * c.watch.driver;
+  const EngineRun run = c.run_with(scene);
+  EXPECT_FALSE(run.ok);
+  EXPECT_EQ(run.message.rfind("lost the driver 'right' at t = ", 0), 0u) << run.message;
+  EXPECT_EQ(run.cost.steps, scene.lag_from);
 }
 
 }  // namespace
