@@ -3,8 +3,10 @@
 // sim::gearing_agreement) and reads its mesh force (% of the exact peak), with the driver's
 // effort and the worst joint reaction (sim::force_agreement), against the step. Prints CSV
 // (docs/engines.md, "Gear couplings: drift and mesh force against the step"). Run from the
-// source root:
+// source root, optionally with the engines to run (default: all four):
 //   build/bench/gear_accuracy > docs/data/gear_accuracy.csv
+//   build/bench/gear_accuracy bullet
+// A run whose forces are not read (Bullet's multibody) has its force columns empty.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -34,7 +36,9 @@ std::string setting(const Settings& s, const std::string& name) {
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  std::vector<std::string> engines(argv + 1, argv + argc);
+  if (engines.empty()) engines = {"mujoco", "simbody", "bullet", "ode"};
   std::vector<std::filesystem::path> files;
   for (const auto& e : std::filesystem::directory_iterator("mechanisms/gears"))
     if (e.path().extension() == ".toml") files.push_back(e.path());
@@ -49,7 +53,7 @@ int main() {
   for (const auto& path : files) {
     const Mechanism m = crosslink::load_mechanism(path.string());
     const Trajectory exact = crosslink::sweep(m);
-    for (const std::string name : {"mujoco", "simbody", "bullet", "ode"}) {
+    for (const std::string& name : engines) {
       const auto engine = name == "mujoco"    ? crosslink::sim::make_mujoco_engine()
                           : name == "ode"     ? crosslink::sim::make_ode_engine()
                           : name == "simbody" ? crosslink::sim::make_simbody_engine()
@@ -81,11 +85,14 @@ int main() {
           if (!j.is_gearing()) continue;
           const crosslink::sim::GearingAgreement g =
               crosslink::sim::gearing_agreement(m, exact, run.trajectory, static_cast<int>(ji));
-          fmt::print("{},{},{},{},{},{},{:.3g},{},{},{:.3g},{:.3g},{},{:.4g},{}\n", name,
+          const auto pct = [&](double v) {
+            return f.compared > 0 ? fmt::format("{:.3g}", 100 * v) : std::string();
+          };
+          fmt::print("{},{},{},{},{},{},{:.3g},{},{},{},{},{},{:.4g},{}\n", name,
                      path.stem().string(), j.name, angle, setting(run.settings, "dt"),
                      run.cost.steps, g.drift, j.type == crosslink::JointType::gear ? "rad" : "m",
-                     g.mesh ? fmt::format("{:.3g}", 100 * *g.mesh) : "", 100 * f.effort,
-                     100 * f.reaction, f.worst_joint, run.cost.cpu_seconds_per_cycle,
+                     g.mesh ? fmt::format("{:.3g}", 100 * *g.mesh) : "", pct(f.effort),
+                     pct(f.reaction), f.worst_joint, run.cost.cpu_seconds_per_cycle,
                      run.ok ? "" : "not ok");
           std::fflush(stdout);
         }

@@ -399,12 +399,4 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   return g;
 }
 
-void refuse_couplings(const Mechanism& m, const SceneGraph& g, const std::string& why) {
-  if (g.couplings.empty()) return;
-  const Joint& j = m.joints[static_cast<size_t>(g.couplings.front().source)];
-  throw std::runtime_error(fmt::format("joint '{}' is a {}: {}", j.name,
-                                       j.type == JointType::gear ? "gear pair" : "rack and pinion",
-                                       why));
-}
-
 }  // namespace crosslink::sim

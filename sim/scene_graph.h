@@ -132,8 +132,4 @@ BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const 
 // realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.
 SceneGraph scene_graph(const Mechanism& mechanism, const TreePolicy& policy = {});
 
-// For an engine that does not realise gear pairs or racks: throws std::runtime_error naming the
-// first of them in `g` with `why` (the engine's reason), when there is one.
-void refuse_couplings(const Mechanism& mechanism, const SceneGraph& g, const std::string& why);
-
 }  // namespace crosslink::sim

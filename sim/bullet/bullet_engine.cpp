@@ -26,6 +26,7 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyGearConstraint.h>
 #include <BulletDynamics/Featherstone/btMultiBodyJointMotor.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 #include <BulletDynamics/Featherstone/btMultiBodyMLCPConstraintSolver.h>
@@ -230,6 +231,15 @@ struct Plan {
   std::vector<int> parent_edge;  // per node; -1 none
   std::vector<int> parent;       // per node; -1 ground
   std::vector<int> cuts;         // edges closed by loop constraints
+  // Gear pairs and racks of the multibody formulation, each a btMultiBodyGearConstraint on two
+  // tree edges: coefficient_a x coordinate_a + coefficient_b x coordinate_b is held constant
+  // (the scene graph's coupling; each coordinate the edge's joint value, edge_coordinate).
+  struct Gearing {
+    int joint = -1;  // the Mechanism joint
+    int edge_a = -1, edge_b = -1;
+    double coefficient_a = 1.0, coefficient_b = 1.0;
+  };
+  std::vector<Gearing> gearings;
 };
 
 int node_of_link(const Plan& plan, int link) {
@@ -248,16 +258,33 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   policy.planar_joints = true;
   policy.split_loops = multibody;
   const SceneGraph g = scene_graph(m, policy);
-  // A gear pair about the ground: btGearConstraint between the two rigid bodies. No other
-  // gearing (docs/engines.md, "Gear couplings").
+  // Rigid: a gear pair about the ground, btGearConstraint between the two rigid bodies.
+  // Multibody: a coupling of two tree joints, btMultiBodyGearConstraint. No other gearing
+  // (docs/engines.md, "Gear couplings").
+  std::vector<Plan::Gearing> gearings;
   for (const SceneCoupling& c : g.couplings) {
     const Joint& j = m.joints[static_cast<size_t>(c.source)];
-    if (multibody)
-      throw std::runtime_error(fmt::format(
-          "joint '{}' is a {}: crosslink's Bullet multibody scene does not build "
-          "btMultiBodyGearConstraint (two joints' rates); the rigid formulation builds a gear pair "
-          "about the ground",
-          j.name, j.type == JointType::gear ? "gear pair" : "rack and pinion"));
+    const char* kind = j.type == JointType::gear ? "gear pair" : "rack and pinion";
+    if (multibody) {
+      // Its row couples the first degree of freedom of two links; a planar joint's first is its
+      // rotation, but Bullet 3.24 builds the row's directions from the first link's joint type,
+      // revolute or prismatic only.
+      const auto planar = [&](int term) {
+        return g.joints[static_cast<size_t>(c.terms[static_cast<size_t>(term)].first)].kind ==
+               SceneJoint::Kind::planar;
+      };
+      if (c.terms.size() != 2 || (planar(0) && planar(1)))
+        throw std::runtime_error(fmt::format(
+            "joint '{}' is a {}: its coupling spans {} joints of the multibody tree (a link's "
+            "angle is the sum of the hinges on its path), and Bullet 3.24's "
+            "btMultiBodyGearConstraint couples two joints' coordinates",
+            j.name, kind, c.terms.size()));
+      const int first = planar(0) ? 1 : 0;
+      const auto& [edge_a, coefficient_a] = c.terms[static_cast<size_t>(first)];
+      const auto& [edge_b, coefficient_b] = c.terms[static_cast<size_t>(1 - first)];
+      gearings.push_back({c.source, edge_a, edge_b, coefficient_a, coefficient_b});
+      continue;
+    }
     if (j.type != JointType::gear || j.carrier != m.ground())
       throw std::runtime_error(fmt::format(
           "joint '{}' is a {}: Bullet 3.24's btGearConstraint holds a ratio of two rigid bodies' "
@@ -296,6 +323,7 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
     plan.parent_edge[child] = j;
   }
   plan.cuts = g.cuts;
+  plan.gearings = std::move(gearings);
   return plan;
 }
 
@@ -551,6 +579,7 @@ class MultiBodyScene final : public Scene {
       world_->addMultiBodyConstraint(c);
       constraints_.push_back(c);
     }
+    for (const Plan::Gearing& gearing : plan.gearings) add_gear(gearing, poses, config);
     // One joint motor per driver.
     for (const auto& [body, link] : driver_links_)
       if (body && driven) {
@@ -564,10 +593,12 @@ class MultiBodyScene final : public Scene {
   ~MultiBodyScene() override {
     for (auto* motor : motors_) world_->removeMultiBodyConstraint(motor);
     for (auto* c : constraints_) world_->removeMultiBodyConstraint(c);
+    for (auto* c : gears_) world_->removeMultiBodyConstraint(c);
     for (auto* c : colliders_) world_->removeCollisionObject(c);
     for (auto* mb : bodies_) world_->removeMultiBody(mb);
     for (auto* motor : motors_) delete motor;
     for (auto* c : constraints_) delete c;
+    for (auto* c : gears_) delete c;
     for (auto* c : colliders_) delete c;
     for (auto* mb : bodies_) delete mb;
     delete world_;
@@ -627,6 +658,45 @@ class MultiBodyScene final : public Scene {
   }
 
  private:
+  // The link an edge of the tree leads to, and the sign of its multibody coordinate against the
+  // edge's (a hinge whose tree runs from b to a turns the other way).
+  std::pair<int, double> edge_link(int edge) const {
+    for (size_t v = 0; v < plan_.nodes.size(); ++v)
+      if (plan_.parent_edge[v] == edge) {
+        const Edge& e = plan_.edges[static_cast<size_t>(edge)];
+        return {static_cast<int>(v),
+                e.kind == Edge::Kind::prismatic || e.a == plan_.parent[v] ? 1.0 : -1.0};
+      }
+    throw std::logic_error("a gearing's joint is not in the multibody tree");
+  }
+
+  // The row q_a + ratio q_b = its start value over the two links' first coordinates (velocity
+  // level). Its position correction, when ERP is on, reads both coordinates from the first
+  // link's multibody (btMultiBodyGearConstraint::createConstraintRows in 3.24), so it is on only
+  // when both links are in one multibody: elsewhere the ratio drifts (docs/engines.md).
+  void add_gear(const Plan::Gearing& gearing, const std::vector<Pose>& poses,
+                const Config& config) {
+    const auto [va, sign_a] = edge_link(gearing.edge_a);
+    const auto [vb, sign_b] = edge_link(gearing.edge_b);
+    btMultiBody* a = bodies_[where_[va].first];
+    btMultiBody* b = bodies_[where_[vb].first];
+    const int la = where_[va].second, lb = where_[vb].second;
+    const double ratio = gearing.coefficient_b * sign_b / (gearing.coefficient_a * sign_a);
+    auto* gear =
+        new btMultiBodyGearConstraint(a, la, b, lb, btVector3(0, 0, 0), btVector3(0, 0, 0),
+                                      btMatrix3x3::getIdentity(), btMatrix3x3::getIdentity());
+    gear->setGearRatio(ratio);
+    gear->setMaxAppliedImpulse(1e300);
+    if (a == b) {
+      const double qa = sign_a * edge_coordinate(plan_.edges[gearing.edge_a], poses);
+      const double qb = sign_b * edge_coordinate(plan_.edges[gearing.edge_b], poses);
+      gear->setRelativePositionTarget(qa + ratio * qb);
+      gear->setErp(config.erp);
+    }
+    world_->addMultiBodyConstraint(gear);
+    gears_.push_back(gear);
+  }
+
   const Plan& plan_;
   btDefaultCollisionConfiguration collision_;
   btCollisionDispatcher dispatcher_{&collision_};
@@ -639,6 +709,7 @@ class MultiBodyScene final : public Scene {
   std::vector<btMultiBody*> bodies_;
   std::vector<btMultiBodyLinkCollider*> colliders_;
   std::vector<btMultiBodyPoint2Point*> constraints_;
+  std::vector<btMultiBodyGearConstraint*> gears_;
   std::vector<btMultiBodyJointMotor*> motors_;              // per driver; none in forward dynamics
   std::vector<std::pair<btMultiBody*, int>> driver_links_;  // per driver: (multibody, link)
   std::vector<std::pair<int, int>> where_;                  // node -> (multibody, link)
@@ -1092,21 +1163,42 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
 }
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
-// to rigid bodies (config.formulation follows) when its tree cannot be cut at revolute joints.
-// A kinematic run (`driven`) says how a link angle is realised. False with `why` when there is
-// no scene.
+// to rigid bodies (config.formulation follows) when its tree cannot be cut at revolute joints,
+// and a gearing one formulation cannot realise is built by the other when it can (rigid bodies:
+// a gear pair about the ground; a multibody: a coupling of two tree joints). A kinematic run
+// (`driven`) says how a link angle is realised. False with `why` when there is no scene.
 bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
                 std::vector<std::string>& notes, std::string& why) {
   std::string split_error;
+  const bool multibody = config.formulation == "multibody";
   try {
-    plan = make_plan(m, config.formulation == "multibody", &split_error);
+    plan = make_plan(m, multibody, &split_error);
   } catch (const std::exception& e) {
     why = e.what();
-    return false;
+    try {
+      plan = make_plan(m, !multibody, &split_error);
+    } catch (const std::exception& other) {
+      why += std::string("; ") + other.what();
+      return false;
+    }
+    if (!multibody && !split_error.empty()) return false;
+    const std::string other = multibody ? "rigid" : "multibody";
+    notes.push_back(fmt::format("the {} formulation cannot realise it ({}): {} used",
+                                config.formulation, why, other));
+    config.formulation = other;
+    why.clear();
   }
-  if (!split_error.empty()) {
+  if (!split_error.empty() && config.formulation == "multibody") {
     notes.push_back("multibody formulation impossible (" + split_error + "): rigid bodies used");
     config.formulation = "rigid";
+    if (!plan.gearings.empty()) {  // rigid bodies realise fewer gearings
+      try {
+        plan = make_plan(m, false, nullptr);
+      } catch (const std::exception& e) {
+        why = e.what();
+        return false;
+      }
+    }
   }
   // Forces from btJointFeedback in the rigid formulation only: btMultiBodyJointFeedback is
   // wrong in 3.24 (bullet3 issues 2966, 4604): it reads the velocity terms twice
@@ -1444,11 +1536,20 @@ class BulletEngine final : public Engine {
       if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
       return false;
     }
+    // Either formulation (plan_scene takes the other when the one asked for cannot).
     try {
       (void)make_plan(mechanism, false, nullptr);
     } catch (const std::exception& e) {
-      if (why) *why = e.what();
-      return false;
+      std::string split_error;
+      try {
+        (void)make_plan(mechanism, true, &split_error);
+      } catch (const std::exception& other) {
+        split_error = other.what();
+      }
+      if (!split_error.empty()) {
+        if (why) *why = std::string(e.what()) + "; " + split_error;
+        return false;
+      }
     }
     return true;
   }

@@ -21,6 +21,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "analytic/kinetostatics.h"
 #include "analytic/newton.h"
 #include "analytic/planar.h"
 #include "sim/dynamics_run.h"
@@ -401,6 +402,8 @@ class OdeScene {
       joints_[ji] = joint;
       body1_[ji] = first;
     }
+    transmission_feedback_.resize(g.couplings.size());
+    for (const SceneCoupling& c : g.couplings) add_transmission(c.source, q);
     if (driven)
       for (const DrivenCoordinate& dc : g.driven) {
         Motor motor;
@@ -481,6 +484,17 @@ class OdeScene {
     }
   }
 
+  // The force gear pair `joint` (Mechanism index) put on its first gear in the last step, at the
+  // pitch point (ODE's contact point).
+  Eigen::Vector2d tooth_force(int joint) const {
+    for (size_t t = 0; t < transmissions_.size(); ++t)
+      if (transmissions_[t].first == joint) {
+        const dReal* f = transmission_feedback_[t].f1;
+        return {f[0], f[1]};
+      }
+    throw std::logic_error("no transmission for this gear pair");
+  }
+
   // What joint `j` exerted on scene body `body` in the last step (about its centre of mass);
   // nothing on the ground.
   JointSide on(size_t j, int body) const {
@@ -495,6 +509,35 @@ class OdeScene {
   }
 
  private:
+  // A gear pair as ODE's transmission joint between its two gears (body1 the first): the contact
+  // point on the line of centres at ratio r_a / r_b, both wheels about z, no backlash; it holds
+  // the pitch point's tangential velocity equal on both gears and its phase (each wheel's turn
+  // against the line of centres, from the start) with the world's ERP and CFM.
+  void add_transmission(int joint, const Eigen::VectorXd& q) {
+    const Joint& j = m_.joints[static_cast<size_t>(joint)];
+    const auto body = [&](int link) {
+      for (size_t i = 0; i < g_.bodies.size(); ++i)
+        if (g_.bodies[i].source == link) return bodies_[i];
+      throw std::logic_error("a gear without a body");
+    };
+    const Link& carrier = m_.links[static_cast<size_t>(j.carrier)];
+    const BodyMotion c = BodyMotion::of(m_.moving_index(j.carrier), q, nullptr, nullptr);
+    const Eigen::Vector2d centre_a =
+        c.position(carrier.points[static_cast<size_t>(j.centre_a)].local);
+    const Eigen::Vector2d centre_b =
+        c.position(carrier.points[static_cast<size_t>(j.centre_b)].local);
+    dJointID t = dJointCreateTransmission(world_, nullptr);
+    dJointAttach(t, body(j.link_a), body(j.link_b));
+    dJointSetTransmissionMode(t, dTransmissionParallelAxes);
+    dJointSetTransmissionRatio(t, j.radius_a / j.radius_b);
+    dJointSetTransmissionAnchor1(t, centre_a.x(), centre_a.y(), 0.0);
+    dJointSetTransmissionAnchor2(t, centre_b.x(), centre_b.y(), 0.0);
+    dJointSetTransmissionAxis(t, 0.0, 0.0, 1.0);
+    dJointSetTransmissionBacklash(t, 0.0);
+    dJointSetFeedback(t, &transmission_feedback_[transmissions_.size()]);
+    transmissions_.push_back({joint, t});
+  }
+
   const Mechanism& m_;
   const SceneGraph& g_;
   bool quick_;
@@ -511,10 +554,34 @@ class OdeScene {
     double sign = 1.0;
     SceneJoint::Kind kind = SceneJoint::Kind::hinge;
   };
-  std::vector<Motor> motors_;                  // per driver; none in forward dynamics
+  std::vector<Motor> motors_;  // per driver; none in forward dynamics
+  // Per gear pair: its Mechanism joint and transmission, and its feedback (sized before any
+  // joint points into it).
+  std::vector<std::pair<int, dJointID>> transmissions_;
+  std::vector<dJointFeedback> transmission_feedback_;
   bool interrupted_ = false;                   // a step threw (an ODE error inside it)
   std::unique_lock<std::mutex> random_order_;  // a quick-step run's hold on dRandInt's seed
 };
+
+// A gear pair's reading in the terms every engine's takes (ForceReading::gear_couple): ODE's
+// transmission pushes at the pitch point along the tangent, so its couple about the first gear's
+// centre is the gear couple, and the bearings from each gear to the carrier read that push
+// beside their own reactions; it is taken out of them, as write_forces passes the whole tooth
+// force (its pressure-angle part too) through them.
+void read_tooth_force(const Mechanism& m, const OdeScene& scene, int joint,
+                      const Eigen::VectorXd& q, ForceReading& out) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const Eigen::Vector2d on_a = scene.tooth_force(joint);
+  const BodyMotion carrier = BodyMotion::of(m.moving_index(j.carrier), q, nullptr, nullptr);
+  const Link& c = m.links[static_cast<size_t>(j.carrier)];
+  const Eigen::Vector2d centre = c.points[static_cast<size_t>(j.centre_a)].local;
+  const Eigen::Vector2d toward_b = c.points[static_cast<size_t>(j.centre_b)].local - centre;
+  const Eigen::Vector2d arm = carrier.turn(toward_b * (j.radius_a / toward_b.norm()));
+  out.gear_couple[static_cast<size_t>(joint)] = cross(arm, on_a);
+  const GearPaths paths = gear_paths(m, joint);
+  for (const auto& [k, sign] : paths.path_a) out.joint_force[static_cast<size_t>(k)] -= sign * on_a;
+  for (const auto& [k, sign] : paths.path_b) out.joint_force[static_cast<size_t>(k)] += sign * on_a;
+}
 
 // Forces of the last step at pose q (the pose it left), in the mechanism's terms, converted as
 // Bullet's (read_rigid_forces): each joint's force on its second link (through the first when the
@@ -572,6 +639,7 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
     }
     out.joint_force[ji] = on_b;
   }
+  for (const SceneCoupling& c : g.couplings) read_tooth_force(m, scene, c.source, q, out);
   for (size_t di = 0; di < m.drivers.size(); ++di) {
     if (m.drivers[di].type != DriverType::link_angle) continue;
     const DrivenCoordinate& dc = g.driven[di];
@@ -609,13 +677,27 @@ TreePolicy ode_policy() {
   return policy;
 }
 
-// ODE's graph; gear pairs and racks refused (docs/engines.md, "Gear couplings").
+// ODE's graph. Its one meshing joint, the transmission (dJointCreateTransmission, parallel axes),
+// joins two moving wheels at a contact point between their centres: an external gear pair whose
+// gears both move; an internal pair, a gear fixed to the ground or a rack is refused
+// (docs/engines.md, "Gear couplings").
 SceneGraph ode_graph(const Mechanism& m) {
   SceneGraph g = scene_graph(m, ode_policy());
-  refuse_couplings(m, g,
-                   "crosslink's ODE scene does not yet build ODE 0.16's one meshing joint, the "
-                   "transmission joint (dJointCreateTransmission: two wheels on parallel axes, no "
-                   "rack)");
+  for (const SceneCoupling& c : g.couplings) {
+    const Joint& j = m.joints[static_cast<size_t>(c.source)];
+    std::string why;
+    if (j.type == JointType::rack_pinion)
+      why = "rack and pinion: ODE 0.16's transmission joint joins two wheels, no rack";
+    else if (j.ratio < 0.0)
+      why =
+          "gear pair meshing internally: ODE 0.16's transmission joint puts the contact point "
+          "between the two centres (external mesh only)";
+    else if (j.link_a == m.ground() || j.link_b == m.ground())
+      why =
+          "gear pair with a gear fixed to the ground: ODE 0.16's transmission joint joins two "
+          "moving bodies";
+    if (!why.empty()) throw std::runtime_error(fmt::format("joint '{}' is a {}", j.name, why));
+  }
   return g;
 }
 
