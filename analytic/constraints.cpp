@@ -125,7 +125,10 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
     return c;
   }
   if (j.type == JointType::rack_pinion) {  // the slide's travel, as a slider driver reads it
-    c = driver_rows(m, Driver{.type = DriverType::slider, .joint = j.slide});
+    Driver slide;
+    slide.type = DriverType::slider;
+    slide.joint = j.slide;
+    c = driver_rows(m, slide);
     c.kind = Kind::rack_pinion;
     c.c = m.moving_index(j.link_a);
     c.ratio = j.ratio;

@@ -362,14 +362,16 @@ TEST(SweepEngines, FourEnginesAreRankedByTheirOwnNumbers) {
         EXPECT_EQ(unmet, 0) << "an engine that meets the limits after one that does not";
         EXPECT_LE(ratio_to(e.row, limits), 1.0);
         EXPECT_EQ(e.row.dt, coarsest_meeting);
-        if (i > 0 && ranking.engines[i - 1].met)
+        if (i > 0 && ranking.engines[i - 1].met) {
           EXPECT_LE(ranking.engines[i - 1].row.cost(), e.row.cost());
+        }
       } else {
         ++unmet;
         EXPECT_EQ(coarsest_meeting, 0.0) << "a row meets the limits";
         EXPECT_DOUBLE_EQ(e.worst_ratio, best_ratio);
-        if (i > 0 && !ranking.engines[i - 1].met)
+        if (i > 0 && !ranking.engines[i - 1].met) {
           EXPECT_LE(ranking.engines[i - 1].worst_ratio, e.worst_ratio);
+        }
       }
     }
     EXPECT_EQ(met + unmet, 4);
