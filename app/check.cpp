@@ -1,6 +1,7 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <numbers>
 
 #include "analytic/branch.h"
@@ -143,9 +144,14 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
+  // Several drivers: the timed sweep's singular positions are its classified events.
+  const auto classified = static_cast<size_t>(std::count_if(
+      t.events.begin(), t.events.end(),
+      [](const Trajectory::Event& e) { return e.singularity != ParallelSingularity::none; }));
+  const size_t located = timed ? classified : singular.size();
   out +=
       fmt::format("  singular positions over the sweep: {}{}\n",
-                  singular.empty() ? std::string("none") : std::to_string(singular.size()),
+                  located == 0 ? std::string("none") : std::to_string(located),
                   flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
   // Located to ~1e-12: a value that rounds to zero is printed as 0, not -0.
   const auto value = [&](double driver) {
@@ -157,8 +163,10 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
                        unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
-      out += fmt::format("    {:<13} at {} = {:.9f} {}: {}\n", to_string(e.kind), at,
-                         value(e.driver), unit_name, e.message);
+      out += fmt::format(
+          "    {:<13} at {} = {:.9f} {}: {}\n",
+          e.singularity != ParallelSingularity::none ? to_string(e.singularity) : to_string(e.kind),
+          at, value(e.driver), unit_name, e.message);
   if (const auto fb = four_bar(m)) {
     out += fmt::format("  four-bar: {}\n", fb->explain(m));
     if (const auto mu = transmission_range(*fb, t))

@@ -1622,4 +1622,30 @@ TEST(Cli, JobsMustBeAPositiveCount) {
   }
 }
 
+// Issue 20 item 4: with several drivers `check` counts the singular positions the timed sweep
+// located and lists each with its time and kind (it said "none (3 of 361 samples flagged)" and
+// then listed one); `solve`'s JSON events carry the kind. The 3-RRR's turning path meets one, a
+// direct singularity, at 2.383692193572 s (the closed form, tests/analytic/test_parallel.cpp).
+TEST(Cli, CheckListsEachSingularPositionOfSeveralDriversWithItsKind) {
+  const CommandRun run = crosslink("check mechanisms/drivers/three_rrr_turning.toml");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("singular positions over the sweep: 1 ("), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("    direct        at t = 2.3836921"), std::string::npos) << run.out;
+  EXPECT_EQ(run.out.find("over the sweep: none"), std::string::npos) << run.out;
+  const CommandRun json =
+      crosslink("solve mechanisms/drivers/three_rrr_turning.toml --format json");
+  EXPECT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json j = nlohmann::json::parse(json.out);
+  int direct = 0;
+  for (const nlohmann::json& e : j.at("events")) {
+    if (!e.contains("singularity")) continue;
+    EXPECT_EQ(e.at("singularity"), "direct") << e;
+    EXPECT_EQ(e.at("kind"), "singular") << e;
+    EXPECT_FALSE(e.contains("chain")) << e;
+    EXPECT_NEAR(e.at("time").get<double>(), 2.383692193572, 1e-8) << e;
+    ++direct;
+  }
+  EXPECT_EQ(direct, 1) << j.at("events");
+}
+
 }  // namespace
