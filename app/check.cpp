@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "analytic/branch.h"
+#include "analytic/dyads.h"
 #include "analytic/dynamics.h"
 #include "analytic/fourbar.h"
 #include "analytic/loader.h"
@@ -239,6 +240,15 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
       out += fmt::format("    {:<14} {}\n", d.name, driver_text(m, d));
   } else {
     out += fmt::format("  driver: {}\n", driver_text(m, m.driver()));
+  }
+
+  // The closed-form method: the groups the chain decomposes into once the drivers and gear
+  // pairs are applied, or why it does not (Newton solves it).
+  if (const Decomposition d = decompose(m); d.complete) {
+    out += fmt::format("  closed-form dyads ({} groups):\n", d.groups.size());
+    for (const AssurGroup& g : d.groups) out += fmt::format("    {}\n", g.name);
+  } else {
+    out += fmt::format("  closed-form dyads: none: {}\n", d.reason);
   }
 
   const NewtonSolver solver(m);

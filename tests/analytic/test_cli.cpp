@@ -1648,4 +1648,16 @@ TEST(Cli, CheckListsEachSingularPositionOfSeveralDriversWithItsKind) {
   EXPECT_EQ(direct, 1) << j.at("events");
 }
 
+// Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
+// five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so.
+TEST(Cli, CheckReportsTheGearedFiveBarsDecomposition) {
+  const CommandRun run = crosslink("check mechanisms/gears/geared_fivebar.toml");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("closed-form dyads (3 groups):"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("gear angle from crank2"), std::string::npos) << run.out;
+  const CommandRun rack = crosslink("check mechanisms/gears/ryan_rack_and_pinion.toml");
+  EXPECT_NE(rack.out.find("closed-form dyads: none: rack and pinion"), std::string::npos)
+      << rack.out;
+}
+
 }  // namespace
