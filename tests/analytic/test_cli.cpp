@@ -1648,6 +1648,30 @@ TEST(Cli, CheckListsEachSingularPositionOfSeveralDriversWithItsKind) {
   EXPECT_EQ(direct, 1) << j.at("events");
 }
 
+// Issue 20 item 4: with several drivers the report's drawing takes --at as a time, as solve
+// --at does (it read the value as the first driver's, in the file's degrees, and drew the pose
+// at 0.25 deg = 0.0044 s), and its charts mark each singular position with its kind.
+TEST(Cli, TheReportDrawsSeveralDriversAtATime) {
+  const std::string file = "mechanisms/drivers/fivebar_two_cranks.toml";
+  const std::string html = (scratch_dir() / "fivebar_two_cranks.html").string();
+  crosslink("compare " + file + " --engines analytic --at 0.25 --report \"" + html + "\"");
+  const std::string page = read_file(html);
+  const CommandRun at = crosslink("solve " + file + " --at 0.25 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json c = nlohmann::json::parse(at.out).at("points").at("C");
+  const std::smatch drawn = [&] {
+    std::smatch m;
+    std::regex_search(
+        page, m, std::regex(R"(\{"kind":"moving","name":"C","x":([-0-9.e]+),"y":([-0-9.e]+)\})"));
+    return m;
+  }();
+  ASSERT_EQ(drawn.size(), 3u) << "no point C in the drawing";
+  EXPECT_NEAR(std::stod(drawn[1]) / 1000, c.at("x").get<double>(), 1e-12);  // mm in the page
+  EXPECT_NEAR(std::stod(drawn[2]) / 1000, c.at("y").get<double>(), 1e-12);
+  EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver left)")x"), std::string::npos);
+  EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver right)")x"), std::string::npos);
+}
+
 // Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
 // five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so.
 TEST(Cli, CheckReportsTheGearedFiveBarsDecomposition) {
