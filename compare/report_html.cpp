@@ -660,6 +660,7 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   const DisplayUnit du = driver_unit(m);
   json data = report_data(cmp, pose);
   data["drawing"]["at"] = timed ? at : at / du.scale;
+  if (timed) data["drawing"]["timed"] = true;  // `at` is a time: the sample drawn is the nearest
   data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
   std::string centres_note = "No instantaneous centres: the drawn pose is singular.";
   // Instantaneous centres I(i,j), links numbered from 1 in definition order. Every placed one is
@@ -716,8 +717,12 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
       escape(cmp.counts_text()));
   out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
          "run)</p>\n";
-  out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
-                     escape(du.name), to_string(pose.status.at(0)));
+  if (timed)
+    out << fmt::format("<h2>Mechanism at t = {:.6g} s ({})</h2>\n", at,
+                       to_string(pose.status.at(0)));
+  else
+    out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
+                       escape(du.name), to_string(pose.status.at(0)));
   out << "<div id=\"drawing\" class=\"chart\"></div>\n";
   out << fmt::format(
       "<p><label>move the drawing: <input type=\"range\" id=\"sample\" min=\"0\" max=\"{}\" "

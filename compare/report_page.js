@@ -140,7 +140,7 @@
   const D = R.drawing;
   const at = (name, k) => (R.channels[name] ? R.channels[name].ref[k] : null);
   let k0 = 0;
-  if (!R.driver.title) {
+  if (!R.driver.title || D.timed) {  // several drivers: the axis and D.at are times
     for (let k = 0; k < R.driver.values.length; k++)
       if (Math.abs(R.driver.values[k] - D.at) < Math.abs(R.driver.values[k0] - D.at)) k0 = k;
   }
