@@ -75,6 +75,19 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
     const int other = j.link_a == u ? j.link_b : j.link_b == u ? j.link_a : -1;
     if (used[ji] || other < 0 || !placed[other]) continue;
     const int joint = static_cast<int>(ji);
+    if (j.type == JointType::gear) {
+      // Its other gear and its carrier placed, the rolling of the pitch circles
+      // theta_a - theta_c + ratio (theta_b - theta_c) = phase gives u's angle.
+      if (j.carrier == u || !placed[static_cast<size_t>(j.carrier)]) continue;
+      const bool b = u == j.link_b;
+      Tie angle{.kind = Tie::Kind::angle, .joint = joint, .known = other};
+      angle.offset = b ? j.phase / j.ratio : j.phase;
+      angle.known_scale = b ? -1.0 / j.ratio : -j.ratio;
+      angle.second = j.carrier;
+      angle.second_scale = b ? 1.0 + 1.0 / j.ratio : 1.0 + j.ratio;
+      ties.push_back(angle);
+      continue;
+    }
     if (j.type == JointType::revolute) {
       Tie pin{.kind = Tie::Kind::pin, .joint = joint, .known = other};
       pin.on_known = j.link_a == other ? j.point_a : j.point_b;
@@ -167,7 +180,9 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
         text += fmt::format("pin on {}", known);
         break;
       case Tie::Kind::angle:
-        text += t.joint < 0 ? "driven angle" : fmt::format("angle from {}", known);
+        text += t.joint < 0     ? std::string("driven angle")
+                : t.second >= 0 ? fmt::format("gear angle from {}", known)
+                                : fmt::format("angle from {}", known);
         break;
       case Tie::Kind::slot:
         text += fmt::format("slot with {}", known);
@@ -182,11 +197,11 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
 Decomposition decompose(const Mechanism& m) {
   Decomposition out;
   for (const Joint& j : m.joints)
-    if (j.is_gearing()) {
+    if (j.type == JointType::rack_pinion) {
       out.reason = fmt::format(
-          "{} '{}' couples two rotations (or a rotation and a travel), which no dyad places: "
-          "left to Newton",
-          j.type == JointType::gear ? "gear pair" : "rack and pinion", j.name);
+          "rack and pinion '{}' couples a rotation and a travel, which no dyad places: left to "
+          "Newton",
+          j.name);
       return out;
     }
   const int n = static_cast<int>(m.links.size());
@@ -308,7 +323,13 @@ Decomposition decompose(const Mechanism& m) {
     return out;
   }
   for (size_t ji = 0; ji < m.joints.size(); ++ji)
-    if (!used[ji]) {
+    if (!used[ji] && m.joints[ji].type == JointType::gear) {
+      out.reason = fmt::format(
+          "gear pair '{}' places neither gear (each placed before it by other joints): a "
+          "redundant coupling, left to Newton",
+          m.joints[ji].name);
+      return out;
+    } else if (!used[ji]) {
       out.reason = fmt::format(
           "joint '{}' is not used by any group (a redundant joint, or a "
           "slider driver whose guide moves)",
@@ -479,7 +500,11 @@ Eigen::Vector3d angle_state(const Mechanism& m, const Tie& t, const DyadState& s
                     t.driver_sign * d.accel);
   if (t.known >= 0) {
     const BodyMotion& k = s.motion[t.known];
-    a += Eigen::Vector3d(k.theta, k.omega, k.alpha);
+    a += t.known_scale * Eigen::Vector3d(k.theta, k.omega, k.alpha);
+  }
+  if (t.second >= 0) {
+    const BodyMotion& k = s.motion[t.second];
+    a += t.second_scale * Eigen::Vector3d(k.theta, k.omega, k.alpha);
   }
   return a;
 }
@@ -563,7 +588,8 @@ void DyadSolver::roots(const AssurGroup& g, const Plan& plan, DyadState& s, Root
       const Tie& t = side.angle;
       const DriverState& d = tie_driver(m, t, s);
       double theta = t.offset + t.driver_sign * d.value;
-      if (t.known >= 0) theta += s.motion[t.known].theta;
+      if (t.known >= 0) theta += t.known_scale * s.motion[t.known].theta;
+      if (t.second >= 0) theta += t.second_scale * s.motion[t.second].theta;
       set_angle(s.motion[g.link[i]], theta);
     }
     if (side.has_pin) r.pin[i] = pin_position(m, side.pin, side.pin_known, s);
@@ -1014,7 +1040,10 @@ void DyadSolver::input_rates(const AssurGroup& g, const Plan& plan, bool accel,
   const DriverState& d = tie_driver(mechanism_, t, s);
   BodyMotion& u = s.motion[g.link[0]];
   double angular = t.driver_sign * (accel ? d.accel : d.rate);
-  if (t.known >= 0) angular += accel ? s.motion[t.known].alpha : s.motion[t.known].omega;
+  if (t.known >= 0)
+    angular += t.known_scale * (accel ? s.motion[t.known].alpha : s.motion[t.known].omega);
+  if (t.second >= 0)
+    angular += t.second_scale * (accel ? s.motion[t.second].alpha : s.motion[t.second].omega);
   const Eigen::Vector2d pin = pin_rate(mechanism_, side.pin, side.pin_known, accel, s);
   const Eigen::Vector2d arm = u.turn(side.pin_local);
   if (accel) {

@@ -5,7 +5,8 @@
 // already placed (the ground first). What a joint to a placed link K asks of an unplaced link U
 // is a "tie":
 //   pin    a point of U at a known world point (a revolute joint with K)          2 equations
-//   angle  U's angle known (a prismatic joint's fixed relative angle, or a driver) 1 equation
+//   angle  U's angle known (a prismatic joint's fixed relative angle, a driver,     1 equation
+//          or a gear pair whose other gear and carrier are placed)
 //   slot   a point on a line, one of the two on U (the line part of a prismatic or 1 equation
 //          pin-in-slot joint)
 // Groups, in the order they are searched:
@@ -54,13 +55,18 @@ struct Tie {
   int joint = -1;  // the joint it comes from (-1: the link_angle driver)
   // pin: point `on_link` of the unplaced link sits at point `on_known` of link `known`; when
   // `driver_slide`, at the driver's displacement s along line `line` of `known` instead.
-  // angle: theta = theta_known + offset + driver_sign * driver value (known = -1: no link).
+  // angle: theta = known_scale * theta_known + offset + driver_sign * driver value (known = -1:
+  // no link), plus second_scale * theta_second for a gear pair's (its other gear the known
+  // link, its carrier the second: the rolling of the pitch circles, linear in both).
   // slot: the line part of `joint`; the unplaced link is its slider when `slider_is_unplaced`.
   int known = -1;
   int on_known = -1, on_link = -1, line = -1;
   bool driver_slide = false;
   double offset = 0.0, driver_sign = 0.0;
   bool slider_is_unplaced = false;
+  double known_scale = 1.0;
+  int second = -1;
+  double second_scale = 0.0;
 };
 
 // One group of the decomposition, placed once the links its ties name are placed.

@@ -9,6 +9,18 @@
 
 namespace crosslink {
 
+std::string_view to_string(ParallelSingularity kind) {
+  switch (kind) {
+    case ParallelSingularity::none:
+      return "none";
+    case ParallelSingularity::direct:
+      return "direct";
+    case ParallelSingularity::inverse:
+      return "inverse";
+  }
+  return "?";
+}
+
 std::string_view to_string(PoseStatus status) {
   switch (status) {
     case PoseStatus::ok:

@@ -41,6 +41,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "analytic/mechanism.h"
@@ -70,6 +71,12 @@ inline bool usable(PoseStatus s) {
 inline bool has_position(PoseStatus s) {
   return s == PoseStatus::ok || s == PoseStatus::singular;
 }
+
+// A singular position of a mechanism with several drivers (Gosselin & Angeles 1990;
+// analytic/driver_chains.h): direct, the drivers no longer determine the output (it gains a
+// freedom); inverse, a driver's chain at a toggle (the output loses a direction).
+enum class ParallelSingularity : std::uint8_t { none, direct, inverse };
+std::string_view to_string(ParallelSingularity kind);
 
 enum class Quantity { position, angle, velocity, acceleration, force, torque, energy };
 std::string_view to_string(Quantity q);
@@ -124,9 +131,20 @@ struct Trajectory {
 
   // Named events along the sweep (limits, singular positions, branch changes...).
   struct Event {
-    double driver;  // [rad or m]
+    Event(double driver_, PoseStatus kind_, std::string message_,
+          ParallelSingularity singularity_ = ParallelSingularity::none, std::string chain_ = {})
+        : driver(driver_),
+          kind(kind_),
+          message(std::move(message_)),
+          singularity(singularity_),
+          chain(std::move(chain_)) {}
+    double driver;  // [rad or m]; several drivers: the time [s]
     PoseStatus kind;
     std::string message;
+    // Several drivers: a singular position's kind (analytic/driver_chains.h), and for an
+    // inverse one the driver whose chain is at a toggle; none otherwise.
+    ParallelSingularity singularity;
+    std::string chain;
   };
   std::vector<Event> events;
 

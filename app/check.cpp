@@ -1,9 +1,11 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <numbers>
 
 #include "analytic/branch.h"
+#include "analytic/dyads.h"
 #include "analytic/dynamics.h"
 #include "analytic/fourbar.h"
 #include "analytic/loader.h"
@@ -143,9 +145,14 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
+  // Several drivers: the timed sweep's singular positions are its classified events.
+  const auto classified = static_cast<size_t>(std::count_if(
+      t.events.begin(), t.events.end(),
+      [](const Trajectory::Event& e) { return e.singularity != ParallelSingularity::none; }));
+  const size_t located = timed ? classified : singular.size();
   out +=
       fmt::format("  singular positions over the sweep: {}{}\n",
-                  singular.empty() ? std::string("none") : std::to_string(singular.size()),
+                  located == 0 ? std::string("none") : std::to_string(located),
                   flagged ? fmt::format(" ({} of {} samples flagged)", flagged, t.samples()) : "");
   // Located to ~1e-12: a value that rounds to zero is printed as 0, not -0.
   const auto value = [&](double driver) {
@@ -157,8 +164,10 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
                        unit_name);
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
-      out += fmt::format("    {:<13} at {} = {:.9f} {}: {}\n", to_string(e.kind), at,
-                         value(e.driver), unit_name, e.message);
+      out += fmt::format(
+          "    {:<13} at {} = {:.9f} {}: {}\n",
+          e.singularity != ParallelSingularity::none ? to_string(e.singularity) : to_string(e.kind),
+          at, value(e.driver), unit_name, e.message);
   if (const auto fb = four_bar(m)) {
     out += fmt::format("  four-bar: {}\n", fb->explain(m));
     if (const auto mu = transmission_range(*fb, t))
@@ -231,6 +240,15 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
       out += fmt::format("    {:<14} {}\n", d.name, driver_text(m, d));
   } else {
     out += fmt::format("  driver: {}\n", driver_text(m, m.driver()));
+  }
+
+  // The closed-form method: the groups the chain decomposes into once the drivers and gear
+  // pairs are applied, or why it does not (Newton solves it).
+  if (const Decomposition d = decompose(m); d.complete) {
+    out += fmt::format("  closed-form dyads ({} groups):\n", d.groups.size());
+    for (const AssurGroup& g : d.groups) out += fmt::format("    {}\n", g.name);
+  } else {
+    out += fmt::format("  closed-form dyads: none: {}\n", d.reason);
   }
 
   const NewtonSolver solver(m);

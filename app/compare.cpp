@@ -148,8 +148,10 @@ int run_compare(CompareArgs args) {
   if (!dynamics) check_sweep_work(m, options, args.limits);
   if (dynamics) check_simulation_work(m, {}, "", args.limits);
   check_reference_work(m, args.limits);
+  // --at: a driver value in the file's units; with several drivers a time [s], as solve's.
+  const double at_scale = m.several_drivers() ? 1.0 : driver_scale;
   if (args.at && !dynamics)  // the report draws the pose there (solve_at)
-    check_solve_at_work(m, *args.at * driver_scale, {}, args.limits);
+    check_solve_at_work(m, *args.at * at_scale, {}, args.limits);
   std::vector<compare::MethodRun> runs;
   runs.push_back(dynamics ? methods::run_simulation(m, {.max_solves = args.limits.max_solves})
                           : methods::run_reference(m, options));
@@ -210,7 +212,7 @@ int run_compare(CompareArgs args) {
   }
   if (!args.report.empty()) {
     compare::HtmlOptions html;
-    if (args.at) html.at = *args.at * driver_scale;
+    if (args.at) html.at = *args.at * at_scale;
     html.asset_dirs = installed_asset_dirs();
     if (args.step != 0.0) html.step = options.step;
     html.tolerances = args.tolerances;
@@ -242,7 +244,8 @@ void add_compare(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--csv", args->csv, "write every sample of every comparison as CSV (SI)");
   cmd->add_option("--json", args->json, "write the JSON document (SI; '-' for stdout)");
   cmd->add_option("--at", args->at,
-                  "driver value of the report's drawing, in the file's units (default: start)")
+                  "driver value of the report's drawing, in the file's units (default: start); "
+                  "with several drivers a time [s] (default: 0)")
       ->check(number_in());
   cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)")
       ->check(positive_number());

@@ -102,9 +102,15 @@ nlohmann::json document_json(const Mechanism& m, const Trajectory& t, bool of_sa
         std::string(to_string(first_flagged == t.status.end() ? PoseStatus::ok : *first_flagged));
   }
   j["events"] = nlohmann::json::array();
-  for (const Trajectory::Event& e : t.events)
-    j["events"].push_back(
-        {{event_key, e.driver}, {"kind", std::string(to_string(e.kind))}, {"message", e.message}});
+  for (const Trajectory::Event& e : t.events) {
+    nlohmann::json event = {
+        {event_key, e.driver}, {"kind", std::string(to_string(e.kind))}, {"message", e.message}};
+    // Several drivers' singular positions: direct or inverse, and the inverse one's driver.
+    if (e.singularity != ParallelSingularity::none)
+      event["singularity"] = std::string(to_string(e.singularity));
+    if (!e.chain.empty()) event["chain"] = e.chain;
+    j["events"].push_back(std::move(event));
+  }
   return j;
 }
 

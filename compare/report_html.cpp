@@ -305,6 +305,14 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
     }
     r["quantities"].push_back({{"name", std::string(to_string(q))}, {"channels", channels}});
   }
+  // Several drivers' singular positions (direct, inverse), marked on the charts at their time.
+  for (const Trajectory::Event& e : ref.events)
+    if (e.singularity != ParallelSingularity::none)
+      r["singular"].push_back(
+          {{"driver", e.driver},
+           {"kind", fmt::format("{} singularity{}", to_string(e.singularity),
+                                e.chain.empty() ? "" : " (driver " + e.chain + ")")},
+           {"message", e.message}});
   r["drawing"] = drawing(m, pose, display_unit(m, "x.any"));
   return r;
 }
@@ -644,12 +652,15 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   std::ostringstream head;  // first, so a missing chart script fails before any work
   write_page_head(fmt::format("crosslink compare: {}", m.name), "", options.asset_dirs, head);
 
-  // The drawing's pose: exact, at --at or the drawn start.
-  const double at = options.at.value_or(m.driver().start);
+  // The drawing's pose: exact, at --at or the drawn start. Several drivers: --at is a time
+  // (solve_at follows the drivers up to it), the start t = 0.
+  const bool timed = m.several_drivers();
+  const double at = options.at.value_or(timed ? 0.0 : m.driver().start);
   Trajectory pose = solve_at(m, at);
   const DisplayUnit du = driver_unit(m);
   json data = report_data(cmp, pose);
-  data["drawing"]["at"] = at / du.scale;
+  data["drawing"]["at"] = timed ? at : at / du.scale;
+  if (timed) data["drawing"]["timed"] = true;  // `at` is a time: the sample drawn is the nearest
   data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
   std::string centres_note = "No instantaneous centres: the drawn pose is singular.";
   // Instantaneous centres I(i,j), links numbered from 1 in definition order. Every placed one is
@@ -706,8 +717,12 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
       escape(cmp.counts_text()));
   out << "<p id=\"render-status\" data-status=\"pending\">charts not rendered (scripts did not "
          "run)</p>\n";
-  out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
-                     escape(du.name), to_string(pose.status.at(0)));
+  if (timed)
+    out << fmt::format("<h2>Mechanism at t = {:.6g} s ({})</h2>\n", at,
+                       to_string(pose.status.at(0)));
+  else
+    out << fmt::format("<h2>Mechanism at driver = {:.6g} {} ({})</h2>\n", at / du.scale,
+                       escape(du.name), to_string(pose.status.at(0)));
   out << "<div id=\"drawing\" class=\"chart\"></div>\n";
   out << fmt::format(
       "<p><label>move the drawing: <input type=\"range\" id=\"sample\" min=\"0\" max=\"{}\" "

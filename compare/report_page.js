@@ -81,6 +81,14 @@
                          mark: {type: 'rect', color: '#d62728', opacity: 0.15},
                          encoding: {x: axisX, x2: {field: 'driver2'},
                                     tooltip: [{field: 'reason'}]}};
+    // Several drivers' singular positions (direct, inverse): a rule at each located time.
+    const singularRule = {data: {values: R.singular || []},
+                          mark: {type: 'rule', color: '#9467bd', strokeWidth: 1.5},
+                          encoding: {x: axisX, tooltip: [{field: 'kind'}, {field: 'message'}]}};
+    const singularLabel = {data: {values: R.singular || []},
+                           mark: {type: 'text', align: 'left', baseline: 'top', dx: 3, dy: 2,
+                                  color: '#9467bd', fontSize: 10},
+                           encoding: {x: axisX, y: {value: 0}, text: {field: 'kind'}}};
     const cursor = {data: {name: 'cursor'},
                     mark: {type: 'rule', color: '#555', strokeDash: [2, 2]},
                     encoding: {x: axisX}};
@@ -95,7 +103,7 @@
         {
           width: 640, height: 220,
           layer: [
-            flaggedRule, cursor,
+            flaggedRule, singularRule, singularLabel, cursor,
             {data: {name: 'series'},
              mark: {type: 'line', strokeWidth: 1.6, clip: true, invalid: gaps},
              encoding: {x: axisX, y: {field: 'value', type: 'quantitative',
@@ -108,7 +116,7 @@
         {
           width: 640, height: 130,
           layer: [
-            flaggedRule, cursor,
+            flaggedRule, singularRule, cursor,
             {data: {name: 'series'},
              transform: [{filter: 'datum.method != ' + JSON.stringify(methodOrder[0])}],
              mark: {type: 'line', strokeWidth: 1.2, clip: true, invalid: gaps},
@@ -132,7 +140,7 @@
   const D = R.drawing;
   const at = (name, k) => (R.channels[name] ? R.channels[name].ref[k] : null);
   let k0 = 0;
-  if (!R.driver.title) {
+  if (!R.driver.title || D.timed) {  // several drivers: the axis and D.at are times
     for (let k = 0; k < R.driver.values.length; k++)
       if (Math.abs(R.driver.values[k] - D.at) < Math.abs(R.driver.values[k0] - D.at)) k0 = k;
   }

@@ -1622,4 +1622,66 @@ TEST(Cli, JobsMustBeAPositiveCount) {
   }
 }
 
+// Issue 20 item 4: with several drivers `check` counts the singular positions the timed sweep
+// located and lists each with its time and kind (it said "none (3 of 361 samples flagged)" and
+// then listed one); `solve`'s JSON events carry the kind. The 3-RRR's turning path meets one, a
+// direct singularity, at 2.383692193572 s (the closed form, tests/analytic/test_parallel.cpp).
+TEST(Cli, CheckListsEachSingularPositionOfSeveralDriversWithItsKind) {
+  const CommandRun run = crosslink("check mechanisms/drivers/three_rrr_turning.toml");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("singular positions over the sweep: 1 ("), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("    direct        at t = 2.3836921"), std::string::npos) << run.out;
+  EXPECT_EQ(run.out.find("over the sweep: none"), std::string::npos) << run.out;
+  const CommandRun json =
+      crosslink("solve mechanisms/drivers/three_rrr_turning.toml --format json");
+  EXPECT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json j = nlohmann::json::parse(json.out);
+  int direct = 0;
+  for (const nlohmann::json& e : j.at("events")) {
+    if (!e.contains("singularity")) continue;
+    EXPECT_EQ(e.at("singularity"), "direct") << e;
+    EXPECT_EQ(e.at("kind"), "singular") << e;
+    EXPECT_FALSE(e.contains("chain")) << e;
+    EXPECT_NEAR(e.at("time").get<double>(), 2.383692193572, 1e-8) << e;
+    ++direct;
+  }
+  EXPECT_EQ(direct, 1) << j.at("events");
+}
+
+// Issue 20 item 4: with several drivers the report's drawing takes --at as a time, as solve
+// --at does (it read the value as the first driver's, in the file's degrees, and drew the pose
+// at 0.25 deg = 0.0044 s), and its charts mark each singular position with its kind.
+TEST(Cli, TheReportDrawsSeveralDriversAtATime) {
+  const std::string file = "mechanisms/drivers/fivebar_two_cranks.toml";
+  const std::string html = (scratch_dir() / "fivebar_two_cranks.html").string();
+  crosslink("compare " + file + " --engines analytic --at 0.25 --report \"" + html + "\"");
+  const std::string page = read_file(html);
+  const CommandRun at = crosslink("solve " + file + " --at 0.25 --format json");
+  ASSERT_EQ(at.exit_code, 0) << at.err;
+  const nlohmann::json c = nlohmann::json::parse(at.out).at("points").at("C");
+  const std::smatch drawn = [&] {
+    std::smatch m;
+    std::regex_search(
+        page, m, std::regex(R"(\{"kind":"moving","name":"C","x":([-0-9.e]+),"y":([-0-9.e]+)\})"));
+    return m;
+  }();
+  ASSERT_EQ(drawn.size(), 3u) << "no point C in the drawing";
+  EXPECT_NEAR(std::stod(drawn[1]) / 1000, c.at("x").get<double>(), 1e-12);  // mm in the page
+  EXPECT_NEAR(std::stod(drawn[2]) / 1000, c.at("y").get<double>(), 1e-12);
+  EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver left)")x"), std::string::npos);
+  EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver right)")x"), std::string::npos);
+}
+
+// Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
+// five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so.
+TEST(Cli, CheckReportsTheGearedFiveBarsDecomposition) {
+  const CommandRun run = crosslink("check mechanisms/gears/geared_fivebar.toml");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("closed-form dyads (3 groups):"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("gear angle from crank2"), std::string::npos) << run.out;
+  const CommandRun rack = crosslink("check mechanisms/gears/ryan_rack_and_pinion.toml");
+  EXPECT_NE(rack.out.find("closed-form dyads: none: rack and pinion"), std::string::npos)
+      << rack.out;
+}
+
 }  // namespace

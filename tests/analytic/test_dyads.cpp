@@ -26,9 +26,10 @@ namespace {
 
 constexpr double kAgreement = 1e-10;
 
-std::vector<std::string> bundled_mechanisms() {
+std::vector<std::string> bundled_mechanisms(const std::string& folder = "") {
   std::vector<std::string> files;
-  const std::filesystem::path dir = std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms";
+  const std::filesystem::path dir =
+      std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / folder;
   for (const auto& entry : std::filesystem::directory_iterator(dir))
     if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
@@ -147,6 +148,27 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
 
 INSTANTIATE_TEST_SUITE_P(Mechanisms, Bundled, ::testing::ValuesIn(bundled_mechanisms()),
                          [](const auto& info) { return stem(info.param); });
+// Gear pairs (issue 20 item 3): a gear whose mate and carrier are placed has its angle, so the
+// geared five-bars and the epicyclic trains decompose; a rack and pinion is left to Newton.
+INSTANTIATE_TEST_SUITE_P(Gears, Bundled, ::testing::ValuesIn(bundled_mechanisms("gears")),
+                         [](const auto& info) { return stem(info.param); });
+
+// The geared five-bar becomes one RRR dyad once the gear fixes the second crank: the driven
+// crank, then the geared crank (its pivot and the gear's angle), then the couplers.
+TEST(Dyads, AGearPairPlacesTheSecondCrankOfAGearedFiveBar) {
+  for (const std::string name : {"geared_fivebar", "constans_dyer_geared_fivebar"}) {
+    const Mechanism m =
+        load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/" + name + ".toml");
+    const Decomposition d = decompose(m);
+    ASSERT_TRUE(d.complete) << name << ": " << d.reason;
+    ASSERT_EQ(d.groups.size(), 3u) << name;
+    EXPECT_EQ(d.groups[0].kind, AssurGroup::Kind::input) << d.groups[0].name;
+    EXPECT_EQ(d.groups[1].kind, AssurGroup::Kind::input) << d.groups[1].name;
+    EXPECT_NE(d.groups[1].name.find("gear angle from"), std::string::npos) << d.groups[1].name;
+    EXPECT_EQ(d.groups[2].kind, AssurGroup::Kind::dyad) << d.groups[2].name;
+    EXPECT_EQ(d.groups[2].name.rfind("RRR dyad", 0), 0u) << d.groups[2].name;
+  }
+}
 
 // The dyad method must be able to fail: on the other assembly mode the crank-rocker's coupler
 // and rocker are the mirror image about BD, and no longer agree with Newton on the drawn one.
