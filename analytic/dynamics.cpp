@@ -534,6 +534,18 @@ double Simulation::energy_error(int k) const {
 
 std::string singular_start(const Mechanism& m, double rcond) {
   if (rcond >= kSingularStartRcond) return "";
+  if (m.several_drivers()) {
+    std::string starts;
+    for (const Driver& d : m.drivers)
+      starts += fmt::format("{} = {:.9g} {}, ", d.name,
+                            d.start / (d.angular() ? m.units.angle : m.units.length),
+                            d.angular() ? m.units.angle_name : m.units.length_name);
+    return fmt::format(
+        "the start, {}is a singular position of the coordinates (rcond {:.1e}): there the "
+        "other coordinates' rates are not determined by the drivers' rates, so no initial "
+        "velocity is consistent with it; start the [[driver]]s away from it",
+        starts, rcond);
+  }
   const bool angular = m.driver().angular();
   return fmt::format(
       "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
