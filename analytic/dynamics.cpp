@@ -7,6 +7,11 @@
 #include <cmath>
 #include <optional>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <Eigen/Cholesky>
 
 #include "analytic/kinetostatics.h"
 #include "analytic/newton.h"
@@ -14,8 +19,6 @@
 
 namespace crosslink {
 namespace {
-
-using State = std::array<double, 3>;  // d, ddot, w
 
 constexpr double kFirstStep = 1e-5;  // [s]: the integrator's first trial step
 
@@ -27,19 +30,55 @@ struct Stopped {
   bool over_budget = false;  // the run reached SimulationOptions::max_solves
 };
 
-// The minimal-coordinate equation of motion, with the pose followed by continuation.
-class EquationOfMotion {
+// The free coordinates' values: one (double) or several (a vector, one per driver).
+void place(KinematicState& state, double t, double d) {
+  state.driver = {t, d, 1.0, 0.0};
+}
+void place(KinematicState& state, double t, const Eigen::VectorXd& d) {
+  for (int i = 0; i < d.size(); ++i) state.driver_state(i) = {t, d(i), 0.0, 0.0};
+}
+double largest(double span) {
+  return std::abs(span);
+}
+double largest(const Eigen::VectorXd& span) {
+  return span.lpNorm<Eigen::Infinity>();
+}
+std::string shown(double d, int digits) {
+  return fmt::format("{:.{}g}", d, digits);
+}
+std::string shown(const Eigen::VectorXd& d, int digits) {
+  std::string out = "(";
+  for (int i = 0; i < d.size(); ++i) out += fmt::format("{}{:.{}g}", i ? ", " : "", d(i), digits);
+  return out + ")";
+}
+// The pose predicted a step h of the coordinates on from q, with dq/dd = s.
+void predict(const Eigen::VectorXd& q, double h, const Eigen::VectorXd& s, Eigen::VectorXd& out) {
+  out = q + h * s;
+}
+void predict(const Eigen::VectorXd& q, const Eigen::VectorXd& h, const Eigen::MatrixXd& s,
+             Eigen::VectorXd& out) {
+  out = q + s * h;
+}
+double predicted_move(double h, const Eigen::VectorXd& s) {
+  return (h * s).lpNorm<Eigen::Infinity>();
+}
+double predicted_move(const Eigen::VectorXd& h, const Eigen::MatrixXd& s) {
+  return (s * h).lpNorm<Eigen::Infinity>();
+}
+
+// The pose of the chain followed by continuation along its free coordinates: Coordinates is a
+// double (one coordinate, Rates its dq/dd) or a vector (several, Rates dq/dd one column each).
+template <class Coordinates, class Rates>
+class FollowedChain {
  public:
-  EquationOfMotion(const Mechanism& m, long max_solves)
+  FollowedChain(const Mechanism& m, long max_solves)
       : m_(m),
         max_solves_(max_solves),
         solver_(m, NewtonOptions{.tolerance = 1e-15}),
         kinetostatics_(solver_),
         state_(m),
         applied_(m.coordinate_count()),
-        s_(m.coordinate_count()),
         q_last_(m.coordinate_count()),
-        s_last_(m.coordinate_count()),
         guess_(m.coordinate_count()) {
     const SolveReport assembled = solver_.assemble(state_);
     if (assembled.status != PoseStatus::ok)
@@ -52,7 +91,12 @@ class EquationOfMotion {
       throw Stopped{0.0, PoseStatus::singular, why};
     near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
     interpolated_rcond_ = std::min(1e-3, 3e-2 * assembled.rcond);
-    d_last_ = state_.driver.value;
+    if constexpr (std::is_same_v<Coordinates, double>) {
+      d_last_ = state_.driver.value;
+    } else {
+      d_last_.resize(state_.driver_count());
+      for (int i = 0; i < state_.driver_count(); ++i) d_last_(i) = state_.driver_state(i).value;
+    }
     q_last_ = state_.q;
     unit_rate();
     s_last_ = s_;
@@ -65,6 +109,114 @@ class EquationOfMotion {
   // The reciprocal condition of the pose at the coordinate of the last acceleration().
   double rcond() const { return rcond_; }
   long solves() const { return solves_; }
+
+  // Whether the pose of the last acceleration() is next to a singular position: resolved only to
+  // Newton's tolerance over J's condition, a sample there is flagged (the interpolation's zone
+  // is wider: its edge serves the integration, where 1e-10 of an acceleration matters).
+  bool near_singular() const { return near_singular_; }
+
+ protected:
+  // Solves the pose at d from the last regular one, in continuation steps; s_ = dq/dd there.
+  // Returns the pose's reciprocal condition; a pose next to a singular one is not taken as the
+  // start of the next continuation (its s is not reliable) and its correction is not checked
+  // (Newton resolves it only to ~sqrt(tolerance) there).
+  double move_to(double t, const Coordinates& d) {
+    const Coordinates from = d_last_, span = d - from;
+    const double wanted = std::max(1.0, std::ceil(largest(span) / continuation_step(m_)));
+    // Counted before they are taken: one evaluation may ask for billions (a coordinate thrown
+    // across 1e9 rad by an effort of 1e12 in a nanosecond).
+    if (!(solves_ + wanted <= static_cast<double>(max_solves_)))
+      throw Stopped{t, PoseStatus::not_reached,
+                    fmt::format("the run has taken {} pose solves and its next evaluation asks "
+                                "for {:.0f} more (coordinate {} to {}): the limit is {} "
+                                "(raise it with --max-solves N)",
+                                solves_, wanted, shown(from, 6), shown(d, 6), max_solves_),
+                    true};
+    const int steps = static_cast<int>(wanted);
+    solves_ += steps;
+    double rcond = 1.0;
+    for (int i = 1; i <= steps; ++i) {
+      const Coordinates target = i == steps ? d
+                                            : Coordinates(from + span * static_cast<double>(i) /
+                                                                     static_cast<double>(steps)),
+                        h = target - d_last_;
+      predict(q_last_, h, s_last_, guess_);
+      state_.q = guess_;
+      place(state_, t, target);
+      const SolveReport r = solver_.solve_position(state_);
+      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular)
+        throw Stopped{t, r.status,
+                      fmt::format("at coordinate {}: {}", shown(target, 12), r.message)};
+      rcond = r.rcond;
+      if (rcond < near_singular_rcond_) {
+        // Stepped over: the next pose is predicted from the last regular one, across.
+        if (i < steps) continue;
+        unit_rate();
+        return rcond;
+      }
+      // Newton may only polish the predicted pose: a large correction is another branch.
+      const double predicted = predicted_move(h, s_last_);
+      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() >
+          0.1 * predicted + 1e-9 * solver_.length_scale())
+        throw Stopped{t, PoseStatus::branch_jump,
+                      fmt::format("the only pose near coordinate {} is on another branch",
+                                  shown(target, 12))};
+      unit_rate();
+      d_last_ = target;
+      q_last_ = state_.q;
+      s_last_ = s_;
+    }
+    return rcond;
+  }
+
+  // s_ = dq/dd at the pose factorised last: one velocity solve per coordinate at unit rate, the
+  // others' 0.
+  void unit_rate() {
+    if constexpr (std::is_same_v<Coordinates, double>) {
+      state_.driver.rate = 1.0;
+      solver_.solve_velocity(state_);
+      s_ = state_.qdot;
+    } else {
+      s_.resize(m_.coordinate_count(), state_.driver_count());
+      for (int i = 0; i < state_.driver_count(); ++i) {
+        for (int j = 0; j < state_.driver_count(); ++j)
+          state_.driver_state(j).rate = i == j ? 1.0 : 0.0;
+        solver_.solve_velocity(state_);
+        s_.col(i) = state_.qdot;
+      }
+    }
+  }
+
+  const Mechanism& m_;
+  const long max_solves_;
+  long solves_ = 0;
+  NewtonSolver solver_;
+  Kinetostatics kinetostatics_;
+  KinematicState state_;
+  Eigen::VectorXd applied_, q_last_, guess_;
+  Rates s_, s_last_;  // dq/dd at the pose, and at the last regular one
+  Coordinates d_last_{};
+  double rcond_ = 1.0;
+  long evaluations_ = 0;
+  bool near_singular_ = false;
+  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
+  // to its tolerance over it) are stepped over by the continuation, not started from.
+  double near_singular_rcond_ = 1e-4;
+  // Poses closer than this have their acceleration interpolated (see acceleration()).
+  double interpolated_rcond_ = 1e-3;
+};
+
+// The minimal-coordinate equation of motion of one free coordinate, with the pose followed by
+// continuation.
+class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
+ public:
+  using State = std::array<double, 3>;  // d, ddot, w
+  using FollowedChain::FollowedChain;
+
+  // The state at (t, x): the pose, its rates and accelerations.
+  void at(double t, const State& x) { acceleration(t, x[0], x[1], m_.dynamics->effort_at(t)); }
+  // The work done so far, of state x.
+  static double work(const State& x) { return x[2]; }
 
   // dd/dt, dddot/dt and dw/dt at (t, x).
   void operator()(const State& x, State& dxdt, double t) {
@@ -94,11 +246,6 @@ class EquationOfMotion {
       reduce(t, d, here_);
     return motion(t, d, ddot, effort, power);
   }
-
-  // Whether the pose of the last acceleration() is next to a singular position: resolved only to
-  // Newton's tolerance over J's condition, a sample there is flagged (the interpolation's zone
-  // is wider: its edge serves the integration, where 1e-10 of an acceleration matters).
-  bool near_singular() const { return near_singular_; }
 
  private:
   // The widest spacing of the interpolation's nodes [rad, or of the size]: 0.16, so the nodes
@@ -207,68 +354,6 @@ class EquationOfMotion {
     return dddot;
   }
 
-  // Solves the pose at d from the last regular one, in continuation steps; s_ = dq/dd there.
-  // Returns the pose's reciprocal condition; a pose next to a singular one is not taken as the
-  // start of the next continuation (its s is not reliable) and its correction is not checked
-  // (Newton resolves it only to ~sqrt(tolerance) there).
-  double move_to(double t, double d) {
-    const double from = d_last_, span = d - from;
-    const double wanted = std::max(1.0, std::ceil(std::abs(span) / continuation_step(m_)));
-    // Counted before they are taken: one evaluation may ask for billions (a coordinate thrown
-    // across 1e9 rad by an effort of 1e12 in a nanosecond).
-    if (!(solves_ + wanted <= static_cast<double>(max_solves_)))
-      throw Stopped{t, PoseStatus::not_reached,
-                    fmt::format("the run has taken {} pose solves and its next evaluation asks "
-                                "for {:.0f} more (coordinate {:.6g} to {:.6g}): the limit is {} "
-                                "(raise it with --max-solves N)",
-                                solves_, wanted, from, d, max_solves_),
-                    true};
-    const int steps = static_cast<int>(wanted);
-    solves_ += steps;
-    double rcond = 1.0;
-    for (int i = 1; i <= steps; ++i) {
-      const double target = i == steps ? d : from + span * i / steps, h = target - d_last_;
-      guess_ = q_last_ + h * s_last_;
-      state_.q = guess_;
-      state_.driver = {t, target, 1.0, 0.0};
-      const SolveReport r = solver_.solve_position(state_);
-      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular)
-        throw Stopped{t, r.status, fmt::format("at coordinate {:.12g}: {}", target, r.message)};
-      rcond = r.rcond;
-      if (rcond < near_singular_rcond_) {
-        // Stepped over: the next pose is predicted from the last regular one, across.
-        if (i < steps) continue;
-        unit_rate();
-        return rcond;
-      }
-      // Newton may only polish the predicted pose: a large correction is another branch.
-      const double predicted = (h * s_last_).lpNorm<Eigen::Infinity>();
-      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() >
-          0.1 * predicted + 1e-9 * solver_.length_scale())
-        throw Stopped{
-            t, PoseStatus::branch_jump,
-            fmt::format("the only pose near coordinate {:.12g} is on another branch", target)};
-      unit_rate();
-      d_last_ = target;
-      q_last_ = state_.q;
-      s_last_ = s_;
-    }
-    return rcond;
-  }
-
-  void unit_rate() {
-    state_.driver.rate = 1.0;
-    solver_.solve_velocity(state_);
-    s_ = state_.qdot;
-  }
-
-  const Mechanism& m_;
-  const long max_solves_;
-  long solves_ = 0;
-  NewtonSolver solver_;
-  Kinetostatics kinetostatics_;
-  KinematicState state_;
-  Eigen::VectorXd applied_, s_, q_last_, s_last_, guess_;
   Reduced here_;  // at the coordinate
   // The last zone next to a singular position: its edges and its nodes (interpolate).
   struct Zone {
@@ -276,15 +361,170 @@ class EquationOfMotion {
     std::array<double, 8> nodes{};
     std::array<Reduced, 8> reduced;
   } zone_;
-  double d_last_ = 0.0, rcond_ = 1.0;
-  long evaluations_ = 0;
-  bool near_singular_ = false;
-  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
-  // to its tolerance over it) are stepped over by the continuation, not started from.
-  double near_singular_rcond_ = 1e-4;
-  // Poses closer than this have their acceleration interpolated (see acceleration()).
-  double interpolated_rcond_ = 1e-3;
 };
+
+// The equations of motion of several free coordinates d (one per driver). S = dq/dd (one velocity
+// solve per driver at unit rate, the others' 0) and qddot0 (the acceleration solve at qdot =
+// S ddot with every coordinate's acceleration 0) give qddot = qddot0 + S dddot; projected on S's
+// columns, along which the constraint forces do no work,
+//   (S^T M S) dddot = efforts(t) + S^T (Q - M qddot0),
+// with Q - M qddot0 from Kinetostatics::generalised_forces and S^T M S the kinetic energy's
+// bilinear form on S's columns (Kinetostatics::inertia_product). A pose next to a singular
+// position stops the run: the one coordinate's interpolation across one (EquationOfMotion) is
+// along a line, and several coordinates would need it over a surface.
+class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> {
+ public:
+  using State = std::vector<double>;  // d (n), ddot (n), w
+
+  SeveralEquations(const Mechanism& m, long max_solves)
+      : FollowedChain(m, max_solves),
+        n_(static_cast<int>(m.drivers.size())),
+        d_(n_),
+        rate_(n_),
+        effort_(n_),
+        dddot_(n_),
+        rhs_(n_),
+        mass_(n_, n_) {}
+
+  // The start: each driver's start value and initial rate, no work done.
+  static State start(const Mechanism& m) {
+    const int n = static_cast<int>(m.drivers.size());
+    State x(static_cast<size_t>(2 * n + 1), 0.0);
+    for (int i = 0; i < n; ++i) {
+      x[static_cast<size_t>(i)] = m.drivers[static_cast<size_t>(i)].start;
+      x[static_cast<size_t>(n + i)] = m.dynamics->coordinate(i).rate;
+    }
+    return x;
+  }
+
+  // dd/dt, dddot/dt and dw/dt at (t, x).
+  void operator()(const State& x, State& dxdt, double t) {
+    ++evaluations_;
+    double power = 0.0;
+    at(t, x, &power);
+    dxdt.resize(x.size());
+    for (int i = 0; i < n_; ++i) {
+      dxdt[static_cast<size_t>(i)] = rate_(i);
+      dxdt[static_cast<size_t>(n_ + i)] = dddot_(i);
+    }
+    dxdt[static_cast<size_t>(2 * n_)] = effort_.dot(rate_) + power;
+  }
+
+  // The state at (t, x): the pose, its rates and accelerations (and the power of the loads and
+  // dampers).
+  void at(double t, const State& x, double* power = nullptr) {
+    for (int i = 0; i < n_; ++i) {
+      d_(i) = x[static_cast<size_t>(i)];
+      rate_(i) = x[static_cast<size_t>(n_ + i)];
+      effort_(i) = m_.dynamics->coordinate(i).effort_at(t);
+    }
+    rcond_ = move_to(t, d_);
+    near_singular_ = rcond_ < near_singular_rcond_;
+    if (rcond_ < interpolated_rcond_)
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("next to a singular position of the coordinates {} (rcond "
+                                "{:.1e}): the reference with several free coordinates does not "
+                                "integrate through one",
+                                shown(d_, 12), rcond_)};
+    for (int i = 0; i < n_; ++i) state_.driver_state(i) = {t, d_(i), rate_(i), 0.0};
+    state_.qdot = s_ * rate_;
+    solver_.solve_acceleration(state_);
+    kinetostatics_.generalised_forces(state_, applied_);
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j <= i; ++j)
+        mass_(i, j) = mass_(j, i) = kinetostatics_.inertia_product(state_, s_.col(i), s_.col(j));
+    rhs_ = effort_ + s_.transpose() * applied_;
+    const Eigen::LLT<Eigen::MatrixXd> llt(mass_);
+    if (llt.info() != Eigen::Success)
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("the generalised mass is not positive definite at coordinates {}",
+                                shown(d_, 12))};
+    dddot_ = llt.solve(rhs_);
+    state_.qddot += s_ * dddot_;
+    for (int i = 0; i < n_; ++i) state_.driver_state(i).accel = dddot_(i);
+    if (power) *power = kinetostatics_.load_power(state_);
+  }
+  static double work(const State& x) { return x.back(); }
+
+ private:
+  const int n_;
+  Eigen::VectorXd d_, rate_, effort_, dddot_, rhs_;
+  Eigen::MatrixXd mass_;  // S^T M S
+};
+
+// Integrates `Equations` (EquationOfMotion or SeveralEquations) from `initial` at `times` into
+// `out`, its trajectory sized and timed.
+template <class Equations>
+void integrate(const Mechanism& mechanism, const SimulationOptions& options,
+               const std::vector<double>& times, double interval, Simulation& out,
+               const typename Equations::State& initial) {
+  Trajectory& t = out.trajectory;
+  const int n = t.samples();
+  int written = 0;
+  std::optional<Equations> started;
+  try {
+    Equations& eom = started.emplace(mechanism, options.max_solves);
+    const Kinetostatics& kinetostatics = eom.kinetostatics();
+    ForceSample forces = kinetostatics.make_sample();
+    typename Equations::State x = initial;
+    auto observe = [&](const typename Equations::State& y, double time) {
+      const int k = written;  // counted once whole: a stop inside leaves it not_reached
+      eom.at(time, y);
+      KinematicState& s = eom.state();
+      SolveReport report;
+      report.rcond = eom.rcond();  // the trust rules' conditioning (analytic/trust.h)
+      if (eom.near_singular()) {
+        // Its coordinate's motion is exact, the rest of its pose only to round-off.
+        report.status = PoseStatus::singular;
+        report.message = "next to a singular position";
+      }
+      eom.solver().write_sample(s, report, t, k);
+      if (!eom.near_singular()) {
+        kinetostatics.solve(s, forces);
+        kinetostatics.write_sample(forces, t, k);
+      }
+      out.kinetic(k) = kinetostatics.kinetic_energy(s);
+      out.potential(k) = kinetostatics.potential_energy(s);
+      out.work(k) = Equations::work(y);
+      out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
+                                   std::abs(out.potential(k)), std::abs(out.work(k))});
+      if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
+      ++written;
+    };
+    namespace odeint = boost::numeric::odeint;
+    const double tol = options.tolerance;
+    // Every trial step evaluates poses along it: the first is small (the controller grows it by
+    // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
+    // the motion (a first trial of 10 s put A02's crank 986 rad away).
+    const double first = std::min(interval, kFirstStep);
+    if (options.integrator == "dopri5") {
+      odeint::integrate_times(
+          odeint::make_dense_output(tol, tol,
+                                    odeint::runge_kutta_dopri5<typename Equations::State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
+    } else if (options.integrator == "rkf78") {
+      odeint::integrate_times(
+          odeint::make_controlled(tol, tol,
+                                  odeint::runge_kutta_fehlberg78<typename Equations::State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
+    } else {
+      throw std::invalid_argument("unknown integrator '" + options.integrator +
+                                  "' (valid: dopri5, rkf78)");
+    }
+  } catch (const Stopped& stop) {
+    // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
+    if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
+    out.ok = false;
+    out.over_budget = stop.over_budget;
+    out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
+    t.events.push_back({stop.time, stop.status, out.message});
+    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = PoseStatus::not_reached;
+  }
+  if (started) {
+    out.evaluations = started->evaluations();
+    out.solves = started->solves();
+  }
+}
 
 }  // namespace
 
@@ -294,6 +534,18 @@ double Simulation::energy_error(int k) const {
 
 std::string singular_start(const Mechanism& m, double rcond) {
   if (rcond >= kSingularStartRcond) return "";
+  if (m.several_drivers()) {
+    std::string starts;
+    for (const Driver& d : m.drivers)
+      starts += fmt::format("{} = {:.9g} {}, ", d.name,
+                            d.start / (d.angular() ? m.units.angle : m.units.length),
+                            d.angular() ? m.units.angle_name : m.units.length_name);
+    return fmt::format(
+        "the start, {}is a singular position of the coordinates (rcond {:.1e}): there the "
+        "other coordinates' rates are not determined by the drivers' rates, so no initial "
+        "velocity is consistent with it; start the [[driver]]s away from it",
+        starts, rcond);
+  }
   const bool angular = m.driver().angular();
   return fmt::format(
       "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
@@ -328,69 +580,12 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
   out.potential.setZero(n);
   out.work.setZero(n);
 
-  int written = 0;
-  std::optional<EquationOfMotion> started;
-  try {
-    EquationOfMotion& eom = started.emplace(mechanism, options.max_solves);
-    const Kinetostatics& kinetostatics = eom.kinetostatics();
-    ForceSample forces = kinetostatics.make_sample();
-    State x = {mechanism.driver().start, c.rate, 0.0};
-    auto observe = [&](const State& y, double time) {
-      const int k = written;  // counted once whole: a stop inside leaves it not_reached
-      const double effort = c.effort_at(time);
-      eom.acceleration(time, y[0], y[1], effort);
-      KinematicState& s = eom.state();
-      SolveReport report;
-      report.rcond = eom.rcond();  // the trust rules' conditioning (analytic/trust.h)
-      if (eom.near_singular()) {
-        // Its coordinate's motion is exact, the rest of its pose only to round-off.
-        report.status = PoseStatus::singular;
-        report.message = "next to a singular position";
-      }
-      eom.solver().write_sample(s, report, t, k);
-      if (!eom.near_singular()) {
-        kinetostatics.solve(s, forces);
-        kinetostatics.write_sample(forces, t, k);
-      }
-      out.kinetic(k) = kinetostatics.kinetic_energy(s);
-      out.potential(k) = kinetostatics.potential_energy(s);
-      out.work(k) = y[2];
-      out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
-                                   std::abs(out.potential(k)), std::abs(out.work(k))});
-      if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
-      ++written;
-    };
-    namespace odeint = boost::numeric::odeint;
-    const double tol = options.tolerance;
-    // Every trial step evaluates poses along it: the first is small (the controller grows it by
-    // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
-    // the motion (a first trial of 10 s put A02's crank 986 rad away).
-    const double first = std::min(interval, kFirstStep);
-    if (options.integrator == "dopri5") {
-      odeint::integrate_times(
-          odeint::make_dense_output(tol, tol, odeint::runge_kutta_dopri5<State>()), std::ref(eom),
-          x, times.begin(), times.end(), first, observe);
-    } else if (options.integrator == "rkf78") {
-      odeint::integrate_times(
-          odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>()), std::ref(eom),
-          x, times.begin(), times.end(), first, observe);
-    } else {
-      throw std::invalid_argument("unknown integrator '" + options.integrator +
-                                  "' (valid: dopri5, rkf78)");
-    }
-  } catch (const Stopped& stop) {
-    // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
-    if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
-    out.ok = false;
-    out.over_budget = stop.over_budget;
-    out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
-    t.events.push_back({stop.time, stop.status, out.message});
-    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = PoseStatus::not_reached;
-  }
-  if (started) {
-    out.evaluations = started->evaluations();
-    out.solves = started->solves();
-  }
+  if (mechanism.several_drivers())
+    integrate<SeveralEquations>(mechanism, options, times, interval, out,
+                                SeveralEquations::start(mechanism));
+  else
+    integrate<EquationOfMotion>(mechanism, options, times, interval, out,
+                                {mechanism.driver().start, c.rate, 0.0});
   return out;
 }
 

@@ -1,5 +1,8 @@
-// Exact forward dynamics of a one-freedom mechanism (a [dynamics] case): the reference that
-// engines' free and torque-driven motion is measured against.
+// Exact forward dynamics of a [dynamics] case: the reference that engines' free and
+// torque-driven motion is measured against. Below, one free coordinate; with several drivers each
+// is a free coordinate d_i, S = dq/dd has one column per driver (a velocity solve at its unit
+// rate, the others' 0) and (S^T M S) dddot = efforts(t) + S^T (Q - M qddot0) (docs/dynamics.md,
+// "Several free coordinates"; a pose next to a singular position ends such a run).
 //
 // The driver names the independent coordinate d. At any (d, ddot) the Newton solver gives the
 // pose, s = dq/dd (the velocity solve at unit rate) and qddot0 (the acceleration solve with

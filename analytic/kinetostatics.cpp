@@ -290,8 +290,12 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
 }
 
 std::optional<double> Kinetostatics::power_balance(const KinematicState& state) const {
+  if (state.driver.rate == 0.0 || solver_.mechanism().several_drivers()) return std::nullopt;
+  return input_power(state) / state.driver.rate;
+}
+
+double Kinetostatics::input_power(const KinematicState& state) const {
   const Mechanism& m = solver_.mechanism();
-  if (state.driver.rate == 0.0) return std::nullopt;
   double power = 0.0;
   for (size_t l = 0; l < m.links.size(); ++l) {
     const Link& link = m.links[l];
@@ -308,7 +312,7 @@ std::optional<double> Kinetostatics::power_balance(const KinematicState& state) 
     const SpringState ss = spring_state(m, s, state);
     power += s.stiffness * (ss.length - s.free_length) * ss.rate;
   }
-  return (power - load_power(state)) / state.driver.rate;
+  return power - load_power(state);
 }
 
 double Kinetostatics::kinetic_energy(const KinematicState& state) const {
@@ -323,6 +327,22 @@ double Kinetostatics::kinetic_energy_rate(const KinematicState& state) const {
     return link.mass.mass * b.velocity(link.mass.com).dot(b.acceleration(link.mass.com)) +
            link.mass.inertia * b.omega * b.alpha;
   });
+}
+
+double Kinetostatics::inertia_product(const KinematicState& state, const Eigen::VectorXd& a,
+                                      const Eigen::VectorXd& b) const {
+  const Mechanism& m = solver_.mechanism();
+  double sum = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion ba = BodyMotion::of(k, state.q, &a, nullptr),
+                     bb = BodyMotion::of(k, state.q, &b, nullptr);
+    sum += link.mass.mass * ba.velocity(link.mass.com).dot(bb.velocity(link.mass.com)) +
+           link.mass.inertia * ba.omega * bb.omega;
+  }
+  return sum;
 }
 
 double Kinetostatics::potential_energy(const KinematicState& state) const {

@@ -96,8 +96,13 @@ class Kinetostatics {
   // Method 1 at a pose solved by the solver (solve_position, then solve_velocity and
   // solve_acceleration with the real driver state).
   void solve(KinematicState& state, ForceSample& out) const;
-  // Method 2: the driver's effort from the power balance; none when the driver is at rest
-  // (its rate is zero, so power says nothing about the effort).
+  // Method 2, the power balance: the drivers' power, the sum over drivers of effort x rate [W],
+  // as the rate of change of the kinetic energy and of the potential energy of gravity and
+  // springs, plus the power dissipated in dampers, less the power of the loads.
+  double input_power(const KinematicState& state) const;
+  // With one driver, its effort: input_power over its rate; none when the driver is at rest
+  // (its rate is zero, so power says nothing about the effort) or there are several (the
+  // balance gives only the sum of their powers: input_power).
   std::optional<double> power_balance(const KinematicState& state) const;
 
   void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
@@ -107,6 +112,10 @@ class Kinetostatics {
   double potential_energy(const KinematicState& state) const;
   // d/dt of the kinetic energy at the state, qdot^T M qddot [W].
   double kinetic_energy_rate(const KinematicState& state) const;
+  // a^T M b for coordinate rates a and b (3 per moving link) at the state's pose: the kinetic
+  // energy's bilinear form (twice the kinetic energy when a = b) [kg m^2 / s^2 per unit rates].
+  double inertia_product(const KinematicState& state, const Eigen::VectorXd& a,
+                         const Eigen::VectorXd& b) const;
   // The power of the loads less the dampers' dissipation at the state [W].
   double load_power(const KinematicState& state) const;
 

@@ -1325,14 +1325,9 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
 
 // With several drivers the sweep runs in time: what reads a sweep over one driver's values is
 // refused at its key.
-void check_several_drivers(Reader& r, const Mechanism& m, const toml::table& root) {
+void check_several_drivers(Reader& r, const Mechanism& m) {
   if (!m.several_drivers()) return;
   const std::string count = fmt::format("{} drivers", m.drivers.size());
-  if (const toml::node* dynamics = root.get("dynamics"))
-    r.error(r.at(*dynamics),
-            fmt::format("[dynamics] moves one free coordinate; this definition has {} (forward "
-                        "dynamics with several drivers is not built yet)",
-                        count));
   for (const Load& load : m.loads)
     if (load.table)
       r.error(load.where, fmt::format("a load's table is over the driver's value; with {} the "
@@ -1847,13 +1842,94 @@ void read_springs(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
-// [dynamics]: a forward-dynamics case. The coordinate's kinematic view (check, solve, compare)
-// is a constant speed equal to its initial rate, or 1 unit/s when that is 0.
+// One driver's free coordinate in [dynamics] (the one-driver form) or [dynamics.<name>] (`what`):
+// its initial rate and applied effort. The coordinate's kinematic view (check, solve, compare) is
+// a constant speed equal to its initial rate, or 1 unit/s when that is 0.
+FreeCoordinate read_free_coordinate(Reader& r, const Mechanism& m, Driver& d, const toml::table& t,
+                                    const std::string& what) {
+  FreeCoordinate c;
+  double rate_unit = d.angular() ? 1.0 : m.units.length;
+  std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
+  if (d.angular()) {
+    if (const auto f =
+            unit_factor(r, t, what, "rate_unit", kAngularSpeedUnits, "rad/s", &rate_name))
+      rate_unit = *f;
+  } else if (t.get("rate_unit")) {
+    r.error(r.at(t.get("rate_unit")),
+            fmt::format("{}: a slider's rate is in the file's length unit per second "
+                        "({}/s); remove 'rate_unit'",
+                        what, m.units.length_name));
+  }
+  // The initial rate is the kinematic view's speed: the same limits as a driver's speed.
+  c.rate =
+      r.number(t, "rate", what, false, {rate_unit, rate_name, limits::kRate, limits::kSlowestSpeed})
+          .value_or(0.0);
+  const Scale effort_scale = d.angular()
+                                 ? Scale{m.units.force * m.units.length, "", limits::kTorque}
+                                 : Scale{m.units.force, m.units.force_name, limits::kForce};
+  if (t.get("effort") && t.get("effort_table"))
+    r.error(r.at(t.get("effort_table")),
+            fmt::format("{} takes 'effort' (constant) or 'effort_table' ([[t, value], ...]), not "
+                        "both",
+                        what));
+  if (const auto e = r.number(t, "effort", what, false, effort_scale))
+    c.effort.emplace_back(0.0, *e);
+  const toml::node* table = t.get("effort") ? nullptr : t.get("effort_table");
+  if (table) {
+    const auto* rows = table->as_array();
+    if (!rows || rows->size() < 2)
+      r.error(r.at(*table),
+              fmt::format("{} 'effort_table' must list at least 2 rows [[t, value], ...]", what));
+    else
+      for (const toml::node& row : *rows) {
+        const auto tv = r.numbers(row, "an 'effort_table' row ([t, value])",
+                                  {Scale{1.0, "s", limits::kDuration}, effort_scale});
+        if (!tv) break;
+        if (!c.effort.empty() && (*tv)[0] <= c.effort.back().first) {
+          r.error(r.at(row), fmt::format("{} 'effort_table' times must increase strictly", what));
+          break;
+        }
+        c.effort.emplace_back((*tv)[0], (*tv)[1]);
+      }
+  }
+  d.law.kind = MotionLaw::Kind::constant_speed;
+  d.law.speed = c.rate != 0.0 ? c.rate : 1.0;
+  return c;
+}
+
+// [dynamics]: a forward-dynamics case. With one driver its coordinate's keys are [dynamics]'s;
+// with several, each driver's are in [dynamics.<name>] (a driver without one starts at rest and
+// moves freely).
 void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "dynamics", "a mechanism", false);
   if (!t) return;
-  r.known_keys(*t, "[dynamics]",
-               {"duration", "interval", "rate", "rate_unit", "effort", "effort_table"});
+  const std::vector<std::string> coordinate_keys = {"rate", "rate_unit", "effort", "effort_table"};
+  std::vector<std::string> keys = {"duration", "interval"};
+  if (m.several_drivers())
+    for (const Driver& d : m.drivers) keys.push_back(d.name);
+  else
+    keys.insert(keys.end(), coordinate_keys.begin(), coordinate_keys.end());
+  if (m.several_drivers()) {
+    // A coordinate's key at the top: whose it is is not said.
+    for (const std::string& key : coordinate_keys)
+      if (const toml::node* node = t->get(key))
+        r.error(r.at(*node),
+                fmt::format("[dynamics] '{}' belongs to one driver: with {} drivers give each "
+                            "driver's rate and effort in its own table [dynamics.<name>] "
+                            "([dynamics.{}])",
+                            key, m.drivers.size(), m.drivers.front().name));
+    for (auto&& [key, node] : *t)
+      if (std::find(keys.begin(), keys.end(), key.str()) == keys.end() &&
+          std::find(coordinate_keys.begin(), coordinate_keys.end(), key.str()) ==
+              coordinate_keys.end())
+        r.error(
+            r.at(key.source()),
+            fmt::format("unknown key '{}' in [dynamics]: it takes 'duration', 'interval' and "
+                        "one table per driver, [dynamics.<name>] (drivers: {})",
+                        key.str(), join(std::vector<std::string>(keys.begin() + 2, keys.end()))));
+  } else {
+    r.known_keys(*t, "[dynamics]", keys);
+  }
   DynamicsCase c;
   c.where = r.at(*t);
   const Scale seconds{1.0, "s", limits::kDuration, limits::kShortestDuration};
@@ -1868,50 +1944,27 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
             "[dynamics] 'interval' (s between output samples) must be positive and at most "
             "'duration'");
   c.interval = interval.value_or(0.0);
-  Driver& d = m.driver();
-  double rate_unit = d.angular() ? 1.0 : m.units.length;
-  std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
-  if (d.angular()) {
-    if (const auto f =
-            unit_factor(r, *t, "[dynamics]", "rate_unit", kAngularSpeedUnits, "rad/s", &rate_name))
-      rate_unit = *f;
-  } else if (t->get("rate_unit")) {
-    r.error(r.at(t->get("rate_unit")),
-            fmt::format("[dynamics]: a slider's rate is in the file's length unit per second "
-                        "({}/s); remove 'rate_unit'",
-                        m.units.length_name));
+  if (!m.several_drivers()) {
+    static_cast<FreeCoordinate&>(c) = read_free_coordinate(r, m, m.driver(), *t, "[dynamics]");
+    m.dynamics = c;
+    return;
   }
-  // The initial rate is the kinematic view's speed: the same limits as a driver's speed.
-  c.rate = r.number(*t, "rate", "[dynamics]", false,
-                    {rate_unit, rate_name, limits::kRate, limits::kSlowestSpeed})
-               .value_or(0.0);
-  const Scale effort_scale = d.angular()
-                                 ? Scale{m.units.force * m.units.length, "", limits::kTorque}
-                                 : Scale{m.units.force, m.units.force_name, limits::kForce};
-  if (t->get("effort") && t->get("effort_table"))
-    r.error(r.at(t->get("effort_table")),
-            "[dynamics] takes 'effort' (constant) or 'effort_table' ([[t, value], ...]), not both");
-  if (const auto e = r.number(*t, "effort", "[dynamics]", false, effort_scale))
-    c.effort.emplace_back(0.0, *e);
-  if (const toml::node* table = t->get("effort_table")) {
-    const auto* rows = table->as_array();
-    if (!rows || rows->size() < 2)
-      r.error(r.at(*table),
-              "[dynamics] 'effort_table' must list at least 2 rows [[t, value], ...]");
+  for (size_t i = 0; i < m.drivers.size(); ++i) {
+    Driver& d = m.drivers[i];
+    const std::string what = fmt::format("[dynamics.{}]", d.name);
+    FreeCoordinate coordinate;
+    if (const toml::table* own = r.table(*t, d.name, "[dynamics]", false)) {
+      r.known_keys(*own, what, coordinate_keys);
+      coordinate = read_free_coordinate(r, m, d, *own, what);
+    } else {
+      d.law.kind = MotionLaw::Kind::constant_speed;  // at rest: its kinematic view at 1 unit/s
+      d.law.speed = 1.0;
+    }
+    if (i == 0)
+      static_cast<FreeCoordinate&>(c) = coordinate;
     else
-      for (const toml::node& row : *rows) {
-        const auto tv = r.numbers(row, "an 'effort_table' row ([t, value])",
-                                  {Scale{1.0, "s", limits::kDuration}, effort_scale});
-        if (!tv) break;
-        if (!c.effort.empty() && (*tv)[0] <= c.effort.back().first) {
-          r.error(r.at(row), "[dynamics] 'effort_table' times must increase strictly");
-          break;
-        }
-        c.effort.emplace_back((*tv)[0], (*tv)[1]);
-      }
+      c.others.push_back(coordinate);
   }
-  d.law.kind = MotionLaw::Kind::constant_speed;
-  d.law.speed = c.rate != 0.0 ? c.rate : 1.0;
   m.dynamics = c;
 }
 
@@ -2335,7 +2388,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_references(r, m, root);
   read_expect(r, m, root);
   read_branches(r, m, root);
-  check_several_drivers(r, m, root);
+  check_several_drivers(r, m);
   r.throw_if_any();
   apply_branches(m);  // the assembly they name, as drawn poses
   return m;

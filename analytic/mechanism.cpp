@@ -307,7 +307,7 @@ Eigen::Vector2d Load::force_at(double driver, bool angular) const {
   return value(rows.back());
 }
 
-double DynamicsCase::effort_at(double t) const {
+double FreeCoordinate::effort_at(double t) const {
   if (effort.empty()) return 0.0;
   if (t <= effort.front().first) return effort.front().second;
   for (size_t i = 1; i < effort.size(); ++i)

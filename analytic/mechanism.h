@@ -221,20 +221,33 @@ struct Spring {
   SourceLocation where;
 };
 
-// A forward-dynamics case ([dynamics]): the driver names the independent coordinate, which then
-// moves under gravity, loads, springs and an applied effort from its start value and initial rate
-// instead of following a motion law.
-struct DynamicsCase {
-  double rate = 0.0;      // the coordinate's initial rate [rad/s or m/s]
-  double duration = 0.0;  // [s]
-  double interval = 0.0;  // between output samples [s]
+// One free coordinate of a forward-dynamics case (one driver's): its initial rate and the effort
+// applied along it.
+struct FreeCoordinate {
+  double rate = 0.0;  // the coordinate's initial rate [rad/s or m/s]
   // The effort applied along the coordinate (torque [N m] on the driven link, or force [N] along
   // a slider), as (time [s], value) rows, linear between rows and held beyond; none: free motion.
   std::vector<std::pair<double, double>> effort;
+
+  double effort_at(double t) const;
+};
+
+// A forward-dynamics case ([dynamics]): each driver names an independent coordinate, which then
+// moves under gravity, loads, springs and an applied effort from its start value and initial rate
+// instead of following a motion law. The first driver's coordinate is the case itself (rate,
+// effort: every place that assumes one free coordinate reads them by these names), the other
+// drivers' are `others`, in Mechanism::drivers order (docs/mechanism-format.md, "[dynamics]").
+struct DynamicsCase : FreeCoordinate {
+  double duration = 0.0;  // [s]
+  double interval = 0.0;  // between output samples [s]
+  std::vector<FreeCoordinate> others;
   SourceLocation where;
   SourceLocation duration_where;  // its 'duration'
 
-  double effort_at(double t) const;
+  int coordinate_count() const { return 1 + static_cast<int>(others.size()); }
+  const FreeCoordinate& coordinate(int d) const {
+    return d == 0 ? *this : others[static_cast<size_t>(d - 1)];
+  }
 };
 
 // A published value to compare against (a hand calculation, Working Model, ...), in SI.

@@ -58,7 +58,7 @@ std::string driver_text(const Mechanism& m, const Driver& d) {
   }
   std::string law;
   if (m.dynamics) {  // no motion law: the coordinate moves under the loads from its start
-    const DynamicsCase& c = *m.dynamics;
+    const FreeCoordinate& c = m.dynamics->coordinate(static_cast<int>(&d - m.drivers.data()));
     const double rate_unit = d.angular() ? 1.0 : m.units.length;
     const std::string rate_name = d.angular() ? "rad/s" : m.units.length_name + "/s";
     law = fmt::format("free coordinate (dynamics): initial rate {:.6g} {}, {}, {:.6g} s",
@@ -66,7 +66,7 @@ std::string driver_text(const Mechanism& m, const Driver& d) {
                       c.effort.empty()
                           ? std::string("no applied effort")
                           : fmt::format("applied effort table of {} rows", c.effort.size()),
-                      c.duration);
+                      m.dynamics->duration);
     return fmt::format("{}, start {:.6g} {}, {}", what, d.start / unit, unit_name, law);
   }
   switch (d.law.kind) {

@@ -40,12 +40,16 @@ void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
   for (int k = 0; k < t.samples(); ++k) {
     if (!usable(t.status[static_cast<size_t>(k)])) continue;
     state.q = coordinates_at(m, t, k);
-    DriverState d = m.driver().at_time(t.time(k));
-    d.value = t.driver(k);
-    if (m.driver().law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver().law.speed;
-    state.driver = d;
+    if (m.several_drivers()) {
+      state.drive_at(m, t.time(k));  // the sweep runs in time: every driver by its law
+    } else {
+      DriverState d = m.driver().at_time(t.time(k));
+      d.value = t.driver(k);
+      if (m.driver().law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver().law.speed;
+      state.driver = d;
+    }
     const SolveReport r = solver.solve(state);
-    ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << d.value;
+    ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << state.driver.value;
     f(state, r);
   }
 }
@@ -76,6 +80,69 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
     for (const auto& [a, b] : efforts) EXPECT_NEAR(a, b, 1e-9 * scale) << m.file;
   }
 }
+
+// Several drivers (and the gear trains): the drivers' power from their multipliers, the sum of
+// effort x rate, is the power balance's (input_power) at every sample, to 1e-9 of the largest
+// term of either side over the sweep.
+class SeveralDrivers : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
+  const Mechanism file = load_mechanism(GetParam());
+  for (const Mechanism& m : {file, test::loaded(file)}) {
+    const NewtonSolver solver(m);
+    const Kinetostatics kinetostatics(solver);
+    ForceSample forces = kinetostatics.make_sample();
+    std::vector<std::pair<double, double>> powers;
+    double scale = 0.0;
+    at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
+      kinetostatics.solve(state, forces);
+      double power = 0.0;
+      for (int d = 0; d < state.driver_count(); ++d) {
+        const double term = forces.effort(d) * state.driver_state(d).rate;
+        power += term;
+        scale = std::max(scale, std::abs(term));
+      }
+      const double balance = kinetostatics.input_power(state);
+      // The balance's own terms, each link's rates of kinetic and potential energy, and the
+      // reactions' power at the fastest link's speed: a chain without power (Ryan's rack at
+      // constant speed) balances the multipliers' round-off against them.
+      double terms = std::abs(balance), speed = 0.0;
+      for (size_t l = 0; l < m.links.size(); ++l) {
+        const int k = m.moving_index(static_cast<int>(l));
+        if (k < 0) continue;
+        const BodyMotion b = BodyMotion::of(k, state.q, &state.qdot, &state.qddot);
+        const MassProperties& mp = m.links[l].mass;
+        terms += std::abs(mp.mass * b.velocity(mp.com).dot(b.acceleration(mp.com))) +
+                 std::abs(mp.inertia * b.omega * b.alpha) +
+                 std::abs(mp.mass * m.gravity.dot(b.velocity(mp.com)));
+        speed = std::max(speed, b.v.norm() + std::abs(b.omega) * m.size());
+      }
+      for (const Eigen::Vector2d& f : forces.joint_force) terms = std::max(terms, f.norm() * speed);
+      scale = std::max(scale, terms);
+
+      powers.emplace_back(power, balance);
+    });
+    ASSERT_FALSE(powers.empty()) << m.file;
+    ASSERT_GT(scale, 0.0) << m.file;
+    for (const auto& [a, b] : powers) EXPECT_NEAR(a, b, 1e-9 * scale) << m.file;
+  }
+}
+
+// mechanisms/drivers/*.toml and the gear trains.
+std::vector<std::string> driver_and_gear_files() {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(
+           std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / "drivers"))
+    if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  for (std::string& f : test::gear_files()) files.push_back(std::move(f));
+  return files;
+}
+
+INSTANTIATE_TEST_SUITE_P(Mechanisms, SeveralDrivers, ::testing::ValuesIn(driver_and_gear_files()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return std::filesystem::path(info.param).stem().string();
+                         });
 
 // Newton-Euler on every moving link from the extracted reactions: the force and moment sums
 // against m a_c and I alpha, to 1e-9 of the largest force (and force times size).
