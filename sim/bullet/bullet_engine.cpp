@@ -1178,7 +1178,7 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
     try {
       plan = make_plan(m, !multibody, &split_error);
     } catch (const std::exception& other) {
-      why += std::string("; ") + other.what();
+      if (why != other.what()) why += std::string("; ") + other.what();
       return false;
     }
     if (!multibody && !split_error.empty()) return false;
@@ -1547,7 +1547,7 @@ class BulletEngine final : public Engine {
         split_error = other.what();
       }
       if (!split_error.empty()) {
-        if (why) *why = std::string(e.what()) + "; " + split_error;
+        if (why) *why = e.what() + (split_error != e.what() ? "; " + split_error : "");
         return false;
       }
     }
