@@ -515,10 +515,9 @@ class OdeScene {
   // against the line of centres, from the start) with the world's ERP and CFM.
   void add_transmission(int joint, const Eigen::VectorXd& q) {
     const Joint& j = m_.joints[static_cast<size_t>(joint)];
+    // The scene's bodies: the ground, then the moving links in Mechanism order (as apply()).
     const auto body = [&](int link) {
-      for (size_t i = 0; i < g_.bodies.size(); ++i)
-        if (g_.bodies[i].source == link) return bodies_[i];
-      throw std::logic_error("a gear without a body");
+      return bodies_[static_cast<size_t>(m_.moving_index(link) + 1)];
     };
     const Link& carrier = m_.links[static_cast<size_t>(j.carrier)];
     const BodyMotion c = BodyMotion::of(m_.moving_index(j.carrier), q, nullptr, nullptr);
