@@ -287,8 +287,8 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
     if (row_scale_(r) != 1.0) scaled_rows_.push_back(r);
 }
 
-double NewtonSolver::driver_value(const Eigen::VectorXd& q) const {
-  return layout_.driver(0).value(LinkFrames{q});
+double NewtonSolver::driver_value(const Eigen::VectorXd& q, int d) const {
+  return layout_.driver(d).value(LinkFrames{q});
 }
 
 void NewtonSolver::update_frames(KinematicState& state) const {

@@ -145,8 +145,9 @@ class NewtonSolver {
                 Eigen::VectorXd& phi) const;
   // Analytic Jacobian dPhi/dq (the drivers' rows included).
   void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
-  // The driver coordinate measured at q (its definition, e.g. the angle of E->D).
-  double driver_value(const Eigen::VectorXd& q) const;
+  // Driver d's coordinate measured at q (its definition, e.g. the angle of E->D), in
+  // Mechanism::drivers order.
+  double driver_value(const Eigen::VectorXd& q, int d = 0) const;
 
   // Newton from state.q at state.driver.value. Leaves the LU of J at the solution in state.
   SolveReport solve_position(KinematicState& state) const;

@@ -99,7 +99,18 @@ std::string Comparison::counts_text() const {
              "prescribes (ground points, the driven coordinate): {} pass, {} fail, {} n/a",
              computed.total(), computed.pass, computed.fail, computed.not_applicable, fixed.total(),
              fixed.pass, fixed.fail, fixed.not_applicable) +
-         derived_counts_text();
+         derived_counts_text() + references_counts_text();
+}
+
+std::string Comparison::references_counts_text() const {
+  if (references.empty()) return "";
+  int within = 0;
+  for (const ReferenceRow& r : references)
+    within += r.exact_ok && r.reference.within_rounding(r.exact) ? 1 : 0;
+  return fmt::format(
+      "; {} [[reference]] values beside the exact ones, {} within their printed rounding (shown, "
+      "not judged)",
+      references.size(), within);
 }
 
 std::string Comparison::derived_counts_text() const {
@@ -302,6 +313,31 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     }
     out.references.push_back(std::move(row));
   }
+  return out;
+}
+
+WorstContext worst_context(const Trajectory& reference, int k, bool in_time) {
+  WorstContext out;
+  if (k < 0 || k >= reference.samples()) return out;
+  if (reference.rcond.size() == reference.samples() && reference.rcond(k) > 0.0) {
+    std::vector<double> usable_rcond;
+    for (int i = 0; i < reference.samples(); ++i)
+      if (usable(reference.status[static_cast<size_t>(i)]) && reference.rcond(i) > 0.0)
+        usable_rcond.push_back(reference.rcond(i));
+    if (!usable_rcond.empty()) {
+      const auto middle = usable_rcond.begin() + static_cast<long>(usable_rcond.size() / 2);
+      std::nth_element(usable_rcond.begin(), middle, usable_rcond.end());
+      out.rcond = reference.rcond(k);
+      out.median_rcond = *middle;
+    }
+  }
+  const double at = in_time ? reference.time(k) : reference.driver(k);
+  for (const Trajectory::Event& e : reference.events)
+    if (e.kind == PoseStatus::singular &&
+        (!out.nearest_singular || std::abs(e.driver - at) < std::abs(out.distance))) {
+      out.nearest_singular = &e;
+      out.distance = e.driver - at;
+    }
   return out;
 }
 

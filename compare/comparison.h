@@ -84,6 +84,9 @@ struct Comparison {
   std::string counts_text() const;
   // "; N [[derived]] comparisons: p pass, f fail, n n/a", or "" without [[derived]] checks.
   std::string derived_counts_text() const;
+  // "; N [[reference]] values beside the exact ones, k within their printed rounding (shown, not
+  // judged)", or "" without [[reference]] rows: a verdict on no channel names what it showed.
+  std::string references_counts_text() const;
 };
 
 // Compares every available method in `methods` (the first is the reference) channel by
@@ -96,5 +99,19 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
 // the value lies outside the sweep or the channel is unknown.
 std::optional<double> value_at(const Trajectory& trajectory, std::string_view channel,
                                double driver_value, bool angular, bool* interpolated = nullptr);
+
+// The reference at a channel's worst sample k, against its whole sweep: what a failure there is
+// read against (an engine's error grows as the constraint Jacobian's conditioning falls, next to
+// a singular position).
+struct WorstContext {
+  double rcond = NAN;         // the reference's at sample k (NaN: it keeps none)
+  double median_rcond = NAN;  // over its usable samples
+  // Its singular position (an event of kind singular: dead point, toggle, change point, a
+  // parallel mechanism's inverse or direct singularity) nearest to sample k, or nullptr.
+  const Trajectory::Event* nearest_singular = nullptr;
+  // From sample k to it [driver unit, or s with `in_time`]: > 0 when it comes later.
+  double distance = 0.0;
+};
+WorstContext worst_context(const Trajectory& reference, int k, bool in_time);
 
 }  // namespace crosslink::compare

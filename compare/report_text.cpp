@@ -111,6 +111,33 @@ void print_wrapped(std::FILE* out, const std::string& text, int indent, int widt
   if (!line.empty()) fmt::print(out, "{:{}}{}\n", "", indent, line);
 }
 
+// What the reference is at a failure's worst sample: its conditioning, when a decade or more
+// worse than its median, and its nearest singular position ("" when neither).
+std::string worst_context_text(const Mechanism& m, const WorstContext& c) {
+  // Conditioning a decade worse than the median is a singular position's neighbourhood (one grid
+  // step from a dead point it is 10 to 40 times worse); within it, it says nothing.
+  constexpr double kIllConditioned = 10.0;
+  std::string text;
+  if (!std::isnan(c.rcond) && c.rcond * kIllConditioned <= c.median_rcond)
+    text = fmt::format(
+        "there the reference's constraint Jacobian is conditioned {:.3g} times worse than its "
+        "median (rcond {:.2g} against {:.2g})",
+        c.median_rcond / c.rcond, c.rcond, c.median_rcond);
+  if (c.nearest_singular) {
+    const DisplayUnit du = driver_unit(m);
+    const std::string distance =
+        samples_in_time(m) ? fmt::format("{:.4g} s", std::abs(c.distance))
+                           : fmt::format("{:.4g} {}", std::abs(c.distance) / du.scale, du.name);
+    const std::string at = samples_in_time(m)
+                               ? fmt::format("t = {:.6g} s", c.nearest_singular->driver)
+                               : "driver = " + driver_text(m, c.nearest_singular->driver, 4);
+    text += fmt::format("{}its nearest singular position is {} {} ({}): {}",
+                        text.empty() ? "" : "; ", distance, c.distance >= 0.0 ? "after" : "before",
+                        at, c.nearest_singular->message);
+  }
+  return text;
+}
+
 constexpr std::string_view kRowFormat = "{:<24} {:<8} {:>12} {:>11} {:>11} {:>19} {:>6}\n";
 
 // A metric of a channel, "-" when no sample is in its verdict (the value does not exist).
@@ -183,9 +210,11 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
   for (PoseStatus s : ref.status) excluded += usable(s) ? 0 : 1;
   fmt::print(out, "{} ({})\n", m.name, m.file);
   const bool dynamics = m.dynamics.has_value();
-  if (dynamics)
-    fmt::print(out, "reference: exact forward dynamics, {} samples from t = {:.4g} to {:.4g} s",
-               ref.samples(), ref.samples() ? ref.time(0) : 0.0,
+  // Several drivers sweep in time (each driver's value is a channel of its own).
+  if (samples_in_time(m))
+    fmt::print(out, "reference: {}, {} samples from t = {:.4g} to {:.4g} s",
+               dynamics ? "exact forward dynamics" : "analytic Newton", ref.samples(),
+               ref.samples() ? ref.time(0) : 0.0,
                ref.samples() ? ref.time(ref.samples() - 1) : 0.0);
   else
     fmt::print(out, "reference: analytic Newton, {} samples from {:.4g} to {:.4g} {}",
@@ -337,6 +366,9 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  c.metrics.max_pct_of_peak, c.tolerance, where, k, c.method,
                  (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
                  u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
+      if (const std::string why = worst_context_text(m, worst_context(ref, k, samples_in_time(m)));
+          !why.empty())
+        print_wrapped(out, why, 6, 100);
     }
   for (const DerivedCheck& c : cmp.derived.checks)
     if (c.verdict == Verdict::fail)
@@ -422,6 +454,18 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"tolerance_pct", c.tolerance},
          {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))},
          {"prescribed", c.prescribed}});
+    if (c.verdict == Verdict::fail) {
+      const WorstContext w = worst_context(ref, k, samples_in_time(m));
+      const auto number = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
+      json& context =
+          j["channels"].back()["worst_context"] = {{"rcond", number(w.rcond)},
+                                                   {"median_rcond", number(w.median_rcond)},
+                                                   {"nearest_singular", nullptr}};
+      if (w.nearest_singular)
+        context["nearest_singular"] = {{"at", w.nearest_singular->driver},
+                                       {"distance", w.distance},
+                                       {"message", w.nearest_singular->message}};
+    }
   }
 
   j["references"] = json::array();

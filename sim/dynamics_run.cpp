@@ -28,8 +28,9 @@ DynamicsPlan plan_dynamics(const Mechanism& definition, const Mechanism& scene_m
   DynamicsLoads balance(definition);
   KinematicState state(scene_mechanism);
   state.q = p.start.q;
-  state.driver = {reference.time(first), reference.driver(first),
-                  balance.rate(p.start.q, p.start.qdot), 0.0};
+  for (int d = 0; d < state.driver_count(); ++d)
+    state.driver_state(d) = {reference.time(first), reference_driver(reference, first, d),
+                             balance.rate(p.start.q, p.start.qdot, d), 0.0};
   const NewtonSolver solver(scene_mechanism);
   const SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok)
@@ -229,15 +230,15 @@ class DynamicsSampler {
       scene.read_state(S, t, state.qdot, state.qddot, forces);
     else
       steps_.derivatives(S, state.qdot, &state.qddot);
-    const double coordinate = balance.coordinate(state.q);
-    state.driver = {t, coordinate, balance.rate(state.q, state.qdot), 0.0};
+    balance.measure(t, state.q, state.qdot, state);
     if (with_forces_ && !scene.reads_state())
       combine_readings(
           plan.forces[static_cast<size_t>(i)],
           [&](long k) -> const ForceReading& { return steps_.reading(k); }, forces);
-    forces.effort = m_.dynamics->effort_at(t);
+    for (int d = 0; d < m_.dynamics->coordinate_count(); ++d)
+      forces.effort_of(d) = m_.dynamics->coordinate(d).effort_at(t);
     rows_.write(i, out);
-    out.driver(i) = coordinate;
+    out.driver(i) = state.driver.value;
     const double kinetic = balance.kinetic(state.q, state.qdot);
     const double potential = balance.potential(state.q);
     const double work = steps_.work(S);
@@ -272,8 +273,9 @@ StatusJudge judge_dynamics(const Mechanism& m, const Trajectory& reference, cons
   StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, 0.0}, false);
   judge_projected(
       judge, m, reference, sampled.rows(), gaps,
-      [&](int i) {
-        return DriverState{0.0, out.driver(i), 0.0, 0.0};
+      [&](int i, KinematicState& probe) {
+        for (int d = 0; d < probe.driver_count(); ++d)
+          probe.driver_state(d) = {0.0, reference_driver(out, i, d), 0.0, 0.0};
       },
       [&](int i, const SolveReport& projected, const KinematicState&) {
         return judge.judge(i, gaps(i), projected.rcond, nullptr, out);
@@ -324,14 +326,15 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
     run.ok = false;
     add_note(run.message, stop);
     const int lost = judge.first_lost();
-    out.events.push_back({lost >= 0 ? reference.driver(lost) : 0.0, PoseStatus::diverged, stop});
+    out.events.push_back(
+        {lost >= 0 ? event_position(reference, lost) : 0.0, PoseStatus::diverged, stop});
   }
   if (const int drift_at = sampled.drift_at(); drift_at >= 0) {
     const std::string text =
         energy_drift_note(watch.energy_threshold, watch.energy_scale, reference, drift_at,
                           out.energy.col(3).cwiseAbs().maxCoeff());
     add_note(run.message, text);
-    out.events.push_back({reference.driver(drift_at), PoseStatus::ok, text});
+    out.events.push_back({event_position(reference, drift_at), PoseStatus::ok, text});
   }
   add_note(run.message, dynamics_span_note(reference, plan.span));
   add_note(run.message, kept_note(judge.kept(), false));

@@ -60,26 +60,43 @@ DynamicsLoads::DynamicsLoads(const Mechanism& m)
       out_(static_cast<size_t>(m.moving_count())) {
   bool effort = false;
   if (m.dynamics)
-    for (const auto& [time, value] : m.dynamics->effort) effort = effort || value != 0.0;
+    for (int d = 0; d < m.dynamics->coordinate_count(); ++d)
+      for (const auto& [time, value] : m.dynamics->coordinate(d).effort)
+        effort = effort || value != 0.0;
   any_ = effort || !m.loads.empty() || !m.springs.empty();
 }
 
-double DynamicsLoads::rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) {
+double DynamicsLoads::rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, int d) {
   solver_.jacobian(q, jacobian_);
-  return jacobian_.row(solver_.layout().driver_row(0)).dot(qdot);
+  return jacobian_.row(solver_.layout().driver_row(d)).dot(qdot);
+}
+
+void DynamicsLoads::measure(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                            KinematicState& state) {
+  solver_.jacobian(q, jacobian_);
+  for (int d = 0; d < state.driver_count(); ++d)
+    state.driver_state(d) = {t, coordinate(q, d),
+                             jacobian_.row(solver_.layout().driver_row(d)).dot(qdot), 0.0};
+}
+
+void DynamicsLoads::set_coordinates(const Eigen::VectorXd& q) {
+  for (int d = 0; d < state_.driver_count(); ++d) state_.driver_state(d).value = coordinate(q, d);
 }
 
 const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& q,
                                                const Eigen::VectorXd& qdot) {
   state_.q = q;
   state_.qdot = qdot;
-  state_.driver.value = coordinate(q);
+  set_coordinates(q);
   applied_loads(m_, state_, generalised_);
   if (m_.dynamics) {
-    const double effort = m_.dynamics->effort_at(t);
-    if (effort != 0.0) {
-      solver_.jacobian(q, jacobian_);
-      generalised_ += effort * jacobian_.row(solver_.layout().driver_row(0)).transpose();
+    bool jacobian = false;
+    for (int d = 0; d < m_.dynamics->coordinate_count(); ++d) {
+      const double effort = m_.dynamics->coordinate(d).effort_at(t);
+      if (effort == 0.0) continue;
+      if (!jacobian) solver_.jacobian(q, jacobian_);
+      jacobian = true;
+      generalised_ += effort * jacobian_.row(solver_.layout().driver_row(d)).transpose();
     }
   }
   body_loads(m_, q, generalised_, out_);
@@ -101,12 +118,12 @@ double DynamicsLoads::power(double t, const Eigen::VectorXd& q, const Eigen::Vec
   if (!any_) return 0.0;
   state_.q = q;
   state_.qdot = qdot;
-  state_.driver.value = coordinate(q);
+  set_coordinates(q);
   double power = kinetostatics_.load_power(state_);
-  if (m_.dynamics) {
-    const double effort = m_.dynamics->effort_at(t);
-    if (effort != 0.0) power += effort * rate(q, qdot);
-  }
+  if (m_.dynamics)
+    for (int d = 0; d < m_.dynamics->coordinate_count(); ++d)
+      if (const double effort = m_.dynamics->coordinate(d).effort_at(t); effort != 0.0)
+        power += effort * rate(q, qdot, d);
   return power;
 }
 

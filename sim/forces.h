@@ -40,28 +40,38 @@ class AppliedLoads {
 
 // Forward dynamics (a [dynamics] case): everything that acts on the mechanism besides gravity and
 // the joints, as a wrench on each body at its centre of mass, and the energy balance of a state.
-// The applied effort acts along the driver coordinate d: its generalised force is effort(t) times
-// the driver's row of the constraint Jacobian, dd/dq (a torque on the driven link and the opposite
-// one on its base for a joint angle, a force along the guide at the slider's point and its
-// reaction for a slider), as in the exact equation of motion (analytic/dynamics.h).
+// Each free coordinate's applied effort acts along its driver's coordinate d: its generalised
+// force is effort(t) times the driver's row of the constraint Jacobian, dd/dq (a torque on the
+// driven link and the opposite one on its base for a joint angle, a force along the guide at the
+// slider's point and its reaction for a slider), as in the exact equation of motion
+// (analytic/dynamics.h).
 class DynamicsLoads {
  public:
   explicit DynamicsLoads(const Mechanism& m);
   // Whether anything but gravity acts: loads, springs or dampers, or an effort.
   bool any() const { return any_; }
   // Per moving link (Mechanism order) at time t [s] and state (q, qdot): the loads at the driver
-  // coordinate measured at q, the springs and dampers, and effort(t) along the coordinate.
+  // coordinates measured at q, the springs and dampers, and each coordinate's effort(t) along it.
   const std::vector<BodyLoad>& at(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
-  // The driver coordinate measured at q [rad or m], and its rate at (q, qdot).
-  double coordinate(const Eigen::VectorXd& q) const { return solver_.driver_value(q); }
-  double rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
+  // Driver d's coordinate measured at q [rad or m] (Mechanism::drivers order), and its rate at
+  // (q, qdot).
+  double coordinate(const Eigen::VectorXd& q, int d = 0) const {
+    return solver_.driver_value(q, d);
+  }
+  double rate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, int d = 0);
+  // Every driver's state in `state` at (q, qdot): its coordinate, its rate and time t.
+  void measure(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+               KinematicState& state);
   // [J]: the kinetic energy (Link::mass), and the potential energy of gravity and springs.
   double kinetic(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
   double potential(const Eigen::VectorXd& q);
-  // [W]: the power of the effort, the loads and the dampers (the springs' is potential energy).
+  // [W]: the power of the efforts, the loads and the dampers (the springs' is potential energy).
   double power(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot);
 
  private:
+  // Every driver's value in state_ at q.
+  void set_coordinates(const Eigen::VectorXd& q);
+
   const Mechanism& m_;
   NewtonSolver solver_;
   Kinetostatics kinetostatics_;

@@ -99,7 +99,9 @@ double JointGap::at(const Eigen::VectorXd& q, const std::vector<double>& driver_
 }
 
 double JointGap::at(const Eigen::VectorXd& q) {
-  solver_.residual(q, solver_.driver_value(q), phi_);
+  for (size_t d = 0; d < drivers_.size(); ++d)
+    drivers_[d].value = solver_.driver_value(q, static_cast<int>(d));
+  solver_.residual(q, drivers_, phi_);
   const double gap = joints();
   return std::isfinite(gap) ? gap : INFINITY;
 }
@@ -112,7 +114,7 @@ double IntervalGaps::keep(long k, double gap) {
 
 void judge_projected(
     StatusJudge& judge, const Mechanism& m, const Trajectory& reference, const SampleRows& rows,
-    const Eigen::VectorXd& gaps, const std::function<DriverState(int)>& driver,
+    const Eigen::VectorXd& gaps, const std::function<void(int, KinematicState&)>& drive,
     const std::function<PoseStatus(int, const SolveReport&, const KinematicState&)>& judged,
     Trajectory& out) {
   const NewtonSolver solver(m);
@@ -126,8 +128,7 @@ void judge_projected(
       continue;
     }
     probe.q = rows.configuration(i);
-    reference_drivers(m, reference, i, probe);
-    probe.driver = driver(i);
+    drive(i, probe);
     const SolveReport projected = solver.solve_position(probe);
     out.rcond(i) = projected.rcond;
     status = judged(i, projected, probe);
@@ -297,11 +298,7 @@ StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const
                     true);
   judge_projected(
       judge, m, reference, sampled, gaps,
-      [&](int i) {
-        DriverState d = m.driver().at_time(reference.time(i));
-        d.value = reference.driver(i);
-        return d;
-      },
+      [&](int i, KinematicState& probe) { reference_drivers(m, reference, i, probe); },
       [&](int i, const SolveReport& projected, const KinematicState& closed) {
         double off = 0.0;
         const PoseStatus status = judge.judge(

@@ -94,7 +94,7 @@ class JointGap {
   // each driver row's error in `driver_errors`.
   double at(const Eigen::VectorXd& q, const std::vector<double>& driver_values,
             std::vector<double>& driver_errors);
-  // A dynamics run: the driver's row is measured at the engine's own coordinate, so it is zero.
+  // A dynamics run: each driver's row is measured at the engine's own coordinate, so it is zero.
   double at(const Eigen::VectorXd& q);
 
  private:
@@ -172,11 +172,12 @@ class SampleRows {
 // Every sample's status and rcond (and out.loop_gap = `gaps`): outside the usable span the
 // reference's kept, not written by the run diverged, else `judged(i, projected, closed)` from the
 // Newton projection `projected` of the configuration the run wrote onto the definition's
-// constraints with the driver at `driver(i)` (several drivers: the others at the reference's
-// values, reference_drivers), `closed` the configuration it closes on.
+// constraints with the drivers' states `drive(i, probe)` sets (a kinematic run: the reference's,
+// reference_drivers; a dynamics run: the coordinates the run measured), `closed` the
+// configuration it closes on.
 void judge_projected(
     StatusJudge& judge, const Mechanism& m, const Trajectory& reference, const SampleRows& rows,
-    const Eigen::VectorXd& gaps, const std::function<DriverState(int)>& driver,
+    const Eigen::VectorXd& gaps, const std::function<void(int, KinematicState&)>& drive,
     const std::function<PoseStatus(int, const SolveReport&, const KinematicState&)>& judged,
     Trajectory& out);
 

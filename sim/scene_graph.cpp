@@ -267,13 +267,6 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
 }
 
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
-  // The engines' forward-dynamics runs (sim/dynamics_run.h) integrate one free coordinate: its
-  // start state and effort are one driver's.
-  if (m.dynamics && m.several_drivers())
-    throw std::runtime_error(fmt::format(
-        "a [dynamics] case with {} free coordinates: the engines' forward-dynamics runs take one "
-        "yet (the exact reference takes any number: docs/dynamics.md)",
-        m.drivers.size()));
   SceneGraph g;
 
   // Bodies: ground first, then the moving links in Mechanism order.
