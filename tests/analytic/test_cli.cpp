@@ -1381,6 +1381,29 @@ TEST(Cli, SweepFlagsASeriesWhoseErrorDoesNotFallWithTheStep) {
       << run.out;
 }
 
+// The verdict line names the [[reference]] values shown beside it and how many are within their
+// printed rounding, as the JSON's rows count them: with the reference alone and printed values,
+// "PASS (0 channel comparisons ...)" said nothing of what was shown.
+TEST(Cli, TheVerdictLineCountsTheReferenceValuesItShows) {
+  const std::string json = (scratch_dir() / "sewing_references.json").string();
+  const CommandRun run = crosslink(
+      "compare mechanisms/sewing_machine.toml --engines analytic,dyads "
+      "--json \"" +
+      json + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json document = nlohmann::json::parse(read_file(json));
+  const nlohmann::json& rows = document.at("references");
+  ASSERT_FALSE(rows.empty());
+  int within = 0;
+  for (const nlohmann::json& r : rows)
+    within += r.at("within_rounding").is_boolean() && r.at("within_rounding").get<bool>() ? 1 : 0;
+  EXPECT_NE(run.out.find(fmt::format("; {} [[reference]] values beside the exact ones, {} within "
+                                     "their printed rounding (shown, not judged))\n",
+                                     rows.size(), within)),
+            std::string::npos)
+      << run.out.substr(run.out.find("verdict: "));
+}
+
 // `compare` with the reference alone printed "PASS (0 channel comparisons)": nothing was
 // compared, which is no pass; exit 2 as for a command line that asks for nothing to judge.
 TEST(Cli, CompareWithTheReferenceAloneHasNothingToCompare) {
