@@ -149,7 +149,8 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
 INSTANTIATE_TEST_SUITE_P(Mechanisms, Bundled, ::testing::ValuesIn(bundled_mechanisms()),
                          [](const auto& info) { return stem(info.param); });
 // Gear pairs (issue 20 item 3): a gear whose mate and carrier are placed has its angle, so the
-// geared five-bars and the epicyclic trains decompose; a rack and pinion is left to Newton.
+// geared five-bars and the epicyclic trains decompose; a rack and pinion places its pinion from
+// the placed rack's travel, or its rack from the placed pinion's turn.
 INSTANTIATE_TEST_SUITE_P(Gears, Bundled, ::testing::ValuesIn(bundled_mechanisms("gears")),
                          [](const auto& info) { return stem(info.param); });
 
@@ -168,6 +169,119 @@ TEST(Dyads, AGearPairPlacesTheSecondCrankOfAGearedFiveBar) {
     EXPECT_EQ(d.groups[2].kind, AssurGroup::Kind::dyad) << d.groups[2].name;
     EXPECT_EQ(d.groups[2].name.rfind("RRR dyad", 0), 0u) << d.groups[2].name;
   }
+}
+
+// A rack and pinion places one side from the other (the rack's guide placed): the slider-crank's
+// RRP dyad places the rack, whose travel then turns the pinion about its pivot (an input link);
+// Ryan's driven pinion moves the rack along its guide (an input link, its point at the travel).
+TEST(Dyads, ARackAndPinionPlacesThePinionFromTheRackOrTheRackFromThePinion) {
+  const std::string dir = std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/";
+  const Decomposition crank = decompose(load_mechanism(dir + "rack_pinion_slider_crank.toml"));
+  ASSERT_TRUE(crank.complete) << crank.reason;
+  ASSERT_EQ(crank.groups.size(), 3u);
+  EXPECT_EQ(crank.groups[0].kind, AssurGroup::Kind::input) << crank.groups[0].name;
+  EXPECT_EQ(crank.groups[1].kind, AssurGroup::Kind::dyad) << crank.groups[1].name;
+  EXPECT_EQ(crank.groups[1].name.rfind("RRP dyad rod + rack", 0), 0u) << crank.groups[1].name;
+  EXPECT_EQ(crank.groups[2].kind, AssurGroup::Kind::input) << crank.groups[2].name;
+  EXPECT_EQ(crank.groups[2].link[0],
+            load_mechanism(dir + "rack_pinion_slider_crank.toml").find_link("pinion"));
+  EXPECT_NE(crank.groups[2].name.find("pinion angle from the travel of rack rack"),
+            std::string::npos)
+      << crank.groups[2].name;
+
+  const Mechanism ryan = load_mechanism(dir + "ryan_rack_and_pinion.toml");
+  const Decomposition driven = decompose(ryan);
+  ASSERT_TRUE(driven.complete) << driven.reason;
+  ASSERT_EQ(driven.groups.size(), 2u);
+  EXPECT_EQ(driven.groups[0].link[0], ryan.find_link("pinion")) << driven.groups[0].name;
+  EXPECT_EQ(driven.groups[1].kind, AssurGroup::Kind::input) << driven.groups[1].name;
+  EXPECT_EQ(driven.groups[1].link[0], ryan.find_link("rack")) << driven.groups[1].name;
+  EXPECT_NE(driven.groups[1].name.find("pin on ground at the travel from pinion pinion"),
+            std::string::npos)
+      << driven.groups[1].name;
+}
+
+// A rack reached with neither side placed: the pinion turns on an arm swinging about O, the rack
+// slides along the arm and is held by a rod to the ground, and the driver turns the pinion on
+// the arm. No link has three equations to placed links, so the chain is left to Newton, and
+// the reason names the rack and pinion and why it places neither side.
+TEST(Dyads, ARackAndPinionOnAnUnplacedGuideIsNamedInTheReason) {
+  const Mechanism m = parse_mechanism(R"(name = "rack on a swinging arm"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0], F = [100, -50] }
+[[link]]
+name = "arm"
+points = { O = [0, 0], D = [50, 20] }
+lines = { guide = { through = "O", angle = 0 } }
+[[link]]
+name = "pinion"
+points = { D = [0, 0], T = [20, 0] }
+pose = [50, 20, 0]
+[[link]]
+name = "rack"
+points = { C = [0, 0] }
+pose = [100, 0, 0]
+[[link]]
+name = "rod"
+points = { C = [0, 0], F = [0, -50] }
+pose = [100, 0, 0]
+[[joint]]
+type = "revolute"
+links = ["ground", "arm"]
+point = "O"
+[[joint]]
+type = "revolute"
+links = ["arm", "pinion"]
+point = "D"
+[[joint]]
+type = "prismatic"
+name = "rack_slide"
+guide = "arm"
+line = "guide"
+slider = "rack"
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rack", "rod"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "F"
+[[joint]]
+type = "rack_pinion"
+name = "mesh"
+pinion = "pinion"
+rack = "rack_slide"
+radius = 20
+[driver]
+type = "joint_angle"
+joint = "D"
+to = "T"
+start = 0
+speed = 10
+)",
+                                      "arm.toml");
+  const Decomposition d = decompose(m);
+  EXPECT_FALSE(d.complete);
+  EXPECT_NE(d.reason.find("rack and pinion 'mesh' places neither its pinion 'pinion' nor its "
+                          "rack 'rack' (their guide 'arm' is not placed)"),
+            std::string::npos)
+      << d.reason;
+  EXPECT_NE(d.reason.find("left to Newton"), std::string::npos) << d.reason;
+  // Newton solves it; the dyads method says why it does not.
+  const Trajectory newton = sweep(m);
+  EXPECT_GT(std::count_if(newton.status.begin(), newton.status.end(), usable), 10)
+      << newton.samples() << " samples";
+  const Trajectory dyads = dyad_sweep(m, newton);
+  ASSERT_FALSE(dyads.events.empty());
+  EXPECT_NE(dyads.events[0].message.find("rack and pinion 'mesh'"), std::string::npos)
+      << dyads.events[0].message;
 }
 
 // The dyad method must be able to fail: on the other assembly mode the crank-rocker's coupler

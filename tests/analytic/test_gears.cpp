@@ -15,11 +15,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <numbers>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "analytic/dyads.h"
 #include "analytic/instant_centres.h"
 #include "analytic/kinetostatics.h"
 #include "analytic/loader.h"
@@ -119,9 +122,7 @@ TEST(Gears, TheHandoutsEpicyclicTrainGivesItsPrintedSpeeds) {
 // Ryan's answer (the file's citation): 13 teeth at 80 rpm on a 4 mm pitch rack travel 52 mm a
 // turn, 4160 mm a minute: the rack's rate is the pinion's rate times its pitch radius 13 x 4 /
 // (2 pi) mm, its travel the angle turned times that radius.
-TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
-  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
-  const Trajectory t = swept(m);
+void expect_ryans_travel(const Trajectory& t) {
   const int slide = column(t.slider_names, "rack_slide");
   const double radius = 13.0 * 0.004 / (2.0 * kPi), w = 80.0 * 2.0 * kPi / 60.0;
   for (int k = 0; k < t.samples(); ++k) {
@@ -130,6 +131,11 @@ TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
     EXPECT_NEAR(t.sdot(k, slide), radius * w, 1e-9 * radius * w) << k;  // 4160 mm a minute
     EXPECT_NEAR(t.sddot(k, slide), 0.0, 1e-9 * radius * w * w) << k;
   }
+}
+TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
+  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
+  const Trajectory t = swept(m);
+  expect_ryans_travel(t);
   expect_references_within_rounding(m, t);
 }
 
@@ -155,9 +161,7 @@ TEST(Gears, ThePitchPointsAreInstantCentres) {
 
 // s(theta) = r cos theta + sqrt(l^2 - r^2 sin^2 theta), r = 40 mm, l = 120 mm; the pinion turns
 // by (s - 160 mm) / 30 mm, its centre on the rack line's left.
-TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
-  const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
-  const Trajectory t = swept(m);
+void expect_pinion_turned_by_travel(const Trajectory& t) {
   const int pinion = column(t.link_names, "pinion");
   const double r = 0.040, l = 0.120, radius = 0.030, w = 4.0 * kPi;  // 120 rpm
   for (int k = 0; k < t.samples(); ++k) {
@@ -171,6 +175,77 @@ TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
     EXPECT_NEAR(t.omega(k, pinion), rate / radius, 1e-9 * (r * w / radius)) << k;
     EXPECT_NEAR(t.alpha(k, pinion), accel / radius, 1e-9 * (r * w * w / radius)) << k;
   }
+}
+TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
+  expect_pinion_turned_by_travel(swept(load_mechanism(gear_file("rack_pinion_slider_crank.toml"))));
+}
+
+// The closed-form dyads through a rack and pinion (a pinion turned by a placed rack's travel, a
+// rack moved along its guide by a placed pinion) against Newton on the same file: every
+// position, velocity and acceleration channel of every link, point and slide to 1e-9 of the
+// largest peak of its kind over the sweep (angles to 1e-9 rad), at every sample, and against the
+// file's closed form above. Returns the largest relative difference.
+double expect_dyads_agree_with_newton(const Mechanism& m, const std::string& name) {
+  const Decomposition d = decompose(m);
+  EXPECT_TRUE(d.complete) << name << ": " << d.reason;
+  if (!d.complete) return 1.0;
+  const Trajectory newton = swept(m);
+  const Trajectory dyads = dyad_sweep(m, newton);
+  EXPECT_EQ(dyads.method, "dyads");
+  EXPECT_EQ(dyads.samples(), newton.samples());
+  const auto kind = [](const std::string& channel) {
+    const bool angular = channel.rfind("omega.", 0) == 0 || channel.rfind("alpha.", 0) == 0;
+    return std::string(to_string(Trajectory::quantity_of(channel))) + (angular ? "/angular" : "");
+  };
+  std::map<std::string, double> peak;
+  for (const std::string& channel : newton.channel_names())
+    peak[kind(channel)] =
+        std::max(peak[kind(channel)], newton.channel(channel)->cwiseAbs().maxCoeff());
+  double omega = 0.0;  // the driver's largest rate [rad/s]
+  for (int k = 0; k < newton.samples(); ++k)
+    omega = std::max(omega, std::abs(m.driver().at_time(newton.time(k)).rate));
+  double worst = 0.0;
+  std::string worst_channel;
+  for (int k = 0; k < newton.samples(); ++k) {
+    EXPECT_TRUE(usable(newton.status[static_cast<size_t>(k)])) << name << " " << k;
+    EXPECT_EQ(dyads.status[static_cast<size_t>(k)], PoseStatus::ok) << name << " " << k;
+  }
+  for (const std::string& channel : newton.channel_names()) {
+    const Quantity q = Trajectory::quantity_of(channel);
+    if (q == Quantity::force || q == Quantity::torque) continue;
+    // A kind that is zero by design (Ryan's angular accelerations, at a constant speed) is
+    // measured against the chain's own rate of it: the driver's rate omega and the size L give
+    // omega, omega^2, omega L, omega^2 L.
+    const double rate = q == Quantity::velocity ? omega : omega * omega;
+    const double own = kind(channel).ends_with("/angular") ? rate : rate * m.size();
+    const double scale = q == Quantity::angle      ? 1.0  // rad
+                         : q == Quantity::position ? peak[kind(channel)]
+                                                   : std::max(peak[kind(channel)], own);
+    const Eigen::VectorXd a = *newton.channel(channel), b = *dyads.channel(channel);
+    for (int k = 0; k < newton.samples(); ++k) {
+      const double error = std::abs(a(k) - b(k)) / scale;
+      if (error > worst) worst = error, worst_channel = channel;
+      EXPECT_LE(error, 1e-9) << name << " " << channel << " at driver " << newton.driver(k)
+                             << ": newton " << a(k) << ", dyads " << b(k);
+    }
+  }
+  std::printf("[ dyads - newton ] %s: %d samples, largest difference %.2e of its peak (%s)\n",
+              name.c_str(), newton.samples(), worst, worst_channel.c_str());
+  return worst;
+}
+
+TEST(Gears, TheDyadsTurnThePinionByTheRacksTravel) {
+  const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
+  EXPECT_LE(expect_dyads_agree_with_newton(m, "rack_pinion_slider_crank"), 1e-9);
+  expect_pinion_turned_by_travel(dyad_sweep(m));
+}
+
+TEST(Gears, TheDyadsMoveRyansRackByThePinionsTurn) {
+  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
+  EXPECT_LE(expect_dyads_agree_with_newton(m, "ryan_rack_and_pinion"), 1e-9);
+  const Trajectory t = dyad_sweep(m);
+  expect_ryans_travel(t);
+  expect_references_within_rounding(m, t);
 }
 
 // Equal external gears turn the cranks mirror-wise (theta_5 = 180 deg - theta_2), so the chain is
