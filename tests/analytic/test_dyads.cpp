@@ -201,6 +201,86 @@ TEST(Dyads, ARackAndPinionPlacesThePinionFromTheRackOrTheRackFromThePinion) {
       << driven.groups[1].name;
 }
 
+// A gear pair is no inner joint of a dyad: it takes one freedom, not a revolute's or a slide's
+// two. A crank-rocker (crank 15, coupler 60, rocker 40 mm, pivots 50 mm apart) whose rocker is a
+// gear meshing with a second gear on the ground, the gear pair listed before the rocker's
+// joints: once the crank is placed both gears are held by their pivots alone, and the pair was
+// taken as the inner joint of an "RPR dyad g1 + g2" (read as a slide it has no line). The RRR
+// dyad places the coupler and the rocker, then the gear pair the second gear, as Newton does.
+TEST(Dyads, AGearPairIsNoInnerJointOfADyad) {
+  const Mechanism m = parse_mechanism(R"(name = "crank-rocker turning a gear train"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], D = [50, 0], E = [50, -50] }
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [15, 0] }
+[[link]]
+name = "coupler"
+points = { B = [0, 0], C = [60, 0] }
+pose = [15, 0, 39.84]
+[[link]]
+name = "g1"
+points = { D = [0, 0], C = [40, 0] }
+pose = [50, 0, 73.9]
+[[link]]
+name = "g2"
+points = { E = [0, 0], Q = [30, 0] }
+pose = [50, -50, 0]
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["crank", "coupler"]
+point = "B"
+[[joint]]
+type = "gear"
+gears = ["g1", "g2"]
+radii = [20, 30]
+[[joint]]
+type = "revolute"
+links = ["coupler", "g1"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["ground", "g1"]
+point = "D"
+[[joint]]
+type = "revolute"
+links = ["ground", "g2"]
+point = "E"
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 0
+speed = 60
+speed_unit = "rpm"
+)",
+                                      "geared_rocker.toml");
+  const Decomposition d = decompose(m);
+  ASSERT_TRUE(d.complete) << d.reason;
+  ASSERT_EQ(d.groups.size(), 3u);
+  EXPECT_EQ(d.groups[1].name.rfind("RRR dyad coupler + g1", 0), 0u) << d.groups[1].name;
+  EXPECT_EQ(d.groups[2].link[0], m.find_link("g2")) << d.groups[2].name;
+  EXPECT_NE(d.groups[2].name.find("gear angle from g1"), std::string::npos) << d.groups[2].name;
+  const Trajectory newton = sweep(m);
+  const Trajectory dyads = dyad_sweep(m, newton);
+  const int g2 = m.moving_index(m.find_link("g2"));
+  ASSERT_GT(newton.samples(), 300);
+  for (int k = 0; k < newton.samples(); ++k) {
+    ASSERT_EQ(dyads.status[static_cast<size_t>(k)], PoseStatus::ok) << k;
+    EXPECT_NEAR(dyads.angle(k, g2), newton.angle(k, g2), 1e-10) << k;
+    EXPECT_NEAR(dyads.omega(k, g2), newton.omega(k, g2), 1e-10 * 2.0 * std::numbers::pi) << k;
+  }
+}
+
 // A rack reached with neither side placed: the pinion turns on an arm swinging about O, the rack
 // slides along the arm and is held by a rod to the ground, and the driver turns the pinion on
 // the arm. No link has three equations to placed links, so the chain is left to Newton, and
