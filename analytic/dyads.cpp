@@ -340,15 +340,15 @@ Decomposition decompose(const Mechanism& m) {
     std::string why =
         "the rest is a group of class III or higher (e.g. a link held by three sliding pins)";
     // A rack and pinion places one side once the other and the rack's guide are placed: one
-    // reached with both sides (or the guide) unplaced is closed through a loop of its own.
+    // left with both sides (or the guide) unplaced is named.
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       const Joint& j = m.joints[ji];
       if (used[ji] || j.type != JointType::rack_pinion) continue;
       const auto is_placed = [&](int l) { return placed[static_cast<size_t>(l)] != 0; };
       why = fmt::format(
-          "rack and pinion '{}' places neither its pinion '{}' nor its rack '{}' ({}): it "
-          "places one from the other, both on a placed guide, and here the mesh closes a loop "
-          "that no dyad or single link opens",
+          "rack and pinion '{}' places neither its pinion '{}' nor its rack '{}' ({}; it "
+          "places either from the other on a placed guide): the rest, the mesh in it, is a "
+          "group that no dyad or single link places",
           j.name, m.links[j.link_a].name, m.links[j.link_b].name,
           !is_placed(j.carrier)
               ? fmt::format("their guide '{}' is not placed", m.links[j.carrier].name)
