@@ -364,6 +364,29 @@ speed = 10
       << dyads.events[0].message;
 }
 
+// A rack and pinion that places neither side is a redundant coupling, named as the gear pair's
+// is: Ryan's rack and pinion with its rack driven too (a slider driver on its slide, built here:
+// the loader refuses a second driver for one freedom), so the pinion and the rack are each an
+// input link of their own driver and the mesh is left over.
+TEST(Dyads, ARackAndPinionPlacingNeitherSideIsNamedAsRedundant) {
+  Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                               "/mechanisms/gears/ryan_rack_and_pinion.toml");
+  Driver slide;
+  slide.name = "rack";
+  slide.type = DriverType::slider;
+  slide.joint = m.find_joint("rack_slide");
+  slide.link = m.find_link("rack");
+  m.drivers.push_back(slide);
+  const Decomposition d = decompose(m);
+  EXPECT_FALSE(d.complete);
+  EXPECT_EQ(d.groups.size(), 2u);
+  EXPECT_NE(d.reason.find("rack and pinion 'mesh' places neither its pinion 'pinion' nor its "
+                          "rack 'rack' (each placed before it by other joints): a redundant "
+                          "coupling, left to Newton"),
+            std::string::npos)
+      << d.reason;
+}
+
 // The dyad method must be able to fail: on the other assembly mode the crank-rocker's coupler
 // and rocker are the mirror image about BD, and no longer agree with Newton on the drawn one.
 TEST(Dyads, OtherAssemblyModeDisagrees) {
