@@ -7,6 +7,9 @@
 //   - a geared five-bar with equal gears, whose coupler point runs on its mirror line;
 //   - published trains: a handout's epicyclic train and Ryan's rack and pinion against their
 //     printed speeds, and Constans and Dyer's geared five-bar against an independent solution;
+//   - the closed-form dyads through a rack and pinion (the pinion turned by a placed rack, the
+//     rack moved by a placed pinion; both bundled racks and a rack on a turning, accelerating
+//     guide) against Newton on the same file and the files' closed forms;
 //   - the mesh force along the line of action: tilted from the pitch line's tangent by the
 //     pressure angle, pushing the teeth apart (Newton-Euler on every link, with the mesh force at
 //     the pitch point, is test_kinetostatics' ReactionsBalanceEveryLink over mechanisms/gears);
@@ -246,6 +249,120 @@ TEST(Gears, TheDyadsMoveRyansRackByThePinionsTurn) {
   const Trajectory t = dyad_sweep(m);
   expect_ryans_travel(t);
   expect_references_within_rounding(m, t);
+}
+
+// A rack's guide that turns: an arm driven about O from 60 rpm, accelerating at 20 rad/s^2,
+// carries the rack's line and the pinion's centre D, 15 mm off the line (pitch radius 15 mm), so
+// the travel's rates have the guide's turning terms. `holder` is what else holds the chain (a rod
+// and its joints), `poses` the pinion's and the rack's drawn poses. Newton solves the same file.
+Mechanism rack_on_a_turning_arm(const std::string& poses, const std::string& holder) {
+  return parse_mechanism(R"(name = "rack on a turning arm"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0], F = [30, 0], G = [10, 0] }
+[[link]]
+name = "arm"
+points = { O = [0, 0], D = [40, 15], P = [100, 0] }
+lines = { guide = { through = "O", angle = 0 } }
+[[joint]]
+type = "revolute"
+links = ["ground", "arm"]
+point = "O"
+[[joint]]
+type = "revolute"
+links = ["arm", "pinion"]
+point = "D"
+[[joint]]
+type = "prismatic"
+name = "rack_slide"
+guide = "arm"
+line = "guide"
+slider = "rack"
+point = "C"
+[[joint]]
+type = "rack_pinion"
+name = "mesh"
+pinion = "pinion"
+rack = "rack_slide"
+radius = 15
+[driver]
+type = "joint_angle"
+joint = "O"
+to = "P"
+start = 0
+speed = 60
+speed_unit = "rpm"
+acceleration = 20
+)" + poses + holder,
+                         "turning_arm.toml");
+}
+
+TEST(Gears, TheDyadsFollowARackOnATurningGuide) {
+  // A rod from F to the rack (60 mm; F inside its circle, so the arm turns fully): the RRP
+  // dyad places the rod and the rack, whose travel turns the pinion.
+  const Mechanism by_rack = rack_on_a_turning_arm(R"(
+[[link]]
+name = "pinion"
+points = { D = [0, 0], E = [15, 0] }
+pose = [40, 15, 0]
+[[link]]
+name = "rack"
+points = { C = [0, 0], R = [-40, 0] }
+pose = [90, 0, 0]
+[[link]]
+name = "rod"
+points = { C = [0, 0], F = [-60, 0] }
+pose = [90, 0, 0]
+)",
+                                                  R"(
+[[joint]]
+type = "revolute"
+links = ["rack", "rod"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "F"
+)");
+  const Decomposition placed_by_rack = decompose(by_rack);
+  ASSERT_TRUE(placed_by_rack.complete) << placed_by_rack.reason;
+  EXPECT_EQ(placed_by_rack.groups.back().link[0], by_rack.find_link("pinion"));
+  EXPECT_LE(expect_dyads_agree_with_newton(by_rack, "pinion turned by the rack"), 1e-9);
+
+  // A rod from G to the pinion's point E (45 mm): the RRR dyad places the rod and the pinion,
+  // whose turn moves the rack along the turning arm.
+  const Mechanism by_pinion = rack_on_a_turning_arm(R"(
+[[link]]
+name = "pinion"
+points = { D = [0, 0], E = [15, 0] }
+pose = [40, 15, -21.3]
+[[link]]
+name = "rack"
+points = { C = [0, 0], R = [-40, 0] }
+pose = [70, 0, 0]
+[[link]]
+name = "rod"
+points = { G = [0, 0], E = [45, 0] }
+pose = [10, 0, 12.25]
+)",
+                                                    R"(
+[[joint]]
+type = "revolute"
+links = ["pinion", "rod"]
+point = "E"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "G"
+)");
+  const Decomposition placed_by_pinion = decompose(by_pinion);
+  ASSERT_TRUE(placed_by_pinion.complete) << placed_by_pinion.reason;
+  EXPECT_EQ(placed_by_pinion.groups.back().link[0], by_pinion.find_link("rack"));
+  EXPECT_LE(expect_dyads_agree_with_newton(by_pinion, "rack moved by the pinion"), 1e-9);
 }
 
 // Equal external gears turn the cranks mirror-wise (theta_5 = 180 deg - theta_2), so the chain is
