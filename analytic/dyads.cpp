@@ -64,6 +64,14 @@ int driver_on(const Mechanism& m, int joint, DriverType type) {
   return -1;
 }
 
+// The unused rack and pinion whose rack slides on prismatic joint `slide`, or -1.
+int rack_on(const Mechanism& m, int slide, const std::vector<char>& used) {
+  for (size_t i = 0; i < m.joints.size(); ++i)
+    if (m.joints[i].type == JointType::rack_pinion && m.joints[i].slide == slide && !used[i])
+      return static_cast<int>(i);
+  return -1;
+}
+
 // The ties of unplaced link u to placed links, from unused joints and the drivers (each driver
 // is a tie of the link it turns or slides). A link_angle driver's tie has no joint: its `joint`
 // is -1 - the driver's index (-1 for the first).
@@ -85,6 +93,18 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
       angle.known_scale = b ? -1.0 / j.ratio : -j.ratio;
       angle.second = j.carrier;
       angle.second_scale = b ? 1.0 + 1.0 / j.ratio : 1.0 + j.ratio;
+      ties.push_back(angle);
+      continue;
+    }
+    if (j.type == JointType::rack_pinion) {
+      // The pinion, its rack and the rack's guide placed: the rolling of the pitch circle on
+      // the pitch line, s - ratio (theta_a - theta_c) = phase, gives the pinion's angle from
+      // the rack's travel s. (The rack, its pinion placed, is held through its slide: below.)
+      if (u != j.link_a || !placed[static_cast<size_t>(j.carrier)]) continue;
+      Tie angle{.kind = Tie::Kind::angle, .joint = joint, .known = j.carrier};
+      angle.offset = -j.phase / j.ratio;
+      angle.rack = joint;
+      angle.travel_scale = 1.0 / j.ratio;
       ties.push_back(angle);
       continue;
     }
@@ -111,6 +131,17 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
       pin.line = j.line;
       pin.on_link = j.point_b;
       pin.driver_slide = true;
+      ties.push_back(pin);
+    } else if (const int r =
+                   j.type == JointType::prismatic && u == j.link_b ? rack_on(m, joint, used) : -1;
+               r >= 0 && placed[static_cast<size_t>(m.joints[static_cast<size_t>(r)].link_a)]) {
+      // A rack whose pinion (and guide) are placed: its point sits at the travel the pinion
+      // gives, s = ratio (theta_pinion - theta_guide) + phase, along the guide's line.
+      Tie pin{.kind = Tie::Kind::pin, .joint = joint, .known = other};
+      pin.line = j.line;
+      pin.on_link = j.point_b;
+      pin.driver_slide = true;
+      pin.rack = r;
       ties.push_back(pin);
     } else {
       Tie slot{.kind = Tie::Kind::slot, .joint = joint, .known = other};
@@ -177,11 +208,15 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
     const std::string known = t.known >= 0 ? m.links[t.known].name : "the driver";
     switch (t.kind) {
       case Tie::Kind::pin:
-        text += fmt::format("pin on {}", known);
+        text += t.rack >= 0 ? fmt::format("pin on {} at the travel from pinion {}", known,
+                                          m.links[m.joints[t.rack].link_a].name)
+                            : fmt::format("pin on {}", known);
         break;
       case Tie::Kind::angle:
         text += t.joint < 0     ? std::string("driven angle")
                 : t.second >= 0 ? fmt::format("gear angle from {}", known)
+                : t.rack >= 0   ? fmt::format("pinion angle from the travel of rack {}",
+                                              m.links[m.joints[t.rack].link_b].name)
                                 : fmt::format("angle from {}", known);
         break;
       case Tie::Kind::slot:
@@ -196,14 +231,6 @@ std::string tie_summary(const Mechanism& m, const std::vector<Tie>& ties) {
 
 Decomposition decompose(const Mechanism& m) {
   Decomposition out;
-  for (const Joint& j : m.joints)
-    if (j.type == JointType::rack_pinion) {
-      out.reason = fmt::format(
-          "rack and pinion '{}' couples a rotation and a travel, which no dyad places: left to "
-          "Newton",
-          j.name);
-      return out;
-    }
   const int n = static_cast<int>(m.links.size());
   std::vector<char> placed(static_cast<size_t>(n), 0), used(m.joints.size(), 0);
   placed[static_cast<size_t>(m.ground())] = 1;
@@ -214,8 +241,10 @@ Decomposition decompose(const Mechanism& m) {
       if (g.link[i] < 0) continue;
       placed[static_cast<size_t>(g.link[i])] = 1;
       --remaining;
-      for (const Tie& t : g.ties[i])
+      for (const Tie& t : g.ties[i]) {
         if (t.joint >= 0) used[static_cast<size_t>(t.joint)] = 1;
+        if (t.rack >= 0) used[static_cast<size_t>(t.rack)] = 1;
+      }
     }
     if (g.inner >= 0) used[static_cast<size_t>(g.inner)] = 1;
     out.groups.push_back(std::move(g));
@@ -265,7 +294,8 @@ Decomposition decompose(const Mechanism& m) {
     // Dyads: two unplaced links joined by a revolute or prismatic joint, each held by R or P.
     for (size_t ji = 0; ji < m.joints.size() && !found; ++ji) {
       const Joint& j = m.joints[ji];
-      if (used[ji] || j.type == JointType::pin_in_slot) continue;
+      // (A pin-in-slot or a gearing joint is no inner joint: it takes one freedom, not two.)
+      if (used[ji] || (j.type != JointType::revolute && j.type != JointType::prismatic)) continue;
       if (placed[static_cast<size_t>(j.link_a)] || placed[static_cast<size_t>(j.link_b)]) continue;
       if (std::any_of(m.drivers.begin(), m.drivers.end(), [&](const Driver& d) {
             return d.joint == static_cast<int>(ji) && d.type != DriverType::link_angle;
@@ -309,6 +339,26 @@ Decomposition decompose(const Mechanism& m) {
     }
     std::string why =
         "the rest is a group of class III or higher (e.g. a link held by three sliding pins)";
+    // A rack and pinion places one side once the other and the rack's guide are placed: one
+    // left with both sides (or the guide) unplaced is named.
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      const Joint& j = m.joints[ji];
+      if (used[ji] || j.type != JointType::rack_pinion) continue;
+      const auto is_placed = [&](int l) { return placed[static_cast<size_t>(l)] != 0; };
+      why = fmt::format(
+          "rack and pinion '{}' places neither its pinion '{}' nor its rack '{}' ({}; it "
+          "places either from the other on a placed guide): the rest, the mesh in it, is a "
+          "group that no dyad or single link places",
+          j.name, m.links[j.link_a].name, m.links[j.link_b].name,
+          !is_placed(j.carrier)
+              ? fmt::format("their guide '{}' is not placed", m.links[j.carrier].name)
+          : !is_placed(j.link_a) && !is_placed(j.link_b)
+              ? std::string("neither is placed")
+              : fmt::format("'{}' is placed, but the mesh alone does not place '{}'",
+                            m.links[is_placed(j.link_a) ? j.link_a : j.link_b].name,
+                            m.links[is_placed(j.link_a) ? j.link_b : j.link_a].name));
+      break;
+    }
     for (const Driver& d : m.drivers)
       if (d.type == DriverType::link_angle && !placed[static_cast<size_t>(d.link)]) {
         why = fmt::format(
@@ -328,6 +378,12 @@ Decomposition decompose(const Mechanism& m) {
           "gear pair '{}' places neither gear (each placed before it by other joints): a "
           "redundant coupling, left to Newton",
           m.joints[ji].name);
+      return out;
+    } else if (!used[ji] && m.joints[ji].type == JointType::rack_pinion) {
+      out.reason = fmt::format(
+          "rack and pinion '{}' places neither its pinion '{}' nor its rack '{}' (each placed "
+          "before it by other joints): a redundant coupling, left to Newton",
+          m.joints[ji].name, m.links[m.joints[ji].link_a].name, m.links[m.joints[ji].link_b].name);
       return out;
     } else if (!used[ji]) {
       out.reason = fmt::format(
@@ -461,6 +517,30 @@ const DriverState& tie_driver(const Mechanism& m, const Tie& t, const DyadState&
   return s.kinematics.driver;
 }
 
+// The travel s of a sliding pin tie along its line, with its rate and acceleration: the
+// driver's, or a rack's from its placed pinion and guide (s = ratio (theta_pinion -
+// theta_guide) + phase, the rack and pinion's row in analytic/constraints.cpp).
+DriverState travel_of(const Mechanism& m, const Tie& t, const DyadState& s) {
+  if (t.rack < 0) [[likely]]
+    return tie_driver(m, t, s);
+  const Joint& j = m.joints[static_cast<size_t>(t.rack)];
+  const BodyMotion& pinion = s.motion[static_cast<size_t>(j.link_a)];
+  const BodyMotion& guide = s.motion[static_cast<size_t>(j.carrier)];
+  DriverState d;
+  d.value = j.ratio * (pinion.theta - guide.theta) + j.phase;
+  d.rate = j.ratio * (pinion.omega - guide.omega);
+  d.accel = j.ratio * (pinion.alpha - guide.alpha);
+  return d;
+}
+
+// A rack's travel along its slide, with its rate and acceleration, read off its placed guide
+// and rack (as a slider driver reads it).
+Projection rack_travel(const Mechanism& m, int rack_joint, const DyadState& s) {
+  const SlotGeometry g = slot_of(m, m.joints[static_cast<size_t>(rack_joint)].slide);
+  return project(s.motion[static_cast<size_t>(g.guide)], g.line->origin, g.line->direction,
+                 s.motion[static_cast<size_t>(g.slider)], g.point);
+}
+
 // The velocity (accel false) or acceleration of a pin tie's point, its known link's local point
 // given (unused when the pin slides with the driver).
 Eigen::Vector2d sliding_pin_rate(const Mechanism& m, const Tie& t, bool accel, const DyadState& s);
@@ -476,7 +556,7 @@ inline Eigen::Vector2d pin_rate(const Mechanism& m, const Tie& t, const Eigen::V
                                                    const DyadState& s) {
   const BodyMotion& k = s.motion[t.known];
   const Line& line = m.links[t.known].lines[t.line];
-  const DriverState& d = tie_driver(m, t, s);
+  const DriverState d = travel_of(m, t, s);
   const Eigen::Vector2d local = line.origin + d.value * line.direction;
   if (!accel) return k.velocity(local) + d.rate * k.turn(line.direction);
   return k.acceleration(local) + 2.0 * d.rate * k.turn_rate(line.direction) +
@@ -490,7 +570,7 @@ Eigen::Vector2d pin_position(const Mechanism& m, const Tie& t, const Eigen::Vect
   const BodyMotion& k = s.motion[t.known];
   if (!t.driver_slide) return k.position(on_known);
   const Line& line = m.links[t.known].lines[t.line];
-  return k.position(line.origin + tie_driver(m, t, s).value * line.direction);
+  return k.position(line.origin + travel_of(m, t, s).value * line.direction);
 }
 
 // theta, omega, alpha of a link from its angle tie.
@@ -505,6 +585,10 @@ Eigen::Vector3d angle_state(const Mechanism& m, const Tie& t, const DyadState& s
   if (t.second >= 0) {
     const BodyMotion& k = s.motion[t.second];
     a += t.second_scale * Eigen::Vector3d(k.theta, k.omega, k.alpha);
+  }
+  if (t.rack >= 0) {
+    const Projection travel = rack_travel(m, t.rack, s);
+    a += t.travel_scale * Eigen::Vector3d(travel.value, travel.rate, travel.accel);
   }
   return a;
 }
@@ -590,6 +674,7 @@ void DyadSolver::roots(const AssurGroup& g, const Plan& plan, DyadState& s, Root
       double theta = t.offset + t.driver_sign * d.value;
       if (t.known >= 0) theta += t.known_scale * s.motion[t.known].theta;
       if (t.second >= 0) theta += t.second_scale * s.motion[t.second].theta;
+      if (t.rack >= 0) theta += t.travel_scale * rack_travel(m, t.rack, s).value;
       set_angle(s.motion[g.link[i]], theta);
     }
     if (side.has_pin) r.pin[i] = pin_position(m, side.pin, side.pin_known, s);
@@ -1044,6 +1129,10 @@ void DyadSolver::input_rates(const AssurGroup& g, const Plan& plan, bool accel,
     angular += t.known_scale * (accel ? s.motion[t.known].alpha : s.motion[t.known].omega);
   if (t.second >= 0)
     angular += t.second_scale * (accel ? s.motion[t.second].alpha : s.motion[t.second].omega);
+  if (t.rack >= 0) {
+    const Projection travel = rack_travel(mechanism_, t.rack, s);
+    angular += t.travel_scale * (accel ? travel.accel : travel.rate);
+  }
   const Eigen::Vector2d pin = pin_rate(mechanism_, side.pin, side.pin_known, accel, s);
   const Eigen::Vector2d arm = u.turn(side.pin_local);
   if (accel) {

@@ -6,11 +6,16 @@
 // is a "tie":
 //   pin    a point of U at a known world point (a revolute joint with K)          2 equations
 //   angle  U's angle known (a prismatic joint's fixed relative angle, a driver,     1 equation
-//          or a gear pair whose other gear and carrier are placed)
+//          a gear pair whose other gear and carrier are placed, or a rack and pinion
+//          whose rack and guide are placed: the pinion turns by the rack's travel)
 //   slot   a point on a line, one of the two on U (the line part of a prismatic or 1 equation
 //          pin-in-slot joint)
+// A prismatic joint with a known travel along its line (a slider driver's, or the travel a rack
+// and pinion gives the rack once the pinion and the guide are placed) is a pin at a moving point
+// of the guide's line, not a slot.
 // Groups, in the order they are searched:
-//   input       pin + angle (the driver's input link, or a link welded to a placed one)
+//   input       pin + angle (the driver's input link, a link welded to a placed one, a gear or
+//               pinion turned by a placed mate, a rack moved by a placed pinion)
 //   pivot_slot  pin + slot: one link and a slotted pin or a slotted link (the block of an R-P
 //               pair taken as a pin-in-slot)                                   circle-line, tangent
 //   slide_slot  angle + slot + slot                                                       line-line
@@ -54,10 +59,14 @@ struct Tie {
   Kind kind = Kind::pin;
   int joint = -1;  // the joint it comes from (-1: the link_angle driver)
   // pin: point `on_link` of the unplaced link sits at point `on_known` of link `known`; when
-  // `driver_slide`, at the driver's displacement s along line `line` of `known` instead.
+  // `driver_slide`, at a travel s along line `line` of `known` instead: the driver's
+  // displacement, or with `rack` (a rack's slide) s = ratio (theta_pinion - theta_guide) + phase
+  // of that rack and pinion joint, its pinion and guide placed.
   // angle: theta = known_scale * theta_known + offset + driver_sign * driver value (known = -1:
   // no link), plus second_scale * theta_second for a gear pair's (its other gear the known
-  // link, its carrier the second: the rolling of the pitch circles, linear in both).
+  // link, its carrier the second: the rolling of the pitch circles, linear in both), plus
+  // travel_scale * s for a pinion's (`rack` its rack and pinion joint, s the rack's travel read
+  // off the placed guide and rack, the known link the guide).
   // slot: the line part of `joint`; the unplaced link is its slider when `slider_is_unplaced`.
   int known = -1;
   int on_known = -1, on_link = -1, line = -1;
@@ -67,6 +76,8 @@ struct Tie {
   double known_scale = 1.0;
   int second = -1;
   double second_scale = 0.0;
+  int rack = -1;  // the rack and pinion joint whose travel places it (a pin) or turns it (an angle)
+  double travel_scale = 0.0;
 };
 
 // One group of the decomposition, placed once the links its ties name are placed.

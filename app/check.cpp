@@ -242,8 +242,8 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
     out += fmt::format("  driver: {}\n", driver_text(m, m.driver()));
   }
 
-  // The closed-form method: the groups the chain decomposes into once the drivers and gear
-  // pairs are applied, or why it does not (Newton solves it).
+  // The closed-form method: the groups the chain decomposes into once the drivers, gear pairs
+  // and racks are applied, or why it does not (Newton solves it).
   if (const Decomposition d = decompose(m); d.complete) {
     out += fmt::format("  closed-form dyads ({} groups):\n", d.groups.size());
     for (const AssurGroup& g : d.groups) out += fmt::format("    {}\n", g.name);

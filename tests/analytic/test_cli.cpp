@@ -1696,14 +1696,20 @@ TEST(Cli, TheReportDrawsSeveralDriversAtATime) {
 }
 
 // Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
-// five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so.
+// five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so; so
+// does a rack and pinion whose pinion is placed.
 TEST(Cli, CheckReportsTheGearedFiveBarsDecomposition) {
   const CommandRun run = crosslink("check mechanisms/gears/geared_fivebar.toml");
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("closed-form dyads (3 groups):"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("gear angle from crank2"), std::string::npos) << run.out;
+  // A driven pinion moves its rack: two input links, the rack's point at the pinion's travel.
   const CommandRun rack = crosslink("check mechanisms/gears/ryan_rack_and_pinion.toml");
-  EXPECT_NE(rack.out.find("closed-form dyads: none: rack and pinion"), std::string::npos)
+  EXPECT_EQ(rack.exit_code, 0) << rack.err;
+  EXPECT_NE(rack.out.find("closed-form dyads (2 groups):"), std::string::npos) << rack.out;
+  EXPECT_NE(rack.out.find("input link rack (pin on ground at the travel from pinion pinion + "
+                          "angle from ground)"),
+            std::string::npos)
       << rack.out;
 }
 

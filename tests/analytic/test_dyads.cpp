@@ -149,7 +149,8 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
 INSTANTIATE_TEST_SUITE_P(Mechanisms, Bundled, ::testing::ValuesIn(bundled_mechanisms()),
                          [](const auto& info) { return stem(info.param); });
 // Gear pairs (issue 20 item 3): a gear whose mate and carrier are placed has its angle, so the
-// geared five-bars and the epicyclic trains decompose; a rack and pinion is left to Newton.
+// geared five-bars and the epicyclic trains decompose; a rack and pinion places its pinion from
+// the placed rack's travel, or its rack from the placed pinion's turn.
 INSTANTIATE_TEST_SUITE_P(Gears, Bundled, ::testing::ValuesIn(bundled_mechanisms("gears")),
                          [](const auto& info) { return stem(info.param); });
 
@@ -168,6 +169,222 @@ TEST(Dyads, AGearPairPlacesTheSecondCrankOfAGearedFiveBar) {
     EXPECT_EQ(d.groups[2].kind, AssurGroup::Kind::dyad) << d.groups[2].name;
     EXPECT_EQ(d.groups[2].name.rfind("RRR dyad", 0), 0u) << d.groups[2].name;
   }
+}
+
+// A rack and pinion places one side from the other (the rack's guide placed): the slider-crank's
+// RRP dyad places the rack, whose travel then turns the pinion about its pivot (an input link);
+// Ryan's driven pinion moves the rack along its guide (an input link, its point at the travel).
+TEST(Dyads, ARackAndPinionPlacesThePinionFromTheRackOrTheRackFromThePinion) {
+  const std::string dir = std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/";
+  const Decomposition crank = decompose(load_mechanism(dir + "rack_pinion_slider_crank.toml"));
+  ASSERT_TRUE(crank.complete) << crank.reason;
+  ASSERT_EQ(crank.groups.size(), 3u);
+  EXPECT_EQ(crank.groups[0].kind, AssurGroup::Kind::input) << crank.groups[0].name;
+  EXPECT_EQ(crank.groups[1].kind, AssurGroup::Kind::dyad) << crank.groups[1].name;
+  EXPECT_EQ(crank.groups[1].name.rfind("RRP dyad rod + rack", 0), 0u) << crank.groups[1].name;
+  EXPECT_EQ(crank.groups[2].kind, AssurGroup::Kind::input) << crank.groups[2].name;
+  EXPECT_EQ(crank.groups[2].link[0],
+            load_mechanism(dir + "rack_pinion_slider_crank.toml").find_link("pinion"));
+  EXPECT_NE(crank.groups[2].name.find("pinion angle from the travel of rack rack"),
+            std::string::npos)
+      << crank.groups[2].name;
+
+  const Mechanism ryan = load_mechanism(dir + "ryan_rack_and_pinion.toml");
+  const Decomposition driven = decompose(ryan);
+  ASSERT_TRUE(driven.complete) << driven.reason;
+  ASSERT_EQ(driven.groups.size(), 2u);
+  EXPECT_EQ(driven.groups[0].link[0], ryan.find_link("pinion")) << driven.groups[0].name;
+  EXPECT_EQ(driven.groups[1].kind, AssurGroup::Kind::input) << driven.groups[1].name;
+  EXPECT_EQ(driven.groups[1].link[0], ryan.find_link("rack")) << driven.groups[1].name;
+  EXPECT_NE(driven.groups[1].name.find("pin on ground at the travel from pinion pinion"),
+            std::string::npos)
+      << driven.groups[1].name;
+}
+
+// A gear pair is no inner joint of a dyad: it takes one freedom, not a revolute's or a slide's
+// two. A crank-rocker (crank 15, coupler 60, rocker 40 mm, pivots 50 mm apart) whose rocker is a
+// gear meshing with a second gear on the ground, the gear pair listed before the rocker's
+// joints: once the crank is placed both gears are held by their pivots alone, and the pair was
+// taken as the inner joint of an "RPR dyad g1 + g2" (read as a slide it has no line). The RRR
+// dyad places the coupler and the rocker, then the gear pair the second gear, as Newton does.
+TEST(Dyads, AGearPairIsNoInnerJointOfADyad) {
+  const Mechanism m = parse_mechanism(R"(name = "crank-rocker turning a gear train"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { A = [0, 0], D = [50, 0], E = [50, -50] }
+[[link]]
+name = "crank"
+points = { A = [0, 0], B = [15, 0] }
+[[link]]
+name = "coupler"
+points = { B = [0, 0], C = [60, 0] }
+pose = [15, 0, 39.84]
+[[link]]
+name = "g1"
+points = { D = [0, 0], C = [40, 0] }
+pose = [50, 0, 73.9]
+[[link]]
+name = "g2"
+points = { E = [0, 0], Q = [30, 0] }
+pose = [50, -50, 0]
+[[joint]]
+type = "revolute"
+links = ["ground", "crank"]
+point = "A"
+[[joint]]
+type = "revolute"
+links = ["crank", "coupler"]
+point = "B"
+[[joint]]
+type = "gear"
+gears = ["g1", "g2"]
+radii = [20, 30]
+[[joint]]
+type = "revolute"
+links = ["coupler", "g1"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["ground", "g1"]
+point = "D"
+[[joint]]
+type = "revolute"
+links = ["ground", "g2"]
+point = "E"
+[driver]
+type = "joint_angle"
+joint = "A"
+to = "B"
+start = 0
+speed = 60
+speed_unit = "rpm"
+)",
+                                      "geared_rocker.toml");
+  const Decomposition d = decompose(m);
+  ASSERT_TRUE(d.complete) << d.reason;
+  ASSERT_EQ(d.groups.size(), 3u);
+  EXPECT_EQ(d.groups[1].name.rfind("RRR dyad coupler + g1", 0), 0u) << d.groups[1].name;
+  EXPECT_EQ(d.groups[2].link[0], m.find_link("g2")) << d.groups[2].name;
+  EXPECT_NE(d.groups[2].name.find("gear angle from g1"), std::string::npos) << d.groups[2].name;
+  const Trajectory newton = sweep(m);
+  const Trajectory dyads = dyad_sweep(m, newton);
+  const int g2 = m.moving_index(m.find_link("g2"));
+  ASSERT_GT(newton.samples(), 300);
+  for (int k = 0; k < newton.samples(); ++k) {
+    ASSERT_EQ(dyads.status[static_cast<size_t>(k)], PoseStatus::ok) << k;
+    EXPECT_NEAR(dyads.angle(k, g2), newton.angle(k, g2), 1e-10) << k;
+    EXPECT_NEAR(dyads.omega(k, g2), newton.omega(k, g2), 1e-10 * 2.0 * std::numbers::pi) << k;
+  }
+}
+
+// A rack reached with neither side placed: the pinion turns on an arm swinging about O, the rack
+// slides along the arm and is held by a rod to the ground, and the driver turns the pinion on
+// the arm. No link has three equations to placed links, so the chain is left to Newton, and
+// the reason names the rack and pinion and why it places neither side.
+TEST(Dyads, ARackAndPinionOnAnUnplacedGuideIsNamedInTheReason) {
+  const Mechanism m = parse_mechanism(R"(name = "rack on a swinging arm"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0], F = [100, -50] }
+[[link]]
+name = "arm"
+points = { O = [0, 0], D = [50, 20] }
+lines = { guide = { through = "O", angle = 0 } }
+[[link]]
+name = "pinion"
+points = { D = [0, 0], T = [20, 0] }
+pose = [50, 20, 0]
+[[link]]
+name = "rack"
+points = { C = [0, 0] }
+pose = [100, 0, 0]
+[[link]]
+name = "rod"
+points = { C = [0, 0], F = [0, -50] }
+pose = [100, 0, 0]
+[[joint]]
+type = "revolute"
+links = ["ground", "arm"]
+point = "O"
+[[joint]]
+type = "revolute"
+links = ["arm", "pinion"]
+point = "D"
+[[joint]]
+type = "prismatic"
+name = "rack_slide"
+guide = "arm"
+line = "guide"
+slider = "rack"
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rack", "rod"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "F"
+[[joint]]
+type = "rack_pinion"
+name = "mesh"
+pinion = "pinion"
+rack = "rack_slide"
+radius = 20
+[driver]
+type = "joint_angle"
+joint = "D"
+to = "T"
+start = 0
+speed = 10
+)",
+                                      "arm.toml");
+  const Decomposition d = decompose(m);
+  EXPECT_FALSE(d.complete);
+  EXPECT_NE(d.reason.find("rack and pinion 'mesh' places neither its pinion 'pinion' nor its "
+                          "rack 'rack' (their guide 'arm' is not placed"),
+            std::string::npos)
+      << d.reason;
+  EXPECT_NE(d.reason.find("left to Newton"), std::string::npos) << d.reason;
+  // Newton solves it; the dyads method says why it does not.
+  const Trajectory newton = sweep(m);
+  EXPECT_GT(std::count_if(newton.status.begin(), newton.status.end(), usable), 10)
+      << newton.samples() << " samples";
+  const Trajectory dyads = dyad_sweep(m, newton);
+  ASSERT_FALSE(dyads.events.empty());
+  EXPECT_NE(dyads.events[0].message.find("rack and pinion 'mesh'"), std::string::npos)
+      << dyads.events[0].message;
+}
+
+// A rack and pinion that places neither side is a redundant coupling, named as the gear pair's
+// is: Ryan's rack and pinion with its rack driven too (a slider driver on its slide, built here:
+// the loader refuses a second driver for one freedom), so the pinion and the rack are each an
+// input link of their own driver and the mesh is left over.
+TEST(Dyads, ARackAndPinionPlacingNeitherSideIsNamedAsRedundant) {
+  Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                               "/mechanisms/gears/ryan_rack_and_pinion.toml");
+  Driver slide;
+  slide.name = "rack";
+  slide.type = DriverType::slider;
+  slide.joint = m.find_joint("rack_slide");
+  slide.link = m.find_link("rack");
+  m.drivers.push_back(slide);
+  const Decomposition d = decompose(m);
+  EXPECT_FALSE(d.complete);
+  EXPECT_EQ(d.groups.size(), 2u);
+  EXPECT_NE(d.reason.find("rack and pinion 'mesh' places neither its pinion 'pinion' nor its "
+                          "rack 'rack' (each placed before it by other joints): a redundant "
+                          "coupling, left to Newton"),
+            std::string::npos)
+      << d.reason;
 }
 
 // The dyad method must be able to fail: on the other assembly mode the crank-rocker's coupler

@@ -7,6 +7,9 @@
 //   - a geared five-bar with equal gears, whose coupler point runs on its mirror line;
 //   - published trains: a handout's epicyclic train and Ryan's rack and pinion against their
 //     printed speeds, and Constans and Dyer's geared five-bar against an independent solution;
+//   - the closed-form dyads through a rack and pinion (the pinion turned by a placed rack, the
+//     rack moved by a placed pinion; both bundled racks and a rack on a turning, accelerating
+//     guide) against Newton on the same file and the files' closed forms;
 //   - the mesh force along the line of action: tilted from the pitch line's tangent by the
 //     pressure angle, pushing the teeth apart (Newton-Euler on every link, with the mesh force at
 //     the pitch point, is test_kinetostatics' ReactionsBalanceEveryLink over mechanisms/gears);
@@ -15,11 +18,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <numbers>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "analytic/dyads.h"
 #include "analytic/instant_centres.h"
 #include "analytic/kinetostatics.h"
 #include "analytic/loader.h"
@@ -119,9 +125,7 @@ TEST(Gears, TheHandoutsEpicyclicTrainGivesItsPrintedSpeeds) {
 // Ryan's answer (the file's citation): 13 teeth at 80 rpm on a 4 mm pitch rack travel 52 mm a
 // turn, 4160 mm a minute: the rack's rate is the pinion's rate times its pitch radius 13 x 4 /
 // (2 pi) mm, its travel the angle turned times that radius.
-TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
-  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
-  const Trajectory t = swept(m);
+void expect_ryans_travel(const Trajectory& t) {
   const int slide = column(t.slider_names, "rack_slide");
   const double radius = 13.0 * 0.004 / (2.0 * kPi), w = 80.0 * 2.0 * kPi / 60.0;
   for (int k = 0; k < t.samples(); ++k) {
@@ -130,6 +134,11 @@ TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
     EXPECT_NEAR(t.sdot(k, slide), radius * w, 1e-9 * radius * w) << k;  // 4160 mm a minute
     EXPECT_NEAR(t.sddot(k, slide), 0.0, 1e-9 * radius * w * w) << k;
   }
+}
+TEST(Gears, RyansRackTravelsFortyOneSixtyMillimetresAMinute) {
+  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
+  const Trajectory t = swept(m);
+  expect_ryans_travel(t);
   expect_references_within_rounding(m, t);
 }
 
@@ -155,9 +164,7 @@ TEST(Gears, ThePitchPointsAreInstantCentres) {
 
 // s(theta) = r cos theta + sqrt(l^2 - r^2 sin^2 theta), r = 40 mm, l = 120 mm; the pinion turns
 // by (s - 160 mm) / 30 mm, its centre on the rack line's left.
-TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
-  const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
-  const Trajectory t = swept(m);
+void expect_pinion_turned_by_travel(const Trajectory& t) {
   const int pinion = column(t.link_names, "pinion");
   const double r = 0.040, l = 0.120, radius = 0.030, w = 4.0 * kPi;  // 120 rpm
   for (int k = 0; k < t.samples(); ++k) {
@@ -171,6 +178,191 @@ TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
     EXPECT_NEAR(t.omega(k, pinion), rate / radius, 1e-9 * (r * w / radius)) << k;
     EXPECT_NEAR(t.alpha(k, pinion), accel / radius, 1e-9 * (r * w * w / radius)) << k;
   }
+}
+TEST(Gears, ARackTurnsItsPinionByTheTravelOverThePitchRadius) {
+  expect_pinion_turned_by_travel(swept(load_mechanism(gear_file("rack_pinion_slider_crank.toml"))));
+}
+
+// The closed-form dyads through a rack and pinion (a pinion turned by a placed rack's travel, a
+// rack moved along its guide by a placed pinion) against Newton on the same file: every
+// position, velocity and acceleration channel of every link, point and slide to 1e-9 of the
+// largest peak of its kind over the sweep (angles to 1e-9 rad), at every sample, and against the
+// file's closed form above. Returns the largest relative difference.
+double expect_dyads_agree_with_newton(const Mechanism& m, const std::string& name) {
+  const Decomposition d = decompose(m);
+  EXPECT_TRUE(d.complete) << name << ": " << d.reason;
+  if (!d.complete) return 1.0;
+  const Trajectory newton = swept(m);
+  const Trajectory dyads = dyad_sweep(m, newton);
+  EXPECT_EQ(dyads.method, "dyads");
+  EXPECT_EQ(dyads.samples(), newton.samples());
+  const auto kind = [](const std::string& channel) {
+    const bool angular = channel.rfind("omega.", 0) == 0 || channel.rfind("alpha.", 0) == 0;
+    return std::string(to_string(Trajectory::quantity_of(channel))) + (angular ? "/angular" : "");
+  };
+  std::map<std::string, double> peak;
+  for (const std::string& channel : newton.channel_names())
+    peak[kind(channel)] =
+        std::max(peak[kind(channel)], newton.channel(channel)->cwiseAbs().maxCoeff());
+  double omega = 0.0;  // the driver's largest rate [rad/s]
+  for (int k = 0; k < newton.samples(); ++k)
+    omega = std::max(omega, std::abs(m.driver().at_time(newton.time(k)).rate));
+  double worst = 0.0;
+  std::string worst_channel;
+  for (int k = 0; k < newton.samples(); ++k) {
+    EXPECT_TRUE(usable(newton.status[static_cast<size_t>(k)])) << name << " " << k;
+    EXPECT_EQ(dyads.status[static_cast<size_t>(k)], PoseStatus::ok) << name << " " << k;
+  }
+  for (const std::string& channel : newton.channel_names()) {
+    const Quantity q = Trajectory::quantity_of(channel);
+    if (q == Quantity::force || q == Quantity::torque) continue;
+    // A kind that is zero by design (Ryan's angular accelerations, at a constant speed) is
+    // measured against the chain's own rate of it: the driver's rate omega and the size L give
+    // omega, omega^2, omega L, omega^2 L.
+    const double rate = q == Quantity::velocity ? omega : omega * omega;
+    const double own = kind(channel).ends_with("/angular") ? rate : rate * m.size();
+    const double scale = q == Quantity::angle      ? 1.0  // rad
+                         : q == Quantity::position ? peak[kind(channel)]
+                                                   : std::max(peak[kind(channel)], own);
+    const Eigen::VectorXd a = *newton.channel(channel), b = *dyads.channel(channel);
+    for (int k = 0; k < newton.samples(); ++k) {
+      const double error = std::abs(a(k) - b(k)) / scale;
+      if (error > worst) worst = error, worst_channel = channel;
+      EXPECT_LE(error, 1e-9) << name << " " << channel << " at driver " << newton.driver(k)
+                             << ": newton " << a(k) << ", dyads " << b(k);
+    }
+  }
+  std::printf("[ dyads - newton ] %s: %d samples, largest difference %.2e of its peak (%s)\n",
+              name.c_str(), newton.samples(), worst, worst_channel.c_str());
+  return worst;
+}
+
+TEST(Gears, TheDyadsTurnThePinionByTheRacksTravel) {
+  const Mechanism m = load_mechanism(gear_file("rack_pinion_slider_crank.toml"));
+  EXPECT_LE(expect_dyads_agree_with_newton(m, "rack_pinion_slider_crank"), 1e-9);
+  expect_pinion_turned_by_travel(dyad_sweep(m));
+}
+
+TEST(Gears, TheDyadsMoveRyansRackByThePinionsTurn) {
+  const Mechanism m = load_mechanism(gear_file("ryan_rack_and_pinion.toml"));
+  EXPECT_LE(expect_dyads_agree_with_newton(m, "ryan_rack_and_pinion"), 1e-9);
+  const Trajectory t = dyad_sweep(m);
+  expect_ryans_travel(t);
+  expect_references_within_rounding(m, t);
+}
+
+// A rack's guide that turns: an arm driven about O from 60 rpm, accelerating at 20 rad/s^2,
+// carries the rack's line and the pinion's centre D, 15 mm off the line (pitch radius 15 mm), so
+// the travel's rates have the guide's turning terms. `holder` is what else holds the chain (a rod
+// and its joints), `poses` the pinion's and the rack's drawn poses. Newton solves the same file.
+Mechanism rack_on_a_turning_arm(const std::string& poses, const std::string& holder) {
+  return parse_mechanism(R"(name = "rack on a turning arm"
+[units]
+length = "mm"
+angle = "deg"
+[[link]]
+name = "ground"
+ground = true
+points = { O = [0, 0], F = [30, 0], G = [10, 0] }
+[[link]]
+name = "arm"
+points = { O = [0, 0], D = [40, 15], P = [100, 0] }
+lines = { guide = { through = "O", angle = 0 } }
+[[joint]]
+type = "revolute"
+links = ["ground", "arm"]
+point = "O"
+[[joint]]
+type = "revolute"
+links = ["arm", "pinion"]
+point = "D"
+[[joint]]
+type = "prismatic"
+name = "rack_slide"
+guide = "arm"
+line = "guide"
+slider = "rack"
+point = "C"
+[[joint]]
+type = "rack_pinion"
+name = "mesh"
+pinion = "pinion"
+rack = "rack_slide"
+radius = 15
+[driver]
+type = "joint_angle"
+joint = "O"
+to = "P"
+start = 0
+speed = 60
+speed_unit = "rpm"
+acceleration = 20
+)" + poses + holder,
+                         "turning_arm.toml");
+}
+
+TEST(Gears, TheDyadsFollowARackOnATurningGuide) {
+  // A rod from F to the rack (60 mm; F inside its circle, so the arm turns fully): the RRP
+  // dyad places the rod and the rack, whose travel turns the pinion.
+  const Mechanism by_rack = rack_on_a_turning_arm(R"(
+[[link]]
+name = "pinion"
+points = { D = [0, 0], E = [15, 0] }
+pose = [40, 15, 0]
+[[link]]
+name = "rack"
+points = { C = [0, 0], R = [-40, 0] }
+pose = [90, 0, 0]
+[[link]]
+name = "rod"
+points = { C = [0, 0], F = [-60, 0] }
+pose = [90, 0, 0]
+)",
+                                                  R"(
+[[joint]]
+type = "revolute"
+links = ["rack", "rod"]
+point = "C"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "F"
+)");
+  const Decomposition placed_by_rack = decompose(by_rack);
+  ASSERT_TRUE(placed_by_rack.complete) << placed_by_rack.reason;
+  EXPECT_EQ(placed_by_rack.groups.back().link[0], by_rack.find_link("pinion"));
+  EXPECT_LE(expect_dyads_agree_with_newton(by_rack, "pinion turned by the rack"), 1e-9);
+
+  // A rod from G to the pinion's point E (45 mm): the RRR dyad places the rod and the pinion,
+  // whose turn moves the rack along the turning arm.
+  const Mechanism by_pinion = rack_on_a_turning_arm(R"(
+[[link]]
+name = "pinion"
+points = { D = [0, 0], E = [15, 0] }
+pose = [40, 15, -21.3]
+[[link]]
+name = "rack"
+points = { C = [0, 0], R = [-40, 0] }
+pose = [70, 0, 0]
+[[link]]
+name = "rod"
+points = { G = [0, 0], E = [45, 0] }
+pose = [10, 0, 12.25]
+)",
+                                                    R"(
+[[joint]]
+type = "revolute"
+links = ["pinion", "rod"]
+point = "E"
+[[joint]]
+type = "revolute"
+links = ["rod", "ground"]
+point = "G"
+)");
+  const Decomposition placed_by_pinion = decompose(by_pinion);
+  ASSERT_TRUE(placed_by_pinion.complete) << placed_by_pinion.reason;
+  EXPECT_EQ(placed_by_pinion.groups.back().link[0], by_pinion.find_link("rack"));
+  EXPECT_LE(expect_dyads_agree_with_newton(by_pinion, "rack moved by the pinion"), 1e-9);
 }
 
 // Equal external gears turn the cranks mirror-wise (theta_5 = 180 deg - theta_2), so the chain is
