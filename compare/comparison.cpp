@@ -108,9 +108,9 @@ std::string Comparison::references_counts_text() const {
   for (const ReferenceRow& r : references)
     within += r.exact_ok && r.reference.within_rounding(r.exact) ? 1 : 0;
   return fmt::format(
-      "; {} [[reference]] values beside the exact ones, {} within their printed rounding (shown, "
+      "; {} [[reference]] value{} beside the exact ones, {} within their printed rounding (shown, "
       "not judged)",
-      references.size(), within);
+      references.size(), references.size() == 1 ? "" : "s", within);
 }
 
 std::string Comparison::derived_counts_text() const {

@@ -84,8 +84,8 @@ struct Comparison {
   std::string counts_text() const;
   // "; N [[derived]] comparisons: p pass, f fail, n n/a", or "" without [[derived]] checks.
   std::string derived_counts_text() const;
-  // "; N [[reference]] values beside the exact ones, k within their printed rounding (shown, not
-  // judged)", or "" without [[reference]] rows: a verdict on no channel names what it showed.
+  // "; N [[reference]] value(s) beside the exact ones, k within their printed rounding (shown,
+  // not judged)", or "" without [[reference]] rows: a verdict on no channel names what it showed.
   std::string references_counts_text() const;
 };
 

@@ -1397,9 +1397,9 @@ TEST(Cli, TheVerdictLineCountsTheReferenceValuesItShows) {
   int within = 0;
   for (const nlohmann::json& r : rows)
     within += r.at("within_rounding").is_boolean() && r.at("within_rounding").get<bool>() ? 1 : 0;
-  EXPECT_NE(run.out.find(fmt::format("; {} [[reference]] values beside the exact ones, {} within "
+  EXPECT_NE(run.out.find(fmt::format("; {} [[reference]] value{} beside the exact ones, {} within "
                                      "their printed rounding (shown, not judged))\n",
-                                     rows.size(), within)),
+                                     rows.size(), rows.size() == 1 ? "" : "s", within)),
             std::string::npos)
       << run.out.substr(run.out.find("verdict: "));
 }
