@@ -255,6 +255,66 @@ SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
 
 }  // namespace
 
+int reduce_couplings(const std::vector<std::vector<std::pair<int, double>>>& rows, int most,
+                     CouplingRows& out) {
+  // Dense over the coordinates the rows name; a greedy elimination: a row with too many terms
+  // less the multiple of another that cancels a shared coordinate, when that leaves it fewer
+  // terms. Terms below round-off of the row's largest are cancelled.
+  std::vector<int> coordinates;
+  for (const auto& row : rows)
+    for (const auto& [c, value] : row)
+      if (std::find(coordinates.begin(), coordinates.end(), c) == coordinates.end())
+        coordinates.push_back(c);
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(coordinates.size()));
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (const auto& [c, value] : rows[static_cast<size_t>(i)])
+      a(i, std::find(coordinates.begin(), coordinates.end(), c) - coordinates.begin()) += value;
+  Eigen::MatrixXd mix = Eigen::MatrixXd::Identity(n, n);
+  const auto terms = [](const Eigen::VectorXd& row) {
+    const double scale = row.cwiseAbs().maxCoeff();
+    return static_cast<int>((row.array().abs() > 1e-12 * scale).count());
+  };
+  for (bool reduced = true; reduced;) {
+    reduced = false;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (terms(a.row(i)) <= most) continue;
+      for (Eigen::Index k = 0; k < n && !reduced; ++k)
+        for (Eigen::Index c = 0; c < a.cols() && k != i && !reduced; ++c) {
+          if (a(i, c) == 0.0 || a(k, c) == 0.0) continue;
+          const double factor = a(i, c) / a(k, c);
+          Eigen::VectorXd row = a.row(i) - factor * a.row(k);
+          row(c) = 0.0;
+          if (terms(row) >= terms(a.row(i))) continue;
+          const double scale = row.cwiseAbs().maxCoeff();
+          for (Eigen::Index e = 0; e < row.size(); ++e)
+            if (std::abs(row(e)) <= 1e-12 * scale) row(e) = 0.0;
+          a.row(i) = row;
+          mix.row(i) -= factor * mix.row(k);
+          reduced = true;
+        }
+    }
+  }
+  out = {};
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (terms(a.row(i)) > most) return static_cast<int>(i);
+    // The input row's own coordinates first, in its order, then any another row brought in.
+    std::vector<int> order;
+    for (const auto& [c, value] : rows[static_cast<size_t>(i)]) order.push_back(c);
+    for (int c : coordinates)
+      if (std::find(order.begin(), order.end(), c) == order.end()) order.push_back(c);
+    std::vector<std::pair<int, double>> row;
+    for (int c : order) {
+      const double value =
+          a(i, std::find(coordinates.begin(), coordinates.end(), c) - coordinates.begin());
+      if (value != 0.0) row.emplace_back(c, value);
+    }
+    out.rows.push_back(std::move(row));
+  }
+  out.mix = std::move(mix);
+  return -1;
+}
+
 BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
                        const Eigen::VectorXd* qdot) {
   if (body.source >= 0) return BodyMotion::of(m.moving_index(body.source), q, qdot, nullptr);

@@ -87,6 +87,22 @@ struct SceneCoupling {
                    // coupling's push along the line besides its own reaction
 };
 
+// Linear couplings of coordinates, each a row of (coordinate, coefficient) terms held at zero
+// rate, recombined for an engine whose coupling joins at most two coordinates: a planetary
+// train's gear pair on a moving carrier spans three (sun, planet, carrier), but once the train's
+// other pair has tied the planet to the carrier, the first less a multiple of the second ties the
+// sun to the carrier alone (Willis' formula). Each output row is a combination of the input rows
+// (rows = mix x input), and the recombination is invertible, so the engine holds the same
+// motion; its multipliers lambda give the input rows' as mix^T lambda.
+struct CouplingRows {
+  std::vector<std::vector<std::pair<int, double>>> rows;
+  Eigen::MatrixXd mix;  // output row i = sum_k mix(i, k) input row k
+};
+// `rows` recombined so that each holds at most `most` terms, or the index of an input row no
+// recombination brings down to that (-1 on success, with `out` filled).
+int reduce_couplings(const std::vector<std::vector<std::pair<int, double>>>& rows, int most,
+                     CouplingRows& out);
+
 // How an engine's tree is to be grown: each choice below is where the two engines' models differ,
 // kept because changing either would change that engine's numbers (docs/design.md, "Scene graph").
 struct TreePolicy {

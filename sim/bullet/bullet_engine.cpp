@@ -240,12 +240,59 @@ struct Plan {
     double coefficient_a = 1.0, coefficient_b = 1.0;
   };
   std::vector<Gearing> gearings;
+  // Gear pairs of the rigid formulation, per gearing joint in joint order: a btGearConstraint
+  // omega_a + ratio omega_b = 0 between two bodies (the ground when link_b is), the pair's own
+  // row or, on a moving carrier, its row recombined with the train's other pairs
+  // (reduce_couplings); each pair's multiplier is sum_e rigid_mix(e, k) times the constraints'.
+  struct RigidGear {
+    int joint = -1;  // the Mechanism joint
+    int link_a = -1, link_b = -1;
+    double ratio = 0.0;
+  };
+  std::vector<RigidGear> rigid_gears;
+  Eigen::MatrixXd rigid_mix;
 };
 
 int node_of_link(const Plan& plan, int link) {
   for (size_t i = 0; i < plan.nodes.size(); ++i)
     if (plan.nodes[i].source == link) return static_cast<int>(i);
   return -1;
+}
+
+// The rigid formulation's gear pairs (Plan::RigidGear) and their mix: each pair's row over the
+// links' absolute angles, theta_a + ratio theta_b - (1 + ratio) theta_c (about the ground: its two
+// gears, the ground among them if it is one, as the pair's own constraint), recombined until each
+// joins two bodies; std::runtime_error naming a pair that no recombination brings to two.
+Eigen::MatrixXd rigid_gear_rows(const Mechanism& m, const SceneGraph& g,
+                                std::vector<Plan::RigidGear>& out) {
+  std::vector<std::vector<std::pair<int, double>>> rows;
+  for (const SceneCoupling& c : g.couplings) {
+    const Joint& j = m.joints[static_cast<size_t>(c.source)];
+    std::vector<std::pair<int, double>> row{{j.link_a, 1.0}, {j.link_b, j.ratio}};
+    if (j.carrier != m.ground()) {
+      row.emplace_back(j.carrier, -(1.0 + j.ratio));
+      std::erase_if(row, [&](const auto& term) { return term.first == m.ground(); });
+    }
+    rows.push_back(std::move(row));
+  }
+  CouplingRows reduced;
+  if (const int k = reduce_couplings(rows, 2, reduced); k >= 0)
+    throw std::runtime_error(fmt::format(
+        "joint '{}' is a gear pair on a moving carrier: Bullet 3.24's btGearConstraint holds a "
+        "ratio of two rigid bodies' absolute rotation rates, and no combination with the train's "
+        "other pairs ties its gears and carrier to two bodies",
+        m.joints[static_cast<size_t>(g.couplings[static_cast<size_t>(k)].source)].name));
+  for (size_t e = 0; e < reduced.rows.size(); ++e) {
+    const auto& row = reduced.rows[e];
+    Plan::RigidGear gear{.joint = g.couplings[e].source};
+    gear.link_a = row.at(0).first;
+    gear.link_b = row.size() > 1 ? row[1].first : m.ground();
+    gear.ratio = row.size() > 1 ? row[1].second / row[0].second : 0.0;
+    // The constraint's row is the reduced one over its first coefficient.
+    reduced.mix.row(static_cast<Eigen::Index>(e)) /= row[0].second;
+    out.push_back(gear);
+  }
+  return reduced.mix;
 }
 
 // The graph's tree policy for Bullet: a floating link's driven angle is a planar ground joint's
@@ -268,7 +315,9 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
     if (multibody) {
       // Its row couples the first degree of freedom of two links; a planar joint's first is its
       // rotation, but Bullet 3.24 builds the row's directions from the first link's joint type,
-      // revolute or prismatic only.
+      // revolute or prismatic only. (Recombined as the rigid formulation's, a planetary train's
+      // rows join two coordinates each, but the run diverges within 0.08 s of its start, the
+      // gear rows' residual growing even without position correction, erp 0: not taken.)
       const auto planar = [&](int term) {
         return g.joints[static_cast<size_t>(c.terms[static_cast<size_t>(term)].first)].kind ==
                SceneJoint::Kind::planar;
@@ -285,13 +334,15 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
       gearings.push_back({c.source, edge_a, edge_b, coefficient_a, coefficient_b});
       continue;
     }
-    if (j.type != JointType::gear || j.carrier != m.ground())
+    if (j.type != JointType::gear)
       throw std::runtime_error(fmt::format(
-          "joint '{}' is a {}: Bullet 3.24's btGearConstraint holds a ratio of two rigid bodies' "
-          "absolute rotation rates, so it realises a gear pair about the ground only, not one "
-          "about a moving carrier or a rack",
-          j.name, j.type == JointType::gear ? "gear pair on a moving carrier" : "rack and pinion"));
+          "joint '{}' is a rack and pinion: Bullet 3.24's btGearConstraint holds a ratio of two "
+          "rigid bodies' absolute rotation rates, no travel",
+          j.name));
   }
+  std::vector<Plan::RigidGear> rigid_gears;
+  Eigen::MatrixXd rigid_mix;
+  if (!multibody) rigid_mix = rigid_gear_rows(m, g, rigid_gears);
   if (split_error) *split_error = g.split_error;
   const auto node = [](int body) { return body - 1; };
   Plan plan;
@@ -324,6 +375,8 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   }
   plan.cuts = g.cuts;
   plan.gearings = std::move(gearings);
+  plan.rigid_gears = std::move(rigid_gears);
+  plan.rigid_mix = std::move(rigid_mix);
   return plan;
 }
 
@@ -756,14 +809,17 @@ class RigidScene final : public Scene {
       bodies_.push_back(body);
     }
     gear_.assign(m.joints.size(), nullptr);
+    size_t gearing = 0;
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       const Joint& j = m.joints[ji];
       const int a = plan_node(m, j.link_a), b = plan_node(m, j.link_b);
       if (j.is_gearing()) {
-        // Its row: omega_a + ratio omega_b = 0 about z, the gear pair's rate about the ground
-        // (make_plan refuses any other), at the velocity level only.
+        // Its row: omega_a + ratio omega_b = 0 about z (Plan::RigidGear: the gear pair's rates
+        // about the ground, or recombined with the train's others), at the velocity level only.
+        const Plan::RigidGear& gear = plan.rigid_gears[gearing++];
         gear_[ji] =
-            new btGearConstraint(body(a), body(b), btVector3(0, 0, 1), btVector3(0, 0, 1), j.ratio);
+            new btGearConstraint(body(plan_node(m, gear.link_a)), body(plan_node(m, gear.link_b)),
+                                 btVector3(0, 0, 1), btVector3(0, 0, 1), gear.ratio);
         world_->addConstraint(gear_[ji], true);
         joint_constraint_.push_back(nullptr);
         joint_lock_.emplace_back();
@@ -1012,19 +1068,37 @@ std::string format_number(double v) {
 // body's centre of mass: a joint's couple is taken about its point, and a driven joint's own
 // constraint carries the driver's row too (its torque about the point, or its force along the
 // line, is the effort). `driven_joints`: per driver, the Mechanism joint the scene graph drives.
-void read_rigid_forces(const Mechanism& m, const Scene& scene,
+// The gear pairs' multipliers (Plan::RigidGear): each constraint's, the torque on its first
+// body (its coefficient 1) or, the ground first, on its second over its ratio; each pair's the
+// mix of them.
+Eigen::VectorXd gear_multipliers(const Mechanism& m, const Plan& plan, const Scene& scene) {
+  Eigen::VectorXd constraint(static_cast<Eigen::Index>(plan.rigid_gears.size()));
+  for (size_t e = 0; e < plan.rigid_gears.size(); ++e) {
+    const Plan::RigidGear& gear = plan.rigid_gears[e];
+    const btJointFeedback& fb = *scene.feedback(gear.joint);
+    constraint(static_cast<Eigen::Index>(e)) = gear.link_a != m.ground()
+                                                   ? fb.m_appliedTorqueBodyA.z()
+                                                   : fb.m_appliedTorqueBodyB.z() / gear.ratio;
+  }
+  return plan.rigid_mix.transpose() * constraint;
+}
+
+void read_rigid_forces(const Mechanism& m, const Plan& plan, const Scene& scene,
                        const std::vector<int>& driven_joints, const Eigen::VectorXd& q,
                        ForceReading& out) {
   auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return a.x() * b.y() - a.y() * b.x();
   };
   out.set_zero();
+  const Eigen::VectorXd gears =
+      plan.rigid_gears.empty() ? Eigen::VectorXd() : gear_multipliers(m, plan, scene);
+  Eigen::Index gearing = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
     if (j.is_gearing()) {  // the couple on the first moving gear (write_forces: the teeth)
-      out.gear_couple[ji] =
-          m.moving_index(j.link_a) >= 0 ? fb.m_appliedTorqueBodyA.z() : fb.m_appliedTorqueBodyB.z();
+      const double lambda = gears(gearing++);
+      out.gear_couple[ji] = m.moving_index(j.link_a) >= 0 ? lambda : lambda * j.ratio;
       continue;
     }
     const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
@@ -1362,7 +1436,7 @@ class BulletSteps {
   void step(double h, ForceReading* forces) {
     scene_.step(h);
     ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
-    if (forces) read_rigid_forces(m_, scene_, driven_joints_, q_, *forces);
+    if (forces) read_rigid_forces(m_, plan_, scene_, driven_joints_, q_, *forces);
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   Scene& scene() { return scene_; }

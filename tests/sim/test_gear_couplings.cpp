@@ -185,24 +185,39 @@ TEST(GearCouplings, OdeDriftOnEqualGearsIsItsConstraintForceMixing) {
   EXPECT_GT(drift[0] / drift[1], 50.0);  // 100 when CFM is the only cause
 }
 
-// What an engine does not build it refuses, naming the gearing and why, rather than run the
-// mechanism with its gears left out: a planetary train in Bullet (rigid bodies: btGearConstraint
-// couples two bodies' absolute rotation rates; a multibody: the sun turns on the ground, so the
-// coupling spans three joints of the tree and btMultiBodyGearConstraint couples two), and a rack
-// in ODE (no coupling built).
-TEST(GearCouplings, BulletRefusesAPlanetaryTrainNamingBothFormulations) {
+// A planetary train in Bullet's rigid formulation: its pair on the moving carrier spans three
+// bodies (sun, planet, carrier) and btGearConstraint couples two, so the pair's row is
+// recombined with the other pair's (planet to carrier, the ring being the ground): the sun to the
+// carrier alone, by Willis' formula (reduce_couplings). The MLCP holds each recombined row
+// exactly at the velocity level, so both physical pairs drift by rounding alone, as a pair about
+// the ground (at most 4 eps of a turn per step, times the rows' coefficients, over at most one
+// turn of the carrier's 2,880 steps at the default step); the mesh forces are the constraints'
+// multipliers mixed back (Plan::rigid_mix), each within the force tolerance of the exact one.
+// The multibody formulation does not take it (its coupling spans three joints of the tree):
+// recombined it diverges (sim/bullet/bullet_engine.cpp, make_plan), so Bullet falls back to rigid
+// bodies, naming why.
+TEST(GearCouplings, BulletHoldsAPlanetaryTrainByRecombiningItsPairs) {
+  const auto engine = make_bullet_engine();
+  for (const char* file : {"planetary_fixed_ring.toml", "epicyclic_ring72_sun32.toml"})
+    expect_couplings_hold(*engine, std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/" + file,
+                          [](const Joint& j) {
+                            constexpr double kSteps = 2880;
+                            return kSteps * 4.0 * std::numeric_limits<double>::epsilon() * 2.0 *
+                                   std::numbers::pi * (2.0 + 2.0 * std::abs(j.ratio));
+                          });
   const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
                                      "/mechanisms/gears/planetary_fixed_ring.toml");
-  std::string why;
-  EXPECT_FALSE(make_bullet_engine()->supports(m, &why));
-  EXPECT_NE(why.find("joint 'sun_planet' is a gear pair on a moving carrier: Bullet 3.24's "
-                     "btGearConstraint"),
+  const EngineRun run = engine->run(m, sweep(m), {{"formulation", "multibody"}});
+  ASSERT_TRUE(run.ok) << run.message;
+  EXPECT_NE(run.message.find("the multibody formulation cannot realise it (joint 'sun_planet' is "
+                             "a gear pair: its coupling spans 3 joints of the multibody tree"),
             std::string::npos)
-      << why;
-  EXPECT_NE(why.find("its coupling spans 3 joints of the multibody tree"), std::string::npos)
-      << why;
+      << run.message;
+  EXPECT_NE(run.message.find("rigid used"), std::string::npos) << run.message;
 }
 
+// What an engine does not build it refuses, naming the gearing and why, rather than run the
+// mechanism with its gears left out: a rack in ODE (no coupling built).
 TEST(GearCouplings, OdeRefusesARackNamingIt) {
   const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
                                      "/mechanisms/gears/rack_pinion_slider_crank.toml");

@@ -239,5 +239,42 @@ TEST(SceneGraph, SplitLoopsCloseBetweenMultibodies) {
       "");
 }
 
+// A planetary train with its ring fixed (sun 24 teeth, planet 12, ring 48): the sun-planet pair
+// on the moving carrier, (theta_s - theta_c) + 12/24 (theta_p - theta_c) = 0, spans three bodies;
+// the planet-ring pair, (theta_p - theta_c) - 48/12 (0 - theta_c) = 0, two. Recombined, the first
+// ties the sun to the carrier alone by Willis' formula, omega_s = (1 + 48/24) omega_c, and each
+// output row is its mix of the input rows.
+TEST(SceneGraph, APlanetaryTrainRecombinesByWillis) {
+  constexpr int kSun = 1, kPlanet = 2, kCarrier = 3;
+  const double sun_planet = 12.0 / 24.0, planet_ring = -48.0 / 12.0;
+  const std::vector<std::vector<std::pair<int, double>>> rows{
+      {{kSun, 1.0}, {kPlanet, sun_planet}, {kCarrier, -(1.0 + sun_planet)}},
+      {{kPlanet, 1.0}, {kCarrier, -(1.0 + planet_ring)}}};
+  CouplingRows out;
+  ASSERT_EQ(reduce_couplings(rows, 2, out), -1);
+  ASSERT_EQ(out.rows.size(), 2u);
+  ASSERT_EQ(out.rows[0].size(), 2u);
+  EXPECT_EQ(out.rows[0][0].first, kSun);
+  EXPECT_EQ(out.rows[0][1].first, kCarrier);
+  EXPECT_NEAR(-out.rows[0][1].second / out.rows[0][0].second, 1.0 + 48.0 / 24.0, 1e-15);
+  EXPECT_EQ(out.rows[1], rows[1]);  // already two terms: left as it is
+  // Every output row is its mix of the input rows, coordinate by coordinate.
+  for (size_t i = 0; i < out.rows.size(); ++i)
+    for (int c : {kSun, kPlanet, kCarrier}) {
+      const auto value = [c](const std::vector<std::pair<int, double>>& row) {
+        const auto it = std::find_if(row.begin(), row.end(), [c](auto t) { return t.first == c; });
+        return it == row.end() ? 0.0 : it->second;
+      };
+      double mixed = 0.0;
+      for (size_t k = 0; k < rows.size(); ++k)
+        mixed +=
+            out.mix(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) * value(rows[k]);
+      EXPECT_NEAR(value(out.rows[i]), mixed, 1e-15) << "row " << i << " coordinate " << c;
+    }
+  // The sun-planet pair alone (a ring that is a moving body of its own) joins three bodies
+  // whatever is done: it is named.
+  EXPECT_EQ(reduce_couplings({rows[0]}, 2, out), 0);
+}
+
 }  // namespace
 }  // namespace crosslink::sim
