@@ -109,6 +109,68 @@ void check_settings(const Mechanism& m, const std::vector<std::string>& all,
   }
 }
 
+// Each engine with a failing channel rerun at half its time step (its settings' dt), every
+// engine at once: one failing channel's max % of peak there (compare::StepProbe).
+std::vector<compare::StepProbe> probe_steps(const Mechanism& m, const compare::Comparison& cmp,
+                                            const std::vector<std::string>& names,
+                                            const std::vector<sim::Settings>& settings,
+                                            const compare::Tolerances& tolerances, int jobs) {
+  std::vector<compare::StepProbe> probes;
+  std::vector<sim::Settings> halved;
+  for (size_t k = 0; k < names.size(); ++k) {
+    const compare::MethodRun* run = cmp.method(names[k]);
+    if (!run || !run->ok || !methods::find_engine(names[k])) continue;
+    // The failing channel of the least differentiated class, the largest there: a position's
+    // difference shows the step's order where an acceleration's is noisy, or saturated once
+    // the motions part (a chaotic one's).
+    const auto rank = [](Quantity q) {
+      return q == Quantity::position || q == Quantity::angle ? 0
+             : q == Quantity::velocity                       ? 1
+             : q == Quantity::acceleration                   ? 2
+                                                             : 3;
+    };
+    compare::StepProbe probe;
+    probe.method = names[k];
+    int best = 4;
+    for (const compare::ChannelResult& c : cmp.channels) {
+      if (c.method != names[k] || c.verdict != compare::Verdict::fail) continue;
+      const int r = rank(c.metrics.quantity);
+      if (r < best || (r == best && c.metrics.max_pct_of_peak > probe.pct)) {
+        best = r;
+        probe.channel = c.metrics.channel;
+        probe.pct = c.metrics.max_pct_of_peak;
+      }
+    }
+    const auto dt = std::find_if(run->settings.begin(), run->settings.end(),
+                                 [](const auto& kv) { return kv.first == "dt"; });
+    if (probe.channel.empty() || dt == run->settings.end()) continue;  // passes, or no step
+    probe.dt = std::stod(dt->second);
+    probe.half_dt = probe.dt / 2.0;
+    sim::Settings half = settings[k];
+    std::erase_if(half, [](const auto& kv) { return kv.first == "dt"; });
+    half.emplace_back("dt", fmt::format("{:.17g}", probe.half_dt));
+    probes.push_back(std::move(probe));
+    halved.push_back(std::move(half));
+  }
+  methods::run_jobs(jobs, probes.size(), [&](size_t k) {
+    compare::StepProbe& probe = probes[k];
+    compare::MethodRun run = methods::run_method(probe.method, m, cmp.reference(), halved[k]);
+    if (!run.ok) {
+      probe.message = run.message;
+      return;
+    }
+    const compare::Comparison half =
+        compare::compare_methods(m, {cmp.reference(), std::move(run)}, tolerances);
+    for (const compare::ChannelResult& c : half.channels)
+      if (c.metrics.channel == probe.channel && c.metrics.usable > 0) {
+        probe.ok = true;
+        probe.half_pct = c.metrics.max_pct_of_peak;
+      }
+    if (!probe.ok) probe.message = "no usable sample of " + probe.channel + " at half the step";
+  });
+  return probes;
+}
+
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
   const Mechanism m = load_mechanism(args.path);
@@ -194,7 +256,8 @@ int run_compare(CompareArgs args) {
     runs[first + k] = methods::run_method(others[k], m, runs.front(), others_settings[k]);
   });
 
-  const compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);
+  compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);
+  cmp.step_probes = probe_steps(m, cmp, others, others_settings, tolerances, args.jobs);
 
   const bool json_stdout = args.json == "-";
   compare::print_console(cmp, json_stdout ? stderr : stdout, {.all = args.all});

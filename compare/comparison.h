@@ -3,6 +3,7 @@
 // tolerances: tolerance.h.
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +54,21 @@ struct ReferenceRow {
   double percent(double value, double against) const;
 };
 
+// A failing engine rerun at half its time step (crosslink compare): how a failing channel's
+// difference changes (of the least differentiated class failing, its largest) tells an error of
+// the engine's discretisation, which falls with the step, from one that does not (a modelling
+// difference, the reference, a singular position).
+struct StepProbe {
+  std::string method;
+  double dt = 0.0, half_dt = 0.0;    // [s]
+  bool ok = false;                   // the half-step run completed
+  std::string message;               // why it did not
+  std::string channel;               // the failing channel with the largest max % of peak
+  double pct = 0.0, half_pct = 0.0;  // its max % of peak at dt and at half_dt
+  // log2(pct / half_pct): about 1 at first order, 2 at second, 0 when the step is not the cause.
+  double order() const { return std::log2(pct / half_pct); }
+};
+
 struct Comparison {
   const Mechanism* mechanism = nullptr;
   std::vector<MethodRun> methods;  // methods[0]: the reference ("analytic")
@@ -61,6 +77,7 @@ struct Comparison {
   DerivedResults derived;  // the [[derived]] quantities, exact and every method's
   // Methods asked for that ran but failed (diverged, wrong sample count): they fail the whole.
   std::vector<std::string> failed_methods;
+  std::vector<StepProbe> step_probes;  // filled by the caller that reruns (crosslink compare)
 
   const MethodRun& reference() const { return methods.front(); }
   const MethodRun* method(std::string_view name) const;

@@ -138,6 +138,21 @@ std::string worst_context_text(const Mechanism& m, const WorstContext& c) {
   return text;
 }
 
+// "step probe: ..." of a failing engine rerun at half its step (StepProbe).
+std::string step_probe_text(const StepProbe& p) {
+  const std::string head = fmt::format(
+      "step probe: {} at half its step (dt = {:.6g} s, was {:.6g} s)", p.method, p.half_dt, p.dt);
+  if (!p.ok) return fmt::format("{}: not run to the end ({})", head, p.message);
+  const double order = p.order();
+  const char* reading = order >= 0.5 ? "it falls with the step: the engine's discretisation error"
+                        : order > -0.5
+                            ? "it does not fall with the step: not the step's error (a modelling "
+                              "difference, the reference, or a singular position)"
+                            : "it grows as the step falls";
+  return fmt::format("{}: {} {:.4g} -> {:.4g} % of peak (order {:.2g}); {}", head, p.channel, p.pct,
+                     p.half_pct, order, reading);
+}
+
 constexpr std::string_view kRowFormat = "{:<24} {:<8} {:>12} {:>11} {:>11} {:>19} {:>6}\n";
 
 // A metric of a channel, "-" when no sample is in its verdict (the value does not exist).
@@ -374,6 +389,7 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     if (c.verdict == Verdict::fail)
       fmt::print(out, "FAIL: derived {} {}: {:.4g} % of scale > tolerance {:.3g} %\n", c.quantity(),
                  c.method, c.pct_of_scale(), c.tolerance);
+  for (const StepProbe& p : cmp.step_probes) print_wrapped(out, step_probe_text(p), 0, 100);
   // A method that failed as a whole is named on the verdict line itself: its channels are not
   // among the counts (a scene MuJoCo refused read "FAIL (70 channel comparisons: 70 pass, 0 fail").
   if (cmp.nothing_compared()) {
@@ -467,6 +483,19 @@ nlohmann::json to_json(const Comparison& cmp) {
                                        {"message", w.nearest_singular->message}};
     }
   }
+
+  j["step_probes"] = json::array();
+  for (const StepProbe& p : cmp.step_probes)
+    j["step_probes"].push_back(
+        {{"method", p.method},
+         {"dt", p.dt},
+         {"half_dt", p.half_dt},
+         {"ok", p.ok},
+         {"message", p.message},
+         {"channel", p.channel},
+         {"max_pct_of_peak", p.pct},
+         {"half_step_max_pct_of_peak", p.ok ? json(p.half_pct) : json(nullptr)},
+         {"order", p.ok ? json(p.order()) : json(nullptr)}});
 
   j["references"] = json::array();
   for (const ReferenceRow& r : cmp.references) {

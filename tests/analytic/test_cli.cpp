@@ -1404,6 +1404,37 @@ TEST(Cli, TheVerdictLineCountsTheReferenceValuesItShows) {
       << run.out.substr(run.out.find("verdict: "));
 }
 
+// A failing engine is rerun at half its time step: on the double pendulum, whose engines fail by
+// their discretisation, Bullet's failing position falls with the step (order above 1/2); on the
+// sewing machine with a coupler 1 % long in the engine's scene, a modelling difference that no
+// step takes out, it stays (order 0, to the step's small share of it).
+TEST(Cli, TheStepProbeTellsTheStepsErrorFromAModellingDifference) {
+  struct Case {
+    const char* command;
+    double low, high;  // the order expected
+  };
+  for (const Case& c :
+       {Case{"compare mechanisms/dynamics/double_pendulum_mbdyn.toml --engines analytic,bullet",
+             0.5, 3.0},
+        Case{"compare mechanisms/sewing_machine.toml --engines analytic,bullet --set "
+             "perturb_link=coupler:1.01",
+             -0.1, 0.1}}) {
+    const std::string json = (scratch_dir() / "step_probe.json").string();
+    const CommandRun run = crosslink(std::string(c.command) + " --json \"" + json + "\"");
+    ASSERT_EQ(run.exit_code, 1) << c.command << "\n" << run.out << run.err;
+    const nlohmann::json probes = nlohmann::json::parse(read_file(json)).at("step_probes");
+    ASSERT_EQ(probes.size(), 1u) << c.command;
+    const nlohmann::json& p = probes[0];
+    EXPECT_EQ(p.at("method"), "bullet");
+    ASSERT_TRUE(p.at("ok").get<bool>()) << p.dump();
+    EXPECT_DOUBLE_EQ(p.at("half_dt").get<double>(), p.at("dt").get<double>() / 2.0);
+    const double order = p.at("order").get<double>();
+    EXPECT_GT(order, c.low) << c.command;
+    EXPECT_LT(order, c.high) << c.command;
+    EXPECT_NE(run.out.find("step probe: bullet at half its step"), std::string::npos) << run.out;
+  }
+}
+
 // `compare` with the reference alone printed "PASS (0 channel comparisons)": nothing was
 // compared, which is no pass; exit 2 as for a command line that asks for nothing to judge.
 TEST(Cli, CompareWithTheReferenceAloneHasNothingToCompare) {
