@@ -83,22 +83,27 @@ void DynamicsLoads::set_coordinates(const Eigen::VectorXd& q) {
   for (int d = 0; d < state_.driver_count(); ++d) state_.driver_state(d).value = coordinate(q, d);
 }
 
+template <class F>
+void DynamicsLoads::for_each_effort(double t, const Eigen::VectorXd& q, F&& f) {
+  if (!m_.dynamics) return;
+  bool jacobian = false;
+  for (int d = 0; d < m_.dynamics->coordinate_count(); ++d) {
+    const double effort = m_.dynamics->coordinate(d).effort_at(t);
+    if (effort == 0.0) continue;
+    if (!jacobian) solver_.jacobian(q, jacobian_);
+    jacobian = true;
+    f(effort, jacobian_.row(solver_.layout().driver_row(d)));
+  }
+}
+
 const std::vector<BodyLoad>& DynamicsLoads::at(double t, const Eigen::VectorXd& q,
                                                const Eigen::VectorXd& qdot) {
   state_.q = q;
   state_.qdot = qdot;
   set_coordinates(q);
   applied_loads(m_, state_, generalised_);
-  if (m_.dynamics) {
-    bool jacobian = false;
-    for (int d = 0; d < m_.dynamics->coordinate_count(); ++d) {
-      const double effort = m_.dynamics->coordinate(d).effort_at(t);
-      if (effort == 0.0) continue;
-      if (!jacobian) solver_.jacobian(q, jacobian_);
-      jacobian = true;
-      generalised_ += effort * jacobian_.row(solver_.layout().driver_row(d)).transpose();
-    }
-  }
+  for_each_effort(
+      t, q, [&](double effort, const auto& row) { generalised_ += effort * row.transpose(); });
   body_loads(m_, q, generalised_, out_);
   return out_;
 }
@@ -120,10 +125,7 @@ double DynamicsLoads::power(double t, const Eigen::VectorXd& q, const Eigen::Vec
   state_.qdot = qdot;
   set_coordinates(q);
   double power = kinetostatics_.load_power(state_);
-  if (m_.dynamics)
-    for (int d = 0; d < m_.dynamics->coordinate_count(); ++d)
-      if (const double effort = m_.dynamics->coordinate(d).effort_at(t); effort != 0.0)
-        power += effort * rate(q, qdot, d);
+  for_each_effort(t, q, [&](double effort, const auto& row) { power += effort * row.dot(qdot); });
   return power;
 }
 

@@ -71,6 +71,10 @@ class DynamicsLoads {
  private:
   // Every driver's value in state_ at q.
   void set_coordinates(const Eigen::VectorXd& q);
+  // f(effort, its driver's row of the constraint Jacobian at q) for each coordinate whose effort
+  // at t is not zero; the Jacobian evaluated once, and only when one is.
+  template <class F>
+  void for_each_effort(double t, const Eigen::VectorXd& q, F&& f);
 
   const Mechanism& m_;
   NewtonSolver solver_;
