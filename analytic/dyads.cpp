@@ -890,6 +890,7 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
   report.rcond = 1.0;
   s.mode_changes.clear();
   s.smallest_sine = 1.0;
+  s.folding_group = -1;
   s.ambiguity = 0.0;
   s.rate_matrix_valid = false;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
@@ -941,6 +942,7 @@ SolveReport DyadSolver::solve_position(DyadState& s) const {
     place(g, plans_[gi], r, index, s);
     s.before_previous[gi] = s.previous[gi];
     s.previous[gi] = key;
+    if (r.count == 2 && r.sine < s.smallest_sine) s.folding_group = static_cast<int>(gi);
     s.smallest_sine = std::min(s.smallest_sine, r.sine);
   }
   s.history = std::min(s.history + 1, 2);
@@ -1336,6 +1338,15 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     }
     k.driver = d.at_time(grid.time(row));
     k.driver.value = grid.driver(row);
+    // Reversed at a toggle (--at-limit reverse), the driver runs against its law's speed: the
+    // direction toward the next sample (at the end, from the last), as the Newton sweep's.
+    if (d.law.kind != MotionLaw::Kind::constant_speed) return;
+    double way = 0.0;
+    if (row + 1 < grid.samples() && grid.driver(row + 1) != grid.driver(row))
+      way = grid.driver(row + 1) - grid.driver(row);
+    else if (row > 0)
+      way = grid.driver(row) - grid.driver(row - 1);
+    if (way * d.law.speed < 0.0) k.driver.rate = -k.driver.rate;
   };
   Trajectory out;
   out.method = "dyads";
@@ -1523,11 +1534,36 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     if (march.advance_to(behind).status == PoseStatus::cannot_assemble) return;
     march.advance_to(parameter_at(first));
   };
+  // Where the grid turns back at a toggle (--at-limit reverse), the chain goes on through the
+  // fold onto the folding group's other assembly: the march is taken to the fold, and the group
+  // whose two roots meet there (its own closed form says which) changes mode. Continuity alone
+  // would retrace the way it came on the first assembly.
+  const auto turns_back = [&](int k) {
+    if (k <= 0 || k + 1 >= grid.samples()) return false;
+    const double before = parameter_at(k) - parameter_at(k - 1);
+    const double after = parameter_at(k + 1) - parameter_at(k);
+    return before * after < 0.0;
+  };
+  const auto through_fold = [&](int k) {
+    march.advance_to(parameter_at(k));  // short of it by round-off where it cannot assemble
+    solver.solve_position(state);
+    const int g = state.folding_group;
+    if (g < 0) return;
+    state.assembly_mode[static_cast<size_t>(g)] = -state.assembly_mode[static_cast<size_t>(g)];
+    state.history = 0;  // no prediction from the way in
+    solver.solve_position(state);
+  };
   seed(first + 1);
-  for (int i = first + 1; i < grid.samples(); ++i) solve_row(i);
+  for (int i = first + 1; i < grid.samples(); ++i) {
+    if (turns_back(i - 1)) through_fold(i - 1);
+    solve_row(i);
+  }
   state = at_first;
   seed(first - 1);
-  for (int i = first - 1; i >= 0; --i) solve_row(i);
+  for (int i = first - 1; i >= 0; --i) {
+    if (turns_back(i + 1)) through_fold(i + 1);
+    solve_row(i);
+  }
   std::stable_sort(out.events.begin(), out.events.end(),
                    [](const auto& a, const auto& b) { return a.driver < b.driver; });
   return out;

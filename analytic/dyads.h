@@ -120,6 +120,7 @@ struct DyadState {
   // tell the two assemblies apart at this step).
   double ambiguity = 0.0;
   double smallest_sine = 1.0;  // of the last solve_position: min over groups (0 = singular)
+  int folding_group = -1;      // the two-solution group it belongs to (-1: none)
   // Mode changes of the last solve_position: group index, old mode, new mode.
   struct ModeChange {
     int group, from, to;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
 #include "analytic/planar.h"
@@ -43,6 +44,7 @@ namespace {
 // U, as the dense loops had); a larger one is a chain whose factors hold a few times its
 // entries, and grows its room the once it needs more.
 constexpr int kDenseRoom = 64;
+constexpr double kPi = std::numbers::pi;
 int factor_room(int n, int nonzeros) {
   return n <= kDenseRoom ? n * (n - 1) / 2 : 4 * nonzeros + n;
 }
@@ -625,9 +627,35 @@ Eigen::VectorXd NewtonSolver::drawn_coordinates() const {
   return q;
 }
 
+// A driver's start is taken modulo a turn against the drawing: a link drawn at -87.7 deg with
+// its driver starting at 272.3 deg is the drawn pose, not a pose a turn away that Newton would
+// reach by a 2 pi step onto any assembly (a 3-RRR landed on another one). The driven link's
+// angle is moved by the whole turns between them, where that moves no other row's residual (a
+// gear pair's rows do not repeat over one turn of one gear: there it stays as drawn).
+void NewtonSolver::unwind_to_drivers(Eigen::VectorXd& q, std::span<const DriverState> at) const {
+  const int n = static_cast<int>(q.size());
+  Eigen::VectorXd before(n), after(n);
+  for (int d = 0; d < layout_.driver_count(); ++d) {
+    const ConstraintRows& row = layout_.driver(d);
+    if (row.kind != ConstraintRows::Kind::angle_driver) continue;
+    const double turns =
+        std::round((at[static_cast<size_t>(d)].value - row.value(LinkFrames{q})) / (2.0 * kPi));
+    if (turns == 0.0 || (row.a < 0 && row.b < 0)) continue;
+    const Eigen::Index angle = row.b >= 0 ? 3 * row.b + 2 : 3 * row.a + 2;
+    residual(q, at, before);
+    const double saved = q(angle);
+    q(angle) += (row.b >= 0 ? 2.0 : -2.0) * kPi * turns;
+    residual(q, at, after);
+    after(layout_.driver_row(d)) = before(layout_.driver_row(d)) = 0.0;
+    if ((after - before).cwiseProduct(row_scale_).lpNorm<Eigen::Infinity>() > 1e-9 * length_scale_)
+      q(angle) = saved;
+  }
+}
+
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
   state.drive_at(mechanism_, 0.0);
+  unwind_to_drivers(state.q, drivers(state));
   SolveReport report = solve_position(state);
   if (report.status != PoseStatus::no_convergence) {
     if (report.status == PoseStatus::ok) {
@@ -642,6 +670,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
   // Newton failed from the drawing. Levenberg–Marquardt minimises |Phi|^2 instead: a minimum
   // with a residual left means the chain cannot close here; a zero residual gets a fresh Newton.
   state.q = drawn_coordinates();
+  unwind_to_drivers(state.q, drivers(state));
   const int n = static_cast<int>(state.q.size());
   double lambda = 1e-3;
   Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);

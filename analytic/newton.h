@@ -168,6 +168,9 @@ class NewtonSolver {
   SolveReport assemble(KinematicState& state) const;
   // The coordinates as drawn (poses from the file; links without one at the origin).
   Eigen::VectorXd drawn_coordinates() const;
+  // Moves each angular driver's link by the whole turns between its drawn angle and the driver's
+  // value in `at` (only where no other row's residual moves: not through a gear pair).
+  void unwind_to_drivers(Eigen::VectorXd& q, std::span<const DriverState> at) const;
 
   // Lagrange multipliers at the pose factorised by the last solve_position: lambda with
   // J^T lambda = b, for generalised forces b (one per coordinate). Uses state.rhs as scratch.

@@ -785,6 +785,15 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
           leg.end_key = leg.key.back();
           break;
         }
+        // Back at the start pose, drawn on this toggle: the loop closes here (the driver turns
+        // back at the start value, so it never passes it again as the test below asks). Both
+        // are folds at one driver value to ~1e-12, so their poses agree to its square root.
+        if (std::abs(node.driver - start_driver) < 1e-9 * unit &&
+            tracer.distance(node.q, start.q, true) < 1e-4) {
+          leg.closed = true;
+          leg.end_key = leg.key.back();
+          return leg;
+        }
       } else {
         leg.singular.push_back(
             {kind, node.driver, dir,
@@ -925,11 +934,26 @@ struct PlannedSample {
 
 // Samples of a leg at the grid values start + k*step (and at its toggles), each located on the
 // curve by regula falsi on the driver, so it lies on the traced branch whatever the Jacobian.
+// With `values` (ascending), those driver values instead of the grid, and only the toggles
+// inside the window.
 void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, double step,
-              double key_sign, double lo_window, double hi_window,
-              std::vector<PlannedSample>& out) {
+              double key_sign, double lo_window, double hi_window, std::vector<PlannedSample>& out,
+              const std::vector<double>* values = nullptr) {
   Tracer tracer(solver);
   const double unit = solver.mechanism().driver().angular() ? 1.0 : solver.length_scale();
+  // The values (grid or given) on a segment [dmin, dmax], and within `slack` beyond it.
+  const auto segment_values = [&](double dmin, double dmax, double slack, std::vector<double>& on) {
+    on.clear();
+    if (values) {
+      const auto first = std::lower_bound(values->begin(), values->end(), dmin - slack);
+      for (auto v = first; v != values->end() && *v <= dmax + slack; ++v) on.push_back(*v);
+      return;
+    }
+    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - slack / step));
+    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + slack / step));
+    for (long k = k0; k <= k1; ++k) on.push_back(grid_start + k * step);
+  };
+  std::vector<double> on;
   for (size_t j = 0; j + 1 < leg.nodes.size(); ++j) {
     const Tracer::Node& a = leg.nodes[j];
     const Tracer::Node& b = leg.nodes[j + 1];
@@ -940,11 +964,8 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
     const double dmin = std::min(a.driver, b.driver), dmax = std::max(a.driver, b.driver);
     // Grid values on the segment, and within 1e-12 of the driver's unit beyond it (the accuracy
     // of a located toggle): never a value beyond a limit, where the chain does not close.
-    const double slack = 1e-12 * unit / step;
-    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - slack));
-    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + slack));
-    for (long k = k0; k <= k1; ++k) {
-      const double g = grid_start + k * step;
+    segment_values(dmin, dmax, 1e-12 * unit, on);
+    for (const double g : on) {
       if (g < lo_window - 1e-12 * unit || g > hi_window + 1e-12 * unit) continue;
       Tracer::Node at;
       if (std::abs(a.driver - g) <= 1e-15 * unit) {
@@ -972,6 +993,8 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
     if (leg.singular[i].kind != SingularKind::toggle) continue;  // toggles are extra samples
     const auto index = static_cast<size_t>(leg.singular_node[i]);
     if (leg.key[index] > leg.end_key + 1e-12) continue;
+    const double at = leg.nodes[index].driver;
+    if (values && (at < lo_window - 1e-12 * unit || at > hi_window + 1e-12 * unit)) continue;
     out.push_back({key_sign * leg.key[index], leg.nodes[index], leg.nodes[index].driver, true});
   }
 }
@@ -1106,22 +1129,33 @@ namespace {
 // A constant-speed sweep along the traced configuration curve (see Tracer): the cycle, the
 // assembling range (at_limit = stop), or the whole loop through its toggles (reverse). Returns
 // false when the tracer cannot start (the caller falls back to the Follower).
+// With `range` (an explicit range [lower, upper] of a chain that does not turn fully), the
+// range's grid and its own ends (range_grid()) on the legs traced from the start to each limit:
+// a range's end at a limit (to 1e-9 of the driver's unit) is the toggle there, and a value
+// beyond a limit is a sample without a pose (cannot_assemble, or the lost leg's status), so the
+// curve is always reached from the drawing, never by Newton started on a fold. Returns false
+// for a chain that turns fully (the Follower covers a range of several turns).
 bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                   const NewtonSolver& solver, KinematicState& state, Trajectory& out,
-                  std::vector<SingularPosition>& singular) {
+                  std::vector<SingularPosition>& singular,
+                  const std::optional<std::pair<double, double>>& range = std::nullopt) {
   const Driver& d = mechanism.driver();
   const bool angular = d.angular();
-  const bool stop = options.at_limit == SweepOptions::AtLimit::stop;
+  const bool stop = range || options.at_limit == SweepOptions::AtLimit::stop;
   const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
   const double start_value = state.driver.value;
   const double size = mechanism.size();
-  const LegLimits limits{stop, angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size,
-                         angular, options.tracer_steps};
+  double reach = angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size;
+  if (range)  // the legs reach past both ends of the range
+    reach = std::max(reach, 1.01 * std::max(std::abs(range->first - start_value),
+                                            std::abs(range->second - start_value)));
+  const LegLimits limits{stop, reach, angular, options.tracer_steps};
   Tracer tracer(solver);
   Tracer::Node first;
   if (!tracer.start(state.q, sigma, first)) return false;
   std::vector<Leg> legs;
   legs.push_back(trace_leg(solver, first, limits));
+  if (range && legs[0].full_cycle) return false;
   if (stop && !legs[0].full_cycle) {
     Tracer::Node back;
     if (!tracer.start(state.q, -sigma, back)) return false;
@@ -1136,25 +1170,51 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
       lo = std::min(lo, n.driver);
       hi = std::max(hi, n.driver);
     }
+  if (step == 0.0 && range) step = (range->second - range->first) / 360.0;
   if (step == 0.0) step = hi > lo ? (hi - lo) / 360.0 : size / 50.0;
   double window_lo = -std::numeric_limits<double>::infinity(), window_hi = -window_lo;
   if (legs[0].full_cycle) {
     window_lo = std::min(start_value, start_value + sigma * 2.0 * kPi);
     window_hi = std::max(start_value, start_value + sigma * 2.0 * kPi);
   }
+  const double unit = angular ? 1.0 : size;
+  std::vector<double> wanted;  // a range's values, ascending
+  if (range) {
+    window_lo = range->first;
+    window_hi = range->second;
+    wanted = range_grid(d.start, step, range->first, range->second).values();
+    // An end of the range at a limit, to 1e-9 of the unit (its value in the file to a few
+    // ulps, the located toggle to ~1e-12), is the toggle: taken at the toggle's value, where
+    // the pose is exact, not at a value a round-off beyond it, where the chain does not close.
+    for (const Leg& leg : legs)
+      for (size_t i = 0; i < leg.singular.size(); ++i) {
+        if (leg.singular[i].kind != SingularKind::toggle) continue;
+        const double at = leg.singular[i].driver;
+        for (double* end : {&window_lo, &window_hi})
+          if (std::abs(*end - at) < 1e-9 * unit) *end = at;
+        for (double& v : wanted)
+          if (std::abs(v - at) < 1e-9 * unit) v = at;
+      }
+  }
   std::vector<PlannedSample> plan;
   for (size_t l = 0; l < legs.size(); ++l)
-    plan_leg(solver, legs[l], start_value, step, l == 0 ? 1.0 : -1.0, window_lo, window_hi, plan);
+    plan_leg(solver, legs[l], start_value, step, l == 0 ? 1.0 : -1.0, window_lo, window_hi, plan,
+             range ? &wanted : nullptr);
   std::stable_sort(plan.begin(), plan.end(),
                    [](const auto& a, const auto& b) { return a.key < b.key; });
   // The start is on both legs and a toggle may fall on the grid: keep one of each.
-  const double unit = angular ? 1.0 : size;
   std::vector<PlannedSample> samples;
   for (const PlannedSample& p : plan) {
     // A grid value within round-off of a toggle is the toggle (along the curve the two are up
     // to sqrt(1e-12) apart, as the driver folds there): one sample, on the grid, flagged.
+    // The start planned twice along the curve (drawn beside a change point, where the located
+    // nodes around it pass its value again, the poses only determined to ~sqrt(tolerance) there)
+    // is the same pose at the same value, as the loop's closure takes it: one sample, or the
+    // times repeat.
     const bool toggle = !samples.empty() && (p.toggle || samples.back().toggle);
-    if (!samples.empty() && (std::abs(p.key - samples.back().key) < 1e-9 || toggle) &&
+    const bool same_pose =
+        !samples.empty() && tracer.distance(p.node.q, samples.back().node.q, false) < 1e-6;
+    if (!samples.empty() && (std::abs(p.key - samples.back().key) < 1e-9 || toggle || same_pose) &&
         std::abs(p.value - samples.back().value) < 1e-12 * unit) {
       if (p.toggle && !samples.back().toggle) {
         samples.back().node = p.node;  // the located fold's pose, at the grid's value
@@ -1166,8 +1226,27 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     }
     samples.push_back(p);
   }
-
-  out.resize(mechanism, static_cast<int>(samples.size()), true);
+  // A range's values beyond the traced curve: before its first sample (behind the start) and
+  // after its last, each flagged with why the leg ended there.
+  struct Beyond {
+    double value;
+    const Leg* leg;
+  };
+  std::vector<Beyond> behind, ahead;
+  if (range) {
+    const double first_value = samples.empty() ? start_value : samples.front().value;
+    const double last_value = samples.empty() ? start_value : samples.back().value;
+    for (const double v : wanted) {
+      if (sigma * (v - first_value) < -1e-12 * unit) behind.push_back({v, &legs.back()});
+      if (sigma * (v - last_value) > 1e-12 * unit) ahead.push_back({v, &legs.front()});
+    }
+    if (sigma < 0) {  // in the sweep's order
+      std::reverse(behind.begin(), behind.end());
+      std::reverse(ahead.begin(), ahead.end());
+    }
+  }
+  const int written = static_cast<int>(behind.size() + samples.size() + ahead.size());
+  out.resize(mechanism, written, true);
   Recorder record(solver);
   const SingularBand band(best_rcond(solver, legs));
   // A sample on a located toggle or change point is that event, not another one.
@@ -1225,9 +1304,32 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
       // one line. The sample is flagged by the solver; the event says where.
       out.events.push_back({p.value, PoseStatus::singular, report.message});
     }
-    const int row = static_cast<int>(i);
+    const int row = static_cast<int>(behind.size() + i);
     record(state, report, driver, out, row);
   }
+  // The range's values beyond a limit: no pose, the status of the leg's end.
+  const auto write_beyond = [&](const std::vector<Beyond>& values, int first_row) {
+    for (size_t i = 0; i < values.size(); ++i) {
+      const Leg& leg = *values[i].leg;
+      SolveReport report;
+      report.status = leg.failed ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
+      const double end = leg.nodes.back().driver;
+      report.message = leg.failed ? leg.singular.back().message
+                                  : fmt::format(
+                                        "the chain does not close beyond driver = {:.12g} "
+                                        "(limit of the assembling range)",
+                                        end);
+      if (i == 0) out.events.push_back({end, report.status, report.message});
+      KinematicState none = state;
+      none.q.setZero();
+      none.qdot.setZero();
+      none.qddot.setZero();
+      none.driver = constant_speed_state(d, values[i].value);
+      solver.write_sample(none, report, out, first_row + static_cast<int>(i));
+    }
+  };
+  write_beyond(behind, 0);
+  write_beyond(ahead, static_cast<int>(behind.size() + samples.size()));
 
   // Singular positions in the sweep's order.
   std::vector<std::pair<double, SingularPosition>> found;
@@ -1663,11 +1765,13 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
   const bool assembles =
       assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
   if (assembles) refuse_start_at_change_point(solver, state);
-  if (assembles && d.law.kind == MotionLaw::Kind::constant_speed && !options.range && !d.range) {
+  if (assembles && d.law.kind == MotionLaw::Kind::constant_speed) {
     Trajectory out;
     out.method = "newton";
     const Eigen::VectorXd q_start = state.q;
-    if (traced_sweep(mechanism, options, solver, state, out, singular)) return out;
+    if (traced_sweep(mechanism, options, solver, state, out, singular,
+                     options.range ? options.range : d.range))
+      return out;
     state.q = q_start;
     state.driver = d.at_time(0.0);
     solver.solve_position(state);

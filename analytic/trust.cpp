@@ -1,5 +1,7 @@
 #include "analytic/trust.h"
 
+#include "analytic/sweep.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -12,9 +14,11 @@ namespace crosslink {
 double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory) {
   double rate = 0.0;
   const Trajectory& t = trajectory;
-  if (mechanism.dynamics) {
-    // No motion law: the coordinate's own rate and acceleration over the run, by differences of
-    // the samples (a scale, not a result).
+  const Driver& driver = mechanism.driver();
+  if (mechanism.dynamics && t.samples() >= 3) {
+    // A forward-dynamics run follows no motion law: the coordinate's rate and acceleration over
+    // the run by differences of the samples (a scale, not a result; a kinematic sweep of the
+    // case gets its law's constant speed this way too). Fewer samples tell nothing: the law.
     for (int k = 1; k + 1 < t.samples(); ++k) {
       const double h0 = t.time(k) - t.time(k - 1);
       const double h1 = t.time(k + 1) - t.time(k);
@@ -24,12 +28,22 @@ double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory
           {rate, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
     }
   } else {
-    for (int k = 0; k < t.samples(); ++k) {
-      const DriverState d = mechanism.driver().at_time(t.time(k));
-      rate = std::max({rate, std::abs(d.rate), std::sqrt(std::abs(d.accel))});
-    }
+    // The motion law's, over its whole cycle and at the samples' times: a property of the
+    // mechanism, whatever few samples a sweep or a single pose has.
+    const auto at = [&](double time) {
+      for (const Driver& d : mechanism.drivers) {
+        const DriverState s = d.at_time(time);
+        const double unit = d.angular() ? 1.0 : mechanism.size();
+        rate = std::max({rate, std::abs(s.rate) / unit, std::sqrt(std::abs(s.accel) / unit)});
+      }
+    };
+    for (int k = 0; k < t.samples(); ++k) at(t.time(k));
+    const double cycle = mechanism.cycle_period();
+    if (cycle > 0.0)
+      for (int k = 0; k <= 360; ++k) at(cycle * k / 360.0);
+    return rate;
   }
-  return mechanism.driver().angular() ? rate : rate / mechanism.size();
+  return driver.angular() ? rate : rate / mechanism.size();
 }
 
 namespace {
@@ -62,7 +76,7 @@ CrossCheck cross_check(const Mechanism& mechanism, Trajectory& reference,
   const int n = reference.samples();
   if (second.samples() != n) return out;
   const double size = mechanism.size();
-  const double typical = typical_rcond(reference);
+  const double typical = chain_rcond(mechanism, reference);
   // A driver at rest still has positions to compare; its rates are zero in both.
   const double rate = std::max(driver_peak_rate(mechanism, reference), 1e-12);
   struct Column {
@@ -132,6 +146,23 @@ CrossCheck cross_check(const Mechanism& mechanism, Trajectory& reference,
     ++out.disagree;
   }
   return out;
+}
+
+double chain_rcond(const Mechanism& mechanism, const Trajectory& reference) {
+  int solved = 0;
+  for (int k = 0; k < reference.samples(); ++k)
+    solved += usable(reference.status[static_cast<size_t>(k)]);
+  if (solved >= kConditioningSamples) return typical_rcond(reference);
+  // A pose or a few samples say nothing of the chain's own conditioning (one sample is its
+  // own median, next to a toggle too): the sweep's, at 10 degrees (a slider's 1/36 of its range).
+  SweepOptions coarse;
+  if (mechanism.driver().angular()) coarse.step = std::numbers::pi / 18.0;
+  try {
+    const Trajectory cycle = sweep(mechanism, coarse);
+    return typical_rcond(cycle);
+  } catch (const std::exception&) {
+    return typical_rcond(reference);  // refused (a change point drawn): its own, as before
+  }
 }
 
 double typical_rcond(const Trajectory& reference) {

@@ -64,6 +64,13 @@ constexpr double kForceConditioning = 0.15;
 // The chain's own conditioning: the median rcond over the reference's solved samples (1 when it
 // has none).
 double typical_rcond(const Trajectory& reference);
+// The same, as a property of the mechanism: the reference's median when it has at least
+// kConditioningSamples solved samples, else the median over a sweep of the mechanism at 10
+// degrees (a single pose, or a sweep at 90 degrees, is not the chain's conditioning: one sample
+// next to a toggle was its own median, and the self-check flagged two methods agreeing to 9
+// digits).
+constexpr int kConditioningSamples = 36;
+double chain_rcond(const Mechanism& mechanism, const Trajectory& reference);
 
 // Why reference sample k is kept out of a verdict, "" when it is trusted: its status
 // ("reference:<status>"), a neighbour flagged singular ("beside_singular": one grid step from a
