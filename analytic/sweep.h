@@ -75,9 +75,11 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
 // whether it is usable; events list limits and jumps.
 //
 // Singular positions met on the way are events (kind `singular`, message "toggle: ...",
-// "change_point: ...") located to ~1e-12 in the driver; a constant-speed sweep without an
-// explicit range also has a sample exactly at each toggle (flagged singular). The overload also
-// returns them as data.
+// "change_point: ...") located to ~1e-12 in the driver; a constant-speed sweep also has a sample
+// exactly at each toggle (flagged singular), inside an explicit range too, where the range is
+// swept on the traced curve (a chain that does not turn fully: an end within 1e-9 of a toggle is
+// that toggle, a value beyond a limit a sample without a pose). The overload also returns them as
+// data.
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options = {});
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                  std::vector<SingularPosition>& singular);

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -103,7 +104,7 @@ TEST(Range, ARangeStartingOutsideTheAssemblingRangeSolvesTheSamplesInside) {
       std::numbers::pi - std::acos((d * d + c * c - (a + b) * (a + b)) / (2 * d * c));
   const Trajectory t = sweep(m);
   const Trajectory closed = dyad_sweep(m, t);
-  int solved = 0, flagged = 0;
+  int solved = 0, flagged = 0, at_limit = 0;
   for (int k = 0; k < t.samples(); ++k) {
     const PoseStatus s = t.status[static_cast<size_t>(k)];
     if (t.driver(k) < limit - 1e-9) {
@@ -112,11 +113,17 @@ TEST(Range, ARangeStartingOutsideTheAssemblingRangeSolvesTheSamplesInside) {
       continue;
     }
     ASSERT_TRUE(has_position(s)) << t.driver(k) / kDeg << " " << to_string(s);
+    if (std::abs(t.driver(k) - limit) < 1e-9) {  // the limit is its toggle: a sample, flagged
+      EXPECT_EQ(s, PoseStatus::singular);
+      ++at_limit;
+      continue;
+    }
     for (int l = 0; l < t.angle.cols(); ++l)
       EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << t.driver(k) / kDeg;
     ++solved;
   }
   EXPECT_EQ(flagged, 16);  // 40, 40.72, ..., 54.72
+  EXPECT_EQ(at_limit, 1);  // the toggle, as every traced sweep samples it
   EXPECT_EQ(solved, 46);   // 55.72, ..., 99.72 and 100
 }
 
