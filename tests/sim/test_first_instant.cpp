@@ -184,7 +184,9 @@ TEST_P(FirstInstant, TheFirstSampleIsTheExactOneOrFlaggedWithItsReason) {
     EXPECT_LE(e.position, kStateReadout.position);
     EXPECT_LE(e.velocity, kStateReadout.velocity);
     EXPECT_LE(e.acceleration, kStateReadout.acceleration);
-    if (e.reactions) EXPECT_LE(e.reaction, kStateReadout.reaction);
+    if (e.reactions) {
+      EXPECT_LE(e.reaction, kStateReadout.reaction);
+    }
     return;
   }
   EXPECT_LE(e.position, kStateReadout.position);
@@ -200,8 +202,9 @@ TEST_P(FirstInstant, TheFirstSampleIsTheExactOneOrFlaggedWithItsReason) {
   EXPECT_TRUE(falls(e.velocity, half.velocity)) << e.velocity << " -> " << half.velocity;
   EXPECT_TRUE(falls(e.acceleration, half.acceleration))
       << e.acceleration << " -> " << half.acceleration;
-  if (e.reactions)
+  if (e.reactions) {
     EXPECT_TRUE(falls(e.reaction, half.reaction)) << e.reaction << " -> " << half.reaction;
+  }
 }
 
 std::string case_name(const testing::TestParamInfo<FirstInstant::ParamType>& info) {
