@@ -226,12 +226,13 @@ class DynamicsSampler {
     KinematicState& state = rows_.state();
     ForceReading& forces = rows_.forces();
     state.q = steps_.pose(S);
-    if (scene.reads_state())
+    const bool own = scene.reads_state() || (S == 0 && scene.reads_start_state());
+    if (own)
       scene.read_state(S, t, state.qdot, state.qddot, forces);
     else
       steps_.derivatives(S, state.qdot, &state.qddot);
     balance.measure(t, state.q, state.qdot, state);
-    if (with_forces_ && !scene.reads_state())
+    if (with_forces_ && !own)
       combine_readings(
           plan.forces[static_cast<size_t>(i)],
           [&](long k) -> const ForceReading& { return steps_.reading(k); }, forces);

@@ -43,6 +43,11 @@ class DynamicsScene {
   // The state readout: the samples take the engine's own rates and forces at a sample's step
   // (read_state) instead of differences of poses (MuJoCo RK4, whose velocity is not staggered).
   virtual bool reads_state() const { return false; }
+  // Whether the start (step 0) is read so, whatever reads_state(): the engine's rates and forces
+  // from its own equations at the state it was given, where the differences would read its first
+  // step (MuJoCo, whose first step lacks part of the velocity terms: docs/dynamics.md, "The first
+  // instant").
+  virtual bool reads_start_state() const { return false; }
   virtual void read_state(long /*step*/, double /*t*/, Eigen::VectorXd& /*qdot*/,
                           Eigen::VectorXd& /*qddot*/, ForceReading& /*forces*/) {}
   virtual long evaluations() const = 0;  // model evaluations so far

@@ -816,6 +816,59 @@ void state_rates(const Mechanism& m, const Scene& s, const mjModel* mm, const mj
   }
 }
 
+// mj_forward at a state that closes the chain exactly with consistent rates (a dynamics run's
+// start) as MuJoCo's run holds its constraints. MuJoCo 2.2.2's reference acceleration is
+// aref = -b J v - k r (mj_referenceConstraint): it has no J' v term, the part of the constraints'
+// acceleration the rates make (a link's centripetal turn about a pin), and its rows are soft
+// (J qacc = aref - R f). In a run the deadbeat softness takes both back from the residuals the
+// steps leave (J v = h/2 J' v, r = h^2/2 J' v at steady state); at an exact start both residuals
+// are zero, and qacc would hold the constraints' points unaccelerated against each other
+// (fivebar_falling_fast_start: alpha.crank2 8.389 rad/s^2 against the exact 11.846;
+// docs/dynamics.md, "The first instant"). Here J' v comes from J(q + s v) v along the rates (a
+// 4-point central difference in s, error (s v)^4 with s v 1e-3 rad or size) and is subtracted from
+// each equality row's aref before the acceleration stage runs again (mj_forwardSkip past the
+// velocity stage keeps aref).
+void forward_at_exact_state(const mjModel* mm, mjData* d, mjData* scratch, double size) {
+  mj_forward(mm, d);
+  const int nv = mm->nv, nefc = d->nefc;
+  double rate = 0.0;  // the fastest coordinate's, angles by size
+  for (int j = 0; j < mm->njnt; ++j) {
+    const double v = std::abs(d->qvel[mm->jnt_dofadr[j]]);
+    rate = std::max(rate, mm->jnt_type[j] == mjJNT_SLIDE ? v / size : v);
+  }
+  if (nefc == 0) return;
+  const double s = rate > 0.0 ? 1e-3 / rate : 0.0;  // at rest J' v is 0
+  std::vector<mjtNum> jv(static_cast<size_t>(nefc)), jdot_v(static_cast<size_t>(nefc), 0.0);
+  for (const auto& [offset, weight] :
+       {std::pair{1.0, 8.0}, {-1.0, -8.0}, {2.0, -1.0}, {-2.0, 1.0}}) {
+    if (s == 0.0) break;
+    std::copy(d->qpos, d->qpos + mm->nq, scratch->qpos);
+    std::copy(d->qvel, d->qvel + nv, scratch->qvel);
+    mj_integratePos(mm, scratch->qpos, d->qvel, offset * s);
+    mj_fwdPosition(mm, scratch);
+    if (scratch->nefc != nefc)
+      throw std::runtime_error("MuJoCo: the constraint rows changed along the start's rates");
+    mj_mulJacVec(mm, scratch, jv.data(), d->qvel);
+    for (int i = 0; i < nefc; ++i)
+      jdot_v[static_cast<size_t>(i)] += weight * jv[static_cast<size_t>(i)] / (12.0 * s);
+  }
+  std::vector<mjtNum> aref(d->efc_aref, d->efc_aref + nefc);
+  for (int i = 0; i < nefc; ++i)
+    if (d->efc_type[i] == mjCNSTR_EQUALITY)
+      aref[static_cast<size_t>(i)] -= jdot_v[static_cast<size_t>(i)];
+  std::copy(aref.begin(), aref.end(), d->efc_aref);
+  mj_forwardSkip(mm, d, mjSTAGE_VEL, 0);
+  // The rows are soft: J qacc = aref - R f, R about 1e-4 of the row's diagonal (solimp). In a run
+  // the deadbeat stiffness takes that back from the position residual it leaves; at the start
+  // aref takes R f of the last solve, twice (the bias falls by R over the diagonal a pass).
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < nefc; ++i)
+      if (d->efc_type[i] == mjCNSTR_EQUALITY)
+        d->efc_aref[i] = aref[static_cast<size_t>(i)] + d->efc_R[i] * d->efc_force[i];
+    mj_forwardSkip(mm, d, mjSTAGE_VEL, 0);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // A kinematic run: prepare() plans it (plan_kinematic(): span, grid, start) and builds the scene;
 // MujocoKinematicScene is its backend to the shared run loop (sim/kinematic_run.h), which steps,
@@ -1073,6 +1126,7 @@ class MujocoDynamicsScene final : public DynamicsScene {
         mm_(model_.get()),
         data_(mj_makeData(mm_)),
         state_data_(mj_makeData(mm_)),
+        scratch_(mj_makeData(mm_)),
         d_(data_.get()),
         sd_(state_data_.get()),
         hook_(m, p.scene, mm_),
@@ -1087,7 +1141,7 @@ class MujocoDynamicsScene final : public DynamicsScene {
     const double h0 = grid[1] - grid[0];
     d_->time = grid[0];
     scope_.emplace(hook_.any() ? &hook_ : nullptr);
-    mj_forward(mm_, d_);
+    forward_at_exact_state(mm_, d_, scratch_.get(), p.scene.size);
     std::vector<mjtNum> v0(d_->qvel, d_->qvel + nv), w(static_cast<size_t>(nv));
     for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d_->qacc[i];
     if (choice.staggered) std::copy(w.begin(), w.end(), d_->qvel);
@@ -1098,6 +1152,7 @@ class MujocoDynamicsScene final : public DynamicsScene {
     PoseReader before_reader(m, p.scene, mm_, p.start.q);
     before_start_ = before_reader.read(sd_);
     keep_state(0);
+    ring_qvel_[0] = v0;  // the start's state is v0, whichever velocity the first step takes
   }
 
   bool evaluates_loads() const override { return true; }
@@ -1118,14 +1173,22 @@ class MujocoDynamicsScene final : public DynamicsScene {
     return true;
   }
   bool reads_state() const override { return choice_.state_readout; }
-  // MuJoCo's forces and rates at the state it integrated to step S (mj_forward there).
+  // Whichever the readout, the start is read from the state it was given: its differences would
+  // take the first step's acceleration, at a state that has not yet the residuals MuJoCo reads
+  // the velocity terms from (forward_at_exact_state).
+  bool reads_start_state() const override { return true; }
+  // MuJoCo's forces and rates at the state it integrated to step S (mj_forward there; at the
+  // start with the velocity terms).
   void read_state(long S, double t, Eigen::VectorXd& qdot, Eigen::VectorXd& qddot,
                   ForceReading& forces) override {
     const size_t k = static_cast<size_t>(S % kRing);
     std::copy(ring_qpos_[k].begin(), ring_qpos_[k].end(), sd_->qpos);
     std::copy(ring_qvel_[k].begin(), ring_qvel_[k].end(), sd_->qvel);
     sd_->time = t;
-    mj_forward(mm_, sd_);
+    if (S == 0)
+      forward_at_exact_state(mm_, sd_, scratch_.get(), p_.scene.size);
+    else
+      mj_forward(mm_, sd_);
     force_reader_.read_state(sd_, forces);
     state_rates(m_, p_.scene, mm_, sd_, qdot, qddot);
   }
@@ -1152,7 +1215,7 @@ class MujocoDynamicsScene final : public DynamicsScene {
   const DynamicsChoices& choice_;
   ModelPtr model_;
   mjModel* mm_;
-  DataPtr data_, state_data_;
+  DataPtr data_, state_data_, scratch_;
   mjData* d_;
   mjData* sd_;
   LoadHook hook_;
