@@ -233,8 +233,10 @@ int run_compare(CompareArgs args) {
     if (dt) check_engine_steps(span, *dt, max_steps, fmt::format("--set dt={:g} ({})", *dt, n));
   }
   if (!args.export_mjcf.empty()) {
+    // The scene MuJoCo runs, under the same step budget (--max-steps) as its run.
     const std::string mjcf =
-        sim::mujoco_mjcf(m, runs.front().trajectory, settings_for("mujoco", args.settings));
+        sim::mujoco_mjcf(m, runs.front().trajectory,
+                         with_max_steps(args.max_steps, settings_for("mujoco", args.settings)));
     write_file(args.export_mjcf, mjcf);
   }
   // Each method's settings first (an --accuracy search runs engine by engine, its runs over the

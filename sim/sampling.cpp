@@ -28,10 +28,13 @@ double thread_cpu_seconds() {
 
 void check_steps(double steps, double dt, long max_steps) {
   if (steps <= static_cast<double>(max_steps)) return;  // NaN (no dt) is refused too
-  throw std::runtime_error(fmt::format(
-      "dt = {:g} s takes {:.0f} steps over the run: the limit is {} steps (raise it with "
-      "--max-steps N, or the setting max_steps)",
-      dt, steps, max_steps));
+  // Whole steps while they read as a count; beyond 1e15 (dt = 1e-300 takes 1e300) in 3 digits.
+  const std::string count =
+      steps < 1e15 ? fmt::format("{:.0f}", steps) : fmt::format("{:.3g}", steps);
+  throw std::runtime_error(
+      fmt::format("dt = {:g} s takes {} steps over the run: the limit is {} steps (raise it with "
+                  "--max-steps N, or the setting max_steps)",
+                  dt, count, max_steps));
 }
 
 Span usable_span(const Trajectory& reference) {

@@ -191,23 +191,27 @@ const SettingSchema& mujoco_settings() {
        .kind = text,
        .default_value = "deadbeat",
        .doc = "the loop constraints' solref",
-       .allowed = "deadbeat (-1/dt^2, -1/dt), or 2 numbers"},
+       .allowed = "deadbeat (-1/dt^2, -1/dt), or timeconst dampratio (both > 0), or -stiffness "
+                  "-damping (stiffness > 0, damping >= 0)"},
       {.name = "solimp",
        .kind = text,
        .default_value = kSolimp,
        .doc = "the loop constraints' solimp",
-       .allowed = "3 to 5 numbers"},
+       .allowed = "dmin dmax width [midpoint [power]]: dmin, dmax in (0, 1), width > 0, "
+                  "midpoint in [0, 1], power >= 1"},
       {.name = "driver_solref",
        .kind = text,
        .default_value = "deadbeat",
        .doc = "the driver's solref",
-       .allowed = "deadbeat (-1/dt^2, -1/dt), or 2 numbers",
+       .allowed = "deadbeat (-1/dt^2, -1/dt), or timeconst dampratio (both > 0), or -stiffness "
+                  "-damping (stiffness > 0, damping >= 0)",
        .applies_to = kinematic},
       {.name = "driver_solimp",
        .kind = text,
        .default_value = kSolimp,
        .doc = "the driver's solimp",
-       .allowed = "3 to 5 numbers",
+       .allowed = "dmin dmax width [midpoint [power]]: dmin, dmax in (0, 1), width > 0, "
+                  "midpoint in [0, 1], power >= 1",
        .applies_to = kinematic},
       {.name = "driver_armature",
        .kind = number,
@@ -310,19 +314,55 @@ Config parse_settings(const Settings& overrides) {
   return c;
 }
 
+// MuJoCo's two formats (its modeling guide, "Solver parameters"): (timeconst, dampratio), both
+// positive, or the direct (-stiffness, -damping), negative. A 0 is neither (and a loop without
+// stiffness never pulls its gap back), a negative damping feeds the gap: both refused, as are the
+// formats mixed, which MuJoCo tells apart by the first number's sign alone.
 Eigen::Vector2d solref_of(const std::string& name, const std::string& text, double dt) {
   if (text == "deadbeat") return {-1.0 / (dt * dt), -1.0 / dt};
   const std::vector<double> v = setting_numbers(name, text);
-  if (v.size() != 2) throw std::runtime_error(fmt::format("setting {}: expected 2 numbers", name));
+  const char* why = nullptr;
+  if (v.size() != 2)
+    why = "2 numbers";
+  else if (v[0] > 0.0 && !(v[1] > 0.0))
+    why = "a positive dampratio after a positive timeconst";
+  else if (v[0] == 0.0)
+    why = "a timeconst > 0, or a stiffness > 0 (-stiffness < 0)";
+  else if (v[0] < 0.0 && v[1] > 0.0)
+    why = "a damping >= 0 (-damping <= 0) after a negative -stiffness";
+  if (why)
+    throw std::runtime_error(fmt::format(
+        "setting {} = \"{}\": expected {} (MuJoCo's solref: timeconst dampratio, both positive, "
+        "or -stiffness -damping, stiffness > 0 and damping >= 0; or deadbeat)",
+        name, text, why));
   return {v[0], v[1]};
 }
 
+// MuJoCo's (dmin, dmax, width, midpoint, power), its defaults after the numbers given: the
+// impedances d lie in (0, 1) (MuJoCo clamps them to [1e-4, 0.9999] silently), the width of the
+// violation over which d moves is positive, the midpoint is in [0, 1] and the power 1 or more.
 Eigen::Matrix<double, 5, 1> solimp_of(const std::string& name, const std::string& text) {
   std::vector<double> v = setting_numbers(name, text);
   const std::array<double, 5> defaults = {0.9, 0.95, 0.001, 0.5, 2.0};  // MuJoCo's
-  if (v.size() < 3 || v.size() > 5)
-    throw std::runtime_error(fmt::format("setting {}: expected 3 to 5 numbers", name));
-  for (size_t i = v.size(); i < 5; ++i) v.push_back(defaults[i]);
+  const char* why = nullptr;
+  const bool counted = v.size() >= 3 && v.size() <= 5;
+  for (size_t i = v.size(); counted && i < 5; ++i) v.push_back(defaults[i]);
+  if (!counted)
+    why = "3 to 5 numbers";
+  else if (!(v[0] > 0.0 && v[0] < 1.0))
+    why = "dmin (the 1st) in (0, 1)";
+  else if (!(v[1] > 0.0 && v[1] < 1.0))
+    why = "dmax (the 2nd) in (0, 1)";
+  else if (!(v[2] > 0.0))
+    why = "a positive width (the 3rd)";
+  else if (!(v[3] >= 0.0 && v[3] <= 1.0))
+    why = "midpoint (the 4th) in [0, 1]";
+  else if (!(v[4] >= 1.0))
+    why = "power (the 5th) 1 or more";
+  if (why)
+    throw std::runtime_error(fmt::format(
+        "setting {} = \"{}\": expected {} (MuJoCo's solimp: dmin dmax width [midpoint [power]])",
+        name, text, why));
   return Eigen::Map<const Eigen::Matrix<double, 5, 1>>(v.data());
 }
 

@@ -297,6 +297,33 @@ void check_bodies(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd
   if (!m.gravity.allFinite()) throw std::runtime_error("gravity is not finite");
 }
 
+// What a failed step may owe to the scene, in the mechanism's words: links whose masses are 1e6
+// or more apart. A massless link gets auxiliary_mass() (1e-6 of the lightest link); the
+// crank-rocker with a massless crank (1.5e6 apart) stopped in ODE's assertion
+// "!bSafeNormalize4Fault" (a rotation gone NaN) at cfm 1e-10, and ran at cfm 1e-6: the solve's
+// regularisation is too small against the light link's inverse mass. "" otherwise.
+std::string mass_span(const Mechanism& m, const SceneGraph& g, double cfm) {
+  const SceneBody* light = nullptr;
+  const SceneBody* heavy = nullptr;
+  for (const SceneBody& b : g.bodies) {
+    if (b.ground || b.source < 0) continue;
+    if (!light || b.mass < light->mass) light = &b;
+    if (!heavy || b.mass > heavy->mass) heavy = &b;
+  }
+  if (!light || !(heavy->mass >= 1e6 * light->mass)) return "";
+  const Link& l = m.links[static_cast<size_t>(light->source)];
+  const Link& h = m.links[static_cast<size_t>(heavy->source)];
+  const std::string lightest =
+      l.mass.mass > 0.0
+          ? fmt::format("link '{}' {:.3g} kg", l.name, l.mass.mass)
+          : fmt::format("link '{}', massless (in the scene {:.3g} kg, 1e-6 of the lightest link)",
+                        l.name, light->mass);
+  return fmt::format(
+      "; the links' masses are {:.2g} apart ({} against link '{}' {:.3g} kg), more than ODE's "
+      "constraint solve resolves at cfm = {:g}: a larger cfm (--set ode:cfm=...) or closer masses",
+      heavy->mass / light->mass, lightest, h.name, heavy->mass, cfm);
+}
+
 // The worlds whose step an ODE error interrupted, with their threading implementations (~OdeScene).
 std::mutex interrupted_mutex;
 std::vector<std::pair<dWorldID, dThreadingImplementationID>> interrupted_worlds;
@@ -320,7 +347,7 @@ class OdeScene {
   // The scene at q (moving at qdot when given); `driven`: each driver's motor on its joint.
   OdeScene(const Mechanism& m, const SceneGraph& g, const Config& config, const Eigen::VectorXd& q,
            const Eigen::VectorXd* qdot, bool driven)
-      : m_(m), g_(g), quick_(config.stepper == "quick") {
+      : m_(m), g_(g), quick_(config.stepper == "quick"), cfm_(config.cfm) {
     check_bodies(m, g, q);
     if (quick_) {
       random_order_ = std::unique_lock<std::mutex>(quick_step_mutex);
@@ -462,7 +489,8 @@ class OdeScene {
         dWorldStep(world_, h);
     } catch (const std::exception& e) {
       interrupted_ = true;
-      throw std::runtime_error(fmt::format("a step failed inside ODE ({})", e.what()));
+      throw std::runtime_error(
+          fmt::format("a step failed inside ODE ({}){}", e.what(), mass_span(m_, g_, cfm_)));
     }
     std::string message;
     message.swap(ode_message);
@@ -540,6 +568,7 @@ class OdeScene {
   const Mechanism& m_;
   const SceneGraph& g_;
   bool quick_;
+  double cfm_;
   dWorldID world_ = nullptr;
   dThreadingImplementationID threading_ = nullptr;
   std::vector<dBodyID> bodies_;  // per scene body; null for the ground

@@ -83,7 +83,8 @@ const SettingSchema& simbody_settings() {
        .kind = number,
        .default_value = "1e-08",
        .doc = "the integrator's relative accuracy per step (error control)",
-       .range = {0.0, 1.0, true}},
+       // Open at 1 too: Simbody asserts 0 < accuracy < 1 (Integrator::setAccuracy) and aborts.
+       .range = {0.0, 1.0, true, true}},
       {.name = "constraint_tolerance",
        .kind = number,
        .default_value = "1e-10",
@@ -133,7 +134,14 @@ const SettingSchema& simbody_settings() {
       shared_setting("divergence_energy"),
       shared_setting("energy_scale"),
       shared_setting("perturb_link"),
-      shared_setting("max_steps"),
+      [] {
+        SettingSpec s = shared_setting("max_steps");
+        s.doc =
+            "the most steps of a run: its reported poses (refused before it starts), and "
+            "Simbody's step attempts and projections (the run stops there, or once it is "
+            "bound to pass it at its rate so far)";
+        return s;
+      }(),
   };
   return schema;
 }
@@ -584,8 +592,14 @@ std::string stopped_at(const Scene& scene, const SimTK::State& s, const std::str
 // run stops there, diverged), never a crash.
 class SimbodySteps {
  public:
-  SimbodySteps(Scene& scene, const Config& c, const Eigen::VectorXd& q0)
-      : scene_(scene), q_(q0), scratch_(scene.start()), max_steps_(c.max_steps) {
+  // `t_end`: the time the run ends at, for the projection of its work.
+  SimbodySteps(Scene& scene, const Config& c, const Eigen::VectorXd& q0, double t_end)
+      : scene_(scene),
+        q_(q0),
+        scratch_(scene.start()),
+        max_steps_(c.max_steps),
+        t_begin_(scene.start().getTime()),
+        t_end_(t_end) {
     integrator_ = make_integrator(c, scene.system());
     // Control comes back every so many internal steps, so that a run whose step collapses (at a
     // singular passage CPodes' step fell to 1e-17 s, where t + h = t, and stepped on for hours
@@ -594,11 +608,22 @@ class SimbodySteps {
     integrator_->initialize(scene.start());
     scene_.readback().pose(integrator_->getState(), q_);
   }
+  // The run's work in steps, what max_steps bounds: every internal step Simbody attempted
+  // (rejected ones cost as much) and every projection onto the constraints (a Newton solve of
+  // the loops, about a step's work; at a mass ratio of 1e18 there were more than steps, and
+  // each step took 0.5 ms instead of 10 us).
+  long work() const {
+    return static_cast<long>(integrator_->getNumStepsAttempted()) +
+           static_cast<long>(integrator_->getNumProjections());
+  }
   // Advances to time t1; "" or why the integrator could not.
   std::string advance(double t1) {
     try {
       while (integrator_->getTime() < t1) {
         const double before = integrator_->getTime();
+        // No more steps in one call than the budget has left, so that it stops at max_steps.
+        integrator_->setInternalStepLimit(static_cast<int>(
+            std::clamp(max_steps_ - work(), 1L, static_cast<long>(kInternalStepsPerCall))));
         const SimTK::Integrator::SuccessfulStepStatus status = integrator_->stepTo(t1);
         if (integrator_->isSimulationOver())
           return stopped_at(
@@ -611,11 +636,8 @@ class SimbodySteps {
               fmt::format("Simbody's integrator does not advance: its step fell to {:.2g} s, "
                           "below the time's resolution",
                           integrator_->getPreviousStepSizeTaken()));
-        if (integrator_->getNumStepsTaken() > max_steps_)
-          return stopped_at(scene_, integrator_->getState(),
-                            fmt::format("Simbody's integrator took more than {} internal steps, "
-                                        "the most of one run (max_steps), its last {:.2g} s",
-                                        max_steps_, integrator_->getPreviousStepSizeTaken()));
+        if (std::string why = over_budget(); !why.empty())
+          return stopped_at(scene_, integrator_->getState(), why);
       }
     } catch (const std::exception& e) {
       return stopped_at(scene_, integrator_->getState(), simbody_error(e));
@@ -648,11 +670,40 @@ class SimbodySteps {
 
  private:
   static constexpr int kInternalStepsPerCall = 1'000;
+  // "" while the run's work is within max_steps, and projected to stay within it: after the first
+  // kInternalStepsPerCall steps' work, the work so far over the time covered, times the run's
+  // time, must not exceed it either (a run whose steps shrink 100-fold stops in a second, not in
+  // 19 minutes of steps that would all count).
+  std::string over_budget() const {
+    const long done = work();
+    const double t = integrator_->getTime();
+    const auto what = [&] {
+      return fmt::format(
+          "{} step attempts and {} projections onto the constraints by t = {:.6g} "
+          "s, its last step {:.2g} s",
+          integrator_->getNumStepsAttempted(), integrator_->getNumProjections(), t,
+          integrator_->getPreviousStepSizeTaken());
+    };
+    if (done >= max_steps_)
+      return fmt::format(
+          "Simbody's work reached max_steps = {} steps, the most of one run (raise it with "
+          "--max-steps N): {}",
+          max_steps_, what());
+    if (done < kInternalStepsPerCall || !(t > t_begin_)) return "";
+    const double projected = static_cast<double>(done) * (t_end_ - t_begin_) / (t - t_begin_);
+    if (projected <= static_cast<double>(max_steps_)) return "";
+    return fmt::format(
+        "Simbody's work would exceed max_steps = {} steps, the most of one run (raise it with "
+        "--max-steps N): at its rate so far the run takes about {:.3g} ({} over {:.3g} of its "
+        "{:.3g} s)",
+        max_steps_, projected, what(), t - t_begin_, t_end_ - t_begin_);
+  }
   Scene& scene_;
   std::unique_ptr<SimTK::Integrator> integrator_;
   Eigen::VectorXd q_;
   SimTK::State scratch_;
   long max_steps_;
+  double t_begin_, t_end_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -816,7 +867,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   std::optional<SimbodySteps> steps;
   try {
     scene.emplace(p.m, p.graph, plan.start.q, plan.start.qdot, plan.grid.time.front(), false);
-    steps.emplace(*scene, c, plan.start.q);
+    steps.emplace(*scene, c, plan.start.q, plan.grid.time.back());
   } catch (const std::exception& e) {
     return failed(std::move(out), "scene build failed: " + simbody_error(e));
   }
@@ -889,7 +940,7 @@ class SimbodyEngine final : public Engine {
     std::optional<SimbodySteps> steps;
     try {
       scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true);
-      steps.emplace(*scene, c, plan.q);
+      steps.emplace(*scene, c, plan.q, plan.grid.time.back());
     } catch (const std::exception& e) {
       return failed(std::move(out), "scene build failed: " + simbody_error(e));
     }
