@@ -137,19 +137,22 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
     const double d = trajectory.driver(k) - driver_value;
     return angular ? wrap_angle(d) : d;
   };
-  const bool angle_channel = Trajectory::quantity_of(channel) == Quantity::angle;
-  // A sample on the value.
+  const Quantity q = Trajectory::quantity_of(channel);
+  const bool angle_channel = q == Quantity::angle;
+  // A sample on the value: none when that sample holds no such value (flagged, or not run).
   const double on_grid = 1e-9 * std::max(1.0, std::abs(driver_value));
   for (int k = 0; k < n; ++k)
     if (std::abs(offset(k)) <= on_grid) {
+      if (!trajectory.has_value(k, q)) return std::nullopt;
       if (interpolated) *interpolated = false;
       return (*column)(k);
     }
-  // Two consecutive samples around it (not across a wrap of the offset).
+  // Two consecutive samples around it (not across a wrap of the offset), both holding a value.
   for (int k = 0; k + 1 < n; ++k) {
     const double a = offset(k), b = offset(k + 1);
     const double step = std::abs(trajectory.driver(k + 1) - trajectory.driver(k));
     if ((a < 0.0) == (b < 0.0) || std::abs(a - b) > 1.5 * step) continue;
+    if (!trajectory.has_value(k, q) || !trajectory.has_value(k + 1, q)) return std::nullopt;
     const double w = a / (a - b);
     double va = (*column)(k), vb = (*column)(k + 1);
     if (angle_channel) vb = va + wrap_angle(vb - va);

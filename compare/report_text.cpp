@@ -553,9 +553,10 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
       // A value that does not exist (a rate at a singular sample, any value where the chain
-      // does not close) is an empty field, and so is every difference it enters.
-      const bool has_ref = value_exists(ref.status[ks], q);
-      const bool has_value = value_exists(run.trajectory.status[ks], q);
+      // does not close, an engine's sample outside its run) is an empty field, and so is every
+      // difference it enters.
+      const bool has_ref = ref.has_value(k, q);
+      const bool has_value = run.trajectory.has_value(k, q);
       const auto field = [](bool exists, double x) { return exists ? csv_number(x) : ""; };
       out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(c.method),
                          csv_field(c.metrics.channel), to_string(q), k, ref.driver(k),

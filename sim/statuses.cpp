@@ -20,6 +20,9 @@ bool StatusJudge::outside(int i, Trajectory& out) {
   if (i >= span_.first && i <= span_.last) return false;
   const auto row = static_cast<size_t>(i);
   out.status[row] = reference_.status[row];
+  // Not run: no value of the engine here, whatever the flag kept says (docs/compare.md).
+  if (out.not_run.empty()) out.not_run.assign(out.status.size(), 0);
+  out.not_run[row] = 1;
   out.rcond(i) = reference_.rcond(i);
   out.loop_gap(i) = 0.0;
   if (events_)
