@@ -163,7 +163,9 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
 }
 
 double ReferenceRow::percent(double value, double against) const {
-  if (std::abs(against) <= zero) return std::numeric_limits<double>::quiet_NaN();
+  // Against a round-off zero, or a subnormal one (a reference at rest): no %.
+  if (std::abs(against) <= zero || std::abs(against) < std::numeric_limits<double>::min())
+    return std::numeric_limits<double>::quiet_NaN();
   if (Trajectory::quantity_of(reference.quantity) == Quantity::angle)
     return percent_difference(wrap_positive_angle(value), wrap_positive_angle(against));
   return percent_difference(value, against);
@@ -269,7 +271,9 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       result.metrics.reason = force ? out_forces : out_kinematic;
       result.tolerance = tolerances.of(run.name, q);
       result.prescribed = prescribed(mechanism, channels[c]);
-      result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable
+      // No sample, or no scale to take a % of (a reference at rest): no verdict.
+      result.verdict = result.metrics.usable == 0 || std::isnan(result.metrics.max_pct_of_peak)
+                           ? Verdict::not_applicable
                        : result.metrics.max_pct_of_peak <= result.tolerance ? Verdict::pass
                                                                             : Verdict::fail;
       out.channels.push_back(std::move(result));

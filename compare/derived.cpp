@@ -257,8 +257,8 @@ nlohmann::json derived_json(const std::vector<DerivedValue>& exact, const Derive
             const double pct = c.pct_vs_exact(), scaled = c.pct_of_scale();
             methods[c.method] = {
                 {"value", number(c.value)},
-                {"pct_difference_vs_exact", std::isnan(pct) ? json(nullptr) : json(pct)},
-                {"pct_of_scale", std::isnan(scaled) ? json(nullptr) : json(scaled)},
+                {"pct_difference_vs_exact", std::isfinite(pct) ? json(pct) : json(nullptr)},
+                {"pct_of_scale", std::isfinite(scaled) ? json(scaled) : json(nullptr)},
                 {"scale", c.scale},
                 {"tolerance_pct", c.tolerance},
                 {"verdict",
