@@ -219,7 +219,10 @@ void print_kept_out(std::FILE* out, const Comparison& cmp) {
     if (e.kind == PoseStatus::exact_methods_disagree) {
       print_wrapped(
           out,
-          fmt::format("reference at {}: {}", driver_text(*cmp.mechanism, e.driver, 4), e.message),
+          fmt::format("reference at {}: {}",
+                      samples_in_time(*cmp.mechanism) ? fmt::format("t = {:.6g} s", e.driver)
+                                                      : driver_text(*cmp.mechanism, e.driver, 4),
+                      e.message),
           2, 100);
     }
 }
