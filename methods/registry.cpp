@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <numbers>
 #include <stdexcept>
 
 #include "analytic/dyads.h"
@@ -13,6 +14,7 @@
 #include "analytic/instant_centres.h"
 #include "analytic/newton.h"
 #include "analytic/trust.h"
+#include "analytic/units_text.h"
 #include "methods/engines.h"
 #include "sim/sampling.h"
 
@@ -173,10 +175,16 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   run.available = true;
   run.ok = true;
   const double step = options.step > 0.0 ? options.step : 0.0;
+  // In the file's units, as --step takes it (it was the SI value, 0.0349066 for --step 2 deg).
+  const DriverUnit unit = driver_unit_of(mechanism);
+  const std::string step_text = step > 0.0 ? unit.text(step, 6)
+                                : mechanism.driver().angular()
+                                    ? unit.text(std::numbers::pi / 180.0, 6) + " (default)"
+                                    : std::string("from the range (default)");
   run.settings = {{"newton.tolerance", fmt::format("{:g}", options.newton.tolerance)},
                   {"newton.max_iterations", fmt::format("{}", options.newton.max_iterations)},
                   {"newton.singular_rcond", fmt::format("{:g}", options.newton.singular_rcond)},
-                  {"step", step > 0.0 ? fmt::format("{:g}", step) : "1 deg (default)"},
+                  {"step", step_text},
                   {"samples", fmt::format("{}", run.trajectory.samples())},
                   {"cross_check", check_text},
                   {"typical_rcond", fmt::format("{:.3g}", typical_rcond(run.trajectory))}};

@@ -1840,6 +1840,9 @@ TEST(Cli, MessagesGiveDriverValuesAndLengthsInTheFilesUnits) {
     EXPECT_LT(std::abs(std::stod(m[i])), toggle) << m[0];
     EXPECT_GT(std::abs(std::stod(m[i])), toggle - 2.0) << m[0];  // the next samples in, 1 deg apart
   }
+  // The reference's step as --step takes it, in the file's unit (was 0.0349066, radians).
+  const CommandRun stepped = crosslink("compare " + file + " --engines analytic --step 2");
+  EXPECT_TRUE(std::regex_search(stepped.out, std::regex("step=2\\s+deg\\s"))) << stepped.out;
   // (The console wraps its notes at 100 columns: any space may be a line break.)
   EXPECT_TRUE(std::regex_search(compare.out, std::regex(">\\s+threshold\\s+1e-09\\s+mm\\)")))
       << compare.out;
