@@ -534,10 +534,10 @@ std::string verdict_table(const Comparison& cmp) {
         "class=\"verdict-{}\">{}</b></h3>\n",
         escape(name), escape(name), rows.size(), rows.size() == 1 ? "" : "s", pass, fail,
         static_cast<int>(rows.size()) - pass - fail,
-        worst.metrics.usable == 0                        ? "-"
-        : std::isfinite(worst.metrics.max_pct_of_peak) ? fmt::format("{:.3g}",
-                                                                     worst.metrics.max_pct_of_peak)
-                                                         : "n/a",
+        worst.metrics.usable == 0 ? "-"
+        : std::isfinite(worst.metrics.max_pct_of_peak)
+            ? fmt::format("{:.3g}", worst.metrics.max_pct_of_peak)
+            : "n/a",
         escape(worst.method), escape(worst.metrics.channel), worst.tolerance,
         fail ? "fail" : "pass", verdict);
     // The prescribed values agree by construction: all folded.

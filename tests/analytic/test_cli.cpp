@@ -1923,9 +1923,8 @@ TEST(Cli, TwoSweepsDifferOnlyInTheirCostColumns) {
 // header's fields, and the driver's channels are one field each.
 TEST(Cli, ADriverNamedWithACommaIsOneCsvFieldPerChannel) {
   const std::string path = write_definition(
-      "comma_driver.toml",
-      replaced_all(read_file("mechanisms/drivers/fivebar_two_cranks.toml"), "name = \"left\"",
-                   "name = \"a,b\""));
+      "comma_driver.toml", replaced_all(read_file("mechanisms/drivers/fivebar_two_cranks.toml"),
+                                        "name = \"left\"", "name = \"a,b\""));
   const CommandRun run = crosslink("solve \"" + path + "\" --format csv");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   std::istringstream lines(run.out);
