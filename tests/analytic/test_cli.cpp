@@ -1938,4 +1938,37 @@ TEST(Cli, ADriverNamedWithACommaIsOneCsvFieldPerChannel) {
   EXPECT_GT(rows, 10);
 }
 
+// Issue 35, item 8. A reference at rest (the A01 pendulum without gravity, 10 ns, an effort of
+// 1e-300 N m) moves no energy: its energy scale is 0, and a % of it is not a number. Its energy
+// channels have no % and no verdict (n/a, null), never a % of a scale of 1 J, 1e308 % or inf %.
+TEST(Cli, AReferenceAtRestHasNoPercentOfAZeroPeak) {
+  std::string text = read_file("mechanisms/iftomm_a01_pendulum.toml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"gravity = [0, -9.81]", "gravity = [0, 0]"},
+           {"duration = 2000", "duration = 1e-8"},
+           {"interval = 0.5", "interval = 1e-9"},
+           {"rate = 0", "rate = 0\neffort = 1e-300"}})
+    text = replaced_all(text, from, to);
+  const std::string path = write_definition("at_rest.toml", text);
+  const std::string json = (scratch_dir() / "at_rest.json").string();
+  const CommandRun run =
+      crosslink("compare \"" + path + "\" --engines analytic,mujoco --json \"" + json + "\"");
+  if (run.out.find("mujoco    not run") != std::string::npos) GTEST_SKIP() << "no MuJoCo";
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const nlohmann::json j = nlohmann::json::parse(read_file(json));
+  int energy = 0;
+  for (const nlohmann::json& c : j["channels"]) {
+    if (c["quantity"] != "energy") continue;
+    EXPECT_EQ(c["verdict"], "n/a") << c.dump();
+    EXPECT_TRUE(c["max_pct_of_peak"].is_null()) << c.dump();
+    EXPECT_TRUE(c["rms_pct_of_peak"].is_null()) << c.dump();
+    ++energy;
+  }
+  EXPECT_EQ(energy, 4);
+  EXPECT_TRUE(std::regex_search(run.out, std::regex("energy +mujoco +energy\\.[a-z]+ +n/a ")))
+      << run.out;
+  EXPECT_EQ(run.out.find("inf"), std::string::npos) << run.out;
+  EXPECT_FALSE(std::regex_search(run.out, std::regex("e\\+[0-9]{3}"))) << run.out;  // 1e+308
+}
+
 }  // namespace
