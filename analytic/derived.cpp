@@ -78,6 +78,7 @@ struct Located {
   double v = 0.0;
   double value = 0.0;
   bool reversal = true;  // inside the interval (the channel turns back), not at one of its ends
+  std::vector<double> ties;  // other locations of the same value within rounding (extreme())
 };
 
 // Finds the extreme of f near a sample, and f at a driver value between two samples.
@@ -274,9 +275,14 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   Interval out;
   const Driver& d = m.driver();
   const int n = t.samples();
+  // An engine's sample outside its run holds no value, whatever the flag it keeps: counted, and
+  // the interval then has no value from this method (never a placeholder, never across a gap).
+  int not_run = 0;
   auto has = [&](int k) {
     const PoseStatus s = t.status[static_cast<size_t>(k)];
-    return positions_only ? has_position(s) : usable(s);
+    const bool counts = positions_only ? has_position(s) : usable(s);
+    if (counts && !t.was_run(k)) ++not_run;
+    return counts && t.was_run(k);
   };
   const bool cycle = d.angular() && d.law.kind == MotionLaw::Kind::constant_speed && n > 2 &&
                      std::abs(t.driver(n - 1) - t.driver(0)) >= kTwoPi * (1.0 - 1e-9);
@@ -306,7 +312,12 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     std::sort(out.samples.begin(), out.samples.end(),
               [](const Sample& a, const Sample& b) { return a.v < b.v; });
   }
-  if (out.samples.size() < 3)
+  if (not_run > 0)
+    out.empty_reason = fmt::format(
+        "the method was not run at {} of the interval's samples (outside its run: no value "
+        "there), so its extremes over the interval are not known",
+        not_run);
+  else if (out.samples.size() < 3)
     out.empty_reason =
         fmt::format("the interval holds {} solved sample(s): 3 are needed", out.samples.size());
   return out;
@@ -368,11 +379,8 @@ std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Inter
   const auto& s = in.samples;
   const int n = static_cast<int>(s.size());
   const double sign = max ? 1.0 : -1.0;
-  std::optional<Located> best;
-  auto consider = [&](std::optional<Located> c) {
-    if (c && (!best || sign * c->value > sign * best->value)) best = c;
-  };
-  for (const Turn& turn : turns(f, t, in, locator, max)) consider(turn.at);
+  std::vector<Located> candidates;
+  for (const Turn& turn : turns(f, t, in, locator, max)) candidates.push_back(turn.at);
   if (!in.periodic) {
     for (const bool lower : {true, false}) {
       const double v = lower ? in.lower : in.upper;
@@ -381,9 +389,20 @@ std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Inter
       // An end that cannot be solved leaves the extreme unknown, never the other end's.
       const std::optional<double> value = locator.value_at(f, v, a, b);
       if (!value) return std::nullopt;
-      consider(Located{v, *value, false});
+      candidates.push_back(Located{v, *value, false});
     }
   }
+  std::optional<Located> best;
+  for (const Located& c : candidates)
+    if (!best || sign * c.value > sign * best->value) best = c;
+  if (!best) return best;
+  // Equal extremes (a symmetric motion's two maxima) are a tie: within rounding, 1e-9 of the
+  // channel's magnitude over the interval, each is the extreme's location.
+  double magnitude = 0.0;
+  for (const Sample& x : s) magnitude = std::max(magnitude, std::abs(f.value(t, x.row)));
+  for (const Located& c : candidates)
+    if (c.v != best->v && std::abs(c.value - best->value) <= 1e-9 * magnitude)
+      best->ties.push_back(c.v);
   return best;
 }
 
@@ -764,6 +783,9 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   set("at_max", hi->v);
   set("min", lo->value);
   set("at_min", lo->v);
+  for (DerivedField& field : out.fields)
+    if (field.name == "at_max" || field.name == "at_min")
+      field.ties = field.name == "at_max" ? hi->ties : lo->ties;
   if (spec.kind == K::extremes || spec.kind == K::transmission) return out;
   if (hi->value - lo->value <= 1e-12 * std::max(1.0, std::abs(hi->value)))
     return fail(fmt::format("{} does not move over the interval", spec.channel));

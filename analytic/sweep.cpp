@@ -3,6 +3,7 @@
 #include "analytic/driver_chains.h"
 #include "analytic/kinetostatics.h"
 #include "analytic/planar.h"
+#include "analytic/units_text.h"
 
 #include <fmt/format.h>
 
@@ -83,9 +84,10 @@ class Follower {
         report.status = closes_beyond ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
         report.message =
             closes_beyond
-                ? fmt::format("at driver = {:.12g} the only nearby solution is on another branch",
-                              d0)
-                : fmt::format("the chain does not close beyond driver = {:.12g}", d0);
+                ? fmt::format("at driver = {} the only nearby solution is on another branch",
+                              driver_unit_of(solver_.mechanism()).text(d0, 12))
+                : fmt::format("the chain does not close beyond driver = {}",
+                              driver_unit_of(solver_.mechanism()).text(d0, 12));
         return report;
       }
     }
@@ -696,6 +698,10 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
   // for the same move of each link (A02: 580 steps at N = 2, 3,987 at N = 160).
   const double h_max = 0.02, h_min = 1e-11;
   const double unit = limits.angular ? 1.0 : solver.length_scale();
+  // A driver value in a message, in the file's units.
+  const auto at = [&](double driver) {
+    return driver_unit_of(solver.mechanism()).text(driver, 12);
+  };
   const double start_driver = start.driver;
   const double sigma = sign_of(start.t_driver) != 0 ? sign_of(start.t_driver) : 1.0;
   double h = h_max;
@@ -721,8 +727,8 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       h *= 0.5;
       if (h < h_min) {
         return fail(leg, fmt::format("branch_jump: the chain cannot be followed beyond driver = "
-                                     "{:.12g}: the only nearby solutions are on another branch",
-                                     cur.driver));
+                                     "{}: the only nearby solutions are on another branch",
+                                     at(cur.driver)));
       }
       continue;
     }
@@ -777,9 +783,10 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
         ++toggles;
         leg.singular.push_back(
             {kind, node.driver, dir,
-             fmt::format("toggle: dead point at driver = {:.12g}: the chain cannot close beyond "
+             fmt::format("toggle: dead point at driver = {}: the chain cannot close beyond "
                          "it (limit of the assembling range); the sweep {} here",
-                         node.driver, limits.stop_at_toggle ? "stops" : "reverses the driver")});
+                         at(node.driver),
+                         limits.stop_at_toggle ? "stops" : "reverses the driver")});
         if (limits.stop_at_toggle) {
           stop = true;
           leg.end_key = leg.key.back();
@@ -797,10 +804,10 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       } else {
         leg.singular.push_back(
             {kind, node.driver, dir,
-             fmt::format("change_point at driver = {:.12g}: two branches cross; the sweep "
+             fmt::format("change_point at driver = {}: two branches cross; the sweep "
                          "continues on the smooth branch (continuous velocity), leaving the "
                          "assembly mode it had",
-                         node.driver)});
+                         at(node.driver))});
       }
     }
     if (stop) return leg;
@@ -834,10 +841,10 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
     }
     if (farthest_move(m, start_points, next.q) > escape_sizes * solver.length_scale())
       return fail(leg, fmt::format("branch_jump: the chain runs off to infinity near driver = "
-                                   "{:.12g} (a point moved {:g} times the drawing's size, {:g} "
+                                   "{} (a point moved {:g} times the drawing's size, {:g} "
                                    "for each moving link): the driver nears an asymptote, so the "
                                    "chain cannot be followed",
-                                   next.driver, escape_sizes, kEscape));
+                                   at(next.driver), escape_sizes, kEscape));
     held_lo = std::min(held_lo, next.driver);
     held_hi = std::max(held_hi, next.driver);
     if (leg.key.back() - held_key < kHeldArc) continue;
@@ -846,16 +853,16 @@ Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLi
       held_key = leg.key.back();
     } else {
       return fail(leg, fmt::format("branch_jump: the chain moves with the driver held at driver "
-                                   "= {:.12g} (ten link turns of motion with the driver within "
+                                   "= {} (ten link turns of motion with the driver within "
                                    "{:.0e} of its unit): the driver does not set the pose there, "
                                    "so the chain cannot be followed",
-                                   next.driver, kHeldDriver));
+                                   at(next.driver), kHeldDriver));
     }
   }
   return fail(leg, fmt::format("branch_jump: the tracer's budget of {} steps ran out at driver = "
-                               "{:.12g}, before a limit or a whole cycle, so the chain is not "
+                               "{}, before a limit or a whole cycle, so the chain is not "
                                "followed beyond",
-                               limits.steps, leg.nodes.back().driver));
+                               limits.steps, at(leg.nodes.back().driver)));
 }
 
 // Where a sample solved by Newton is too near a singular position for its rates to be exact to

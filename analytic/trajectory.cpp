@@ -85,6 +85,7 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   for (Eigen::MatrixXd* m : {&x, &y, &vx, &vy, &ax, &ay}) m->setZero(samples, points);
   for (Eigen::MatrixXd* m : {&s, &sdot, &sddot}) m->setZero(samples, sliders);
   status.assign(static_cast<size_t>(samples), PoseStatus::ok);
+  not_run.clear();
   rcond.setOnes(samples);
   loop_gap.setZero(samples);
   events.clear();

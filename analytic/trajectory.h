@@ -107,6 +107,15 @@ struct Trajectory {
   Eigen::MatrixXd x, y, vx, vy, ax, ay;
   Eigen::MatrixXd s, sdot, sddot;
   std::vector<PoseStatus> status;  // per sample
+  // Engines: the samples outside the run (sim::StatusJudge::outside), which keep the reference's
+  // flag (a singular one says a position exists) but hold no value of the method: its arrays
+  // there are placeholders, never to be read. Empty when every sample was run.
+  std::vector<char> not_run;
+  bool was_run(int row) const { return not_run.empty() || !not_run[static_cast<size_t>(row)]; }
+  // Whether sample `row` holds a value of quantity `q`: its status says so and it was run.
+  bool has_value(int row, Quantity q) const {
+    return was_run(row) && value_exists(status[static_cast<size_t>(row)], q);
+  }
   Eigen::VectorXd rcond;           // analytic: reciprocal condition estimate of the Jacobian
   Eigen::VectorXd loop_gap;        // engines: largest cut-joint violation [m]; 0 for analytic
   // Forces, when the method computes them (see the channel list above).

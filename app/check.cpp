@@ -160,8 +160,8 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
     return std::abs(v) < 5e-10 ? 0.0 : v;
   };
   for (const SingularPosition& p : singular)
-    out += fmt::format("    {:<13} at driver = {:.9f} {}\n", to_string(p.kind), value(p.driver),
-                       unit_name);
+    out += fmt::format("    {:<13} at {} = {:.9f} {}\n", to_string(p.kind), at, value(p.driver),
+                       unit_name);  // a time where the sweep runs in time
   if (singular.empty())
     for (const Trajectory::Event& e : t.events)  // the Follower's events (explicit range, law)
       out += fmt::format(

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -19,6 +20,7 @@
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/sweep_parts.h"
+#include "methods/engines.h"
 #include "methods/sweep_json.h"
 
 namespace crosslink::app {
@@ -162,6 +164,50 @@ struct MergeArgs {
   std::string csv, report, json;
 };
 
+// Every field merge reads, checked before any is used, each refusal naming the part: a shard
+// index that is a whole number in [0, N), a count from 1, the definitions' texts and hashes, each
+// sweep's definition an index into them (its rows: methods/sweep_json.cpp).
+void validate_part(const std::string& path, const json& j) {
+  const auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument(fmt::format("{}: {}", path, what));
+  };
+  const auto whole = [&](const json& object, const char* key, long long least,
+                         long long below) -> long long {
+    if (!object.is_object() || !object.contains(key)) refuse(fmt::format("missing \"{}\"", key));
+    const json& v = object.at(key);
+    if (!v.is_number_integer() || v.get<long long>() < least || v.get<long long>() >= below)
+      refuse(fmt::format("\"{}\": expected a whole number from {} to {}, got {}", key, least,
+                         below - 1, v.dump()));
+    return v.get<long long>();
+  };
+  if (!j.contains("crosslink") || !j.at("crosslink").is_string())
+    refuse("\"crosslink\": expected the version that wrote the part");
+  if (!j.contains("settings") || !j.at("settings").is_object())
+    refuse("\"settings\": expected an object");
+  const json& settings = j.at("settings");
+  if (!settings.contains("engines") || !settings.at("engines").is_array())
+    refuse("\"settings\": \"engines\": expected an array of engine names");
+  const std::vector<std::string> known = methods::engine_names();
+  for (const json& e : settings.at("engines"))
+    if (!e.is_string() ||
+        std::find(known.begin(), known.end(), e.get<std::string>()) == known.end())
+      refuse(fmt::format("\"settings\": \"engines\": unknown engine {} (known: {})", e.dump(),
+                         fmt::join(known, ", ")));
+  if (!settings.contains("accuracy")) refuse("\"settings\": missing \"accuracy\"");
+  if (!j.contains("shard")) refuse("missing \"shard\"");
+  const long long count = whole(j.at("shard"), "count", 1, std::numeric_limits<int>::max());
+  whole(j.at("shard"), "index", 0, count);
+  if (!j.contains("definitions") || !j.at("definitions").is_array())
+    refuse("\"definitions\": expected an array");
+  for (const json& d : j.at("definitions"))
+    for (const char* key : {"path", "fnv1a64", "text"})
+      if (!d.is_object() || !d.contains(key) || !d.at(key).is_string())
+        refuse(fmt::format("\"definitions\": each needs a string \"{}\"", key));
+  if (!j.contains("sweeps") || !j.at("sweeps").is_array()) refuse("\"sweeps\": expected an array");
+  const auto definitions = static_cast<long long>(j.at("definitions").size());
+  for (const json& sweep : j.at("sweeps")) whole(sweep, "definition", 0, definitions);
+}
+
 json read_part(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument(fmt::format("{}: cannot open the part", path));
@@ -170,6 +216,7 @@ json read_part(const std::string& path) {
     throw std::invalid_argument(fmt::format(
         "{}: not a part of a sweep (the JSON of `crosslink sweep --json`, \"format\": \"{}\")",
         path, kPartFormat));
+  validate_part(path, j);
   return j;
 }
 
@@ -243,6 +290,7 @@ int run_merge(const MergeArgs& args) {
     definitions.push_back(std::move(f));
   }
   std::vector<const json*> by_definition(definitions.size(), nullptr);
+  std::vector<std::string> part_of(definitions.size());  // the part holding each sweep
   const Shard whole;
   for (size_t i = 0; i < parts.size(); ++i) {
     const Shard shard{parts[i].at("shard").at("index").get<int>(), count};
@@ -253,6 +301,7 @@ int run_merge(const MergeArgs& args) {
             fmt::format("{}: holds a sweep of definition {}, which is not shard {}/{}'s",
                         args.parts[i], k + 1, shard.index, count));
       by_definition[k] = &s;
+      part_of[k] = args.parts[i];
     }
   }
   for (size_t k = 0; k < definitions.size(); ++k)
@@ -275,7 +324,7 @@ int run_merge(const MergeArgs& args) {
           methods::sweep_from_json(*by_definition[k], mechanisms.back(), engines, accuracy));
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(
-          fmt::format("the sweep of {} in its part: {}", definitions[k].path, e.what()));
+          fmt::format("{}: the sweep of {}: {}", part_of[k], definitions[k].path, e.what()));
     }
     swept.push_back(k);
   }

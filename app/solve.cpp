@@ -9,6 +9,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "analytic/trust.h"
+#include "analytic/units_text.h"
 #include "app/commands.h"
 #include "app/output.h"
 #include "compare/derived.h"
@@ -179,8 +180,8 @@ int run_solve(const SolveArgs& args) {
   t.flag_non_finite();  // the dyads' samples (Newton's are flagged as they are written)
   fmt::print(stderr, "{}: method: {}\n", m.file, why);
   for (const Trajectory::Event& e : t.events)
-    fmt::print(stderr, "{}: note: {} at {} = {:.10g}: {}\n", m.file, to_string(e.kind),
-               timed ? "t" : "driver", e.driver, e.message);
+    fmt::print(stderr, "{}: note: {} at {}: {}\n", m.file, to_string(e.kind),
+               sweep_position_text(m, e.driver), e.message);  // the file's units
   if (args.format == "json")
     print_trajectory_json(
         stdout, m, t, single ? std::optional<int>(0) : std::nullopt, timed ? "time" : "driver", {},

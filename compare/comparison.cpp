@@ -137,19 +137,22 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
     const double d = trajectory.driver(k) - driver_value;
     return angular ? wrap_angle(d) : d;
   };
-  const bool angle_channel = Trajectory::quantity_of(channel) == Quantity::angle;
-  // A sample on the value.
+  const Quantity q = Trajectory::quantity_of(channel);
+  const bool angle_channel = q == Quantity::angle;
+  // A sample on the value: none when that sample holds no such value (flagged, or not run).
   const double on_grid = 1e-9 * std::max(1.0, std::abs(driver_value));
   for (int k = 0; k < n; ++k)
     if (std::abs(offset(k)) <= on_grid) {
+      if (!trajectory.has_value(k, q)) return std::nullopt;
       if (interpolated) *interpolated = false;
       return (*column)(k);
     }
-  // Two consecutive samples around it (not across a wrap of the offset).
+  // Two consecutive samples around it (not across a wrap of the offset), both holding a value.
   for (int k = 0; k + 1 < n; ++k) {
     const double a = offset(k), b = offset(k + 1);
     const double step = std::abs(trajectory.driver(k + 1) - trajectory.driver(k));
     if ((a < 0.0) == (b < 0.0) || std::abs(a - b) > 1.5 * step) continue;
+    if (!trajectory.has_value(k, q) || !trajectory.has_value(k + 1, q)) return std::nullopt;
     const double w = a / (a - b);
     double va = (*column)(k), vb = (*column)(k + 1);
     if (angle_channel) vb = va + wrap_angle(vb - va);
@@ -160,7 +163,9 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
 }
 
 double ReferenceRow::percent(double value, double against) const {
-  if (std::abs(against) <= zero) return std::numeric_limits<double>::quiet_NaN();
+  // Against a round-off zero, or a subnormal one (a reference at rest): no %.
+  if (std::abs(against) <= zero || std::abs(against) < std::numeric_limits<double>::min())
+    return std::numeric_limits<double>::quiet_NaN();
   if (Trajectory::quantity_of(reference.quantity) == Quantity::angle)
     return percent_difference(wrap_positive_angle(value), wrap_positive_angle(against));
   return percent_difference(value, against);
@@ -266,7 +271,9 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
       result.metrics.reason = force ? out_forces : out_kinematic;
       result.tolerance = tolerances.of(run.name, q);
       result.prescribed = prescribed(mechanism, channels[c]);
-      result.verdict = result.metrics.usable == 0 ? Verdict::not_applicable
+      // No sample, or no scale to take a % of (a reference at rest): no verdict.
+      result.verdict = result.metrics.usable == 0 || std::isnan(result.metrics.max_pct_of_peak)
+                           ? Verdict::not_applicable
                        : result.metrics.max_pct_of_peak <= result.tolerance ? Verdict::pass
                                                                             : Verdict::fail;
       out.channels.push_back(std::move(result));

@@ -66,7 +66,11 @@ struct StepProbe {
   std::string channel;               // the failing channel with the largest max % of peak
   double pct = 0.0, half_pct = 0.0;  // its max % of peak at dt and at half_dt
   // log2(pct / half_pct): about 1 at first order, 2 at second, 0 when the step is not the cause.
-  double order() const { return std::log2(pct / half_pct); }
+  // NaN where it is not a number (a difference of 0 at either step: log of 0 or of 0/0).
+  double order() const {
+    const double o = std::log2(pct / half_pct);
+    return std::isfinite(o) ? o : NAN;
+  }
 };
 
 struct Comparison {

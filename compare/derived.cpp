@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <utility>
 
 #include "compare/comparison.h"
 #include "compare/metrics.h"
@@ -67,6 +69,11 @@ std::optional<double> value_of(const DerivedValue* v, const std::string& field) 
   return f ? f->value : std::nullopt;
 }
 
+std::vector<double> ties_of(const DerivedValue* v, const std::string& field) {
+  const DerivedField* f = v ? v->field(field) : nullptr;
+  return f ? f->ties : std::vector<double>{};
+}
+
 // A field in the file's units, "" where it does not exist.
 std::string shown(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit,
                   std::optional<double> si) {
@@ -81,20 +88,46 @@ std::string unit_text(const Mechanism& m, const DerivedSpec& spec, DerivedUnit u
 }
 
 std::string pct_text(double pct) {
-  return std::isnan(pct) ? std::string("-") : fmt::format("{:.3g}", pct);
+  return std::isfinite(pct) ? fmt::format("{:.3g}", pct) : std::string("-");
+}
+
+}  // namespace
+
+namespace {
+
+// The pair of locations, one of each side's tied ones, nearest each other (a tie is a tie: either
+// place is the extreme's); the values themselves without ties.
+std::pair<double, double> nearest(double a, const std::vector<double>& a_ties, double b,
+                                  const std::vector<double>& b_ties, bool angle) {
+  std::pair<double, double> best{a, b};
+  double gap = INFINITY;
+  for (size_t i = 0; i <= a_ties.size(); ++i)
+    for (size_t j = 0; j <= b_ties.size(); ++j) {
+      const double x = i == 0 ? a : a_ties[i - 1], y = j == 0 ? b : b_ties[j - 1];
+      const double d = std::abs(angle ? wrap_angle(x - y) : x - y);
+      if (d < gap) {
+        gap = d;
+        best = {x, y};
+      }
+    }
+  return best;
 }
 
 }  // namespace
 
 double DerivedCheck::pct_vs_exact() const {
-  if (!value || !exact || *exact == 0.0) return NAN;
-  return percent_difference(*value, *exact);
+  if (!value || !exact) return NAN;
+  const auto [v, e] = nearest(*value, value_ties, *exact, exact_ties, false);
+  if (!(std::abs(e) >= std::numeric_limits<double>::min())) return NAN;  // 0 or subnormal
+  return percent_difference(v, e);
 }
 
 double DerivedCheck::pct_of_scale() const {
   if (!value || !estimate || scale <= 0.0) return NAN;
-  double d = *value - *estimate;
-  if (unit == DerivedUnit::driver && scale == std::numbers::pi) d = wrap_angle(d);
+  const bool angle = unit == DerivedUnit::driver && scale == std::numbers::pi;
+  const auto [v, e] = nearest(*value, value_ties, *estimate, estimate_ties, angle);
+  double d = v - e;
+  if (angle) d = wrap_angle(d);
   return 100.0 * std::abs(d) / scale;
 }
 
@@ -135,6 +168,9 @@ DerivedResults compare_derived(const Mechanism& m, const std::vector<MethodRun>&
         c.value = value_of(own, f.name);
         c.exact = f.value;
         c.estimate = value_of(find(out.estimate, exact.spec), f.name);
+        c.value_ties = ties_of(own, f.name);
+        c.exact_ties = f.ties;
+        c.estimate_ties = ties_of(find(out.estimate, exact.spec), f.name);
         c.scale = scale_of(m, *exact.spec, f.unit, ref, f.value);
         c.quantity_class = quantity_of(*exact.spec, f.unit, m.driver().angular());
         c.tolerance = tolerances.of(method.name, c.quantity_class);
@@ -221,8 +257,8 @@ nlohmann::json derived_json(const std::vector<DerivedValue>& exact, const Derive
             const double pct = c.pct_vs_exact(), scaled = c.pct_of_scale();
             methods[c.method] = {
                 {"value", number(c.value)},
-                {"pct_difference_vs_exact", std::isnan(pct) ? json(nullptr) : json(pct)},
-                {"pct_of_scale", std::isnan(scaled) ? json(nullptr) : json(scaled)},
+                {"pct_difference_vs_exact", std::isfinite(pct) ? json(pct) : json(nullptr)},
+                {"pct_of_scale", std::isfinite(scaled) ? json(scaled) : json(nullptr)},
                 {"scale", c.scale},
                 {"tolerance_pct", c.tolerance},
                 {"verdict",

@@ -27,6 +27,8 @@ struct DerivedCheck {
   std::optional<double> value;     // the method's, from its samples (SI)
   std::optional<double> exact;     // located on the exact solution
   std::optional<double> estimate;  // the same estimate from the reference's own samples
+  // A location's ties (DerivedField::ties): the other places each puts the same extreme.
+  std::vector<double> value_ties, exact_ties, estimate_ties;
   double scale = 0.0;              // what % of scale divides by (SI)
   double tolerance = 0.0;          // % of scale: the comparator's for the field's class
   Verdict verdict{};

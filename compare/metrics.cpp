@@ -7,6 +7,10 @@
 
 namespace crosslink::compare {
 
+namespace {
+constexpr double kNoScale = std::numeric_limits<double>::quiet_NaN();
+}  // namespace
+
 double percent_difference(double value, double against) {
   if (against == 0.0) return value == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
   return 100.0 * std::abs(value - against) / std::abs(against);
@@ -92,7 +96,9 @@ ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& 
   // P and P_eff: the scale of every % of peak below.
   m.peak = channel_peak(channel, reference, usable, size);
   m.peak_used = std::max(m.peak, peak_floor);
-  const double scale = m.peak_used > 0.0 ? m.peak_used : 1.0;
+  // A scale of zero or below the smallest normal number (a reference at rest: 1e-300 is no
+  // scale) gives no % of peak: NaN, "n/a", never 1e308 or inf.
+  const double scale = m.peak_used >= std::numeric_limits<double>::min() ? m.peak_used : kNoScale;
 
   // Per sample: d_k, signed % of peak, local % (masked near zero).
   m.difference.resize(n);
@@ -103,8 +109,8 @@ ChannelMetrics compare_channel(std::string_view channel, const Eigen::VectorXd& 
     const double r = angle ? wrap_positive_angle(reference(k)) : reference(k);
     m.difference(k) = d;
     m.pct_of_peak(k) = 100.0 * d / scale;
-    m.local_pct(k) = std::abs(r) < 0.01 * scale ? std::numeric_limits<double>::quiet_NaN()
-                                                : 100.0 * std::abs(d) / std::abs(r);
+    m.local_pct(k) = !(std::abs(r) >= 0.01 * scale) ? std::numeric_limits<double>::quiet_NaN()
+                                                    : 100.0 * std::abs(d) / std::abs(r);
   }
 
   // Max and RMS over K; the worst sample is the verdict's witness.

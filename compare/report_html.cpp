@@ -287,8 +287,11 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
                                   {"out", out}};
       if (severity(*c) > worst) {
         worst = severity(*c);
-        label = fmt::format("{} [{}]  worst: {} {:.3g} % of peak ({})", name, u.name, c->method,
-                            c->metrics.max_pct_of_peak, to_string(c->verdict));
+        // No % of a peak of zero (a reference at rest): n/a.
+        const double pct = c->metrics.max_pct_of_peak;
+        label = fmt::format("{} [{}]  worst: {} {} % of peak ({})", name, u.name, c->method,
+                            std::isfinite(pct) ? fmt::format("{:.3g}", pct) : "n/a",
+                            to_string(c->verdict));
       }
     }
     r["channels"][name] = ch;
@@ -531,7 +534,10 @@ std::string verdict_table(const Comparison& cmp) {
         "class=\"verdict-{}\">{}</b></h3>\n",
         escape(name), escape(name), rows.size(), rows.size() == 1 ? "" : "s", pass, fail,
         static_cast<int>(rows.size()) - pass - fail,
-        worst.metrics.usable > 0 ? fmt::format("{:.3g}", worst.metrics.max_pct_of_peak) : "-",
+        worst.metrics.usable == 0 ? "-"
+        : std::isfinite(worst.metrics.max_pct_of_peak)
+            ? fmt::format("{:.3g}", worst.metrics.max_pct_of_peak)
+            : "n/a",
         escape(worst.method), escape(worst.metrics.channel), worst.tolerance,
         fail ? "fail" : "pass", verdict);
     // The prescribed values agree by construction: all folded.

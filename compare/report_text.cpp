@@ -69,6 +69,11 @@ std::string driver_text(const Mechanism& m, double value, int decimals) {
 
 namespace {
 
+// A number, or "n/a" where it is not a finite one (a % of a zero peak, an order of log 0).
+std::string number_or_na(double value, std::string_view spec) {
+  return std::isfinite(value) ? fmt::format(fmt::runtime(spec), value) : std::string("n/a");
+}
+
 // How close a row is to failing: max % of peak over its tolerance.
 double severity(const ChannelResult& c) {
   if (c.verdict == Verdict::not_applicable) return -1.0;
@@ -144,20 +149,24 @@ std::string step_probe_text(const StepProbe& p) {
       "step probe: {} at half its step (dt = {:.6g} s, was {:.6g} s)", p.method, p.half_dt, p.dt);
   if (!p.ok) return fmt::format("{}: not run to the end ({})", head, p.message);
   const double order = p.order();
-  const char* reading = order >= 0.5 ? "it falls with the step: the engine's discretisation error"
+  // An order that is not a number (a difference of 0 at either step) is not printed as one.
+  const char* reading = std::isnan(order) ? "no order: a difference of 0 at one of the steps"
+                        : order >= 0.5 ? "it falls with the step: the engine's discretisation error"
                         : order > -0.5
                             ? "it does not fall with the step: not the step's error (a modelling "
                               "difference, the reference, or a singular position)"
                             : "it grows as the step falls";
-  return fmt::format("{}: {} {:.4g} -> {:.4g} % of peak (order {:.2g}); {}", head, p.channel, p.pct,
-                     p.half_pct, order, reading);
+  return fmt::format("{}: {} {} -> {} % of peak (order {}); {}", head, p.channel,
+                     number_or_na(p.pct, "{:.4g}"), number_or_na(p.half_pct, "{:.4g}"),
+                     number_or_na(order, "{:.2g}"), reading);
 }
 
 constexpr std::string_view kRowFormat = "{:<24} {:<8} {:>12} {:>11} {:>11} {:>19} {:>6}\n";
 
-// A metric of a channel, "-" when no sample is in its verdict (the value does not exist).
+// A metric of a channel, "-" when no sample is in its verdict (the value does not exist), "n/a"
+// when it has no scale (a % of a peak of zero: a reference at rest).
 std::string metric_text(const ChannelResult& c, double value) {
-  return c.metrics.usable > 0 ? fmt::format("{:.3g}", value) : "-";
+  return c.metrics.usable > 0 ? number_or_na(value, "{:.3g}") : "-";
 }
 
 void print_row(std::FILE* out, const Comparison& cmp, const ChannelResult& c) {
@@ -210,7 +219,10 @@ void print_kept_out(std::FILE* out, const Comparison& cmp) {
     if (e.kind == PoseStatus::exact_methods_disagree) {
       print_wrapped(
           out,
-          fmt::format("reference at {}: {}", driver_text(*cmp.mechanism, e.driver, 4), e.message),
+          fmt::format("reference at {}: {}",
+                      samples_in_time(*cmp.mechanism) ? fmt::format("t = {:.6g} s", e.driver)
+                                                      : driver_text(*cmp.mechanism, e.driver, 4),
+                      e.message),
           2, 100);
     }
 }
@@ -451,7 +463,10 @@ nlohmann::json to_json(const Comparison& cmp) {
   for (const ChannelResult& c : cmp.channels) {
     const int k = c.metrics.worst_sample;
     // A channel with no sample in its verdict has no difference and no peak: null, not 0.
-    const auto measured = [&](double v) { return c.metrics.usable > 0 ? json(v) : json(nullptr); };
+    // Nor a % of a peak of zero (a reference at rest): null.
+    const auto measured = [&](double v) {
+      return c.metrics.usable > 0 && std::isfinite(v) ? json(v) : json(nullptr);
+    };
     j["channels"].push_back(
         {{"channel", c.metrics.channel},
          {"quantity", std::string(to_string(c.metrics.quantity))},
@@ -493,9 +508,10 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"ok", p.ok},
          {"message", p.message},
          {"channel", p.channel},
-         {"max_pct_of_peak", p.pct},
-         {"half_step_max_pct_of_peak", p.ok ? json(p.half_pct) : json(nullptr)},
-         {"order", p.ok ? json(p.order()) : json(nullptr)}});
+         {"max_pct_of_peak", std::isfinite(p.pct) ? json(p.pct) : json(nullptr)},
+         {"half_step_max_pct_of_peak",
+          p.ok && std::isfinite(p.half_pct) ? json(p.half_pct) : json(nullptr)},
+         {"order", p.ok && !std::isnan(p.order()) ? json(p.order()) : json(nullptr)}});
 
   j["references"] = json::array();
   for (const ReferenceRow& r : cmp.references) {
@@ -553,9 +569,10 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
     for (int k = 0; k < ref.samples(); ++k) {
       const auto ks = static_cast<size_t>(k);
       // A value that does not exist (a rate at a singular sample, any value where the chain
-      // does not close) is an empty field, and so is every difference it enters.
-      const bool has_ref = value_exists(ref.status[ks], q);
-      const bool has_value = value_exists(run.trajectory.status[ks], q);
+      // does not close, an engine's sample outside its run) is an empty field, and so is every
+      // difference it enters.
+      const bool has_ref = ref.has_value(k, q);
+      const bool has_value = run.trajectory.has_value(k, q);
       const auto field = [](bool exists, double x) { return exists ? csv_number(x) : ""; };
       out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(c.method),
                          csv_field(c.metrics.channel), to_string(q), k, ref.driver(k),

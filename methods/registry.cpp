@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <numbers>
 #include <stdexcept>
 
 #include "analytic/dyads.h"
@@ -13,6 +14,7 @@
 #include "analytic/instant_centres.h"
 #include "analytic/newton.h"
 #include "analytic/trust.h"
+#include "analytic/units_text.h"
 #include "methods/engines.h"
 #include "sim/sampling.h"
 
@@ -155,15 +157,16 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   // The reference checks itself where a second exact method can solve the chain.
   const Decomposition decomposition = decompose(mechanism);
   std::string check_text = "none: the chain does not decompose into dyads";
+  std::string check_seconds;  // its cost, a setting apart: it says it measures time
   if (decomposition.complete) {
     const double check_start = sim::thread_cpu_seconds();
     const CrossCheck check =
         cross_check(mechanism, run.trajectory, dyad_sweep(mechanism, run.trajectory));
     check_text = fmt::format(
         "dyads on {} samples: agree to {:.2g} of scale (limit {:g}), {} disagree (flagged), {} "
-        "singular by the dyads (flagged); {:.3g} s",
-        check.compared, check.worst, kExactAgreement, check.disagree, check.singular,
-        sim::thread_cpu_seconds() - check_start);
+        "singular by the dyads (flagged)",
+        check.compared, check.worst, kExactAgreement, check.disagree, check.singular);
+    check_seconds = fmt::format("{:.3g}", sim::thread_cpu_seconds() - check_start);
   }
   run.cost.wall_seconds = seconds_since(start);
   run.cost.steps = run.trajectory.samples();
@@ -172,13 +175,20 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   run.available = true;
   run.ok = true;
   const double step = options.step > 0.0 ? options.step : 0.0;
+  // In the file's units, as --step takes it (it was the SI value, 0.0349066 for --step 2 deg).
+  const DriverUnit unit = driver_unit_of(mechanism);
+  const std::string step_text = step > 0.0 ? unit.text(step, 6)
+                                : mechanism.driver().angular()
+                                    ? unit.text(std::numbers::pi / 180.0, 6) + " (default)"
+                                    : std::string("from the range (default)");
   run.settings = {{"newton.tolerance", fmt::format("{:g}", options.newton.tolerance)},
                   {"newton.max_iterations", fmt::format("{}", options.newton.max_iterations)},
                   {"newton.singular_rcond", fmt::format("{:g}", options.newton.singular_rcond)},
-                  {"step", step > 0.0 ? fmt::format("{:g}", step) : "1 deg (default)"},
+                  {"step", step_text},
                   {"samples", fmt::format("{}", run.trajectory.samples())},
                   {"cross_check", check_text},
                   {"typical_rcond", fmt::format("{:.3g}", typical_rcond(run.trajectory))}};
+  if (!check_seconds.empty()) run.settings.push_back({"cross_check_cpu_seconds", check_seconds});
   return run;
 }
 

@@ -269,7 +269,7 @@ std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Tra
   };
   for (int k = 0; k < run.samples(); ++k) {
     const PoseStatus s = run.status[static_cast<size_t>(k)];
-    if (s == PoseStatus::diverged || s == PoseStatus::not_reached) continue;
+    if (s == PoseStatus::diverged || s == PoseStatus::not_reached || !run.was_run(k)) continue;
     worst(out[0], run.x(k, q), reference.x(k, p));
     worst(out[0], run.y(k, q), reference.y(k, p));
     worst(out[1], run.vx(k, q), reference.vx(k, p));
@@ -458,7 +458,9 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
   newton.engine = "analytic";
   newton.variant = mechanism.dynamics ? "exact" : "newton";
   newton.repeats = static_cast<int>(costs.size());
-  newton.settings = reference.settings;
+  // Its settings, not its cost (the reference's check's time: the row's cost columns say it).
+  for (const auto& [key, value] : reference.settings)
+    if (!key.ends_with("_seconds")) newton.settings.push_back({key, value});
   newton.wall_s_per_cycle = seconds_per_cycle(reference);
   newton.cpu_s_per_cycle = cpu_per_cycle(reference);
   newton.max_pct = {0.0, 0.0, 0.0,  // the reference itself

@@ -2,8 +2,11 @@
 #include "methods/sweep_json.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace crosslink::methods {
@@ -55,6 +58,27 @@ sim::Settings settings_of(const json& j) {
   return out;
 }
 
+// A count: an integer from `least` up (0.5 or -5 samples are refused, never cast).
+int count_of(const json& j, const char* key, int least = 0) {
+  if (!j.contains(key)) throw std::invalid_argument(fmt::format("missing \"{}\"", key));
+  const json& v = j.at(key);
+  if (!v.is_number_integer() || v.get<long long>() < least ||
+      v.get<long long>() > std::numeric_limits<int>::max())
+    throw std::invalid_argument(
+        fmt::format("\"{}\": expected a whole number from {}, got {}", key, least, v.dump()));
+  return v.get<int>();
+}
+
+// An engine this crosslink knows, or "analytic" (the exact methods' rows).
+std::string engine_of(const json& j) {
+  const std::string name = j.at("engine").get<std::string>();
+  const std::vector<std::string> known = engine_names();
+  if (name != "analytic" && std::find(known.begin(), known.end(), name) == known.end())
+    throw std::invalid_argument(fmt::format("\"engine\": unknown engine '{}' (known: analytic, {})",
+                                            name, fmt::join(known, ", ")));
+  return name;
+}
+
 RunStatus status_of(const std::string& text) {
   for (RunStatus s : {RunStatus::ok, RunStatus::flagged, RunStatus::diverged})
     if (to_string(s) == text) return s;
@@ -94,14 +118,14 @@ json row_json(const SweepRow& r) {
 
 SweepRow row_of(const json& j) {
   SweepRow r;
-  r.engine = j.at("engine").get<std::string>();
+  r.engine = engine_of(j);
   r.variant = j.at("variant").get<std::string>();
   r.dt = number_of(j, "dt");
   r.settings = settings_of(j.at("settings"));
   r.overrides = settings_of(j.at("overrides"));
   r.wall_s_per_cycle = number_of(j, "wall_s_per_cycle");
   r.cpu_s_per_cycle = number_of(j, "cpu_s_per_cycle");
-  r.repeats = j.at("repeats").get<int>();
+  r.repeats = count_of(j, "repeats");
   r.max_pct = class_values_of(j, "max_pct");
   r.raw_pct = class_values_of(j, "raw_pct");
   r.end_pct = class_values_of(j, "end_pct");
@@ -110,8 +134,11 @@ SweepRow row_of(const json& j) {
   r.tip_velocity_error = number_of(j, "tip_velocity_error");
   r.max_loop_gap = number_of(j, "max_loop_gap");
   r.status = status_of(j.at("status").get<std::string>());
-  r.flagged_samples = j.at("flagged_samples").get<int>();
-  r.samples = j.at("samples").get<int>();
+  r.samples = count_of(j, "samples");
+  r.flagged_samples = count_of(j, "flagged_samples");
+  if (r.flagged_samples > r.samples)
+    throw std::invalid_argument(
+        fmt::format("\"flagged_samples\": {} of {} samples", r.flagged_samples, r.samples));
   r.message = j.at("message").get<std::string>();
   r.evaluations_per_step = number_of(j, "evaluations_per_step");
   return r;
@@ -138,9 +165,16 @@ SettingsSweep sweep_from_json(const json& j, const Mechanism& mechanism,
   try {
     sweep.dynamics = j.at("dynamics").get<bool>();
     sweep.sample_interval = number_of(j, "sample_interval");
-    sweep.samples = j.at("samples").get<int>();
+    sweep.samples = count_of(j, "samples");
     sweep.skipped = j.at("skipped").get<std::vector<std::string>>();
-    for (const json& row : j.at("rows")) sweep.rows.push_back(row_of(row));
+    if (!j.at("rows").is_array()) throw std::invalid_argument("\"rows\": expected an array");
+    for (const json& row : j.at("rows")) {
+      try {
+        sweep.rows.push_back(row_of(row));
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("row {}: {}", sweep.rows.size() + 1, e.what()));
+      }
+    }
   } catch (const json::exception& e) {
     throw std::invalid_argument(e.what());
   }

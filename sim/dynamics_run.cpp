@@ -340,7 +340,7 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
   add_note(run.message, dynamics_span_note(reference, plan.span));
   add_note(run.message, kept_note(judge.kept(), false));
   add_note(run.message, dynamics_singular_note(judge.singular(), judge.singular_limit()));
-  note_loop_gaps(judge.loop_gaps(), steps.gaps(), watch.gap, reference, run);
+  note_loop_gaps(judge.loop_gaps(), steps.gaps(), watch.gap, reference, run, definition);
   add_note(run.message, scene.note());
   record_cost(steps.taken(), scene.evaluations(),
               time[static_cast<size_t>(steps.taken())] - time.front(), 1.0, stepping, begin,

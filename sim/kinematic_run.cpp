@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "analytic/trust.h"
+#include "analytic/units_text.h"
 #include "sim/statuses.h"
 
 namespace crosslink::sim {
@@ -189,25 +190,30 @@ class Steps {
     const double gap = gaps_.at(k, pose(k), driver_, driver_errors_);
     if (!pose(k).allFinite()) alarm = "NaN in the state";
     if (alarm.empty() && gap > watch_.divergence_gap)
-      alarm = fmt::format("loop gap {:.3g} m beyond the divergence limit {:.3g} m", gap,
-                          watch_.divergence_gap);
+      alarm =
+          fmt::format("loop gap {} beyond the divergence limit {}", length_text(definition_, gap),
+                      length_text(definition_, watch_.divergence_gap));
     const bool several = definition_.several_drivers();
     if (!alarm.empty())
       return several ? fmt::format("diverged at t = {:.6g} s: {}", t, alarm)
-                     : fmt::format("diverged at t = {:.6g} s (driver {:.6g}): {}", t,
-                                   driver_.front(), alarm);
+                     : fmt::format("diverged at t = {:.6g} s (driver {}): {}", t,
+                                   driver_unit_of(definition_).text(driver_.front(), 6), alarm);
     for (size_t d = 0; d < law_.size(); ++d) {
       const double threshold = driver_threshold(d);
       if (!(driver_errors_[d] > threshold)) continue;
+      // The driver's value and its error in the file's unit of that driver.
+      const DriverUnit u = driver_unit_of(definition_.drivers[d], definition_.units);
       if (!several)
         return fmt::format(
-            "lost the driver at t = {:.6g} s (driver {:.6g}): {:.3g} from its law, beyond {:.3g} "
-            "(loop gap {:.3g} m)",
-            t, driver_[d], driver_errors_[d], threshold, gap);
+            "lost the driver at t = {:.6g} s (driver {}): {} from its law, beyond {} "
+            "(loop gap {})",
+            t, u.text(driver_[d], 6), u.text(driver_errors_[d], 3), u.text(threshold, 3),
+            length_text(definition_, gap));
       return fmt::format(
-          "lost the driver '{}' at t = {:.6g} s (its value {:.6g}): {:.3g} from its law, beyond "
-          "{:.3g} (loop gap {:.3g} m)",
-          definition_.drivers[d].name, t, driver_[d], driver_errors_[d], threshold, gap);
+          "lost the driver '{}' at t = {:.6g} s (its value {}): {} from its law, beyond "
+          "{} (loop gap {})",
+          definition_.drivers[d].name, t, u.text(driver_[d], 6), u.text(driver_errors_[d], 3),
+          u.text(threshold, 3), length_text(definition_, gap));
     }
     return "";
   }
@@ -330,8 +336,9 @@ StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const
 }
 
 // The run's notes and the events of its counts, after the statuses.
-void note_samples(const Trajectory& reference, const Span& span, const StatusJudge& judge,
-                  bool stopped, const Eigen::VectorXd& gaps, double gap_threshold, EngineRun& run) {
+void note_samples(const Mechanism& definition, const Trajectory& reference, const Span& span,
+                  const StatusJudge& judge, bool stopped, const Eigen::VectorXd& gaps,
+                  double gap_threshold, EngineRun& run) {
   Trajectory& out = run.trajectory;
   const int samples = reference.samples();
   if (stopped && judge.first_lost() >= 0)
@@ -342,15 +349,16 @@ void note_samples(const Trajectory& reference, const Span& span, const StatusJud
     add_note(
         run.message,
         fmt::format(
-            "run over the reference's usable samples {} .. {} ({:.6g} .. {:.6g}); "
+            "run over the reference's usable samples {} .. {} ({} .. {}); "
             "the {} samples outside (flagged by the reference: {}) keep its flag and "
             "carry no engine value",
-            span.first, span.last, event_position(reference, span.first),
-            event_position(reference, span.last), outside,
+            span.first, span.last,
+            sweep_position_text(definition, event_position(reference, span.first), 6),
+            sweep_position_text(definition, event_position(reference, span.last), 6), outside,
             to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
   add_note(run.message, kept_note(judge.kept(), true));
   add_note(run.message, branch_jump_note(judge.jumped()));
-  note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run);
+  note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run, definition);
 }
 
 }  // namespace
@@ -395,7 +403,8 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   }
   const StatusJudge judge =
       judge_samples(definition, reference, plan.span, watch, sampled, steps.gaps(), out);
-  note_samples(reference, plan.span, judge, !stop.empty(), steps.gaps(), watch.gap, run);
+  note_samples(definition, reference, plan.span, judge, !stop.empty(), steps.gaps(), watch.gap,
+               run);
   add_note(run.message, plan.note);
   add_note(run.message, scene.note());
   const double simulated = time[static_cast<size_t>(steps.taken())] - time.front();

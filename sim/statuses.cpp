@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "analytic/trust.h"
+#include "analytic/units_text.h"
 
 namespace crosslink::sim {
 
@@ -20,6 +21,9 @@ bool StatusJudge::outside(int i, Trajectory& out) {
   if (i >= span_.first && i <= span_.last) return false;
   const auto row = static_cast<size_t>(i);
   out.status[row] = reference_.status[row];
+  // Not run: no value of the engine here, whatever the flag kept says (docs/compare.md).
+  if (out.not_run.empty()) out.not_run.assign(out.status.size(), 0);
+  out.not_run[row] = 1;
   out.rcond(i) = reference_.rcond(i);
   out.loop_gap(i) = 0.0;
   if (events_)
@@ -113,17 +117,17 @@ void add_note(std::string& message, const std::string& note) {
 
 // The loop-gap note and an event where each run of loop_gap samples starts.
 void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
-                    const Trajectory& reference, EngineRun& run) {
+                    const Trajectory& reference, EngineRun& run, const Mechanism& definition) {
   if (flagged == 0) return;
-  add_note(run.message,
-           fmt::format("{} samples flagged loop_gap (largest gap {:.3g} m > threshold {:.3g} m)",
-                       flagged, gaps.maxCoeff(), threshold));
+  add_note(run.message, fmt::format("{} samples flagged loop_gap (largest gap {} > threshold {})",
+                                    flagged, length_text(definition, gaps.maxCoeff()),
+                                    length_text(definition, threshold)));
   Trajectory& out = run.trajectory;
   for (int i = 0; i < out.samples(); ++i)
     if (out.status[static_cast<size_t>(i)] == PoseStatus::loop_gap &&
         (i == 0 || out.status[static_cast<size_t>(i - 1)] != PoseStatus::loop_gap))
       out.events.push_back({event_position(reference, i), PoseStatus::loop_gap,
-                            fmt::format("loop gap {:.3g} m", gaps(i))});
+                            "loop gap " + length_text(definition, gaps(i))});
 }
 
 }  // namespace crosslink::sim

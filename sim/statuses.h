@@ -74,9 +74,9 @@ std::string energy_drift_note(double threshold, double energy_scale, const Traje
                               int drift_at, double worst);
 
 // The loop-gap note (`flagged` samples, the largest of `gaps`, per sample) and an event where
-// each run of loop_gap samples starts.
+// each run of loop_gap samples starts; lengths in the definition's units.
 void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
-                    const Trajectory& reference, EngineRun& run);
+                    const Trajectory& reference, EngineRun& run, const Mechanism& definition);
 
 // Appends `note` to a run's message, "; " between notes (nothing for an empty note).
 void add_note(std::string& message, const std::string& note);

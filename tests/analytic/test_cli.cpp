@@ -1744,4 +1744,231 @@ TEST(Cli, CheckReportsTheGearedFiveBarsDecomposition) {
       << rack.out;
 }
 
+// Issue 35, item 6. An engine runs over the reference's usable samples only; the samples outside
+// (the non-Grashof four-bar's toggles at both ends, flagged singular by the reference) keep the
+// reference's flag but hold no engine value. They were written as 0 (MuJoCo's angle.crank 0
+// against -78.28 deg at the ends) and entered its [[derived]] extremes as 0: now an empty field,
+// and no derived value from samples that were not computed.
+TEST(Cli, AnEngineSampleOutsideItsRunIsEmptyNotZero) {
+  const std::string path = write_definition(
+      "non_grashof_derived.toml", read_file("mechanisms/singular/fourbar_non_grashof.toml") +
+                                      "\n[[derived]]\nname = \"crank\"\nquantity = \"extremes\"\n"
+                                      "channel = \"angle.crank\"\n\n[[derived]]\nname = \"rise\"\n"
+                                      "quantity = \"extremes\"\nchannel = \"y.C\"\n");
+  const std::string csv = (scratch_dir() / "non_grashof.csv").string();
+  const CommandRun run =
+      crosslink("compare \"" + path + "\" --engines analytic,mujoco --csv \"" + csv + "\"");
+  if (run.out.find("mujoco    not run") != std::string::npos) GTEST_SKIP() << "no MuJoCo";
+  ASSERT_NE(run.exit_code, 2) << run.err;
+  std::istringstream lines(read_file(csv));
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = rfc4180_fields(line);
+  const auto column = [&](const char* name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const size_t method = column("method"), channel = column("channel"), sample = column("sample"),
+               reference = column("reference"), value = column("value");
+  ASSERT_LT(value, header.size());
+  int compared = 0, empty_at_ends = 0, derived_rows = 0;
+  int last = -1;
+  std::vector<std::vector<std::string>> crank;
+  while (std::getline(lines, line)) {
+    const std::vector<std::string> f = rfc4180_fields(line);
+    ASSERT_EQ(f.size(), header.size()) << line;
+    if (f[method] != "mujoco") continue;
+    if (f[channel].starts_with("derived:")) {
+      // Its samples stop before the interval's ends: no extreme from them (empty), never one
+      // read off a placeholder.
+      EXPECT_EQ(f[value], "") << line;
+      ++derived_rows;
+      continue;
+    }
+    if (f[channel] != "angle.crank") continue;
+    crank.push_back(f);
+    last = std::max(last, std::stoi(f[sample]));
+  }
+  for (const std::vector<std::string>& f : crank) {
+    const int k = std::stoi(f[sample]);
+    ASSERT_FALSE(f[reference].empty()) << "the reference's position exists at every sample";
+    if (f[value].empty()) {
+      empty_at_ends += k == 0 || k == last;
+      continue;
+    }
+    // A value written is the engine's: the crank follows its driver (tolerance 1e-2 % of pi).
+    const double d = std::remainder(std::stod(f[value]) - std::stod(f[reference]), 2 * kPi);
+    EXPECT_LT(std::abs(d), 1e-3) << "sample " << k << ": " << f[value] << " vs " << f[reference];
+    ++compared;
+  }
+  EXPECT_GT(compared, 100);
+  EXPECT_EQ(empty_at_ends, 2);  // both toggles: outside MuJoCo's run
+  EXPECT_EQ(derived_rows, 8);   // min, at_min, max, at_max of both quantities
+  EXPECT_EQ(run.out.find("FAIL: derived"), std::string::npos) << run.out;
+}
+
+// Issue 35, item 7. Messages speak the file's units: the non-Grashof four-bar is in deg and mm.
+// Its toggles are where coupler (30) and rocker (35) are in line: cos(theta) = (40^2 + 60^2 -
+// 65^2) / (2 40 60), theta = +-78.2802 deg (was printed as -1.36623 rad). MuJoCo's usable samples
+// are given in deg, its loop gaps in mm (a gap threshold of 1e-12 m is 1e-09 mm).
+TEST(Cli, MessagesGiveDriverValuesAndLengthsInTheFilesUnits) {
+  const double toggle = std::acos((40.0 * 40 + 60.0 * 60 - 65.0 * 65) / (2 * 40.0 * 60)) / kDeg;
+  const std::string file = "mechanisms/singular/fourbar_non_grashof.toml";
+  const CommandRun solve = crosslink("solve " + file);
+  ASSERT_EQ(solve.exit_code, 0) << solve.err;
+  const std::regex note(
+      "note: singular at driver = (-?[0-9.]+) deg: toggle: dead point at "
+      "driver = (-?[0-9.]+) deg");
+  int notes = 0;
+  for (std::sregex_iterator it(solve.err.begin(), solve.err.end(), note), end; it != end; ++it) {
+    EXPECT_NEAR(std::abs(std::stod((*it)[1])), toggle, 1e-6) << it->str();
+    EXPECT_NEAR(std::abs(std::stod((*it)[2])), toggle, 1e-6) << it->str();
+    ++notes;
+  }
+  EXPECT_EQ(notes, 2) << solve.err;
+
+  const CommandRun compare =
+      crosslink("compare " + file + " --engines analytic,mujoco --set mujoco:gap_threshold=1e-12");
+  if (compare.out.find("mujoco    not run") != std::string::npos) GTEST_SKIP() << "no MuJoCo";
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      compare.out, m,
+      std::regex("usable\\s+samples\\s+[0-9]+\\s+\\.\\.\\s+[0-9]+\\s+\\(driver\\s+="
+                 "\\s+(-?[0-9.]+)\\s+deg\\s+\\.\\.\\s+driver\\s+=\\s+"
+                 "(-?[0-9.]+)\\s+deg\\)")))
+      << compare.out;
+  for (int i : {1, 2}) {
+    EXPECT_LT(std::abs(std::stod(m[i])), toggle) << m[0];
+    EXPECT_GT(std::abs(std::stod(m[i])), toggle - 2.0) << m[0];  // the next samples in, 1 deg apart
+  }
+  // The reference's step as --step takes it, in the file's unit (was 0.0349066, radians).
+  const CommandRun stepped = crosslink("compare " + file + " --engines analytic --step 2");
+  EXPECT_TRUE(std::regex_search(stepped.out, std::regex("step=2\\s+deg\\s"))) << stepped.out;
+  // (The console wraps its notes at 100 columns: any space may be a line break.)
+  EXPECT_TRUE(std::regex_search(compare.out, std::regex(">\\s+threshold\\s+1e-09\\s+mm\\)")))
+      << compare.out;
+}
+
+// Issue 35, item 8. merge reads every field of a part before using it and names the part in each
+// refusal: a shard index of 0.5 (was taken as 0), a row of -5 samples, an unknown engine (its
+// CSV then held dt=nan), a missing field.
+TEST(Cli, MergeRefusesAPartWithAFieldOutOfItsRangeNamingThePart) {
+  const std::filesystem::path dir = scratch_dir() / "merge_fields";
+  std::filesystem::create_directories(dir);
+  const std::string part = (dir / "part.json").string();
+  CommandRun run = crosslink(
+      "sweep mechanisms/fourbar_crank_rocker.toml --engines mujoco --dt "
+      "1e-3 --repeat 1 --quiet --step 10 --shard 0/1 --json " +
+      part);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json good = nlohmann::json::parse(read_file(part));
+  run = crosslink("merge " + part);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  int n = 0;
+  const auto refused = [&](nlohmann::json bad, const std::string& why) {
+    const std::string path = (dir / fmt::format("bad{}.json", n++)).string();
+    std::ofstream(path) << bad.dump();
+    const CommandRun r = crosslink("merge " + path);
+    EXPECT_EQ(r.exit_code, 2) << why << ": " << r.out;
+    EXPECT_NE(r.err.find(path), std::string::npos) << why << ": the part is not named: " << r.err;
+    EXPECT_NE(r.err.find(why), std::string::npos) << r.err;
+  };
+  nlohmann::json bad = good;
+  bad["shard"]["index"] = 0.5;
+  refused(bad, "\"index\"");
+  bad = good;
+  bad["shard"]["index"] = 1;
+  refused(bad, "\"index\"");
+  bad = good;
+  bad["shard"]["count"] = 0;
+  refused(bad, "\"count\"");
+  bad = good;
+  bad["sweeps"][0]["rows"].back()["samples"] = -5;
+  refused(bad, "\"samples\"");
+  bad = good;
+  bad["sweeps"][0]["rows"].back()["engine"] = "physx";
+  refused(bad, "unknown engine 'physx'");
+  bad = good;
+  bad["sweeps"][0]["definition"] = 1.5;
+  refused(bad, "\"definition\"");
+  bad = good;
+  bad.erase("shard");
+  refused(bad, "\"shard\"");
+}
+
+// Issue 35, item 6. Outputs differ between two runs only where they say they measure time: the
+// analytic,newton row's settings ended with the time its dyads check took.
+TEST(Cli, TwoSweepsDifferOnlyInTheirCostColumns) {
+  std::string first;
+  for (int i = 0; i < 2; ++i) {
+    const std::string csv = (scratch_dir() / fmt::format("twice{}.csv", i)).string();
+    const CommandRun run = crosslink(
+        "sweep mechanisms/fourbar_crank_rocker.toml --engines mujoco "
+        "--dt 1e-3 --repeat 1 --quiet --step 10 --csv " +
+        csv);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    // The columns that say they measure time, and the rank, which orders by them.
+    const std::string text =
+        without_columns(read_file(csv), {"wall_s_per_cycle", "cpu_s_per_cycle", "rank"});
+    EXPECT_NE(text.find("cross_check=dyads on"), std::string::npos) << text.substr(0, 2000);
+    if (i == 0)
+      first = text;
+    else
+      EXPECT_EQ(text, first);
+  }
+}
+
+// Issue 35, item 8: a [[driver]] named "a,b" was reported to give a CSV header of 80 fields for
+// 78 per row. The header names its channels angle.a,b and torque.a,b quoted (RFC 4180): 78
+// fields read as RFC 4180, 80 only when split at every comma. A guard: every row has the
+// header's fields, and the driver's channels are one field each.
+TEST(Cli, ADriverNamedWithACommaIsOneCsvFieldPerChannel) {
+  const std::string path = write_definition(
+      "comma_driver.toml", replaced_all(read_file("mechanisms/drivers/fivebar_two_cranks.toml"),
+                                        "name = \"left\"", "name = \"a,b\""));
+  const CommandRun run = crosslink("solve \"" + path + "\" --format csv");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream lines(run.out);
+  std::string line;
+  std::getline(lines, line);
+  const std::vector<std::string> header = rfc4180_fields(line);
+  for (const char* name : {"angle.a,b", "torque.a,b"})
+    EXPECT_NE(std::find(header.begin(), header.end(), name), header.end()) << name << ": " << line;
+  int rows = 0;
+  for (; std::getline(lines, line); ++rows) ASSERT_EQ(rfc4180_fields(line).size(), header.size());
+  EXPECT_GT(rows, 10);
+}
+
+// Issue 35, item 8. A reference at rest (the A01 pendulum without gravity, 10 ns, an effort of
+// 1e-300 N m) moves no energy: its energy scale is 0, and a % of it is not a number. Its energy
+// channels have no % and no verdict (n/a, null), never a % of a scale of 1 J, 1e308 % or inf %.
+TEST(Cli, AReferenceAtRestHasNoPercentOfAZeroPeak) {
+  std::string text = read_file("mechanisms/iftomm_a01_pendulum.toml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"gravity = [0, -9.81]", "gravity = [0, 0]"},
+           {"duration = 2000", "duration = 1e-8"},
+           {"interval = 0.5", "interval = 1e-9"},
+           {"rate = 0", "rate = 0\neffort = 1e-300"}})
+    text = replaced_all(text, from, to);
+  const std::string path = write_definition("at_rest.toml", text);
+  const std::string json = (scratch_dir() / "at_rest.json").string();
+  const CommandRun run =
+      crosslink("compare \"" + path + "\" --engines analytic,mujoco --json \"" + json + "\"");
+  if (run.out.find("mujoco    not run") != std::string::npos) GTEST_SKIP() << "no MuJoCo";
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const nlohmann::json j = nlohmann::json::parse(read_file(json));
+  int energy = 0;
+  for (const nlohmann::json& c : j["channels"]) {
+    if (c["quantity"] != "energy") continue;
+    EXPECT_EQ(c["verdict"], "n/a") << c.dump();
+    EXPECT_TRUE(c["max_pct_of_peak"].is_null()) << c.dump();
+    EXPECT_TRUE(c["rms_pct_of_peak"].is_null()) << c.dump();
+    ++energy;
+  }
+  EXPECT_EQ(energy, 4);
+  EXPECT_TRUE(std::regex_search(run.out, std::regex("energy +mujoco +energy\\.[a-z]+ +n/a ")))
+      << run.out;
+  EXPECT_EQ(run.out.find("inf"), std::string::npos) << run.out;
+  EXPECT_FALSE(std::regex_search(run.out, std::regex("e\\+[0-9]{3}"))) << run.out;  // 1e+308
+}
+
 }  // namespace

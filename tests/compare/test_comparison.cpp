@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <numbers>
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "compare/comparison.h"
+#include "compare/derived.h"
 #include "compare/report.h"
 #include "methods/engines.h"
 #include "methods/registry.h"
@@ -183,6 +185,90 @@ TEST(ValueAt, OnGridAndInterpolated) {
   EXPECT_TRUE(interpolated);
   const Trajectory exact = solve_at(m, mid);
   EXPECT_NEAR(between, (*exact.channel("omega.coupler"))(0), 0.05);
+}
+
+// A [[reference]] value read off a method's samples exists only where the samples hold it: a
+// sample the method flags (loop_gap: no pose) or did not run (an engine's sample outside its
+// run) gives none, on the grid or between two samples, never its placeholder.
+TEST(ValueAt, ASampleWithoutAValueGivesNone) {
+  const Mechanism m = load_mechanism(kSewing);
+  Trajectory t = sweep(m);
+  t.status[10] = PoseStatus::loop_gap;
+  EXPECT_FALSE(value_at(t, "x.E", t.driver(10), true));
+  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.driver(10) + t.driver(11)), true));
+  EXPECT_TRUE(value_at(t, "x.E", 0.5 * (t.driver(11) + t.driver(12)), true));
+  t.not_run.assign(t.status.size(), 0);
+  t.not_run[20] = 1;
+  EXPECT_FALSE(value_at(t, "x.E", t.driver(20), true));
+  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.driver(19) + t.driver(20)), true));
+}
+
+// The centred slider-crank (offset 0): the slider's speed |ds/dtheta| is symmetric about
+// theta = 0, so it has two equal maxima, at theta1 and 360 deg - theta1.
+std::string centred_slider_crank() {
+  std::ifstream in(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/slider_crank_offset.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string s = text.str();
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const size_t at = s.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) s.replace(at, from.size(), to);
+  };
+  replace("D = [0, 0.01]", "D = [0, 0]");
+  replace("pose = [0.04, 0, 4.78]", "pose = [0.04, 0, 0]");
+  replace("pose = [0.15958, 0.01, 0]", "pose = [0.16, 0, 0]");
+  return s + "\n[[derived]]\nname = \"speed\"\nquantity = \"extremes\"\nchannel = \"v.C\"\n";
+}
+
+// Two equal extremes (a tie within rounding) at different driver values are one extreme at two
+// places: a method that reads it at the other place than the reference's samples do is not
+// wrong about its location. A method whose maximum is really elsewhere (1e-6 higher there) is.
+TEST(DerivedTies, EqualExtremesAtTwoPlacesAreATieNotAWrongLocation) {
+  const Mechanism m = parse_mechanism(centred_slider_crank(), "centred_slider_crank.toml");
+  const MethodRun reference = run_reference(m);
+  const Trajectory& t = reference.trajectory;
+  const Eigen::VectorXd v = *t.channel("v.C");
+  const int n = t.samples();
+  // The samples of the two maxima, one in each half turn.
+  int first = -1, second = -1;
+  for (int k = 1; k + 1 < n; ++k)
+    if (v(k) >= v(k - 1) && v(k) > v(k + 1)) (t.driver(k) < std::numbers::pi ? first : second) = k;
+  ASSERT_GE(first, 0);
+  ASSERT_GE(second, 0);
+  ASSERT_NEAR(v(first), v(second), 1e-12 * v(first));  // the symmetry
+  const auto column = [&](const Trajectory& tr) {
+    return std::find(tr.point_names.begin(), tr.point_names.end(), "C") - tr.point_names.begin();
+  };
+  // Each sample's speed raised by a relative `by` at sample k (both velocity components).
+  const auto raised = [&](MethodRun run, int k, double by, const std::string& name) {
+    const Eigen::Index p = column(run.trajectory);
+    run.trajectory.vx(k, p) *= 1.0 + by;
+    run.trajectory.vy(k, p) *= 1.0 + by;
+    run.name = name;
+    return run;
+  };
+  const Tolerances tolerances(methods::engine_tolerances(false), m.tolerances);
+  // The reference's samples put the maximum at the first (raised by `reference_by`), the
+  // method's at the second (raised by `by`).
+  const auto at_max = [&](double reference_by, double by) {
+    const Comparison cmp = compare_methods(
+        m,
+        {raised(reference, first, reference_by, "analytic"), raised(reference, second, by, "tied")},
+        tolerances);
+    for (const DerivedCheck& d : cmp.derived.checks)
+      if (d.method == "tied" && d.field == "at_max") return d;
+    ADD_FAILURE() << "no at_max check";
+    return DerivedCheck{};
+  };
+  const DerivedCheck tie = at_max(1e-13, 1e-12);
+  ASSERT_TRUE(tie.value && tie.estimate);
+  EXPECT_EQ(tie.verdict, Verdict::pass) << "at_max " << *tie.value << " against " << *tie.estimate
+                                        << ": " << tie.pct_of_scale() << " % of scale";
+  // Beyond rounding: one maximum each, at different places.
+  const DerivedCheck apart = at_max(1e-6, 1e-6);
+  ASSERT_TRUE(apart.value && apart.estimate);
+  EXPECT_EQ(apart.verdict, Verdict::fail) << apart.pct_of_scale();
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "compare/comparison.h"
 #include "compare/metrics.h"
 #include "compare/tolerance.h"
 #include "methods/engines.h"
@@ -124,6 +125,40 @@ TEST(Tolerances, DefaultsDefinitionAndCommandLine) {
   EXPECT_THROW(t.apply("velocity=abc"), std::invalid_argument);
   EXPECT_THROW(t.apply("velocity"), std::invalid_argument);
   EXPECT_THROW(t.apply("working_model:velocity=1"), std::invalid_argument);
+}
+
+// A reference at rest: every sample 0 or subnormal (below 2.2e-308), and no floor (a 1 ns case
+// with an effort of 1e-300).
+// A % of such a peak is not a number: no sample's % of peak, no max or RMS % (never 1e308 % or
+// inf %), though the differences themselves exist.
+TEST(CompareChannel, APeakOfZeroOrSubnormalGivesNoPercent) {
+  for (const double tiny : {0.0, 1e-310, 4.9e-324}) {
+    Eigen::VectorXd ref(3), m(3);
+    ref << 0.0, tiny, -tiny;
+    m << 0.0, 2.0 * tiny, 0.0;
+    const ChannelMetrics c = compare_channel("torque.driver", ref, m, {true, true, true}, 1.0, 0.0);
+    EXPECT_EQ(c.usable, 3);
+    EXPECT_TRUE(std::isnan(c.max_pct_of_peak)) << tiny << ": " << c.max_pct_of_peak;
+    EXPECT_TRUE(std::isnan(c.rms_pct_of_peak)) << tiny;
+    for (Eigen::Index k = 0; k < 3; ++k) {
+      EXPECT_TRUE(std::isnan(c.pct_of_peak(k))) << tiny << " sample " << k;
+      EXPECT_TRUE(std::isnan(c.local_pct(k))) << tiny << " sample " << k;
+    }
+    EXPECT_EQ(c.max_abs, tiny);  // a difference is a difference
+  }
+}
+
+// The step probe's order is log2 of the ratio of two % of peak: not a number when either is 0.
+TEST(StepProbe, AnOrderOfLogZeroIsNotANumber) {
+  StepProbe p;
+  p.pct = 0.0;
+  p.half_pct = 0.5;
+  EXPECT_TRUE(std::isnan(p.order()));  // log2(0) = -inf before
+  p.pct = 0.5;
+  p.half_pct = 0.0;
+  EXPECT_TRUE(std::isnan(p.order()));
+  p.half_pct = 0.125;
+  EXPECT_DOUBLE_EQ(p.order(), 2.0);
 }
 
 }  // namespace
