@@ -1417,12 +1417,36 @@ double last_digit(std::string_view literal) {
   return std::pow(10.0, power - decimals);
 }
 
+std::vector<std::string> channels_of(const Reader& r, const Mechanism& m);
+
+// The channel that is the driver's own coordinate (up to a constant), or "": over the driver's
+// values it only moves one way, so it has no reversal, no stroke between reversals, no dead point.
+std::string driven_channel(const Mechanism& m) {
+  const Driver& d = m.driver();
+  const int g = m.ground();
+  if (d.type == DriverType::slider && d.joint >= 0)
+    return "s." + m.joints[static_cast<size_t>(d.joint)].name;
+  if (d.type == DriverType::link_angle && d.link >= 0)
+    return "angle." + m.links[static_cast<size_t>(d.link)].name;
+  if (d.type == DriverType::joint_angle && d.joint >= 0) {
+    // Measured in the ground's frame (or the ground's direction in the link's): a link's angle.
+    const Joint& j = m.joints[static_cast<size_t>(d.joint)];
+    if (j.link_a == g && j.link_b >= 0)
+      return "angle." + m.links[static_cast<size_t>(j.link_b)].name;
+    if (j.link_b == g && j.link_a >= 0)
+      return "angle." + m.links[static_cast<size_t>(j.link_a)].name;
+  }
+  return "";
+}
+
 // [[derived]]: a quantity read off the sweep (analytic/derived.h), named for [[reference]] and
 // [expect.derived].
 void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "derived", limits::kReferences);
   if (!array) return;
   const std::vector<std::string> objects = reference_objects(m);
+  // The channels a sweep has (none when an earlier error leaves no linkage to lay them out).
+  const std::vector<std::string> channels = channels_of(r, m);
   using K = DerivedSpec::Kind;
   const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,   K::dead_points,
                                 K::toggles,  K::transmission, K::straightness, K::circularity};
@@ -1488,6 +1512,31 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
                             "(kind.name, kind one of angle, omega, alpha, x, y, vx, vy, v, ax, "
                             "ay, a, s, sdot, sddot; names: {})",
                             spec.channel, join(objects)));
+        ok = false;
+      } else if (!channels.empty() &&
+                 std::find(channels.begin(), channels.end(), spec.channel) == channels.end()) {
+        // A kind its object does not have ("angle.B" of a point B) has no values to read.
+        const std::string object = spec.channel.substr(spec.channel.find('.') + 1);
+        std::vector<std::string> its;
+        for (const std::string& c : channels)
+          if (c.substr(c.find('.') + 1) == object &&
+              Trajectory::quantity_of(c) != Quantity::force &&
+              Trajectory::quantity_of(c) != Quantity::torque)
+            its.push_back(c);
+        r.error(r.at(t.get("channel")),
+                fmt::format("[[derived]]: '{}' is no channel of this linkage ({})", spec.channel,
+                            its.empty() ? fmt::format("'{}' has no kinematic channel", object)
+                                        : fmt::format("those of '{}': {}", object, join(its))));
+        ok = false;
+      } else if (spec.kind != K::extremes && spec.channel == driven_channel(m)) {
+        r.error(
+            r.at(t.get("channel")),
+            fmt::format("[[derived]] '{}': '{}' is the driver's own coordinate, which moves "
+                        "one way over the sweep and never turns back, so it has no {} (read "
+                        "the 'extremes' of it, or the {} of a channel that reverses)",
+                        quantity, spec.channel,
+                        spec.kind == K::dead_points ? "dead points" : "stroke between reversals",
+                        quantity));
         ok = false;
       } else if (q != Quantity::position && q != Quantity::angle &&
                  d.law.kind != MotionLaw::Kind::constant_speed) {
