@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <toml++/toml.h>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <set>
 
 #include "analytic/branch.h"
+#include "analytic/constraints.h"
 #include "analytic/derived.h"
 #include "analytic/expression.h"
 #include "analytic/fourbar.h"
@@ -1325,6 +1327,79 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
 
 // With several drivers the sweep runs in time: what reads a sweep over one driver's values is
 // refused at its key.
+// The first driver whose row of the constraint Jacobian at q is a combination of the joints'
+// rows and the drivers' before it (the joints then hold its coordinate still, to first order),
+// or -1. Each link turns about the centroid of its points here, not its frame's origin (the
+// chain rule: d/dtheta less d/dr times A'(theta) c), so that points drawn far from that origin
+// do not make its columns nearly parallel; then every column and row has unit length.
+int first_locked_driver(const Mechanism& m, const ConstraintLayout& layout,
+                        const Eigen::VectorXd& q) {
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(layout.rows(), q.size());
+  layout.jacobian(LinkFrames{q}, jac);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0 || m.links[l].points.empty()) continue;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (const Point& p : m.links[l].points) c += p.local;
+    c /= static_cast<double>(m.links[l].points.size());
+    const double th = q(3 * k + 2), cs = std::cos(th), sn = std::sin(th);
+    const Eigen::Vector2d turned(-sn * c.x() - cs * c.y(), cs * c.x() - sn * c.y());  // A'(th) c
+    jac.col(3 * k + 2) -= jac.col(3 * k) * turned.x() + jac.col(3 * k + 1) * turned.y();
+  }
+  for (Eigen::Index c = 0; c < jac.cols(); ++c)
+    if (const double norm = jac.col(c).norm(); norm > 0.0) jac.col(c) /= norm;
+  for (int row = 0; row < layout.rows(); ++row)
+    if (const double norm = jac.row(row).norm(); norm > 0.0) jac.row(row) /= norm;
+  auto rank = [&](int rows) {
+    if (rows == 0) return Eigen::Index{0};
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(jac.topRows(rows));
+    qr.setThreshold(1e-9);
+    return qr.rank();
+  };
+  Eigen::Index before = rank(layout.joint_row_count());
+  for (int d = 0; d < layout.driver_count(); ++d) {
+    const Eigen::Index with = rank(layout.driver_row(d) + 1);
+    if (with == before) return d;
+    before = with;
+  }
+  return -1;
+}
+
+// A chain that Grübler–Kutzbach counts as mobile can still be locked: a planetary train whose
+// sun mesh is moved onto the ground meshes the planet with two fixed gears that disagree, which
+// holds the arm (the driver) still and leaves the sun free; the count sees 1 and the sweep
+// wrote thousands of samples all at t = 0. Locked means the driver's row of the constraint
+// Jacobian depends on the joints' rows, tested at the drawn pose and at a perturbation of it: a
+// structural lock (gear rows are constant, a rigid sub-chain is rigid everywhere) holds at both;
+// a drawing that happens to sit at a dead point or a limit of the assembling range does not.
+void check_locked(Reader& r, const Mechanism& m) {
+  if (!r.diagnostics().empty() || m.ground() < 0 || m.moving_count() == 0) return;
+  const ConstraintLayout layout(m);
+  const int n = 3 * m.moving_count();
+  Eigen::VectorXd drawn = Eigen::VectorXd::Zero(n);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k >= 0 && m.links[l].pose) drawn.segment<3>(3 * k) = *m.links[l].pose;
+  }
+  const int locked = first_locked_driver(m, layout, drawn);
+  if (locked < 0) return;
+  // A fixed, irregular perturbation: a tenth of the size and of a radian at most.
+  Eigen::VectorXd moved = drawn;
+  for (int i = 0; i < n; ++i)
+    moved(i) += (i % 3 == 2 ? 0.1 : 0.1 * m.size()) * std::sin(1.0 + 2.399963 * i);
+  if (first_locked_driver(m, layout, moved) != locked) return;
+  const Driver& d = m.drivers[static_cast<size_t>(locked)];
+  r.error(d.where,
+          fmt::format("the chain is locked: its joints hold the driven coordinate{} still, "
+                      "though Grübler–Kutzbach counts a mobility of {} (its count cannot see "
+                      "constraints that repeat or contradict each other, such as two gear meshes "
+                      "fixing one gear's turn). The driver's row of the constraint Jacobian is a "
+                      "combination of the joints' rows at the drawn pose and near it; free the "
+                      "chain (a gear on the wrong link, a joint too many) or drive a coordinate "
+                      "that moves",
+                      d.name.empty() ? "" : " '" + d.name + "'", mobility(m).mobility));
+}
+
 void check_several_drivers(Reader& r, const Mechanism& m) {
   if (!m.several_drivers()) return;
   const std::string count = fmt::format("{} drivers", m.drivers.size());
@@ -2438,6 +2513,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_expect(r, m, root);
   read_branches(r, m, root);
   check_several_drivers(r, m);
+  check_locked(r, m);
   r.throw_if_any();
   apply_branches(m);  // the assembly they name, as drawn poses
   return m;
