@@ -1320,5 +1320,37 @@ TEST(ValidationDynamics, AStartAtASingularPositionHasNoConsistentVelocity) {
   EXPECT_TRUE(simulate(parse_mechanism(text, "away.toml")).ok);
 }
 
+// Issue 35, item 8: the mechanism's size came from the drawing's absolute coordinates, so one
+// link drawn 9e5 m from where it assembles (inside the coordinate limit) made it 9e5 m, and with
+// it the self-check's thresholds, the default masses (1.05e13 kg mm^2) and the engines' scales.
+// It comes from the linkage: the crank-rocker's coupler drawn far away (its pose, or its points
+// in its own frame) leaves the size and every default mass as they are drawn in place.
+TEST(Validation, ALinkDrawnFarAwayDoesNotMakeTheMechanismsSize) {
+  const std::string base = test::source_text("mechanisms/fourbar_crank_rocker.toml");
+  const Mechanism near = parse_mechanism(base, "near.toml");
+  // In place: the drawn extent, A to C here (ground 0.10, crank 0.04 at 0 degrees, rocker 0.08
+  // at 62.72 degrees): |C| = |(0.10 + 0.08 cos 62.72, 0.08 sin 62.72)|.
+  const double c = 62.720 * std::numbers::pi / 180.0;
+  EXPECT_NEAR(near.size(), std::hypot(0.10 + 0.08 * std::cos(c), 0.08 * std::sin(c)), 1e-12);
+  const std::string posed =
+      replaced(base, "pose = [0.04, 0, 36.336]", "pose = [900000.04, 0, 36.336]");
+  const std::string shifted = replaced(base, "points = { B = [0, 0], C = [0.12, 0] }",
+                                       "points = { B = [900000, 0], C = [900000.12, 0] }");
+  for (const std::string& text : {posed, shifted}) {
+    const Mechanism far = parse_mechanism(text, "far.toml");
+    EXPECT_DOUBLE_EQ(far.size(), near.size());
+    for (size_t l = 0; l < far.links.size(); ++l) {
+      if (far.links[l].ground) continue;
+      EXPECT_DOUBLE_EQ(far.links[l].mass.mass, near.links[l].mass.mass) << far.links[l].name;
+      EXPECT_DOUBLE_EQ(far.links[l].mass.inertia, near.links[l].mass.inertia) << far.links[l].name;
+    }
+  }
+  // A link that is long is long wherever it is drawn: a point 9e5 m along the coupler is part of
+  // the linkage, and makes its size.
+  const std::string long_coupler = replaced(base, "points = { B = [0, 0], C = [0.12, 0] }",
+                                            "points = { B = [0, 0], C = [0.12, 0], P = [9e5, 0] }");
+  EXPECT_GE(parse_mechanism(long_coupler, "long.toml").size(), 9e5);
+}
+
 }  // namespace
 }  // namespace crosslink
