@@ -100,8 +100,8 @@ void require_finite(const std::vector<DerivedValue>& values, const std::string& 
 // same call with the same options), its [[derived]] quantities, one pose, and its centres.
 void solve(const Mechanism& m, const std::optional<Trajectory>& swept) {
   // The sweep within the work limits a command would check (check_report's own sweep is
-  // bounded by them already).
-  if (!swept) check_sweep_work(m, bounded_sweep(m), {});
+  // bounded by them already; a driver at rest has one pose, which the check refuses to sweep).
+  if (!swept && !m.driver().at_rest()) check_sweep_work(m, bounded_sweep(m), {});
   Trajectory t = swept ? *swept : sweep(m, bounded_sweep(m));
   require_finite(t, "the Newton sweep");
   if (!m.derived.empty() && t.samples() > 0) {
