@@ -1364,8 +1364,8 @@ int first_locked_driver(const Mechanism& m, const ConstraintLayout& layout,
         Eigen::VectorXd b(jac.rows());
         for (Eigen::Index i = 0; i < b.size(); ++i) b(i) = std::sin(phase + 1.618034 * i);
         const Eigen::VectorXd x = lu.solve(b);
-        bounded = bounded && lu.info() == Eigen::Success && x.allFinite() &&
-                  x.norm() <= 1e8 * b.norm();
+        bounded =
+            bounded && lu.info() == Eigen::Success && x.allFinite() && x.norm() <= 1e8 * b.norm();
       }
       if (bounded) return -1;
     }
