@@ -24,10 +24,27 @@ DriverUnit driver_unit(const Mechanism& m) {
   return {m.units.length, m.units.length_name};
 }
 
+// How many times the driver's motion the gears can turn a link (or move a rack): the product
+// over the meshes of each one's ratio or its inverse, whichever is above 1 (a rack's, of its
+// pitch radius against the size, per radian). The continuation's corrector follows a link only
+// while it turns about as far a step as the driver does, so a step is halved until it does: a
+// gear of 1e6 teeth against 1 made one pose 1e6 times the steps counted here (75 s, uncounted).
+double gear_speed_up(const Mechanism& m) {
+  double speed_up = 1.0;
+  for (const Joint& j : m.joints) {
+    const double r = std::abs(j.ratio);
+    if (!j.is_gearing() || !(r > 0.0)) continue;
+    const double relative = j.type == JointType::gear ? r : r / m.size();
+    speed_up = std::min(speed_up * std::max(relative, 1.0 / relative), 1e30);
+  }
+  return speed_up;
+}
+
 // The longest step the solver's continuation takes between two solves: the grid step, and at
-// most 1 degree of an angular driver or the arc the mechanism's size sweeps in 1 degree.
+// most 1 degree of an angular driver or the arc the mechanism's size sweeps in 1 degree, over
+// the gears' speed-up.
 double continuation_bound(const Mechanism& m, double step) {
-  const double largest = m.driver().angular() ? kDegree : m.size() * kDegree;
+  const double largest = (m.driver().angular() ? kDegree : m.size() * kDegree) / gear_speed_up(m);
   return step > 0.0 ? std::min(step, largest) : largest;
 }
 
@@ -87,7 +104,12 @@ void check_resolution(const Mechanism& m, const Cause& cause, double step, doubl
 
 std::string steps_of(const Mechanism& m, double step) {
   const DriverUnit u = driver_unit(m);
-  return fmt::format("continuation steps of at most {:g} {}", step / u.si, u.name);
+  const double speed_up = gear_speed_up(m);
+  return fmt::format("continuation steps of at most {:g} {}{}", step / u.si, u.name,
+                     speed_up > 1.0 ? fmt::format(" (its gears turn a link up to {:g} times as "
+                                                  "far as the driver)",
+                                                  speed_up)
+                                    : "");
 }
 
 void check_step(const Mechanism& m, const SweepOptions& options) {
@@ -101,7 +123,7 @@ void check_step(const Mechanism& m, const SweepOptions& options) {
 double timed_steps(const Mechanism& m, double until, int intervals) {
   double steps = static_cast<double>(intervals);
   for (const Driver& d : m.drivers) {
-    const double limit = (d.angular() ? 1.0 : m.size()) * kDegree;
+    const double limit = (d.angular() ? 1.0 : m.size()) * kDegree / gear_speed_up(m);
     double previous = d.start;
     for (int k = 1; k <= intervals; ++k) {
       const double value = d.at_time(until * k / intervals).value;
@@ -192,6 +214,11 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
   const double samples = passes * (std::floor(span / step + 1e-9) + 1.0);
   check_count(m, cause, samples, "samples", limits);
   check_values(m, cause, samples, limits);
+  // Gears that turn a link faster than the driver take continuation steps of their own.
+  // (A slider's cycle here is its assembling range, unknown before it is found: over a range
+  // it is counted above.)
+  if (d.angular() && gear_speed_up(m) > 1.0)
+    check_count(m, cause, passes * span / continuation, steps_of(m, continuation), limits);
 }
 
 namespace {
@@ -208,7 +235,9 @@ void check_continuation(const Mechanism& m, double driver_value, const SweepOpti
   // The solver continues from the drawn position to the value, less the whole turns it skips
   // (solve_at), plus the turn that shows it may.
   double travel = std::abs(driver_value - m.driver().start);
-  if (travel / continuation > static_cast<double>(limits.max_samples))
+  // (The skip is found by continuing a turn: not when the turn alone is over the limit.)
+  if (travel / continuation > static_cast<double>(limits.max_samples) &&
+      2.0 * std::numbers::pi / continuation <= static_cast<double>(limits.max_samples))
     if (const SkippedTurns skip = skipped_turns(m, driver_value, options); skip.turns != 0)
       travel =
           std::abs(driver_value - skip.driver_shift() - m.driver().start) + 2.0 * std::numbers::pi;

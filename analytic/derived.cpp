@@ -19,6 +19,9 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // trajectory's rates give it, its derivative in the driver coordinate at driver rate `rate`.
 struct Scalar {
   bool positions = true;  // the value reads positions only (it exists at a singular pose)
+  // A link's angle: over a whole cycle it may gain whole turns (a crank's), so that its value at
+  // a cycle's end is its value at the start plus those turns, not the start's value.
+  bool winds = false;
   std::function<double(const Trajectory&, int)> value;
   std::function<double(const Trajectory&, int, double rate)> slope;  // empty: none
 };
@@ -33,6 +36,7 @@ Scalar channel_scalar(const std::string& channel) {
   Scalar f;
   const Quantity q = Trajectory::quantity_of(channel);
   f.positions = q == Quantity::position || q == Quantity::angle;
+  f.winds = q == Quantity::angle;
   f.value = [channel](const Trajectory& t, int row) { return at(t, channel, row); };
   const std::string kind = channel.substr(0, channel.find('.'));
   const std::string object = channel.substr(channel.find('.'));
@@ -266,6 +270,10 @@ struct Interval {
   std::vector<Sample> samples;
   bool periodic = false;  // the sweep's whole cycle: the last sample's neighbour is the first
   double period = 0.0;
+  // A whole cycle's repeated last sample (-1: none solved) and the sign of its driver value less
+  // the first sample's: it tells the turns a winding channel gains over the cycle.
+  int closing_row = -1;
+  double closing_sign = 1.0;
   double lower = 0.0, upper = 0.0;  // the interval's ends (not periodic)
   std::string empty_reason;
 };
@@ -292,9 +300,13 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     const double direction = t.driver(n - 1) > t.driver(0) ? 1.0 : -1.0;
     // The cycle's samples in increasing driver order, its repeated last sample left out.
     for (int k = 0; k < n; ++k) {
-      if (std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12)) continue;
+      if (std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12)) {
+        if (out.closing_row < 0 && has(k) && has(0)) out.closing_row = k;
+        continue;
+      }
       if (has(k)) out.samples.push_back({k, t.driver(k)});
     }
+    out.closing_sign = direction;
     if (direction < 0.0) std::reverse(out.samples.begin(), out.samples.end());
   } else {
     out.lower = spec.range ? spec.range->first : std::min(t.driver(0), t.driver(n - 1));
@@ -323,6 +335,14 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   return out;
 }
 
+// What f gains from a driver value to the same value a cycle later (increasing driver): the
+// whole turns of a winding channel (a crank turning with the driver gains one), else 0.
+double cycle_gain(const Scalar& f, const Trajectory& t, const Interval& in) {
+  if (!in.periodic || !f.winds || in.closing_row < 0) return 0.0;
+  const double gain = in.closing_sign * (f.value(t, in.closing_row) - f.value(t, 0));
+  return kTwoPi * std::round(gain / kTwoPi);
+}
+
 // A local extreme of f located between its sample's neighbours (lo, mid, hi).
 struct Turn {
   Located at;
@@ -341,13 +361,18 @@ std::vector<Turn> turns(const Scalar& f, const Trajectory& t, const Interval& in
   std::vector<double> y(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i)
     y[static_cast<size_t>(i)] = sign * f.value(t, s[static_cast<size_t>(i)].row);
+  // Across the cycle's seam the neighbour is a cycle away: a crank's angle there is a turn on,
+  // which is no reversal (read as one, its stroke was 361 degrees).
+  const double gain = sign * cycle_gain(f, t, in);
   std::vector<int> local;
   for (int i = 0; i < n; ++i) {
     const bool first = i == 0, last = i == n - 1;
     if (!in.periodic && (first || last)) continue;
     const int ip = first ? n - 1 : i - 1, in_ = last ? 0 : i + 1;
     const double yi = y[static_cast<size_t>(i)];
-    if (yi >= y[static_cast<size_t>(ip)] && yi > y[static_cast<size_t>(in_)]) local.push_back(i);
+    const double before = y[static_cast<size_t>(ip)] - (first ? gain : 0.0);
+    const double after = y[static_cast<size_t>(in_)] + (last ? gain : 0.0);
+    if (yi >= before && yi > after) local.push_back(i);
   }
   if (limit > 0 && local.size() > limit) {
     std::stable_sort(local.begin(), local.end(), [&](int a, int b) {
@@ -374,13 +399,17 @@ std::vector<Turn> turns(const Scalar& f, const Trajectory& t, const Interval& in
 
 // The largest (max) or smallest value of f over the interval: every sample that is a local
 // extreme refined by the locator, and the interval's ends (not periodic).
+// In a whole cycle without a local extreme (a crank's angle) there is none: `turns_back` is
+// then false.
 std::optional<Located> extreme(const Scalar& f, const Trajectory& t, const Interval& in,
-                               Locator& locator, bool max) {
+                               Locator& locator, bool max, bool* turns_back = nullptr) {
   const auto& s = in.samples;
   const int n = static_cast<int>(s.size());
   const double sign = max ? 1.0 : -1.0;
   std::vector<Located> candidates;
-  for (const Turn& turn : turns(f, t, in, locator, max)) candidates.push_back(turn.at);
+  const std::vector<Turn> found = turns(f, t, in, locator, max);
+  for (const Turn& turn : found) candidates.push_back(turn.at);
+  if (turns_back) *turns_back = !in.periodic || !found.empty() || cycle_gain(f, t, in) == 0.0;
   if (!in.periodic) {
     for (const bool lower : {true, false}) {
       const double v = lower ? in.lower : in.upper;
@@ -776,8 +805,14 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   }
 
   const Scalar f = channel_scalar(spec.channel);
-  const std::optional<Located> hi = extreme(f, t, in, locator, true);
-  const std::optional<Located> lo = extreme(f, t, in, locator, false);
+  bool hi_turns = true, lo_turns = true;
+  const std::optional<Located> hi = extreme(f, t, in, locator, true, &hi_turns);
+  const std::optional<Located> lo = extreme(f, t, in, locator, false, &lo_turns);
+  if (!hi_turns || !lo_turns)
+    return fail(
+        fmt::format("{} turns whole turns over the cycle without turning back: it has no "
+                    "max or min",
+                    spec.channel));
   if (!hi || !lo) return fail("a pose near an extreme could not be solved");
   set("max", hi->value);
   set("at_max", hi->v);

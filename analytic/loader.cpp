@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <toml++/toml.h>
+#include <Eigen/QR>
+#include <Eigen/SparseLU>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -14,6 +16,7 @@
 #include <set>
 
 #include "analytic/branch.h"
+#include "analytic/constraints.h"
 #include "analytic/derived.h"
 #include "analytic/expression.h"
 #include "analytic/fourbar.h"
@@ -1325,6 +1328,98 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
 
 // With several drivers the sweep runs in time: what reads a sweep over one driver's values is
 // refused at its key.
+// The first driver whose row of the constraint Jacobian at q is a combination of the joints'
+// rows and the drivers' before it (the joints then hold its coordinate still, to first order),
+// or -1. Each link turns about the centroid of its points here, not its frame's origin (the
+// chain rule: d/dtheta less d/dr times A'(theta) c), so that points drawn far from that origin
+// do not make its columns nearly parallel; then every column and row has unit length.
+int first_locked_driver(const Mechanism& m, const ConstraintLayout& layout,
+                        const Eigen::VectorXd& q) {
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(layout.rows(), q.size());
+  layout.jacobian(LinkFrames{q}, jac);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0 || m.links[l].points.empty()) continue;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (const Point& p : m.links[l].points) c += p.local;
+    c /= static_cast<double>(m.links[l].points.size());
+    const double th = q(3 * k + 2), cs = std::cos(th), sn = std::sin(th);
+    const Eigen::Vector2d turned(-sn * c.x() - cs * c.y(), cs * c.x() - sn * c.y());  // A'(th) c
+    jac.col(3 * k + 2) -= jac.col(3 * k) * turned.x() + jac.col(3 * k + 1) * turned.y();
+  }
+  for (Eigen::Index c = 0; c < jac.cols(); ++c)
+    if (const double norm = jac.col(c).norm(); norm > 0.0) jac.col(c) /= norm;
+  for (int row = 0; row < layout.rows(); ++row)
+    if (const double norm = jac.row(row).norm(); norm > 0.0) jac.row(row) /= norm;
+  // Cheap first (a dense QR of IFToMM A02 at N = 160 took 7 s): a square Jacobian whose sparse
+  // LU solves two fixed right-hand sides with bounded solutions is far from singular, so no
+  // row depends on the others.
+  if (jac.rows() == jac.cols()) {
+    const Eigen::SparseMatrix<double> sparse = jac.sparseView();
+    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+    lu.compute(sparse);
+    if (lu.info() == Eigen::Success) {
+      bool bounded = true;
+      for (const double phase : {1.0, 2.0}) {
+        Eigen::VectorXd b(jac.rows());
+        for (Eigen::Index i = 0; i < b.size(); ++i) b(i) = std::sin(phase + 1.618034 * i);
+        const Eigen::VectorXd x = lu.solve(b);
+        bounded =
+            bounded && lu.info() == Eigen::Success && x.allFinite() && x.norm() <= 1e8 * b.norm();
+      }
+      if (bounded) return -1;
+    }
+  }
+  auto rank = [&](int rows) {
+    if (rows == 0) return Eigen::Index{0};
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(jac.topRows(rows));
+    qr.setThreshold(1e-9);
+    return qr.rank();
+  };
+  Eigen::Index before = rank(layout.joint_row_count());
+  for (int d = 0; d < layout.driver_count(); ++d) {
+    const Eigen::Index with = rank(layout.driver_row(d) + 1);
+    if (with == before) return d;
+    before = with;
+  }
+  return -1;
+}
+
+// A chain that Grübler–Kutzbach counts as mobile can still be locked: a planetary train whose
+// sun mesh is moved onto the ground meshes the planet with two fixed gears that disagree, which
+// holds the arm (the driver) still and leaves the sun free; the count sees 1 and the sweep
+// wrote thousands of samples all at t = 0. Locked means the driver's row of the constraint
+// Jacobian depends on the joints' rows, tested at the drawn pose and at a perturbation of it: a
+// structural lock (gear rows are constant, a rigid sub-chain is rigid everywhere) holds at both;
+// a drawing that happens to sit at a dead point or a limit of the assembling range does not.
+void check_locked(Reader& r, const Mechanism& m) {
+  if (!r.diagnostics().empty() || m.ground() < 0 || m.moving_count() == 0) return;
+  const ConstraintLayout layout(m);
+  const int n = 3 * m.moving_count();
+  Eigen::VectorXd drawn = Eigen::VectorXd::Zero(n);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k >= 0 && m.links[l].pose) drawn.segment<3>(3 * k) = *m.links[l].pose;
+  }
+  const int locked = first_locked_driver(m, layout, drawn);
+  if (locked < 0) return;
+  // A fixed, irregular perturbation: a tenth of the size and of a radian at most.
+  Eigen::VectorXd moved = drawn;
+  for (int i = 0; i < n; ++i)
+    moved(i) += (i % 3 == 2 ? 0.1 : 0.1 * m.size()) * std::sin(1.0 + 2.399963 * i);
+  if (first_locked_driver(m, layout, moved) != locked) return;
+  const Driver& d = m.drivers[static_cast<size_t>(locked)];
+  r.error(d.where,
+          fmt::format("the chain is locked: its joints hold the driven coordinate{} still, "
+                      "though Grübler–Kutzbach counts a mobility of {} (its count cannot see "
+                      "constraints that repeat or contradict each other, such as two gear meshes "
+                      "fixing one gear's turn). The driver's row of the constraint Jacobian is a "
+                      "combination of the joints' rows at the drawn pose and near it; free the "
+                      "chain (a gear on the wrong link, a joint too many) or drive a coordinate "
+                      "that moves",
+                      d.name.empty() ? "" : " '" + d.name + "'", mobility(m).mobility));
+}
+
 void check_several_drivers(Reader& r, const Mechanism& m) {
   if (!m.several_drivers()) return;
   const std::string count = fmt::format("{} drivers", m.drivers.size());
@@ -1417,12 +1512,36 @@ double last_digit(std::string_view literal) {
   return std::pow(10.0, power - decimals);
 }
 
+std::vector<std::string> channels_of(const Reader& r, const Mechanism& m);
+
+// The channel that is the driver's own coordinate (up to a constant), or "": over the driver's
+// values it only moves one way, so it has no reversal, no stroke between reversals, no dead point.
+std::string driven_channel(const Mechanism& m) {
+  const Driver& d = m.driver();
+  const int g = m.ground();
+  if (d.type == DriverType::slider && d.joint >= 0)
+    return "s." + m.joints[static_cast<size_t>(d.joint)].name;
+  if (d.type == DriverType::link_angle && d.link >= 0)
+    return "angle." + m.links[static_cast<size_t>(d.link)].name;
+  if (d.type == DriverType::joint_angle && d.joint >= 0) {
+    // Measured in the ground's frame (or the ground's direction in the link's): a link's angle.
+    const Joint& j = m.joints[static_cast<size_t>(d.joint)];
+    if (j.link_a == g && j.link_b >= 0)
+      return "angle." + m.links[static_cast<size_t>(j.link_b)].name;
+    if (j.link_b == g && j.link_a >= 0)
+      return "angle." + m.links[static_cast<size_t>(j.link_a)].name;
+  }
+  return "";
+}
+
 // [[derived]]: a quantity read off the sweep (analytic/derived.h), named for [[reference]] and
 // [expect.derived].
 void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "derived", limits::kReferences);
   if (!array) return;
   const std::vector<std::string> objects = reference_objects(m);
+  // The channels a sweep has (none when an earlier error leaves no linkage to lay them out).
+  const std::vector<std::string> channels = channels_of(r, m);
   using K = DerivedSpec::Kind;
   const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,   K::dead_points,
                                 K::toggles,  K::transmission, K::straightness, K::circularity};
@@ -1488,6 +1607,31 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
                             "(kind.name, kind one of angle, omega, alpha, x, y, vx, vy, v, ax, "
                             "ay, a, s, sdot, sddot; names: {})",
                             spec.channel, join(objects)));
+        ok = false;
+      } else if (!channels.empty() &&
+                 std::find(channels.begin(), channels.end(), spec.channel) == channels.end()) {
+        // A kind its object does not have ("angle.B" of a point B) has no values to read.
+        const std::string object = spec.channel.substr(spec.channel.find('.') + 1);
+        std::vector<std::string> its;
+        for (const std::string& c : channels)
+          if (c.substr(c.find('.') + 1) == object &&
+              Trajectory::quantity_of(c) != Quantity::force &&
+              Trajectory::quantity_of(c) != Quantity::torque)
+            its.push_back(c);
+        r.error(r.at(t.get("channel")),
+                fmt::format("[[derived]]: '{}' is no channel of this linkage ({})", spec.channel,
+                            its.empty() ? fmt::format("'{}' has no kinematic channel", object)
+                                        : fmt::format("those of '{}': {}", object, join(its))));
+        ok = false;
+      } else if (spec.kind != K::extremes && spec.channel == driven_channel(m)) {
+        r.error(
+            r.at(t.get("channel")),
+            fmt::format("[[derived]] '{}': '{}' is the driver's own coordinate, which moves "
+                        "one way over the sweep and never turns back, so it has no {} (read "
+                        "the 'extremes' of it, or the {} of a channel that reverses)",
+                        quantity, spec.channel,
+                        spec.kind == K::dead_points ? "dead points" : "stroke between reversals",
+                        quantity));
         ok = false;
       } else if (q != Quantity::position && q != Quantity::angle &&
                  d.law.kind != MotionLaw::Kind::constant_speed) {
@@ -2389,6 +2533,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_expect(r, m, root);
   read_branches(r, m, root);
   check_several_drivers(r, m);
+  check_locked(r, m);
   r.throw_if_any();
   apply_branches(m);  // the assembly they name, as drawn poses
   return m;

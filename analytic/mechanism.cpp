@@ -177,8 +177,19 @@ int Mechanism::moving_index(int link) const {
 }
 
 double Mechanism::size() const {
-  std::vector<Eigen::Vector2d> drawn;
-  for (const Link& link : links) {
+  // The drawing is not the linkage: a link drawn 1e6 m from where it assembles (the solver
+  // brings it back) made the size, and with it every tolerance, default mass and engine scale,
+  // 1e6 m. So the size is the drawn extent of the links drawn in place only, those reached from
+  // the ground through links whose drawn points come within the linkage's span of each other,
+  // the span being the sum of the links' own extents (each link's largest distance between two
+  // of its points or lines' origins, whatever its pose): two points of an assembled chain are
+  // never farther apart. A link drawn away counts by its own extent. An assembled drawing keeps
+  // its extent. (Joints are not read here: the loader asks for the size before it reads them.)
+  const size_t n = links.size();
+  std::vector<std::vector<Eigen::Vector2d>> drawn(n);
+  double span = 0.0, longest = 0.0;
+  for (size_t l = 0; l < n; ++l) {
+    const Link& link = links[l];
     Eigen::Vector2d origin = Eigen::Vector2d::Zero();
     double theta = 0.0;
     if (link.pose) {
@@ -186,12 +197,45 @@ double Mechanism::size() const {
       theta = (*link.pose)(2);
     }
     const Eigen::Rotation2Dd rotation(theta);
-    for (const Point& p : link.points) drawn.push_back(origin + rotation * p.local);
+    std::vector<Eigen::Vector2d> local;
+    for (const Point& p : link.points) {
+      local.push_back(p.local);
+      drawn[l].push_back(origin + rotation * p.local);
+    }
+    for (const Line& line : link.lines) local.push_back(line.origin);
+    double extent = 0.0;
+    for (size_t i = 0; i < local.size(); ++i)
+      for (size_t j = i + 1; j < local.size(); ++j)
+        extent = std::max(extent, (local[i] - local[j]).norm());
+    span += extent;
+    longest = std::max(longest, extent);
   }
-  double largest = 0.0;
-  for (size_t i = 0; i < drawn.size(); ++i)
-    for (size_t j = i + 1; j < drawn.size(); ++j)
-      largest = std::max(largest, (drawn[i] - drawn[j]).norm());
+  // Breadth first from the ground (the first link without one).
+  std::vector<char> in_place(n, 0);
+  std::vector<size_t> queue;
+  const int g = ground();
+  if (n > 0) {
+    queue.push_back(g >= 0 ? static_cast<size_t>(g) : 0);
+    in_place[queue.front()] = 1;
+  }
+  for (size_t next = 0; next < queue.size(); ++next)
+    for (size_t l = 0; l < n; ++l) {
+      if (in_place[l]) continue;
+      bool near = false;
+      for (const Eigen::Vector2d& a : drawn[queue[next]])
+        for (const Eigen::Vector2d& b : drawn[l]) near = near || (a - b).norm() <= span;
+      if (near) {
+        in_place[l] = 1;
+        queue.push_back(l);
+      }
+    }
+  std::vector<Eigen::Vector2d> placed;
+  for (const size_t l : queue) placed.insert(placed.end(), drawn[l].begin(), drawn[l].end());
+  double largest = longest;
+  for (size_t i = 0; i < placed.size(); ++i)
+    for (size_t j = i + 1; j < placed.size(); ++j)
+      largest = std::max(largest, (placed[i] - placed[j]).norm());
+  if (span > 0.0) largest = std::min(largest, span);
   return largest > 0.0 ? largest : 1.0;
 }
 

@@ -366,8 +366,12 @@ struct Mechanism {
   int moving_index(int link) const;
   int moving_count() const { return static_cast<int>(links.size()) - 1; }
   int coordinate_count() const { return 3 * moving_count(); }
-  // Size of the mechanism [m]: the largest distance between any two points drawn at their
-  // posed positions (falls back to local extents). Scales position tolerances.
+  // Size of the mechanism [m]: the largest distance between two points drawn at their posed
+  // positions, over the links drawn in place (reached from the ground through links whose drawn
+  // points come within the linkage's span of each other; the span is the sum of the links' own
+  // extents, each link's largest distance between two of its points or lines' origins), at
+  // least the longest link's extent and at most the span: a link drawn far from where it
+  // assembles does not make it. Scales position tolerances, default masses, engine scales.
   double size() const;
   // Slide joints in joint order: the mechanism's "sliders" (s, sdot, sddot outputs).
   std::vector<int> slide_joints() const;

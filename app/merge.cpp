@@ -264,6 +264,10 @@ int run_merge(const MergeArgs& args) {
   for (size_t i = 0; i < parts.size(); ++i) {
     const json& shard = parts[i].at("shard");
     const int n = shard.at("count").get<int>(), index = shard.at("index").get<int>();
+    // A count of 0 would divide by zero in Shard::holds (SIGFPE).
+    if (n < 1 || index < 0 || index >= n)
+      throw std::invalid_argument(fmt::format("{}: shard {}/{} is no shard (I/N with 0 <= I < N)",
+                                              args.parts[i], index, n));
     if (n != count)
       throw std::invalid_argument(fmt::format("{}: shard {}/{}, but {} is a shard of {}",
                                               args.parts[i], index, n, first_path, count));

@@ -14,6 +14,7 @@
 #include "analytic/budget.h"
 #include "analytic/loader.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/mechanisms.h"
 #include "tests/common/text.h"
 
 namespace crosslink {
@@ -181,6 +182,40 @@ TEST(Budget, ASliderAtAnExplicitStepIsMeasuredOverItsAssemblingRange) {
   // At its default step (1/360 of the range) it needs no measuring: 361 samples.
   EXPECT_NO_THROW(check_sweep_work(m, {}, limit(361)));
   EXPECT_THROW(check_sweep_work(m, {}, limit(360)), std::invalid_argument);
+}
+
+// Issue 35, item 8: the geared five-bar with a gear of 1e6 teeth against 1 (inside the limits)
+// turns its second crank 1e6 times as far as the driver; the continuation halves its steps
+// until that crank turns about a degree a step, so one pose at 30 degrees took 75 s of steps no
+// budget counted. They are counted: 30 degrees over steps of 1e-6 degree is 3e7 steps.
+TEST(Budget, AGearThatTurnsALinkAMillionTimesTheDriverCountsItsSteps) {
+  std::string text = test::source_text("mechanisms/gears/geared_fivebar.toml");
+  const size_t at = text.find("teeth = [30, 30]");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 16, "teeth = [1000000, 1]");
+  const Mechanism m = parse_mechanism(text, "gear.toml");
+  const std::string one_pose =
+      option_refusal([&] { check_solve_at_work(m, 30 * kDeg, {}, limit(100000)); });
+  expect_has(one_pose, "--at 30 deg asks for 30000000 continuation steps");
+  expect_has(one_pose,
+             "continuation steps of at most 1e-06 deg (its gears turn a link up to "
+             "1e+06 times as far as the driver): the limit is 100000 (raise it with "
+             "--max-samples N)");
+  const std::string cycle = option_refusal([&] { check_sweep_work(m, {}, limit(100000)); });
+  expect_has(cycle, "the default step of 1 degree asks for 360000000 continuation steps");
+  expect_has(cycle, "(raise it with --max-samples N)");
+  // Within a raised limit the same requests pass.
+  EXPECT_NO_THROW(check_solve_at_work(m, 30 * kDeg, {}, limit(30'000'001)));
+  EXPECT_NO_THROW(check_sweep_work(m, {}, limit(360'000'001)));
+  // Every bundled gear train is within the default limits.
+  for (const char* file :
+       {"geared_fivebar", "planetary_fixed_ring", "epicyclic_ring72_sun32",
+        "constans_dyer_geared_fivebar", "rack_pinion_slider_crank", "ryan_rack_and_pinion"}) {
+    const Mechanism bundled =
+        parse_mechanism(test::source_text(std::string("mechanisms/gears/") + file + ".toml"), file);
+    EXPECT_NO_THROW(check_sweep_work(bundled, {}, {})) << file;
+    EXPECT_NO_THROW(check_reference_work(bundled, {})) << file;
+  }
 }
 
 }  // namespace

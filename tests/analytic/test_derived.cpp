@@ -494,5 +494,80 @@ TEST(Derived, WrongInputIsLocated) {
       << error_of(expect);
 }
 
+// Issue 35, item 8: a [[derived]] entry on a channel its object does not have ("angle.B" of a
+// point B) passed the loader and crashed solve, compare and sweep (SIGSEGV reading the channel);
+// a stroke, time ratio or dead points of the driver's own coordinate, which never turns back,
+// read the cycle's seam as a reversal (a stroke of 361 degrees, a time ratio of 359). Both are
+// refused at the channel's key with what is valid.
+TEST(Derived, AChannelItsObjectDoesNotHaveOrTheDriversOwnCoordinateIsRefusedAtItsKey) {
+  const std::string base = test::source_text("mechanisms/fourbar_crank_rocker.toml");
+  const std::string point_angle =
+      base + "\n[[derived]]\nname = \"S\"\nquantity = \"extremes\"\nchannel = \"angle.B\"\n";
+  EXPECT_NE(error_of(point_angle)
+                .find(fmt::format("m.toml:{}:11: error: [[derived]]: 'angle.B' is no channel of "
+                                  "this linkage (those of 'B': x.B, y.B, vx.B, vy.B, v.B, ax.B, "
+                                  "ay.B, a.B)",
+                                  test::line_of(point_angle, "channel = \"angle.B\""))),
+            std::string::npos)
+      << error_of(point_angle);
+  const std::string link_x =
+      base + "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\nchannel = \"x.rocker\"\n";
+  EXPECT_NE(error_of(link_x).find("'x.rocker' is no channel of this linkage (those of 'rocker': "
+                                  "angle.rocker, omega.rocker, alpha.rocker)"),
+            std::string::npos)
+      << error_of(link_x);
+  for (const char* quantity : {"stroke", "time_ratio", "dead_points"}) {
+    const std::string own = base + fmt::format(
+                                       "\n[[derived]]\nname = \"S\"\nquantity = \"{}\"\n"
+                                       "channel = \"angle.crank\"\n",
+                                       quantity);
+    EXPECT_NE(error_of(own).find(fmt::format(
+                  "m.toml:{}:11: error: [[derived]] '{}': 'angle.crank' is the driver's own "
+                  "coordinate, which moves one way over the sweep and never turns back",
+                  test::line_of(own, "channel = \"angle.crank\""), quantity)),
+              std::string::npos)
+        << error_of(own);
+  }
+  // Its extremes are defined (the ends of a sweep over a range).
+  EXPECT_NO_THROW(parse_mechanism(
+      base + "\n[[derived]]\nname = \"E\"\nquantity = \"extremes\"\nchannel = \"angle.crank\"\n",
+      "m.toml"));
+  // A slider driven along its line: its s is the driver's.
+  const std::string slider = test::source_text("mechanisms/singular/slider_crank_from_slider.toml");
+  const std::string driven = slider.substr(0, slider.find("[expect]")) +
+                             "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\nchannel = "
+                             "\"s.piston\"\n";
+  EXPECT_NE(error_of(driven).find("'s.piston' is the driver's own coordinate"), std::string::npos)
+      << error_of(driven);
+}
+
+// A link that turns with the driver but is not driven (the geared five-bar's second crank, one
+// turn back per turn of the first) has no reversal either: the cycle's seam, where its angle is a
+// turn on, was read as one. Its stroke and extremes have no value and say why.
+TEST(Derived, ALinkTurningWholeTurnsHasNoStrokeAtTheCyclesSeam) {
+  const std::string text = test::source_text("mechanisms/gears/geared_fivebar.toml") +
+                           "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\n"
+                           "channel = \"angle.crank5\"\n"
+                           "\n[[derived]]\nname = \"Q\"\nquantity = \"time_ratio\"\n"
+                           "channel = \"angle.crank5\"\n"
+                           "\n[[derived]]\nname = \"R\"\nquantity = \"stroke\"\n"
+                           "channel = \"angle.coupler3\"\n";
+  const Mechanism m = parse_mechanism(text, "geared_fivebar.toml");
+  const Trajectory t = sweep(m);
+  for (const std::vector<DerivedValue>& values : {exact_of(m, t), derived_sampled(m, t)}) {
+    ASSERT_EQ(values.size(), 3u);
+    for (size_t i = 0; i < 2; ++i) {
+      EXPECT_NE(values[i].reason.find("turns whole turns"), std::string::npos)
+          << values[i].spec->name << ": " << values[i].reason;
+      for (const DerivedField& f : values[i].fields) EXPECT_FALSE(f.value.has_value()) << f.name;
+    }
+    // The coupler swings back and forth: its stroke exists, less than half a turn.
+    ASSERT_TRUE(values[2].reason.empty()) << values[2].reason;
+    const double stroke = field(values, "R");
+    EXPECT_GT(stroke, 0.0);
+    EXPECT_LT(stroke, kPi);
+  }
+}
+
 }  // namespace
 }  // namespace crosslink

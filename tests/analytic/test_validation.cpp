@@ -1320,5 +1320,57 @@ TEST(ValidationDynamics, AStartAtASingularPositionHasNoConsistentVelocity) {
   EXPECT_TRUE(simulate(parse_mechanism(text, "away.toml")).ok);
 }
 
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  size_t from = 0;
+  for (size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', from)) {
+    lines.push_back(text.substr(from, at - from));
+    from = at + 1;
+  }
+  if (from < text.size()) lines.push_back(text.substr(from));
+  return lines;
+}
+
+// Issue 35, item 8: the mechanism's size came from the drawing's absolute coordinates, so one
+// link drawn 9e5 m from where it assembles (inside the coordinate limit) made it 9e5 m, and with
+// it the self-check's thresholds, the default masses (1.05e13 kg mm^2) and the engines' scales.
+// It comes from the linkage: the crank-rocker's coupler drawn far away (its pose, or its points
+// in its own frame) leaves the size and every default mass as they are drawn in place.
+TEST(Validation, ALinkDrawnFarAwayDoesNotMakeTheMechanismsSize) {
+  // Without its masses: every link gets the default model, which the size scales.
+  std::string base;
+  for (const std::string& line :
+       lines_of(test::source_text("mechanisms/fourbar_crank_rocker.toml")))
+    if (!line.starts_with("mass =") && !line.starts_with("com =") && !line.starts_with("inertia ="))
+      base += line + "\n";
+  const Mechanism near = parse_mechanism(base, "near.toml");
+  for (const Link& link : near.links) EXPECT_TRUE(link.ground || link.mass.assumed) << link.name;
+  // In place: the drawn extent, A to C here (ground 0.10, crank 0.04 at 0 degrees, rocker 0.08
+  // at 62.72 degrees): |C| = |(0.10 + 0.08 cos 62.72, 0.08 sin 62.72)|.
+  const double c = 62.720 * std::numbers::pi / 180.0;
+  EXPECT_NEAR(near.size(), std::hypot(0.10 + 0.08 * std::cos(c), 0.08 * std::sin(c)), 1e-12);
+  const std::string posed =
+      replaced(base, "pose = [0.04, 0, 36.336]", "pose = [900000.04, 0, 36.336]");
+  const std::string shifted = replaced(base, "points = { B = [0, 0], C = [0.12, 0] }",
+                                       "points = { B = [900000, 0], C = [900000.12, 0] }");
+  for (const std::string& text : {posed, shifted}) {
+    const Mechanism far = parse_mechanism(text, "far.toml");
+    EXPECT_DOUBLE_EQ(far.size(), near.size());
+    for (size_t l = 0; l < far.links.size(); ++l) {
+      if (far.links[l].ground) continue;
+      // (The shifted coupler's length, 900000.12 - 900000 m, is 0.12 to the 1.2e-10 m spacing
+      // of doubles there, so its own bar differs by that much.)
+      const MassProperties &a = far.links[l].mass, &b = near.links[l].mass;
+      EXPECT_NEAR(a.mass, b.mass, 1e-8 * b.mass) << far.links[l].name;
+      EXPECT_NEAR(a.inertia, b.inertia, 1e-8 * b.inertia) << far.links[l].name;
+    }
+  }
+  // A link that is long is long wherever it is drawn: a point 9e5 m along the coupler is part of
+  // the linkage, and makes its size.
+  const std::string long_coupler = replaced(base, "points = { B = [0, 0], C = [0.12, 0] }",
+                                            "points = { B = [0, 0], C = [0.12, 0], P = [9e5, 0] }");
+  EXPECT_GE(parse_mechanism(long_coupler, "long.toml").size(), 9e5);
+}
+
 }  // namespace
 }  // namespace crosslink

@@ -7,7 +7,9 @@
 //   - check's report holds no "nan" or "inf" (unless the definition's own names do);
 //   - every value of every sample solve writes (the sweep, one --at pose, its instantaneous
 //     centres) is finite, whatever the sample's status: a flagged sample has finite
-//     placeholders (docs/json.md).
+//     placeholders (docs/json.md);
+//   - every [[derived]] quantity, exact and from the samples, is finite or has no value and
+//     says why (a channel its object does not have crashed solve: issue 35).
 // Built with libFuzzer by -DCROSSLINK_FUZZ=ON (clang); replay.cpp runs kept inputs with any
 // compiler.
 #include <algorithm>
@@ -25,6 +27,8 @@
 #include <utility>
 #include <vector>
 
+#include "analytic/budget.h"
+#include "analytic/derived.h"
 #include "analytic/dyads.h"
 #include "analytic/instant_centres.h"
 #include "analytic/loader.h"
@@ -79,11 +83,31 @@ SweepOptions bounded_sweep(const Mechanism& m) {
   return options;
 }
 
+void require_finite(const std::vector<DerivedValue>& values, const std::string& what) {
+  for (const DerivedValue& v : values) {
+    if (v.fields.empty()) violation("a [[derived]] quantity without fields in " + what);
+    bool none = true;
+    for (const DerivedField& f : v.fields) {
+      if (f.value && !std::isfinite(*f.value))
+        violation("a non-finite [[derived]] field " + f.name + " in " + what);
+      none = none && !f.value;
+    }
+    if (none && v.reason.empty()) violation("a [[derived]] quantity with no value and no reason");
+  }
+}
+
 // What `solve` writes: the sweep by its default method (check's, `swept`, when it made one: the
-// same call with the same options), one pose, and its centres.
+// same call with the same options), its [[derived]] quantities, one pose, and its centres.
 void solve(const Mechanism& m, const std::optional<Trajectory>& swept) {
+  // The sweep within the work limits a command would check (check_report's own sweep is
+  // bounded by them already; a driver at rest has one pose, which the check refuses to sweep).
+  if (!swept && !m.driver().at_rest()) check_sweep_work(m, bounded_sweep(m), {});
   Trajectory t = swept ? *swept : sweep(m, bounded_sweep(m));
   require_finite(t, "the Newton sweep");
+  if (!m.derived.empty() && t.samples() > 0) {
+    require_finite(derived_exact(m, t), "the exact [[derived]] quantities");
+    require_finite(derived_sampled(m, t), "the sampled [[derived]] quantities");
+  }
   if (decompose(m).complete) {
     t = dyad_sweep(m, t);
     require_finite(t, "the dyad sweep");
