@@ -82,7 +82,7 @@ struct Located {
   double v = 0.0;
   double value = 0.0;
   bool reversal = true;  // inside the interval (the channel turns back), not at one of its ends
-  std::vector<double> ties;  // other locations of the same value within rounding (extreme())
+  std::vector<double> ties = {};  // other locations of the same value within rounding (extreme())
 };
 
 // Finds the extreme of f near a sample, and f at a driver value between two samples.

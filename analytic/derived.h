@@ -45,7 +45,7 @@ struct DerivedField {
   std::optional<double> value;  // SI; none: it does not exist (DerivedValue::reason)
   // A location (at_max, at_min): the other driver values where the extreme's value is the same
   // within rounding (1e-9 of the channel's magnitude): a tie, each as much the location as value.
-  std::vector<double> ties;
+  std::vector<double> ties = {};
 };
 
 struct DerivedValue {
