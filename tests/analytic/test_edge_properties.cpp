@@ -152,8 +152,9 @@ TEST_P(EdgeProperties, EveryRangeAtTheLimitsIsOnTheDrawnBranch) {
       const std::string what =
           fmt::format("range [{:.6f}, {:.6f}] deg, step {}", lo / kDeg, hi / kDeg, step);
       expect_on_branch(m, branch, t, what);
-      if (decompose(m).complete)
+      if (decompose(m).complete) {
         expect_on_branch(m, branch, dyad_sweep(ranged, t), what + " dyads");
+      }
     }
 }
 
@@ -188,8 +189,9 @@ TEST_P(EdgeProperties, DISABLED_EveryStartBesideASingularPositionIsOnTheDrawnBra
         try {
           const Trajectory t = sweep(drawn, options);
           expect_on_branch(m, branch, t, what);
-          if (decompose(m).complete)
+          if (decompose(m).complete) {
             expect_on_branch(m, branch, dyad_sweep(drawn, t), what + " dyads");
+          }
         } catch (const DefinitionError& e) {
           // Drawn at a change point within the drawing's reach: refused with its place.
           EXPECT_EQ(p.kind, SingularKind::change_point) << what << ": " << e.what();

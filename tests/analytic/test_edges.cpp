@@ -63,8 +63,9 @@ int expect_on_open_branch(const Trajectory& t, const std::string& what) {
   const auto C = static_cast<Eigen::Index>(named - t.point_names.begin());
   int placed = 0;
   for (int k = 0; k < t.samples(); ++k) {
-    if (k > 0)
+    if (k > 0) {
       EXPECT_GT(t.driver(k), t.driver(k - 1)) << what << ": sample " << k << " not after the last";
+    }
     if (!has_position(t.status[static_cast<size_t>(k)])) continue;
     ++placed;
     const FourBarPose p = open_pose(t.driver(k));
@@ -126,7 +127,9 @@ TEST(Edges, ARangeToOrBeyondALimitFlagsTheToggleAndHasNoPoseBeyond) {
       EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::cannot_assemble) << what;
       EXPECT_GT(t.driver(k), kLimit) << what;
     }
-    if (upper == "85") EXPECT_NEAR(t.driver(t.samples() - 1), 85 * kDeg, 1e-12);
+    if (upper == "85") {
+      EXPECT_NEAR(t.driver(t.samples() - 1), 85 * kDeg, 1e-12);
+    }
   }
 }
 
