@@ -136,7 +136,9 @@ TEST(CleanEnds, SimbodyMaxStepsCountsItsInternalWork) {
       << out;
   const long work = std::stol(m[2]) + std::stol(m[3]);
   EXPECT_LE(work, 4000) << m[0];
-  if (m[1] == "reached") EXPECT_EQ(work, 4000) << m[0];
+  if (m[1] == "reached") {
+    EXPECT_EQ(work, 4000) << m[0];
+  }
 }
 
 // MuJoCo's solref is (timeconst, dampratio), both positive, or the direct (-stiffness,
