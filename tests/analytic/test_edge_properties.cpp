@@ -1,11 +1,11 @@
 // The edges, as a property over every bundled one-driver definition (issue 35): each swept with a
-// `range` equal to its assembling range and to each limit from inside, and (disabled, open) from
-// starts 1e-9, 1e-7 and 1e-5 degrees on either side of each singular position (drawn there: every
-// link's pose taken from the regular sweep's curve), at the steps 0.7, 15 and 90 degrees (and 1,
-// 5, 45 under `slow`), with Newton and the closed-form dyads. Every sample with a pose must lie on
-// the drawn branch (the regular sweep's curve from the original drawing, which the closed forms
-// hold in the middle of the range) to 1e-9 of the size and 1e-9 rad, and no sample may repeat or
-// run backwards.
+// `range` equal to its assembling range and to each limit from inside, and from starts 1e-9, 1e-7
+// and 1e-5 degrees on either side of each singular position (open on three definitions, below)
+// (drawn there: every link's pose taken from the regular sweep's curve), at the steps 0.7, 15 and
+// 90 degrees (and 1, 5, 45 under `slow`), with Newton and the closed-form dyads. Every sample with
+// a pose must lie on the drawn branch (the regular sweep's curve from the original drawing, which
+// the closed forms hold in the middle of the range) to 1e-9 of the size and 1e-9 rad, and no sample
+// may repeat or run backwards.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -28,30 +28,54 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 
-// The drawn branch: the regular sweep of the original drawing at 0.1 degree, and a pose on it at
-// any value by Newton from its nearest sample (an ok sample is at least ~1 degree from a
-// singular position, where no other branch is near).
+// The drawn branch: the regular sweep of the original drawing at 0.1 degree (for a chain that
+// turns fully, a second turn drawn where the first ends: a change point's smooth branch may take
+// two turns to close), and a pose on it at any value by Newton from its nearest ok sample,
+// stepping toward the value by halves (next to a fold the two assemblies are sqrt(distance)
+// apart, so each step's Newton stays on the sample's assembly).
 class Branch {
  public:
   explicit Branch(const Mechanism& m) : m_(m), solver_(m) {
     SweepOptions fine;
     fine.step = 0.1 * kDeg;
-    curve_ = sweep(m, fine);
+    curves_.push_back(sweep(m, fine));
+    const Trajectory& first = curves_.front();
+    const int last = first.samples() - 1;
+    if (last > 0 && usable(first.status[static_cast<size_t>(last)]) &&
+        std::abs(first.driver(last) - first.driver(0)) > 1.99 * kPi) {
+      Mechanism on = m;
+      on.drivers[0].start = first.driver(last);
+      const Eigen::VectorXd q = coordinates(first, last);
+      for (size_t l = 0; l < on.links.size(); ++l)
+        if (const int c = on.moving_index(static_cast<int>(l)); c >= 0)
+          on.links[l].pose = q.segment<3>(3 * c);
+      curves_.push_back(sweep(on, fine));
+    }
   }
 
   // The pose on the branch at `value`, or nullopt where the curve has none near.
   std::optional<Eigen::VectorXd> at(double value) const {
+    const Trajectory* curve = nullptr;
     int nearest = -1;
-    for (int k = 0; k < curve_.samples(); ++k)
-      if (has_position(curve_.status[static_cast<size_t>(k)]) &&
-          (nearest < 0 ||
-           std::abs(curve_.driver(k) - value) < std::abs(curve_.driver(nearest) - value)))
-        nearest = k;
-    if (nearest < 0 || std::abs(curve_.driver(nearest) - value) > 0.2 * kDeg) return std::nullopt;
+    for (const Trajectory& c : curves_)
+      for (int k = 0; k < c.samples(); ++k)
+        if (c.status[static_cast<size_t>(k)] == PoseStatus::ok &&
+            (nearest < 0 ||
+             std::abs(c.driver(k) - value) < std::abs(curve->driver(nearest) - value))) {
+          curve = &c;
+          nearest = k;
+        }
+    if (nearest < 0 || std::abs(curve->driver(nearest) - value) > 1.5 * kDeg) return std::nullopt;
     KinematicState state(m_);
-    state.q = coordinates(curve_, nearest);
-    state.driver.value = value;
-    const SolveReport r = solver_.polish(state, solver_.solve_position(state));
+    state.q = coordinates(*curve, nearest);
+    const double from = curve->driver(nearest);
+    SolveReport r;
+    for (int i = 1; i <= 64; ++i) {
+      state.driver.value = i == 64 ? value : from + (value - from) * (1.0 - std::ldexp(1.0, -i));
+      r = solver_.solve_position(state);
+      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular) return std::nullopt;
+    }
+    r = solver_.polish(state, r);
     if (r.status != PoseStatus::ok && r.status != PoseStatus::singular) return std::nullopt;
     return state.q;
   }
@@ -73,12 +97,10 @@ class Branch {
     return q;
   }
 
-  const Trajectory& curve() const { return curve_; }
-
  private:
   const Mechanism& m_;
   NewtonSolver solver_;
-  Trajectory curve_;
+  std::vector<Trajectory> curves_;
 };
 
 // Every sample with a pose on the branch; driver values strictly monotone, times increasing.
@@ -108,7 +130,12 @@ void expect_on_branch(const Mechanism& m, const Branch& branch, const Trajectory
   }
 }
 
-// One-driver, constant-speed, angular definitions whose chain has limits or singular positions.
+// Where starts beside a singular position are still open (below).
+const std::vector<std::string> kOpenStarts = {
+    "mechanisms/fourbar_change_point.toml", "mechanisms/polycentric_hinge.toml",
+    "mechanisms/singular/fourbar_change_point_crank_rocker.toml"};
+
+// One-driver, constant-speed, angular definitions.
 std::vector<std::string> edge_files() {
   std::vector<std::string> out;
   for (const std::string& file : test::bundled_files(true, false)) {
@@ -158,14 +185,14 @@ TEST_P(EdgeProperties, EveryRangeAtTheLimitsIsOnTheDrawnBranch) {
     }
 }
 
-// Open (issue 35): a start drawn within 1e-5 degrees of a toggle or change point can leave the
-// drawn branch (the tracer's first step from beside a fold or a crossing), e.g. the non-Grashof
-// four-bar drawn 1e-9 deg above its lower toggle sweeps its crossed assembly. Disabled until the
-// tracer's start there is mended; run with --gtest_also_run_disabled_tests. (For a chain that
-// turns fully, the branch here covers one turn from the drawing: a start near the end of it
-// sweeps values the reference curve does not hold, reported as "no pose".)
-TEST_P(EdgeProperties, DISABLED_EveryStartBesideASingularPositionIsOnTheDrawnBranch) {
-  const Mechanism m = parse_mechanism(test::source_text(GetParam()), GetParam());
+// Starts beside each singular position, drawn on the branch there. Open (issue 35) on three
+// definitions, in their own disabled suite (run with --gtest_also_run_disabled_tests): the two
+// change-point four-bars started 1e-9 to 1e-7 deg beside a change point leave the smooth branch
+// at the crossing they start beside (as the kite does), or this test's reference does (its pose
+// a step beyond a crossing is Newton's choice there); the polycentric hinge's starts beside its
+// toggle at 250.3 deg disagree with a reference curve that reports that toggle a turn away.
+void expect_starts_on_branch(const std::string& file) {
+  const Mechanism m = parse_mechanism(test::source_text(file), file);
   const Branch branch(m);
   std::vector<SingularPosition> singular;
   sweep(m, {}, singular);
@@ -201,14 +228,37 @@ TEST_P(EdgeProperties, DISABLED_EveryStartBesideASingularPositionIsOnTheDrawnBra
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Bundled, EdgeProperties, testing::ValuesIn(edge_files()),
-                         [](const testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param.substr(info.param.rfind('/') + 1);
-                           name = name.substr(0, name.find('.'));
-                           for (char& c : name)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return name;
-                         });
+class EdgeStarts : public testing::TestWithParam<std::string> {};
+TEST_P(EdgeStarts, EveryStartBesideASingularPositionIsOnTheDrawnBranch) {
+  expect_starts_on_branch(GetParam());
+}
+
+class OpenEdgeStarts : public testing::TestWithParam<std::string> {};
+TEST_P(OpenEdgeStarts, DISABLED_EveryStartBesideASingularPositionIsOnTheDrawnBranch) {
+  expect_starts_on_branch(GetParam());
+}
+
+// The test's name from a definition's file name.
+std::string file_stem(const testing::TestParamInfo<std::string>& info) {
+  std::string name = info.param.substr(info.param.rfind('/') + 1);
+  name = name.substr(0, name.find('.'));
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+}
+
+std::vector<std::string> settled_starts() {
+  std::vector<std::string> out;
+  for (const std::string& file : edge_files())
+    if (std::find(kOpenStarts.begin(), kOpenStarts.end(), file) == kOpenStarts.end())
+      out.push_back(file);
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Bundled, EdgeStarts, testing::ValuesIn(settled_starts()), file_stem);
+INSTANTIATE_TEST_SUITE_P(Bundled, OpenEdgeStarts, testing::ValuesIn(kOpenStarts), file_stem);
+
+INSTANTIATE_TEST_SUITE_P(Bundled, EdgeProperties, testing::ValuesIn(edge_files()), file_stem);
 
 }  // namespace
 }  // namespace crosslink
