@@ -22,4 +22,6 @@ cmake --build "$BUILD_DIR" -j2
 # Every report is an error; leaks too (detect_leaks is on by default on Linux x86_64).
 export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+# A third-party library's allocations crosslink cannot free, each with why (scripts/lsan.supp).
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/scripts/lsan.supp:print_suppressions=0}
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j2 -LE "slow|cluster" "$@"

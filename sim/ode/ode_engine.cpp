@@ -325,8 +325,10 @@ std::string mass_span(const Mechanism& m, const SceneGraph& g, double cfm) {
 }
 
 // The worlds whose step an ODE error interrupted, with their threading implementations (~OdeScene).
+// Never destroyed: a vector with static storage is freed before LeakSanitizer looks at exit, and
+// the worlds it held were then reported as leaked.
 std::mutex interrupted_mutex;
-std::vector<std::pair<dWorldID, dThreadingImplementationID>> interrupted_worlds;
+auto* const interrupted_worlds = new std::vector<std::pair<dWorldID, dThreadingImplementationID>>;
 
 // dWorldQuickStep reorders its rows at random by ODE's one process-wide generator (dRandInt), so
 // a quick-step run's numbers depended on the runs before it and, over threads, beside it. A
@@ -448,7 +450,7 @@ class OdeScene {
       // and freeing it then asserts (an error in a destructor: std::terminate). Kept, unused,
       // until the process ends (reachable: no leak).
       const std::lock_guard<std::mutex> lock(interrupted_mutex);
-      interrupted_worlds.emplace_back(world_, threading_);
+      interrupted_worlds->emplace_back(world_, threading_);
       return;
     }
     dWorldSetStepThreadingImplementation(world_, nullptr, nullptr);
