@@ -884,6 +884,10 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
 
 // Two roots of a group closer than this (times the size) are not told apart.
 constexpr double kCoincident = 1e-6;
+// A drawing whose groups' loci meet at a sine above this is clear of singular positions: its
+// modes are told apart by continuity from there (a 1e-4 deg neighbour of a kite's change point
+// is at 1e-6).
+constexpr double kClearOfSingular = 1e-3;
 
 SolveReport DyadSolver::solve_position(DyadState& s) const {
   SolveReport report;
@@ -1508,7 +1512,19 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
         (first < 0 ||
          std::abs(parameter_at(i) - start_value) < std::abs(parameter_at(first) - start_value)))
       first = i;
-  if (first >= 0 && coordinates_of(mechanism, grid, first, reference.q)) {
+  // The modes are the drawing's, and the march goes from the drawn pose to that sample, so the
+  // dyads check Newton independently of its start (a Newton start on a fold put 66 samples on
+  // the other assembly, and dyads seeded from them agreed). Only a drawing beside a singular
+  // position, where continuity cannot tell the two assemblies apart, takes the reference's modes
+  // at that sample instead.
+  const bool drawn_clear = [&] {
+    DyadState at_start = state;
+    return solver.solve_position(at_start).status == PoseStatus::ok &&
+           at_start.smallest_sine >= kClearOfSingular;
+  }();
+  if (first >= 0 && drawn_clear) {
+    // (the march to it starts from the drawing)
+  } else if (first >= 0 && coordinates_of(mechanism, grid, first, reference.q)) {
     if (timed)
       reference.drive_at(mechanism, grid.time(first));
     else
