@@ -116,8 +116,8 @@ struct Trajectory {
   bool has_value(int row, Quantity q) const {
     return was_run(row) && value_exists(status[static_cast<size_t>(row)], q);
   }
-  Eigen::VectorXd rcond;           // analytic: reciprocal condition estimate of the Jacobian
-  Eigen::VectorXd loop_gap;        // engines: largest cut-joint violation [m]; 0 for analytic
+  Eigen::VectorXd rcond;     // analytic: reciprocal condition estimate of the Jacobian
+  Eigen::VectorXd loop_gap;  // engines: largest cut-joint violation [m]; 0 for analytic
   // Forces, when the method computes them (see the channel list above).
   bool has_forces = false;
   Eigen::MatrixXd effort;      // per driver (Mechanism::drivers): torque [N m] or force [N]

@@ -29,8 +29,8 @@ struct DerivedCheck {
   std::optional<double> estimate;  // the same estimate from the reference's own samples
   // A location's ties (DerivedField::ties): the other places each puts the same extreme.
   std::vector<double> value_ties, exact_ties, estimate_ties;
-  double scale = 0.0;              // what % of scale divides by (SI)
-  double tolerance = 0.0;          // % of scale: the comparator's for the field's class
+  double scale = 0.0;      // what % of scale divides by (SI)
+  double tolerance = 0.0;  // % of scale: the comparator's for the field's class
   Verdict verdict{};
   std::string reason;  // why there is no verdict (a value that does not exist)
   std::string quantity() const { return spec->name + "." + field; }
