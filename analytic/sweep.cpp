@@ -193,6 +193,16 @@ class Recorder {
   ForceSample forces_;
 };
 
+// A copy of `state` for a sample without a pose: no coordinates, rates or accelerations (the
+// state itself stays where the branch stopped); the caller sets its driver.
+KinematicState without_pose(const KinematicState& state) {
+  KinematicState none = state;
+  none.q.setZero();
+  none.qdot.setZero();
+  none.qddot.setZero();
+  return none;
+}
+
 double min_step(const NewtonSolver& solver, double tolerance) {
   // Driver values closer than this are not told apart (angles in rad, slider in m).
   const Mechanism& m = solver.mechanism();
@@ -1120,10 +1130,7 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
       stopped_way = target > from ? 1.0 : -1.0;
     }
     // The flagged sample from a copy: the state stays where the branch stopped.
-    KinematicState flagged = state;
-    flagged.q.setZero();
-    flagged.qdot.setZero();
-    flagged.qddot.setZero();
+    KinematicState flagged = without_pose(state);
     flagged.driver = drivers[i];
     solver.write_sample(flagged, failure, out, row);
   }
@@ -1327,10 +1334,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                                         "(limit of the assembling range)",
                                         end);
       if (i == 0) out.events.push_back({end, report.status, report.message});
-      KinematicState none = state;
-      none.q.setZero();
-      none.qdot.setZero();
-      none.qddot.setZero();
+      KinematicState none = without_pose(state);
       none.driver = constant_speed_state(d, values[i].value);
       solver.write_sample(none, report, out, first_row + static_cast<int>(i));
     }
@@ -1696,10 +1700,7 @@ Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
       record(state, last, state.driver, out, i);
       continue;
     }
-    KinematicState flagged = state;
-    flagged.q.setZero();
-    flagged.qdot.setZero();
-    flagged.qddot.setZero();
+    KinematicState flagged = without_pose(state);
     flagged.drive_at(m, t);
     solver.write_sample(flagged, failure, out, i);
   }
