@@ -652,65 +652,107 @@ void NewtonSolver::unwind_to_drivers(Eigen::VectorXd& q, std::span<const DriverS
   }
 }
 
+// The joints' rows at a drawing where J is singular: regular (their singular values in a ratio
+// above this) at a toggle, rank-deficient at a change point.
+constexpr double kFoldJoints = 1.5e-8;  // sqrt(eps)
+
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
   state.drive_at(mechanism_, 0.0);
   unwind_to_drivers(state.q, drivers(state));
-  SolveReport report = solve_position(state);
-  if (report.status != PoseStatus::no_convergence) {
-    if (report.status == PoseStatus::ok) {
-      solve_velocity(state);
-      solve_acceleration(state);
-    } else {
-      state.qdot.setZero();
-      state.qddot.setZero();
-    }
-    return report;
-  }
-  // Newton failed from the drawing. Levenberg–Marquardt minimises |Phi|^2 instead: a minimum
-  // with a residual left means the chain cannot close here; a zero residual gets a fresh Newton.
-  state.q = drawn_coordinates();
-  unwind_to_drivers(state.q, drivers(state));
-  const int n = static_cast<int>(state.q.size());
-  double lambda = 1e-3;
-  Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);
-  Eigen::MatrixXd jac(n, n);
-  residual(state.q, drivers(state), phi);
-  for (int it = 0; it < 500; ++it) {
-    jacobian(state.q, jac);
-    jac.array().colwise() *= row_scale_.array();
-    const Eigen::VectorXd scaled_phi = phi.cwiseProduct(row_scale_);
-    const Eigen::MatrixXd normal = jac.transpose() * jac;
-    const Eigen::VectorXd gradient = jac.transpose() * scaled_phi;
-    if (gradient.lpNorm<Eigen::Infinity>() < 1e-14 * length_scale_ * length_scale_) break;
-    Eigen::MatrixXd damped = normal;
-    damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
-    step = -damped.ldlt().solve(gradient);
-    trial = state.q + step;
-    residual(trial, drivers(state), trial_phi);
-    if (scaled_norm(trial_phi) < scaled_norm(phi) ||
-        trial_phi.cwiseProduct(row_scale_).squaredNorm() < scaled_phi.squaredNorm()) {
-      state.q = trial;
-      phi = trial_phi;
-      lambda = std::max(lambda / 3.0, 1e-12);
-      if (step.lpNorm<Eigen::Infinity>() < 1e-15 * length_scale_) break;
-    } else {
-      lambda *= 4.0;
-      if (lambda > 1e12) break;
-    }
-  }
-  report = solve_position(state);
+  // Drawn at a singular position, J is singular at the drawing and Newton's first step leaps
+  // along its null direction (a Grashof-equality four-bar drawn on its change point and started
+  // 1e-4 deg on: the coupler went to 3.5e11 deg). Levenberg–Marquardt's damped steps go first.
+  update_frames(state);
+  factorize(state);
+  const double drawn_rcond = rcond(state);
+  const bool drawn_singular = !(drawn_rcond >= options_.singular_rcond);
+  SolveReport report;
+  report.status = PoseStatus::no_convergence;
+  state.factorized = false;
+  if (!drawn_singular) report = solve_position(state);
   if (report.status == PoseStatus::no_convergence) {
-    report.status = PoseStatus::cannot_assemble;
-    report.message = fmt::format(
-        "the chain cannot be assembled at the driver's start value: the closest it comes leaves "
-        "a loop gap of {:.3e} m",
-        scaled_norm(phi));
-  } else if (report.status == PoseStatus::ok) {
+    // Newton failed from the drawing, or was not tried there. Levenberg–Marquardt minimises
+    // |Phi|^2 instead: a minimum with a residual left means the chain cannot close here; a zero
+    // residual gets a fresh Newton.
+    state.q = drawn_coordinates();
+    unwind_to_drivers(state.q, drivers(state));
+    const int n = static_cast<int>(state.q.size());
+    double lambda = 1e-3;
+    Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);
+    Eigen::MatrixXd jac(n, n);
+    residual(state.q, drivers(state), phi);
+    for (int it = 0; it < 500; ++it) {
+      jacobian(state.q, jac);
+      jac.array().colwise() *= row_scale_.array();
+      const Eigen::VectorXd scaled_phi = phi.cwiseProduct(row_scale_);
+      const Eigen::MatrixXd normal = jac.transpose() * jac;
+      const Eigen::VectorXd gradient = jac.transpose() * scaled_phi;
+      if (gradient.lpNorm<Eigen::Infinity>() < 1e-14 * length_scale_ * length_scale_) break;
+      Eigen::MatrixXd damped = normal;
+      damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
+      step = -damped.ldlt().solve(gradient);
+      trial = state.q + step;
+      residual(trial, drivers(state), trial_phi);
+      if (scaled_norm(trial_phi) < scaled_norm(phi) ||
+          trial_phi.cwiseProduct(row_scale_).squaredNorm() < scaled_phi.squaredNorm()) {
+        state.q = trial;
+        phi = trial_phi;
+        lambda = std::max(lambda / 3.0, 1e-12);
+        if (step.lpNorm<Eigen::Infinity>() < 1e-15 * length_scale_) break;
+      } else {
+        lambda *= 4.0;
+        if (lambda > 1e12) break;
+      }
+    }
+    report = solve_position(state);
+    if (report.status == PoseStatus::no_convergence) {
+      report.status = PoseStatus::cannot_assemble;
+      report.message = fmt::format(
+          "the chain cannot be assembled at the driver's start value: the closest it comes "
+          "leaves a loop gap of {:.3e} m",
+          scaled_norm(phi));
+    }
+  }
+  // Drawn on a toggle (J singular at the drawing, the joints' rows regular: a fold, not a change
+  // point) and started off it: two assemblies meet in the drawn pose, so it does not say which
+  // one the chain takes at the start (a four-bar drawn on its toggle and started 1e-9 deg inside
+  // was swept on its other assembly). Started on the toggle to within the tolerance, the two are
+  // one pose there: J's rcond at the start, which grows as the square root of the distance from
+  // the fold, is below sqrt(tolerance) (a rocker started at acos(0.1375), drawn to 1e-6 deg).
+  const auto started_off_drawing = [&] {
+    const Eigen::VectorXd drawn = drawn_coordinates();
+    Eigen::VectorXd phi(drawn.size());
+    residual(drawn, drivers(state), phi);
+    for (int d = 0; d < layout_.driver_count(); ++d) {
+      const int row = layout_.driver_row(d);
+      if (std::abs(phi(row)) * row_scale_(row) > options_.tolerance * length_scale_) return true;
+    }
+    return false;
+  };
+  if (drawn_singular && report.status == PoseStatus::ok &&
+      report.rcond >= std::sqrt(options_.tolerance) && started_off_drawing()) {
+    Eigen::MatrixXd jac(state.q.size(), state.q.size());
+    jacobian(drawn_coordinates(), jac);
+    const int joints = layout_.joint_row_count();
+    const Eigen::VectorXd sigma =
+        Eigen::JacobiSVD<Eigen::MatrixXd>(row_scale_.head(joints).asDiagonal() *
+                                          jac.topRows(joints) * col_scale_.asDiagonal())
+            .singularValues();
+    if (sigma.size() > 0 && sigma(sigma.size() - 1) > kFoldJoints * sigma(0)) {
+      report.status = PoseStatus::cannot_assemble;
+      report.message = fmt::format(
+          "the drawing is on a toggle (the Jacobian's rcond there is {:.1e}, its joints' rows "
+          "regular), where two assemblies meet, and the driver starts off it: the drawing does "
+          "not say which assembly the chain takes at the start; draw it at the start, or off the "
+          "toggle",
+          drawn_rcond);
+    }
+  }
+  if (report.status == PoseStatus::ok) {
     solve_velocity(state);
     solve_acceleration(state);
-  }
-  if (report.status != PoseStatus::ok) {
+  } else {
     // No motion to report, and qddot held Newton's last step as scratch (possibly not finite).
     state.qdot.setZero();
     state.qddot.setZero();

@@ -363,6 +363,42 @@ class Tracer {
     return correct(seed, 0.0, out);
   }
 
+  // Newton on [Phi_c; driver row] at q's driver value, from q to round-off. Within the solver's
+  // tolerance a pose beside a change point can still lie on the other branch: the residual grows
+  // only as the square of the distance along it (a kite drawn 1e-4 deg before its change point
+  // was assembled 1.3e-6 rad off its branch with a residual of 5e-13, and its tangent mixed the
+  // two branches). Steps are kept below kSettleStep (in z) and must lower the residual, so the
+  // pose cannot leap to another assembly. Returns the residual left (|Phi|_inf in z) over its
+  // round-off there: above 1 where the chain does not close exactly at that driver value.
+  double settle(Eigen::VectorXd& q) {
+    const double value = solver_.driver_value(q);
+    const auto residual = [&](const Eigen::VectorXd& at) {
+      solver_.residual(at, 0.0, phi_);
+      rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
+      rhs_(joints_) = (value - phi_(driver_row_)) / (angular_ ? 1.0 : length_);
+      return rhs_.lpNorm<Eigen::Infinity>();
+    };
+    double r = residual(q);
+    for (int it = 0; it < 8 && r > 0.0; ++it) {
+      jacobian_at(q);
+      factorise(gradient_);
+      dz_ = rhs_;
+      solve(dz_);
+      if (!dz_.allFinite() || !(dz_.lpNorm<Eigen::Infinity>() <= kSettleStep)) break;
+      dq_ = column_.cwiseProduct(dz_);
+      const Eigen::VectorXd next = q + dq_;
+      const double r_next = residual(next);
+      if (!(r_next < r)) break;
+      q = next;
+      r = r_next;
+    }
+    const double magnitude = std::max(1.0, q.cwiseQuotient(column_).lpNorm<Eigen::Infinity>());
+    return r / (kRoundOffResidual * std::numeric_limits<double>::epsilon() * magnitude);
+  }
+  // A pose settles to a few eps of its coordinates' magnitude (7e-17 beside the polycentric
+  // hinge's toggle); 1e-9 deg beyond that toggle, where it does not close, it stays at 6.5e-13.
+  static constexpr double kSettleStep = 1e-3, kRoundOffResidual = 100.0;
+
   // The smallest singular value of the constraint rows C at q over their largest: 0 at a change
   // point, where C loses rank and two branches cross.
   double crossing_ratio(const Eigen::VectorXd& q) {
@@ -1016,23 +1052,37 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
   }
 }
 
-// A moving driver drawn at a change point (within 1e-10 of the chain's own scale of C's singular
-// values, far below any drawing's precision) is bad input: two branches cross there, so the
-// drawing cannot say which one the chain follows, and no sweep from it is the chain's.
-void refuse_start_at_change_point(const NewtonSolver& solver, const KinematicState& assembled) {
+// A moving driver's start, assembled, is taken to round-off (Tracer::settle); then, drawn at a
+// change point to working precision, it is bad input: two branches cross there, so the drawing
+// cannot say which one the chain follows, and no sweep from it is the chain's. Along the other
+// branch the residual grows as the square of the distance, so round-off tells the branches apart
+// only where C's singular values are in a ratio above sqrt(eps): a kite drawn folded 1e-6 deg
+// before its change point (ratio 2.1e-9) settles on the held-driver branch, and 1e-4 deg before
+// (1.8e-7) on its own (tests/analytic/test_edges.cpp).
+const double kCrossingZone = std::sqrt(std::numeric_limits<double>::epsilon());
+
+void settle_start(const NewtonSolver& solver, KinematicState& state) {
   const Mechanism& m = solver.mechanism();
   if (m.driver().at_rest()) return;
   Tracer tracer(solver);
-  const double ratio = tracer.crossing_ratio(assembled.q);
-  if (ratio >= 1e-10) return;
-  const bool angular = m.driver().angular();
-  throw DefinitionError({Diagnostic{
-      m.driver().where,
-      fmt::format("the drawn position, driver = {:.9g} {}, is a change point (the constraint "
-                  "Jacobian loses rank: {:.1e}): two branches cross there, so the drawing does not "
-                  "say which one the chain follows; draw it at another driver value",
-                  m.driver().start / (angular ? m.units.angle : m.units.length),
-                  angular ? m.units.angle_name : m.units.length_name, ratio)}});
+  const std::string start = driver_unit_of(m).text(m.driver().start, 12);
+  std::string why;
+  if (const double over = tracer.settle(state.q); over > 1.0) {
+    why = fmt::format(
+        "the chain closes at the driver's start, {}, only to the solver's tolerance (its residual "
+        "stays {:.0f} times round-off): the start lies just beyond a limit of the assembling "
+        "range (a toggle), by less than the tolerance, where no pose closes exactly; draw it "
+        "inside the range",
+        start, over);
+  } else if (const double ratio = tracer.crossing_ratio(state.q); ratio < kCrossingZone) {
+    why = fmt::format(
+        "the drawn position, driver = {}, is a change point to working precision (the "
+        "constraint Jacobian's singular values in a ratio of {:.1e}, below sqrt(eps) = {:.1e}): "
+        "two branches cross there, so the drawing does not say which one the chain follows; draw "
+        "it at another driver value",
+        start, ratio, kCrossingZone);
+  }
+  if (!why.empty()) throw DefinitionError({Diagnostic{m.driver().where, why}});
 }
 
 }  // namespace
@@ -1060,7 +1110,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   const SolveReport assembled = solver.assemble(state);
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
-  refuse_start_at_change_point(solver, state);
+  settle_start(solver, state);
   const bool angular = mechanism.driver().angular();
   const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
                          options.tracer_steps};
@@ -1772,7 +1822,7 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
   }
   const bool assembles =
       assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
-  if (assembles) refuse_start_at_change_point(solver, state);
+  if (assembles) settle_start(solver, state);
   if (assembles && d.law.kind == MotionLaw::Kind::constant_speed) {
     Trajectory out;
     out.method = "newton";
@@ -1849,7 +1899,7 @@ Trajectory solve_at(const Mechanism& mechanism, double driver_value, const Sweep
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
   if (assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular)
-    refuse_start_at_change_point(solver, state);
+    settle_start(solver, state);
   DriverState target = constant_speed_state(d, driver_value);
   if (d.law.kind != MotionLaw::Kind::constant_speed) {
     // The first time in the law's cycle at which it passes the value (bisection on a bracket).

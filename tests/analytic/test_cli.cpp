@@ -61,8 +61,9 @@ std::string parallelogram_at(double degrees) {
 // Item 6 of issue 24: drawn at a change point, the drawing cannot say which branch the chain is
 // on: refused at [driver] (it was a one-sample sweep and exit 0). Elsewhere `check` names the
 // change points inside the sweep, at the values the crank passes them (0, never -0, from -45
-// deg; not the one a hair past the cycle's end from 179.9999999 deg), and the parallelogram's
-// inversion as Norton's double crank.
+// deg; not the one a hair past the cycle's end from 179.99999 deg), and the parallelogram's
+// inversion as Norton's double crank. Drawn 1e-7 deg from it (179.9999999), the start is the
+// change point to working precision (issue 35): refused too, with its value in full.
 TEST(Cli, ChangePointsAsCheckNamesThem) {
   for (const double at : {0.0, 180.0}) {
     const std::string file = parallelogram_at(at);
@@ -79,9 +80,14 @@ TEST(Cli, ChangePointsAsCheckNamesThem) {
       << from_minus_45.out;
   EXPECT_EQ(from_minus_45.out.find("-0.000"), std::string::npos) << from_minus_45.out;
   EXPECT_NE(from_minus_45.out.find("parallelogram double-crank"), std::string::npos);
-  const CommandRun near_180 = crosslink("check " + parallelogram_at(179.9999999));
+  const CommandRun near_180 = crosslink("check " + parallelogram_at(179.99999));
   EXPECT_NE(near_180.out.find("singular positions over the sweep: 2"), std::string::npos)
       << near_180.out;
+  const CommandRun nearer = crosslink("check " + parallelogram_at(179.9999999));
+  EXPECT_EQ(nearer.exit_code, 2);
+  EXPECT_NE(nearer.err.find("driver = 179.9999999 deg, is a change point to working precision"),
+            std::string::npos)
+      << nearer.err;
 }
 
 TEST(Cli, CheckAcceptsTheSewingMachine) {

@@ -12,6 +12,7 @@
 
 #include "analytic/dyads.h"
 #include "analytic/loader.h"
+#include "analytic/newton.h"
 #include "analytic/sweep.h"
 #include "analytic/trust.h"
 #include "tests/common/mechanisms.h"
@@ -159,17 +160,152 @@ TEST(Edges, ARockerStartedOnItsToggleClosesItsLoopAfterOneRoundTrip) {
   for (int k = 1; k < t.samples(); ++k) EXPECT_GT(t.time(k), t.time(k - 1)) << k;
 }
 
+// The file with its driver's start replaced (each edges file writes it as start = "...").
+Mechanism edge_file_started(const std::string& name, const std::string& start) {
+  const std::string path = "tests/analytic/data/edges/" + name;
+  std::string text = test::source_text(path);
+  const size_t at = text.find("\nstart = \"");
+  const size_t end = text.find('"', at + 10);
+  text.replace(at + 10, end - at - 10, start);
+  return parse_mechanism(text, path);
+}
+
 // Drawn 1e-6 deg after a change point (a Grashof-equality four-bar): the start was planned on
 // both sides of the located change point and written twice, and every engine refused the
-// reference ("the reference's times do not increase").
+// reference ("the reference's times do not increase"). From 1e-4 deg it is one sample, the
+// driver increasing; at 1e-6 deg the start is the change point to working precision (below).
 TEST(Edges, AStartBesideAChangePointIsOneSample) {
-  const Mechanism m = edge_file("grashof_eq_start_1e-6_after_change_point.toml");
+  const Mechanism m = edge_file_started("grashof_eq_start_1e-6_after_change_point.toml", "1e-4");
   const Trajectory t = sweep(m);
   ASSERT_GE(t.samples(), 361);
   for (int k = 1; k < t.samples(); ++k) {
     EXPECT_GT(t.time(k), t.time(k - 1)) << k;
     EXPECT_GT(t.driver(k), t.driver(k - 1)) << k;
   }
+}
+
+// A kite four-bar (crank = ground = 30, coupler = rocker = 65 mm) drawn beside its change point,
+// where B falls on D and coupler and rocker turn freely together. Its smooth branch is C = r
+// (cos q/2, sin q/2), r = a cos(q/2) + sqrt(b^2 - a^2 sin^2(q/2)) (C on the bisector of BAD, the
+// file's closed form). Drawn 1e-7 deg before, `check` reported a false toggle at 2e-9 deg and a
+// range of -360.97 to 0 deg, and the sweep ran backwards: the start, within the solver's
+// tolerance, lay on the held-driver branch (a residual of 5e-13) and its tangent mixed the two.
+// Settled to round-off, a start from 1e-5 deg (drawn folded) or 1e-4 deg on turns fully on the
+// smooth branch; nearer, round-off cannot tell the branches apart and the start is refused at
+// the driver's line, as a change point.
+TEST(Edges, AKiteDrawnBesideItsChangePointTurnsOnItsSmoothBranchOrIsRefused) {
+  const double a = 0.030, b = 0.065;
+  for (const std::string file : {"kite_start_1e-7_before_change_point.toml",
+                                 "kite_start_1e-7_before_change_point_folded.toml"}) {
+    for (const std::string start : {"-1e-9", "-1e-7", "-1e-6"}) {
+      const Mechanism m = edge_file_started(file, start);
+      const std::string text = test::source_text("tests/analytic/data/edges/" + file);
+      const auto line = std::count(text.begin(), text.begin() + text.find("[driver]"), '\n') + 1;
+      try {
+        assembling_range(m);
+        ADD_FAILURE() << file << " from " << start << " deg: not refused";
+      } catch (const DefinitionError& e) {
+        EXPECT_NE(std::string(e.what()).find(fmt::format(".toml:{}:", line)), std::string::npos)
+            << e.what();
+        EXPECT_NE(std::string(e.what()).find("change point to working precision"),
+                  std::string::npos)
+            << e.what();
+      }
+      EXPECT_THROW(sweep(m), DefinitionError) << file << " from " << start;
+    }
+    const bool folded = file.find("folded") != std::string::npos;
+    for (const std::string start : {"-1e-4", "-1e-5"}) {
+      if (start == "-1e-5" && !folded) continue;  // 1e-5 deg: a ratio of 1.2e-8, refused
+      const Mechanism m = edge_file_started(file, start);
+      const std::string what = file + " from " + start + " deg";
+      EXPECT_TRUE(assembling_range(m).full_cycle) << what;
+      SweepOptions options;
+      options.step = 5 * kDeg;
+      const Trajectory t = sweep(m, options);
+      const auto named = std::find(t.point_names.begin(), t.point_names.end(), "C");
+      const auto C = static_cast<Eigen::Index>(named - t.point_names.begin());
+      ASSERT_GE(t.samples(), 72) << what;
+      int ok = 0;
+      for (int k = 0; k < t.samples(); ++k) {
+        if (k > 0) {
+          EXPECT_GT(t.driver(k), t.driver(k - 1)) << what << " " << k;
+          EXPECT_GT(t.time(k), t.time(k - 1)) << what << " " << k;
+        }
+        if (t.status[static_cast<size_t>(k)] != PoseStatus::ok) continue;
+        ++ok;
+        // The smooth branch through the drawing: at q = 0 drawn open C = (a + b, 0), folded
+        // C = (a - b, 0), which the branch reaches at q = 360 deg (half-angle q/2 + 180 deg).
+        const double half = 0.5 * t.driver(k) + (folded ? kPi : 0.0);
+        const double sh = std::sin(half), ch = std::cos(half);
+        const double r = a * ch + std::sqrt(b * b - a * a * sh * sh);
+        EXPECT_NEAR(t.x(k, C), r * ch, 1e-9 * (a + b)) << what << " at " << t.driver(k) / kDeg;
+        EXPECT_NEAR(t.y(k, C), r * sh, 1e-9 * (a + b)) << what << " at " << t.driver(k) / kDeg;
+      }
+      EXPECT_GE(ok, 60) << what;
+    }
+  }
+}
+
+// The non-Grashof four-bar drawn open at crank angle `drawn`, its driver started at `start`.
+Mechanism non_grashof_drawn(double drawn, double start) {
+  Mechanism m = non_grashof("");
+  m.drivers[0].start = start;
+  const FourBarPose p = open_pose(drawn);
+  const Eigen::Vector2d B(a * std::cos(drawn), a * std::sin(drawn));
+  for (Link& link : m.links) {
+    if (link.name == "crank") link.pose = Eigen::Vector3d(0, 0, drawn);
+    if (link.name == "coupler") link.pose = Eigen::Vector3d(B.x(), B.y(), p.coupler);
+    if (link.name == "rocker") link.pose = Eigen::Vector3d(d, 0, p.rocker);
+  }
+  return m;
+}
+
+// Starts 1e-9 deg either side of the upper toggle, acos(0.203125), drawn half a degree inside
+// it. Within the solver's tolerance the chain can close 1e-9 deg beyond a toggle (the polycentric
+// hinge did, with a residual of 6.5e-13, and swept the other assembly from there): beyond, the
+// start is refused at the driver's line or does not assemble, and no sample has a pose; inside,
+// it sweeps on the open branch.
+TEST(Edges, AStartJustBeyondAToggleHasNoPose) {
+  for (const double offset : {1e-9, -1e-9}) {
+    const Mechanism m = non_grashof_drawn(kLimit - 0.5 * kDeg, kLimit + offset * kDeg);
+    const std::string what = fmt::format("{:+g} deg from the toggle", offset);
+    SweepOptions options;
+    options.step = 5 * kDeg;
+    if (offset < 0) {
+      EXPECT_GE(expect_on_open_branch(sweep(m, options), what), 30);
+      continue;
+    }
+    try {
+      const Trajectory t = sweep(m, options);
+      EXPECT_EQ(expect_on_open_branch(t, what), 0) << what;
+    } catch (const DefinitionError& e) {
+      EXPECT_NE(std::string(e.what()).find("only to the solver's tolerance"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// Drawn on the toggle itself, with the driver started elsewhere: the drawn pose is where the
+// open and crossed assemblies meet, so it does not say which one the chain takes at the start.
+// Newton's first step leapt along J's null direction there (started 1e-9 deg inside, the coupler
+// went to 1.3e5 rad and the sweep ran on the crossed assembly); now the start does not assemble,
+// with the reason, and no sample has a pose (1e-9 deg inside, Levenberg–Marquardt stops short of
+// closing the chain, and says so). Started on the toggle, the drawing is the start.
+TEST(Edges, ADrawingOnAToggleSaysNothingOfAnotherStart) {
+  for (const double start : {77.0, 0.0, kLimit / kDeg - 1e-5, kLimit / kDeg - 1e-9}) {
+    const Mechanism m = non_grashof_drawn(kLimit, start * kDeg);
+    const std::string what = fmt::format("drawn on the toggle, started at {} deg", start);
+    KinematicState state(m);
+    const SolveReport assembled = NewtonSolver(m).assemble(state);
+    EXPECT_EQ(assembled.status, PoseStatus::cannot_assemble) << what;
+    const bool toggle = assembled.message.find("the drawing is on a toggle") != std::string::npos;
+    EXPECT_TRUE(toggle || start == kLimit / kDeg - 1e-9) << what << ": " << assembled.message;
+    EXPECT_EQ(expect_on_open_branch(sweep(m), what), 0) << what;
+  }
+  SweepOptions options;
+  options.step = 5 * kDeg;
+  const Mechanism on = non_grashof_drawn(kLimit, kLimit);
+  EXPECT_GE(expect_on_open_branch(sweep(on, options), "drawn and started on the toggle"), 30);
 }
 
 // A driver's start a whole turn from its drawn link: the start is the drawn pose (every link as
