@@ -19,8 +19,14 @@ DynamicsPlan plan_dynamics(const Mechanism& definition, const Mechanism& scene_m
   DynamicsPlan p;
   const std::vector<double> per_interval = planned_steps(reference, p.span, wanted, 1.0, max_steps);
   p.grid = sample_grid(reference, p.span, per_interval, inner);
+  // Steps past the last sample for its difference stencil, and at least to pose 4 for the
+  // start's one-sided one (dynamics_stencil), which the work of the loads needs whichever way a
+  // sample is read: in a run of two sample intervals at one step each the start's stencil was
+  // never complete, and Simbody's three samples were all flagged diverged in a run it called ok.
   std::vector<double>& time = p.grid.time;
-  time.push_back(time.back() + (time.back() - time[time.size() - 2]));
+  const double last_step = time.back() - time[time.size() - 2];
+  do time.push_back(time.back() + last_step);
+  while (time.size() < 5);
 
   const int first = p.span.first;
   p.start = reference_state(definition, reference, first);
@@ -329,6 +335,15 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
     const int lost = judge.first_lost();
     out.events.push_back(
         {lost >= 0 ? event_position(reference, lost) : 0.0, PoseStatus::diverged, stop});
+  } else if (const int lost = judge.first_lost(); lost >= 0) {
+    // Ended cleanly short of a sample's stencil (plan_dynamics extends the grid so none is):
+    // flagged with why, never silently.
+    const std::string text = fmt::format(
+        "samples from t = {:.6g} s not reached: the run's {} steps end before their difference "
+        "stencils",
+        reference.time(lost), last_step);
+    add_note(run.message, text);
+    out.events.push_back({event_position(reference, lost), PoseStatus::diverged, text});
   }
   if (const int drift_at = sampled.drift_at(); drift_at >= 0) {
     const std::string text =

@@ -139,13 +139,6 @@ bool reads_its_state(const std::string& engine) {
   return engine == "mujoco" || engine == "simbody";
 }
 
-// Flagged first samples without a reason of their own, each an open issue named here (found by
-// this test): Simbody flags every sample of Andrews' squeezer diverged, released or not, in a
-// run it calls ok, without an event or note saying why.
-bool known_unexplained(const std::string& file, const std::string& engine) {
-  return engine == "simbody" && file == "mechanisms/andrews_squeezer.toml";
-}
-
 std::string setting(const EngineRun& run, const std::string& name) {
   for (const auto& [key, value] : run.settings)
     if (key == name) return value;
@@ -169,9 +162,6 @@ TEST_P(FirstInstant, TheFirstSampleIsTheExactOneOrFlaggedWithItsReason) {
   const Trajectory& t = run.trajectory;
   if (const PoseStatus status = t.status.front(); !usable(status)) {
     // Kept out of the verdict: then the run says why (a failed run, or an event).
-    if (known_unexplained(file, engine_name))
-      GTEST_SKIP() << engine_name << " flags t = 0 " << to_string(status)
-                   << " without a reason: an open issue";
     EXPECT_TRUE(!run.ok || !t.events.empty())
         << engine_name << " flags t = 0 " << to_string(status) << " without a reason";
     return;
