@@ -291,12 +291,22 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
   // What Kennedy could not place, from the exact velocities: where the relative velocity of
   // the two links vanishes, P = (omega_i r_i - omega_j r_j + perp(v_i - v_j)) / (omega_i -
   // omega_j) with v, r of the frame origins; at infinity across (v_i - v_j) when omega_i = omega_j.
+  // A pair with no relative motion (to round-off of the chain's own) has no centre: every point
+  // is one (IFToMM A02's two coupler halves at its drawn pose gave 0/0, a NaN centre that
+  // stopped the report's script). It stays unplaced, with why.
   const Eigen::VectorXd qdot = rates_at(m, exact, row);
+  double motion = 0.0;  // the largest |omega| size + |v| of a moving link's frame
+  for (int k = 0; k < m.moving_count(); ++k)
+    motion = std::max(motion, std::abs(qdot(3 * k + 2)) * size + qdot.segment<2>(3 * k).norm());
   for (InstantCentre& c : out.centres) {
     if (c.placed()) continue;
     ++out.kennedy_unplaced;
     const BodyMotion a = motion_of(m, c.i, q, &qdot), b = motion_of(m, c.j, q, &qdot);
     const Eigen::Vector2d top = a.omega * a.r - b.omega * b.r + perp(a.v - b.v);
+    if (!(top.norm() + std::abs(a.omega - b.omega) * size > 1e-12 * motion)) {
+      c.how = "undefined: the pair has no relative motion at this pose (every point is a centre)";
+      continue;
+    }
     c.point = normalise_point(Eigen::Vector3d(top.x(), top.y(), a.omega - b.omega), size);
     c.found = InstantCentre::Found::velocity;
     c.how = "Kennedy cannot place it: from the velocity solution";
@@ -359,8 +369,10 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
     for (int k = 0; k < n; ++k) {
       if (field[static_cast<size_t>(k)].known) continue;
       const InstantCentre& fixed = centres.at(ground, k);
+      if (!fixed.placed()) continue;
       for (int j = 0; j < n; ++j) {
         if (j == k || j == ground || !field[static_cast<size_t>(j)].known) continue;
+        if (!centres.at(j, k).placed()) continue;
         const Field& fj = field[static_cast<size_t>(j)];
         Field fk;
         const double quality = follow(fj, fixed, centres.at(j, k), size, fk);

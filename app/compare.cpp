@@ -283,6 +283,7 @@ int run_compare(CompareArgs args) {
     html.tolerances = args.tolerances;
     html.settings = args.settings;
     html.accuracy = accuracy;
+    html.styles = methods::method_styles();
     std::ostringstream page;
     compare::write_html(cmp, html, page);
     write_file(args.report, page.str());

@@ -43,7 +43,8 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
   fmt::print("{:<8} {:>24}  {}\n", "pair", fmt::format("x, y [{}]", ln), "found");
   for (const InstantCentre& c : ic.centres) {
     const std::string where =
-        c.at_infinity()
+        !c.placed() ? std::string("undefined")
+        : c.at_infinity()
             ? fmt::format("at infinity, direction ({:.4f}, {:.4f})", c.point.x(), c.point.y())
             : fmt::format("{:.4f}, {:.4f}", c.point.x() / L, c.point.y() / L);
     fmt::print("I({},{})   {:>24}  {}\n", c.i + 1, c.j + 1, where, c.how);

@@ -12,6 +12,14 @@
 
 namespace crosslink::compare {
 
+// How a method is drawn in every report's charts: a colour ("#1f77b4") and a dash pattern (px
+// on, off, ...; {} solid). Each method's is named once: the engine table's row for an engine
+// (methods/engines.h), methods::method_style for the exact methods.
+struct LineStyle {
+  std::string colour;
+  std::vector<double> dash;
+};
+
 struct MethodRun {
   std::string name;         // one of method_names()
   std::string description;  // one line for reports

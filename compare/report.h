@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdio>
+#include <map>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <ostream>
@@ -65,6 +66,9 @@ struct HtmlOptions {
   std::vector<std::string> tolerances;  // --tolerance as given: "velocity=0.5", "dyads:angle=1"
   std::vector<std::string> settings;    // --set as given: "dt=1e-4", "mujoco:dt=1e-4"
   std::optional<double> accuracy;       // --accuracy [%]: the engines' tolerance, chosen dt
+  // Each method's line in the charts (methods::method_styles); a method without one is drawn
+  // plain.
+  std::map<std::string, LineStyle> styles;
 };
 // The folder the chart scripts were found in, or nullopt (the message says where it looked).
 std::optional<std::string> find_report_assets(const std::vector<std::string>& extra_dirs,

@@ -665,6 +665,9 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   Trajectory pose = solve_at(m, at);
   const DisplayUnit du = driver_unit(m);
   json data = report_data(cmp, pose);
+  data["styles"] = json::object();
+  for (const auto& [name, style] : options.styles)
+    data["styles"][name] = {{"colour", style.colour}, {"dash", style.dash}};
   data["drawing"]["at"] = timed ? at : at / du.scale;
   if (timed) data["drawing"]["timed"] = true;  // `at` is a time: the sample drawn is the nearest
   data["drawing"]["status"] = std::string(to_string(pose.status.at(0)));
@@ -675,10 +678,13 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   if (usable(pose.status.at(0))) {
     const InstantCentres ic = instant_centres(m, pose, 0);
     const DisplayUnit length = display_unit(m, "x.any");
-    std::vector<std::string> at_infinity;
+    std::vector<std::string> at_infinity, undefined;
     for (const InstantCentre& c : ic.centres) {
       const std::string name = fmt::format("I{},{}", c.i + 1, c.j + 1);
-      if (!c.placed()) continue;
+      if (!c.placed()) {
+        undefined.push_back(name);
+        continue;
+      }
       if (c.at_infinity()) {
         at_infinity.push_back(name);
         continue;
@@ -694,11 +700,16 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
     centres_note = fmt::format(
         "Instantaneous centres (red diamonds) I<i>,<j>, links numbered {}; a centre outside the "
         "frame is a red arrow at its edge pointing at it, labelled with its distance beyond the "
-        "arrow's tip.{}",
-        links, at_infinity.empty() ? "" : " At infinity (a pair in relative translation): ");
-    for (size_t i = 0; i < at_infinity.size(); ++i)
-      centres_note += (i ? ", " : "") + at_infinity[i];
-    if (!at_infinity.empty()) centres_note += ".";
+        "arrow's tip.",
+        links);
+    const auto listed = [&](const char* title, const std::vector<std::string>& names) {
+      if (names.empty()) return;
+      centres_note += title;
+      for (size_t i = 0; i < names.size(); ++i) centres_note += (i ? ", " : "") + names[i];
+      centres_note += ".";
+    };
+    listed(" At infinity (a pair in relative translation): ", at_infinity);
+    listed(" Undefined (a pair with no relative motion at this pose): ", undefined);
   }
 
   std::string legend;

@@ -23,15 +23,21 @@
   const R = REPORT;
   const driverTitle = R.driver.title || 'driver [' + R.driver.unit + ']';
   const methodOrder = R.methods;
-  // One colour and dash per method in every report (the sweep report uses the same colours).
-  const methodStyle = {
-    analytic: {colour: '#222222', dash: [1, 0]},
-    dyads: {colour: '#2ca02c', dash: [8, 3]},
-    ic: {colour: '#9467bd', dash: [2, 2]},
-    mujoco: {colour: '#1f77b4', dash: [6, 2]},
-    bullet: {colour: '#d62728', dash: [4, 2, 1, 2]},
+  // One colour and dash per method in every report, from the engine table and the exact methods'
+  // (methods::method_style); solid where the dash is empty.
+  const style = (m) => {
+    const s = (R.styles || {})[m] || {colour: '#8c564b', dash: [1, 1]};
+    return {colour: s.colour, dash: s.dash.length ? s.dash : [1, 0]};
   };
-  const style = (m) => methodStyle[m] || {colour: '#8c564b', dash: [1, 1]};
+  // Two methods drawn alike could not be told apart: an error of the page.
+  {
+    const seen = new Map();
+    for (const m of methodOrder) {
+      const key = JSON.stringify(style(m));
+      if (seen.has(key)) throw new Error(m + ' is drawn as ' + seen.get(key) + ' is');
+      seen.set(key, m);
+    }
+  }
   const driverSpan = (() => {
     let lo = Infinity, hi = -Infinity;
     for (const v of R.driver.values) { lo = Math.min(lo, v); hi = Math.max(hi, v); }

@@ -41,6 +41,7 @@ std::vector<EngineEntry> make_table() {
   return {
       {.name = "mujoco",
        .description = "MuJoCo 2.2.2 scene",
+       .style = {"#1f77b4", {6, 2}},
        .make = sim::make_mujoco_engine,
        .tolerances = kKinematic,
        .dynamics_tolerances = kDynamics,
@@ -78,6 +79,7 @@ std::vector<EngineEntry> make_table() {
            }},
       {.name = "bullet",
        .description = "Bullet 3.24 float64 scene",
+       .style = {"#d62728", {4, 2, 1, 2}},
        .make = sim::make_bullet_engine,
        .tolerances = with_forces(kKinematic, 0.3),
        .dynamics_tolerances = with_forces(kDynamics, 0.3),
@@ -108,6 +110,7 @@ std::vector<EngineEntry> make_table() {
            }},
       {.name = "ode",
        .description = "ODE 0.16 double-precision scene",
+       .style = {"#ff7f0e", {10, 3}},
        .make = sim::make_ode_engine,
        // Bullet's rigid bodies' tolerances: the same scene (maximal coordinates, an exact solve,
        // ERP 1, semi-implicit Euler) gives the same numbers to 3 digits on every bundled
@@ -141,6 +144,7 @@ std::vector<EngineEntry> make_table() {
       // reports, and a loose projection.
       {.name = "simbody",
        .description = "Simbody 3.7 multibody system",
+       .style = {"#17becf", {3, 3, 9, 3}},
        .make = sim::make_simbody_engine,
        .tolerances = kKinematic,
        .dynamics_tolerances = kDynamics,

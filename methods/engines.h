@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "analytic/mechanism.h"
+#include "compare/method_run.h"
 #include "compare/tolerance.h"
 #include "sim/engine.h"
 
@@ -24,8 +25,9 @@ struct Variant {
 };
 
 struct EngineEntry {
-  std::string name;         // "mujoco": the method's name, the ENGINE: of --set and --tolerance
-  std::string description;  // one line for reports
+  std::string name;          // "mujoco": the method's name, the ENGINE: of --set and --tolerance
+  std::string description;   // one line for reports
+  compare::LineStyle style;  // its line in every report's charts (compare and sweep pages)
   std::function<std::unique_ptr<sim::Engine>()> make;
   // Default verdict tolerances [% of peak] of a kinematic and of a dynamics case (measured and
   // argued in engines.cpp).

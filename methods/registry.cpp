@@ -84,6 +84,20 @@ const std::vector<std::string>& method_names() {
   return names;
 }
 
+compare::LineStyle method_style(std::string_view name) {
+  if (const EngineEntry* engine = find_engine(name)) return engine->style;
+  if (name == "analytic") return {"#222222", {}};
+  if (name == "dyads") return {"#2ca02c", {8, 3}};
+  if (name == "ic") return {"#9467bd", {2, 2}};
+  return {"#8c564b", {1, 1}};
+}
+
+std::map<std::string, compare::LineStyle> method_styles() {
+  std::map<std::string, compare::LineStyle> out;
+  for (const std::string& name : method_names()) out[name] = method_style(name);
+  return out;
+}
+
 bool is_method(std::string_view name) {
   return std::find(method_names().begin(), method_names().end(), name) != method_names().end();
 }

@@ -10,6 +10,7 @@
 // available = false and the reason; it is listed in reports and never counted as a result.
 #pragma once
 
+#include <map>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,6 +27,11 @@ using compare::MethodRun;
 
 // "analytic", "dyads", "ic", then the engine table's, in report order.
 const std::vector<std::string>& method_names();
+// How method `name` is drawn in the reports: an engine's from its table row, the exact methods'
+// named here; a name of neither (a file of printed values) gets a plain brown dotted line.
+compare::LineStyle method_style(std::string_view name);
+// Every method's, by name (compare::HtmlOptions::styles).
+std::map<std::string, compare::LineStyle> method_styles();
 // Whether `name` is one of method_names().
 bool is_method(std::string_view name);
 

@@ -18,8 +18,17 @@
 
   const R = REPORT;
   const schema = 'https://vega.github.io/schema/vega-lite/v6.json';
-  const engineColour = {domain: ['analytic', 'mujoco', 'bullet', 'ode'],
-                        range: ['#777777', '#1f77b4', '#d62728', '#2ca02c']};
+  // Every engine's colour and dash from the engine table (R.styles, methods::method_styles): an
+  // engine outside a fixed domain was drawn with no point and no legend entry (Simbody).
+  const styled = Object.keys(R.styles);
+  const engineColour = {domain: styled, range: styled.map((m) => R.styles[m].colour)};
+  const engineDash = (engine) => {
+    const s = R.styles[engine];
+    return s && s.dash.length ? s.dash : [1, 0];
+  };
+  // An engine of the sweep without a style would be drawn with no point: an error of the page.
+  for (const r of R.rows)
+    if (!R.styles[r.engine]) throw new Error('engine ' + r.engine + ' has no style');
   // Twenty colours that stay apart (Tableau 20, dark and light of ten hues interleaved).
   const seriesPalette = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
                          '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#a0cbe8', '#ffbe7d',
@@ -101,9 +110,7 @@
                     legend: {labelLimit: 360}};
     const dash = {field: 'series', type: 'nominal', title: 'engine and variant',
                   scale: {domain: series,
-                          range: series.map((s) => (s.startsWith('bullet') ? [6, 3]
-                                                  : s.startsWith('ode')  ? [2, 2]
-                                                                         : [1, 0]))},
+                          range: series.map((s) => engineDash(s.split(' ')[0]))},
                   legend: {labelLimit: 360}};
     return {
       $schema: schema, width: 560, height: 320,

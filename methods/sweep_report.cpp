@@ -7,6 +7,8 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "methods/engines.h"
+#include "methods/registry.h"
 #include "methods/settings_sweep.h"
 #include "methods/sweep_ranking.h"
 
@@ -80,6 +82,10 @@ json report_data(const SettingsSweep& sweep) {
   r["floor"] = floor;
   r["ceiling"] = ceiling;
   r["dynamics"] = sweep.dynamics;
+  r["styles"] = json::object();
+  for (const auto& [name, style] : method_styles())
+    if (name == "analytic" || find_engine(name))
+      r["styles"][name] = {{"colour", style.colour}, {"dash", style.dash}};
   r["costTitle"] =
       sweep.dynamics ? "CPU time per simulated second [s]" : "CPU time per simulated cycle [s]";
   const EngineRanking ranking = rank_engines(sweep);
@@ -266,8 +272,10 @@ std::string rows_table(const SettingsSweep& sweep) {
 // Why the front and the pick are not the CPU times' (settings_sweep.h).
 constexpr const char* kWorkText =
     "The Pareto front and the pick weigh the work instead, the engine's model evaluations per "
-    "simulated second (steps times the integrator's stages: MuJoCo's RK4 4, every other variant "
-    "1), which no run changes: CPU times moved by 17 to 66 % between identical sweeps on a shared "
+    "simulated second as the engine reports them (MuJoCo: steps times its integrator's stages, "
+    "RK4 4, Euler and implicit 1; Bullet and ODE: 1 a step; Simbody: its realizations, which its "
+    "error control chooses), which no run changes: CPU times moved by 17 to 66 % between identical "
+    "sweeps on a shared "
     "machine, and any rule on them moved the front. Of settings with the same work the more "
     "accurate is on the front (errors within 10 % are equal); the pick takes, at the coarsest "
     "time step where a variant meets the accuracy, the least work, and among equals the "

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Installs every Debian package crosslink needs (idempotent), then configures and builds.
-# Usage: scripts/setup.sh [build-dir]   (default: build)
+# Usage: scripts/setup.sh [build-dir [target ...]]   (default: build, and the target crosslink:
+# the command line, all the quick start's main job runs; scripts/test.sh builds `all`)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${1:-build}
+shift || true
+TARGETS=("${@:-crosslink}")
 
 PACKAGES=(
   build-essential cmake pkg-config git clang-format
@@ -43,4 +46,4 @@ if [ ! -d report/node_modules ] || [ report/package-lock.json -nt report/node_mo
 fi
 
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
-cmake --build "$BUILD_DIR" -j2
+cmake --build "$BUILD_DIR" -j2 --target "${TARGETS[@]}"

@@ -3,5 +3,5 @@
 # e.g. scripts/test.sh -L analytic
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh build
+scripts/setup.sh build all
 ctest --test-dir build --output-on-failure -j2 -LE slow "$@"

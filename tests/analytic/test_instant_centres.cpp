@@ -224,6 +224,33 @@ TEST(InstantCentres, CentresFromTheVelocitiesAreLabelled) {
   EXPECT_NEAR(v.point[static_cast<size_t>(ram_point)].x(), exact.vx(0, ram_point), 1e-12);
 }
 
+// IFToMM A02 at its start: the two couplers of the double parallelogram translate together (the
+// exact velocities: equal angular rates and equal velocities of one world point), so they have
+// no relative motion and every point is a centre of the pair. The velocity fallback divided 0 by
+// 0 and gave a NaN centre (it stopped the report's script); the pair stays unplaced, with why,
+// and the velocities from the other centres are still complete.
+TEST(InstantCentres, APairWithNoRelativeMotionHasNoCentre) {
+  const Mechanism m = bundled("iftomm_a02_double_fourbar");
+  const Trajectory exact = solve_at(m, m.driver().start);
+  ASSERT_TRUE(usable(exact.status[0]));
+  const int c1 = m.find_link("coupler1"), c2 = m.find_link("coupler2");
+  const auto k1 = static_cast<Eigen::Index>(m.moving_index(c1)),
+             k2 = static_cast<Eigen::Index>(m.moving_index(c2));
+  EXPECT_NEAR(exact.omega(0, k1), exact.omega(0, k2), 1e-12);
+  const InstantCentres ic = instant_centres(m, exact, 0);
+  const InstantCentre& pair = ic.at(c1, c2);
+  EXPECT_FALSE(pair.placed());
+  EXPECT_NE(pair.how.find("no relative motion"), std::string::npos) << pair.how;
+  for (const InstantCentre& c : ic.centres)
+    if (c.placed()) {
+      EXPECT_TRUE(c.point.allFinite()) << c.i << "," << c.j;
+    }
+  const CentreVelocities v = centre_velocities(m, ic, exact, 0);
+  ASSERT_TRUE(v.complete) << v.message;
+  for (size_t l = 0; l < v.omega.size(); ++l)
+    EXPECT_NEAR(v.omega[l], exact.omega(0, static_cast<Eigen::Index>(l)), 1e-9) << l;
+}
+
 // Every bundled mechanism over its whole sweep: the velocities from the centres against the
 // Newton solver's (an independent method: J qdot = nu) at every usable sample, to 1e-9 of each
 // channel's scale. Scales are physical: the driver's rate for angular velocities and the rate

@@ -138,5 +138,20 @@ TEST(EngineTable, EveryReaderListsEveryEngine) {
   }
 }
 
+// Every method is drawn in a style of its own, the engines' from their table rows: the compare
+// page had styles for MuJoCo and Bullet only (ODE and Simbody were drawn alike) and the sweep page
+// none for Simbody.
+TEST(EngineTable, EveryMethodHasAStyleOfItsOwn) {
+  std::vector<std::pair<std::string, std::vector<double>>> seen;
+  for (const auto& [name, style] : method_styles()) {
+    EXPECT_EQ(style.colour.size(), 7u) << name << ": " << style.colour;
+    const std::pair<std::string, std::vector<double>> key{style.colour, style.dash};
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), key), 0) << name;
+    seen.push_back(key);
+  }
+  EXPECT_EQ(seen.size(), method_names().size());
+  for (const EngineEntry& e : engine_table()) EXPECT_FALSE(e.style.colour.empty()) << e.name;
+}
+
 }  // namespace
 }  // namespace crosslink::methods
