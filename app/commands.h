@@ -33,6 +33,7 @@ void add_compare(CLI::App& app, std::function<int()>& run);
 void add_sweep(CLI::App& app, std::function<int()>& run);
 void add_merge(CLI::App& app, std::function<int()>& run);
 void add_engines(CLI::App& app, std::function<int()>& run);
+void add_new(CLI::App& app, std::function<int()>& run);
 
 // `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
 // position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   add_sweep(app, run);
   add_merge(app, run);
   add_engines(app, run);
+  add_new(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

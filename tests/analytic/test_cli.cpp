@@ -90,6 +90,31 @@ TEST(Cli, ChangePointsAsCheckNamesThem) {
       << nearer.err;
 }
 
+// `crosslink new KIND FILE` (issue 32 item 5): each starting definition is written, passes
+// `check`, and is never written over. The slider-crank's stroke is the closed form
+// sqrt((a + b)^2 - e^2) - sqrt((b - a)^2 - e^2) = 80.3147 mm (a = 40, b = 120, offset e = 10).
+TEST(Cli, NewWritesAStartingDefinitionThatChecks) {
+  for (const std::string kind : {"fourbar", "slider-crank", "five-bar"}) {
+    const std::filesystem::path path = scratch_dir() / ("new_" + kind + ".toml");
+    std::filesystem::remove(path);
+    const CommandRun wrote = crosslink("new " + kind + " \"" + path.string() + "\"");
+    EXPECT_EQ(wrote.exit_code, 0) << kind << ": " << wrote.err;
+    const CommandRun checked = crosslink("check \"" + path.string() + "\"");
+    EXPECT_EQ(checked.exit_code, 0) << kind << ": " << checked.err;
+    EXPECT_NE(checked.out.find("\n  ok\n"), std::string::npos) << checked.out;
+    const CommandRun again = crosslink("new " + kind + " \"" + path.string() + "\"");
+    EXPECT_EQ(again.exit_code, 2) << kind;
+    EXPECT_NE(again.err.find("does not overwrite"), std::string::npos) << again.err;
+  }
+  const double a = 40, b = 120, e = 10;
+  const double stroke = std::sqrt((a + b) * (a + b) - e * e) - std::sqrt((b - a) * (b - a) - e * e);
+  const CommandRun solved =
+      crosslink("solve \"" + (scratch_dir() / "new_slider-crank.toml").string() + "\"");
+  EXPECT_NE(solved.out.find(fmt::format("stroke       {:.4f} mm", stroke)), std::string::npos)
+      << solved.out;
+  EXPECT_EQ(crosslink("new six-bar").exit_code, 2);
+}
+
 TEST(Cli, CheckAcceptsTheSewingMachine) {
   const CommandRun run = crosslink(std::string("check ") + kSewing);
   EXPECT_EQ(run.exit_code, 0) << run.err;
