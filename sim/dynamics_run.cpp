@@ -24,8 +24,8 @@ DynamicsPlan plan_dynamics(const Mechanism& definition, const Mechanism& scene_m
   // sample is read: in a run of two sample intervals at one step each the start's stencil was
   // never complete, and Simbody's three samples were all flagged diverged in a run it called ok.
   std::vector<double>& time = p.grid.time;
-  const double last_step = time.back() - time[time.size() - 2];
-  do time.push_back(time.back() + last_step);
+  const double h = time.back() - time[time.size() - 2];  // the last interval's step
+  do time.push_back(time.back() + h);
   while (time.size() < 5);
 
   const int first = p.span.first;
