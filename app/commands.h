@@ -50,10 +50,7 @@ CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
                          const SweepOptions& sweep = {});
 
 // The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-solves
-// on those that simulate a dynamics case, --max-steps on those that run engines; `settings` with
-// the engines' max_steps in front (a later one wins); and the refusal (std::invalid_argument naming
-// `option`) of an explicit time step `dt` that would take more than `max_steps` steps over `span`
-// seconds, before any engine runs.
+// on those that simulate a dynamics case, --max-steps on those that run engines.
 void add_max_samples(CLI::App& cmd, WorkLimits& limits);
 // The check of a numeric option: a finite number from `low` (excluded when `low_open`) to
 // `high`; NaN, infinities and values out of range are refused before any work (exit 2), the
@@ -68,8 +65,6 @@ void add_max_solves(CLI::App& cmd, WorkLimits& limits);
 void add_max_steps(CLI::App& cmd, long& max_steps);
 // --jobs N: the threads of a compare or sweep (methods/jobs.h), set to the machine's cores.
 void add_jobs(CLI::App& cmd, int& jobs);
-sim::Settings with_max_steps(long max_steps, const sim::Settings& settings);
-void check_engine_steps(double span, double dt, long max_steps, const std::string& option);
 
 // Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
 // empty text; throws std::invalid_argument otherwise), and the progress line of a long search.
@@ -97,13 +92,5 @@ class ProgressLines {
   bool rewritten_ = false;  // a terminal line is open
   std::vector<Series> open_;
 };
-// compare --accuracy: `base` plus the cheapest settings of `engine` meeting `accuracy_pct` on
-// every class against `reference` (time steps on its sample boundaries, coarse to fine, stopping
-// at the first that meets it); says on `out` what it chose and what it costs. Without a setting
-// that meets it: `base`, and says so.
-sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
-                                const compare::MethodRun& reference, const std::string& engine,
-                                double accuracy_pct, const sim::Settings& base, std::FILE* out,
-                                int jobs);
 
 }  // namespace crosslink::app

@@ -7,7 +7,6 @@
 
 #include "app/commands.h"
 #include "methods/jobs.h"
-#include "sim/sampling.h"
 
 namespace crosslink::app {
 
@@ -58,20 +57,6 @@ void add_jobs(CLI::App& cmd, int& jobs) {
                  "threads the runs share (default: the machine's cores); results are the same "
                  "for every N, 1 runs them in turn")
       ->check(CLI::Range(1, methods::kMaxJobs));
-}
-
-sim::Settings with_max_steps(long max_steps, const sim::Settings& settings) {
-  sim::Settings out = {{"max_steps", std::to_string(max_steps)}};
-  out.insert(out.end(), settings.begin(), settings.end());  // a later --set max_steps wins
-  return out;
-}
-
-void check_engine_steps(double span, double dt, long max_steps, const std::string& option) {
-  try {
-    sim::check_steps(span / dt, dt, max_steps);
-  } catch (const std::runtime_error& e) {
-    throw std::invalid_argument(fmt::format("{}: {}", option, e.what()));
-  }
 }
 
 }  // namespace crosslink::app

@@ -22,6 +22,7 @@
 #include "app/files.h"
 #include "app/sweep_parts.h"
 #include "methods/settings_sweep.h"
+#include "methods/study.h"
 
 namespace crosslink::app {
 
@@ -97,20 +98,6 @@ void ProgressLines::finish() {
   std::fflush(out_);
 }
 
-sim::Settings cheapest_settings(const Mechanism& mechanism, const SweepOptions& options,
-                                const compare::MethodRun& reference, const std::string& engine,
-                                double accuracy_pct, const sim::Settings& base, std::FILE* out,
-                                int jobs) {
-  methods::ReferenceLadder ladder(mechanism, options, reference);
-  ProgressLines lines;
-  const methods::Selection s = methods::cheapest_setting(
-      mechanism, ladder, engine, accuracy_pct, methods::accuracy_time_steps(ladder.interval()),
-      base, lines.progress(), 1, jobs);
-  lines.finish();
-  fmt::print(out, "{}\n", s.summary());
-  return s.found ? s.chosen.overrides : base;
-}
-
 namespace {
 
 namespace fs = std::filesystem;
@@ -170,12 +157,12 @@ methods::SettingsSweepOptions sweep_options(const Mechanism& m, const SweepArgs&
     // left to the engines' own check.
     const double span = dynamics ? m.dynamics->duration : m.cycle_period();
     if (!args.dts.empty() && span > 0.0)
-      check_engine_steps(span, dt, args.max_steps, fmt::format("--dt {:g}", dt));
+      methods::check_time_step(span, dt, args.max_steps, fmt::format("--dt {:g}", dt));
   }
   if (args.step != 0.0 && !dynamics)  // 0: the default
     options.sweep.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
   if (!dynamics) check_sweep_work(m, options.sweep, args.limits);
-  options.base = with_max_steps(args.max_steps, {});
+  options.base = {{"max_steps", std::to_string(args.max_steps)}};
   options.repeat = args.repeat;
   options.jobs = args.jobs;
   options.accuracy_pct = parse_accuracy(args.accuracy);

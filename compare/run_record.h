@@ -21,6 +21,9 @@ struct RunCost {
   // on a shared machine (the settings sweep's cost).
   double cpu_seconds_per_cycle = 0.0;
   long steps = 0;  // engine steps taken
+  // The longest step the run took [s] (an engine's "dt" as a number; 0: no time step, the exact
+  // methods), what a rerun at half the step halves.
+  double time_step = 0.0;
   // The model evaluations (forward dynamics of the whole model) those steps made: each engine
   // counts its own (MuJoCo: its integrator's stages per step; Bullet: one per step).
   long model_evaluations = 0;

@@ -30,13 +30,6 @@ std::string format_dt(double dt) {
   return fmt::format("{:.4g}", dt);
 }
 
-// The setting's value in a settings list, or nullopt.
-std::optional<std::string> setting(const sim::Settings& s, std::string_view name) {
-  for (auto it = s.rbegin(); it != s.rend(); ++it)
-    if (it->first == name) return it->second;
-  return std::nullopt;
-}
-
 // Max % of peak per class over the comparison's channels of one method.
 ClassValues class_maxima(const Comparison& cmp, std::string_view method) {
   ClassValues out = kNoValues;
@@ -335,12 +328,7 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
     return row;
   }
   row.settings = run.settings.empty() ? settings : run.settings;
-  if (const auto in_force = setting(run.settings, "dt")) {
-    try {
-      row.dt = std::stod(*in_force);
-    } catch (const std::exception&) {
-    }
-  }
+  if (run.cost.time_step > 0.0) row.dt = run.cost.time_step;  // the step in force
   row.wall_s_per_cycle = seconds_per_cycle(run);
   row.cpu_s_per_cycle = cpu_per_cycle(run);
   if (run.cost.steps > 0)

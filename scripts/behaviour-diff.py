@@ -6,7 +6,8 @@ import json, os, re, sys
 base, new = sys.argv[1], sys.argv[2]
 TIMING = [(re.compile(r'[0-9.e+-]+ s wall, [0-9.e+-]+ s per (cycle|simulated s)'), r'T s wall, T s per \1'),
           (re.compile(r'; [0-9.e+-]+ s(\b|$)'), '; T s'),
-          (re.compile(r'(CPU|cpu) [0-9.e+-]+ s'), r'\1 T s')]
+          (re.compile(r'(CPU|cpu) [0-9.e+-]+ s'), r'\1 T s'),
+          (re.compile(r'(_seconds)=[0-9.e+-]+'), r'\1=T')]
 
 
 def text(s):

@@ -360,6 +360,7 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
   record_cost(steps.taken(), scene.evaluations(),
               time[static_cast<size_t>(steps.taken())] - time.front(), 1.0, stepping, begin,
               run.cost);
+  run.cost.time_step = plan.grid.dt;
 }
 
 }  // namespace crosslink::sim

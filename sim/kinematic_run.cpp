@@ -411,6 +411,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
   const double period = definition.cycle_period();
   record_cost(steps.taken(), scene.evaluations(), simulated, period > 0.0 ? period : simulated,
               stepping, begin, run.cost);
+  run.cost.time_step = plan.grid.dt;
 }
 
 }  // namespace crosslink::sim

@@ -22,6 +22,7 @@
 
 #include "tests/common/cli.h"
 #include "tests/common/crank_rocker.h"
+#include "tests/common/json.h"
 #include "tests/common/text.h"
 
 namespace {
@@ -33,6 +34,7 @@ using crosslink::test::CommandRun;
 using crosslink::test::crosslink;
 using crosslink::test::read_file;
 using crosslink::test::scratch_dir;
+using crosslink::test::without_timings;
 
 std::string write_definition(const std::string& name, const std::string& text) {
   const std::filesystem::path path = scratch_dir() / name;
@@ -1499,25 +1501,6 @@ std::string without_columns(const std::string& csv, const std::vector<std::strin
     out += "\n";
   }
   return out;
-}
-
-// A JSON document without its timing keys (any key naming seconds) and texts ("...; 0.0011 s",
-// the reference's cross-check).
-nlohmann::json without_timings(const nlohmann::json& j) {
-  if (j.is_string())
-    return std::regex_replace(j.get<std::string>(), std::regex("; [0-9.e+-]+ s\\b"), "; T s");
-  if (j.is_object()) {
-    nlohmann::json out = nlohmann::json::object();
-    for (const auto& [key, value] : j.items())
-      if (key.find("seconds") == std::string::npos) out[key] = without_timings(value);
-    return out;
-  }
-  if (j.is_array()) {
-    nlohmann::json out = nlohmann::json::array();
-    for (const auto& value : j) out.push_back(without_timings(value));
-    return out;
-  }
-  return j;
 }
 
 // The JSON of a sweep without its costs: the cost keys and the timings in texts.
