@@ -2138,18 +2138,31 @@ void read_tolerances(Reader& r, Mechanism& m, const toml::table& root) {
 void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::table* t = r.table(root, "expect", "a mechanism", false);
   if (!t) return;
-  r.known_keys(*t, "[expect]", {"limits", "toggles", "change_points", "grashof", "derived"});
+  r.known_keys(*t, "[expect]",
+               {"limits", "toggles", "change_points", "grashof", "derived", "tolerance"});
   Expectations e;
   e.where = r.at(*t);
   const Scale value_scale = driver_scale(m);
-  if (const toml::node* range = t->get("limits"))
+  if (const toml::node* tolerance = t->get("tolerance")) {
+    e.tolerance_pct = r.number(*tolerance, "[expect] 'tolerance'", {1.0, "", limits::kTolerance});
+    if (e.tolerance_pct && !(*e.tolerance_pct > 0.0))
+      r.error(r.at(*tolerance),
+              fmt::format("[expect] 'tolerance' must be a positive percentage of the claimed value "
+                          "such as 0.1, at most {:g}",
+                          limits::kTolerance));
+  }
+  if (const toml::node* range = t->get("limits")) {
+    e.limits_at = r.at(*range);
     if (const auto v =
             r.numbers(*range, "[expect] 'limits' ([lower, upper])", {value_scale, value_scale}))
       e.limits = std::make_pair((*v)[0], (*v)[1]);
-  for (const auto& [key, out] :
-       {std::pair{"toggles", &e.toggles}, std::pair{"change_points", &e.change_points}}) {
+  }
+  for (const auto& [key, out, at] :
+       {std::tuple{"toggles", &e.toggles, &e.toggles_at},
+        std::tuple{"change_points", &e.change_points, &e.change_points_at}}) {
     const toml::node* node = t->get(key);
     if (!node) continue;
+    *at = r.at(*node);
     const auto* array = node->as_array();
     if (!array) {
       r.error(r.at(*node), fmt::format("[expect] '{}' must be an array of driver values", key));
@@ -2180,6 +2193,7 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
         e.derived.push_back({quantity, *x, r.at(node)});
     }
   e.grashof = r.string(*t, "grashof", "[expect]", false).value_or("");
+  if (const toml::node* grashof = t->get("grashof")) e.grashof_at = r.at(*grashof);
   if (!e.grashof.empty() && e.grashof != "Grashof" && e.grashof != "change point" &&
       e.grashof != "non-Grashof")
     r.error(r.at(t->get("grashof")),

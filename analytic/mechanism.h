@@ -297,12 +297,17 @@ struct ToleranceOverrides {
 };
 
 // Expected singular behaviour written in a definition's optional [expect] table (SI), derived
-// by hand in closed form; the stability catalogue's tests check the sweep against it.
+// by hand in closed form; the stability catalogue's tests check the sweep against it, and
+// `crosslink check` judges each (analytic/claims.h) to `tolerance`.
 struct Expectations {
   std::optional<std::pair<double, double>> limits;  // the driver's assembling range
   std::vector<double> toggles;                      // driver values of toggles (dead points)
   std::vector<double> change_points;                // driver values of change points
   std::string grashof;  // four-bars: "Grashof" | "change point" | "non-Grashof"; "" = not given
+  // Where each key's value is written (limits, toggles, change_points, grashof).
+  SourceLocation limits_at, toggles_at, change_points_at, grashof_at;
+  // In percent of the claimed value (analytic/claims.h; kClaimTolerancePct when not given).
+  std::optional<double> tolerance_pct;
   // [expect.derived]: a [[derived]] quantity ("Q") or field ("S.at_max") and its value (SI).
   struct Derived {
     std::string quantity;

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "analytic/branch.h"
+#include "analytic/claims.h"
 #include "analytic/dyads.h"
 #include "analytic/dynamics.h"
 #include "analytic/fourbar.h"
@@ -133,7 +134,7 @@ void print_physics(const Mechanism& m, std::string& out) {
 // the transmission angle over the swept samples.
 // Returns the sweep it printed from.
 Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& options,
-                                    std::string& out) {
+                                    std::string& out, std::vector<SingularPosition>& singular) {
   // Several drivers: the sweep runs in time, and its events are located in time.
   const bool timed = m.several_drivers();
   const double unit = timed ? 1.0 : m.driver().angular() ? m.units.angle : m.units.length;
@@ -141,7 +142,6 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
                                 : m.driver().angular() ? m.units.angle_name
                                                        : m.units.length_name;
   const std::string_view at = timed ? "t" : "driver";
-  std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
   for (const PoseStatus s : t.status) flagged += s != PoseStatus::ok;
@@ -209,6 +209,42 @@ void print_modes(const Mechanism& m, const KinematicState& assembled, std::strin
     }
     out += fmt::format("    {}: {}; {}\n", g.group, g.mode, other);
   }
+}
+
+// The definition's own claims ([expect], [expect.derived]) judged against the exact sweep: each
+// on stdout, each that does not hold also at its place on stderr, with exit 1. Returns how many
+// do not hold.
+int print_claims(const Mechanism& m, const std::optional<Trajectory>& sweep,
+                 const std::vector<SingularPosition>& singular, CheckReport& report) {
+  if (!m.expect) return 0;
+  const double tolerance = m.expect->tolerance_pct.value_or(kClaimTolerancePct);
+  if (!sweep) {  // at rest: nothing swept, nothing to judge a claim against
+    report.err += Diagnostic{m.expect->where,
+                             "[expect]: not judged: the driver is at rest (speed 0), so "
+                             "nothing is swept"}
+                      .str() +
+                  "\n";
+    report.exit_code = kExitFail;
+    return 1;
+  }
+  const std::vector<Claim> claims = judge_claims(m, *sweep, singular);
+  const auto failed = static_cast<int>(
+      std::count_if(claims.begin(), claims.end(), [](const Claim& c) { return !c.holds; }));
+  report.out += fmt::format("  claims ([expect], tolerance {:g} %{}): {} of {} hold\n",
+                            tolerance, m.expect->tolerance_pct ? "" : ", the default",
+                            claims.size() - static_cast<size_t>(failed), claims.size());
+  for (const Claim& c : claims) {
+    report.out += fmt::format("    {:<4} {} (line {}): claimed {}, computed {}\n",
+                              c.holds ? "ok" : "FAIL", c.what, c.where.line, c.claimed, c.computed);
+    if (!c.holds)
+      report.err += Diagnostic{c.where, fmt::format("{} does not hold: claimed {}, computed {} "
+                                                    "(tolerance {:g} %)",
+                                                    c.what, c.claimed, c.computed, tolerance)}
+                        .str() +
+                    "\n";
+  }
+  if (failed) report.exit_code = kExitFail;
+  return failed;
 }
 
 }  // namespace
@@ -288,11 +324,15 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
                            ? ""
                            : " (limits: toggles; the chain cannot close beyond)");
   }
-  if (!m.driver().at_rest()) report.sweep = print_singular_positions(m, options, out);
+  std::vector<SingularPosition> singular;
+  if (!m.driver().at_rest()) report.sweep = print_singular_positions(m, options, out, singular);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);
-  out += "  ok\n";
+  const int failed = print_claims(m, report.sweep, singular, report);
+  out += failed ? fmt::format("  FAIL: {} claim{} of the definition do{} not hold\n", failed,
+                              failed == 1 ? "" : "s", failed == 1 ? "es" : "")
+                : "  ok\n";
   return report;
 }
 
