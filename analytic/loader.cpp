@@ -1708,7 +1708,8 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const std::vector<std::string> channels = channels_of(r, m);
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
-    r.known_keys(t, "[[reference]]", {"quantity", "at", "value", "precision", "source"});
+    r.known_keys(t, "[[reference]]",
+                 {"quantity", "at", "value", "precision", "source", "tolerance"});
     Reference ref;
     ref.where = r.at(t);
     ref.quantity = r.string(t, "quantity", "[[reference]]", true).value_or("");
@@ -1773,6 +1774,17 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
       ref.precision = *precision;
     } else {
       ref.precision = last_digit(ref.printed) * *factor;
+    }
+    // 'tolerance': a % of the exact value, or "rounding" (within half the last printed digit).
+    if (const toml::node* tolerance = t.get("tolerance")) {
+      ref.to_rounding = tolerance->value<std::string>() == "rounding";
+      if (!ref.to_rounding) {
+        ref.tolerance_pct = r.number(
+            *tolerance, "[[reference]] 'tolerance' (a % of the exact value, or \"rounding\")",
+            {1.0, "", limits::kTolerance});
+        if (ref.tolerance_pct && !(*ref.tolerance_pct > 0.0))
+          r.error(r.at(tolerance), "[[reference]] 'tolerance' must be positive");
+      }
     }
     m.references.push_back(ref);
   }

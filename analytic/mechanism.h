@@ -265,6 +265,12 @@ struct Reference {
   // A [[derived]] quantity's value ("Q", or one of its fields "S.at_max") instead of a channel at
   // a driver value: `quantity` names it and driver_value is not used.
   bool derived = false;
+  // Its own verdict in `crosslink compare` ('tolerance' in the file): it holds within
+  // tolerance_pct % of the exact value, or within its printed rounding; neither given: shown
+  // beside the exact value, not judged.
+  std::optional<double> tolerance_pct;
+  bool to_rounding = false;
+  bool judged() const { return tolerance_pct.has_value() || to_rounding; }
   SourceLocation where;
 };
 

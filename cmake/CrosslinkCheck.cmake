@@ -2,9 +2,11 @@
 #                     [SETTINGS key=value...] [LABELS label...] [ARGS arg...])
 #
 # Registers a ctest case that runs `crosslink compare FILE` and passes when every verdict passes
-# (exit 0; 1 = a failed verdict, 2 = bad input). Labels: crossval plus LABELS.
-#   ENGINES    methods to compare against the exact sweep (default: all built in):
-#              analytic dyads ic mujoco bullet ode
+# (exit 0; 1 = a failed verdict, 2 = bad input or nothing judged). Its verdicts include each
+# [[reference]] row the file gives a `tolerance` (docs/mechanism-format.md). Labels: crossval plus
+# LABELS.
+#   ENGINES    methods to compare against the exact sweep (default: all built in): analytic dyads
+#              ic and every engine (`crosslink engines`)
 #   TOLERANCE  verdict tolerances in % of peak, "velocity=0.5" (engines) or
 #              "dyads:velocity=1e-6" (one method); the file's [tolerance] table applies first
 #   SETTINGS   engine settings "dt=1e-4" or "mujoco:dt=1e-4"

@@ -103,14 +103,31 @@ std::string Comparison::counts_text() const {
 }
 
 std::string Comparison::references_counts_text() const {
-  if (references.empty()) return "";
-  int within = 0;
-  for (const ReferenceRow& r : references)
-    within += r.exact_ok && r.reference.within_rounding(r.exact) ? 1 : 0;
-  return fmt::format(
-      "; {} [[reference]] value{} beside the exact ones, {} within their printed rounding (shown, "
-      "not judged)",
-      references.size(), references.size() == 1 ? "" : "s", within);
+  int judged = 0, hold = 0, shown = 0, within = 0;
+  for (const ReferenceRow& r : references) {
+    if (const std::optional<bool> h = r.holds()) {
+      ++judged;
+      hold += *h ? 1 : 0;
+    } else {
+      ++shown;
+      within += r.exact_ok && r.reference.within_rounding(r.exact) ? 1 : 0;
+    }
+  }
+  std::string text;
+  if (judged)
+    text += fmt::format("; {} [[reference]] value{} judged: {} hold, {} fail", judged,
+                        judged == 1 ? "" : "s", hold, judged - hold);
+  if (shown)
+    text += fmt::format(
+        "; {} [[reference]] value{} beside the exact ones, {} within their printed rounding "
+        "(shown, not judged)",
+        shown, shown == 1 ? "" : "s", within);
+  return text;
+}
+
+int Comparison::reference_failures() const {
+  return static_cast<int>(std::count_if(references.begin(), references.end(),
+                                        [](const ReferenceRow& r) { return r.holds() == false; }));
 }
 
 std::string Comparison::derived_counts_text() const {
@@ -125,7 +142,8 @@ std::string Comparison::derived_counts_text() const {
 }
 
 bool Comparison::pass() const {
-  return failures() == 0 && failed_methods.empty() && derived.failures() == 0;
+  return failures() == 0 && failed_methods.empty() && derived.failures() == 0 &&
+         reference_failures() == 0;
 }
 
 std::optional<double> value_at(const Trajectory& trajectory, std::string_view channel,
@@ -160,6 +178,13 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
     return va + w * (vb - va);
   }
   return std::nullopt;
+}
+
+std::optional<bool> ReferenceRow::holds() const {
+  if (!reference.judged()) return std::nullopt;
+  if (!exact_ok) return false;
+  if (reference.to_rounding) return reference.within_rounding(exact);
+  return std::abs(percent(reference.value, exact)) <= *reference.tolerance_pct;  // NaN: no
 }
 
 double ReferenceRow::percent(double value, double against) const {

@@ -3,6 +3,7 @@
 // tolerances: tolerance.h.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -52,6 +53,10 @@ struct ReferenceRow {
   // The course's "% difference" of `value` against `against` (SI; angles in [0, 2 pi)), or NaN
   // where `against` is a round-off zero.
   double percent(double value, double against) const;
+  // The row's verdict when it is judged (Reference::judged()): the printed value within its
+  // tolerance of the exact one (no % against a round-off zero), or within its printed rounding;
+  // without an exact value it does not hold. nullopt: shown, not judged.
+  std::optional<bool> holds() const;
 };
 
 // A failing engine rerun at half its time step (crosslink compare): how a failing channel's
@@ -86,14 +91,16 @@ struct Comparison {
   const MethodRun& reference() const { return methods.front(); }
   const MethodRun* method(std::string_view name) const;
   bool pass() const;
-  // No method but the reference ran (asked for alone, or every other one not run) and the
-  // definition has no [[reference]] values to set beside it: nothing was compared, so there is
-  // no verdict to pass.
+  // No method but the reference ran (asked for alone, or every other one not run) and no
+  // [[reference]] value is judged: nothing was compared, so there is no verdict to pass (values
+  // shown beside the exact ones are no verdict).
   bool nothing_compared() const {
-    return channels.empty() && failed_methods.empty() && references.empty() &&
-           derived.checks.empty();
+    return channels.empty() && failed_methods.empty() && derived.checks.empty() &&
+           std::none_of(references.begin(), references.end(),
+                        [](const ReferenceRow& r) { return r.reference.judged(); });
   }
-  int failures() const;  // channels with verdict fail
+  int reference_failures() const;  // judged [[reference]] rows that do not hold
+  int failures() const;            // channels with verdict fail
   // How many channels have each verdict, the computed ones and the prescribed ones apart.
   struct Counts {
     int pass = 0, fail = 0, not_applicable = 0;
@@ -105,8 +112,9 @@ struct Comparison {
   std::string counts_text() const;
   // "; N [[derived]] comparisons: p pass, f fail, n n/a", or "" without [[derived]] checks.
   std::string derived_counts_text() const;
-  // "; N [[reference]] value(s) beside the exact ones, k within their printed rounding (shown,
-  // not judged)", or "" without [[reference]] rows: a verdict on no channel names what it showed.
+  // "; N [[reference]] value(s) judged: p hold, f fail" for the judged rows and "; N [[reference]]
+  // value(s) beside the exact ones, k within their printed rounding (shown, not judged)" for the
+  // others, or "" without [[reference]] rows: a verdict on no channel names what it showed.
   std::string references_counts_text() const;
 };
 

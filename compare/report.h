@@ -37,6 +37,13 @@ DriverTurns driver_turns(const Mechanism& mechanism, double value);
 // "188.37 deg +1 turn", "45.00 deg", "12.50 mm" with `decimals`.
 std::string driver_text(const Mechanism& mechanism, double value, int decimals);
 
+// A [[reference]] row's verdict as the tables show it: "pass (2 %)", "FAIL (rounding)"; a row not
+// judged: "within rounding" or "".
+std::string reference_note(const ReferenceRow& row);
+// Why a judged row does not hold, with its place in the file: "[[reference]] omega.coupler at
+// driver = 30.00 deg (m.toml:12:1): printed 365, exact 370.1: 1.38 % from it > its tolerance 1 %".
+std::string reference_failure_text(const Mechanism& mechanism, const ReferenceRow& row);
+
 struct ConsoleOptions {
   bool all = false;     // every channel x method row instead of the summary
   int worst_rows = 12;  // channels listed in the summary besides the failing ones

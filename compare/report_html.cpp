@@ -588,7 +588,7 @@ std::string references_table(const Comparison& cmp) {
       values.push_back(
           {r->reference.source +
                (r->reference.printed.empty() ? "" : " (printed " + r->reference.printed + ")") +
-               (r->exact_ok && r->reference.within_rounding(r->exact) ? ": within rounding" : ""),
+               (reference_note(*r).empty() ? "" : ": " + reference_note(*r)),
            r->reference.value});
     if (g.front()->exact_ok) values.push_back({"exact (Newton at this value)", g.front()->exact});
     for (const auto& v : g.front()->values)

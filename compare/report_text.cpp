@@ -67,6 +67,39 @@ std::string driver_text(const Mechanism& m, double value, int decimals) {
                    : fmt::format(" {:+d} turn{}", t.turns, std::labs(t.turns) == 1 ? "" : "s"));
 }
 
+std::string reference_note(const ReferenceRow& r) {
+  const std::optional<bool> holds = r.holds();
+  if (!holds) return r.exact_ok && r.reference.within_rounding(r.exact) ? "within rounding" : "";
+  return fmt::format("{} ({})", *holds ? "pass" : "FAIL",
+                     r.reference.to_rounding ? std::string("rounding")
+                                             : fmt::format("{:g} %", *r.reference.tolerance_pct));
+}
+
+std::string reference_failure_text(const Mechanism& m, const ReferenceRow& r) {
+  const Reference& ref = r.reference;
+  const std::string what = fmt::format(
+      "[[reference]] {}{} ({})", ref.quantity,
+      ref.derived ? "" : " at driver = " + driver_text(m, ref.driver_value, 2), ref.where.str());
+  const std::string printed =
+      ref.printed.empty() ? fmt::format("{:.6g}", ref.value) + " (SI)" : ref.printed;
+  if (!r.exact_ok) return fmt::format("{}: printed {}, no exact value there", what, printed);
+  const DisplayUnit u = display_unit(m, ref.quantity);
+  const bool angle = Trajectory::quantity_of(ref.quantity) == Quantity::angle;
+  const double exact = (angle ? wrap_positive_angle(r.exact) : r.exact) / u.scale;
+  if (ref.to_rounding)
+    return fmt::format("{}: printed {}, exact {:.6g}: beyond its printed rounding (+-{:g})", what,
+                       printed, exact, 0.5 * ref.precision / u.scale);
+  const double pct = r.percent(ref.value, r.exact);
+  return std::isnan(pct) ? fmt::format(
+                               "{}: printed {}, exact {:.6g}: a round-off zero, no % "
+                               "difference (judge it with tolerance = \"rounding\")",
+                               what, printed, exact)
+                         : fmt::format(
+                               "{}: printed {}, exact {:.6g}: {:.3g} % from it > its "
+                               "tolerance {:g} %",
+                               what, printed, exact, std::abs(pct), *ref.tolerance_pct);
+}
+
 namespace {
 
 // A number, or "n/a" where it is not a finite one (a % of a zero peak, an order of log 0).
@@ -349,11 +382,12 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  r.reference.derived ? "sweep"
                                      : fmt::format("{:.4g}", r.reference.driver_value / du.scale),
                  printed, r.exact_ok ? fmt::format("{:.6g}", shown_value(r.exact)) : "",
-                 pct(r.percent(r.reference.value, r.exact), "{:.3f}"),
-                 r.exact_ok && r.reference.within_rounding(r.exact) ? "within rounding" : "",
+                 pct(r.percent(r.reference.value, r.exact), "{:.3f}"), reference_note(r),
                  pct(worst_method, "{:.2g}"), r.reference.source.substr(0, 40));
     }
-    fmt::print(out, "(methods%: the largest % difference of any other method from exact)\n");
+    fmt::print(out,
+               "(methods%: the largest % difference of any other method from exact; a value "
+               "with a 'tolerance' is judged: pass or FAIL)\n");
   }
 
   // Methods, after the results: status, cost and every setting in force.
@@ -401,14 +435,21 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
     if (c.verdict == Verdict::fail)
       fmt::print(out, "FAIL: derived {} {}: {:.4g} % of scale > tolerance {:.3g} %\n", c.quantity(),
                  c.method, c.pct_of_scale(), c.tolerance);
+  for (const ReferenceRow& r : cmp.references)
+    if (r.holds() == false) print_wrapped(out, "FAIL: " + reference_failure_text(m, r), 0, 100);
   for (const StepProbe& p : cmp.step_probes) print_wrapped(out, step_probe_text(p), 0, 100);
   // A method that failed as a whole is named on the verdict line itself: its channels are not
   // among the counts (a scene MuJoCo refused read "FAIL (70 channel comparisons: 70 pass, 0 fail").
   if (cmp.nothing_compared()) {
     fmt::print(out,
                "verdict: NOTHING TO COMPARE (only the reference, {}, ran: 0 channel "
-               "comparisons; name another method with --engines)\n",
-               cmp.reference().name);
+               "comparisons; name another method with --engines{})\n",
+               cmp.reference().name,
+               cmp.references.empty()
+                   ? ""
+                   : fmt::format("; {} [[reference]] value{} shown, not judged: give one a "
+                                 "'tolerance' to judge it",
+                                 cmp.references.size(), cmp.references.size() == 1 ? "" : "s"));
     return;
   }
   std::string failed;
@@ -530,6 +571,10 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"precision", r.reference.precision > 0.0 ? json(r.reference.precision) : json(nullptr)},
          {"within_rounding",
           r.exact_ok ? json(r.reference.within_rounding(r.exact)) : json(nullptr)},
+         {"tolerance", r.reference.to_rounding     ? json("rounding")
+                       : r.reference.tolerance_pct ? json(*r.reference.tolerance_pct)
+                                                   : json(nullptr)},
+         {"verdict", r.holds() ? json(*r.holds() ? "pass" : "fail") : json(nullptr)},
          {"source", r.reference.source},
          {"exact", r.exact_ok ? json(r.exact) : json(nullptr)},
          {"pct_difference_vs_exact",

@@ -12,6 +12,7 @@
 #include "analytic/loader.h"
 #include "tests/common/cli.h"
 #include "tests/common/mechanisms.h"
+#include "tests/common/text.h"
 
 namespace crosslink {
 namespace {
@@ -27,13 +28,6 @@ const Claim& find(const std::vector<Claim>& claims, std::string_view what) {
   for (const Claim& c : claims)
     if (c.what == what) return c;
   throw std::runtime_error("no claim " + std::string(what));
-}
-
-int line_of(const std::string& text, const std::string& start) {
-  const size_t at = text.find("\n" + start);
-  return static_cast<int>(
-             std::count(text.begin(), text.begin() + static_cast<long>(at) + 1, '\n')) +
-         1;
 }
 
 const std::string kWhitworth = "mechanisms/published/whitworth_quick_return.toml";
@@ -64,7 +58,7 @@ TEST(Claims, AStrokeOnePercentOffDoesNotHold) {
   EXPECT_FALSE(stroke.holds);
   EXPECT_EQ(stroke.claimed, "151.5 mm");
   EXPECT_EQ(stroke.computed, "150 mm");
-  EXPECT_EQ(stroke.where.line, line_of(text, "ram_stroke = "));
+  EXPECT_EQ(stroke.where.line, test::line_of(text, "\nram_stroke = ") + 1);
   EXPECT_TRUE(find(claims, "[expect.derived] 'Q'").holds);
 
   const std::string loose = std::regex_replace(text, std::regex("\n\\[expect.derived\\]"),
@@ -84,7 +78,7 @@ TEST(Claims, WrongSingularBehaviourDoesNotHold) {
   const std::vector<Claim> claims = claims_of(text, "n.toml");
   const Claim& toggles = find(claims, "[expect] 'toggles'");
   EXPECT_FALSE(toggles.holds);
-  EXPECT_EQ(toggles.where.line, line_of(text, "toggles = "));
+  EXPECT_EQ(toggles.where.line, test::line_of(text, "\ntoggles = ") + 1);
   EXPECT_FALSE(find(claims, "[expect] 'limits'").holds);
   const Claim& grashof = find(claims, "[expect] 'grashof'");
   EXPECT_FALSE(grashof.holds);
@@ -115,7 +109,7 @@ TEST(Claims, CheckFailsOnAClaimThatDoesNotHold) {
   EXPECT_NE(
       run.err.find(fmt::format("{}:{}:14: error: [expect.derived] 'ram_stroke' does not hold: "
                                "claimed 151.5 mm, computed 150 mm",
-                               path.string(), line_of(text, "ram_stroke = "))),
+                               path.string(), test::line_of(text, "\nram_stroke = ") + 1)),
       std::string::npos)
       << run.err;
   EXPECT_NE(run.out.find("claims ([expect], tolerance 1e-07 %, the default): 3 of 4 hold"),

@@ -97,7 +97,8 @@ TEST(WorkLimits, AFarValueOfAFullyTurningDriverIsTheSamePoseTurnsAway) {
           << point << " " << v;
     }
 
-  // compare's [[reference]] at 5e9 deg: its exact value is the one at 320 deg.
+  // compare's [[reference]] at 5e9 deg: its exact value is the one at 320 deg (the typo's 60 deg
+  // fails its tolerance: exit 1, not bad input).
   const CommandRun compared =
       crosslink("compare \"" + fixture("fourbar_reference_at_5e9_deg.toml") +
                 "\" --engines analytic --json -");

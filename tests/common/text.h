@@ -1,4 +1,5 @@
-// Where a marker stands in a definition's text, for tests that expect a diagnostic's place.
+// Where a marker stands in a definition's text, for tests that expect a diagnostic's place; and
+// a command's output with its wrapped lines joined.
 #pragma once
 
 #include <algorithm>
@@ -12,6 +13,17 @@ inline int line_of(const std::string& text, const std::string& marker, int n = 1
   while (at != std::string::npos && --n > 0) at = text.find(marker, at + marker.size());
   if (at == std::string::npos) return 0;
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+}
+
+// `text` with every run of whitespace (a line wrapped at 100 columns) one space.
+inline std::string flattened(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    const bool space = c == ' ' || c == '\n' || c == '\t';
+    if (space && !out.empty() && out.back() == ' ') continue;
+    out += space ? ' ' : c;
+  }
+  return out;
 }
 
 }  // namespace crosslink::test
