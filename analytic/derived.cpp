@@ -278,6 +278,33 @@ struct Interval {
   std::string empty_reason;
 };
 
+// How many times the value turns back over a whole cycle's samples, a turn counted once the
+// value has come back from its extreme by 1e-3 of its range (a method's noise at a dwell is no
+// turn): 2 for a rocker driven by a crank, 4 for one that swings twice a turn.
+int reversals(const Scalar& f, const Trajectory& t, const Interval& in) {
+  std::vector<double> v;
+  for (const Sample& s : in.samples) v.push_back(f.value(t, s.row));
+  if (v.size() < 3) return 0;
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  const double band = 1e-3 * (*hi - *lo);
+  // One lap from the global max, falling first.
+  const size_t n = v.size(), start = static_cast<size_t>(hi - v.begin());
+  int turns = 0;
+  bool rising = false;
+  double extreme = *hi;
+  for (size_t k = 1; k <= n; ++k) {
+    const double x = v[(start + k) % n];
+    if (rising ? x > extreme : x < extreme) {
+      extreme = x;
+    } else if (std::abs(x - extreme) > band) {
+      ++turns;
+      rising = !rising;
+      extreme = x;
+    }
+  }
+  return turns + (rising ? 1 : 0);  // back up to the max it started from: that turn too
+}
+
 Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajectory& t,
                      bool positions_only) {
   Interval out;
@@ -836,6 +863,10 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return fail("a time ratio needs a driver at constant speed (times are then driver spans)");
   if (!in.periodic)
     return fail("a time ratio needs the driver's whole cycle: the sweep is not periodic");
+  if (const int turns = reversals(f, t, in); turns > 2)
+    return fail(fmt::format("{} turns back {} times over the cycle: there is no one forward and "
+                            "return stroke to time",
+                            spec.channel, turns));
   // Driver travel from the min to the max, the way the driver turns.
   const double direction = d.law.speed > 0.0 ? 1.0 : -1.0;
   const double rising = std::fmod(std::fmod(direction * (hi->v - lo->v), kTwoPi) + kTwoPi, kTwoPi);
@@ -844,6 +875,15 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   set("decreasing", falling);
   set("ratio", std::max(rising, falling) / std::min(rising, falling));
   return out;
+}
+
+// A field that is not finite (samples a billion sizes out, whose parabola has no vertex) makes the
+// quantity one that does not exist here: never a number passed on.
+DerivedValue finite(DerivedValue v) {
+  for (const DerivedField& f : v.fields)
+    if (f.value && !std::isfinite(*f.value))
+      return none(*v.spec, fmt::format("its {} is not a finite number on these samples", f.name));
+  return v;
 }
 
 }  // namespace
@@ -883,7 +923,7 @@ std::vector<DerivedValue> derived_exact(const Mechanism& mechanism, const Trajec
   std::vector<DerivedValue> out;
   ExactLocator locator(mechanism, sweep);
   for (const DerivedSpec& spec : mechanism.derived)
-    out.push_back(compute(mechanism, spec, sweep, locator, true));
+    out.push_back(finite(compute(mechanism, spec, sweep, locator, true)));
   return out;
 }
 
@@ -891,7 +931,7 @@ std::vector<DerivedValue> derived_sampled(const Mechanism& mechanism, const Traj
   std::vector<DerivedValue> out;
   SampledLocator locator(samples);
   for (const DerivedSpec& spec : mechanism.derived)
-    out.push_back(compute(mechanism, spec, samples, locator, false));
+    out.push_back(finite(compute(mechanism, spec, samples, locator, false)));
   return out;
 }
 

@@ -1692,6 +1692,85 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+// The design summary: what a designer reads about the output, as [[derived]] quantities the file
+// need not declare (docs/mechanism-format.md, "Design summary"). The output is `[summary]
+// output` (a moving link or a slider joint), else the last slider on the ground, else the last
+// moving link; the driven coordinate is never the output. Its stroke (a rocker's swing), time
+// ratio and dead points; the toggles; a four-bar's transmission angle; and the path of each
+// coupler point (a named point on a link with no ground joint that no joint uses): its extent
+// and straightness. None for several drivers, a dynamics case or a driver at rest; one the file
+// declares already (the same kind of the same channel or point, or the same name) is not added.
+void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
+  const toml::table* t = r.table(root, "summary", "a mechanism", false);
+  std::string output;
+  if (t) {
+    r.known_keys(*t, "[summary]", {"output"});
+    output = r.string(*t, "output", "[summary]", false).value_or("");
+  }
+  if (m.drivers.size() != 1 || m.dynamics || m.driver().at_rest()) return;
+  const int g = m.ground();
+  const std::string driven = driven_channel(m);
+  std::vector<std::string> outputs;  // the candidates' channels, in order
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (static_cast<int>(l) != g) outputs.push_back("angle." + m.links[l].name);
+  for (const Joint& j : m.joints)
+    if (j.type == JointType::prismatic && (j.link_a == g || j.link_b == g))
+      outputs.push_back("s." + j.name);
+  std::erase(outputs, driven);
+  std::string channel;
+  if (!output.empty()) {
+    for (const std::string& c : outputs)
+      if (c.substr(c.find('.') + 1) == output) channel = c;
+    if (channel.empty()) {
+      std::vector<std::string> names;
+      for (const std::string& c : outputs) names.push_back(c.substr(c.find('.') + 1));
+      r.error(r.at(t->get("output")),
+              fmt::format("[summary] 'output': '{}' is no moving link or slider on the ground "
+                          "but the driven one (valid: {})",
+                          output, join(names)));
+      return;
+    }
+  } else if (!outputs.empty()) {
+    // outputs lists the links first, then the sliders: the last slider, else the last link
+    const auto slider = std::find_if(outputs.rbegin(), outputs.rend(),
+                                     [](const std::string& c) { return c.starts_with("s."); });
+    channel = slider != outputs.rend() ? *slider : outputs.back();
+  }
+  using K = DerivedSpec::Kind;
+  const auto add = [&](std::string name, K kind, std::string on, std::string point) {
+    for (const DerivedSpec& d : m.derived)
+      if (d.name == name || (d.kind == kind && d.channel == on && d.point == point && !d.range))
+        return;
+    DerivedSpec spec;
+    spec.name = std::move(name);
+    spec.kind = kind;
+    spec.channel = std::move(on);
+    spec.point = std::move(point);
+    spec.summary = true;
+    spec.where = t ? r.at(*t) : r.file();
+    m.derived.push_back(std::move(spec));
+  };
+  if (!channel.empty()) {
+    add("output_stroke", K::stroke, channel, "");
+    add("output_time_ratio", K::time_ratio, channel, "");
+    add("output_dead_points", K::dead_points, channel, "");
+  }
+  add("toggles", K::toggles, "", "");
+  if (const auto fb = four_bar(m)) add("transmission", K::transmission, "mu." + fb->c, "");
+  for (const Mechanism::NamedPoint& p : m.named_points()) {
+    const auto on_ground = [&](const Joint& j) { return j.link_a == g || j.link_b == g; };
+    const auto joins = [&](const Joint& j) {
+      return (j.link_a == p.link && j.point_a == p.point) ||
+             (j.link_b == p.link && j.point_b == p.point);
+    };
+    const bool grounded = std::any_of(m.joints.begin(), m.joints.end(), [&](const Joint& j) {
+      return on_ground(j) && (j.link_a == p.link || j.link_b == p.link);
+    });
+    if (p.link == g || grounded || std::any_of(m.joints.begin(), m.joints.end(), joins)) continue;
+    add("path_" + p.name, K::straightness, "", p.name);
+  }
+}
+
 // Every channel a method writes for the mechanism, its forces' included; none while the definition
 // has errors (the mechanism may be incomplete: each was reported already).
 std::vector<std::string> channels_of(const Reader& r, const Mechanism& m) {
@@ -2466,10 +2545,10 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   Mechanism m;
   m.file = file;
   r.set_root(root);
-  r.known_keys(
-      root, "the definition",
-      {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
-       "derived", "tolerance", "expect", "gravity", "load", "spring", "dynamics", "branch"});
+  r.known_keys(root, "the definition",
+               {"name", "description", "citation", "units", "link", "joint", "driver", "reference",
+                "derived", "tolerance", "expect", "gravity", "load", "spring", "dynamics", "branch",
+                "summary"});
   m.name = r.string(root, "name", "a mechanism", true).value_or("");
   m.description = r.string(root, "description", "a mechanism", false).value_or("");
   m.citation = r.string(root, "citation", "a mechanism", false).value_or("");
@@ -2555,6 +2634,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_springs(r, m, root);
   read_tolerances(r, m, root);
   read_derived(r, m, root);
+  add_design_summary(r, m, root);
   read_references(r, m, root);
   read_expect(r, m, root);
   read_branches(r, m, root);

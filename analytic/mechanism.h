@@ -292,6 +292,9 @@ struct DerivedSpec {
   std::string channel;  // the channel it reads (straightness: none; transmission: mu.<C>)
   std::string point;    // straightness, circularity: the point whose path it reads
   std::optional<std::pair<double, double>> range;  // a driver interval [rad or m]; none: the sweep
+  // Of the design summary (docs/mechanism-format.md, "Design summary"): added by the loader for
+  // every one-driver definition without being declared, not written in the file.
+  bool summary = false;
   SourceLocation where;
 };
 std::string_view to_string(DerivedSpec::Kind kind);

@@ -13,6 +13,7 @@
 #include "analytic/newton.h"
 #include "analytic/sweep.h"
 #include "app/commands.h"
+#include "compare/derived.h"
 
 namespace crosslink::app {
 namespace {
@@ -211,6 +212,15 @@ void print_modes(const Mechanism& m, const KinematicState& assembled, std::strin
   }
 }
 
+// The design summary (DerivedSpec::summary) on the exact sweep, in the file's units.
+void print_design_summary(const Mechanism& m, const Trajectory& sweep, std::string& out) {
+  std::vector<DerivedValue> summary = derived_exact(m, sweep);
+  std::erase_if(summary, [](const DerivedValue& v) { return !v.spec->summary; });
+  if (summary.empty()) return;
+  out += "  design summary (docs/mechanism-format.md, \"Design summary\"):\n" +
+         compare::derived_exact_text(m, summary, 4);
+}
+
 // The definition's own claims ([expect], [expect.derived]) judged against the exact sweep: each
 // on stdout, each that does not hold also at its place on stderr, with exit 1. Returns how many
 // do not hold.
@@ -230,8 +240,8 @@ int print_claims(const Mechanism& m, const std::optional<Trajectory>& sweep,
   const std::vector<Claim> claims = judge_claims(m, *sweep, singular);
   const auto failed = static_cast<int>(
       std::count_if(claims.begin(), claims.end(), [](const Claim& c) { return !c.holds; }));
-  report.out += fmt::format("  claims ([expect], tolerance {:g} %{}): {} of {} hold\n",
-                            tolerance, m.expect->tolerance_pct ? "" : ", the default",
+  report.out += fmt::format("  claims ([expect], tolerance {:g} %{}): {} of {} hold\n", tolerance,
+                            m.expect->tolerance_pct ? "" : ", the default",
                             claims.size() - static_cast<size_t>(failed), claims.size());
   for (const Claim& c : claims) {
     report.out += fmt::format("    {:<4} {} (line {}): claimed {}, computed {}\n",
@@ -329,6 +339,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);
+  if (report.sweep) print_design_summary(m, *report.sweep, out);
   const int failed = print_claims(m, report.sweep, singular, report);
   out += failed ? fmt::format("  FAIL: {} claim{} of the definition do{} not hold\n", failed,
                               failed == 1 ? "" : "s", failed == 1 ? "es" : "")

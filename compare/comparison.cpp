@@ -131,14 +131,23 @@ int Comparison::reference_failures() const {
 }
 
 std::string Comparison::derived_counts_text() const {
-  if (derived.checks.empty()) return "";
   Counts c;
-  for (const DerivedCheck& d : derived.checks)
+  int summary = 0;
+  for (const DerivedCheck& d : derived.checks) {
+    if (d.spec->summary) {  // compared, never judged
+      ++summary;
+      continue;
+    }
     (d.verdict == Verdict::pass   ? c.pass
      : d.verdict == Verdict::fail ? c.fail
                                   : c.not_applicable)++;
-  return fmt::format("; {} [[derived]] comparisons: {} pass, {} fail, {} n/a", c.total(), c.pass,
-                     c.fail, c.not_applicable);
+  }
+  std::string text;
+  if (c.total())
+    text += fmt::format("; {} [[derived]] comparisons: {} pass, {} fail, {} n/a", c.total(),
+                        c.pass, c.fail, c.not_applicable);
+  if (summary) text += fmt::format("; {} design summary values compared, not judged", summary);
+  return text;
 }
 
 bool Comparison::pass() const {

@@ -179,6 +179,8 @@ DerivedResults compare_derived(const Mechanism& m, const std::vector<MethodRun>&
           c.reason = own && !own->reason.empty() ? own->reason : "the method has no such value";
         else if (!c.estimate)
           c.reason = "the reference's samples give none: " + exact.reason;
+        else if (exact.spec->summary)  // a tied extreme's place moves with any error
+          c.reason = "the design summary is compared, not judged (a [[derived]] entry is)";
         else
           c.verdict = c.pct_of_scale() <= c.tolerance ? Verdict::pass : Verdict::fail;
         out.checks.push_back(std::move(c));
@@ -186,17 +188,17 @@ DerivedResults compare_derived(const Mechanism& m, const std::vector<MethodRun>&
   return out;
 }
 
-void print_derived_exact(std::FILE* out, const Mechanism& m,
-                         const std::vector<DerivedValue>& exact) {
-  if (exact.empty()) return;
-  fmt::print(out, "\n[[derived]] quantities (exact: located on the exact solution; file units)\n");
+std::string derived_exact_text(const Mechanism& m, const std::vector<DerivedValue>& exact,
+                               int indent) {
+  const std::string pad(static_cast<size_t>(indent), ' ');
+  std::string out;
   for (const DerivedValue& v : exact) {
     const DerivedSpec& spec = *v.spec;
     const std::string of = spec.point.empty() ? spec.channel : "point " + spec.point;
-    fmt::print(out, "  {} ({}{}{})\n", spec.name, to_string(spec.kind), of.empty() ? "" : " of ",
-               of);
+    out += fmt::format("{}{} ({}{}{}{})\n", pad, spec.name, to_string(spec.kind),
+                       of.empty() ? "" : " of ", of, spec.summary ? "; design summary" : "");
     if (!v.reason.empty()) {
-      fmt::print(out, "    none: {}\n", v.reason);
+      out += fmt::format("{}  none: {}\n", pad, v.reason);
       continue;
     }
     for (const DerivedField& f : v.fields) {
@@ -208,10 +210,18 @@ void print_derived_exact(std::FILE* out, const Mechanism& m,
                (e.quantity == spec.name && &f == &v.fields.front())))
             expected = "  ([expect.derived] " + shown(m, spec, f.unit, e.value) + ")";
       // A driver value's text has its unit.
-      fmt::print(out, "    {:<12} {}{}{}\n", f.name, shown(m, spec, f.unit, f.value),
-                 f.unit == DerivedUnit::driver ? "" : unit_text(m, spec, f.unit), expected);
+      out += fmt::format("{}  {:<12} {}{}{}\n", pad, f.name, shown(m, spec, f.unit, f.value),
+                         f.unit == DerivedUnit::driver ? "" : unit_text(m, spec, f.unit), expected);
     }
   }
+  return out;
+}
+
+void print_derived_exact(std::FILE* out, const Mechanism& m,
+                         const std::vector<DerivedValue>& exact) {
+  if (exact.empty()) return;
+  fmt::print(out, "\n[[derived]] quantities (exact: located on the exact solution; file units)\n{}",
+             derived_exact_text(m, exact, 2));
 }
 
 void print_derived(std::FILE* out, const Mechanism& m, const DerivedResults& results) {
@@ -277,6 +287,7 @@ nlohmann::json derived_json(const std::vector<DerivedValue>& exact, const Derive
          {"range", spec.range ? json({spec.range->first, spec.range->second}) : json(nullptr)},
          {"value", number(v.fields.empty() ? std::nullopt : v.fields.front().value)},
          {"reason", v.reason.empty() ? json(nullptr) : json(v.reason)},
+         {"summary", spec.summary},
          {"fields", fields}});
   }
   return out;
@@ -311,11 +322,12 @@ std::string derived_table_html(const Mechanism& m, const DerivedResults& results
                           pct_text(c.pct_of_scale()),
                           c.verdict == Verdict::not_applicable ? "n/a: " + html_escape(c.reason)
                                                                : std::string(to_string(c.verdict)));
-      rows += fmt::format("<tr><td>{}</td><td>{}</td><td>{}{}</td><td>{}</td></tr>\n",
-                          html_escape(quantity), to_string(v.spec->kind),
-                          f.value ? html_escape(shown(m, *v.spec, f.unit, f.value))
-                                  : "none: " + html_escape(v.reason),
-                          html_escape(unit_text(m, *v.spec, f.unit)), methods);
+      rows += fmt::format(
+          "<tr><td>{}</td><td>{}</td><td>{}{}</td><td>{}</td></tr>\n", html_escape(quantity),
+          fmt::format("{}{}", to_string(v.spec->kind), v.spec->summary ? " (design summary)" : ""),
+          f.value ? html_escape(shown(m, *v.spec, f.unit, f.value))
+                  : "none: " + html_escape(v.reason),
+          html_escape(unit_text(m, *v.spec, f.unit)), methods);
     }
   return "<table><tr><th>quantity</th><th>kind</th><th>exact</th><th>methods (from their "
          "samples)</th></tr>\n" +

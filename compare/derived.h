@@ -60,7 +60,10 @@ DerivedResults compare_derived(const Mechanism& mechanism, const std::vector<Met
 
 // Console: the exact values (file units) and every method's, with % and verdicts.
 void print_derived(std::FILE* out, const Mechanism& mechanism, const DerivedResults& results);
-// `solve`: the exact values alone, with the [expect.derived] values beside them.
+// `solve`: the exact values alone, with the [expect.derived] values beside them; the text of
+// each quantity and its fields, `indent` spaces in (`check`'s design summary).
+std::string derived_exact_text(const Mechanism& mechanism, const std::vector<DerivedValue>& exact,
+                               int indent);
 void print_derived_exact(std::FILE* out, const Mechanism& mechanism,
                          const std::vector<DerivedValue>& exact);
 // JSON (docs/json.md, "derived"): SI.
