@@ -101,7 +101,7 @@ int run_compare(CompareArgs args) {
   }
   if (!args.report.empty()) {
     compare::HtmlOptions html;
-    html.at = options.at;
+    html.drawing = methods::drawing(m, options.at);
     html.asset_dirs = installed_asset_dirs();
     if (args.step != 0.0) html.step = options.step;
     html.tolerances = args.tolerances;

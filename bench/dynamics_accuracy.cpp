@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
       std::string dt_used = dt;
       for (const auto& [k, v] : run.settings)
         if (k == "dt") dt_used = v;
-      const compare::Comparison cmp = compare::compare_methods(m, {reference, run}, tolerances);
+      const compare::Comparison cmp = methods::compare_runs(m, {reference, run}, tolerances);
       double worst[7] = {0, 0, 0, 0, 0, 0, 0};
       double end_position = 0.0, metres = 0.0;
       for (const compare::ChannelResult& ch : cmp.channels) {

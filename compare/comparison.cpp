@@ -8,7 +8,6 @@
 #include <limits>
 #include <map>
 
-#include "analytic/sweep.h"
 #include "analytic/trust.h"
 
 namespace crosslink::compare {
@@ -144,8 +143,8 @@ std::string Comparison::derived_counts_text() const {
   }
   std::string text;
   if (c.total())
-    text += fmt::format("; {} [[derived]] comparisons: {} pass, {} fail, {} n/a", c.total(),
-                        c.pass, c.fail, c.not_applicable);
+    text += fmt::format("; {} [[derived]] comparisons: {} pass, {} fail, {} n/a", c.total(), c.pass,
+                        c.fail, c.not_applicable);
   if (summary) text += fmt::format("; {} design summary values compared, not judged", summary);
   return text;
 }
@@ -206,7 +205,7 @@ double ReferenceRow::percent(double value, double against) const {
 }
 
 Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> methods,
-                           const Tolerances& tolerances) {
+                           const Tolerances& tolerances, const ExactValues& exact) {
   Comparison out;
   out.mechanism = &mechanism;
   out.methods = std::move(methods);
@@ -314,11 +313,12 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     }
   }
 
-  out.derived = compare_derived(mechanism, out.methods, tolerances);
+  out.derived = compare_derived(mechanism, out.methods, tolerances, exact.derived);
 
   // [[reference]] rows: exact at the printed driver value, every method on its sweep.
   const bool angular = mechanism.driver().angular();
-  for (const Reference& r : mechanism.references) {
+  for (size_t k = 0; k < mechanism.references.size(); ++k) {
+    const Reference& r = mechanism.references[k];
     ReferenceRow row;
     row.reference = r;
     if (r.derived) {
@@ -339,12 +339,10 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     const Eigen::VectorXd none;
     row.zero = 1e-9 * std::max(channel_peak(r.quantity, none, {}, size),
                                peak_floor(r.quantity, 0.0, 0.0, scales));
-    const Trajectory exact = solve_at(mechanism, r.driver_value);
-    if (exact.samples() > 0 && usable(exact.status[0]))
-      if (const auto v = exact.channel(r.quantity)) {
-        row.exact = (*v)(0);
-        row.exact_ok = true;
-      }
+    if (k < exact.references.size() && exact.references[k]) {
+      row.exact = *exact.references[k];
+      row.exact_ok = true;
+    }
     for (const MethodRun& run : out.methods) {
       if (!run.available || !run.ok || !run.computes(r.quantity)) continue;
       bool interpolated = false;

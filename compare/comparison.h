@@ -118,10 +118,19 @@ struct Comparison {
   std::string references_counts_text() const;
 };
 
+// What the comparator judges against besides the reference's samples, solved before it is called
+// (the exact methods solve, the comparator judges: methods::exact_values makes them): the
+// [[derived]] quantities located on the exact solution, and each [[reference]] row's exact value
+// at its driver value (none for a row of a derived quantity, or where no pose is solved).
+struct ExactValues {
+  std::vector<DerivedValue> derived;              // Mechanism::derived order
+  std::vector<std::optional<double>> references;  // Mechanism::references order
+};
+
 // Compares every available method in `methods` (the first is the reference) channel by
-// channel, and fills the [[reference]] rows.
+// channel, their [[derived]] quantities against `exact`'s, and fills the [[reference]] rows.
 Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> methods,
-                           const Tolerances& tolerances);
+                           const Tolerances& tolerances, const ExactValues& exact);
 
 // The value of one channel of `trajectory` at a driver value: the sample on it, or a linear
 // interpolation between the two samples around it (angular drivers modulo 2 pi). nullopt when

@@ -54,9 +54,10 @@ struct DerivedResults {
   int failures() const;
 };
 
-// The mechanism's [[derived]] quantities for every method (methods[0] the exact reference).
+// The mechanism's [[derived]] quantities for every method (methods[0] the exact reference), against
+// `exact`, the same located on the exact solution (derived_exact on methods[0]'s trajectory).
 DerivedResults compare_derived(const Mechanism& mechanism, const std::vector<MethodRun>& methods,
-                               const Tolerances& tolerances);
+                               const Tolerances& tolerances, std::vector<DerivedValue> exact);
 
 // Console: the exact values (file units) and every method's, with % and verdicts.
 void print_derived(std::FILE* out, const Mechanism& mechanism, const DerivedResults& results);

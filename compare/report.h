@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "analytic/instant_centres.h"
 #include "compare/comparison.h"
 
 namespace crosslink::compare {
@@ -63,8 +64,17 @@ std::string csv_number(double value);
 // Every CSV writer of crosslink writes its names through it.
 std::string csv_field(std::string_view text);
 
+// The pose a report draws and its instantaneous centres, solved by the exact methods before the
+// page is written (methods::drawing).
+struct Drawing {
+  double at = 0.0;     // the driver value [rad or m]; with several drivers a time [s]
+  bool asked = false;  // `at` was asked for (--at), not the default start
+  Trajectory pose;     // one sample: the exact pose there (its status says whether it exists)
+  std::optional<InstantCentres> centres;  // where the pose is usable
+};
+
 struct HtmlOptions {
-  std::optional<double> at;  // driver value of the drawing [rad or m]; default: the start
+  Drawing drawing;  // required: the page draws it
   // Folders to look for vega.min.js, vega-lite.min.js, vega-embed.min.js in (flat, or as an npm
   // node_modules tree), before $CROSSLINK_REPORT_ASSETS and the compiled-in source tree.
   std::vector<std::string> asset_dirs;

@@ -19,7 +19,6 @@
 #include <stdexcept>
 
 #include "analytic/instant_centres.h"
-#include "analytic/sweep.h"
 #include "compare/report.h"
 
 namespace crosslink::compare {
@@ -392,10 +391,10 @@ std::string settings_in_force(const Comparison& cmp, const HtmlOptions& options)
                                "<li>step between samples: the default, 1 deg for an angle, "
                                "1/360 of the swept range for a slider (--step sets it)</li>\n");
   }
-  html += options.at ? std::string("<li>drawing: at --at</li>\n")
-                     : std::string(
-                           "<li>drawing: at the driver's start (default; --at sets "
-                           "it)</li>\n");
+  html += options.drawing.asked ? std::string("<li>drawing: at --at</li>\n")
+                                : std::string(
+                                      "<li>drawing: at the driver's start (default; --at sets "
+                                      "it)</li>\n");
   const auto [assumed, given] = links_by_mass_source(m);
   html += fmt::format(
       "<li>mass model (every force, torque and energy channel and the drawing's reactions): "
@@ -658,11 +657,12 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   std::ostringstream head;  // first, so a missing chart script fails before any work
   write_page_head(fmt::format("crosslink compare: {}", m.name), "", options.asset_dirs, head);
 
-  // The drawing's pose: exact, at --at or the drawn start. Several drivers: --at is a time
-  // (solve_at follows the drivers up to it), the start t = 0.
+  // The drawing's pose, solved before (methods::drawing): at --at or the drawn start; with
+  // several drivers --at is a time, the start t = 0.
   const bool timed = m.several_drivers();
-  const double at = options.at.value_or(timed ? 0.0 : m.driver().start);
-  Trajectory pose = solve_at(m, at);
+  const double at = options.drawing.at;
+  const Trajectory& pose = options.drawing.pose;
+  if (pose.samples() != 1) throw std::logic_error("write_html: no drawing (methods::drawing)");
   const DisplayUnit du = driver_unit(m);
   json data = report_data(cmp, pose);
   data["styles"] = json::object();
@@ -675,8 +675,8 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
   // Instantaneous centres I(i,j), links numbered from 1 in definition order. Every placed one is
   // drawn (the page frames the linkage and points at a centre outside the frame with an arrow);
   // those at infinity are listed.
-  if (usable(pose.status.at(0))) {
-    const InstantCentres ic = instant_centres(m, pose, 0);
+  if (options.drawing.centres) {
+    const InstantCentres& ic = *options.drawing.centres;
     const DisplayUnit length = display_unit(m, "x.any");
     std::vector<std::string> at_infinity, undefined;
     for (const InstantCentre& c : ic.centres) {

@@ -303,4 +303,34 @@ MethodRun run_method(std::string_view name, const Mechanism& mechanism, const Me
       fmt::format("unknown method '{}' (valid: {})", name, fmt::join(method_names(), ", ")));
 }
 
+compare::ExactValues exact_values(const Mechanism& m, const MethodRun& reference) {
+  compare::ExactValues exact;
+  exact.derived = derived_exact(m, reference.trajectory);
+  for (const Reference& r : m.references) {
+    std::optional<double> value;
+    if (!r.derived) {
+      const Trajectory t = solve_at(m, r.driver_value);
+      if (t.samples() > 0 && usable(t.status[0]))
+        if (const auto v = t.channel(r.quantity)) value = (*v)(0);
+    }
+    exact.references.push_back(value);
+  }
+  return exact;
+}
+
+compare::Comparison compare_runs(const Mechanism& m, std::vector<MethodRun> runs,
+                                 const compare::Tolerances& tolerances) {
+  const compare::ExactValues exact = exact_values(m, runs.front());
+  return compare::compare_methods(m, std::move(runs), tolerances, exact);
+}
+
+compare::Drawing drawing(const Mechanism& m, std::optional<double> at) {
+  compare::Drawing out;
+  out.at = at.value_or(m.several_drivers() ? 0.0 : m.driver().start);
+  out.asked = at.has_value();
+  out.pose = solve_at(m, out.at);
+  if (usable(out.pose.status.at(0))) out.centres = instant_centres(m, out.pose, 0);
+  return out;
+}
+
 }  // namespace crosslink::methods

@@ -18,7 +18,9 @@
 #include "analytic/dynamics.h"
 #include "analytic/sweep.h"
 #include "analytic/trajectory.h"
+#include "compare/comparison.h"
 #include "compare/method_run.h"
+#include "compare/report.h"
 #include "sim/engine.h"
 
 namespace crosslink::methods {
@@ -55,5 +57,20 @@ void check_engine_settings(std::string_view name, const Mechanism& mechanism,
 // methods ignore them. Throws std::invalid_argument for an unknown name.
 MethodRun run_method(std::string_view name, const Mechanism& mechanism, const MethodRun& reference,
                      const sim::Settings& engine_settings = {});
+
+// The exact values a comparison judges against besides the reference's samples
+// (compare::ExactValues), on `reference`, the exact sweep or simulation: the [[derived]]
+// quantities located on it and each [[reference]] row solved at its driver value.
+compare::ExactValues exact_values(const Mechanism& mechanism, const MethodRun& reference);
+
+// compare::compare_methods against the exact values of `runs[0]`, the reference (a caller that
+// compares many runs against one reference solves them once, exact_values, and calls
+// compare::compare_methods itself).
+compare::Comparison compare_runs(const Mechanism& mechanism, std::vector<MethodRun> runs,
+                                 const compare::Tolerances& tolerances);
+
+// The pose a report draws (compare::Drawing): at `at` [rad or m; several drivers: a time], by
+// default the drawn start (t = 0), with its instantaneous centres where it is usable.
+compare::Drawing drawing(const Mechanism& mechanism, std::optional<double> at);
 
 }  // namespace crosslink::methods

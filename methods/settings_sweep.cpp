@@ -188,6 +188,14 @@ ReferenceLadder::ReferenceLadder(const Mechanism& mechanism, const SweepOptions&
   base_step_ = std::abs(t.driver(1) - t.driver(0));
   if (!(interval_ > 0.0))
     throw std::runtime_error("the reference's samples are not spaced in time");
+  exact_.emplace(base_.get(), exact_values(mechanism_, *base_));
+}
+
+const compare::ExactValues& ReferenceLadder::exact_of(const MethodRun& reference) {
+  const std::lock_guard<std::mutex> hold(coarse_lock_);
+  const auto it = exact_.find(&reference);
+  if (it == exact_.end()) throw std::logic_error("exact_of: not a reference of this ladder");
+  return it->second;
 }
 
 const MethodRun& ReferenceLadder::for_dt(double dt, double* snapped) {
@@ -214,6 +222,7 @@ const MethodRun& ReferenceLadder::for_dt(double dt, double* snapped) {
     const bool spaced = t.samples() >= 2 &&
                         std::abs((t.time(1) - t.time(0)) - static_cast<double>(m) * h) <= 1e-6 * h;
     if (!spaced) run.reset();  // a law that does not map steps to times: stay on the base
+    if (run) exact_.emplace(run.get(), exact_values(mechanism_, *run));
     it = coarse_.emplace(m, std::move(run)).first;
   }
   if (!it->second) {
@@ -354,8 +363,9 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
 
   // The verdict metric: compare_methods, as `crosslink compare` does.
   const Tolerances tolerances = default_tolerances(mechanism);
+  const compare::ExactValues& exact = ladder.exact_of(reference);
   if (run.ok) {
-    const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
+    const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances, exact);
     row.max_pct = class_maxima(cmp, run.name);
     if (mechanism.dynamics) end_and_energy(cmp, run.name, row);
     if (mechanism.dynamics && shaped) set_tip_errors(mechanism, ref, tr, row);
@@ -372,8 +382,8 @@ SweepRow evaluate_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
         any = true;
       }
     if (any)
-      row.raw_pct =
-          class_maxima(compare_methods(mechanism, {reference, lifted}, tolerances), run.name);
+      row.raw_pct = class_maxima(compare_methods(mechanism, {reference, lifted}, tolerances, exact),
+                                 run.name);
   }
   if (!run.ok)
     row.status = RunStatus::diverged;
@@ -463,6 +473,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
     // interval, and at that step its eighth order is below every tolerance here, so each
     // looser rkf78 run is the same run (docs/sweep.md).
     const Tolerances tolerances = default_tolerances(mechanism);
+    const compare::ExactValues exact = exact_values(mechanism, reference);
     for (double tolerance : kSimulationTolerances) {
       SimulationOptions loose;
       loose.integrator = kSimulationTolerancesIntegrator;
@@ -484,7 +495,7 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
       row.samples = reference.trajectory.samples();
       row.message = run.message;
       run.name = loose.integrator;  // compared as a method of its own
-      const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances);
+      const Comparison cmp = compare_methods(mechanism, {reference, run}, tolerances, exact);
       row.max_pct = class_maxima(cmp, run.name);
       end_and_energy(cmp, run.name, row);
       set_tip_errors(mechanism, reference.trajectory, run.trajectory, row);
@@ -511,8 +522,8 @@ std::vector<SweepRow> analytic_rows(const Mechanism& mechanism, const SweepOptio
     row.message = dyads.message;
     if (dyads.ok) {
       const Comparison cmp =
-          compare_methods(mechanism, {reference, dyads},
-                          Tolerances(engine_tolerances(false), mechanism.tolerances));
+          compare_runs(mechanism, {reference, dyads},
+                       Tolerances(engine_tolerances(false), mechanism.tolerances));
       row.max_pct = class_maxima(cmp, "dyads");
       for (size_t k = 0; k < reference.trajectory.status.size(); ++k)
         if (usable(reference.trajectory.status[k]) && !usable(dyads.trajectory.status[k]))

@@ -120,6 +120,9 @@ class ReferenceLadder {
   // The reference for a requested dt and the snapped dt [s]. Safe to call from the sweep's
   // threads (a coarse reference is made once, under a lock; what it returns stays in place).
   const MethodRun& for_dt(double dt, double* snapped);
+  // The exact values a comparison against `reference`, one for_dt returned, judges with
+  // (exact_values), solved once with it.
+  const compare::ExactValues& exact_of(const MethodRun& reference);
 
  private:
   const Mechanism& mechanism_;
@@ -127,6 +130,7 @@ class ReferenceLadder {
   std::unique_ptr<MethodRun> base_;
   double interval_ = 0.0, base_step_ = 0.0;
   std::map<long, std::unique_ptr<MethodRun>> coarse_;  // by m
+  std::map<const MethodRun*, compare::ExactValues> exact_;
   std::mutex coarse_lock_;
 };
 

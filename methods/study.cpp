@@ -69,7 +69,8 @@ void check_engine_steps(const compare::MethodRun& reference, const std::string& 
 std::vector<compare::StepProbe> probe_steps(const Mechanism& m, const compare::Comparison& cmp,
                                             const std::vector<std::string>& names,
                                             const std::vector<sim::Settings>& settings,
-                                            const compare::Tolerances& tolerances, int jobs) {
+                                            const compare::Tolerances& tolerances,
+                                            const compare::ExactValues& exact, int jobs) {
   std::vector<compare::StepProbe> probes;
   std::vector<sim::Settings> halved;
   for (size_t k = 0; k < names.size(); ++k) {
@@ -113,7 +114,7 @@ std::vector<compare::StepProbe> probe_steps(const Mechanism& m, const compare::C
       return;
     }
     const compare::Comparison half =
-        compare::compare_methods(m, {cmp.reference(), std::move(run)}, tolerances);
+        compare::compare_methods(m, {cmp.reference(), std::move(run)}, tolerances, exact);
     for (const compare::ChannelResult& c : half.channels)
       if (c.metrics.channel == probe.channel && c.metrics.usable > 0) {
         probe.ok = true;
@@ -233,8 +234,9 @@ compare::Comparison run_compare(const Mechanism& m, const CompareOptions& option
   run_jobs(options.jobs, others.size(), [&](size_t k) {
     runs[first + k] = run_method(others[k], m, runs.front(), settings[k]);
   });
-  compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances);
-  cmp.step_probes = probe_steps(m, cmp, others, settings, tolerances, options.jobs);
+  const compare::ExactValues exact = exact_values(m, runs.front());
+  compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances, exact);
+  cmp.step_probes = probe_steps(m, cmp, others, settings, tolerances, exact, options.jobs);
   return cmp;
 }
 

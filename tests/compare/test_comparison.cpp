@@ -58,8 +58,8 @@ TEST(Comparison, IdenticalMethodPasses) {
   MethodRun same = runs.front();
   same.name = "perturbed";
   runs.push_back(same);
-  const Comparison c = compare_methods(m, std::move(runs),
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c = methods::compare_runs(
+      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_TRUE(c.pass());
   EXPECT_EQ(c.channels.size(), c.reference().trajectory.channel_names().size());
 }
@@ -69,8 +69,8 @@ TEST(Comparison, LinkOnePercentLongFailsNamingChannelAndSample) {
   const Mechanism wrong = with_longer_link(m, "coupler", 1.01);
   std::vector<MethodRun> runs = {run_reference(m), perturbed_method(wrong)};
   ASSERT_EQ(runs[0].trajectory.samples(), runs[1].trajectory.samples());
-  const Comparison c = compare_methods(m, std::move(runs),
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c = methods::compare_runs(
+      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(c.pass());
   const ChannelResult* bell = nullptr;
   for (const ChannelResult& r : c.channels)
@@ -94,8 +94,8 @@ TEST(Comparison, LinkOnePercentLongFailsNamingChannelAndSample) {
 
 TEST(Comparison, ReferenceRowsCarryPrintedAndExactValues) {
   const Mechanism m = load_mechanism(kSewing);
-  const Comparison c = compare_methods(m, {run_reference(m)},
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c = methods::compare_runs(
+      m, {run_reference(m)}, Tolerances(methods::engine_tolerances(false), m.tolerances));
   ASSERT_EQ(c.references.size(), m.references.size());
   for (const ReferenceRow& r : c.references) {
     ASSERT_TRUE(r.exact_ok) << r.reference.quantity;
@@ -112,7 +112,7 @@ TEST(Comparison, ReferenceRowsCarryPrintedAndExactValues) {
 TEST(Comparison, JsonHasTheDocumentedFields) {
   const Mechanism m = load_mechanism(kSewing);
   std::vector<MethodRun> runs = {run_reference(m), perturbed_method(m)};
-  const nlohmann::json j = to_json(compare_methods(
+  const nlohmann::json j = to_json(methods::compare_runs(
       m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances)));
   for (const char* key : {"mechanism", "pass", "methods", "channels", "references"})
     EXPECT_TRUE(j.contains(key)) << key;
@@ -143,8 +143,8 @@ TEST(Comparison, EnginesTimeRatioAndStrokeAgainstExact) {
   std::vector<MethodRun> runs = {run_reference(m)};
   for (const char* engine : {"mujoco", "bullet"})
     runs.push_back(run_method(engine, m, runs.front()));
-  const Comparison c = compare_methods(m, std::move(runs),
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c = methods::compare_runs(
+      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
   const double beta = 2.0 * std::acos(2.0 / 3.0);
   const double ratio = (2.0 * std::numbers::pi - beta) / beta;
   EXPECT_NEAR(*derived_value(c.derived.exact, "Q"), ratio, 1e-10);
@@ -252,7 +252,7 @@ TEST(DerivedTies, EqualExtremesAtTwoPlacesAreATieNotAWrongLocation) {
   // The reference's samples put the maximum at the first (raised by `reference_by`), the
   // method's at the second (raised by `by`).
   const auto at_max = [&](double reference_by, double by) {
-    const Comparison cmp = compare_methods(
+    const Comparison cmp = methods::compare_runs(
         m,
         {raised(reference, first, reference_by, "analytic"), raised(reference, second, by, "tied")},
         tolerances);

@@ -80,7 +80,7 @@ TEST(Trust, ACorruptedReferenceSampleIsCaughtAndCannotPassAWrongMethod) {
     reference.name = "analytic";
     reference.available = reference.ok = true;
     reference.trajectory = corrupted;
-    const Comparison c = compare_methods(
+    const Comparison c = methods::compare_runs(
         m, {reference, wrong}, Tolerances(methods::engine_tolerances(false), m.tolerances));
     EXPECT_TRUE(passes(c, "mujoco", Quantity::force));
     EXPECT_TRUE(passes(c, "mujoco", Quantity::torque));
@@ -95,8 +95,8 @@ TEST(Trust, ACorruptedReferenceSampleIsCaughtAndCannotPassAWrongMethod) {
   reference.name = "analytic";
   reference.available = reference.ok = true;
   reference.trajectory = corrupted;
-  const Comparison c = compare_methods(m, {reference, wrong},
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c = methods::compare_runs(
+      m, {reference, wrong}, Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(c.pass());
   for (Quantity q : {Quantity::velocity, Quantity::acceleration, Quantity::force, Quantity::torque})
     EXPECT_FALSE(passes(c, "mujoco", q)) << to_string(q);
@@ -137,8 +137,9 @@ TEST(Trust, ALinkageWithNoSingularPositionLosesNoSample) {
   ASSERT_EQ(t.samples(), 361);
   const double force_rcond = kForceConditioning * typical_rcond(t);
   for (int k = 0; k < t.samples(); ++k) EXPECT_EQ(untrusted(t, k, force_rcond), "") << k;
-  const Comparison c = compare_methods(m, {reference, wrong_method(t, 1.0)},
-                                       Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Comparison c =
+      methods::compare_runs(m, {reference, wrong_method(t, 1.0)},
+                            Tolerances(methods::engine_tolerances(false), m.tolerances));
   EXPECT_TRUE(c.pass());
   for (const ChannelResult& r : c.channels)
     EXPECT_EQ(r.metrics.usable, t.samples()) << r.metrics.channel;
@@ -165,7 +166,7 @@ TEST(Trust, TheNFourBarChainIsJudgedAlikeAtEverySizeAndUnit) {
     for (const char* engine : {"mujoco", "bullet"})
       runs.push_back(methods::run_method(engine, m, reference));
     const Comparison c =
-        compare_methods(m, runs, Tolerances(methods::engine_tolerances(false), m.tolerances));
+        methods::compare_runs(m, runs, Tolerances(methods::engine_tolerances(false), m.tolerances));
     EXPECT_TRUE(c.pass()) << k.n << " " << k.unit;
     for (size_t r = 1; r < c.methods.size(); ++r)
       for (PoseStatus s : c.methods[r].trajectory.status)

@@ -25,6 +25,7 @@
 
 #include "analytic/loader.h"
 #include "compare/comparison.h"
+#include "methods/registry.h"
 #include "methods/settings_sweep.h"
 
 namespace crosslink::methods {
@@ -121,7 +122,7 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
       if (flagged) continue;
       double after = 0.0;  // largest position-class error after the event [% of peak]
       const Comparison c =
-          compare_methods(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
+          compare_runs(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
       for (const ChannelResult& r : c.channels) {
         if (r.metrics.quantity != Quantity::position && r.metrics.quantity != Quantity::angle)
           continue;
@@ -135,7 +136,7 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
                             << after << " % of peak off in position (another branch)";
     }
     const Comparison cmp =
-        compare_methods(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
+        compare_runs(m, {reference, run}, Tolerances(engine_tolerances(false), m.tolerances));
     if (run.ok)
       expect_flagged_samples_out_of_verdicts(cmp, what);
     else
@@ -193,7 +194,7 @@ TEST(Stability, MujocoDefaultSoftConstraintsFailTheVerdict) {
                     [](PoseStatus s) { return s == PoseStatus::loop_gap; });
   EXPECT_GT(flagged, 0) << watched.message;
   expect_flagged_samples_out_of_verdicts(
-      compare_methods(m, {reference, watched}, Tolerances(engine_tolerances(false), m.tolerances)),
+      compare_runs(m, {reference, watched}, Tolerances(engine_tolerances(false), m.tolerances)),
       "soft, watched");
 
   sim::Settings unwatched = soft;
@@ -201,7 +202,7 @@ TEST(Stability, MujocoDefaultSoftConstraintsFailTheVerdict) {
   const MethodRun judged = run_method("mujoco", m, reference, unwatched);
   ASSERT_TRUE(judged.ok) << judged.message;
   const Comparison cmp =
-      compare_methods(m, {reference, judged}, Tolerances(engine_tolerances(false), m.tolerances));
+      compare_runs(m, {reference, judged}, Tolerances(engine_tolerances(false), m.tolerances));
   EXPECT_FALSE(cmp.pass());
   double omega_rocker = 0.0;
   for (const ChannelResult& c : cmp.channels)
@@ -238,7 +239,7 @@ TEST(Stability, DynamicsAtACoarseStepIsReported) {
       const long flagged =
           std::count_if(run.trajectory.status.begin(), run.trajectory.status.end(),
                         [](PoseStatus s) { return !usable(s) && s != PoseStatus::singular; });
-      const Comparison cmp = compare_methods(m, {reference, run}, default_tolerances(m));
+      const Comparison cmp = compare_runs(m, {reference, run}, default_tolerances(m));
       std::printf("%s: %s, %ld samples flagged, verdict %s\n", what.c_str(),
                   run.ok ? "finished" : "diverged", flagged, cmp.pass() ? "PASS" : "FAIL");
       EXPECT_TRUE(!run.ok || flagged > 0 || !cmp.pass()) << what << ": " << run.message;
