@@ -164,8 +164,8 @@ SettingSpec shared_setting(std::string_view name) {
             .doc = "forward dynamics: beyond it (of the energy scale) the run stops: diverged",
             .range = kPositive,
             .applies_to = AppliesTo::dynamics};
-  // Declared alike by Bullet and Simbody (MuJoCo's differ: its gap is a cut's, its driver and
-  // conditioning thresholds have other defaults).
+  // Declared alike by Bullet, ODE and Simbody (MuJoCo's differ: its gap is a cut's, its driver
+  // and conditioning thresholds have other defaults).
   if (name == "gap_threshold")
     return {.name = "gap_threshold",
             .kind = number,

@@ -67,8 +67,8 @@ struct SettingSpec {
 using SettingSchema = std::vector<SettingSpec>;
 
 // A setting every engine declares alike, by name: "max_steps", "perturb_link",
-// "divergence_energy", and the reported "mass_model", "driver", "energy_scale"; and those Bullet
-// and Simbody declare alike: "gap_threshold", "divergence_gap", "driver_threshold",
+// "divergence_energy", and the reported "mass_model", "driver", "energy_scale"; and those Bullet,
+// ODE and Simbody declare alike: "gap_threshold", "divergence_gap", "driver_threshold",
 // "singular_rcond", "branch_distance", "energy_threshold" (std::logic_error for another name).
 SettingSpec shared_setting(std::string_view name);
 

@@ -709,13 +709,6 @@ class SimbodySteps {
 // ---------------------------------------------------------------------------------------------
 // Runs
 
-EngineRun failed(EngineRun run, const std::string& message) {
-  run.ok = false;
-  run.message = message;
-  std::fill(run.trajectory.status.begin(), run.trajectory.status.end(), PoseStatus::diverged);
-  return run;
-}
-
 // The settings, the mechanism the scene is built from (perturb_link) and the thresholds' auto
 // values, refused (std::exception) before anything is built.
 struct Prepared {
@@ -850,7 +843,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
                          InnerTimes::step_multiples, p.config.max_steps,
                          !p.config.perturb_link.empty());
   } catch (const std::exception& e) {
-    return failed(std::move(out), e.what());
+    return failed_run(std::move(out), e.what());
   }
   const Config& c = p.config;
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
@@ -869,7 +862,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     scene.emplace(p.m, p.graph, plan.start.q, plan.start.qdot, plan.grid.time.front(), false);
     steps.emplace(*scene, c, plan.start.q, plan.grid.time.back());
   } catch (const std::exception& e) {
-    return failed(std::move(out), "scene build failed: " + simbody_error(e));
+    return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
   }
   SimbodyDynamicsScene stepped(*steps, c);
   const DynamicsWatch watch = {c.gap_threshold,    c.divergence_gap * p.m.size(),
@@ -925,7 +918,7 @@ class SimbodyEngine final : public Engine {
                             InnerTimes::step_multiples, kPreroll, p.config.max_steps,
                             p.config.singular_rcond, !p.config.perturb_link.empty());
     } catch (const std::exception& e) {
-      return failed(std::move(out), e.what());
+      return failed_run(std::move(out), e.what());
     }
     const Config& c = p.config;
     Settings values = common_settings(c, plan.grid.dt);
@@ -942,7 +935,7 @@ class SimbodyEngine final : public Engine {
       scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true);
       steps.emplace(*scene, c, plan.q, plan.grid.time.back());
     } catch (const std::exception& e) {
-      return failed(std::move(out), "scene build failed: " + simbody_error(e));
+      return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
     }
     SimbodyKinematicScene stepped(*steps, c);
     const KinematicWatch watch = {c.gap_threshold, c.divergence_gap * p.m.size(),
