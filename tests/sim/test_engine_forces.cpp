@@ -13,10 +13,9 @@
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "analytic/trust.h"
-#include "sim/bullet/bullet_engine.h"
+#include "methods/engines.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
-#include "sim/ode/ode_engine.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink::sim {
@@ -27,9 +26,16 @@ namespace {
 // leg's pin E); Bullet at most 0.21 % (the polycentric hinge's pin H, near the ends of its
 // range, which the absolute conditioning limit of 1e-2 kept out until the trust issue: 0.091 %
 // was measured without them) and 0.09 % on the linkages that never near a singular position;
-// the Jansen leg at half Bullet's default step (below).
+// the Jansen leg at half Bullet's default step (below); ODE as Bullet; Simbody at most
+// 5.3e-5 % on the bundled linkages (Khurmi's slider-crank under gravity, pin O) and 3.4e-4 %
+// loaded (the quick return's pin B; 2026-12-02). Every engine of the engine table has one: a new
+// engine is measured before it is held to a number.
 double tolerance(const std::string& engine) {
-  return engine == "mujoco" ? 0.05e-2 : 0.25e-2;
+  if (engine == "mujoco") return 0.05e-2;
+  if (engine == "bullet" || engine == "ode") return 0.25e-2;
+  if (engine == "simbody") return 1e-5;
+  ADD_FAILURE() << engine << ": no force tolerance measured (bench/force_accuracy)";
+  return 0.0;
 }
 
 // Bullet's default step leaves the Jansen leg's reactions 0.34 % off at pin E (its peak force,
@@ -41,8 +47,7 @@ Settings settings_for(const std::string& engine, const std::string& name) {
 }
 
 std::unique_ptr<Engine> make(const std::string& engine) {
-  if (engine == "ode") return make_ode_engine();
-  return engine == "mujoco" ? make_mujoco_engine() : make_bullet_engine();
+  return methods::find_engine(engine)->make();
 }
 
 void expect_forces_agree(const std::string& engine, const Mechanism& m,
@@ -75,6 +80,10 @@ class Bundled : public ::testing::TestWithParam<Param> {};
 
 TEST_P(Bundled, AgreeWithExactKinetostaticsAtDefaults) {
   const auto& [engine, name] = GetParam();
+  // Simbody's integrator cannot advance through a change point, where the loops' Jacobian loses
+  // rank: this one's is the cycle's last sample, 360 deg (docs/engines.md, "Simbody").
+  if (engine == "simbody" && name == "fourbar_change_point")
+    GTEST_SKIP() << "Simbody stops at the change point at 360 deg";
   Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + name + ".toml");
   expect_forces_agree(engine, m, settings_for(engine, name));
   m.gravity = Eigen::Vector2d(0.0, -9.81);
@@ -82,7 +91,7 @@ TEST_P(Bundled, AgreeWithExactKinetostaticsAtDefaults) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Bundled,
-                         ::testing::Combine(::testing::Values("mujoco", "bullet", "ode"),
+                         ::testing::Combine(::testing::ValuesIn(methods::engine_names()),
                                             ::testing::ValuesIn(test::bundled_stems())),
                          [](const ::testing::TestParamInfo<Param>& info) {
                            return std::get<0>(info.param) + "_" + std::get<1>(info.param);
@@ -97,7 +106,7 @@ TEST_P(Loaded, GravitySpringDamperForceAndTorque) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
-                         ::testing::Combine(::testing::Values("mujoco", "bullet", "ode"),
+                         ::testing::Combine(::testing::ValuesIn(methods::engine_names()),
                                             ::testing::Values("fourbar_crank_rocker",
                                                               "slider_crank_offset", "quick_return",
                                                               "watt_sixbar")),
@@ -111,7 +120,7 @@ INSTANTIATE_TEST_SUITE_P(Engines, Loaded,
 TEST(EngineForces, MasslessCrankOnAHeavyPistonAgrees) {
   const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
                                      "/mechanisms/published/khurmi_slider_crank_gas_force.toml");
-  for (const std::string engine : {"mujoco", "bullet", "ode"}) expect_forces_agree(engine, m);
+  for (const std::string& engine : methods::engine_names()) expect_forces_agree(engine, m);
   const EngineRun bare = make_mujoco_engine()->run(m, sweep(m), {{"driver_armature", "0"}});
   EXPECT_FALSE(bare.ok) << "MuJoCo held the driver without an armature";
 }
@@ -139,7 +148,7 @@ TEST(EngineForces, CanFail) {
   Mechanism heavy = m;
   heavy.links[static_cast<size_t>(heavy.find_link("coupler"))].mass.mass *= 1.1;
   const Trajectory exact = sweep(m);
-  for (const std::string engine : {"mujoco", "bullet", "ode"}) {
+  for (const std::string& engine : methods::engine_names()) {
     const EngineRun run = make(engine)->run(heavy, exact, {});
     ASSERT_TRUE(run.ok) << run.message;
     EXPECT_GT(force_agreement(m, exact, run.trajectory).reaction, 10 * tolerance(engine)) << engine;
