@@ -1707,6 +1707,8 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
     r.known_keys(*t, "[summary]", {"output"});
     output = r.string(*t, "output", "[summary]", false).value_or("");
   }
+  // A definition with errors so far may be incomplete (no ground): each was reported already.
+  if (!r.diagnostics().empty() || m.ground() < 0) return;
   if (m.drivers.size() != 1 || m.dynamics || m.driver().at_rest()) return;
   const int g = m.ground();
   const std::string driven = driven_channel(m);
