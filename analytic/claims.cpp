@@ -26,7 +26,7 @@ struct Reading {
 
 class Judge {
  public:
-  explicit Judge(const Mechanism& m) : tolerance_(m.expect->tolerance_pct.value_or(kClaimTolerancePct) / 100.0) {}
+  explicit Judge(const Mechanism& m) : tolerance_(claim_tolerance_pct(*m.expect) / 100.0) {}
 
   bool close(double claimed, double computed, const Reading& r) const {
     double d = computed - claimed;
@@ -112,7 +112,11 @@ Claim derived(const Mechanism& m, const Judge& judge, const Expectations::Derive
 
 }  // namespace
 
-std::vector<Claim> judge_claims(const Mechanism& m, const Trajectory& sweep,
+double claim_tolerance_pct(const Expectations& e) {
+  return e.tolerance_pct.value_or(kClaimTolerancePct);
+}
+
+std::vector<Claim> judge_claims(const Mechanism& m, const std::vector<DerivedValue>& derived_values,
                                 const std::vector<SingularPosition>& singular) {
   std::vector<Claim> claims;
   if (!m.expect) return claims;
@@ -132,10 +136,8 @@ std::vector<Claim> judge_claims(const Mechanism& m, const Trajectory& sweep,
     c.holds = fb && c.computed == e.grashof;
     claims.push_back(std::move(c));
   }
-  if (!e.derived.empty()) {
-    const std::vector<DerivedValue> values = derived_exact(m, sweep);
-    for (const Expectations::Derived& d : e.derived) claims.push_back(derived(m, judge, d, values));
-  }
+  for (const Expectations::Derived& d : e.derived)
+    claims.push_back(derived(m, judge, d, derived_values));
   return claims;
 }
 

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "analytic/derived.h"
 #include "analytic/mechanism.h"
 #include "analytic/sweep.h"
-#include "analytic/trajectory.h"
 
 namespace crosslink {
 
@@ -27,11 +27,16 @@ struct Claim {
   bool holds = false;
 };
 
-// Every claim of `mechanism` (none without [expect]), in the file's order: `sweep` and `singular`
-// are its exact sweep at the default options and the singular positions met (sweep()); the
-// assembling range is traced when limits are claimed. A claim whose computed value does not exist
-// (a derived value with its reason, limits of a full rotation) does not hold.
-std::vector<Claim> judge_claims(const Mechanism& mechanism, const Trajectory& sweep,
+// The tolerance `expectations` are judged to [%]: theirs, else kClaimTolerancePct.
+double claim_tolerance_pct(const Expectations& expectations);
+
+// Every claim of `mechanism` (none without [expect]), in the file's order: `derived` are its
+// [[derived]] values on its exact sweep at the default options (derived_exact) and `singular` the
+// singular positions that sweep met (sweep()); the assembling range is traced when limits are
+// claimed. A claim whose computed value does not exist (a derived value with its reason, limits of
+// a full rotation) does not hold.
+std::vector<Claim> judge_claims(const Mechanism& mechanism,
+                                const std::vector<DerivedValue>& derived,
                                 const std::vector<SingularPosition>& singular);
 
 }  // namespace crosslink

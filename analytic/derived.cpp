@@ -864,9 +864,10 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
   if (!in.periodic)
     return fail("a time ratio needs the driver's whole cycle: the sweep is not periodic");
   if (const int turns = reversals(f, t, in); turns > 2)
-    return fail(fmt::format("{} turns back {} times over the cycle: there is no one forward and "
-                            "return stroke to time",
-                            spec.channel, turns));
+    return fail(
+        fmt::format("{} turns back {} times over the cycle: there is no one forward and "
+                    "return stroke to time",
+                    spec.channel, turns));
   // Driver travel from the min to the max, the way the driver turns.
   const double direction = d.law.speed > 0.0 ? 1.0 : -1.0;
   const double rising = std::fmod(std::fmod(direction * (hi->v - lo->v), kTwoPi) + kTwoPi, kTwoPi);

@@ -1759,16 +1759,21 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   }
   add("toggles", K::toggles, "", "");
   if (const auto fb = four_bar(m)) add("transmission", K::transmission, "mu." + fb->c, "");
+  // The links a joint holds to the ground (the ground among them): no coupler's.
+  std::vector<bool> grounded(m.links.size(), false);
+  grounded[static_cast<size_t>(g)] = true;
+  for (const Joint& j : m.joints)
+    if (j.link_a == g || j.link_b == g)
+      for (const int l : {j.link_a, j.link_b})
+        if (l >= 0) grounded[static_cast<size_t>(l)] = true;
   for (const Mechanism::NamedPoint& p : m.named_points()) {
-    const auto on_ground = [&](const Joint& j) { return j.link_a == g || j.link_b == g; };
     const auto joins = [&](const Joint& j) {
       return (j.link_a == p.link && j.point_a == p.point) ||
              (j.link_b == p.link && j.point_b == p.point);
     };
-    const bool grounded = std::any_of(m.joints.begin(), m.joints.end(), [&](const Joint& j) {
-      return on_ground(j) && (j.link_a == p.link || j.link_b == p.link);
-    });
-    if (p.link == g || grounded || std::any_of(m.joints.begin(), m.joints.end(), joins)) continue;
+    if (grounded[static_cast<size_t>(p.link)] ||
+        std::any_of(m.joints.begin(), m.joints.end(), joins))
+      continue;
     add("path_" + p.name, K::straightness, "", p.name);
   }
 }

@@ -212,9 +212,8 @@ void print_modes(const Mechanism& m, const KinematicState& assembled, std::strin
   }
 }
 
-// The design summary (DerivedSpec::summary) on the exact sweep, in the file's units.
-void print_design_summary(const Mechanism& m, const Trajectory& sweep, std::string& out) {
-  std::vector<DerivedValue> summary = derived_exact(m, sweep);
+// The design summary (DerivedSpec::summary) among the [[derived]] values, in the file's units.
+void print_design_summary(const Mechanism& m, std::vector<DerivedValue> summary, std::string& out) {
   std::erase_if(summary, [](const DerivedValue& v) { return !v.spec->summary; });
   if (summary.empty()) return;
   out += "  design summary (docs/mechanism-format.md, \"Design summary\"):\n" +
@@ -224,11 +223,12 @@ void print_design_summary(const Mechanism& m, const Trajectory& sweep, std::stri
 // The definition's own claims ([expect], [expect.derived]) judged against the exact sweep: each
 // on stdout, each that does not hold also at its place on stderr, with exit 1. Returns how many
 // do not hold.
-int print_claims(const Mechanism& m, const std::optional<Trajectory>& sweep,
+// `derived`: the [[derived]] values on the exact sweep, none without one.
+int print_claims(const Mechanism& m, const std::optional<std::vector<DerivedValue>>& derived,
                  const std::vector<SingularPosition>& singular, CheckReport& report) {
   if (!m.expect) return 0;
-  const double tolerance = m.expect->tolerance_pct.value_or(kClaimTolerancePct);
-  if (!sweep) {  // at rest: nothing swept, nothing to judge a claim against
+  const double tolerance = claim_tolerance_pct(*m.expect);
+  if (!derived) {  // at rest: nothing swept, nothing to judge a claim against
     report.err += Diagnostic{m.expect->where,
                              "[expect]: not judged: the driver is at rest (speed 0), so "
                              "nothing is swept"}
@@ -237,7 +237,7 @@ int print_claims(const Mechanism& m, const std::optional<Trajectory>& sweep,
     report.exit_code = kExitFail;
     return 1;
   }
-  const std::vector<Claim> claims = judge_claims(m, *sweep, singular);
+  const std::vector<Claim> claims = judge_claims(m, *derived, singular);
   const auto failed = static_cast<int>(
       std::count_if(claims.begin(), claims.end(), [](const Claim& c) { return !c.holds; }));
   report.out += fmt::format("  claims ([expect], tolerance {:g} %{}): {} of {} hold\n", tolerance,
@@ -339,8 +339,13 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);
-  if (report.sweep) print_design_summary(m, *report.sweep, out);
-  const int failed = print_claims(m, report.sweep, singular, report);
+  // The [[derived]] values once, for the design summary and the claims.
+  std::optional<std::vector<DerivedValue>> derived;
+  if (report.sweep) {
+    derived = derived_exact(m, *report.sweep);
+    print_design_summary(m, *derived, out);
+  }
+  const int failed = print_claims(m, derived, singular, report);
   out += failed ? fmt::format("  FAIL: {} claim{} of the definition do{} not hold\n", failed,
                               failed == 1 ? "" : "s", failed == 1 ? "es" : "")
                 : "  ok\n";

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <stdexcept>
 
 #include "analytic/trust.h"
 
@@ -314,6 +315,8 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   }
 
   out.derived = compare_derived(mechanism, out.methods, tolerances, exact.derived);
+  if (exact.references.size() != mechanism.references.size())
+    throw std::logic_error("compare_methods: the exact values are not the mechanism's references");
 
   // [[reference]] rows: exact at the printed driver value, every method on its sweep.
   const bool angular = mechanism.driver().angular();
@@ -339,7 +342,7 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
     const Eigen::VectorXd none;
     row.zero = 1e-9 * std::max(channel_peak(r.quantity, none, {}, size),
                                peak_floor(r.quantity, 0.0, 0.0, scales));
-    if (k < exact.references.size() && exact.references[k]) {
+    if (exact.references[k]) {
       row.exact = *exact.references[k];
       row.exact_ok = true;
     }

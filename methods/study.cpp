@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 
 #include "methods/engines.h"
 #include "methods/jobs.h"
@@ -218,12 +219,13 @@ compare::Comparison run_compare(const Mechanism& m, const CompareOptions& option
   }
   // An accuracy search runs engine by engine (its runs over the threads) and says what it chose
   // in order; then every method at once, each into its slot.
+  std::optional<ReferenceLadder> ladder;  // it solves the reference's exact values once
   if (options.accuracy_pct) {
-    ReferenceLadder ladder(m, sweep, runs.front());
+    ladder.emplace(m, sweep, runs.front());
     for (size_t k = 0; k < others.size(); ++k) {
       if (!find_engine(others[k])) continue;
-      const Selection s = cheapest_setting(m, ladder, others[k], *options.accuracy_pct,
-                                           accuracy_time_steps(ladder.interval()), settings[k],
+      const Selection s = cheapest_setting(m, *ladder, others[k], *options.accuracy_pct,
+                                           accuracy_time_steps(ladder->interval()), settings[k],
                                            options.progress, 1, options.jobs);
       if (options.chose) options.chose(s);
       if (s.found) settings[k] = s.chosen.overrides;
@@ -234,7 +236,8 @@ compare::Comparison run_compare(const Mechanism& m, const CompareOptions& option
   run_jobs(options.jobs, others.size(), [&](size_t k) {
     runs[first + k] = run_method(others[k], m, runs.front(), settings[k]);
   });
-  const compare::ExactValues exact = exact_values(m, runs.front());
+  const compare::ExactValues exact =
+      ladder ? ladder->exact_of(ladder->base()) : exact_values(m, runs.front());
   compare::Comparison cmp = compare::compare_methods(m, std::move(runs), tolerances, exact);
   cmp.step_probes = probe_steps(m, cmp, others, settings, tolerances, exact, options.jobs);
   return cmp;

@@ -21,7 +21,7 @@ std::vector<Claim> claims_of(const std::string& text, const std::string& name) {
   const Mechanism m = parse_mechanism(text, name);
   std::vector<SingularPosition> singular;
   const Trajectory t = sweep(m, {}, singular);
-  return judge_claims(m, t, singular);
+  return judge_claims(m, derived_exact(m, t), singular);
 }
 
 const Claim& find(const std::vector<Claim>& claims, std::string_view what) {
