@@ -8,21 +8,12 @@
 #include <stdexcept>
 
 #include "analytic/limits.h"
+#include "analytic/units_text.h"
 
 namespace crosslink {
 namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-
-// The driver's values as the file writes them.
-struct DriverUnit {
-  double si;
-  std::string_view name;
-};
-DriverUnit driver_unit(const Mechanism& m) {
-  if (m.driver().angular()) return {m.units.angle, m.units.angle_name};
-  return {m.units.length, m.units.length_name};
-}
 
 // How many times the driver's motion the gears can turn a link (or move a rack): the product
 // over the meshes of each one's ratio or its inverse, whichever is above 1 (a rack's, of its
@@ -44,7 +35,7 @@ double gear_speed_up(const Mechanism& m) {
 // most 1 degree of an angular driver or the arc the mechanism's size sweeps in 1 degree, over
 // the gears' speed-up.
 double continuation_bound(const Mechanism& m, double step) {
-  const double largest = (m.driver().angular() ? kDegree : m.size() * kDegree) / gear_speed_up(m);
+  const double largest = (m.swept().angular() ? kDegree : m.size() * kDegree) / gear_speed_up(m);
   return step > 0.0 ? std::min(step, largest) : largest;
 }
 
@@ -94,18 +85,18 @@ void check_values(const Mechanism& m, const Cause& cause, double samples,
 // driver, for ever: steps must stay far above it (1e-12 of the largest value, 4500 ulps).
 void check_resolution(const Mechanism& m, const Cause& cause, double step, double magnitude) {
   if (step >= 1e-12 * magnitude) return;
-  const DriverUnit u = driver_unit(m);
-  refuse(
-      m, cause,
-      fmt::format("takes steps of {:g} {} among driver values up to {:g} {}: a step must be "
-                  "at least {:g} {} there, or it is lost in round-off",
-                  step / u.si, u.name, magnitude / u.si, u.name, 1e-12 * magnitude / u.si, u.name));
+  const DriverUnit u = driver_unit_of(m);
+  refuse(m, cause,
+         fmt::format("takes steps of {:g} {} among driver values up to {:g} {}: a step must be "
+                     "at least {:g} {} there, or it is lost in round-off",
+                     step / u.scale, u.name, magnitude / u.scale, u.name,
+                     1e-12 * magnitude / u.scale, u.name));
 }
 
 std::string steps_of(const Mechanism& m, double step) {
-  const DriverUnit u = driver_unit(m);
+  const DriverUnit u = driver_unit_of(m);
   const double speed_up = gear_speed_up(m);
-  return fmt::format("continuation steps of at most {:g} {}{}", step / u.si, u.name,
+  return fmt::format("continuation steps of at most {:g} {}{}", step / u.scale, u.name,
                      speed_up > 1.0 ? fmt::format(" (its gears turn a link up to {:g} times as "
                                                   "far as the driver)",
                                                   speed_up)
@@ -138,21 +129,23 @@ double timed_steps(const Mechanism& m, double until, int intervals) {
 
 void check_sweep_work(const Mechanism& m, const SweepOptions& options, const WorkLimits& limits) {
   check_step(m, options);
-  if (m.several_drivers()) {  // 361 samples in time over the longest cycle
-    const Cause cause{"the drivers' laws over their longest cycle", m.driver().where};
+  if (m.axis().timed()) {  // 361 samples in time over the longest cycle
+    const auto longest =
+        std::ranges::max_element(m.drivers, {}, [](const Driver& d) { return d.cycle(); });
+    const Cause cause{"the drivers' laws over their longest cycle", longest->where};
     check_count(m, cause, timed_steps(m, m.cycle_period(), 360), "continuation steps", limits);
     check_values(m, cause, 361.0, limits);
     return;
   }
-  const Driver& d = m.driver();
+  const Driver& d = m.swept();
   if (d.at_rest())
     throw DefinitionError(
         {{d.law.where,
           "[driver] 'speed' = 0 states one pose at rest: solve it with `crosslink solve FILE "
           "--at VALUE`; a sweep needs a speed (any: the positions do not depend on it)"}});
-  const DriverUnit u = driver_unit(m);
+  const DriverUnit u = driver_unit_of(m);
   const bool step_given = options.step > 0.0;
-  const Cause step_option{fmt::format("--step {:g} {}", options.step / u.si, u.name), {}};
+  const Cause step_option{fmt::format("--step {:g} {}", options.step / u.scale, u.name), {}};
   const double continuation = continuation_bound(m, options.step);
 
   if (d.law.kind != MotionLaw::Kind::constant_speed) {
@@ -176,10 +169,10 @@ void check_sweep_work(const Mechanism& m, const SweepOptions& options, const Wor
     const double step = step_given ? options.step : d.angular() ? kDegree : (hi - lo) / 360.0;
     Cause cause{"the sweep's range", {}};
     if (!options.range)
-      cause = {fmt::format("driver.range = [{:g}, {:g}] {}", lo / u.si, hi / u.si, u.name),
+      cause = {fmt::format("driver.range = [{:g}, {:g}] {}", lo / u.scale, hi / u.scale, u.name),
                d.range_where};
     cause.what += step_given ? " at " + step_option.what
-                             : fmt::format(" at a step of {:g} {}", step / u.si, u.name);
+                             : fmt::format(" at a step of {:g} {}", step / u.scale, u.name);
     const double samples = static_cast<double>(range_grid(d.start, step, lo, hi).size());
     check_count(m, cause, samples, "samples", limits);
     check_values(m, cause, samples, limits);
@@ -226,24 +219,24 @@ namespace {
 // The continuation solve_at takes from the drawn position to `driver_value`.
 void check_continuation(const Mechanism& m, double driver_value, const SweepOptions& options,
                         const WorkLimits& limits, const Cause& cause) {
-  const DriverUnit u = driver_unit(m);
-  const double largest = m.driver().angular() ? limits::kDriverValue : limits::kLength;
+  const DriverUnit u = driver_unit_of(m);
+  const double largest = m.swept().angular() ? limits::kDriverValue : limits::kLength;
   if (!(std::abs(driver_value) <= largest))
     refuse(m, cause,
-           fmt::format("is not a driver value: the limit is {:g} {}", largest / u.si, u.name));
+           fmt::format("is not a driver value: the limit is {:g} {}", largest / u.scale, u.name));
   const double continuation = continuation_bound(m, options.step);
   // The solver continues from the drawn position to the value, less the whole turns it skips
   // (solve_at), plus the turn that shows it may.
-  double travel = std::abs(driver_value - m.driver().start);
+  double travel = std::abs(driver_value - m.swept().start);
   // (The skip is found by continuing a turn: not when the turn alone is over the limit.)
   if (travel / continuation > static_cast<double>(limits.max_samples) &&
       2.0 * std::numbers::pi / continuation <= static_cast<double>(limits.max_samples))
     if (const SkippedTurns skip = skipped_turns(m, driver_value, options); skip.turns != 0)
       travel =
-          std::abs(driver_value - skip.driver_shift() - m.driver().start) + 2.0 * std::numbers::pi;
+          std::abs(driver_value - skip.driver_shift() - m.swept().start) + 2.0 * std::numbers::pi;
   check_count(m, cause, travel / continuation, steps_of(m, continuation), limits);
   check_resolution(m, cause, continuation,
-                   std::max(std::abs(driver_value), std::abs(m.driver().start)));
+                   std::max(std::abs(driver_value), std::abs(m.swept().start)));
 }
 
 }  // namespace
@@ -251,7 +244,7 @@ void check_continuation(const Mechanism& m, double driver_value, const SweepOpti
 void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOptions& options,
                          const WorkLimits& limits) {
   check_step(m, options);
-  if (m.several_drivers()) {  // the value is a time, reached from 0 by the follower in time
+  if (m.axis().timed()) {  // the value is a time, reached from 0 by the follower in time
     const Cause cause{fmt::format("--at {:g} s", driver_value), {}};
     if (!(driver_value >= 0.0 && driver_value <= limits::kDuration))
       refuse(
@@ -260,17 +253,18 @@ void check_solve_at_work(const Mechanism& m, double driver_value, const SweepOpt
     check_count(m, cause, timed_steps(m, driver_value, 3600), "continuation steps", limits);
     return;
   }
-  const DriverUnit u = driver_unit(m);
+  const DriverUnit u = driver_unit_of(m);
   check_continuation(m, driver_value, options, limits,
-                     {fmt::format("--at {:g} {}", driver_value / u.si, u.name), {}});
+                     {fmt::format("--at {:g} {}", driver_value / u.scale, u.name), {}});
 }
 
 void check_reference_work(const Mechanism& m, const WorkLimits& limits) {
-  const DriverUnit u = driver_unit(m);
+  if (m.references.empty()) return;  // (none in a sweep in time: the loader refuses them)
+  const DriverUnit u = driver_unit_of(m);
   for (const Reference& r : m.references)
     check_continuation(
         m, r.driver_value, {}, limits,
-        {fmt::format("[[reference]] at = {:g} {}", r.driver_value / u.si, u.name), r.where});
+        {fmt::format("[[reference]] at = {:g} {}", r.driver_value / u.scale, u.name), r.where});
 }
 
 void check_simulation_work(const Mechanism& m, const SimulationOptions& options,

@@ -48,7 +48,7 @@ class Judge {
 
 Reading driver_reading(const Mechanism& m) {
   const DriverUnit u = driver_unit_of(m);
-  return {m.driver().angular() ? 1.0 : m.size(), u.scale, u.name, false};
+  return {m.swept().angular() ? 1.0 : m.size(), u.scale, u.name, false};
 }
 
 // Positions claimed against those found, as sorted lists: the same count, each within tolerance.
@@ -88,7 +88,7 @@ Claim derived(const Mechanism& m, const Judge& judge, const Expectations::Derive
   const DerivedSpec* spec = nullptr;
   const DerivedUnit unit = *derived_unit_of(m, claim.quantity, &spec);  // the loader checked it
   const bool angle =
-      unit == DerivedUnit::angle || (unit == DerivedUnit::driver && m.driver().angular());
+      unit == DerivedUnit::angle || (unit == DerivedUnit::driver && m.swept().angular());
   const bool length = unit == DerivedUnit::length || unit == DerivedUnit::driver;
   const Reading r{angle    ? 1.0
                   : length ? m.size()

@@ -106,7 +106,7 @@ class ExactLocator : public Locator {
   ExactLocator(const Mechanism& m, const Trajectory& sweep)
       : m_(m), sweep_(sweep), solver_(m), state_(m) {
     one_.resize(m, 1);
-    const Driver& d = m.driver();
+    const Driver& d = m.swept();
     constant_speed_ = d.law.kind == MotionLaw::Kind::constant_speed && !d.at_rest();
     rate_ = constant_speed_ ? d.law.speed : 1.0;
   }
@@ -117,7 +117,7 @@ class ExactLocator : public Locator {
   const Trajectory* pose(double v, const Sample& near, bool positions = false) {
     const double driver = sweep_.driver(near.row) + (v - near.v);
     coordinates(near.row);
-    state_.driver = {constant_speed_ ? (driver - m_.driver().start) / rate_ : 0.0, driver, rate_,
+    state_.driver = {constant_speed_ ? (driver - m_.swept().start) / rate_ : 0.0, driver, rate_,
                      0.0};
     state_.factorized = false;
     const SolveReport r = solver_.solve(state_);
@@ -308,7 +308,7 @@ int reversals(const Scalar& f, const Trajectory& t, const Interval& in) {
 Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajectory& t,
                      bool positions_only) {
   Interval out;
-  const Driver& d = m.driver();
+  const Driver& d = m.swept();
   const int n = t.samples();
   // An engine's sample outside its run holds no value, whatever the flag it keeps: counted, and
   // the interval then has no value from this method (never a placeholder, never across a gap).
@@ -858,7 +858,7 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
                       spec.channel, e == &*hi ? "max" : "min"));
   set("stroke", hi->value - lo->value);
   if (spec.kind != K::time_ratio) return out;
-  const Driver& d = m.driver();
+  const Driver& d = m.swept();
   if (d.law.kind != MotionLaw::Kind::constant_speed)
     return fail("a time ratio needs a driver at constant speed (times are then driver spans)");
   if (!in.periodic)
@@ -922,6 +922,7 @@ const DerivedField* DerivedValue::field(std::string_view name) const {
 
 std::vector<DerivedValue> derived_exact(const Mechanism& mechanism, const Trajectory& sweep) {
   std::vector<DerivedValue> out;
+  if (mechanism.derived.empty()) return out;  // (none in a sweep in time: the loader refuses them)
   ExactLocator locator(mechanism, sweep);
   for (const DerivedSpec& spec : mechanism.derived)
     out.push_back(finite(compute(mechanism, spec, sweep, locator, true)));
@@ -939,7 +940,7 @@ std::vector<DerivedValue> derived_sampled(const Mechanism& mechanism, const Traj
 double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit) {
   switch (unit) {
     case DerivedUnit::driver:
-      return m.driver().angular() ? m.units.angle : m.units.length;
+      return m.swept().angular() ? m.units.angle : m.units.length;
     case DerivedUnit::ratio:
       return 1.0;
     case DerivedUnit::length:
@@ -967,7 +968,7 @@ std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, Deriv
   const std::string& L = m.units.length_name;
   switch (unit) {
     case DerivedUnit::driver:
-      return m.driver().angular() ? m.units.angle_name : L;
+      return m.swept().angular() ? m.units.angle_name : L;
     case DerivedUnit::ratio:
       return "";
     case DerivedUnit::length:

@@ -1329,17 +1329,17 @@ bool coordinates_of(const Mechanism& m, const Trajectory& t, int row, Eigen::Vec
 }  // namespace
 
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
-  const Driver& d = mechanism.driver();
   // The sweep's parameter at a sample: the driver's value, or with several drivers the time.
-  const bool timed = mechanism.several_drivers();
+  const bool timed = mechanism.axis().timed();
   const auto parameter_at = [&](int row) { return timed ? grid.time(row) : grid.driver(row); };
-  const double start_value = timed ? 0.0 : d.start;
+  const double start_value = timed ? 0.0 : mechanism.swept().start;
   // A sample's own time and drivers' states.
   const auto drive = [&](KinematicState& k, int row) {
     if (timed) {
       k.drive_at(mechanism, grid.time(row));
       return;
     }
+    const Driver& d = mechanism.swept();
     k.driver = d.at_time(grid.time(row));
     k.driver.value = grid.driver(row);
     // Reversed at a toggle (--at-limit reverse), the driver runs against its law's speed: the
@@ -1381,19 +1381,27 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   // The driver tells apart values 1e-10 rad (or 1e-10 of the size) apart, as the Newton sweep.
   // Several drivers: steps in time in which no driver moves more than its continuation step
   // (1 degree, or the size's arc over 1 degree), down to 1e-12 of the sweep's time.
-  double unit = d.angular() ? 1.0 : mechanism.size();
-  double max_step = continuation_step(mechanism), min_step = unit * 1e-10;
-  if (timed && grid.samples() > 1) {
-    max_step = grid.time(grid.samples() - 1);
-    for (int row = 1; row < grid.samples(); ++row)
+  double unit = 1.0, max_step = 0.0, min_step = 0.0;
+  if (!timed) {
+    unit = mechanism.swept().angular() ? 1.0 : mechanism.size();
+    max_step = continuation_step(mechanism);
+    min_step = unit * 1e-10;
+  } else {
+    // From the assembly at t = 0 through each sample's time.
+    const double end = grid.time(grid.samples() - 1);
+    max_step = end > 0.0 ? end : 1.0;
+    double previous = 0.0;
+    for (int row = 0; row < grid.samples(); ++row) {
+      const double t = grid.time(row);
+      if (t == previous) continue;
       for (const Driver& driver : mechanism.drivers) {
-        const double moved = std::abs(driver.at_time(grid.time(row)).value -
-                                      driver.at_time(grid.time(row - 1)).value);
-        const double limit = (driver.angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
-        max_step = std::min(max_step, (grid.time(row) - grid.time(row - 1)) /
-                                          std::max(1.0, std::ceil(moved / limit)));
+        const double moved = std::abs(driver.at_time(t).value - driver.at_time(previous).value);
+        const double limit = continuation_step(driver, mechanism.size());
+        max_step = std::min(max_step, (t - previous) / std::max(1.0, std::ceil(moved / limit)));
       }
-    min_step = 1e-12 * grid.time(grid.samples() - 1);
+      previous = t;
+    }
+    min_step = 1e-12 * (end > 0.0 ? end : 1.0);
     unit = max_step * 180.0 / kPi;  // a step that moves a driver about 1 rad
   }
   DyadMarch march(solver, state, max_step, min_step);

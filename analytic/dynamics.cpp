@@ -37,11 +37,17 @@ void place(KinematicState& state, double t, double d) {
 void place(KinematicState& state, double t, const Eigen::VectorXd& d) {
   for (int i = 0; i < d.size(); ++i) state.driver_state(i) = {t, d(i), 0.0, 0.0};
 }
-double largest(double span) {
-  return std::abs(span);
+// The continuation steps a span of the coordinates takes, one coordinate per driver: none moves
+// more than its driver's continuation step between two solves.
+double steps_over(const Mechanism& m, double span) {
+  return std::abs(span) / continuation_step(m.swept(), m.size());
 }
-double largest(const Eigen::VectorXd& span) {
-  return span.lpNorm<Eigen::Infinity>();
+double steps_over(const Mechanism& m, const Eigen::VectorXd& span) {
+  double steps = 0.0;
+  for (Eigen::Index i = 0; i < span.size(); ++i)
+    steps = std::max(
+        steps, std::abs(span(i)) / continuation_step(m.drivers[static_cast<size_t>(i)], m.size()));
+  return steps;
 }
 std::string shown(double d, int digits) {
   return fmt::format("{:.{}g}", d, digits);
@@ -122,7 +128,7 @@ class FollowedChain {
   // (Newton resolves it only to ~sqrt(tolerance) there).
   double move_to(double t, const Coordinates& d) {
     const Coordinates from = d_last_, span = d - from;
-    const double wanted = std::max(1.0, std::ceil(largest(span) / continuation_step(m_)));
+    const double wanted = std::max(1.0, std::ceil(steps_over(m_, span)));
     // Counted before they are taken: one evaluation may ask for billions (a coordinate thrown
     // across 1e9 rad by an effort of 1e12 in a nanosecond).
     if (!(solves_ + wanted <= static_cast<double>(max_solves_)))
@@ -305,7 +311,7 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
   // The zone around d (whose pose is below interpolated_rcond_) and its nodes' kinematics;
   // leaves the pose at d.
   void find_zone(double t, double d) {
-    const double unit = m_.driver().angular() ? 1.0 : solver_.length_scale(), step = 5e-3 * unit;
+    const double unit = m_.swept().angular() ? 1.0 : solver_.length_scale(), step = 5e-3 * unit;
     std::array<double, 2> edge{};
     for (const int side : {0, 1}) {
       double delta = step;
@@ -534,7 +540,7 @@ double Simulation::energy_error(int k) const {
 
 std::string singular_start(const Mechanism& m, double rcond) {
   if (rcond >= kSingularStartRcond) return "";
-  if (m.several_drivers()) {
+  if (m.axis().timed()) {
     std::string starts;
     for (const Driver& d : m.drivers)
       starts += fmt::format("{} = {:.9g} {}, ", d.name,
@@ -546,12 +552,12 @@ std::string singular_start(const Mechanism& m, double rcond) {
         "velocity is consistent with it; start the [[driver]]s away from it",
         starts, rcond);
   }
-  const bool angular = m.driver().angular();
+  const bool angular = m.swept().angular();
   return fmt::format(
       "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
       "there the other coordinates' rates are not determined by its rate, so no initial "
       "velocity is consistent with it; start the [driver] away from it",
-      m.driver().start / (angular ? m.units.angle : m.units.length),
+      m.swept().start / (angular ? m.units.angle : m.units.length),
       angular ? m.units.angle_name : m.units.length_name, rcond);
 }
 
@@ -580,12 +586,12 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
   out.potential.setZero(n);
   out.work.setZero(n);
 
-  if (mechanism.several_drivers())
+  if (mechanism.axis().timed())
     integrate<SeveralEquations>(mechanism, options, times, interval, out,
                                 SeveralEquations::start(mechanism));
   else
     integrate<EquationOfMotion>(mechanism, options, times, interval, out,
-                                {mechanism.driver().start, c.rate, 0.0});
+                                {mechanism.swept().start, c.rate, 0.0});
   return out;
 }
 

@@ -46,11 +46,11 @@ std::optional<FourBar> four_bar(const Mechanism& m) {
   const auto& gj = joints_of[static_cast<size_t>(g)];
   // The input is the grounded link that carries the driver, if either does.
   int in_joint = gj[0], out_joint = gj[1];
-  const int driven = m.driver().type == DriverType::joint_angle
-                         ? other(m.driver().joint, m.joints[m.driver().joint].link_a)
-                         : m.driver().link;
-  if (other(gj[1], g) == driven ||
-      (m.driver().type == DriverType::joint_angle && m.driver().joint == gj[1]))
+  if (m.axis().timed()) return std::nullopt;  // a four-bar has one driver
+  const Driver& d = m.swept();
+  const int driven =
+      d.type == DriverType::joint_angle ? other(d.joint, m.joints[d.joint].link_a) : d.link;
+  if (other(gj[1], g) == driven || (d.type == DriverType::joint_angle && d.joint == gj[1]))
     std::swap(in_joint, out_joint);
   fb.input = other(in_joint, g);
   fb.output = other(out_joint, g);

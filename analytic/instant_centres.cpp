@@ -323,9 +323,7 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
   field[static_cast<size_t>(ground)].known = true;
   auto geometric = [](const InstantCentre& c) { return c.found != InstantCentre::Found::velocity; };
 
-  // The driver: the input link's motion relative to the link it is measured from.
-  const Driver& d = m.driver();
-  const double rate = d.at_time(exact.time(row)).rate;
+  // The drivers: each input link's motion relative to the link it is measured from.
   const Eigen::VectorXd q = coordinates_at(m, exact, row);
   auto rotate_about = [&](int k, double omega, const InstantCentre& c) {
     Field& f = field[static_cast<size_t>(k)];
@@ -335,24 +333,27 @@ CentreVelocities centre_velocities(const Mechanism& m, const InstantCentres& cen
     f.from_geometry = geometric(c);
   };
   CentreVelocities out;
-  if (d.type == DriverType::joint_angle && m.joints[d.joint].link_a == ground) {
-    rotate_about(d.link, rate, centres.at(ground, d.link));
-  } else if (d.type == DriverType::link_angle) {
-    const InstantCentre& c = centres.at(ground, d.link);
-    if (c.at_infinity()) {
-      out.message = "the driven link translates: its angle cannot drive it";
+  for (const Driver& d : m.drivers) {
+    const double rate = d.at_time(exact.time(row)).rate;
+    if (d.type == DriverType::joint_angle && m.joints[d.joint].link_a == ground) {
+      rotate_about(d.link, rate, centres.at(ground, d.link));
+    } else if (d.type == DriverType::link_angle) {
+      const InstantCentre& c = centres.at(ground, d.link);
+      if (c.at_infinity()) {
+        out.message = "the driven link translates: its angle cannot drive it";
+        return out;
+      }
+      rotate_about(d.link, rate, c);
+    } else if (d.type == DriverType::slider && m.joints[d.joint].link_a == ground &&
+               m.joints[d.joint].type == JointType::prismatic) {
+      const Joint& j = m.joints[d.joint];
+      Field& f = field[static_cast<size_t>(j.link_b)];
+      f.known = true;
+      f.v0 = rate * m.links[ground].lines[j.line].direction;
+    } else {
+      out.message = "the driver is not on a ground joint: its link's motion needs another link's";
       return out;
     }
-    rotate_about(d.link, rate, c);
-  } else if (d.type == DriverType::slider && m.joints[d.joint].link_a == ground &&
-             m.joints[d.joint].type == JointType::prismatic) {
-    const Joint& j = m.joints[d.joint];
-    Field& f = field[static_cast<size_t>(j.link_b)];
-    f.known = true;
-    f.v0 = rate * m.links[ground].lines[j.line].direction;
-  } else {
-    out.message = "the driver is not on a ground joint: its link's motion needs another link's";
-    return out;
   }
 
   // Propagate: link k from a known link j through I(1,k) and I(j,k). Of all the pairs that

@@ -312,9 +312,6 @@ Scale driver_scale(const Mechanism& m, const Driver& d) {
   if (!d.angular()) return length_scale(m.units);
   return {m.units.angle, m.units.angle_name, limits::kDriverValue};
 }
-Scale driver_scale(const Mechanism& m) {
-  return driver_scale(m, m.driver());
-}
 
 std::vector<std::string> point_names(const Link& link) {
   std::vector<std::string> names;
@@ -1248,7 +1245,7 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = node ? node->as_array() : nullptr;
   if (!array) {  // the one-driver form
     if (const toml::table* t = r.table(root, "driver", "a mechanism", true))
-      read_driver(r, m, m.driver(), t, root, false);
+      read_driver(r, m, m.drivers.front(), t, root, false);  // the one-driver form
     return;
   }
   if (!array->is_array_of_tables() || array->empty()) {
@@ -1420,26 +1417,21 @@ void check_locked(Reader& r, const Mechanism& m) {
                       d.name.empty() ? "" : " '" + d.name + "'", mobility(m).mobility));
 }
 
-void check_several_drivers(Reader& r, const Mechanism& m) {
-  if (!m.several_drivers()) return;
-  const std::string count = fmt::format("{} drivers", m.drivers.size());
-  for (const Load& load : m.loads)
-    if (load.table)
-      r.error(load.where, fmt::format("a load's table is over the driver's value; with {} the "
-                                      "sweep runs in time: give a constant force or torque",
-                                      count));
-  for (const DerivedSpec& d : m.derived)
-    r.error(d.where, fmt::format("[[derived]] quantities are read over one driver's sweep; this "
-                                 "definition has {}",
-                                 count));
-  for (const Reference& ref : m.references)
-    r.error(ref.where, fmt::format("[[reference]] 'at' is a driver value; this definition has "
-                                   "{} (its sweep runs in time)",
-                                   count));
-  if (m.expect)
-    r.error(m.expect->where, fmt::format("[expect] gives one driver's values; this definition "
-                                         "has {}",
-                                         count));
+// A table read over one driver's value, in a definition whose sweep runs in time (several
+// drivers): refused where it is written, its values not read (docs/mechanism-format.md,
+// "Several drivers"). `message` has one {}: "N drivers".
+bool refused_in_time(Reader& r, const Mechanism& m, const SourceLocation& where,
+                     std::string_view message) {
+  if (!m.axis().timed()) return false;
+  r.error(where, fmt::format(fmt::runtime(message), fmt::format("{} drivers", m.drivers.size())));
+  return true;
+}
+// Each of an array's tables, so refused.
+bool refused_in_time(Reader& r, const Mechanism& m, const toml::array& tables,
+                     std::string_view message) {
+  if (!m.axis().timed()) return false;
+  for (const toml::node& entry : tables) refused_in_time(r, m, r.at(*entry.as_table()), message);
+  return true;
 }
 
 // "Q", "Q.field": the [[derived]] quantities and their fields, for a message.
@@ -1517,7 +1509,7 @@ std::vector<std::string> channels_of(const Reader& r, const Mechanism& m);
 // The channel that is the driver's own coordinate (up to a constant), or "": over the driver's
 // values it only moves one way, so it has no reversal, no stroke between reversals, no dead point.
 std::string driven_channel(const Mechanism& m) {
-  const Driver& d = m.driver();
+  const Driver& d = m.swept();
   const int g = m.ground();
   if (d.type == DriverType::slider && d.joint >= 0)
     return "s." + m.joints[static_cast<size_t>(d.joint)].name;
@@ -1539,6 +1531,10 @@ std::string driven_channel(const Mechanism& m) {
 void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "derived", limits::kReferences);
   if (!array) return;
+  if (refused_in_time(r, m, *array,
+                      "[[derived]] quantities are read over one driver's sweep; this definition "
+                      "has {}"))
+    return;
   const std::vector<std::string> objects = reference_objects(m);
   // The channels a sweep has (none when an earlier error leaves no linkage to lay them out).
   const std::vector<std::string> channels = channels_of(r, m);
@@ -1547,7 +1543,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
                                 K::toggles,  K::transmission, K::straightness, K::circularity};
   std::vector<std::string> kind_names;
   for (const K k : kinds) kind_names.emplace_back(to_string(k));
-  const Driver& d = m.driver();
+  const Driver& d = m.swept();
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
     r.known_keys(t, "[[derived]]", {"name", "quantity", "channel", "point", "range"});
@@ -1666,7 +1662,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
       }
     }
     if (const toml::node* range = t.get("range")) {
-      const Scale scale = driver_scale(m);
+      const Scale scale = driver_scale(m, m.swept());
       if (const auto v = r.numbers(*range, "[[derived]] 'range' ([lower, upper] driver values)",
                                    {scale, scale})) {
         const double unit = d.angular() ? m.units.angle : m.units.length;
@@ -1709,7 +1705,7 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   }
   // A definition with errors so far may be incomplete (no ground): each was reported already.
   if (!r.diagnostics().empty() || m.ground() < 0) return;
-  if (m.drivers.size() != 1 || m.dynamics || m.driver().at_rest()) return;
+  if (m.axis().timed() || m.dynamics || m.swept().at_rest()) return;
   const int g = m.ground();
   const std::string driven = driven_channel(m);
   std::vector<std::string> outputs;  // the candidates' channels, in order
@@ -1790,6 +1786,10 @@ std::vector<std::string> channels_of(const Reader& r, const Mechanism& m) {
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "reference", limits::kReferences);
   if (!array) return;
+  if (refused_in_time(r, m, *array,
+                      "[[reference]] 'at' is a driver value; this definition has {} (its "
+                      "sweep runs in time)"))
+    return;
   const std::vector<std::string> objects = reference_objects(m);
   const std::vector<std::string> channels = channels_of(r, m);
   for (const toml::node& entry : *array) {
@@ -1810,7 +1810,7 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
                           ref.quantity));
     const std::optional<double> at =
         ref.derived ? std::optional<double>(0.0)
-                    : r.number(t, "at", "[[reference]]", true, driver_scale(m));
+                    : r.number(t, "at", "[[reference]]", true, driver_scale(m, m.swept()));
     const std::optional<double> factor = ref.derived
                                              ? std::optional(derived_factor(m, *spec, *derived))
                                              : reference_factor(m, ref.quantity);
@@ -1941,6 +1941,10 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
     const std::string kind = given.front();
     load.kind = kind.starts_with("force") ? Load::Kind::force : Load::Kind::torque;
     load.table = kind.ends_with("_table");
+    if (load.table && refused_in_time(r, m, load.where,
+                                      "a load's table is over the driver's value; with {} the "
+                                      "sweep runs in time: give a constant force or torque"))
+      continue;
     if (load.kind == Load::Kind::force) {
       if (!read_place(r, m, t, load.link, what, load.local, load.point)) continue;
     } else if (t.get("point") || t.get("at")) {
@@ -1954,6 +1958,7 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
                            : Scale{torque_unit, "", limits::kTorque};
     const size_t width = load.kind == Load::Kind::force ? 2 : 1;
     const toml::node& value = *t.get(kind);
+    load.over_turns = load.table && m.swept().angular();
     if (!load.table) {
       std::optional<std::vector<double>> v;
       if (width == 2)
@@ -1972,7 +1977,7 @@ void read_loads(Reader& r, Mechanism& m, const toml::table& root) {
     }
     bool good = true;
     for (const toml::node& row : *rows) {
-      std::vector<Scale> scales = {driver_scale(m), unit};
+      std::vector<Scale> scales = {driver_scale(m, m.swept()), unit};
       if (width == 2) scales.push_back(unit);
       const auto v = r.numbers(row,
                                fmt::format("a row of '{}' of {} ([driver, {}])", kind, what,
@@ -2147,11 +2152,11 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
   if (!t) return;
   const std::vector<std::string> coordinate_keys = {"rate", "rate_unit", "effort", "effort_table"};
   std::vector<std::string> keys = {"duration", "interval"};
-  if (m.several_drivers())
+  if (m.axis().timed())
     for (const Driver& d : m.drivers) keys.push_back(d.name);
   else
     keys.insert(keys.end(), coordinate_keys.begin(), coordinate_keys.end());
-  if (m.several_drivers()) {
+  if (m.axis().timed()) {
     // A coordinate's key at the top: whose it is is not said.
     for (const std::string& key : coordinate_keys)
       if (const toml::node* node = t->get(key))
@@ -2186,8 +2191,9 @@ void read_dynamics(Reader& r, Mechanism& m, const toml::table& root) {
             "[dynamics] 'interval' (s between output samples) must be positive and at most "
             "'duration'");
   c.interval = interval.value_or(0.0);
-  if (!m.several_drivers()) {
-    static_cast<FreeCoordinate&>(c) = read_free_coordinate(r, m, m.driver(), *t, "[dynamics]");
+  if (!m.axis().timed()) {
+    static_cast<FreeCoordinate&>(c) = read_free_coordinate(
+        r, m, m.drivers[static_cast<size_t>(m.axis().driver)], *t, "[dynamics]");
     m.dynamics = c;
     return;
   }
@@ -2240,7 +2246,9 @@ void read_expect(Reader& r, Mechanism& m, const toml::table& root) {
                {"limits", "toggles", "change_points", "grashof", "derived", "tolerance"});
   Expectations e;
   e.where = r.at(*t);
-  const Scale value_scale = driver_scale(m);
+  if (refused_in_time(r, m, e.where, "[expect] gives one driver's values; this definition has {}"))
+    return;
+  const Scale value_scale = driver_scale(m, m.swept());
   if (const toml::node* tolerance = t->get("tolerance")) {
     e.tolerance_pct = r.number(*tolerance, "[expect] 'tolerance'", {1.0, "", limits::kTolerance});
     if (e.tolerance_pct && !(*e.tolerance_pct > 0.0))
@@ -2645,7 +2653,6 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_references(r, m, root);
   read_expect(r, m, root);
   read_branches(r, m, root);
-  check_several_drivers(r, m);
   check_locked(r, m);
   r.throw_if_any();
   apply_branches(m);  // the assembly they name, as drawn poses

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 namespace crosslink {
 
@@ -282,19 +283,26 @@ double Driver::cycle() const {
   return range ? std::abs(range->second - range->first) / speed : 0.0;
 }
 
+const Driver& Mechanism::swept() const {
+  const SweepAxis a = axis();
+  if (a.timed()) throw std::logic_error("the sweep runs in time: no driver's value is its axis");
+  return drivers[static_cast<size_t>(a.driver)];
+}
+
 double Mechanism::cycle_period() const {
-  if (several_drivers()) {
+  if (axis().timed()) {
     double longest = 0.0;
     for (const Driver& d : drivers) longest = std::max(longest, d.cycle());
     return longest;
   }
-  if (driver().law.kind != MotionLaw::Kind::constant_speed) return driver().law.duration;
-  const double speed = std::abs(driver().law.speed);
+  // The swept driver's: a law in time's duration; at constant speed one turn, or a slider's
+  // range (a duration given with a constant speed bounds its own law only, Driver::cycle()).
+  const Driver& d = swept();
+  if (d.law.kind != MotionLaw::Kind::constant_speed) return d.law.duration;
+  const double speed = std::abs(d.law.speed);
   if (speed == 0.0) return 0.0;
-  if (driver().angular()) return 2.0 * std::numbers::pi / speed;
-  // A slider driver at constant speed runs over its declared range.
-  if (driver().range) return std::abs(driver().range->second - driver().range->first) / speed;
-  return 0.0;
+  if (d.angular()) return 2.0 * std::numbers::pi / speed;
+  return d.range ? std::abs(d.range->second - d.range->first) / speed : 0.0;
 }
 
 std::string Mobility::explain() const {
@@ -334,12 +342,12 @@ MassProperties default_mass_properties(const Link& link, double size) {
   return mp;
 }
 
-Eigen::Vector2d Load::force_at(double driver, bool angular) const {
+Eigen::Vector2d Load::force_at(double driver) const {
   const auto value = [](const Eigen::Vector3d& row) { return Eigen::Vector2d(row(1), row(2)); };
   if (!table || rows.size() == 1) return value(rows.front());
   double d = driver;
   const double first = rows.front()(0);
-  if (angular)
+  if (over_turns)
     d = first + std::fmod(std::fmod(d - first, 2.0 * std::numbers::pi) + 2.0 * std::numbers::pi,
                           2.0 * std::numbers::pi);
   if (d <= first) return value(rows.front());

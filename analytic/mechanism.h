@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -202,9 +203,10 @@ struct Load {
   // 0). World axes; torque counter-clockwise.
   std::vector<Eigen::Vector3d> rows;
   bool table = false;
+  bool over_turns = false;  // a table over an angular driver's value: read modulo one turn
   SourceLocation where;
 
-  Eigen::Vector2d force_at(double driver, bool angular) const;  // force, or (torque, 0)
+  Eigen::Vector2d force_at(double driver) const;  // force, or (torque, 0)
 };
 
 // A linear spring and damper between a point of one link and a point of another:
@@ -339,6 +341,15 @@ struct BranchChoice {
   std::string text() const;  // "B -> C -> D turns counter-clockwise"
 };
 
+// What a sweep runs over, chosen once from the drivers (docs/mechanism-format.md, "Several
+// drivers"): one driver's value, followed over its range, law and cycle; or time, each driver at
+// its law's value at t over Mechanism::cycle_period(). Samples, events, singular positions and
+// `--at` are placed along it.
+struct SweepAxis {
+  int driver = -1;  // the driver whose value is the axis (Mechanism::drivers); -1: time
+  bool timed() const { return driver < 0; }
+};
+
 struct Mechanism {
   std::string name;
   std::string description;
@@ -350,13 +361,16 @@ struct Mechanism {
   // The drivers, each one row of the constraints (analytic/constraints.h) and one effort: one
   // [driver] table or several [[driver]] tables. A Mechanism starts with one.
   std::vector<Driver> drivers = std::vector<Driver>(1);
-  // Several drivers: the sweep runs in time, each driver at its law's value at t, over
-  // cycle_period() (docs/mechanism-format.md, "Several drivers").
-  bool several_drivers() const { return drivers.size() > 1; }
-  // The first driver: the sweep's parameter (its range, law, cycle and start). Every place that
-  // still assumes a single driver reads it by this name.
-  const Driver& driver() const { return drivers.front(); }
-  Driver& driver() { return drivers.front(); }
+  // What a sweep runs over: the one driver's value, or time with several (the one place the
+  // regime is chosen; see SweepAxis).
+  SweepAxis axis() const { return {drivers.size() == 1 ? 0 : -1}; }
+  // The driver whose value the sweep runs over: its range, law, cycle and start are the sweep's.
+  // Only for an axis that is not timed (std::logic_error otherwise).
+  const Driver& swept() const;
+  // Every driver at rest (a constant speed of 0): one pose, a position problem, no sweep.
+  bool at_rest() const {
+    return std::ranges::all_of(drivers, [](const Driver& d) { return d.at_rest(); });
+  }
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // [m/s^2]; zero: none
   std::vector<Load> loads;
   std::vector<Spring> springs;

@@ -92,9 +92,9 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
-  // The drivers' states, one per driver: `driver` the first's (Mechanism::driver(), which every
-  // place that assumes a single driver reads), `other_drivers` the rest in Mechanism::drivers
-  // order. The solver passes them to the layout as one list.
+  // The drivers' states, one per driver: `driver` the first's (the swept driver's when the
+  // sweep's axis is a driver's value), `other_drivers` the rest in Mechanism::drivers order. The
+  // solver passes them to the layout as one list.
   DriverState driver;
   std::vector<DriverState> other_drivers;
   int driver_count() const { return 1 + static_cast<int>(other_drivers.size()); }

@@ -20,15 +20,19 @@ constexpr double kPi = std::numbers::pi;
 
 }  // namespace
 
+double continuation_step(const Driver& driver, double size) {
+  return (driver.angular() ? 1.0 : size) * kPi / 180.0;
+}
+
 double continuation_step(const Mechanism& mechanism) {
-  return (mechanism.driver().angular() ? 1.0 : mechanism.size()) * kPi / 180.0;
+  return continuation_step(mechanism.swept(), mechanism.size());
 }
 
 namespace {
 
 double default_step(const Mechanism& m, const SweepOptions& o) {
   if (o.step > 0.0) return o.step;
-  return m.driver().angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
+  return m.swept().angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
 }
 
 // Follows one assembly branch as the driver moves, by predictor-corrector continuation.
@@ -179,7 +183,7 @@ class Recorder {
       // at once): no rates, no reactions.
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
       // Several drivers: the sweep runs in time, and its events are located in time.
-      const bool timed = solver_.mechanism().several_drivers();
+      const bool timed = solver_.mechanism().axis().timed();
       out.events.push_back({timed ? driver.time : driver.value, PoseStatus::singular,
                             "Jacobian singular: rates and joint reactions are not determined"});
       return;
@@ -206,7 +210,7 @@ KinematicState without_pose(const KinematicState& state) {
 double min_step(const NewtonSolver& solver, double tolerance) {
   // Driver values closer than this are not told apart (angles in rad, slider in m).
   const Mechanism& m = solver.mechanism();
-  return m.driver().angular() ? tolerance : tolerance * m.size();
+  return m.swept().angular() ? tolerance : tolerance * m.size();
 }
 
 // Follows the configuration curve Phi_c(q) = 0 (the joint constraints without the driver row)
@@ -344,7 +348,7 @@ class Tracer {
     dq_.setZero(n_);
     tolerance_ = solver.options().tolerance;
     length_ = L;
-    angular_ = m.driver().angular();
+    angular_ = m.swept().angular();
   }
 
   // A node at a solved pose; the tangent (null vector of C) is oriented so the driver moves
@@ -993,7 +997,7 @@ void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, dou
               double key_sign, double lo_window, double hi_window, std::vector<PlannedSample>& out,
               const std::vector<double>* values = nullptr) {
   Tracer tracer(solver);
-  const double unit = solver.mechanism().driver().angular() ? 1.0 : solver.length_scale();
+  const double unit = solver.mechanism().swept().angular() ? 1.0 : solver.length_scale();
   // The values (grid or given) on a segment [dmin, dmax], and within `slack` beyond it.
   const auto segment_values = [&](double dmin, double dmax, double slack, std::vector<double>& on) {
     on.clear();
@@ -1063,9 +1067,9 @@ const double kCrossingZone = std::sqrt(std::numeric_limits<double>::epsilon());
 
 void settle_start(const NewtonSolver& solver, KinematicState& state) {
   const Mechanism& m = solver.mechanism();
-  if (m.driver().at_rest()) return;
+  if (m.swept().at_rest()) return;
   Tracer tracer(solver);
-  const std::string start = driver_unit_of(m).text(m.driver().start, 12);
+  const std::string start = driver_unit_of(m).text(m.swept().start, 12);
   std::string why;
   if (const double over = tracer.settle(state.q); over > 1.0) {
     why = fmt::format(
@@ -1082,16 +1086,16 @@ void settle_start(const NewtonSolver& solver, KinematicState& state) {
         "it at another driver value",
         start, ratio, kCrossingZone);
   }
-  if (!why.empty()) throw DefinitionError({Diagnostic{m.driver().where, why}});
+  if (!why.empty()) throw DefinitionError({Diagnostic{m.swept().where, why}});
 }
 
 }  // namespace
 
 std::string AssemblingRange::explain(const Mechanism& m) const {
   if (!unknown.empty()) return "unknown: " + unknown;
-  if (full_cycle) return m.driver().angular() ? "full rotation (360 degrees)" : "unbounded";
-  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
-  const std::string& name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
+  if (full_cycle) return m.swept().angular() ? "full rotation (360 degrees)" : "unbounded";
+  const double unit = m.swept().angular() ? m.units.angle : m.units.length;
+  const std::string& name = m.swept().angular() ? m.units.angle_name : m.units.length_name;
   return fmt::format("{:.6f} to {:.6f} {}", lower / unit, upper / unit, name);
 }
 
@@ -1099,7 +1103,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
                                  double /*tolerance: toggles are located to ~1e-12*/) {
   AssemblingRange range;
   // A range of one driver's value: with several the chain moves in time (the timed sweep).
-  if (mechanism.drivers.size() > 1) {
+  if (mechanism.axis().timed()) {
     range.unknown =
         fmt::format("the assembling range is one driver's; with {} drivers the sweep runs in time",
                     mechanism.drivers.size());
@@ -1111,7 +1115,7 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
     return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
   settle_start(solver, state);
-  const bool angular = mechanism.driver().angular();
+  const bool angular = mechanism.swept().angular();
   const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
                          options.tracer_steps};
   Tracer tracer(solver);
@@ -1203,7 +1207,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                   const NewtonSolver& solver, KinematicState& state, Trajectory& out,
                   std::vector<SingularPosition>& singular,
                   const std::optional<std::pair<double, double>>& range = std::nullopt) {
-  const Driver& d = mechanism.driver();
+  const Driver& d = mechanism.swept();
   const bool angular = d.angular();
   const bool stop = range || options.at_limit == SweepOptions::AtLimit::stop;
   const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
@@ -1423,7 +1427,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
 Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& options,
                           const NewtonSolver& solver, KinematicState& state,
                           const SolveReport& assembled) {
-  const Driver& d = mechanism.driver();
+  const Driver& d = mechanism.swept();
   const double small = min_step(solver, 1e-10);
 
   std::vector<DriverState> drivers;
@@ -1729,7 +1733,7 @@ Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
       double parts = 1.0;
       for (int d = 0; d < state.driver_count(); ++d) {
         const Driver& driver = m.drivers[static_cast<size_t>(d)];
-        const double limit = (driver.angular() ? 1.0 : m.size()) * kPi / 180.0;
+        const double limit = continuation_step(driver, m.size());
         const double moved = std::abs(driver.at_time(t).value - driver.at_time(before).value);
         parts = std::max(parts, std::ceil(moved / limit));
       }
@@ -1808,11 +1812,10 @@ std::string_view to_string(SingularKind kind) {
 
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                  std::vector<SingularPosition>& singular) {
-  const Driver& d = mechanism.driver();
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
-  if (mechanism.several_drivers()) {
+  if (mechanism.axis().timed()) {
     // 360 equal intervals of the longest cycle (one sample when every driver is at rest).
     const double period = mechanism.cycle_period();
     const int intervals = period > 0.0 ? 360 : 0;
@@ -1820,6 +1823,7 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
     for (int k = 0; k <= intervals; ++k) times.push_back(period * k / intervals);
     return timed_sweep(solver, state, assembled, times);
   }
+  const Driver& d = mechanism.swept();
   const bool assembles =
       assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
   if (assembles) settle_start(solver, state);
@@ -1848,12 +1852,13 @@ void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
   pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
   for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver(0);
   pose.driver(0) = driver_value;
-  pose.time(0) = constant_speed_state(mechanism.driver(), driver_value).time;
+  pose.time(0) = constant_speed_state(mechanism.swept(), driver_value).time;
 }
 
 SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
                            const SweepOptions& options) {
-  const Driver& d = mechanism.driver();
+  if (mechanism.axis().timed()) return {};  // in time: no driver's turns to skip
+  const Driver& d = mechanism.swept();
   if (!d.angular() || d.law.kind != MotionLaw::Kind::constant_speed) return {};
   const double turns = std::trunc((driver_value - d.start) / (2.0 * kPi));
   if (std::abs(turns) < 2.0) return {};  // within two turns: nothing to gain
@@ -1877,8 +1882,7 @@ SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
 }
 
 Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
-  const Driver& d = mechanism.driver();
-  if (mechanism.several_drivers()) {  // the value is a time: the drivers followed up to it
+  if (mechanism.axis().timed()) {  // the value is a time: the drivers followed up to it
     if (!(driver_value >= 0.0))
       throw std::invalid_argument(fmt::format(
           "with several drivers the value is a time, from 0 s (here {:g} s)", driver_value));
@@ -1895,6 +1899,7 @@ Trajectory solve_at(const Mechanism& mechanism, double driver_value, const Sweep
     skip.move_on(mechanism, driver_value, out);
     return out;
   }
+  const Driver& d = mechanism.swept();
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);

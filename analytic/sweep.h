@@ -52,6 +52,8 @@ struct SingularPosition {
 // The longest step any continuation takes between two solves, whatever the output grid's step:
 // 1 degree of an angular driver; for a slider, the arc its mechanism's size sweeps in 1 degree.
 // Output samples are reached in such substeps, so a sample's value does not depend on the grid.
+// Of one driver (`size`: its mechanism's), or of the swept driver (the axis is not timed).
+double continuation_step(const Driver& driver, double size);
 double continuation_step(const Mechanism& mechanism);
 
 // Where the chain can be assembled, found by continuation from the drawn position.

@@ -95,10 +95,11 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
-  slider_driver = !mechanism.driver().angular();
+  const bool timed = mechanism.axis().timed();
+  slider_driver = !timed && !mechanism.swept().angular();
   driver_names.clear();
   driver_sliders.clear();
-  if (mechanism.several_drivers())
+  if (timed)
     for (const Driver& d : mechanism.drivers) {
       driver_names.push_back(d.name);
       driver_sliders.push_back(!d.angular());

@@ -93,8 +93,8 @@ struct Trajectory {
   std::vector<std::string> joint_names;   // Mechanism::joints order
   std::string ground_name;
   bool slider_driver = false;  // the driver's effort is a force (else a torque)
-  // Several drivers (Mechanism::several_drivers()): their names and whether each is a slider, in
-  // Mechanism::drivers order; empty with one driver, whose channels keep their names.
+  // Several drivers (a sweep in time, Mechanism::axis()): their names and whether each is a slider,
+  // in Mechanism::drivers order; empty with one driver, whose channels keep their names.
   std::vector<std::string> driver_names;
   std::vector<char> driver_sliders;
 
@@ -103,6 +103,8 @@ struct Trajectory {
   // Several drivers: each one's value, one column per driver [rad or m] (channels angle.<name>
   // or s.<name>); with several drivers the sweep's parameter is `time`.
   Eigen::MatrixXd driver_values;
+  // Driver d's value at sample `row` (Mechanism::drivers order) [rad or m].
+  double driver_value(int row, int d) const { return d == 0 ? driver(row) : driver_values(row, d); }
   Eigen::MatrixXd angle, omega, alpha;
   Eigen::MatrixXd x, y, vx, vy, ax, ay;
   Eigen::MatrixXd s, sdot, sddot;

@@ -14,19 +14,25 @@ namespace crosslink {
 double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory) {
   double rate = 0.0;
   const Trajectory& t = trajectory;
-  const Driver& driver = mechanism.driver();
   if (mechanism.dynamics && t.samples() >= 3) {
     // A forward-dynamics run follows no motion law: the coordinate's rate and acceleration over
     // the run by differences of the samples (a scale, not a result; a kinematic sweep of the
     // case gets its law's constant speed this way too). Fewer samples tell nothing: the law.
-    for (int k = 1; k + 1 < t.samples(); ++k) {
-      const double h0 = t.time(k) - t.time(k - 1);
-      const double h1 = t.time(k + 1) - t.time(k);
-      const double d0 = (t.driver(k) - t.driver(k - 1)) / h0;
-      const double d1 = (t.driver(k + 1) - t.driver(k)) / h1;
+    // Each coordinate's in its own unit (rad, or the size for a slider).
+    for (int d = 0; d < static_cast<int>(mechanism.drivers.size()); ++d) {
+      double own = 0.0;
+      for (int k = 1; k + 1 < t.samples(); ++k) {
+        const double h0 = t.time(k) - t.time(k - 1);
+        const double h1 = t.time(k + 1) - t.time(k);
+        const double d0 = (t.driver_value(k, d) - t.driver_value(k - 1, d)) / h0;
+        const double d1 = (t.driver_value(k + 1, d) - t.driver_value(k, d)) / h1;
+        own = std::max(
+            {own, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
+      }
       rate = std::max(
-          {rate, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
+          rate, mechanism.drivers[static_cast<size_t>(d)].angular() ? own : own / mechanism.size());
     }
+    return rate;
   } else {
     // The motion law's, over its whole cycle and at the samples' times: a property of the
     // mechanism, whatever few samples a sweep or a single pose has.
@@ -43,7 +49,6 @@ double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory
       for (int k = 0; k <= 360; ++k) at(cycle * k / 360.0);
     return rate;
   }
-  return driver.angular() ? rate : rate / mechanism.size();
 }
 
 namespace {
@@ -156,7 +161,8 @@ double chain_rcond(const Mechanism& mechanism, const Trajectory& reference) {
   // A pose or a few samples say nothing of the chain's own conditioning (one sample is its
   // own median, next to a toggle too): the sweep's, at 10 degrees (a slider's 1/36 of its range).
   SweepOptions coarse;
-  if (mechanism.driver().angular()) coarse.step = std::numbers::pi / 18.0;
+  if (mechanism.axis().timed() || mechanism.swept().angular())
+    coarse.step = std::numbers::pi / 18.0;
   try {
     const Trajectory cycle = sweep(mechanism, coarse);
     return typical_rcond(cycle);

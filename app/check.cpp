@@ -12,6 +12,7 @@
 #include "analytic/loader.h"
 #include "analytic/newton.h"
 #include "analytic/sweep.h"
+#include "analytic/units_text.h"
 #include "app/commands.h"
 #include "compare/derived.h"
 
@@ -137,11 +138,10 @@ void print_physics(const Mechanism& m, std::string& out) {
 Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& options,
                                     std::string& out, std::vector<SingularPosition>& singular) {
   // Several drivers: the sweep runs in time, and its events are located in time.
-  const bool timed = m.several_drivers();
-  const double unit = timed ? 1.0 : m.driver().angular() ? m.units.angle : m.units.length;
-  const std::string unit_name = timed                  ? "s"
-                                : m.driver().angular() ? m.units.angle_name
-                                                       : m.units.length_name;
+  const bool timed = m.axis().timed();
+  const DriverUnit axis_unit = axis_unit_of(m);
+  const double unit = axis_unit.scale;
+  const std::string& unit_name = axis_unit.name;
   const std::string_view at = timed ? "t" : "driver";
   const Trajectory t = sweep(m, options, singular);
   int flagged = 0;
@@ -261,7 +261,7 @@ int print_claims(const Mechanism& m, const std::optional<std::vector<DerivedValu
 
 CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
                          const SweepOptions& options) {
-  if (!m.driver().at_rest()) check_sweep_work(m, options, limits);
+  if (!m.at_rest()) check_sweep_work(m, options, limits);
   CheckReport report;
   std::string& out = report.out;
   out += fmt::format("{}: {}\n", m.file, m.name);
@@ -277,7 +277,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   for (const Joint& j : m.joints) out += fmt::format("    {:<14} {}\n", j.name, joint_text(m, j));
   print_physics(m, out);
   out += fmt::format("  mobility: {}\n", mobility(m).explain());
-  if (m.several_drivers()) {
+  if (m.axis().timed()) {
     out += fmt::format(
         "  drivers ({}; the sweep runs in time over {:.6g} s, the longest of their "
         "cycles):\n",
@@ -285,7 +285,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
     for (const Driver& d : m.drivers)
       out += fmt::format("    {:<14} {}\n", d.name, driver_text(m, d));
   } else {
-    out += fmt::format("  driver: {}\n", driver_text(m, m.driver()));
+    out += fmt::format("  driver: {}\n", driver_text(m, m.swept()));
   }
 
   // The closed-form method: the groups the chain decomposes into once the drivers, gear pairs
@@ -300,14 +300,11 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   const NewtonSolver solver(m);
   KinematicState state(m);
   const SolveReport assembled = solver.assemble(state);
-  const double unit = m.driver().angular() ? m.units.angle : m.units.length;
-  const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
   if (assembled.status == PoseStatus::cannot_assemble ||
       assembled.status == PoseStatus::no_convergence) {
     // At the driver's table: its start value is where the chain must close.
-    const Diagnostic problem{m.driver().where,
-                             fmt::format("cannot assemble at driver = {:.6g} {}: {}",
-                                         m.driver().start / unit, unit_name, assembled.message)};
+    const Diagnostic problem{
+        start_where(m), fmt::format("cannot assemble at {}: {}", start_text(m), assembled.message)};
     report.err = problem.str() + "\n";
     report.exit_code = kExitBadInput;
     return report;
@@ -323,11 +320,11 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
     }
   }
   print_modes(m, state, out);
-  if (m.driver().at_rest()) {
+  if (m.at_rest()) {
     out +=
         "  speed 0: one pose at rest (solve --at VALUE); the assembling range and the singular "
         "positions over a sweep need a speed\n";
-  } else if (m.driver().law.kind == MotionLaw::Kind::constant_speed && !m.several_drivers()) {
+  } else if (!m.axis().timed() && m.swept().law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m, options);
     out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
@@ -335,7 +332,7 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
                            : " (limits: toggles; the chain cannot close beyond)");
   }
   std::vector<SingularPosition> singular;
-  if (!m.driver().at_rest()) report.sweep = print_singular_positions(m, options, out, singular);
+  if (!m.at_rest()) report.sweep = print_singular_positions(m, options, out, singular);
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

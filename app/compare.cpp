@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "analytic/loader.h"
+#include "analytic/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "compare/comparison.h"
@@ -54,15 +55,16 @@ std::string default_mechanism() {
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
   const Mechanism m = load_mechanism(args.path);
-  // The options in SI: a step or --at in the file's units (--at: a time [s] with several drivers).
-  const double driver_scale = m.driver().angular() ? m.units.angle : m.units.length;
+  // The options in SI: a step or --at in the file's units along the sweep's axis (a time [s] with
+  // several drivers).
+  const double axis_scale = axis_unit_of(m).scale;
   methods::CompareOptions options;
   options.methods = split(args.engines, ',');
   options.tolerances = args.tolerances;
   options.settings = args.settings;
   options.accuracy_pct = parse_accuracy(args.accuracy);
-  options.step = args.step * driver_scale;  // 0: the default
-  if (args.at) options.at = *args.at * (m.several_drivers() ? 1.0 : driver_scale);
+  options.step = args.step * axis_scale;  // 0: the default
+  if (args.at) options.at = *args.at * axis_scale;
   options.limits = args.limits;
   options.max_steps = args.max_steps;
   options.jobs = args.jobs;

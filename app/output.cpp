@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "analytic/units_text.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 
@@ -234,15 +235,14 @@ std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
 void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int digits,
                       const std::vector<std::string>& channels, const std::string& note,
                       const Columns& extra) {
-  const std::string& driver_unit_name =
-      m.driver().angular() ? m.units.angle_name : m.units.length_name;
+  const std::string axis_unit_name = by_time ? "s" : driver_unit_of(m).name;
   // An angle past one turn is shown within its turn, the whole turns in a column of their own.
   bool turns = false;
   for (int r = 0; r < t.samples() && !by_time; ++r)
     turns = turns || compare::driver_turns(m, t.driver(r)).turns != 0;
   std::string header = fmt::format("{:>10}{} {:>8}", by_time ? "t" : "driver",
                                    turns ? fmt::format(" {:>5}", "turns") : "", "status");
-  std::string units = fmt::format("{:>10}{} {:>8}", by_time ? "[s]" : "[" + driver_unit_name + "]",
+  std::string units = fmt::format("{:>10}{} {:>8}", "[" + axis_unit_name + "]",
                                   turns ? fmt::format(" {:>5}", "") : "", "");
   std::vector<Eigen::VectorXd> columns;
   std::vector<compare::DisplayUnit> shown;
@@ -293,7 +293,7 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     return usable(status) ? fmt::format(" {:>{}.{}f}", v, width, digits)
                           : fmt::format(" {:>{}}", "", width);
   };
-  if (m.several_drivers()) {
+  if (m.axis().timed()) {
     std::string drivers;
     for (size_t d = 0; d < t.driver_names.size(); ++d) {
       const Driver& driver = m.drivers[d];

@@ -81,7 +81,7 @@ int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
   SweepOptions options;
   if (args.step != 0.0)  // 0: not given (the default); --step itself is positive
-    options.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
+    options.step = args.step * axis_unit_of(m).scale;
   const bool reverse = args.at_limit == "reverse";
   if (reverse) options.at_limit = SweepOptions::AtLimit::reverse;
   const bool single = args.at.has_value();
@@ -89,9 +89,9 @@ int run_solve(const SolveArgs& args) {
     fmt::print(stderr, "{}: error: --ic needs --at VALUE (centres of one pose)\n", m.file);
     return kExitBadInput;
   }
-  if (args.ic && m.driver().at_rest()) {
+  if (args.ic && m.at_rest()) {  // at the speed that says so
     fmt::print(stderr, "{}\n",
-               Diagnostic{m.driver().law.where,
+               Diagnostic{m.axis().timed() ? start_where(m) : m.swept().law.where,
                           "--ic: the driver is at rest (speed 0): every velocity is zero and "
                           "no centre is defined by them"}
                    .str());
@@ -110,11 +110,8 @@ int run_solve(const SolveArgs& args) {
     columns = table_channels(m, names, args.columns);
   }
   // Several drivers: the sweep's parameter is time, and --at is a time [s].
-  const bool timed = m.several_drivers();
-  const double at = single ? *args.at * (timed                  ? 1.0
-                                         : m.driver().angular() ? m.units.angle
-                                                                : m.units.length)
-                           : 0;
+  const bool timed = m.axis().timed();
+  const double at = single ? *args.at * axis_unit_of(m).scale : 0;
   if (single)
     check_solve_at_work(m, at, options, args.limits);
   else
@@ -122,9 +119,8 @@ int run_solve(const SolveArgs& args) {
   Trajectory t = single ? solve_at(m, at, options) : sweep(m, options);
   if (single && t.status[0] == PoseStatus::cannot_assemble) {
     // No pose exists: an error in every format, with the range `check` finds where it is known.
-    const std::string& unit_name = m.driver().angular() ? m.units.angle_name : m.units.length_name;
     std::string where;
-    if (m.driver().law.kind == MotionLaw::Kind::constant_speed && !m.driver().at_rest()) {
+    if (!timed && m.swept().law.kind == MotionLaw::Kind::constant_speed && !m.at_rest()) {
       const AssemblingRange range = assembling_range(m, options);
       if (range.unknown.empty() && !range.full_cycle && range.lower < range.upper)
         where = fmt::format(
@@ -132,8 +128,8 @@ int run_solve(const SolveArgs& args) {
             range.explain(m));
     }
     fmt::print(stderr, "{}\n",
-               Diagnostic{m.driver().where, fmt::format("cannot_assemble at driver = {:g} {}{}",
-                                                        *args.at, unit_name, where)}
+               Diagnostic{start_where(m), fmt::format("cannot_assemble at {}{}",
+                                                      sweep_position_text(m, at, 6), where)}
                    .str());
     return kExitBadInput;
   }
@@ -199,8 +195,8 @@ int run_solve(const SolveArgs& args) {
   }
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
-               Diagnostic{m.driver().where,
-                          fmt::format("{} at driver = {}", to_string(t.status[0]), *args.at)}
+               Diagnostic{start_where(m), fmt::format("{} at {}", to_string(t.status[0]),
+                                                      sweep_position_text(m, at, 6))}
                    .str());
     return kExitBadInput;
   }

@@ -18,6 +18,7 @@
 
 #include "analytic/limits.h"
 #include "analytic/loader.h"
+#include "analytic/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/sweep_parts.h"
@@ -160,7 +161,7 @@ methods::SettingsSweepOptions sweep_options(const Mechanism& m, const SweepArgs&
       methods::check_time_step(span, dt, args.max_steps, fmt::format("--dt {:g}", dt));
   }
   if (args.step != 0.0 && !dynamics)  // 0: the default
-    options.sweep.step = args.step * (m.driver().angular() ? m.units.angle : m.units.length);
+    options.sweep.step = args.step * axis_unit_of(m).scale;
   if (!dynamics) check_sweep_work(m, options.sweep, args.limits);
   options.base = {{"max_steps", std::to_string(args.max_steps)}};
   options.repeat = args.repeat;

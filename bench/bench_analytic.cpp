@@ -78,7 +78,7 @@ std::shared_ptr<PoseCase> pose_case(const std::string& path, std::string& error)
       error = "does not assemble at its start: " + assembled.message;
       return nullptr;
     }
-    const Driver& d = m.driver();
+    const Driver& d = m.swept();
     double dt = d.law.duration / 360.0;
     if (d.law.kind == MotionLaw::Kind::constant_speed)
       dt = (d.angular() ? kDeg : m.size() / 200.0) / std::abs(d.law.speed);
@@ -269,7 +269,7 @@ class SolveSpaceFourBar {
 
 // Crank angles of the comparison: 1 degree apart from the drawn start, round and round.
 double crank_angle(const Mechanism& m, long step) {
-  return m.driver().start + static_cast<double>(step % 360) * kDeg;
+  return m.swept().start + static_cast<double>(step % 360) * kDeg;
 }
 
 void bench_four_bar_crosslink(benchmark::State& bench) {
@@ -284,7 +284,7 @@ void bench_four_bar_crosslink(benchmark::State& bench) {
   for (auto _ : bench) {
     ++step;
     // The crank angle itself is continuous: one more degree each pose.
-    state.driver.value = m.driver().start + static_cast<double>(step) * kDeg;
+    state.driver.value = m.swept().start + static_cast<double>(step) * kDeg;
     if (solver.solve_position(state).status != PoseStatus::ok) ++failures;
     benchmark::DoNotOptimize(state.q.data());
   }

@@ -52,7 +52,7 @@ bool prescribed(const Mechanism& m, std::string_view channel) {
   if (std::find(kPointKinds.begin(), kPointKinds.end(), kind) != kPointKinds.end())
     return m.links[static_cast<size_t>(ground)].find_point(object) >= 0;
   // Several drivers' own values (angle.<name>, s.<name>) follow their laws.
-  if ((kind == "angle" || kind == "s") && m.several_drivers() &&
+  if ((kind == "angle" || kind == "s") && m.axis().timed() &&
       std::any_of(m.drivers.begin(), m.drivers.end(),
                   [&](const Driver& d) { return d.name == object; }))
     return driven;
@@ -318,10 +318,11 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
   if (exact.references.size() != mechanism.references.size())
     throw std::logic_error("compare_methods: the exact values are not the mechanism's references");
 
-  // [[reference]] rows: exact at the printed driver value, every method on its sweep.
-  const bool angular = mechanism.driver().angular();
+  // [[reference]] rows: exact at the printed driver value, every method on its sweep (the
+  // loader refuses them in a sweep in time).
   for (size_t k = 0; k < mechanism.references.size(); ++k) {
     const Reference& r = mechanism.references[k];
+    const bool angular = mechanism.swept().angular();
     ReferenceRow row;
     row.reference = r;
     if (r.derived) {

@@ -47,7 +47,7 @@ double scale_of(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit,
       return channel_peak(spec.channel, *ref.channel(spec.channel), usable, size);
     }
     case DerivedUnit::driver:
-      return m.driver().angular() ? std::numbers::pi : size;
+      return m.swept().angular() ? std::numbers::pi : size;
     case DerivedUnit::angle:
       return std::numbers::pi;
     case DerivedUnit::length:
@@ -175,7 +175,7 @@ DerivedResults compare_derived(const Mechanism& m, const std::vector<MethodRun>&
         c.exact_ties = f.ties;
         c.estimate_ties = ties_of(find(out.estimate, exact.spec), f.name);
         c.scale = scale_of(m, *exact.spec, f.unit, ref, f.value);
-        c.quantity_class = quantity_of(*exact.spec, f.unit, m.driver().angular());
+        c.quantity_class = quantity_of(*exact.spec, f.unit, m.swept().angular());
         c.tolerance = tolerances.of(method.name, c.quantity_class);
         c.verdict = Verdict::not_applicable;
         if (!c.value)

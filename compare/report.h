@@ -22,6 +22,7 @@ struct DisplayUnit {
   std::string name;  // "cm/s", "deg", "rad/s^2"
 };
 DisplayUnit display_unit(const Mechanism& mechanism, std::string_view channel);
+// The unit of a position along the sweep: the swept driver's, or s for a sweep in time.
 DisplayUnit driver_unit(const Mechanism& mechanism);
 // Whether the samples are in time, the abscissa of the tables and charts: a forward-dynamics
 // case, or several drivers (each at its law's value at t).

@@ -220,11 +220,21 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
                   : !given.empty()
                       ? "the definition's masses and the default uniform bars"
                       : "the default mass model, uniform bars (the definition gives no mass)";
-    const bool torque = m.driver().angular();
-    d["effort"] =
-        fmt::format("driver {} {:.6g} {}", torque ? "torque" : "force",
-                    pose.effort(0, 0) / (torque ? force_unit * m.units.length : force_unit),
-                    torque ? m.units.force_name + " " + m.units.length_name : m.units.force_name);
+    // Every driver's effort: "driver torque 12.5 N m", or with several named drivers
+    // "torque crank2 12.5 N m, torque crank5 -3 N m".
+    std::string efforts;
+    for (size_t e = 0; e < m.drivers.size(); ++e) {
+      const Driver& driver = m.drivers[e];
+      const bool torque = driver.angular();
+      const double value = pose.effort(0, static_cast<Eigen::Index>(e));
+      efforts += fmt::format(
+          "{}{} {:.6g} {}", efforts.empty() ? "" : ", ",
+          driver.name.empty() ? fmt::format("driver {}", torque ? "torque" : "force")
+                              : fmt::format("{} {}", torque ? "torque" : "force", driver.name),
+          value / (torque ? force_unit * m.units.length : force_unit),
+          torque ? m.units.force_name + " " + m.units.length_name : m.units.force_name);
+    }
+    d["effort"] = efforts;
   }
   const std::vector<Mechanism::NamedPoint> named = m.named_points();
   for (size_t p = 0; p < pose.point_names.size(); ++p) {
@@ -381,15 +391,19 @@ std::string settings_in_force(const Comparison& cmp, const HtmlOptions& options)
     html += "<li>samples: every [dynamics] interval of the definition, over its duration</li>\n";
   } else {
     html += fmt::format("<li>sweep: {}</li>\n",
-                        m.driver().range
+                        m.axis().timed() ? fmt::format("the drivers' laws in time over their "
+                                                       "longest cycle, {:.6g} s",
+                                                       m.cycle_period())
+                        : m.swept().range
                             ? std::string("over the definition's driver range")
                             : std::string("one cycle from the driver's start, or its assembling "
                                           "range (default: the definition gives no range)"));
-    html += options.step ? fmt::format("<li>step between samples: {:.6g} {} (--step)</li>\n",
-                                       *options.step / du.scale, escape(du.name))
-                         : std::string(
-                               "<li>step between samples: the default, 1 deg for an angle, "
-                               "1/360 of the swept range for a slider (--step sets it)</li>\n");
+    html += m.axis().timed() ? std::string("<li>step between samples: 1/360 of the cycle</li>\n")
+            : options.step   ? fmt::format("<li>step between samples: {:.6g} {} (--step)</li>\n",
+                                           *options.step / du.scale, escape(du.name))
+                             : std::string(
+                                   "<li>step between samples: the default, 1 deg for an angle, "
+                                     "1/360 of the swept range for a slider (--step sets it)</li>\n");
   }
   html += options.drawing.asked ? std::string("<li>drawing: at --at</li>\n")
                                 : std::string(
@@ -659,7 +673,7 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
 
   // The drawing's pose, solved before (methods::drawing): at --at or the drawn start; with
   // several drivers --at is a time, the start t = 0.
-  const bool timed = m.several_drivers();
+  const bool timed = m.axis().timed();
   const double at = options.drawing.at;
   const Trajectory& pose = options.drawing.pose;
   if (pose.samples() != 1) throw std::logic_error("write_html: no drawing (methods::drawing)");

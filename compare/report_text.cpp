@@ -40,18 +40,19 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
 }
 
 bool samples_in_time(const Mechanism& m) {
-  return m.dynamics.has_value() || m.several_drivers();
+  return m.dynamics.has_value() || m.axis().timed();
 }
 
 DisplayUnit driver_unit(const Mechanism& m) {
-  return m.driver().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
-                              : DisplayUnit{m.units.length, m.units.length_name};
+  if (m.axis().timed()) return {1.0, "s"};
+  return m.swept().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
+                             : DisplayUnit{m.units.length, m.units.length_name};
 }
 
 DriverTurns driver_turns(const Mechanism& m, double value) {
   const DisplayUnit du = driver_unit(m);
   const double v = value / du.scale;
-  if (!m.driver().angular() || !std::isfinite(v)) return {v, 0};
+  if (m.axis().timed() || !m.swept().angular() || !std::isfinite(v)) return {v, 0};
   const double turn = 2.0 * std::numbers::pi / du.scale;
   // Within (-turn, turn], or [-turn, 0) below zero: a cycle's last sample is 360 deg, no turn on.
   double within = std::fmod(v, turn);

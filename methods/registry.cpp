@@ -190,11 +190,12 @@ MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options)
   run.ok = true;
   const double step = options.step > 0.0 ? options.step : 0.0;
   // In the file's units, as --step takes it (it was the SI value, 0.0349066 for --step 2 deg).
-  const DriverUnit unit = driver_unit_of(mechanism);
-  const std::string step_text = step > 0.0 ? unit.text(step, 6)
-                                : mechanism.driver().angular()
-                                    ? unit.text(std::numbers::pi / 180.0, 6) + " (default)"
-                                    : std::string("from the range (default)");
+  const std::string step_text =
+      mechanism.axis().timed() ? std::string("1/360 of the cycle in time")
+      : step > 0.0             ? driver_unit_of(mechanism).text(step, 6)
+      : mechanism.swept().angular()
+          ? driver_unit_of(mechanism).text(std::numbers::pi / 180.0, 6) + " (default)"
+          : std::string("from the range (default)");
   run.settings = {{"newton.tolerance", fmt::format("{:g}", options.newton.tolerance)},
                   {"newton.max_iterations", fmt::format("{}", options.newton.max_iterations)},
                   {"newton.singular_rcond", fmt::format("{:g}", options.newton.singular_rcond)},
@@ -326,7 +327,7 @@ compare::Comparison compare_runs(const Mechanism& m, std::vector<MethodRun> runs
 
 compare::Drawing drawing(const Mechanism& m, std::optional<double> at) {
   compare::Drawing out;
-  out.at = at.value_or(m.several_drivers() ? 0.0 : m.driver().start);
+  out.at = at.value_or(m.axis().timed() ? 0.0 : m.swept().start);
   out.asked = at.has_value();
   out.pose = solve_at(m, out.at);
   if (usable(out.pose.status.at(0))) out.centres = instant_centres(m, out.pose, 0);

@@ -248,7 +248,8 @@ double SweepRow::benchmark_error() const {
 }
 
 std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism) {
-  const Driver& d = mechanism.driver();
+  if (mechanism.axis().timed()) return std::nullopt;  // the benchmarks have one coordinate
+  const Driver& d = mechanism.swept();
   if (d.link < 0 || d.to < 0) return std::nullopt;
   return mechanism.links[static_cast<size_t>(d.link)].points[static_cast<size_t>(d.to)].name;
 }

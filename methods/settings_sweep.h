@@ -202,8 +202,8 @@ struct SweepRow {
 // benchmark's output steps; docs/dynamics.md): the tip of the driven link, the driver's `to` point
 // (A01's P1, A02's B0). Over every sample where both runs have values (the engine's `singular`
 // samples included: the benchmark counts every output step), the largest |difference| of x, y
-// [length unit] and of vx, vy [length unit/s]. {NaN, NaN} when the driver names no tip point or no
-// sample has values.
+// [length unit] and of vx, vy [length unit/s]. {NaN, NaN} when the driver names no tip point (or
+// there are several drivers) or no sample has values.
 std::optional<std::string> benchmark_tip_point(const Mechanism& mechanism);
 std::array<double, 2> benchmark_tip_errors(const Mechanism& mechanism, const Trajectory& reference,
                                            const Trajectory& run);

@@ -35,7 +35,7 @@ DynamicsPlan plan_dynamics(const Mechanism& definition, const Mechanism& scene_m
   KinematicState state(scene_mechanism);
   state.q = p.start.q;
   for (int d = 0; d < state.driver_count(); ++d)
-    state.driver_state(d) = {reference.time(first), reference_driver(reference, first, d),
+    state.driver_state(d) = {reference.time(first), reference.driver_value(first, d),
                              balance.rate(p.start.q, p.start.qdot, d), 0.0};
   const NewtonSolver solver(scene_mechanism);
   const SolveReport report = solver.solve(state);
@@ -282,7 +282,7 @@ StatusJudge judge_dynamics(const Mechanism& m, const Trajectory& reference, cons
       judge, m, reference, sampled.rows(), gaps,
       [&](int i, KinematicState& probe) {
         for (int d = 0; d < probe.driver_count(); ++d)
-          probe.driver_state(d) = {0.0, reference_driver(out, i, d), 0.0, 0.0};
+          probe.driver_state(d) = {0.0, out.driver_value(i, d), 0.0, 0.0};
       },
       [&](int i, const SolveReport& projected, const KinematicState&) {
         return judge.judge(i, gaps(i), projected.rcond, nullptr, out);

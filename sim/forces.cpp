@@ -143,21 +143,7 @@ double reference_energy_scale(const Mechanism& m, const Trajectory& reference) {
   return std::max(kinetic, high > low ? high - low : 0.0);
 }
 
-double driver_inertia(const Mechanism& m, const Trajectory& reference) {
-  DynamicsLoads balance(m);
-  double inertia = 0.0;
-  for (int k = 0; k < reference.samples(); ++k) {
-    if (!usable(reference.status[static_cast<size_t>(k)])) continue;
-    const ReferenceState s = reference_state(m, reference, k);
-    const double rate = balance.rate(s.q, s.qdot);
-    if (rate != 0.0)
-      inertia = std::max(inertia, 2.0 * balance.kinetic(s.q, s.qdot) / (rate * rate));
-  }
-  return inertia;
-}
-
 double driver_inertia(const Mechanism& m, const Trajectory& reference, int d) {
-  if (!m.several_drivers()) return driver_inertia(m, reference);
   DynamicsLoads energy(m);
   const NewtonSolver solver(m);
   KinematicState state(m);
@@ -166,9 +152,8 @@ double driver_inertia(const Mechanism& m, const Trajectory& reference, int d) {
     if (!usable(reference.status[static_cast<size_t>(k)])) continue;
     state.q = reference_coordinates(m, reference, k);
     for (int e = 0; e < state.driver_count(); ++e)
-      state.driver_state(e) = {reference.time(k),
-                               e == 0 ? reference.driver(k) : reference.driver_values(k, e),
-                               e == d ? 1.0 : 0.0, 0.0};
+      state.driver_state(e) = {reference.time(k), reference.driver_value(k, e), e == d ? 1.0 : 0.0,
+                               0.0};
     if (solver.solve_position(state).status != PoseStatus::ok) continue;
     solver.solve_velocity(state);
     inertia = std::max(inertia, 2.0 * energy.kinetic(state.q, state.qdot));
@@ -365,12 +350,15 @@ ForceAgreement force_agreement(const Mechanism& m, const Trajectory& exact,
   for (int i : rows)
     for (Eigen::Index j = 0; j < exact.fx.cols(); ++j)
       reaction_peak = std::max(reaction_peak, std::hypot(exact.fx(i, j), exact.fy(i, j)));
-  auto [effort_error, effort_peak] =
-      worst([&](int i) { return std::abs(engine.effort(i, 0) - exact.effort(i, 0)); },
-            [&](int i) { return std::abs(exact.effort(i, 0)); });
-  const double arm = m.driver().angular() ? m.size() : 1.0;
-  effort_peak = std::max(effort_peak, 1e-3 * reaction_peak * arm);
-  a.effort = ratio({effort_error, effort_peak});
+  // Every driver's effort, each against its own scale.
+  for (Eigen::Index e = 0; e < exact.effort.cols(); ++e) {
+    auto [effort_error, effort_peak] =
+        worst([&](int i) { return std::abs(engine.effort(i, e) - exact.effort(i, e)); },
+              [&](int i) { return std::abs(exact.effort(i, e)); });
+    const double arm = m.drivers[static_cast<size_t>(e)].angular() ? m.size() : 1.0;
+    effort_peak = std::max(effort_peak, 1e-3 * reaction_peak * arm);
+    a.effort = std::max(a.effort, ratio({effort_error, effort_peak}));
+  }
   for (size_t j = 0; j < m.joints.size(); ++j) {
     const auto c = static_cast<Eigen::Index>(j);
     auto force = [&](const Trajectory& t, int i) {

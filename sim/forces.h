@@ -90,13 +90,10 @@ class DynamicsLoads {
 // peak kinetic energy and the range of the potential energy over its usable samples [J].
 double reference_energy_scale(const Mechanism& m, const Trajectory& reference);
 
-// The largest generalised inertia along the driver coordinate over the reference's usable
-// samples, 2 T / (rate of the coordinate)^2 with T the kinetic energy (Link::mass): what the
-// driver moves, in kg m^2 for an angle or kg for a slider; 0 when the coordinate is never moving.
-double driver_inertia(const Mechanism& m, const Trajectory& reference);
-// Driver d's (Mechanism::drivers order): with several drivers, the diagonal of the inertia along
-// the drivers, 2 T with driver d at unit rate and the others held, its largest over the
-// reference's usable samples; with one, driver_inertia().
+// Driver d's generalised inertia (Mechanism::drivers order), the diagonal of the inertia along
+// the drivers: 2 T with driver d at unit rate and the others held (T the kinetic energy,
+// Link::mass), its largest over the reference's usable samples; what the driver moves, in kg m^2
+// for an angle or kg for a slider.
 double driver_inertia(const Mechanism& m, const Trajectory& reference, int d);
 
 // Mass of a body an engine needs that the mechanism does not have (a pin-in-slot's sliding

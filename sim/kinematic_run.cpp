@@ -49,7 +49,7 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
       const Driver& d = drivers[static_cast<size_t>(di)];
       DriverState& driver = state.driver_state(di);
       driver = d.at_time(t);
-      driver.value = reference_driver(reference, first, di) + (driver.value - d.at_time(t0).value);
+      driver.value = reference.driver_value(first, di) + (driver.value - d.at_time(t0).value);
     }
     const SolveReport report = solver.solve(state);
     return report.status == PoseStatus::ok &&
@@ -71,7 +71,7 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   p.q = state.q;
   p.qdot = state.qdot;
   for (size_t di = 0; di < drivers.size(); ++di)
-    p.driver_offset.push_back(reference_driver(reference, first, static_cast<int>(di)) -
+    p.driver_offset.push_back(reference.driver_value(first, static_cast<int>(di)) -
                               drivers[di].at_time(t0).value);
   p.grid = sample_grid(reference, p.span, per_interval, inner, p.preroll, h);
   return p;
@@ -136,12 +136,16 @@ void judge_projected(
   }
 }
 
+double driver_watch_unit(const Mechanism& m) {
+  return m.axis().timed() || m.swept().angular() ? 1.0 : m.size();
+}
+
 void reference_drivers(const Mechanism& m, const Trajectory& reference, int i,
                        KinematicState& state) {
   for (int d = 0; d < state.driver_count(); ++d) {
     DriverState& driver = state.driver_state(d);
     driver = m.drivers[static_cast<size_t>(d)].at_time(reference.time(i));
-    driver.value = reference_driver(reference, i, d);
+    driver.value = reference.driver_value(i, d);
   }
 }
 
@@ -193,11 +197,14 @@ class Steps {
       alarm =
           fmt::format("loop gap {} beyond the divergence limit {}", length_text(definition_, gap),
                       length_text(definition_, watch_.divergence_gap));
-    const bool several = definition_.several_drivers();
+    const bool several = definition_.axis().timed();
     if (!alarm.empty())
       return several ? fmt::format("diverged at t = {:.6g} s: {}", t, alarm)
-                     : fmt::format("diverged at t = {:.6g} s (driver {}): {}", t,
-                                   driver_unit_of(definition_).text(driver_.front(), 6), alarm);
+                     : fmt::format(
+                           "diverged at t = {:.6g} s (driver {}): {}", t,
+                           driver_unit_of(definition_)
+                               .text(driver_[static_cast<size_t>(definition_.axis().driver)], 6),
+                           alarm);
     for (size_t d = 0; d < law_.size(); ++d) {
       const double threshold = driver_threshold(d);
       if (!(driver_errors_[d] > threshold)) continue;
@@ -227,12 +234,11 @@ class Steps {
 
  private:
   Eigen::VectorXd& pose(long k) { return ring_[static_cast<size_t>(k % kRing)]; }
-  // Driver d's watch threshold: the watch's, in the first driver's unit (KinematicWatch::driver).
+  // Driver d's watch threshold in its own unit (KinematicWatch::driver).
   double driver_threshold(size_t d) const {
-    const bool first = definition_.driver().angular(), own = definition_.drivers[d].angular();
-    return first == own ? watch_.driver
-           : own        ? watch_.driver / definition_.size()
-                        : watch_.driver * definition_.size();
+    const double own = definition_.drivers[d].angular() ? 1.0 : definition_.size();
+    const double unit = driver_watch_unit(definition_);
+    return unit == own ? watch_.driver : watch_.driver / unit * own;
   }
   ForceReading& reading_at(long k) { return readings_[static_cast<size_t>(k % kRing)]; }
 
@@ -245,8 +251,12 @@ class Steps {
       velocity_ = plan_.qdot;
     else
       recent_velocity(k, plan_.grid.time, poses(), velocity_);
-    scene_.apply(loads_.at(pose(k), velocity_,
-                           definition_.driver().at_time(t).value + plan_.driver_offset.front()));
+    // A load's table is over the swept driver's value (refused in a sweep in time).
+    const SweepAxis axis = definition_.axis();
+    const double swept = axis.timed() ? 0.0
+                                      : definition_.swept().at_time(t).value +
+                                            plan_.driver_offset[static_cast<size_t>(axis.driver)];
+    scene_.apply(loads_.at(pose(k), velocity_, swept));
   }
 
   const Mechanism& definition_;

@@ -45,14 +45,17 @@ class KinematicScene {
 struct KinematicWatch {
   double gap = 0.0;             // a larger joint gap [m] in a sample's interval: loop_gap
   double divergence_gap = 0.0;  // a larger joint gap [m] at a step: the run diverged there
-  // A driver further from its law [rad, or m]: the run lost it. In the first driver's unit; a
-  // driver of the other kind (an angle beside a slider) compares against it times or over the
-  // mechanism's size, as the auto threshold (1e-3 rad, or 1e-3 of the size) does.
+  // A driver further from its law: the run lost it. In driver_watch_unit; a driver of the other
+  // kind (an angle beside a slider) compares against it times or over the mechanism's size.
   double driver = 0.0;
   double singular_rcond = 0.0;   // the fraction of the chain's own conditioning: singular below
   double branch_distance = 0.0;  // a closed configuration further from the reference's [size or
                                  // rad]: branch_jump
 };
+
+// The unit of KinematicWatch::driver and of the engines' driver_threshold setting: 1 (rad), or
+// the mechanism's size (m) where the swept driver is a slider; rad for a sweep in time.
+double driver_watch_unit(const Mechanism& m);
 
 // When a run starts, how it steps, and the exact state it starts from. The steps split each
 // sample interval of the usable span into equal ones no longer than the engine's wanted step
@@ -185,10 +188,6 @@ void judge_projected(
 // reference's value (the definition's law plus the plan's offset).
 void reference_drivers(const Mechanism& m, const Trajectory& reference, int i,
                        KinematicState& state);
-// Driver d's value at the reference's sample i.
-inline double reference_driver(const Trajectory& reference, int i, int d) {
-  return d == 0 ? reference.driver(i) : reference.driver_values(i, d);
-}
 
 // Runs `scene` over `plan` and fills `run`: its trajectory (shaped for `definition` with forces
 // when `with_forces`) sampled at the reference's samples with each sample's status, its notes

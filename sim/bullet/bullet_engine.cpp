@@ -1203,8 +1203,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   p.m = perturbed(original, p.config.perturb_link);
   // The thresholds' auto values, of the scene's mechanism.
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0)
-    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1284,7 +1283,7 @@ bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
   if (!driven) return true;
   for (size_t d = 0; d < plan.driver_edges.size(); ++d) {
     const std::string which =
-        m.several_drivers() ? fmt::format(" ('{}')", m.drivers[d].name) : std::string();
+        m.axis().timed() ? fmt::format(" ('{}')", m.drivers[d].name) : std::string();
     if (plan.driver_planar[d])
       notes.push_back(fmt::format(
           "link-angle driver{} realised directly: the driven link's absolute angle is a joint "

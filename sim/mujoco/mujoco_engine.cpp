@@ -374,15 +374,12 @@ struct Start {
   Eigen::VectorXd q, qdot;
 };
 
-// At time t (the first usable sample's, or before it for a periodic pre-roll); nullopt when the
-// chain does not close there on a well-conditioned pose.
-std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference, int first,
-                                 double t) {
+// At the reference's sample `first`; nullopt when the chain does not close there on a
+// well-conditioned pose.
+std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference, int first) {
   KinematicState state(m);
   state.q = reference_coordinates(m, reference, first);
-  state.driver = m.driver().at_time(t);
-  state.driver.value = reference.driver(first) +
-                       (state.driver.value - m.driver().at_time(reference.time(first)).value);
+  reference_drivers(m, reference, first, state);
   const NewtonSolver solver(m);
   const SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok) return std::nullopt;
@@ -923,15 +920,13 @@ void shape(Trajectory& out, const Mechanism& m, const Trajectory& reference, boo
 
 // The thresholds a kinematic run watches its steps and flags its samples by; the run diverges
 // when a joint opens by the mechanism's size.
-KinematicWatch kinematic_watch(const Config& c, const Scene& s) {
+KinematicWatch kinematic_watch(const Config& c, const Scene& s, const Mechanism& m) {
   KinematicWatch w;
   w.gap =
       c.gap_threshold == "auto" ? 1e-4 * s.size : setting_number("gap_threshold", c.gap_threshold);
   w.divergence_gap = s.size;
-  // The first driver's unit (KinematicWatch::driver).
-  const bool angular_joint = s.joints[s.driven.front().joint].kind == SceneJoint::Kind::hinge;
   w.singular_rcond = singular_rcond(c, kSingularRcond);
-  w.driver = c.driver_threshold == "auto" ? (angular_joint ? 1e-3 : 1e-3 * s.size)
+  w.driver = c.driver_threshold == "auto" ? 1e-3 * driver_watch_unit(m)
                                           : setting_number("driver_threshold", c.driver_threshold);
   w.branch_distance = kBranchDistance;
   return w;
@@ -1358,7 +1353,7 @@ class MujocoEngine final : public Engine {
       return failed_run(std::move(run), e.what());
     }
     const bool with_forces = driver_reaction_readable(p.scene);
-    const KinematicWatch watch = kinematic_watch(p.config, p.scene);
+    const KinematicWatch watch = kinematic_watch(p.config, p.scene, m);
     run.settings = kinematic_settings(p, watch, with_forces);
     MujocoKinematicScene scene(m, p, std::move(loaded), with_forces);
     sim::run_kinematic(m, perturbed(m, p.config.perturb_link), reference, p.plan, watch,
@@ -1401,17 +1396,18 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
                             line.origin + (high + 3 * out.radius) * line.direction});
   }
   if (m.dynamics || !p.options.driven || usable_rows.empty()) return out;
+  const Driver& driver = m.swept();  // the exported scene's clock turns one (mujoco_mjcf)
 
   double low = INFINITY, high = -INFINITY, peak_rate = 0.0;
   for (int i : usable_rows) {
     low = std::min(low, reference.driver(i));
     high = std::max(high, reference.driver(i));
-    peak_rate = std::max(peak_rate, std::abs(m.driver().at_time(reference.time(i)).rate));
+    peak_rate = std::max(peak_rate, std::abs(driver.at_time(reference.time(i)).rate));
   }
   const double v0 = reference.driver(start_row);
-  const double rate0 = m.driver().at_time(reference.time(start_row)).rate;
+  const double rate0 = driver.at_time(reference.time(start_row)).rate;
   const bool turning =
-      p.periodic && m.driver().law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
+      p.periodic && driver.law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
   // A swing stays a twentieth of the sweep clear of its ends, which are limits (toggles) where
   // the chain would take the clock's drive: it goes from the start, at rest, to as far towards
   // the farther end and back.
@@ -1425,7 +1421,7 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
     for (int i : usable_rows)
       if (turning || in_swing(reference.driver(i)))
         peak_effort = std::max(peak_effort, std::abs(reference.effort(i, 0)) * s.mass_scale);
-  const double arm = m.driver().angular() ? 1.0 : s.size;
+  const double arm = driver.angular() ? 1.0 : s.size;
   double inertia = 0.0;
   for (const SceneLink& link : s.links)
     if (!link.ground) inertia += link.mass * s.size * s.size + link.inertia;
@@ -1437,7 +1433,7 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
     // A servo: torque - damping x rate, at speed when rate = torque / damping; it spins up over
     // a twentieth of a turn's time (of the cycle, for a slider) from rest.
     const double period =
-        m.driver().angular() ? 2.0 * std::numbers::pi / std::abs(rate0) : m.cycle_period();
+        driver.angular() ? 2.0 * std::numbers::pi / std::abs(rate0) : m.cycle_period();
     clock.damping = load(rate0) / (kClockLoad * std::abs(rate0));
     clock.torque = clock.damping * rate0;
     clock.inertia = clock.damping * period / 20.0;
@@ -1467,7 +1463,7 @@ std::unique_ptr<Engine> make_mujoco_engine() {
 std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
                         const Settings& settings) {
   // The exported scene's clock turns one driver (scene.h, Clock).
-  if (mechanism.several_drivers())
+  if (mechanism.axis().timed())
     throw std::runtime_error(fmt::format(
         "{} drivers: the exported scene's clock turns one driver, so a scene with several is not "
         "exported",
@@ -1480,10 +1476,10 @@ std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
   if (!mechanism.dynamics) {
     for (int i = p.span.first; i <= p.span.last; ++i)
       if (usable(reference.status[static_cast<size_t>(i)]) &&
-          std::abs(reference.driver(i) - mechanism.driver().start) <
-              std::abs(reference.driver(row) - mechanism.driver().start))
+          std::abs(reference.driver(i) - mechanism.swept().start) <
+              std::abs(reference.driver(row) - mechanism.swept().start))
         row = i;
-    const auto start = exact_start(mechanism, reference, row, reference.time(row));
+    const auto start = exact_start(mechanism, reference, row);
     if (!start) throw std::runtime_error("could not close the loops at the definition's start");
     p.start = *start;
     p.scene = mujoco_scene::build_scene(mechanism, p.start.q);

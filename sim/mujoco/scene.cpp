@@ -75,7 +75,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   s.cuts = std::move(graph.cuts);
   s.driven = std::move(graph.driven);
   for (const Driver& d : m.drivers)
-    s.driver_names.push_back(m.several_drivers() ? "driver:" + d.name : "driver");
+    s.driver_names.push_back(m.axis().timed() ? "driver:" + d.name : "driver");
   s.couplings = std::move(graph.couplings);
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a

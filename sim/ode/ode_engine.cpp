@@ -707,8 +707,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0)
-    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
   p.graph = ode_graph(p.m);
   p.span = usable_span(reference);
   return p;
@@ -931,8 +930,8 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
         add_note(start.note,
                  fmt::format("link-angle driver{} realised directly: an angular motor "
                              "between the ground and the link",
-                             p.m.several_drivers() ? fmt::format(" ('{}')", p.m.drivers[d].name)
-                                                   : std::string()));
+                             p.m.axis().timed() ? fmt::format(" ('{}')", p.m.drivers[d].name)
+                                                : std::string()));
     OdeKinematicScene stepped(steps, p.m, p.graph, start);
     run_kinematic(original, p.m, reference, start, watch, true, stepped, begin, out);
   } catch (const std::exception& e) {

@@ -724,8 +724,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
   if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0)
-    p.config.driver_threshold = p.m.driver().angular() ? 1e-4 : 1e-4 * p.m.size();
+  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
   p.span = usable_span(reference);
   p.graph = simbody_graph(p.m);
   return p;

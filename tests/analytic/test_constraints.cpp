@@ -104,7 +104,7 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
       d.to = 1;
       break;
   }
-  m.driver() = d;
+  m.drivers[0] = d;
   return m;
 }
 
@@ -215,7 +215,7 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
     if (j.type == JointType::prismatic)
       expected(row++) = angle_of(q, kb) - angle_of(q, ka) - j.relative_angle;
   }
-  const Driver& d = m.driver();
+  const Driver& d = m.drivers[0];
   if (d.type == DriverType::slider) {
     expected(row) = slide_offset(m.joints[d.joint], true);
   } else {

@@ -18,9 +18,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 
 #include "analytic/dyads.h"
+#include "analytic/instant_centres.h"
 #include "analytic/loader.h"
 #include "analytic/sweep.h"
 #include "tests/common/diagnostics.h"
@@ -603,5 +605,31 @@ TEST(SeveralDriversFaults, ASliderAtConstantSpeedNeedsADuration) {
   EXPECT_TRUE(t.channel("force.push").has_value());
 }
 
+// Issue 36 item 1: the sweep's axis is chosen once. One driver: its value, and the swept driver is
+// that one; several: time, and no code path may take one of them for the sweep's driver.
+TEST(SweepAxis, OneDriverIsItsValueSeveralAreTime) {
+  const Mechanism one = load_mechanism("mechanisms/fourbar_crank_rocker.toml");
+  EXPECT_FALSE(one.axis().timed());
+  EXPECT_EQ(&one.swept(), &one.drivers.front());
+  const Mechanism two = load_mechanism("mechanisms/drivers/fivebar_two_cranks.toml");
+  EXPECT_TRUE(two.axis().timed());
+  EXPECT_THROW((void)two.swept(), std::logic_error);
+}
+
+// Every driver seeds the instantaneous centres (it was the first only): each driven crank's
+// angular velocity from the centres is its own law's rate, whatever the other driver does.
+TEST(SweepAxis, EveryDriverSeedsTheCentres) {
+  const Mechanism m = load_mechanism("mechanisms/drivers/fivebar_two_cranks.toml");
+  const Trajectory t = sweep(m, SweepOptions{});
+  ASSERT_GT(t.samples(), 10);
+  for (const int row : {0, t.samples() / 3}) {
+    const CentreVelocities v = centre_velocities(m, instant_centres(m, t, row), t, row);
+    ASSERT_TRUE(v.complete) << v.message;
+    for (const Driver& d : m.drivers) {
+      const int k = m.moving_index(d.link);
+      EXPECT_EQ(v.omega[static_cast<size_t>(k)], d.at_time(t.time(row)).rate) << d.name;
+    }
+  }
+}
 }  // namespace
 }  // namespace crosslink

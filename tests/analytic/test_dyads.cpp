@@ -116,8 +116,8 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
   const double size = m.size();
   double omega = 0.0;  // the driver's largest rate over the cycle [rad/s]
   for (int r = 0; r < newton.samples(); ++r)
-    omega = std::max(omega, std::abs(m.driver().at_time(newton.time(r)).rate));
-  if (!m.driver().angular()) omega /= size;
+    omega = std::max(omega, std::abs(m.drivers[0].at_time(newton.time(r)).rate));
+  if (!m.drivers[0].angular()) omega /= size;
   auto characteristic = [&](const std::string& name) {
     const bool angular = kind(name).ends_with("/angular");
     const Quantity q = Trajectory::quantity_of(name);
@@ -418,7 +418,7 @@ TEST(Dyads, CrankRockerAtZeroByLawOfCosines) {
   ASSERT_EQ(newton.assemble(assembled).status, PoseStatus::ok);
   DyadState state(m);
   solver.set_modes(assembled, state);
-  state.kinematics.driver = m.driver().at_time(0.0);
+  state.kinematics.driver = m.drivers[0].at_time(0.0);
   ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
   const double b = 0.12, c = 0.08, bd = 0.06;
   const double angle_d = std::acos((c * c + bd * bd - b * b) / (2 * c * bd));  // at D, from DB

@@ -136,8 +136,8 @@ std::vector<std::string> edge_files() {
   for (const std::string& file : test::bundled_files(true, false)) {
     const Mechanism m =
         parse_mechanism(test::source_text(file.substr(file.find("mechanisms/"))), file);
-    if (m.drivers.size() != 1 || !m.driver().angular() || m.driver().at_rest() ||
-        m.driver().law.kind != MotionLaw::Kind::constant_speed || m.dynamics)
+    if (m.drivers.size() != 1 || !m.drivers[0].angular() || m.drivers[0].at_rest() ||
+        m.drivers[0].law.kind != MotionLaw::Kind::constant_speed || m.dynamics)
       continue;
     out.push_back(file.substr(file.find("mechanisms/")));
   }

@@ -206,7 +206,7 @@ double expect_dyads_agree_with_newton(const Mechanism& m, const std::string& nam
         std::max(peak[kind(channel)], newton.channel(channel)->cwiseAbs().maxCoeff());
   double omega = 0.0;  // the driver's largest rate [rad/s]
   for (int k = 0; k < newton.samples(); ++k)
-    omega = std::max(omega, std::abs(m.driver().at_time(newton.time(k)).rate));
+    omega = std::max(omega, std::abs(m.drivers[0].at_time(newton.time(k)).rate));
   double worst = 0.0;
   std::string worst_channel;
   for (int k = 0; k < newton.samples(); ++k) {
@@ -476,7 +476,7 @@ TEST(Gears, TheMeshForceActsAlongTheLineOfAction) {
     int checked = 0;
     for (int k = 0; k < t.samples(); k += 7) {
       state.q = coordinates_at(m, t, k);
-      state.driver = m.driver().at_time(t.time(k));
+      state.driver = m.drivers[0].at_time(t.time(k));
       ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
       kinetostatics.solve(state, forces);
       for (size_t ji = 0; ji < m.joints.size(); ++ji) {

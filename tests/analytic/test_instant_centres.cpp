@@ -162,7 +162,7 @@ TEST(InstantCentres, CrankRockerI13AtCrossingOfCrankAndRocker) {
   EXPECT_NEAR(centre.position().y(), i13.y(), 1e-12);
   // B turns about A with the crank and about I13 with the coupler: omega2 perp(B - A) =
   // omega3 perp(B - I13), and B - I13 = (1 - s)(B - A).
-  const double omega2 = m.driver().law.speed;
+  const double omega2 = m.drivers[0].law.speed;
   const double omega3 = omega2 / (1.0 - s);
   EXPECT_NEAR(channel(exact, "omega.coupler"), omega3, 1e-9 * std::abs(omega3));
   expect_all_velocities(m, exact);
@@ -231,7 +231,7 @@ TEST(InstantCentres, CentresFromTheVelocitiesAreLabelled) {
 // and the velocities from the other centres are still complete.
 TEST(InstantCentres, APairWithNoRelativeMotionHasNoCentre) {
   const Mechanism m = bundled("iftomm_a02_double_fourbar");
-  const Trajectory exact = solve_at(m, m.driver().start);
+  const Trajectory exact = solve_at(m, m.drivers[0].start);
   ASSERT_TRUE(usable(exact.status[0]));
   const int c1 = m.find_link("coupler1"), c2 = m.find_link("coupler2");
   const auto k1 = static_cast<Eigen::Index>(m.moving_index(c1)),
@@ -277,10 +277,10 @@ TEST(InstantCentres, EveryBundledMechanismOverItsSweep) {
     const int points = static_cast<int>(exact.point_names.size());
     double rate = 0.0;
     for (int r = 0; r < exact.samples(); ++r)
-      rate = std::max(rate, std::abs(m.driver().at_time(exact.time(r)).rate));
+      rate = std::max(rate, std::abs(m.drivers[0].at_time(exact.time(r)).rate));
     const double size = m.size();
-    const double angular = m.driver().angular() ? rate : rate / size;
-    const double linear = m.driver().angular() ? rate * size : rate;
+    const double angular = m.drivers[0].angular() ? rate : rate / size;
+    const double linear = m.drivers[0].angular() ? rate * size : rate;
     std::vector<double> omega_scale(static_cast<size_t>(links), angular);
     std::vector<double> v_scale(static_cast<size_t>(points), linear);
     int usable_samples = 0;

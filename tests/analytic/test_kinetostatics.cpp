@@ -40,12 +40,12 @@ void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
   for (int k = 0; k < t.samples(); ++k) {
     if (!usable(t.status[static_cast<size_t>(k)])) continue;
     state.q = coordinates_at(m, t, k);
-    if (m.several_drivers()) {
+    if (m.axis().timed()) {
       state.drive_at(m, t.time(k));  // the sweep runs in time: every driver by its law
     } else {
-      DriverState d = m.driver().at_time(t.time(k));
+      DriverState d = m.drivers[0].at_time(t.time(k));
       d.value = t.driver(k);
-      if (m.driver().law.kind == MotionLaw::Kind::constant_speed) d.rate = m.driver().law.speed;
+      if (m.drivers[0].law.kind == MotionLaw::Kind::constant_speed) d.rate = m.drivers[0].law.speed;
       state.driver = d;
     }
     const SolveReport r = solver.solve(state);
@@ -66,7 +66,7 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
     // The effort's scale: its peak, or the largest reaction (times the size for a torque) where
     // the effort is zero by design (a parallelogram's, at constant speed without gravity).
     double scale = 0.0;
-    const double arm = m.driver().angular() ? m.size() : 1.0;
+    const double arm = m.drivers[0].angular() ? m.size() : 1.0;
     at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
       kinetostatics.solve(state, forces);
       for (const Eigen::Vector2d& f : forces.joint_force) scale = std::max(scale, arm * f.norm());
@@ -152,7 +152,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   const Kinetostatics kinetostatics(solver);
   ForceSample forces = kinetostatics.make_sample();
   const std::vector<int> slides = m.slide_joints();
-  const Driver& d = m.driver();
+  const Driver& d = m.drivers[0];
   at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
     kinetostatics.solve(state, forces);
     const auto body = [&](int link) {
@@ -204,7 +204,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
             Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.effort(0));
     }
     for (const Load& load : m.loads) {
-      const Eigen::Vector2d v = load.force_at(state.driver.value, d.angular());
+      const Eigen::Vector2d v = load.force_at(state.driver.value);
       if (load.kind == Load::Kind::torque)
         apply(load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), v.x());
       else
@@ -264,11 +264,11 @@ TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
                            "singular/slider_crank_from_slider.toml", "watt_sixbar.toml"}) {
     Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + name);
     m.gravity = Eigen::Vector2d(0.0, -9.81);
-    m.driver().law.speed = std::copysign(1e-7, m.driver().law.speed);
+    m.drivers[0].law.speed = std::copysign(1e-7, m.drivers[0].law.speed);
     const NewtonSolver solver(m);
     const Kinetostatics kinetostatics(solver);
     ForceSample forces = kinetostatics.make_sample();
-    const double h = m.driver().angular() ? 1e-5 : 1e-5 * m.size();
+    const double h = m.drivers[0].angular() ? 1e-5 : 1e-5 * m.size();
     auto potential = [&](const Eigen::VectorXd& q) {
       double v = 0.0;
       for (size_t l = 0; l < m.links.size(); ++l) {

@@ -67,7 +67,7 @@ Eigen::VectorXd row_lengths(const Mechanism& m) {
     if (j.type == JointType::prismatic) scale(row + 1) = m.size();
     row += 3 - j.dof();
   }
-  if (m.driver().angular()) scale(scale.size() - 1) = m.size();
+  if (m.drivers[0].angular()) scale(scale.size() - 1) = m.size();
   return scale;
 }
 
@@ -165,7 +165,7 @@ TEST_P(EveryMechanism, AnglesAreContinuousAlongTheSweep) {
     if (explained) continue;
     const double step = std::abs(t.driver(r) - t.driver(r - 1));
     const double bound =
-        mechanism().driver().angular() ? 30.0 * step : 30.0 * std::numbers::pi / 180.0;
+        mechanism().drivers[0].angular() ? 30.0 * step : 30.0 * std::numbers::pi / 180.0;
     for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
       EXPECT_LT(std::abs(t.angle(r, c) - t.angle(r - 1, c)), bound)
           << t.link_names[static_cast<size_t>(c)] << " between driver " << t.driver(r - 1)
@@ -199,10 +199,10 @@ TEST_P(EveryMechanism, VelocityAndAccelerationAreDerivativesOfPosition) {
   KinematicState state(m);
   // Time step: the driver moves by 1e-3 rad (or 1e-3 of the size); a law that is not at
   // constant speed takes the same fraction of its cycle as 1e-3 rad of a turn.
-  const double driver_step = m.driver().angular() ? 1e-3 : 1e-3 * m.size();
-  const double h = m.driver().law.kind == MotionLaw::Kind::constant_speed
-                       ? driver_step / std::abs(m.driver().law.speed)
-                       : 1e-3 * m.driver().law.duration / (2.0 * std::numbers::pi);
+  const double driver_step = m.drivers[0].angular() ? 1e-3 : 1e-3 * m.size();
+  const double h = m.drivers[0].law.kind == MotionLaw::Kind::constant_speed
+                       ? driver_step / std::abs(m.drivers[0].law.speed)
+                       : 1e-3 * m.drivers[0].law.duration / (2.0 * std::numbers::pi);
   ASSERT_GT(h, 0.0);
 
   std::vector<ChannelTriple> triples;
@@ -235,7 +235,7 @@ TEST_P(EveryMechanism, VelocityAndAccelerationAreDerivativesOfPosition) {
     bool solved = true;
     for (int i = 0; i < 5 && solved; ++i) {
       state.q = q0;
-      state.driver = m.driver().at_time(t.time(r) + offsets[i] * h);
+      state.driver = m.drivers[0].at_time(t.time(r) + offsets[i] * h);
       state.qdot.setZero();
       state.qddot.setZero();
       const SolveReport report = solver.solve_position(state);

@@ -110,7 +110,7 @@ TEST(PolycentricHinge, SweepsItsWholeAssemblingRangeOnOneBranch) {
   double worst_hermite = 0.0;
   for (int r = 1; r <= last; ++r) {
     const double h = t.driver(r) - t.driver(r - 1);
-    const double rate = m.driver().law.speed;
+    const double rate = m.drivers[0].law.speed;
     for (Eigen::Index c = 0; c < t.angle.cols(); ++c) {
       const double change = t.angle(r, c) - t.angle(r - 1, c);
       EXPECT_LT(std::abs(change), 30 * step)
@@ -211,7 +211,7 @@ TEST(FourbarCrankRocker, MatchesCircleIntersectionOverTheSweep) {
 TEST(SliderCrankOffset, MatchesClosedFormOverTheSweep) {
   const Mechanism m = load_mechanism("mechanisms/slider_crank_offset.toml");
   const Trajectory t = sweep(m);
-  const double a = 0.04, b = 0.12, c = 0.01, w = m.driver().law.speed;
+  const double a = 0.04, b = 0.12, c = 0.01, w = m.drivers[0].law.speed;
   EXPECT_NEAR(w, 8 * std::numbers::pi, 1e-12);
   for (int r = 0; r < t.samples(); ++r) {
     ASSERT_EQ(t.status[static_cast<size_t>(r)], PoseStatus::ok);

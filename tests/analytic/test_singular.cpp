@@ -65,7 +65,7 @@ TEST(ChangePoint, ParallelogramAtCollinearPivotsStaysOnSmoothBranch) {
     const double bd = (D - B).norm();
     if (std::abs(bd - (b + c)) < 1e-12 || std::abs(bd - std::abs(b - c)) < 1e-12) {
       // The sweep turns the crank once from its start, so each angle appears once in it.
-      const double start = m.driver().start;
+      const double start = m.drivers[0].start;
       expected.push_back(start + std::fmod(std::fmod(theta - start, 2 * kPi) + 2 * kPi, 2 * kPi));
     }
   }
@@ -162,7 +162,7 @@ TEST(Toggle, NonGrashofLimitsAndReverse) {
     }
   }
   // The loop closes on the drawn position.
-  EXPECT_NEAR(t.driver(t.samples() - 1), m.driver().start, 1e-12);
+  EXPECT_NEAR(t.driver(t.samples() - 1), m.drivers[0].start, 1e-12);
   EXPECT_NEAR(channel(t, "angle.rocker", t.samples() - 1), channel(t, "angle.rocker", 0), 1e-9);
 }
 
@@ -189,7 +189,7 @@ TEST(Toggle, SliderCrankDrivenFromSlider) {
   EXPECT_NEAR(toggles[1], s_min, 1e-12);
   // Passing both dead points the crank makes one full turn and the loop closes.
   const int last = t.samples() - 1;
-  EXPECT_NEAR(t.driver(last), m.driver().start, 1e-12);
+  EXPECT_NEAR(t.driver(last), m.drivers[0].start, 1e-12);
   EXPECT_NEAR(std::abs(channel(t, "angle.crank", last) - channel(t, "angle.crank", 0)), 2 * kPi,
               1e-9);
 }
@@ -211,7 +211,7 @@ TEST(Toggle, PolycentricHingeLimits) {
   EXPECT_LT(t.rcond(t.samples() - 1), 1e-6);
   EXPECT_GT(t.rcond(1), 1e-6);
   EXPECT_EQ(events_of(events, SingularKind::toggle).size(), 2u);
-  EXPECT_TRUE(range.lower < m.driver().start && m.driver().start < range.upper);
+  EXPECT_TRUE(range.lower < m.drivers[0].start && m.drivers[0].start < range.upper);
   for (const double limit : {range.lower, range.upper}) {
     const double inward = limit == range.lower ? 1.0 : -1.0;
     EXPECT_TRUE(usable(solve_at(m, limit + inward * 1e-7).status[0])) << limit;
@@ -294,7 +294,7 @@ TEST(HeldDriver, ChainTurningWithTheDriverHeldIsFlagged) {
   double lo = 1e300, hi = -1e300;
   for (int k = 0; k < t.samples(); ++k) {
     if (!has_position(t.status[static_cast<size_t>(k)])) continue;
-    EXPECT_NEAR(t.driver(k), m.driver().start, 1e-6);
+    EXPECT_NEAR(t.driver(k), m.drivers[0].start, 1e-6);
     lo = std::min(lo, channel(t, "angle.triangle", k));
     hi = std::max(hi, channel(t, "angle.triangle", k));
   }
@@ -313,7 +313,7 @@ TEST(Tracer, ConvergesAtTheRoundOffOfAFarDrawnPoint) {
   // Levenberg-Marquardt) at every 15 degrees of the turn, beyond the limits once reported too.
   for (double degrees = -180.0; degrees <= 180.0; degrees += 15.0) {
     Mechanism at = m;
-    at.driver().start = degrees * std::numbers::pi / 180.0;
+    at.drivers[0].start = degrees * std::numbers::pi / 180.0;
     const NewtonSolver solver(at);
     KinematicState state(at);
     const PoseStatus status = solver.assemble(state).status;
@@ -387,7 +387,7 @@ TEST(HeldDriver, EveryBundledRangeIsKnown) {
     if (entry.path().extension() != ".toml" || entry.path().parent_path().filename() == "scaling")
       continue;
     const Mechanism m = load_mechanism(entry.path().string());
-    if (m.driver().law.kind != MotionLaw::Kind::constant_speed) continue;
+    if (m.drivers[0].law.kind != MotionLaw::Kind::constant_speed) continue;
     // Several drivers have no range of one driver's value (it read past the one driver's row
     // before: AddressSanitizer's stack-buffer-overflow in ConstraintLayout::residual).
     if (m.drivers.size() > 1) {
@@ -404,7 +404,7 @@ TEST_P(Catalogue, MatchesExpectTable) {
   const Mechanism m = load_mechanism(GetParam());
   ASSERT_TRUE(m.expect.has_value()) << GetParam() << " has no [expect] table";
   const Expectations& e = *m.expect;
-  const double tol = m.driver().angular() ? 1e-9 : 1e-9 * m.units.length;  // 1e-9 file units
+  const double tol = m.drivers[0].angular() ? 1e-9 : 1e-9 * m.units.length;  // 1e-9 file units
   const AssemblingRange range = assembling_range(m);
   if (e.limits) {
     EXPECT_FALSE(range.full_cycle);

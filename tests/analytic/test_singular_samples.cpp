@@ -167,7 +167,7 @@ ClosedForm slider_crank(const Mechanism& m) {
 
 // The definition drawn at `start` by the closed form (poses to full precision).
 Mechanism drawn_at(Mechanism m, const ClosedForm& exact, double start) {
-  m.driver().start = start;
+  m.drivers[0].start = start;
   for (const LinkPose& p : exact(Jet(start))) {
     Link& link = m.links[static_cast<size_t>(m.find_link(p.link))];
     link.pose = Eigen::Vector3d(p.origin.x.v, p.origin.y.v, p.angle.v);
@@ -204,9 +204,9 @@ std::map<std::string, double> exact_channels(const Mechanism& m, const ClosedFor
 // `torque_scale` > 0: the driver torque is 0 exactly (constant kinetic energy), to that scale.
 int expect_ok_samples_exact(const Mechanism& m, const ClosedForm& exact, const Trajectory& t,
                             const std::string& what, double torque_scale = 0.0) {
-  const double rate = m.driver().law.speed;
+  const double rate = m.drivers[0].law.speed;
   const double size = m.size();
-  const double unit = m.driver().angular() ? 1.0 : size;
+  const double unit = m.drivers[0].angular() ? 1.0 : size;
   // Scales: the size, 1 rad, and the rates at unit driver rate times the speed (its square).
   std::map<Quantity, double> scale{{Quantity::position, size},
                                    {Quantity::angle, 1.0},
@@ -262,7 +262,7 @@ std::vector<double> starts_around(const std::vector<double>& singular, double un
 
 double torque_scale(const Mechanism& m) {
   // Inertial forces at the size times the size: sum of m (size omega^2) size + I omega^2.
-  const double w = m.driver().law.speed / (m.driver().angular() ? 1.0 : m.size());
+  const double w = m.drivers[0].law.speed / (m.drivers[0].angular() ? 1.0 : m.size());
   double s = 0;
   for (const Link& l : m.links)
     if (!l.ground) s += (l.mass.mass * m.size() * m.size() + l.mass.inertia) * w * w;
@@ -274,15 +274,15 @@ double torque_scale(const Mechanism& m) {
 void sweep_fixture(const Fixture& f, const std::vector<double>& steps, bool all_starts) {
   const Mechanism drawn = load_mechanism(f.file);
   const ClosedForm exact = f.closed_form(drawn);
-  const double unit = drawn.driver().angular() ? kDeg : drawn.units.length;
+  const double unit = drawn.drivers[0].angular() ? kDeg : drawn.units.length;
   const double torque =
       std::string(f.file).find("parallelogram") != std::string::npos ? torque_scale(drawn) : 0.0;
-  std::vector<double> starts = {drawn.driver().start};
+  std::vector<double> starts = {drawn.drivers[0].start};
   const std::vector<double> around = starts_around(f.singular, unit);
   starts.insert(starts.end(), around.begin(), around.end());
   for (const double start : starts) {
     Mechanism m = drawn_at(drawn, exact, start);
-    const bool drawn_start = start == drawn.driver().start;
+    const bool drawn_start = start == drawn.drivers[0].start;
     for (const double step : steps) {
       if (!drawn_start && !all_starts && step != 1.0 && step != 45.0) continue;
       std::map<std::string, Trajectory> methods;
@@ -355,7 +355,7 @@ TEST(SingularSamples, RangesEndingOnAndBesideChangePoints) {
     for (const double end : {180.0, 180 + 1e-7, 180 - 1e-7, 180 + 1e-10, 180 - 1e-10, 179.75})
       for (const double step : {0.25, 1.0, 7.0}) {
         Mechanism m = drawn;
-        m.driver().range = std::make_pair(m.driver().start, end * kDeg);
+        m.drivers[0].range = std::make_pair(m.drivers[0].start, end * kDeg);
         for (const auto& [method, t] : test::exact_sweeps(m, step * kDeg)) {
           const std::string what =
               fmt::format("{} {} over a range to {:.12g} deg at {:g}", f->file, method, end, step);
@@ -372,19 +372,19 @@ TEST(SingularSamples, RangesEndingOnAndBesideChangePoints) {
 // marks ok a sample the other cannot solve well. Returns how many samples were compared.
 int compare_methods_around_singular_positions(const std::string& file, bool all_steps) {
   const Mechanism m = load_mechanism(file);
-  if (!decompose(m).complete || m.driver().law.kind != MotionLaw::Kind::constant_speed) return 0;
+  if (!decompose(m).complete || m.drivers[0].law.kind != MotionLaw::Kind::constant_speed) return 0;
   std::vector<SingularPosition> singular;
   sweep(m, {}, singular);
-  const double unit = m.driver().angular() ? 1.0 : m.size();
-  const double reach = m.driver().angular() ? 2 * kPi : 1e9;
-  const double rate = std::abs(m.driver().law.speed) / unit;
+  const double unit = m.drivers[0].angular() ? 1.0 : m.size();
+  const double reach = m.drivers[0].angular() ? 2 * kPi : 1e9;
+  const double rate = std::abs(m.drivers[0].law.speed) / unit;
   const std::map<Quantity, double> scale{{Quantity::position, m.size()},
                                          {Quantity::angle, 1.0},
                                          {Quantity::velocity, rate * m.size()},
                                          {Quantity::acceleration, rate * rate * m.size()}};
   int compared = 0;
   for (const SingularPosition& p : singular) {
-    const double gap = p.driver - m.driver().start;
+    const double gap = p.driver - m.drivers[0].start;
     if (p.kind == SingularKind::branch_jump || std::abs(gap) < 1e-3 * unit || std::abs(gap) > reach)
       continue;
     const double coarse = std::max(1.0, std::ceil(std::abs(gap) / (90 * kDeg * unit)));
@@ -444,10 +444,11 @@ TEST(SingularSamples, BundledDefinitionsTwoMethodsAgreeBesideSingularPositions) 
 TEST(SingularEvents, EveryMethodNamesTheSameEventsAtTheSameValues) {
   for (const std::string& file : kinematic_definitions()) {
     const Mechanism m = load_mechanism(file);
-    if (!decompose(m).complete || m.driver().law.kind != MotionLaw::Kind::constant_speed) continue;
+    if (!decompose(m).complete || m.drivers[0].law.kind != MotionLaw::Kind::constant_speed)
+      continue;
     for (const double step : {1.0, 7.0}) {
       SweepOptions options;
-      options.step = step * kDeg * (m.driver().angular() ? 1.0 : m.size());
+      options.step = step * kDeg * (m.drivers[0].angular() ? 1.0 : m.size());
       std::vector<SingularPosition> located;
       const Trajectory newton = sweep(m, options, located);
       const Trajectory dyads = dyad_sweep(m, newton, true);

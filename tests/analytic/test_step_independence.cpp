@@ -81,7 +81,7 @@ std::map<Quantity, double> scales(const Mechanism& m, const Trajectory& fine) {
 // how many were matched.
 int expect_same_samples(const Mechanism& m, const Trajectory& coarse, const Trajectory& fine,
                         const std::string& what) {
-  const double unit = m.driver().angular() ? 1.0 : m.size();
+  const double unit = m.drivers[0].angular() ? 1.0 : m.size();
   const std::map<Quantity, double> scale = scales(m, fine);
   int matched = 0;
   for (int i = 0; i < coarse.samples(); ++i) {
@@ -118,7 +118,7 @@ TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
   // The default grid's step: 1 degree, or for a slider its most common spacing (1/360 of the
   // range; the extra samples at toggles make other spacings).
   double fine_step = std::acos(-1.0) / 180.0;
-  if (!m.driver().angular()) {
+  if (!m.drivers[0].angular()) {
     std::vector<double> spacing;
     for (int k = 1; k < reference.samples(); ++k)
       spacing.push_back(std::abs(reference.driver(k) - reference.driver(k - 1)));
@@ -144,11 +144,11 @@ int check_grids_at_singular_positions(const std::string& file) {
   const Mechanism m = load_mechanism(file);
   std::vector<SingularPosition> singular;
   sweep(m, {}, singular);
-  const double unit = m.driver().angular() ? 1.0 : m.size();
-  const double reach = m.driver().angular() ? 2.0 * std::acos(-1.0) : 1e9;
+  const double unit = m.drivers[0].angular() ? 1.0 : m.size();
+  const double reach = m.drivers[0].angular() ? 2.0 * std::acos(-1.0) : 1e9;
   int tried = 0;
   for (const SingularPosition& p : singular) {
-    const double gap = p.driver - m.driver().start;
+    const double gap = p.driver - m.drivers[0].start;
     if (p.kind == SingularKind::branch_jump || std::abs(gap) < 1e-3 * unit || std::abs(gap) > reach)
       continue;
     for (const double beside : {0.0, 1e-7, -1e-7}) {

@@ -17,7 +17,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 Trajectory three_samples() {
   const Mechanism m = load_mechanism("mechanisms/sewing_machine.toml");
   SweepOptions options;
-  options.range = {m.driver().start, m.driver().start + 0.02};  // samples at start + 0, 0.01, 0.02
+  options.range = {m.drivers[0].start,
+                   m.drivers[0].start + 0.02};  // samples at start + 0, 0.01, 0.02
   options.step = 0.01;
   Trajectory t = sweep(m, options);
   EXPECT_EQ(t.samples(), 3);

@@ -69,7 +69,7 @@ inline Mechanism loaded(Mechanism m) {
                        ? static_cast<int>(m.links.size()) - 2
                        : static_cast<int>(m.links.size()) - 1;
   int first = 0;
-  while (first == ground || (first == m.driver().link && m.moving_count() > 1)) ++first;
+  while (first == ground || (first == m.drivers[0].link && m.moving_count() > 1)) ++first;
   Spring s;
   s.link_a = ground;
   s.link_b = last;

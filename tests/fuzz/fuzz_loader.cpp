@@ -78,7 +78,7 @@ void require_finite(const Trajectory& t, const std::string& what) {
 // included), so an input that spends them takes the flagged path of a spent leg.
 SweepOptions bounded_sweep(const Mechanism& m) {
   SweepOptions options;
-  if (m.driver().angular()) options.step = std::numbers::pi / 18.0;
+  if (m.drivers[0].angular()) options.step = std::numbers::pi / 18.0;
   options.tracer_steps = 20000;
   return options;
 }
@@ -101,7 +101,7 @@ void require_finite(const std::vector<DerivedValue>& values, const std::string& 
 void solve(const Mechanism& m, const std::optional<Trajectory>& swept) {
   // The sweep within the work limits a command would check (check_report's own sweep is
   // bounded by them already; a driver at rest has one pose, which the check refuses to sweep).
-  if (!swept && !m.driver().at_rest()) check_sweep_work(m, bounded_sweep(m), {});
+  if (!swept && !m.drivers[0].at_rest()) check_sweep_work(m, bounded_sweep(m), {});
   Trajectory t = swept ? *swept : sweep(m, bounded_sweep(m));
   require_finite(t, "the Newton sweep");
   if (!m.derived.empty() && t.samples() > 0) {
@@ -112,7 +112,7 @@ void solve(const Mechanism& m, const std::optional<Trajectory>& swept) {
     t = dyad_sweep(m, t);
     require_finite(t, "the dyad sweep");
   }
-  const double at = m.driver().start + (m.driver().angular() ? 0.5 : 0.1 * m.size());
+  const double at = m.drivers[0].start + (m.drivers[0].angular() ? 0.5 : 0.1 * m.size());
   check_solve_at_work(m, at, {}, {});
   const Trajectory pose = solve_at(m, at);
   require_finite(pose, "solve --at");

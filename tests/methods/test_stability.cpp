@@ -58,10 +58,11 @@ std::vector<std::string> engines() {
 // (without a range of its own), so it is driven past its limits; else the file's own sweep.
 MethodRun whole_turn_reference(const Mechanism& m) {
   SweepOptions options;
-  if (!m.driver().range && m.driver().angular() &&
-      m.driver().law.kind == MotionLaw::Kind::constant_speed && !assembling_range(m).full_cycle) {
-    const double direction = m.driver().law.speed < 0.0 ? -1.0 : 1.0;
-    const double a = m.driver().start, b = m.driver().start + direction * 2.0 * std::numbers::pi;
+  if (!m.drivers[0].range && m.drivers[0].angular() &&
+      m.drivers[0].law.kind == MotionLaw::Kind::constant_speed && !assembling_range(m).full_cycle) {
+    const double direction = m.drivers[0].law.speed < 0.0 ? -1.0 : 1.0;
+    const double a = m.drivers[0].start,
+                 b = m.drivers[0].start + direction * 2.0 * std::numbers::pi;
     options.range = std::make_pair(std::min(a, b), std::max(a, b));
   }
   return run_reference(m, options);

@@ -23,15 +23,15 @@ namespace {
 Mechanism reversed_pivot_link_angle() {
   Mechanism m =
       load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/fourbar_crank_rocker.toml");
-  Joint& a = m.joints[static_cast<size_t>(m.driver().joint)];
+  Joint& a = m.joints[static_cast<size_t>(m.drivers[0].joint)];
   EXPECT_EQ(a.type, JointType::revolute);
   EXPECT_TRUE(m.links[static_cast<size_t>(a.link_a)].ground);
   std::swap(a.link_a, a.link_b);
   std::swap(a.point_a, a.point_b);
-  m.driver().type = DriverType::link_angle;
-  m.driver().link = a.link_a;
-  m.driver().from = a.point_a;  // to: B, as the joint-angle driver's
-  m.driver().joint = -1;
+  m.drivers[0].type = DriverType::link_angle;
+  m.drivers[0].link = a.link_a;
+  m.drivers[0].from = a.point_a;  // to: B, as the joint-angle driver's
+  m.drivers[0].joint = -1;
   return m;
 }
 

@@ -134,7 +134,7 @@ TEST(EngineForces, DriverArmatureIsTakenOutOfTheEffort) {
   const std::string speed = "speed_unit = \"rpm\"";
   text.replace(text.find(speed), speed.size(), speed + "\nacceleration = 100");
   const Mechanism m = parse_mechanism(text, "fourbar_crank_rocker_accelerating.toml");
-  ASSERT_EQ(m.driver().law.kind, MotionLaw::Kind::constant_acceleration);
+  ASSERT_EQ(m.drivers[0].law.kind, MotionLaw::Kind::constant_acceleration);
   const Trajectory exact = sweep(m);
   const EngineRun run = make_mujoco_engine()->run(m, exact, {{"driver_armature", "0.01"}});
   ASSERT_TRUE(run.ok) << run.message;

@@ -178,11 +178,11 @@ TEST(SceneGraph, SpansDrivesAndCutsOnePerLoop) {
 // telescopes); under Bullet's, its planar ground joint's angle.
 TEST(SceneGraph, FloatingLinkAngleIsItsPathsHinges) {
   const Mechanism m = load_mechanism(bundled("polycentric_hinge"));
-  ASSERT_EQ(m.driver().type, DriverType::link_angle);
+  ASSERT_EQ(m.drivers[0].type, DriverType::link_angle);
   const SceneGraph g = scene_graph(m, mujoco_policy());
   const DrivenCoordinate& d = g.driven.front();
   ASSERT_TRUE(d.floating);
-  EXPECT_EQ(g.bodies[d.body].source, m.driver().link);
+  EXPECT_EQ(g.bodies[d.body].source, m.drivers[0].link);
   std::mt19937 random(19);
   std::uniform_real_distribution<double> angle(-10.0, 10.0);
   for (int trial = 0; trial < 5; ++trial) {

@@ -70,7 +70,7 @@ double loop_gap(const mjModel* mm, const mjData* d) {
 // The definition's driver coordinate (an angle here: every bundled kinematic driver is one),
 // measured on the bodies: the direction it measures on its link, in the first link's frame.
 double driver_angle(const Mechanism& m, const mjModel* mm, const mjData* d) {
-  const Driver& drv = m.driver();
+  const Driver& drv = m.drivers[0];
   const auto angle_of = [&](int link) {
     return m.links[static_cast<size_t>(link)].ground
                ? 0.0
@@ -95,7 +95,7 @@ class ExportedScene : public ::testing::TestWithParam<std::string> {};
 TEST_P(ExportedScene, RunsInMuJoCoAlone) {
   const Mechanism m =
       load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/" + GetParam() + ".toml");
-  ASSERT_TRUE(m.driver().angular());
+  ASSERT_TRUE(m.drivers[0].angular());
   const Trajectory exact = sweep(m);
   const std::string xml = mujoco_mjcf(m, exact, {});
   EXPECT_NE(xml.find("<geom"), std::string::npos) << "nothing to see";
@@ -114,7 +114,7 @@ TEST_P(ExportedScene, RunsInMuJoCoAlone) {
   while (!usable(exact.status[static_cast<size_t>(first)])) ++first;
   for (int i = 0; i < exact.samples(); ++i)
     if (usable(exact.status[static_cast<size_t>(i)]) &&
-        std::abs(exact.driver(i) - m.driver().start) < 1e-9)
+        std::abs(exact.driver(i) - m.drivers[0].start) < 1e-9)
       start_row = i;
   ASSERT_GE(start_row, 0) << "the sweep has a sample at the start";
   const double size = m.size();
@@ -137,7 +137,7 @@ TEST_P(ExportedScene, RunsInMuJoCoAlone) {
   const double low = exact.driver.segment(first, last - first + 1).minCoeff();
   const double high = exact.driver.segment(first, last - first + 1).maxCoeff();
   const bool whole_cycle = high - low > 2 * std::numbers::pi - 0.1;
-  const double speed = m.driver().law.speed;  // constant speed: every bundled kinematic driver
+  const double speed = m.drivers[0].law.speed;  // constant speed: every bundled kinematic driver
   const double turn = 2 * std::numbers::pi / std::abs(speed);
   // A swing (from rest over at most the sweep, back to rest) takes pi x amplitude / peak rate.
   const double swing = std::numbers::pi * 0.5 * (high - low) / std::abs(speed);

@@ -186,7 +186,7 @@ TEST(WanzerNeedleBar, NeedleVelocityAtDiskAngleZero) {
 TEST(Singular, ChangePointIsFlagged) {
   const Mechanism m = load_mechanism(mechanism_path("fourbar_change_point"));
   SweepOptions full;
-  full.range = std::make_pair(m.driver().start, m.driver().start + 2.0 * std::numbers::pi);
+  full.range = std::make_pair(m.drivers[0].start, m.drivers[0].start + 2.0 * std::numbers::pi);
   const Trajectory exact = sweep(m, full);
   const EngineRun run = make_mujoco_engine()->run(m, exact, {});
   int flagged_near_180 = 0;
@@ -284,7 +284,7 @@ speed_unit = "rpm"
 )",
                                       "non_grashof.toml");
   SweepOptions full;
-  full.range = std::make_pair(m.driver().start, m.driver().start + 2.0 * std::numbers::pi);
+  full.range = std::make_pair(m.drivers[0].start, m.drivers[0].start + 2.0 * std::numbers::pi);
   const Trajectory exact = sweep(m, full);
   ASSERT_NE(exact.status.back(), PoseStatus::ok) << "the chain should not assemble everywhere";
   // Drive the engine on through the samples the chain cannot reach: mark them usable so the

@@ -144,7 +144,7 @@ TEST(Ode, AnInvalidMassFailsTheRunNotTheProcess) {
   const Trajectory ref = sweep(good);
   const auto run_with = [&](double mass, double inertia) {
     Mechanism m = good;
-    const int crank = m.driver().link;
+    const int crank = m.drivers[0].link;
     if (mass != 0.0) m.links[static_cast<size_t>(crank)].mass.mass = mass;
     if (inertia != 0.0) m.links[static_cast<size_t>(crank)].mass.inertia = inertia;
     return make_ode_engine()->run(m, ref, {});
