@@ -40,7 +40,11 @@ MethodRun run_engine(const sim::Engine& engine, std::string description, const M
   run.name = engine.name();
   run.description = std::move(description);
   std::string why;
-  if (!engine.supports(mechanism, &why)) {
+  // Every engine drives each driver's coordinate and needs no other freedom driven (the loader
+  // refuses a file whose count differs; a mechanism built in code is held here).
+  if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size()))
+    why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
+  if (!why.empty() || !engine.supports(mechanism, &why)) {
     run.message = "cannot realise this mechanism: " + why;
     return run;
   }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "analytic/trust.h"
@@ -20,6 +21,36 @@ double fastest_rate(const Trajectory& reference, const Span& span) {
     if (usable(reference.status[static_cast<size_t>(i)]))
       fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
   return fastest;
+}
+
+double step_length(const Trajectory& reference, const Span& span, double dt, double max_step_angle,
+                   int steps_per_sample) {
+  if (dt != 0.0) return dt;
+  double wanted = std::numeric_limits<double>::infinity();
+  if (steps_per_sample > 0) {
+    double longest = 0.0;
+    for (int i = span.first + 1; i <= span.last; ++i)
+      longest = std::max(longest, reference.time(i) - reference.time(i - 1));
+    wanted = longest / steps_per_sample;
+  }
+  const double fastest = fastest_rate(reference, span);
+  if (max_step_angle > 0.0 && fastest > 0.0) wanted = std::min(wanted, max_step_angle / fastest);
+  return std::isinf(wanted) ? reference.time(span.first + 1) - reference.time(span.first) : wanted;
+}
+
+DriveTarget DriveTarget::of(const Mechanism& m, const KinematicPlan& plan, size_t d,
+                            double coordinate0, double sign) {
+  DriveTarget out;
+  out.coordinate0 = coordinate0;
+  out.driver_offset = plan.driver_offset[d];
+  out.driver0 = m.drivers[d].at_time(plan.grid.time.front()).value + out.driver_offset;
+  out.sign = sign;
+  return out;
+}
+
+void auto_thresholds(const Mechanism& m, double& gap_threshold, double& driver_threshold) {
+  if (gap_threshold == 0.0) gap_threshold = 1e-4 * m.size();
+  if (driver_threshold == 0.0) driver_threshold = 1e-4 * driver_watch_unit(m);
 }
 
 KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory& reference,

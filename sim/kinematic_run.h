@@ -86,6 +86,33 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
 // an engine's step length follows (errors grow as (omega dt)^2).
 double fastest_rate(const Trajectory& reference, const Span& span);
 
+// The step length rule every engine follows: the longest step is `dt` when given (non-zero);
+// else the longest sample interval over `steps_per_sample` (0: no such bound), shorter where the
+// reference's fastest link would turn more than `max_step_angle` [rad] in a step (0: no such
+// bound); with neither bound, the first sample interval.
+double step_length(const Trajectory& reference, const Span& span, double dt, double max_step_angle,
+                   int steps_per_sample);
+
+// How a driver's value maps to the scene coordinate that realises it, for an engine that drives
+// the coordinate to a target: linear through the start, where the scene assembled at
+// `coordinate0` with the driver at its law's value plus the plan's offset (the reference's
+// count); `sign` is d(coordinate)/d(driver value).
+struct DriveTarget {
+  double coordinate0 = 0.0;
+  double driver0 = 0.0;        // the driver's value at the start, as the reference counts it
+  double driver_offset = 0.0;  // the reference's driver value less the definition's law
+  double sign = 1.0;
+  // Driver d's (Mechanism::drivers order) over the kinematic plan `plan`.
+  static DriveTarget of(const Mechanism& m, const KinematicPlan& plan, size_t d, double coordinate0,
+                        double sign);
+  // The coordinate the scene is to reach at the definition's driver value `law`.
+  double target(double law) const { return coordinate0 + sign * (law + driver_offset - driver0); }
+};
+
+// The auto values of the thresholds an engine's watch uses where its settings leave them 0:
+// a joint gap of 1e-4 of the mechanism's size, a driver off its law by 1e-4 of driver_watch_unit.
+void auto_thresholds(const Mechanism& m, double& gap_threshold, double& driver_threshold);
+
 // The joints' gap of a pose (the largest residual of the joint rows, angle rows times the size)
 // and the driver row's error, from the one constraint layout.
 class JointGap {

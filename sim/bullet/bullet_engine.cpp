@@ -1201,9 +1201,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference, const S
   Prepared p;
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
-  // The thresholds' auto values, of the scene's mechanism.
-  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
+  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);  // of the scene's
   out.time = reference.time;
   out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
@@ -1354,10 +1352,7 @@ StepLength kinematic_step(const Trajectory& reference, const Span& span, const C
   s.dt = config.dt;
   s.steps_per_sample = config.steps_per_sample;
   if (s.dt == 0.0) {
-    double fastest = 0.0;
-    for (int i = span.first; i <= span.last; ++i)
-      if (usable(reference.status[static_cast<size_t>(i)]) && reference.omega.cols() > 0)
-        fastest = std::max(fastest, reference.omega.row(i).cwiseAbs().maxCoeff());
+    const double fastest = fastest_rate(reference, span);
     if (config.max_step_angle > 0.0)
       s.steps_per_sample = std::max<int>(
           s.steps_per_sample,
@@ -1382,24 +1377,10 @@ Settings kinematic_settings(const Config& config, const StepLength& step) {
   return printed_settings(bullet_settings(), RunKind::kinematic, values);
 }
 
-// How a driver's value maps to the scene's driven coordinate: the coordinate at the start and
-// its rate against the driver value.
-struct DriveMap {
-  double coordinate0 = 0.0;    // the driven coordinate at the start
-  double driver0 = 0.0;        // the driver's value at the start, as the reference counts it
-  double driver_offset = 0.0;  // the reference's driver value less the definition's law
-  double sign = 1.0;           // d(driven coordinate)/d(driver value)
-  // The driven coordinate the scene is to reach at the definition's driver value `law`.
-  double target(double law) const { return coordinate0 + sign * (law + driver_offset - driver0); }
-};
-
-// Driver `di`'s (Mechanism::drivers order).
-DriveMap drive_map(const Mechanism& m, const Plan& plan, const Config& config,
-                   const KinematicPlan& start, size_t di) {
+// Driver `di`'s (Mechanism::drivers order) map to its driven edge's coordinate (DriveTarget).
+DriveTarget drive_map(const Mechanism& m, const Plan& plan, const Config& config,
+                      const KinematicPlan& start, size_t di) {
   const Driver& d = m.drivers[di];
-  DriveMap out;
-  out.driver_offset = start.driver_offset[di];
-  out.driver0 = d.at_time(start.grid.time.front()).value + out.driver_offset;
   const std::vector<Pose> poses = node_poses(m, plan, start.q);
   const Edge& de = plan.edges[plan.driver_edges[di]];
   // Whether the tree runs the driven joint from a to b (a pivot written [link, ground] runs from
@@ -1408,14 +1389,13 @@ DriveMap drive_map(const Mechanism& m, const Plan& plan, const Config& config,
       de.kind != Edge::Kind::revolute || (de.b >= 0 && de.a == plan.parent[de.b]);
   // Rigid: the driver constraint measures theta_b - theta_a of the joint's own links.
   const double edge_sign = (config.formulation == "multibody" && !driver_forward) ? -1.0 : 1.0;
-  out.coordinate0 = edge_sign * edge_coordinate(de, poses);
   // d(edge coordinate)/d(driver value): -1 only for a link angle read off a ground pivot
   // written as [link, ground].
   const double driver_sign =
       (d.type == DriverType::link_angle && de.kind == Edge::Kind::revolute && de.b < 0) ? -1.0
                                                                                         : 1.0;
-  out.sign = edge_sign * driver_sign;
-  return out;
+  return DriveTarget::of(m, start, di, edge_sign * edge_coordinate(de, poses),
+                         edge_sign * driver_sign);
 }
 
 // The scene stepped and read back as the mechanism's coordinates after each step (angles on the
@@ -1470,7 +1450,7 @@ class BulletLoopScene : public Loop {
 // A kinematic run's scene for the shared run loop (sim/kinematic_run.h): driven to its target.
 class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
  public:
-  BulletKinematicScene(BulletSteps& steps, const std::vector<DriveMap>& drive)
+  BulletKinematicScene(BulletSteps& steps, const std::vector<DriveTarget>& drive)
       : BulletLoopScene(steps), drive_(drive), targets_(drive.size()) {}
   void drive(const std::vector<double>& driver_values) override {
     for (size_t d = 0; d < drive_.size(); ++d) targets_[d] = drive_[d].target(driver_values[d]);
@@ -1482,32 +1462,17 @@ class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
   }
 
  private:
-  const std::vector<DriveMap>& drive_;  // per driver
-  std::vector<double> targets_;         // scratch: per driver
+  const std::vector<DriveTarget>& drive_;  // per driver
+  std::vector<double> targets_;            // scratch: per driver
 };
 
 // ---------------------------------------------------------------------------------------------
 // Forward dynamics (a [dynamics] case; docs/engines.md, "Forward dynamics"): the same scene with
 // no driver, started from the exact state of the reference's first usable sample, the loads and
 // the applied effort on the bodies every step, sampled at the reference's times (which fall on
-// step boundaries). prepare() and dynamics_step() plan it (plan_dynamics()); plan_scene() and
+// step boundaries). prepare() and step_length() plan it (plan_dynamics()); plan_scene() and
 // build_scene() build it; BulletDynamicsScene is its backend to the shared run loop
 // (sim/dynamics_run.h).
-
-// The longest step (plan_dynamics() splits each sample interval into equal steps no longer): the
-// longest interval over steps_per_sample, shorter where the reference's fastest link would turn
-// more than max_step_angle in a step, or an explicit dt.
-double dynamics_step(const Trajectory& reference, const Span& span, const Config& config) {
-  if (config.dt != 0.0) return config.dt;
-  double longest = 0.0;
-  for (int i = span.first + 1; i <= span.last; ++i)
-    longest = std::max(longest, reference.time(i) - reference.time(i - 1));
-  const double fastest = fastest_rate(reference, span);
-  double wanted = longest / config.steps_per_sample;
-  if (config.max_step_angle > 0.0 && fastest > 0.0)
-    wanted = std::min(wanted, config.max_step_angle / fastest);
-  return wanted;
-}
 
 Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
                            double dt, double energy_scale, bool with_forces) {
@@ -1564,7 +1529,9 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   try {
     p = prepare(original, reference, overrides, out.trajectory);
     if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
-    start = plan_dynamics(original, p.m, reference, dynamics_step(reference, p.span, p.config),
+    start = plan_dynamics(original, p.m, reference,
+                          step_length(reference, p.span, p.config.dt, p.config.max_step_angle,
+                                      p.config.steps_per_sample),
                           InnerTimes::interval_fractions, p.config.max_steps,
                           !p.config.perturb_link.empty());
   } catch (const std::exception& e) {
@@ -1605,10 +1572,6 @@ class BulletEngine final : public Engine {
   std::string name() const override { return "bullet"; }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
-      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
-      return false;
-    }
     // Either formulation (plan_scene takes the other when the one asked for cannot).
     try {
       (void)make_plan(mechanism, false, nullptr);
@@ -1675,7 +1638,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   if (!plan_scene(m, true, config, plan, notes, why)) return failed_run(std::move(out), why);
   out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
   const bool with_forces = config.formulation == "rigid";
-  std::vector<DriveMap> drive;
+  std::vector<DriveTarget> drive;
   std::vector<double> coordinate0;
   for (size_t d = 0; d < m.drivers.size(); ++d) {
     drive.push_back(drive_map(m, plan, config, start, d));

@@ -387,12 +387,10 @@ std::optional<Start> exact_start(const Mechanism& m, const Trajectory& reference
 }
 
 // The longest step: dt, or with dt auto the step in which the reference's fastest link turns by
-// max_step_angle (errors grow as (omega dt)^2).
+// max_step_angle (errors grow as (omega dt)^2): step_length's rule.
 double wanted_step(const Trajectory& reference, const Config& c, const Span& span) {
-  if (c.dt != "auto") return setting_number("dt", c.dt, kPositive);
-  const double fastest = fastest_rate(reference, span);
-  return fastest > 0.0 ? c.max_step_angle / fastest
-                       : reference.time(span.first + 1) - reference.time(span.first);
+  const double dt = c.dt != "auto" ? setting_number("dt", c.dt, kPositive) : 0.0;
+  return step_length(reference, span, dt, c.max_step_angle, 0);
 }
 
 MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {

@@ -706,25 +706,10 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   Prepared p;
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
-  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
+  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);
   p.graph = ode_graph(p.m);
   p.span = usable_span(reference);
   return p;
-}
-
-// The longest step: the longest sample interval over steps_per_sample, shorter where the
-// reference's fastest link would turn more than max_step_angle in a step, or an explicit dt.
-double wanted_step(const Trajectory& reference, const Span& span, const Config& config,
-                   double max_step_angle) {
-  if (config.dt != 0.0) return config.dt;
-  double longest = 0.0;
-  for (int i = span.first + 1; i <= span.last; ++i)
-    longest = std::max(longest, reference.time(i) - reference.time(i - 1));
-  double wanted = longest / config.steps_per_sample;
-  const double fastest = fastest_rate(reference, span);
-  if (max_step_angle > 0.0 && fastest > 0.0) wanted = std::min(wanted, max_step_angle / fastest);
-  return wanted;
 }
 
 double max_step_angle(const Config& config, bool dynamics) {
@@ -799,19 +784,14 @@ class OdeKinematicScene final : public OdeLoopScene<KinematicScene> {
                     const KinematicPlan& plan)
       : OdeLoopScene(steps), m_(m), g_(g) {
     for (size_t di = 0; di < m.drivers.size(); ++di) {
-      Driven d{&g.joints[static_cast<size_t>(g.driven[di].joint)]};
-      d.driver_offset = plan.driver_offset[di];
-      d.driver0 = m.drivers[di].at_time(plan.grid.time.front()).value + d.driver_offset;
-      d.coordinate0 = joint_value(m, g, *d.joint, plan.q);
-      d.sign = g.driven[di].sign;
-      driven_.push_back(d);
+      const SceneJoint* joint = &g.joints[static_cast<size_t>(g.driven[di].joint)];
+      driven_.push_back({joint, DriveTarget::of(m, plan, di, joint_value(m, g, *joint, plan.q),
+                                                g.driven[di].sign)});
     }
   }
   void drive(const std::vector<double>& driver_values) override {
-    for (size_t di = 0; di < driven_.size(); ++di) {
-      Driven& d = driven_[di];
-      d.target = d.coordinate0 + d.sign * (driver_values[di] + d.driver_offset - d.driver0);
-    }
+    for (size_t di = 0; di < driven_.size(); ++di)
+      driven_[di].target = driven_[di].map.target(driver_values[di]);
   }
   std::string step(double h, ForceReading* forces) override {
     for (size_t di = 0; di < driven_.size(); ++di)
@@ -824,7 +804,8 @@ class OdeKinematicScene final : public OdeLoopScene<KinematicScene> {
   // A driver's joint and how its value maps to the joint's coordinate.
   struct Driven {
     const SceneJoint* joint;
-    double driver_offset = 0.0, driver0 = 0.0, coordinate0 = 0.0, sign = 1.0, target = 0.0;
+    DriveTarget map;
+    double target = 0.0;
   };
   const Mechanism& m_;
   const SceneGraph& g_;
@@ -863,7 +844,8 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
     const Config& config = p.config;
     const double step_angle = max_step_angle(config, true);
     const DynamicsPlan start = plan_dynamics(
-        original, p.m, reference, wanted_step(reference, p.span, config, step_angle),
+        original, p.m, reference,
+        step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
         InnerTimes::interval_fractions, config.max_steps, !config.perturb_link.empty());
     const std::vector<double>& time = start.grid.time;
     const Eigen::VectorXd velocity =
@@ -908,10 +890,11 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
     Prepared p = prepare(original, reference, overrides);
     const Config& config = p.config;
     const double step_angle = max_step_angle(config, false);
-    KinematicPlan start =
-        plan_kinematic(p.m, reference, wanted_step(reference, p.span, config, step_angle),
-                       InnerTimes::interval_fractions, kPreroll, config.max_steps,
-                       config.singular_rcond, !config.perturb_link.empty());
+    KinematicPlan start = plan_kinematic(
+        p.m, reference,
+        step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
+        InnerTimes::interval_fractions, kPreroll, config.max_steps, config.singular_rcond,
+        !config.perturb_link.empty());
     Settings values = common_settings(config, start.grid, step_angle);
     const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
                            {"forces", "dJointFeedback of the step leaving each sampled pose"},
@@ -946,10 +929,6 @@ class OdeEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return ode_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
-      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
-      return false;
-    }
     try {
       (void)ode_graph(mechanism);
     } catch (const std::exception& e) {

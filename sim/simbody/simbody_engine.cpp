@@ -723,8 +723,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   Prepared p;
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
-  if (p.config.gap_threshold == 0.0) p.config.gap_threshold = 1e-4 * p.m.size();
-  if (p.config.driver_threshold == 0.0) p.config.driver_threshold = 1e-4 * driver_watch_unit(p.m);
+  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);
   p.span = usable_span(reference);
   p.graph = simbody_graph(p.m);
   return p;
@@ -733,10 +732,7 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
 // The reported poses' spacing: dt, or the step in which the reference's fastest link turns by
 // max_step_angle (central differences of the poses err as (omega dt)^2).
 double wanted_step(const Trajectory& reference, const Config& c, const Span& span) {
-  if (c.dt != 0.0) return c.dt;
-  const double fastest = fastest_rate(reference, span);
-  return fastest > 0.0 ? c.max_step_angle / fastest
-                       : reference.time(span.first + 1) - reference.time(span.first);
+  return step_length(reference, span, c.dt, c.max_step_angle, 0);
 }
 
 Settings common_settings(const Config& c, double dt) {
@@ -877,10 +873,6 @@ class SimbodyEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return simbody_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size())) {
-      if (why) *why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
-      return false;
-    }
     try {
       const SceneGraph g = simbody_graph(mechanism);
       if (const std::string problem = driver_problem(g); !problem.empty() && !mechanism.dynamics) {

@@ -129,7 +129,7 @@ TEST(SweepEngines, MujocoDefaultSoftnessCollapses) {
 // The search: every chosen setting meets its accuracy; a stricter accuracy never needs a coarser
 // step; no coarser step than the chosen one had a setting that met it.
 TEST(SweepEngines, CheapestSettingMeetsTheAccuracyAndStopsEarly) {
-  for (const char* engine : {"mujoco", "bullet"}) {
+  for (const std::string& engine : engine_names()) {
     ReferenceLadder ladder(crank_rocker(), {});
     const std::vector<double> dts = accuracy_time_steps(ladder.interval());
     const Selection loose = cheapest_setting(crank_rocker(), ladder, engine, 1.0, dts);
