@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -311,30 +312,46 @@ void write_derived_csv(const DerivedResults& results, std::ostream& out) {
 }
 
 std::string derived_table_html(const Mechanism& m, const DerivedResults& results) {
+  // One row per quantity's field, one column per method: the value in the file's units (a number:
+  // the unit has its column), the method's difference as a % of the quantity's scale and the
+  // verdict, coloured. A value that does not exist is no number: the cell says why.
+  const auto number = [&](const DerivedSpec& spec, DerivedUnit unit, std::optional<double> si) {
+    return si ? fmt::format("{:.6g}", *si / derived_factor(m, spec, unit)) : std::string();
+  };
+  std::string head = "<tr><th>quantity</th><th>kind</th><th>unit</th><th>exact</th>";
+  for (const DerivedResults::Method& method : results.methods)
+    head += fmt::format("<th>{}</th>", html_escape(method.name));
   std::string rows;
   for (const DerivedValue& v : results.exact)
     for (const DerivedField& f : v.fields) {
-      const std::string quantity = v.spec->name + "." + f.name;
-      std::string methods;
-      for (const DerivedCheck& c : results.checks)
-        if (c.spec == v.spec && c.field == f.name)
-          methods +=
-              fmt::format("{} {}{} ({} % vs exact, {} % of scale, {}); ", html_escape(c.method),
-                          html_escape(shown(m, *c.spec, c.unit, c.value)),
-                          html_escape(unit_text(m, *c.spec, c.unit)), pct_text(c.pct_vs_exact()),
-                          pct_text(c.pct_of_scale()),
-                          c.verdict == Verdict::not_applicable ? "n/a: " + html_escape(c.reason)
-                                                               : std::string(to_string(c.verdict)));
-      rows += fmt::format(
-          "<tr><td>{}</td><td>{}</td><td>{}{}</td><td>{}</td></tr>\n", html_escape(quantity),
-          fmt::format("{}{}", to_string(v.spec->kind), v.spec->summary ? " (design summary)" : ""),
-          f.value ? html_escape(shown(m, *v.spec, f.unit, f.value))
-                  : "none: " + html_escape(v.reason),
-          html_escape(unit_text(m, *v.spec, f.unit)), methods);
+      rows += fmt::format("<tr><td><code>{}.{}</code></td><td>{}{}</td><td>{}</td><td>{}</td>",
+                          html_escape(v.spec->name), html_escape(f.name), to_string(v.spec->kind),
+                          v.spec->summary ? " (design summary)" : "",
+                          html_escape(derived_unit_name(m, *v.spec, f.unit)),
+                          f.value ? number(*v.spec, f.unit, f.value)
+                                  : "<small>none: " + html_escape(v.reason) + "</small>");
+      for (const DerivedResults::Method& method : results.methods) {
+        const auto c = std::find_if(results.checks.begin(), results.checks.end(), [&](auto& c) {
+          return c.spec == v.spec && c.field == f.name && c.method == method.name;
+        });
+        if (c == results.checks.end()) {
+          rows += "<td></td>";
+          continue;
+        }
+        const bool judged = c->verdict != Verdict::not_applicable;
+        const double pct = c->pct_of_scale();
+        rows += fmt::format("<td class=\"derived-{}\">{}<br><small>{}</small></td>",
+                            c->verdict == Verdict::pass ? "pass"
+                            : judged                    ? "fail"
+                                                        : "na",
+                            number(*v.spec, c->unit, c->value),
+                            judged ? fmt::format("{} % of scale (limit {:g}): <b>{}</b>",
+                                                 pct_text(pct), c->tolerance, to_string(c->verdict))
+                                   : "n/a: " + html_escape(c->reason));
+      }
+      rows += "</tr>\n";
     }
-  return "<table><tr><th>quantity</th><th>kind</th><th>exact</th><th>methods (from their "
-         "samples)</th></tr>\n" +
-         rows + "</table>\n";
+  return "<table class=\"derived\">" + head + "</tr>\n" + rows + "</table>\n";
 }
 
 }  // namespace crosslink::compare

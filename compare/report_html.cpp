@@ -641,6 +641,8 @@ td:first-child, th:first-child { text-align: left; }
 td.settings { text-align: left; max-width: 520px; }
 tr.fail td { background: #fde0e0; }
 .verdict-pass { color: #17692a; } .verdict-fail { color: #b00020; }
+td.derived-pass { background: #e3f4e6; } td.derived-fail { background: #fde0e0; }
+td.derived-na { background: #f1f1f1; color: #555; }
 #render-status { font-size: 12px; color: #666; }
 dt { font-weight: 600; } dd { margin: 0 0 0.4em 1.5em; }
 select { margin: 0.3em 0; max-width: 100%; }

@@ -173,6 +173,42 @@ TEST(Comparison, EnginesTimeRatioAndStrokeAgainstExact) {
               !c.method("mujoco")->available);
 }
 
+// Issue 32 item 4: the report's derived table, one row per quantity's field and one column per
+// method, each cell the value in the file's units (no unit of its own: "deg deg" was written),
+// the % of scale and the verdict, coloured by its class.
+TEST(Comparison, DerivedTableHasARowPerQuantityAndAColumnPerMethod) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/published/whitworth_quick_return.toml");
+  std::vector<MethodRun> runs = {run_reference(m)};
+  for (const char* method : {"mujoco", "bullet"})
+    runs.push_back(run_method(method, m, runs.front()));
+  const Comparison c = methods::compare_runs(
+      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const std::string html = derived_table_html(m, c.derived);
+  const size_t columns = c.derived.methods.size();  // the engines built in
+  ASSERT_GE(columns, 1u);
+  std::string head = "<th>exact</th>";
+  for (const auto& method : c.derived.methods) head += "<th>" + method.name + "</th>";
+  EXPECT_NE(html.find(head + "</tr>"), std::string::npos) << html;
+  size_t rows = 0, fields = 0;
+  for (const DerivedValue& v : c.derived.exact) fields += v.fields.size();
+  for (size_t at = html.find("<tr><td>"); at != std::string::npos;
+       at = html.find("<tr><td>", at + 1)) {
+    const std::string row = html.substr(at, html.find("</tr>", at) - at);
+    size_t cells = 0;
+    for (size_t k = row.find("<td"); k != std::string::npos; k = row.find("<td", k + 1)) ++cells;
+    EXPECT_EQ(cells, 4u + columns) << row;  // quantity, kind, unit, exact, one per method
+    ++rows;
+  }
+  EXPECT_EQ(rows, fields);
+  EXPECT_EQ(html.find("deg deg"), std::string::npos);
+  // The time ratio, judged for each method: a coloured cell with its number and verdict.
+  const size_t q = html.find("<code>Q.ratio</code>");
+  ASSERT_NE(q, std::string::npos);
+  const std::string row = html.substr(q, html.find("</tr>", q) - q);
+  EXPECT_NE(row.find("<td class=\"derived-pass\">2.7"), std::string::npos) << row;
+}
+
 TEST(ValueAt, OnGridAndInterpolated) {
   const Mechanism m = load_mechanism(kSewing);
   const Trajectory t = sweep(m);
