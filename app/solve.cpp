@@ -11,8 +11,10 @@
 #include "analytic/trust.h"
 #include "analytic/units_text.h"
 #include "app/commands.h"
+#include "app/files.h"
 #include "app/output.h"
 #include "compare/derived.h"
+#include "compare/drawing_svg.h"
 
 namespace crosslink::app {
 namespace {
@@ -26,6 +28,8 @@ struct SolveArgs {
   bool ic = false;                // print the instantaneous centres (with --at)
   std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
   std::string columns;            // the sweep table's channels (table_channels)
+  std::string svg;                // the drawing to write (compare::drawing_svg)
+  double animate = 0.0;           // with svg: seconds per sweep of an animated drawing
   WorkLimits limits;
 };
 
@@ -95,6 +99,13 @@ int run_solve(const SolveArgs& args) {
                           "--ic: the driver is at rest (speed 0): every velocity is zero and "
                           "no centre is defined by them"}
                    .str());
+    return kExitBadInput;
+  }
+  if (args.animate != 0.0 && (args.svg.empty() || single || !(args.animate > 0.0))) {
+    fmt::print(stderr,
+               "{}: error: --animate SECONDS animates the --svg drawing over the sweep: it needs "
+               "--svg FILE, no --at, and a positive number of seconds\n",
+               m.file);
     return kExitBadInput;
   }
   if (!args.columns.empty() && (single || args.format != "table")) {
@@ -193,6 +204,18 @@ int run_solve(const SolveArgs& args) {
     print_table_rows(m, t, timed, 4, columns, "the file's units");
     compare::print_derived_exact(stdout, m, derived);
   }
+  if (!args.svg.empty()) {
+    // At --at, or at the sweep's start: its first sample with a position.
+    int row = 0;
+    while (row + 1 < t.samples() && !has_position(t.status[static_cast<size_t>(row)])) ++row;
+    try {
+      write_file(args.svg, compare::drawing_svg(m, t, row, args.animate));
+    } catch (const std::invalid_argument& e) {
+      fmt::print(stderr, "{}: error: --svg: {}\n", m.file, e.what());
+      return kExitBadInput;
+    }
+    fmt::print(stderr, "{}: drawing: {}\n", m.file, args.svg);
+  }
   if (single && !usable(t.status[0])) {
     fmt::print(stderr, "{}\n",
                Diagnostic{start_where(m), fmt::format("{} at {}", to_string(t.status[0]),
@@ -227,6 +250,11 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
       "the sweep table's columns, comma-separated: channel names (x.C, sddot.needle) "
       "and kinds (alpha: every link's); default angle,omega,alpha,s,sdot,sddot but for the "
       "driven crank and links held by a prismatic joint to the ground");
+  cmd->add_option("--svg", args->svg,
+                  "write the drawing as SVG: the links at --at (or the sweep's start), the "
+                  "paths of the moving points over the sweep");
+  cmd->add_option("--animate", args->animate,
+                  "with --svg: animate the drawing over the sweep, SECONDS per sweep (SMIL)");
   cmd->add_flag("--ic", args->ic,
                 "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
   add_max_samples(*cmd, args->limits);

@@ -340,14 +340,20 @@ std::string derived_table_html(const Mechanism& m, const DerivedResults& results
         }
         const bool judged = c->verdict != Verdict::not_applicable;
         const double pct = c->pct_of_scale();
-        rows += fmt::format("<td class=\"derived-{}\">{}<br><small>{}</small></td>",
+        // Not judged: the % where it exists, the reason (long, the same down a column) as the
+        // cell's tooltip; a value that does not exist says why in the cell.
+        const std::string note =
+            judged ? fmt::format("{} % of scale (limit {:g}): <b>{}</b>", pct_text(pct),
+                                 c->tolerance, to_string(c->verdict))
+            : c->value && std::isfinite(pct)
+                ? fmt::format("{} % of scale, not judged", pct_text(pct))
+                : "n/a: " + html_escape(c->reason);
+        rows += fmt::format("<td class=\"derived-{}\" title=\"{}\">{}<br><small>{}</small></td>",
                             c->verdict == Verdict::pass ? "pass"
                             : judged                    ? "fail"
                                                         : "na",
-                            number(*v.spec, c->unit, c->value),
-                            judged ? fmt::format("{} % of scale (limit {:g}): <b>{}</b>",
-                                                 pct_text(pct), c->tolerance, to_string(c->verdict))
-                                   : "n/a: " + html_escape(c->reason));
+                            judged ? "" : html_escape(c->reason),
+                            number(*v.spec, c->unit, c->value), note);
       }
       rows += "</tr>\n";
     }

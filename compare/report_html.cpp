@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include "analytic/instant_centres.h"
+#include "compare/drawing_svg.h"
 #include "compare/report.h"
 
 namespace crosslink::compare {
@@ -147,27 +148,6 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
   int moving = 0;
   for (const Link& link : m.links) {
     const double theta = link.ground ? 0.0 : pose.angle(0, moving);
-    // Segments between consecutive points, closed for three or more.
-    std::vector<Eigen::Vector2d> at;
-    std::vector<std::string> names;
-    for (const Point& p : link.points)
-      if (const auto w = where(p.name)) {
-        at.push_back(*w);
-        names.push_back(p.name);
-      }
-    if (!link.ground && at.size() >= 2)
-      for (size_t i = 0; i < (at.size() == 2 ? 1 : at.size()); ++i) {
-        const Eigen::Vector2d& a = at[i];
-        const Eigen::Vector2d& b = at[(i + 1) % at.size()];
-        // p and q name the ends, so that the page can redraw the segment at any sample.
-        d["segments"].push_back({{"link", link.name},
-                                 {"p", names[i]},
-                                 {"q", names[(i + 1) % at.size()]},
-                                 {"x", a.x() / length.scale},
-                                 {"y", a.y() / length.scale},
-                                 {"x2", b.x() / length.scale},
-                                 {"y2", b.y() / length.scale}});
-      }
     // Guides and slots, from the link's first point and its angle.
     if (!link.points.empty() && (link.ground || where(link.points[0].name)))
       for (const Line& line : link.lines) {
@@ -184,6 +164,17 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
                                {"y2", b.y() / length.scale}});
       }
     if (!link.ground) ++moving;
+  }
+  // p and q name the ends, so that the page can redraw the segment at any sample.
+  for (const LinkSegment& s : link_segments(m, pose)) {
+    const Eigen::Vector2d a = *where(s.p), b = *where(s.q);
+    d["segments"].push_back({{"link", s.link},
+                             {"p", s.p},
+                             {"q", s.q},
+                             {"x", a.x() / length.scale},
+                             {"y", a.y() / length.scale},
+                             {"x2", b.x() / length.scale},
+                             {"y2", b.y() / length.scale}});
   }
   // Joint reactions as arrows at their points (the force of the joint's first link on its
   // second), the longest a quarter of the mechanism's size; the driver's effort as a label.
@@ -325,6 +316,60 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
            {"kind", fmt::format("{} singularity{}", to_string(e.singularity),
                                 e.chain.empty() ? "" : " (driver " + e.chain + ")")},
            {"message", e.message}});
+  // The dead points and strokes of the [[derived]] quantities (the design summary's among them):
+  // a dead point, where a channel turns back (a stroke's or dead_points' at_min and at_max), is
+  // a rule on every chart at its driver value; a stroke's min and max are rules on its channel's.
+  r["dead_points"] = json::array();
+  r["strokes"] = json::array();
+  std::vector<std::string> marked;  // "channel.field", each once
+  using Kind = DerivedSpec::Kind;
+  // A crank's dead point is found within one turn: drawn at its place in the sweep's span.
+  const bool turns = !samples_in_time(m) && m.swept().angular() && ref.samples() > 1;
+  const double first = turns ? ref.driver.minCoeff() : 0.0;
+  const auto in_sweep = [&](double d) {
+    const double turn = 2.0 * std::numbers::pi;
+    return turns ? first + std::fmod(std::fmod(d - first, turn) + turn, turn) : d;
+  };
+  for (const DerivedValue& v : cmp.derived.exact) {
+    if (v.spec->kind != Kind::dead_points && v.spec->kind != Kind::stroke) continue;
+    const std::string& channel = v.spec->channel;
+    for (const char* end : {"at_min", "at_max"}) {
+      const DerivedField* f = v.field(end);
+      const std::string key = channel + "." + end;
+      if (!f || !f->value || std::find(marked.begin(), marked.end(), key) != marked.end()) continue;
+      marked.push_back(key);
+      r["dead_points"].push_back(
+          {{"driver", in_sweep(*f->value) / du.scale},
+           {"label", fmt::format("dead point: {} {}", channel,
+                                 end == std::string("at_min") ? "min" : "max")}});
+    }
+    const DerivedField *low = v.field("min"), *high = v.field("max"), *stroke = v.field("stroke");
+    if (v.spec->kind == Kind::stroke && low && high && stroke && low->value && high->value &&
+        stroke->value) {
+      const DisplayUnit u = display_unit(m, channel);
+      r["strokes"].push_back(
+          {{"channel", channel},
+           {"min", *low->value / u.scale},
+           {"max", *high->value / u.scale},
+           {"label", fmt::format("stroke {:.6g} {}", *stroke->value / u.scale, u.name)}});
+    }
+  }
+  // The points whose paths the path chart draws: every named point that moves.
+  r["paths"] = json::array();
+  for (const std::string& point : ref.point_names)
+    if (r["channels"].contains("x." + point) && r["channels"].contains("y." + point)) {
+      const auto moves = [&](const Eigen::Index c) {  // over the samples with a position
+        for (Eigen::Index k = 1; k < ref.x.rows(); ++k)
+          if (has_position(ref.status[static_cast<size_t>(k)]) && has_position(ref.status[0]) &&
+              (ref.x(k, c) != ref.x(0, c) || ref.y(k, c) != ref.y(0, c)))
+            return true;
+        return false;
+      };
+      const auto c = static_cast<Eigen::Index>(
+          std::find(ref.point_names.begin(), ref.point_names.end(), point) -
+          ref.point_names.begin());
+      if (moves(c)) r["paths"].push_back(point);
+    }
   r["drawing"] = drawing(m, pose, display_unit(m, "x.any"));
   return r;
 }
@@ -773,13 +818,19 @@ void write_html(const Comparison& cmp, const HtmlOptions& options, std::ostream&
          "marks each sample flagged by the reference (singular, a limit, a loop gap: kept out of "
          "verdicts); a value that does not exist there is a gap, never drawn.</p>\n";
   out << quantity_sections;
+  if (!data["paths"].empty())
+    out << "<h2>Paths of the points</h2>\n<p>A point's path in the plane over the sweep, every "
+           "method overlaid on the exact one (the coupler curve of a coupler point).</p>\n"
+           "<label>point <select id=\"select-path\"></select></label>\n"
+           "<div id=\"chart-path\" class=\"chart\"></div>\n";
   out << "<h2>Verdicts</h2>\n" << verdict_table(cmp);
   if (!cmp.references.empty())
     out << "<h2>Published values ([[reference]])</h2>\n<p>Each cell: % difference of the row's "
            "value from the column's, 100 |row - column| / |column|.</p>\n"
         << references_table(cmp);
   if (!cmp.derived.empty())
-    out << "<h2>Derived quantities ([[derived]])</h2>\n<p>Exact: located on the exact solution. "
+    out << "<h2 id=\"derived\">Derived quantities ([[derived]])</h2>\n<p>Exact: located on the "
+           "exact solution. "
            "Each method's from its samples (the parabola through the extreme sample and its "
            "neighbours); its verdict on its difference from the same estimate on the "
            "reference's samples, in % of the quantity's scale.</p>\n"

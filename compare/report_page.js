@@ -95,6 +95,25 @@
                            mark: {type: 'text', align: 'left', baseline: 'top', dx: 3, dy: 2,
                                   color: '#9467bd', fontSize: 10},
                            encoding: {x: axisX, y: {value: 0}, text: {field: 'kind'}}};
+    // The [[derived]] dead points (one driver: the axis is its value) on every chart, and a
+    // stroke's ends on its channel's.
+    const deadRule = {data: {values: R.dead_points || []},
+                      mark: {type: 'rule', color: '#2ca02c', strokeDash: [6, 3], clip: true},
+                      encoding: {x: axisX, tooltip: [{field: 'label'}]}};
+    const deadLabel = {data: {values: R.dead_points || []},
+                       mark: {type: 'text', align: 'left', baseline: 'top', dx: 3, dy: 2,
+                              color: '#2ca02c', fontSize: 10, clip: true},
+                       encoding: {x: axisX, y: {value: 0}, text: {field: 'label'}}};
+    const yTitle = name + ' [' + unit + ']';
+    const strokeRows = [];
+    for (const s of (R.strokes || []))
+      if (s.channel === name)
+        for (const end of ['min', 'max'])
+          strokeRows.push({value: s[end], label: s.label + ' (' + end + ')'});
+    const strokeRule = {data: {values: strokeRows},
+                        mark: {type: 'rule', color: '#8c564b', strokeDash: [2, 3]},
+                        encoding: {y: {field: 'value', type: 'quantitative', title: yTitle},
+                                   tooltip: [{field: 'label'}]}};
     const cursor = {data: {name: 'cursor'},
                     mark: {type: 'rule', color: '#555', strokeDash: [2, 2]},
                     encoding: {x: axisX}};
@@ -109,11 +128,11 @@
         {
           width: 640, height: 220,
           layer: [
-            flaggedRule, singularRule, singularLabel, cursor,
+            flaggedRule, singularRule, singularLabel, deadRule, deadLabel, strokeRule, cursor,
             {data: {name: 'series'},
              mark: {type: 'line', strokeWidth: 1.6, clip: true, invalid: gaps},
              encoding: {x: axisX, y: {field: 'value', type: 'quantitative',
-                                        title: name + ' [' + unit + ']', scale: {zero: false}},
+                                        title: yTitle, scale: {zero: false}},
                         color: colour, strokeDash: dash,
                         tooltip: [{field: 'method'}, {field: 'driver', format: '.2f'},
                                   {field: 'value', format: '.6g'}]}},
@@ -122,7 +141,7 @@
         {
           width: 640, height: 130,
           layer: [
-            flaggedRule, singularRule, cursor,
+            flaggedRule, singularRule, deadRule, cursor,
             {data: {name: 'series'},
              transform: [{filter: 'datum.method != ' + JSON.stringify(methodOrder[0])}],
              mark: {type: 'line', strokeWidth: 1.2, clip: true, invalid: gaps},
@@ -169,6 +188,22 @@
       if (p.kind === 'ground pivot') continue;
       for (let k = 0; k < R.driver.values.length; k++)
         rows.push({name: p.name, k, x: at('x.' + p.name, k), y: at('y.' + p.name, k)});
+    }
+    return rows;
+  })();
+  // The linkage at each dead point (the sample nearest it), in faint green: where the output
+  // turns back, the limit positions a designer draws.
+  const deadPoseRows = (() => {
+    const rows = [];
+    for (const d of (R.dead_points || [])) {
+      let k = 0;
+      for (let j = 1; j < R.driver.values.length; j++)
+        if (Math.abs(R.driver.values[j] - d.driver) < Math.abs(R.driver.values[k] - d.driver)) k = j;
+      for (const s of D.segments) {
+        const row = {label: d.label, x: at('x.' + s.p, k), y: at('y.' + s.p, k),
+                     x2: at('x.' + s.q, k), y2: at('y.' + s.q, k)};
+        if (row.x !== null && row.y !== null && row.x2 !== null && row.y2 !== null) rows.push(row);
+      }
     }
     return rows;
   })();
@@ -385,6 +420,10 @@
          mark: {type: 'line', strokeWidth: 1, color: '#bbb', clip: true,
                 invalid: 'break-paths-filter-domains'},
          encoding: {x: X, y: Y, detail: {field: 'name'}, order: {field: 'k'}}},
+        {name: 'dead_poses', data: {values: deadPoseRows},
+         mark: {type: 'rule', strokeWidth: 2, strokeDash: [4, 3], color: '#2ca02c', opacity: 0.5,
+                clip: true},
+         encoding: {x: X, y: Y, x2: X2, y2: Y2, tooltip: [{field: 'label'}]}},
         {name: 'guides', data: {name: 'guides'},
          mark: {type: 'rule', strokeDash: [6, 4], color: '#888', clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2}},
@@ -502,6 +541,49 @@
     });
     select.addEventListener('change', () => show(select.value));
     jobs.push(show(q.channels[0].name));
+  }
+
+  // A point's path in the plane: every method's (a gap where a sample has no position), in
+  // sample order.
+  function pathSpec(point) {
+    const xs = R.channels['x.' + point], ys = R.channels['y.' + point];
+    const rows = [];
+    for (let k = 0; k < R.driver.values.length; k++) {
+      rows.push({k, method: methodOrder[0], x: xs.ref[k], y: ys.ref[k]});
+      for (const m of Object.keys(xs.methods))
+        if (ys.methods[m]) rows.push({k, method: m, x: xs.methods[m].v[k], y: ys.methods[m].v[k]});
+    }
+    const colour = {field: 'method', type: 'nominal', scale: colorScale, title: 'method'};
+    const dash = {field: 'method', type: 'nominal', scale: dashScale, title: 'method'};
+    return {
+      $schema: 'https://vega.github.io/schema/vega-lite/v6.json',
+      data: {values: rows},
+      padding: {left: 70, top: 5, right: 5, bottom: 5},
+      width: 480, height: 360,
+      mark: {type: 'line', strokeWidth: 1.4, invalid: 'break-paths-filter-domains'},
+      encoding: {
+        x: {field: 'x', type: 'quantitative', title: 'x.' + point + ' [' + xs.unit + ']',
+            scale: {zero: false}},
+        y: {field: 'y', type: 'quantitative', title: 'y.' + point + ' [' + ys.unit + ']',
+            scale: {zero: false}},
+        order: {field: 'k'},
+        color: colour, strokeDash: dash,
+        tooltip: [{field: 'method'}, {field: 'x', format: '.6g'}, {field: 'y', format: '.6g'}],
+      },
+    };
+  }
+  const pathSelect = document.getElementById('select-path');
+  if (pathSelect && (R.paths || []).length) {
+    for (const p of R.paths) {
+      const o = document.createElement('option');
+      o.value = p;
+      o.textContent = p;
+      pathSelect.appendChild(o);
+    }
+    const box = document.getElementById('chart-path');
+    const show = (p) => vegaEmbed(box, pathSpec(p), opts);
+    pathSelect.addEventListener('change', () => show(pathSelect.value));
+    jobs.push(show(R.paths[0]));
   }
 
   // What the browser test checks beyond rendering: every chart has a legend, and no flagged

@@ -1740,6 +1740,84 @@ TEST(Cli, TheReportDrawsSeveralDriversAtATime) {
   EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver right)")x"), std::string::npos);
 }
 
+// Issue 32 item 4: the report marks the design summary's dead points on its charts and drawing,
+// each where the closed form puts it (the offset slider-crank's, crank r = 0.04, rod l = 0.12,
+// offset e = 0.01 m: extended at asin(e/(l+r)), folded at 180 deg + asin(e/(l-r))), the stroke's
+// ends on the slider's chart (sqrt((l-r)^2-e^2) and sqrt((l+r)^2-e^2)), and draws the path of
+// every moving named point, not of the ground's.
+TEST(Cli, TheReportMarksTheDeadPointsAndTheStroke) {
+  const std::string html = (scratch_dir() / "offset_dead_points.html").string();
+  const CommandRun run = crosslink(
+      "compare mechanisms/slider_crank_offset.toml --engines "
+      "analytic,dyads --report \"" +
+      html + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = read_file(html);
+  const size_t from = page.find("const REPORT = ") + std::string("const REPORT = ").size();
+  const nlohmann::json r =
+      nlohmann::json::parse(page.substr(from, page.find(";</script>", from) - from));
+  const double r_ = 0.04, l = 0.12, e = 0.01, deg = 180.0 / std::numbers::pi;
+  std::map<std::string, double> dead;
+  for (const nlohmann::json& d : r.at("dead_points"))
+    dead[d.at("label").get<std::string>()] = d.at("driver").get<double>();
+  ASSERT_EQ(dead.size(), 2u) << r.at("dead_points");
+  EXPECT_NEAR(dead.at("dead point: s.slider max"), std::asin(e / (l + r_)) * deg, 1e-6);
+  EXPECT_NEAR(dead.at("dead point: s.slider min"), 180.0 + std::asin(e / (l - r_)) * deg, 1e-6);
+  ASSERT_EQ(r.at("strokes").size(), 1u);
+  const nlohmann::json& stroke = r.at("strokes")[0];
+  EXPECT_EQ(stroke.at("channel"), "s.slider");
+  EXPECT_NEAR(stroke.at("min").get<double>(), std::sqrt((l - r_) * (l - r_) - e * e), 1e-12);
+  EXPECT_NEAR(stroke.at("max").get<double>(), std::sqrt((l + r_) * (l + r_) - e * e), 1e-12);
+  EXPECT_EQ(r.at("paths"), nlohmann::json::array({"B", "C"}));
+}
+
+// Issue 32 item 6: the drawing to take away. The crank-rocker's crank A = (0, 0) to B, 40 mm
+// long, drawn at theta2 = 0 and swept at 1 degree: the SVG's crank segment ends at B = (0.04, 0)
+// (y down in SVG), each moving point's path is one polyline, and the animation's frames put B at
+// 0.04 (cos k deg, -sin k deg) for every sample k.
+TEST(Cli, SolveDrawsTheMechanismAsSvgAndAnimatesIt) {
+  const std::string file = "mechanisms/fourbar_crank_rocker.toml";
+  const std::string still = (scratch_dir() / "crank_rocker.svg").string();
+  const CommandRun run = crosslink("solve " + file + " --svg \"" + still + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string svg = read_file(still);
+  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+  const auto count = [&](const std::string& text, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count(svg, "<line "), 3u) << svg;      // crank, coupler, rocker
+  EXPECT_EQ(count(svg, "<polyline "), 2u) << svg;  // the paths of B and C
+  EXPECT_NE(svg.find("<line x1=\"0\" y1=\"0\" x2=\"0.04\" y2=\"0\""), std::string::npos) << svg;
+  EXPECT_EQ(svg.find("<animate"), std::string::npos);
+
+  const std::string moving = (scratch_dir() / "crank_rocker_animated.svg").string();
+  ASSERT_EQ(crosslink("solve " + file + " --svg \"" + moving + "\" --animate 4").exit_code, 0);
+  const std::string animated = read_file(moving);
+  const std::string crank = animated.substr(animated.find("<title>crank</title>"));
+  for (const char* axis : {"x2", "y2"}) {
+    const std::string key = std::string("<animate attributeName=\"") + axis + "\" dur=\"4s\"";
+    const size_t at = crank.find(key);
+    ASSERT_NE(at, std::string::npos) << crank.substr(0, 400);
+    const size_t from = crank.find("values=\"", at) + 8;
+    std::stringstream values(crank.substr(from, crank.find('"', from) - from));
+    std::string v;
+    int k = 0;
+    for (; std::getline(values, v, ';'); ++k) {
+      const double angle = k * std::numbers::pi / 180.0;
+      const double exact =
+          axis == std::string("x2") ? 0.04 * std::cos(angle) : -0.04 * std::sin(angle);
+      ASSERT_NEAR(std::stod(v), exact, 1e-7) << axis << " at sample " << k;
+    }
+    EXPECT_EQ(k, 361) << axis;
+  }
+  // An animation needs the drawing and the sweep.
+  EXPECT_EQ(crosslink("solve " + file + " --animate 4").exit_code, 2);
+  EXPECT_EQ(crosslink("solve " + file + " --at 30 --svg \"" + still + "\" --animate 4").exit_code,
+            2);
+}
+
 // Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
 // five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so; so
 // does a rack and pinion whose pinion is placed.

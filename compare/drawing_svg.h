@@ -1,0 +1,28 @@
+// The mechanism drawn to take away (docs/report.md, "A drawing to take away"): the report's
+// drawing as a standalone SVG file, optionally animated over the sweep.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "analytic/mechanism.h"
+#include "analytic/trajectory.h"
+
+namespace crosslink::compare {
+
+// A link's drawn segment between two of its named points: consecutive points, closed for three
+// or more (a ternary link is its triangle). Only points the trajectory has.
+struct LinkSegment {
+  std::string link, p, q;
+};
+std::vector<LinkSegment> link_segments(const Mechanism& mechanism, const Trajectory& trajectory);
+
+// The links at sample `row` of `sweep` (file length units, y up), the ground's pivots and guides,
+// every moving point's path over the sweep in grey (the coupler curves; broken where a sample
+// has no position); the points named. With `animate_seconds` > 0, the links and moving points go
+// through every sample with a position in turn, one sweep per that many seconds, repeating
+// (SMIL <animate>, which browsers play from the file alone), and the names are left out.
+std::string drawing_svg(const Mechanism& mechanism, const Trajectory& sweep, int row,
+                        double animate_seconds = 0.0);
+
+}  // namespace crosslink::compare
