@@ -33,22 +33,21 @@ double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory
           rate, mechanism.drivers[static_cast<size_t>(d)].angular() ? own : own / mechanism.size());
     }
     return rate;
-  } else {
-    // The motion law's, over its whole cycle and at the samples' times: a property of the
-    // mechanism, whatever few samples a sweep or a single pose has.
-    const auto at = [&](double time) {
-      for (const Driver& d : mechanism.drivers) {
-        const DriverState s = d.at_time(time);
-        const double unit = d.angular() ? 1.0 : mechanism.size();
-        rate = std::max({rate, std::abs(s.rate) / unit, std::sqrt(std::abs(s.accel) / unit)});
-      }
-    };
-    for (int k = 0; k < t.samples(); ++k) at(t.time(k));
-    const double cycle = mechanism.cycle_period();
-    if (cycle > 0.0)
-      for (int k = 0; k <= 360; ++k) at(cycle * k / 360.0);
-    return rate;
   }
+  // The motion law's, over its whole cycle and at the samples' times: a property of the
+  // mechanism, whatever few samples a sweep or a single pose has.
+  const auto at = [&](double time) {
+    for (const Driver& d : mechanism.drivers) {
+      const DriverState s = d.at_time(time);
+      const double unit = d.angular() ? 1.0 : mechanism.size();
+      rate = std::max({rate, std::abs(s.rate) / unit, std::sqrt(std::abs(s.accel) / unit)});
+    }
+  };
+  for (int k = 0; k < t.samples(); ++k) at(t.time(k));
+  const double cycle = mechanism.cycle_period();
+  if (cycle > 0.0)
+    for (int k = 0; k <= 360; ++k) at(cycle * k / 360.0);
+  return rate;
 }
 
 namespace {
