@@ -54,6 +54,14 @@ expect_match("${run_output}" "verdict: PASS")
 if(NOT EXISTS "${OUT}/my.html")
   message(FATAL_ERROR "no report written")
 endif()
+# The report marks the rocker's dead points where step 4 locates them.
+file(READ "${OUT}/my.html" page)
+expect_match("${page}" "\"label\":\"dead point: angle\\.rocker min\"")
+# 6. The drawing to take away, animated: the paths of B and C, the crank turning.
+expect_run(0 solve "${file}" --svg "${OUT}/crank_rocker.svg" --animate 2)
+file(READ "${OUT}/crank_rocker.svg" svg)
+expect_match("${svg}" "<title>path of B</title>" "<title>path of C</title>"
+             "<animate attributeName=\"x2\" dur=\"2s\"")
 # The rule the page states: a derived name cannot be a channel kind.
 string(REPLACE "name = \"TA\"" "name = \"mu\"" bad "${toml}")
 file(WRITE "${OUT}/bad_name.toml" "${bad}")
