@@ -7,6 +7,7 @@
 #include <bit>
 
 #include "analytic/dyads.h"
+#include "analytic/loader.h"
 #include "analytic/planar.h"
 
 namespace crosslink {
@@ -146,6 +147,19 @@ std::vector<GroupMode> start_modes(const Mechanism& m, const KinematicState& ass
     out.push_back(gm);
   }
   return out;
+}
+
+// The loader reads; this step assembles (analytic/loader.h).
+Mechanism load_mechanism(const std::string& path) {
+  Mechanism m = read_definition(path);
+  apply_branches(m);
+  return m;
+}
+
+Mechanism parse_mechanism(std::string_view text, const std::string& file) {
+  Mechanism m = parse_definition(text, file);
+  apply_branches(m);
+  return m;
 }
 
 }  // namespace crosslink

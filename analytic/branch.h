@@ -19,14 +19,15 @@ namespace crosslink {
 // Whether configuration q (absolute coordinates) has the named mode.
 bool holds(const Mechanism& mechanism, const BranchChoice& branch, const Eigen::VectorXd& q);
 
-// Called by the loader for a definition with [[branch]] tables or without drawn poses: when
-// Newton's assembly from the drawing lacks a named mode, or there is none (nothing drawn, so
-// nothing to start from), the assembly at the driver's start value that has every named mode is
-// found over the modes of the chain's dyads (the fewest changed first; the first 12
-// two-solution groups, 4096 combinations at most) and written into the
-// moving links' poses. Throws DefinitionError, at the [[branch]], when drawn poses contradict
-// it, when no assembly has them all, or when the chain does not decompose into dyads (then only
-// drawn poses choose). A chain that cannot assemble at the start is left to the usual reports.
+// The assembly step (load_mechanism: after read_definition), for a definition with [[branch]]
+// tables or without drawn poses: when Newton's assembly from the drawing lacks a named mode, or
+// there is none (nothing drawn, so nothing to start from), the assembly at the driver's start
+// value that has every named mode is found over the modes of the chain's dyads (the fewest
+// changed first; the first 12 two-solution groups, 4096 combinations at most) and written into
+// the moving links' poses. Throws DefinitionError, at the [[branch]], when drawn poses
+// contradict it, when no assembly has them all, or when the chain does not decompose into dyads
+// (then only drawn poses choose). A chain that cannot assemble at the start is left to the usual
+// reports.
 void apply_branches(Mechanism& mechanism);
 
 // The mode a two-solution group of the dyads took at the assembled start.

@@ -15,7 +15,6 @@
 #include <numeric>
 #include <set>
 
-#include "analytic/branch.h"
 #include "analytic/constraints.h"
 #include "analytic/derived.h"
 #include "analytic/expression.h"
@@ -2655,13 +2654,12 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_branches(r, m, root);
   check_locked(r, m);
   r.throw_if_any();
-  apply_branches(m);  // the assembly they name, as drawn poses
   return m;
 }
 
 }  // namespace
 
-Mechanism parse_mechanism(std::string_view text, const std::string& file) {
+Mechanism parse_definition(std::string_view text, const std::string& file) {
   Reader reader(file, text);
   if (text.size() > static_cast<size_t>(limits::kDefinitionBytes)) {
     reader.error(reader.file(), fmt::format("the file has more than {} bytes, the limit of a "
@@ -2680,7 +2678,7 @@ Mechanism parse_mechanism(std::string_view text, const std::string& file) {
   return read(reader, root, file);
 }
 
-Mechanism load_mechanism(const std::string& path) {
+Mechanism read_definition(const std::string& path) {
   // "-" is standard input, named <stdin> in diagnostics.
   const bool standard_input = path == "-";
   const std::string name = standard_input ? "<stdin>" : path;
@@ -2699,7 +2697,7 @@ Mechanism load_mechanism(const std::string& path) {
   in.read(text.data(), static_cast<std::streamsize>(text.size()));
   if (!in && !in.eof()) refuse("cannot read the file");  // a directory, say
   text.resize(static_cast<size_t>(in.gcount()));
-  return parse_mechanism(text, name);
+  return parse_definition(text, name);
 }
 
 }  // namespace crosslink

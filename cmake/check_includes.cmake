@@ -1,6 +1,12 @@
 # cmake -DDIR=<folder> -DFORBIDDEN="sim/;methods/" -P check_includes.cmake
-# Fails when a source or header under DIR includes a header from a FORBIDDEN folder.
-file(GLOB_RECURSE _files "${DIR}/*.h" "${DIR}/*.cpp")
+# cmake -DFILES="a.cpp;a.h" -DDIR=<name> -DFORBIDDEN=... -P check_includes.cmake
+# Fails when a source or header under DIR (or one of FILES) includes a header from a FORBIDDEN
+# folder or a FORBIDDEN header.
+if(FILES)
+  set(_files ${FILES})
+else()
+  file(GLOB_RECURSE _files "${DIR}/*.h" "${DIR}/*.cpp")
+endif()
 set(_bad "")
 foreach(_file IN LISTS _files)
   foreach(_folder IN LISTS FORBIDDEN)
