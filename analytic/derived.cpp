@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "analytic/newton.h"
+#include "analytic/units_text.h"
 
 namespace crosslink {
 namespace {
@@ -940,7 +941,7 @@ std::vector<DerivedValue> derived_sampled(const Mechanism& mechanism, const Traj
 double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit) {
   switch (unit) {
     case DerivedUnit::driver:
-      return m.swept().angular() ? m.units.angle : m.units.length;
+      return driver_unit_of(m).scale;
     case DerivedUnit::ratio:
       return 1.0;
     case DerivedUnit::length:
@@ -968,7 +969,7 @@ std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, Deriv
   const std::string& L = m.units.length_name;
   switch (unit) {
     case DerivedUnit::driver:
-      return m.swept().angular() ? m.units.angle_name : L;
+      return driver_unit_of(m).name;
     case DerivedUnit::ratio:
       return "";
     case DerivedUnit::length:

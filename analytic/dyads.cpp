@@ -1394,11 +1394,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     for (int row = 0; row < grid.samples(); ++row) {
       const double t = grid.time(row);
       if (t == previous) continue;
-      for (const Driver& driver : mechanism.drivers) {
-        const double moved = std::abs(driver.at_time(t).value - driver.at_time(previous).value);
-        const double limit = continuation_step(driver, mechanism.size());
-        max_step = std::min(max_step, (t - previous) / std::max(1.0, std::ceil(moved / limit)));
-      }
+      max_step = std::min(max_step, (t - previous) / timed_substeps(mechanism, previous, t));
       previous = t;
     }
     min_step = 1e-12 * (end > 0.0 ? end : 1.0);

@@ -16,6 +16,7 @@
 #include "analytic/kinetostatics.h"
 #include "analytic/newton.h"
 #include "analytic/sweep.h"
+#include "analytic/units_text.h"
 
 namespace crosslink {
 namespace {
@@ -543,22 +544,18 @@ std::string singular_start(const Mechanism& m, double rcond) {
   if (m.axis().timed()) {
     std::string starts;
     for (const Driver& d : m.drivers)
-      starts += fmt::format("{} = {:.9g} {}, ", d.name,
-                            d.start / (d.angular() ? m.units.angle : m.units.length),
-                            d.angular() ? m.units.angle_name : m.units.length_name);
+      starts += fmt::format("{} = {}, ", d.name, driver_unit_of(d, m.units).text(d.start, 9));
     return fmt::format(
         "the start, {}is a singular position of the coordinates (rcond {:.1e}): there the "
         "other coordinates' rates are not determined by the drivers' rates, so no initial "
         "velocity is consistent with it; start the [[driver]]s away from it",
         starts, rcond);
   }
-  const bool angular = m.swept().angular();
   return fmt::format(
-      "the start, driver = {:.9g} {}, is a singular position of the coordinate (rcond {:.1e}): "
-      "there the other coordinates' rates are not determined by its rate, so no initial "
-      "velocity is consistent with it; start the [driver] away from it",
-      m.swept().start / (angular ? m.units.angle : m.units.length),
-      angular ? m.units.angle_name : m.units.length_name, rcond);
+      "the start, {}, is a singular position of the coordinate (rcond {:.1e}): there the other "
+      "coordinates' rates are not determined by its rate, so no initial velocity is consistent "
+      "with it; start the [driver] away from it",
+      start_text(m, 9), rcond);
 }
 
 Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options) {

@@ -21,6 +21,7 @@
 #include "analytic/fourbar.h"
 #include "analytic/limits.h"
 #include "analytic/trajectory.h"
+#include "analytic/units_text.h"
 
 namespace crosslink {
 namespace {
@@ -1244,7 +1245,7 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = node ? node->as_array() : nullptr;
   if (!array) {  // the one-driver form
     if (const toml::table* t = r.table(root, "driver", "a mechanism", true))
-      read_driver(r, m, m.drivers.front(), t, root, false);  // the one-driver form
+      read_driver(r, m, m.drivers.front(), t, root, false);
     return;
   }
   if (!array->is_array_of_tables() || array->empty()) {
@@ -1664,7 +1665,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
       const Scale scale = driver_scale(m, m.swept());
       if (const auto v = r.numbers(*range, "[[derived]] 'range' ([lower, upper] driver values)",
                                    {scale, scale})) {
-        const double unit = d.angular() ? m.units.angle : m.units.length;
+        const double unit = driver_unit_of(d, m.units).scale;
         const double turn = 2.0 * std::numbers::pi;
         // A sweep over its own [driver] range holds no other driver values (a whole turn's
         // or more is read modulo a turn).

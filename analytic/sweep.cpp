@@ -28,6 +28,15 @@ double continuation_step(const Mechanism& mechanism) {
   return continuation_step(mechanism.swept(), mechanism.size());
 }
 
+double timed_substeps(const Mechanism& mechanism, double t0, double t1) {
+  double parts = 1.0;
+  for (const Driver& driver : mechanism.drivers) {
+    const double moved = std::abs(driver.at_time(t1).value - driver.at_time(t0).value);
+    parts = std::max(parts, std::ceil(moved / continuation_step(driver, mechanism.size())));
+  }
+  return parts;
+}
+
 namespace {
 
 double default_step(const Mechanism& m, const SweepOptions& o) {
@@ -1094,9 +1103,8 @@ void settle_start(const NewtonSolver& solver, KinematicState& state) {
 std::string AssemblingRange::explain(const Mechanism& m) const {
   if (!unknown.empty()) return "unknown: " + unknown;
   if (full_cycle) return m.swept().angular() ? "full rotation (360 degrees)" : "unbounded";
-  const double unit = m.swept().angular() ? m.units.angle : m.units.length;
-  const std::string& name = m.swept().angular() ? m.units.angle_name : m.units.length_name;
-  return fmt::format("{:.6f} to {:.6f} {}", lower / unit, upper / unit, name);
+  const DriverUnit u = driver_unit_of(m);
+  return fmt::format("{:.6f} to {:.6f} {}", lower / u.scale, upper / u.scale, u.name);
 }
 
 AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions& options,
@@ -1730,14 +1738,8 @@ Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
     if (!lost && t > before) {
       // Substeps: no driver moves more than a continuation step (1 degree, or a slider's
       // arc of the mechanism's size over 1 degree) between two solves.
-      double parts = 1.0;
-      for (int d = 0; d < state.driver_count(); ++d) {
-        const Driver& driver = m.drivers[static_cast<size_t>(d)];
-        const double limit = continuation_step(driver, m.size());
-        const double moved = std::abs(driver.at_time(t).value - driver.at_time(before).value);
-        parts = std::max(parts, std::ceil(moved / limit));
-      }
-      last = follower.advance_to(t, (t - before) / parts, 1e-12 * t, last, crossings);
+      last = follower.advance_to(t, (t - before) / timed_substeps(m, before, t), 1e-12 * t, last,
+                                 crossings);
       if (last.status != PoseStatus::ok && last.status != PoseStatus::singular) {
         lost = true;
         failure = last;

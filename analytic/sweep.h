@@ -55,6 +55,9 @@ struct SingularPosition {
 // Of one driver (`size`: its mechanism's), or of the swept driver (the axis is not timed).
 double continuation_step(const Driver& driver, double size);
 double continuation_step(const Mechanism& mechanism);
+// A sweep in time's substeps from t0 to t1: as many as the driver that moves most needs so that
+// no driver moves more than its continuation step between two solves (at least 1).
+double timed_substeps(const Mechanism& mechanism, double t0, double t1);
 
 // Where the chain can be assembled, found by continuation from the drawn position.
 struct AssemblingRange {

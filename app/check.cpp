@@ -41,8 +41,9 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
 }
 
 std::string driver_text(const Mechanism& m, const Driver& d) {
-  const double unit = d.angular() ? m.units.angle : m.units.length;
-  const std::string& unit_name = d.angular() ? m.units.angle_name : m.units.length_name;
+  const DriverUnit u = driver_unit_of(d, m.units);
+  const double unit = u.scale;
+  const std::string& unit_name = u.name;
   std::string what;
   switch (d.type) {
     case DriverType::joint_angle:

@@ -28,6 +28,13 @@ std::vector<LinkSegment> link_segments(const Mechanism& m, const Trajectory& t) 
   return out;
 }
 
+std::vector<std::string> moving_points(const Mechanism& m) {
+  std::vector<std::string> out;
+  for (const Mechanism::NamedPoint& p : m.named_points())
+    if (!m.links[static_cast<size_t>(p.link)].ground) out.push_back(p.name);
+  return out;
+}
+
 namespace {
 
 // The report's link colours (Vega's category10, in link order).
@@ -100,11 +107,8 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
   }
 
   // The paths of the moving points, one polyline per run of shown samples.
-  std::vector<std::pair<std::string, Eigen::Index>> moving;
-  for (const Mechanism::NamedPoint& p : m.named_points())
-    if (!m.links[static_cast<size_t>(p.link)].ground && column(p.name) < t.x.cols())
-      moving.emplace_back(p.name, column(p.name));
-  for (const auto& [name, p] : moving) {
+  for (const std::string& name : moving_points(m)) {
+    const Eigen::Index p = column(name);
     std::string run;
     for (size_t i = 0; i < shown.size(); ++i) {
       if (i > 0 && shown[i] != shown[i - 1] + 1 && !run.empty()) {

@@ -16,6 +16,9 @@ struct LinkSegment {
   std::string link, p, q;
 };
 std::vector<LinkSegment> link_segments(const Mechanism& mechanism, const Trajectory& trajectory);
+// The named points that move, those not named on the ground first (Mechanism::named_points
+// order): the points whose paths the drawings and the report's path chart draw.
+std::vector<std::string> moving_points(const Mechanism& mechanism);
 
 // The links at sample `row` of `sweep` (file length units, y up), the ground's pivots and guides,
 // every moving point's path over the sweep in grey (the coupler curves; broken where a sample

@@ -354,22 +354,8 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
            {"label", fmt::format("stroke {:.6g} {}", *stroke->value / u.scale, u.name)}});
     }
   }
-  // The points whose paths the path chart draws: every named point that moves.
-  r["paths"] = json::array();
-  for (const std::string& point : ref.point_names)
-    if (r["channels"].contains("x." + point) && r["channels"].contains("y." + point)) {
-      const auto moves = [&](const Eigen::Index c) {  // over the samples with a position
-        for (Eigen::Index k = 1; k < ref.x.rows(); ++k)
-          if (has_position(ref.status[static_cast<size_t>(k)]) && has_position(ref.status[0]) &&
-              (ref.x(k, c) != ref.x(0, c) || ref.y(k, c) != ref.y(0, c)))
-            return true;
-        return false;
-      };
-      const auto c = static_cast<Eigen::Index>(
-          std::find(ref.point_names.begin(), ref.point_names.end(), point) -
-          ref.point_names.begin());
-      if (moves(c)) r["paths"].push_back(point);
-    }
+  // The points whose paths the path chart draws, as the drawing draws them.
+  r["paths"] = moving_points(m);
   r["drawing"] = drawing(m, pose, display_unit(m, "x.any"));
   return r;
 }

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <tuple>
 
+#include "analytic/units_text.h"
 #include "compare/report.h"
 
 namespace crosslink::compare {
@@ -44,9 +45,8 @@ bool samples_in_time(const Mechanism& m) {
 }
 
 DisplayUnit driver_unit(const Mechanism& m) {
-  if (m.axis().timed()) return {1.0, "s"};
-  return m.swept().angular() ? DisplayUnit{m.units.angle, m.units.angle_name}
-                             : DisplayUnit{m.units.length, m.units.length_name};
+  const DriverUnit u = axis_unit_of(m);
+  return {u.scale, u.name};
 }
 
 DriverTurns driver_turns(const Mechanism& m, double value) {

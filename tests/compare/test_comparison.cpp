@@ -134,17 +134,24 @@ TEST(Comparison, JsonHasTheDocumentedFields) {
   EXPECT_TRUE(j["references"][0].contains("pct_difference_vs_exact"));
 }
 
+const std::string kWhitworth =
+    std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/published/whitworth_quick_return.toml";
+
+// `m`'s reference against MuJoCo and Bullet (those built in) at their default tolerances.
+Comparison with_mujoco_and_bullet(const Mechanism& m) {
+  std::vector<MethodRun> runs = {run_reference(m)};
+  for (const char* engine : {"mujoco", "bullet"})
+    runs.push_back(run_method(engine, m, runs.front()));
+  return methods::compare_runs(m, std::move(runs),
+                               Tolerances(methods::engine_tolerances(false), m.tolerances));
+}
+
 // The Whitworth quick return's time ratio and stroke, from MuJoCo's and Bullet's samples, against
 // the exact ones (closed forms: (360 - beta) / beta with cos(beta / 2) = CD / CA = 2/3, stroke
 // 2 DP = 150 mm) and the printed 2.735 (mechanisms/published/whitworth_quick_return.toml).
 TEST(Comparison, EnginesTimeRatioAndStrokeAgainstExact) {
-  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
-                                     "/mechanisms/published/whitworth_quick_return.toml");
-  std::vector<MethodRun> runs = {run_reference(m)};
-  for (const char* engine : {"mujoco", "bullet"})
-    runs.push_back(run_method(engine, m, runs.front()));
-  const Comparison c = methods::compare_runs(
-      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Mechanism m = load_mechanism(kWhitworth);
+  const Comparison c = with_mujoco_and_bullet(m);
   const double beta = 2.0 * std::acos(2.0 / 3.0);
   const double ratio = (2.0 * std::numbers::pi - beta) / beta;
   EXPECT_NEAR(*derived_value(c.derived.exact, "Q"), ratio, 1e-10);
@@ -177,13 +184,8 @@ TEST(Comparison, EnginesTimeRatioAndStrokeAgainstExact) {
 // method, each cell the value in the file's units (no unit of its own: "deg deg" was written),
 // the % of scale and the verdict, coloured by its class.
 TEST(Comparison, DerivedTableHasARowPerQuantityAndAColumnPerMethod) {
-  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
-                                     "/mechanisms/published/whitworth_quick_return.toml");
-  std::vector<MethodRun> runs = {run_reference(m)};
-  for (const char* method : {"mujoco", "bullet"})
-    runs.push_back(run_method(method, m, runs.front()));
-  const Comparison c = methods::compare_runs(
-      m, std::move(runs), Tolerances(methods::engine_tolerances(false), m.tolerances));
+  const Mechanism m = load_mechanism(kWhitworth);
+  const Comparison c = with_mujoco_and_bullet(m);
   const std::string html = derived_table_html(m, c.derived);
   const size_t columns = c.derived.methods.size();  // the engines built in
   ASSERT_GE(columns, 1u);
