@@ -151,5 +151,25 @@ TEST(Summary, TheOutputNamedAndACouplerPointsPath) {
   EXPECT_EQ(find(p, "path_B"), nullptr);  // a joint's point: the crank's circle
 }
 
+// Issue 32 item 2, "for every bundled one-driver definition": each has a summary without declaring
+// it, the output's stroke among it, and every value it gives exists or says why it does not.
+TEST(Summary, EveryBundledOneDriverDefinitionHasOne) {
+  std::vector<std::string> files = test::bundled_files(true, false);
+  for (const std::string& gear : test::gear_files()) files.push_back(gear);
+  int summarised = 0;
+  for (const std::string& file : files) {
+    const Mechanism m = load_mechanism(file);
+    if (m.axis().timed() || m.at_rest()) continue;
+    const std::vector<DerivedValue> v = summary_of(m);
+    ASSERT_NE(find(v, "output_stroke"), nullptr) << file;
+    for (const DerivedValue& d : v)
+      for (const DerivedField& f : d.fields)
+        EXPECT_TRUE(f.value.has_value() || !d.reason.empty())
+            << file << ": " << d.spec->name << "." << f.name << " has neither value nor reason";
+    ++summarised;
+  }
+  EXPECT_GE(summarised, 20);
+}
+
 }  // namespace
 }  // namespace crosslink
