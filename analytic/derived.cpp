@@ -116,10 +116,10 @@ class ExactLocator : public Locator {
   // The exact pose at `v` (the interval's driver value of sample `near`), or nullptr; with
   // `positions`, a singular pose too (its rates do not exist).
   const Trajectory* pose(double v, const Sample& near, bool positions = false) {
-    const double driver = sweep_.driver(near.row) + (v - near.v);
+    const double driver = sweep_.swept(near.row) + (v - near.v);
     coordinates(near.row);
-    state_.driver = {constant_speed_ ? (driver - m_.swept().start) / rate_ : 0.0, driver, rate_,
-                     0.0};
+    state_.swept() = {constant_speed_ ? (driver - m_.swept().start) / rate_ : 0.0, driver, rate_,
+                      0.0};
     state_.factorized = false;
     const SolveReport r = solver_.solve(state_);
     if (!(positions ? has_position(r.status) : usable(r.status))) return nullptr;
@@ -321,29 +321,29 @@ Interval interval_of(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return counts && t.was_run(k);
   };
   const bool cycle = d.angular() && d.law.kind == MotionLaw::Kind::constant_speed && n > 2 &&
-                     std::abs(t.driver(n - 1) - t.driver(0)) >= kTwoPi * (1.0 - 1e-9);
+                     std::abs(t.along(n - 1) - t.along(0)) >= kTwoPi * (1.0 - 1e-9);
   if (!spec.range && cycle) {
     out.periodic = true;
     out.period = kTwoPi;
-    const double direction = t.driver(n - 1) > t.driver(0) ? 1.0 : -1.0;
+    const double direction = t.along(n - 1) > t.along(0) ? 1.0 : -1.0;
     // The cycle's samples in increasing driver order, its repeated last sample left out.
     for (int k = 0; k < n; ++k) {
-      if (std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12)) {
+      if (std::abs(t.along(k) - t.along(0)) >= kTwoPi * (1.0 - 1e-12)) {
         if (out.closing_row < 0 && has(k) && has(0)) out.closing_row = k;
         continue;
       }
-      if (has(k)) out.samples.push_back({k, t.driver(k)});
+      if (has(k)) out.samples.push_back({k, t.along(k)});
     }
     out.closing_sign = direction;
     if (direction < 0.0) std::reverse(out.samples.begin(), out.samples.end());
   } else {
-    out.lower = spec.range ? spec.range->first : std::min(t.driver(0), t.driver(n - 1));
-    out.upper = spec.range ? spec.range->second : std::max(t.driver(0), t.driver(n - 1));
+    out.lower = spec.range ? spec.range->first : std::min(t.along(0), t.along(n - 1));
+    out.upper = spec.range ? spec.range->second : std::max(t.along(0), t.along(n - 1));
     for (int k = 0; k < n; ++k) {
       // A whole cycle's repeated last sample is its first.
-      if (spec.range && cycle && std::abs(t.driver(k) - t.driver(0)) >= kTwoPi * (1.0 - 1e-12))
+      if (spec.range && cycle && std::abs(t.along(k) - t.along(0)) >= kTwoPi * (1.0 - 1e-12))
         continue;
-      double v = t.driver(k);
+      double v = t.along(k);
       // An angular driver's interval is read modulo a turn from its lower end.
       if (spec.range && cycle)
         v = out.lower + std::fmod(std::fmod(v - out.lower, kTwoPi) + kTwoPi, kTwoPi);

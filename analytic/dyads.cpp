@@ -491,30 +491,29 @@ SlotGeometry slot_of(const Mechanism& m, int joint) {
           m.links[j.link_b].points[j.point_b].local};
 }
 
-// The sweep's parameter of a state: the driver's value, or with several drivers the time (each
-// driver at its law's value then).
+// The sweep's parameter of a state (Mechanism::axis()): the swept driver's value, or the time
+// (each driver at its law's value then).
 double parameter(const DyadState& s) {
-  return s.kinematics.other_drivers.empty() ? s.kinematics.driver.value : s.kinematics.driver.time;
+  const KinematicState& k = s.kinematics;
+  return k.axis.timed() ? k.time() : k.swept().value;
 }
 void set_parameter(const Mechanism& m, DyadState& s, double p) {
-  if (s.kinematics.other_drivers.empty())
-    s.kinematics.driver.value = p;
-  else
+  if (s.kinematics.axis.timed())
     s.kinematics.drive_at(m, p);
+  else
+    s.kinematics.swept().value = p;
 }
 
-// The state of the driver a tie reads: the one driver's, or among several the one on the tie's
-// joint (a link_angle driver's tie holds -1 - its index).
+// The state of the driver a tie reads: the one on the tie's joint (a link_angle driver's tie
+// holds -1 - its index); a tie no driver moves (driver_sign 0) reads a state at rest.
 const DriverState& tie_driver(const Mechanism& m, const Tie& t, const DyadState& s) {
-  if (s.kinematics.other_drivers.empty()) [[likely]]
-    return s.kinematics.driver;
-  if (t.joint < 0) return s.kinematics.driver_state(-1 - t.joint);
-  for (int d = 0; d < s.kinematics.driver_count(); ++d) {
-    const Driver& driver = m.drivers[static_cast<size_t>(d)];
-    if (driver.joint == t.joint && driver.type != DriverType::link_angle)
-      return s.kinematics.driver_state(d);
-  }
-  return s.kinematics.driver;
+  static constexpr DriverState kNone{};
+  const std::vector<DriverState>& states = s.kinematics.drivers;
+  if (t.joint < 0) return states[static_cast<size_t>(-1 - t.joint)];
+  for (size_t d = 0; d < states.size(); ++d)
+    if (m.drivers[d].joint == t.joint && m.drivers[d].type != DriverType::link_angle)
+      return states[d];
+  return kNone;
 }
 
 // The travel s of a sliding pin tie along its line, with its rate and acceleration: the
@@ -844,8 +843,7 @@ void DyadSolver::set_modes(const KinematicState& assembled, DyadState& s) const 
   for (size_t l = 0; l < m.links.size(); ++l)
     s.motion[l] = BodyMotion::of(m.moving_index(static_cast<int>(l)), assembled.q, &assembled.qdot,
                                  &assembled.qddot);
-  s.kinematics.driver = assembled.driver;
-  s.kinematics.other_drivers = assembled.other_drivers;
+  s.kinematics.drivers = assembled.drivers;
   const std::vector<AssurGroup>& groups = decomposition_.groups;
   s.assembly_mode.assign(groups.size(), 0);
   s.previous.assign(groups.size(), Eigen::Vector2d::Zero());
@@ -1329,9 +1327,7 @@ bool coordinates_of(const Mechanism& m, const Trajectory& t, int row, Eigen::Vec
 }  // namespace
 
 Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool forces) {
-  // The sweep's parameter at a sample: the driver's value, or with several drivers the time.
   const bool timed = mechanism.axis().timed();
-  const auto parameter_at = [&](int row) { return timed ? grid.time(row) : grid.driver(row); };
   const double start_value = timed ? 0.0 : mechanism.swept().start;
   // A sample's own time and drivers' states.
   const auto drive = [&](KinematicState& k, int row) {
@@ -1340,23 +1336,23 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       return;
     }
     const Driver& d = mechanism.swept();
-    k.driver = d.at_time(grid.time(row));
-    k.driver.value = grid.driver(row);
+    k.swept() = d.at_time(grid.time(row));
+    k.swept().value = grid.swept(row);
     // Reversed at a toggle (--at-limit reverse), the driver runs against its law's speed: the
     // direction toward the next sample (at the end, from the last), as the Newton sweep's.
     if (d.law.kind != MotionLaw::Kind::constant_speed) return;
     double way = 0.0;
-    if (row + 1 < grid.samples() && grid.driver(row + 1) != grid.driver(row))
-      way = grid.driver(row + 1) - grid.driver(row);
+    if (row + 1 < grid.samples() && grid.swept(row + 1) != grid.swept(row))
+      way = grid.swept(row + 1) - grid.swept(row);
     else if (row > 0)
-      way = grid.driver(row) - grid.driver(row - 1);
-    if (way * d.law.speed < 0.0) k.driver.rate = -k.driver.rate;
+      way = grid.swept(row) - grid.swept(row - 1);
+    if (way * d.law.speed < 0.0) k.swept().rate = -k.swept().rate;
   };
   Trajectory out;
   out.method = "dyads";
   out.resize(mechanism, grid.samples(), forces);
   out.time = grid.time;
-  out.driver = grid.driver;
+  out.driver_values = grid.driver_values;
   Decomposition decomposition = decompose(mechanism);
   const NewtonSolver newton(mechanism);
   KinematicState assembled(mechanism);
@@ -1441,11 +1437,11 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       if (timed) {
         reference.drive_at(mechanism, grid.time(row));
       } else {
-        reference.driver = DriverState{};
-        reference.driver.value = grid.driver(row);
+        reference.swept() = DriverState{};
+        reference.swept().value = grid.swept(row);
       }
       solver.set_modes(reference, side);
-      set_parameter(mechanism, side, parameter_at(row));
+      set_parameter(mechanism, side, grid.along(row));
       SolveReport r = solver.solve_position(side);
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         r.status = PoseStatus::singular;
@@ -1461,7 +1457,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       return;
     }
     const double from = parameter(state);
-    SolveReport r = march.advance_to(parameter_at(row));
+    SolveReport r = march.advance_to(grid.along(row));
     for (const DyadState::ModeChange& c : march.changes()) note_mode_change(c, from);
     if (r.status == PoseStatus::cannot_assemble) {
       if (out.events.empty() || out.events.back().kind != PoseStatus::cannot_assemble)
@@ -1489,8 +1485,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     at_pose.q = state.kinematics.q;
     at_pose.qdot = state.kinematics.qdot;
     at_pose.qddot = state.kinematics.qddot;
-    at_pose.driver = state.kinematics.driver;
-    at_pose.other_drivers = state.kinematics.other_drivers;
+    at_pose.drivers = state.kinematics.drivers;
     if (newton.solve_position(at_pose).status != PoseStatus::ok) {
       // The constraint Jacobian is singular here: the reactions are not determined.
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
@@ -1514,7 +1509,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   for (int i = 0; i < grid.samples(); ++i)
     if (grid.status[static_cast<size_t>(i)] == PoseStatus::ok &&
         (first < 0 ||
-         std::abs(parameter_at(i) - start_value) < std::abs(parameter_at(first) - start_value)))
+         std::abs(grid.along(i) - start_value) < std::abs(grid.along(first) - start_value)))
       first = i;
   // The modes are the drawing's, and the march goes from the drawn pose to that sample, so the
   // dyads check Newton independently of its start (a Newton start on a fold put 66 samples on
@@ -1532,12 +1527,12 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     if (timed)
       reference.drive_at(mechanism, grid.time(first));
     else
-      reference.driver.value = grid.driver(first);
+      reference.swept().value = grid.swept(first);
     solver.set_modes(reference, state);
   } else {
     first = 0;
     for (int i = 1; i < grid.samples(); ++i)
-      if (std::abs(parameter_at(i) - start_value) < std::abs(parameter_at(first) - start_value))
+      if (std::abs(grid.along(i) - start_value) < std::abs(grid.along(first) - start_value))
         first = i;
   }
   solve_row(first);
@@ -1547,12 +1542,11 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   // the reference keeps clear of singular positions), so that a step crossing a change point
   // right after it is predicted, not guessed.
   auto seed = [&](int toward) {
-    if (toward < 0 || toward >= grid.samples() || parameter_at(toward) == parameter_at(first))
-      return;
-    const double behind = parameter_at(first) -
-                          1e-4 * unit * (parameter_at(toward) > parameter_at(first) ? 1.0 : -1.0);
+    if (toward < 0 || toward >= grid.samples() || grid.along(toward) == grid.along(first)) return;
+    const double behind =
+        grid.along(first) - 1e-4 * unit * (grid.along(toward) > grid.along(first) ? 1.0 : -1.0);
     if (march.advance_to(behind).status == PoseStatus::cannot_assemble) return;
-    march.advance_to(parameter_at(first));
+    march.advance_to(grid.along(first));
   };
   // Where the grid turns back at a toggle (--at-limit reverse), the chain goes on through the
   // fold onto the folding group's other assembly: the march is taken to the fold, and the group
@@ -1560,12 +1554,12 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   // would retrace the way it came on the first assembly.
   const auto turns_back = [&](int k) {
     if (k <= 0 || k + 1 >= grid.samples()) return false;
-    const double before = parameter_at(k) - parameter_at(k - 1);
-    const double after = parameter_at(k + 1) - parameter_at(k);
+    const double before = grid.along(k) - grid.along(k - 1);
+    const double after = grid.along(k + 1) - grid.along(k);
     return before * after < 0.0;
   };
   const auto through_fold = [&](int k) {
-    march.advance_to(parameter_at(k));  // short of it by round-off where it cannot assemble
+    march.advance_to(grid.along(k));  // short of it by round-off where it cannot assemble
     solver.solve_position(state);
     const int g = state.folding_group;
     if (g < 0) return;

@@ -33,10 +33,10 @@ struct Stopped {
 
 // The free coordinates' values: one (double) or several (a vector, one per driver).
 void place(KinematicState& state, double t, double d) {
-  state.driver = {t, d, 1.0, 0.0};
+  state.swept() = {t, d, 1.0, 0.0};
 }
 void place(KinematicState& state, double t, const Eigen::VectorXd& d) {
-  for (int i = 0; i < d.size(); ++i) state.driver_state(i) = {t, d(i), 0.0, 0.0};
+  for (int i = 0; i < d.size(); ++i) state.drivers[static_cast<size_t>(i)] = {t, d(i), 0.0, 0.0};
 }
 // The continuation steps a span of the coordinates takes, one coordinate per driver: none moves
 // more than its driver's continuation step between two solves.
@@ -99,10 +99,11 @@ class FollowedChain {
     near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
     interpolated_rcond_ = std::min(1e-3, 3e-2 * assembled.rcond);
     if constexpr (std::is_same_v<Coordinates, double>) {
-      d_last_ = state_.driver.value;
+      d_last_ = state_.swept().value;
     } else {
       d_last_.resize(state_.driver_count());
-      for (int i = 0; i < state_.driver_count(); ++i) d_last_(i) = state_.driver_state(i).value;
+      for (int i = 0; i < state_.driver_count(); ++i)
+        d_last_(i) = state_.drivers[static_cast<size_t>(i)].value;
     }
     q_last_ = state_.q;
     unit_rate();
@@ -180,14 +181,14 @@ class FollowedChain {
   // others' 0.
   void unit_rate() {
     if constexpr (std::is_same_v<Coordinates, double>) {
-      state_.driver.rate = 1.0;
+      state_.swept().rate = 1.0;
       solver_.solve_velocity(state_);
       s_ = state_.qdot;
     } else {
       s_.resize(m_.coordinate_count(), state_.driver_count());
       for (int i = 0; i < state_.driver_count(); ++i) {
         for (int j = 0; j < state_.driver_count(); ++j)
-          state_.driver_state(j).rate = i == j ? 1.0 : 0.0;
+          state_.drivers[static_cast<size_t>(j)].rate = i == j ? 1.0 : 0.0;
         solver_.solve_velocity(state_);
         s_.col(i) = state_.qdot;
       }
@@ -273,7 +274,7 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
   // The reduced kinematics at the pose move_to(t, d) left.
   void reduce(double t, double d, Reduced& r) {
     state_.qdot = s_;
-    state_.driver = {t, d, 1.0, 0.0};
+    state_.swept() = {t, d, 1.0, 0.0};
     solver_.solve_acceleration(state_);
     r.s = s_;
     r.a = state_.qddot;
@@ -351,12 +352,12 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
           t, PoseStatus::singular,
           fmt::format("the generalised mass is {:g} at coordinate {:.12g}", here_.mass, d)};
     state_.qdot = here_.s * ddot;
-    state_.driver = {t, d, ddot, 0.0};
+    state_.swept() = {t, d, ddot, 0.0};
     kinetostatics_.generalised_forces(state_, applied_, false);
     const double dddot =
         (effort + here_.s.dot(applied_) - ddot * ddot * here_.velocity_product) / here_.mass;
     state_.qddot = here_.a * (ddot * ddot) + here_.s * dddot;
-    state_.driver.accel = dddot;
+    state_.swept().accel = dddot;
     if (power) *power = kinetostatics_.load_power(state_);
     return dddot;
   }
@@ -433,7 +434,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
                                 "{:.1e}): the reference with several free coordinates does not "
                                 "integrate through one",
                                 shown(d_, 12), rcond_)};
-    for (int i = 0; i < n_; ++i) state_.driver_state(i) = {t, d_(i), rate_(i), 0.0};
+    for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)] = {t, d_(i), rate_(i), 0.0};
     state_.qdot = s_ * rate_;
     solver_.solve_acceleration(state_);
     kinetostatics_.generalised_forces(state_, applied_);
@@ -448,7 +449,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
                                 shown(d_, 12))};
     dddot_ = llt.solve(rhs_);
     state_.qddot += s_ * dddot_;
-    for (int i = 0; i < n_; ++i) state_.driver_state(i).accel = dddot_(i);
+    for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)].accel = dddot_(i);
     if (power) *power = kinetostatics_.load_power(state_);
   }
   static double work(const State& x) { return x.back(); }

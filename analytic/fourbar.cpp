@@ -143,8 +143,8 @@ std::optional<TransmissionRange> transmission_range(const FourBar& fb, const Tra
     const PoseStatus s = t.status[static_cast<size_t>(row)];
     if (s != PoseStatus::ok && s != PoseStatus::singular) continue;
     const double mu = transmission_angle(fb, t, row);
-    if (r.samples == 0 || mu < r.min) r.min = mu, r.min_at = t.driver(row);
-    if (r.samples == 0 || mu > r.max) r.max = mu, r.max_at = t.driver(row);
+    if (r.samples == 0 || mu < r.min) r.min = mu, r.min_at = t.along(row);
+    if (r.samples == 0 || mu > r.max) r.max = mu, r.max_at = t.along(row);
     ++r.samples;
   }
   if (r.samples == 0) return std::nullopt;

@@ -64,7 +64,7 @@ bool ForceSample::finite() const {
 void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out) {
   out.setZero();
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value);
+    const Eigen::Vector2d value = load_value(load, state);
     if (load.kind == Load::Kind::torque) {
       add_at(m, out, load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     } else {
@@ -280,7 +280,7 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
     add(b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)), -mp.inertia * b.alpha);
   }
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value);
+    const Eigen::Vector2d value = load_value(load, state);
     if (load.kind == Load::Kind::torque)
       add(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
     else
@@ -290,8 +290,8 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
 }
 
 std::optional<double> Kinetostatics::power_balance(const KinematicState& state) const {
-  if (state.driver.rate == 0.0 || solver_.mechanism().axis().timed()) return std::nullopt;
-  return input_power(state) / state.driver.rate;
+  if (state.axis.timed() || state.swept().rate == 0.0) return std::nullopt;
+  return input_power(state) / state.swept().rate;
 }
 
 double Kinetostatics::input_power(const KinematicState& state) const {
@@ -361,7 +361,7 @@ double Kinetostatics::load_power(const KinematicState& state) const {
   const Mechanism& m = solver_.mechanism();
   double power = 0.0;
   for (const Load& load : m.loads) {
-    const Eigen::Vector2d value = load.force_at(state.driver.value);
+    const Eigen::Vector2d value = load_value(load, state);
     const BodyMotion b = motion(m, load.link, state);
     power +=
         load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));

@@ -53,6 +53,11 @@ SpringState spring_state(const Mechanism& m, const Spring& spring, const Kinemat
 // its frame origin), as `out` sized 3 per moving link. Gravity and inertia are not in it. The
 // exact method adds them; the engines apply it to their bodies every step.
 void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out);
+// A load's force, or (torque, 0), at the state: a table reads the swept driver's value (the
+// loader refuses a table in a sweep in time).
+inline Eigen::Vector2d load_value(const Load& load, const KinematicState& state) {
+  return load.force_at(load.table ? state.swept().value : 0.0);
+}
 
 // The forces at one pose, SI.
 struct ForceSample {

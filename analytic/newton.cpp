@@ -30,13 +30,17 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   previous_sign.setZero(n);
   cos_theta.setOnes(mechanism.moving_count());
   sin_theta.setZero(mechanism.moving_count());
-  other_drivers.resize(mechanism.drivers.size() - 1);
-  if (!other_drivers.empty()) driver_list.resize(mechanism.drivers.size());
+  drivers.resize(mechanism.drivers.size());
+  axis = mechanism.axis();
+}
+
+size_t KinematicState::swept_index() const {
+  if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
+  return static_cast<size_t>(axis.driver);
 }
 
 void KinematicState::drive_at(const Mechanism& mechanism, double t) {
-  for (int d = 0; d < driver_count(); ++d)
-    driver_state(d) = mechanism.drivers[static_cast<size_t>(d)].at_time(t);
+  for (size_t d = 0; d < drivers.size(); ++d) drivers[d] = mechanism.drivers[d].at_time(t);
 }
 
 namespace {
@@ -472,7 +476,7 @@ bool NewtonSolver::chord(KinematicState& state, double tolerance, SolveReport& r
   double previous = std::numeric_limits<double>::infinity();
   for (int it = 0;; ++it) {
     update_frames(state);
-    layout_.residual(frames(state), drivers(state), state.phi);
+    layout_.residual(frames(state), state.drivers, state.phi);
     const double residual = scaled_norm(state.phi);
     report.iterations = it;
     report.residual = residual;
@@ -511,7 +515,7 @@ SolveReport NewtonSolver::solve_position(KinematicState& state) const {
   for (int it = 0; it <= options_.max_iterations; ++it) {
     // Phi and J at this q share one evaluation of every link's cos and sin.
     update_frames(state);
-    layout_.residual(frames(state), drivers(state), state.phi);
+    layout_.residual(frames(state), state.drivers, state.phi);
     report.residual = scaled_norm(state.phi);
     report.iterations = it;
     factorize(state);
@@ -553,7 +557,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
   auto residual_at = [&](const Eigen::VectorXd& q) {
     state.q = q;
     update_frames(state);
-    layout_.residual(frames(state), drivers(state), state.phi);
+    layout_.residual(frames(state), state.drivers, state.phi);
     return scaled_norm(state.phi);
   };
   Eigen::VectorXd best = state.q;
@@ -591,7 +595,7 @@ SolveReport NewtonSolver::polish(KinematicState& state, SolveReport report) cons
 }
 
 void NewtonSolver::solve_velocity(KinematicState& state) const {
-  layout_.velocity_rhs(drivers(state), state.rhs);
+  layout_.velocity_rhs(state.drivers, state.rhs);
   solve_linear(state, state.qdot);
 }
 
@@ -601,7 +605,7 @@ void NewtonSolver::solve_acceleration(KinematicState& state) const {
 }
 
 void NewtonSolver::acceleration_at_frames(KinematicState& state) const {
-  layout_.acceleration_rhs(frames(state), state.qdot, drivers(state), state.rhs);
+  layout_.acceleration_rhs(frames(state), state.qdot, state.drivers, state.rhs);
   solve_linear(state, state.qddot);
 }
 
@@ -659,7 +663,7 @@ constexpr double kFoldJoints = 1.5e-8;  // sqrt(eps)
 SolveReport NewtonSolver::assemble(KinematicState& state) const {
   state.q = drawn_coordinates();
   state.drive_at(mechanism_, 0.0);
-  unwind_to_drivers(state.q, drivers(state));
+  unwind_to_drivers(state.q, state.drivers);
   // Drawn at a singular position, J is singular at the drawing and Newton's first step leaps
   // along its null direction (a Grashof-equality four-bar drawn on its change point and started
   // 1e-4 deg on: the coupler went to 3.5e11 deg). Levenberg–Marquardt's damped steps go first.
@@ -676,12 +680,12 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
     // |Phi|^2 instead: a minimum with a residual left means the chain cannot close here; a zero
     // residual gets a fresh Newton.
     state.q = drawn_coordinates();
-    unwind_to_drivers(state.q, drivers(state));
+    unwind_to_drivers(state.q, state.drivers);
     const int n = static_cast<int>(state.q.size());
     double lambda = 1e-3;
     Eigen::VectorXd phi(n), trial_phi(n), step(n), trial(n);
     Eigen::MatrixXd jac(n, n);
-    residual(state.q, drivers(state), phi);
+    residual(state.q, state.drivers, phi);
     for (int it = 0; it < 500; ++it) {
       jacobian(state.q, jac);
       jac.array().colwise() *= row_scale_.array();
@@ -693,7 +697,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
       damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
       step = -damped.ldlt().solve(gradient);
       trial = state.q + step;
-      residual(trial, drivers(state), trial_phi);
+      residual(trial, state.drivers, trial_phi);
       if (scaled_norm(trial_phi) < scaled_norm(phi) ||
           trial_phi.cwiseProduct(row_scale_).squaredNorm() < scaled_phi.squaredNorm()) {
         state.q = trial;
@@ -723,7 +727,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
   const auto started_off_drawing = [&] {
     const Eigen::VectorXd drawn = drawn_coordinates();
     Eigen::VectorXd phi(drawn.size());
-    residual(drawn, drivers(state), phi);
+    residual(drawn, state.drivers, phi);
     for (int d = 0; d < layout_.driver_count(); ++d) {
       const int row = layout_.driver_row(d);
       if (std::abs(phi(row)) * row_scale_(row) > options_.tolerance * length_scale_) return true;
@@ -763,10 +767,9 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
 void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& report,
                                 Trajectory& out, int row) const {
   const Mechanism& m = mechanism_;
-  out.time(row) = state.driver.time;
-  out.driver(row) = state.driver.value;
-  for (Eigen::Index d = 0; d < out.driver_values.cols(); ++d)
-    out.driver_values(row, d) = state.driver_state(static_cast<int>(d)).value;
+  out.time(row) = state.time();
+  for (size_t d = 0; d < state.drivers.size(); ++d)
+    out.driver_values(row, static_cast<Eigen::Index>(d)) = state.drivers[d].value;
   out.status[static_cast<size_t>(row)] = report.status;
   out.rcond(row) = report.rcond;
   out.loop_gap(row) = 0.0;

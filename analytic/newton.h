@@ -92,22 +92,16 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
-  // The drivers' states, one per driver: `driver` the first's (the swept driver's when the
-  // sweep's axis is a driver's value), `other_drivers` the rest in Mechanism::drivers order. The
-  // solver passes them to the layout as one list.
-  DriverState driver;
-  std::vector<DriverState> other_drivers;
-  int driver_count() const { return 1 + static_cast<int>(other_drivers.size()); }
-  DriverState& driver_state(int d) {
-    return d == 0 ? driver : other_drivers[static_cast<size_t>(d - 1)];
-  }
-  const DriverState& driver_state(int d) const {
-    return d == 0 ? driver : other_drivers[static_cast<size_t>(d - 1)];
-  }
+  // The drivers' states, one per driver in Mechanism::drivers order, as the layout takes them.
+  std::vector<DriverState> drivers;
+  SweepAxis axis;  // the mechanism's (Mechanism::axis())
+  int driver_count() const { return static_cast<int>(drivers.size()); }
+  // The swept driver's state (Mechanism::swept()); a sweep in time has none (std::logic_error).
+  DriverState& swept() { return drivers[swept_index()]; }
+  const DriverState& swept() const { return drivers[swept_index()]; }
   // Every driver at time t, by its motion law.
   void drive_at(const Mechanism& mechanism, double t);
-  // Scratch: the drivers' states in one list as the layout takes them (several drivers only).
-  std::vector<DriverState> driver_list;
+  double time() const { return drivers.front().time; }  // every driver's state holds the same
   // Scratch: the constraint vector, the Jacobian and its factorisation.
   Eigen::VectorXd phi, rhs;
   SparseJacobian jacobian;  // scaled: S_r J S_c (NewtonSolver::jacobian_entry unscales)
@@ -122,6 +116,9 @@ struct KinematicState {
   Eigen::VectorXd estimate, estimate_rhs, sign, previous_sign;
   // cos and sin of every moving link's angle at q, computed once per Newton iteration.
   Eigen::VectorXd cos_theta, sin_theta;
+
+ private:
+  size_t swept_index() const;
 };
 
 class NewtonSolver {
@@ -147,7 +144,7 @@ class NewtonSolver {
   void jacobian(const Eigen::VectorXd& q, Eigen::MatrixXd& jac) const;
   // Driver d's coordinate measured at q (its definition, e.g. the angle of E->D), in
   // Mechanism::drivers order.
-  double driver_value(const Eigen::VectorXd& q, int d = 0) const;
+  double driver_value(const Eigen::VectorXd& q, int d) const;
 
   // Newton from state.q at state.driver.value. Leaves the LU of J at the solution in state.
   SolveReport solve_position(KinematicState& state) const;
@@ -187,14 +184,6 @@ class NewtonSolver {
                     int row) const;
 
  private:
-  // The drivers' states as the layout takes them: a list (the one driver's in place).
-  static std::span<const DriverState> drivers(KinematicState& state) {
-    if (state.other_drivers.empty()) return {&state.driver, 1};
-    state.driver_list[0] = state.driver;
-    std::copy(state.other_drivers.begin(), state.other_drivers.end(),
-              state.driver_list.begin() + 1);
-    return state.driver_list;
-  }
   // The frames at state.q with state's cos and sin (update_frames).
   static LinkFrames frames(const KinematicState& state) {
     return {state.q, &state.cos_theta, &state.sin_theta};

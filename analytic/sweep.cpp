@@ -68,15 +68,15 @@ class Follower {
   // Moves the solved state to driver value `target`. On failure the state is left solved at
   // the last value reached and the report says why.
   SolveReport advance_to(double target, double max_step, double min_step) {
-    double h = std::copysign(max_step, target - state_.driver.value);
-    while (state_.driver.value != target) {
-      const double d0 = state_.driver.value;
+    double h = std::copysign(max_step, target - state_.swept().value);
+    while (state_.swept().value != target) {
+      const double d0 = state_.swept().value;
       if (std::abs(target - d0) <= std::abs(h)) h = target - d0;
       const bool tangent_ok = take_tangent();
       q0_ = state_.q;
       predicted_ = q0_ + h * tangent_ + (0.5 * h * h) * curvature_;
       state_.q = predicted_;
-      state_.driver.value = d0 + h;
+      state_.swept().value = d0 + h;
       SolveReport report = solver_.solve_position(state_);
       const bool converged =
           report.status == PoseStatus::ok || report.status == PoseStatus::singular;
@@ -87,7 +87,7 @@ class Follower {
       }
       // Refused: back to the last accepted pose (refactorising J there), and a shorter step.
       state_.q = q0_;
-      state_.driver.value = d0;
+      state_.swept().value = d0;
       last_ = solver_.solve_position(state_);
       h *= 0.5;
       if (std::abs(h) < min_step) {
@@ -113,11 +113,11 @@ class Follower {
   // Whether Newton from the current pose closes the chain at `driver`; the state is restored.
   bool solvable_at(double driver) {
     q0_ = state_.q;
-    const double d0 = state_.driver.value;
-    state_.driver.value = driver;
+    const double d0 = state_.swept().value;
+    state_.swept().value = driver;
     const PoseStatus s = solver_.solve_position(state_).status;
     state_.q = q0_;
-    state_.driver.value = d0;
+    state_.swept().value = d0;
     last_ = solver_.solve_position(state_);
     return s == PoseStatus::ok || s == PoseStatus::singular;
   }
@@ -134,12 +134,12 @@ class Follower {
 
   // q' and q'' with respect to the driver, from the factorisation at the current pose.
   bool take_tangent() {
-    const DriverState real = state_.driver;
-    state_.driver.rate = 1.0;
-    state_.driver.accel = 0.0;
+    const DriverState real = state_.swept();
+    state_.swept().rate = 1.0;
+    state_.swept().accel = 0.0;
     solver_.solve_velocity(state_);
     solver_.solve_acceleration(state_);
-    state_.driver = real;
+    state_.swept() = real;
     tangent_ = state_.qdot;
     curvature_ = state_.qddot;
     const bool ok =
@@ -174,9 +174,8 @@ class Recorder {
   explicit Recorder(const NewtonSolver& solver)
       : solver_(solver), kinetostatics_(solver), forces_(kinetostatics_.make_sample()) {}
 
-  void operator()(KinematicState& state, const SolveReport& report, const DriverState& driver,
-                  Trajectory& out, int row) {
-    state.driver = driver;
+  // The state's drivers are the sample's.
+  void operator()(KinematicState& state, const SolveReport& report, Trajectory& out, int row) {
     if (report.status == PoseStatus::ok) {
       solver_.solve_velocity(state);
       solver_.solve_acceleration(state);
@@ -191,9 +190,7 @@ class Recorder {
       // J is singular in floating point although Newton converged (two loops at a change point
       // at once): no rates, no reactions.
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
-      // Several drivers: the sweep runs in time, and its events are located in time.
-      const bool timed = solver_.mechanism().axis().timed();
-      out.events.push_back({timed ? driver.time : driver.value, PoseStatus::singular,
+      out.events.push_back({out.along(row), PoseStatus::singular,
                             "Jacobian singular: rates and joint reactions are not determined"});
       return;
     }
@@ -338,7 +335,8 @@ class Tracer {
       : solver_(solver),
         n_(static_cast<int>(solver.mechanism().coordinate_count())),
         joints_(solver.layout().joint_row_count()),
-        driver_row_(solver.layout().driver_row(0)) {
+        swept_(solver.mechanism().axis().driver),
+        driver_row_(solver.layout().driver_row(swept_)) {
     const Mechanism& m = solver.mechanism();
     const double L = solver.length_scale();
     column_.setOnes(n_);
@@ -384,7 +382,7 @@ class Tracer {
   // pose cannot leap to another assembly. Returns the residual left (|Phi|_inf in z) over its
   // round-off there: above 1 where the chain does not close exactly at that driver value.
   double settle(Eigen::VectorXd& q) {
-    const double value = solver_.driver_value(q);
+    const double value = solver_.driver_value(q, swept_);
     const auto residual = [&](const Eigen::VectorXd& at) {
       solver_.residual(at, 0.0, phi_);
       rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
@@ -508,7 +506,7 @@ class Tracer {
         out.t = t_.normalized();
         out.q = q;
         out.s = value ? from.t.dot((q - from.q).cwiseQuotient(column_)) : s;
-        out.driver = solver_.driver_value(q);
+        out.driver = solver_.driver_value(q, swept_);
         out.t_driver = gradient_.dot(out.t);
         return true;
       }
@@ -546,6 +544,7 @@ class Tracer {
   const NewtonSolver& solver_;
   int n_;
   int joints_;              // the rows of C (the joints'); [C; last row] is square, n_ rows
+  int swept_;               // the swept driver (Mechanism::axis(); one driver: the tracer's)
   int driver_row_;          // the driver's row of Phi and J
   Eigen::VectorXd column_;  // q = column_ .* z
   Eigen::VectorXd row_;     // dimensionless constraint rows
@@ -981,7 +980,7 @@ double best_rcond(const NewtonSolver& solver, const std::vector<Leg>& legs) {
   for (const Leg& leg : legs)
     for (const Tracer::Node& n : leg.nodes) {
       state.q = n.q;
-      state.driver.value = n.driver;
+      state.swept().value = n.driver;
       state.factorized = false;
       const SolveReport r = solver.solve_position(state);
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular)
@@ -1141,8 +1140,8 @@ AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions&
   }
   if (up.full_cycle) {
     range.full_cycle = true;
-    range.lower = state.driver.value;
-    range.upper = state.driver.value + 2.0 * kPi;
+    range.lower = state.swept().value;
+    range.upper = state.swept().value + 2.0 * kPi;
     return range;
   }
   if (!search(-1.0, down)) {
@@ -1179,21 +1178,22 @@ void sweep_values(const NewtonSolver& solver, KinematicState& state, const Solve
     const int row = static_cast<int>(i);
     const double target = drivers[i].value;
     if (!lost && (target - stopped_at) * stopped_way <= 0.0) {
-      const double from = state.driver.value;
+      const double from = state.swept().value;
       const SolveReport r = solver.polish(state, follower.advance_to(target, max_step, small));
       if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
         if (r.status == PoseStatus::singular) out.events.push_back({target, r.status, r.message});
-        record(state, r, drivers[i], out, row);
+        state.swept() = drivers[i];
+        record(state, r, out, row);
         continue;
       }
       failure = r;
-      out.events.push_back({state.driver.value, r.status, r.message});
-      stopped_at = state.driver.value;
+      out.events.push_back({state.swept().value, r.status, r.message});
+      stopped_at = state.swept().value;
       stopped_way = target > from ? 1.0 : -1.0;
     }
     // The flagged sample from a copy: the state stays where the branch stopped.
     KinematicState flagged = without_pose(state);
-    flagged.driver = drivers[i];
+    flagged.swept() = drivers[i];
     solver.write_sample(flagged, failure, out, row);
   }
 }
@@ -1219,7 +1219,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
   const bool angular = d.angular();
   const bool stop = range || options.at_limit == SweepOptions::AtLimit::stop;
   const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
-  const double start_value = state.driver.value;
+  const double start_value = state.swept().value;
   const double size = mechanism.size();
   double reach = angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size;
   if (range)  // the legs reach past both ends of the range
@@ -1354,7 +1354,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
     }
     // Polish at the exact driver value: Newton starts on the traced branch, so it stays there.
     state.q = p.node.q;
-    state.driver = driver;
+    state.swept() = driver;
     SolveReport report = solver.polish(state, solver.solve_position(state));
     // At a change point the position is only determined to ~sqrt(tolerance) (the residual is
     // quadratic along the branches there): that is a singular sample, not a jump.
@@ -1381,7 +1381,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
       out.events.push_back({p.value, PoseStatus::singular, report.message});
     }
     const int row = static_cast<int>(behind.size() + i);
-    record(state, report, driver, out, row);
+    record(state, report, out, row);
   }
   // The range's values beyond a limit: no pose, the status of the leg's end.
   const auto write_beyond = [&](const std::vector<Beyond>& values, int first_row) {
@@ -1397,7 +1397,7 @@ bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
                                         end);
       if (i == 0) out.events.push_back({end, report.status, report.message});
       KinematicState none = without_pose(state);
-      none.driver = constant_speed_state(d, values[i].value);
+      none.swept() = constant_speed_state(d, values[i].value);
       solver.write_sample(none, report, out, first_row + static_cast<int>(i));
     }
   };
@@ -1537,8 +1537,8 @@ class TimedFollower {
                          std::vector<Crossing>& crossings) {
     double h = max_step;
     if (chain_signs_.empty()) update_chain_signs();
-    while (state_.driver.time < target) {
-      const double t0 = state_.driver.time;
+    while (state_.time() < target) {
+      const double t0 = state_.time();
       // The last step lands on the target exactly.
       const double t1 = target - t0 <= h ? target : t0 + h;
       h = t1 - t0;
@@ -1601,9 +1601,9 @@ class TimedFollower {
     std::string text;
     for (int d = 0; d < state_.driver_count(); ++d) {
       const Driver& driver = m_.drivers[static_cast<size_t>(d)];
-      text +=
-          fmt::format("{}{}.{} = {:.9g}", text.empty() ? " (" : ", ",
-                      driver.angular() ? "angle" : "s", driver.name, state_.driver_state(d).value);
+      text += fmt::format("{}{}.{} = {:.9g}", text.empty() ? " (" : ", ",
+                          driver.angular() ? "angle" : "s", driver.name,
+                          state_.drivers[static_cast<size_t>(d)].value);
     }
     return text.empty() ? text : text + ")";
   }
@@ -1612,7 +1612,7 @@ class TimedFollower {
   // Whether Newton from the current pose closes the chain at time t; the state is restored.
   bool solvable_at(double t) {
     q0_ = state_.q;
-    const double t0 = state_.driver.time;
+    const double t0 = state_.time();
     state_.drive_at(m_, t);
     const PoseStatus s = solver_.solve_position(state_).status;
     state_.q = q0_;
@@ -1743,7 +1743,7 @@ Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
       if (last.status != PoseStatus::ok && last.status != PoseStatus::singular) {
         lost = true;
         failure = last;
-        out.events.push_back({state.driver.time, last.status, last.message});
+        out.events.push_back({state.time(), last.status, last.message});
       }
     }
     before = t;
@@ -1753,7 +1753,7 @@ Trajectory timed_sweep(const NewtonSolver& solver, KinematicState& state,
       if (last.status == PoseStatus::singular)
         out.events.push_back(
             {t, last.status, fmt::format("{}{}", last.message, follower.drivers_text())});
-      record(state, last, state.driver, out, i);
+      record(state, last, out, i);
       continue;
     }
     KinematicState flagged = without_pose(state);
@@ -1837,7 +1837,7 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
                      options.range ? options.range : d.range))
       return out;
     state.q = q_start;
-    state.driver = d.at_time(0.0);
+    state.swept() = d.at_time(0.0);
     solver.solve_position(state);
   }
   return follower_sweep(mechanism, options, solver, state, assembled);
@@ -1852,8 +1852,9 @@ void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
                            Trajectory& pose) const {
   if (turns == 0) return;
   pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
-  for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver(0);
-  pose.driver(0) = driver_value;
+  const auto swept = static_cast<Eigen::Index>(pose.axis.driver);
+  for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver_values(0, swept);
+  pose.driver_values(0, swept) = driver_value;
   pose.time(0) = constant_speed_state(mechanism.swept(), driver_value).time;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 namespace crosslink {
@@ -80,7 +81,6 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   const auto points = static_cast<Eigen::Index>(point_names.size());
   const auto sliders = static_cast<Eigen::Index>(slider_names.size());
   time.setZero(samples);
-  driver.setZero(samples);
   for (Eigen::MatrixXd* m : {&angle, &omega, &alpha}) m->setZero(samples, links);
   for (Eigen::MatrixXd* m : {&x, &y, &vx, &vy, &ax, &ay}) m->setZero(samples, points);
   for (Eigen::MatrixXd* m : {&s, &sdot, &sddot}) m->setZero(samples, sliders);
@@ -95,15 +95,13 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
-  const bool timed = mechanism.axis().timed();
-  slider_driver = !timed && !mechanism.swept().angular();
+  axis = mechanism.axis();
   driver_names.clear();
   driver_sliders.clear();
-  if (timed)
-    for (const Driver& d : mechanism.drivers) {
-      driver_names.push_back(d.name);
-      driver_sliders.push_back(!d.angular());
-    }
+  for (const Driver& d : mechanism.drivers) {
+    driver_names.push_back(d.name);
+    driver_sliders.push_back(!d.angular());
+  }
   driver_values.setZero(samples, static_cast<Eigen::Index>(driver_names.size()));
   has_forces = with_forces;
   const int rows = with_forces ? samples : 0;
@@ -137,6 +135,19 @@ double Trajectory::energy_scale() const {
   return std::max({kinetic, high > low ? high - low : 0.0, work});
 }
 
+void Trajectory::resize_as(const Mechanism& mechanism, const Trajectory& reference,
+                           bool with_forces, bool energy) {
+  resize(mechanism, reference.samples(), with_forces);
+  if (energy) add_energy();
+  time = reference.time;
+  driver_values = reference.driver_values;
+}
+
+double Trajectory::swept(int row) const {
+  if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
+  return driver_values(row, axis.driver);
+}
+
 bool Trajectory::beside_singular(int row) const {
   auto singular_at = [&](int k) {
     return k >= 0 && k < samples() && status[static_cast<size_t>(k)] == PoseStatus::singular;
@@ -152,7 +163,6 @@ bool Trajectory::flag_non_finite(int row) {
     value = 0.0;
   };
   clean(time(row));
-  clean(driver(row));
   clean(rcond(row));
   clean(loop_gap(row));
   for (Eigen::MatrixXd* m :
@@ -174,8 +184,7 @@ int Trajectory::flag_non_finite() {
   const bool told = std::any_of(events.begin(), events.end(),
                                 [](const Event& e) { return e.kind == PoseStatus::not_finite; });
   if (first != status.end() && !told)
-    events.push_back({driver(static_cast<Eigen::Index>(first - status.begin())),
-                      PoseStatus::not_finite,
+    events.push_back({along(static_cast<int>(first - status.begin())), PoseStatus::not_finite,
                       "a value is not a finite number here (an overflow on extreme input): "
                       "the sample is flagged"});
   return flagged;
@@ -208,12 +217,13 @@ std::vector<std::string> Trajectory::channel_names() const {
     for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
   for (const std::string& slider : slider_names)
     for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
-  for (size_t d = 0; d < driver_names.size(); ++d)
+  const size_t named = axis.timed() ? driver_names.size() : 0;  // drivers naming channels
+  for (size_t d = 0; d < named; ++d)
     names.push_back((driver_sliders[d] ? "s." : "angle.") + driver_names[d]);
   if (!transmission.empty()) names.push_back("mu." + transmission[1]);
   if (has_forces) {
-    if (driver_names.empty()) names.push_back(slider_driver ? "force.driver" : "torque.driver");
-    for (size_t d = 0; d < driver_names.size(); ++d)
+    if (!axis.timed()) names.push_back(swept_slider() ? "force.driver" : "torque.driver");
+    for (size_t d = 0; d < named; ++d)
       names.push_back((driver_sliders[d] ? "force." : "torque.") + driver_names[d]);
     for (const std::string& joint : joint_names)
       for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
@@ -253,7 +263,7 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
     if (kind == "sdot") return sdot.col(j);
     if (kind == "sddot") return sddot.col(j);
   }
-  if (const int d = index_of(driver_names, object); d >= 0) {
+  if (const int d = axis.timed() ? index_of(driver_names, object) : -1; d >= 0) {
     const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
     if (kind == (slider ? "s" : "angle")) return driver_values.col(d);
     if (has_forces && kind == (slider ? "force" : "torque")) return effort.col(d);
@@ -276,8 +286,8 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
   }
   if (!has_forces) return std::nullopt;
   // The one driver's effort (several drivers' are named by driver, above).
-  if (driver_names.empty() && object == "driver" && kind == (slider_driver ? "force" : "torque"))
-    return effort.col(0);
+  if (!axis.timed() && object == "driver" && kind == (swept_slider() ? "force" : "torque"))
+    return effort.col(axis.driver);
   if (const int j = index_of(joint_names, object); j >= 0) {
     if (kind == "fx") return fx.col(j);
     if (kind == "fy") return fy.col(j);

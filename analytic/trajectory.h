@@ -92,19 +92,26 @@ struct Trajectory {
   std::vector<std::string> slider_names;  // Mechanism::slide_joints() order
   std::vector<std::string> joint_names;   // Mechanism::joints order
   std::string ground_name;
-  bool slider_driver = false;  // the driver's effort is a force (else a torque)
-  // Several drivers (a sweep in time, Mechanism::axis()): their names and whether each is a slider,
-  // in Mechanism::drivers order; empty with one driver, whose channels keep their names.
+  SweepAxis axis;  // the mechanism's (Mechanism::axis()): a driver's value, or time
+  // Every driver's name and whether it is a slider, in Mechanism::drivers order. In a sweep in
+  // time each names its channels (angle.<name> or s.<name>, torque.<name> or force.<name>); the
+  // one driver's channels keep their names (torque.driver or force.driver).
   std::vector<std::string> driver_names;
   std::vector<char> driver_sliders;
+  // The one driver's effort is a force (else a torque): its channel force.driver or torque.driver.
+  bool swept_slider() const { return driver_sliders[static_cast<size_t>(axis.driver)] != 0; }
 
-  Eigen::VectorXd time;    // [s]
-  Eigen::VectorXd driver;  // driver coordinate [rad or m] (several drivers: the first's)
-  // Several drivers: each one's value, one column per driver [rad or m] (channels angle.<name>
-  // or s.<name>); with several drivers the sweep's parameter is `time`.
+  Eigen::VectorXd time;  // [s]
+  // Every driver's value, one column per driver (Mechanism::drivers order) [rad or m].
   Eigen::MatrixXd driver_values;
-  // Driver d's value at sample `row` (Mechanism::drivers order) [rad or m].
-  double driver_value(int row, int d) const { return d == 0 ? driver(row) : driver_values(row, d); }
+  // The swept driver's value at sample `row` [rad or m]; a sweep in time has none
+  // (std::logic_error).
+  double swept(int row) const;
+  // The sweep's parameter at sample `row`: the swept driver's value [rad or m], or the time [s].
+  double along(int row) const { return axis.timed() ? time(row) : swept(row); }
+  // A sample's `driver` field and column (docs/json.md): the swept driver's value, and in a sweep
+  // in time the first driver's (every driver's is in `drivers` and in its channels).
+  double driver_field(int row) const { return driver_values(row, axis.timed() ? 0 : axis.driver); }
   Eigen::MatrixXd angle, omega, alpha;
   Eigen::MatrixXd x, y, vx, vy, ax, ay;
   Eigen::MatrixXd s, sdot, sddot;
@@ -163,6 +170,10 @@ struct Trajectory {
   // solvers then write rows in place). Force arrays are shaped and has_forces set only
   // `with_forces`.
   void resize(const Mechanism& mechanism, int samples, bool with_forces = false);
+  // The same for a run of `reference`'s sweep (an engine's): its samples' times and drivers'
+  // values, with an energy balance when `energy`.
+  void resize_as(const Mechanism& mechanism, const Trajectory& reference, bool with_forces,
+                 bool energy = false);
   int samples() const { return static_cast<int>(time.size()); }
   // Whether sample `row` is next to a sample flagged singular. One grid step from a dead point
   // or change point the Jacobian's condition is 10 to 40 times worse than elsewhere, so exact

@@ -24,8 +24,8 @@ double driver_peak_rate(const Mechanism& mechanism, const Trajectory& trajectory
       for (int k = 1; k + 1 < t.samples(); ++k) {
         const double h0 = t.time(k) - t.time(k - 1);
         const double h1 = t.time(k + 1) - t.time(k);
-        const double d0 = (t.driver_value(k, d) - t.driver_value(k - 1, d)) / h0;
-        const double d1 = (t.driver_value(k + 1, d) - t.driver_value(k, d)) / h1;
+        const double d0 = (t.driver_values(k, d) - t.driver_values(k - 1, d)) / h0;
+        const double d1 = (t.driver_values(k + 1, d) - t.driver_values(k, d)) / h1;
         own = std::max(
             {own, std::abs(d0), std::abs(d1), std::sqrt(std::abs(2.0 * (d1 - d0) / (h0 + h1)))});
       }
@@ -108,7 +108,7 @@ CrossCheck cross_check(const Mechanism& mechanism, Trajectory& reference,
       // on the grid): the sample is singular, named as the reference names its own.
       reference.status[ks] = PoseStatus::singular;
       reference.events.push_back(
-          {reference.driver(k), PoseStatus::singular,
+          {reference.along(k), PoseStatus::singular,
            fmt::format("{} find a singular position here (Newton's rcond {:.2g}): rates and "
                        "joint reactions are not determined",
                        second.method, reference.rcond(k))});
@@ -145,8 +145,8 @@ CrossCheck cross_check(const Mechanism& mechanism, Trajectory& reference,
     }
     if (why.empty()) continue;
     reference.status[ks] = PoseStatus::exact_methods_disagree;
-    reference.events.push_back({reference.driver(k), PoseStatus::exact_methods_disagree,
-                                "exact methods disagree: " + why});
+    reference.events.push_back(
+        {reference.along(k), PoseStatus::exact_methods_disagree, "exact methods disagree: " + why});
     ++out.disagree;
   }
   return out;

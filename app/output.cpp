@@ -22,8 +22,8 @@ nlohmann::json value(bool exists, double v) {
 nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
   if (!t.has_forces || !usable(t.status[static_cast<size_t>(row)])) return nullptr;
   nlohmann::json f;
-  if (t.driver_names.empty()) {
-    f["driver"] = t.effort(row, 0);
+  if (!t.axis.timed()) {
+    f["driver"] = t.effort(row, t.axis.driver);
   } else {  // several drivers: each one's effort by its name
     f["drivers"] = nlohmann::json::object();
     for (size_t d = 0; d < t.driver_names.size(); ++d)
@@ -51,8 +51,8 @@ nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
 nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
   nlohmann::json j;
   j["time"] = t.time(row);
-  j["driver"] = t.driver(row);
-  if (!t.driver_names.empty()) {  // several drivers: each one's value by its name
+  j["driver"] = t.driver_field(row);
+  if (t.axis.timed()) {  // each driver's value by its name
     j["drivers"] = nlohmann::json::object();
     for (size_t d = 0; d < t.driver_names.size(); ++d)
       j["drivers"][t.driver_names[d]] = t.driver_values(row, static_cast<Eigen::Index>(d));
@@ -185,7 +185,8 @@ void print_csv(const Trajectory& t, const Columns& extra) {
   }
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
-    std::string line = fmt::format("{},{},{},{}", r, t.time(r), t.driver(r), to_string(status));
+    std::string line =
+        fmt::format("{},{},{},{}", r, t.time(r), t.driver_field(r), to_string(status));
     for (size_t c = 0; c < columns.size(); ++c) {
       line += ',';
       if (value_exists(status, quantities[c])) line += compare::csv_number(columns[c](r));
@@ -239,7 +240,7 @@ void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int
   // An angle past one turn is shown within its turn, the whole turns in a column of their own.
   bool turns = false;
   for (int r = 0; r < t.samples() && !by_time; ++r)
-    turns = turns || compare::driver_turns(m, t.driver(r)).turns != 0;
+    turns = turns || compare::driver_turns(m, t.swept(r)).turns != 0;
   std::string header = fmt::format("{:>10}{} {:>8}", by_time ? "t" : "driver",
                                    turns ? fmt::format(" {:>5}", "turns") : "", "status");
   std::string units = fmt::format("{:>10}{} {:>8}", "[" + axis_unit_name + "]",
@@ -260,7 +261,8 @@ void print_table_rows(const Mechanism& m, const Trajectory& t, bool by_time, int
   fmt::print("{}  ({})\n{}\n{}\n", m.name, note, header, units);
   for (int r = 0; r < t.samples(); ++r) {
     const PoseStatus status = t.status[static_cast<size_t>(r)];
-    const compare::DriverTurns d = compare::driver_turns(m, t.driver(r));
+    const compare::DriverTurns d =
+        by_time ? compare::DriverTurns{} : compare::driver_turns(m, t.swept(r));
     std::string line = fmt::format("{:>10.4f}{} {:>8}", by_time ? t.time(r) : d.within,
                                    !turns         ? ""
                                    : d.turns == 0 ? fmt::format(" {:>5}", 0)
@@ -305,7 +307,7 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     fmt::print("{}  t = {:.6g} s{}  status: {}\n", m.name, t.time(row), drivers, to_string(status));
   } else {
     fmt::print("{}  driver = {}  t = {:.6g} s  status: {}\n", m.name,
-               compare::driver_text(m, t.driver(row), 4), t.time(row), to_string(status));
+               compare::driver_text(m, t.swept(row), 4), t.time(row), to_string(status));
   }
   fmt::print("\n{:<14} {:>12} {:>14} {:>16}\n", "link", fmt::format("angle [{}]", an),
              "omega [rad/s]", "alpha [rad/s^2]");

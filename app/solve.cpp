@@ -163,9 +163,10 @@ int run_solve(const SolveArgs& args) {
     // driver that turns fully nearer the start.
     const SkippedTurns skip = single ? skipped_turns(m, at, options) : SkippedTurns{};
     // (Newton's own sample is shifted for the dyads' grid and back, not copied.)
-    if (skip.turns != 0) t.driver(0) -= skip.driver_shift();
+    const auto swept = static_cast<Eigen::Index>(m.axis().driver);  // when skip.turns != 0
+    if (skip.turns != 0) t.driver_values(0, swept) -= skip.driver_shift();
     Trajectory closed = dyad_sweep(m, t, args.method != "newton");
-    if (skip.turns != 0) t.driver(0) += skip.driver_shift();
+    if (skip.turns != 0) t.driver_values(0, swept) += skip.driver_shift();
     skip.move_on(m, at, closed);
     // The two exact methods check each other (analytic/trust.h): a sample they disagree on is
     // flagged with the reason, whichever of them is printed.

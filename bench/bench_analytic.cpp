@@ -51,12 +51,12 @@ struct PoseCase {
 // qddot = q'' rate^2 + q' accel). Without a rate, the last pose as it is.
 void predict(const KinematicState& state, const DriverState& next, Eigen::VectorXd& tangent,
              Eigen::VectorXd& curvature, Eigen::VectorXd& q) {
-  const double rate = state.driver.rate;
+  const double rate = state.swept().rate;
   q = state.q;
   if (rate == 0.0) return;
-  const double h = next.value - state.driver.value;
+  const double h = next.value - state.swept().value;
   tangent = state.qdot / rate;
-  curvature = (state.qddot - tangent * state.driver.accel) / (rate * rate);
+  curvature = (state.qddot - tangent * state.swept().accel) / (rate * rate);
   q += h * tangent + (0.5 * h * h) * curvature;
 }
 
@@ -88,18 +88,18 @@ std::shared_ptr<PoseCase> pose_case(const std::string& path, std::string& error)
 
     auto walk = [&](double direction, std::vector<std::pair<DriverState, Eigen::VectorXd>>& out) {
       state.q = q_start;
-      state.driver = d.at_time(0.0);
+      state.swept() = d.at_time(0.0);
       solver.solve(state);
       for (int k = 1; k <= 360; ++k) {
         const DriverState next = d.at_time(direction * k * dt);
         predict(state, next, tangent, curvature, predicted);
         q_last = state.q;
         state.q = predicted;
-        state.driver = next;
+        state.swept() = next;
         if (solver.solve(state).status != PoseStatus::ok) return false;
         const double moved = (predicted - q_last).lpNorm<Eigen::Infinity>();
         if ((state.q - predicted).lpNorm<Eigen::Infinity>() > 0.1 * moved + 1e-12) return false;
-        out.emplace_back(state.driver, state.q);
+        out.emplace_back(state.swept(), state.q);
       }
       return true;
     };
@@ -129,7 +129,7 @@ void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c, boo
   KinematicState state(m);
   // Start at the first pose of the walk.
   state.q = c->q_first;
-  state.driver = c->drivers.front();
+  state.swept() = c->drivers.front();
   SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok) {
     bench.SkipWithError(("cannot start: " + report.message).c_str());
@@ -147,7 +147,7 @@ void bench_pose(benchmark::State& bench, const std::shared_ptr<PoseCase>& c, boo
     const DriverState& next = c->drivers[static_cast<size_t>(i)];
     predict(state, next, tangent, curvature, predicted);
     state.q = predicted;
-    state.driver = next;
+    state.swept() = next;
     report = solver.solve(state);
     if (report.status != PoseStatus::ok) ++failures;
     benchmark::DoNotOptimize(state.qddot.data());
@@ -284,7 +284,7 @@ void bench_four_bar_crosslink(benchmark::State& bench) {
   for (auto _ : bench) {
     ++step;
     // The crank angle itself is continuous: one more degree each pose.
-    state.driver.value = m.swept().start + static_cast<double>(step) * kDeg;
+    state.swept().value = m.swept().start + static_cast<double>(step) * kDeg;
     if (solver.solve_position(state).status != PoseStatus::ok) ++failures;
     benchmark::DoNotOptimize(state.q.data());
   }
@@ -306,7 +306,7 @@ void bench_four_bar_solvespace(benchmark::State& bench) {
   double largest_difference = 0.0;
   long failures = 0;
   for (long step = 1; step <= 360; ++step) {
-    state.driver.value = crank_angle(m, step) + (step == 360 ? 2 * std::numbers::pi : 0.0);
+    state.swept().value = crank_angle(m, step) + (step == 360 ? 2 * std::numbers::pi : 0.0);
     if (solver.solve_position(state).status != PoseStatus::ok) ++failures;
     if (!slvs.solve(crank_angle(m, step))) ++failures;
     largest_difference =

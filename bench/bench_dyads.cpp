@@ -30,9 +30,9 @@ void BM_DyadsFourbar(benchmark::State& bench, int parts) {
   newton.assemble(assembled);
   DyadState state(m);
   solver.set_modes(assembled, state);
-  state.kinematics.driver = assembled.driver;
+  state.kinematics.swept() = assembled.swept();
   for (auto _ : bench) {
-    state.kinematics.driver.value += kStep;
+    state.kinematics.swept().value += kStep;
     benchmark::DoNotOptimize(solver.solve_position(state));
     if (parts >= 2) solver.solve_velocity(state);
     if (parts >= 3) solver.solve_acceleration(state);
@@ -50,7 +50,7 @@ void BM_NewtonFourbar(benchmark::State& bench, int parts) {
   KinematicState state(m);
   newton.assemble(state);
   for (auto _ : bench) {
-    state.driver.value += kStep;  // warm start from the previous pose
+    state.swept().value += kStep;  // warm start from the previous pose
     benchmark::DoNotOptimize(newton.solve_position(state));
     if (parts >= 2) newton.solve_velocity(state);
     if (parts >= 3) newton.solve_acceleration(state);

@@ -161,7 +161,7 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
   if (!column || trajectory.samples() == 0) return std::nullopt;
   const int n = trajectory.samples();
   auto offset = [&](int k) {
-    const double d = trajectory.driver(k) - driver_value;
+    const double d = trajectory.along(k) - driver_value;
     return angular ? wrap_angle(d) : d;
   };
   const Quantity q = Trajectory::quantity_of(channel);
@@ -177,7 +177,7 @@ std::optional<double> value_at(const Trajectory& trajectory, std::string_view ch
   // Two consecutive samples around it (not across a wrap of the offset), both holding a value.
   for (int k = 0; k + 1 < n; ++k) {
     const double a = offset(k), b = offset(k + 1);
-    const double step = std::abs(trajectory.driver(k + 1) - trajectory.driver(k));
+    const double step = std::abs(trajectory.along(k + 1) - trajectory.along(k));
     if ((a < 0.0) == (b < 0.0) || std::abs(a - b) > 1.5 * step) continue;
     if (!trajectory.has_value(k, q) || !trajectory.has_value(k + 1, q)) return std::nullopt;
     const double w = a / (a - b);
@@ -374,7 +374,7 @@ WorstContext worst_context(const Trajectory& reference, int k, bool in_time) {
       out.median_rcond = *middle;
     }
   }
-  const double at = in_time ? reference.time(k) : reference.driver(k);
+  const double at = in_time ? reference.time(k) : reference.along(k);
   for (const Trajectory::Event& e : reference.events)
     if (e.kind == PoseStatus::singular &&
         (!out.nearest_singular || std::abs(e.driver - at) < std::abs(out.distance))) {

@@ -253,7 +253,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
     r["driver"]["values"] = rounded(ref.time, 1.0);
   } else {
     r["driver"]["unit"] = du.name;
-    r["driver"]["values"] = rounded(ref.driver, du.scale);
+    r["driver"]["values"] = rounded(ref.driver_values.col(ref.axis.driver), du.scale);
   }
   r["driver"]["usable"] = json::array();
   for (PoseStatus s : ref.status) r["driver"]["usable"].push_back(usable(s));
@@ -325,7 +325,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
   using Kind = DerivedSpec::Kind;
   // A crank's dead point is found within one turn: drawn at its place in the sweep's span.
   const bool turns = !samples_in_time(m) && m.swept().angular() && ref.samples() > 1;
-  const double first = turns ? ref.driver.minCoeff() : 0.0;
+  const double first = turns ? ref.driver_values.col(ref.axis.driver).minCoeff() : 0.0;
   const auto in_sweep = [&](double d) {
     const double turn = 2.0 * std::numbers::pi;
     return turns ? first + std::fmod(std::fmod(d - first, turn) + turn, turn) : d;
@@ -548,7 +548,7 @@ std::string verdict_table(const Comparison& cmp) {
         k < 0 ? std::string("-")
         : samples_in_time(m)
             ? fmt::format("t = {:.3f} s (#{})", cmp.reference().trajectory.time(k), k)
-            : fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.driver(k) / du.scale,
+            : fmt::format("{:.2f} {} (#{})", cmp.reference().trajectory.along(k) / du.scale,
                           escape(du.name), k),
         c.tolerance, to_string(c.verdict));
   };

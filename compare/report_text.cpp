@@ -122,7 +122,7 @@ std::string worst_at(const Comparison& cmp, const ChannelResult& c) {
                        c.metrics.worst_sample);
   return fmt::format(
       "{} #{}",
-      driver_text(*cmp.mechanism, cmp.reference().trajectory.driver(c.metrics.worst_sample), 2),
+      driver_text(*cmp.mechanism, cmp.reference().trajectory.along(c.metrics.worst_sample), 2),
       c.metrics.worst_sample);
 }
 
@@ -279,8 +279,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                ref.samples() ? ref.time(ref.samples() - 1) : 0.0);
   else
     fmt::print(out, "reference: analytic Newton, {} samples from {:.4g} to {:.4g} {}",
-               ref.samples(), ref.samples() ? ref.driver(0) / du.scale : 0.0,
-               ref.samples() ? ref.driver(ref.samples() - 1) / du.scale : 0.0, du.name);
+               ref.samples(), ref.samples() ? ref.along(0) / du.scale : 0.0,
+               ref.samples() ? ref.along(ref.samples() - 1) / du.scale : 0.0, du.name);
   fmt::print(out, "{}\n",
              excluded ? fmt::format(", {} flagged (kept out of verdicts)", excluded) : "");
 
@@ -420,7 +420,7 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
       const DisplayUnit u = display_unit(m, c.metrics.channel);
       const int k = c.metrics.worst_sample;
       const std::string where = samples_in_time(m) ? fmt::format("t = {:.4f} s", ref.time(k))
-                                                   : "driver = " + driver_text(m, ref.driver(k), 4);
+                                                   : "driver = " + driver_text(m, ref.along(k), 4);
       fmt::print(out,
                  "FAIL: {} ({}) {}: {:.4g} % of peak > tolerance {:.3g} % at {} "
                  "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",
@@ -522,7 +522,7 @@ nlohmann::json to_json(const Comparison& cmp) {
          {"usable_samples", c.metrics.usable},
          {"excluded", excluded_json(c.metrics)},
          {"worst_sample", k >= 0 ? json(k) : json(nullptr)},
-         {"worst_driver_value", k >= 0 ? json(ref.driver(k)) : json(nullptr)},
+         {"worst_driver_value", k >= 0 ? json(ref.driver_field(k)) : json(nullptr)},
          {"worst_time", k >= 0 ? json(ref.time(k)) : json(nullptr)},
          {"tolerance_pct", c.tolerance},
          {"verdict", c.verdict == Verdict::fail ? "fail" : std::string(to_string(c.verdict))},
@@ -621,7 +621,7 @@ void write_csv(const Comparison& cmp, std::ostream& out) {
       const bool has_value = run.trajectory.has_value(k, q);
       const auto field = [](bool exists, double x) { return exists ? csv_number(x) : ""; };
       out << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(c.method),
-                         csv_field(c.metrics.channel), to_string(q), k, ref.driver(k),
+                         csv_field(c.metrics.channel), to_string(q), k, ref.driver_field(k),
                          to_string(ref.status[ks]), to_string(run.trajectory.status[ks]),
                          c.metrics.in_verdict[ks] ? 1 : 0, c.metrics.reason[ks],
                          field(has_ref, r(k)), field(has_value, v(k)),

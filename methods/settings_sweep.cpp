@@ -185,7 +185,7 @@ ReferenceLadder::ReferenceLadder(const Mechanism& mechanism, const SweepOptions&
   const Trajectory& t = base_->trajectory;
   if (t.samples() < 2) throw std::runtime_error("the reference sweep has fewer than two samples");
   interval_ = t.time(1) - t.time(0);
-  base_step_ = std::abs(t.driver(1) - t.driver(0));
+  base_step_ = std::abs(t.along(1) - t.along(0));
   if (!(interval_ > 0.0))
     throw std::runtime_error("the reference's samples are not spaced in time");
   exact_.emplace(base_.get(), exact_values(mechanism_, *base_));

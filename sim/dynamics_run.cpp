@@ -35,8 +35,9 @@ DynamicsPlan plan_dynamics(const Mechanism& definition, const Mechanism& scene_m
   KinematicState state(scene_mechanism);
   state.q = p.start.q;
   for (int d = 0; d < state.driver_count(); ++d)
-    state.driver_state(d) = {reference.time(first), reference.driver_value(first, d),
-                             balance.rate(p.start.q, p.start.qdot, d), 0.0};
+    state.drivers[static_cast<size_t>(d)] = {reference.time(first),
+                                             reference.driver_values(first, d),
+                                             balance.rate(p.start.q, p.start.qdot, d), 0.0};
   const NewtonSolver solver(scene_mechanism);
   const SolveReport report = solver.solve(state);
   if (report.status != PoseStatus::ok)
@@ -245,7 +246,8 @@ class DynamicsSampler {
     for (int d = 0; d < m_.dynamics->coordinate_count(); ++d)
       forces.effort_of(d) = m_.dynamics->coordinate(d).effort_at(t);
     rows_.write(i, out);
-    out.driver(i) = state.driver.value;
+    for (size_t d = 0; d < state.drivers.size(); ++d)  // the engine's own coordinates
+      out.driver_values(i, static_cast<Eigen::Index>(d)) = state.drivers[d].value;
     const double kinetic = balance.kinetic(state.q, state.qdot);
     const double potential = balance.potential(state.q);
     const double work = steps_.work(S);
@@ -282,7 +284,7 @@ StatusJudge judge_dynamics(const Mechanism& m, const Trajectory& reference, cons
       judge, m, reference, sampled.rows(), gaps,
       [&](int i, KinematicState& probe) {
         for (int d = 0; d < probe.driver_count(); ++d)
-          probe.driver_state(d) = {0.0, out.driver_value(i, d), 0.0, 0.0};
+          probe.drivers[static_cast<size_t>(d)] = {0.0, out.driver_values(i, d), 0.0, 0.0};
       },
       [&](int i, const SolveReport& projected, const KinematicState&) {
         return judge.judge(i, gaps(i), projected.rcond, nullptr, out);
@@ -297,10 +299,7 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
                   const Trajectory& reference, const DynamicsPlan& plan, const DynamicsWatch& watch,
                   bool with_forces, DynamicsScene& scene, Clock::time_point begin, EngineRun& run) {
   Trajectory& out = run.trajectory;
-  out.resize(definition, reference.samples(), with_forces);
-  out.add_energy();
-  out.time = reference.time;
-  out.driver = reference.driver;
+  out.resize_as(definition, reference, with_forces, true);
   const std::vector<double>& time = plan.grid.time;
   const long last_step = static_cast<long>(time.size()) - 1;
 

@@ -44,7 +44,7 @@ const std::vector<BodyLoad>& AppliedLoads::at(const Eigen::VectorXd& q, const Ei
                                               double driver_value) {
   state_.q = q;
   state_.qdot = qdot;
-  state_.driver.value = driver_value;
+  if (!state_.axis.timed()) state_.swept().value = driver_value;  // what a load's table reads
   applied_loads(m_, state_, generalised_);
   body_loads(m_, q, generalised_, out_);
   return out_;
@@ -75,12 +75,13 @@ void DynamicsLoads::measure(double t, const Eigen::VectorXd& q, const Eigen::Vec
                             KinematicState& state) {
   solver_.jacobian(q, jacobian_);
   for (int d = 0; d < state.driver_count(); ++d)
-    state.driver_state(d) = {t, coordinate(q, d),
-                             jacobian_.row(solver_.layout().driver_row(d)).dot(qdot), 0.0};
+    state.drivers[static_cast<size_t>(d)] = {
+        t, coordinate(q, d), jacobian_.row(solver_.layout().driver_row(d)).dot(qdot), 0.0};
 }
 
 void DynamicsLoads::set_coordinates(const Eigen::VectorXd& q) {
-  for (int d = 0; d < state_.driver_count(); ++d) state_.driver_state(d).value = coordinate(q, d);
+  for (int d = 0; d < state_.driver_count(); ++d)
+    state_.drivers[static_cast<size_t>(d)].value = coordinate(q, d);
 }
 
 template <class F>
@@ -152,8 +153,8 @@ double driver_inertia(const Mechanism& m, const Trajectory& reference, int d) {
     if (!usable(reference.status[static_cast<size_t>(k)])) continue;
     state.q = reference_coordinates(m, reference, k);
     for (int e = 0; e < state.driver_count(); ++e)
-      state.driver_state(e) = {reference.time(k), reference.driver_value(k, e), e == d ? 1.0 : 0.0,
-                               0.0};
+      state.drivers[static_cast<size_t>(e)] = {reference.time(k), reference.driver_values(k, e),
+                                               e == d ? 1.0 : 0.0, 0.0};
     if (solver.solve_position(state).status != PoseStatus::ok) continue;
     solver.solve_velocity(state);
     inertia = std::max(inertia, 2.0 * energy.kinetic(state.q, state.qdot));

@@ -78,9 +78,9 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
     state.q = reference_coordinates(scene_mechanism, reference, first);
     for (int di = 0; di < state.driver_count(); ++di) {
       const Driver& d = drivers[static_cast<size_t>(di)];
-      DriverState& driver = state.driver_state(di);
+      DriverState& driver = state.drivers[static_cast<size_t>(di)];
       driver = d.at_time(t);
-      driver.value = reference.driver_value(first, di) + (driver.value - d.at_time(t0).value);
+      driver.value = reference.driver_values(first, di) + (driver.value - d.at_time(t0).value);
     }
     const SolveReport report = solver.solve(state);
     return report.status == PoseStatus::ok &&
@@ -102,7 +102,7 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   p.q = state.q;
   p.qdot = state.qdot;
   for (size_t di = 0; di < drivers.size(); ++di)
-    p.driver_offset.push_back(reference.driver_value(first, static_cast<int>(di)) -
+    p.driver_offset.push_back(reference.driver_values(first, static_cast<int>(di)) -
                               drivers[di].at_time(t0).value);
   p.grid = sample_grid(reference, p.span, per_interval, inner, p.preroll, h);
   return p;
@@ -174,9 +174,9 @@ double driver_watch_unit(const Mechanism& m) {
 void reference_drivers(const Mechanism& m, const Trajectory& reference, int i,
                        KinematicState& state) {
   for (int d = 0; d < state.driver_count(); ++d) {
-    DriverState& driver = state.driver_state(d);
+    DriverState& driver = state.drivers[static_cast<size_t>(d)];
     driver = m.drivers[static_cast<size_t>(d)].at_time(reference.time(i));
-    driver.value = reference.driver_value(i, d);
+    driver.value = reference.driver_values(i, d);
   }
 }
 
@@ -409,10 +409,7 @@ void run_kinematic(const Mechanism& definition, const Mechanism& scene_mechanism
                    const KinematicWatch& watch, bool with_forces, KinematicScene& scene,
                    Clock::time_point begin, EngineRun& run) {
   Trajectory& out = run.trajectory;
-  out.resize(definition, reference.samples(), with_forces);
-  out.time = reference.time;
-  out.driver = reference.driver;
-  out.driver_values = reference.driver_values;
+  out.resize_as(definition, reference, with_forces);
   const std::vector<double>& time = plan.grid.time;
   const long last_step = static_cast<long>(time.size()) - 1;
   if (last_step < 3) {

@@ -18,7 +18,7 @@ namespace crosslink::sim {
 // the driver's value, or with several drivers, whose sweep runs in time, the time, as the exact
 // sweep's own events.
 inline double event_position(const Trajectory& reference, int i) {
-  return reference.driver_names.empty() ? reference.driver(i) : reference.time(i);
+  return reference.along(i);
 }
 
 class StatusJudge {

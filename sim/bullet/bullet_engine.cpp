@@ -1175,35 +1175,22 @@ void read_coordinates(const Scene& scene, const Plan& plan, const Mechanism& m,
 // ---------------------------------------------------------------------------------------------
 // Stages both runs share
 
-// The trajectory a run writes before anything is read: the reference's samples, with forces when
-// the scene reads them, and an energy balance in a dynamics run.
-void shape(Trajectory& out, const Mechanism& original, const Trajectory& reference,
-           bool with_forces, bool energy) {
-  out.resize(original, reference.samples(), with_forces);
-  if (energy) out.add_energy();
-  out.time = reference.time;
-  out.driver = reference.driver;
-}
-
 // Prepare stage: what a run needs before its time grid, refused (std::exception with the reason)
 // before anything is built. The settings, the mechanism the scene is built from (perturb_link),
-// and the usable span the run covers, over sample times that increase. Once the settings are
-// read, `out` carries the reference's times and driver values.
+// and the usable span the run covers, over sample times that increase.
 struct Prepared {
   Config config;
   Mechanism m;  // the definition, or the perturbed one
   Span span;
 };
 
-Prepared prepare(const Mechanism& original, const Trajectory& reference, const Settings& overrides,
-                 Trajectory& out) {
+Prepared prepare(const Mechanism& original, const Trajectory& reference,
+                 const Settings& overrides) {
   if (!btIsDoublePrecision()) throw std::runtime_error("Bullet is not the float64 build");
   Prepared p;
   p.config = parse_settings(overrides);
   p.m = perturbed(original, p.config.perturb_link);
   auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);  // of the scene's
-  out.time = reference.time;
-  out.driver = reference.driver;
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
   // them the reference is at or past an assembly limit.
   p.span = usable_span(reference);
@@ -1523,11 +1510,11 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "bullet";
-  shape(out.trajectory, original, reference, false, true);
+  out.trajectory.resize_as(original, reference, false, true);
   Prepared p;
   DynamicsPlan start;
   try {
-    p = prepare(original, reference, overrides, out.trajectory);
+    p = prepare(original, reference, overrides);
     if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
     start = plan_dynamics(original, p.m, reference,
                           step_length(reference, p.span, p.config.dt, p.config.max_step_angle,
@@ -1609,10 +1596,10 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "bullet";
-  out.trajectory.resize(original, reference.samples());
+  out.trajectory.resize_as(original, reference, false);
   Prepared p;
   try {
-    p = prepare(original, reference, overrides, out.trajectory);
+    p = prepare(original, reference, overrides);
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }

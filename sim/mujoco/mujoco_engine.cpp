@@ -911,9 +911,7 @@ void forward_at_exact_state(const mjModel* mm, mjData* d, mjData* scratch, doubl
 
 // What a run's trajectory holds before anything is read: the reference's samples.
 void shape(Trajectory& out, const Mechanism& m, const Trajectory& reference, bool with_forces) {
-  out.resize(m, reference.samples(), with_forces);
-  out.time = reference.time;
-  out.driver = reference.driver;
+  out.resize_as(m, reference, with_forces);
 }
 
 // The thresholds a kinematic run watches its steps and flags its samples by; the run diverges
@@ -1100,10 +1098,7 @@ constexpr long kRing = 16;
 // balance.
 void shape_dynamics(Trajectory& out, const Mechanism& m, const Trajectory& reference,
                     bool with_forces) {
-  out.resize(m, reference.samples(), with_forces);
-  out.add_energy();
-  out.time = reference.time;
-  out.driver = reference.driver;
+  out.resize_as(m, reference, with_forces, true);
 }
 
 // The thresholds and the scale a dynamics run flags and stops by; the run diverges when a joint
@@ -1398,11 +1393,11 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
 
   double low = INFINITY, high = -INFINITY, peak_rate = 0.0;
   for (int i : usable_rows) {
-    low = std::min(low, reference.driver(i));
-    high = std::max(high, reference.driver(i));
+    low = std::min(low, reference.along(i));
+    high = std::max(high, reference.along(i));
     peak_rate = std::max(peak_rate, std::abs(driver.at_time(reference.time(i)).rate));
   }
-  const double v0 = reference.driver(start_row);
+  const double v0 = reference.along(start_row);
   const double rate0 = driver.at_time(reference.time(start_row)).rate;
   const bool turning =
       p.periodic && driver.law.kind == MotionLaw::Kind::constant_speed && rate0 != 0.0;
@@ -1417,8 +1412,9 @@ mujoco_scene::Standalone standalone(const Mechanism& m, const Trajectory& refere
   double peak_effort = 0.0;
   if (reference.has_forces)
     for (int i : usable_rows)
-      if (turning || in_swing(reference.driver(i)))
-        peak_effort = std::max(peak_effort, std::abs(reference.effort(i, 0)) * s.mass_scale);
+      if (turning || in_swing(reference.along(i)))
+        peak_effort =
+            std::max(peak_effort, std::abs(reference.effort(i, m.axis().driver)) * s.mass_scale);
   const double arm = driver.angular() ? 1.0 : s.size;
   double inertia = 0.0;
   for (const SceneLink& link : s.links)
@@ -1474,8 +1470,8 @@ std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
   if (!mechanism.dynamics) {
     for (int i = p.span.first; i <= p.span.last; ++i)
       if (usable(reference.status[static_cast<size_t>(i)]) &&
-          std::abs(reference.driver(i) - mechanism.swept().start) <
-              std::abs(reference.driver(row) - mechanism.swept().start))
+          std::abs(reference.along(i) - mechanism.swept().start) <
+              std::abs(reference.along(row) - mechanism.swept().start))
         row = i;
     const auto start = exact_start(mechanism, reference, row);
     if (!start) throw std::runtime_error("could not close the loops at the definition's start");

@@ -835,10 +835,7 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
   const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "ode";
-  out.trajectory.resize(original, reference.samples(), true);
-  out.trajectory.add_energy();
-  out.trajectory.time = reference.time;
-  out.trajectory.driver = reference.driver;
+  out.trajectory.resize_as(original, reference, true, true);
   try {
     Prepared p = prepare(original, reference, overrides);
     const Config& config = p.config;
@@ -883,9 +880,7 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
   const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "ode";
-  out.trajectory.resize(original, reference.samples());
-  out.trajectory.time = reference.time;
-  out.trajectory.driver = reference.driver;
+  out.trajectory.resize_as(original, reference, false);
   try {
     Prepared p = prepare(original, reference, overrides);
     const Config& config = p.config;

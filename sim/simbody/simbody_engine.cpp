@@ -825,10 +825,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   const auto begin = Clock::now();
   EngineRun out;
   out.trajectory.method = "simbody";
-  out.trajectory.resize(original, reference.samples(), true);
-  out.trajectory.add_energy();
-  out.trajectory.time = reference.time;
-  out.trajectory.driver = reference.driver;
+  out.trajectory.resize_as(original, reference, true, true);
   Prepared p;
   DynamicsPlan plan;
   try {
@@ -896,9 +893,7 @@ class SimbodyEngine final : public Engine {
     const auto begin = Clock::now();
     EngineRun out;
     out.trajectory.method = "simbody";
-    out.trajectory.resize(original, reference.samples());
-    out.trajectory.time = reference.time;
-    out.trajectory.driver = reference.driver;
+    out.trajectory.resize_as(original, reference, false);
     Prepared p;
     KinematicPlan plan;
     try {

@@ -60,9 +60,9 @@ void expect_circuit(const Mechanism& m, bool open) {
   const int rocker = m.moving_index(m.find_link("rocker"));
   ASSERT_GT(t.samples(), 300);
   for (int i = 0; i < t.samples(); i += 30) {
-    const double expected = norton_theta4(t.driver(i), open);
+    const double expected = norton_theta4(t.along(i), open);
     EXPECT_NEAR(std::remainder(t.angle(i, rocker) - expected, 2 * std::numbers::pi), 0.0, 1e-10)
-        << "theta2 = " << t.driver(i) / kDeg << " deg";  // to Newton's tolerance
+        << "theta2 = " << t.along(i) / kDeg << " deg";  // to Newton's tolerance
   }
 }
 

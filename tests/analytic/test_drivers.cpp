@@ -616,6 +616,32 @@ TEST(SweepAxis, OneDriverIsItsValueSeveralAreTime) {
   EXPECT_THROW((void)two.swept(), std::logic_error);
 }
 
+// Every driver's value is filled, whatever the axis: the one driver's is its swept value (each
+// sample's `along`), and each of several drivers' is its own law's at the sample's time; so are
+// the dyads' and every engine's, which take them from the reference.
+TEST(SweepAxis, EveryDriversValueIsFilledOnEitherAxis) {
+  for (const char* file :
+       {"mechanisms/fourbar_crank_rocker.toml", "mechanisms/drivers/fivebar_two_cranks.toml"}) {
+    const Mechanism m = load_mechanism(file);
+    const Trajectory t = sweep(m, SweepOptions{});
+    ASSERT_GT(t.samples(), 10) << file;
+    ASSERT_EQ(t.driver_values.cols(), static_cast<Eigen::Index>(m.drivers.size())) << file;
+    ASSERT_EQ(t.driver_names.size(), m.drivers.size()) << file;
+    for (int row = 0; row < t.samples(); ++row) {
+      for (size_t d = 0; d < m.drivers.size(); ++d)
+        EXPECT_NEAR(t.driver_values(row, static_cast<Eigen::Index>(d)),
+                    m.drivers[d].at_time(t.time(row)).value, 1e-9)
+            << file << " " << m.drivers[d].name << " #" << row;
+      if (m.axis().timed()) {
+        EXPECT_EQ(t.along(row), t.time(row)) << file << " #" << row;
+        EXPECT_THROW((void)t.swept(row), std::logic_error);
+      } else {
+        EXPECT_EQ(t.along(row), t.driver_values(row, m.axis().driver)) << file << " #" << row;
+      }
+    }
+  }
+}
+
 // Every driver seeds the instantaneous centres (it was the first only): each driven crank's
 // angular velocity from the centres is its own law's rate, whatever the other driver does.
 TEST(SweepAxis, EveryDriverSeedsTheCentres) {

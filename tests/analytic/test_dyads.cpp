@@ -139,7 +139,7 @@ TEST_P(Bundled, DyadsAgreeWithNewton) {
       const double error = std::abs(a(r) - b(r)) / scale;
       if (error > worst) worst = error, worst_channel = name;
       ASSERT_LE(error, kAgreement)
-          << name << " at driver " << newton.driver(r) << ": newton " << a(r) << ", dyads " << b(r);
+          << name << " at driver " << newton.along(r) << ": newton " << a(r) << ", dyads " << b(r);
     }
   }
   std::printf("[ agreement ] %s: %zu samples, largest relative difference %.2e (%s)\n",
@@ -398,7 +398,7 @@ TEST(Dyads, OtherAssemblyModeDisagrees) {
   ASSERT_EQ(newton.assemble(assembled).status, PoseStatus::ok);
   DyadState state(m);
   solver.set_modes(assembled, state);
-  state.kinematics.driver = assembled.driver;
+  state.kinematics.swept() = assembled.swept();
   ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
   EXPECT_LT((state.kinematics.q - assembled.q).lpNorm<Eigen::Infinity>(), 1e-12);
   for (int& mode : state.assembly_mode) mode = -mode;
@@ -418,7 +418,7 @@ TEST(Dyads, CrankRockerAtZeroByLawOfCosines) {
   ASSERT_EQ(newton.assemble(assembled).status, PoseStatus::ok);
   DyadState state(m);
   solver.set_modes(assembled, state);
-  state.kinematics.driver = m.drivers[0].at_time(0.0);
+  state.kinematics.swept() = m.drivers[0].at_time(0.0);
   ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
   const double b = 0.12, c = 0.08, bd = 0.06;
   const double angle_d = std::acos((c * c + bd * bd - b * b) / (2 * c * bd));  // at D, from DB

@@ -42,9 +42,9 @@ class Branch {
     const Trajectory& first = curves_.front();
     const int last = first.samples() - 1;
     if (last > 0 && usable(first.status[static_cast<size_t>(last)]) &&
-        std::abs(first.driver(last) - first.driver(0)) > 1.99 * kPi) {
+        std::abs(first.along(last) - first.along(0)) > 1.99 * kPi) {
       Mechanism on = m;
-      on.drivers[0].start = first.driver(last);
+      on.drivers[0].start = first.along(last);
       const Eigen::VectorXd q = coordinates(first, last);
       for (size_t l = 0; l < on.links.size(); ++l)
         if (const int c = on.moving_index(static_cast<int>(l)); c >= 0)
@@ -61,17 +61,17 @@ class Branch {
       for (int k = 0; k < c.samples(); ++k)
         if (c.status[static_cast<size_t>(k)] == PoseStatus::ok &&
             (nearest < 0 ||
-             std::abs(c.driver(k) - value) < std::abs(curve->driver(nearest) - value))) {
+             std::abs(c.along(k) - value) < std::abs(curve->along(nearest) - value))) {
           curve = &c;
           nearest = k;
         }
-    if (nearest < 0 || std::abs(curve->driver(nearest) - value) > 1.5 * kDeg) return std::nullopt;
+    if (nearest < 0 || std::abs(curve->along(nearest) - value) > 1.5 * kDeg) return std::nullopt;
     KinematicState state(m_);
     state.q = coordinates(*curve, nearest);
-    const double from = curve->driver(nearest);
+    const double from = curve->along(nearest);
     SolveReport r;
     for (int i = 1; i <= 64; ++i) {
-      state.driver.value = i == 64 ? value : from + (value - from) * (1.0 - std::ldexp(1.0, -i));
+      state.swept().value = i == 64 ? value : from + (value - from) * (1.0 - std::ldexp(1.0, -i));
       r = solver_.solve_position(state);
       if (r.status != PoseStatus::ok && r.status != PoseStatus::singular) return std::nullopt;
     }
@@ -109,13 +109,13 @@ void expect_on_branch(const Mechanism& m, const Branch& branch, const Trajectory
   const double size = m.size();
   for (int k = 0; k < t.samples(); ++k) {
     if (k > 0) {
-      EXPECT_NE(t.driver(k), t.driver(k - 1)) << what << ": sample " << k << " repeats";
+      EXPECT_NE(t.along(k), t.along(k - 1)) << what << ": sample " << k << " repeats";
       EXPECT_GT(t.time(k), t.time(k - 1)) << what << ": sample " << k << " runs backwards";
     }
     if (!usable(t.status[static_cast<size_t>(k)])) continue;
-    const std::optional<Eigen::VectorXd> expected = branch.at(t.driver(k));
+    const std::optional<Eigen::VectorXd> expected = branch.at(t.along(k));
     if (!expected) {
-      ADD_FAILURE() << what << ": an ok sample at " << t.driver(k) / kDeg
+      ADD_FAILURE() << what << ": an ok sample at " << t.along(k) / kDeg
                     << " deg where the drawn branch has no pose";
       continue;
     }
@@ -125,7 +125,7 @@ void expect_on_branch(const Mechanism& m, const Branch& branch, const Trajectory
       const double off =
           angle ? std::remainder(q(i) - (*expected)(i), 2 * kPi) : (q(i) - (*expected)(i)) / size;
       EXPECT_LE(std::abs(off), 1e-9)
-          << what << ": sample " << k << " at " << t.driver(k) / kDeg << " deg, coordinate " << i;
+          << what << ": sample " << k << " at " << t.along(k) / kDeg << " deg, coordinate " << i;
     }
   }
 }

@@ -65,12 +65,12 @@ int expect_on_open_branch(const Trajectory& t, const std::string& what) {
   int placed = 0;
   for (int k = 0; k < t.samples(); ++k) {
     if (k > 0) {
-      EXPECT_GT(t.driver(k), t.driver(k - 1)) << what << ": sample " << k << " not after the last";
+      EXPECT_GT(t.along(k), t.along(k - 1)) << what << ": sample " << k << " not after the last";
     }
     if (!has_position(t.status[static_cast<size_t>(k)])) continue;
     ++placed;
-    const FourBarPose p = open_pose(t.driver(k));
-    const double at = t.driver(k) / kDeg;
+    const FourBarPose p = open_pose(t.along(k));
+    const double at = t.along(k) / kDeg;
     EXPECT_NEAR(t.x(k, C), p.C.x(), 1e-9 * d) << what << " at " << at << " deg";
     EXPECT_NEAR(t.y(k, C), p.C.y(), 1e-9 * d) << what << " at " << at << " deg";
     EXPECT_NEAR(std::remainder(t.angle(k, 1) - p.coupler, 2 * kPi), 0.0, 1e-9)
@@ -97,7 +97,7 @@ TEST(Edges, ARangeEqualToTheAssemblingRangeFollowsTheDrawnBranch) {
     // Both ends are the limits, flagged as the toggles they are, each with its event.
     for (const int k : {0, t.samples() - 1}) {
       EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::singular) << what;
-      EXPECT_NEAR(std::abs(t.driver(k)), kLimit, 1e-9) << what;
+      EXPECT_NEAR(std::abs(t.along(k)), kLimit, 1e-9) << what;
     }
     int toggles = 0;
     for (const Trajectory::Event& e : t.events)
@@ -120,16 +120,16 @@ TEST(Edges, ARangeToOrBeyondALimitFlagsTheToggleAndHasNoPoseBeyond) {
     expect_on_open_branch(t, what);
     int at_limit = -1;
     for (int k = 0; k < t.samples(); ++k)
-      if (std::abs(t.driver(k) - kLimit) < 1e-9) at_limit = k;
+      if (std::abs(t.along(k) - kLimit) < 1e-9) at_limit = k;
     ASSERT_GE(at_limit, 1) << what;
     EXPECT_EQ(t.status[static_cast<size_t>(at_limit)], PoseStatus::singular) << what;
     EXPECT_TRUE(t.beside_singular(at_limit - 1)) << what;
     for (int k = at_limit + 1; k < t.samples(); ++k) {
       EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::cannot_assemble) << what;
-      EXPECT_GT(t.driver(k), kLimit) << what;
+      EXPECT_GT(t.along(k), kLimit) << what;
     }
     if (upper == "85") {
-      EXPECT_NEAR(t.driver(t.samples() - 1), 85 * kDeg, 1e-12);
+      EXPECT_NEAR(t.along(t.samples() - 1), 85 * kDeg, 1e-12);
     }
   }
 }
@@ -151,10 +151,10 @@ TEST(Edges, ARockerStartedOnItsToggleClosesItsLoopAfterOneRoundTrip) {
   const double lower = std::acos(0.1375), upper = std::acos(-0.9125);
   ASSERT_GE(t.samples(), 2);
   double travel = 0.0;
-  for (int k = 1; k < t.samples(); ++k) travel += std::abs(t.driver(k) - t.driver(k - 1));
+  for (int k = 1; k < t.samples(); ++k) travel += std::abs(t.along(k) - t.along(k - 1));
   EXPECT_NEAR(travel, 2.0 * (upper - lower), 1e-9);
-  EXPECT_NEAR(t.driver(0), lower, 1e-9);
-  EXPECT_NEAR(t.driver(t.samples() - 1), lower, 1e-9);
+  EXPECT_NEAR(t.along(0), lower, 1e-9);
+  EXPECT_NEAR(t.along(t.samples() - 1), lower, 1e-9);
   for (const Trajectory::Event& e : t.events)
     EXPECT_EQ(e.message.find("did not close"), std::string::npos) << e.message;
   for (int k = 1; k < t.samples(); ++k) EXPECT_GT(t.time(k), t.time(k - 1)) << k;
@@ -180,7 +180,7 @@ TEST(Edges, AStartBesideAChangePointIsOneSample) {
   ASSERT_GE(t.samples(), 361);
   for (int k = 1; k < t.samples(); ++k) {
     EXPECT_GT(t.time(k), t.time(k - 1)) << k;
-    EXPECT_GT(t.driver(k), t.driver(k - 1)) << k;
+    EXPECT_GT(t.along(k), t.along(k - 1)) << k;
   }
 }
 
@@ -228,18 +228,18 @@ TEST(Edges, AKiteDrawnBesideItsChangePointTurnsOnItsSmoothBranchOrIsRefused) {
       int ok = 0;
       for (int k = 0; k < t.samples(); ++k) {
         if (k > 0) {
-          EXPECT_GT(t.driver(k), t.driver(k - 1)) << what << " " << k;
+          EXPECT_GT(t.along(k), t.along(k - 1)) << what << " " << k;
           EXPECT_GT(t.time(k), t.time(k - 1)) << what << " " << k;
         }
         if (t.status[static_cast<size_t>(k)] != PoseStatus::ok) continue;
         ++ok;
         // The smooth branch through the drawing: at q = 0 drawn open C = (a + b, 0), folded
         // C = (a - b, 0), which the branch reaches at q = 360 deg (half-angle q/2 + 180 deg).
-        const double half = 0.5 * t.driver(k) + (folded ? kPi : 0.0);
+        const double half = 0.5 * t.along(k) + (folded ? kPi : 0.0);
         const double sh = std::sin(half), ch = std::cos(half);
         const double r = a * ch + std::sqrt(b * b - a * a * sh * sh);
-        EXPECT_NEAR(t.x(k, C), r * ch, 1e-9 * (a + b)) << what << " at " << t.driver(k) / kDeg;
-        EXPECT_NEAR(t.y(k, C), r * sh, 1e-9 * (a + b)) << what << " at " << t.driver(k) / kDeg;
+        EXPECT_NEAR(t.x(k, C), r * ch, 1e-9 * (a + b)) << what << " at " << t.along(k) / kDeg;
+        EXPECT_NEAR(t.y(k, C), r * sh, 1e-9 * (a + b)) << what << " at " << t.along(k) / kDeg;
       }
       EXPECT_GE(ok, 60) << what;
     }
@@ -375,10 +375,10 @@ TEST(Edges, TheDyadsTurnBackThroughAToggleOntoTheOtherAssembly) {
   int crossed = 0;
   for (int k = 0; k < closed.samples(); ++k) {
     if (k > 0 && t.status[static_cast<size_t>(k - 1)] == PoseStatus::singular &&
-        std::abs(std::abs(t.driver(k - 1)) - kLimit) < 1e-9)
+        std::abs(std::abs(t.along(k - 1)) - kLimit) < 1e-9)
       side = -side;
     if (!usable(closed.status[static_cast<size_t>(k)])) continue;
-    const FourBarPose p = open_pose(closed.driver(k), side);
+    const FourBarPose p = open_pose(closed.along(k), side);
     EXPECT_NEAR(closed.x(k, C), p.C.x(), 1e-9 * d) << "sample " << k;
     EXPECT_NEAR(closed.y(k, C), p.C.y(), 1e-9 * d) << "sample " << k;
     crossed += side < 0;

@@ -98,7 +98,7 @@ void expect_references_within_rounding(const Mechanism& m, const Trajectory& t) 
   for (const Reference& ref : m.references) {
     int row = -1;
     for (int k = 0; k < t.samples(); ++k)
-      if (std::abs(t.driver(k) - ref.driver_value) < 1e-12) row = k;
+      if (std::abs(t.along(k) - ref.driver_value) < 1e-12) row = k;
     ASSERT_GE(row, 0) << ref.quantity;
     const double exact = (*t.channel(ref.quantity))(row);
     EXPECT_TRUE(ref.within_rounding(exact))
@@ -130,7 +130,7 @@ void expect_ryans_travel(const Trajectory& t) {
   const double radius = 13.0 * 0.004 / (2.0 * kPi), w = 80.0 * 2.0 * kPi / 60.0;
   for (int k = 0; k < t.samples(); ++k) {
     ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
-    EXPECT_NEAR(t.s(k, slide), radius * t.driver(k), 1e-12) << k;
+    EXPECT_NEAR(t.s(k, slide), radius * t.along(k), 1e-12) << k;
     EXPECT_NEAR(t.sdot(k, slide), radius * w, 1e-9 * radius * w) << k;  // 4160 mm a minute
     EXPECT_NEAR(t.sddot(k, slide), 0.0, 1e-9 * radius * w * w) << k;
   }
@@ -169,7 +169,7 @@ void expect_pinion_turned_by_travel(const Trajectory& t) {
   const double r = 0.040, l = 0.120, radius = 0.030, w = 4.0 * kPi;  // 120 rpm
   for (int k = 0; k < t.samples(); ++k) {
     ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
-    const double th = t.driver(k), s = std::sin(th), c = std::cos(th);
+    const double th = t.along(k), s = std::sin(th), c = std::cos(th);
     const double g = std::sqrt(l * l - r * r * s * s);
     const double g1 = -r * r * s * c / g;                          // dg/dtheta
     const double g2 = -r * r * (c * c - s * s) / g - g1 * g1 / g;  // d2g/dtheta2
@@ -228,7 +228,7 @@ double expect_dyads_agree_with_newton(const Mechanism& m, const std::string& nam
     for (int k = 0; k < newton.samples(); ++k) {
       const double error = std::abs(a(k) - b(k)) / scale;
       if (error > worst) worst = error, worst_channel = channel;
-      EXPECT_LE(error, 1e-9) << name << " " << channel << " at driver " << newton.driver(k)
+      EXPECT_LE(error, 1e-9) << name << " " << channel << " at driver " << newton.along(k)
                              << ": newton " << a(k) << ", dyads " << b(k);
     }
   }
@@ -375,7 +375,7 @@ TEST(Gears, AGearedFiveBarWithEqualGearsMovesCOnItsMirrorLine) {
   const double w = 2.0 * kPi;  // 60 rpm
   for (int k = 0; k < t.samples(); ++k) {
     ASSERT_TRUE(usable(t.status[static_cast<size_t>(k)])) << k;
-    const double th = t.driver(k), s = std::sin(th), co = std::cos(th);
+    const double th = t.along(k), s = std::sin(th), co = std::cos(th);
     const double gap = 0.025 - 0.020 * co, root = std::sqrt(0.060 * 0.060 - gap * gap);
     const double y = 0.020 * s + root;
     const double dy = 0.020 * co - gap * 0.020 * s / root;  // dC_y / d theta
@@ -430,7 +430,7 @@ TEST(Gears, ConstansAndDyersGearedFiveBarMatchesTheIndependentSolution) {
                acceleration = peak(t.ax.col(p)) + peak(t.ay.col(p));
   for (const Expected& r : rows) {
     const int k = static_cast<int>(r.degrees);  // the 1 degree grid
-    ASSERT_NEAR(t.driver(k), r.degrees * kPi / 180.0, 1e-12);
+    ASSERT_NEAR(t.along(k), r.degrees * kPi / 180.0, 1e-12);
     EXPECT_NEAR(t.x(k, e), r.ex, 1e-9 * length) << r.degrees;
     EXPECT_NEAR(t.y(k, e), r.ey, 1e-9 * length) << r.degrees;
     EXPECT_NEAR(t.x(k, p), r.px, 1e-9 * length) << r.degrees;
@@ -476,7 +476,7 @@ TEST(Gears, TheMeshForceActsAlongTheLineOfAction) {
     int checked = 0;
     for (int k = 0; k < t.samples(); k += 7) {
       state.q = coordinates_at(m, t, k);
-      state.driver = m.drivers[0].at_time(t.time(k));
+      state.swept() = m.drivers[0].at_time(t.time(k));
       ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
       kinetostatics.solve(state, forces);
       for (size_t ji = 0; ji < m.joints.size(); ++ji) {

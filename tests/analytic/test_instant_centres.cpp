@@ -316,7 +316,7 @@ TEST(InstantCentres, EveryBundledMechanismOverItsSweep) {
                          omega_scale[static_cast<size_t>(l)];
         if (e > worst_omega) worst_omega = e, worst_omega_row = r;
         EXPECT_LE(e, tolerance) << "omega." << exact.link_names[l] << " at sample " << r
-                                << " (driver " << exact.driver(r) << "): centres "
+                                << " (driver " << exact.along(r) << "): centres "
                                 << v.omega[static_cast<size_t>(l)] << ", Newton "
                                 << exact.omega(r, l);
       }
@@ -326,7 +326,7 @@ TEST(InstantCentres, EveryBundledMechanismOverItsSweep) {
                          v_scale[static_cast<size_t>(p)];
         if (e > worst_v) worst_v = e, worst_v_row = r;
         EXPECT_LE(e, tolerance) << "v." << exact.point_names[p] << " at sample " << r << " (driver "
-                                << exact.driver(r) << ")";
+                                << exact.along(r) << ")";
       }
     }
     std::printf(

@@ -44,12 +44,12 @@ void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
       state.drive_at(m, t.time(k));  // the sweep runs in time: every driver by its law
     } else {
       DriverState d = m.drivers[0].at_time(t.time(k));
-      d.value = t.driver(k);
+      d.value = t.along(k);
       if (m.drivers[0].law.kind == MotionLaw::Kind::constant_speed) d.rate = m.drivers[0].law.speed;
-      state.driver = d;
+      state.swept() = d;
     }
     const SolveReport r = solver.solve(state);
-    ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << state.driver.value;
+    ASSERT_EQ(r.status, PoseStatus::ok) << m.file << " at " << state.swept().value;
     f(state, r);
   }
 }
@@ -98,7 +98,7 @@ TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
       kinetostatics.solve(state, forces);
       double power = 0.0;
       for (int d = 0; d < state.driver_count(); ++d) {
-        const double term = forces.effort(d) * state.driver_state(d).rate;
+        const double term = forces.effort(d) * state.drivers[static_cast<size_t>(d)].rate;
         power += term;
         scale = std::max(scale, std::abs(term));
       }
@@ -204,7 +204,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
             Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.effort(0));
     }
     for (const Load& load : m.loads) {
-      const Eigen::Vector2d v = load.force_at(state.driver.value);
+      const Eigen::Vector2d v = load_value(load, state);
       if (load.kind == Load::Kind::torque)
         apply(load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), v.x());
       else
@@ -226,10 +226,10 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
       const Eigen::Vector2d expected = link.mass.mass * b.acceleration(link.mass.com);
       const Eigen::Vector2d total = force[l] + link.mass.mass * m.gravity;
       const double tolerance = 1e-9 * std::max(scale, 1.0);
-      EXPECT_NEAR(total.x(), expected.x(), tolerance) << link.name << " at " << state.driver.value;
-      EXPECT_NEAR(total.y(), expected.y(), tolerance) << link.name << " at " << state.driver.value;
+      EXPECT_NEAR(total.x(), expected.x(), tolerance) << link.name << " at " << state.swept().value;
+      EXPECT_NEAR(total.y(), expected.y(), tolerance) << link.name << " at " << state.swept().value;
       EXPECT_NEAR(moment[l], link.mass.inertia * b.alpha, tolerance * m.size())
-          << link.name << " at " << state.driver.value;
+          << link.name << " at " << state.swept().value;
     }
     // The ground: what its joints and the driver's reaction take, with the springs anchored on
     // it, is the shaking force and moment.
@@ -290,7 +290,7 @@ TEST(QuasiStatics, DriverEffortIsTheDerivativeOfPotentialEnergy) {
       double v[2];
       for (int side = 0; side < 2; ++side) {
         shifted.q = state.q;
-        shifted.driver.value = state.driver.value + (side == 0 ? h : -h);
+        shifted.swept().value = state.swept().value + (side == 0 ? h : -h);
         ASSERT_EQ(solver.solve_position(shifted).status, PoseStatus::ok);
         v[side] = potential(shifted.q);
       }

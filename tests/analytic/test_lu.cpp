@@ -81,7 +81,7 @@ TEST(SparseLU, EveryBundledJacobianFactorsAsTheDenseLoops) {
       // The norm the condition estimate divides by: Eigen's dense column sums, bit for bit.
       EXPECT_EQ(state.jacobian_norm, scaled.cwiseAbs().colwise().sum().maxCoeff()) << file;
       ++checked;
-      state.driver.value += 0.3 * (m.drivers[0].angular() ? 1.0 : 0.1 * m.size());
+      state.swept().value += 0.3 * (m.drivers[0].angular() ? 1.0 : 0.1 * m.size());
       if (solver.solve(state).status != PoseStatus::ok) break;
     }
   }

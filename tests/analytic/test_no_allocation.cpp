@@ -102,7 +102,7 @@ Counts count_sweep(const Mechanism& m, int poses) {
   KinematicState state(m);
   const SolveReport assembled = solver.assemble(state);
   EXPECT_EQ(assembled.status, PoseStatus::ok) << assembled.message;
-  state.driver.value += kDeg;
+  state.swept().value += kDeg;
   EXPECT_EQ(solver.solve(state).status, PoseStatus::ok);
 
   int not_ok = 0;
@@ -110,7 +110,7 @@ Counts count_sweep(const Mechanism& m, int poses) {
   g_mallocs = 0;
   g_counting = true;
   for (int k = 0; k < poses; ++k) {
-    state.driver.value += kDeg;
+    state.swept().value += kDeg;
     if (solver.solve(state).status != PoseStatus::ok) ++not_ok;
   }
   g_counting = false;
@@ -227,7 +227,7 @@ TEST(NoAllocation, ConditionEstimateIsEigens) {
   KinematicState state(m);
   ASSERT_EQ(solver.assemble(state).status, PoseStatus::ok);
   for (int k = 0; k < 36; ++k) {
-    state.driver.value += 10 * kDeg;
+    state.swept().value += 10 * kDeg;
     const SolveReport report = solver.solve(state);
     ASSERT_EQ(report.status, PoseStatus::ok);
     EXPECT_DOUBLE_EQ(report.rcond,

@@ -140,7 +140,7 @@ TEST_P(EveryMechanism, SweptPositionsCloseTheLoops) {
   int checked = 0;
   for (int r = 0; r < trajectory().samples(); ++r) {
     if (!usable(trajectory().status[static_cast<size_t>(r)])) continue;
-    solver.residual(coordinates_of(m, trajectory(), r), trajectory().driver(r), phi);
+    solver.residual(coordinates_of(m, trajectory(), r), trajectory().along(r), phi);
     worst = std::max(worst, phi.cwiseProduct(lengths).lpNorm<Eigen::Infinity>());
     ++checked;
   }
@@ -157,19 +157,19 @@ TEST_P(EveryMechanism, AnglesAreContinuousAlongTheSweep) {
   for (int r = 1; r < t.samples(); ++r) {
     if (!usable(t.status[static_cast<size_t>(r)]) || !usable(t.status[static_cast<size_t>(r - 1)]))
       continue;
-    const double d0 = std::min(t.driver(r - 1), t.driver(r)),
-                 d1 = std::max(t.driver(r - 1), t.driver(r));
+    const double d0 = std::min(t.along(r - 1), t.along(r)),
+                 d1 = std::max(t.along(r - 1), t.along(r));
     const bool explained = std::any_of(t.events.begin(), t.events.end(), [&](const auto& e) {
       return e.driver >= d0 - 1e-9 && e.driver <= d1 + 1e-9;
     });
     if (explained) continue;
-    const double step = std::abs(t.driver(r) - t.driver(r - 1));
+    const double step = std::abs(t.along(r) - t.along(r - 1));
     const double bound =
         mechanism().drivers[0].angular() ? 30.0 * step : 30.0 * std::numbers::pi / 180.0;
     for (Eigen::Index c = 0; c < t.angle.cols(); ++c)
       EXPECT_LT(std::abs(t.angle(r, c) - t.angle(r - 1, c)), bound)
-          << t.link_names[static_cast<size_t>(c)] << " between driver " << t.driver(r - 1)
-          << " and " << t.driver(r) << " with no event";
+          << t.link_names[static_cast<size_t>(c)] << " between driver " << t.along(r - 1) << " and "
+          << t.along(r) << " with no event";
   }
 }
 
@@ -235,7 +235,7 @@ TEST_P(EveryMechanism, VelocityAndAccelerationAreDerivativesOfPosition) {
     bool solved = true;
     for (int i = 0; i < 5 && solved; ++i) {
       state.q = q0;
-      state.driver = m.drivers[0].at_time(t.time(r) + offsets[i] * h);
+      state.drive_at(m, t.time(r) + offsets[i] * h);
       state.qdot.setZero();
       state.qddot.setZero();
       const SolveReport report = solver.solve_position(state);
@@ -266,7 +266,7 @@ TEST_P(EveryMechanism, VelocityAndAccelerationAreDerivativesOfPosition) {
       worst_a = std::max(worst_a, std::abs(analytic_a - d2h) / peak_a);
       if (std::abs(analytic_v - d1h) > tol_v || std::abs(analytic_a - d2h) > tol_a) {
         if (++failures <= 5)
-          ADD_FAILURE() << c.velocity << " / " << c.acceleration << " at driver " << t.driver(r)
+          ADD_FAILURE() << c.velocity << " / " << c.acceleration << " at driver " << t.along(r)
                         << ": analytic " << analytic_v << ", " << analytic_a << "; differences "
                         << d1h << " (tol " << tol_v << "), " << d2h << " (tol " << tol_a << ")";
       }
@@ -295,7 +295,7 @@ TEST_P(EveryMechanism, JacobianIsDerivativeOfResidual) {
   for (int r = 0; r < trajectory().samples(); ++r) {
     if (!usable(trajectory().status[static_cast<size_t>(r)])) continue;
     const Eigen::VectorXd q = coordinates_of(m, trajectory(), r);
-    const double d = trajectory().driver(r);
+    const double d = trajectory().along(r);
     solver.jacobian(q, analytic);
     for (int j = 0; j < n; ++j) {
       const bool angle = j % 3 == 2;

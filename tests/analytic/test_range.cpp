@@ -41,7 +41,7 @@ std::vector<double> swept_degrees(const Mechanism& m) {
     EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << "sample " << k;
     for (int l = 0; l < t.angle.cols(); ++l)
       EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << "sample " << k << " link " << l;
-    degrees.push_back(t.driver(k) / kDeg);
+    degrees.push_back(t.along(k) / kDeg);
   }
   // The work bound counts the same samples (it counts them first, before the continuation).
   try {
@@ -107,19 +107,19 @@ TEST(Range, ARangeStartingOutsideTheAssemblingRangeSolvesTheSamplesInside) {
   int solved = 0, flagged = 0, at_limit = 0;
   for (int k = 0; k < t.samples(); ++k) {
     const PoseStatus s = t.status[static_cast<size_t>(k)];
-    if (t.driver(k) < limit - 1e-9) {
-      EXPECT_EQ(s, PoseStatus::cannot_assemble) << t.driver(k) / kDeg;
+    if (t.along(k) < limit - 1e-9) {
+      EXPECT_EQ(s, PoseStatus::cannot_assemble) << t.along(k) / kDeg;
       ++flagged;
       continue;
     }
-    ASSERT_TRUE(has_position(s)) << t.driver(k) / kDeg << " " << to_string(s);
-    if (std::abs(t.driver(k) - limit) < 1e-9) {  // the limit is its toggle: a sample, flagged
+    ASSERT_TRUE(has_position(s)) << t.along(k) / kDeg << " " << to_string(s);
+    if (std::abs(t.along(k) - limit) < 1e-9) {  // the limit is its toggle: a sample, flagged
       EXPECT_EQ(s, PoseStatus::singular);
       ++at_limit;
       continue;
     }
     for (int l = 0; l < t.angle.cols(); ++l)
-      EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << t.driver(k) / kDeg;
+      EXPECT_NEAR(t.angle(k, l), closed.angle(k, l), kAgreement) << t.along(k) / kDeg;
     ++solved;
   }
   EXPECT_EQ(flagged, 16);  // 40, 40.72, ..., 54.72

@@ -81,13 +81,13 @@ TEST(PolycentricHinge, SweepsItsWholeAssemblingRangeOnOneBranch) {
   ASSERT_GT(t.samples(), 2);
   const int last = t.samples() - 1;
   // The samples cover the range to within one step at each end.
-  const double first_d = std::min(t.driver(0), t.driver(last));
-  const double last_d = std::max(t.driver(0), t.driver(last));
+  const double first_d = std::min(t.along(0), t.along(last));
+  const double last_d = std::max(t.along(0), t.along(last));
   EXPECT_GE(first_d, range.lower - 1e-9);
   EXPECT_LT(first_d - range.lower, step + 1e-9);
   EXPECT_LE(last_d, range.upper + 1e-9);
   EXPECT_LT(range.upper - last_d, step + 1e-9);
-  EXPECT_NEAR(std::abs(t.driver(last) - t.driver(0)), range.upper - range.lower, 2 * step);
+  EXPECT_NEAR(std::abs(t.along(last) - t.along(0)), range.upper - range.lower, 2 * step);
 
   // Every interior sample is usable; the end samples may sit exactly on a limit (a toggle),
   // where the Jacobian is singular by definition.
@@ -96,7 +96,7 @@ TEST(PolycentricHinge, SweepsItsWholeAssemblingRangeOnOneBranch) {
     if (r == 0 || r == last)
       EXPECT_TRUE(s == PoseStatus::ok || s == PoseStatus::singular) << to_string(s);
     else
-      EXPECT_EQ(s, PoseStatus::ok) << "sample " << r << " at " << t.driver(r) / kDeg;
+      EXPECT_EQ(s, PoseStatus::ok) << "sample " << r << " at " << t.along(r) / kDeg;
   }
 
   // No branch jump. (1) Link angles change by a bounded amount per step: 30 steps allows the
@@ -109,12 +109,12 @@ TEST(PolycentricHinge, SweepsItsWholeAssemblingRangeOnOneBranch) {
   // not predict. 10 % of the step's change (plus 1e-9 rad) separates the two.
   double worst_hermite = 0.0;
   for (int r = 1; r <= last; ++r) {
-    const double h = t.driver(r) - t.driver(r - 1);
+    const double h = t.along(r) - t.along(r - 1);
     const double rate = m.drivers[0].law.speed;
     for (Eigen::Index c = 0; c < t.angle.cols(); ++c) {
       const double change = t.angle(r, c) - t.angle(r - 1, c);
       EXPECT_LT(std::abs(change), 30 * step)
-          << t.link_names[static_cast<size_t>(c)] << " at " << t.driver(r) / kDeg;
+          << t.link_names[static_cast<size_t>(c)] << " at " << t.along(r) / kDeg;
       if (!usable(t.status[static_cast<size_t>(r)]) ||
           !usable(t.status[static_cast<size_t>(r - 1)]))
         continue;
@@ -124,8 +124,8 @@ TEST(PolycentricHinge, SweepsItsWholeAssemblingRangeOnOneBranch) {
       const double miss = std::abs(change - hermite);
       worst_hermite = std::max(worst_hermite, miss / (std::abs(change) + 1e-9));
       EXPECT_LT(miss, 0.1 * std::abs(change) + 1e-9)
-          << t.link_names[static_cast<size_t>(c)] << " between " << t.driver(r - 1) / kDeg
-          << " and " << t.driver(r) / kDeg << " deg";
+          << t.link_names[static_cast<size_t>(c)] << " between " << t.along(r - 1) / kDeg << " and "
+          << t.along(r) / kDeg << " deg";
     }
   }
   RecordProperty("worst_hermite_miss_of_change", std::to_string(worst_hermite));
@@ -170,7 +170,7 @@ TEST(SixbarSliderGuide, MatchesAHandConstructionOverTheSweep) {
     EXPECT_NEAR((F - C).dot(C - B), 0.0, tol * BC);
     EXPECT_NEAR((E - C).dot(C - B), 0.0, tol * BC);  // E is a coupler point on the guide
     // Hand construction from the driver value alone.
-    const double phi = t.driver(r);
+    const double phi = t.along(r);
     const Eigen::Vector2d B_hand(AB * std::cos(phi), AB * std::sin(phi));
     const Eigen::Vector2d C_hand = circle_circle_left(B_hand, BC, D, CD);
     const Eigen::Vector2d u = (C_hand - B_hand) / BC, n(-u.y(), u.x());
@@ -197,7 +197,7 @@ TEST(FourbarCrankRocker, MatchesCircleIntersectionOverTheSweep) {
   const Eigen::Vector2d D(0.10, 0);
   for (int r = 0; r < t.samples(); ++r) {
     ASSERT_EQ(t.status[static_cast<size_t>(r)], PoseStatus::ok);
-    const double th = t.driver(r);
+    const double th = t.along(r);
     const Eigen::Vector2d B(0.04 * std::cos(th), 0.04 * std::sin(th));
     EXPECT_NEAR((point(t, "C", r) - circle_circle_left(B, 0.12, D, 0.08)).norm(), 0.0, 1e-9)
         << "at theta2 = " << th / kDeg;
@@ -215,7 +215,7 @@ TEST(SliderCrankOffset, MatchesClosedFormOverTheSweep) {
   EXPECT_NEAR(w, 8 * std::numbers::pi, 1e-12);
   for (int r = 0; r < t.samples(); ++r) {
     ASSERT_EQ(t.status[static_cast<size_t>(r)], PoseStatus::ok);
-    const double th = t.driver(r), rise = c - a * std::sin(th);
+    const double th = t.along(r), rise = c - a * std::sin(th);
     const double root = std::sqrt(b * b - rise * rise);
     EXPECT_NEAR(point(t, "C", r).x(), a * std::cos(th) + root, 1e-9);
     EXPECT_NEAR(point(t, "C", r).y(), c, 1e-9);

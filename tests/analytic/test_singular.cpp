@@ -101,8 +101,8 @@ TEST(ChangePoint, CrankRockerFlipsAssemblyModeOnSmoothBranch) {
   ASSERT_EQ(found.size(), 1u);
   EXPECT_NEAR(found[0], kPi, 1e-9);
   for (int r = 0; r + 1 < t.samples(); ++r) {
-    if (t.driver(r) < kPi - 1e-9 && t.driver(r + 1) > kPi - 1e-9) {
-      const int after = t.driver(r + 1) > kPi + 1e-9 ? r + 1 : r + 2;  // skip a sample at pi
+    if (t.along(r) < kPi - 1e-9 && t.along(r + 1) > kPi - 1e-9) {
+      const int after = t.along(r + 1) > kPi + 1e-9 ? r + 1 : r + 2;  // skip a sample at pi
       EXPECT_LT(side_of_c(t, r) * side_of_c(t, after), 0.0);
     }
   }
@@ -124,8 +124,8 @@ TEST(Toggle, NonGrashofLimitsAndReverse) {
   // Stop: the sweep covers [-theta0, theta0] on the drawn branch, ending on flagged toggles.
   std::vector<SingularPosition> stop_events;
   const Trajectory stop = sweep(m, {}, stop_events);
-  EXPECT_NEAR(stop.driver(0), -theta0, 1e-9);
-  EXPECT_NEAR(stop.driver(stop.samples() - 1), theta0, 1e-9);
+  EXPECT_NEAR(stop.along(0), -theta0, 1e-9);
+  EXPECT_NEAR(stop.along(stop.samples() - 1), theta0, 1e-9);
   EXPECT_EQ(stop.status.front(), PoseStatus::singular);
   EXPECT_EQ(stop.status.back(), PoseStatus::singular);
   const double drawn_side = side_of_c(stop, stop.samples() / 2);
@@ -145,8 +145,8 @@ TEST(Toggle, NonGrashofLimitsAndReverse) {
   EXPECT_NEAR(toggles[1], -theta0, 1e-9);
   int first = -1, second = -1;
   for (int r = 0; r < t.samples(); ++r) {
-    if (first < 0 && std::abs(t.driver(r) - theta0) < 1e-12) first = r;
-    if (first >= 0 && second < 0 && std::abs(t.driver(r) + theta0) < 1e-12) second = r;
+    if (first < 0 && std::abs(t.along(r) - theta0) < 1e-12) first = r;
+    if (first >= 0 && second < 0 && std::abs(t.along(r) + theta0) < 1e-12) second = r;
   }
   ASSERT_GT(first, 0);
   ASSERT_GT(second, first);
@@ -155,14 +155,14 @@ TEST(Toggle, NonGrashofLimitsAndReverse) {
     const bool other_side = r > first && r < second;
     EXPECT_EQ(side_of_c(t, r) * side_of_c(t, 0) < 0, other_side) << "row " << r;
     if (r > 0 && r != first + 1 && r != second + 1) {  // driver direction per leg
-      EXPECT_EQ(t.driver(r) < t.driver(r - 1), other_side) << "row " << r;
+      EXPECT_EQ(t.along(r) < t.along(r - 1), other_side) << "row " << r;
     }
     if (r > 0) {
       EXPECT_GT(t.time(r), t.time(r - 1));
     }
   }
   // The loop closes on the drawn position.
-  EXPECT_NEAR(t.driver(t.samples() - 1), m.drivers[0].start, 1e-12);
+  EXPECT_NEAR(t.along(t.samples() - 1), m.drivers[0].start, 1e-12);
   EXPECT_NEAR(channel(t, "angle.rocker", t.samples() - 1), channel(t, "angle.rocker", 0), 1e-9);
 }
 
@@ -189,7 +189,7 @@ TEST(Toggle, SliderCrankDrivenFromSlider) {
   EXPECT_NEAR(toggles[1], s_min, 1e-12);
   // Passing both dead points the crank makes one full turn and the loop closes.
   const int last = t.samples() - 1;
-  EXPECT_NEAR(t.driver(last), m.drivers[0].start, 1e-12);
+  EXPECT_NEAR(t.along(last), m.drivers[0].start, 1e-12);
   EXPECT_NEAR(std::abs(channel(t, "angle.crank", last) - channel(t, "angle.crank", 0)), 2 * kPi,
               1e-9);
 }
@@ -203,8 +203,8 @@ TEST(Toggle, PolycentricHingeLimits) {
   const Trajectory t = sweep(m, {}, events);
   const AssemblingRange range = assembling_range(m);
   ASSERT_FALSE(range.full_cycle);
-  EXPECT_NEAR(t.driver(0), range.lower, 1e-12);
-  EXPECT_NEAR(t.driver(t.samples() - 1), range.upper, 1e-12);
+  EXPECT_NEAR(t.along(0), range.lower, 1e-12);
+  EXPECT_NEAR(t.along(t.samples() - 1), range.upper, 1e-12);
   EXPECT_EQ(t.status.front(), PoseStatus::singular);
   EXPECT_EQ(t.status.back(), PoseStatus::singular);
   EXPECT_LT(t.rcond(0), 1e-6);
@@ -294,7 +294,7 @@ TEST(HeldDriver, ChainTurningWithTheDriverHeldIsFlagged) {
   double lo = 1e300, hi = -1e300;
   for (int k = 0; k < t.samples(); ++k) {
     if (!has_position(t.status[static_cast<size_t>(k)])) continue;
-    EXPECT_NEAR(t.driver(k), m.drivers[0].start, 1e-6);
+    EXPECT_NEAR(t.along(k), m.drivers[0].start, 1e-6);
     lo = std::min(lo, channel(t, "angle.triangle", k));
     hi = std::max(hi, channel(t, "angle.triangle", k));
   }
@@ -459,7 +459,7 @@ TEST(Singular, ALongParallelogramChainFollowsItsClosedForm) {
   double worst = 0.0;
   int flagged = 0;
   for (int i = 0; i < t.samples(); ++i) {
-    const double d = t.driver(i);
+    const double d = t.along(i);
     const bool level = std::abs(std::remainder(d, std::numbers::pi)) < 1e-9;
     const PoseStatus status = t.status[static_cast<size_t>(i)];
     ASSERT_EQ(status, level ? PoseStatus::singular : PoseStatus::ok) << "driver " << d;

@@ -216,7 +216,7 @@ int expect_ok_samples_exact(const Mechanism& m, const ClosedForm& exact, const T
   for (int k = 0; k < t.samples(); ++k) {
     if (t.status[static_cast<size_t>(k)] != PoseStatus::ok) continue;
     ++checked;
-    const std::map<std::string, double> expected = exact_channels(m, exact, t.driver(k), rate);
+    const std::map<std::string, double> expected = exact_channels(m, exact, t.along(k), rate);
     for (const auto& [name, value] : expected) {
       const std::optional<Eigen::VectorXd> column = t.channel(name);
       if (!column) {
@@ -231,12 +231,12 @@ int expect_ok_samples_exact(const Mechanism& m, const ClosedForm& exact, const T
       if (kind == "angle") error = std::remainder(error, 2 * kPi);
       // A non-finite exact value (a rate at a toggle) makes any number marked ok wrong.
       EXPECT_TRUE(std::abs(error) <= kRoundOff * s)
-          << what << ": " << name << " at driver " << fmt::format("{:.17g}", t.driver(k))
+          << what << ": " << name << " at driver " << fmt::format("{:.17g}", t.along(k))
           << " is ok with " << (*column)(k) << ", exact " << value;
     }
     if (torque_scale > 0 && t.has_forces) {
       EXPECT_LE(std::abs(t.effort(k, 0)), kRoundOff * torque_scale)
-          << what << ": torque.driver at driver " << fmt::format("{:.17g}", t.driver(k));
+          << what << ": torque.driver at driver " << fmt::format("{:.17g}", t.along(k));
     }
   }
   return checked;
@@ -316,7 +316,7 @@ TEST(SingularSamples, ParallelogramFrom45DegreesLandingOnTheChangePoint) {
   const ClosedForm exact = parallelogram(m);
   for (const auto& [method, t] : test::exact_sweeps(m, kDeg)) {
     bool landed = false;
-    for (int k = 0; k < t.samples(); ++k) landed |= std::abs(t.driver(k) - 2 * kPi) < 1e-12;
+    for (int k = 0; k < t.samples(); ++k) landed |= std::abs(t.along(k) - 2 * kPi) < 1e-12;
     EXPECT_TRUE(landed) << method;
     EXPECT_GT(expect_ok_samples_exact(m, exact, t, method, torque_scale(m)), 300) << method;
   }
@@ -401,7 +401,7 @@ int compare_methods_around_singular_positions(const std::string& file, bool all_
           const PoseStatus a = newton.status[static_cast<size_t>(k)];
           const PoseStatus b = dyads.status[static_cast<size_t>(k)];
           const std::string what = fmt::format("{}: step {:.17g} beside {:g}, driver {:.17g}", file,
-                                               step, beside, newton.driver(k));
+                                               step, beside, newton.along(k));
           EXPECT_EQ(to_string(a), to_string(b)) << what;
           if (a != PoseStatus::ok || b != PoseStatus::ok) continue;
           ++compared;
@@ -474,7 +474,7 @@ TEST(SingularEvents, EveryMethodNamesTheSameEventsAtTheSameValues) {
       for (int k = 0; k < newton.samples(); ++k)
         EXPECT_EQ(has_position(newton.status[static_cast<size_t>(k)]),
                   has_position(dyads.status[static_cast<size_t>(k)]))
-            << file << " at " << newton.driver(k);
+            << file << " at " << newton.along(k);
     }
   }
   const Mechanism m = load_mechanism("mechanisms/singular/fourbar_change_point_crank_rocker.toml");

@@ -87,19 +87,19 @@ int expect_same_samples(const Mechanism& m, const Trajectory& coarse, const Traj
   for (int i = 0; i < coarse.samples(); ++i) {
     int j = -1;
     for (int k = 0; k < fine.samples() && j < 0; ++k)
-      if (std::abs(fine.driver(k) - coarse.driver(i)) <= 1e-9 * unit) j = k;
+      if (std::abs(fine.along(k) - coarse.along(i)) <= 1e-9 * unit) j = k;
     if (j < 0) continue;
     ++matched;
     const PoseStatus sc = coarse.status[static_cast<size_t>(i)];
     const PoseStatus sf = fine.status[static_cast<size_t>(j)];
-    EXPECT_EQ(to_string(sc), to_string(sf)) << what << " at driver " << coarse.driver(i);
+    EXPECT_EQ(to_string(sc), to_string(sf)) << what << " at driver " << coarse.along(i);
     if (!usable(sc) || !usable(sf)) continue;
     for (const std::string& name : coarse.channel_names()) {
       const Quantity q = Trajectory::quantity_of(name);
       const double tolerance = kAgreement * std::max(scale.at(q), 1e-300);
       const double a = (*coarse.channel(name))(i), b = (*fine.channel(name))(j);
       EXPECT_LE(std::abs(a - b), tolerance)
-          << what << ": " << name << " at driver " << coarse.driver(i) << ": " << a << " vs " << b
+          << what << ": " << name << " at driver " << coarse.along(i) << ": " << a << " vs " << b
           << " on the fine grid";
     }
   }
@@ -121,7 +121,7 @@ TEST_P(EveryMechanism, CoarseGridsEqualTheFineGrid) {
   if (!m.drivers[0].angular()) {
     std::vector<double> spacing;
     for (int k = 1; k < reference.samples(); ++k)
-      spacing.push_back(std::abs(reference.driver(k) - reference.driver(k - 1)));
+      spacing.push_back(std::abs(reference.along(k) - reference.along(k - 1)));
     std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
     fine_step = spacing[spacing.size() / 2];
   }

@@ -44,7 +44,7 @@ TEST(Trajectory, ASolvedSampleWithANonFiniteValueIsFlaggedAndZeroed) {
   // One event, at the flagged sample's driver value.
   ASSERT_EQ(t.events.size(), 1u);
   EXPECT_EQ(t.events[0].kind, PoseStatus::not_finite);
-  EXPECT_EQ(t.events[0].driver, t.driver(1));
+  EXPECT_EQ(t.events[0].driver, t.along(1));
   EXPECT_EQ(to_string(PoseStatus::not_finite), "not_finite");
   // Again: nothing new to flag, and no second event.
   EXPECT_EQ(t.flag_non_finite(), 0);

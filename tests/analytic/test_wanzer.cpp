@@ -154,7 +154,7 @@ SweptNeedle swept_needle(const std::string& file) {
                         sddot = *t.channel("sddot.needle");
   for (int r = 0; r + 1 < t.samples(); ++r) {
     EXPECT_EQ(t.status[static_cast<size_t>(r)], PoseStatus::ok) << file << " sample " << r;
-    n.driver.push_back(t.driver(r));
+    n.driver.push_back(t.along(r));
     n.s.push_back(s(r) / kMm);
     n.sdot.push_back(sdot(r) / kMm);
     n.sddot.push_back(sddot(r) / kMm);
@@ -365,7 +365,7 @@ speed_unit = "rpm"
                         v_frame = *fixed_frame.channel("sdot.needle");
   for (int r = 0; r < fixed_frame.samples(); ++r) {
     ASSERT_EQ(fixed_disk.status[static_cast<size_t>(r)], PoseStatus::ok) << "sample " << r;
-    EXPECT_NEAR(fixed_disk.driver(r), fixed_frame.driver(r), 1e-15);
+    EXPECT_NEAR(fixed_disk.along(r), fixed_frame.along(r), 1e-15);
     EXPECT_NEAR(s_disk(r), s_frame(r), 1e-12) << "sample " << r;  // [m]
     EXPECT_NEAR(v_disk(r), v_frame(r), 1e-11) << "sample " << r;  // [m/s]
   }

@@ -215,10 +215,10 @@ TEST(ValueAt, OnGridAndInterpolated) {
   const Mechanism m = load_mechanism(kSewing);
   const Trajectory t = sweep(m);
   bool interpolated = true;
-  const double on = *value_at(t, "omega.coupler", t.driver(10), true, &interpolated);
+  const double on = *value_at(t, "omega.coupler", t.along(10), true, &interpolated);
   EXPECT_FALSE(interpolated);
   EXPECT_DOUBLE_EQ(on, (*t.channel("omega.coupler"))(10));
-  const double mid = 0.5 * (t.driver(10) + t.driver(11));
+  const double mid = 0.5 * (t.along(10) + t.along(11));
   const double between = *value_at(t, "omega.coupler", mid, true, &interpolated);
   EXPECT_TRUE(interpolated);
   const Trajectory exact = solve_at(m, mid);
@@ -232,13 +232,13 @@ TEST(ValueAt, ASampleWithoutAValueGivesNone) {
   const Mechanism m = load_mechanism(kSewing);
   Trajectory t = sweep(m);
   t.status[10] = PoseStatus::loop_gap;
-  EXPECT_FALSE(value_at(t, "x.E", t.driver(10), true));
-  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.driver(10) + t.driver(11)), true));
-  EXPECT_TRUE(value_at(t, "x.E", 0.5 * (t.driver(11) + t.driver(12)), true));
+  EXPECT_FALSE(value_at(t, "x.E", t.along(10), true));
+  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.along(10) + t.along(11)), true));
+  EXPECT_TRUE(value_at(t, "x.E", 0.5 * (t.along(11) + t.along(12)), true));
   t.not_run.assign(t.status.size(), 0);
   t.not_run[20] = 1;
-  EXPECT_FALSE(value_at(t, "x.E", t.driver(20), true));
-  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.driver(19) + t.driver(20)), true));
+  EXPECT_FALSE(value_at(t, "x.E", t.along(20), true));
+  EXPECT_FALSE(value_at(t, "x.E", 0.5 * (t.along(19) + t.along(20)), true));
 }
 
 // The centred slider-crank (offset 0): the slider's speed |ds/dtheta| is symmetric about
@@ -271,7 +271,7 @@ TEST(DerivedTies, EqualExtremesAtTwoPlacesAreATieNotAWrongLocation) {
   // The samples of the two maxima, one in each half turn.
   int first = -1, second = -1;
   for (int k = 1; k + 1 < n; ++k)
-    if (v(k) >= v(k - 1) && v(k) > v(k + 1)) (t.driver(k) < std::numbers::pi ? first : second) = k;
+    if (v(k) >= v(k - 1) && v(k) > v(k + 1)) (t.along(k) < std::numbers::pi ? first : second) = k;
   ASSERT_GE(first, 0);
   ASSERT_GE(second, 0);
   ASSERT_NEAR(v(first), v(second), 1e-12 * v(first));  // the symmetry

@@ -64,7 +64,7 @@ bool has_non_finite_word(const std::string& text) {
 }
 
 void require_finite(const Trajectory& t, const std::string& what) {
-  bool finite = t.time.allFinite() && t.driver.allFinite();
+  bool finite = t.time.allFinite() && t.driver_values.allFinite();
   for (const Eigen::MatrixXd* m : {&t.angle, &t.omega, &t.alpha, &t.x, &t.y, &t.vx, &t.vy, &t.ax,
                                    &t.ay, &t.s, &t.sdot, &t.sddot})
     finite = finite && m->allFinite();

@@ -369,7 +369,7 @@ TEST(ReferenceLadder, SnapsTimeStepsSoSamplesFallOnStepBoundaries) {
   ASSERT_GE(t.samples(), 20);
   for (int k = 1; k < t.samples(); ++k) {
     EXPECT_NEAR(t.time(k) - t.time(k - 1), dt, 1e-9 * dt);
-    EXPECT_NEAR(t.driver(k) - t.driver(k - 1), 14 * std::numbers::pi / 180, 1e-9);
+    EXPECT_NEAR(t.along(k) - t.along(k - 1), 14 * std::numbers::pi / 180, 1e-9);
   }
   // Kept, not rebuilt.
   double again = 0.0;

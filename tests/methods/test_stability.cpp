@@ -104,7 +104,7 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
         for (int j = std::max(0, k - 2); j <= std::min(n - 1, k + 2); ++j)
           flagged = flagged || !usable(run.trajectory.status[static_cast<size_t>(j)]);
         EXPECT_TRUE(flagged) << what << ": the reference says " << to_string(ref.status[k])
-                             << " at driver " << ref.driver(k) / kDeg
+                             << " at driver " << ref.along(k) / kDeg
                              << " deg but the engine flags nothing near it (" << run.message << ")";
         if (!flagged) break;
       }
@@ -113,12 +113,12 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
     // event located to ~1e-12), an engine may take either branch: it must flag a sample within
     // two sample steps of it, or report divergence, or stay on the reference's branch (every
     // later usable sample within 1 % of peak in position). Never a silent branch change.
-    const double step = std::abs(ref.driver(1) - ref.driver(0));
+    const double step = std::abs(ref.along(1) - ref.along(0));
     for (const Trajectory::Event& e : ref.events) {
       if (e.kind != PoseStatus::singular || !run.ok) continue;
       bool flagged = false;
       for (int k = 0; k < ref.samples(); ++k)
-        flagged = flagged || (std::abs(ref.driver(k) - e.driver) <= 2.5 * step &&
+        flagged = flagged || (std::abs(ref.along(k) - e.driver) <= 2.5 * step &&
                               !usable(run.trajectory.status[static_cast<size_t>(k)]));
       if (flagged) continue;
       double after = 0.0;  // largest position-class error after the event [% of peak]
@@ -129,7 +129,7 @@ TEST_P(SingularCatalogue, EnginesFlagWhatTheAnalyticSolverCannotUse) {
           continue;
         for (int k = 0; k < ref.samples(); ++k)
           if (r.metrics.in_verdict[static_cast<size_t>(k)] &&
-              (ref.driver(k) - e.driver) * (ref.driver(1) - ref.driver(0)) > 0.0)
+              (ref.along(k) - e.driver) * (ref.along(1) - ref.along(0)) > 0.0)
             after = std::max(after, std::abs(r.metrics.pct_of_peak(k)));
       }
       EXPECT_LT(after, 1.0) << what << ": " << e.message << " at driver " << e.driver / kDeg

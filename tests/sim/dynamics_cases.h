@@ -77,7 +77,7 @@ inline void expect_flags_only_at_passages(const Trajectory& ref, const Trajector
     if (s == PoseStatus::ok) continue;
     EXPECT_EQ(s, PoseStatus::singular) << what << " sample " << i;
     EXPECT_LT(run.rcond(i), 1e-3) << what << " sample " << i;
-    EXPECT_LT(std::abs(std::remainder(ref.driver(i), std::numbers::pi)), 0.05)
+    EXPECT_LT(std::abs(std::remainder(ref.along(i), std::numbers::pi)), 0.05)
         << what << " sample " << i;
   }
 }
@@ -86,7 +86,7 @@ inline bool all_finite(const Trajectory& t) {
   for (const Eigen::MatrixXd* m : {&t.angle, &t.omega, &t.alpha, &t.x, &t.y, &t.vx, &t.vy, &t.ax,
                                    &t.ay, &t.fx, &t.fy, &t.energy})
     if (!m->allFinite()) return false;
-  return t.effort.allFinite() && t.driver.allFinite();
+  return t.effort.allFinite() && t.driver_values.allFinite();
 }
 
 }  // namespace crosslink::sim::dynamics_testing

@@ -30,7 +30,7 @@ class ExactScene final : public KinematicScene {
     for (int d = 0; d < state_.driver_count(); ++d) {
       double value = driver_values[static_cast<size_t>(d)] + offset_[static_cast<size_t>(d)];
       if (d == lagging && evaluations_ + 1 >= lag_from) value -= lag;
-      state_.driver_state(d) = DriverState{0.0, value, 0.0, 0.0};
+      state_.drivers[static_cast<size_t>(d)] = DriverState{0.0, value, 0.0, 0.0};
     }
   }
   void apply(const std::vector<BodyLoad>&) override {}

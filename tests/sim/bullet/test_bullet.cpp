@@ -119,7 +119,7 @@ TEST(Bullet, WanzerNeedleVelocityAtDiskAngleZero) {
   const Trajectory ref = sweep(m);
   const sim::EngineRun run = sim::make_bullet_engine()->run(m, ref, {});
   ASSERT_TRUE(run.ok) << run.message;
-  ASSERT_EQ(ref.driver(0), 0.0);
+  ASSERT_EQ(ref.along(0), 0.0);
   const double exact = (*ref.channel("vy.G"))(0), bullet = (*run.trajectory.channel("vy.G"))(0);
   std::cout << "Wanzer V_G at disk angle 0: bullet " << bullet * 1e3 << " mm/s, exact "
             << exact * 1e3 << " mm/s, Working Model -365 mm/s\n";

@@ -114,7 +114,7 @@ TEST_P(ExportedScene, RunsInMuJoCoAlone) {
   while (!usable(exact.status[static_cast<size_t>(first)])) ++first;
   for (int i = 0; i < exact.samples(); ++i)
     if (usable(exact.status[static_cast<size_t>(i)]) &&
-        std::abs(exact.driver(i) - m.drivers[0].start) < 1e-9)
+        std::abs(exact.along(i) - m.drivers[0].start) < 1e-9)
       start_row = i;
   ASSERT_GE(start_row, 0) << "the sweep has a sample at the start";
   const double size = m.size();
@@ -134,8 +134,8 @@ TEST_P(ExportedScene, RunsInMuJoCoAlone) {
   // Run: the driver as the definition moves it, the loops closed.
   int last = exact.samples() - 1;
   while (!usable(exact.status[static_cast<size_t>(last)])) --last;
-  const double low = exact.driver.segment(first, last - first + 1).minCoeff();
-  const double high = exact.driver.segment(first, last - first + 1).maxCoeff();
+  const double low = exact.driver_values.col(0).segment(first, last - first + 1).minCoeff();
+  const double high = exact.driver_values.col(0).segment(first, last - first + 1).maxCoeff();
   const bool whole_cycle = high - low > 2 * std::numbers::pi - 0.1;
   const double speed = m.drivers[0].law.speed;  // constant speed: every bundled kinematic driver
   const double turn = 2 * std::numbers::pi / std::abs(speed);

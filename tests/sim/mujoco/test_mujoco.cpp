@@ -168,7 +168,7 @@ TEST(CrankRocker, MostAccurateAccelerationsWithinOneHundredthPercent) {
 TEST(WanzerNeedleBar, NeedleVelocityAtDiskAngleZero) {
   const Mechanism m = load_mechanism(mechanism_path("wanzer_needle_bar"));
   const Trajectory exact = sweep(m);
-  ASSERT_NEAR(exact.driver(0), 0.0, 1e-12);
+  ASSERT_NEAR(exact.along(0), 0.0, 1e-12);
   const EngineRun run = make_mujoco_engine()->run(m, exact, {});
   ASSERT_TRUE(run.ok) << run.message;
   const double vg_exact = (*exact.channel("vy.G"))(0) * 1000.0;
@@ -192,7 +192,7 @@ TEST(Singular, ChangePointIsFlagged) {
   int flagged_near_180 = 0;
   for (int i = 0; i < exact.samples(); ++i)
     if (run.trajectory.status[static_cast<size_t>(i)] != PoseStatus::ok &&
-        std::abs(exact.driver(i) - 180 * kDeg) < 2 * kDeg)
+        std::abs(exact.along(i) - 180 * kDeg) < 2 * kDeg)
       ++flagged_near_180;
   EXPECT_GE(flagged_near_180, 1) << run.message;
 }

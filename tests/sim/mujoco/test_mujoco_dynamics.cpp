@@ -58,8 +58,8 @@ TEST(MujocoDynamics, DefaultRunFollowsTheExactMotion) {
   EXPECT_LE(e.flagged, 7);
   expect_flags_only_at_passages(ref, r.trajectory, "defaults");
   // The engine's own coordinate, not the reference's, is its driver column.
-  EXPECT_NE(r.trajectory.driver(ref.samples() - 1), ref.driver(ref.samples() - 1));
-  EXPECT_NEAR(r.trajectory.driver(ref.samples() - 1), ref.driver(ref.samples() - 1), 1e-3);
+  EXPECT_NE(r.trajectory.along(ref.samples() - 1), ref.along(ref.samples() - 1));
+  EXPECT_NEAR(r.trajectory.along(ref.samples() - 1), ref.along(ref.samples() - 1), 1e-3);
 }
 
 // Every integrator through the seven singular positions at the default step: where the chain
