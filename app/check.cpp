@@ -4,15 +4,15 @@
 #include <algorithm>
 #include <numbers>
 
-#include "analytic/branch.h"
-#include "analytic/claims.h"
-#include "analytic/dyads.h"
-#include "analytic/dynamics.h"
-#include "analytic/fourbar.h"
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/sweep.h"
-#include "analytic/units_text.h"
+#include "analytic/derived/claims.h"
+#include "analytic/kinematics/branch.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/fourbar.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/units_text.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/sweep.h"
 #include "app/commands.h"
 #include "compare/derived.h"
 

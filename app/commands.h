@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/budget.h"
-#include "analytic/sweep.h"
+#include "analytic/reference/budget.h"
+#include "analytic/reference/sweep.h"
 #include "methods/registry.h"
 #include "methods/settings_sweep.h"
 

@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "analytic/loader.h"
-#include "analytic/units_text.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "compare/comparison.h"

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
+#include "analytic/model/mechanism.h"
 
 namespace crosslink::app {
 

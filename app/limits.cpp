@@ -1,5 +1,5 @@
-// The options that bound a command's work, shared by every subcommand (analytic/budget.h for the
-// exact solver, sim/engine.h for the engines).
+// The options that bound a command's work, shared by every subcommand (analytic/reference/budget.h
+// for the exact solver, sim/engine.h for the engines).
 #include <fmt/format.h>
 
 #include <cmath>

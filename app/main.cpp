@@ -8,7 +8,7 @@
 #include <new>
 #include <string>
 
-#include "analytic/mechanism.h"
+#include "analytic/model/mechanism.h"
 #include "app/commands.h"
 
 int main(int argc, char** argv) {

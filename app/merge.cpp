@@ -15,8 +15,8 @@
 #include <map>
 #include <sstream>
 
-#include "analytic/limits.h"
-#include "analytic/loader.h"
+#include "analytic/model/limits.h"
+#include "analytic/model/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/sweep_parts.h"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "analytic/units_text.h"
+#include "analytic/model/units_text.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 

@@ -1,13 +1,13 @@
 // `crosslink simulate FILE [--duration T] [--at T] [--format table|json|csv]`: the exact forward
-// dynamics of a dynamics case (analytic/dynamics.h), with its energy balance. The JSON of one
-// time has the schema of `solve --at` plus `energy`; the table is in the file's units.
+// dynamics of a dynamics case (analytic/physics/dynamics.h), with its energy balance. The JSON of
+// one time has the schema of `solve --at` plus `energy`; the table is in the file's units.
 #include <fmt/format.h>
 
 #include <cmath>
 
-#include "analytic/dynamics.h"
-#include "analytic/limits.h"
-#include "analytic/loader.h"
+#include "analytic/model/limits.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "app/commands.h"
 #include "app/output.h"
 

@@ -4,12 +4,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analytic/dyads.h"
-#include "analytic/instant_centres.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
-#include "analytic/trust.h"
-#include "analytic/units_text.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/units_text.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
+#include "analytic/reference/trust.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/output.h"
@@ -168,8 +169,8 @@ int run_solve(const SolveArgs& args) {
     Trajectory closed = dyad_sweep(m, t, args.method != "newton");
     if (skip.turns != 0) t.driver_values(0, swept) += skip.driver_shift();
     skip.move_on(m, at, closed);
-    // The two exact methods check each other (analytic/trust.h): a sample they disagree on is
-    // flagged with the reason, whichever of them is printed.
+    // The two exact methods check each other (analytic/reference/trust.h): a sample they disagree
+    // on is flagged with the reason, whichever of them is printed.
     cross_check(m, t, closed);
     if (args.method != "newton") {
       for (int k = 0; k < t.samples(); ++k)

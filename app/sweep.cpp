@@ -16,9 +16,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "analytic/limits.h"
-#include "analytic/loader.h"
-#include "analytic/units_text.h"
+#include "analytic/model/limits.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/sweep_parts.h"

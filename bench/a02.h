@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "sim/sampling.h"
 
 namespace crosslink::bench {

@@ -5,7 +5,8 @@
 //                          cycle, forward then back, with the warm start a sweep uses: the
 //                          previous pose extrapolated by its velocity and acceleration.
 //   PoseForces/<file>      the same, plus the exact kinetostatics of each pose (driver effort and
-//                          joint reactions by Lagrange multipliers, analytic/kinetostatics.h)
+//                          joint reactions by Lagrange multipliers,
+//                          analytic/physics/kinetostatics.h)
 //   FourBarPosition/...    position only, same crank-rocker four-bar (a 0.04, b 0.12, c 0.08,
 //                          d 0.10 m), same crank angles (1 degree apart, round and round), each
 //                          solve warm-started from the previous solution without extrapolation:
@@ -26,10 +27,10 @@
 #include <string>
 #include <vector>
 
-#include "analytic/kinetostatics.h"
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/planar.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
 #include "tests/common/crank_rocker.h"
 
 namespace crosslink {

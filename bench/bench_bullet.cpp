@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <string>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 
 namespace {

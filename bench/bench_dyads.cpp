@@ -7,8 +7,8 @@
 #include <numbers>
 #include <string>
 
-#include "analytic/dyads.h"
-#include "analytic/loader.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/model/loader.h"
 
 namespace crosslink {
 namespace {

@@ -1,5 +1,5 @@
-// The exact forward-dynamics reference (analytic/dynamics.h): what its accuracy costs, and how its
-// cost grows with the size of the mechanism (docs/dynamics.md, "Cost").
+// The exact forward-dynamics reference (analytic/physics/dynamics.h): what its accuracy costs, and
+// how its cost grows with the size of the mechanism (docs/dynamics.md, "Cost").
 //
 //   Andrews/rkf78/tol:<-log10 tol>   Andrews' squeezer from t = 0 to 0.03 s (one output time);
 //                                    counters: significant digits of the seven angles at 0.03 s
@@ -30,8 +30,8 @@
 #include <map>
 #include <string>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "bench/a02.h"
 #include "methods/registry.h"
 #include "methods/settings_sweep.h"

@@ -1,5 +1,5 @@
 // The four engines at equal accuracy, in one run: each engine at its cheapest setting meeting the
-// same accuracy on the same case, its cost per simulated second (docs/engines.md, "Cost at equal
+// same accuracy on the same case, its cost per simulated second (docs/engines-measured.md, "Cost at equal
 // accuracy"). The case is the driven crank-rocker four-bar under its own loads (a 0.04, b 0.12,
 // c 0.08, d 0.10 m, 240 rpm: 0.25 s of simulated time per run, sampled every degree); the
 // accuracy 0.1 % of peak on every quantity class the sweep measures (position, velocity,
@@ -27,7 +27,7 @@
 #include <cmath>
 #include <string>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "methods/registry.h"
 #include "methods/settings_sweep.h"
 
@@ -93,7 +93,7 @@ void engine_at_accuracy(benchmark::State& state, const Pick& pick) {
   state.counters["worst_pct"] = worst;
 }
 
-// The sweep's picks at 0.1 % (docs/engines.md, "Cost at equal accuracy").
+// The sweep's picks at 0.1 % (docs/engines-measured.md, "Cost at equal accuracy").
 const Pick kMujoco{"mujoco", "Euler/Newton", 2};
 const Pick kBullet{"bullet", "rigid/MLCP Dantzig erp 1", 2};
 const Pick kOde{"ode", "dWorldStep erp 1 cfm 1e-10", 2};

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/mujoco/mujoco_engine.h"
 
 namespace {

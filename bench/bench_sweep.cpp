@@ -5,7 +5,7 @@
 //
 //   Cycle/newton             the exact sweep (Newton, position + velocity + acceleration)
 //   Cycle/reference          the reference `compare` judges by: the Newton sweep checked by the
-//                            dyads at its samples (analytic/trust.h), so its cost over
+//                            dyads at its samples (analytic/reference/trust.h), so its cost over
 //                            Cycle/newton is the self-check's
 //   Cycle/dyads              closed-form dyads at the same 360 driver values
 //   Cycle/<engine>/dt:<n>    an engine at its default variant, dt = (1 degree of crank) / n, the
@@ -29,7 +29,7 @@
 #include <string>
 #include <utility>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "bench/a02.h"
 #include "methods/registry.h"
 

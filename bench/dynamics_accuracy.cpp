@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "compare/comparison.h"
 #include "compare/tolerance.h"
 #include "methods/engines.h"

@@ -2,12 +2,12 @@
 // the shaking force of each engine, worst % of the exact value's peak (sim::force_agreement), and
 // the wall time per simulated cycle, for every kinematic mechanisms/*.toml and
 // mechanisms/published/*.toml without and with gravity, at the
-// defaults and over the stabilisation and the step. Prints CSV (docs/engines.md, "Forces"). Run
+// defaults and over the stabilisation and the step. Prints CSV (docs/engines-measured.md, "Forces"). Run
 // from the source root:
 //   build/bench/force_accuracy            defaults only
 //   build/bench/force_accuracy --sweep    also the stabilisation and step series
 //   build/bench/force_accuracy --sweep fourbar_crank_rocker
-//                                         one mechanism (the four engines' chart, docs/engines.md)
+//                                         one mechanism (the four engines' chart, docs/engines-measured.md)
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
@@ -43,7 +43,7 @@ std::vector<Case> cases(bool sweep) {
   if (!sweep) return out;
   // Simbody: the spacing of its reported poses (max_step_angle; its integrator steps to each,
   // with steps of its own in between under its error control): its error falls at fourth order
-  // in it (measured: docs/engines.md, "Four engines side by side").
+  // in it (measured: docs/engines-measured.md, "Four engines side by side").
   for (const char* angle : {"0.01", "0.005", "0.00125"})
     out.push_back(
         {"simbody", fmt::format("max_step_angle {}", angle), {{"max_step_angle", angle}}});

@@ -2,7 +2,7 @@
 // mechanisms/gears/*.toml, how far each engine that realises it holds the coupling (the drift,
 // sim::gearing_agreement) and reads its mesh force (% of the exact peak), with the driver's
 // effort and the worst joint reaction (sim::force_agreement), against the step. Prints CSV
-// (docs/engines.md, "Gear couplings: drift and mesh force against the step"). Run from the
+// (docs/engines-measured.md, "Gear couplings: drift and mesh force against the step"). Run from the
 // source root, optionally with the engines to run (default: all four):
 //   build/bench/gear_accuracy > docs/data/gear_accuracy.csv
 //   build/bench/gear_accuracy bullet
@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"

@@ -9,7 +9,7 @@
 #include <map>
 #include <stdexcept>
 
-#include "analytic/trust.h"
+#include "analytic/reference/trust.h"
 
 namespace crosslink::compare {
 
@@ -216,8 +216,8 @@ Comparison compare_methods(const Mechanism& mechanism, std::vector<MethodRun> me
 
   // Reference columns, and the scales of metrics.h: the size L, the driver's peak rate W, the
   // largest peak of each kind.
-  // Trusted reference samples, and why the others are kept out (analytic/trust.h): the kinematic
-  // channels' and, stricter near singular positions, the forces'.
+  // Trusted reference samples, and why the others are kept out (analytic/reference/trust.h): the
+  // kinematic channels' and, stricter near singular positions, the forces'.
   const double force_rcond = kForceConditioning * typical_rcond(ref);
   std::vector<std::string> ref_out(static_cast<size_t>(n)), ref_out_forces(ref_out);
   std::vector<bool> ref_usable(static_cast<size_t>(n)), ref_usable_forces(ref_usable);

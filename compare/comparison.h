@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
+#include "analytic/model/mechanism.h"
 #include "compare/derived.h"
 #include "compare/method_run.h"
 #include "compare/metrics.h"

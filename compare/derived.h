@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/derived.h"
+#include "analytic/derived/derived.h"
 #include "compare/method_run.h"
 #include "compare/tolerance.h"
 

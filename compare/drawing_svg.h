@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::compare {
 

@@ -6,8 +6,8 @@
 //   r_k   the reference's value (analytic Newton), m_k the method's value, SI units
 //   K     the trusted samples: PoseStatus ok in both trajectories, not next to a sample the
 //         reference flags singular, and for forces and torques not ill-conditioned (every rule
-//         in analytic/trust.h). Samples outside K are kept in the per-sample arrays (shown in
-//         charts and CSV, with their reason) but never enter a peak, max, RMS or verdict.
+//         in analytic/reference/trust.h). Samples outside K are kept in the per-sample arrays
+//         (shown in charts and CSV, with their reason) but never enter a peak, max, RMS or verdict.
 //
 //   difference          d_k = m_k - r_k
 //                       angle channels: d_k wrapped into (-pi, pi] (angles compare modulo 2 pi)
@@ -53,7 +53,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/trajectory.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::compare {
 
@@ -89,7 +89,7 @@ struct ChannelMetrics {
   Eigen::VectorXd local_pct;     // l_k [%], NaN where masked
   std::vector<bool> in_verdict;  // k in K
   // Why each sample outside K is kept out ("" for k in K): the reference's reason
-  // (analytic/trust.h: "reference:<status>", "beside_singular", "ill_conditioned") or the
+  // (analytic/reference/trust.h: "reference:<status>", "beside_singular", "ill_conditioned") or the
   // method's own status ("method:<status>"). Set by the comparison.
   std::vector<std::string> reason;
   // The samples kept out, counted per reason, in the order of first appearance.

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/instant_centres.h"
+#include "analytic/kinematics/instant_centres.h"
 #include "compare/comparison.h"
 
 namespace crosslink::compare {

@@ -18,7 +18,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "analytic/instant_centres.h"
+#include "analytic/kinematics/instant_centres.h"
 #include "compare/drawing_svg.h"
 #include "compare/report.h"
 

@@ -10,7 +10,7 @@
 #include <numbers>
 #include <tuple>
 
-#include "analytic/units_text.h"
+#include "analytic/model/units_text.h"
 #include "compare/report.h"
 
 namespace crosslink::compare {

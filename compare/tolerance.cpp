@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "analytic/limits.h"
+#include "analytic/model/limits.h"
 
 namespace crosslink::compare {
 

@@ -20,8 +20,8 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::compare {
 

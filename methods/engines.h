@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/mechanism.h"
+#include "analytic/model/mechanism.h"
 #include "compare/method_run.h"
 #include "compare/tolerance.h"
 #include "sim/engine.h"

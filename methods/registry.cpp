@@ -9,12 +9,13 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "analytic/dyads.h"
-#include "analytic/dynamics.h"
-#include "analytic/instant_centres.h"
-#include "analytic/newton.h"
-#include "analytic/trust.h"
-#include "analytic/units_text.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/units_text.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/trust.h"
 #include "methods/engines.h"
 #include "sim/sampling.h"
 
@@ -108,9 +109,9 @@ bool is_method(std::string_view name) {
 
 namespace {
 
-// A dynamics case's reference: the exact simulation (analytic/dynamics.h), with its energy
+// A dynamics case's reference: the exact simulation (analytic/physics/dynamics.h), with its energy
 // balance as the energy channels; each sample keeps its pose's conditioning (rcond), so the
-// trust rules (analytic/trust.h) apply as in a kinematic comparison.
+// trust rules (analytic/reference/trust.h) apply as in a kinematic comparison.
 MethodRun simulation_run(const Mechanism& mechanism, const SimulationOptions& options) {
   MethodRun run;
   run.name = "analytic";

@@ -1,9 +1,9 @@
 // The registry of methods: every way crosslink solves a Mechanism, each run into the comparator's
 // MethodRun (compare/method_run.h):
 //   analytic  Newton-Raphson on the full constraint equations: the reference of every verdict
-//             (a dynamics case: the exact forward dynamics, analytic/dynamics.h; dyads and ic,
-//             kinematic methods, are then not run)
-//   dyads     closed-form Assur dyads solved in sequence (analytic/dyads.h)
+//             (a dynamics case: the exact forward dynamics, analytic/physics/dynamics.h; dyads and
+//             ic, kinematic methods, are then not run)
+//   dyads     closed-form Assur dyads solved in sequence (analytic/kinematics/dyads.h)
 //   ic        instantaneous centres by Kennedy-Aronhold: velocities only (instant_centres.h)
 //   then every engine of the engine table (methods/engines.h): mujoco, bullet
 // A method that is not built into this binary, or cannot realise the mechanism, comes back with
@@ -15,9 +15,9 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/dynamics.h"
-#include "analytic/sweep.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/trajectory.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/sweep.h"
 #include "compare/comparison.h"
 #include "compare/method_run.h"
 #include "compare/report.h"
@@ -38,7 +38,7 @@ std::map<std::string, compare::LineStyle> method_styles();
 bool is_method(std::string_view name);
 
 // The reference: the exact Newton sweep of the mechanism; for a dynamics case ([dynamics]) the
-// exact simulation (analytic/dynamics.h) with its energy channels, `options` unused.
+// exact simulation (analytic/physics/dynamics.h) with its energy channels, `options` unused.
 MethodRun run_reference(const Mechanism& mechanism, const SweepOptions& options = {});
 
 // A dynamics case's exact simulation as a method: with its energy channels and each sample's

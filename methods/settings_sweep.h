@@ -32,8 +32,8 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/sweep.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/reference/sweep.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "compare/tolerance.h"

@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/budget.h"
-#include "analytic/sweep.h"
+#include "analytic/reference/budget.h"
+#include "analytic/reference/sweep.h"
 #include "compare/comparison.h"
 #include "methods/settings_sweep.h"
 #include "sim/settings.h"

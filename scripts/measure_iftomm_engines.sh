@@ -1,5 +1,5 @@
 #!/bin/sh
-# The four engines on IFToMM A01, A02 and A03 (docs/engines.md, "Four engines side by side"):
+# The four engines on IFToMM A01, A02 and A03 (docs/engines-measured.md, "Four engines side by side"):
 # one sweep per case for the time-stepping engines (MuJoCo, Bullet, ODE) over the grids of
 # docs/dynamics.md, "IFToMM accuracy limits", and one for Simbody, whose error is set by its
 # integrator's accuracy, not by the report spacing (dt: the case's sample interval). CSVs in

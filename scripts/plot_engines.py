@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The four engines side by side (docs/engines.md, "Four engines side by side"), log-log SVGs.
+"""The four engines side by side (docs/engines-measured.md, "Four engines side by side"), log-log SVGs.
 
 forces: the driven crank-rocker's driver torque and worst pin force error against the time step
 and against the CPU time per simulated second, each engine at its default stabilisation over

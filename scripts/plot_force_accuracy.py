@@ -14,7 +14,7 @@ def series_name(engine, setting):
     """The stabilisation and read of a row's setting, without its step; None to leave it out."""
     s = re.sub(r";?\s*(max_step_angle|steps_per_sample) [0-9.e-]+", "", setting).strip("; ")
     if "split impulse" in s:
-        return None  # identical to the same ERP without it (docs/engines.md)
+        return None  # identical to the same ERP without it (docs/engines-measured.md)
     if engine == "mujoco":
         if s in ("", "default"):
             return "MuJoCo, deadbeat solref, centred read (default)"
@@ -24,7 +24,7 @@ def series_name(engine, setting):
             return f"MuJoCo, solref ({s[8:-2]} dt, 1)"
         if s == "solref 0.02 1":
             return "MuJoCo, solref (0.02 s, 1): its default"
-        return None  # solimp: within 10 % of the default (docs/engines.md)
+        return None  # solimp: within 10 % of the default (docs/engines-measured.md)
     if s in ("", "default"):
         return "Bullet, ERP 1, MLCP (default)"
     if s.startswith("erp"):

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "analytic/newton.h"
+#include "analytic/kinematics/newton.h"
 #include "sim/kinematic_run.h"
 #include "sim/statuses.h"
 

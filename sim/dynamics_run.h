@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 #include "sim/engine.h"
 #include "sim/forces.h"
 #include "sim/run_loop.h"

@@ -7,9 +7,9 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
-#include "compare/run_record.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
+#include "analytic/model/run_record.h"
 #include "sim/settings.h"
 
 namespace crosslink::sim {

@@ -6,9 +6,9 @@
 #include <numbers>
 #include <optional>
 
-#include "analytic/kinetostatics.h"
-#include "analytic/planar.h"
-#include "analytic/trust.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
+#include "analytic/reference/trust.h"
 #include "sim/sampling.h"
 
 namespace crosslink::sim {

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "analytic/kinetostatics.h"
-#include "analytic/mechanism.h"
-#include "analytic/newton.h"
-#include "analytic/trajectory.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
+#include "analytic/physics/kinetostatics.h"
 
 namespace crosslink::sim {
 
@@ -44,7 +44,7 @@ class AppliedLoads {
 // force is effort(t) times the driver's row of the constraint Jacobian, dd/dq (a torque on the
 // driven link and the opposite one on its base for a joint angle, a force along the guide at the
 // slider's point and its reaction for a slider), as in the exact equation of motion
-// (analytic/dynamics.h).
+// (analytic/physics/dynamics.h).
 class DynamicsLoads {
  public:
   explicit DynamicsLoads(const Mechanism& m);
@@ -163,11 +163,11 @@ void combine_readings(const ForceStencil& stencil,
 namespace crosslink::sim {
 
 // How far an engine's forces are from the exact ones, over the samples the engine calls usable
-// and the reference trusts for forces (analytic/trust.h, `untrusted`): the driver's effort (against
-// 1e-3 of the largest reaction, times the size for a torque, where it is zero by design), each
-// joint's reaction (vector difference) and the shaking force, each as its worst difference over the
-// peak of its exact value; a prismatic couple against its joint's peak force times the
-// mechanism's size. Zero when either trajectory has no forces (then `compared` is 0).
+// and the reference trusts for forces (analytic/reference/trust.h, `untrusted`): the driver's
+// effort (against 1e-3 of the largest reaction, times the size for a torque, where it is zero by
+// design), each joint's reaction (vector difference) and the shaking force, each as its worst
+// difference over the peak of its exact value; a prismatic couple against its joint's peak force
+// times the mechanism's size. Zero when either trajectory has no forces (then `compared` is 0).
 struct ForceAgreement {
   double effort = 0.0, reaction = 0.0, couple = 0.0, shaking = 0.0;
   std::string worst_joint;

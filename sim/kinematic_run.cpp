@@ -8,8 +8,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "analytic/trust.h"
-#include "analytic/units_text.h"
+#include "analytic/model/units_text.h"
+#include "analytic/reference/trust.h"
 #include "sim/statuses.h"
 
 namespace crosslink::sim {

@@ -1,4 +1,4 @@
-// The run loop every engine's kinematic run shares (docs/design.md, "sim/"): the plan (usable
+// The run loop every engine's kinematic run shares (docs/decisions.md, "Run loop"): the plan (usable
 // span, step grid, pre-roll, exact start), the steps (drive, loads, step, read, watch), the
 // samples written as soon as their stencils are complete (positions, rates and forces from a ring
 // of the last poses: memory does not grow with the steps), the statuses, the notes and the cost.
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/newton.h"
-#include "analytic/trajectory.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 #include "sim/engine.h"
 #include "sim/forces.h"
 #include "sim/run_loop.h"

@@ -2,14 +2,14 @@
 // steps follow between the reference's samples, the clock around its steps, and the cost it
 // reports (RunCost). Each engine passes its own step length, pre-roll and span of simulated time
 // as data; the backend (build, drive, load, step, read) stays in the engine's folder
-// (docs/design.md, "sim/").
+// (docs/decisions.md, "Run loop").
 #pragma once
 
 #include <chrono>
 #include <vector>
 
-#include "analytic/trajectory.h"
-#include "compare/run_record.h"
+#include "analytic/model/trajectory.h"
+#include "analytic/model/run_record.h"
 #include "sim/sampling.h"
 
 namespace crosslink::sim {

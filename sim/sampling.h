@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 #include "sim/forces.h"
 
 namespace crosslink::sim {

@@ -13,8 +13,8 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/mechanism.h"
-#include "compare/run_record.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/run_record.h"
 
 namespace crosslink::sim {
 

@@ -5,15 +5,15 @@
 #include <algorithm>
 #include <utility>
 
-#include "analytic/trust.h"
-#include "analytic/units_text.h"
+#include "analytic/model/units_text.h"
+#include "analytic/reference/trust.h"
 
 namespace crosslink::sim {
 
 StatusJudge::StatusJudge(const Trajectory& reference, Span span, Thresholds thresholds, bool events)
     : reference_(reference), span_(span), thresholds_(thresholds), events_(events) {
-  // The conditioning limit is a fraction of the chain's own (analytic/trust.h): a long chain is
-  // ill-conditioned everywhere without being near a singular position.
+  // The conditioning limit is a fraction of the chain's own (analytic/reference/trust.h): a long
+  // chain is ill-conditioned everywhere without being near a singular position.
   thresholds_.singular_rcond *= typical_rcond(reference);
 }
 

@@ -8,7 +8,7 @@
 #include <functional>
 #include <string>
 
-#include "analytic/trajectory.h"
+#include "analytic/model/trajectory.h"
 #include "sim/engine.h"
 #include "sim/sampling.h"
 
@@ -26,7 +26,7 @@ class StatusJudge {
   struct Thresholds {
     double loop_gap = 0.0;  // a larger gap in a sample's steps: loop_gap [m]
     // A sample conditioned worse than this fraction of the chain's own conditioning (the
-    // reference's typical_rcond, analytic/trust.h): singular.
+    // reference's typical_rcond, analytic/reference/trust.h): singular.
     double singular_rcond = 0.0;
     double branch_distance =
         0.0;  // a closed configuration further from the reference's: branch_jump

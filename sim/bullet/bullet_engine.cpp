@@ -7,7 +7,7 @@
 // central differences of positions centred on each sample.
 #include "sim/bullet/bullet_engine.h"
 
-#include "analytic/trust.h"
+#include "analytic/reference/trust.h"
 #include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"
@@ -44,8 +44,8 @@
 #include <optional>
 #include <stdexcept>
 
-#include "analytic/newton.h"
-#include "analytic/planar.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/planar.h"
 
 namespace crosslink::sim {
 namespace {
@@ -77,8 +77,8 @@ struct Config {
                                   // 1e-4 of the size
   bool split_impulse = false;     // Bullet's split impulse (position correction apart)
   // Samples whose Jacobian is conditioned worse than this fraction of the chain's own (the
-  // reference's median rcond, analytic/trust.h) are flagged singular: 1e-3 on IFToMM A02 N = 2,
-  // 3e-3 on a four-bar.
+  // reference's median rcond, analytic/reference/trust.h) are flagged singular: 1e-3 on IFToMM A02
+  // N = 2, 3e-3 on a four-bar.
   double singular_rcond = 0.03;
   double branch_distance = 1e-4;  // closed configuration this far from the reference's (of
                                   // the size, or rad): another assembly mode, branch_jump

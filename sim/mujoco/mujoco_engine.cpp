@@ -25,8 +25,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "analytic/newton.h"
-#include "analytic/planar.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/planar.h"
 #include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"
@@ -106,8 +106,8 @@ class MessageCapture {
 
 const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
 // The conditioning limits below are fractions of the chain's own (the reference's median rcond,
-// analytic/trust.h), chosen to equal the absolute limits they replace on the bundled linkages:
-// 1e-6 at a four-bar's 0.1, 1e-3 at IFToMM A02 N = 2's 0.033.
+// analytic/reference/trust.h), chosen to equal the absolute limits they replace on the bundled
+// linkages: 1e-6 at a four-bar's 0.1, 1e-3 at IFToMM A02 N = 2's 0.033.
 constexpr double kSingularRcond = 1e-5;
 // Forward dynamics passes singular positions under its own momentum; within about 0.005 rad of
 // one (IFToMM A02's change point: rcond 1.3e-4 and 3.7e-4) the soft constraint solve's

@@ -28,7 +28,7 @@
 //                   load); docs/engines.md, "Forces"
 //   singular_rcond  auto: 1e-5 (kinematic), 0.03 (dynamics): samples whose constraint Jacobian at
 //                   the engine's configuration is conditioned worse than this fraction of the
-//                   chain's own (analytic/trust.h, typical_rcond) are flagged singular
+//                   chain's own (analytic/reference/trust.h, typical_rcond) are flagged singular
 // A dynamics case ([dynamics]; docs/engines.md, "Forward dynamics") runs without the driver
 // equality and adds:
 //   start           auto | staggered | exact: the velocity at the start, v0 - h/2 a0 (auto for

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "analytic/planar.h"
+#include "analytic/model/planar.h"
 #include "sim/forces.h"
 
 namespace crosslink::sim::mujoco_scene {

@@ -21,9 +21,9 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "analytic/kinetostatics.h"
-#include "analytic/newton.h"
-#include "analytic/planar.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
 #include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"

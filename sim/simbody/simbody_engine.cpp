@@ -23,7 +23,7 @@
 
 #include <Eigen/SVD>
 
-#include "analytic/planar.h"
+#include "analytic/model/planar.h"
 #include "sim/dynamics_run.h"
 #include "sim/forces.h"
 #include "sim/kinematic_run.h"

@@ -14,9 +14,9 @@
 
 #include <fmt/format.h>
 
-#include "analytic/branch.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/branch.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/diagnostics.h"
 
 namespace crosslink {

@@ -1,7 +1,7 @@
-// The work a command asks of the exact solver is counted before it starts (analytic/budget.h):
-// each case states the count it expects from the definition's own numbers, and checks that the
-// refusal names the input at fault, the count and the limit, and that raising the limit lets
-// the same request through.
+// The work a command asks of the exact solver is counted before it starts
+// (analytic/reference/budget.h): each case states the count it expects from the definition's own
+// numbers, and checks that the refusal names the input at fault, the count and the limit, and that
+// raising the limit lets the same request through.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "analytic/budget.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/budget.h"
 #include "tests/common/crank_rocker.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"

@@ -1,6 +1,6 @@
 // A definition's own claims ([expect], [expect.derived]) judged against the exact solution
-// (analytic/claims.h): the closed forms the bundled files state hold, and a claim 1 % off, a
-// toggle too many or a wrong Grashof class does not, at its own line.
+// (analytic/derived/claims.h): the closed forms the bundled files state hold, and a claim 1 % off,
+// a toggle too many or a wrong Grashof class does not, at its own line.
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
@@ -8,8 +8,8 @@
 #include <fstream>
 #include <regex>
 
-#include "analytic/claims.h"
-#include "analytic/loader.h"
+#include "analytic/derived/claims.h"
+#include "analytic/model/loader.h"
 #include "tests/common/cli.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"

@@ -1,4 +1,4 @@
-// Every joint type and driver of the constraint layout (analytic/constraints.h) through every
+// Every joint type and driver of the constraint layout (analytic/model/constraints.h) through every
 // level of its definition, each against a check that does not use it (as Pinocchio runs every
 // joint through every algorithm in one test):
 //   position      each row is the geometry it stands for, computed here with Eigen's rotations
@@ -19,7 +19,7 @@
 #include <numbers>
 #include <set>
 
-#include "analytic/constraints.h"
+#include "analytic/model/constraints.h"
 
 namespace crosslink {
 namespace {

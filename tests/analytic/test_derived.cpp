@@ -1,6 +1,6 @@
-// [[derived]] quantities (analytic/derived.h) against closed forms: an offset slider-crank's
-// stroke and dead points, a Whitworth and a crank-shaper quick return's time ratio, a
-// crank-rocker's extreme transmission angles, a Chebyshev linkage's straightness; every bundled
+// [[derived]] quantities (analytic/derived/derived.h) against closed forms: an offset
+// slider-crank's stroke and dead points, a Whitworth and a crank-shaper quick return's time ratio,
+// a crank-rocker's extreme transmission angles, a Chebyshev linkage's straightness; every bundled
 // [expect.derived]; values that do not exist; the definition's errors.
 #include <gtest/gtest.h>
 
@@ -9,9 +9,9 @@
 #include <numbers>
 #include <tuple>
 
-#include "analytic/derived.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/derived/derived.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/crank_rocker.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"

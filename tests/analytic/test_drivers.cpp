@@ -21,10 +21,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "analytic/dyads.h"
-#include "analytic/instant_centres.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/text.h"
 

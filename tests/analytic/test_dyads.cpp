@@ -17,9 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "analytic/dyads.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

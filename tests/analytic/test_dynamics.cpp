@@ -1,4 +1,4 @@
-// Exact forward dynamics (analytic/dynamics.h) against independent expected values:
+// Exact forward dynamics (analytic/physics/dynamics.h) against independent expected values:
 //   - IFToMM A02 with N = 2: on the parallelogram branch every crank has one angle theta, and
 //     T = (4N+1)/6 theta'^2, V = g (3N+1)/2 sin(theta) give theta'' = -g 3(3N+1)/(2(4N+1)) cos
 //     theta; that one-line equation, integrated here by a different method, is the reference for
@@ -17,8 +17,8 @@
 #include <cmath>
 #include <string>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/nfourbar.h"
 

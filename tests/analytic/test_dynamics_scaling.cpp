@@ -5,8 +5,8 @@
 
 #include <string>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "tests/common/nfourbar.h"
 
 namespace crosslink {

@@ -10,11 +10,12 @@
 #include <numbers>
 #include <string>
 
-#include "analytic/dyads.h"
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/sweep.h"
-#include "analytic/trust.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
+#include "analytic/reference/trust.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {

@@ -1,12 +1,12 @@
-// Arithmetic in numbers (analytic/expression.h): values against the same arithmetic written in
-// C++ or worked by hand, and every error at the byte that causes it.
+// Arithmetic in numbers (analytic/model/expression.h): values against the same arithmetic written
+// in C++ or worked by hand, and every error at the byte that causes it.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <string>
 
-#include "analytic/expression.h"
+#include "analytic/model/expression.h"
 
 namespace crosslink {
 namespace {

@@ -1,5 +1,5 @@
-// Forward dynamics with several free coordinates (analytic/dynamics.h, one per [[driver]]) against
-// independent solutions:
+// Forward dynamics with several free coordinates (analytic/physics/dynamics.h, one per [[driver]])
+// against independent solutions:
 //   - the double pendulum of MBDyn's tutorial (mechanisms/dynamics/double_pendulum_mbdyn.toml):
 //     its Lagrange equations in the links' absolute angles, written out by hand for two
 //     compound pendulums and integrated here by Boost.Odeint, agree with the reference's joint
@@ -26,8 +26,8 @@
 #include <sstream>
 #include <string>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/text.h"
 

@@ -25,12 +25,13 @@
 #include <tuple>
 #include <vector>
 
-#include "analytic/dyads.h"
-#include "analytic/instant_centres.h"
-#include "analytic/kinetostatics.h"
-#include "analytic/loader.h"
-#include "analytic/planar.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"

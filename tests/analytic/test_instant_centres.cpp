@@ -25,10 +25,10 @@
 #include <string>
 #include <vector>
 
-#include "analytic/instant_centres.h"
-#include "analytic/loader.h"
-#include "analytic/planar.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {

@@ -1,4 +1,4 @@
-// Exact kinetostatics (analytic/kinetostatics.h) against independent expected values:
+// Exact kinetostatics (analytic/physics/kinetostatics.h) against independent expected values:
 //   - the two methods, Lagrange multipliers and the power balance, agree on the driver's effort
 //     at every sample of every bundled file (as defined, and loaded with gravity, a spring, a
 //     damper, a force and a torque) to 1e-9 of its peak;
@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
-#include "analytic/instant_centres.h"
-#include "analytic/kinetostatics.h"
-#include "analytic/loader.h"
-#include "analytic/planar.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {

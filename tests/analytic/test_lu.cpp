@@ -1,8 +1,8 @@
-// The sparse LU (analytic/newton.h, SmallLU) against a dense LU written here from LAPACK's
-// dgetf2 (partial pivoting on the largest magnitude, the first on ties, the column scaled by the
-// pivot's reciprocal, a rank-one update of the rest): the same factors and the same row swaps,
-// bit for bit, on every bundled definition's Jacobian and on random sparse matrices full of ties.
-// Its cost follows the factors' entries, so these must stay a few per row along a chain.
+// The sparse LU (analytic/kinematics/newton.h, SmallLU) against a dense LU written here from
+// LAPACK's dgetf2 (partial pivoting on the largest magnitude, the first on ties, the column scaled
+// by the pivot's reciprocal, a rank-one update of the rest): the same factors and the same row
+// swaps, bit for bit, on every bundled definition's Jacobian and on random sparse matrices full of
+// ties. Its cost follows the factors' entries, so these must stay a few per row along a chain.
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/newton.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
 
 namespace crosslink {
 namespace {

@@ -7,9 +7,9 @@
 
 #include <Eigen/SVD>
 
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

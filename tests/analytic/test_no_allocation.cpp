@@ -12,8 +12,8 @@
 
 #include <Eigen/LU>
 
-#include "analytic/loader.h"
-#include "analytic/newton.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
 #include "tests/common/sanitizers.h"
 
 // AddressSanitizer brings its own malloc and operator new, which the counting doors below would

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

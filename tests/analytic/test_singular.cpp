@@ -11,10 +11,10 @@
 
 #include <fmt/format.h>
 
-#include "analytic/fourbar.h"
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/fourbar.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

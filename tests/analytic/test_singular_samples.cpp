@@ -25,9 +25,10 @@
 
 #include <fmt/format.h>
 
-#include "analytic/dyads.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/exact.h"
 #include "tests/common/mechanisms.h"
 

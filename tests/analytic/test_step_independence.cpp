@@ -20,10 +20,10 @@
 
 #include <fmt/format.h>
 
-#include "analytic/dyads.h"
-#include "analytic/instant_centres.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/exact.h"
 #include "tests/common/mechanisms.h"
 

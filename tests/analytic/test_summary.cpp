@@ -10,9 +10,9 @@
 #include <numbers>
 #include <regex>
 
-#include "analytic/derived.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/derived/derived.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"

@@ -4,8 +4,8 @@
 
 #include <limits>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

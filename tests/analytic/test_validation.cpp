@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include "analytic/dynamics.h"
-#include "analytic/limits.h"
-#include "analytic/loader.h"
-#include "analytic/newton.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/limits.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "tests/common/crank_rocker.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
@@ -584,7 +584,7 @@ TEST(Validation, CannotAssembleIsAStatusNeverANaN) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Limits (analytic/limits.h): what reaches the TOML parser, counts, magnitudes. Each fault is
+// Limits (analytic/model/limits.h): what reaches the TOML parser, counts, magnitudes. Each fault is
 // refused at its place, and the message states the limit.
 
 TEST(Limits, ADefinitionOverOneMebibyteIsRefusedAtLineOne) {
@@ -913,8 +913,8 @@ TEST(ValidationPhysics, NegativeDamping) {
   expect_diagnostic(text, place_of(text, "-2"), {"'damping' must not be negative"});
 }
 
-// A spring's values have the physics limits (analytic/limits.h): 1e308 N s/cm was 1e310 N s/m,
-// infinite, and `check` printed `damping inf` as ok.
+// A spring's values have the physics limits (analytic/model/limits.h): 1e308 N s/cm was 1e310 N
+// s/m, infinite, and `check` printed `damping inf` as ok.
 TEST(ValidationPhysics, SpringValuesBeyondTheLimitsAreRefusedAtTheirKeys) {
   const std::string spring =
       "\n[[spring]]\nlinks = [\"ground\", \"rocker\"]\npoints = [\"A\", \"C\"]\n";

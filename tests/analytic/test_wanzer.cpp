@@ -30,8 +30,8 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink {
 namespace {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 
 namespace crosslink::test {
 

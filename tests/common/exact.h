@@ -4,8 +4,9 @@
 #include <map>
 #include <string>
 
-#include "analytic/dyads.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
 
 namespace crosslink::test {
 

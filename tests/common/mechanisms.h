@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/mechanism.h"
+#include "analytic/model/mechanism.h"
 
 namespace crosslink::test {
 
@@ -18,7 +18,8 @@ inline std::string source_text(const std::string& relative) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// A [dynamics] case is the exact simulation's (analytic/dynamics.h), not a kinematic sweep's.
+// A [dynamics] case is the exact simulation's (analytic/physics/dynamics.h), not a kinematic
+// sweep's.
 inline bool is_dynamics_case(const std::filesystem::path& file) {
   std::ifstream in(file);
   for (std::string line; std::getline(in, line);)

@@ -11,7 +11,7 @@
 #include <cmath>
 #include <string>
 
-#include "analytic/trajectory.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::test {
 

@@ -20,8 +20,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "compare/comparison.h"
 #include "compare/derived.h"
 #include "compare/report.h"

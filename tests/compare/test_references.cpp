@@ -3,7 +3,7 @@
 // run that judged nothing says so instead of PASS. The values are the Wanzer needle bar's
 // printed ones (ME 481 H05): the notes' Newton geometry to 4 decimals, and V_G = 365 mm/s
 // (Working Model) and 370 mm/s (instantaneous centres by ruler), 4.5 % and 3.2 % from the exact
-// 382.12 mm/s (docs/wanzer.md, docs/engines.md).
+// 382.12 mm/s (docs/wanzer.md, docs/engines-measured.md).
 #include <gtest/gtest.h>
 
 #include <fstream>

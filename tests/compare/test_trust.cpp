@@ -1,4 +1,4 @@
-// The judge cannot be fooled (analytic/trust.h, docs/compare.md "What is kept out of a
+// The judge cannot be fooled (analytic/reference/trust.h, docs/compare.md "What is kept out of a
 // verdict"): a corrupted reference sample is caught by the reference's own second exact method
 // and cannot make a wrong method pass; a linkage that never nears a singular position loses no
 // sample from any verdict; no threshold depends on the size of a chain or its units.
@@ -7,10 +7,11 @@
 #include <string>
 #include <vector>
 
-#include "analytic/dyads.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
-#include "analytic/trust.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/dyad_sweep.h"
+#include "analytic/reference/sweep.h"
+#include "analytic/reference/trust.h"
 #include "compare/comparison.h"
 #include "methods/engines.h"
 #include "methods/registry.h"

@@ -27,11 +27,12 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/budget.h"
-#include "analytic/derived.h"
-#include "analytic/dyads.h"
-#include "analytic/instant_centres.h"
-#include "analytic/loader.h"
+#include "analytic/derived/derived.h"
+#include "analytic/kinematics/dyads.h"
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/budget.h"
+#include "analytic/reference/dyad_sweep.h"
 #include "app/commands.h"
 
 namespace {

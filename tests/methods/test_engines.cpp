@@ -7,8 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "methods/engines.h"
 #include "methods/registry.h"
 

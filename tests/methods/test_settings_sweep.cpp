@@ -9,7 +9,7 @@
 #include <numbers>
 #include <sstream>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "methods/engines.h"
 #include "methods/settings_sweep.h"
 

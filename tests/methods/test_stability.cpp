@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "compare/comparison.h"
 #include "methods/engines.h"
 #include "methods/registry.h"

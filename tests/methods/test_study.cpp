@@ -4,7 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "compare/report.h"
 #include "methods/study.h"
 #include "tests/common/cli.h"

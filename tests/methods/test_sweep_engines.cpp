@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "methods/engines.h"
 #include "methods/registry.h"
 #include "methods/settings_sweep.h"

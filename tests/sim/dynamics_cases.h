@@ -11,8 +11,8 @@
 #include <string>
 #include <utility>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "sim/engine.h"
 
 namespace crosslink::sim::dynamics_testing {

@@ -8,8 +8,8 @@
 
 #include <string>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"

@@ -1,7 +1,7 @@
 // Each engine's driver effort, joint reactions and shaking force against the exact
-// kinetostatics (analytic/kinetostatics.h, itself checked by power balance and Newton-Euler),
-// on every bundled mechanism at the engine's defaults: as defined, under gravity, and loaded with
-// gravity, a spring and damper, a force at a point and a torque.
+// kinetostatics (analytic/physics/kinetostatics.h, itself checked by power balance and
+// Newton-Euler), on every bundled mechanism at the engine's defaults: as defined, under gravity,
+// and loaded with gravity, a spring and damper, a force at a point and a torque.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,9 +10,9 @@
 #include <string>
 #include <tuple>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
-#include "analytic/trust.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
+#include "analytic/reference/trust.h"
 #include "methods/engines.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
@@ -21,9 +21,9 @@
 namespace crosslink::sim {
 namespace {
 
-// Worst % of peak, measured at the defaults by bench/force_accuracy (docs/engines.md, "Forces"),
-// over every sample the reference trusts (analytic/trust.h): MuJoCo at most 0.029 % (the Jansen
-// leg's pin E); Bullet at most 0.21 % (the polycentric hinge's pin H, near the ends of its
+// Worst % of peak, measured at the defaults by bench/force_accuracy (docs/engines-measured.md, "Forces"),
+// over every sample the reference trusts (analytic/reference/trust.h): MuJoCo at most 0.029 % (the
+// Jansen leg's pin E); Bullet at most 0.21 % (the polycentric hinge's pin H, near the ends of its
 // range, which the absolute conditioning limit of 1e-2 kept out until the trust issue: 0.091 %
 // was measured without them) and 0.09 % on the linkages that never near a singular position;
 // the Jansen leg at half Bullet's default step (below); ODE as Bullet; Simbody at most
@@ -39,7 +39,7 @@ double tolerance(const std::string& engine) {
 }
 
 // Bullet's default step leaves the Jansen leg's reactions 0.34 % off at pin E (its peak force,
-// 192 degrees); half the step, 0.12 % (docs/engines.md): measured, so run there.
+// 192 degrees); half the step, 0.12 % (docs/engines-measured.md): measured, so run there.
 Settings settings_for(const std::string& engine, const std::string& name) {
   if ((engine == "bullet" || engine == "ode") && name == "jansen_leg")
     return {{"max_step_angle", "0.005"}};

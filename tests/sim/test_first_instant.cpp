@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/mujoco/mujoco_engine.h"
 #include "sim/ode/ode_engine.h"

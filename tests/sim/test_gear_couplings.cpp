@@ -1,8 +1,8 @@
 // The engines' gear couplings (sim/scene_graph.h, SceneCoupling) on the bundled gear definitions
-// against the exact solution (analytic/newton.h holds each coupling to its tolerance; the mesh
-// force is the exact kinetostatics' tooth force, checked by power balance and Newton-Euler in
-// test_kinetostatics): how far each engine holds the ratio, and its mesh force, at its defaults.
-// Measured by bench/gear_accuracy (docs/engines.md, "Gear couplings: drift and mesh force against
+// against the exact solution (analytic/kinematics/newton.h holds each coupling to its tolerance;
+// the mesh force is the exact kinetostatics' tooth force, checked by power balance and Newton-Euler
+// in test_kinetostatics): how far each engine holds the ratio, and its mesh force, at its defaults.
+// Measured by bench/gear_accuracy (docs/engines-measured.md, "Gear couplings: drift and mesh force against
 // the step").
 #include <gtest/gtest.h>
 
@@ -13,8 +13,8 @@
 #include <numbers>
 #include <string>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "sim/forces.h"
 #include "sim/mujoco/mujoco_engine.h"
@@ -169,7 +169,7 @@ TEST(GearCouplings, OdeHoldsAnExternalGearPairAndReadsTheMeshForce) {
 
 // On equal gears the drift is CFM's alone: a hundredth of the CFM, a hundredth of the drift
 // (the rotation update is exact, finite_rotation; with unequal gears another part, 3.6e-11 rad on
-// Constans and Dyer's, stays at CFM 1e-12: docs/engines.md).
+// Constans and Dyer's, stays at CFM 1e-12: docs/engines-measured.md).
 TEST(GearCouplings, OdeDriftOnEqualGearsIsItsConstraintForceMixing) {
   const Mechanism m =
       load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/gears/geared_fivebar.toml");

@@ -8,9 +8,9 @@
 #include <cmath>
 #include <limits>
 
-#include "analytic/loader.h"
-#include "analytic/newton.h"
-#include "analytic/sweep.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/kinematic_run.h"
 #include "tests/common/crank_rocker.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <tuple>
 
-#include "analytic/loader.h"
+#include "analytic/model/loader.h"
 #include "sim/forces.h"
 #include "sim/scene_graph.h"
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <string>
 
-#include "analytic/mechanism.h"
-#include "analytic/trajectory.h"
+#include "analytic/model/mechanism.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::test {
 

@@ -6,8 +6,8 @@
 #include <iostream>
 #include <numbers>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "tests/sim/bullet/agreement.h"
 
@@ -78,7 +78,7 @@ TEST(Bullet, PolycentricHingeRunsWithItsLinkAngleDriver) {
   EXPECT_EQ(run.trajectory.status.back(), ref.status.back());
   EXPECT_NE(run.message.find("usable samples"), std::string::npos) << run.message;
   // As the comparator: a sample next to a singular one is not in the verdict (there the start
-  // from rest leaves Bullet's one-sided end samples 11 % and 2 % off in alpha; docs/engines.md).
+  // from rest leaves Bullet's one-sided end samples 11 % and 2 % off in alpha; docs/engines-measured.md).
   Trajectory judged = run.trajectory;
   for (int i = 0; i < ref.samples(); ++i)
     for (int j : {i - 1, i + 1})

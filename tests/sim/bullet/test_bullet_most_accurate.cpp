@@ -3,8 +3,8 @@
 
 #include <iostream>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/bullet/bullet_engine.h"
 #include "tests/sim/bullet/agreement.h"
 

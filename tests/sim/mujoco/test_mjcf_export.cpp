@@ -15,9 +15,9 @@
 #include <numbers>
 #include <string>
 
-#include "analytic/dynamics.h"
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/sweep.h"
 #include "sim/mujoco/mujoco_engine.h"
 #include "tests/common/mechanisms.h"
 

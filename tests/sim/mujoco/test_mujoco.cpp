@@ -12,8 +12,8 @@
 #include <numbers>
 #include <string>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/mujoco/mujoco_engine.h"
 #include "tests/common/mechanisms.h"
 

@@ -1,5 +1,5 @@
 // MuJoCo on a forward-dynamics case (docs/engines.md, "Forward dynamics") against the exact
-// reference (analytic/dynamics.h): IFToMM A02 with N = 2, five bars under gravity for 10 s,
+// reference (analytic/physics/dynamics.h): IFToMM A02 with N = 2, five bars under gravity for 10 s,
 // passing seven singular positions where every bar is parallel.
 //
 //   B0 ------ B1 ------ B2

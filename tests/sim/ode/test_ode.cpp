@@ -12,8 +12,8 @@
 #include <string>
 #include <thread>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/forces.h"
 #include "sim/ode/ode_engine.h"
 #include "tests/sim/bullet/agreement.h"

@@ -9,8 +9,8 @@
 #include <string>
 #include <thread>
 
-#include "analytic/loader.h"
-#include "analytic/sweep.h"
+#include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/forces.h"
 #include "sim/simbody/simbody_engine.h"
 #include "tests/sim/dynamics_cases.h"

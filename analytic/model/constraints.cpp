@@ -1,0 +1,372 @@
+#include "analytic/model/constraints.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace crosslink {
+namespace {
+
+using Kind = ConstraintRows::Kind;
+
+// The angle of a q's link k (0 for the ground, k < 0).
+double angle_of(const Eigen::VectorXd& q, int k) {
+  return k >= 0 ? q(3 * k + 2) : 0.0;
+}
+
+// Writes d(value)/dq of `p = w.(P_b - O_a)` (see planar.h) into row `row` of the Jacobian.
+template <class Matrix>
+void projection_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& origin_a,
+                         const Eigen::Vector2d& axis_a, int kb, const Eigen::Vector2d& point_b,
+                         Matrix& jac, int row) {
+  const BodyMotion a = frames.of(ka);
+  const BodyMotion b = frames.of(kb);
+  const Eigen::Vector2d w = a.turn(axis_a);
+  const Eigen::Vector2d d = b.position(point_b) - a.position(origin_a);
+  if (ka >= 0) {
+    jac(row, 3 * ka) = -w.x();
+    jac(row, 3 * ka + 1) = -w.y();
+    jac(row, 3 * ka + 2) = perp(w).dot(d) - w.dot(perp(a.turn(origin_a)));
+  }
+  if (kb >= 0) {
+    jac(row, 3 * kb) += w.x();
+    jac(row, 3 * kb + 1) += w.y();
+    jac(row, 3 * kb + 2) += w.dot(perp(b.turn(point_b)));
+  }
+}
+
+// A revolute joint's two rows on link k: sign (I, perp(turn(point))), the identity's zeros
+// written too (as -I writes -0), so every holder gets the same entries.
+template <class Matrix>
+void revolute_gradient(const LinkFrames& frames, int k, const Eigen::Vector2d& point, double sign,
+                       Matrix& jac, int row) {
+  const Eigen::Vector2d arm = perp(frames.of(k).turn(point));
+  jac(row, 3 * k) = sign * 1.0;
+  jac(row + 1, 3 * k) = sign * 0.0;
+  jac(row, 3 * k + 1) = sign * 0.0;
+  jac(row + 1, 3 * k + 1) = sign * 1.0;
+  jac(row, 3 * k + 2) = sign > 0 ? arm.x() : -arm.x();
+  jac(row + 1, 3 * k + 2) = sign > 0 ? arm.y() : -arm.y();
+}
+
+// The block's rows of dPhi/dq, entry by entry, into a dense matrix or the layout's pattern.
+template <class Matrix>
+void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac) {
+  using Kind = ConstraintRows::Kind;
+  const int row = c.first_row, a = c.a, b = c.b;
+  switch (c.kind) {
+    case Kind::revolute:
+      if (a >= 0) revolute_gradient(frames, a, c.point_a, 1.0, jac, row);
+      if (b >= 0) revolute_gradient(frames, b, c.point_b, -1.0, jac, row);
+      return;
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+      projection_gradient(frames, a, c.point_a, c.axis, b, c.point_b, jac, row);
+      if (c.kind == Kind::prismatic) {
+        if (a >= 0) jac(row + 1, 3 * a + 2) = -1.0;
+        if (b >= 0) jac(row + 1, 3 * b + 2) = 1.0;
+      }
+      return;
+    case Kind::angle_driver:
+      if (b >= 0) jac(row, 3 * b + 2) += 1.0;
+      if (a >= 0) jac(row, 3 * a + 2) -= 1.0;
+      return;
+    case Kind::gear:
+      if (a >= 0) jac(row, 3 * a + 2) = 1.0;
+      if (b >= 0) jac(row, 3 * b + 2) = c.ratio;
+      if (c.c >= 0) jac(row, 3 * c.c + 2) = -(1.0 + c.ratio);
+      return;
+    case Kind::rack_pinion:
+      projection_gradient(frames, a, c.point_a, c.axis, b, c.point_b, jac, row);
+      if (c.c >= 0) jac(row, 3 * c.c + 2) = -c.ratio;
+      if (a >= 0) jac(row, 3 * a + 2) += c.ratio;
+      return;
+  }
+}
+
+// The block of a driver (one row): an angle measured from link `reference` to the arm
+// from -> to on `link`, or a slide joint's displacement along its line.
+ConstraintRows driver_rows(const Mechanism& m, const Driver& d) {
+  ConstraintRows c;
+  if (d.type == DriverType::slider) {
+    const Joint& j = m.joints[static_cast<size_t>(d.joint)];
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    c.kind = Kind::slider_driver;
+    c.a = m.moving_index(j.link_a);
+    c.b = m.moving_index(j.link_b);
+    c.point_a = line.origin;
+    c.axis = line.direction;
+    c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+    return c;
+  }
+  c.kind = Kind::angle_driver;
+  c.b = m.moving_index(d.link);
+  c.a = m.moving_index(d.type == DriverType::joint_angle
+                           ? m.joints[static_cast<size_t>(d.joint)].link_a
+                           : m.ground());
+  if (d.from >= 0 && d.to >= 0) {
+    const Link& link = m.links[static_cast<size_t>(d.link)];
+    const Eigen::Vector2d arm = link.points[static_cast<size_t>(d.to)].local -
+                                link.points[static_cast<size_t>(d.from)].local;
+    c.angle = std::atan2(arm.y(), arm.x());
+  }
+  return c;
+}
+
+ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
+  ConstraintRows c;
+  if (j.type == JointType::gear) {
+    c.kind = Kind::gear;
+    c.ratio = j.ratio;
+    c.angle = j.phase;
+    c.a = m.moving_index(j.link_a);
+    c.b = m.moving_index(j.link_b);
+    c.c = m.moving_index(j.carrier);
+    return c;
+  }
+  if (j.type == JointType::rack_pinion) {  // the slide's travel, as a slider driver reads it
+    Driver slide;
+    slide.type = DriverType::slider;
+    slide.joint = j.slide;
+    c = driver_rows(m, slide);
+    c.kind = Kind::rack_pinion;
+    c.c = m.moving_index(j.link_a);
+    c.ratio = j.ratio;
+    c.angle = j.phase;
+    return c;
+  }
+  c.a = m.moving_index(j.link_a);
+  c.b = m.moving_index(j.link_b);
+  c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  if (j.type == JointType::revolute) {
+    c.kind = Kind::revolute;
+    c.point_a = m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.point_a)].local;
+    return c;
+  }
+  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+  c.kind = j.type == JointType::prismatic ? Kind::prismatic : Kind::pin_in_slot;
+  c.point_a = line.origin;
+  c.axis = perp(line.direction);
+  c.angle = j.relative_angle;
+  return c;
+}
+
+}  // namespace
+
+double ConstraintRows::value(const LinkFrames& frames) const {
+  const Eigen::VectorXd& q = frames.q;
+  switch (kind) {
+    case Kind::angle_driver:
+      return angle_of(q, b) + angle - angle_of(q, a);  // linear in q
+    case Kind::gear:
+      return angle_of(q, a) - angle_of(q, c) + ratio * (angle_of(q, b) - angle_of(q, c)) - angle;
+    case Kind::rack_pinion:
+      return project(frames.of(a), point_a, axis, frames.of(b), point_b).value -
+             ratio * (angle_of(q, c) - angle_of(q, a)) - angle;
+    default:
+      return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
+  }
+}
+
+void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
+  switch (kind) {
+    case Kind::revolute: {
+      const BodyMotion ma = frames.of(a), mb = frames.of(b);
+      phi.segment<2>(first_row) = ma.position(point_a) - mb.position(point_b);
+      return;
+    }
+    case Kind::prismatic: {
+      const BodyMotion ma = frames.of(a), mb = frames.of(b);
+      phi(first_row) = project(ma, point_a, axis, mb, point_b).value;
+      phi(first_row + 1) = mb.theta - ma.theta - angle;
+      return;
+    }
+    case Kind::pin_in_slot:
+    case Kind::angle_driver:
+    case Kind::slider_driver:
+    case Kind::gear:
+    case Kind::rack_pinion:
+      phi(first_row) = value(frames);
+      return;
+  }
+}
+
+void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                      Eigen::VectorXd& out) const {
+  switch (kind) {
+    case Kind::revolute: {
+      const BodyMotion ma = frames.of(a, &qdot), mb = frames.of(b, &qdot);
+      out.segment<2>(first_row) = ma.acceleration(point_a) - mb.acceleration(point_b);
+      return;
+    }
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+    case Kind::rack_pinion:  // its angle term is linear in q
+      out(first_row) =
+          project(frames.of(a, &qdot), point_a, axis, frames.of(b, &qdot), point_b).accel;
+      if (kind == Kind::prismatic) out(first_row + 1) = 0.0;  // an angle is linear in q
+      return;
+    case Kind::angle_driver:
+    case Kind::gear:
+      out(first_row) = 0.0;
+      return;
+  }
+}
+
+void ConstraintRows::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
+  write_jacobian(*this, frames, jac);
+}
+
+void ConstraintRows::jacobian(const LinkFrames& frames, SparseJacobian& jac) const {
+  write_jacobian(*this, frames, jac);
+}
+
+ConstraintLayout::ConstraintLayout(const Mechanism& m) {
+  auto add = [&](ConstraintRows c) {
+    c.first_row = rows_;
+    for (int r = 0; r < c.rows(); ++r) angle_rows_.push_back(c.angle_row(r) ? 1 : 0);
+    rows_ += c.rows();
+    blocks_.push_back(c);
+  };
+  for (const Joint& j : m.joints) add(joint_rows(m, j));
+  joint_count_ = blocks_.size();
+  joints_ = rows_;
+  for (const Driver& d : m.drivers) add(driver_rows(m, d));
+}
+
+void ConstraintLayout::position(const LinkFrames& frames, Eigen::VectorXd& phi) const {
+  for (const ConstraintRows& c : blocks_) c.position(frames, phi);
+}
+
+void ConstraintLayout::residual(const LinkFrames& frames, std::span<const DriverState> drivers,
+                                Eigen::VectorXd& phi) const {
+  position(frames, phi);
+  for (int d = 0; d < driver_count(); ++d) phi(driver_row(d)) -= drivers[d].value;
+}
+
+void ConstraintLayout::jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const {
+  jac.setZero();
+  for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
+}
+
+void ConstraintLayout::jacobian(const LinkFrames& frames, SparseJacobian& jac) const {
+  jac.setZero();
+  for (const ConstraintRows& c : blocks_) c.jacobian(frames, jac);
+}
+
+namespace {
+// Records the entries a block writes, whatever their values.
+struct PatternRecorder {
+  std::vector<std::pair<int, int>> entries;  // (column, row)
+  double scratch = 0.0;
+  double& operator()(int row, int column) {
+    entries.emplace_back(column, row);
+    return scratch;
+  }
+};
+}  // namespace
+
+SparseJacobian::SparseJacobian(const ConstraintLayout& layout, int columns) {
+  // Where each block writes does not depend on q: record it at q = 0.
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(columns);
+  PatternRecorder recorder;
+  for (const ConstraintRows& c : layout.blocks()) write_jacobian(c, LinkFrames{q}, recorder);
+  std::sort(recorder.entries.begin(), recorder.entries.end());
+  recorder.entries.erase(std::unique(recorder.entries.begin(), recorder.entries.end()),
+                         recorder.entries.end());
+  set_pattern(layout.rows(), columns, recorder.entries);
+}
+
+SparseJacobian::SparseJacobian(const Eigen::MatrixXd& dense) {
+  std::vector<std::pair<int, int>> entries;
+  for (int c = 0; c < dense.cols(); ++c)
+    for (int r = 0; r < dense.rows(); ++r)
+      if (dense(r, c) != 0.0) entries.emplace_back(c, r);
+  set_pattern(static_cast<int>(dense.rows()), static_cast<int>(dense.cols()), entries);
+  for (const auto& [c, r] : entries) (*this)(r, c) = dense(r, c);
+}
+
+void SparseJacobian::set_pattern(int rows, int columns,
+                                 const std::vector<std::pair<int, int>>& entries) {
+  rows_ = rows;
+  column_start_.assign(static_cast<size_t>(columns) + 1, 0);
+  row_index_.clear();
+  for (const auto& [column, row] : entries) {
+    ++column_start_[static_cast<size_t>(column) + 1];
+    row_index_.push_back(row);
+  }
+  for (int c = 0; c < columns; ++c)
+    column_start_[static_cast<size_t>(c) + 1] += column_start_[static_cast<size_t>(c)];
+  values_.assign(row_index_.size(), 0.0);
+  // By row: each entry's column and place, for writing by (row, column).
+  row_start_.assign(static_cast<size_t>(rows_) + 1, 0);
+  for (int r : row_index_) ++row_start_[static_cast<size_t>(r) + 1];
+  for (int r = 0; r < rows_; ++r)
+    row_start_[static_cast<size_t>(r) + 1] += row_start_[static_cast<size_t>(r)];
+  row_entries_.resize(row_index_.size());
+  std::vector<int> next(row_start_.begin(), row_start_.end() - 1);
+  for (int c = 0; c < columns; ++c)
+    for (int e = column_start(c); e < column_start(c + 1); ++e)
+      row_entries_[static_cast<size_t>(next[static_cast<size_t>(row_index(e))]++)] = {c, e};
+}
+
+int SparseJacobian::slot(int row, int column) const {
+  for (int i = row_start_[static_cast<size_t>(row)]; i < row_start_[static_cast<size_t>(row) + 1];
+       ++i)
+    if (row_entries_[static_cast<size_t>(i)].first == column)
+      return row_entries_[static_cast<size_t>(i)].second;
+  return -1;
+}
+
+double SparseJacobian::coeff(int row, int column) const {
+  const int e = slot(row, column);
+  return e < 0 ? 0.0 : values_[static_cast<size_t>(e)];
+}
+
+SparseJacobian SparseJacobian::with_full_row(int row) const {
+  std::vector<std::pair<int, int>> entries;
+  for (int c = 0; c < cols(); ++c) {
+    for (int e = column_start(c); e < column_start(c + 1); ++e)
+      if (row_index(e) != row) entries.emplace_back(c, row_index(e));
+    entries.emplace_back(c, row);
+  }
+  std::sort(entries.begin(), entries.end());
+  SparseJacobian out;
+  out.set_pattern(rows_, cols(), entries);
+  return out;
+}
+
+double SparseJacobian::row_norm(int row) const {
+  double sum = 0.0;
+  for (int i = row_start_[static_cast<size_t>(row)]; i < row_start_[static_cast<size_t>(row) + 1];
+       ++i) {
+    const double v = values_[static_cast<size_t>(row_entries_[static_cast<size_t>(i)].second)];
+    sum += v * v;
+  }
+  return std::sqrt(sum);
+}
+
+Eigen::MatrixXd SparseJacobian::dense() const {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(rows_, cols());
+  for (int c = 0; c < cols(); ++c)
+    for (int e = column_start(c); e < column_start(c + 1); ++e) out(row_index(e), c) = value(e);
+  return out;
+}
+
+void ConstraintLayout::velocity_rhs(std::span<const DriverState> drivers,
+                                    Eigen::VectorXd& nu) const {
+  // Only the drivers' rows depend on time: -dPhi/dt is their rate.
+  nu.setZero();
+  for (int d = 0; d < driver_count(); ++d) nu(driver_row(d)) = drivers[d].rate;
+}
+
+void ConstraintLayout::acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                        std::span<const DriverState> drivers,
+                                        Eigen::VectorXd& gamma) const {
+  for (const ConstraintRows& c : blocks_) c.velocity_squared(frames, qdot, gamma);
+  gamma = -gamma;
+  for (int d = 0; d < driver_count(); ++d) gamma(driver_row(d)) += drivers[d].accel;
+}
+
+}  // namespace crosslink

@@ -1,0 +1,179 @@
+// The constraint layout: every row of Phi(q, t) = 0, each joint type's and each driver's rows
+// defined once. Newton, the sweep's tracer, kinetostatics and the engines' loop-gap checks all
+// read this one definition, so a new joint type is one more kind here.
+//
+// As Simbody gives every constraint the same per-level methods, each block of rows answers the
+// same questions: its position error Phi, its rows of the Jacobian J = dPhi/dq, the part of
+// d2Phi/dt2 that does not depend on qddot (the acceleration's velocity-squared terms), and which
+// of its rows are angle equations. Only a driver's row depends on time, so the right-hand sides
+//   velocity      J qdot  = nu      nu: each driver's rate in its row, 0 elsewhere
+//   acceleration  J qddot = gamma   gamma = -(velocity-squared terms) + each driver's accel
+// are assembled by the layout from the drivers' states. As Pinocchio keeps one definition per
+// joint type visited by every algorithm, one switch on the kind in constraints.cpp is the only
+// place a joint type's equations are written.
+//
+// Rows: the joints in Mechanism::joints order (revolute 2, prismatic 2: its line then its
+// relative angle, pin-in-slot 1: its line, gear pair and rack 1: the rolling of the pitch
+// circles), then one row per driver in Mechanism::drivers order.
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "analytic/model/mechanism.h"
+#include "analytic/model/planar.h"
+
+namespace crosslink {
+
+// The links' frames at one q. The rotations come from cos and sin computed once per q (the
+// solver's cache, per moving link) or, without a cache, from q on the spot; the numbers are the
+// same.
+struct LinkFrames {
+  const Eigen::VectorXd& q;
+  const Eigen::VectorXd* cos = nullptr;  // per moving link, or null
+  const Eigen::VectorXd* sin = nullptr;
+
+  BodyMotion of(int k, const Eigen::VectorXd* qdot = nullptr,
+                const Eigen::VectorXd* qddot = nullptr) const {
+    if (k < 0 || !cos) return BodyMotion::of(k, q, qdot, qddot);
+    return BodyMotion::of(k, q, qdot, qddot, (*cos)(k), (*sin)(k));
+  }
+};
+
+class SparseJacobian;
+
+// One joint's or one driver's rows: [first_row, first_row + rows()) of Phi.
+struct ConstraintRows {
+  enum class Kind : std::uint8_t {
+    revolute,       // r_a + A_a p_a - r_b - A_b p_b = 0                       (2 rows)
+    prismatic,      // n_a . (P_b - O_a) = 0, theta_b - theta_a - angle = 0    (2 rows)
+    pin_in_slot,    // n_a . (P_b - O_a) = 0                                   (1 row)
+    angle_driver,   // theta_b + angle - theta_a - d(t) = 0                    (1 row)
+    slider_driver,  // u_a . (P_b - O_a) - d(t) = 0                            (1 row)
+    gear,           // theta_a - theta_c + ratio (theta_b - theta_c) - phase = 0   (1 row)
+    rack_pinion,    // u_a . (P_b - O_a) - ratio (theta_c - theta_a) - phase = 0  (1 row)
+  };
+  Kind kind = Kind::revolute;
+  int first_row = 0;
+  int a = -1, b = -1;  // moving index of the first link (the guide) and the second (-1: ground)
+  // Gear pairs: the third link: a gear pair's carrier, a rack's pinion (its guide is a).
+  int c = -1;
+  double ratio = 0.0;  // gear pairs: the signed ratio (Joint::ratio)
+  // Local coordinates: revolute, the points that coincide on a and on b; slides, the line's
+  // origin on a and the pin on b.
+  Eigen::Vector2d point_a = Eigen::Vector2d::Zero(), point_b = Eigen::Vector2d::Zero();
+  // Slides: the axis fixed in a that the pin's offset is projected on: the line's normal n for a
+  // joint's line row, its direction u for a slider driver.
+  Eigen::Vector2d axis = Eigen::Vector2d::Zero();
+  // Prismatic: theta_b - theta_a held [rad]; angle driver: the measured arm's angle in b's frame;
+  // gear pairs: the phase [rad or m].
+  double angle = 0.0;
+
+  int rows() const { return kind == Kind::revolute || kind == Kind::prismatic ? 2 : 1; }
+  // Whether row `r` of the block (0-based) is an angle equation [rad] rather than a length [m].
+  bool angle_row(int r) const {
+    return (kind == Kind::prismatic && r == 1) || kind == Kind::angle_driver || kind == Kind::gear;
+  }
+  // Writes the block's rows of Phi at the frames (a driver's row: its measured value, d(t) not
+  // taken off).
+  void position(const LinkFrames& frames, Eigen::VectorXd& phi) const;
+  // Writes the block's rows of d2Phi/dt2 with qddot = 0: the velocity-squared terms.
+  void velocity_squared(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                        Eigen::VectorXd& out) const;
+  // Writes the block's rows of dPhi/dq into `jac`, whose other entries of those rows are zero.
+  // The same entries, in the same order, whatever holds them (dense, or the layout's pattern).
+  void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;
+  void jacobian(const LinkFrames& frames, SparseJacobian& jac) const;
+  // A one-row block's value: a driver's measured coordinate.
+  double value(const LinkFrames& frames) const;
+};
+
+class ConstraintLayout {
+ public:
+  explicit ConstraintLayout(const Mechanism& mechanism);
+
+  int rows() const { return rows_; }               // joint rows and driver rows
+  int joint_row_count() const { return joints_; }  // the rows before the first driver's
+  const ConstraintRows& joint(int j) const { return blocks_[static_cast<size_t>(j)]; }
+  const ConstraintRows& driver(int d) const {
+    return blocks_[joint_count_ + static_cast<size_t>(d)];
+  }
+  int driver_count() const { return static_cast<int>(blocks_.size() - joint_count_); }
+  int driver_row(int d) const { return driver(d).first_row; }
+  const std::vector<ConstraintRows>& blocks() const { return blocks_; }
+  // Whether row r is an angle equation (scaled by the mechanism's size to compare it in metres).
+  bool angle_row(int r) const { return angle_rows_[static_cast<size_t>(r)] != 0; }
+
+  // Phi at the frames with each driver's row at its measured value (drivers[d].value not taken
+  // off): the joints' rows are the loop closure, the drivers' rows their coordinates.
+  void position(const LinkFrames& frames, Eigen::VectorXd& phi) const;
+  // Phi with driver d's row less drivers[d] (one state per driver).
+  void residual(const LinkFrames& frames, std::span<const DriverState> drivers,
+                Eigen::VectorXd& phi) const;
+  void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;  // all of dPhi/dq
+  void jacobian(const LinkFrames& frames, SparseJacobian& jac) const;   // the same, its pattern
+  // nu: each driver's rate in its row, 0 in the joints' rows.
+  void velocity_rhs(std::span<const DriverState> drivers, Eigen::VectorXd& nu) const;
+  // gamma = -(velocity-squared terms of d2Phi/dt2) + each driver's acceleration in its row.
+  void acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                        std::span<const DriverState> drivers, Eigen::VectorXd& gamma) const;
+
+ private:
+  std::vector<ConstraintRows> blocks_;  // the joints', then the drivers'
+  size_t joint_count_ = 0;
+  int joints_ = 0, rows_ = 0;
+  std::vector<char> angle_rows_;  // per row
+};
+
+}  // namespace crosslink
+
+namespace crosslink {
+
+// dPhi/dq held as its pattern only: the entries the layout's rows write (3 to 6 a row, whatever
+// q is), by column. A chain of b bodies has about 15 b of them against the dense 9 b^2, so
+// building, scaling and factorising it cost in proportion to the bodies (docs/decisions.md, "One
+// factorisation per pose").
+class SparseJacobian {
+ public:
+  SparseJacobian() = default;
+  // The pattern of `layout`'s rows over `columns` coordinates (3 per moving link).
+  SparseJacobian(const ConstraintLayout& layout, int columns);
+  // The pattern and values of a dense matrix's nonzeros (for checks).
+  explicit SparseJacobian(const Eigen::MatrixXd& dense);
+
+  int rows() const { return rows_; }
+  int cols() const { return static_cast<int>(column_start_.size()) - 1; }
+  int nonzeros() const { return static_cast<int>(row_index_.size()); }
+  // The entry (row, column) of the pattern; it must be one.
+  double& operator()(int row, int column) { return values_[slot(row, column)]; }
+  // Entry (row, column), 0 off the pattern.
+  double coeff(int row, int column) const;
+  void setZero() { std::fill(values_.begin(), values_.end(), 0.0); }
+  // Column c's entries are [column_start(c), column_start(c + 1)), rows increasing.
+  int column_start(int c) const { return column_start_[static_cast<size_t>(c)]; }
+  int row_index(int e) const { return row_index_[static_cast<size_t>(e)]; }
+  double value(int e) const { return values_[static_cast<size_t>(e)]; }
+  double& value(int e) { return values_[static_cast<size_t>(e)]; }
+  Eigen::MatrixXd dense() const;  // for tests and checks
+  // This pattern with row `row` full (a bordered system's dense row), its values zero.
+  SparseJacobian with_full_row(int row) const;
+  // The Euclidean norm of row `row`, its entries summed in column order.
+  double row_norm(int row) const;
+
+ private:
+  int slot(int row, int column) const;
+  // The pattern of (column, row) entries, sorted and unique.
+  void set_pattern(int rows, int columns, const std::vector<std::pair<int, int>>& entries);
+  int rows_ = 0;
+  std::vector<int> column_start_, row_index_;
+  std::vector<double> values_;
+  // Row r's entries: (column, index into values_) in [row_start_[r], row_start_[r + 1]).
+  std::vector<int> row_start_;
+  std::vector<std::pair<int, int>> row_entries_;
+};
+
+}  // namespace crosslink

@@ -1,0 +1,323 @@
+#include "analytic/model/trajectory.h"
+
+#include "analytic/model/fourbar.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+namespace crosslink {
+
+std::string_view to_string(ParallelSingularity kind) {
+  switch (kind) {
+    case ParallelSingularity::none:
+      return "none";
+    case ParallelSingularity::direct:
+      return "direct";
+    case ParallelSingularity::inverse:
+      return "inverse";
+  }
+  return "?";
+}
+
+std::string_view to_string(PoseStatus status) {
+  switch (status) {
+    case PoseStatus::ok:
+      return "ok";
+    case PoseStatus::singular:
+      return "singular";
+    case PoseStatus::no_convergence:
+      return "no_convergence";
+    case PoseStatus::cannot_assemble:
+      return "cannot_assemble";
+    case PoseStatus::branch_jump:
+      return "branch_jump";
+    case PoseStatus::loop_gap:
+      return "loop_gap";
+    case PoseStatus::diverged:
+      return "diverged";
+    case PoseStatus::not_finite:
+      return "not_finite";
+    case PoseStatus::not_reached:
+      return "not_reached";
+    case PoseStatus::exact_methods_disagree:
+      return "exact_methods_disagree";
+  }
+  return "?";
+}
+
+std::string_view to_string(Quantity q) {
+  switch (q) {
+    case Quantity::position:
+      return "position";
+    case Quantity::angle:
+      return "angle";
+    case Quantity::velocity:
+      return "velocity";
+    case Quantity::acceleration:
+      return "acceleration";
+    case Quantity::force:
+      return "force";
+    case Quantity::torque:
+      return "torque";
+    case Quantity::energy:
+      return "energy";
+  }
+  return "?";
+}
+
+void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_forces) {
+  link_names.clear();
+  for (const Link& link : mechanism.links)
+    if (!link.ground) link_names.push_back(link.name);
+  point_names.clear();
+  for (const Mechanism::NamedPoint& p : mechanism.named_points()) point_names.push_back(p.name);
+  slider_names.clear();
+  for (int j : mechanism.slide_joints()) slider_names.push_back(mechanism.joints[j].name);
+
+  const auto links = static_cast<Eigen::Index>(link_names.size());
+  const auto points = static_cast<Eigen::Index>(point_names.size());
+  const auto sliders = static_cast<Eigen::Index>(slider_names.size());
+  time.setZero(samples);
+  for (Eigen::MatrixXd* m : {&angle, &omega, &alpha}) m->setZero(samples, links);
+  for (Eigen::MatrixXd* m : {&x, &y, &vx, &vy, &ax, &ay}) m->setZero(samples, points);
+  for (Eigen::MatrixXd* m : {&s, &sdot, &sddot}) m->setZero(samples, sliders);
+  status.assign(static_cast<size_t>(samples), PoseStatus::ok);
+  not_run.clear();
+  rcond.setOnes(samples);
+  loop_gap.setZero(samples);
+  events.clear();
+
+  transmission.clear();
+  if (const auto fb = four_bar(mechanism)) transmission = {fb->b, fb->c, fb->d};
+  joint_names.clear();
+  for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
+  ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
+  axis = mechanism.axis();
+  driver_names.clear();
+  driver_sliders.clear();
+  for (const Driver& d : mechanism.drivers) {
+    driver_names.push_back(d.name);
+    driver_sliders.push_back(!d.angular());
+  }
+  driver_values.setZero(samples, static_cast<Eigen::Index>(driver_names.size()));
+  has_forces = with_forces;
+  const int rows = with_forces ? samples : 0;
+  const auto joints = static_cast<Eigen::Index>(joint_names.size());
+  effort.setZero(rows, static_cast<Eigen::Index>(mechanism.drivers.size()));
+  fx.setZero(rows, joints);
+  fy.setZero(rows, joints);
+  fn.setZero(rows, sliders);
+  moment.setZero(rows, sliders);
+  shaking.setZero(rows, 3);
+  has_energy = false;
+  energy.resize(0, 4);
+}
+
+void Trajectory::add_energy() {
+  has_energy = true;
+  energy.setZero(samples(), 4);
+}
+
+double Trajectory::energy_scale() const {
+  if (!has_energy) return 0.0;
+  double kinetic = 0.0, work = 0.0;
+  double low = INFINITY, high = -INFINITY;
+  for (int k = 0; k < samples(); ++k) {
+    if (!usable(status[static_cast<size_t>(k)])) continue;
+    kinetic = std::max(kinetic, std::abs(energy(k, 0)));
+    low = std::min(low, energy(k, 1));
+    high = std::max(high, energy(k, 1));
+    work = std::max(work, std::abs(energy(k, 2)));
+  }
+  return std::max({kinetic, high > low ? high - low : 0.0, work});
+}
+
+void Trajectory::resize_as(const Mechanism& mechanism, const Trajectory& reference,
+                           bool with_forces, bool energy) {
+  resize(mechanism, reference.samples(), with_forces);
+  if (energy) add_energy();
+  time = reference.time;
+  driver_values = reference.driver_values;
+}
+
+double Trajectory::swept(int row) const {
+  if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
+  return driver_values(row, axis.driver);
+}
+
+bool Trajectory::beside_singular(int row) const {
+  auto singular_at = [&](int k) {
+    return k >= 0 && k < samples() && status[static_cast<size_t>(k)] == PoseStatus::singular;
+  };
+  return singular_at(row - 1) || singular_at(row + 1);
+}
+
+bool Trajectory::flag_non_finite(int row) {
+  bool finite = true;
+  auto clean = [&](double& value) {
+    if (std::isfinite(value)) return;
+    finite = false;
+    value = 0.0;
+  };
+  clean(time(row));
+  clean(rcond(row));
+  clean(loop_gap(row));
+  for (Eigen::MatrixXd* m :
+       {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot, &driver_values})
+    for (Eigen::Index c = 0; c < m->cols(); ++c) clean((*m)(row, c));
+  if (has_energy)
+    for (Eigen::Index c = 0; c < energy.cols(); ++c) clean(energy(row, c));
+  PoseStatus& st = status[static_cast<size_t>(row)];
+  if (finite || (st != PoseStatus::ok && st != PoseStatus::singular)) return false;
+  st = PoseStatus::not_finite;
+  return true;
+}
+
+int Trajectory::flag_non_finite() {
+  int flagged = 0;
+  for (int row = 0; row < samples(); ++row) flagged += flag_non_finite(row);
+  // One event, at the first sample flagged now or by the solver as it wrote it.
+  const auto first = std::find(status.begin(), status.end(), PoseStatus::not_finite);
+  const bool told = std::any_of(events.begin(), events.end(),
+                                [](const Event& e) { return e.kind == PoseStatus::not_finite; });
+  if (first != status.end() && !told)
+    events.push_back({along(static_cast<int>(first - status.begin())), PoseStatus::not_finite,
+                      "a value is not a finite number here (an overflow on extreme input): "
+                      "the sample is flagged"});
+  return flagged;
+}
+
+namespace {
+constexpr std::array<std::string_view, 3> kLinkChannels = {"angle", "omega", "alpha"};
+constexpr std::array<std::string_view, 8> kPointChannels = {"x", "y",  "vx", "vy",
+                                                            "v", "ax", "ay", "a"};
+constexpr std::array<std::string_view, 3> kSliderChannels = {"s", "sdot", "sddot"};
+constexpr std::array<std::string_view, 3> kJointChannels = {"fx", "fy", "f"};
+constexpr std::array<std::string_view, 2> kSlideForceChannels = {"fn", "moment"};
+constexpr std::array<std::string_view, 3> kShakingChannels = {"shaking_fx", "shaking_fy",
+                                                              "shaking_moment"};
+constexpr std::array<std::string_view, 4> kEnergyChannels = {"kinetic", "potential", "work",
+                                                             "error"};
+
+int index_of(const std::vector<std::string>& names, std::string_view name) {
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+}  // namespace
+
+std::vector<std::string> Trajectory::channel_names() const {
+  std::vector<std::string> names;
+  for (const std::string& link : link_names)
+    for (std::string_view c : kLinkChannels) names.push_back(std::string(c) + "." + link);
+  for (const std::string& point : point_names)
+    for (std::string_view c : kPointChannels) names.push_back(std::string(c) + "." + point);
+  for (const std::string& slider : slider_names)
+    for (std::string_view c : kSliderChannels) names.push_back(std::string(c) + "." + slider);
+  const size_t named = axis.timed() ? driver_names.size() : 0;  // drivers naming channels
+  for (size_t d = 0; d < named; ++d)
+    names.push_back((driver_sliders[d] ? "s." : "angle.") + driver_names[d]);
+  if (!transmission.empty()) names.push_back("mu." + transmission[1]);
+  if (has_forces) {
+    if (!axis.timed()) names.push_back(swept_slider() ? "force.driver" : "torque.driver");
+    for (size_t d = 0; d < named; ++d)
+      names.push_back((driver_sliders[d] ? "force." : "torque.") + driver_names[d]);
+    for (const std::string& joint : joint_names)
+      for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
+    for (const std::string& slider : slider_names)
+      for (std::string_view c : kSlideForceChannels) names.push_back(std::string(c) + "." + slider);
+    for (std::string_view c : kShakingChannels) names.push_back(std::string(c) + "." + ground_name);
+  }
+  if (has_energy)
+    for (std::string_view c : kEnergyChannels) names.push_back("energy." + std::string(c));
+  return names;
+}
+
+std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const {
+  const size_t dot = name.find('.');
+  if (dot == std::string_view::npos) return std::nullopt;
+  const std::string_view kind = name.substr(0, dot), object = name.substr(dot + 1);
+
+  if (const int l = index_of(link_names, object); l >= 0) {
+    if (kind == "angle") return angle.col(l);
+    if (kind == "omega") return omega.col(l);
+    if (kind == "alpha") return alpha.col(l);
+  }
+  if (const int p = index_of(point_names, object); p >= 0) {
+    if (kind == "x") return x.col(p);
+    if (kind == "y") return y.col(p);
+    if (kind == "vx") return vx.col(p);
+    if (kind == "vy") return vy.col(p);
+    if (kind == "ax") return ax.col(p);
+    if (kind == "ay") return ay.col(p);
+    if (kind == "v")
+      return Eigen::VectorXd((vx.col(p).array().square() + vy.col(p).array().square()).sqrt());
+    if (kind == "a")
+      return Eigen::VectorXd((ax.col(p).array().square() + ay.col(p).array().square()).sqrt());
+  }
+  if (const int j = index_of(slider_names, object); j >= 0) {
+    if (kind == "s") return s.col(j);
+    if (kind == "sdot") return sdot.col(j);
+    if (kind == "sddot") return sddot.col(j);
+  }
+  if (const int d = axis.timed() ? index_of(driver_names, object) : -1; d >= 0) {
+    const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
+    if (kind == (slider ? "s" : "angle")) return driver_values.col(d);
+    if (has_forces && kind == (slider ? "force" : "torque")) return effort.col(d);
+  }
+  if (kind == "mu" && !transmission.empty() && object == transmission[1]) {
+    const int b = index_of(point_names, transmission[0]),
+              c = index_of(point_names, transmission[1]),
+              d = index_of(point_names, transmission[2]);
+    if (b < 0 || c < 0 || d < 0) return std::nullopt;
+    Eigen::VectorXd mu(samples());
+    for (int r = 0; r < samples(); ++r)
+      mu(r) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
+    return mu;
+  }
+  if (kind == "energy") {
+    if (!has_energy) return std::nullopt;
+    for (size_t c = 0; c < kEnergyChannels.size(); ++c)
+      if (object == kEnergyChannels[c]) return energy.col(static_cast<Eigen::Index>(c));
+    return std::nullopt;
+  }
+  if (!has_forces) return std::nullopt;
+  // The one driver's effort (several drivers' are named by driver, above).
+  if (!axis.timed() && object == "driver" && kind == (swept_slider() ? "force" : "torque"))
+    return effort.col(axis.driver);
+  if (const int j = index_of(joint_names, object); j >= 0) {
+    if (kind == "fx") return fx.col(j);
+    if (kind == "fy") return fy.col(j);
+    if (kind == "f")
+      return Eigen::VectorXd((fx.col(j).array().square() + fy.col(j).array().square()).sqrt());
+  }
+  if (const int j = index_of(slider_names, object); j >= 0) {
+    if (kind == "fn") return fn.col(j);
+    if (kind == "moment") return moment.col(j);
+  }
+  if (object == ground_name) {
+    for (size_t c = 0; c < kShakingChannels.size(); ++c)
+      if (kind == kShakingChannels[c]) return shaking.col(static_cast<Eigen::Index>(c));
+  }
+  return std::nullopt;
+}
+
+Quantity Trajectory::quantity_of(std::string_view channel) {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  if (kind == "angle" || kind == "mu") return Quantity::angle;
+  if (kind == "omega" || kind == "vx" || kind == "vy" || kind == "v" || kind == "sdot")
+    return Quantity::velocity;
+  if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")
+    return Quantity::acceleration;
+  if (kind == "fx" || kind == "fy" || kind == "f" || kind == "fn" || kind == "force" ||
+      kind == "shaking_fx" || kind == "shaking_fy")
+    return Quantity::force;
+  if (kind == "torque" || kind == "moment" || kind == "shaking_moment") return Quantity::torque;
+  if (kind == "energy") return Quantity::energy;
+  return Quantity::position;
+}
+
+}  // namespace crosslink

@@ -1,0 +1,596 @@
+#include "analytic/physics/dynamics.h"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <boost/numeric/odeint.hpp>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "analytic/kinematics/continuation.h"
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/units_text.h"
+#include "analytic/physics/kinetostatics.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kFirstStep = 1e-5;  // [s]: the integrator's first trial step
+
+// Why a run stopped: the chain could not close, or only another branch was near.
+struct Stopped {
+  double time;
+  PoseStatus status;
+  std::string message;
+  bool over_budget = false;  // the run reached SimulationOptions::max_solves
+};
+
+// The free coordinates' values: one (double) or several (a vector, one per driver).
+void place(KinematicState& state, double t, double d) {
+  state.swept() = {t, d, 1.0, 0.0};
+}
+void place(KinematicState& state, double t, const Eigen::VectorXd& d) {
+  for (int i = 0; i < d.size(); ++i) state.drivers[static_cast<size_t>(i)] = {t, d(i), 0.0, 0.0};
+}
+// The continuation steps a span of the coordinates takes, one coordinate per driver: none moves
+// more than its driver's continuation step between two solves.
+double steps_over(const Mechanism& m, double span) {
+  return std::abs(span) / continuation_step(m.swept(), m.size());
+}
+double steps_over(const Mechanism& m, const Eigen::VectorXd& span) {
+  double steps = 0.0;
+  for (Eigen::Index i = 0; i < span.size(); ++i)
+    steps = std::max(
+        steps, std::abs(span(i)) / continuation_step(m.drivers[static_cast<size_t>(i)], m.size()));
+  return steps;
+}
+std::string shown(double d, int digits) {
+  return fmt::format("{:.{}g}", d, digits);
+}
+std::string shown(const Eigen::VectorXd& d, int digits) {
+  std::string out = "(";
+  for (int i = 0; i < d.size(); ++i) out += fmt::format("{}{:.{}g}", i ? ", " : "", d(i), digits);
+  return out + ")";
+}
+// The pose predicted a step h of the coordinates on from q, with dq/dd = s.
+void predict(const Eigen::VectorXd& q, double h, const Eigen::VectorXd& s, Eigen::VectorXd& out) {
+  out = q + h * s;
+}
+void predict(const Eigen::VectorXd& q, const Eigen::VectorXd& h, const Eigen::MatrixXd& s,
+             Eigen::VectorXd& out) {
+  out = q + s * h;
+}
+double predicted_move(double h, const Eigen::VectorXd& s) {
+  return (h * s).lpNorm<Eigen::Infinity>();
+}
+double predicted_move(const Eigen::VectorXd& h, const Eigen::MatrixXd& s) {
+  return (s * h).lpNorm<Eigen::Infinity>();
+}
+
+// The pose of the chain followed by continuation along its free coordinates: Coordinates is a
+// double (one coordinate, Rates its dq/dd) or a vector (several, Rates dq/dd one column each).
+template <class Coordinates, class Rates>
+class FollowedChain {
+ public:
+  FollowedChain(const Mechanism& m, long max_solves)
+      : m_(m),
+        max_solves_(max_solves),
+        solver_(m, NewtonOptions{.tolerance = 1e-15}),
+        kinetostatics_(solver_),
+        state_(m),
+        applied_(m.coordinate_count()),
+        q_last_(m.coordinate_count()),
+        guess_(m.coordinate_count()) {
+    const SolveReport assembled = solver_.assemble(state_);
+    if (assembled.status != PoseStatus::ok)
+      throw Stopped{0.0, assembled.status,
+                    "the chain does not assemble at its start: " + assembled.message};
+    // Poses far less well conditioned than the drawn one are next to a singular position (a
+    // long chain's Jacobian is ill-conditioned everywhere: A02's rcond is 4e-2 upright at
+    // N = 2 and 2e-4 at N = 40).
+    if (const std::string why = singular_start(m, assembled.rcond); !why.empty())
+      throw Stopped{0.0, PoseStatus::singular, why};
+    near_singular_rcond_ = std::min(1e-4, 1e-2 * assembled.rcond);
+    interpolated_rcond_ = std::min(1e-3, 3e-2 * assembled.rcond);
+    if constexpr (std::is_same_v<Coordinates, double>) {
+      d_last_ = state_.swept().value;
+    } else {
+      d_last_.resize(state_.driver_count());
+      for (int i = 0; i < state_.driver_count(); ++i)
+        d_last_(i) = state_.drivers[static_cast<size_t>(i)].value;
+    }
+    q_last_ = state_.q;
+    unit_rate();
+    s_last_ = s_;
+  }
+
+  const NewtonSolver& solver() const { return solver_; }
+  const Kinetostatics& kinetostatics() const { return kinetostatics_; }
+  KinematicState& state() { return state_; }
+  long evaluations() const { return evaluations_; }
+  // The reciprocal condition of the pose at the coordinate of the last acceleration().
+  double rcond() const { return rcond_; }
+  long solves() const { return solves_; }
+
+  // Whether the pose of the last acceleration() is next to a singular position: resolved only to
+  // Newton's tolerance over J's condition, a sample there is flagged (the interpolation's zone
+  // is wider: its edge serves the integration, where 1e-10 of an acceleration matters).
+  bool near_singular() const { return near_singular_; }
+
+ protected:
+  // Solves the pose at d from the last regular one, in continuation steps; s_ = dq/dd there.
+  // Returns the pose's reciprocal condition; a pose next to a singular one is not taken as the
+  // start of the next continuation (its s is not reliable) and its correction is not checked
+  // (Newton resolves it only to ~sqrt(tolerance) there).
+  double move_to(double t, const Coordinates& d) {
+    const Coordinates from = d_last_, span = d - from;
+    const double wanted = std::max(1.0, std::ceil(steps_over(m_, span)));
+    // Counted before they are taken: one evaluation may ask for billions (a coordinate thrown
+    // across 1e9 rad by an effort of 1e12 in a nanosecond).
+    if (!(solves_ + wanted <= static_cast<double>(max_solves_)))
+      throw Stopped{t, PoseStatus::not_reached,
+                    fmt::format("the run has taken {} pose solves and its next evaluation asks "
+                                "for {:.0f} more (coordinate {} to {}): the limit is {} "
+                                "(raise it with --max-solves N)",
+                                solves_, wanted, shown(from, 6), shown(d, 6), max_solves_),
+                    true};
+    const int steps = static_cast<int>(wanted);
+    solves_ += steps;
+    double rcond = 1.0;
+    for (int i = 1; i <= steps; ++i) {
+      const Coordinates target = i == steps ? d
+                                            : Coordinates(from + span * static_cast<double>(i) /
+                                                                     static_cast<double>(steps)),
+                        h = target - d_last_;
+      predict(q_last_, h, s_last_, guess_);
+      state_.q = guess_;
+      place(state_, t, target);
+      const SolveReport r = solver_.solve_position(state_);
+      if (r.status != PoseStatus::ok && r.status != PoseStatus::singular)
+        throw Stopped{t, r.status,
+                      fmt::format("at coordinate {}: {}", shown(target, 12), r.message)};
+      rcond = r.rcond;
+      if (rcond < near_singular_rcond_) {
+        // Stepped over: the next pose is predicted from the last regular one, across.
+        if (i < steps) continue;
+        unit_rate();
+        return rcond;
+      }
+      // Newton may only polish the predicted pose: a large correction is another branch.
+      const double predicted = predicted_move(h, s_last_);
+      if ((state_.q - guess_).lpNorm<Eigen::Infinity>() >
+          0.1 * predicted + 1e-9 * solver_.length_scale())
+        throw Stopped{t, PoseStatus::branch_jump,
+                      fmt::format("the only pose near coordinate {} is on another branch",
+                                  shown(target, 12))};
+      unit_rate();
+      d_last_ = target;
+      q_last_ = state_.q;
+      s_last_ = s_;
+    }
+    return rcond;
+  }
+
+  // s_ = dq/dd at the pose factorised last: one velocity solve per coordinate at unit rate, the
+  // others' 0.
+  void unit_rate() {
+    if constexpr (std::is_same_v<Coordinates, double>) {
+      state_.swept().rate = 1.0;
+      solver_.solve_velocity(state_);
+      s_ = state_.qdot;
+    } else {
+      s_.resize(m_.coordinate_count(), state_.driver_count());
+      for (int i = 0; i < state_.driver_count(); ++i) {
+        for (int j = 0; j < state_.driver_count(); ++j)
+          state_.drivers[static_cast<size_t>(j)].rate = i == j ? 1.0 : 0.0;
+        solver_.solve_velocity(state_);
+        s_.col(i) = state_.qdot;
+      }
+    }
+  }
+
+  const Mechanism& m_;
+  const long max_solves_;
+  long solves_ = 0;
+  NewtonSolver solver_;
+  Kinetostatics kinetostatics_;
+  KinematicState state_;
+  Eigen::VectorXd applied_, q_last_, guess_;
+  Rates s_, s_last_;  // dq/dd at the pose, and at the last regular one
+  Coordinates d_last_{};
+  double rcond_ = 1.0;
+  long evaluations_ = 0;
+  bool near_singular_ = false;
+  // Poses closer to a singular one than this (reciprocal condition of J; Newton resolves them
+  // to its tolerance over it) are stepped over by the continuation, not started from.
+  double near_singular_rcond_ = 1e-4;
+  // Poses closer than this have their acceleration interpolated (see acceleration()).
+  double interpolated_rcond_ = 1e-3;
+};
+
+// The minimal-coordinate equation of motion of one free coordinate, with the pose followed by
+// continuation.
+class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
+ public:
+  using State = std::array<double, 3>;  // d, ddot, w
+  using FollowedChain::FollowedChain;
+
+  // The state at (t, x): the pose, its rates and accelerations.
+  void at(double t, const State& x) { acceleration(t, x[0], x[1], m_.dynamics->effort_at(t)); }
+  // The work done so far, of state x.
+  static double work(const State& x) { return x[2]; }
+
+  // dd/dt, dddot/dt and dw/dt at (t, x).
+  void operator()(const State& x, State& dxdt, double t) {
+    ++evaluations_;
+    const double effort = m_.dynamics->effort_at(t);
+    double power = 0.0;
+    const double dddot = acceleration(t, x[0], x[1], effort, &power);
+    dxdt = {x[1], dddot, effort * x[1] + power};
+  }
+
+  // The coordinate's acceleration at (d, ddot) under `effort`, and the power of the loads and
+  // dampers, from the reduced equation of motion m(d) dddot + c(d) ddot^2 = effort + s^T Q.
+  // Next to a singular position (a change point, where J loses rank but the motion goes on
+  // smoothly) s and ds/dd carry round-off times the square of J's condition, so there the
+  // kinematic terms (s, ds/dd, m, c: functions of d alone, smooth along the branch) are
+  // interpolated from eight regular poses around the zone (interpolate), while Q (loads, springs,
+  // dampers, gravity, which may have a kink there) is taken at d itself. The zone's edge (rcond
+  // 1e-3 on A02) balances the two errors: with its edge at 1e-4 and six nodes, a regular evaluation
+  // at the edge was off by 1e-8 of the acceleration, and a one-ulp change of the mass moved A02's
+  // energy balance over 10 s between 7e-10 and 9e-9 J (docs/dynamics.md).
+  double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
+    rcond_ = move_to(t, d);
+    near_singular_ = rcond_ < near_singular_rcond_;
+    if (rcond_ < interpolated_rcond_)
+      interpolate(t, d);
+    else
+      reduce(t, d, here_);
+    return motion(t, d, ddot, effort, power);
+  }
+
+ private:
+  // The widest spacing of the interpolation's nodes [rad, or of the size]: 0.16, so the nodes
+  // span +-0.64 and the interpolation's error, ~(spacing)^8 times the eighth derivative, is still
+  // small against the motion's scale.
+  static constexpr double kWidestSpread = 0.16;
+
+  // The kinematics of the reduced equation at a pose: s = dq/dd; a = d2q/dd2 (qddot at unit
+  // rate and no coordinate acceleration); m = s^T M s, twice the kinetic energy at unit rate (a
+  // sum of squares: as the difference of two force evaluations it drowned in a fast coasting
+  // chain's centripetal terms, and 1e6 rev/s read a mass of 0); c = s^T M a = m'/2, the kinetic
+  // energy's rate at unit rate.
+  struct Reduced {
+    Eigen::VectorXd s, a;
+    double mass = 0.0, velocity_product = 0.0;
+  };
+
+  // The reduced kinematics at the pose move_to(t, d) left.
+  void reduce(double t, double d, Reduced& r) {
+    state_.qdot = s_;
+    state_.swept() = {t, d, 1.0, 0.0};
+    solver_.solve_acceleration(state_);
+    r.s = s_;
+    r.a = state_.qddot;
+    r.mass = 2.0 * kinetostatics_.kinetic_energy(state_);
+    r.velocity_product = kinetostatics_.kinetic_energy_rate(state_);
+  }
+
+  // here_ at d inside the zone next to a singular position, by Lagrange interpolation from
+  // eight regular poses at lo - k h and hi + k h (k = 1 .. 4), lo and hi the zone's edges (the
+  // first regular coordinates found in steps of 0.005 rad, or of the size, outward from the
+  // coordinate that entered it) and h = (hi - lo) / 2: at the zone's middle they are the nodes
+  // d +- k h, k = 1 .. 4 (error ~0.014 h^8 times the terms' eighth derivative). They are
+  // reduced once a zone, not once an evaluation: nodes centred on each evaluation cost A02 with
+  // N = 40 67 pose solves an evaluation in the zone, 71 % of its run. (With nodes at the edges
+  // themselves, lo - k h and hi + k h for k = 0 .. 3, the terms were continuous at the edges
+  // but carried the round-off of the edge poses: A02's energy balance over 10 s under mass
+  // perturbations of k ulp, k = -8 .. 8, spread to 5.9e-10 J against 2.7e-10 J; docs/dynamics.md.)
+  // The pose stays at d.
+  void interpolate(double t, double d) {
+    if (!(zone_.lo <= d && d <= zone_.hi)) find_zone(t, d);
+    here_.s.setZero(m_.coordinate_count());
+    here_.a.setZero(m_.coordinate_count());
+    here_.mass = here_.velocity_product = 0.0;
+    for (size_t i = 0; i < zone_.nodes.size(); ++i) {
+      double weight = 1.0;
+      for (size_t j = 0; j < zone_.nodes.size(); ++j)
+        if (j != i) weight *= (d - zone_.nodes[j]) / (zone_.nodes[i] - zone_.nodes[j]);
+      const Reduced& node = zone_.reduced[i];
+      here_.s += weight * node.s;
+      here_.a += weight * node.a;
+      here_.mass += weight * node.mass;
+      here_.velocity_product += weight * node.velocity_product;
+    }
+  }
+
+  // The zone around d (whose pose is below interpolated_rcond_) and its nodes' kinematics;
+  // leaves the pose at d.
+  void find_zone(double t, double d) {
+    const double unit = m_.swept().angular() ? 1.0 : solver_.length_scale(), step = 5e-3 * unit;
+    std::array<double, 2> edge{};
+    for (const int side : {0, 1}) {
+      double delta = step;
+      while (move_to(t, d + (side ? delta : -delta)) < interpolated_rcond_) {
+        delta += step;
+        if (delta > 2.0 * kWidestSpread * unit)
+          throw Stopped{t, PoseStatus::singular,
+                        fmt::format("singular on both sides of coordinate {:.12g}", d)};
+      }
+      edge[static_cast<size_t>(side)] = d + (side ? delta : -delta);
+    }
+    const double h = 0.5 * (edge[1] - edge[0]);
+    if (h > kWidestSpread * unit)
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("singular on both sides of coordinate {:.12g}", d)};
+    zone_.lo = edge[0];
+    zone_.hi = edge[1];
+    for (size_t i = 0; i < 4; ++i) {
+      zone_.nodes[i] = edge[0] - static_cast<double>(4 - i) * h;
+      zone_.nodes[i + 4] = edge[1] + static_cast<double>(i + 1) * h;
+    }
+    for (size_t i = 0; i < zone_.nodes.size(); ++i) {
+      if (move_to(t, zone_.nodes[i]) < interpolated_rcond_)
+        throw Stopped{
+            t, PoseStatus::singular,
+            fmt::format("no regular poses at {:g} apart around coordinate {:.12g}", h, d)};
+      reduce(t, zone_.nodes[i], zone_.reduced[i]);
+    }
+    move_to(t, d);
+  }
+
+  // The acceleration from here_ and Q at the pose at d; leaves the state at (d, ddot, dddot).
+  double motion(double t, double d, double ddot, double effort, double* power) {
+    if (!(here_.mass > 0.0))
+      throw Stopped{
+          t, PoseStatus::singular,
+          fmt::format("the generalised mass is {:g} at coordinate {:.12g}", here_.mass, d)};
+    state_.qdot = here_.s * ddot;
+    state_.swept() = {t, d, ddot, 0.0};
+    kinetostatics_.generalised_forces(state_, applied_, false);
+    const double dddot =
+        (effort + here_.s.dot(applied_) - ddot * ddot * here_.velocity_product) / here_.mass;
+    state_.qddot = here_.a * (ddot * ddot) + here_.s * dddot;
+    state_.swept().accel = dddot;
+    if (power) *power = kinetostatics_.load_power(state_);
+    return dddot;
+  }
+
+  Reduced here_;  // at the coordinate
+  // The last zone next to a singular position: its edges and its nodes (interpolate).
+  struct Zone {
+    double lo = 0.0, hi = -1.0;  // empty until one is found
+    std::array<double, 8> nodes{};
+    std::array<Reduced, 8> reduced;
+  } zone_;
+};
+
+// The equations of motion of several free coordinates d (one per driver). S = dq/dd (one velocity
+// solve per driver at unit rate, the others' 0) and qddot0 (the acceleration solve at qdot =
+// S ddot with every coordinate's acceleration 0) give qddot = qddot0 + S dddot; projected on S's
+// columns, along which the constraint forces do no work,
+//   (S^T M S) dddot = efforts(t) + S^T (Q - M qddot0),
+// with Q - M qddot0 from Kinetostatics::generalised_forces and S^T M S the kinetic energy's
+// bilinear form on S's columns (Kinetostatics::inertia_product). A pose next to a singular
+// position stops the run: the one coordinate's interpolation across one (EquationOfMotion) is
+// along a line, and several coordinates would need it over a surface.
+class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> {
+ public:
+  using State = std::vector<double>;  // d (n), ddot (n), w
+
+  SeveralEquations(const Mechanism& m, long max_solves)
+      : FollowedChain(m, max_solves),
+        n_(static_cast<int>(m.drivers.size())),
+        d_(n_),
+        rate_(n_),
+        effort_(n_),
+        dddot_(n_),
+        rhs_(n_),
+        mass_(n_, n_) {}
+
+  // The start: each driver's start value and initial rate, no work done.
+  static State start(const Mechanism& m) {
+    const int n = static_cast<int>(m.drivers.size());
+    State x(static_cast<size_t>(2 * n + 1), 0.0);
+    for (int i = 0; i < n; ++i) {
+      x[static_cast<size_t>(i)] = m.drivers[static_cast<size_t>(i)].start;
+      x[static_cast<size_t>(n + i)] = m.dynamics->coordinate(i).rate;
+    }
+    return x;
+  }
+
+  // dd/dt, dddot/dt and dw/dt at (t, x).
+  void operator()(const State& x, State& dxdt, double t) {
+    ++evaluations_;
+    double power = 0.0;
+    at(t, x, &power);
+    dxdt.resize(x.size());
+    for (int i = 0; i < n_; ++i) {
+      dxdt[static_cast<size_t>(i)] = rate_(i);
+      dxdt[static_cast<size_t>(n_ + i)] = dddot_(i);
+    }
+    dxdt[static_cast<size_t>(2 * n_)] = effort_.dot(rate_) + power;
+  }
+
+  // The state at (t, x): the pose, its rates and accelerations (and the power of the loads and
+  // dampers).
+  void at(double t, const State& x, double* power = nullptr) {
+    for (int i = 0; i < n_; ++i) {
+      d_(i) = x[static_cast<size_t>(i)];
+      rate_(i) = x[static_cast<size_t>(n_ + i)];
+      effort_(i) = m_.dynamics->coordinate(i).effort_at(t);
+    }
+    rcond_ = move_to(t, d_);
+    near_singular_ = rcond_ < near_singular_rcond_;
+    if (rcond_ < interpolated_rcond_)
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("next to a singular position of the coordinates {} (rcond "
+                                "{:.1e}): the reference with several free coordinates does not "
+                                "integrate through one",
+                                shown(d_, 12), rcond_)};
+    for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)] = {t, d_(i), rate_(i), 0.0};
+    state_.qdot = s_ * rate_;
+    solver_.solve_acceleration(state_);
+    kinetostatics_.generalised_forces(state_, applied_);
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j <= i; ++j)
+        mass_(i, j) = mass_(j, i) = kinetostatics_.inertia_product(state_, s_.col(i), s_.col(j));
+    rhs_ = effort_ + s_.transpose() * applied_;
+    const Eigen::LLT<Eigen::MatrixXd> llt(mass_);
+    if (llt.info() != Eigen::Success)
+      throw Stopped{t, PoseStatus::singular,
+                    fmt::format("the generalised mass is not positive definite at coordinates {}",
+                                shown(d_, 12))};
+    dddot_ = llt.solve(rhs_);
+    state_.qddot += s_ * dddot_;
+    for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)].accel = dddot_(i);
+    if (power) *power = kinetostatics_.load_power(state_);
+  }
+  static double work(const State& x) { return x.back(); }
+
+ private:
+  const int n_;
+  Eigen::VectorXd d_, rate_, effort_, dddot_, rhs_;
+  Eigen::MatrixXd mass_;  // S^T M S
+};
+
+// Integrates `Equations` (EquationOfMotion or SeveralEquations) from `initial` at `times` into
+// `out`, its trajectory sized and timed.
+template <class Equations>
+void integrate(const Mechanism& mechanism, const SimulationOptions& options,
+               const std::vector<double>& times, double interval, Simulation& out,
+               const typename Equations::State& initial) {
+  Trajectory& t = out.trajectory;
+  const int n = t.samples();
+  int written = 0;
+  std::optional<Equations> started;
+  try {
+    Equations& eom = started.emplace(mechanism, options.max_solves);
+    const Kinetostatics& kinetostatics = eom.kinetostatics();
+    ForceSample forces = kinetostatics.make_sample();
+    typename Equations::State x = initial;
+    auto observe = [&](const typename Equations::State& y, double time) {
+      const int k = written;  // counted once whole: a stop inside leaves it not_reached
+      eom.at(time, y);
+      KinematicState& s = eom.state();
+      SolveReport report;
+      report.rcond = eom.rcond();  // the trust rules' conditioning (analytic/reference/trust.h)
+      if (eom.near_singular()) {
+        // Its coordinate's motion is exact, the rest of its pose only to round-off.
+        report.status = PoseStatus::singular;
+        report.message = "next to a singular position";
+      }
+      eom.solver().write_sample(s, report, t, k);
+      if (!eom.near_singular()) {
+        kinetostatics.solve(s, forces);
+        kinetostatics.write_sample(forces, t, k);
+      }
+      out.kinetic(k) = kinetostatics.kinetic_energy(s);
+      out.potential(k) = kinetostatics.potential_energy(s);
+      out.work(k) = Equations::work(y);
+      out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
+                                   std::abs(out.potential(k)), std::abs(out.work(k))});
+      if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
+      ++written;
+    };
+    namespace odeint = boost::numeric::odeint;
+    const double tol = options.tolerance;
+    // Every trial step evaluates poses along it: the first is small (the controller grows it by
+    // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
+    // the motion (a first trial of 10 s put A02's crank 986 rad away).
+    const double first = std::min(interval, kFirstStep);
+    if (options.integrator == "dopri5") {
+      odeint::integrate_times(
+          odeint::make_dense_output(tol, tol,
+                                    odeint::runge_kutta_dopri5<typename Equations::State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
+    } else if (options.integrator == "rkf78") {
+      odeint::integrate_times(
+          odeint::make_controlled(tol, tol,
+                                  odeint::runge_kutta_fehlberg78<typename Equations::State>()),
+          std::ref(eom), x, times.begin(), times.end(), first, observe);
+    } else {
+      throw std::invalid_argument("unknown integrator '" + options.integrator +
+                                  "' (valid: dopri5, rkf78)");
+    }
+  } catch (const Stopped& stop) {
+    // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
+    if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
+    out.ok = false;
+    out.over_budget = stop.over_budget;
+    out.message = fmt::format("stopped at t = {:.9g} s: {}", stop.time, stop.message);
+    t.events.push_back({stop.time, stop.status, out.message});
+    for (int k = written; k < n; ++k) t.status[static_cast<size_t>(k)] = PoseStatus::not_reached;
+  }
+  if (started) {
+    out.evaluations = started->evaluations();
+    out.solves = started->solves();
+  }
+}
+
+}  // namespace
+
+double Simulation::energy_error(int k) const {
+  return std::abs(energy_balance(k)) / std::max(energy_scale, 1e-300);
+}
+
+std::string singular_start(const Mechanism& m, double rcond) {
+  if (rcond >= kSingularStartRcond) return "";
+  if (m.axis().timed()) {
+    std::string starts;
+    for (const Driver& d : m.drivers)
+      starts += fmt::format("{} = {}, ", d.name, driver_unit_of(d, m.units).text(d.start, 9));
+    return fmt::format(
+        "the start, {}is a singular position of the coordinates (rcond {:.1e}): there the "
+        "other coordinates' rates are not determined by the drivers' rates, so no initial "
+        "velocity is consistent with it; start the [[driver]]s away from it",
+        starts, rcond);
+  }
+  return fmt::format(
+      "the start, {}, is a singular position of the coordinate (rcond {:.1e}): there the other "
+      "coordinates' rates are not determined by its rate, so no initial velocity is consistent "
+      "with it; start the [driver] away from it",
+      start_text(m, 9), rcond);
+}
+
+Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options) {
+  if (!mechanism.dynamics)
+    throw std::invalid_argument(mechanism.file + ": not a dynamics case (no [dynamics] table)");
+  const DynamicsCase& c = *mechanism.dynamics;
+  const double duration = options.duration > 0.0 ? options.duration : c.duration;
+  const double interval = options.interval > 0.0 ? options.interval : c.interval;
+  // Samples are stored: a duration far beyond its interval is refused, not attempted.
+  constexpr double kMostSamples = 1e6;
+  if (!(duration / interval < kMostSamples))
+    throw std::invalid_argument(fmt::format(
+        "{}: [dynamics] duration / interval = {:g} samples, more than {:g}: lengthen 'interval'",
+        mechanism.file, duration / interval, kMostSamples));
+  const int n = static_cast<int>(std::floor(duration / interval + 1e-9)) + 1;
+  std::vector<double> times(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) times[static_cast<size_t>(k)] = k * interval;
+
+  Simulation out;
+  Trajectory& t = out.trajectory;
+  t.method = "exact dynamics (" + options.integrator + ")";
+  t.resize(mechanism, n, true);
+  for (int k = 0; k < n; ++k) t.time(k) = times[static_cast<size_t>(k)];
+  out.kinetic.setZero(n);
+  out.potential.setZero(n);
+  out.work.setZero(n);
+
+  if (mechanism.axis().timed())
+    integrate<SeveralEquations>(mechanism, options, times, interval, out,
+                                SeveralEquations::start(mechanism));
+  else
+    integrate<EquationOfMotion>(mechanism, options, times, interval, out,
+                                {mechanism.swept().start, c.rate, 0.0});
+  return out;
+}
+
+}  // namespace crosslink

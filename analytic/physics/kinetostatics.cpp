@@ -1,0 +1,389 @@
+#include "analytic/physics/kinetostatics.h"
+
+#include "analytic/model/planar.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace crosslink {
+namespace {
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// A link's motion at the state. Not from the solver's cached cos and sin: engines fill states
+// of their own (q only) to apply the same loads.
+BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {
+  return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
+}
+
+}  // namespace
+
+SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicState& state) {
+  const BodyMotion a = motion(m, s.link_a, state), b = motion(m, s.link_b, state);
+  const Eigen::Vector2d d = a.position(s.local_a) - b.position(s.local_b);
+  SpringState out;
+  out.length = d.norm();
+  if (out.length == 0.0) return out;
+  out.towards_a = d / out.length;
+  out.rate = out.towards_a.dot(a.velocity(s.local_a) - b.velocity(s.local_b));
+  out.pull = s.stiffness * (out.length - s.free_length) + s.damping * out.rate;
+  return out;
+}
+
+namespace {
+// A force at a point of link `link` (offset from its frame origin in world axes) and a couple,
+// added to the generalised force of the link's coordinates.
+void add_at(const Mechanism& m, Eigen::VectorXd& out, int link, const Eigen::Vector2d& offset,
+            const Eigen::Vector2d& force, double couple) {
+  const int k = m.moving_index(link);
+  if (k < 0) return;
+  out.segment<2>(3 * k) += force;
+  out(3 * k + 2) += cross(offset, force) + couple;
+}
+// The sum over the moving links of term(link, its motion at the state).
+template <typename Term>
+double over_moving_links(const Mechanism& m, const KinematicState& state, Term term) {
+  double sum = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l)
+    if (!m.links[l].ground) sum += term(m.links[l], motion(m, static_cast<int>(l), state));
+  return sum;
+}
+}  // namespace
+
+bool ForceSample::finite() const {
+  bool ok = effort.allFinite() && shaking.allFinite();
+  for (const Eigen::Vector2d& f : joint_force) ok = ok && f.allFinite();
+  for (size_t i = 0; i < normal.size(); ++i)
+    ok = ok && std::isfinite(normal[i]) && std::isfinite(moment[i]);
+  return ok;
+}
+
+void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out) {
+  out.setZero();
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load_value(load, state);
+    if (load.kind == Load::Kind::torque) {
+      add_at(m, out, load.link, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
+    } else {
+      add_at(m, out, load.link, motion(m, load.link, state).turn(load.local), value, 0.0);
+    }
+  }
+  for (const Spring& s : m.springs) {
+    const SpringState ss = spring_state(m, s, state);
+    const Eigen::Vector2d on_b = ss.pull * ss.towards_a;
+    add_at(m, out, s.link_a, motion(m, s.link_a, state).turn(s.local_a), -on_b, 0.0);
+    add_at(m, out, s.link_b, motion(m, s.link_b, state).turn(s.local_b), on_b, 0.0);
+  }
+}
+
+namespace {
+// The revolute joints at the point named `centre` from `link` to `carrier`, breadth first; each
+// signed so that +1 adds a force passed from the gear's side to the carrier's to "the force of
+// its first link on its second".
+std::vector<std::pair<int, double>> centre_path(const Mechanism& m, int link, int carrier,
+                                                const std::string& centre) {
+  std::vector<int> via(m.links.size(), -2);  // the joint a link was reached by
+  std::vector<int> queue = {link};
+  via[static_cast<size_t>(link)] = -1;
+  for (size_t next = 0; next < queue.size(); ++next) {
+    const int x = queue[next];
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      const Joint& j = m.joints[ji];
+      if (j.type != JointType::revolute || m.links[j.link_a].points[j.point_a].name != centre)
+        continue;
+      const int y = j.link_a == x ? j.link_b : j.link_b == x ? j.link_a : -1;
+      if (y < 0 || via[static_cast<size_t>(y)] != -2) continue;
+      via[static_cast<size_t>(y)] = static_cast<int>(ji);
+      queue.push_back(y);
+    }
+  }
+  std::vector<std::pair<int, double>> path;
+  for (int y = carrier; y != link && via[static_cast<size_t>(y)] >= 0;) {
+    const Joint& j = m.joints[static_cast<size_t>(via[static_cast<size_t>(y)])];
+    const int x = j.link_a == y ? j.link_b : j.link_a;  // one step nearer the gear
+    path.emplace_back(via[static_cast<size_t>(y)], j.link_a == x ? 1.0 : -1.0);
+    y = x;
+  }
+  return path;
+}
+}  // namespace
+
+Kinetostatics::Kinetostatics(const NewtonSolver& solver)
+    : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {
+  const Mechanism& m = solver.mechanism();
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (!j.is_gearing()) continue;
+    Gearing g;
+    g.paths = gear_paths(m, static_cast<int>(ji));
+    if (j.type == JointType::rack_pinion)
+      g.slide = static_cast<int>(std::find(slide_joints_.begin(), slide_joints_.end(), j.slide) -
+                                 slide_joints_.begin());
+    gearings_.push_back(std::move(g));
+  }
+}
+
+GearPaths gear_paths(const Mechanism& m, int joint) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
+  GearPaths g;
+  g.joint = joint;
+  g.path_a = centre_path(m, j.link_a, j.carrier, carrier.points[j.centre_a].name);
+  if (j.type == JointType::gear)
+    g.path_b = centre_path(m, j.link_b, j.carrier, carrier.points[j.centre_b].name);
+  return g;
+}
+
+void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
+                      double couple, std::vector<Eigen::Vector2d>& joint_force,
+                      double* slide_normal, double* slide_moment) {
+  const Joint& j = m.joints[static_cast<size_t>(g.joint)];
+  const BodyMotion carrier = motion(m, j.carrier, state);
+  const Link& c = m.links[static_cast<size_t>(j.carrier)];
+  const Eigen::Vector2d pitch = carrier.position(pitch_point(m, j));
+  // The tooth force on the first moving gear whose moment about its centre is the couple, and
+  // the separating force.
+  const bool first = m.moving_index(j.link_a) >= 0;
+  const double radius = first ? j.radius_a : j.radius_b;
+  const Eigen::Vector2d arm =
+      pitch -
+      carrier.position(c.points[static_cast<size_t>(first ? j.centre_a : j.centre_b)].local);
+  const double tangential = couple / radius;
+  // A ring (the larger gear of an internal pair) is pushed outward, every other gear inward.
+  const bool ring =
+      j.type == JointType::gear && j.ratio < 0.0 && radius > (first ? j.radius_b : j.radius_a);
+  const Eigen::Vector2d tooth =
+      (tangential * perp(arm) +
+       std::abs(tangential) * std::tan(j.pressure_angle) * (ring ? arm : Eigen::Vector2d(-arm))) /
+      radius;
+  const Eigen::Vector2d on_a = first ? tooth : Eigen::Vector2d(-tooth);
+  joint_force[static_cast<size_t>(g.joint)] = -on_a;  // of the first gear on the second
+  for (const auto& [ji, sign] : g.path_a) joint_force[static_cast<size_t>(ji)] += sign * on_a;
+  for (const auto& [ji, sign] : g.path_b) joint_force[static_cast<size_t>(ji)] -= sign * on_a;
+  if (j.type != JointType::rack_pinion) return;
+  // The rack: its row pushed it along the line at its slide's point; the teeth push at the pitch
+  // point. The slide carries the normal part and the couple of the difference.
+  const Joint& slide = m.joints[static_cast<size_t>(j.slide)];
+  const BodyMotion guide = motion(m, slide.link_a, state), rack = motion(m, slide.link_b, state);
+  const Eigen::Vector2d normal =
+      guide.turn(perp(m.links[slide.link_a].lines[static_cast<size_t>(slide.line)].direction));
+  const Eigen::Vector2d on_rack = -on_a;
+  const Eigen::Vector2d point =
+      rack.position(m.links[slide.link_b].points[static_cast<size_t>(slide.point_b)].local);
+  joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(normal) * normal;
+  if (slide_normal) *slide_normal -= on_rack.dot(normal);
+  if (slide_moment) *slide_moment -= cross(pitch - point, on_rack);
+}
+
+void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
+                                    ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(g.paths.joint)];
+  const int row = solver_.layout().joint(g.paths.joint).first_row;
+  // The couple the row puts on one moving gear (the first unless it is the ground).
+  const int k = m.moving_index(m.moving_index(j.link_a) >= 0 ? j.link_a : j.link_b);
+  const double couple = -solver_.jacobian_entry(state, row, 3 * k + 2) * out.lambda(row);
+  const bool rack = g.slide >= 0;
+  pass_tooth_force(m, g.paths, state, couple, out.joint_force,
+                   rack ? &out.normal[static_cast<size_t>(g.slide)] : nullptr,
+                   rack ? &out.moment[static_cast<size_t>(g.slide)] : nullptr);
+}
+
+ForceSample Kinetostatics::make_sample() const {
+  const Mechanism& m = solver_.mechanism();
+  ForceSample s;
+  s.effort.setZero(static_cast<Eigen::Index>(m.drivers.size()));
+  s.joint_force.assign(m.joints.size(), Eigen::Vector2d::Zero());
+  s.normal.assign(slide_joints_.size(), 0.0);
+  s.moment.assign(slide_joints_.size(), 0.0);
+  s.generalised.setZero(m.coordinate_count());
+  s.lambda.setZero(m.coordinate_count());
+  return s;
+}
+
+void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::VectorXd& out,
+                                       bool inertia) const {
+  const Mechanism& m = solver_.mechanism();
+  applied_loads(m, state, out);
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    // Gravity and d'Alembert's inertia force at the centre of mass, and the inertia couple.
+    const Eigen::Vector2d force =
+        inertia ? Eigen::Vector2d(mp.mass * (m.gravity - b.acceleration(mp.com)))
+                : Eigen::Vector2d(mp.mass * m.gravity);
+    add_at(m, out, static_cast<int>(l), b.turn(mp.com), force,
+           inertia ? -mp.inertia * b.alpha : 0.0);
+  }
+}
+
+void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  generalised_forces(state, out.generalised);
+  solver_.multipliers(state, out.generalised, out.lambda);
+  const Eigen::VectorXd& lambda = out.lambda;
+  const ConstraintLayout& layout = solver_.layout();
+  // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
+  for (int d = 0; d < layout.driver_count(); ++d) out.effort(d) = -lambda(layout.driver_row(d));
+
+  size_t slide = 0;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (j.is_gearing()) continue;  // add_tooth_force, once the others' reactions are known
+    const ConstraintRows& rows_of = layout.joint(static_cast<int>(ji));
+    const int row = rows_of.first_row, rows = rows_of.rows();
+    // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
+    // force and moment about its frame origin.
+    auto on = [&](int k) {
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (int r = row; r < row + rows; ++r)
+        for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
+      return g;
+    };
+    const int ka = rows_of.a, kb = rows_of.b;
+    // Through the moving side (both are moving, or the ground is one of them).
+    const bool from_b = kb >= 0;
+    const Eigen::Vector3d g = on(from_b ? kb : ka);
+    const Eigen::Vector2d on_b =
+        from_b ? Eigen::Vector2d(g.head<2>()) : Eigen::Vector2d(-g.head<2>());
+    out.joint_force[ji] = on_b;
+    if (!j.is_slide()) continue;
+    const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    const Eigen::Vector2d point = b.position(
+        m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
+    out.normal[slide] = on_b.dot(a.turn(perp(line.direction)));
+    // The couple on the slider about its point: the moment left once the force at the point is
+    // taken out (on the guide it is the opposite).
+    out.moment[slide] =
+        from_b ? g(2) - cross(point - b.r, on_b) : -(g(2) - cross(point - a.r, -on_b));
+    ++slide;
+  }
+  for (const Gearing& g : gearings_) add_tooth_force(g, state, out);
+
+  // On the ground: applied gravity and loads less the rate of the moving links' momentum.
+  Eigen::Vector3d shaking = Eigen::Vector3d::Zero();
+  auto add = [&](const Eigen::Vector2d& at, const Eigen::Vector2d& force, double couple) {
+    shaking.head<2>() += force;
+    shaking(2) += cross(at, force) + couple;
+  };
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    add(b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)), -mp.inertia * b.alpha);
+  }
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load_value(load, state);
+    if (load.kind == Load::Kind::torque)
+      add(Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), value.x());
+    else
+      add(motion(m, load.link, state).position(load.local), value, 0.0);
+  }
+  out.shaking = shaking;
+}
+
+std::optional<double> Kinetostatics::power_balance(const KinematicState& state) const {
+  if (state.axis.timed() || state.swept().rate == 0.0) return std::nullopt;
+  return input_power(state) / state.swept().rate;
+}
+
+double Kinetostatics::input_power(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double power = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.ground) continue;
+    const BodyMotion b = motion(m, static_cast<int>(l), state);
+    const MassProperties& mp = link.mass;
+    const Eigen::Vector2d v = b.velocity(mp.com);
+    // d/dt of kinetic energy, and of the potential energy of gravity.
+    power += mp.mass * v.dot(b.acceleration(mp.com)) + mp.inertia * b.omega * b.alpha;
+    power -= mp.mass * m.gravity.dot(v);
+  }
+  // d/dt of the springs' energy.
+  for (const Spring& s : m.springs) {
+    const SpringState ss = spring_state(m, s, state);
+    power += s.stiffness * (ss.length - s.free_length) * ss.rate;
+  }
+  return power - load_power(state);
+}
+
+double Kinetostatics::kinetic_energy(const KinematicState& state) const {
+  return over_moving_links(solver_.mechanism(), state, [](const Link& link, const BodyMotion& b) {
+    return 0.5 * (link.mass.mass * b.velocity(link.mass.com).squaredNorm() +
+                  link.mass.inertia * b.omega * b.omega);
+  });
+}
+
+double Kinetostatics::kinetic_energy_rate(const KinematicState& state) const {
+  return over_moving_links(solver_.mechanism(), state, [](const Link& link, const BodyMotion& b) {
+    return link.mass.mass * b.velocity(link.mass.com).dot(b.acceleration(link.mass.com)) +
+           link.mass.inertia * b.omega * b.alpha;
+  });
+}
+
+double Kinetostatics::inertia_product(const KinematicState& state, const Eigen::VectorXd& a,
+                                      const Eigen::VectorXd& b) const {
+  const Mechanism& m = solver_.mechanism();
+  double sum = 0.0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion ba = BodyMotion::of(k, state.q, &a, nullptr),
+                     bb = BodyMotion::of(k, state.q, &b, nullptr);
+    sum += link.mass.mass * ba.velocity(link.mass.com).dot(bb.velocity(link.mass.com)) +
+           link.mass.inertia * ba.omega * bb.omega;
+  }
+  return sum;
+}
+
+double Kinetostatics::potential_energy(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double energy = over_moving_links(m, state, [&](const Link& link, const BodyMotion& b) {
+    return -link.mass.mass * m.gravity.dot(b.position(link.mass.com));
+  });
+  for (const Spring& s : m.springs) {
+    const double stretch = spring_state(m, s, state).length - s.free_length;
+    energy += 0.5 * s.stiffness * stretch * stretch;
+  }
+  return energy;
+}
+
+double Kinetostatics::load_power(const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  double power = 0.0;
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d value = load_value(load, state);
+    const BodyMotion b = motion(m, load.link, state);
+    power +=
+        load.kind == Load::Kind::torque ? value.x() * b.omega : value.dot(b.velocity(load.local));
+  }
+  for (const Spring& s : m.springs) {
+    const double rate = spring_state(m, s, state).rate;
+    power -= s.damping * rate * rate;
+  }
+  return power;
+}
+
+void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int row) const {
+  out.effort.row(row) = sample.effort.transpose();
+  for (size_t j = 0; j < sample.joint_force.size(); ++j) {
+    out.fx(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].x();
+    out.fy(row, static_cast<Eigen::Index>(j)) = sample.joint_force[j].y();
+  }
+  for (size_t s = 0; s < sample.normal.size(); ++s) {
+    out.fn(row, static_cast<Eigen::Index>(s)) = sample.normal[s];
+    out.moment(row, static_cast<Eigen::Index>(s)) = sample.moment[s];
+  }
+  out.shaking.row(row) = sample.shaking.transpose();
+}
+
+}  // namespace crosslink

@@ -1,0 +1,146 @@
+// Exact kinetostatics along a prescribed motion: the driver's effort (torque or force) and every
+// joint's reaction, from the exact position, velocity and acceleration of a pose.
+//
+// Method 1, Lagrange multipliers. With q the links' frame coordinates (x, y, theta), the
+// equations of motion are M qddot + Phi_q^T lambda = Q. Along a prescribed motion qddot is known,
+// so one linear solve with the factorisation of J = Phi_q that the position solve left gives
+//   J^T lambda = Q - M qddot,
+// the right side assembled per link as the generalised force of the applied loads (gravity at
+// the centre of mass, forces at points, torques, springs and dampers) plus d'Alembert's inertia
+// force -m a_c at the centre of mass and couple -I alpha. Each joint's rows give the generalised
+// constraint force on each of its links, -Phi_q^T lambda restricted to them: a force and a
+// moment about the link frame's origin, from which the reaction at the joint's point and, for a
+// prismatic joint, its couple follow. The driver's row gives its effort, -lambda_driver (the
+// driver equation is coordinate - d(t) = 0, so the effort along the coordinate is -lambda).
+//
+// Method 2, power balance, with no multipliers: the driver's power equals the rate of change of
+// kinetic energy plus that of the potential energy of gravity and springs, plus the power
+// dissipated in dampers, minus the power of the loads; divided by the driver's rate.
+//
+// Gear pairs and racks. Their rows couple rotations (and a travel), so the multiplier of such a
+// row acts on its links as pure couples, whereas the teeth push at the pitch point: a force whose
+// moment about each gear's centre is that couple, plus the separating force of the pressure
+// angle, which the centres' pivots carry. Both systems hold the same motion; the reactions of the
+// joints between each gear and its carrier (and of a rack's slide) take the difference: a joint
+// on the path from a gear to its carrier at its centre passes the tooth force on. The mesh
+// force, of the first gear on the second at the pitch point, is the gear pair's joint force.
+//
+// Shaking force and moment: what the mechanism exerts on the ground (through its joints, the
+// driver and springs anchored on it) is the applied gravity and loads minus the rate of change of
+// the moving links' momentum (linear, and angular about the world origin).
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "analytic/kinematics/newton.h"
+#include "analytic/model/trajectory.h"
+
+namespace crosslink {
+
+// A spring's pull T (positive: drawing its points together), its unit vector from b's point to
+// a's, its length and the rate of its length. A spring of zero length has no direction and pulls
+// nothing.
+struct SpringState {
+  double pull = 0.0, length = 0.0, rate = 0.0;
+  Eigen::Vector2d towards_a = Eigen::Vector2d::Zero();
+};
+SpringState spring_state(const Mechanism& m, const Spring& spring, const KinematicState& state);
+
+// The generalised force of the definition's loads (forces at points, torques) and springs and
+// dampers at a state (positions, velocities, driver value): per moving link (force, moment about
+// its frame origin), as `out` sized 3 per moving link. Gravity and inertia are not in it. The
+// exact method adds them; the engines apply it to their bodies every step.
+void applied_loads(const Mechanism& m, const KinematicState& state, Eigen::VectorXd& out);
+// A load's force, or (torque, 0), at the state: a table reads the swept driver's value (the
+// loader refuses a table in a sweep in time).
+inline Eigen::Vector2d load_value(const Load& load, const KinematicState& state) {
+  return load.force_at(load.table ? state.swept().value : 0.0);
+}
+
+// The forces at one pose, SI.
+struct ForceSample {
+  Eigen::VectorXd effort;  // per driver (Mechanism::drivers): its torque [N m] or force [N]
+  std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
+  std::vector<double> normal, moment;        // per slide joint (Mechanism::slide_joints order)
+  Eigen::Vector3d shaking = Eigen::Vector3d::Zero();  // on the ground: fx, fy, moment about O
+  Eigen::VectorXd generalised, lambda;                // scratch: Q - M qddot and the multipliers
+
+  // Whether every value is a number: at a pose whose J is singular in floating point the
+  // multipliers are not, and such a sample must be flagged, not passed on.
+  bool finite() const;
+};
+
+// A gear pair's or rack's row (and an engine's coupling) acts on its links as couples, whereas
+// the teeth push at the pitch point. What a force on a gear at its centre passes through: the
+// revolute joints from the gear to its carrier at the centre, each with the sign it adds that
+// force to its joint force with.
+struct GearPaths {
+  int joint = -1;                                      // the gearing (Mechanism joint)
+  std::vector<std::pair<int, double>> path_a, path_b;  // path_b: a gear pair's second gear
+};
+GearPaths gear_paths(const Mechanism& m, int joint);
+
+// The tooth force of gearing `g` at `state` from `couple`, the couple its coupling puts on its
+// first moving gear (the first gear unless it is the ground) [N m]: written as the gearing's
+// joint force (of the first gear on the second at the pitch point) and passed through the joints
+// on the paths to the carrier; for a rack, the slide's force loses the tooth force's normal part
+// (also taken from `slide_normal`) and the slide's couple on the rack about its point
+// (`slide_moment`) the moment of the tooth force's offset from that point.
+void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
+                      double couple, std::vector<Eigen::Vector2d>& joint_force,
+                      double* slide_normal, double* slide_moment);
+
+class Kinetostatics {
+ public:
+  explicit Kinetostatics(const NewtonSolver& solver);
+
+  // Sized for the mechanism; then solve() allocates nothing.
+  ForceSample make_sample() const;
+  // Method 1 at a pose solved by the solver (solve_position, then solve_velocity and
+  // solve_acceleration with the real driver state).
+  void solve(KinematicState& state, ForceSample& out) const;
+  // Method 2, the power balance: the drivers' power, the sum over drivers of effort x rate [W],
+  // as the rate of change of the kinetic energy and of the potential energy of gravity and
+  // springs, plus the power dissipated in dampers, less the power of the loads.
+  double input_power(const KinematicState& state) const;
+  // With one driver, its effort: input_power over its rate; none when the driver is at rest
+  // (its rate is zero, so power says nothing about the effort) or there are several (the
+  // balance gives only the sum of their powers: input_power).
+  std::optional<double> power_balance(const KinematicState& state) const;
+
+  void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
+
+  // The kinetic energy and the potential energy of gravity and springs at the state [J].
+  double kinetic_energy(const KinematicState& state) const;
+  double potential_energy(const KinematicState& state) const;
+  // d/dt of the kinetic energy at the state, qdot^T M qddot [W].
+  double kinetic_energy_rate(const KinematicState& state) const;
+  // a^T M b for coordinate rates a and b (3 per moving link) at the state's pose: the kinetic
+  // energy's bilinear form (twice the kinetic energy when a = b) [kg m^2 / s^2 per unit rates].
+  double inertia_product(const KinematicState& state, const Eigen::VectorXd& a,
+                         const Eigen::VectorXd& b) const;
+  // The power of the loads less the dampers' dissipation at the state [W].
+  double load_power(const KinematicState& state) const;
+
+  // Q - M qddot at the state: per moving link, the generalised applied and inertia forces (force,
+  // and moment about the frame origin); Q alone (loads, springs, dampers, gravity) without
+  // `inertia`. Forward dynamics builds its equation from it.
+  void generalised_forces(const KinematicState& state, Eigen::VectorXd& out,
+                          bool inertia = true) const;
+
+ private:
+  struct Gearing {
+    GearPaths paths;
+    int slide = -1;  // a rack's slide, its index in slide_joints_
+  };
+  // The tooth force at the multipliers, and what it changes in the other joints' reactions.
+  void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
+
+  const NewtonSolver& solver_;
+  std::vector<int> slide_joints_;
+  std::vector<Gearing> gearings_;
+};
+
+}  // namespace crosslink

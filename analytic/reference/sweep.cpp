@@ -1,0 +1,1554 @@
+#include "analytic/reference/sweep.h"
+
+#include "analytic/reference/sweep_samples.h"
+
+#include "analytic/kinematics/driver_chains.h"
+#include "analytic/model/planar.h"
+#include "analytic/model/units_text.h"
+#include "analytic/physics/kinetostatics.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace crosslink {
+using sweeping::drop_rates;
+using sweeping::drop_rates_beside_singular;
+using sweeping::Recorder;
+using sweeping::sign_of;
+using sweeping::SingularBand;
+using sweeping::timed_sweep;
+using sweeping::without_pose;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+}  // namespace
+
+namespace {
+
+double default_step(const Mechanism& m, const SweepOptions& o) {
+  if (o.step > 0.0) return o.step;
+  return m.swept().angular() ? kPi / 180.0 : 0.0;  // sliders: set from the range
+}
+
+// Follows one assembly branch as the driver moves, by predictor-corrector continuation.
+//
+// Predictor: the second-order Taylor step q + q' h + q'' h^2 / 2, where q' = dq/dd and
+// q'' = d2q/dd2 come from the velocity and acceleration solves at unit driver rate. Corrector:
+// Newton. A step is accepted only when Newton's correction is small against the predicted
+// motion; otherwise it is halved. So a jump to another assembly mode is refused rather than
+// taken, and a step that cannot be taken however small locates a limit (or a singular position)
+// to within the minimum step.
+class Follower {
+ public:
+  Follower(const NewtonSolver& solver, KinematicState& state)
+      : solver_(solver),
+        state_(state),
+        q0_(state.q.size()),
+        tangent_(state.q.size()),
+        curvature_(state.q.size()),
+        predicted_(state.q.size()) {}
+
+  // The state must be solved (J factorised) at its driver value, with `last` its report.
+  void start(const SolveReport& last) { last_ = last; }
+
+  // Moves the solved state to driver value `target`. On failure the state is left solved at
+  // the last value reached and the report says why.
+  SolveReport advance_to(double target, double max_step, double min_step) {
+    double h = std::copysign(max_step, target - state_.swept().value);
+    while (state_.swept().value != target) {
+      const double d0 = state_.swept().value;
+      if (std::abs(target - d0) <= std::abs(h)) h = target - d0;
+      const bool tangent_ok = take_tangent();
+      q0_ = state_.q;
+      predicted_ = q0_ + h * tangent_ + (0.5 * h * h) * curvature_;
+      state_.q = predicted_;
+      state_.swept().value = d0 + h;
+      SolveReport report = solver_.solve_position(state_);
+      const bool converged =
+          report.status == PoseStatus::ok || report.status == PoseStatus::singular;
+      if (converged && acceptable(tangent_ok, h)) {
+        last_ = report;
+        if (std::abs(h) < max_step) h = std::copysign(std::min(2.0 * std::abs(h), max_step), h);
+        continue;
+      }
+      // Refused: back to the last accepted pose (refactorising J there), and a shorter step.
+      state_.q = q0_;
+      state_.swept().value = d0;
+      last_ = solver_.solve_position(state_);
+      h *= 0.5;
+      if (std::abs(h) < min_step) {
+        // Newton may still converge on the near side of a fold, so a refused step at a limit
+        // looks like a jump: a limit has no solution at all a little beyond it.
+        const bool closes_beyond = converged && solvable_at(d0 + std::copysign(1e6 * min_step, h));
+        report.status = closes_beyond ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
+        report.message =
+            closes_beyond
+                ? fmt::format("at driver = {} the only nearby solution is on another branch",
+                              driver_unit_of(solver_.mechanism()).text(d0, 12))
+                : fmt::format("the chain does not close beyond driver = {}",
+                              driver_unit_of(solver_.mechanism()).text(d0, 12));
+        return report;
+      }
+    }
+    return last_;
+  }
+
+  const SolveReport& last() const { return last_; }
+
+ private:
+  // Whether Newton from the current pose closes the chain at `driver`; the state is restored.
+  bool solvable_at(double driver) {
+    q0_ = state_.q;
+    const double d0 = state_.swept().value;
+    state_.swept().value = driver;
+    const PoseStatus s = solver_.solve_position(state_).status;
+    state_.q = q0_;
+    state_.swept().value = d0;
+    last_ = solver_.solve_position(state_);
+    return s == PoseStatus::ok || s == PoseStatus::singular;
+  }
+
+  double size_free_norm(const Eigen::VectorXd& v) const { return solver_.size_free_norm(v); }
+
+  // Newton may only polish the prediction. Without a tangent (at a singular position) the
+  // motion is bounded instead by the square-root growth of a fold.
+  bool acceptable(bool tangent_ok, double h) const {
+    if (!tangent_ok) return size_free_norm(state_.q - q0_) <= 4.0 * std::sqrt(std::abs(h));
+    const double predicted_move = size_free_norm(predicted_ - q0_);
+    return size_free_norm(state_.q - predicted_) <= 0.1 * predicted_move + 1e-10;
+  }
+
+  // q' and q'' with respect to the driver, from the factorisation at the current pose.
+  bool take_tangent() {
+    const DriverState real = state_.swept();
+    state_.swept().rate = 1.0;
+    state_.swept().accel = 0.0;
+    solver_.solve_velocity(state_);
+    solver_.solve_acceleration(state_);
+    state_.swept() = real;
+    tangent_ = state_.qdot;
+    curvature_ = state_.qddot;
+    const bool ok =
+        last_.status == PoseStatus::ok && tangent_.allFinite() && curvature_.allFinite();
+    if (!ok) {
+      tangent_.setZero();
+      curvature_.setZero();
+    }
+    return ok;
+  }
+
+  const NewtonSolver& solver_;
+  KinematicState& state_;
+  Eigen::VectorXd q0_, tangent_, curvature_, predicted_;
+  SolveReport last_;
+};
+
+// The driver's rate and acceleration at a driver value for a constant-speed law. At rest (speed
+// 0) the pose is the same at every time: t = 0.
+DriverState constant_speed_state(const Driver& d, double value) {
+  DriverState s;
+  s.value = value;
+  s.rate = d.law.speed;
+  s.time = d.at_rest() ? 0.0 : (value - d.start) / d.law.speed;
+  return s;
+}
+
+double min_step(const NewtonSolver& solver, double tolerance) {
+  // Driver values closer than this are not told apart (angles in rad, slider in m).
+  const Mechanism& m = solver.mechanism();
+  return m.swept().angular() ? tolerance : tolerance * m.size();
+}
+
+// Follows the configuration curve Phi_c(q) = 0 (the joint constraints without the driver row)
+// by pseudo-arclength continuation. Unlike the Follower it is not parametrised by the driver, so
+// it passes a toggle, where the driver turns back, and it sees both kinds of singular position
+// as sign changes of two smooth functions along the curve:
+//   det J = t_driver * det [C; t]   (J: the full Jacobian, C: the constraint rows, t: tangent)
+// t_driver = d driver / ds changes sign at a toggle (fold); det [C; t] changes sign where two
+// branches cross (change point: C loses rank). Each is located by regula falsi in s, where the
+// arclength system stays well conditioned. Work is in size-free coordinates z (lengths / size,
+// angles in rad) with dimensionless constraint rows.
+class Tracer {
+ public:
+  struct Node {
+    Eigen::VectorXd q;         // coordinates (SI)
+    Eigen::VectorXd t;         // unit tangent in z
+    double driver = 0.0;       // driver value at q [rad or m]
+    double t_driver = 0.0;     // d driver / ds
+    double orientation = 0.0;  // det [C; t], normalised by the row norms of C
+    double s = 0.0;            // arclength from the node it was corrected from
+  };
+
+ private:
+  // J at q into jac_ (its pattern: the trace's Newton steps cost in proportion to the bodies)
+  // and the driver's gradient in z into gradient_.
+  void jacobian_at(const Eigen::VectorXd& q) {
+    solver_.layout().jacobian(LinkFrames{q}, jac_);
+    gradient_.setZero();
+    for (int c = 0; c < n_; ++c)
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+        if (jac_.row_index(e) == driver_row_) gradient_(c) = jac_.value(e) * column_(c);
+  }
+  // The constraint rows C of jac_ in z, dimensionless, as a dense matrix (for the SVD).
+  Eigen::MatrixXd constraint_rows() const {
+    return row_.asDiagonal() * jac_.dense().topRows(joints_) * column_.asDiagonal();
+  }
+  // The unit tangent t at jac_'s pose from the sparse factors of [C; driver row]: C t = 0,
+  // driver . t = 1, normalised. False where that system is singular to working precision (a
+  // toggle, where the driver does not move along the curve, or a change point).
+  bool driver_tangent(Eigen::VectorXd& t) {
+    factorise(gradient_);
+    t = Eigen::VectorXd::Unit(n_, joints_);
+    solve(t);
+    const double norm = t.norm();
+    if (!std::isfinite(norm) || norm * gradient_.norm() > kTangentLimit) return false;
+    t /= norm;
+    return true;
+  }
+  // y = C x, C in z (its first joints_ entries of y).
+  void constraint_product(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    y.setZero();
+    for (int c = 0; c < n_; ++c)
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+        if (const int r = jac_.row_index(e); r < joints_)
+          y(r) += row_(r) * jac_.value(e) * column_(c) * x(c);
+  }
+  // |t| |driver row| beyond which [C; driver row] is taken as singular: a driver 1e-8 of a
+  // regular pose's rate, far inside the tracer's own toggle zone.
+  static constexpr double kTangentLimit = 1e8;
+  // Up to 8 moving links [C; last] is factorised as it is, and the start's tangent taken by SVD:
+  // there the full row's fill costs about what the bordered form's extra solves do (A02 with
+  // N = 2, 15 coordinates: 79 entries in the factors); and so is a last row of a driver's few
+  // entries, which fills nothing.
+  static constexpr int kDirectSize = 24, kSparseRow = 8;
+  static constexpr int kSingularIterations = 30;
+  // [C; last] from jac_, factorised. A chain past SmallLU's dense size with a full last row (a
+  // tangent) is factorised as B = [C; e_m], m the row's largest entry, and the row put back by
+  // Sherman–Morrison: pivoted early, a full row fills every later column (A02 with N = 160:
+  // 50,000 entries in the factors against 2,500 for J, and a trace's cost growing as n^2), while
+  // B keeps the chain's pattern and is regular wherever [C; last] is, within |last| / |last_m|
+  // <= sqrt(n) of its conditioning (the local parametrisation of Rheinboldt's continuation).
+  void factorise(const Eigen::VectorXd& last) {
+    bordered_ = n_ > kDirectSize && (last.array() != 0.0).count() > kSparseRow;
+    if (bordered_) last.cwiseAbs().maxCoeff(&border_);
+    for (int c = 0; c < n_; ++c) {
+      int a = aug_.column_start(c);
+      for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e) {
+        const int r = jac_.row_index(e);
+        if (r < joints_) aug_.value(a++) = row_(r) * jac_.value(e) * column_(c);
+      }
+      // the last row, below C's rows
+      aug_.value(a) = !bordered_ ? last(c) : c == border_ ? 1.0 : 0.0;
+    }
+    lu_.factorize(aug_);
+    transposed_ready_ = false;
+    if (!bordered_) return;
+    last_ = last;
+    border_solution_ = Eigen::VectorXd::Unit(n_, joints_);  // B u = e_n: C u = 0, u_m = 1
+    lu_.solve_in_place(border_solution_.data());
+    border_product_ = last.dot(border_solution_);  // 1 + (last - e_m) . u
+  }
+  // b := [C; last]^-1 b.
+  void solve(Eigen::VectorXd& b) const {
+    lu_.solve_in_place(b.data());
+    if (bordered_) b -= border_solution_ * ((last_.dot(b) - b(border_)) / border_product_);
+  }
+  // b := [C; last]^-T b.
+  void solve_transposed(Eigen::VectorXd& b) {
+    lu_.solve_transposed_in_place(b.data());
+    if (!bordered_) return;
+    if (!transposed_ready_) {  // B^-T (last - e_m)
+      border_transposed_ = last_;
+      border_transposed_(border_) -= 1.0;
+      lu_.solve_transposed_in_place(border_transposed_.data());
+      transposed_ready_ = true;
+    }
+    b -= border_transposed_ * (b(joints_) / border_product_);
+  }
+  // det [C; last] (matrix determinant lemma for the bordered form).
+  double determinant() const {
+    return bordered_ ? lu_.determinant() * border_product_ : lu_.determinant();
+  }
+
+ public:
+  explicit Tracer(const NewtonSolver& solver)
+      : solver_(solver),
+        n_(static_cast<int>(solver.mechanism().coordinate_count())),
+        joints_(solver.layout().joint_row_count()),
+        swept_(solver.mechanism().axis().driver),
+        driver_row_(solver.layout().driver_row(swept_)) {
+    const Mechanism& m = solver.mechanism();
+    const double L = solver.length_scale();
+    column_.setOnes(n_);
+    for (int k = 0; k < m.moving_count(); ++k) column_.segment<2>(3 * k).setConstant(L);
+    row_.setOnes(joints_);
+    for (int r = 0; r < joints_; ++r)
+      if (!solver.layout().angle_row(r)) row_(r) = 1.0 / L;
+    jac_ = SparseJacobian(solver.layout(), n_);
+    aug_ = jac_.with_full_row(joints_);
+    lu_ = SmallLU(n_, aug_.nonzeros());
+    gradient_.setZero(n_);
+    t_.setZero(n_);
+    phi_.setZero(n_);
+    rhs_.setZero(n_);
+    dz_.setZero(n_);
+    dq_.setZero(n_);
+    tolerance_ = solver.options().tolerance;
+    length_ = L;
+    angular_ = m.swept().angular();
+  }
+
+  // A node at a solved pose; the tangent (null vector of C) is oriented so the driver moves
+  // toward `direction`.
+  bool start(const Eigen::VectorXd& q, double direction, Node& out) {
+    jacobian_at(q);
+    Node seed;
+    seed.q = q;
+    if (n_ <= kDirectSize || !driver_tangent(seed.t)) {
+      // A small chain, or one drawn at a toggle or a change point: by SVD, which gives a null
+      // vector there too (dense, n^3: for a long chain only when drawn singular).
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(constraint_rows(), Eigen::ComputeFullV);
+      seed.t = svd.matrixV().col(n_ - 1);
+    }
+    if (gradient_.dot(seed.t) * direction < 0.0) seed.t = -seed.t;
+    return correct(seed, 0.0, out);
+  }
+
+  // Newton on [Phi_c; driver row] at q's driver value, from q to round-off. Within the solver's
+  // tolerance a pose beside a change point can still lie on the other branch: the residual grows
+  // only as the square of the distance along it (a kite drawn 1e-4 deg before its change point
+  // was assembled 1.3e-6 rad off its branch with a residual of 5e-13, and its tangent mixed the
+  // two branches). Steps are kept below kSettleStep (in z) and must lower the residual, so the
+  // pose cannot leap to another assembly. Returns the residual left (|Phi|_inf in z) over its
+  // round-off there: above 1 where the chain does not close exactly at that driver value.
+  double settle(Eigen::VectorXd& q) {
+    const double value = solver_.driver_value(q, swept_);
+    const auto residual = [&](const Eigen::VectorXd& at) {
+      solver_.residual(at, 0.0, phi_);
+      rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
+      rhs_(joints_) = (value - phi_(driver_row_)) / (angular_ ? 1.0 : length_);
+      return rhs_.lpNorm<Eigen::Infinity>();
+    };
+    double r = residual(q);
+    for (int it = 0; it < 8 && r > 0.0; ++it) {
+      jacobian_at(q);
+      factorise(gradient_);
+      dz_ = rhs_;
+      solve(dz_);
+      if (!dz_.allFinite() || !(dz_.lpNorm<Eigen::Infinity>() <= kSettleStep)) break;
+      dq_ = column_.cwiseProduct(dz_);
+      const Eigen::VectorXd next = q + dq_;
+      const double r_next = residual(next);
+      if (!(r_next < r)) break;
+      q = next;
+      r = r_next;
+    }
+    const double magnitude = std::max(1.0, q.cwiseQuotient(column_).lpNorm<Eigen::Infinity>());
+    return r / (kRoundOffResidual * std::numeric_limits<double>::epsilon() * magnitude);
+  }
+  // A pose settles to a few eps of its coordinates' magnitude (7e-17 beside the polycentric
+  // hinge's toggle); 1e-9 deg beyond that toggle, where it does not close, it stays at 6.5e-13.
+  static constexpr double kSettleStep = 1e-3, kRoundOffResidual = 100.0;
+
+  // The smallest singular value of the constraint rows C at q over their largest: 0 at a change
+  // point, where C loses rank and two branches cross.
+  double crossing_ratio(const Eigen::VectorXd& q) {
+    jacobian_at(q);
+    Eigen::VectorXd t;
+    if (n_ <= kDirectSize || !driver_tangent(t)) {  // small, or next to a singular position
+      const Eigen::VectorXd sigma =
+          Eigen::JacobiSVD<Eigen::MatrixXd>(constraint_rows()).singularValues();
+      return sigma.size() > 0 && sigma(0) > 0.0 ? sigma(sigma.size() - 1) / sigma(0) : 0.0;
+    }
+    // With t the unit null vector of C, [C; t] has C's singular values and 1 (C^T C + t t^T).
+    // Its smallest by inverse iteration on the sparse factors, C's largest by power iteration:
+    // both estimates converge from the side that makes the ratio larger, which for a test
+    // against 1e-10 (six orders below a regular pose's) is the safe side of a refusal.
+    factorise(t);
+    Eigen::VectorXd x = Eigen::VectorXd::Ones(n_) / std::sqrt(static_cast<double>(n_)), y(n_);
+    double inverse_square = 0.0;  // 1 / sigma_min^2 of [C; t]
+    for (int it = 0; it < kSingularIterations; ++it) {
+      solve_transposed(x);
+      solve(x);
+      inverse_square = x.norm();
+      if (!std::isfinite(inverse_square) || inverse_square == 0.0) return 0.0;
+      x /= inverse_square;
+    }
+    x.setOnes();
+    x /= std::sqrt(static_cast<double>(n_));
+    double largest_square = 0.0;  // sigma_max^2 of C
+    for (int it = 0; it < kSingularIterations; ++it) {
+      constraint_product(x, y);
+      x.setZero();
+      for (int c = 0; c < n_; ++c)
+        for (int e = jac_.column_start(c); e < jac_.column_start(c + 1); ++e)
+          if (const int r = jac_.row_index(e); r < joints_)
+            x(c) += row_(r) * jac_.value(e) * column_(c) * y(r);
+      largest_square = x.norm();
+      if (largest_square == 0.0) return 0.0;
+      x /= largest_square;
+    }
+    return 1.0 / std::sqrt(inverse_square * largest_square);
+  }
+
+  // The point of the curve on the hyperplane t_from . (z - z_from) = s, by Newton from a
+  // tangent prediction made at `near` (a node on the same branch close to it, or `from`).
+  bool correct(const Node& from, double s, Node& out, const Node* near = nullptr) {
+    const Node& p = near ? *near : from;
+    const double along = near ? (s - near->s) / std::max(from.t.dot(near->t), 0.5) : s;
+    return newton(p.q + column_.cwiseProduct(along * p.t), from, s, nullptr, p.t, out);
+  }
+
+  // The point of the curve at driver value `value`, by Newton from a tangent prediction at
+  // `near` (which must not be at a toggle); its s is measured on the hyperplanes of `from`.
+  // Where another branch crosses, the driver is the better parameter: that branch cannot lie
+  // in a plane of constant driver unless it is itself at a toggle there.
+  bool correct_driver(const Node& from, double value, Node& out, const Node& near) {
+    if (std::abs(near.t_driver) < 1e-3) return false;
+    const double along = (value - near.driver) / near.t_driver;
+    return newton(near.q + column_.cwiseProduct(along * near.t), from, 0.0, &value, near.t, out);
+  }
+
+ private:
+  // Newton on [Phi_c; last row] with the last row either the hyperplane of `from` at s, or
+  // driver(q) - *value. At the solution the tangent is oriented like `orient`, and
+  // det [C; t/|t|] = det [C; orient] |t| (orient minus its part along t lies in C's rows).
+  bool newton(Eigen::VectorXd q, const Node& from, double s, const double* value,
+              const Eigen::VectorXd& orient, Node& out) {
+    bool round_off = false;  // the last step moved q by round-off only
+    // Chord steps: [C; last row] is factorised at the prediction and again only where a step
+    // contracts poorly (near a fold) and at the solution, for its tangent. Refactorising at
+    // every iterate was most of a trace's work (under the sanitizers, 71 % of a fuzz run).
+    bool factorised = false;
+    double last_step = std::numeric_limits<double>::infinity();
+    for (int it = 0; it <= 12; ++it) {
+      solver_.residual(q, 0.0, phi_);
+      rhs_.head(joints_) = -phi_.head(joints_).cwiseProduct(row_);
+      rhs_(joints_) =
+          value ? *value - phi_(driver_row_) : s - from.t.dot((q - from.q).cwiseQuotient(column_));
+      if (!rhs_.allFinite()) return false;
+      const bool converged =
+          rhs_.lpNorm<Eigen::Infinity>() <= tolerance_ * (value && !angular_ ? length_ : 1.0) ||
+          round_off;
+      if (converged || !factorised) {
+        jacobian_at(q);
+        factorise(converged ? orient : value ? gradient_ : from.t);
+        factorised = true;
+      }
+      if (converged) {
+        t_.setZero();
+        t_(joints_) = 1.0;
+        solve(t_);
+        if (!t_.allFinite() || t_.norm() == 0.0) return false;
+        double row_norms = 1.0;
+        for (int r = 0; r < joints_; ++r) row_norms *= aug_.row_norm(r);
+        out.orientation = determinant() * t_.norm() / row_norms;
+        out.t = t_.normalized();
+        out.q = q;
+        out.s = value ? from.t.dot((q - from.q).cwiseQuotient(column_)) : s;
+        out.driver = solver_.driver_value(q, swept_);
+        out.t_driver = gradient_.dot(out.t);
+        return true;
+      }
+      dz_ = rhs_;
+      solve(dz_);
+      if (!dz_.allFinite()) return false;
+      const double step = dz_.lpNorm<Eigen::Infinity>();
+      if (step > 0.25 * last_step) factorised = false;
+      last_step = step;
+      dq_ = column_.cwiseProduct(dz_);
+      round_off = solver_.round_off_step(dq_, q);
+      q += dq_;
+    }
+    return false;
+  }
+
+ public:
+  // |z_to - (z_from + h t_from)|: how far Newton moved the prediction.
+  double correction(const Node& from, const Node& to, double h) const {
+    return ((to.q - from.q).cwiseQuotient(column_) - h * from.t).lpNorm<Eigen::Infinity>();
+  }
+
+  // Distance between two poses in z (angles compared as they are, or modulo a turn).
+  double distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool modulo_turn) const {
+    double worst = 0.0;
+    for (int i = 0; i < n_; ++i) {
+      double d = (a(i) - b(i)) / column_(i);
+      if (modulo_turn && i % 3 == 2) d = std::remainder(d, 2.0 * kPi);
+      worst = std::max(worst, std::abs(d));
+    }
+    return worst;
+  }
+
+ private:
+  const NewtonSolver& solver_;
+  int n_;
+  int joints_;              // the rows of C (the joints'); [C; last row] is square, n_ rows
+  int swept_;               // the swept driver (Mechanism::axis(); one driver: the tracer's)
+  int driver_row_;          // the driver's row of Phi and J
+  Eigen::VectorXd column_;  // q = column_ .* z
+  Eigen::VectorXd row_;     // dimensionless constraint rows
+  SparseJacobian jac_;      // J at the last q (unscaled)
+  SparseJacobian aug_;      // [C; last row] in z: C's pattern and a full last row
+  SmallLU lu_;
+  // The bordered form (factorise): whether it is in use, m, the last row, u = B^-1 e_n,
+  // last . u, and B^-T (last - e_m) once a transposed solve asks for it.
+  bool bordered_ = false, transposed_ready_ = false;
+  int border_ = 0;
+  Eigen::VectorXd last_, border_solution_, border_transposed_;
+  double border_product_ = 1.0;
+  Eigen::VectorXd gradient_;  // the driver's row of J in z
+  Eigen::VectorXd phi_, rhs_, dz_, dq_, t_;
+  double tolerance_, length_ = 1.0;
+  bool angular_ = true;
+};
+
+// A leg of the configuration curve traced from one pose: nodes in order, with the toggles and
+// change points located on the way (as nodes too). `base` is the node each was corrected from.
+struct Leg {
+  std::vector<Tracer::Node> nodes;
+  std::vector<int> base;    // index of the node each node was corrected from (self: start)
+  std::vector<double> key;  // arclength from the leg's start
+  std::vector<SingularPosition> singular;
+  std::vector<int> singular_node;    // node index of each singular position (-1: none)
+  std::vector<double> singular_key;  // arclength of each singular position
+  bool full_cycle = false;           // the driver made a whole turn without a toggle
+  bool closed = false;               // came back to the start pose after a toggle
+  double end_key = std::numeric_limits<double>::infinity();  // where the leg's path ends
+  bool failed = false;  // the tracer lost the curve (branch_jump)
+};
+
+// Regula falsi (Illinois) for f(node) = 0 between two nodes where f has opposite signs. The
+// parameter is the arclength s on the hyperplanes of `base`, or the driver (by_driver); each
+// evaluation predicts from the nearer bracket node, which is on the branch being followed.
+template <class F>
+Tracer::Node locate(Tracer& tracer, const Tracer::Node& base, Tracer::Node lo, Tracer::Node hi, F f,
+                    double f_tolerance, bool by_driver = false) {
+  const auto x = [&](const Tracer::Node& n) { return by_driver ? n.driver : n.s; };
+  double f_lo = f(lo), f_hi = f(hi);
+  // Stop well before the root when it is a change point: a node right at it has no reliable
+  // tangent to predict from, and the other branch is as near.
+  f_tolerance = std::max(f_tolerance, 1e-10 * std::max(std::abs(f_lo), std::abs(f_hi)));
+  int side = 0;
+  Tracer::Node best = std::abs(f_lo) < std::abs(f_hi) ? lo : hi;
+  for (int it = 0; it < 100; ++it) {
+    const double x_lo = x(lo), x_hi = x(hi);
+    if (std::abs(x_hi - x_lo) <= 1e-15 * std::max(1.0, std::abs(x_lo))) break;
+    double xm = (x_lo * f_hi - x_hi * f_lo) / (f_hi - f_lo);
+    if (!(xm > std::min(x_lo, x_hi) && xm < std::max(x_lo, x_hi))) xm = 0.5 * (x_lo + x_hi);
+    Tracer::Node mid;
+    const Tracer::Node& near = std::abs(xm - x_lo) < std::abs(xm - x_hi) ? lo : hi;
+    auto eval = [&](double at) {
+      return by_driver ? tracer.correct_driver(base, at, mid, near)
+                       : tracer.correct(base, at, mid, &near);
+    };
+    if (!eval(xm)) {
+      xm = 0.5 * (x_lo + x_hi);  // bisect instead
+      if (!eval(xm)) break;
+    }
+    const double f_mid = f(mid);
+    best = mid;
+    if (std::abs(f_mid) <= f_tolerance) break;
+    if ((f_mid < 0) == (f_lo < 0)) {
+      lo = mid;
+      f_lo = f_mid;
+      if (side == -1) f_hi *= 0.5;
+      side = -1;
+    } else {
+      hi = mid;
+      f_hi = f_mid;
+      if (side == +1) f_lo *= 0.5;
+      side = +1;
+    }
+  }
+  return best;
+}
+
+// A change point between two nodes of a step. Newton is ill-posed right at it (the other branch
+// is as near as this one), so det [C; t] is sampled on this branch at 3, 2, 1 x delta on either
+// side of a first estimate, predicting outward-in from the step's ends, and the root is taken
+// from the quintic through them (the branch is analytic there). Returns the root and the six
+// nodes (to serve as path nodes near the change point), or nothing when a solve fails.
+std::optional<double> locate_change_point(Tracer& tracer, const Tracer::Node& cur,
+                                          const Tracer::Node& next, double unit,
+                                          std::vector<Tracer::Node>& nodes) {
+  if (std::abs(cur.t_driver) < 1e-3 || std::abs(next.t_driver) < 1e-3) return std::nullopt;
+  double root = cur.driver +
+                (next.driver - cur.driver) * cur.orientation / (cur.orientation - next.orientation);
+  const double dir = sign_of(next.driver - cur.driver);
+  const double delta = 2e-3 * unit;
+  for (int pass = 0; pass < 2; ++pass) {
+    nodes.clear();
+    Eigen::Matrix<double, 6, 6> v;
+    Eigen::Matrix<double, 6, 1> f;
+    for (int side = -1; side <= 1; side += 2) {
+      Tracer::Node near = side < 0 ? cur : next;
+      for (int k = 3; k >= 1; --k) {
+        const double x = side * k;
+        Tracer::Node at;
+        if (!tracer.correct_driver(cur, root + dir * x * delta, at, near)) return std::nullopt;
+        const int row = static_cast<int>(nodes.size());
+        for (int c = 0; c < 6; ++c) v(row, c) = std::pow(x, c);
+        f(row) = at.orientation;
+        nodes.push_back(at);
+        near = at;
+      }
+    }
+    const Eigen::Matrix<double, 6, 1> poly = v.fullPivLu().solve(f);
+    double x = 0.0;
+    for (int it = 0; it < 50; ++it) {
+      double p = 0.0, dp = 0.0;
+      for (int c = 5; c >= 0; --c) {
+        dp = dp * x + p;
+        p = p * x + poly(c);
+      }
+      if (dp == 0.0) break;
+      const double dx = p / dp;
+      x -= dx;
+      if (std::abs(dx) < 1e-15) break;
+    }
+    if (!(std::abs(x) < 1.0)) return std::nullopt;
+    root += dir * x * delta;
+  }
+  std::sort(nodes.begin(), nodes.end(),
+            [](const Tracer::Node& a, const Tracer::Node& b) { return a.s < b.s; });
+  return root;
+}
+
+// A leg fails where the chain moves through kHeldArc of arclength (in z: lengths / size, angles
+// in rad, so ten link turns) while the driver spans less than kHeldDriver of its unit (rad, or
+// the chain's size): the driver does not set the pose there. Near a toggle the driver varies as
+// the square of the arclength, with a curvature set by the chain's proportions, so a drawn chain
+// moves its driver by far more over ten turns; a degenerate one does not (a Wanzer triangle drawn
+// a million metres long spins on its slots with the disk held, its driver wobbling by 3e-5 rad:
+// tests/fuzz/regressions/), nor does a branch on which the driver link stays put (a kite four-bar).
+constexpr double kHeldArc = 20.0 * kPi;
+constexpr double kHeldDriver = 1e-3;
+
+// A leg also fails where a link's point moves farther from where the leg began than kEscape
+// times the chain's size for each moving link: no closed chain of links within that size can put
+// a point there (revolute chains reach at most twice their links' summed extents), so the chain
+// runs off to infinity, as two slots turning parallel send a block along them while the driver
+// nears an asymptote (tests/fuzz/regressions/wanzer_parallel_slots_runaway.toml).
+constexpr double kEscape = 4.0;
+
+// Every drawn point of the moving links, in the world, at q (in link and point order).
+std::vector<Eigen::Vector2d> moving_points(const Mechanism& m, const Eigen::VectorXd& q) {
+  std::vector<Eigen::Vector2d> out;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    for (const Point& p : m.links[l].points) out.push_back(b.position(p.local));
+  }
+  return out;
+}
+
+// The farthest any of `from` (moving_points at the leg's start) has moved at q.
+double farthest_move(const Mechanism& m, const std::vector<Eigen::Vector2d>& from,
+                     const Eigen::VectorXd& q) {
+  double farthest = 0.0;
+  size_t i = 0;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const int k = m.moving_index(static_cast<int>(l));
+    if (k < 0) continue;
+    const BodyMotion b = BodyMotion::of(k, q, nullptr, nullptr);
+    for (const Point& p : m.links[l].points)
+      farthest = std::max(farthest, (b.position(p.local) - from[i++]).norm());
+  }
+  return farthest;
+}
+
+struct LegLimits {
+  bool stop_at_toggle = true;  // else pass toggles (the driver reverses) until the loop closes
+  double reach = 0.0;          // driver travel without a toggle that ends the leg [rad or m]
+  bool angular = true;
+  int steps = 400000;  // SweepOptions::tracer_steps
+};
+
+// Ends the leg at its last node, where the tracer lost the curve: a branch_jump, with why.
+Leg& fail(Leg& leg, std::string message) {
+  const Tracer::Node& last = leg.nodes.back();
+  leg.failed = true;
+  leg.singular.push_back(
+      {SingularKind::branch_jump, last.driver, sign_of(last.t_driver), std::move(message)});
+  leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+  leg.singular_key.push_back(leg.key.back());
+  leg.end_key = leg.key.back();
+  return leg;
+}
+
+// Traces from `start` (already oriented) until a toggle (when stopping there), a whole driver
+// turn without toggles, the loop closing back on the start pose, or the reach.
+Leg trace_leg(const NewtonSolver& solver, const Tracer::Node& start, const LegLimits& limits) {
+  Tracer tracer(solver);
+  Leg leg;
+  leg.nodes.push_back(start);
+  leg.base.push_back(0);
+  leg.key.push_back(0.0);
+  // h bounds the predicted move of every coordinate (|arc t|_inf in z: a link's turn in rad, a
+  // point's move per size), not the arclength: where N loops move together the unit tangent
+  // spreads over them, and an arclength cap took sqrt(N) times the steps per turn of the driver
+  // for the same move of each link (A02: 580 steps at N = 2, 3,987 at N = 160).
+  const double h_max = 0.02, h_min = 1e-11;
+  const double unit = limits.angular ? 1.0 : solver.length_scale();
+  // A driver value in a message, in the file's units.
+  const auto at = [&](double driver) {
+    return driver_unit_of(solver.mechanism()).text(driver, 12);
+  };
+  const double start_driver = start.driver;
+  const double sigma = sign_of(start.t_driver) != 0 ? sign_of(start.t_driver) : 1.0;
+  double h = h_max;
+  double travel = 0.0;  // |driver change| summed along the leg
+  int toggles = 0;
+  // The driver's span over the current window of kHeldArc arclength, from held_key.
+  double held_lo = start.driver, held_hi = start.driver, held_key = 0.0;
+  const Mechanism& m = solver.mechanism();
+  const std::vector<Eigen::Vector2d> start_points = moving_points(m, start.q);
+  const double escape_sizes = kEscape * m.moving_count();
+  for (int steps = 0; steps < limits.steps; ++steps) {
+    const int i = static_cast<int>(leg.nodes.size()) - 1;
+    const Tracer::Node cur = leg.nodes[static_cast<size_t>(i)];
+    Tracer::Node next;
+    const double arc = h / cur.t.lpNorm<Eigen::Infinity>();
+    // Newton may only polish the prediction, and the tangent may only turn a little: a step
+    // that would land on another branch is refused and shortened.
+    bool ok = tracer.correct(cur, arc, next);
+    if (ok) {
+      ok = tracer.correction(cur, next, arc) <= 0.3 * h + 1e-9 && next.t.dot(cur.t) >= 0.9;
+    }
+    if (!ok) {
+      h *= 0.5;
+      if (h < h_min) {
+        return fail(leg, fmt::format("branch_jump: the chain cannot be followed beyond driver = "
+                                     "{}: the only nearby solutions are on another branch",
+                                     at(cur.driver)));
+      }
+      continue;
+    }
+    // Singular positions inside this step, in the order of s.
+    std::vector<std::pair<SingularKind, Tracer::Node>> found;
+    Tracer::Node from = cur;  // the bracket's low end: s = 0 on the hyperplanes of `cur`
+    from.s = 0.0;
+    if (sign_of(cur.t_driver) * sign_of(next.t_driver) < 0)
+      found.push_back(
+          {SingularKind::toggle,
+           locate(
+               tracer, cur, from, next, [](const Tracer::Node& n) { return n.t_driver; }, 1e-300)});
+    if (sign_of(cur.orientation) * sign_of(next.orientation) < 0) {
+      std::vector<Tracer::Node> around;
+      if (const auto root = locate_change_point(tracer, cur, next, unit, around)) {
+        // The nodes around it become path nodes; the change point itself is only an event.
+        for (const Tracer::Node& n : around)
+          if (n.s > 0.0 && n.s < arc) found.push_back({SingularKind::branch_jump, n});
+        Tracer::Node at = around[2];
+        at.s = 0.5 * (around[2].s + around[3].s);
+        at.driver = *root;
+        found.push_back({SingularKind::change_point, at});
+      } else {
+        found.push_back({SingularKind::change_point,
+                         locate(
+                             tracer, cur, from, next,
+                             [](const Tracer::Node& n) { return n.orientation; }, 1e-300, true)});
+      }
+    }
+    std::sort(found.begin(), found.end(),
+              [](const auto& a, const auto& b) { return a.second.s < b.second.s; });
+    bool stop = false;
+    for (auto& [kind, node] : found) {
+      if (kind == SingularKind::branch_jump) {  // a plain node near a change point
+        leg.nodes.push_back(node);
+        leg.base.push_back(i);
+        leg.key.push_back(leg.key[static_cast<size_t>(i)] + node.s);
+        continue;
+      }
+      const double dir = sign_of(cur.t_driver);
+      const double key = leg.key[static_cast<size_t>(i)] + node.s;
+      leg.singular_key.push_back(key);
+      if (kind == SingularKind::change_point) {
+        leg.singular_node.push_back(-1);  // no path node: its tangent is not defined
+      } else {
+        leg.nodes.push_back(node);
+        leg.base.push_back(i);
+        leg.key.push_back(key);
+        leg.singular_node.push_back(static_cast<int>(leg.nodes.size()) - 1);
+      }
+      if (kind == SingularKind::toggle) {
+        ++toggles;
+        leg.singular.push_back(
+            {kind, node.driver, dir,
+             fmt::format("toggle: dead point at driver = {}: the chain cannot close beyond "
+                         "it (limit of the assembling range); the sweep {} here",
+                         at(node.driver),
+                         limits.stop_at_toggle ? "stops" : "reverses the driver")});
+        if (limits.stop_at_toggle) {
+          stop = true;
+          leg.end_key = leg.key.back();
+          break;
+        }
+        // Back at the start pose, drawn on this toggle: the loop closes here (the driver turns
+        // back at the start value, so it never passes it again as the test below asks). Both
+        // are folds at one driver value to ~1e-12, so their poses agree to its square root.
+        if (std::abs(node.driver - start_driver) < 1e-9 * unit &&
+            tracer.distance(node.q, start.q, true) < 1e-4) {
+          leg.closed = true;
+          leg.end_key = leg.key.back();
+          return leg;
+        }
+      } else {
+        leg.singular.push_back(
+            {kind, node.driver, dir,
+             fmt::format("change_point at driver = {}: two branches cross; the sweep "
+                         "continues on the smooth branch (continuous velocity), leaving the "
+                         "assembly mode it had",
+                         at(node.driver))});
+      }
+    }
+    if (stop) return leg;
+    travel += std::abs(next.driver - cur.driver);
+    leg.nodes.push_back(next);
+    leg.base.push_back(i);
+    leg.key.push_back(leg.key[static_cast<size_t>(i)] + arc);
+    h = std::min(2.0 * h, h_max);
+    // Whole turn of an angular driver without a toggle: the chain can rotate fully.
+    if (toggles == 0 && limits.angular && std::abs(next.driver - start_driver) >= 2.0 * kPi) {
+      leg.full_cycle = true;
+      return leg;
+    }
+    // After a toggle: back at the start value moving the first way, on the start pose?
+    if (toggles > 0 && sign_of(next.t_driver) == sigma &&
+        (cur.driver - start_driver) * (next.driver - start_driver) <= 0.0) {
+      Tracer::Node lo = cur, hi = next;
+      lo.s = 0.0;
+      const Tracer::Node at = locate(
+          tracer, cur, lo, hi, [&](const Tracer::Node& n) { return n.driver - start_driver; },
+          1e-15 * unit);
+      if (tracer.distance(at.q, start.q, true) < 1e-6) {
+        leg.closed = true;
+        leg.end_key = leg.key[static_cast<size_t>(i)] + at.s;
+        return leg;
+      }
+    }
+    if (travel > limits.reach) {
+      leg.end_key = leg.key.back();
+      return leg;
+    }
+    if (farthest_move(m, start_points, next.q) > escape_sizes * solver.length_scale())
+      return fail(leg, fmt::format("branch_jump: the chain runs off to infinity near driver = "
+                                   "{} (a point moved {:g} times the drawing's size, {:g} "
+                                   "for each moving link): the driver nears an asymptote, so the "
+                                   "chain cannot be followed",
+                                   at(next.driver), escape_sizes, kEscape));
+    held_lo = std::min(held_lo, next.driver);
+    held_hi = std::max(held_hi, next.driver);
+    if (leg.key.back() - held_key < kHeldArc) continue;
+    if (held_hi - held_lo > kHeldDriver * unit) {
+      held_lo = held_hi = next.driver;
+      held_key = leg.key.back();
+    } else {
+      return fail(leg, fmt::format("branch_jump: the chain moves with the driver held at driver "
+                                   "= {} (ten link turns of motion with the driver within "
+                                   "{:.0e} of its unit): the driver does not set the pose there, "
+                                   "so the chain cannot be followed",
+                                   at(next.driver), kHeldDriver));
+    }
+  }
+  return fail(leg, fmt::format("branch_jump: the tracer's budget of {} steps ran out at driver = "
+                               "{}, before a limit or a whole cycle, so the chain is not "
+                               "followed beyond",
+                               limits.steps, at(leg.nodes.back().driver)));
+}
+
+// The largest rcond over the traced legs' nodes (the curve, whatever the output grid).
+double best_rcond(const NewtonSolver& solver, const std::vector<Leg>& legs) {
+  KinematicState state(solver.mechanism());
+  double best = 0.0;
+  for (const Leg& leg : legs)
+    for (const Tracer::Node& n : leg.nodes) {
+      state.q = n.q;
+      state.swept().value = n.driver;
+      state.factorized = false;
+      const SolveReport r = solver.solve_position(state);
+      if (r.status == PoseStatus::ok || r.status == PoseStatus::singular)
+        best = std::max(best, r.rcond);
+    }
+  return best;
+}
+
+// One sample to write: where it lies on a leg and the driver state it is taken at.
+struct PlannedSample {
+  double key;  // position along the sweep's path
+  Tracer::Node node;
+  double value;
+  bool toggle = false;  // the sample is a located toggle
+};
+
+// Samples of a leg at the grid values start + k*step (and at its toggles), each located on the
+// curve by regula falsi on the driver, so it lies on the traced branch whatever the Jacobian.
+// With `values` (ascending), those driver values instead of the grid, and only the toggles
+// inside the window.
+void plan_leg(const NewtonSolver& solver, const Leg& leg, double grid_start, double step,
+              double key_sign, double lo_window, double hi_window, std::vector<PlannedSample>& out,
+              const std::vector<double>* values = nullptr) {
+  Tracer tracer(solver);
+  const double unit = solver.mechanism().swept().angular() ? 1.0 : solver.length_scale();
+  // The values (grid or given) on a segment [dmin, dmax], and within `slack` beyond it.
+  const auto segment_values = [&](double dmin, double dmax, double slack, std::vector<double>& on) {
+    on.clear();
+    if (values) {
+      const auto first = std::lower_bound(values->begin(), values->end(), dmin - slack);
+      for (auto v = first; v != values->end() && *v <= dmax + slack; ++v) on.push_back(*v);
+      return;
+    }
+    const long k0 = static_cast<long>(std::ceil((dmin - grid_start) / step - slack / step));
+    const long k1 = static_cast<long>(std::floor((dmax - grid_start) / step + slack / step));
+    for (long k = k0; k <= k1; ++k) on.push_back(grid_start + k * step);
+  };
+  std::vector<double> on;
+  for (size_t j = 0; j + 1 < leg.nodes.size(); ++j) {
+    const Tracer::Node& a = leg.nodes[j];
+    const Tracer::Node& b = leg.nodes[j + 1];
+    const int base_index = leg.base[j + 1];
+    const Tracer::Node& base = leg.nodes[static_cast<size_t>(base_index)];
+    Tracer::Node lo = a;
+    lo.s = static_cast<int>(j) == base_index ? 0.0 : a.s;
+    const double dmin = std::min(a.driver, b.driver), dmax = std::max(a.driver, b.driver);
+    // Grid values on the segment, and within 1e-12 of the driver's unit beyond it (the accuracy
+    // of a located toggle): never a value beyond a limit, where the chain does not close.
+    segment_values(dmin, dmax, 1e-12 * unit, on);
+    for (const double g : on) {
+      if (g < lo_window - 1e-12 * unit || g > hi_window + 1e-12 * unit) continue;
+      Tracer::Node at;
+      if (std::abs(a.driver - g) <= 1e-15 * unit) {
+        at = lo;
+      } else if (std::abs(b.driver - g) <= 1e-15 * unit) {
+        at = b;
+      } else {
+        // Away from toggles straight at the driver value from the nearer end; it must land
+        // inside the segment. Else (near a toggle) by regula falsi in s.
+        const Tracer::Node& near = std::abs(g - a.driver) < std::abs(g - b.driver) ? lo : b;
+        const bool direct = tracer.correct_driver(base, g, at, near) &&
+                            at.s >= std::min(lo.s, b.s) - 1e-12 &&
+                            at.s <= std::max(lo.s, b.s) + 1e-12;
+        if (!direct)
+          at = locate(
+              tracer, base, lo, b, [&](const Tracer::Node& n) { return n.driver - g; },
+              1e-15 * unit);
+      }
+      const double key = leg.key[j] + (at.s - lo.s);
+      if (key > leg.end_key + 1e-12) continue;
+      out.push_back({key_sign * key, at, g, false});
+    }
+  }
+  for (size_t i = 0; i < leg.singular.size(); ++i) {
+    if (leg.singular[i].kind != SingularKind::toggle) continue;  // toggles are extra samples
+    const auto index = static_cast<size_t>(leg.singular_node[i]);
+    if (leg.key[index] > leg.end_key + 1e-12) continue;
+    const double at = leg.nodes[index].driver;
+    if (values && (at < lo_window - 1e-12 * unit || at > hi_window + 1e-12 * unit)) continue;
+    out.push_back({key_sign * leg.key[index], leg.nodes[index], leg.nodes[index].driver, true});
+  }
+}
+
+// A moving driver's start, assembled, is taken to round-off (Tracer::settle); then, drawn at a
+// change point to working precision, it is bad input: two branches cross there, so the drawing
+// cannot say which one the chain follows, and no sweep from it is the chain's. Along the other
+// branch the residual grows as the square of the distance, so round-off tells the branches apart
+// only where C's singular values are in a ratio above sqrt(eps): a kite drawn folded 1e-6 deg
+// before its change point (ratio 2.1e-9) settles on the held-driver branch, and 1e-4 deg before
+// (1.8e-7) on its own (tests/analytic/test_edges.cpp).
+const double kCrossingZone = std::sqrt(std::numeric_limits<double>::epsilon());
+
+void settle_start(const NewtonSolver& solver, KinematicState& state) {
+  const Mechanism& m = solver.mechanism();
+  if (m.swept().at_rest()) return;
+  Tracer tracer(solver);
+  const std::string start = driver_unit_of(m).text(m.swept().start, 12);
+  std::string why;
+  if (const double over = tracer.settle(state.q); over > 1.0) {
+    why = fmt::format(
+        "the chain closes at the driver's start, {}, only to the solver's tolerance (its residual "
+        "stays {:.0f} times round-off): the start lies just beyond a limit of the assembling "
+        "range (a toggle), by less than the tolerance, where no pose closes exactly; draw it "
+        "inside the range",
+        start, over);
+  } else if (const double ratio = tracer.crossing_ratio(state.q); ratio < kCrossingZone) {
+    why = fmt::format(
+        "the drawn position, driver = {}, is a change point to working precision (the "
+        "constraint Jacobian's singular values in a ratio of {:.1e}, below sqrt(eps) = {:.1e}): "
+        "two branches cross there, so the drawing does not say which one the chain follows; draw "
+        "it at another driver value",
+        start, ratio, kCrossingZone);
+  }
+  if (!why.empty()) throw DefinitionError({Diagnostic{m.swept().where, why}});
+}
+
+}  // namespace
+
+std::string AssemblingRange::explain(const Mechanism& m) const {
+  if (!unknown.empty()) return "unknown: " + unknown;
+  if (full_cycle) return m.swept().angular() ? "full rotation (360 degrees)" : "unbounded";
+  const DriverUnit u = driver_unit_of(m);
+  return fmt::format("{:.6f} to {:.6f} {}", lower / u.scale, upper / u.scale, u.name);
+}
+
+AssemblingRange assembling_range(const Mechanism& mechanism, const SweepOptions& options,
+                                 double /*tolerance: toggles are located to ~1e-12*/) {
+  AssemblingRange range;
+  // A range of one driver's value: with several the chain moves in time (the timed sweep).
+  if (mechanism.axis().timed()) {
+    range.unknown =
+        fmt::format("the assembling range is one driver's; with {} drivers the sweep runs in time",
+                    mechanism.drivers.size());
+    return range;
+  }
+  const NewtonSolver solver(mechanism, options.newton);
+  KinematicState state(mechanism);
+  const SolveReport assembled = solver.assemble(state);
+  if (assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular)
+    return range;  // lower = upper = 0: nothing assembles; the caller reports `assembled`
+  settle_start(solver, state);
+  const bool angular = mechanism.swept().angular();
+  const LegLimits limits{true, angular ? 4.0 * kPi : 100.0 * mechanism.size(), angular,
+                         options.tracer_steps};
+  Tracer tracer(solver);
+  auto search = [&](double direction, Leg& leg) {
+    Tracer::Node start;
+    if (!tracer.start(state.q, direction, start)) return false;
+    leg = trace_leg(solver, start, limits);
+    return true;
+  };
+  Leg up, down;
+  const std::string no_start = "the configuration curve has no direction at the drawn position";
+  if (!search(+1.0, up)) {
+    range.unknown = no_start;
+    return range;
+  }
+  if (up.full_cycle) {
+    range.full_cycle = true;
+    range.lower = state.swept().value;
+    range.upper = state.swept().value + 2.0 * kPi;
+    return range;
+  }
+  if (!search(-1.0, down)) {
+    range.unknown = no_start;
+    return range;
+  }
+  for (const Leg* leg : {&up, &down})
+    if (leg->failed) range.unknown = leg->singular.back().message;
+  const auto free = [](const Leg& leg) { return !leg.failed && leg.singular.empty(); };
+  range.full_cycle = free(up) && free(down) && !angular;
+  range.lower = down.nodes.back().driver;
+  range.upper = up.nodes.back().driver;
+  return range;
+}
+
+namespace {
+
+// Fills one sample per driver state, in order, by continuation from the assembled state: first
+// to the first sample, then from each sample to the next. Where the branch cannot be followed
+// (the chain does not close, or only another branch is near), the sample carries that status
+// and zeros, and so does every later one beyond that point the same way; a later sample back on
+// the near side is followed from there (a range that starts outside the assembling range).
+void sweep_values(const NewtonSolver& solver, KinematicState& state, const SolveReport& assembled,
+                  const std::vector<DriverState>& drivers, double max_step, double small,
+                  Trajectory& out) {
+  Follower follower(solver, state);
+  Recorder record(solver);
+  follower.start(assembled);
+  SolveReport failure = assembled;
+  bool lost = assembled.status != PoseStatus::ok && assembled.status != PoseStatus::singular;
+  // Where the branch stopped, and the way it was going (0: it has not).
+  double stopped_at = 0.0, stopped_way = 0.0;
+  for (size_t i = 0; i < drivers.size(); ++i) {
+    const int row = static_cast<int>(i);
+    const double target = drivers[i].value;
+    if (!lost && (target - stopped_at) * stopped_way <= 0.0) {
+      const double from = state.swept().value;
+      const SolveReport r = solver.polish(state, follower.advance_to(target, max_step, small));
+      if (r.status == PoseStatus::ok || r.status == PoseStatus::singular) {
+        if (r.status == PoseStatus::singular) out.events.push_back({target, r.status, r.message});
+        state.swept() = drivers[i];
+        record(state, r, out, row);
+        continue;
+      }
+      failure = r;
+      out.events.push_back({state.swept().value, r.status, r.message});
+      stopped_at = state.swept().value;
+      stopped_way = target > from ? 1.0 : -1.0;
+    }
+    // The flagged sample from a copy: the state stays where the branch stopped.
+    KinematicState flagged = without_pose(state);
+    flagged.swept() = drivers[i];
+    solver.write_sample(flagged, failure, out, row);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// A constant-speed sweep along the traced configuration curve (see Tracer): the cycle, the
+// assembling range (at_limit = stop), or the whole loop through its toggles (reverse). Returns
+// false when the tracer cannot start (the caller falls back to the Follower).
+// With `range` (an explicit range [lower, upper] of a chain that does not turn fully), the
+// range's grid and its own ends (range_grid()) on the legs traced from the start to each limit:
+// a range's end at a limit (to 1e-9 of the driver's unit) is the toggle there, and a value
+// beyond a limit is a sample without a pose (cannot_assemble, or the lost leg's status), so the
+// curve is always reached from the drawing, never by Newton started on a fold. Returns false
+// for a chain that turns fully (the Follower covers a range of several turns).
+bool traced_sweep(const Mechanism& mechanism, const SweepOptions& options,
+                  const NewtonSolver& solver, KinematicState& state, Trajectory& out,
+                  std::vector<SingularPosition>& singular,
+                  const std::optional<std::pair<double, double>>& range = std::nullopt) {
+  const Driver& d = mechanism.swept();
+  const bool angular = d.angular();
+  const bool stop = range || options.at_limit == SweepOptions::AtLimit::stop;
+  const double sigma = d.law.speed > 0 ? 1.0 : -1.0;
+  const double start_value = state.swept().value;
+  const double size = mechanism.size();
+  double reach = angular ? (stop ? 4.0 : 40.0) * kPi : (stop ? 100 : 400) * size;
+  if (range)  // the legs reach past both ends of the range
+    reach = std::max(reach, 1.01 * std::max(std::abs(range->first - start_value),
+                                            std::abs(range->second - start_value)));
+  const LegLimits limits{stop, reach, angular, options.tracer_steps};
+  Tracer tracer(solver);
+  Tracer::Node first;
+  if (!tracer.start(state.q, sigma, first)) return false;
+  std::vector<Leg> legs;
+  legs.push_back(trace_leg(solver, first, limits));
+  if (range && legs[0].full_cycle) return false;
+  if (stop && !legs[0].full_cycle) {
+    Tracer::Node back;
+    if (!tracer.start(state.q, -sigma, back)) return false;
+    legs.push_back(trace_leg(solver, back, limits));
+  }
+
+  // The grid: start + k*step; a slider's step is 1/360 of the range it covers.
+  double step = default_step(mechanism, options);
+  double lo = start_value, hi = start_value;
+  for (const Leg& leg : legs)
+    for (const Tracer::Node& n : leg.nodes) {
+      lo = std::min(lo, n.driver);
+      hi = std::max(hi, n.driver);
+    }
+  if (step == 0.0 && range) step = (range->second - range->first) / 360.0;
+  if (step == 0.0) step = hi > lo ? (hi - lo) / 360.0 : size / 50.0;
+  double window_lo = -std::numeric_limits<double>::infinity(), window_hi = -window_lo;
+  if (legs[0].full_cycle) {
+    window_lo = std::min(start_value, start_value + sigma * 2.0 * kPi);
+    window_hi = std::max(start_value, start_value + sigma * 2.0 * kPi);
+  }
+  const double unit = angular ? 1.0 : size;
+  std::vector<double> wanted;  // a range's values, ascending
+  if (range) {
+    window_lo = range->first;
+    window_hi = range->second;
+    wanted = range_grid(d.start, step, range->first, range->second).values();
+    // An end of the range at a limit, to 1e-9 of the unit (its value in the file to a few
+    // ulps, the located toggle to ~1e-12), is the toggle: taken at the toggle's value, where
+    // the pose is exact, not at a value a round-off beyond it, where the chain does not close.
+    for (const Leg& leg : legs)
+      for (size_t i = 0; i < leg.singular.size(); ++i) {
+        if (leg.singular[i].kind != SingularKind::toggle) continue;
+        const double at = leg.singular[i].driver;
+        for (double* end : {&window_lo, &window_hi})
+          if (std::abs(*end - at) < 1e-9 * unit) *end = at;
+        for (double& v : wanted)
+          if (std::abs(v - at) < 1e-9 * unit) v = at;
+      }
+  }
+  std::vector<PlannedSample> plan;
+  for (size_t l = 0; l < legs.size(); ++l)
+    plan_leg(solver, legs[l], start_value, step, l == 0 ? 1.0 : -1.0, window_lo, window_hi, plan,
+             range ? &wanted : nullptr);
+  std::stable_sort(plan.begin(), plan.end(),
+                   [](const auto& a, const auto& b) { return a.key < b.key; });
+  // The start is on both legs and a toggle may fall on the grid: keep one of each.
+  std::vector<PlannedSample> samples;
+  for (const PlannedSample& p : plan) {
+    // A grid value within round-off of a toggle is the toggle (along the curve the two are up
+    // to sqrt(1e-12) apart, as the driver folds there): one sample, on the grid, flagged.
+    // The start planned twice along the curve (drawn beside a change point, where the located
+    // nodes around it pass its value again, the poses only determined to ~sqrt(tolerance) there)
+    // is the same pose at the same value, as the loop's closure takes it: one sample, or the
+    // times repeat.
+    const bool toggle = !samples.empty() && (p.toggle || samples.back().toggle);
+    const bool same_pose =
+        !samples.empty() && tracer.distance(p.node.q, samples.back().node.q, false) < 1e-6;
+    if (!samples.empty() && (std::abs(p.key - samples.back().key) < 1e-9 || toggle || same_pose) &&
+        std::abs(p.value - samples.back().value) < 1e-12 * unit) {
+      if (p.toggle && !samples.back().toggle) {
+        samples.back().node = p.node;  // the located fold's pose, at the grid's value
+        samples.back().toggle = true;
+      } else if (!p.toggle && samples.back().toggle) {
+        samples.back().value = p.value;
+      }
+      continue;
+    }
+    samples.push_back(p);
+  }
+  // A range's values beyond the traced curve: before its first sample (behind the start) and
+  // after its last, each flagged with why the leg ended there.
+  struct Beyond {
+    double value;
+    const Leg* leg;
+  };
+  std::vector<Beyond> behind, ahead;
+  if (range) {
+    const double first_value = samples.empty() ? start_value : samples.front().value;
+    const double last_value = samples.empty() ? start_value : samples.back().value;
+    for (const double v : wanted) {
+      if (sigma * (v - first_value) < -1e-12 * unit) behind.push_back({v, &legs.back()});
+      if (sigma * (v - last_value) > 1e-12 * unit) ahead.push_back({v, &legs.front()});
+    }
+    if (sigma < 0) {  // in the sweep's order
+      std::reverse(behind.begin(), behind.end());
+      std::reverse(ahead.begin(), ahead.end());
+    }
+  }
+  const int written = static_cast<int>(behind.size() + samples.size() + ahead.size());
+  out.resize(mechanism, written, true);
+  Recorder record(solver);
+  const SingularBand band(best_rcond(solver, legs));
+  // A sample on a located toggle or change point is that event, not another one.
+  const auto located_at = [&](double value) {
+    for (const Leg& leg : legs)
+      for (const SingularPosition& p : leg.singular)
+        if (p.kind != SingularKind::branch_jump && std::abs(p.driver - value) < 1e-9 * unit)
+          return true;
+    return false;
+  };
+  double travel = 0.0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const PlannedSample& p = samples[i];
+    if (i > 0) travel += std::abs(p.value - samples[i - 1].value);
+    // Direction of the driver at the sample: toward the next sample (at the end, from the last).
+    double direction = sigma;
+    if (i + 1 < samples.size() && samples[i + 1].value != p.value)
+      direction = sign_of(samples[i + 1].value - p.value);
+    else if (i > 0)
+      direction = sign_of(p.value - samples[i - 1].value);
+    DriverState driver;
+    driver.value = p.value;
+    if (stop) {
+      driver.rate = d.law.speed;
+      driver.time = (p.value - d.start) / d.law.speed;
+    } else {
+      driver.rate = direction * std::abs(d.law.speed);
+      driver.time = travel / std::abs(d.law.speed);
+    }
+    // Polish at the exact driver value: Newton starts on the traced branch, so it stays there.
+    state.q = p.node.q;
+    state.swept() = driver;
+    SolveReport report = solver.polish(state, solver.solve_position(state));
+    // At a change point the position is only determined to ~sqrt(tolerance) (the residual is
+    // quadratic along the branches there): that is a singular sample, not a jump.
+    const double moved = tracer.distance(state.q, p.node.q, false);
+    if ((report.status == PoseStatus::ok || report.status == PoseStatus::singular) &&
+        moved > 1e-6) {
+      const bool at_crossing = report.rcond < 1e-6;
+      report.status = at_crossing ? PoseStatus::singular : PoseStatus::branch_jump;
+      report.message =
+          at_crossing ? "at a change point: Jacobian singular" : "Newton left the traced branch";
+    }
+    if (p.toggle && report.status == PoseStatus::ok) {
+      report.status = PoseStatus::singular;
+      report.message = "toggle (dead point): Jacobian singular";
+    } else if (const std::string why = band.why(report.rcond);
+               !why.empty() && report.status == PoseStatus::ok) {
+      report.status = PoseStatus::singular;
+      report.message = why;
+    } else if (!p.toggle && report.status == PoseStatus::singular && moved <= 1e-6 &&
+               !located_at(p.value)) {
+      // Singular with no sign change along the curve around it (the tracer saw no toggle or
+      // change point): the Jacobian touches rank loss there, as A02's chain with every bar on
+      // one line. The sample is flagged by the solver; the event says where.
+      out.events.push_back({p.value, PoseStatus::singular, report.message});
+    }
+    const int row = static_cast<int>(behind.size() + i);
+    record(state, report, out, row);
+  }
+  // The range's values beyond a limit: no pose, the status of the leg's end.
+  const auto write_beyond = [&](const std::vector<Beyond>& values, int first_row) {
+    for (size_t i = 0; i < values.size(); ++i) {
+      const Leg& leg = *values[i].leg;
+      SolveReport report;
+      report.status = leg.failed ? PoseStatus::branch_jump : PoseStatus::cannot_assemble;
+      const double end = leg.nodes.back().driver;
+      report.message = leg.failed ? leg.singular.back().message
+                                  : fmt::format(
+                                        "the chain does not close beyond driver = {:.12g} "
+                                        "(limit of the assembling range)",
+                                        end);
+      if (i == 0) out.events.push_back({end, report.status, report.message});
+      KinematicState none = without_pose(state);
+      none.swept() = constant_speed_state(d, values[i].value);
+      solver.write_sample(none, report, out, first_row + static_cast<int>(i));
+    }
+  };
+  write_beyond(behind, 0);
+  write_beyond(ahead, static_cast<int>(behind.size() + samples.size()));
+
+  // Singular positions in the sweep's order.
+  std::vector<std::pair<double, SingularPosition>> found;
+  for (size_t l = 0; l < legs.size(); ++l)
+    for (size_t k = 0; k < legs[l].singular.size(); ++k) {
+      const double key = legs[l].singular_key[k];
+      if (key > legs[l].end_key + 1e-12) continue;
+      // A full cycle's leg may trace a little past the cycle's last sample: not the sweep's.
+      const double at = legs[l].singular[k].driver;
+      if (at < window_lo - 1e-12 * unit || at > window_hi + 1e-12 * unit) continue;
+      found.push_back({(l == 0 ? 1.0 : -1.0) * key, legs[l].singular[k]});
+    }
+  std::stable_sort(found.begin(), found.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [key, position] : found) {
+    singular.push_back(position);
+    out.events.push_back({position.driver,
+                          position.kind == SingularKind::branch_jump ? PoseStatus::branch_jump
+                                                                     : PoseStatus::singular,
+                          position.message});
+  }
+  if (!stop && !legs[0].closed && !legs[0].full_cycle && !legs[0].failed)
+    out.events.push_back({samples.empty() ? start_value : samples.back().value, PoseStatus::ok,
+                          "the loop did not close within the sweep's reach; the sweep ends here"});
+  return true;
+}
+
+// The sweep by driver-parametrised continuation (the Follower), over the driver values of a
+// polynomial or table law, or of an explicit range.
+Trajectory follower_sweep(const Mechanism& mechanism, const SweepOptions& options,
+                          const NewtonSolver& solver, KinematicState& state,
+                          const SolveReport& assembled) {
+  const Driver& d = mechanism.swept();
+  const double small = min_step(solver, 1e-10);
+
+  std::vector<DriverState> drivers;
+  double max_step = default_step(mechanism, options);
+  std::string note;
+  if (d.law.kind != MotionLaw::Kind::constant_speed) {
+    // Equal time steps over the law's duration.
+    const int n = static_cast<int>(std::lround(2.0 * kPi / (kPi / 180.0)));
+    for (int k = 0; k <= n; ++k) drivers.push_back(d.at_time(d.law.duration * k / n));
+    if (max_step == 0.0) max_step = mechanism.size() / 50.0;
+  } else {
+    std::optional<std::pair<double, double>> interval = options.range ? options.range : d.range;
+    bool full = false;
+    if (!interval && assembled.status != PoseStatus::cannot_assemble) {
+      const AssemblingRange range = assembling_range(mechanism, options);
+      full = range.full_cycle && d.angular();
+      if (!full) interval = std::make_pair(range.lower, range.upper);
+    }
+    if (!d.angular() && max_step == 0.0 && interval)
+      max_step = (interval->second - interval->first) / 360.0;
+    const double direction = d.law.speed > 0 ? 1.0 : -1.0;
+    if (full || !interval) {
+      const int n = static_cast<int>(std::lround(2.0 * kPi / max_step));
+      for (int k = 0; k <= n; ++k)
+        drivers.push_back(constant_speed_state(d, d.start + direction * k * max_step));
+    } else if (options.range || d.range) {
+      // The range's grid and its own ends, in the driver's direction of motion.
+      for (const double value :
+           range_grid(d.start, max_step, interval->first, interval->second).values())
+        drivers.push_back(constant_speed_state(d, value));
+      if (direction < 0) std::reverse(drivers.begin(), drivers.end());
+    } else {
+      // The grid start + k*step inside the interval, in the driver's direction of motion.
+      const auto [lo, hi] = *interval;
+      const long k_lo = static_cast<long>(std::ceil((lo - d.start) / max_step - 1e-9));
+      const long k_hi = static_cast<long>(std::floor((hi - d.start) / max_step + 1e-9));
+      for (long k = k_lo; k <= k_hi; ++k)
+        drivers.push_back(constant_speed_state(d, d.start + k * max_step));
+      if (direction < 0) std::reverse(drivers.begin(), drivers.end());
+    }
+  }
+
+  Trajectory out;
+  out.method = "newton";
+  out.resize(mechanism, static_cast<int>(drivers.size()), true);
+  if (assembled.status == PoseStatus::cannot_assemble ||
+      assembled.status == PoseStatus::no_convergence)
+    out.events.push_back({d.start, assembled.status, assembled.message});
+  sweep_values(solver, state, assembled, drivers, std::min(max_step, continuation_step(mechanism)),
+               small, out);
+  // Without a traced curve, the best condition along the sweep is its samples'.
+  drop_rates_beside_singular(out);
+  std::stable_sort(out.events.begin(), out.events.end(),
+                   [](const auto& a, const auto& b) { return a.driver < b.driver; });
+  return out;
+}
+
+}  // namespace
+
+RangeGrid range_grid(double start, double step, double lower, double upper) {
+  RangeGrid g{start, step, lower, upper};
+  g.first = std::ceil((lower - start) / step - 1e-9);
+  g.last = std::floor((upper - start) / step + 1e-9);
+  // A grid value at an end, to 1e-9 of a step or the values' round-off, is that end (compared
+  // as values: an index near 1e9 has no room for 1e-9 of it).
+  const double near =
+      1e-9 * step + 8.0 * std::numeric_limits<double>::epsilon() *
+                        std::max({std::abs(start), std::abs(lower), std::abs(upper)});
+  if (start + g.first * step - lower < near) ++g.first;
+  if (upper - (start + g.last * step) < near) --g.last;
+  return g;
+}
+
+std::vector<double> RangeGrid::values() const {
+  std::vector<double> out = {lower};
+  for (double k = first; k <= last; ++k) out.push_back(start + k * step);
+  out.push_back(upper);
+  return out;
+}
+
+std::string_view to_string(SingularKind kind) {
+  switch (kind) {
+    case SingularKind::toggle:
+      return "toggle";
+    case SingularKind::change_point:
+      return "change_point";
+    case SingularKind::branch_jump:
+      return "branch_jump";
+  }
+  return "?";
+}
+
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
+                 std::vector<SingularPosition>& singular) {
+  const NewtonSolver solver(mechanism, options.newton);
+  KinematicState state(mechanism);
+  const SolveReport assembled = solver.assemble(state);
+  if (mechanism.axis().timed()) {
+    // 360 equal intervals of the longest cycle (one sample when every driver is at rest).
+    const double period = mechanism.cycle_period();
+    const int intervals = period > 0.0 ? 360 : 0;
+    std::vector<double> times;
+    for (int k = 0; k <= intervals; ++k) times.push_back(period * k / intervals);
+    return timed_sweep(solver, state, assembled, times);
+  }
+  const Driver& d = mechanism.swept();
+  const bool assembles =
+      assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular;
+  if (assembles) settle_start(solver, state);
+  if (assembles && d.law.kind == MotionLaw::Kind::constant_speed) {
+    Trajectory out;
+    out.method = "newton";
+    const Eigen::VectorXd q_start = state.q;
+    if (traced_sweep(mechanism, options, solver, state, out, singular,
+                     options.range ? options.range : d.range))
+      return out;
+    state.q = q_start;
+    state.swept() = d.at_time(0.0);
+    solver.solve_position(state);
+  }
+  return follower_sweep(mechanism, options, solver, state, assembled);
+}
+
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {
+  std::vector<SingularPosition> singular;
+  return sweep(mechanism, options, singular);
+}
+
+void SkippedTurns::move_on(const Mechanism& mechanism, double driver_value,
+                           Trajectory& pose) const {
+  if (turns == 0) return;
+  pose.angle.row(0) += static_cast<double>(std::abs(turns)) * link_turn.transpose();
+  const auto swept = static_cast<Eigen::Index>(pose.axis.driver);
+  for (Trajectory::Event& e : pose.events) e.driver += driver_value - pose.driver_values(0, swept);
+  pose.driver_values(0, swept) = driver_value;
+  pose.time(0) = constant_speed_state(mechanism.swept(), driver_value).time;
+}
+
+SkippedTurns skipped_turns(const Mechanism& mechanism, double driver_value,
+                           const SweepOptions& options) {
+  if (mechanism.axis().timed()) return {};  // in time: no driver's turns to skip
+  const Driver& d = mechanism.swept();
+  if (!d.angular() || d.law.kind != MotionLaw::Kind::constant_speed) return {};
+  const double turns = std::trunc((driver_value - d.start) / (2.0 * kPi));
+  if (std::abs(turns) < 2.0) return {};  // within two turns: nothing to gain
+  const Trajectory a = solve_at(mechanism, d.start, options);
+  const Trajectory b = solve_at(mechanism, d.start + std::copysign(2.0 * kPi, turns), options);
+  if (!usable(a.status[0]) || !usable(b.status[0])) return {};
+  // The same pose one turn on: every point and slider where it was, every link turned by whole
+  // turns.
+  const auto apart = [](const Eigen::MatrixXd& u, const Eigen::MatrixXd& v) {
+    return u.size() == 0 ? 0.0 : (u - v).cwiseAbs().maxCoeff();
+  };
+  const double near = 1e-9 * mechanism.size();
+  if (!(apart(a.x, b.x) <= near && apart(a.y, b.y) <= near && apart(a.s, b.s) <= near)) return {};
+  SkippedTurns out{static_cast<long>(turns), Eigen::VectorXd(a.angle.cols())};
+  for (Eigen::Index l = 0; l < a.angle.cols(); ++l) {
+    const double whole = (b.angle(0, l) - a.angle(0, l)) / (2.0 * kPi);
+    if (!(std::abs(whole - std::round(whole)) <= 1e-9)) return {};
+    out.link_turn(l) = std::round(whole) * 2.0 * kPi;  // over one turn the way it goes
+  }
+  return out;
+}
+
+Trajectory solve_at(const Mechanism& mechanism, double driver_value, const SweepOptions& options) {
+  if (mechanism.axis().timed()) {  // the value is a time: the drivers followed up to it
+    if (!(driver_value >= 0.0))
+      throw std::invalid_argument(fmt::format(
+          "with several drivers the value is a time, from 0 s (here {:g} s)", driver_value));
+    const NewtonSolver solver(mechanism, options.newton);
+    KinematicState state(mechanism);
+    const SolveReport assembled = solver.assemble(state);
+    return timed_sweep(solver, state, assembled, {driver_value});
+  }
+  // A driver that turns fully is at the same pose a whole number of turns nearer its start:
+  // solved there, its links' angles moved on by their turns (a reference at 5e9 degrees took
+  // 1.5 h of continuation).
+  if (const SkippedTurns skip = skipped_turns(mechanism, driver_value, options); skip.turns != 0) {
+    Trajectory out = solve_at(mechanism, driver_value - skip.driver_shift(), options);
+    skip.move_on(mechanism, driver_value, out);
+    return out;
+  }
+  const Driver& d = mechanism.swept();
+  const NewtonSolver solver(mechanism, options.newton);
+  KinematicState state(mechanism);
+  const SolveReport assembled = solver.assemble(state);
+  if (assembled.status == PoseStatus::ok || assembled.status == PoseStatus::singular)
+    settle_start(solver, state);
+  DriverState target = constant_speed_state(d, driver_value);
+  if (d.law.kind != MotionLaw::Kind::constant_speed) {
+    // The first time in the law's cycle at which it passes the value (bisection on a bracket).
+    const int n = 3600;
+    target = d.at_time(0.0);
+    for (int k = 0; k < n; ++k) {
+      double t0 = d.law.duration * k / n, t1 = d.law.duration * (k + 1) / n;
+      double v0 = d.at_time(t0).value - driver_value, v1 = d.at_time(t1).value - driver_value;
+      if (v0 == 0.0 || v0 * v1 < 0.0) {
+        for (int i = 0; i < 100 && v0 != 0.0; ++i) {
+          const double tm = 0.5 * (t0 + t1), vm = d.at_time(tm).value - driver_value;
+          if ((vm < 0) == (v0 < 0)) {
+            t0 = tm;
+            v0 = vm;
+          } else {
+            t1 = tm;
+          }
+        }
+        target = d.at_time(t0);
+        target.value = driver_value;
+        break;
+      }
+    }
+  }
+  double max_step = default_step(mechanism, options);
+  if (max_step == 0.0) max_step = mechanism.size() / 50.0;
+  Trajectory out;
+  out.method = "newton";
+  out.resize(mechanism, 1, true);
+  sweep_values(solver, state, assembled, {target}, std::min(max_step, continuation_step(mechanism)),
+               min_step(solver, 1e-10), out);
+  return out;
+}
+
+}  // namespace crosslink
