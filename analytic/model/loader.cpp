@@ -5,6 +5,8 @@
 namespace crosslink {
 namespace loading {
 
+namespace {
+
 // [[branch]]: an assembly mode by name, `points` = three named points, `turn` = "ccw" | "cw"
 // (BranchChoice).
 void read_branches(Reader& r, Mechanism& m, const toml::table& root) {
@@ -355,6 +357,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   return m;
 }
 
+}  // namespace
 }  // namespace loading
 
 using loading::read;

@@ -2,6 +2,8 @@
 
 namespace crosslink::loading {
 
+namespace {
+
 // A polynomial or table law must stay within the magnitudes of a driver, its rates and
 // accelerations too, at every time the solvers evaluate it: the sweep's 361 samples and the
 // 3601-point grid `solve --at` searches (both equal divisions of the duration).
@@ -297,6 +299,8 @@ std::string driven_thing(const Mechanism& m, const Driver& d) {
   return d.joint >= 0 ? fmt::format("joint '{}'", m.joints[d.joint].name) : "";
 }
 
+}  // namespace
+
 // [driver], or [[driver]] tables: several drivers, each named (docs/mechanism-format.md,
 // "Several drivers").
 void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
@@ -382,6 +386,8 @@ void read_drivers(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+namespace {
+
 // With several drivers the sweep runs in time: what reads a sweep over one driver's values is
 // refused at its key.
 // The first driver whose row of the constraint Jacobian at q is a combination of the joints'
@@ -441,6 +447,8 @@ int first_locked_driver(const Mechanism& m, const ConstraintLayout& layout,
   return -1;
 }
 
+}  // namespace
+
 // A chain that Grübler–Kutzbach counts as mobile can still be locked: a planetary train whose
 // sun mesh is moved onto the ground meshes the planet with two fixed gears that disagree, which
 // holds the arm (the driver) still and leaves the sun free; the count sees 1 and the sweep
@@ -492,6 +500,8 @@ bool refused_in_time(Reader& r, const Mechanism& m, const toml::array& tables,
   for (const toml::node& entry : tables) refused_in_time(r, m, r.at(*entry.as_table()), message);
   return true;
 }
+
+namespace {
 
 // One driver's free coordinate in [dynamics] (the one-driver form) or [dynamics.<name>] (`what`):
 // its initial rate and applied effort. The coordinate's kinematic view (check, solve, compare) is
@@ -547,6 +557,8 @@ FreeCoordinate read_free_coordinate(Reader& r, const Mechanism& m, Driver& d, co
   d.law.speed = c.rate != 0.0 ? c.rate : 1.0;
   return c;
 }
+
+}  // namespace
 
 // [dynamics]: a forward-dynamics case. With one driver its coordinate's keys are [dynamics]'s;
 // with several, each driver's are in [dynamics.<name>] (a driver without one starts at rest and

@@ -2,6 +2,8 @@
 
 namespace crosslink::loading {
 
+namespace {
+
 // A link's `mass`, `com` and `inertia`: all three or none (then the default model, filled in
 // once the mechanism's size is known).
 void read_mass(Reader& r, const toml::table& t, const Units& units, Link& link) {
@@ -200,6 +202,8 @@ void read_points(Reader& r, const toml::table& points, const Units& units, Link&
       link.points.push_back({p->first, p->second, r.at(node)});
 }
 
+}  // namespace
+
 // Reads one [[link]] entry.
 Link read_link(Reader& r, const toml::table& t, const Units& units, int index) {
   Link link;
@@ -325,10 +329,14 @@ int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* nod
   return index;
 }
 
+namespace {
+
 // A link's frame in the world as drawn (the origin where no pose is given).
 Eigen::Vector3d drawn_pose(const Link& link) {
   return link.pose.value_or(Eigen::Vector3d::Zero());
 }
+
+}  // namespace
 
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
   Joint joint;
@@ -415,6 +423,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
   return joint;
 }
 
+namespace {
+
 Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local) {
   const Eigen::Vector3d p = drawn_pose(link);
   return p.head<2>() + Eigen::Rotation2Dd(p(2)) * local;
@@ -443,6 +453,8 @@ int gear_centre(Reader& r, const Mechanism& m, int gear, int carrier, const toml
                             join(names)));
   return -1;
 }
+
+}  // namespace
 
 // A gear pair's or a rack and pinion's links, centres, pitch radii, ratio and phase
 // (docs/mechanism-format.md, "Gear pairs"), once every joint is read: a rack names its slide.

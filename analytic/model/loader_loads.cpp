@@ -2,6 +2,8 @@
 
 namespace crosslink::loading {
 
+namespace {
+
 // A point given as `point = "P"` (a named point of the link) or `at = [x, y]` (local, file
 // units) in table `t`. Returns false (after an error) when neither or both are there.
 bool read_place(Reader& r, const Mechanism& m, const toml::table& t, int link,
@@ -32,6 +34,8 @@ bool read_place(Reader& r, const Mechanism& m, const toml::table& t, int link,
   local = Eigen::Vector2d((*xy)[0], (*xy)[1]);
   return true;
 }
+
+}  // namespace
 
 // [[load]]: a force at a point of a link or a torque on a link, constant or a table over the
 // driver coordinate.

@@ -2,6 +2,8 @@
 
 namespace crosslink::loading {
 
+namespace {
+
 // "Q", "Q.field": the [[derived]] quantities and their fields, for a message.
 std::string derived_names(const Mechanism& m) {
   std::string out;
@@ -93,6 +95,8 @@ std::string driven_channel(const Mechanism& m) {
   }
   return "";
 }
+
+}  // namespace
 
 // [[derived]]: a quantity read off the sweep (analytic/derived/derived.h), named for [[reference]]
 // and [expect.derived].
@@ -342,6 +346,8 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   }
 }
 
+namespace {
+
 // Every channel a method writes for the mechanism, its forces' included; none while the definition
 // has errors (the mechanism may be incomplete: each was reported already).
 std::vector<std::string> channels_of(const Reader& r, const Mechanism& m) {
@@ -350,6 +356,8 @@ std::vector<std::string> channels_of(const Reader& r, const Mechanism& m) {
   shape.resize(m, 0, true);
   return shape.channel_names();
 }
+
+}  // namespace
 
 void read_references(Reader& r, Mechanism& m, const toml::table& root) {
   const toml::array* array = r.tables(root, "reference", limits::kReferences);

@@ -173,7 +173,8 @@ class Reader {
       return std::nullopt;
     }
     const double si = *value * scale.si;
-    const std::string unit = scale.unit.empty() ? "" : " " + std::string(scale.unit);
+    // (fmt, not " " + string: GCC 12 warns -Wrestrict, a false positive, on the inlined +)
+    const std::string unit = scale.unit.empty() ? "" : fmt::format(" {}", scale.unit);
     if (!(std::abs(si) <= scale.largest)) {
       error(at(node), fmt::format("{} = {}{} is too large: the limit is {:g}{}", what, *value, unit,
                                   scale.largest / scale.si, unit));
