@@ -1,7 +1,7 @@
 // The four engines at equal accuracy, in one run: each engine at its cheapest setting meeting the
-// same accuracy on the same case, its cost per simulated second (docs/engines-measured.md, "Cost at equal
-// accuracy"). The case is the driven crank-rocker four-bar under its own loads (a 0.04, b 0.12,
-// c 0.08, d 0.10 m, 240 rpm: 0.25 s of simulated time per run, sampled every degree); the
+// same accuracy on the same case, its cost per simulated second (docs/engines-measured.md, "Cost at
+// equal accuracy"). The case is the driven crank-rocker four-bar under its own loads (a 0.04, b
+// 0.12, c 0.08, d 0.10 m, 240 rpm: 0.25 s of simulated time per run, sampled every degree); the
 // accuracy 0.1 % of peak on every quantity class the sweep measures (position, velocity,
 // acceleration, the forces an engine reads). The settings are the picks of
 //

@@ -2,12 +2,13 @@
 // the shaking force of each engine, worst % of the exact value's peak (sim::force_agreement), and
 // the wall time per simulated cycle, for every kinematic mechanisms/*.toml and
 // mechanisms/published/*.toml without and with gravity, at the
-// defaults and over the stabilisation and the step. Prints CSV (docs/engines-measured.md, "Forces"). Run
-// from the source root:
+// defaults and over the stabilisation and the step. Prints CSV (docs/engines-measured.md,
+// "Forces"). Run from the source root:
 //   build/bench/force_accuracy            defaults only
 //   build/bench/force_accuracy --sweep    also the stabilisation and step series
 //   build/bench/force_accuracy --sweep fourbar_crank_rocker
-//                                         one mechanism (the four engines' chart, docs/engines-measured.md)
+//                                         one mechanism (the four engines' chart,
+//                                         docs/engines-measured.md)
 #include <fmt/format.h>
 
 #include <algorithm>

@@ -7,8 +7,8 @@
 #include <string_view>
 #include <vector>
 
-#include "analytic/model/trajectory.h"
 #include "analytic/model/run_record.h"
+#include "analytic/model/trajectory.h"
 
 namespace crosslink::compare {
 

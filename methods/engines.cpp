@@ -14,9 +14,9 @@ namespace {
 
 // Kinematic cases. Positions, angles, velocities, accelerations: closed loops stepped against the
 // exact sweep. Forces and torques: measured at the engines' defaults over every bundled
-// mechanism, without and with gravity (bench/force_accuracy, docs/engines-measured.md "Forces"), worst
-// channel: MuJoCo 0.014 %, Bullet 0.21 % (polycentric hinge near its limits; 0.10 % elsewhere).
-// Energy: only dynamics cases have energy channels.
+// mechanism, without and with gravity (bench/force_accuracy, docs/engines-measured.md "Forces"),
+// worst channel: MuJoCo 0.014 %, Bullet 0.21 % (polycentric hinge near its limits; 0.10 %
+// elsewhere). Energy: only dynamics cases have energy channels.
 constexpr compare::ClassTolerances kKinematic = {1e-2, 1e-2, 0.1, 1.0, 0.05, 0.05, 1e-2};
 // Forward dynamics (docs/dynamics.md, "Engines"). A run's error is mostly a phase error that
 // grows along it and shows in positions, velocities and accelerations alike (measured within

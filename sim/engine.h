@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "analytic/model/mechanism.h"
-#include "analytic/model/trajectory.h"
 #include "analytic/model/run_record.h"
+#include "analytic/model/trajectory.h"
 #include "sim/settings.h"
 
 namespace crosslink::sim {

@@ -1,5 +1,5 @@
-// The run loop every engine's kinematic run shares (docs/decisions.md, "Run loop"): the plan (usable
-// span, step grid, pre-roll, exact start), the steps (drive, loads, step, read, watch), the
+// The run loop every engine's kinematic run shares (docs/decisions.md, "Run loop"): the plan
+// (usable span, step grid, pre-roll, exact start), the steps (drive, loads, step, read, watch), the
 // samples written as soon as their stencils are complete (positions, rates and forces from a ring
 // of the last poses: memory does not grow with the steps), the statuses, the notes and the cost.
 // An engine supplies only a KinematicScene: its scene built at the plan's start, stepped.

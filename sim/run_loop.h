@@ -8,8 +8,8 @@
 #include <chrono>
 #include <vector>
 
-#include "analytic/model/trajectory.h"
 #include "analytic/model/run_record.h"
+#include "analytic/model/trajectory.h"
 #include "sim/sampling.h"
 
 namespace crosslink::sim {

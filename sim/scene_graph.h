@@ -2,7 +2,8 @@
 // block per pin-in-slot), the joints between them, the spanning tree an engine with joint
 // coordinates realises, the loop joints it leaves out of the tree (cuts, closed by a constraint)
 // and the driven coordinates. Every topology decision is made here, once; an engine translates
-// the graph into its own model and decides nothing about topology (docs/decisions.md, "Scene graph").
+// the graph into its own model and decides nothing about topology (docs/decisions.md, "Scene
+// graph").
 #pragma once
 
 #include <Eigen/Core>
@@ -104,7 +105,8 @@ int reduce_couplings(const std::vector<std::vector<std::pair<int, double>>>& row
                      CouplingRows& out);
 
 // How an engine's tree is to be grown: each choice below is where the two engines' models differ,
-// kept because changing either would change that engine's numbers (docs/decisions.md, "Scene graph").
+// kept because changing either would change that engine's numbers (docs/decisions.md, "Scene
+// graph").
 struct TreePolicy {
   // After the driven joint and the slides, the hinges to the ground before the others (Bullet's
   // multibody: each ground pivot roots its own multibody).

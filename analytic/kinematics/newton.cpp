@@ -41,11 +41,6 @@ void KinematicState::set_parameter(const Mechanism& mechanism, double p) {
     swept().value = p;
 }
 
-size_t KinematicState::swept_index() const {
-  if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
-  return static_cast<size_t>(axis.driver);
-}
-
 void KinematicState::drive_at(const Mechanism& mechanism, double t) {
   for (size_t d = 0; d < drivers.size(); ++d) drivers[d] = mechanism.drivers[d].at_time(t);
 }

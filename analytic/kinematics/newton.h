@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -122,7 +123,10 @@ struct KinematicState {
   Eigen::VectorXd cos_theta, sin_theta;
 
  private:
-  size_t swept_index() const;
+  size_t swept_index() const {
+    if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
+    return static_cast<size_t>(axis.driver);
+  }
 };
 
 class NewtonSolver {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <stdexcept>
 #include <utility>
 
 namespace crosslink {
@@ -141,11 +140,6 @@ void Trajectory::resize_as(const Mechanism& mechanism, const Trajectory& referen
   if (energy) add_energy();
   time = reference.time;
   driver_values = reference.driver_values;
-}
-
-double Trajectory::swept(int row) const {
-  if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
-  return driver_values(row, axis.driver);
 }
 
 bool Trajectory::beside_singular(int row) const {

@@ -39,6 +39,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -106,7 +107,10 @@ struct Trajectory {
   Eigen::MatrixXd driver_values;
   // The swept driver's value at sample `row` [rad or m]; a sweep in time has none
   // (std::logic_error).
-  double swept(int row) const;
+  double swept(int row) const {
+    if (axis.timed()) throw std::logic_error("a sweep in time has no swept driver");
+    return driver_values(row, axis.driver);
+  }
   // The sweep's parameter at sample `row`: the swept driver's value [rad or m], or the time [s].
   double along(int row) const { return axis.timed() ? time(row) : swept(row); }
   // A sample's `driver` field and column (docs/json.md): the swept driver's value, and in a sweep

@@ -126,9 +126,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   };
   Trajectory out;
   out.method = "dyads";
-  out.resize(mechanism, grid.samples(), forces);
-  out.time = grid.time;
-  out.driver_values = grid.driver_values;
+  out.resize_as(mechanism, grid, forces);
   Decomposition decomposition = decompose(mechanism);
   const NewtonSolver newton(mechanism);
   KinematicState assembled(mechanism);
@@ -210,12 +208,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
       // to round-off, where continuity cannot tell the two assemblies apart either. Its pose is
       // the root nearest the reference's, and the march goes on from the last pose it solved.
       DyadState side = state;
-      if (timed) {
-        reference.drive_at(mechanism, grid.time(row));
-      } else {
-        reference.swept() = DriverState{};
-        reference.swept().value = grid.swept(row);
-      }
+      reference.set_parameter(mechanism, grid.along(row));
       solver.set_modes(reference, side);
       side.kinematics.set_parameter(mechanism, grid.along(row));
       SolveReport r = solver.solve_position(side);
@@ -300,10 +293,7 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
   if (first >= 0 && drawn_clear) {
     // (the march to it starts from the drawing)
   } else if (first >= 0 && coordinates_of(mechanism, grid, first, reference.q)) {
-    if (timed)
-      reference.drive_at(mechanism, grid.time(first));
-    else
-      reference.swept().value = grid.swept(first);
+    reference.set_parameter(mechanism, grid.along(first));
     solver.set_modes(reference, state);
   } else {
     first = 0;

@@ -21,12 +21,12 @@
 namespace crosslink::sim {
 namespace {
 
-// Worst % of peak, measured at the defaults by bench/force_accuracy (docs/engines-measured.md, "Forces"),
-// over every sample the reference trusts (analytic/reference/trust.h): MuJoCo at most 0.029 % (the
-// Jansen leg's pin E); Bullet at most 0.21 % (the polycentric hinge's pin H, near the ends of its
-// range, which the absolute conditioning limit of 1e-2 kept out until the trust issue: 0.091 %
-// was measured without them) and 0.09 % on the linkages that never near a singular position;
-// the Jansen leg at half Bullet's default step (below); ODE as Bullet; Simbody at most
+// Worst % of peak, measured at the defaults by bench/force_accuracy (docs/engines-measured.md,
+// "Forces"), over every sample the reference trusts (analytic/reference/trust.h): MuJoCo at most
+// 0.029 % (the Jansen leg's pin E); Bullet at most 0.21 % (the polycentric hinge's pin H, near the
+// ends of its range, which the absolute conditioning limit of 1e-2 kept out until the trust issue:
+// 0.091 % was measured without them) and 0.09 % on the linkages that never near a singular
+// position; the Jansen leg at half Bullet's default step (below); ODE as Bullet; Simbody at most
 // 5.3e-5 % on the bundled linkages (Khurmi's slider-crank under gravity, pin O) and 3.4e-4 %
 // loaded (the quick return's pin B; 2026-12-02). Every engine of the engine table has one: a new
 // engine is measured before it is held to a number.

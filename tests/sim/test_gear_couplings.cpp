@@ -2,8 +2,8 @@
 // against the exact solution (analytic/kinematics/newton.h holds each coupling to its tolerance;
 // the mesh force is the exact kinetostatics' tooth force, checked by power balance and Newton-Euler
 // in test_kinetostatics): how far each engine holds the ratio, and its mesh force, at its defaults.
-// Measured by bench/gear_accuracy (docs/engines-measured.md, "Gear couplings: drift and mesh force against
-// the step").
+// Measured by bench/gear_accuracy (docs/engines-measured.md, "Gear couplings: drift and mesh force
+// against the step").
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -78,7 +78,8 @@ TEST(Bullet, PolycentricHingeRunsWithItsLinkAngleDriver) {
   EXPECT_EQ(run.trajectory.status.back(), ref.status.back());
   EXPECT_NE(run.message.find("usable samples"), std::string::npos) << run.message;
   // As the comparator: a sample next to a singular one is not in the verdict (there the start
-  // from rest leaves Bullet's one-sided end samples 11 % and 2 % off in alpha; docs/engines-measured.md).
+  // from rest leaves Bullet's one-sided end samples 11 % and 2 % off in alpha;
+  // docs/engines-measured.md).
   Trajectory judged = run.trajectory;
   for (int i = 0; i < ref.samples(); ++i)
     for (int j : {i - 1, i + 1})
