@@ -1,5 +1,6 @@
 // `crosslink check FILE`: the validation report of a definition.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <numbers>
@@ -131,6 +132,26 @@ void print_physics(const Mechanism& m, std::string& out) {
         m.links[static_cast<size_t>(s.link_b)].name, s.point_b, s.stiffness * L / m.units.force,
         m.units.force_name, m.units.length_name, s.free_length / L, m.units.length_name,
         s.damping * L / m.units.force, m.units.force_name, m.units.length_name);
+  for (int ji : m.friction_joints()) {
+    const Joint& j = m.joints[static_cast<size_t>(ji)];
+    const JointFriction& f = *j.friction;
+    const double F = m.units.force;
+    std::vector<std::string> parts;
+    if (f.coefficient > 0.0 && !j.is_slide())
+      parts.push_back(fmt::format("mu {:g} on a pin of radius {:g} {} (friction circle {:.6g} {})",
+                                  f.coefficient, f.radius / L, m.units.length_name,
+                                  f.coefficient * f.radius / L, m.units.length_name));
+    if (f.coefficient > 0.0 && j.is_slide())
+      parts.push_back(f.length > 0.0 ? fmt::format("mu {:g} over a bearing {:g} {} long",
+                                                   f.coefficient, f.length / L, m.units.length_name)
+                                     : fmt::format("mu {:g} at a point contact", f.coefficient));
+    if (f.constant > 0.0)
+      parts.push_back(j.is_slide()
+                          ? fmt::format("{:.6g} {} constant", f.constant / F, m.units.force_name)
+                          : fmt::format("{:.6g} {} {} constant", f.constant / (F * L),
+                                        m.units.force_name, m.units.length_name));
+    out += fmt::format("  friction at {}: {}\n", j.name, fmt::join(parts, " + "));
+  }
 }
 
 // Singular positions over the sweep (at_limit = stop) and, for four-bars, the Grashof class and

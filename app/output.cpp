@@ -30,7 +30,7 @@ nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
       f["drivers"][t.driver_names[d]] = t.effort(row, static_cast<Eigen::Index>(d));
   }
   f["joints"] = nlohmann::json::object();
-  size_t slide = 0;
+  size_t slide = 0, friction = 0;
   for (size_t j = 0; j < m.joints.size(); ++j) {
     const auto c = static_cast<Eigen::Index>(j);
     nlohmann::json joint = {{"fx", t.fx(row, c)}, {"fy", t.fy(row, c)}};
@@ -39,6 +39,8 @@ nlohmann::json forces_json(const Mechanism& m, const Trajectory& t, int row) {
       joint["fn"] = t.fn(row, s);
       if (m.joints[j].type == JointType::prismatic) joint["moment"] = t.moment(row, s);
     }
+    if (m.joints[j].friction)
+      joint["friction"] = t.friction(row, static_cast<Eigen::Index>(friction++));
     f["joints"][m.joints[j].name] = joint;
   }
   f["shaking"] = {

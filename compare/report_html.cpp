@@ -97,17 +97,21 @@ json rounded(const Eigen::VectorXd& v, double scale) {
 }
 
 // A channel of a trajectory, null where its sample has no such value: a gap in the chart,
-// never a number drawn as 0. The reference's singular samples keep their positions; another
+// never a number drawn as 0. The reference's flagged samples keep their positions; another
 // method's flagged sample may hold no value of its own (an engine's sample outside its run keeps
-// the reference's flag), so it is drawn only where usable.
-json channel_values(const Trajectory& t, const std::string& name, double scale, bool reference) {
+// the reference's flag), so it is drawn only where usable, and where the reference's is (which
+// the verdicts keep out: a sample whose friction the motion does not determine has the dyads'
+// poses, but nothing to hold them against).
+json channel_values(const Trajectory& t, const std::string& name, double scale,
+                    const Trajectory* reference) {
   const Eigen::VectorXd v = *t.channel(name);  // channel() returns the column by value
   const Quantity q = Trajectory::quantity_of(name);
   json a = json::array();
   for (Eigen::Index k = 0; k < v.size(); ++k) {
-    const PoseStatus s = t.status[static_cast<size_t>(k)];
-    a.push_back((reference ? value_exists(s, q) : usable(s)) ? json(round7(v(k) / scale))
-                                                             : json(nullptr));
+    const auto ks = static_cast<size_t>(k);
+    const PoseStatus s = t.status[ks];
+    const bool shown = reference ? usable(s) && usable(reference->status[ks]) : value_exists(s, q);
+    a.push_back(shown ? json(round7(v(k) / scale)) : json(nullptr));
   }
   return a;
 }
@@ -270,7 +274,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
     const DisplayUnit u = display_unit(m, name);
     json ch;
     ch["unit"] = u.name;
-    ch["ref"] = channel_values(ref, name, u.scale, true);
+    ch["ref"] = channel_values(ref, name, u.scale, nullptr);
     ch["methods"] = json::object();
     double worst = -1.0;
     std::string label = name + " [" + u.name + "]";
@@ -281,7 +285,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
       // Why each sample is kept out of the verdict (null where it is in): the chart's bands.
       for (const std::string& why : c->metrics.reason)
         out.push_back(why.empty() ? json() : json(why));
-      ch["methods"][c->method] = {{"v", channel_values(run.trajectory, name, u.scale, false)},
+      ch["methods"][c->method] = {{"v", channel_values(run.trajectory, name, u.scale, &ref)},
                                   {"p", rounded(c->metrics.pct_of_peak, 1.0)},
                                   {"in", in},
                                   {"out", out}};

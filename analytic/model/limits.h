@@ -58,5 +58,8 @@ constexpr double kTorque = 1e12;   // N m: loads, [dynamics] efforts on a turnin
 constexpr double kStiffness = 1e15;  // N/m
 constexpr double kDamping = 1e12;    // N s/m
 constexpr double kGravity = 1e6;     // m/s^2
+// Joint friction: Coulomb coefficients of dry and lubricated pairs are below 1.5 (rubber on dry
+// asphalt is near 1); 10 is no material's.
+constexpr double kFrictionCoefficient = 10.0;
 
 }  // namespace crosslink::limits

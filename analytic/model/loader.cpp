@@ -353,6 +353,7 @@ Mechanism read(Reader& r, const toml::table& root, const std::string& file) {
   read_expect(r, m, root);
   read_branches(r, m, root);
   check_locked(r, m);
+  check_friction(r, m);
   r.throw_if_any();
   return m;
 }

@@ -336,6 +336,70 @@ Eigen::Vector3d drawn_pose(const Link& link) {
   return link.pose.value_or(Eigen::Vector3d::Zero());
 }
 
+// A joint's `friction = { ... }` (docs/mechanism-format.md, "Joint friction"): a Coulomb
+// coefficient with the pin's radius (revolute) or the slider's bearing length (prismatic,
+// optional), and a load-independent torque or force.
+void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& joint,
+                   const std::string& what) {
+  const toml::node* node = t.get("friction");
+  if (!node) return;
+  if (!joint.is_slide() && joint.type != JointType::revolute) return;
+  if (joint.type == JointType::pin_in_slot) {
+    r.error(r.at(*node),
+            fmt::format("{}: friction on a pin in a slot is not modelled (its contact rolls and "
+                        "slides at once): model the pin as a block on a prismatic joint",
+                        what));
+    return;
+  }
+  const auto* table = node->as_table();
+  if (!table) {
+    r.error(r.at(*node), fmt::format("'friction' in {} must be a table, e.g. friction = {{ "
+                                     "coefficient = 0.1, {} }}",
+                                     what, joint.is_slide() ? "length = 20" : "radius = 5"));
+    return;
+  }
+  const bool revolute = joint.type == JointType::revolute;
+  const std::string fwhat = fmt::format("the friction of {}", what);
+  const char* constant_key = revolute ? "torque" : "force";
+  r.known_keys(*table, fwhat,
+               {"coefficient", revolute ? "radius" : "length", std::string(constant_key)});
+  JointFriction f;
+  f.where = r.at(*node);
+  const Scale length = length_scale(m.units);
+  const std::optional<double> mu =
+      r.number(*table, "coefficient", fwhat, false, {1.0, "", limits::kFrictionCoefficient});
+  const std::optional<double> size =
+      r.number(*table, revolute ? "radius" : "length", fwhat, false, length);
+  const Scale constant_scale = revolute ? Scale{m.units.force * m.units.length, "", limits::kTorque}
+                                        : Scale{m.units.force, m.units.force_name, limits::kForce};
+  const std::optional<double> constant =
+      r.number(*table, constant_key, fwhat, false, constant_scale);
+  auto positive = [&](const char* key, std::optional<double> value, bool zero_ok) {
+    if (value && (*value < 0.0 || (!zero_ok && *value == 0.0)))
+      r.error(r.at(table->get(key)), fmt::format("'{}' in {} must be {}", key, fwhat,
+                                                 zero_ok ? "zero or positive" : "positive"));
+  };
+  positive("coefficient", mu, true);
+  positive(revolute ? "radius" : "length", size, false);
+  positive(constant_key, constant, true);
+  if (mu && !size && revolute)
+    r.error(
+        r.at(table->get("coefficient")),
+        fmt::format("{} needs 'radius': the pin's radius, whose friction circle mu r carries the "
+                    "coefficient's moment",
+                    fwhat));
+  if (!mu && size)
+    r.error(
+        r.at(table->get(revolute ? "radius" : "length")),
+        fmt::format("{} gives '{}' without 'coefficient'", fwhat, revolute ? "radius" : "length"));
+  if (!mu && !constant)
+    r.error(r.at(*node), fmt::format("{} needs 'coefficient' or '{}'", fwhat, constant_key));
+  f.coefficient = mu.value_or(0.0);
+  (revolute ? f.radius : f.length) = size.value_or(0.0);
+  f.constant = constant.value_or(0.0);
+  joint.friction = f;
+}
+
 }  // namespace
 
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
@@ -344,7 +408,7 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
   const std::string what = fmt::format("joint #{}", index + 1);
   const std::string type = r.string(t, "type", what, true).value_or("");
   if (type == "revolute") {
-    r.known_keys(t, what + " (revolute)", {"type", "name", "links", "point"});
+    r.known_keys(t, what + " (revolute)", {"type", "name", "links", "point", "friction"});
     joint.type = JointType::revolute;
     const toml::node* links = t.get("links");
     const auto* array = links ? links->as_array() : nullptr;
@@ -371,12 +435,14 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     if (joint.link_a >= 0 && joint.link_a == joint.link_b)
       r.error(r.at(*links),
               fmt::format("{} joins link '{}' to itself", what, m.links[joint.link_a].name));
+    read_friction(r, m, t, joint, fmt::format("{} ('{}')", what, joint.name));
     return joint;
   }
   if (type == "prismatic" || type == "pin_in_slot") {
     joint.type = type == "prismatic" ? JointType::prismatic : JointType::pin_in_slot;
     const std::string twhat = fmt::format("{} ({})", what, type);
-    std::vector<std::string> keys = {"type", "name", "guide", "line", "slider", "point"};
+    std::vector<std::string> keys = {"type",   "name",  "guide",   "line",
+                                     "slider", "point", "friction"};
     if (joint.type == JointType::prismatic) keys.push_back("angle");
     r.known_keys(t, twhat, keys);
     joint.link_a = resolve_link(r, m, t, "guide", twhat);
@@ -410,6 +476,7 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
             drawn_pose(m.links[joint.link_b])(2) - drawn_pose(m.links[joint.link_a])(2);
       }
     }
+    read_friction(r, m, t, joint, fmt::format("{} ('{}')", twhat, joint.name));
     return joint;
   }
   if (type == "gear" || type == "rack_pinion") {  // completed by read_gearing
@@ -471,10 +538,15 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
     joint.pressure_angle = *p;
   }
   const std::optional<double> phase = r.number(t, "phase", what, false, gear ? angle : length);
+  if (const toml::node* friction = t.get("friction"))
+    r.error(r.at(*friction),
+            fmt::format("{}: its teeth have no friction in crosslink (a mesh's sliding changes "
+                        "side at the pitch point); give friction at the gears' revolute joints",
+                        what));
   if (gear) {
-    r.known_keys(
-        t, what,
-        {"type", "name", "gears", "carrier", "teeth", "radii", "mesh", "phase", "pressure_angle"});
+    r.known_keys(t, what,
+                 {"type", "name", "gears", "carrier", "teeth", "radii", "mesh", "phase",
+                  "pressure_angle", "friction"});
     const toml::node* gears = t.get("gears");
     const auto* array = gears ? gears->as_array() : nullptr;
     if (!array || array->size() != 2 || !(*array)[0].is_string() || !(*array)[1].is_string()) {
@@ -570,7 +642,8 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
     return;
   }
 
-  r.known_keys(t, what, {"type", "name", "pinion", "rack", "radius", "phase", "pressure_angle"});
+  r.known_keys(t, what,
+               {"type", "name", "pinion", "rack", "radius", "phase", "pressure_angle", "friction"});
   joint.link_a = resolve_link(r, m, t, "pinion", what);
   const std::optional<std::string> rack = r.string(t, "rack", what, true);
   const std::optional<double> radius = r.number(t, "radius", what, true, length);
@@ -636,6 +709,61 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
   const double s = u.dot(drawn_point(rack_link, rack_link.points[slide.point_b].local) - origin);
   joint.phase = phase.value_or(
       s - joint.ratio * (drawn_pose(m.links[joint.link_a])(2) - drawn_pose(guide)(2)));
+}
+
+void check_friction(Reader& r, const Mechanism& m) {
+  const std::vector<int> friction = m.friction_joints();
+  if (friction.empty()) return;
+  const Joint& first = m.joints[static_cast<size_t>(friction.front())];
+  for (const Joint& j : m.joints)
+    if (j.is_gearing())
+      r.error(first.friction->where,
+              fmt::format("joint friction beside a gear pair ('{}') is not modelled yet: its "
+                          "tooth force's separating part makes the pivots' reactions piecewise",
+                          j.name));
+  if (m.dynamics)
+    r.error(first.friction->where,
+            "forward dynamics with joint friction ([dynamics]) is not modelled yet: its stick "
+            "and slip phases need events; the kinematic and kinetostatic commands take it");
+  const double unit = m.units.length;
+  const std::string& name = m.units.length_name;
+  const double size = m.size();
+  // A pin's journal must fit: no larger than the mechanism, and two journals on one link either
+  // side by side or one inside the other (an eccentric's sheave holds its shaft), never crossing.
+  for (size_t a = 0; a < m.joints.size(); ++a) {
+    const Joint& ja = m.joints[a];
+    if (!ja.friction || ja.type != JointType::revolute) continue;
+    const double ra = ja.friction->radius;
+    if (ra > size)
+      r.error(ja.friction->where,
+              fmt::format("the pin of joint '{}' (radius {:g} {}) is larger than the mechanism "
+                          "({:g} {} across)",
+                          ja.name, ra / unit, name, size / unit, name));
+    for (size_t b = a + 1; b < m.joints.size(); ++b) {
+      const Joint& jb = m.joints[b];
+      if (!jb.friction || jb.type != JointType::revolute) continue;
+      const double rb = jb.friction->radius;
+      for (const auto& [la, pa] : {std::pair{ja.link_a, ja.point_a}, {ja.link_b, ja.point_b}})
+        for (const auto& [lb, pb] : {std::pair{jb.link_a, jb.point_a}, {jb.link_b, jb.point_b}}) {
+          if (la != lb || pa < 0 || pb < 0) continue;
+          const Link& link = m.links[static_cast<size_t>(la)];
+          const double d = (link.points[static_cast<size_t>(pa)].local -
+                            link.points[static_cast<size_t>(pb)].local)
+                               .norm();
+          // (Round-off aside: an eccentric's sheave holding its shaft touches it inside.)
+          const double slack = 1e-9 * size;
+          if (d > std::abs(ra - rb) + slack && d < ra + rb - slack)
+            r.error(
+                jb.friction->where,
+                fmt::format("the pins of joints '{}' (radius {:g} {}) and '{}' (radius {:g} "
+                            "{}) cross on link '{}': their centres are {:g} {} apart, less "
+                            "than the {:g} {} side by side and more than the {:g} {} of one "
+                            "inside the other",
+                            ja.name, ra / unit, name, jb.name, rb / unit, name, link.name, d / unit,
+                            name, (ra + rb) / unit, name, std::abs(ra - rb) / unit, name));
+        }
+    }
+  }
 }
 
 }  // namespace crosslink::loading

@@ -333,6 +333,9 @@ int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* nod
                   const std::string& name, std::string_view what);
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index);
 void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index);
+// Joint friction the rest of the definition allows: journals that fit their links, and what is
+// not modelled yet (beside gear pairs, in [dynamics]).
+void check_friction(Reader& r, const Mechanism& m);
 
 // loader_drivers.cpp: drivers, their laws, locked drivers, [dynamics] free coordinates.
 void read_drivers(Reader& r, Mechanism& m, const toml::table& root);

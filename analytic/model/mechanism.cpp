@@ -247,6 +247,13 @@ std::vector<int> Mechanism::slide_joints() const {
   return slides;
 }
 
+std::vector<int> Mechanism::friction_joints() const {
+  std::vector<int> out;
+  for (size_t i = 0; i < joints.size(); ++i)
+    if (joints[i].friction) out.push_back(static_cast<int>(i));
+  return out;
+}
+
 Eigen::Vector2d pitch_point(const Mechanism& m, const Joint& j) {
   const Link& carrier = m.links[static_cast<size_t>(j.carrier)];
   const Eigen::Vector2d a = carrier.points[static_cast<size_t>(j.centre_a)].local;

@@ -90,6 +90,22 @@ enum class JointType {
 };
 std::string_view to_string(JointType type);
 
+// Coulomb friction at a revolute or prismatic joint (docs/mechanism-format.md, "Joint
+// friction"): on the joint's second link, opposing its motion relative to the first, a moment
+// mu r |R| + constant at a revolute (the friction circle: R the pin's reaction, r its radius) or a
+// force mu |N| + constant along a prismatic joint's line (N its normal force; with the slider's
+// bearing length b, mu max(|N|, 2 |M| / b): a couple M presses the block's two ends on opposite
+// sides). Where the joint's relative motion stops, its value is not determined by the motion.
+struct JointFriction {
+  double coefficient = 0.0;  // Coulomb's mu
+  double radius = 0.0;       // revolute: the pin's (journal's) radius [m]
+  double length = 0.0;       // prismatic: the slider's bearing length [m]; 0: a point contact
+  double constant = 0.0;     // load-independent: a torque [N m] (revolute) or force [N]
+  SourceLocation where;
+  // The friction circle's radius (revolute) or the coefficient (prismatic).
+  double load_gain(bool revolute) const { return revolute ? coefficient * radius : coefficient; }
+};
+
 struct Joint {
   std::string name;
   JointType type = JointType::revolute;
@@ -109,6 +125,7 @@ struct Joint {
   double phase = 0.0;                     // [rad] for a gear pair, [m] for a rack
   double radius_a = 0.0, radius_b = 0.0;  // pitch radii [m] (a rack's: radius_a)
   double pressure_angle = 0.0;            // of the teeth: the line of action's tilt [rad]
+  std::optional<JointFriction> friction;  // revolute and prismatic joints only
   SourceLocation where;
 
   bool is_slide() const { return type == JointType::prismatic || type == JointType::pin_in_slot; }
@@ -403,6 +420,8 @@ struct Mechanism {
   double size() const;
   // Slide joints in joint order: the mechanism's "sliders" (s, sdot, sddot outputs).
   std::vector<int> slide_joints() const;
+  // Joints with friction, in joint order (their friction_moment or friction_force channels).
+  std::vector<int> friction_joints() const;
   // Distinct point names in first-appearance order, and the (link, point) each is read from.
   struct NamedPoint {
     std::string name;

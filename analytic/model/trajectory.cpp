@@ -43,6 +43,10 @@ std::string_view to_string(PoseStatus status) {
       return "not_reached";
     case PoseStatus::exact_methods_disagree:
       return "exact_methods_disagree";
+    case PoseStatus::friction_indeterminate:
+      return "friction_indeterminate";
+    case PoseStatus::self_locking:
+      return "self_locking";
   }
   return "?";
 }
@@ -111,6 +115,13 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   fn.setZero(rows, sliders);
   moment.setZero(rows, sliders);
   shaking.setZero(rows, 3);
+  friction_names.clear();
+  friction_sliding.clear();
+  for (int j : mechanism.friction_joints()) {
+    friction_names.push_back(mechanism.joints[static_cast<size_t>(j)].name);
+    friction_sliding.push_back(mechanism.joints[static_cast<size_t>(j)].is_slide());
+  }
+  friction.setZero(rows, static_cast<Eigen::Index>(friction_names.size()));
   has_energy = false;
   energy.resize(0, 4);
 }
@@ -223,6 +234,9 @@ std::vector<std::string> Trajectory::channel_names() const {
       for (std::string_view c : kJointChannels) names.push_back(std::string(c) + "." + joint);
     for (const std::string& slider : slider_names)
       for (std::string_view c : kSlideForceChannels) names.push_back(std::string(c) + "." + slider);
+    for (size_t f = 0; f < friction_names.size(); ++f)
+      names.push_back((friction_sliding[f] ? "friction_force." : "friction_moment.") +
+                      friction_names[f]);
     for (std::string_view c : kShakingChannels) names.push_back(std::string(c) + "." + ground_name);
   }
   if (has_energy)
@@ -272,6 +286,9 @@ std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const 
       mu(r) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
     return mu;
   }
+  if (const int f = has_forces ? index_of(friction_names, object) : -1; f >= 0)
+    if (kind == (friction_sliding[static_cast<size_t>(f)] ? "friction_force" : "friction_moment"))
+      return friction.col(f);
   if (kind == "energy") {
     if (!has_energy) return std::nullopt;
     for (size_t c = 0; c < kEnergyChannels.size(); ++c)
@@ -307,9 +324,10 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
   if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")
     return Quantity::acceleration;
   if (kind == "fx" || kind == "fy" || kind == "f" || kind == "fn" || kind == "force" ||
-      kind == "shaking_fx" || kind == "shaking_fy")
+      kind == "shaking_fx" || kind == "shaking_fy" || kind == "friction_force")
     return Quantity::force;
-  if (kind == "torque" || kind == "moment" || kind == "shaking_moment") return Quantity::torque;
+  if (kind == "torque" || kind == "moment" || kind == "shaking_moment" || kind == "friction_moment")
+    return Quantity::torque;
   if (kind == "energy") return Quantity::energy;
   return Quantity::position;
 }

@@ -22,6 +22,11 @@
 //                                                               normal to its line (along the
 //                                                               line's left normal) and couple on
 //                                                               the slider (pin_in_slot: 0)
+//   friction_moment.<joint> | friction_force.<joint>           [N m | N]  a friction joint's
+//                                                               (revolute | slide) friction on
+//                                                               its second link, CCW | along
+//                                                               the line (a slide's fx, fy hold
+//                                                               it too)
 //   shaking_fx.<ground> shaking_fy.<ground> shaking_moment.<ground>  [N, N m]  force and moment
 //                                                               (about the world origin) the
 //                                                               moving links exert on the ground
@@ -61,16 +66,22 @@ enum class PoseStatus : std::uint8_t {
   not_finite,              // a value is not a finite number (an overflow, or 0/0, on extreme input)
   not_reached,             // a simulation stopped (its event says why) before this sample's time
   exact_methods_disagree,  // the reference's two exact methods disagree here (trust.h)
+  // Joint friction (analytic/physics/kinetostatics.h): the pose is right, its forces are not
+  // determined by the motion.
+  friction_indeterminate,  // a friction joint has no relative motion: friction in its cone
+  self_locking,            // the friction gain is 1 or more: friction can hold the mechanism
 };
 std::string_view to_string(PoseStatus status);
 inline bool usable(PoseStatus s) {
   return s == PoseStatus::ok;
 }
-// What a sample holds: a solved pose (ok, or singular: its position is right, its rates and
-// forces do not exist), or nothing. A value that does not exist is written null (JSON), left
-// empty (CSV, tables) or drawn as a gap (charts), never as a number.
+// What a sample holds: a solved pose (ok; or singular, friction_indeterminate, self_locking:
+// its position is right, its rates and forces are not given), or nothing. A value that does not
+// exist is written null (JSON), left empty (CSV, tables) or drawn as a gap (charts), never as a
+// number.
 inline bool has_position(PoseStatus s) {
-  return s == PoseStatus::ok || s == PoseStatus::singular;
+  return s == PoseStatus::ok || s == PoseStatus::singular ||
+         s == PoseStatus::friction_indeterminate || s == PoseStatus::self_locking;
 }
 
 // A singular position of a mechanism with several drivers (Gosselin & Angeles 1990;
@@ -137,6 +148,11 @@ struct Trajectory {
   Eigen::MatrixXd fx, fy;      // per joint [N]
   Eigen::MatrixXd fn, moment;  // per slider [N, N m]
   Eigen::MatrixXd shaking;     // 3 columns: fx, fy [N], moment [N m]
+  // Per friction joint (Mechanism::friction_joints order): its name, whether it slides (its
+  // channel friction_force, else friction_moment), and its friction [N or N m].
+  std::vector<std::string> friction_names;
+  std::vector<char> friction_sliding;
+  Eigen::MatrixXd friction;
   // A four-bar's pivots B, C, D (analytic/model/fourbar.h), empty otherwise: the channel mu.<C>,
   // the transmission angle at C, from any method's positions.
   std::vector<std::string> transmission;

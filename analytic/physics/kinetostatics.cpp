@@ -2,8 +2,13 @@
 
 #include "analytic/model/planar.h"
 
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace crosslink {
@@ -112,7 +117,9 @@ std::vector<std::pair<int, double>> centre_path(const Mechanism& m, int link, in
 }  // namespace
 
 Kinetostatics::Kinetostatics(const NewtonSolver& solver)
-    : solver_(solver), slide_joints_(solver.mechanism().slide_joints()) {
+    : solver_(solver),
+      slide_joints_(solver.mechanism().slide_joints()),
+      size_(solver.mechanism().size()) {
   const Mechanism& m = solver.mechanism();
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
@@ -123,6 +130,12 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
       g.slide = static_cast<int>(std::find(slide_joints_.begin(), slide_joints_.end(), j.slide) -
                                  slide_joints_.begin());
     gearings_.push_back(std::move(g));
+  }
+  friction_joints_ = m.friction_joints();
+  for (int ji : friction_joints_) {
+    const auto at = std::find(slide_joints_.begin(), slide_joints_.end(), ji);
+    friction_slide_.push_back(
+        at == slide_joints_.end() ? -1 : static_cast<int>(at - slide_joints_.begin()));
   }
 }
 
@@ -201,6 +214,8 @@ ForceSample Kinetostatics::make_sample() const {
   s.moment.assign(slide_joints_.size(), 0.0);
   s.generalised.setZero(m.coordinate_count());
   s.lambda.setZero(m.coordinate_count());
+  s.friction.assign(friction_joints_.size(), 0.0);
+  s.unit_lambda.setZero(m.coordinate_count(), static_cast<Eigen::Index>(friction_joints_.size()));
   return s;
 }
 
@@ -222,10 +237,41 @@ void Kinetostatics::generalised_forces(const KinematicState& state, Eigen::Vecto
   }
 }
 
+Kinetostatics::Reaction Kinetostatics::reaction(const KinematicState& state, int joint,
+                                                const Eigen::VectorXd& lambda) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const ConstraintRows& rows_of = solver_.layout().joint(joint);
+  const int row = rows_of.first_row, rows = rows_of.rows();
+  // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link: force
+  // and moment about its frame origin; through the moving side (both are moving, or the ground
+  // is one of them).
+  const bool from_b = rows_of.b >= 0;
+  const int k = from_b ? rows_of.b : rows_of.a;
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  for (int r = row; r < row + rows; ++r)
+    for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
+  Reaction out;
+  out.on_b = from_b ? Eigen::Vector2d(g.head<2>()) : Eigen::Vector2d(-g.head<2>());
+  if (!j.is_slide()) return out;
+  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
+  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+  const Eigen::Vector2d point = b.position(
+      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
+  out.normal = out.on_b.dot(a.turn(perp(line.direction)));
+  // The couple on the slider about its point: the moment left once the force at the point is
+  // taken out (on the guide it is the opposite).
+  out.moment =
+      from_b ? g(2) - cross(point - b.r, out.on_b) : -(g(2) - cross(point - a.r, -out.on_b));
+  return out;
+}
+
 void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   const Mechanism& m = solver_.mechanism();
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
+  out.status = PoseStatus::ok;
+  if (!friction_joints_.empty() && !solve_friction(state, out)) return;
   const Eigen::VectorXd& lambda = out.lambda;
   const ConstraintLayout& layout = solver_.layout();
   // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
@@ -235,34 +281,21 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // add_tooth_force, once the others' reactions are known
-    const ConstraintRows& rows_of = layout.joint(static_cast<int>(ji));
-    const int row = rows_of.first_row, rows = rows_of.rows();
-    // The generalised constraint force -Phi_q^T lambda of this joint's rows on a moving link:
-    // force and moment about its frame origin.
-    auto on = [&](int k) {
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (int r = row; r < row + rows; ++r)
-        for (int i = 0; i < 3; ++i) g(i) -= solver_.jacobian_entry(state, r, 3 * k + i) * lambda(r);
-      return g;
-    };
-    const int ka = rows_of.a, kb = rows_of.b;
-    // Through the moving side (both are moving, or the ground is one of them).
-    const bool from_b = kb >= 0;
-    const Eigen::Vector3d g = on(from_b ? kb : ka);
-    const Eigen::Vector2d on_b =
-        from_b ? Eigen::Vector2d(g.head<2>()) : Eigen::Vector2d(-g.head<2>());
-    out.joint_force[ji] = on_b;
+    const Reaction r = reaction(state, static_cast<int>(ji), lambda);
+    out.joint_force[ji] = r.on_b;
     if (!j.is_slide()) continue;
-    const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
-    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
-    const Eigen::Vector2d point = b.position(
-        m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
-    out.normal[slide] = on_b.dot(a.turn(perp(line.direction)));
-    // The couple on the slider about its point: the moment left once the force at the point is
-    // taken out (on the guide it is the opposite).
-    out.moment[slide] =
-        from_b ? g(2) - cross(point - b.r, on_b) : -(g(2) - cross(point - a.r, -on_b));
+    out.normal[slide] = r.normal;
+    out.moment[slide] = r.moment;
     ++slide;
+  }
+  // A slide's friction force acts along its line at the slider's point: part of the force of
+  // the guide on the slider.
+  for (size_t f = 0; f < friction_joints_.size(); ++f) {
+    if (friction_slide_[f] < 0) continue;
+    const Joint& j = m.joints[static_cast<size_t>(friction_joints_[f])];
+    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+    out.joint_force[static_cast<size_t>(friction_joints_[f])] +=
+        out.friction[f] * motion(m, j.link_a, state).turn(line.direction);
   }
   for (const Gearing& g : gearings_) add_tooth_force(g, state, out);
 
@@ -289,14 +322,224 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
   out.shaking = shaking;
 }
 
-std::optional<double> Kinetostatics::power_balance(const KinematicState& state) const {
-  if (state.axis.timed() || state.swept().rate == 0.0) return std::nullopt;
-  return input_power(state) / state.swept().rate;
+namespace {
+
+// Relative rates at or below this fraction of the drivers' are no motion: their sign is round-off.
+constexpr double kStoppedRate = 1e-9;
+// Newton on the friction magnitudes: the residual it stops at, relative to the largest magnitude,
+// and the iterations it may take (each contracts by the friction gain at least).
+constexpr double kFrictionResidual = 1e-14;
+constexpr int kFrictionIterations = 200;
+
+Kinetostatics::Reaction plus(Kinetostatics::Reaction r, double x,
+                             const Kinetostatics::Reaction& d) {
+  r.on_b += x * d.on_b;
+  r.normal += x * d.normal;
+  r.moment += x * d.moment;
+  return r;
 }
 
-double Kinetostatics::input_power(const KinematicState& state) const {
+}  // namespace
+
+double Kinetostatics::relative_rate(const KinematicState& state, int f) const {
   const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
+  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
+  if (!j.is_slide()) return b.omega - a.omega;
+  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+  const Eigen::Vector2d& local =
+      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  // The guide's material point under the slider's.
+  const Eigen::Vector2d on_guide = a.v + a.omega * perp(b.position(local) - a.r);
+  return a.turn(line.direction).dot(b.velocity(local) - on_guide);
+}
+
+double Kinetostatics::friction_load(int f, const Reaction& r) const {
+  const Joint& j = solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];
+  if (!j.is_slide()) return r.on_b.norm();
+  const double length = j.friction->length;
+  return length > 0.0 ? std::max(std::abs(r.normal), 2.0 * std::abs(r.moment) / length)
+                      : std::abs(r.normal);
+}
+
+double Kinetostatics::friction_load_slope(int f, const Reaction& r, const Reaction& d) const {
+  const Joint& j = solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];
+  if (!j.is_slide()) {
+    const double load = r.on_b.norm();
+    return load > 0.0 ? r.on_b.dot(d.on_b) / load : d.on_b.norm();
+  }
+  const double length = j.friction->length;
+  if (length > 0.0 && 2.0 * std::abs(r.moment) / length > std::abs(r.normal))
+    return 2.0 * (r.moment > 0.0 ? d.moment : -d.moment) / length;
+  return r.normal > 0.0 ? d.normal : r.normal < 0.0 ? -d.normal : std::abs(d.normal);
+}
+
+void Kinetostatics::add_unit_friction(const KinematicState& state, int f, double sign,
+                                      Eigen::VectorXd& g) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
+  if (!j.is_slide()) {
+    add_at(m, g, j.link_b, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -sign);
+    add_at(m, g, j.link_a, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), sign);
+    return;
+  }
+  // Along the line at the slider's point: on the slider against its motion, on the guide back.
+  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
+  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
+  const Eigen::Vector2d point = b.position(
+      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
+  const Eigen::Vector2d along = sign * a.turn(line.direction);
+  add_at(m, g, j.link_b, point - b.r, -along, 0.0);
+  add_at(m, g, j.link_a, point - a.r, along, 0.0);
+}
+
+bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
+  const auto k = static_cast<Eigen::Index>(friction_joints_.size());
+  // The drivers' rate, as an angular rate: relative rates are judged against it.
+  double rate = 0.0;
+  for (size_t d = 0; d < m.drivers.size(); ++d) {
+    const double r = std::abs(state.drivers[d].rate);
+    rate = std::max(rate, m.drivers[d].angular() ? r : r / size_);
+  }
+  std::vector<double> sign(static_cast<size_t>(k));
+  Eigen::VectorXd unit(out.lambda.size()), column(out.lambda.size());
+  for (Eigen::Index f = 0; f < k; ++f) {
+    const int ji = friction_joints_[static_cast<size_t>(f)];
+    const double w = relative_rate(state, static_cast<int>(f));
+    const double stopped =
+        kStoppedRate * rate * (m.joints[static_cast<size_t>(ji)].is_slide() ? size_ : 1.0);
+    if (!(std::abs(w) > stopped)) {
+      out.status = PoseStatus::friction_indeterminate;
+      out.cause = ji;
+      return false;
+    }
+    sign[static_cast<size_t>(f)] = w > 0.0 ? 1.0 : -1.0;
+    unit.setZero();
+    add_unit_friction(state, static_cast<int>(f), sign[static_cast<size_t>(f)], unit);
+    solver_.multipliers(state, unit, column);
+    out.unit_lambda.col(f) = column;
+  }
+  // Each friction joint's reaction at the frictionless multipliers (A) and per unit of each
+  // friction (B), and the friction gain.
+  std::vector<Reaction> at_zero(static_cast<size_t>(k));
+  std::vector<Reaction> per_unit(static_cast<size_t>(k * k));
+  Eigen::MatrixXd bound(k, k);  // |d f_j / d f_i| at most: g_j h_j(B_ji), h a norm
+  for (Eigen::Index f = 0; f < k; ++f) {
+    const int ji = friction_joints_[static_cast<size_t>(f)];
+    const JointFriction& fr = *m.joints[static_cast<size_t>(ji)].friction;
+    at_zero[static_cast<size_t>(f)] = reaction(state, ji, out.lambda);
+    for (Eigen::Index i = 0; i < k; ++i) {
+      column = out.unit_lambda.col(i);
+      Reaction& b = per_unit[static_cast<size_t>(f * k + i)];
+      b = reaction(state, ji, column);
+      bound(f, i) = fr.load_gain(!m.joints[static_cast<size_t>(ji)].is_slide()) *
+                    friction_load(static_cast<int>(f), b);
+    }
+  }
+  // The gain: the spectral radius of that non-negative bound, the least Lipschitz constant of
+  // the map over every weighting of the magnitudes (Perron-Frobenius): moments and forces have
+  // different units, so no one norm serves.
+  out.gain = bound.eigenvalues().cwiseAbs().maxCoeff();
+  if (out.gain >= 1.0) {
+    out.status = PoseStatus::self_locking;
+    Eigen::Index row = 0;
+    bound.rowwise().sum().maxCoeff(&row);
+    out.cause = friction_joints_[static_cast<size_t>(row)];
+    return false;
+  }
+  const auto reaction_at = [&](const Eigen::VectorXd& x, Eigen::Index f) {
+    Reaction r = at_zero[static_cast<size_t>(f)];
+    for (Eigen::Index i = 0; i < k; ++i)
+      r = plus(r, x(i), per_unit[static_cast<size_t>(f * k + i)]);
+    return r;
+  };
+  // The magnitudes the reactions at x give: x is the solution where they are x.
+  const auto image = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+    for (Eigen::Index f = 0; f < k; ++f) {
+      const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
+      y(f) = j.friction->load_gain(!j.is_slide()) *
+                 friction_load(static_cast<int>(f), reaction_at(x, f)) +
+             j.friction->constant;
+    }
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(k), y(k), trial(k), trial_image(k);
+  image(x, y);
+  x = y;
+  Eigen::MatrixXd slope(k, k);
+  bool converged = false;
+  for (int it = 0; it < kFrictionIterations && !converged; ++it) {
+    image(x, y);
+    const double residual = (x - y).lpNorm<Eigen::Infinity>();
+    if (residual <= kFrictionResidual * x.lpNorm<Eigen::Infinity>() || residual == 0.0) {
+      converged = true;
+      break;
+    }
+    // Newton: (I - d image / dx) step = image(x) - x.
+    for (Eigen::Index f = 0; f < k; ++f) {
+      const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
+      const Reaction r = reaction_at(x, f);
+      for (Eigen::Index i = 0; i < k; ++i)
+        slope(f, i) = (f == i ? 1.0 : 0.0) -
+                      j.friction->load_gain(!j.is_slide()) *
+                          friction_load_slope(static_cast<int>(f), r,
+                                              per_unit[static_cast<size_t>(f * k + i)]);
+    }
+    trial = x + slope.partialPivLu().solve(y - x);
+    image(trial, trial_image);
+    // Where Newton does not reduce the residual (a kink of |R| or of max), the fixed-point step,
+    // a contraction by the gain.
+    x = trial.allFinite() && (trial - trial_image).lpNorm<Eigen::Infinity>() < residual ? trial : y;
+  }
+  if (!converged) {
+    out.status = PoseStatus::no_convergence;
+    return false;
+  }
+  for (Eigen::Index f = 0; f < k; ++f) {
+    out.lambda += x(f) * out.unit_lambda.col(f);
+    out.friction[static_cast<size_t>(f)] = -sign[static_cast<size_t>(f)] * x(f);
+  }
+  return true;
+}
+
+double Kinetostatics::friction_power(const KinematicState& state, const ForceSample& forces) const {
   double power = 0.0;
+  for (size_t f = 0; f < friction_joints_.size(); ++f)
+    power += forces.friction[f] * relative_rate(state, static_cast<int>(f));
+  return power;
+}
+
+std::string ForceSample::why(const Mechanism& m) const {
+  const std::string joint =
+      cause >= 0 ? "joint '" + m.joints[static_cast<size_t>(cause)].name + "'" : "a joint";
+  switch (status) {
+    case PoseStatus::friction_indeterminate:
+      return "friction indeterminate: " + joint +
+             " has no relative motion, so its friction may be anything inside its cone";
+    case PoseStatus::self_locking:
+      return fmt::format(
+          "self-locking: the friction gain is {:.3g}, largest through {} (1 or more: the "
+          "reactions may be held by the friction they cause), so the motion does not determine "
+          "the forces",
+          gain, joint);
+    case PoseStatus::no_convergence:
+      return "the friction magnitudes did not converge";
+    default:
+      return "";
+  }
+}
+
+std::optional<double> Kinetostatics::power_balance(const KinematicState& state,
+                                                   const ForceSample* forces) const {
+  if (state.axis.timed() || state.swept().rate == 0.0) return std::nullopt;
+  return input_power(state, forces) / state.swept().rate;
+}
+
+double Kinetostatics::input_power(const KinematicState& state, const ForceSample* forces) const {
+  const Mechanism& m = solver_.mechanism();
+  if (!friction_joints_.empty() && !forces)
+    throw std::logic_error("input_power: joint friction needs the forces at the state");
+  double power = forces && !friction_joints_.empty() ? -friction_power(state, *forces) : 0.0;
   for (size_t l = 0; l < m.links.size(); ++l) {
     const Link& link = m.links[l];
     if (link.ground) continue;
@@ -384,6 +627,8 @@ void Kinetostatics::write_sample(const ForceSample& sample, Trajectory& out, int
     out.moment(row, static_cast<Eigen::Index>(s)) = sample.moment[s];
   }
   out.shaking.row(row) = sample.shaking.transpose();
+  for (size_t f = 0; f < sample.friction.size(); ++f)
+    out.friction(row, static_cast<Eigen::Index>(f)) = sample.friction[f];
 }
 
 }  // namespace crosslink

@@ -25,6 +25,22 @@
 // on the path from a gear to its carrier at its centre passes the tooth force on. The mesh
 // force, of the first gear on the second at the pitch point, is the gear pair's joint force.
 //
+// Joint friction (Mechanism::Joint::friction). Each friction joint's moment or force opposes its
+// relative motion with a magnitude f_j = g_j h_j(R_j) + c_j, where h_j is the load its friction
+// grows with (a pin's reaction |R|, a slide's max(|N|, 2 |M| / b)), g_j the friction circle mu r
+// or the coefficient mu, c_j the load-independent part. The reactions depend on the friction they
+// cause: with G_j the generalised force of a unit friction of joint j (its sign from the relative
+// rate), J^T lambda = b + sum_j f_j G_j gives lambda = lambda_0 + sum_j f_j Lambda_j, k extra
+// solves with J's factors, and every reaction is linear in lambda. That leaves k equations in the
+// k magnitudes, f_j = g_j h_j(A_j + sum_i f_i B_ji) + c_j, solved by Newton (with a fixed-point
+// step where Newton does not reduce the residual) to round-off. The friction gain, the spectral
+// radius of the matrix g_j h_j(B_ji) that bounds the map's slopes, bounds it: below 1 the map
+// contracts (in a weighted norm) and its solution is unique; at 1 or above the friction may hold
+// the mechanism (self-locking) and the forces are not determined by the motion: the sample is
+// flagged `self_locking`. A joint whose
+// relative motion stops (a rocker's dead point, a pose at rest) has a friction anywhere in its
+// cone: the sample is flagged `friction_indeterminate`, never given a sign.
+//
 // Shaking force and moment: what the mechanism exerts on the ground (through its joints, the
 // driver and springs anchored on it) is the applied gravity and loads minus the rate of change of
 // the moving links' momentum (linear, and angular about the world origin).
@@ -32,6 +48,7 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "analytic/kinematics/newton.h"
@@ -64,12 +81,24 @@ struct ForceSample {
   Eigen::VectorXd effort;  // per driver (Mechanism::drivers): its torque [N m] or force [N]
   std::vector<Eigen::Vector2d> joint_force;  // per joint: force of its first link on its second
   std::vector<double> normal, moment;        // per slide joint (Mechanism::slide_joints order)
+  // Per friction joint (Mechanism::friction_joints order), on its second link: a revolute's
+  // friction moment [N m], a slide's friction force along its line [N].
+  std::vector<double> friction;
   Eigen::Vector3d shaking = Eigen::Vector3d::Zero();  // on the ground: fx, fy, moment about O
   Eigen::VectorXd generalised, lambda;                // scratch: Q - M qddot and the multipliers
+  // ok, or why the forces are not determined: friction_indeterminate (friction joint `cause`
+  // does not move), self_locking (the friction gain `gain` is 1 or more; `cause` the joint whose
+  // friction its bound grows most with).
+  PoseStatus status = PoseStatus::ok;
+  int cause = -1;
+  double gain = 0.0;
+  Eigen::MatrixXd unit_lambda;  // scratch: Lambda_j per friction joint
 
   // Whether every value is a number: at a pose whose J is singular in floating point the
   // multipliers are not, and such a sample must be flagged, not passed on.
   bool finite() const;
+  // Why the status is not ok, for the sample's event ("" when it is).
+  std::string why(const Mechanism& m) const;
 };
 
 // A gear pair's or rack's row (and an engine's coupling) acts on its links as couples, whereas
@@ -94,21 +123,38 @@ void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicSta
 
 class Kinetostatics {
  public:
+  // A joint's reaction at multipliers `lambda` (linear in them): its rows' force on its second
+  // link, and for a slide the normal force and the couple on the slider about its point.
+  struct Reaction {
+    Eigen::Vector2d on_b = Eigen::Vector2d::Zero();
+    double normal = 0.0, moment = 0.0;
+  };
+
   explicit Kinetostatics(const NewtonSolver& solver);
 
   // Sized for the mechanism; then solve() allocates nothing.
   ForceSample make_sample() const;
   // Method 1 at a pose solved by the solver (solve_position, then solve_velocity and
-  // solve_acceleration with the real driver state).
+  // solve_acceleration with the real driver state). With joint friction, out.status says whether
+  // the forces are determined (see above); when it is not ok, out's values are not.
   void solve(KinematicState& state, ForceSample& out) const;
   // Method 2, the power balance: the drivers' power, the sum over drivers of effort x rate [W],
   // as the rate of change of the kinetic energy and of the potential energy of gravity and
-  // springs, plus the power dissipated in dampers, less the power of the loads.
-  double input_power(const KinematicState& state) const;
+  // springs, plus the power dissipated in dampers and in joint friction, less the power of the
+  // loads. The friction's magnitudes are method 1's (`forces`, required with joint friction).
+  double input_power(const KinematicState& state, const ForceSample* forces = nullptr) const;
   // With one driver, its effort: input_power over its rate; none when the driver is at rest
   // (its rate is zero, so power says nothing about the effort) or there are several (the
   // balance gives only the sum of their powers: input_power).
-  std::optional<double> power_balance(const KinematicState& state) const;
+  std::optional<double> power_balance(const KinematicState& state,
+                                      const ForceSample* forces = nullptr) const;
+  // The power of joint friction at the state, the sum of each friction's moment or force times
+  // its joint's relative rate [W] (negative or zero: it dissipates).
+  double friction_power(const KinematicState& state, const ForceSample& forces) const;
+  // Friction joint f's (Mechanism::friction_joints order) relative rate: a revolute's second
+  // link's angular velocity less its first's [rad/s], a slide's slider's velocity along the line
+  // relative to the guide's point under it [m/s].
+  double relative_rate(const KinematicState& state, int f) const;
 
   void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
 
@@ -137,10 +183,23 @@ class Kinetostatics {
   };
   // The tooth force at the multipliers, and what it changes in the other joints' reactions.
   void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
+  Reaction reaction(const KinematicState& state, int joint, const Eigen::VectorXd& lambda) const;
+  // The load friction joint f's magnitude grows with: (|R| of a pin, or max(|N|, 2 |M| / b) of a
+  // slide), and its derivative along a change `d` of the reaction.
+  double friction_load(int f, const Reaction& r) const;
+  double friction_load_slope(int f, const Reaction& r, const Reaction& d) const;
+  // Adds the generalised force of a unit friction of friction joint f, opposing its rate's sign.
+  void add_unit_friction(const KinematicState& state, int f, double sign, Eigen::VectorXd& g) const;
+  // The friction magnitudes and the multipliers they give (see above); false with out.status
+  // set when they are not determined.
+  bool solve_friction(KinematicState& state, ForceSample& out) const;
 
   const NewtonSolver& solver_;
   std::vector<int> slide_joints_;
   std::vector<Gearing> gearings_;
+  std::vector<int> friction_joints_;
+  std::vector<int> friction_slide_;  // per friction joint: its index in slide_joints_, or -1
+  double size_ = 1.0;                // Mechanism::size(): relative sliding rates against it
 };
 
 }  // namespace crosslink

@@ -263,6 +263,10 @@ Trajectory dyad_sweep(const Mechanism& mechanism, const Trajectory& grid, bool f
     at_pose.qdot = state.kinematics.qdot;  // the closed form's, not re-solved
     at_pose.qddot = state.kinematics.qddot;
     kinetostatics.solve(at_pose, reactions);
+    if (reactions.status != PoseStatus::ok) {
+      out.status[static_cast<size_t>(row)] = reactions.status;
+      return;
+    }
     if (!reactions.finite()) {
       out.status[static_cast<size_t>(row)] = PoseStatus::singular;
       return;

@@ -34,6 +34,12 @@ class Recorder {
     solver_.write_sample(state, report, out, row);
     if (report.status != PoseStatus::ok || !out.has_forces) return;
     kinetostatics_.solve(state, forces_);
+    if (forces_.status != PoseStatus::ok) {
+      // Joint friction the motion does not determine: the pose stands, its forces do not.
+      out.status[static_cast<size_t>(row)] = forces_.status;
+      out.events.push_back({out.along(row), forces_.status, forces_.why(solver_.mechanism())});
+      return;
+    }
     if (!forces_.finite() || !state.qdot.allFinite() || !state.qddot.allFinite()) {
       // J is singular in floating point although Newton converged (two loops at a change point
       // at once): no rates, no reactions.
@@ -98,7 +104,7 @@ class SingularBand {
 inline void drop_rates(Trajectory& t, int row) {
   t.status[static_cast<size_t>(row)] = PoseStatus::singular;
   for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
-                             &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking})
+                             &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking, &t.friction})
     if (m->rows() > row && m->cols() > 0) m->row(row).setZero();  // no columns: no data to offset
   if (t.effort.rows() > row && t.effort.cols() > 0) t.effort.row(row).setZero();
 }

@@ -1,7 +1,9 @@
 // Exact kinetostatics (analytic/physics/kinetostatics.h) against independent expected values:
 //   - the two methods, Lagrange multipliers and the power balance, agree on the driver's effort
 //     at every sample of every bundled file (as defined, and loaded with gravity, a spring, a
-//     damper, a force and a torque) to 1e-9 of its peak;
+//     damper, a force and a torque) to 1e-9 of its peak (with joint friction, the balance takes
+//     the dissipated power at method 1's friction: tests/analytic/test_friction.cpp checks the
+//     friction itself by an independent solve);
 //   - Newton-Euler on every link: the extracted joint reactions, the driver's effort, gravity,
 //     loads and springs sum to m a_c and, about the centre of mass, to I alpha, to 1e-9 (a gear
 //     pair's mesh force at its pitch point, as the teeth push: mechanisms/gears too);
@@ -69,8 +71,10 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
     const double arm = m.drivers[0].angular() ? m.size() : 1.0;
     at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
       kinetostatics.solve(state, forces);
+      ASSERT_EQ(forces.status, PoseStatus::ok) << forces.why(m);
       for (const Eigen::Vector2d& f : forces.joint_force) scale = std::max(scale, arm * f.norm());
-      const std::optional<double> power = kinetostatics.power_balance(state);
+      // With joint friction, the power it dissipates at method 1's magnitudes.
+      const std::optional<double> power = kinetostatics.power_balance(state, &forces);
       ASSERT_TRUE(power.has_value());
       efforts.emplace_back(forces.effort(0), *power);
     });
@@ -130,11 +134,7 @@ TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
 
 // mechanisms/drivers/*.toml and the gear trains.
 std::vector<std::string> driver_and_gear_files() {
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(
-           std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / "drivers"))
-    if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
+  std::vector<std::string> files = test::files_in("drivers");
   for (std::string& f : test::gear_files()) files.push_back(std::move(f));
   return files;
 }
@@ -155,6 +155,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   const Driver& d = m.drivers[0];
   at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
     kinetostatics.solve(state, forces);
+    ASSERT_EQ(forces.status, PoseStatus::ok) << forces.why(m);
     const auto body = [&](int link) {
       return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
     };
@@ -182,6 +183,14 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
       apply(joint.link_b, at, forces.joint_force[j], couple);
       apply(joint.link_a, at, -forces.joint_force[j], -couple);
       scale = std::max(scale, forces.joint_force[j].norm());
+    }
+    // A pin's friction moment (a slide's friction force is in its joint force).
+    const std::vector<int> friction = m.friction_joints();
+    for (size_t f = 0; f < friction.size(); ++f) {
+      const Joint& joint = m.joints[static_cast<size_t>(friction[f])];
+      if (joint.is_slide()) continue;
+      apply(joint.link_b, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), forces.friction[f]);
+      apply(joint.link_a, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -forces.friction[f]);
     }
     // The driver's effort on its driven link, and its reaction.
     if (d.type == DriverType::slider) {
@@ -245,10 +254,11 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   });
 }
 
-// Every bundled definition, and the gear trains.
+// Every bundled definition, the gear trains and the definitions with joint friction.
 std::vector<std::string> with_gears() {
   std::vector<std::string> files = test::bundled_files(true);
   for (std::string& f : test::gear_files()) files.push_back(std::move(f));
+  for (std::string& f : test::friction_files()) files.push_back(std::move(f));
   return files;
 }
 

@@ -42,14 +42,22 @@ inline std::vector<std::string> bundled_files(bool singular, bool dynamics = tru
   return files;
 }
 
-// mechanisms/gears/*.toml: gear pairs and racks, sorted.
-inline std::vector<std::string> gear_files() {
+// mechanisms/<folder>/*.toml, sorted.
+inline std::vector<std::string> files_in(const std::string& folder) {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(
-           std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / "gears"))
+           std::filesystem::path(CROSSLINK_SOURCE_DIR) / "mechanisms" / folder))
     if (entry.path().extension() == ".toml") files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
   return files;
+}
+// mechanisms/gears/: gear pairs and racks.
+inline std::vector<std::string> gear_files() {
+  return files_in("gears");
+}
+// mechanisms/friction/: joint friction.
+inline std::vector<std::string> friction_files() {
+  return files_in("friction");
 }
 
 // The bundled kinematic definitions' stems (mechanisms/*.toml without the dynamics cases).

@@ -1,0 +1,421 @@
+// Joint friction in the exact kinetostatics (analytic/physics/kinetostatics.h), against
+// independent expected values:
+//   - an independent Newton-Euler solve: every moving link's force and moment balance written
+//     with the joints' reactions and the driver's effort as unknowns (no constraint Jacobian, no
+//     multipliers), the friction magnitudes iterated to a fixed point; every effort, reaction and
+//     friction of every sample of each bundled definition with friction agrees with the
+//     sweep's to 1e-9 of its peak;
+//   - Bevan's eccentric: its rod is a two-force member, so the friction-circle statics close by
+//     hand; exact against that to round-off, and within the printed digit of the book's moments;
+//   - samples where a friction joint's relative motion stops are flagged, never signed; friction
+//     that can hold the mechanism (self-locking) is flagged; wrong friction keys are refused at
+//     their key.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/physics/kinetostatics.h"
+#include "analytic/reference/sweep.h"
+#include "tests/common/mechanisms.h"
+
+namespace crosslink {
+namespace {
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// The forces of one pose by Newton-Euler: per moving link, sum F = m a_c and sum M_c = I alpha,
+// with unknowns per revolute joint its force (of its first link on its second), per prismatic
+// joint its normal force (along the guide line's left normal) and its couple on the slider, and
+// the driver's torque; joint friction is a known load at given magnitudes, which are then
+// iterated: f = mu r |R| (pins), mu max(|N|, 2 |M| / b) (slides), plus the constant part.
+// Revolute and prismatic joints and one joint_angle driver, as the bundled friction files use.
+struct NewtonEulerForces {
+  Eigen::VectorXd unknowns;
+  std::vector<double> friction;  // per joint: on its second link (moment, or force along the line)
+  int iterations = 0;
+};
+
+NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
+                               const Eigen::VectorXd& qdot, const Eigen::VectorXd& qddot) {
+  const auto body = [&](int link) {
+    return BodyMotion::of(m.moving_index(link), q, &qdot, &qddot);
+  };
+  const auto point_of = [&](int link, int point) {
+    return body(link).position(
+        m.links[static_cast<size_t>(link)].points[static_cast<size_t>(point)].local);
+  };
+  // The unknowns' columns: two per joint, then the driver's torque.
+  const int n = 2 * static_cast<int>(m.joints.size()) + 1;
+  const int rows = 3 * m.moving_count();
+  EXPECT_EQ(n, rows) << "one driver, revolute and prismatic joints only";
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows, n);
+  Eigen::VectorXd known = Eigen::VectorXd::Zero(rows);  // applied, inertia and friction
+  // Adds to link's rows, in column c of `a` (or to `known` when c < 0), a force at a point and a
+  // couple.
+  const auto put = [&](int link, int c, const Eigen::Vector2d& at, const Eigen::Vector2d& f,
+                       double couple, Eigen::VectorXd* into) {
+    const int k = m.moving_index(link);
+    if (k < 0) return;
+    const Eigen::Vector2d arm =
+        at - body(link).position(m.links[static_cast<size_t>(link)].mass.com);
+    const Eigen::Vector3d w(f.x(), f.y(), cross(arm, f) + couple);
+    if (into) {
+      into->segment<3>(3 * k) += w;
+    } else {
+      a.block<3, 1>(3 * k, c) += w;
+    }
+  };
+  std::vector<double> rate(m.joints.size()), sign(m.joints.size());
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const Joint& joint = m.joints[j];
+    const int c = 2 * static_cast<int>(j);
+    if (joint.type == JointType::revolute) {
+      const Eigen::Vector2d at = point_of(joint.link_b, joint.point_b);
+      for (int axis = 0; axis < 2; ++axis) {
+        const Eigen::Vector2d unit = Eigen::Vector2d::Unit(axis);
+        put(joint.link_b, c + axis, at, unit, 0.0, nullptr);
+        put(joint.link_a, c + axis, at, -unit, 0.0, nullptr);
+      }
+      rate[j] = body(joint.link_b).omega - body(joint.link_a).omega;
+    } else {
+      EXPECT_EQ(joint.type, JointType::prismatic);
+      const BodyMotion guide = body(joint.link_a), slider = body(joint.link_b);
+      const Line& line =
+          m.links[static_cast<size_t>(joint.link_a)].lines[static_cast<size_t>(joint.line)];
+      const Eigen::Vector2d t = guide.turn(line.direction), normal = perp(t);
+      const Eigen::Vector2d at = point_of(joint.link_b, joint.point_b);
+      put(joint.link_b, c, at, normal, 0.0, nullptr);
+      put(joint.link_a, c, at, -normal, 0.0, nullptr);
+      put(joint.link_b, c + 1, at, Eigen::Vector2d::Zero(), 1.0, nullptr);
+      put(joint.link_a, c + 1, at, Eigen::Vector2d::Zero(), -1.0, nullptr);
+      const Eigen::Vector2d on_guide = guide.v + guide.omega * perp(at - guide.r);
+      const Eigen::Vector2d local = m.links[static_cast<size_t>(joint.link_b)]
+                                        .points[static_cast<size_t>(joint.point_b)]
+                                        .local;
+      rate[j] = t.dot(slider.velocity(local) - on_guide);
+    }
+    sign[j] = rate[j] > 0.0 ? 1.0 : -1.0;
+  }
+  const Driver& d = m.drivers[0];
+  EXPECT_EQ(d.type, DriverType::joint_angle);
+  put(d.link, n - 1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), 1.0, nullptr);
+  put(m.joints[static_cast<size_t>(d.joint)].link_a, n - 1, Eigen::Vector2d::Zero(),
+      Eigen::Vector2d::Zero(), -1.0, nullptr);
+  // Gravity and loads (no springs in these files), and d'Alembert's -m a_c and -I alpha.
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    if (m.links[l].ground) continue;
+    const BodyMotion b = body(static_cast<int>(l));
+    const MassProperties& mp = m.links[l].mass;
+    put(static_cast<int>(l), -1, b.position(mp.com), mp.mass * (m.gravity - b.acceleration(mp.com)),
+        -mp.inertia * b.alpha, &known);
+  }
+  for (const Load& load : m.loads) {
+    const Eigen::Vector2d v = load.force_at(0.0);
+    if (load.kind == Load::Kind::torque)
+      put(load.link, -1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), v.x(), &known);
+    else
+      put(load.link, -1, body(load.link).position(load.local), v, 0.0, &known);
+  }
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(a);
+  NewtonEulerForces out;
+  out.friction.assign(m.joints.size(), 0.0);
+  std::vector<double> magnitude(m.joints.size(), 0.0);
+  for (out.iterations = 0; out.iterations < 2000; ++out.iterations) {
+    Eigen::VectorXd b = known;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      if (!joint.friction) continue;
+      const double f = -sign[j] * magnitude[j];  // on the joint's second link
+      if (joint.type == JointType::revolute) {
+        put(joint.link_b, -1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), f, &b);
+        put(joint.link_a, -1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -f, &b);
+      } else {
+        const Eigen::Vector2d t = body(joint.link_a)
+                                      .turn(m.links[static_cast<size_t>(joint.link_a)]
+                                                .lines[static_cast<size_t>(joint.line)]
+                                                .direction);
+        const Eigen::Vector2d at = point_of(joint.link_b, joint.point_b);
+        put(joint.link_b, -1, at, f * t, 0.0, &b);
+        put(joint.link_a, -1, at, -f * t, 0.0, &b);
+      }
+      out.friction[j] = f;
+    }
+    out.unknowns = lu.solve(-b);
+    double change = 0.0, largest = 0.0;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      if (!joint.friction) continue;
+      const JointFriction& fr = *joint.friction;
+      const double x = out.unknowns(2 * static_cast<Eigen::Index>(j)),
+                   y = out.unknowns(2 * static_cast<Eigen::Index>(j) + 1);
+      const double next =
+          joint.type == JointType::revolute
+              ? fr.coefficient * fr.radius * std::hypot(x, y) + fr.constant
+              : fr.coefficient * (fr.length > 0.0
+                                      ? std::max(std::abs(x), 2.0 * std::abs(y) / fr.length)
+                                      : std::abs(x)) +
+                    fr.constant;
+      change = std::max(change, std::abs(next - magnitude[j]));
+      largest = std::max(largest, next);
+      magnitude[j] = next;
+    }
+    if (change <= 1e-15 * largest) break;
+  }
+  return out;
+}
+
+class FrictionFiles : public ::testing::TestWithParam<std::string> {};
+
+// Every sample's effort, reactions (a slide's with its friction force), normal forces, couples
+// and friction from the sweep against the Newton-Euler fixed point at the same pose, each to
+// 1e-9 of its kind's peak over the sweep (forces; torques, which include a force times the size).
+TEST_P(FrictionFiles, NewtonEulerFixedPointGivesTheSweepsForces) {
+  const Mechanism m = load_mechanism(GetParam());
+  const Trajectory t = sweep(m);
+  ASSERT_TRUE(t.has_forces);
+  const NewtonSolver solver(m);
+  KinematicState state(m);
+  std::vector<std::pair<double, double>> forces, torques;  // (sweep, Newton-Euler)
+  int checked = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    if (!usable(t.status[static_cast<size_t>(k)])) continue;
+    state.q = coordinates_at(m, t, k);
+    DriverState d = m.drivers[0].at_time(t.time(k));
+    d.value = t.along(k);
+    d.rate = m.drivers[0].law.speed;  // constant speed, as every bundled friction file
+    state.swept() = d;
+    ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
+    const NewtonEulerForces ne = newton_euler(m, state.q, state.qdot, state.qddot);
+    ASSERT_LT(ne.iterations, 2000) << "the fixed point did not converge at " << t.along(k);
+    torques.emplace_back(t.effort(k, 0), ne.unknowns(ne.unknowns.size() - 1));
+    size_t slide = 0, friction = 0;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      const auto c = static_cast<Eigen::Index>(j);
+      Eigen::Vector2d expected(ne.unknowns(2 * c), ne.unknowns(2 * c + 1));
+      if (joint.is_slide()) {
+        const BodyMotion guide =
+            BodyMotion::of(m.moving_index(joint.link_a), state.q, nullptr, nullptr);
+        const Eigen::Vector2d along = guide.turn(m.links[static_cast<size_t>(joint.link_a)]
+                                                     .lines[static_cast<size_t>(joint.line)]
+                                                     .direction);
+        const auto s = static_cast<Eigen::Index>(slide++);
+        forces.emplace_back(t.fn(k, s), ne.unknowns(2 * c));
+        torques.emplace_back(t.moment(k, s), ne.unknowns(2 * c + 1));
+        expected = ne.unknowns(2 * c) * perp(along) + ne.friction[j] * along;
+      }
+      forces.emplace_back(t.fx(k, c), expected.x());
+      forces.emplace_back(t.fy(k, c), expected.y());
+      if (joint.friction) {
+        const auto f = static_cast<Eigen::Index>(friction++);
+        (joint.is_slide() ? forces : torques).emplace_back(t.friction(k, f), ne.friction[j]);
+      }
+    }
+    ++checked;
+  }
+  ASSERT_GT(checked, t.samples() / 2) << m.file;
+  for (auto* pairs : {&forces, &torques}) {
+    double peak = 0.0;
+    for (const auto& [a, b] : *pairs) peak = std::max(peak, std::abs(b));
+    ASSERT_GT(peak, 0.0);
+    for (const auto& [a, b] : *pairs) EXPECT_NEAR(a, b, 1e-9 * peak) << m.file;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Bundled, FrictionFiles, ::testing::ValuesIn(test::friction_files()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return std::filesystem::path(info.param).stem().string();
+                         });
+
+// Bevan's eccentric by hand. Its links are massless and its rod carries nothing between its
+// pins, so the rod's force on the crosshead is F_P = (L, N) (the guide is frictionless and takes
+// only a normal force), |R| = |F_P| at every pin, and the rod's moment balance about C,
+// dx N - dy L = -(m_C + m_P) with the pins' friction moments on the rod, fixes N; the crank's
+// balance about O then gives the driver's torque. Iterated on |R| to a fixed point.
+TEST(Friction, BevansEccentricByTheFrictionCircles) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/friction/bevan_eccentric_friction.toml");
+  const double inch = 0.0254, mu = 0.05, load = 6 * 2240 * 4.4482216152605;  // N
+  const double r = 8 * inch, l = 80 * inch, rho_o = mu * 7 * inch, rho_c = mu * 15 * inch,
+               rho_p = mu * 4.4 * inch;
+  const double theta = std::numbers::pi / 3, crank_rate = -2 * std::numbers::pi;  // -60 rpm
+  const Eigen::Vector2d c(r * std::cos(theta), r * std::sin(theta));
+  const double phi = std::asin(c.y() / l);
+  const Eigen::Vector2d p(c.x() + l * std::cos(phi), 0.0);
+  // The rod's angle is -phi with sin(-phi) = -r sin(theta) / l: its rate.
+  const double rod_rate = -r * std::cos(theta) * crank_rate / (l * std::cos(phi));
+  const auto sign = [](double x) { return x > 0.0 ? 1.0 : -1.0; };
+  double normal = 0.0, pull = load;
+  for (int it = 0; it < 200; ++it) {
+    pull = std::hypot(load, normal);
+    const double on_rod_c = -sign(rod_rate - crank_rate) * rho_c * pull;  // C: crank on rod
+    const double on_rod_p = sign(0.0 - rod_rate) * rho_p * pull;          // P: rod is its first
+    normal = ((p.y() - c.y()) * load - on_rod_c - on_rod_p) / (p.x() - c.x());
+  }
+  pull = std::hypot(load, normal);
+  const double on_crank_c = sign(rod_rate - crank_rate) * rho_c * pull;
+  const double on_crank_o = -sign(crank_rate) * rho_o * pull;
+  const double torque = -cross(c, Eigen::Vector2d(load, normal)) - on_crank_o - on_crank_c;
+
+  const Trajectory exact = solve_at(m, theta);
+  ASSERT_EQ(exact.status[0], PoseStatus::ok);
+  EXPECT_NEAR(exact.effort(0, 0), torque, 1e-12 * torque);
+  const Eigen::Index first = 0;
+  EXPECT_NEAR(exact.friction(0, first), -sign(crank_rate) * rho_o * pull, 1e-12 * torque);
+  // Bevan prints 3.06 ton ft with friction, 3.64 without (Ex. 7, p. 198): to its last digit.
+  const double ton_ft = 2240 * 4.4482216152605 * 0.3048;
+  EXPECT_NEAR(exact.effort(0, 0) / ton_ft, 3.06, 0.005);
+  Mechanism frictionless = m;
+  for (Joint& j : frictionless.joints) j.friction.reset();
+  const Trajectory without = solve_at(frictionless, theta);
+  EXPECT_NEAR(without.effort(0, 0),
+              -cross(c, Eigen::Vector2d(load, (p.y() - c.y()) * load / (p.x() - c.x()))),
+              1e-12 * torque);
+  EXPECT_NEAR(without.effort(0, 0) / ton_ft, 3.64, 0.005);
+}
+
+// Where the rod stops turning (the crank at 90 and 270 deg), the crosshead pin's friction has no
+// sign: those samples are flagged with an event naming the joint, their forces are not given,
+// and their poses are.
+TEST(Friction, ARelativeRestIsFlaggedNeverSigned) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/friction/bevan_eccentric_friction.toml");
+  const Trajectory t = sweep(m);
+  std::vector<double> flagged;
+  for (int k = 0; k < t.samples(); ++k)
+    if (t.status[static_cast<size_t>(k)] == PoseStatus::friction_indeterminate) {
+      flagged.push_back(t.along(k) * 180.0 / std::numbers::pi);
+      EXPECT_FALSE(t.has_value(k, Quantity::torque));
+      EXPECT_TRUE(t.has_value(k, Quantity::position));
+    }
+  // The crank turns clockwise from 60 deg: through -90 and -270 deg.
+  ASSERT_EQ(flagged.size(), 2u);
+  EXPECT_NEAR(flagged[0], -90.0, 1e-9);
+  EXPECT_NEAR(flagged[1], -270.0, 1e-9);
+  int events = 0;
+  for (const Trajectory::Event& e : t.events)
+    if (e.kind == PoseStatus::friction_indeterminate) {
+      ++events;
+      EXPECT_NE(e.message.find("joint 'P'"), std::string::npos) << e.message;
+    }
+  EXPECT_EQ(events, 2);
+  // One sample beside it, the friction has its sign: the driver's torque jumps across the stop
+  // (the pin's friction changes side) but each side is determined.
+  EXPECT_EQ(solve_at(m, -89.9 * std::numbers::pi / 180).status[0], PoseStatus::ok);
+}
+
+// A piston on slide bars as rough as mu = 5 locks where the rod's obliquity phi has mu tan(phi)
+// >= 1 (the friction angle and the obliquity make 90 deg): the driver's push along the rod only
+// presses the piston harder on its bars. There the friction gain reaches 1 and the samples are
+// flagged self_locking; near the dead centres (small phi) the forces stand. (The pins' friction
+// and the rod's inertia move the border a little from mu tan(phi) = 1: 5 %.)
+TEST(Friction, FrictionThatCanLockTheMechanismIsFlagged) {
+  Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                               "/mechanisms/friction/slider_crank_friction.toml");
+  for (Joint& j : m.joints)
+    if (j.is_slide()) j.friction->coefficient = 5.0;
+  const Trajectory t = sweep(m);
+  int locked = 0, ok = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    const PoseStatus s = t.status[static_cast<size_t>(k)];
+    // The obliquity at this crank angle: sin(phi) = r sin(theta) / l.
+    const double tan_phi = std::tan(std::asin(0.3 * std::sin(t.along(k)) / 1.2));
+    if (s == PoseStatus::self_locking) {
+      ++locked;
+      EXPECT_GT(5.0 * std::abs(tan_phi), 0.95) << t.along(k);
+    }
+    if (s == PoseStatus::ok) {
+      ++ok;
+      EXPECT_LT(5.0 * std::abs(tan_phi), 1.05) << t.along(k);
+    }
+  }
+  EXPECT_GT(locked, 0);
+  EXPECT_GT(ok, 0);
+}
+
+// The friction keys' errors, each at its key (file:line:column), with what to write.
+std::string with_friction(const std::string& joint_line, const std::string& friction) {
+  std::string text = test::source_text("mechanisms/friction/slider_crank_friction.toml");
+  const size_t at = text.find(joint_line);
+  EXPECT_NE(at, std::string::npos) << joint_line;
+  const size_t end = text.find('\n', at);
+  return text.replace(at, end - at, friction);
+}
+
+void expect_refused(const std::string& text, const std::string& key_text,
+                    const std::string& message) {
+  const size_t at = text.find(key_text);
+  ASSERT_NE(at, std::string::npos) << key_text;
+  const int line =
+      1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+  try {
+    (void)parse_definition(text, "friction.toml");
+    ADD_FAILURE() << "accepted: " << key_text;
+  } catch (const DefinitionError& e) {
+    bool found = false;
+    for (const Diagnostic& d : e.diagnostics())
+      if (d.message.find(message) != std::string::npos) {
+        found = true;
+        EXPECT_EQ(d.where.line, line) << d.message;
+      }
+    EXPECT_TRUE(found) << e.what();
+  }
+}
+
+TEST(Friction, WrongFrictionIsRefusedAtItsKey) {
+  const std::string main_bearing = "friction = { coefficient = 0.02, radius = 0.12 }";
+  for (const auto& [written, key, message] :
+       std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"friction = { coefficient = -0.1, radius = 0.12 }", "friction",
+            "must be zero or positive"},
+           {"friction = { coefficient = 0.1 }", "friction", "needs 'radius'"},
+           {"friction = { coefficient = 0.1, radius = 0 }", "friction",
+            "'radius' in the friction of"},
+           {"friction = { coefficient = 0.1, length = 0.2 }", "friction", "unknown key 'length'"},
+           {"friction = { radius = 0.1 }", "friction", "without 'coefficient'"},
+           {"friction = 0.1", "friction", "must be a table"},
+           {"friction = { coefficient = 11, radius = 0.1 }", "friction", "too large"},
+           {"friction = { coefficient = 0.1, radius = 5 }", "friction",
+            "larger than the mechanism"},
+           {"friction = { torque = -3 }", "friction", "must be zero or positive"},
+       }) {
+    SCOPED_TRACE(written);
+    expect_refused(with_friction(main_bearing, written), written, message);
+  }
+  // Two journals on the crank crossing: 0.25 m and 0.12 m radius, 0.3 m apart.
+  const std::string crossing = with_friction("friction = { coefficient = 0.02, radius = 0.09 }",
+                                             "friction = { coefficient = 0.02, radius = 0.25 }");
+  expect_refused(crossing, "radius = 0.25", "cross on link 'crank'");
+  // Friction where crosslink has none: a pin in a slot, a gear pair's teeth.
+  std::string slot = test::source_text("mechanisms/quick_return.toml");
+  const std::string prismatic =
+      "type = \"prismatic\"        # s = distance of B from C along the slot";
+  const size_t pin = slot.find(prismatic);
+  ASSERT_NE(pin, std::string::npos);
+  slot.replace(pin, prismatic.size(), "type = \"pin_in_slot\"\nfriction = { coefficient = 0.1 }");
+  expect_refused(slot, "friction = { coefficient = 0.1 }",
+                 "friction on a pin in a slot is not modelled");
+  std::string gears = test::source_text("mechanisms/gears/planetary_fixed_ring.toml");
+  const size_t gear = gears.find("type = \"gear\"");
+  ASSERT_NE(gear, std::string::npos);
+  gears.insert(gears.find('\n', gear) + 1, "friction = { coefficient = 0.1 }\n");
+  expect_refused(gears, "friction = { coefficient = 0.1 }", "its teeth have no friction");
+  // Not modelled yet, said at the friction: forward dynamics.
+  expect_refused(test::source_text("mechanisms/friction/slider_crank_friction.toml") +
+                     "\n[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 10\n",
+                 main_bearing, "forward dynamics with joint friction");
+}
+
+}  // namespace
+}  // namespace crosslink
