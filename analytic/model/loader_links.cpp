@@ -1,5 +1,7 @@
 #include "analytic/model/loader_reader.h"
 
+#include <algorithm>
+
 namespace crosslink::loading {
 
 namespace {
@@ -362,7 +364,8 @@ void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& j
   const std::string fwhat = fmt::format("the friction of {}", what);
   const char* constant_key = revolute ? "torque" : "force";
   r.known_keys(*table, fwhat,
-               {"coefficient", revolute ? "radius" : "length", std::string(constant_key)});
+               {"coefficient", "static_coefficient", revolute ? "radius" : "length",
+                std::string(constant_key)});
   JointFriction f;
   f.where = r.at(*node);
   const Scale length = length_scale(m.units);
@@ -394,7 +397,18 @@ void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& j
         fmt::format("{} gives '{}' without 'coefficient'", fwhat, revolute ? "radius" : "length"));
   if (!mu && !constant)
     r.error(r.at(*node), fmt::format("{} needs 'coefficient' or '{}'", fwhat, constant_key));
+  const std::optional<double> mu_static =
+      r.number(*table, "static_coefficient", fwhat, false, {1.0, "", limits::kFrictionCoefficient});
+  if (mu_static && !(*mu_static >= mu.value_or(0.0)))
+    r.error(r.at(table->get("static_coefficient")),
+            fmt::format("'static_coefficient' in {} must be at least 'coefficient' ({:g}): what "
+                        "holds a joint at rest is no less than what slows it",
+                        fwhat, mu.value_or(0.0)));
+  if (mu_static && !mu)
+    r.error(r.at(table->get("static_coefficient")),
+            fmt::format("{} gives 'static_coefficient' without 'coefficient'", fwhat));
   f.coefficient = mu.value_or(0.0);
+  f.static_coefficient = mu_static.value_or(f.coefficient);
   (revolute ? f.radius : f.length) = size.value_or(0.0);
   f.constant = constant.value_or(0.0);
   joint.friction = f;
@@ -721,10 +735,23 @@ void check_friction(Reader& r, const Mechanism& m) {
               fmt::format("joint friction beside a gear pair ('{}') is not modelled yet: its "
                           "tooth force's separating part makes the pivots' reactions piecewise",
                           j.name));
-  if (m.dynamics)
-    r.error(first.friction->where,
-            "forward dynamics with joint friction ([dynamics]) is not modelled yet: its stick "
-            "and slip phases need events; the kinematic and kinetostatic commands take it");
+  if (m.dynamics) {
+    // At rest, held by friction, a mechanism stays for good only while nothing applied to it
+    // changes: a breakaway in time is not located yet.
+    const auto changes = [](const FreeCoordinate& c) {
+      return std::ranges::any_of(
+          c.effort, [&](const auto& row) { return row.second != c.effort.front().second; });
+    };
+    if (m.drivers.size() > 1)
+      r.error(first.friction->where,
+              "forward dynamics with joint friction and several free coordinates is not "
+              "modelled yet: one joint may stick while another slides");
+    else if (changes(*m.dynamics))
+      r.error(first.friction->where,
+              "forward dynamics with joint friction under an effort that changes in time is not "
+              "modelled yet: a mechanism held at rest would break away at an instant that is "
+              "not located; give a constant effort");
+  }
   const double unit = m.units.length;
   const std::string& name = m.units.length_name;
   const double size = m.size();

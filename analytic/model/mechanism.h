@@ -97,13 +97,18 @@ std::string_view to_string(JointType type);
 // bearing length b, mu max(|N|, 2 |M| / b): a couple M presses the block's two ends on opposite
 // sides). Where the joint's relative motion stops, its value is not determined by the motion.
 struct JointFriction {
-  double coefficient = 0.0;  // Coulomb's mu
-  double radius = 0.0;       // revolute: the pin's (journal's) radius [m]
-  double length = 0.0;       // prismatic: the slider's bearing length [m]; 0: a point contact
-  double constant = 0.0;     // load-independent: a torque [N m] (revolute) or force [N]
+  double coefficient = 0.0;         // Coulomb's mu (sliding)
+  double static_coefficient = 0.0;  // what holds a joint at rest (at least `coefficient`)
+  double radius = 0.0;              // revolute: the pin's (journal's) radius [m]
+  double length = 0.0;              // prismatic: the slider's bearing length [m]; 0: a point
+  double constant = 0.0;            // load-independent: a torque [N m] (revolute) or force [N]
   SourceLocation where;
-  // The friction circle's radius (revolute) or the coefficient (prismatic).
-  double load_gain(bool revolute) const { return revolute ? coefficient * radius : coefficient; }
+  // The friction circle's radius (revolute) or the coefficient (prismatic); `at_rest`: the
+  // static coefficient's, at the limit that holds a joint still.
+  double load_gain(bool revolute, bool at_rest = false) const {
+    const double mu = at_rest ? static_coefficient : coefficient;
+    return revolute ? mu * radius : mu;
+  }
 };
 
 struct Joint {

@@ -219,7 +219,31 @@ class FollowedChain {
 class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
  public:
   using State = std::array<double, 3>;  // d, ddot, w
-  using FollowedChain::FollowedChain;
+
+  EquationOfMotion(const Mechanism& m, long max_solves)
+      : FollowedChain(m, max_solves),
+        friction_(!m.friction_joints().empty()),
+        forces_(kinetostatics_.make_sample()),
+        moving_(state_) {}
+
+  // Joint friction (docs/dynamics.md, "Joint friction"): the motion runs in phases of one
+  // direction of sliding, +1 or -1 (0: at rest, held by friction), the friction opposing that
+  // direction throughout a phase, so that the instant the rate reaches zero is located on smooth
+  // motion (integrate_phases).
+  bool friction() const { return friction_; }
+  int direction() const { return direction_; }
+  void set_direction(int direction) { direction_ = direction; }
+  // At rest at coordinate d: the direction the mechanism breaks away in, each friction at its
+  // static limit against it (+1 or -1), or 0 when friction holds it.
+  int breakaway(double t, double d) {
+    for (const int direction : {1, -1}) {
+      direction_ = direction;
+      const double dddot = acceleration(t, d, 0.0, m_.dynamics->effort_at(t), nullptr, true);
+      if (direction * dddot > 0.0) return direction;
+    }
+    direction_ = 0;
+    return 0;
+  }
 
   // The state at (t, x): the pose, its rates and accelerations.
   void at(double t, const State& x) { acceleration(t, x[0], x[1], m_.dynamics->effort_at(t)); }
@@ -245,14 +269,16 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
   // 1e-3 on A02) balances the two errors: with its edge at 1e-4 and six nodes, a regular evaluation
   // at the edge was off by 1e-8 of the acceleration, and a one-ulp change of the mass moved A02's
   // energy balance over 10 s between 7e-10 and 9e-9 J (docs/dynamics.md).
-  double acceleration(double t, double d, double ddot, double effort, double* power = nullptr) {
+  double acceleration(double t, double d, double ddot, double effort, double* power = nullptr,
+                      bool at_rest = false) {
     rcond_ = move_to(t, d);
     near_singular_ = rcond_ < near_singular_rcond_;
     if (rcond_ < interpolated_rcond_)
       interpolate(t, d);
     else
       reduce(t, d, here_);
-    return motion(t, d, ddot, effort, power);
+    const double dddot = motion(t, d, ddot, effort, power);
+    return friction_ ? with_friction(t, ddot, effort, dddot, power, at_rest) : dddot;
   }
 
  private:
@@ -362,7 +388,57 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
     return dddot;
   }
 
+  // The acceleration with joint friction, from motion()'s without it (`guess`): the one whose
+  // exact kinetostatics needs the applied effort, each friction opposing the phase's direction
+  // (at its static limit `at_rest`), by the secant method on that effort (affine in the
+  // acceleration but for the friction, whose reactions depend on it). Leaves the state at it,
+  // and adds the friction's power to `power`.
+  double with_friction(double t, double ddot, double effort, double guess, double* power,
+                       bool at_rest) {
+    if (direction_ == 0) {  // held at rest
+      state_.qddot.setZero();
+      state_.swept().accel = 0.0;
+      return 0.0;
+    }
+    if (near_singular_)
+      throw Stopped{t, PoseStatus::singular,
+                    "joint friction next to a singular position is not modelled: its reactions "
+                    "are not resolved there"};
+    moving_.q = state_.q;
+    moving_.qdot = here_.s * static_cast<double>(direction_);
+    moving_.swept() = {t, state_.swept().value, static_cast<double>(direction_), 0.0};
+    const auto needed = [&](double dddot) {
+      state_.qddot = here_.a * (ddot * ddot) + here_.s * dddot;
+      state_.swept().accel = dddot;
+      kinetostatics_.solve(state_, forces_, moving_, at_rest);
+      if (forces_.status != PoseStatus::ok) throw Stopped{t, forces_.status, forces_.why(m_)};
+      return forces_.effort(0) - effort;
+    };
+    double x0 = guess, r0 = needed(x0);
+    double x1 = x0 - r0 / here_.mass;
+    for (int it = 0; it < kFrictionSecantSteps; ++it) {
+      const double r1 = needed(x1);
+      if (r1 == 0.0 || r1 == r0) break;
+      const double x2 = x1 - r1 * (x1 - x0) / (r1 - r0);
+      x0 = x1;
+      r0 = r1;
+      x1 = x2;
+      if (std::abs(x1 - x0) <= 1e-15 * std::max(std::abs(x1), std::abs(guess))) break;
+    }
+    (void)needed(x1);  // the state and forces at the solution
+    if (power) *power += kinetostatics_.friction_power(state_, forces_);
+    return x1;
+  }
+
+  // The secant steps of with_friction: the effort is affine in the acceleration but for the
+  // friction, so a handful reach round-off.
+  static constexpr int kFrictionSecantSteps = 50;
+
   Reduced here_;  // at the coordinate
+  const bool friction_;
+  int direction_ = 0;
+  ForceSample forces_;
+  KinematicState moving_;  // the pose, moving at unit rate in the phase's direction
   // The last zone next to a singular position: its edges and its nodes (interpolate).
   struct Zone {
     double lo = 0.0, hi = -1.0;  // empty until one is found
@@ -460,6 +536,127 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   Eigen::MatrixXd mass_;  // S^T M S
 };
 
+// Writes the samples of a run: the pose, rates and forces at each sample's state, and the energy
+// balance's terms.
+template <class Equations>
+class SampleWriter {
+ public:
+  SampleWriter(Equations& eom, Simulation& out)
+      : eom_(eom), out_(out), forces_(eom.kinetostatics().make_sample()) {}
+
+  int written() const { return written_; }
+
+  void operator()(const typename Equations::State& y, double time) {
+    const int k = written_;  // counted once whole: a stop inside leaves it not_reached
+    Trajectory& t = out_.trajectory;
+    const Kinetostatics& kinetostatics = eom_.kinetostatics();
+    eom_.at(time, y);
+    KinematicState& s = eom_.state();
+    SolveReport report;
+    report.rcond = eom_.rcond();  // the trust rules' conditioning (analytic/reference/trust.h)
+    if (eom_.near_singular()) {
+      // Its coordinate's motion is exact, the rest of its pose only to round-off.
+      report.status = PoseStatus::singular;
+      report.message = "next to a singular position";
+    }
+    eom_.solver().write_sample(s, report, t, k);
+    if (!eom_.near_singular()) {
+      kinetostatics.solve(s, forces_);
+      // At rest, held by friction: the pose stands, the friction is somewhere in its cone.
+      if (forces_.status != PoseStatus::ok)
+        t.status[static_cast<size_t>(k)] = forces_.status;
+      else
+        kinetostatics.write_sample(forces_, t, k);
+    }
+    out_.kinetic(k) = kinetostatics.kinetic_energy(s);
+    out_.potential(k) = kinetostatics.potential_energy(s);
+    out_.work(k) = Equations::work(y);
+    out_.energy_scale = std::max({out_.energy_scale, std::abs(out_.kinetic(k)),
+                                  std::abs(out_.potential(k)), std::abs(out_.work(k))});
+    if (k == 0) out_.initial_energy = out_.kinetic(0) + out_.potential(0);
+    ++written_;
+  }
+
+ private:
+  Equations& eom_;
+  Simulation& out_;
+  ForceSample forces_;
+  int written_ = 0;
+};
+
+// Joint friction's phases (one coordinate): Runge-Kutta-Fehlberg 7(8) steps, each phase's
+// friction opposing its direction of sliding; a step over which the rate reaches zero is cut
+// at that instant, found by bisection on single steps from the step's start (on the phase's
+// smooth motion, to 1e-14 of the time), and there the mechanism either breaks away again (its
+// direction from the static limits) or stays at rest, held: its loads and effort are constant
+// in time (the loader refuses an effort that changes with friction), so it stays for good.
+void integrate_phases(const Mechanism& mechanism, const SimulationOptions& options,
+                      const std::vector<double>& times, double interval, EquationOfMotion& eom,
+                      SampleWriter<EquationOfMotion>& observe, Simulation& out,
+                      EquationOfMotion::State x) {
+  namespace odeint = boost::numeric::odeint;
+  using State = EquationOfMotion::State;
+  if (options.integrator != "rkf78")
+    throw std::invalid_argument("joint friction's phases are integrated by rkf78 only");
+  const double tol = options.tolerance;
+  auto stepper = odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>());
+  odeint::runge_kutta_fehlberg78<State> single;
+  const auto units = driver_unit_of(mechanism.swept(), mechanism.units);
+  const auto at_rest = [&](double t, State& y) {
+    y[1] = 0.0;
+    const int direction = eom.breakaway(t, y[0]);
+    eom.set_direction(direction);
+    out.stops.emplace_back(t, y[0]);
+    out.held = direction == 0;
+    if (direction == 0)
+      out.trajectory.events.push_back(
+          {t, PoseStatus::friction_indeterminate,
+           fmt::format("at rest from t = {:.12g} s, coordinate {}: friction holds the mechanism "
+                       "(its forces inside the friction cones are not determined)",
+                       t, units.text(y[0], 12))});
+  };
+  double t = 0.0, dt = std::min(interval, kFirstStep);
+  if (x[1] == 0.0)
+    at_rest(t, x);
+  else
+    eom.set_direction(x[1] > 0.0 ? 1 : -1);
+  observe(x, times[0]);
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double end = times[k];
+    while (t < end && eom.direction() != 0) {
+      State trial = x;
+      double from = t, h = std::min(dt, end - t);
+      if (stepper.try_step(std::ref(eom), trial, from, h) == odeint::fail) {
+        dt = h;
+        continue;
+      }
+      dt = h;
+      if (end - from <= 1e-13 * end) from = end;
+      if (eom.direction() * trial[1] > 0.0) {
+        x = trial;
+        t = from;
+        continue;
+      }
+      // The sliding stopped within the step: where.
+      double lo = 0.0, hi = from - t;
+      while (hi - lo > 1e-14 * std::max(t + hi, interval)) {
+        const double mid = 0.5 * (lo + hi);
+        State y;
+        single.do_step(std::ref(eom), x, t, y, mid);
+        (eom.direction() * y[1] > 0.0 ? lo : hi) = mid;
+      }
+      State y;
+      single.do_step(std::ref(eom), x, t, y, hi);
+      t += hi;
+      x = y;
+      at_rest(t, x);
+      dt = std::min(interval, kFirstStep);
+    }
+    t = end;  // at rest, it stays
+    observe(x, end);
+  }
+}
+
 // Integrates `Equations` (EquationOfMotion or SeveralEquations) from `initial` at `times` into
 // `out`, its trajectory sized and timed.
 template <class Equations>
@@ -468,58 +665,39 @@ void integrate(const Mechanism& mechanism, const SimulationOptions& options,
                const typename Equations::State& initial) {
   Trajectory& t = out.trajectory;
   const int n = t.samples();
-  int written = 0;
   std::optional<Equations> started;
+  std::optional<SampleWriter<Equations>> writer;
   try {
     Equations& eom = started.emplace(mechanism, options.max_solves);
-    const Kinetostatics& kinetostatics = eom.kinetostatics();
-    ForceSample forces = kinetostatics.make_sample();
+    SampleWriter<Equations>& observe = writer.emplace(eom, out);
     typename Equations::State x = initial;
-    auto observe = [&](const typename Equations::State& y, double time) {
-      const int k = written;  // counted once whole: a stop inside leaves it not_reached
-      eom.at(time, y);
-      KinematicState& s = eom.state();
-      SolveReport report;
-      report.rcond = eom.rcond();  // the trust rules' conditioning (analytic/reference/trust.h)
-      if (eom.near_singular()) {
-        // Its coordinate's motion is exact, the rest of its pose only to round-off.
-        report.status = PoseStatus::singular;
-        report.message = "next to a singular position";
-      }
-      eom.solver().write_sample(s, report, t, k);
-      if (!eom.near_singular()) {
-        kinetostatics.solve(s, forces);
-        kinetostatics.write_sample(forces, t, k);
-      }
-      out.kinetic(k) = kinetostatics.kinetic_energy(s);
-      out.potential(k) = kinetostatics.potential_energy(s);
-      out.work(k) = Equations::work(y);
-      out.energy_scale = std::max({out.energy_scale, std::abs(out.kinetic(k)),
-                                   std::abs(out.potential(k)), std::abs(out.work(k))});
-      if (k == 0) out.initial_energy = out.kinetic(0) + out.potential(0);
-      ++written;
-    };
+    bool phased = false;  // joint friction: in phases of one direction of sliding
+    if constexpr (std::is_same_v<Equations, EquationOfMotion>) phased = eom.friction();
     namespace odeint = boost::numeric::odeint;
     const double tol = options.tolerance;
     // Every trial step evaluates poses along it: the first is small (the controller grows it by
     // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
     // the motion (a first trial of 10 s put A02's crank 986 rad away).
     const double first = std::min(interval, kFirstStep);
-    if (options.integrator == "dopri5") {
+    if (phased) {
+      if constexpr (std::is_same_v<Equations, EquationOfMotion>)
+        integrate_phases(mechanism, options, times, interval, eom, observe, out, x);
+    } else if (options.integrator == "dopri5") {
       odeint::integrate_times(
           odeint::make_dense_output(tol, tol,
                                     odeint::runge_kutta_dopri5<typename Equations::State>()),
-          std::ref(eom), x, times.begin(), times.end(), first, observe);
+          std::ref(eom), x, times.begin(), times.end(), first, std::ref(observe));
     } else if (options.integrator == "rkf78") {
       odeint::integrate_times(
           odeint::make_controlled(tol, tol,
                                   odeint::runge_kutta_fehlberg78<typename Equations::State>()),
-          std::ref(eom), x, times.begin(), times.end(), first, observe);
+          std::ref(eom), x, times.begin(), times.end(), first, std::ref(observe));
     } else {
       throw std::invalid_argument("unknown integrator '" + options.integrator +
                                   "' (valid: dopri5, rkf78)");
     }
   } catch (const Stopped& stop) {
+    const int written = writer ? writer->written() : 0;
     // No state at all: the case cannot start, bad input at its [dynamics] table, not a result.
     if (written == 0) throw DefinitionError({Diagnostic{mechanism.dynamics->where, stop.message}});
     out.ok = false;

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analytic/model/mechanism.h"
@@ -67,6 +68,11 @@ struct Simulation {
   long evaluations = 0;      // of the equation of motion
   long solves = 0;           // of a pose (options.max_solves bounds them)
   bool over_budget = false;  // stopped by options.max_solves
+  // Joint friction: each instant the sliding stopped (the coordinate's rate reached zero), as
+  // (time [s], coordinate), located to 1e-14 of the time; after the last, held at rest when
+  // `held`.
+  std::vector<std::pair<double, double>> stops;
+  bool held = false;
 
   // The largest of the energies (kinetic, potential, work, initial) over the run [J]: the scale
   // of the balance (one sample's energies may all be near 0: a pendulum at rest at the level of

@@ -267,11 +267,16 @@ Kinetostatics::Reaction Kinetostatics::reaction(const KinematicState& state, int
 }
 
 void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
+  solve(state, out, state, false);
+}
+
+void Kinetostatics::solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
+                          bool at_rest) const {
   const Mechanism& m = solver_.mechanism();
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
   out.status = PoseStatus::ok;
-  if (!friction_joints_.empty() && !solve_friction(state, out)) return;
+  if (!friction_joints_.empty() && !solve_friction(state, out, moving, at_rest)) return;
   const Eigen::VectorXd& lambda = out.lambda;
   const ConstraintLayout& layout = solver_.layout();
   // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
@@ -393,20 +398,21 @@ void Kinetostatics::add_unit_friction(const KinematicState& state, int f, double
   add_at(m, g, j.link_a, point - a.r, along, 0.0);
 }
 
-bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out) const {
+bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
+                                   const KinematicState& moving, bool at_rest) const {
   const Mechanism& m = solver_.mechanism();
   const auto k = static_cast<Eigen::Index>(friction_joints_.size());
   // The drivers' rate, as an angular rate: relative rates are judged against it.
   double rate = 0.0;
   for (size_t d = 0; d < m.drivers.size(); ++d) {
-    const double r = std::abs(state.drivers[d].rate);
+    const double r = std::abs(moving.drivers[d].rate);
     rate = std::max(rate, m.drivers[d].angular() ? r : r / size_);
   }
   std::vector<double> sign(static_cast<size_t>(k));
   Eigen::VectorXd unit(out.lambda.size()), column(out.lambda.size());
   for (Eigen::Index f = 0; f < k; ++f) {
     const int ji = friction_joints_[static_cast<size_t>(f)];
-    const double w = relative_rate(state, static_cast<int>(f));
+    const double w = relative_rate(moving, static_cast<int>(f));
     const double stopped =
         kStoppedRate * rate * (m.joints[static_cast<size_t>(ji)].is_slide() ? size_ : 1.0);
     if (!(std::abs(w) > stopped)) {
@@ -433,7 +439,7 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out) cons
       column = out.unit_lambda.col(i);
       Reaction& b = per_unit[static_cast<size_t>(f * k + i)];
       b = reaction(state, ji, column);
-      bound(f, i) = fr.load_gain(!m.joints[static_cast<size_t>(ji)].is_slide()) *
+      bound(f, i) = fr.load_gain(!m.joints[static_cast<size_t>(ji)].is_slide(), at_rest) *
                     friction_load(static_cast<int>(f), b);
     }
   }
@@ -458,7 +464,7 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out) cons
   const auto image = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     for (Eigen::Index f = 0; f < k; ++f) {
       const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
-      y(f) = j.friction->load_gain(!j.is_slide()) *
+      y(f) = j.friction->load_gain(!j.is_slide(), at_rest) *
                  friction_load(static_cast<int>(f), reaction_at(x, f)) +
              j.friction->constant;
     }
@@ -481,7 +487,7 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out) cons
       const Reaction r = reaction_at(x, f);
       for (Eigen::Index i = 0; i < k; ++i)
         slope(f, i) = (f == i ? 1.0 : 0.0) -
-                      j.friction->load_gain(!j.is_slide()) *
+                      j.friction->load_gain(!j.is_slide(), at_rest) *
                           friction_load_slope(static_cast<int>(f), r,
                                               per_unit[static_cast<size_t>(f * k + i)]);
     }

@@ -138,6 +138,13 @@ class Kinetostatics {
   // solve_acceleration with the real driver state). With joint friction, out.status says whether
   // the forces are determined (see above); when it is not ok, out's values are not.
   void solve(KinematicState& state, ForceSample& out) const;
+  // The same with each friction joint's sign from `moving`'s rates (a state at the same pose),
+  // not the state's own: the forward dynamics keeps a phase's direction of sliding across the
+  // instant its rate reaches zero (so that the instant can be located on smooth motion), and at
+  // rest asks whether the mechanism breaks away along `moving`, with each friction at its static
+  // limit (`at_rest`: static_coefficient).
+  void solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
+             bool at_rest) const;
   // Method 2, the power balance: the drivers' power, the sum over drivers of effort x rate [W],
   // as the rate of change of the kinetic energy and of the potential energy of gravity and
   // springs, plus the power dissipated in dampers and in joint friction, less the power of the
@@ -192,7 +199,8 @@ class Kinetostatics {
   void add_unit_friction(const KinematicState& state, int f, double sign, Eigen::VectorXd& g) const;
   // The friction magnitudes and the multipliers they give (see above); false with out.status
   // set when they are not determined.
-  bool solve_friction(KinematicState& state, ForceSample& out) const;
+  bool solve_friction(KinematicState& state, ForceSample& out, const KinematicState& moving,
+                      bool at_rest) const;
 
   const NewtonSolver& solver_;
   std::vector<int> slide_joints_;

@@ -23,6 +23,7 @@
 #include "analytic/kinematics/instant_centres.h"
 #include "analytic/model/loader.h"
 #include "analytic/model/planar.h"
+#include "analytic/physics/dynamics.h"
 #include "analytic/physics/kinetostatics.h"
 #include "analytic/reference/sweep.h"
 #include "tests/common/mechanisms.h"
@@ -108,10 +109,20 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
     sign[j] = rate[j] > 0.0 ? 1.0 : -1.0;
   }
   const Driver& d = m.drivers[0];
-  EXPECT_EQ(d.type, DriverType::joint_angle);
-  put(d.link, n - 1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), 1.0, nullptr);
-  put(m.joints[static_cast<size_t>(d.joint)].link_a, n - 1, Eigen::Vector2d::Zero(),
-      Eigen::Vector2d::Zero(), -1.0, nullptr);
+  const Joint& driven = m.joints[static_cast<size_t>(d.joint)];
+  if (d.type == DriverType::slider) {  // a force along the line on the slider
+    const Eigen::Vector2d t = body(driven.link_a)
+                                  .turn(m.links[static_cast<size_t>(driven.link_a)]
+                                            .lines[static_cast<size_t>(driven.line)]
+                                            .direction);
+    const Eigen::Vector2d at = point_of(driven.link_b, driven.point_b);
+    put(driven.link_b, n - 1, at, t, 0.0, nullptr);
+    put(driven.link_a, n - 1, at, -t, 0.0, nullptr);
+  } else {
+    EXPECT_EQ(d.type, DriverType::joint_angle);
+    put(d.link, n - 1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), 1.0, nullptr);
+    put(driven.link_a, n - 1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -1.0, nullptr);
+  }
   // Gravity and loads (no springs in these files), and d'Alembert's -m a_c and -I alpha.
   for (size_t l = 0; l < m.links.size(); ++l) {
     if (m.links[l].ground) continue;
@@ -193,7 +204,7 @@ TEST_P(FrictionFiles, NewtonEulerFixedPointGivesTheSweepsForces) {
     state.q = coordinates_at(m, t, k);
     DriverState d = m.drivers[0].at_time(t.time(k));
     d.value = t.along(k);
-    d.rate = m.drivers[0].law.speed;  // constant speed, as every bundled friction file
+    d.rate = m.drivers[0].law.speed;  // constant speed, as every bundled friction file's sweep
     state.swept() = d;
     ASSERT_EQ(solver.solve(state).status, PoseStatus::ok);
     const NewtonEulerForces ne = newton_euler(m, state.q, state.qdot, state.qddot);
@@ -411,10 +422,68 @@ TEST(Friction, WrongFrictionIsRefusedAtItsKey) {
   ASSERT_NE(gear, std::string::npos);
   gears.insert(gears.find('\n', gear) + 1, "friction = { coefficient = 0.1 }\n");
   expect_refused(gears, "friction = { coefficient = 0.1 }", "its teeth have no friction");
-  // Not modelled yet, said at the friction: forward dynamics.
+  // Not modelled yet, said at the friction: forward dynamics under an effort that changes.
   expect_refused(test::source_text("mechanisms/friction/slider_crank_friction.toml") +
-                     "\n[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 10\n",
-                 main_bearing, "forward dynamics with joint friction");
+                     "\n[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 10\n"
+                     "effort_table = [[0, 0], [1, 5]]\n",
+                 main_bearing, "under an effort that changes in time");
+  expect_refused(with_friction("friction = { coefficient = 0.02, radius = 0.12 }",
+                               "friction = { coefficient = 0.1, static_coefficient = 0.05, "
+                               "radius = 0.12 }"),
+                 "static_coefficient = 0.05", "must be at least 'coefficient'");
+}
+
+// Forward dynamics with friction against closed forms. A block launched down a slope decelerates
+// at g (mu cos(alpha) - sin(alpha)), stops at t = v0 / a after v0^2 / (2 a), and stays (the
+// static coefficient holds it); the energy balance, with the friction's work, holds throughout.
+TEST(FrictionDynamics, ABlockSlidesToRestAndSticksAsTheClosedFormSays) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/friction/block_sliding_to_rest.toml");
+  const Simulation run = simulate(m);
+  ASSERT_TRUE(run.ok) << run.message;
+  const double g = 9.81, alpha = std::numbers::pi / 6, v0 = 3.0;
+  const double a = g * (0.8 * std::cos(alpha) - std::sin(alpha));
+  ASSERT_EQ(run.stops.size(), 1u);
+  EXPECT_TRUE(run.held);
+  EXPECT_NEAR(run.stops[0].first, v0 / a, 1e-9 * v0 / a);
+  EXPECT_NEAR(run.stops[0].second, v0 * v0 / (2 * a), 1e-9 * v0 * v0 / (2 * a));
+  const Trajectory& t = run.trajectory;
+  for (int k = 0; k < t.samples(); ++k) {
+    const double time = t.time(k);
+    const double s = time < v0 / a ? v0 * time - 0.5 * a * time * time : v0 * v0 / (2 * a);
+    EXPECT_NEAR(t.s(k, 0), s, 1e-9) << time;
+    EXPECT_LT(run.energy_error(k), 1e-11) << time;
+    // Sliding: its forces; held: its pose, and no forces (the friction is inside its cone).
+    EXPECT_EQ(t.status[static_cast<size_t>(k)],
+              time < v0 / a ? PoseStatus::ok : PoseStatus::friction_indeterminate);
+    if (time < v0 / a)  // the friction force mu N up the slope (-s), N = m g cos(alpha)
+      EXPECT_NEAR(t.friction(k, 0), -0.8 * 2 * g * std::cos(alpha), 1e-9);
+  }
+}
+
+// A pendulum with a constant friction torque T at its pivot, released at rest: between two
+// successive extremes phi_n, phi_n+1 (from the downward vertical, on opposite sides) the energy
+// balance m g l (cos phi_n+1 - cos phi_n) = T (|phi_n| + |phi_n+1|) is exact; it is held at the
+// first extreme where m g l |sin phi| <= T, and at none before.
+TEST(FrictionDynamics, APendulumsSwingsDecayAsTheEnergyBalanceSays) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/friction/pendulum_pin_friction.toml");
+  const Simulation run = simulate(m);
+  ASSERT_TRUE(run.ok) << run.message;
+  const double mgl = 1.0 * 9.81 * 0.5, torque = 0.2;
+  ASSERT_GE(run.stops.size(), 10u);
+  EXPECT_TRUE(run.held);
+  const auto phi = [](double angle) { return angle + std::numbers::pi / 2; };
+  for (size_t i = 0; i + 1 < run.stops.size(); ++i) {
+    const double a = phi(run.stops[i].second), b = phi(run.stops[i + 1].second);
+    EXPECT_LT(a * b, 0.0) << "extremes on opposite sides";
+    EXPECT_NEAR(mgl * (std::cos(b) - std::cos(a)), torque * (std::abs(a) + std::abs(b)),
+                1e-10 * mgl)
+        << "half swing " << i;
+    EXPECT_GT(mgl * std::abs(std::sin(a)), torque) << "it would have been held at " << a;
+  }
+  EXPECT_LE(mgl * std::abs(std::sin(phi(run.stops.back().second))), torque);
+  for (int k = 0; k < run.trajectory.samples(); ++k) EXPECT_LT(run.energy_error(k), 1e-11);
 }
 
 }  // namespace

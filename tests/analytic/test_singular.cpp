@@ -388,6 +388,10 @@ TEST(HeldDriver, EveryBundledRangeIsKnown) {
       continue;
     const Mechanism m = load_mechanism(entry.path().string());
     if (m.drivers[0].law.kind != MotionLaw::Kind::constant_speed) continue;
+    // A lone block on its line (friction/block_sliding_to_rest) assembles at every value: its
+    // point moves with the driver without bound, which the range's runaway rule (a point 4 times
+    // the drawing's size away) reads as an asymptote. Not a held driver.
+    if (m.moving_count() == 1 && m.swept().type == DriverType::slider) continue;
     // Several drivers have no range of one driver's value (it read past the one driver's row
     // before: AddressSanitizer's stack-buffer-overflow in ConstraintLayout::residual).
     if (m.drivers.size() > 1) {
