@@ -7,6 +7,9 @@
 # Cli.MergedShardsWriteTheSweepOfOneRun), and without `browser`: a headless Chromium reading the
 # report checks its script, not crosslink's memory (the C++ that writes the page runs sanitized
 # in the other compare tests); they took 290 s of the sanitized run's test time (2026-12-02).
+# Nor `accuracy`: an engine's accuracy at a step far below its default (10^5 steps or more) or at
+# a setting another test runs too, whose code paths the default-step tests run sanitized; the
+# four took 68 s of its test time (2026-12-02).
 # Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz.
 # Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
 set -euo pipefail
@@ -26,4 +29,4 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_stack_use_after_retu
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # A third-party library's allocations crosslink cannot free, each with why (scripts/lsan.supp).
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/scripts/lsan.supp:print_suppressions=0}
-ctest --test-dir "$BUILD_DIR" --output-on-failure -j2 -LE "slow|cluster|browser" "$@"
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j2 -LE "slow|cluster|browser|accuracy" "$@"
