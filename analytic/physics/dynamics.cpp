@@ -584,23 +584,33 @@ class SampleWriter {
   int written_ = 0;
 };
 
-// Joint friction's phases (one coordinate): Runge-Kutta-Fehlberg 7(8) steps, each phase's
-// friction opposing its direction of sliding; a step over which the rate reaches zero is cut
-// at that instant, found by bisection on single steps from the step's start (on the phase's
-// smooth motion, to 1e-14 of the time), and there the mechanism either breaks away again (its
-// direction from the static limits) or stays at rest, held: its loads and effort are constant
-// in time (the loader refuses an effort that changes with friction), so it stays for good.
+// Joint friction's phases (one coordinate): controlled steps of `Stepper` (Runge-Kutta-Fehlberg
+// 7(8), or Dormand-Prince 5(4)), each phase's friction opposing its direction of sliding; a step
+// over which the rate reaches zero is cut at that instant, found by bisection on single steps from
+// the step's start (on the phase's smooth motion, to 1e-14 of the time), and there the mechanism
+// either breaks away again (its direction from the static limits) or stays at rest, held: its loads
+// and effort are constant in time (the loader refuses an effort that changes with friction), so it
+// stays for good.
+template <class Stepper>
 void integrate_phases(const Mechanism& mechanism, const SimulationOptions& options,
                       const std::vector<double>& times, double interval, EquationOfMotion& eom,
                       SampleWriter<EquationOfMotion>& observe, Simulation& out,
                       EquationOfMotion::State x) {
   namespace odeint = boost::numeric::odeint;
   using State = EquationOfMotion::State;
-  if (options.integrator != "rkf78")
-    throw std::invalid_argument("joint friction's phases are integrated by rkf78 only");
   const double tol = options.tolerance;
-  auto stepper = odeint::make_controlled(tol, tol, odeint::runge_kutta_fehlberg78<State>());
-  odeint::runge_kutta_fehlberg78<State> single;
+  // odeint copies a fresh stepper into the controlled one, scratch arrays unset and written
+  // before they are read: GCC 12 warns (-Wuninitialized, a false positive) once it inlines it.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+  auto stepper = odeint::make_controlled(tol, tol, Stepper());
+#pragma GCC diagnostic pop
+  Stepper single;
+  // Dormand-Prince reuses the last step's final derivative as the next step's first (FSAL): a
+  // step from any other state must forget it.
+  const auto forget = [](auto& fsal) {
+    if constexpr (requires { fsal.reset(); }) fsal.reset();
+  };
   const auto units = driver_unit_of(mechanism.swept(), mechanism.units);
   const auto at_rest = [&](double t, State& y) {
     y[1] = 0.0;
@@ -642,14 +652,17 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
       while (hi - lo > 1e-14 * std::max(t + hi, interval)) {
         const double mid = 0.5 * (lo + hi);
         State y;
+        forget(single);
         single.do_step(std::ref(eom), x, t, y, mid);
         (eom.direction() * y[1] > 0.0 ? lo : hi) = mid;
       }
       State y;
+      forget(single);
       single.do_step(std::ref(eom), x, t, y, hi);
       t += hi;
       x = y;
       at_rest(t, x);
+      forget(stepper);
       dt = std::min(interval, kFirstStep);
     }
     t = end;  // at rest, it stays
@@ -679,9 +692,14 @@ void integrate(const Mechanism& mechanism, const SimulationOptions& options,
     // up to 5 times a step) and none is longer than an interval, so no trial reaches far past
     // the motion (a first trial of 10 s put A02's crank 986 rad away).
     const double first = std::min(interval, kFirstStep);
-    if (phased) {
+    if (phased && options.integrator == "dopri5") {
       if constexpr (std::is_same_v<Equations, EquationOfMotion>)
-        integrate_phases(mechanism, options, times, interval, eom, observe, out, x);
+        integrate_phases<odeint::runge_kutta_dopri5<typename Equations::State>>(
+            mechanism, options, times, interval, eom, observe, out, x);
+    } else if (phased && options.integrator == "rkf78") {
+      if constexpr (std::is_same_v<Equations, EquationOfMotion>)
+        integrate_phases<odeint::runge_kutta_fehlberg78<typename Equations::State>>(
+            mechanism, options, times, interval, eom, observe, out, x);
     } else if (options.integrator == "dopri5") {
       odeint::integrate_times(
           odeint::make_dense_output(tol, tol,

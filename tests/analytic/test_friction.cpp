@@ -456,8 +456,9 @@ TEST(FrictionDynamics, ABlockSlidesToRestAndSticksAsTheClosedFormSays) {
     // Sliding: its forces; held: its pose, and no forces (the friction is inside its cone).
     EXPECT_EQ(t.status[static_cast<size_t>(k)],
               time < v0 / a ? PoseStatus::ok : PoseStatus::friction_indeterminate);
-    if (time < v0 / a)  // the friction force mu N up the slope (-s), N = m g cos(alpha)
+    if (time < v0 / a) {  // the friction force mu N up the slope (-s), N = m g cos(alpha)
       EXPECT_NEAR(t.friction(k, 0), -0.8 * 2 * g * std::cos(alpha), 1e-9);
+    }
   }
 }
 
@@ -484,6 +485,17 @@ TEST(FrictionDynamics, APendulumsSwingsDecayAsTheEnergyBalanceSays) {
   }
   EXPECT_LE(mgl * std::abs(std::sin(phi(run.stops.back().second))), torque);
   for (int k = 0; k < run.trajectory.samples(); ++k) EXPECT_LT(run.energy_error(k), 1e-11);
+  // The second integrator (Dormand-Prince, which carries its last derivative from step to
+  // step) finds the same stops.
+  SimulationOptions dopri5;
+  dopri5.integrator = "dopri5";
+  dopri5.tolerance = 1e-12;
+  const Simulation other = simulate(m, dopri5);
+  ASSERT_EQ(other.stops.size(), run.stops.size());
+  for (size_t i = 0; i < run.stops.size(); ++i) {
+    EXPECT_NEAR(other.stops[i].first, run.stops[i].first, 1e-8);
+    EXPECT_NEAR(other.stops[i].second, run.stops[i].second, 1e-8);
+  }
 }
 
 }  // namespace
