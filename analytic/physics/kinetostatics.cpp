@@ -24,6 +24,25 @@ BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {
   return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
 }
 
+// A slide joint at the state: its guide's and slider's motions, its line's direction and left
+// normal in the world, and the slider's point (where the slide's forces act), local and world.
+struct SlideAt {
+  BodyMotion guide, slider;
+  Eigen::Vector2d along, normal, local, point;
+};
+SlideAt slide_at(const Mechanism& m, const Joint& j, const KinematicState& state) {
+  SlideAt s;
+  s.guide = motion(m, j.link_a, state);
+  s.slider = motion(m, j.link_b, state);
+  const Eigen::Vector2d& direction =
+      m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)].direction;
+  s.along = s.guide.turn(direction);
+  s.normal = s.guide.turn(perp(direction));
+  s.local = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  s.point = s.slider.position(s.local);
+  return s;
+}
+
 }  // namespace
 
 SpringState spring_state(const Mechanism& m, const Spring& s, const KinematicState& state) {
@@ -132,11 +151,6 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
     gearings_.push_back(std::move(g));
   }
   friction_joints_ = m.friction_joints();
-  for (int ji : friction_joints_) {
-    const auto at = std::find(slide_joints_.begin(), slide_joints_.end(), ji);
-    friction_slide_.push_back(
-        at == slide_joints_.end() ? -1 : static_cast<int>(at - slide_joints_.begin()));
-  }
 }
 
 GearPaths gear_paths(const Mechanism& m, int joint) {
@@ -179,16 +193,11 @@ void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicSta
   if (j.type != JointType::rack_pinion) return;
   // The rack: its row pushed it along the line at its slide's point; the teeth push at the pitch
   // point. The slide carries the normal part and the couple of the difference.
-  const Joint& slide = m.joints[static_cast<size_t>(j.slide)];
-  const BodyMotion guide = motion(m, slide.link_a, state), rack = motion(m, slide.link_b, state);
-  const Eigen::Vector2d normal =
-      guide.turn(perp(m.links[slide.link_a].lines[static_cast<size_t>(slide.line)].direction));
+  const SlideAt slide = slide_at(m, m.joints[static_cast<size_t>(j.slide)], state);
   const Eigen::Vector2d on_rack = -on_a;
-  const Eigen::Vector2d point =
-      rack.position(m.links[slide.link_b].points[static_cast<size_t>(slide.point_b)].local);
-  joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(normal) * normal;
-  if (slide_normal) *slide_normal -= on_rack.dot(normal);
-  if (slide_moment) *slide_moment -= cross(pitch - point, on_rack);
+  joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(slide.normal) * slide.normal;
+  if (slide_normal) *slide_normal -= on_rack.dot(slide.normal);
+  if (slide_moment) *slide_moment -= cross(pitch - slide.point, on_rack);
 }
 
 void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
@@ -254,15 +263,12 @@ Kinetostatics::Reaction Kinetostatics::reaction(const KinematicState& state, int
   Reaction out;
   out.on_b = from_b ? Eigen::Vector2d(g.head<2>()) : Eigen::Vector2d(-g.head<2>());
   if (!j.is_slide()) return out;
-  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
-  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
-  const Eigen::Vector2d point = b.position(
-      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
-  out.normal = out.on_b.dot(a.turn(perp(line.direction)));
+  const SlideAt s = slide_at(m, j, state);
+  out.normal = out.on_b.dot(s.normal);
   // The couple on the slider about its point: the moment left once the force at the point is
   // taken out (on the guide it is the opposite).
-  out.moment =
-      from_b ? g(2) - cross(point - b.r, out.on_b) : -(g(2) - cross(point - a.r, -out.on_b));
+  out.moment = from_b ? g(2) - cross(s.point - s.slider.r, out.on_b)
+                      : -(g(2) - cross(s.point - s.guide.r, -out.on_b));
   return out;
 }
 
@@ -295,13 +301,10 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out, const Kinemat
   }
   // A slide's friction force acts along its line at the slider's point: part of the force of
   // the guide on the slider.
-  for (size_t f = 0; f < friction_joints_.size(); ++f) {
-    if (friction_slide_[f] < 0) continue;
-    const Joint& j = m.joints[static_cast<size_t>(friction_joints_[f])];
-    const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
-    out.joint_force[static_cast<size_t>(friction_joints_[f])] +=
-        out.friction[f] * motion(m, j.link_a, state).turn(line.direction);
-  }
+  for (size_t f = 0; f < friction_joints_.size(); ++f)
+    if (friction_joint(f).is_slide())
+      out.joint_force[static_cast<size_t>(friction_joints_[f])] +=
+          out.friction[f] * slide_at(m, friction_joint(f), state).along;
   for (const Gearing& g : gearings_) add_tooth_force(g, state, out);
 
   // On the ground: applied gravity and loads less the rate of the moving links' momentum.
@@ -348,19 +351,16 @@ Kinetostatics::Reaction plus(Kinetostatics::Reaction r, double x,
 
 double Kinetostatics::relative_rate(const KinematicState& state, int f) const {
   const Mechanism& m = solver_.mechanism();
-  const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
-  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
-  if (!j.is_slide()) return b.omega - a.omega;
-  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
-  const Eigen::Vector2d& local =
-      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  const Joint& j = friction_joint(static_cast<size_t>(f));
+  if (!j.is_slide()) return motion(m, j.link_b, state).omega - motion(m, j.link_a, state).omega;
+  const SlideAt s = slide_at(m, j, state);
   // The guide's material point under the slider's.
-  const Eigen::Vector2d on_guide = a.v + a.omega * perp(b.position(local) - a.r);
-  return a.turn(line.direction).dot(b.velocity(local) - on_guide);
+  const Eigen::Vector2d on_guide = s.guide.v + s.guide.omega * perp(s.point - s.guide.r);
+  return s.along.dot(s.slider.velocity(s.local) - on_guide);
 }
 
 double Kinetostatics::friction_load(int f, const Reaction& r) const {
-  const Joint& j = solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];
+  const Joint& j = friction_joint(static_cast<size_t>(f));
   if (!j.is_slide()) return r.on_b.norm();
   const double length = j.friction->length;
   return length > 0.0 ? std::max(std::abs(r.normal), 2.0 * std::abs(r.moment) / length)
@@ -368,7 +368,7 @@ double Kinetostatics::friction_load(int f, const Reaction& r) const {
 }
 
 double Kinetostatics::friction_load_slope(int f, const Reaction& r, const Reaction& d) const {
-  const Joint& j = solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];
+  const Joint& j = friction_joint(static_cast<size_t>(f));
   if (!j.is_slide()) {
     const double load = r.on_b.norm();
     return load > 0.0 ? r.on_b.dot(d.on_b) / load : d.on_b.norm();
@@ -382,20 +382,17 @@ double Kinetostatics::friction_load_slope(int f, const Reaction& r, const Reacti
 void Kinetostatics::add_unit_friction(const KinematicState& state, int f, double sign,
                                       Eigen::VectorXd& g) const {
   const Mechanism& m = solver_.mechanism();
-  const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
+  const Joint& j = friction_joint(static_cast<size_t>(f));
   if (!j.is_slide()) {
     add_at(m, g, j.link_b, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), -sign);
     add_at(m, g, j.link_a, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), sign);
     return;
   }
   // Along the line at the slider's point: on the slider against its motion, on the guide back.
-  const BodyMotion a = motion(m, j.link_a, state), b = motion(m, j.link_b, state);
-  const Line& line = m.links[static_cast<size_t>(j.link_a)].lines[static_cast<size_t>(j.line)];
-  const Eigen::Vector2d point = b.position(
-      m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local);
-  const Eigen::Vector2d along = sign * a.turn(line.direction);
-  add_at(m, g, j.link_b, point - b.r, -along, 0.0);
-  add_at(m, g, j.link_a, point - a.r, along, 0.0);
+  const SlideAt s = slide_at(m, j, state);
+  const Eigen::Vector2d along = sign * s.along;
+  add_at(m, g, j.link_b, s.point - s.slider.r, -along, 0.0);
+  add_at(m, g, j.link_a, s.point - s.guide.r, along, 0.0);
 }
 
 bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
@@ -408,13 +405,18 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     const double r = std::abs(moving.drivers[d].rate);
     rate = std::max(rate, m.drivers[d].angular() ? r : r / size_);
   }
+  // g_j: the friction circle mu r (pin) or mu (slide), sliding or at its static limit.
+  const auto gain = [&](Eigen::Index f) {
+    const Joint& j = friction_joint(static_cast<size_t>(f));
+    return j.friction->load_gain(!j.is_slide(), at_rest);
+  };
   std::vector<double> sign(static_cast<size_t>(k));
   Eigen::VectorXd unit(out.lambda.size()), column(out.lambda.size());
   for (Eigen::Index f = 0; f < k; ++f) {
     const int ji = friction_joints_[static_cast<size_t>(f)];
     const double w = relative_rate(moving, static_cast<int>(f));
     const double stopped =
-        kStoppedRate * rate * (m.joints[static_cast<size_t>(ji)].is_slide() ? size_ : 1.0);
+        kStoppedRate * rate * (friction_joint(static_cast<size_t>(f)).is_slide() ? size_ : 1.0);
     if (!(std::abs(w) > stopped)) {
       out.status = PoseStatus::friction_indeterminate;
       out.cause = ji;
@@ -433,14 +435,12 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
   Eigen::MatrixXd bound(k, k);  // |d f_j / d f_i| at most: g_j h_j(B_ji), h a norm
   for (Eigen::Index f = 0; f < k; ++f) {
     const int ji = friction_joints_[static_cast<size_t>(f)];
-    const JointFriction& fr = *m.joints[static_cast<size_t>(ji)].friction;
     at_zero[static_cast<size_t>(f)] = reaction(state, ji, out.lambda);
     for (Eigen::Index i = 0; i < k; ++i) {
       column = out.unit_lambda.col(i);
       Reaction& b = per_unit[static_cast<size_t>(f * k + i)];
       b = reaction(state, ji, column);
-      bound(f, i) = fr.load_gain(!m.joints[static_cast<size_t>(ji)].is_slide(), at_rest) *
-                    friction_load(static_cast<int>(f), b);
+      bound(f, i) = gain(f) * friction_load(static_cast<int>(f), b);
     }
   }
   // The gain: the spectral radius of that non-negative bound, the least Lipschitz constant of
@@ -462,12 +462,9 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
   };
   // The magnitudes the reactions at x give: x is the solution where they are x.
   const auto image = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
-    for (Eigen::Index f = 0; f < k; ++f) {
-      const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
-      y(f) = j.friction->load_gain(!j.is_slide(), at_rest) *
-                 friction_load(static_cast<int>(f), reaction_at(x, f)) +
-             j.friction->constant;
-    }
+    for (Eigen::Index f = 0; f < k; ++f)
+      y(f) = gain(f) * friction_load(static_cast<int>(f), reaction_at(x, f)) +
+             friction_joint(static_cast<size_t>(f)).friction->constant;
   };
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k), y(k), trial(k), trial_image(k);
   image(x, y);
@@ -483,13 +480,11 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     }
     // Newton: (I - d image / dx) step = image(x) - x.
     for (Eigen::Index f = 0; f < k; ++f) {
-      const Joint& j = m.joints[static_cast<size_t>(friction_joints_[static_cast<size_t>(f)])];
       const Reaction r = reaction_at(x, f);
       for (Eigen::Index i = 0; i < k; ++i)
         slope(f, i) = (f == i ? 1.0 : 0.0) -
-                      j.friction->load_gain(!j.is_slide(), at_rest) *
-                          friction_load_slope(static_cast<int>(f), r,
-                                              per_unit[static_cast<size_t>(f * k + i)]);
+                      gain(f) * friction_load_slope(static_cast<int>(f), r,
+                                                    per_unit[static_cast<size_t>(f * k + i)]);
     }
     trial = x + slope.partialPivLu().solve(y - x);
     image(trial, trial_image);

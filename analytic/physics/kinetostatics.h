@@ -191,6 +191,10 @@ class Kinetostatics {
   // The tooth force at the multipliers, and what it changes in the other joints' reactions.
   void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
   Reaction reaction(const KinematicState& state, int joint, const Eigen::VectorXd& lambda) const;
+  // Friction joint f (Mechanism::friction_joints order).
+  const Joint& friction_joint(size_t f) const {
+    return solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];
+  }
   // The load friction joint f's magnitude grows with: (|R| of a pin, or max(|N|, 2 |M| / b) of a
   // slide), and its derivative along a change `d` of the reaction.
   double friction_load(int f, const Reaction& r) const;
@@ -206,8 +210,7 @@ class Kinetostatics {
   std::vector<int> slide_joints_;
   std::vector<Gearing> gearings_;
   std::vector<int> friction_joints_;
-  std::vector<int> friction_slide_;  // per friction joint: its index in slide_joints_, or -1
-  double size_ = 1.0;                // Mechanism::size(): relative sliding rates against it
+  double size_ = 1.0;  // Mechanism::size(): relative sliding rates against it
 };
 
 }  // namespace crosslink
