@@ -168,16 +168,17 @@ std::vector<EngineEntry> make_table() {
 }
 
 // The runs that print a setting.
-const char* runs_of(const sim::SettingSpec& s) {
+std::string runs_of(const sim::SettingSpec& s) {
+  const char* const with = s.friction ? " with joint friction" : "";
   switch (s.applies_to) {
     case sim::AppliesTo::kinematic:
-      return "kinematic";
+      return fmt::format("kinematic{}", with);
     case sim::AppliesTo::dynamics:
-      return "dynamics";
+      return fmt::format("dynamics{}", with);
     case sim::AppliesTo::both:
       break;
   }
-  return "both";
+  return fmt::format("both{}", with);
 }
 
 }  // namespace
@@ -225,8 +226,9 @@ std::string engines_listing(bool markdown) {
     }
     out += fmt::format("{}{}  {}\n", out.empty() ? "" : "\n", e.name, e.description);
     for (const sim::SettingSpec& s : e.make()->settings_schema()) {
-      const std::string runs =
-          s.applies_to == sim::AppliesTo::both ? "" : fmt::format("; {} runs", runs_of(s));
+      const std::string runs = s.applies_to == sim::AppliesTo::both && !s.friction
+                                   ? ""
+                                   : fmt::format("; {} runs", runs_of(s));
       out += s.reported ? fmt::format("  {} ({}{})\n      {}\n", s.name, sim::allowed_values(s),
                                       runs, s.doc)
                         : fmt::format("  {} (default {}; {}{})\n      {}\n", s.name,

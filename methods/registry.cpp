@@ -45,12 +45,6 @@ MethodRun run_engine(const sim::Engine& engine, std::string description, const M
   // refuses a file whose count differs; a mechanism built in code is held here).
   if (mobility(mechanism).mobility != static_cast<int>(mechanism.drivers.size()))
     why = fmt::format("the chain's mobility is not {}", mechanism.drivers.size());
-  // Until each engine's own joint friction is compared (docs/kinetostatics.md, "Joint
-  // friction"), a frictionless scene would be judged against the exact forces with friction.
-  if (const std::vector<int> friction = mechanism.friction_joints();
-      why.empty() && !friction.empty())
-    why = fmt::format("joint '{}' has friction, which crosslink's {} scene does not model yet",
-                      mechanism.joints[static_cast<size_t>(friction.front())].name, engine.name());
   if (!why.empty() || !engine.supports(mechanism, &why)) {
     run.message = "cannot realise this mechanism: " + why;
     return run;

@@ -133,6 +133,8 @@ class DynamicsSteps {
     const bool read = samples_.read_forces[static_cast<size_t>(k - 1)];
     std::string alarm = scene_.step(t0, h, read ? &reading_at(k - 1) : nullptr);
     ++taken_;
+    dissipated_[static_cast<size_t>(k % kRing)] =
+        dissipated_[static_cast<size_t>((k - 1) % kRing)] + scene_.friction_work();
     scene_.read_pose(pose_at(k));
     const double gap = gaps_.at(k, pose(k));
     if (!pose(k).allFinite()) alarm = "NaN in the state";
@@ -165,9 +167,12 @@ class DynamicsSteps {
     }
   }
   const ForceReading& reading(long k) const { return readings_[static_cast<size_t>(k % kRing)]; }
-  // The work of the loads up to pose k, when it is known yet.
+  // The work of the loads and of the engine's joint friction up to pose k, when it is known yet.
   bool work_known(long k) const { return !balance_.any() || k <= work_to_; }
-  double work(long k) const { return balance_.any() ? work_[static_cast<size_t>(k % kRing)] : 0.0; }
+  double work(long k) const {
+    return (balance_.any() ? work_[static_cast<size_t>(k % kRing)] : 0.0) +
+           dissipated_[static_cast<size_t>(k % kRing)];
+  }
   const Eigen::VectorXd& gaps() const { return gaps_.gaps(); }
   long taken() const { return taken_; }
   DynamicsLoads& balance() { return balance_; }
@@ -203,6 +208,7 @@ class DynamicsSteps {
   std::array<Eigen::VectorXd, kRing> ring_;
   std::array<ForceReading, kRing> readings_;
   std::array<double, kRing> work_{};
+  std::array<double, kRing> dissipated_{};  // the friction's work up to each pose
   double h0_ = 0.0, power_ = 0.0;
   bool before_start_ = false;
   long work_to_ = -1;  // the last pose whose work is known
@@ -352,6 +358,7 @@ void run_dynamics(const Mechanism& definition, const Mechanism& scene_mechanism,
     out.events.push_back({event_position(reference, drift_at), PoseStatus::ok, text});
   }
   add_note(run.message, dynamics_span_note(reference, plan.span));
+  add_note(run.message, creep_note(definition, reference, out));
   add_note(run.message, kept_note(judge.kept(), false));
   add_note(run.message, dynamics_singular_note(judge.singular(), judge.singular_limit()));
   note_loop_gaps(judge.loop_gaps(), steps.gaps(), watch.gap, reference, run, definition);

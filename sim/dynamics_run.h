@@ -51,6 +51,9 @@ class DynamicsScene {
   virtual void read_state(long /*step*/, double /*t*/, Eigen::VectorXd& /*qdot*/,
                           Eigen::VectorXd& /*qddot*/, ForceReading& /*forces*/) {}
   virtual long evaluations() const = 0;  // model evaluations so far
+  // The work the engine's joint friction did over the last step [J] (docs/engines.md, "Joint
+  // friction"): the energy balance's dissipated part.
+  virtual double friction_work() const { return 0.0; }
   // What the run's message should add about the engine's own work ("" for nothing).
   virtual std::string note() const { return ""; }
 };

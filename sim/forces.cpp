@@ -183,6 +183,7 @@ void ForceReading::set_zero() {
   for (Eigen::Vector2d& f : joint_force) f.setZero();
   std::fill(couple.begin(), couple.end(), 0.0);
   std::fill(gear_couple.begin(), gear_couple.end(), 0.0);
+  std::fill(friction.begin(), friction.end(), 0.0);
 }
 
 void ForceReading::add(double weight, const ForceReading& other) {
@@ -193,6 +194,7 @@ void ForceReading::add(double weight, const ForceReading& other) {
     joint_force[j] += weight * other.joint_force[j];
     couple[j] += weight * other.couple[j];
     gear_couple[j] += weight * other.gear_couple[j];
+    friction[j] += weight * other.friction[j];
   }
 }
 
@@ -231,10 +233,16 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     shaking.head<2>() += force;
     shaking(2) += cross(at, force) + couple;
   };
-  Eigen::Index slide = 0;
+  Eigen::Index slide = 0, rough = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     const Eigen::Vector2d& f = reading.joint_force[ji];
+    // A pin's friction moment acts on its second link and the opposite one on its first.
+    double friction_moment = 0.0;
+    if (j.friction) {
+      out.friction(row, rough++) = reading.friction[ji];
+      if (!j.is_slide()) friction_moment = reading.friction[ji];
+    }
     out.fx(row, static_cast<Eigen::Index>(ji)) = f.x();
     out.fy(row, static_cast<Eigen::Index>(ji)) = f.y();
     const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
@@ -249,8 +257,8 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
       ++slide;
     }
     // The ground is the first link (it receives -f and the opposite couple) or the second.
-    if (j.link_a == ground) on_ground(point, -f, -reading.couple[ji]);
-    if (j.link_b == ground) on_ground(point, f, reading.couple[ji]);
+    if (j.link_a == ground) on_ground(point, -f, -reading.couple[ji] - friction_moment);
+    if (j.link_b == ground) on_ground(point, f, reading.couple[ji] + friction_moment);
   }
   // Each driver's reaction on the ground.
   for (int di = 0; di < static_cast<int>(m.drivers.size()); ++di) {
@@ -279,6 +287,36 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     if (s.link_b == ground) on_ground(motion(s.link_b).position(s.local_b), on_b, 0.0);
   }
   out.shaking.row(row) = shaking.transpose();
+}
+
+ForceReading reference_reading(const Mechanism& m, const Trajectory& reference, int row) {
+  ForceReading out(m.joints.size(), m.drivers.size());
+  if (!reference.has_forces || row < 0 || row >= reference.samples()) return out;
+  Eigen::Index slide = 0, rough = 0;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const auto j = static_cast<Eigen::Index>(ji);
+    out.joint_force[ji] = {reference.fx(row, j), reference.fy(row, j)};
+    if (m.joints[ji].is_slide()) out.couple[ji] = reference.moment(row, slide++);
+    if (m.joints[ji].friction) out.friction[ji] = reference.friction(row, rough++);
+  }
+  for (int d = 0; d < static_cast<int>(m.drivers.size()); ++d)
+    out.effort_of(d) = reference.effort(row, d);
+  return out;
+}
+
+ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, int first, double t) {
+  ReadingTrend out{reference_reading(m, reference, first),
+                   ForceReading(m.joints.size(), m.drivers.size())};
+  if (first + 1 < reference.samples() && usable(reference.status[static_cast<size_t>(first + 1)])) {
+    out.rate.add(1.0, reference_reading(m, reference, first + 1));
+    out.rate.add(-1.0, out.at);
+    const double dt = reference.time(first + 1) - reference.time(first);
+    ForceReading per_second(m.joints.size(), m.drivers.size());
+    per_second.add(dt > 0.0 ? 1.0 / dt : 0.0, out.rate);
+    out.rate = per_second;
+  }
+  out.at.add(t - reference.time(first), out.rate);
+  return out;
 }
 
 ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time) {

@@ -121,11 +121,15 @@ struct ForceReading {
   // engine's coupling acts as couples, as the exact method's row does, so the joints' forces read
   // beside it are those the exact method has before its own tooth force is passed on.
   std::vector<double> gear_couple;
+  // Per joint: its friction on its second link, a pin's moment [N m] or a slide's force along
+  // its line [N] (which joint_force also holds, as the exact method's); 0 without friction.
+  std::vector<double> friction;
   explicit ForceReading(size_t joints = 0, size_t drivers = 1)
       : other_efforts(drivers > 1 ? drivers - 1 : 0, 0.0),
         joint_force(joints, Eigen::Vector2d::Zero()),
         couple(joints, 0.0),
-        gear_couple(joints, 0.0) {}
+        gear_couple(joints, 0.0),
+        friction(joints, 0.0) {}
   // Driver d's effort (Mechanism::drivers order).
   double& effort_of(int d) { return d == 0 ? effort : other_efforts[static_cast<size_t>(d - 1)]; }
   double effort_of(int d) const {
@@ -141,6 +145,17 @@ struct ForceReading {
 // and the springs anchored on the ground exert on it.
 void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& reading,
                   Trajectory& out, int row);
+
+// The reference's forces at sample `row` as a reading (zero where it has none).
+ForceReading reference_reading(const Mechanism& m, const Trajectory& reference, int row);
+
+// The reference's forces at time t near its first usable sample `first`, and their rate [per s]
+// between it and the next: where an engine whose joint friction follows the reactions of its
+// steps before starts from.
+struct ReadingTrend {
+  ForceReading at, rate;
+};
+ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, int first, double t);
 
 // Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the
 // second difference over poses k-1, k, k+1; a pose is `clean` when neither neighbour is the

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -145,6 +146,11 @@ struct SceneGraph {
 // block's, which sits at its pin and turns with its guide.
 BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const Eigen::VectorXd& q,
                        const Eigen::VectorXd* qdot = nullptr);
+
+// "" or, when `mechanism` has joint friction, why an engine that does not model it refuses it:
+// "joint '<name>' has friction, which <reason>" (a frictionless scene would be judged against the
+// exact forces with friction; docs/engines.md, "Joint friction").
+std::string unmodelled_friction(const Mechanism& mechanism, std::string_view reason);
 
 // The scene graph of `mechanism` under `policy`. Throws std::runtime_error when no engine can
 // realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.

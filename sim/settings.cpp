@@ -111,21 +111,23 @@ std::string allowed_values(const SettingSpec& spec) {
   return spec.allowed;
 }
 
-bool applies(const SettingSpec& spec, RunKind run) {
+bool applies(const SettingSpec& spec, RunKind run, bool friction) {
+  if (spec.friction && !friction) return false;
   return spec.applies_to == AppliesTo::both ||
          (spec.applies_to == AppliesTo::kinematic) == (run == RunKind::kinematic);
 }
 
-RunSettings printed_settings(const SettingSchema& schema, RunKind run,
-                             const RunSettings& in_force) {
+RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force,
+                             bool friction) {
   const char* const kind = run == RunKind::kinematic ? "kinematic" : "dynamics";
+  const auto declared = [&](const SettingSpec& s) { return applies(s, run, friction); };
   auto named = [&](std::string_view name) {
     return std::find_if(in_force.begin(), in_force.end(),
                         [&](const auto& value) { return value.first == name; });
   };
   RunSettings out;
   for (const SettingSpec& s : schema) {
-    if (!applies(s, run)) continue;
+    if (!declared(s)) continue;
     const auto value = named(s.name);
     if (value == in_force.end())
       throw std::logic_error(fmt::format("a {} run gives no value for {}", kind, s.name));
@@ -136,7 +138,7 @@ RunSettings printed_settings(const SettingSchema& schema, RunKind run,
     if (named(name) != value)
       throw std::logic_error(fmt::format("a {} run gives {} twice", kind, name));
     if (std::none_of(schema.begin(), schema.end(),
-                     [&](const SettingSpec& s) { return s.name == name && applies(s, run); }))
+                     [&](const SettingSpec& s) { return s.name == name && declared(s); }))
       throw std::logic_error(
           fmt::format("a {} run gives {}, which its schema does not declare for it", kind, name));
   }

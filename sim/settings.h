@@ -63,6 +63,8 @@ struct SettingSpec {
   // A value the run reports (the steps it took, its mass model), not one the user sets: --set
   // refuses it; kind, default and values are unused.
   bool reported = false;
+  // Joint friction's: read and printed only in a run of a mechanism with joint friction.
+  bool friction = false;
 };
 using SettingSchema = std::vector<SettingSpec>;
 
@@ -77,14 +79,18 @@ SettingSpec shared_setting(std::string_view name);
 std::string allowed_values(const SettingSpec& spec);
 
 // Whether `spec` is printed by a run of this kind.
-bool applies(const SettingSpec& spec, RunKind run);
+// `friction`: of a mechanism with joint friction (else its entries, SettingSpec::friction, do not
+// apply).
+bool applies(const SettingSpec& spec, RunKind run, bool friction = true);
 
 // What a run prints (EngineRun::settings): every entry `schema` declares for this kind of run,
 // set or reported, in the schema's order, each with its value in force from `in_force` (by name:
 // auto resolved, the step the run took). Throws std::logic_error when a declared entry has no
 // value, or a value is given twice or for a name not declared for this kind of run: the printed
 // list is the schema's.
-RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force);
+// Joint friction's entries (SettingSpec::friction) only for a mechanism with it (`friction`).
+RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force,
+                             bool friction = false);
 
 // An engine's settings read against its schema: every declared setting's text (its default
 // unless given; a later override wins), each override checked by its kind before any run.

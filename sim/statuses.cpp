@@ -95,6 +95,25 @@ std::string dynamics_span_note(const Trajectory& reference, Span span) {
                      span.first, span.last, reference.time(span.first), reference.time(span.last));
 }
 
+std::string creep_note(const Mechanism& m, const Trajectory& reference, const Trajectory& run) {
+  if (!reference.held_from) return "";
+  int first = -1;
+  double creep = 0.0;
+  for (int k = 0; k < run.samples(); ++k) {
+    if (reference.time(k) <= *reference.held_from || !usable(run.status[static_cast<size_t>(k)]))
+      continue;
+    if (first < 0) first = k;
+    creep = std::max(creep, std::abs(run.driver_values(k, 0) - run.driver_values(first, 0)));
+  }
+  if (first < 0) return "";
+  const int last = run.samples() - 1;
+  return fmt::format(
+      "creep: {:.3g} {} in the {:.6g} s the exact motion is held at rest by friction (t = {:.6g} "
+      ".. {:.6g} s)",
+      creep, m.drivers.front().angular() ? "rad" : "m",
+      reference.time(last) - reference.time(first), reference.time(first), reference.time(last));
+}
+
 std::string energy_drift_note(double threshold, double energy_scale, const Trajectory& reference,
                               int drift_at, double worst) {
   return fmt::format(

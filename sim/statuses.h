@@ -81,6 +81,11 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
 // Appends `note` to a run's message, "; " between notes (nothing for an empty note).
 void add_note(std::string& message, const std::string& note);
 
+// Joint friction: how far a dynamics run's coordinate moves while the exact motion is held at
+// rest (Trajectory::held_from), its largest departure from the first usable held sample; "" when
+// the exact motion is never held.
+std::string creep_note(const Mechanism& m, const Trajectory& reference, const Trajectory& run);
+
 // A run that could not be made: its reason, and every sample diverged (no engine value).
 EngineRun failed_run(EngineRun run, std::string message);
 

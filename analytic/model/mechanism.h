@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -109,6 +110,17 @@ struct JointFriction {
     const double mu = at_rest ? static_coefficient : coefficient;
     return revolute ? mu * radius : mu;
   }
+  // The load it grows with: a pin's reaction |R| (`force` its magnitude), a slide's normal force
+  // |N| (`force`), or with a bearing length b, max(|N|, 2 |M| / b) for the couple M.
+  double load(bool revolute, double force, double moment = 0.0) const {
+    if (revolute || length <= 0.0) return std::abs(force);
+    return std::max(std::abs(force), 2.0 * std::abs(moment) / length);
+  }
+  // Its largest magnitude under that load.
+  double limit(bool revolute, double load, bool at_rest = false) const {
+    return constant + load_gain(revolute, at_rest) * load;
+  }
+  bool load_dependent() const { return coefficient > 0.0 || static_coefficient > 0.0; }
 };
 
 struct Joint {
@@ -427,6 +439,9 @@ struct Mechanism {
   std::vector<int> slide_joints() const;
   // Joints with friction, in joint order (their friction_moment or friction_force channels).
   std::vector<int> friction_joints() const;
+  bool has_friction() const {
+    return std::any_of(joints.begin(), joints.end(), [](const auto& j) { return j.friction; });
+  }
   // Distinct point names in first-appearance order, and the (link, point) each is read from.
   struct NamedPoint {
     std::string name;

@@ -92,6 +92,8 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   rcond.setOnes(samples);
   loop_gap.setZero(samples);
   events.clear();
+  stops.clear();
+  held_from.reset();
 
   transmission.clear();
   if (const auto fb = four_bar(mechanism)) transmission = {fb->b, fb->c, fb->d};
@@ -158,6 +160,27 @@ bool Trajectory::beside_singular(int row) const {
     return k >= 0 && k < samples() && status[static_cast<size_t>(k)] == PoseStatus::singular;
   };
   return singular_at(row - 1) || singular_at(row + 1);
+}
+
+bool Trajectory::beside_stop(int row) const {
+  const int first = std::max(row - 1, 0), last = std::min(row + 1, samples() - 1);
+  if (std::any_of(stops.begin(), stops.end(),
+                  [&](double t) { return t > time(first) && t < time(last); }))
+    return true;
+  // A sweep's: a friction that changes side between the neighbours, or stops on one.
+  if (!has_forces) return false;
+  for (Eigen::Index f = 0; f < friction.cols(); ++f) {
+    const auto side = [&](int k) {
+      return status[static_cast<size_t>(k)] == PoseStatus::ok
+                 ? (friction(k, f) > 0.0) - (friction(k, f) < 0.0)
+                 : 0;
+    };
+    if (side(first) * side(last) < 0 ||
+        status[static_cast<size_t>(first)] == PoseStatus::friction_indeterminate ||
+        status[static_cast<size_t>(last)] == PoseStatus::friction_indeterminate)
+      return true;
+  }
+  return false;
 }
 
 bool Trajectory::flag_non_finite(int row) {

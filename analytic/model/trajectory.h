@@ -185,6 +185,11 @@ struct Trajectory {
     std::string chain;
   };
   std::vector<Event> events;
+  // Forward dynamics with joint friction: the instants [s] a friction joint's sliding stops (to
+  // turn back or to be held), where its acceleration and its friction jump.
+  std::vector<double> stops;
+  // At rest, held by friction, from this instant [s] to the end (none: it never is).
+  std::optional<double> held_from;
 
   // Shapes every array for `samples` rows from the mechanism's name lists (the only allocation;
   // solvers then write rows in place). Force arrays are shaped and has_forces set only
@@ -200,6 +205,12 @@ struct Trajectory {
   // methods agree there only to round-off amplified by it and engines' step errors are
   // dominated by the singularity: comparisons keep such samples out of their verdicts.
   bool beside_singular(int row) const;
+  // Whether a friction joint's sliding stops between sample `row`'s neighbours (`stops`; in a
+  // sweep, a friction that changes side between them or a neighbour flagged
+  // friction_indeterminate): its accelerations and friction take either side of a jump, and a
+  // method that differences poses or reads a step's forces there (an engine) smears it over its
+  // step.
+  bool beside_stop(int row) const;
 
   // Flags sample `row` not_finite when a value in it is not a finite number while its status says
   // it was solved, and puts finite placeholders (zeros) over every non-finite value of the row

@@ -545,6 +545,13 @@ class SampleWriter {
       : eom_(eom), out_(out), forces_(eom.kinetostatics().make_sample()) {}
 
   int written() const { return written_; }
+  // At rest, held by joint friction (a phase of no direction).
+  bool held() const {
+    if constexpr (requires { eom_.direction(); })
+      return eom_.friction() && eom_.direction() == 0;
+    else
+      return false;
+  }
 
   void operator()(const typename Equations::State& y, double time) {
     const int k = written_;  // counted once whole: a stop inside leaves it not_reached
@@ -561,7 +568,10 @@ class SampleWriter {
     }
     eom_.solver().write_sample(s, report, t, k);
     if (!eom_.near_singular()) {
-      kinetostatics.solve(s, forces_);
+      if (held())
+        kinetostatics.solve_held(s, forces_, eom_.solver().mechanism().dynamics->effort_at(time));
+      else
+        kinetostatics.solve(s, forces_);
       // At rest, held by friction: the pose stands, the friction is somewhere in its cone.
       if (forces_.status != PoseStatus::ok)
         t.status[static_cast<size_t>(k)] = forces_.status;
@@ -617,13 +627,20 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
     const int direction = eom.breakaway(t, y[0]);
     eom.set_direction(direction);
     out.stops.emplace_back(t, y[0]);
+    out.trajectory.stops.push_back(t);
     out.held = direction == 0;
+    if (out.held) out.trajectory.held_from = t;
+    // One friction joint holds it with the friction that balances the loads (solve_held); how
+    // several divide the load is not determined.
+    const bool determined = mechanism.friction_joints().size() == 1;
     if (direction == 0)
       out.trajectory.events.push_back(
-          {t, PoseStatus::friction_indeterminate,
-           fmt::format("at rest from t = {:.12g} s, coordinate {}: friction holds the mechanism "
-                       "(its forces inside the friction cones are not determined)",
-                       t, units.text(y[0], 12))});
+          {t, determined ? PoseStatus::ok : PoseStatus::friction_indeterminate,
+           fmt::format("at rest from t = {:.12g} s, coordinate {}: friction holds the mechanism{}",
+                       t, units.text(y[0], 12),
+                       determined ? ""
+                                  : " (its forces inside the friction cones are not "
+                                    "determined)")});
   };
   double t = 0.0, dt = std::min(interval, kFirstStep);
   if (x[1] == 0.0)

@@ -278,11 +278,43 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
 
 void Kinetostatics::solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
                           bool at_rest) const {
-  const Mechanism& m = solver_.mechanism();
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
   out.status = PoseStatus::ok;
   if (!friction_joints_.empty() && !solve_friction(state, out, moving, at_rest)) return;
+  write_forces(state, out);
+}
+
+void Kinetostatics::solve_held(KinematicState& state, ForceSample& out, double effort) const {
+  generalised_forces(state, out.generalised);
+  solver_.multipliers(state, out.generalised, out.lambda);
+  out.status = PoseStatus::ok;
+  std::fill(out.friction.begin(), out.friction.end(), 0.0);
+  const ConstraintLayout& layout = solver_.layout();
+  if (friction_joints_.size() != 1 || layout.driver_count() != 1) {
+    out.status = PoseStatus::friction_indeterminate;
+    out.cause = friction_joints_.empty() ? -1 : friction_joints_.back();
+    return;
+  }
+  // Lambda = lambda_0 + x Lambda_1 (Lambda_1 a unit friction of -1): the driver's row gives x.
+  const Eigen::Index row = layout.driver_row(0);
+  Eigen::VectorXd unit = Eigen::VectorXd::Zero(out.lambda.size()), column(out.lambda.size());
+  add_unit_friction(state, 0, 1.0, unit);
+  solver_.multipliers(state, unit, column);
+  const double per_unit = column(row);
+  if (!(std::abs(per_unit) > 0.0)) {  // the friction does not act along the coordinate
+    out.status = PoseStatus::friction_indeterminate;
+    out.cause = friction_joints_.front();
+    return;
+  }
+  const double x = -(effort + out.lambda(row)) / per_unit;
+  out.lambda += x * column;
+  out.friction[0] = -x;
+  write_forces(state, out);
+}
+
+void Kinetostatics::write_forces(KinematicState& state, ForceSample& out) const {
+  const Mechanism& m = solver_.mechanism();
   const Eigen::VectorXd& lambda = out.lambda;
   const ConstraintLayout& layout = solver_.layout();
   // A driver's equation is coordinate - d(t) = 0: its effort along the coordinate is -lambda.
@@ -361,10 +393,7 @@ double Kinetostatics::relative_rate(const KinematicState& state, int f) const {
 
 double Kinetostatics::friction_load(int f, const Reaction& r) const {
   const Joint& j = friction_joint(static_cast<size_t>(f));
-  if (!j.is_slide()) return r.on_b.norm();
-  const double length = j.friction->length;
-  return length > 0.0 ? std::max(std::abs(r.normal), 2.0 * std::abs(r.moment) / length)
-                      : std::abs(r.normal);
+  return j.is_slide() ? j.friction->load(false, r.normal, r.moment) : r.on_b.norm();
 }
 
 double Kinetostatics::friction_load_slope(int f, const Reaction& r, const Reaction& d) const {

@@ -145,6 +145,12 @@ class Kinetostatics {
   // limit (`at_rest`: static_coefficient).
   void solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
              bool at_rest) const;
+  // A state at rest, held by friction, under the driver's effort `effort` (forward dynamics: the
+  // effort is given, not solved for): with one friction joint, its friction is the one that
+  // holds the mechanism, f = (effort - e0) / e1 (e0 the effort that would hold it without
+  // friction, e1 the effort per unit of friction), inside its cone since it holds; with more, how
+  // the load divides among them is not determined (friction_indeterminate).
+  void solve_held(KinematicState& state, ForceSample& out, double effort) const;
   // Method 2, the power balance: the drivers' power, the sum over drivers of effort x rate [W],
   // as the rate of change of the kinetic energy and of the potential energy of gravity and
   // springs, plus the power dissipated in dampers and in joint friction, less the power of the
@@ -191,6 +197,8 @@ class Kinetostatics {
   // The tooth force at the multipliers, and what it changes in the other joints' reactions.
   void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
   Reaction reaction(const KinematicState& state, int joint, const Eigen::VectorXd& lambda) const;
+  // The efforts, reactions and shaking force from out.lambda and out.friction.
+  void write_forces(KinematicState& state, ForceSample& out) const;
   // Friction joint f (Mechanism::friction_joints order).
   const Joint& friction_joint(size_t f) const {
     return solver_.mechanism().joints[static_cast<size_t>(friction_joints_[f])];

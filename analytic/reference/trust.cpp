@@ -184,6 +184,7 @@ std::string untrusted(const Trajectory& reference, int k, double force_rcond) {
   const PoseStatus s = reference.status[static_cast<size_t>(k)];
   if (!usable(s)) return "reference:" + std::string(to_string(s));
   if (reference.beside_singular(k)) return "beside_singular";
+  if (reference.beside_stop(k)) return "beside_stop";
   if (reference.rcond(k) < force_rcond) return "ill_conditioned";
   return "";
 }

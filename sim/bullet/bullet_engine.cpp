@@ -1559,6 +1559,13 @@ class BulletEngine final : public Engine {
   std::string name() const override { return "bullet"; }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
+    if (const std::string rough = unmodelled_friction(
+            mechanism,
+            "crosslink's Bullet scene does not model yet (a motor's impulse limit is to come)");
+        !rough.empty()) {
+      if (why) *why = rough;
+      return false;
+    }
     // Either formulation (plan_scene takes the other when the one asked for cannot).
     try {
       (void)make_plan(mechanism, false, nullptr);

@@ -106,6 +106,12 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
 }
 
 bool realisable(const Mechanism& mechanism, std::string* why) {
+  if (const std::string rough = unmodelled_friction(
+          mechanism, "crosslink's MuJoCo scene does not model yet (frictionloss is to come)");
+      !rough.empty()) {
+    if (why) *why = rough;
+    return false;
+  }
   try {
     (void)build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()));
   } catch (const std::exception& e) {

@@ -101,6 +101,8 @@ struct Config {
   bool max_step_angle_given = false;
   double erp = 1.0;
   double cfm = 1e-10;
+  bool extrapolated_load = true;
+  double friction_cfm = 1e-8;
   bool finite_rotation = true;
   double gap_threshold = 0.0;     // [m]; 0 (auto): 1e-4 of the size
   double divergence_gap = 0.1;    // of the size
@@ -163,6 +165,20 @@ const SettingSchema& ode_settings() {
        .doc = "dBodySetFiniteRotationMode: 1 the exact rotation update, 0 ODE's default "
               "(loses (w dt)^3/12 a step)",
        .words = {"0", "1"}},
+      {.name = "friction_load",
+       .kind = choice,
+       .default_value = "extrapolated",
+       .doc = "joint friction's load (mu r |R|, mu |N|) for a step: last, the reactions of the "
+              "step before; extrapolated, linearly from the two steps before",
+       .words = {"extrapolated", "last"},
+       .friction = true},
+      {.name = "friction_cfm",
+       .kind = number,
+       .default_value = "1e-8",
+       .doc = "the friction motors' constraint force mixing (at the world's 1e-10 the LCP of a "
+              "loop with friction at every pin fails)",
+       .range = {0.0, 1.0, true},
+       .friction = true},
       {.name = "precision", .doc = "the ODE build linked", .reported = true},
       shared_setting("gap_threshold"),
       shared_setting("divergence_gap"),
@@ -198,6 +214,8 @@ Config parse_settings(const Settings& overrides) {
   c.max_step_angle = c.max_step_angle_given ? v.number("max_step_angle") : 0.0;
   c.erp = v.number("erp");
   c.cfm = v.number("cfm");
+  c.extrapolated_load = v.is("friction_load", "extrapolated");
+  c.friction_cfm = v.number("friction_cfm");
   c.finite_rotation = v.is("finite_rotation", "1");
   c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
   c.divergence_gap = v.number("divergence_gap");
@@ -318,7 +336,11 @@ class OdeScene {
   // The scene at q (moving at qdot when given); `driven`: each driver's motor on its joint.
   OdeScene(const Mechanism& m, const SceneGraph& g, const Config& config, const Eigen::VectorXd& q,
            const Eigen::VectorXd* qdot, bool driven)
-      : m_(m), g_(g), quick_(config.stepper == "quick"), cfm_(config.cfm) {
+      : m_(m),
+        g_(g),
+        quick_(config.stepper == "quick"),
+        cfm_(config.cfm),
+        friction_cfm_(config.friction_cfm) {
     check_bodies(m, g, q);
     if (quick_) {
       random_order_ = std::unique_lock<std::mutex>(quick_step_mutex);
@@ -402,6 +424,8 @@ class OdeScene {
     }
     transmission_feedback_.resize(g.couplings.size());
     for (const SceneCoupling& c : g.couplings) add_transmission(c.source, q);
+    friction_feedback_.resize(g.joints.size());
+    for (size_t ji = 0; ji < g.joints.size(); ++ji) add_friction(ji, driven, q);
     if (driven)
       for (const DrivenCoordinate& dc : g.driven) {
         Motor motor;
@@ -507,7 +531,131 @@ class OdeScene {
     return s;
   }
 
+  // Whether motors drive the drivers' joints (a kinematic run).
+  bool driving() const { return !motors_.empty(); }
+
+  // Joint friction (docs/engines.md, "Joint friction"): each friction joint's motor at rest, its
+  // largest force the friction's limit.
+  bool rough() const { return !rough_.empty(); }
+  // Whether a friction grows with its joint's reaction (its limit follows the last step's).
+  bool loaded() const {
+    return std::any_of(rough_.begin(), rough_.end(),
+                       [](const Rough& r) { return r.law->load_dependent(); });
+  }
+  // Each limit for the next step, from `last`, the reading of the step before (its loads): the
+  // static one where that step ended with the joint held (its friction inside its limit).
+  void limit_friction(const ForceReading& last) {
+    for (Rough& r : rough_) {
+      const SceneJoint& j = g_.joints[r.joint];
+      const size_t source = static_cast<size_t>(j.source);
+      const bool revolute = j.kind == SceneJoint::Kind::hinge;
+      double load = 0.0;
+      if (r.law->load_dependent()) {
+        const Eigen::Vector2d& f = last.joint_force[source];
+        load = revolute ? r.law->load(true, f.norm())
+                        : r.law->load(false, f.dot(perp(axis(r.joint))), last.couple[source]);
+      }
+      r.limit = r.law->limit(revolute, load, r.held);
+      if (r.kind == Rough::Kind::angular)
+        dJointSetAMotorParam(r.motor, dParamFMax, r.limit);
+      else if (r.kind == Rough::Kind::own)
+        dJointSetSliderParam(r.motor, dParamFMax, r.limit);
+      else
+        dJointSetLMotorParam(r.motor, dParamFMax, r.limit);
+    }
+  }
+  // After a step: each friction on its joint's second link into `out` (per Mechanism joint; a
+  // driven slide's linear motor's also into its joint's force), whether it held its joint, and
+  // the work the friction did over the step of h [J].
+  double read_friction(double h, ForceReading* out) {
+    double work = 0.0;
+    for (Rough& r : rough_) {
+      const SceneJoint& j = g_.joints[r.joint];
+      // The friction on body1 of its motor (the joint's own body1 for a slider), and its rate.
+      double on_first = 0.0, rate = 0.0;
+      if (r.kind == Rough::Kind::angular) {
+        on_first = friction_feedback_[r.joint].t1[2];
+        rate = dJointGetHingeAngleRate(joints_[r.joint]);  // body1's about z less body2's
+      } else {
+        const dJointFeedback& f =
+            r.kind == Rough::Kind::own ? feedback_[r.joint] : friction_feedback_[r.joint];
+        const Eigen::Vector2d u = axis(r.joint);
+        on_first = Eigen::Vector2d(f.f1[0], f.f1[1]).dot(u);
+        rate = dJointGetSliderPositionRate(joints_[r.joint]);  // body1's along u less body2's
+      }
+      // On the joint's second link b, b's rate relative to a.
+      const double sign = body1_[r.joint] == j.b ? 1.0 : -1.0;
+      const double friction = sign * on_first;
+      work += friction * sign * rate * h;
+      r.held = std::abs(friction) < (1.0 - kSaturated) * r.limit;
+      if (!out) continue;
+      const size_t source = static_cast<size_t>(j.source);
+      out->friction[source] = friction;
+      if (r.kind == Rough::Kind::linear) out->joint_force[source] += friction * axis(r.joint);
+    }
+    return work;
+  }
+
  private:
+  // A friction motor's limit is reached when its force is within this fraction of it (the
+  // solver's bounds are met to round-off).
+  static constexpr double kSaturated = 1e-6;
+
+  // A friction joint `ji`'s motor at rest (dParamVel 0): a hinge's an angular motor about z
+  // between its bodies, whose feedback is the friction alone; an undriven slide's its own motor,
+  // whose feedback along the line is the friction (the slider's other rows are normal to it); a
+  // driven slide's (its own motor drives it) a linear motor along the line, fixed in the world:
+  // its guide is the ground (OdeEngine::supports).
+  void add_friction(size_t ji, bool driven, const Eigen::VectorXd& q) {
+    const SceneJoint& j = g_.joints[ji];
+    if (j.source < 0 || !joints_[ji] || j.kind == SceneJoint::Kind::planar) return;
+    const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
+    if (!mj.friction) return;
+    Rough r;
+    r.joint = ji;
+    r.law = &*mj.friction;
+    dBodyID first = bodies_[static_cast<size_t>(body1_[ji])];
+    dBodyID second = bodies_[static_cast<size_t>(body1_[ji] == j.a ? j.b : j.a)];
+    if (j.kind == SceneJoint::Kind::hinge) {
+      r.kind = Rough::Kind::angular;
+      r.motor = dJointCreateAMotor(world_, nullptr);
+      dJointAttach(r.motor, first, second);
+      dJointSetAMotorMode(r.motor, dAMotorUser);
+      dJointSetAMotorNumAxes(r.motor, 1);
+      dJointSetAMotorAxis(r.motor, 0, 0, 0.0, 0.0, 1.0);
+      dJointSetAMotorParam(r.motor, dParamVel, 0.0);
+      dJointSetAMotorParam(r.motor, dParamCFM, friction_cfm_);
+      dJointSetFeedback(r.motor, &friction_feedback_[ji]);
+    } else if (!driven ||
+               std::none_of(g_.driven.begin(), g_.driven.end(), [&](const DrivenCoordinate& d) {
+                 return d.joint == static_cast<int>(ji);
+               })) {
+      r.kind = Rough::Kind::own;
+      r.motor = joints_[ji];
+      dJointSetSliderParam(r.motor, dParamVel, 0.0);
+      dJointSetSliderParam(r.motor, dParamCFM, friction_cfm_);
+    } else {
+      r.kind = Rough::Kind::linear;
+      r.motor = dJointCreateLMotor(world_, nullptr);
+      dJointAttach(r.motor, first, second);
+      dJointSetLMotorNumAxes(r.motor, 1);
+      const BodyMotion a = frame_of(m_, g_.bodies[static_cast<size_t>(j.a)], q);
+      const Eigen::Vector2d u = turn(a.theta, j.direction);
+      dJointSetLMotorAxis(r.motor, 0, 0, u.x(), u.y(), 0.0);
+      dJointSetLMotorParam(r.motor, dParamVel, 0.0);
+      dJointSetLMotorParam(r.motor, dParamCFM, friction_cfm_);
+      dJointSetFeedback(r.motor, &friction_feedback_[ji]);
+    }
+    rough_.push_back(r);
+  }
+
+  // Slide `joint`'s line in the world, as its slider holds it.
+  Eigen::Vector2d axis(size_t joint) const {
+    dVector3 u;
+    dJointGetSliderAxis(joints_[joint], u);
+    return {u[0], u[1]};
+  }
+
   // A gear pair as ODE's transmission joint between its two gears (body1 the first): the contact
   // point on the line of centres at ratio r_a / r_b, both wheels about z, no backlash; it holds
   // the pitch point's tangential velocity equal on both gears and its phase (each wheel's turn
@@ -539,7 +687,7 @@ class OdeScene {
   const Mechanism& m_;
   const SceneGraph& g_;
   bool quick_;
-  double cfm_;
+  double cfm_, friction_cfm_;
   dWorldID world_ = nullptr;
   dThreadingImplementationID threading_ = nullptr;
   std::vector<dBodyID> bodies_;  // per scene body; null for the ground
@@ -558,8 +706,21 @@ class OdeScene {
   // joint points into it).
   std::vector<std::pair<int, dJointID>> transmissions_;
   std::vector<dJointFeedback> transmission_feedback_;
-  bool interrupted_ = false;                   // a step threw (an ODE error inside it)
-  std::unique_lock<std::mutex> random_order_;  // a quick-step run's hold on dRandInt's seed
+  // Per friction joint: its scene joint, its motor, its law, the limit of the last step and
+  // whether that step held it.
+  struct Rough {
+    enum class Kind { angular, own, linear };
+    size_t joint = 0;
+    Kind kind = Kind::angular;
+    dJointID motor = nullptr;
+    const JointFriction* law = nullptr;
+    double limit = 0.0;
+    bool held = false;
+  };
+  std::vector<Rough> rough_;
+  std::vector<dJointFeedback> friction_feedback_;  // per scene joint (sized before any points in)
+  bool interrupted_ = false;                       // a step threw (an ODE error inside it)
+  std::unique_lock<std::mutex> random_order_;      // a quick-step run's hold on dRandInt's seed
 };
 
 // A gear pair's reading in the terms every engine's takes (ForceReading::gear_couple): ODE's
@@ -627,14 +788,17 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
       const Driver& d = m.drivers[di];
       if (static_cast<int>(ji) != driven_joint(di) || d.type == DriverType::link_angle) continue;
       double& effort = out.effort_of(static_cast<int>(di));
-      if (d.type == DriverType::slider) {
-        const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
-        const Eigen::Vector2d u = a.turn(m.links[mj.link_a].lines[mj.line].direction);
-        effort = on_b.dot(u);
-        on_b -= effort * u;
-      } else {
+      if (d.type != DriverType::slider) {
         effort = couple_b;  // on the second link, the driven one
+        continue;
       }
+      // Undriven (forward dynamics, whose sampler writes the applied effort), a slide's force
+      // along its line is its own (its friction).
+      if (!scene.driving()) continue;
+      const BodyMotion a = frame_of(m, g.bodies[static_cast<size_t>(j.a)], q);
+      const Eigen::Vector2d u = a.turn(m.links[mj.link_a].lines[mj.line].direction);
+      effort = on_b.dot(u);
+      on_b -= effort * u;
     }
     out.joint_force[ji] = on_b;
   }
@@ -717,50 +881,94 @@ double max_step_angle(const Config& config, bool dynamics) {
   return dynamics ? kDynamicsMaxStepAngle : kKinematicMaxStepAngle;
 }
 
-Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle) {
-  return {{"stepper", config.stepper},
-          {"iterations",
-           config.stepper == "quick" ? std::to_string(config.iterations) : "unused (dWorldStep)"},
-          {"dt", format_number(grid.dt)},
-          {"steps_per_sample",
-           config.dt == 0.0 ? std::to_string(grid.steps_per_sample) : "unused (dt given)"},
-          {"max_step_angle", config.dt == 0.0 ? format_number(step_angle) : "unused (dt given)"},
-          {"erp", format_number(config.erp)},
-          {"cfm", format_number(config.cfm)},
-          {"finite_rotation", config.finite_rotation ? "1" : "0"},
-          {"precision", "float64 (ODE_double_precision)"},
-          {"gap_threshold", format_number(config.gap_threshold)},
-          {"divergence_gap", format_number(config.divergence_gap)},
-          {"mass_model", "the definition's (Link::mass)"},
-          {"singular_rcond", format_number(config.singular_rcond)},
-          {"perturb_link", config.perturb_link},
-          {"max_steps", std::to_string(config.max_steps)}};
+Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle,
+                         bool friction) {
+  Settings values = {
+      {"stepper", config.stepper},
+      {"iterations",
+       config.stepper == "quick" ? std::to_string(config.iterations) : "unused (dWorldStep)"},
+      {"dt", format_number(grid.dt)},
+      {"steps_per_sample",
+       config.dt == 0.0 ? std::to_string(grid.steps_per_sample) : "unused (dt given)"},
+      {"max_step_angle", config.dt == 0.0 ? format_number(step_angle) : "unused (dt given)"},
+      {"erp", format_number(config.erp)},
+      {"cfm", format_number(config.cfm)},
+      {"finite_rotation", config.finite_rotation ? "1" : "0"},
+      {"precision", "float64 (ODE_double_precision)"},
+      {"gap_threshold", format_number(config.gap_threshold)},
+      {"divergence_gap", format_number(config.divergence_gap)},
+      {"mass_model", "the definition's (Link::mass)"},
+      {"singular_rcond", format_number(config.singular_rcond)},
+      {"perturb_link", config.perturb_link},
+      {"max_steps", std::to_string(config.max_steps)}};
+  if (friction) {
+    values.emplace_back("friction_load", config.extrapolated_load ? "extrapolated" : "last");
+    values.emplace_back("friction_cfm", format_number(config.friction_cfm));
+  }
+  return values;
 }
 
 // The scene stepped and read back as the mechanism's coordinates after each step, with the
 // forces of the pose a step leaves: what both runs' scenes share.
+// Joint friction's limits follow the reactions of the steps before (friction_load: the last
+// step's, or extrapolated linearly from the last two). The start's trend (the reference's forces
+// and their rate) stands for the steps before the first, and for the first two steps' readings,
+// transients (a velocity-level start: the first lacks the centripetal part of the constraint
+// forces, the second makes it up; 55 % off on the friction four-bar's pins).
 class OdeSteps {
  public:
-  OdeSteps(const Mechanism& m, const SceneGraph& g, OdeScene& scene, const Eigen::VectorXd& q)
-      : m_(m), g_(g), scene_(scene), q_(q) {
+  OdeSteps(const Mechanism& m, const SceneGraph& g, OdeScene& scene, const Eigen::VectorXd& q,
+           ReadingTrend start, bool extrapolated)
+      : m_(m),
+        g_(g),
+        scene_(scene),
+        q_(q),
+        last_(std::move(start.at)),
+        rate_(std::move(start.rate)),
+        reading_(last_),
+        load_(last_),
+        extrapolated_(extrapolated) {
     scene_.read(q_);
   }
   std::string step(double h, ForceReading* forces) {
+    const bool loaded = scene_.loaded();
+    if (scene_.rough()) {
+      load_ = last_;
+      if (loaded && extrapolated_) load_.add(h, rate_);
+      scene_.limit_friction(load_);
+    }
     const std::string why = scene_.step(h);
     ++evaluations_;  // one LCP solve of the model a step
-    if (forces) read_forces(m_, g_, scene_, q_, *forces);
+    const bool keep = loaded && evaluations_ > 2;
+    ForceReading* into = forces ? forces : keep ? &reading_ : nullptr;
+    if (into) read_forces(m_, g_, scene_, q_, *into);
+    if (scene_.rough()) friction_work_ = scene_.read_friction(h, into);
+    if (keep) {  // the trend from the last reading to this one
+      rate_ = last_;
+      rate_.set_zero();
+      rate_.add(1.0 / h, *into);
+      rate_.add(-1.0 / h, last_);
+      last_ = *into;
+    } else if (loaded) {
+      last_.add(h, rate_);
+    }
     scene_.read(q_);
     return why;
   }
   OdeScene& scene() { return scene_; }
   const Eigen::VectorXd& pose() const { return q_; }
   long evaluations() const { return evaluations_; }
+  double friction_work() const { return friction_work_; }
 
  private:
   const Mechanism& m_;
   const SceneGraph& g_;
   OdeScene& scene_;
   Eigen::VectorXd q_;
+  ForceReading last_, rate_;     // the last reading and its rate [per s]
+  ForceReading reading_, load_;  // scratch: a step's reading, the next step's load
+  bool extrapolated_;
+  double friction_work_ = 0.0;
   long evaluations_ = 0;
 };
 
@@ -825,6 +1033,7 @@ class OdeDynamicsScene final : public OdeLoopScene<DynamicsScene> {
   std::string step(double /*t0*/, double h, ForceReading* forces) override {
     return steps_.step(h, forces);
   }
+  double friction_work() const override { return steps_.friction_work(); }
 
  private:
   Eigen::VectorXd start_velocity_;
@@ -850,7 +1059,7 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
             ? Eigen::VectorXd(start.start.qdot - 0.5 * (time[1] - time[0]) * start.start.qddot)
             : start.start.qdot;
     const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-    Settings values = common_settings(config, start.grid, step_angle);
+    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction());
     const Settings more = {
         {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
         {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
@@ -859,9 +1068,11 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
         {"divergence_energy", format_number(config.divergence_energy)},
         {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
     values.insert(values.end(), more.begin(), more.end());
-    out.settings = printed_settings(ode_settings(), RunKind::dynamics, values);
+    out.settings = printed_settings(ode_settings(), RunKind::dynamics, values, p.m.has_friction());
     OdeScene scene(p.m, p.graph, config, start.start.q, &velocity, false);
-    OdeSteps steps(p.m, p.graph, scene, start.start.q);
+    OdeSteps steps(p.m, p.graph, scene, start.start.q,
+                   reference_trend(p.m, reference, start.span.first, time.front()),
+                   config.extrapolated_load);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.start.q); !why.empty())
       return failed_run(std::move(out), why);
     OdeDynamicsScene stepped(steps, velocity);
@@ -890,17 +1101,19 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
         InnerTimes::interval_fractions, kPreroll, config.max_steps, config.singular_rcond,
         !config.perturb_link.empty());
-    Settings values = common_settings(config, start.grid, step_angle);
+    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction());
     const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
                            {"forces", "dJointFeedback of the step leaving each sampled pose"},
                            {"branch_distance", format_number(config.branch_distance)}};
     values.insert(values.end(), more.begin(), more.end());
-    out.settings = printed_settings(ode_settings(), RunKind::kinematic, values);
+    out.settings = printed_settings(ode_settings(), RunKind::kinematic, values, p.m.has_friction());
     const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * p.m.size(),
                                   config.driver_threshold, config.singular_rcond,
                                   config.branch_distance};
     OdeScene scene(p.m, p.graph, config, start.q, &start.qdot, true);
-    OdeSteps steps(p.m, p.graph, scene, start.q);
+    OdeSteps steps(p.m, p.graph, scene, start.q,
+                   reference_trend(p.m, reference, start.span.first, start.grid.time.front()),
+                   config.extrapolated_load);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.q); !why.empty())
       return failed_run(std::move(out), why);
     for (size_t d = 0; d < p.graph.driven.size(); ++d)
@@ -925,7 +1138,20 @@ class OdeEngine final : public Engine {
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
     try {
-      (void)ode_graph(mechanism);
+      const SceneGraph g = ode_graph(mechanism);
+      // A driven slide's friction is a linear motor beside its driving one, whose axis ODE fixes
+      // in the world (dJointCreateLMotor).
+      for (const DrivenCoordinate& d : g.driven) {
+        const SceneJoint& j = g.joints[static_cast<size_t>(d.joint)];
+        if (j.kind == SceneJoint::Kind::slide && j.source >= 0 &&
+            mechanism.joints[static_cast<size_t>(j.source)].friction &&
+            !g.bodies[static_cast<size_t>(j.a)].ground)
+          throw std::runtime_error(fmt::format(
+              "joint '{}' is driven and has friction on a moving guide: ODE's linear motor, "
+              "which would carry its friction beside the driving motor, holds an axis fixed in "
+              "the world",
+              mechanism.joints[static_cast<size_t>(j.source)].name));
+      }
     } catch (const std::exception& e) {
       if (why) *why = e.what();
       return false;

@@ -870,6 +870,14 @@ class SimbodyEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return simbody_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
+    if (const std::string rough =
+            unmodelled_friction(mechanism,
+                                "Simbody 3.7 has no Coulomb joint friction element "
+                                "(docs/engines.md, \"Joint friction\")");
+        !rough.empty()) {
+      if (why) *why = rough;
+      return false;
+    }
     try {
       const SceneGraph g = simbody_graph(mechanism);
       if (const std::string problem = driver_problem(g); !problem.empty() && !mechanism.dynamics) {

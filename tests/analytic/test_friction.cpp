@@ -453,12 +453,12 @@ TEST(FrictionDynamics, ABlockSlidesToRestAndSticksAsTheClosedFormSays) {
     const double s = time < v0 / a ? v0 * time - 0.5 * a * time * time : v0 * v0 / (2 * a);
     EXPECT_NEAR(t.s(k, 0), s, 1e-9) << time;
     EXPECT_LT(run.energy_error(k), 1e-11) << time;
-    // Sliding: its forces; held: its pose, and no forces (the friction is inside its cone).
-    EXPECT_EQ(t.status[static_cast<size_t>(k)],
-              time < v0 / a ? PoseStatus::ok : PoseStatus::friction_indeterminate);
-    if (time < v0 / a) {  // the friction force mu N up the slope (-s), N = m g cos(alpha)
+    EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << time;
+    if (time < v0 / a)  // sliding: the friction force mu N up the slope (-s), N = m g cos(alpha)
       EXPECT_NEAR(t.friction(k, 0), -0.8 * 2 * g * std::cos(alpha), 1e-9);
-    }
+    else  // held: what balances gravity along the slope, inside the static cone
+      EXPECT_NEAR(t.friction(k, 0), -2 * g * std::sin(alpha), 1e-9);
+    EXPECT_NEAR(t.fn(k, 0), 2 * g * std::cos(alpha), 1e-9) << time;
   }
 }
 

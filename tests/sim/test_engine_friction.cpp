@@ -1,0 +1,182 @@
+// Each engine's joint friction (docs/engines.md, "Joint friction") against independent answers:
+// the closed form of a block sliding to rest on a slope, the exact forward dynamics of a pendulum
+// with pivot friction and the exact kinetostatics of linkages with friction at every joint (both
+// checked in tests/analytic/test_friction.cpp), with the order of each error in the step and
+// ODE's creep against its own formulation.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "analytic/model/loader.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/sweep.h"
+#include "analytic/reference/trust.h"
+#include "methods/engines.h"
+#include "tests/common/mechanisms.h"
+
+namespace crosslink::sim {
+namespace {
+
+Mechanism friction_mechanism(const std::string& name) {
+  return load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/friction/" + name +
+                        ".toml");
+}
+
+EngineRun run_ode(const Mechanism& m, const Trajectory& exact, const Settings& settings = {}) {
+  const auto engine = methods::find_engine("ode")->make();
+  std::string why;
+  EXPECT_TRUE(engine->supports(m, &why)) << why;
+  EngineRun run = engine->run(m, exact, settings);
+  EXPECT_TRUE(run.ok) << run.message;
+  return run;
+}
+
+// An engine that does not model joint friction refuses every definition with it, naming the
+// joint; one that does runs them all.
+TEST(EngineFriction, EveryEngineRunsEachFrictionDefinitionOrRefusesItNamingTheJoint) {
+  for (const methods::EngineEntry& e : methods::engine_table()) {
+    const auto engine = e.make();
+    for (const std::string& path : test::friction_files()) {
+      const Mechanism m = load_mechanism(path);
+      std::string why;
+      if (e.name == "ode") {
+        EXPECT_TRUE(engine->supports(m, &why)) << path << ": " << why;
+        continue;
+      }
+      EXPECT_FALSE(engine->supports(m, &why)) << e.name << " on " << path;
+      EXPECT_NE(why.find("has friction"), std::string::npos) << why;
+    }
+  }
+}
+
+// The worst and RMS difference of every friction channel over the samples the reference trusts
+// for forces and the run calls usable, as a fraction of the channel's exact peak.
+struct FrictionError {
+  double worst = 0.0, rms = 0.0;
+};
+FrictionError friction_error(const Trajectory& exact, const Trajectory& engine) {
+  FrictionError out;
+  const double force_rcond = kForceConditioning * typical_rcond(exact);
+  int n = 0;
+  for (Eigen::Index f = 0; f < exact.friction.cols(); ++f) {
+    double peak = 0.0;
+    for (int k = 0; k < exact.samples(); ++k)
+      if (untrusted(exact, k, force_rcond).empty())
+        peak = std::max(peak, std::abs(exact.friction(k, f)));
+    for (int k = 0; k < exact.samples(); ++k) {
+      if (!untrusted(exact, k, force_rcond).empty() ||
+          !usable(engine.status[static_cast<size_t>(k)]))
+        continue;
+      const double e = std::abs(engine.friction(k, f) - exact.friction(k, f)) / peak;
+      out.worst = std::max(out.worst, e);
+      out.rms += e * e;
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 0);
+  out.rms = std::sqrt(out.rms / std::max(n, 1));
+  return out;
+}
+
+// ODE bounds each friction motor by the load of the steps before. The last step's load is one
+// step late: the error is first order in the step (halving the step halves it). Extrapolated
+// linearly from the last two steps (the default) it is second order and, at the default step,
+// within the 0.3 % of peak compare holds forces to.
+TEST(EngineFriction, OdesLoadDependentFrictionIsFirstOrderLateOrSecondOrderExtrapolated) {
+  for (const char* name : {"slider_crank_friction", "bevan_eccentric_friction"}) {
+    const Mechanism m = friction_mechanism(name);
+    const Trajectory exact = sweep(m);
+    const FrictionError coarse = friction_error(
+        exact,
+        run_ode(m, exact, {{"friction_load", "last"}, {"max_step_angle", "0.01"}}).trajectory);
+    const FrictionError fine = friction_error(
+        exact,
+        run_ode(m, exact, {{"friction_load", "last"}, {"max_step_angle", "0.005"}}).trajectory);
+    EXPECT_GT(coarse.rms / fine.rms, 1.7) << name;
+    EXPECT_LT(coarse.rms / fine.rms, 2.4) << name;
+    const FrictionError extrapolated = friction_error(exact, run_ode(m, exact).trajectory);
+    EXPECT_LT(extrapolated.rms, coarse.rms / 5) << name;
+    EXPECT_LT(extrapolated.worst, 0.3e-2) << name;
+  }
+  // The four-bar's massless crank between two friction pins (its pins' loads change 95 rad/s
+  // fast): extrapolated, within compare's force tolerance too.
+  const Mechanism m = friction_mechanism("fourbar_friction_circles");
+  const Trajectory exact = sweep(m);
+  EXPECT_LT(friction_error(exact, run_ode(m, exact).trajectory).worst, 0.3e-2);
+}
+
+// A block launched down a slope (the closed form of tests/analytic/test_friction.cpp): ODE's
+// slider motor at rest, bounded by mu N, slides it with the friction mu m g cos(alpha) and holds
+// it with m g sin(alpha); semi-implicit Euler under a constant force is exact but for where the
+// stop falls in its step. Held, the motor row is softened by its constraint force mixing eps: it
+// solves v = eps x lambda, so the block creeps down at friction_cfm x m g sin(alpha).
+TEST(EngineFriction, OdesBlockSlidesToRestAsTheClosedFormSaysAndCreepsAtCfmTimesItsForce) {
+  const Mechanism m = friction_mechanism("block_sliding_to_rest");
+  const Simulation exact = simulate(m);
+  ASSERT_TRUE(exact.ok && exact.trajectory.held_from) << exact.message;
+  const double g = 9.81, mass = 2.0, alpha = std::numbers::pi / 6, v0 = 3.0;
+  const double a = g * (0.8 * std::cos(alpha) - std::sin(alpha)), stop = v0 / a;
+  for (const double cfm : {1e-8, 1e-6}) {
+    const EngineRun run = run_ode(m, exact.trajectory, {{"friction_cfm", fmt::format("{}", cfm)}});
+    const Trajectory& t = run.trajectory;
+    const double h = run.cost.time_step;
+    int held_first = -1;
+    for (int k = 0; k < t.samples(); ++k) {
+      if (!usable(t.status[static_cast<size_t>(k)]) || exact.trajectory.beside_stop(k)) continue;
+      const double time = t.time(k);
+      if (time < stop) {
+        EXPECT_NEAR(t.friction(k, 0), -0.8 * mass * g * std::cos(alpha), 1e-6 * mass * g) << time;
+        EXPECT_NEAR(t.s(k, 0), v0 * time - 0.5 * a * time * time, v0 * h) << time;
+        continue;
+      }
+      EXPECT_NEAR(t.friction(k, 0), -mass * g * std::sin(alpha), 1e-6 * mass * g) << time;
+      if (held_first < 0) {
+        held_first = k;
+        EXPECT_NEAR(t.s(k, 0), v0 * v0 / (2 * a), v0 * h);
+        continue;
+      }
+      const double creep = cfm * mass * g * std::sin(alpha) * (time - t.time(held_first));
+      EXPECT_NEAR(t.s(k, 0) - t.s(held_first, 0), creep, 0.02 * creep + 1e-12) << time;
+    }
+    EXPECT_GT(held_first, 0);
+    EXPECT_NE(run.message.find("creep:"), std::string::npos) << run.message;
+  }
+}
+
+// A pendulum with a constant pivot friction torque, against the exact forward dynamics (whose
+// swings tests/analytic/test_friction.cpp holds to their energy balance): ODE's error in the
+// angle over the whole decay, through ten reversals and the final hold, falls with the step at
+// least as its first power (a quarter of the step: 4.5 times smaller; each reversal falls
+// anywhere inside a step, so the order is not clean: halving gave 1.6, 2.7 and 1.2), and its
+// energy balance, which counts the friction motor's work, stays closed.
+TEST(EngineFriction, OdesPendulumDecaysAsTheExactOneAndConvergesWithTheStep) {
+  const Mechanism m = friction_mechanism("pendulum_pin_friction");
+  const Simulation exact = simulate(m);
+  ASSERT_TRUE(exact.ok) << exact.message;
+  const auto angle_error = [&](const EngineRun& run) {
+    double worst = 0.0;
+    for (int k = 0; k < run.trajectory.samples(); ++k)
+      if (usable(run.trajectory.status[static_cast<size_t>(k)]) &&
+          untrusted(exact.trajectory, k, 0.0).empty())
+        worst =
+            std::max(worst, std::abs(run.trajectory.angle(k, 0) - exact.trajectory.angle(k, 0)));
+    return worst;
+  };
+  const EngineRun coarse = run_ode(m, exact.trajectory);
+  const EngineRun fine = run_ode(m, exact.trajectory, {{"max_step_angle", "0.000625"}});
+  EXPECT_GT(angle_error(coarse) / angle_error(fine), 3.0);
+  // The friction's work is what the pendulum loses: without it the balance is off by the
+  // potential energy of the 60 degree drop (2.45 J).
+  const double scale = exact.energy_scale;
+  for (int k = 0; k < coarse.trajectory.samples(); ++k) {
+    if (!usable(coarse.trajectory.status[static_cast<size_t>(k)])) continue;
+    EXPECT_LT(std::abs(coarse.trajectory.energy(k, 3)), 1e-3 * scale) << coarse.trajectory.time(k);
+  }
+}
+
+}  // namespace
+}  // namespace crosslink::sim
