@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""ODE's joint friction against the exact reference: the worst % of peak of the friction
-channels, the driver effort (kinematic) or angle/slide (dynamics), the creep, the steps, per
-setting. Usage: measure_friction.py CROSSLINK"""
+"""The engines' joint friction against the exact reference (docs/engines.md, "Joint friction"):
+the worst % of peak of the friction channels, of the driver effort (kinematic) or the angle or
+slide (dynamics), of the energy balance, the creep and the steps, per engine and setting.
+Usage: measure_friction.py CROSSLINK"""
 import json, re, subprocess, sys
 cl = sys.argv[1]
-runs = [
+runs = [("ode", n, s) for n, s in [
   ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["max_step_angle=0.005"]),
   ("fourbar_friction_circles", ["friction_load=last", "cfm=1e-9"]),
   ("fourbar_friction_circles", ["friction_load=last", "cfm=1e-9", "max_step_angle=0.005"]),
@@ -18,19 +19,24 @@ runs = [
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["max_step_angle=0.00125"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
   ("pendulum_pin_friction", ["friction_cfm=1e-6"]),
-]
-print("| definition | settings (besides the defaults) | friction | effort or coordinate | energy balance | creep | steps |")
-print("|---|---|---|---|---|---|---|")
-for name, sets in runs:
-    cmd = [cl, "compare", f"mechanisms/friction/{name}.toml", "--engines", "analytic,ode", "--json", "-"]
-    for s in sets: cmd += ["--set", "ode:" + s]
+]] + [("mujoco", n, s) for n, s in [
+  ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_load=last"]),
+  ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_solref=0.005 1"]),
+  ("pendulum_pin_friction", ["friction_solref=0.02 1"]),
+  ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
+]]
+print("| engine | definition | settings (besides the defaults) | friction | effort or coordinate | energy balance | creep | steps |")
+print("|---|---|---|---|---|---|---|---|")
+for engine, name, sets in runs:
+    cmd = [cl, "compare", f"mechanisms/friction/{name}.toml", "--engines", "analytic," + engine, "--json", "-"]
+    for s in sets: cmd += ["--set", f"{engine}:" + s]
     d = json.loads(subprocess.run(cmd, capture_output=True, text=True).stdout)
-    ode = [m for m in d["methods"] if m["name"] == "ode"][0]
+    ode = [m for m in d["methods"] if m["name"] == engine][0]
     setting = ", ".join(f"`{s}`" for s in sets) or "defaults"
     if not ode["ok"]:
         msg = ode["message"].split(";")[0][:90]
-        print(f"| {name} | {setting} | fails: {msg} | | | | |"); continue
-    ch = {c["channel"]: c for c in d["channels"] if c["method"] == "ode"}
+        print(f"| {engine} | {name} | {setting} | fails: {msg} | | | | |"); continue
+    ch = {c["channel"]: c for c in d["channels"] if c["method"] == engine}
     fr = max(c["max_pct_of_peak"] for k, c in ch.items() if k.startswith("friction_"))
     if "torque.driver" in ch and not d.get("dynamics"):
         eff = f"torque {ch['torque.driver']['max_pct_of_peak']:.3g} %"
@@ -41,4 +47,4 @@ for name, sets in runs:
     m = re.search(r"creep: (\S+ \S+)", ode["message"])
     creep = m.group(1) if m else "-"
     steps = ode["cost"].get("steps", "")
-    print(f"| {name} | {setting} | {fr:.3g} % | {eff} | {en} | {creep} | {steps} |")
+    print(f"| {engine} | {name} | {setting} | {fr:.3g} % | {eff} | {en} | {creep} | {steps} |")

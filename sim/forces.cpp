@@ -319,6 +319,44 @@ ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, in
   return out;
 }
 
+FrictionLoads::FrictionLoads(ReadingTrend start, bool extrapolated, int transients)
+    : last_(std::move(start.at)),
+      rate_(std::move(start.rate)),
+      load_(last_),
+      extrapolated_(extrapolated),
+      transients_(transients) {}
+
+const ForceReading& FrictionLoads::next(double h) {
+  load_ = last_;
+  if (extrapolated_) load_.add(h, rate_);
+  return load_;
+}
+
+void FrictionLoads::record(const ForceReading* reading, double h) {
+  ++steps_;
+  if (!reading) {  // the start's trend goes on
+    last_.add(h, rate_);
+    return;
+  }
+  rate_.set_zero();
+  rate_.add(1.0 / h, *reading);
+  rate_.add(-1.0 / h, last_);
+  last_ = *reading;
+}
+
+double friction_limit(const Mechanism& m, int joint, const Eigen::VectorXd& q,
+                      const ForceReading& load, bool held) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const JointFriction& f = *j.friction;
+  if (!f.load_dependent()) return f.limit(!j.is_slide(), 0.0, held);
+  const Eigen::Vector2d& r = load.joint_force[static_cast<size_t>(joint)];
+  if (!j.is_slide()) return f.limit(true, f.load(true, r.norm()), held);
+  const BodyMotion guide = BodyMotion::of(m.moving_index(j.link_a), q, nullptr, nullptr);
+  const Eigen::Vector2d u = guide.turn(m.links[j.link_a].lines[j.line].direction);
+  const double normal = r.dot(perp(u));
+  return f.limit(false, f.load(false, normal, load.couple[static_cast<size_t>(joint)]), held);
+}
+
 ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time) {
   ForceStencil s;
   const long first_clean = 2, last_clean = last_step - 1;

@@ -157,6 +157,35 @@ struct ReadingTrend {
 };
 ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, int first, double t);
 
+// Joint friction in an engine that bounds it per step (docs/engines.md, "Joint friction"): the
+// load each step's limit is taken from, the reactions of the steps before: the last step's (one
+// step late: an error first order in the step), or extrapolated linearly from the last two
+// (second order). Until `transients` steps have passed (an engine's first readings are transients
+// of its start) the start's trend stands for them.
+class FrictionLoads {
+ public:
+  FrictionLoads(ReadingTrend start, bool extrapolated, int transients);
+  // The load for the next step, of h.
+  const ForceReading& next(double h);
+  // Whether the step about to end is read (the reading then goes to record).
+  bool reads() const { return steps_ + 1 > transients_; }
+  // The step of h ended with `reading` (null when reads() was false).
+  void record(const ForceReading* reading, double h);
+
+ private:
+  ForceReading last_, rate_;  // the last reading and its rate [per s]
+  ForceReading load_;         // scratch: the next step's load
+  bool extrapolated_;
+  int transients_;
+  long steps_ = 0;
+};
+
+// Joint `joint`'s friction limit under `load` (its reaction) at pose q: the constant part, plus the
+// gain times a pin's |R| or a slide's |N| (with a bearing length, max(|N|, 2 |M| / b)); the static
+// limit when `held`.
+double friction_limit(const Mechanism& m, int joint, const Eigen::VectorXd& q,
+                      const ForceReading& load, bool held);
+
 // Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the
 // second difference over poses k-1, k, k+1; a pose is `clean` when neither neighbour is the
 // start (pose 0, exact, without the stepping residual): 2 <= k <= last_step - 1. The weights of

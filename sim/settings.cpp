@@ -159,6 +159,16 @@ SettingSpec shared_setting(std::string_view name) {
             .default_value = "none",
             .doc = "test hook: that link's points scaled in the scene only",
             .allowed = "none, or <moving link>:<positive factor>"};
+  // Declared alike by the engines that bound joint friction per step (FrictionLoads).
+  if (name == "friction_load")
+    return {.name = "friction_load",
+            .kind = choice,
+            .default_value = "extrapolated",
+            .doc =
+                "joint friction's load (mu r |R|, mu |N|) for a step: last, the reactions of "
+                "the step before; extrapolated, linearly from the two steps before",
+            .words = {"extrapolated", "last"},
+            .friction = true};
   if (name == "divergence_energy")
     return {.name = "divergence_energy",
             .kind = number,

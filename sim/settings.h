@@ -69,9 +69,10 @@ struct SettingSpec {
 using SettingSchema = std::vector<SettingSpec>;
 
 // A setting every engine declares alike, by name: "max_steps", "perturb_link",
-// "divergence_energy", and the reported "mass_model", "driver", "energy_scale"; and those Bullet,
-// ODE and Simbody declare alike: "gap_threshold", "divergence_gap", "driver_threshold",
-// "singular_rcond", "branch_distance", "energy_threshold" (std::logic_error for another name).
+// "divergence_energy", "friction_load" (those that model joint friction), and the reported
+// "mass_model", "driver", "energy_scale"; and those Bullet, ODE and Simbody declare alike:
+// "gap_threshold", "divergence_gap", "driver_threshold", "singular_rcond", "branch_distance",
+// "energy_threshold" (std::logic_error for another name).
 SettingSpec shared_setting(std::string_view name);
 
 // What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit"; "reported

@@ -130,6 +130,8 @@ struct Config {
   double tolerance = 1e-10;
   std::string solref = "deadbeat", solimp = kSolimp;
   std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
+  std::string friction_solref = "auto";
+  bool extrapolated_load = true;
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
   std::string force_read = "centred";     // centred | raw (docs/engines.md, "Forces")
@@ -213,6 +215,15 @@ const SettingSchema& mujoco_settings() {
        .allowed = "dmin dmax width [midpoint [power]]: dmin, dmax in (0, 1), width > 0, "
                   "midpoint in [0, 1], power >= 1",
        .applies_to = kinematic},
+      shared_setting("friction_load"),
+      {.name = "friction_solref",
+       .kind = text,
+       .default_value = "auto",
+       .doc = "joint friction's solreffriction (its frictionloss rows; MuJoCo's own default is "
+              "0.02 1)",
+       .allowed = "auto (2 dt, 1), or timeconst dampratio (both > 0), or -stiffness -damping "
+                  "(stiffness > 0, damping >= 0)",
+       .friction = true},
       {.name = "driver_armature",
        .kind = number,
        .default_value = "auto",
@@ -296,6 +307,7 @@ Config parse_settings(const Settings& overrides) {
                              {"solimp", &c.solimp},
                              {"driver_solref", &c.driver_solref},
                              {"driver_solimp", &c.driver_solimp},
+                             {"friction_solref", &c.friction_solref},
                              {"gap_threshold", &c.gap_threshold},
                              {"driver_threshold", &c.driver_threshold},
                              {"perturb_link", &c.perturb_link},
@@ -307,6 +319,7 @@ Config parse_settings(const Settings& overrides) {
   c.max_step_angle = v.number("max_step_angle");
   c.iterations = static_cast<int>(v.count("iterations"));
   c.tolerance = v.number("tolerance");
+  c.extrapolated_load = v.is("friction_load", "extrapolated");
   if (!v.is("driver_armature", "auto")) c.driver_armature = v.number("driver_armature");
   c.max_steps = v.count("max_steps");
   c.energy_threshold = v.number("energy_threshold");
@@ -336,6 +349,19 @@ Eigen::Vector2d solref_of(const std::string& name, const std::string& text, doub
         "or -stiffness -damping, stiffness > 0 and damping >= 0; or deadbeat)",
         name, text, why));
   return {v[0], v[1]};
+}
+
+// The frictionloss rows' solref. auto: a time constant of two steps, critically damped, the
+// stiffest MuJoCo honours (with mjENBL_REFSAFE a shorter one is raised to it), whose creep and
+// error are the least (docs/engines.md, "Joint friction"); no deadbeat (its step's, which the
+// rows would not follow).
+Eigen::Vector2d friction_solref(const std::string& text, double dt) {
+  if (text == "auto") return {2.0 * dt, 1.0};
+  if (text == "deadbeat")
+    throw std::runtime_error(
+        "setting friction_solref = \"deadbeat\": expected timeconst dampratio or -stiffness "
+        "-damping");
+  return solref_of("friction_solref", text, 1.0);
 }
 
 // MuJoCo's (dmin, dmax, width, midpoint, power), its defaults after the numbers given: the
@@ -404,6 +430,7 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   o.solimp = solimp_of("solimp", c.solimp);
   o.driver_solref = solref_of("driver_solref", c.driver_solref, dt);
   o.driver_solimp = solimp_of("driver_solimp", c.driver_solimp);
+  o.friction_solref = friction_solref(c.friction_solref, dt);
   o.gravity = m.gravity;
   return o;
 }
@@ -574,6 +601,10 @@ class ForceReader {
     for (const SceneCoupling& c : s.couplings)
       coupling_eq_.push_back(
           mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(c.source)].name.c_str()));
+    for (const SceneJoint& j : s.joints)
+      if (j.friction)
+        friction_dof_.emplace_back(mm->jnt_dofadr[mj_name2id(mm, mjOBJ_JOINT, j.name.c_str())],
+                                   j.source);
   }
 
   // `d` right after mj_step from pose k (its forward data: efc_*, qacc, qfrc_bias, xfrc_applied);
@@ -587,7 +618,7 @@ class ForceReader {
     std::copy(d->xfrc_applied, d->xfrc_applied + 6 * mm_->nbody, d2->xfrc_applied);
     mj_fwdPosition(mm_, d2);
     mj_fwdVelocity(mm_, d2);
-    if (d2->ne != ne || d2->nefc != ne)
+    if (d2->ne != ne || d2->nefc != d->nefc)
       throw std::runtime_error("MuJoCo: the constraint rows changed between step and read");
     Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d->efc_force, ne);
     // No constraint row (forward dynamics of an open chain: no driver equality, no cut joint,
@@ -602,6 +633,7 @@ class ForceReader {
       force += jacobian.transpose().completeOrthogonalDecomposition().solve(bias);
     }
     std::copy(force.data(), force.data() + ne, d2->efc_force);
+    std::copy(d->efc_force + ne, d->efc_force + d->nefc, d2->efc_force + ne);  // friction loss
     std::copy(d->qacc, d->qacc + nv, d2->qacc);
     mj_rnePostConstraint(mm_, d2);
     extract(d2, force, out);
@@ -682,7 +714,14 @@ class ForceReader {
       out.joint_force[static_cast<size_t>(slide.source)] -=
           f * world_direction(d2, slide.a, slide.direction);
     }
+    // Friction loss: its row's force along the joint's coordinate, which runs from a to b.
+    for (int r = ne; r < d2->nefc; ++r) {
+      if (d2->efc_type[r] != mjCNSTR_FRICTION_DOF) continue;
+      for (const auto& [dof, joint] : friction_dof_)
+        if (d2->efc_id[r] == dof) out.friction[static_cast<size_t>(joint)] = d2->efc_force[r];
+    }
     // Back from the scene's unit of mass (Scene::mass_scale).
+    for (double& f : out.friction) f /= s_.mass_scale;
     out.effort /= s_.mass_scale;
     for (double& e : out.other_efforts) e /= s_.mass_scale;
     for (Eigen::Vector2d& f : out.joint_force) f /= s_.mass_scale;
@@ -713,6 +752,8 @@ class ForceReader {
   std::vector<int> driver_eq_;    // per driver: its equality (-1: none, forward dynamics)
   std::vector<int> driven_dof_;   // per driver: the driven tree joint's degree of freedom (-1: a
                                   // tendon driver)
+  std::vector<std::pair<int, int>> friction_dof_;  // per joint with friction loss: its degree of
+                                                   // freedom and Mechanism joint
 };
 
 // The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
@@ -928,9 +969,15 @@ KinematicWatch kinematic_watch(const Config& c, const Scene& s, const Mechanism&
   return w;
 }
 
+// Whether the scene has joint friction (frictionloss).
+bool rough(const Scene& s) {
+  return std::any_of(s.joints.begin(), s.joints.end(),
+                     [](const SceneJoint& j) { return j.friction; });
+}
+
 // The values in force both runs print: the step, MuJoCo's solver options and the scene.
 Settings step_settings(const Prepared& p) {
-  return {
+  Settings values = {
       {"dt", fmt::format("{:.9g}", p.grid.dt)},
       {"steps_per_sample", std::to_string(p.grid.steps_per_sample)},
       {"max_step_angle",
@@ -945,6 +992,11 @@ Settings step_settings(const Prepared& p) {
       {"mass_model", "the definition's (Link::mass)"},
       {"max_steps", std::to_string(p.config.max_steps)},
   };
+  if (rough(p.scene)) {
+    values.emplace_back("friction_load", p.config.extrapolated_load ? "extrapolated" : "last");
+    values.emplace_back("friction_solref", numbers(p.options.friction_solref));
+  }
+  return values;
 }
 
 // The settings record of a kinematic run: every setting in force, defaults included.
@@ -966,7 +1018,7 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
            "3-point central differences of step positions; 4-point one-sided at the first and "
            "last usable samples"},
       });
-  return printed_settings(mujoco_settings(), RunKind::kinematic, values);
+  return printed_settings(mujoco_settings(), RunKind::kinematic, values, rough(p.scene));
 }
 
 // The tree joints' rates of the state (q, qdot) into d->qvel: the scene starts on the exact
@@ -996,15 +1048,79 @@ bool driver_reaction_readable(const Scene& s) {
 
 // Build stage: MuJoCo's model and data at the exact start (the plan's), moving with the exact
 // velocities, stepped for the shared run loop (sim/kinematic_run.h).
+// Joint friction as frictionloss (docs/engines.md, "Joint friction"): before each step every
+// friction joint's bound is set to its limit (friction_limit) under the loads of the steps before
+// (FrictionLoads), the static one after a step that held it (its row's force inside the bound);
+// after it, the rows' work over the step.
+class FrictionLoss {
+ public:
+  FrictionLoss(const Mechanism& m, const Scene& s, const mjModel* mm, ReadingTrend start,
+               bool extrapolated)
+      : m_(m), mass_scale_(s.mass_scale), loads_(std::move(start), extrapolated, 0) {
+    for (const SceneJoint& j : s.joints) {
+      if (!j.friction) continue;
+      const int joint = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
+      dofs_.push_back({mm->jnt_dofadr[joint], mm->jnt_qposadr[joint], j.source});
+      loaded_ |= m.joints[static_cast<size_t>(j.source)].friction->load_dependent();
+    }
+  }
+  bool any() const { return !dofs_.empty(); }
+  // Whether the step about to be taken must be read (its reactions are the next steps' load).
+  bool reads() const { return loaded_ && loads_.reads(); }
+  // Before a step of h from pose q.
+  void bound(mjModel* mm, const Eigen::VectorXd& q, double h) {
+    const ForceReading* load = loaded_ ? &loads_.next(h) : nullptr;
+    for (Dof& f : dofs_) {
+      const Joint& j = m_.joints[static_cast<size_t>(f.joint)];
+      f.limit = load ? friction_limit(m_, f.joint, q, *load, f.held)
+                     : j.friction->limit(!j.is_slide(), 0.0, f.held);
+      mm->dof_frictionloss[f.dof] = f.limit * mass_scale_;
+    }
+  }
+  // After the step of h from positions `before`, with its reading when reads() was true; the
+  // friction's work over it [J].
+  double after(const mjData* d, const std::vector<mjtNum>& before, const ForceReading* reading,
+               double h) {
+    if (loaded_) loads_.record(reading, h);
+    double work = 0.0;
+    for (Dof& f : dofs_) {
+      double force = 0.0;  // none: its bound was 0
+      for (int r = d->ne; r < d->nefc; ++r)
+        if (d->efc_type[r] == mjCNSTR_FRICTION_DOF && d->efc_id[r] == f.dof)
+          force = d->efc_force[r] / mass_scale_;
+      f.held = std::abs(force) < (1.0 - kSaturated) * f.limit;
+      work += force * (d->qpos[f.qpos] - before[static_cast<size_t>(f.qpos)]);
+    }
+    return work;
+  }
+
+ private:
+  // A row's bound is reached when its force is within this fraction of it.
+  static constexpr double kSaturated = 1e-6;
+  struct Dof {
+    int dof = -1, qpos = -1, joint = -1;  // MuJoCo's dof and qpos address; the Mechanism joint
+    double limit = 0.0;
+    bool held = false;
+  };
+  const Mechanism& m_;
+  double mass_scale_;
+  FrictionLoads loads_;
+  std::vector<Dof> dofs_;
+  bool loaded_ = false;
+};
+
 class MujocoKinematicScene final : public KinematicScene {
  public:
-  MujocoKinematicScene(const Mechanism& m, const Prepared& p, ModelPtr loaded, bool with_forces)
+  MujocoKinematicScene(const Mechanism& m, const Prepared& p, ModelPtr loaded, bool with_forces,
+                       ReadingTrend start)
       : p_(p),
         model_(std::move(loaded)),
         mm_(model_.get()),
         data_(mj_makeData(mm_)),
         d_(data_.get()),
         reader_(m, p.scene, mm_, p.start.q),
+        friction_(m, p.scene, mm_, std::move(start), p.config.extrapolated_load),
+        reading_(m.joints.size(), m.drivers.size()),
         stages_(stages_per_step(p.config.integrator)) {
     const Scene& s = p.scene;
     // A joint equality holds the driven joint's qpos, whichever way the joint runs against the
@@ -1024,7 +1140,7 @@ class MujocoKinematicScene final : public KinematicScene {
         load_body_.push_back(mj_name2id(mm_, mjOBJ_BODY, link.name.c_str()));
     set_joint_rates(m, s, mm_, d_, p.start.q, p.start.qdot);
     mj_forward(mm_, d_);
-    if (with_forces) {
+    if (with_forces || friction_.any()) {
       forces_.emplace(m, s, mm_, p.config.force_read == "centred");
       qpos_before_.resize(static_cast<size_t>(mm_->nq));
     }
@@ -1048,9 +1164,13 @@ class MujocoKinematicScene final : public KinematicScene {
   }
   std::string step(double h, ForceReading* forces) override {
     set_step(h);
-    if (forces) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    const bool rough = friction_.any();
+    if (forces || rough) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    if (rough) friction_.bound(mm_, reader_.read(d_), h);
     mj_step(mm_, d_);
-    if (forces) forces_->read(d_, qpos_before_, h, *forces);
+    ForceReading* into = forces ? forces : friction_.reads() ? &reading_ : nullptr;
+    if (into) forces_->read(d_, qpos_before_, h, *into);
+    if (rough) (void)friction_.after(d_, qpos_before_, into, h);
     mj_kinematics(mm_, d_);  // mj_step leaves xpos/xmat at the step's start
     evaluations_ += stages_;
     return d_->warning[mjWARN_BADQACC].number > 0 ? "MuJoCo's accelerations are not finite" : "";
@@ -1078,6 +1198,8 @@ class MujocoKinematicScene final : public KinematicScene {
   DataPtr data_;
   mjData* d_;
   PoseReader reader_;
+  FrictionLoss friction_;
+  ForceReading reading_;  // scratch: a step's reading for the friction's load
   std::optional<ForceReader> forces_;
   std::vector<mjtNum> qpos_before_;
   std::vector<int> load_body_;       // per moving link: MuJoCo body id
@@ -1136,7 +1258,7 @@ Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
           {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
           {"energy_scale", fmt::format("{:.6g} J", w.energy_scale)},
       });
-  return printed_settings(mujoco_settings(), RunKind::dynamics, values);
+  return printed_settings(mujoco_settings(), RunKind::dynamics, values, rough(p.scene));
 }
 
 // A dynamics run's scene for the shared run loop (sim/dynamics_run.h): MuJoCo's model at the
@@ -1146,7 +1268,7 @@ Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
 class MujocoDynamicsScene final : public DynamicsScene {
  public:
   MujocoDynamicsScene(const Mechanism& m, const Prepared& p, const DynamicsChoices& choice,
-                      ModelPtr loaded)
+                      ModelPtr loaded, ReadingTrend start)
       : m_(m),
         p_(p),
         choice_(choice),
@@ -1160,6 +1282,8 @@ class MujocoDynamicsScene final : public DynamicsScene {
         hook_(m, p.scene, mm_),
         force_reader_(m, p.scene, mm_, p.config.force_read == "centred"),
         reader_(m, p.scene, mm_, p.start.q),
+        friction_(m, p.scene, mm_, std::move(start), p.config.extrapolated_load),
+        reading_(m.joints.size(), m.drivers.size()),
         qpos_before_(static_cast<size_t>(mm_->nq)),
         stages_(stages_per_step(p.config.integrator)) {
     const int nq = mm_->nq, nv = mm_->nv;
@@ -1169,6 +1293,8 @@ class MujocoDynamicsScene final : public DynamicsScene {
     const double h0 = grid[1] - grid[0];
     d_->time = grid[0];
     scope_.emplace(hook_.any() ? &hook_ : nullptr);
+    // The start's acceleration (the staggered start's half step back) with its friction.
+    if (friction_.any()) friction_.bound(mm_, p.start.q, h0);
     forward_at_exact_state(mm_, d_, scratch_.get(), p.scene.size);
     std::vector<mjtNum> v0(d_->qvel, d_->qvel + nv), w(static_cast<size_t>(nv));
     for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d_->qacc[i];
@@ -1187,9 +1313,13 @@ class MujocoDynamicsScene final : public DynamicsScene {
   std::string step(double t0, double h, ForceReading* forces) override {
     set_step(h);
     d_->time = t0;
-    if (forces) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    const bool rough = friction_.any();
+    if (forces || rough) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
+    if (rough) friction_.bound(mm_, reader_.read(d_), h);
     mj_step(mm_, d_);
-    if (forces) force_reader_.read(d_, qpos_before_, h, *forces);
+    ForceReading* into = forces ? forces : friction_.reads() ? &reading_ : nullptr;
+    if (into) force_reader_.read(d_, qpos_before_, h, *into);
+    if (rough) friction_work_ = friction_.after(d_, qpos_before_, into, h);
     mj_kinematics(mm_, d_);
     evaluations_ += stages_;
     keep_state(++taken_);
@@ -1221,6 +1351,7 @@ class MujocoDynamicsScene final : public DynamicsScene {
     state_rates(m_, p_.scene, mm_, sd_, qdot, qddot);
   }
   long evaluations() const override { return evaluations_; }
+  double friction_work() const override { return friction_work_; }
 
  private:
   void keep_state(long k) {
@@ -1250,7 +1381,10 @@ class MujocoDynamicsScene final : public DynamicsScene {
   std::optional<HookScope> scope_;  // declared after hook_: ends before it
   ForceReader force_reader_;
   PoseReader reader_;
+  FrictionLoss friction_;
+  ForceReading reading_;  // scratch: a step's reading for the friction's load
   std::vector<mjtNum> qpos_before_;
+  double friction_work_ = 0.0;  // the friction loss rows' work over the last step [J]
   Eigen::VectorXd before_start_;
   std::array<std::vector<mjtNum>, kRing> ring_qpos_, ring_qvel_;  // per step, the last kRing
   long stages_, taken_ = 0, evaluations_ = 0;
@@ -1274,7 +1408,8 @@ EngineRun run_dynamics(const Mechanism& m, const Trajectory& reference, const Se
   const DynamicsChoices choice = dynamics_choices(p.config);
   const DynamicsWatch watch = dynamics_watch(m, reference, p);
   run.settings = dynamics_settings(p, choice, watch);
-  MujocoDynamicsScene scene(m, p, choice, std::move(model));
+  MujocoDynamicsScene scene(m, p, choice, std::move(model),
+                            reference_trend(m, reference, p.span.first, p.grid.time.front()));
   sim::run_dynamics(m, perturbed(m, p.config.perturb_link), reference, p.dynamics, watch, true,
                     scene, begin, run);
   return run;
@@ -1301,6 +1436,7 @@ class MujocoEngine final : public Engine {
         (void)solref_of(name, text, 1.0);
       (void)solimp_of("solimp", c.solimp);
       (void)solimp_of("driver_solimp", c.driver_solimp);
+      (void)friction_solref(c.friction_solref, 1.0);
     } catch (const std::runtime_error& e) {
       throw std::invalid_argument(e.what());
     }
@@ -1348,7 +1484,8 @@ class MujocoEngine final : public Engine {
     const bool with_forces = driver_reaction_readable(p.scene);
     const KinematicWatch watch = kinematic_watch(p.config, p.scene, m);
     run.settings = kinematic_settings(p, watch, with_forces);
-    MujocoKinematicScene scene(m, p, std::move(loaded), with_forces);
+    MujocoKinematicScene scene(m, p, std::move(loaded), with_forces,
+                               reference_trend(m, reference, p.span.first, p.grid.time.front()));
     sim::run_kinematic(m, perturbed(m, p.config.perturb_link), reference, p.plan, watch,
                        with_forces, scene, begin, run);
     return run;

@@ -55,6 +55,17 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     throw std::runtime_error(fmt::format(
         "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
         graph.joints[graph.cut_slide].name));
+  // Joint friction as MuJoCo's frictionloss: a constant bound on a tree joint's degree of freedom
+  // (docs/engines.md, "Joint friction").
+  for (const sim::SceneJoint& j : graph.joints) {
+    if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction) continue;
+    const std::string& name = m.joints[static_cast<size_t>(j.source)].name;
+    if (!j.in_tree)
+      throw std::runtime_error(fmt::format(
+          "joint '{}' has friction and closes a loop: its <connect> equality takes no "
+          "frictionloss (a fixed tendon over the tree's hinges would carry it: not yet)",
+          name));
+  }
   Scene s;
   s.size = m.size();
   for (SceneBody& body : graph.bodies) {
@@ -89,6 +100,13 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     link.mass *= s.mass_scale;
     link.inertia *= s.mass_scale;
   }
+  for (SceneJoint& j : s.joints)
+    if (j.source >= 0 && m.joints[static_cast<size_t>(j.source)].friction) {
+      const JointFriction& f = *m.joints[static_cast<size_t>(j.source)].friction;
+      j.friction = true;
+      j.frictionloss = f.constant * s.mass_scale;
+      j.friction_grows = f.load_dependent();
+    }
 
   // Joint values at the given configuration.
   for (SceneJoint& j : s.joints) {
@@ -106,12 +124,6 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
 }
 
 bool realisable(const Mechanism& mechanism, std::string* why) {
-  if (const std::string rough = unmodelled_friction(
-          mechanism, "crosslink's MuJoCo scene does not model yet (frictionloss is to come)");
-      !rough.empty()) {
-    if (why) *why = rough;
-    return false;
-  }
   try {
     (void)build_scene(mechanism, Eigen::VectorXd::Zero(mechanism.coordinate_count()));
   } catch (const std::exception& e) {
@@ -234,6 +246,16 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
     for (size_t d = 0; d < s.driven.size() && d < o.driver_armature.size(); ++d)
       if (o.driver_armature[d] > 0.0 && o.driven && !s.driven[d].floating && j == s.driven[d].joint)
         armature = fmt::format(" armature=\"{:.17g}\"", o.driver_armature[d]);
+    // Joint friction: load-independent on a tree joint (build_scene), its torque or force.
+    // Alone, MuJoCo holds the load-independent part only: crosslink's runs set the rest.
+    if (standalone && sj.friction_grows)
+      out += fmt::format(
+          "{}  <!-- {}: friction growing with the joint's reaction, which crosslink sets before "
+          "each step; frictionloss here is its constant part only -->\n",
+          pad, escape(sj.name));
+    if (sj.friction)
+      armature += fmt::format(" frictionloss=\"{:.17g}\" solreffriction=\"{:.17g} {:.17g}\"",
+                              sj.frictionloss, o.friction_solref.x(), o.friction_solref.y());
     if (sj.kind == SceneJoint::Kind::hinge) {
       const Eigen::Vector2d at = child_is_b ? sj.ub : sj.ua;
       out += fmt::format(
@@ -350,12 +372,13 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
         "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
         clock->torque);
-  // The constraint rows are the equalities' alone (3 per connect, 1 per tendon or joint
-  // equality): no limits, friction loss or contacts. <size> holds MuJoCo to them: without it
-  // MuJoCo 2.2.2 sizes every mjData for 500 rows and 100 contacts (about 13 MB, zeroed at each
+  // The constraint rows are the equalities' (3 per connect, 1 per tendon or joint equality) and
+  // one per joint with friction loss: no limits or contacts. <size> holds MuJoCo to them: without
+  // it MuJoCo 2.2.2 sizes every mjData for 500 rows and 100 contacts (about 13 MB, zeroed at each
   // mj_makeData), and its stack from those by its own rule (user_model.cc: 5 (njmax + neq +
   // nv)^2 + 20 per element, at least 1000), which stays its rule here, from these rows.
   int rows = 3 * static_cast<int>(s.cuts.size());
+  for (const SceneJoint& sj : s.joints) rows += sj.friction ? 1 : 0;
   std::string equality = "  <equality>\n";
   for (int j : s.cuts) {
     const SceneJoint& sj = s.joints[j];

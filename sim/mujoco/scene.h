@@ -26,6 +26,11 @@ struct SceneLink : SceneBody {
 // A joint of the graph with its assembled value (hinge angle or s), which MuJoCo's qpos holds.
 struct SceneJoint : sim::SceneJoint {
   double value = 0.0;
+  // Joint friction (a tree joint's): MuJoCo's frictionloss on its degree of freedom, at build its
+  // load-independent part in the scene's unit of mass [N m or N] (a run sets it before each step).
+  bool friction = false;
+  double frictionloss = 0.0;
+  bool friction_grows = false;  // with the joint's reaction (set by a run, not in the MJCF)
 };
 
 struct Scene {
@@ -91,6 +96,7 @@ struct MjcfOptions {
   Eigen::Matrix<double, 5, 1> solimp;                           // loop constraints
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
+  Eigen::Vector2d friction_solref = Eigen::Vector2d(0.02, 1.0);  // frictionloss rows
   // Per driver: the rotor inertia on its driven tree joint [kg m^2, or kg] (none: 0).
   std::vector<double> driver_armature;
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off

@@ -165,13 +165,7 @@ const SettingSchema& ode_settings() {
        .doc = "dBodySetFiniteRotationMode: 1 the exact rotation update, 0 ODE's default "
               "(loses (w dt)^3/12 a step)",
        .words = {"0", "1"}},
-      {.name = "friction_load",
-       .kind = choice,
-       .default_value = "extrapolated",
-       .doc = "joint friction's load (mu r |R|, mu |N|) for a step: last, the reactions of the "
-              "step before; extrapolated, linearly from the two steps before",
-       .words = {"extrapolated", "last"},
-       .friction = true},
+      shared_setting("friction_load"),
       {.name = "friction_cfm",
        .kind = number,
        .default_value = "1e-8",
@@ -542,20 +536,11 @@ class OdeScene {
     return std::any_of(rough_.begin(), rough_.end(),
                        [](const Rough& r) { return r.law->load_dependent(); });
   }
-  // Each limit for the next step, from `last`, the reading of the step before (its loads): the
-  // static one where that step ended with the joint held (its friction inside its limit).
-  void limit_friction(const ForceReading& last) {
+  // Each limit for the next step from `load` (the reactions it is taken from) at pose q: the
+  // static one where the last step ended with the joint held (its friction inside its limit).
+  void limit_friction(const Eigen::VectorXd& q, const ForceReading& load) {
     for (Rough& r : rough_) {
-      const SceneJoint& j = g_.joints[r.joint];
-      const size_t source = static_cast<size_t>(j.source);
-      const bool revolute = j.kind == SceneJoint::Kind::hinge;
-      double load = 0.0;
-      if (r.law->load_dependent()) {
-        const Eigen::Vector2d& f = last.joint_force[source];
-        load = revolute ? r.law->load(true, f.norm())
-                        : r.law->load(false, f.dot(perp(axis(r.joint))), last.couple[source]);
-      }
-      r.limit = r.law->limit(revolute, load, r.held);
+      r.limit = friction_limit(m_, g_.joints[r.joint].source, q, load, r.held);
       if (r.kind == Rough::Kind::angular)
         dJointSetAMotorParam(r.motor, dParamFMax, r.limit);
       else if (r.kind == Rough::Kind::own)
@@ -910,48 +895,33 @@ Settings common_settings(const Config& config, const TimeGrid& grid, double step
 
 // The scene stepped and read back as the mechanism's coordinates after each step, with the
 // forces of the pose a step leaves: what both runs' scenes share.
-// Joint friction's limits follow the reactions of the steps before (friction_load: the last
-// step's, or extrapolated linearly from the last two). The start's trend (the reference's forces
-// and their rate) stands for the steps before the first, and for the first two steps' readings,
-// transients (a velocity-level start: the first lacks the centripetal part of the constraint
-// forces, the second makes it up; 55 % off on the friction four-bar's pins).
+// Joint friction's limits follow the reactions of the steps before (FrictionLoads): ODE's first
+// two readings are transients of its velocity-level start (the first lacks the centripetal part
+// of the constraint forces, the second makes it up; 55 % off on the friction four-bar's pins),
+// so the start's trend stands for them.
 class OdeSteps {
  public:
+  static constexpr int kTransients = 2;
   OdeSteps(const Mechanism& m, const SceneGraph& g, OdeScene& scene, const Eigen::VectorXd& q,
            ReadingTrend start, bool extrapolated)
       : m_(m),
         g_(g),
         scene_(scene),
         q_(q),
-        last_(std::move(start.at)),
-        rate_(std::move(start.rate)),
-        reading_(last_),
-        load_(last_),
-        extrapolated_(extrapolated) {
+        loads_(std::move(start), extrapolated, kTransients),
+        reading_(m.joints.size(), m.drivers.size()) {
     scene_.read(q_);
   }
   std::string step(double h, ForceReading* forces) {
     const bool loaded = scene_.loaded();
-    if (scene_.rough()) {
-      load_ = last_;
-      if (loaded && extrapolated_) load_.add(h, rate_);
-      scene_.limit_friction(load_);
-    }
+    if (scene_.rough()) scene_.limit_friction(q_, loaded ? loads_.next(h) : reading_);
     const std::string why = scene_.step(h);
     ++evaluations_;  // one LCP solve of the model a step
-    const bool keep = loaded && evaluations_ > 2;
+    const bool keep = loaded && loads_.reads();
     ForceReading* into = forces ? forces : keep ? &reading_ : nullptr;
     if (into) read_forces(m_, g_, scene_, q_, *into);
     if (scene_.rough()) friction_work_ = scene_.read_friction(h, into);
-    if (keep) {  // the trend from the last reading to this one
-      rate_ = last_;
-      rate_.set_zero();
-      rate_.add(1.0 / h, *into);
-      rate_.add(-1.0 / h, last_);
-      last_ = *into;
-    } else if (loaded) {
-      last_.add(h, rate_);
-    }
+    if (loaded) loads_.record(keep ? into : nullptr, h);
     scene_.read(q_);
     return why;
   }
@@ -965,9 +935,8 @@ class OdeSteps {
   const SceneGraph& g_;
   OdeScene& scene_;
   Eigen::VectorXd q_;
-  ForceReading last_, rate_;     // the last reading and its rate [per s]
-  ForceReading reading_, load_;  // scratch: a step's reading, the next step's load
-  bool extrapolated_;
+  FrictionLoads loads_;
+  ForceReading reading_;  // scratch: a step's reading
   double friction_work_ = 0.0;
   long evaluations_ = 0;
 };
