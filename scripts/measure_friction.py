@@ -24,6 +24,7 @@ runs = [("ode", n, s) for n, s in [
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_solref=0.005 1"]),
   ("pendulum_pin_friction", ["friction_solref=0.02 1"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
+  ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["friction_load=last"]),
 ]]
 print("| engine | definition | settings (besides the defaults) | friction | effort or coordinate | energy balance | creep | steps |")
 print("|---|---|---|---|---|---|---|---|")

@@ -207,26 +207,32 @@ std::vector<int> tree_path(const SceneGraph& g, int body) {
   return out;
 }
 
+// Adds coefficient x (body's angle) to `terms`, as the tree's hinges (or planar joint) up to the
+// ground.
+void add_angle(const SceneGraph& g, int body, double coefficient,
+               std::vector<std::pair<int, double>>& terms) {
+  for (int t : tree_path(g, body)) {
+    const SceneJoint& sj = g.joints[static_cast<size_t>(t)];
+    if (sj.kind == SceneJoint::Kind::slide) continue;  // the angle is the guide's
+    const double sign =
+        sj.kind == SceneJoint::Kind::planar || sj.child == sj.b ? coefficient : -coefficient;
+    const auto it =
+        std::find_if(terms.begin(), terms.end(), [&](const auto& term) { return term.first == t; });
+    if (it == terms.end())
+      terms.emplace_back(t, sign);
+    else
+      it->second += sign;
+  }
+}
+
 // Gearing `joint` over the tree's coordinates (SceneCoupling).
 SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
                        const std::vector<int>& body_of_link, const std::vector<int>& joint_of) {
   const Joint& j = m.joints[static_cast<size_t>(joint)];
   SceneCoupling c;
   c.source = joint;
-  // coefficient x (the link's angle), as the tree's hinges (or planar joint) up to the ground.
   const auto add_angle = [&](int link, double coefficient) {
-    for (int t : tree_path(g, body_of_link[static_cast<size_t>(link)])) {
-      const SceneJoint& sj = g.joints[static_cast<size_t>(t)];
-      if (sj.kind == SceneJoint::Kind::slide) continue;  // the angle is the guide's
-      const double sign =
-          sj.kind == SceneJoint::Kind::planar || sj.child == sj.b ? coefficient : -coefficient;
-      const auto it = std::find_if(c.terms.begin(), c.terms.end(),
-                                   [&](const auto& term) { return term.first == t; });
-      if (it == c.terms.end())
-        c.terms.emplace_back(t, sign);
-      else
-        it->second += sign;
-    }
+    sim::add_angle(g, body_of_link[static_cast<size_t>(link)], coefficient, c.terms);
   };
   if (j.type == JointType::gear) {
     add_angle(j.link_a, 1.0);
@@ -324,6 +330,15 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
   block.r = pin.position(body.pin_point);
   block.v = pin.velocity(body.pin_point);
   return block;
+}
+
+std::vector<std::pair<int, double>> relative_angle_terms(const SceneGraph& g, int joint) {
+  const SceneJoint& j = g.joints[static_cast<size_t>(joint)];
+  std::vector<std::pair<int, double>> terms;
+  add_angle(g, j.b, 1.0, terms);
+  add_angle(g, j.a, -1.0, terms);
+  std::erase_if(terms, [](const auto& term) { return term.second == 0.0; });
+  return terms;
 }
 
 std::string unmodelled_friction(const Mechanism& mechanism, std::string_view reason) {

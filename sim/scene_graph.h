@@ -147,6 +147,11 @@ struct SceneGraph {
 BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const Eigen::VectorXd& q,
                        const Eigen::VectorXd* qdot = nullptr);
 
+// Hinge `joint`'s value, theta_b - theta_a, over the tree's coordinates: (scene joint,
+// coefficient) terms, the hinges (or planar joints) on the paths from its bodies to the ground.
+// An engine holds a cut pin's relative rotation so (MuJoCo's fixed tendon for its friction).
+std::vector<std::pair<int, double>> relative_angle_terms(const SceneGraph& g, int joint);
+
 // "" or, when `mechanism` has joint friction, why an engine that does not model it refuses it:
 // "joint '<name>' has friction, which <reason>" (a frictionless scene would be judged against the
 // exact forces with friction; docs/engines.md, "Joint friction").

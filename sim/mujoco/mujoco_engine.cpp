@@ -569,6 +569,49 @@ class PoseReader {
 // ---------------------------------------------------------------------------------------------
 // Reading forces
 
+// A friction joint's frictionloss: on its degree of freedom (a tree joint), or on the fixed
+// tendon over its relative rotation (a loop's cut pin); its row's type and id, its coordinate's
+// terms over qpos, and the Mechanism joint.
+struct FrictionRow {
+  bool tendon = false;
+  int id = -1;                               // the dof, or the tendon
+  std::vector<std::pair<int, double>> qpos;  // (qpos address, coefficient)
+  int joint = -1;
+  // Its bound for the next step [in the scene's unit of mass].
+  void bound(mjModel* mm, double value) const {
+    (tendon ? mm->tendon_frictionloss : mm->dof_frictionloss)[id] = value;
+  }
+  // Its row's force in `d` (0 when its bound was 0: no row), in the scene's unit of mass.
+  double force(const mjData* d) const {
+    const int type = tendon ? mjCNSTR_FRICTION_TENDON : mjCNSTR_FRICTION_DOF;
+    for (int r = d->ne; r < d->nefc; ++r)
+      if (d->efc_type[r] == type && d->efc_id[r] == id) return d->efc_force[r];
+    return 0.0;
+  }
+  // Its coordinate's change from `before` to d's qpos.
+  double moved(const mjData* d, const std::vector<mjtNum>& before) const {
+    double change = 0.0;
+    for (const auto& [at, coefficient] : qpos)
+      change += coefficient * (d->qpos[at] - before[static_cast<size_t>(at)]);
+    return change;
+  }
+};
+FrictionRow friction_row(const mjModel* mm, const SceneJoint& j) {
+  FrictionRow f;
+  f.joint = j.source;
+  f.tendon = !j.friction_terms.empty();
+  if (!f.tendon) {
+    const int joint = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
+    f.id = mm->jnt_dofadr[joint];
+    f.qpos = {{mm->jnt_qposadr[joint], 1.0}};
+    return f;
+  }
+  f.id = mj_name2id(mm, mjOBJ_TENDON, j.friction_tendon().c_str());
+  for (int w = mm->tendon_adr[f.id]; w < mm->tendon_adr[f.id] + mm->tendon_num[f.id]; ++w)
+    f.qpos.emplace_back(mm->jnt_qposadr[mm->wrap_objid[w]], mm->wrap_prm[w]);
+  return f;
+}
+
 // The constraint forces of the pose a step leaves, in the mechanism's terms. mj_step (Euler)
 // solves the constraints at (q_k, v_k-1/2): its qacc is the second difference of the poses
 // k-1, k, k+1 (centred on pose k), but the velocity terms of the equations of motion (the tree's
@@ -602,9 +645,7 @@ class ForceReader {
       coupling_eq_.push_back(
           mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(c.source)].name.c_str()));
     for (const SceneJoint& j : s.joints)
-      if (j.friction)
-        friction_dof_.emplace_back(mm->jnt_dofadr[mj_name2id(mm, mjOBJ_JOINT, j.name.c_str())],
-                                   j.source);
+      if (j.friction) friction_rows_.push_back(friction_row(mm, j));
   }
 
   // `d` right after mj_step from pose k (its forward data: efc_*, qacc, qfrc_bias, xfrc_applied);
@@ -715,11 +756,8 @@ class ForceReader {
           f * world_direction(d2, slide.a, slide.direction);
     }
     // Friction loss: its row's force along the joint's coordinate, which runs from a to b.
-    for (int r = ne; r < d2->nefc; ++r) {
-      if (d2->efc_type[r] != mjCNSTR_FRICTION_DOF) continue;
-      for (const auto& [dof, joint] : friction_dof_)
-        if (d2->efc_id[r] == dof) out.friction[static_cast<size_t>(joint)] = d2->efc_force[r];
-    }
+    for (const FrictionRow& f : friction_rows_)
+      out.friction[static_cast<size_t>(f.joint)] = f.force(d2);
     // Back from the scene's unit of mass (Scene::mass_scale).
     for (double& f : out.friction) f /= s_.mass_scale;
     out.effort /= s_.mass_scale;
@@ -752,8 +790,7 @@ class ForceReader {
   std::vector<int> driver_eq_;    // per driver: its equality (-1: none, forward dynamics)
   std::vector<int> driven_dof_;   // per driver: the driven tree joint's degree of freedom (-1: a
                                   // tendon driver)
-  std::vector<std::pair<int, int>> friction_dof_;  // per joint with friction loss: its degree of
-                                                   // freedom and Mechanism joint
+  std::vector<FrictionRow> friction_rows_;  // per joint with friction
 };
 
 // The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
@@ -1059,8 +1096,7 @@ class FrictionLoss {
       : m_(m), mass_scale_(s.mass_scale), loads_(std::move(start), extrapolated, 0) {
     for (const SceneJoint& j : s.joints) {
       if (!j.friction) continue;
-      const int joint = mj_name2id(mm, mjOBJ_JOINT, j.name.c_str());
-      dofs_.push_back({mm->jnt_dofadr[joint], mm->jnt_qposadr[joint], j.source});
+      dofs_.push_back({friction_row(mm, j)});
       loaded_ |= m.joints[static_cast<size_t>(j.source)].friction->load_dependent();
     }
   }
@@ -1071,10 +1107,10 @@ class FrictionLoss {
   void bound(mjModel* mm, const Eigen::VectorXd& q, double h) {
     const ForceReading* load = loaded_ ? &loads_.next(h) : nullptr;
     for (Dof& f : dofs_) {
-      const Joint& j = m_.joints[static_cast<size_t>(f.joint)];
-      f.limit = load ? friction_limit(m_, f.joint, q, *load, f.held)
+      const Joint& j = m_.joints[static_cast<size_t>(f.row.joint)];
+      f.limit = load ? friction_limit(m_, f.row.joint, q, *load, f.held)
                      : j.friction->limit(!j.is_slide(), 0.0, f.held);
-      mm->dof_frictionloss[f.dof] = f.limit * mass_scale_;
+      f.row.bound(mm, f.limit * mass_scale_);
     }
   }
   // After the step of h from positions `before`, with its reading when reads() was true; the
@@ -1084,12 +1120,9 @@ class FrictionLoss {
     if (loaded_) loads_.record(reading, h);
     double work = 0.0;
     for (Dof& f : dofs_) {
-      double force = 0.0;  // none: its bound was 0
-      for (int r = d->ne; r < d->nefc; ++r)
-        if (d->efc_type[r] == mjCNSTR_FRICTION_DOF && d->efc_id[r] == f.dof)
-          force = d->efc_force[r] / mass_scale_;
+      const double force = f.row.force(d) / mass_scale_;
       f.held = std::abs(force) < (1.0 - kSaturated) * f.limit;
-      work += force * (d->qpos[f.qpos] - before[static_cast<size_t>(f.qpos)]);
+      work += force * f.row.moved(d, before);
     }
     return work;
   }
@@ -1098,7 +1131,7 @@ class FrictionLoss {
   // A row's bound is reached when its force is within this fraction of it.
   static constexpr double kSaturated = 1e-6;
   struct Dof {
-    int dof = -1, qpos = -1, joint = -1;  // MuJoCo's dof and qpos address; the Mechanism joint
+    FrictionRow row;
     double limit = 0.0;
     bool held = false;
   };

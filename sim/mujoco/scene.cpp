@@ -55,16 +55,28 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     throw std::runtime_error(fmt::format(
         "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
         graph.joints[graph.cut_slide].name));
-  // Joint friction as MuJoCo's frictionloss: a constant bound on a tree joint's degree of freedom
-  // (docs/engines.md, "Joint friction").
-  for (const sim::SceneJoint& j : graph.joints) {
-    if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction) continue;
-    const std::string& name = m.joints[static_cast<size_t>(j.source)].name;
-    if (!j.in_tree)
-      throw std::runtime_error(fmt::format(
-          "joint '{}' has friction and closes a loop: its <connect> equality takes no "
-          "frictionloss (a fixed tendon over the tree's hinges would carry it: not yet)",
-          name));
+  // Joint friction as MuJoCo's frictionloss (docs/engines.md, "Joint friction"): on a tree
+  // joint's degree of freedom, or on a fixed tendon over a cut pin's relative rotation.
+  std::vector<std::vector<std::pair<int, double>>> friction_terms(graph.joints.size());
+  std::vector<int> parent_joint(graph.bodies.size(), -1);
+  for (int t : graph.tree_order) parent_joint[static_cast<size_t>(graph.joints[t].child)] = t;
+  for (size_t ji = 0; ji < graph.joints.size(); ++ji) {
+    const sim::SceneJoint& j = graph.joints[ji];
+    if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction || j.in_tree) continue;
+    // The tendon's moment reaches a body as generalised forces on its path's hinges; a body on
+    // a slide turns with its guide, so the moment on it would act through the slide's couple,
+    // which MuJoCo's reading (cfrc_int) does not carry.
+    for (const int body : {j.a, j.b}) {
+      const int parent = parent_joint[static_cast<size_t>(body)];
+      if (parent >= 0 && graph.joints[static_cast<size_t>(parent)].kind == SceneJoint::Kind::slide)
+        throw std::runtime_error(fmt::format(
+            "joint '{}' has friction and closes a loop at link '{}', which slides: the fixed "
+            "tendon that carries a cut pin's friction would put its moment on the slider through "
+            "the slide's couple, which MuJoCo does not read",
+            m.joints[static_cast<size_t>(j.source)].name,
+            graph.bodies[static_cast<size_t>(body)].name));
+    }
+    friction_terms[ji] = relative_angle_terms(graph, static_cast<int>(ji));
   }
   Scene s;
   s.size = m.size();
@@ -106,6 +118,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
       j.friction = true;
       j.frictionloss = f.constant * s.mass_scale;
       j.friction_grows = f.load_dependent();
+      j.friction_terms = std::move(friction_terms[static_cast<size_t>(&j - s.joints.data())]);
     }
 
   // Joint values at the given configuration.
@@ -221,6 +234,21 @@ std::string link_geometry(const SceneLink& link, int colour, double r, const std
   return out;
 }
 
+// Alone, MuJoCo holds the load-independent part only: crosslink's runs set the rest.
+std::string friction_comment(const SceneJoint& j, const std::string& pad) {
+  if (!j.friction_grows) return "";
+  return fmt::format(
+      "{}<!-- {}: friction growing with the joint's reaction, which crosslink sets before each "
+      "step; frictionloss here is its constant part only -->\n",
+      pad, escape(j.name));
+}
+
+// A frictionloss bound and its softness, on a tree joint or a cut pin's tendon.
+std::string friction_attributes(const SceneJoint& j, const MjcfOptions& o) {
+  return fmt::format(" frictionloss=\"{:.17g}\" solreffriction=\"{:.17g} {:.17g}\"", j.frictionloss,
+                     o.friction_solref.x(), o.friction_solref.y());
+}
+
 void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& children, int depth,
                 const MjcfOptions& o, std::vector<int>& written, std::string& out) {
   const Standalone* standalone = o.standalone ? &*o.standalone : nullptr;
@@ -246,16 +274,9 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
     for (size_t d = 0; d < s.driven.size() && d < o.driver_armature.size(); ++d)
       if (o.driver_armature[d] > 0.0 && o.driven && !s.driven[d].floating && j == s.driven[d].joint)
         armature = fmt::format(" armature=\"{:.17g}\"", o.driver_armature[d]);
-    // Joint friction: load-independent on a tree joint (build_scene), its torque or force.
-    // Alone, MuJoCo holds the load-independent part only: crosslink's runs set the rest.
-    if (standalone && sj.friction_grows)
-      out += fmt::format(
-          "{}  <!-- {}: friction growing with the joint's reaction, which crosslink sets before "
-          "each step; frictionloss here is its constant part only -->\n",
-          pad, escape(sj.name));
-    if (sj.friction)
-      armature += fmt::format(" frictionloss=\"{:.17g}\" solreffriction=\"{:.17g} {:.17g}\"",
-                              sj.frictionloss, o.friction_solref.x(), o.friction_solref.y());
+    // Joint friction on a tree joint: its frictionloss (a cut pin's is its tendon's).
+    if (standalone) out += friction_comment(sj, pad + "  ");
+    if (sj.friction && sj.friction_terms.empty()) armature += friction_attributes(sj, o);
     if (sj.kind == SceneJoint::Kind::hinge) {
       const Eigen::Vector2d at = child_is_b ? sj.ub : sj.ua;
       out += fmt::format(
@@ -349,15 +370,18 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   const auto tendon_written = [&](size_t d) { return clock || (o.driven && s.driven[d].floating); };
   bool driver_tendon_written = false;
   for (size_t d = 0; d < s.driven.size(); ++d) driver_tendon_written |= tendon_written(d);
-  const auto fixed = [&](const std::string& name,
-                         const std::vector<std::pair<int, double>>& terms) {
-    out += fmt::format("    <fixed name=\"{}\">\n", escape(name));
+  const auto fixed = [&](const std::string& name, const std::vector<std::pair<int, double>>& terms,
+                         const std::string& attributes = "") {
+    out += fmt::format("    <fixed name=\"{}\"{}>\n", escape(name), attributes);
     for (const auto& [joint, coefficient] : terms)
       out += fmt::format("      <joint joint=\"{}\" coef=\"{:.17g}\"/>\n",
                          escape(s.joints[joint].name), coefficient);
     out += "    </fixed>\n";
   };
-  if (driver_tendon_written || !s.couplings.empty()) {
+  const bool friction_tendons =
+      std::any_of(s.joints.begin(), s.joints.end(),
+                  [](const SceneJoint& j) { return !j.friction_terms.empty(); });
+  if (driver_tendon_written || !s.couplings.empty() || friction_tendons) {
     out += "  <tendon>\n";
     for (size_t d = 0; d < s.driven.size(); ++d)
       if (tendon_written(d)) fixed(s.driver_names[d], s.driven[d].terms);
@@ -365,6 +389,11 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
       out +=
           "    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n    </fixed>\n";
     for (const SceneCoupling& c : s.couplings) fixed(m.joints[c.source].name, c.terms);
+    for (const SceneJoint& j : s.joints)
+      if (!j.friction_terms.empty()) {
+        if (o.standalone) out += friction_comment(j, "    ");
+        fixed(j.friction_tendon(), j.friction_terms, friction_attributes(j, o));
+      }
     out += "  </tendon>\n";
   }
   if (clock && clock->torque != 0.0)  // a constant torque: no gain, the bias alone

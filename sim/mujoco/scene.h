@@ -31,6 +31,10 @@ struct SceneJoint : sim::SceneJoint {
   bool friction = false;
   double frictionloss = 0.0;
   bool friction_grows = false;  // with the joint's reaction (set by a run, not in the MJCF)
+  // A loop's cut pin with friction: the fixed tendon that carries it, named friction_tendon(),
+  // over its relative rotation (relative_angle_terms): a <connect> takes no frictionloss.
+  std::vector<std::pair<int, double>> friction_terms;
+  std::string friction_tendon() const { return "friction:" + name; }
 };
 
 struct Scene {
