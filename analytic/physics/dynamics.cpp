@@ -233,6 +233,11 @@ class EquationOfMotion : public FollowedChain<double, Eigen::VectorXd> {
   bool friction() const { return friction_; }
   int direction() const { return direction_; }
   void set_direction(int direction) { direction_ = direction; }
+  // The pose of the last evaluation moving at unit rate in its phase's direction (null when held
+  // or without friction): whose friction signs a state at rest that breaks away takes.
+  const KinematicState* phase_motion() const {
+    return friction_ && direction_ != 0 ? &moving_ : nullptr;
+  }
   // At rest at coordinate d: the direction the mechanism breaks away in, each friction at its
   // static limit against it (+1 or -1), or 0 when friction holds it.
   int breakaway(double t, double d) {
@@ -545,6 +550,14 @@ class SampleWriter {
       : eom_(eom), out_(out), forces_(eom.kinetostatics().make_sample()) {}
 
   int written() const { return written_; }
+  // At rest and breaking away (a stop the motion turns back at, or a start from rest): the phase's
+  // motion, whose direction gives the friction its sign where the rate itself is zero.
+  const KinematicState* breaking_away(const typename Equations::State& y) const {
+    if constexpr (requires { eom_.phase_motion(); })
+      return y[1] == 0.0 ? eom_.phase_motion() : nullptr;
+    else
+      return nullptr;
+  }
   // At rest, held by joint friction (a phase of no direction).
   bool held() const {
     if constexpr (requires { eom_.direction(); })
@@ -570,6 +583,8 @@ class SampleWriter {
     if (!eom_.near_singular()) {
       if (held())
         kinetostatics.solve_held(s, forces_, eom_.solver().mechanism().dynamics->effort_at(time));
+      else if (const KinematicState* moving = breaking_away(y))
+        kinetostatics.solve(s, forces_, *moving, false);
       else
         kinetostatics.solve(s, forces_);
       // At rest, held by friction: the pose stands, the friction is somewhere in its cone.

@@ -485,6 +485,10 @@ TEST(FrictionDynamics, APendulumsSwingsDecayAsTheEnergyBalanceSays) {
   }
   EXPECT_LE(mgl * std::abs(std::sin(phi(run.stops.back().second))), torque);
   for (int k = 0; k < run.trajectory.samples(); ++k) EXPECT_LT(run.energy_error(k), 1e-11);
+  // Released at rest, it breaks away downwards (its angle falling): the first sample's friction
+  // is the whole torque against that, though its rate is zero there.
+  EXPECT_EQ(run.trajectory.status[0], PoseStatus::ok);
+  EXPECT_DOUBLE_EQ(run.trajectory.friction(0, 0), torque);
   // The second integrator (Dormand-Prince, which carries its last derivative from step to
   // step) finds the same stops.
   SimulationOptions dopri5;
