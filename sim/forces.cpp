@@ -357,6 +357,10 @@ double friction_limit(const Mechanism& m, int joint, const Eigen::VectorXd& q,
   return f.limit(false, f.load(false, normal, load.couple[static_cast<size_t>(joint)]), held);
 }
 
+bool friction_held(double friction, double limit) {
+  return std::abs(friction) < (1.0 - 1e-6) * limit;
+}
+
 ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time) {
   ForceStencil s;
   const long first_clean = 2, last_clean = last_step - 1;

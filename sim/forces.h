@@ -186,6 +186,10 @@ class FrictionLoads {
 double friction_limit(const Mechanism& m, int joint, const Eigen::VectorXd& q,
                       const ForceReading& load, bool held);
 
+// Whether a step's friction (its force or moment) held its joint under `limit`: inside it, since a
+// solver meets its bounds to round-off (within 1e-6 of the limit is at it, sliding).
+bool friction_held(double friction, double limit);
+
 // Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the
 // second difference over poses k-1, k, k+1; a pose is `clean` when neither neighbour is the
 // start (pose 0, exact, without the stepping residual): 2 <= k <= last_step - 1. The weights of

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -1097,15 +1098,20 @@ class FrictionLoss {
     for (const SceneJoint& j : s.joints) {
       if (!j.friction) continue;
       dofs_.push_back({friction_row(mm, j)});
-      loaded_ |= m.joints[static_cast<size_t>(j.source)].friction->load_dependent();
+      const Joint& source = m.joints[static_cast<size_t>(j.source)];
+      const bool loaded = source.friction->load_dependent();
+      loaded_ |= loaded;
+      slide_loaded_ |= loaded && source.is_slide();
     }
   }
   bool any() const { return !dofs_.empty(); }
   // Whether the step about to be taken must be read (its reactions are the next steps' load).
   bool reads() const { return loaded_ && loads_.reads(); }
-  // Before a step of h from pose q.
-  void bound(mjModel* mm, const Eigen::VectorXd& q, double h) {
+  // Before a step of h from the pose `pose` gives, read only when a load-dependent slide's normal
+  // (across its guide's line) needs it.
+  void bound(mjModel* mm, const std::function<Eigen::VectorXd()>& pose, double h) {
     const ForceReading* load = loaded_ ? &loads_.next(h) : nullptr;
+    const Eigen::VectorXd q = slide_loaded_ ? pose() : Eigen::VectorXd();
     for (Dof& f : dofs_) {
       const Joint& j = m_.joints[static_cast<size_t>(f.row.joint)];
       f.limit = load ? friction_limit(m_, f.row.joint, q, *load, f.held)
@@ -1121,15 +1127,13 @@ class FrictionLoss {
     double work = 0.0;
     for (Dof& f : dofs_) {
       const double force = f.row.force(d) / mass_scale_;
-      f.held = std::abs(force) < (1.0 - kSaturated) * f.limit;
+      f.held = friction_held(force, f.limit);
       work += force * f.row.moved(d, before);
     }
     return work;
   }
 
  private:
-  // A row's bound is reached when its force is within this fraction of it.
-  static constexpr double kSaturated = 1e-6;
   struct Dof {
     FrictionRow row;
     double limit = 0.0;
@@ -1139,7 +1143,8 @@ class FrictionLoss {
   double mass_scale_;
   FrictionLoads loads_;
   std::vector<Dof> dofs_;
-  bool loaded_ = false;
+  bool loaded_ = false;        // any friction load-dependent
+  bool slide_loaded_ = false;  // a slide's among them
 };
 
 class MujocoKinematicScene final : public KinematicScene {
@@ -1199,7 +1204,9 @@ class MujocoKinematicScene final : public KinematicScene {
     set_step(h);
     const bool rough = friction_.any();
     if (forces || rough) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
-    if (rough) friction_.bound(mm_, reader_.read(d_), h);
+    if (rough)
+      friction_.bound(
+          mm_, [&] { return reader_.read(d_); }, h);
     mj_step(mm_, d_);
     ForceReading* into = forces ? forces : friction_.reads() ? &reading_ : nullptr;
     if (into) forces_->read(d_, qpos_before_, h, *into);
@@ -1327,7 +1334,9 @@ class MujocoDynamicsScene final : public DynamicsScene {
     d_->time = grid[0];
     scope_.emplace(hook_.any() ? &hook_ : nullptr);
     // The start's acceleration (the staggered start's half step back) with its friction.
-    if (friction_.any()) friction_.bound(mm_, p.start.q, h0);
+    if (friction_.any())
+      friction_.bound(
+          mm_, [&] { return p.start.q; }, h0);
     forward_at_exact_state(mm_, d_, scratch_.get(), p.scene.size);
     std::vector<mjtNum> v0(d_->qvel, d_->qvel + nv), w(static_cast<size_t>(nv));
     for (int i = 0; i < nv; ++i) w[static_cast<size_t>(i)] = v0[i] - 0.5 * h0 * d_->qacc[i];
@@ -1348,7 +1357,9 @@ class MujocoDynamicsScene final : public DynamicsScene {
     d_->time = t0;
     const bool rough = friction_.any();
     if (forces || rough) std::copy(d_->qpos, d_->qpos + mm_->nq, qpos_before_.begin());
-    if (rough) friction_.bound(mm_, reader_.read(d_), h);
+    if (rough)
+      friction_.bound(
+          mm_, [&] { return reader_.read(d_); }, h);
     mj_step(mm_, d_);
     ForceReading* into = forces ? forces : friction_.reads() ? &reading_ : nullptr;
     if (into) force_reader_.read(d_, qpos_before_, h, *into);

@@ -572,7 +572,7 @@ class OdeScene {
       const double sign = body1_[r.joint] == j.b ? 1.0 : -1.0;
       const double friction = sign * on_first;
       work += friction * sign * rate * h;
-      r.held = std::abs(friction) < (1.0 - kSaturated) * r.limit;
+      r.held = friction_held(friction, r.limit);
       if (!out) continue;
       const size_t source = static_cast<size_t>(j.source);
       out->friction[source] = friction;
@@ -582,10 +582,6 @@ class OdeScene {
   }
 
  private:
-  // A friction motor's limit is reached when its force is within this fraction of it (the
-  // solver's bounds are met to round-off).
-  static constexpr double kSaturated = 1e-6;
-
   // A friction joint `ji`'s motor at rest (dParamVel 0): a hinge's an angular motor about z
   // between its bodies, whose feedback is the friction alone; an undriven slide's its own motor,
   // whose feedback along the line is the friction (the slider's other rows are normal to it); a
