@@ -145,6 +145,10 @@ RunSettings printed_settings(const SettingSchema& schema, RunKind run, const Run
   return out;
 }
 
+std::pair<std::string, std::string> friction_load_value(bool extrapolated) {
+  return {"friction_load", extrapolated ? "extrapolated" : "last"};
+}
+
 SettingSpec shared_setting(std::string_view name) {
   using enum SettingKind;
   if (name == "max_steps")

@@ -75,6 +75,9 @@ using SettingSchema = std::vector<SettingSpec>;
 // "energy_threshold" (std::logic_error for another name).
 SettingSpec shared_setting(std::string_view name);
 
+// The shared "friction_load" as a run prints it: `extrapolated` (the default) or the last step's.
+std::pair<std::string, std::string> friction_load_value(bool extrapolated);
+
 // What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit"; "reported
 // by the run, not set" for a reported value.
 std::string allowed_values(const SettingSpec& spec);

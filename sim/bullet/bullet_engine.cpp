@@ -88,6 +88,9 @@ struct Config {
   bool staggered_start = true;     // start from v0 - h/2 a0 (semi-implicit Euler's half step)
   double energy_threshold = 1e-3;  // |energy.error| over the energy scale: a note
   double divergence_energy = 1.0;  // beyond it the run stops: diverged
+  // Joint friction (docs/engines.md, "Joint friction").
+  bool extrapolated_load = true;  // the load from the last two steps' reactions, else the last's
+  double friction_cfm = 1e-10;    // the friction rows' compliance, of their diagonal
 };
 
 // Every setting, its default and what it takes, and the values a run reports, in the order a run
@@ -162,6 +165,15 @@ const SettingSchema& bullet_settings() {
       shared_setting("energy_scale"),
       shared_setting("perturb_link"),
       shared_setting("max_steps"),
+      shared_setting("friction_load"),
+      {.name = "friction_cfm",
+       .kind = number,
+       .default_value = "1e-10",
+       .doc = "the friction motors' constraint force mixing, a fraction of each row's own diagonal "
+              "(in a loop the motors' rows are redundant: the Dantzig solve fails on the friction "
+              "four-bar at 1e-16)",
+       .range = {0.0, 1.0, true},
+       .friction = true},
   };
   return schema;
 }
@@ -188,6 +200,8 @@ Config parse_settings(const Settings& overrides) {
   c.energy_threshold = v.number("energy_threshold");
   c.divergence_energy = v.number("divergence_energy");
   c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
+  c.extrapolated_load = v.is("friction_load", "extrapolated");
+  c.friction_cfm = v.number("friction_cfm");
   return c;
 }
 
@@ -478,6 +492,20 @@ class Scene {
   // frame origin's velocity and angular velocity).
   virtual void set_velocities(const std::vector<Pose>& poses,
                               const std::vector<NodeRate>& rates) = 0;
+  // Joint friction (docs/engines.md, "Joint friction"), rigid bodies only (plan_scene takes them
+  // for a mechanism with it): joint `joint`'s friction limit for the next step [N m or N]; after
+  // a step, its friction on the joint's second link (a pin's moment, a slide's force along its
+  // line) and the joint's rate (the second link's relative to the first).
+  virtual void limit_friction(int /*joint*/, double /*limit*/) { no_friction(); }
+  virtual double friction(int /*joint*/) const { no_friction(); }
+  virtual double friction_rate(int /*joint*/) const { no_friction(); }
+  // Whether joint `joint`'s friction acts through its driver's row (its effort includes it).
+  virtual bool friction_in_driver(int /*joint*/) const { no_friction(); }
+
+ private:
+  [[noreturn]] static void no_friction() {
+    throw std::logic_error("joint friction in Bullet's multibody formulation");
+  }
 };
 
 // A Dantzig solver that accepts any finite impulse: large impulses mean a locked or singular
@@ -495,8 +523,24 @@ class UnboundedDantzig : public btDantzigSolver {
                  int numIterations, bool useSparsity = true) override {
     static std::mutex one_solve;
     const std::lock_guard<std::mutex> hold(one_solve);
-    return btDantzigSolver::solveMLCP(A, b, x, lo, hi, limitDependency, numIterations, useSparsity);
+    if (bounded_cfm_ == 0.0)
+      return btDantzigSolver::solveMLCP(A, b, x, lo, hi, limitDependency, numIterations,
+                                        useSparsity);
+    btMatrixXu softened = A;
+    for (int i = 0; i < A.rows(); ++i)
+      if (std::isfinite(lo[i]) && std::isfinite(hi[i]) && lo[i] > -kUnbounded && hi[i] < kUnbounded)
+        softened.setElem(i, i, A(i, i) * (1.0 + bounded_cfm_));
+    return btDantzigSolver::solveMLCP(softened, b, x, lo, hi, limitDependency, numIterations,
+                                      useSparsity);
   }
+  // The rows with finite bounds (the friction motors') made compliant by this fraction of their
+  // own diagonal: a row's constraint force mixing relative to its effective mass, which
+  // btMLCPSolver does not take per row (only the world's m_globalCfm, absolute, on every row).
+  void soften_bounded_rows(double fraction) { bounded_cfm_ = fraction; }
+
+ private:
+  static constexpr double kUnbounded = 1e30;  // an equality row's bounds are +-BT_INFINITY
+  double bounded_cfm_ = 0.0;
 };
 
 // Bullet 3.24 as Debian builds it times every step's phases (BT_PROFILE) into one profile tree per
@@ -787,6 +831,8 @@ class RigidScene final : public Scene {
     // Before the bodies are added: each takes the world's gravity then.
     world_->setGravity(btVector3(m.gravity.x(), m.gravity.y(), 0));
     apply_solver_settings(world_->getSolverInfo(), config);
+    // The friction motors' rows are redundant with the loops' and the drivers' (Config).
+    if (m.has_friction()) dantzig_.soften_bounded_rows(config.friction_cfm);
     erp_ = config.erp;
 
     ground_ = new btRigidBody(0.0, nullptr, &empty_);
@@ -858,6 +904,16 @@ class RigidScene final : public Scene {
       if (!c) c = gear_[ji];
       c->setJointFeedback(&joint_feedback_[ji]);
       c->enableFeedback(true);
+    }
+    rough_.resize(m.joints.size());  // sized once: each motor points at its feedback
+    for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+      if (!m.joints[ji].friction) continue;
+      const auto drives = [&](size_t d) {
+        return !plan.driver_planar[d] && plan.edges[plan.driver_edges[d]].joint == int(ji);
+      };
+      bool driven_joint = false;
+      for (size_t d = 0; driven && d < plan.driver_edges.size(); ++d) driven_joint |= drives(d);
+      add_friction(m, ji, driven_joint);
     }
     // Each driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
@@ -986,7 +1042,83 @@ class RigidScene final : public Scene {
     return d < drivers_.size() && drivers_[d].separate ? &drivers_[d].feedback : nullptr;
   }
 
+  void limit_friction(int joint, double limit) override {
+    Rough& r = rough_[static_cast<size_t>(joint)];
+    r.limit = limit;
+    if (r.motor) r.motor->setMaxMotorForce(r.axis, limit);
+  }
+  double friction(int joint) const override {
+    const Rough& r = rough_[static_cast<size_t>(joint)];
+    if (!r.motor) {  // a driven joint: the limit against its rate
+      const double rate = friction_rate(joint);
+      return rate > 0.0 ? -r.limit : rate < 0.0 ? r.limit : 0.0;
+    }
+    const bool on_b = !r.b->isStaticObject();
+    const btJointFeedback& f = r.feedback;
+    if (r.axis == kAboutZ) return on_b ? f.m_appliedTorqueBodyB.z() : -f.m_appliedTorqueBodyA.z();
+    return (on_b ? f.m_appliedForceBodyB : -f.m_appliedForceBodyA).dot(line_axis(r));
+  }
+  bool friction_in_driver(int joint) const override {
+    return !rough_[static_cast<size_t>(joint)].motor;
+  }
+  double friction_rate(int joint) const override {
+    const Rough& r = rough_[static_cast<size_t>(joint)];
+    if (r.axis == kAboutZ) return r.b->getAngularVelocity().z() - r.a->getAngularVelocity().z();
+    // The slider point's velocity relative to the guide's point under it, along the line.
+    const btVector3 p = slider_point(r);
+    return (r.b->getVelocityInLocalPoint(p - r.b->getCenterOfMassPosition()) -
+            r.a->getVelocityInLocalPoint(p - r.a->getCenterOfMassPosition()))
+        .dot(line_axis(r));
+  }
+
  private:
+  // A friction joint (docs/engines.md, "Joint friction"): a motor at rest, a
+  // btGeneric6DofSpring2Constraint of its own between the joint's bodies, with the joint's frames,
+  // free in every freedom but for the motor about z (a pin) or along the line (a slide, frame A's
+  // x). Its force is bounded by the friction's limit (6Dof2's motors take a force, bounded per
+  // step at force x dt) and its feedback is the friction alone. A slide's motor keeps its start
+  // frames: its row's lever arms are taken at points of the line, whose moments about any point
+  // are those at the slider's. A driven joint (a kinematic run's) has no motor: its friction is
+  // the limit against the driver's rate, and acts on the two bodies the driver's row acts on,
+  // along that row, so that it changes nothing but the driver's effort (BulletSteps takes it out
+  // of the effort read). A motor there would be a second row on the driver's freedom: on the
+  // friction four-bar's near-massless crank the Dantzig solve failed on the pair and the friction
+  // read 1 % of its limit; applied as a couple, it swamped the solve with the crank's 1e9 rad/s2.
+  struct Rough {
+    btRigidBody* a = nullptr;
+    btRigidBody* b = nullptr;
+    btTransform fa, fb;  // the joint's frames on a and b
+    int axis = 0;
+    btGeneric6DofSpring2Constraint* motor = nullptr;  // null at a driven joint
+    btJointFeedback feedback;
+    double limit = 0.0;  // of the step
+  };
+  static constexpr int kAlongLine = 0, kAboutZ = 5;
+
+  void add_friction(const Mechanism& m, size_t ji, bool driven_joint) {
+    btGeneric6DofSpring2Constraint* joint = joint_constraint_[ji];
+    Rough& r = rough_[ji];
+    r.a = &joint->getRigidBodyA();
+    r.b = &joint->getRigidBodyB();
+    r.fa = joint->getFrameOffsetA();
+    r.fb = joint->getFrameOffsetB();
+    r.axis = m.joints[ji].is_slide() ? kAlongLine : kAboutZ;
+    if (driven_joint) return;
+    r.motor = new btGeneric6DofSpring2Constraint(*r.a, *r.b, r.fa, r.fb);
+    add(r.motor, Lock{});
+    r.motor->enableMotor(r.axis, true);
+    r.motor->setTargetVelocity(r.axis, 0.0);
+    r.motor->setMaxMotorForce(r.axis, 0.0);
+    r.motor->setJointFeedback(&r.feedback);
+    r.motor->enableFeedback(true);
+  }
+  static btVector3 line_axis(const Rough& r) {
+    return (r.a->getWorldTransform().getBasis() * r.fa.getBasis()).getColumn(0);
+  }
+  static btVector3 slider_point(const Rough& r) {
+    return r.b->getWorldTransform() * r.fb.getOrigin();
+  }
+
   struct Lock {
     bool linear[2] = {false, false};
     bool angular = false;
@@ -1054,6 +1186,7 @@ class RigidScene final : public Scene {
   std::vector<Lock> joint_lock_;
   std::vector<btJointFeedback> joint_feedback_;
   std::vector<DriverLock> drivers_;  // per driver; none in forward dynamics
+  std::vector<Rough> rough_;         // per joint; a motor for a friction joint
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1200,24 +1333,31 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   return p;
 }
 
-// The values in force both runs print (`steps_per_sample`: each run's own account of it).
-Settings common_settings(const Config& config, double dt, const std::string& steps_per_sample) {
-  return {{"formulation", config.formulation},
-          {"solver", config.solver},
-          {"dt", format_number(dt)},
-          {"steps_per_sample", steps_per_sample},
-          {"max_step_angle",
-           config.dt == 0.0 ? format_number(config.max_step_angle) : "unused (dt given)"},
-          {"iterations", std::to_string(config.iterations)},
-          {"erp", format_number(config.erp)},
-          {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-          {"gap_threshold", format_number(config.gap_threshold)},
-          {"divergence_gap", format_number(config.divergence_gap)},
-          {"split_impulse", config.split_impulse ? "1" : "0"},
-          {"mass_model", "the definition's (Link::mass)"},
-          {"singular_rcond", format_number(config.singular_rcond)},
-          {"perturb_link", config.perturb_link},
-          {"max_steps", std::to_string(config.max_steps)}};
+// The values in force both runs print (`steps_per_sample`: each run's own account of it;
+// `friction`: of a mechanism with joint friction).
+Settings common_settings(const Config& config, double dt, const std::string& steps_per_sample,
+                         bool friction) {
+  Settings values = {{"formulation", config.formulation},
+                     {"solver", config.solver},
+                     {"dt", format_number(dt)},
+                     {"steps_per_sample", steps_per_sample},
+                     {"max_step_angle", config.dt == 0.0 ? format_number(config.max_step_angle)
+                                                         : "unused (dt given)"},
+                     {"iterations", std::to_string(config.iterations)},
+                     {"erp", format_number(config.erp)},
+                     {"precision", btIsDoublePrecision() ? "float64" : "float32"},
+                     {"gap_threshold", format_number(config.gap_threshold)},
+                     {"divergence_gap", format_number(config.divergence_gap)},
+                     {"split_impulse", config.split_impulse ? "1" : "0"},
+                     {"mass_model", "the definition's (Link::mass)"},
+                     {"singular_rcond", format_number(config.singular_rcond)},
+                     {"perturb_link", config.perturb_link},
+                     {"max_steps", std::to_string(config.max_steps)}};
+  if (friction) {
+    values.push_back(friction_load_value(config.extrapolated_load));
+    values.emplace_back("friction_cfm", format_number(config.friction_cfm));
+  }
+  return values;
 }
 
 // Scene-plan stage: the scene graph and its spanning tree; the multibody formulation falls back
@@ -1227,6 +1367,12 @@ Settings common_settings(const Config& config, double dt, const std::string& ste
 // (`driven`) says how a link angle is realised. False with `why` when there is no scene.
 bool plan_scene(const Mechanism& m, bool driven, Config& config, Plan& plan,
                 std::vector<std::string>& notes, std::string& why) {
+  if (m.has_friction() && config.formulation == "multibody") {
+    notes.push_back(
+        "joint friction is modelled with rigid bodies only (a multibody's cut pins have no motor, "
+        "and its joint feedback, the friction's load, is wrong in 3.24): rigid bodies used");
+    config.formulation = "rigid";
+  }
   std::string split_error;
   const bool multibody = config.formulation == "multibody";
   try {
@@ -1351,17 +1497,18 @@ StepLength kinematic_step(const Trajectory& reference, const Span& span, const C
   return s;
 }
 
-Settings kinematic_settings(const Config& config, const StepLength& step) {
+Settings kinematic_settings(const Config& config, const StepLength& step, bool friction) {
   Settings values = common_settings(config, step.dt,
                                     config.dt == 0.0 ? std::to_string(step.steps_per_sample)
-                                                     : format_number(step.interval / step.dt));
+                                                     : format_number(step.interval / step.dt),
+                                    friction);
   const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
                          {"forces", config.formulation == "rigid"
                                         ? "btJointFeedback of the step leaving each sampled pose"
                                         : "not read (multibody joint feedback is wrong in 3.24)"},
                          {"branch_distance", format_number(config.branch_distance)}};
   values.insert(values.end(), more.begin(), more.end());
-  return printed_settings(bullet_settings(), RunKind::kinematic, values);
+  return printed_settings(bullet_settings(), RunKind::kinematic, values, friction);
 }
 
 // Driver `di`'s (Mechanism::drivers order) map to its driven edge's coordinate (DriveTarget).
@@ -1387,12 +1534,26 @@ DriveTarget drive_map(const Mechanism& m, const Plan& plan, const Config& config
 
 // The scene stepped and read back as the mechanism's coordinates after each step (angles on the
 // turn of the pose before), with the forces of the pose a step leaves: what both runs' scenes
-// share.
+// share. Joint friction's limits follow the reactions of the steps before (FrictionLoads); the
+// first two steps' readings are transients of the start (BulletDynamicsScene), for which the
+// start's trend stands.
 class BulletSteps {
  public:
-  BulletSteps(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start)
-      : m_(m), plan_(plan), scene_(scene), q_(q_start) {
+  static constexpr int kTransients = 2;
+  BulletSteps(const Mechanism& m, const Plan& plan, Scene& scene, const Eigen::VectorXd& q_start,
+              ReadingTrend start, bool extrapolated)
+      : m_(m),
+        plan_(plan),
+        scene_(scene),
+        q_(q_start),
+        loads_(std::move(start), extrapolated, kTransients),
+        reading_(m.joints.size(), m.drivers.size()) {
     for (int e : plan.driver_edges) driven_joints_.push_back(plan.edges[e].joint);
+    for (size_t ji = 0; ji < m.joints.size(); ++ji)
+      if (const Joint& j = m.joints[ji]; j.friction) {
+        rough_.push_back({static_cast<int>(ji)});
+        loaded_ |= j.friction->load_dependent();
+      }
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   // "" or why the scene read back is not the start it was built at.
@@ -1400,23 +1561,73 @@ class BulletSteps {
     return start_mismatch(m_, q_, q_start);
   }
   void step(double h, ForceReading* forces) {
+    const ForceReading& load = loaded_ ? loads_.next(h) : reading_;
+    for (Rough& r : rough_) {
+      r.limit = friction_limit(m_, r.joint, q_, load, r.held);
+      scene_.limit_friction(r.joint, r.limit);
+    }
     scene_.step(h);
     ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
-    if (forces) read_rigid_forces(m_, plan_, scene_, driven_joints_, q_, *forces);
+    const bool keep = loaded_ && loads_.reads();
+    ForceReading* into = forces ? forces : keep ? &reading_ : nullptr;
+    if (into) read_rigid_forces(m_, plan_, scene_, driven_joints_, q_, *into);
+    friction_work_ = read_friction(h, into);
+    if (loaded_) loads_.record(keep ? into : nullptr, h);
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   Scene& scene() { return scene_; }
   const Eigen::VectorXd& pose() const { return q_; }  // the pose the last step reached
   long evaluations() const { return evaluations_; }
   std::string note() const { return fallback_note(scene_); }
+  double friction_work() const { return friction_work_; }  // over the last step [J]
 
  private:
+  // After a step of h from pose q_: each friction on its joint's second link into `out` (a slide's
+  // also into its joint's force, as the exact method's), whether it held its joint, and the work
+  // the friction did over the step (semi-implicit Euler: the step moves at its end's rates) [J].
+  double read_friction(double h, ForceReading* out) {
+    double work = 0.0;
+    for (Rough& r : rough_) {
+      const double friction = scene_.friction(r.joint);
+      r.held = friction_held(friction, r.limit);
+      work += friction * scene_.friction_rate(r.joint) * h;
+      if (!out) continue;
+      const size_t ji = static_cast<size_t>(r.joint);
+      out->friction[ji] = friction;
+      // A driven joint's friction is in its driver's row (RigidScene::Rough).
+      for (size_t d = 0; scene_.friction_in_driver(r.joint) && d < driven_joints_.size(); ++d) {
+        if (driven_joints_[d] != r.joint || scene_.driver_feedback(d)) continue;
+        const Driver& driver = m_.drivers[d];
+        const bool on_first =
+            driver.type == DriverType::link_angle && m_.joints[ji].link_a == driver.link;
+        out->effort_of(static_cast<int>(d)) -= on_first ? -friction : friction;
+      }
+      if (const Joint& j = m_.joints[ji]; j.is_slide()) {
+        const BodyMotion a = BodyMotion::of(m_.moving_index(j.link_a), q_, nullptr, nullptr);
+        out->joint_force[ji] += friction * a.turn(m_.links[j.link_a].lines[j.line].direction);
+      }
+    }
+    return work;
+  }
+
+  // Per friction joint: its Mechanism joint, the limit of the last step and whether that step
+  // held it.
+  struct Rough {
+    int joint = -1;
+    double limit = 0.0;
+    bool held = false;
+  };
   const Mechanism& m_;
   const Plan& plan_;
   Scene& scene_;
   std::vector<int> driven_joints_;  // per driver: the Mechanism joint the scene graph drives
   std::vector<Pose> frames_;
   Eigen::VectorXd q_;
+  std::vector<Rough> rough_;
+  bool loaded_ = false;  // a friction grows with its joint's reaction
+  FrictionLoads loads_;
+  ForceReading reading_;  // scratch: a step's reading for the friction's load
+  double friction_work_ = 0.0;
   long evaluations_ = 0;
 };
 
@@ -1462,12 +1673,13 @@ class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
 // (sim/dynamics_run.h).
 
 Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
-                           double dt, double energy_scale, bool with_forces) {
+                           double dt, double energy_scale, bool with_forces, bool friction) {
   const double interval = reference.time(span.first + 1) - reference.time(span.first);
   Settings values = common_settings(
       config, dt,
       config.dt == 0.0 ? std::to_string(static_cast<long>(std::round(interval / dt)))
-                       : "unused (dt given)");
+                       : "unused (dt given)",
+      friction);
   const Settings more = {
       {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
       {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
@@ -1477,7 +1689,7 @@ Settings dynamics_settings(const Config& config, const Trajectory& reference, co
       {"divergence_energy", format_number(config.divergence_energy)},
       {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
   values.insert(values.end(), more.begin(), more.end());
-  return printed_settings(bullet_settings(), RunKind::dynamics, values);
+  return printed_settings(bullet_settings(), RunKind::dynamics, values, friction);
 }
 
 // A dynamics run's scene for the shared run loop (sim/dynamics_run.h): no driver (slides' frames
@@ -1500,6 +1712,7 @@ class BulletDynamicsScene final : public BulletLoopScene<DynamicsScene> {
     steps_.step(h, forces);
     return "";
   }
+  double friction_work() const override { return steps_.friction_work(); }
 
  private:
   Eigen::VectorXd start_velocity_;
@@ -1541,9 +1754,11 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   if (why = build_scene(m, plan, config, start.start.q, {}, &velocity, false, scene); !why.empty())
     return failed_run(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  out.settings =
-      dynamics_settings(config, reference, p.span, start.grid.dt, energy_scale, with_forces);
-  BulletSteps steps(m, plan, *scene, start.start.q);
+  out.settings = dynamics_settings(config, reference, p.span, start.grid.dt, energy_scale,
+                                   with_forces, m.has_friction());
+  BulletSteps steps(m, plan, *scene, start.start.q,
+                    reference_trend(m, reference, start.span.first, time.front()),
+                    config.extrapolated_load);
   if (why = steps.check_start(start.start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletDynamicsScene stepped(steps, velocity);
   const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * m.size(),
@@ -1559,12 +1774,16 @@ class BulletEngine final : public Engine {
   std::string name() const override { return "bullet"; }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (const std::string rough = unmodelled_friction(
-            mechanism,
-            "crosslink's Bullet scene does not model yet (a motor's impulse limit is to come)");
-        !rough.empty()) {
-      if (why) *why = rough;
-      return false;
+    // Joint friction: rigid bodies only (plan_scene).
+    if (mechanism.has_friction()) {
+      try {
+        (void)make_plan(mechanism, false, nullptr);
+      } catch (const std::exception& e) {
+        if (why)
+          *why = fmt::format("{} (joint friction is modelled with rigid bodies only)", e.what());
+        return false;
+      }
+      return true;
     }
     // Either formulation (plan_scene takes the other when the one asked for cannot).
     try {
@@ -1613,7 +1832,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   Config& config = p.config;
   const Mechanism& m = p.m;
   StepLength step = kinematic_step(reference, p.span, config);
-  out.settings = kinematic_settings(config, step);
+  out.settings = kinematic_settings(config, step, m.has_friction());
   const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * m.size(),
                                 config.driver_threshold, config.singular_rcond,
                                 config.branch_distance};
@@ -1630,7 +1849,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   std::vector<std::string> notes;
   std::string why;
   if (!plan_scene(m, true, config, plan, notes, why)) return failed_run(std::move(out), why);
-  out.settings = kinematic_settings(config, step);  // the formulation may have fallen back
+  // The formulation may have fallen back.
+  out.settings = kinematic_settings(config, step, m.has_friction());
   const bool with_forces = config.formulation == "rigid";
   std::vector<DriveTarget> drive;
   std::vector<double> coordinate0;
@@ -1642,7 +1862,9 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   if (why = build_scene(m, plan, config, start.q, coordinate0, &start.qdot, true, scene);
       !why.empty())
     return failed_run(std::move(out), why);
-  BulletSteps steps(m, plan, *scene, start.q);
+  BulletSteps steps(m, plan, *scene, start.q,
+                    reference_trend(m, reference, start.span.first, start.grid.time.front()),
+                    config.extrapolated_load);
   if (why = steps.check_start(start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletKinematicScene stepped(steps, drive);
   for (const std::string& note : notes) add_note(start.note, note);

@@ -1031,7 +1031,7 @@ Settings step_settings(const Prepared& p) {
       {"max_steps", std::to_string(p.config.max_steps)},
   };
   if (rough(p.scene)) {
-    values.emplace_back("friction_load", p.config.extrapolated_load ? "extrapolated" : "last");
+    values.push_back(friction_load_value(p.config.extrapolated_load));
     values.emplace_back("friction_solref", numbers(p.options.friction_solref));
   }
   return values;

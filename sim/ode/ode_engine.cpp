@@ -883,7 +883,7 @@ Settings common_settings(const Config& config, const TimeGrid& grid, double step
       {"perturb_link", config.perturb_link},
       {"max_steps", std::to_string(config.max_steps)}};
   if (friction) {
-    values.emplace_back("friction_load", config.extrapolated_load ? "extrapolated" : "last");
+    values.push_back(friction_load_value(config.extrapolated_load));
     values.emplace_back("friction_cfm", format_number(config.friction_cfm));
   }
   return values;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <numbers>
 #include <string>
 
@@ -36,9 +37,6 @@ EngineRun run_engine(const std::string& name, const Mechanism& m, const Trajecto
   EXPECT_TRUE(run.ok) << run.message;
   return run;
 }
-EngineRun run_ode(const Mechanism& m, const Trajectory& exact, const Settings& settings = {}) {
-  return run_engine("ode", m, exact, settings);
-}
 
 // The creep a run reports (creep_note) [rad or m].
 double creep_of(const EngineRun& run) {
@@ -47,10 +45,10 @@ double creep_of(const EngineRun& run) {
   return at == std::string::npos ? 0.0 : std::stod(run.message.substr(at + 7));
 }
 
-// ODE runs every friction definition; MuJoCo those where no friction pin closes a loop at a link
-// that slides (a cut pin's friction is a fixed tendon, whose moment on a slider MuJoCo's reading
-// would miss: the slider-crank's and Bevan's pin P); Bullet and Simbody none. What is refused
-// names the joint.
+// ODE and Bullet run every friction definition; MuJoCo those where no friction pin closes a loop
+// at a link that slides (a cut pin's friction is a fixed tendon, whose moment on a slider MuJoCo's
+// reading would miss: the slider-crank's and Bevan's pin P); Simbody none. What is refused names
+// the joint.
 TEST(EngineFriction, EachEngineRunsTheFrictionItModelsAndRefusesTheRestNamingTheJoint) {
   const std::vector<std::string> tree_only = {"block_sliding_to_rest", "pendulum_pin_friction",
                                               "fourbar_friction_circles"};
@@ -59,7 +57,7 @@ TEST(EngineFriction, EachEngineRunsTheFrictionItModelsAndRefusesTheRestNamingThe
     for (const std::string& path : test::friction_files()) {
       const Mechanism m = load_mechanism(path);
       const std::string name = std::filesystem::path(path).stem().string();
-      const bool runs = e.name == "ode" ||
+      const bool runs = e.name == "ode" || e.name == "bullet" ||
                         (e.name == "mujoco" &&
                          std::find(tree_only.begin(), tree_only.end(), name) != tree_only.end());
       std::string why;
@@ -110,31 +108,36 @@ FrictionError friction_error(const Trajectory& exact, const Trajectory& engine) 
   return out;
 }
 
-// ODE bounds each friction motor by the load of the steps before. The last step's load is one
-// step late: the error is first order in the step (halving the step halves it). Extrapolated
-// linearly from the last two steps (the default) it is second order and, at the default step,
-// within the 0.3 % of peak compare holds forces to.
-TEST(EngineFriction, OdesLoadDependentFrictionIsFirstOrderLateOrSecondOrderExtrapolated) {
-  for (const char* name : {"slider_crank_friction", "bevan_eccentric_friction"}) {
-    const Mechanism m = friction_mechanism(name);
+// ODE and Bullet bound each friction motor by the load of the steps before. The last step's load
+// is one step late: the error is first order in the step (halving the step halves it).
+// Extrapolated linearly from the last two steps (the default) it is second order and, at the
+// default step, within the 0.3 % of peak compare holds their forces to.
+TEST(EngineFriction, LoadDependentFrictionIsFirstOrderLateOrSecondOrderExtrapolated) {
+  for (const std::string engine : {"ode", "bullet"}) {
+    for (const char* name : {"slider_crank_friction", "bevan_eccentric_friction"}) {
+      const Mechanism m = friction_mechanism(name);
+      const Trajectory exact = sweep(m);
+      const auto late = [&](const char* step_angle) {
+        return friction_error(
+            exact, run_engine(engine, m, exact,
+                              {{"friction_load", "last"}, {"max_step_angle", step_angle}})
+                       .trajectory);
+      };
+      const FrictionError coarse = late("0.01"), fine = late("0.005");
+      EXPECT_GT(coarse.rms / fine.rms, 1.7) << engine << " on " << name;
+      EXPECT_LT(coarse.rms / fine.rms, 2.4) << engine << " on " << name;
+      const FrictionError extrapolated =
+          friction_error(exact, run_engine(engine, m, exact).trajectory);
+      EXPECT_LT(extrapolated.rms, coarse.rms / 5) << engine << " on " << name;
+      EXPECT_LT(extrapolated.worst, 0.3e-2) << engine << " on " << name;
+    }
+    // The four-bar's massless crank between two friction pins (its pins' loads change 95 rad/s
+    // fast): extrapolated, within compare's force tolerance too.
+    const Mechanism m = friction_mechanism("fourbar_friction_circles");
     const Trajectory exact = sweep(m);
-    const FrictionError coarse = friction_error(
-        exact,
-        run_ode(m, exact, {{"friction_load", "last"}, {"max_step_angle", "0.01"}}).trajectory);
-    const FrictionError fine = friction_error(
-        exact,
-        run_ode(m, exact, {{"friction_load", "last"}, {"max_step_angle", "0.005"}}).trajectory);
-    EXPECT_GT(coarse.rms / fine.rms, 1.7) << name;
-    EXPECT_LT(coarse.rms / fine.rms, 2.4) << name;
-    const FrictionError extrapolated = friction_error(exact, run_ode(m, exact).trajectory);
-    EXPECT_LT(extrapolated.rms, coarse.rms / 5) << name;
-    EXPECT_LT(extrapolated.worst, 0.3e-2) << name;
+    EXPECT_LT(friction_error(exact, run_engine(engine, m, exact).trajectory).worst, 0.3e-2)
+        << engine;
   }
-  // The four-bar's massless crank between two friction pins (its pins' loads change 95 rad/s
-  // fast): extrapolated, within compare's force tolerance too.
-  const Mechanism m = friction_mechanism("fourbar_friction_circles");
-  const Trajectory exact = sweep(m);
-  EXPECT_LT(friction_error(exact, run_ode(m, exact).trajectory).worst, 0.3e-2);
 }
 
 // MuJoCo on the four-bar: its two ground pins' friction on their degrees of freedom, its cut
@@ -146,63 +149,89 @@ TEST(EngineFriction, MujocosFourBarFrictionAtTreeAndCutPinsMeetsItsForceToleranc
   EXPECT_LT(friction_error(exact, run_engine("mujoco", m, exact).trajectory).worst, 0.05e-2);
 }
 
-// A block launched down a slope (the closed form of tests/analytic/test_friction.cpp): ODE's
-// slider motor at rest, bounded by mu N, slides it with the friction mu m g cos(alpha) and holds
-// it with m g sin(alpha); semi-implicit Euler under a constant force is exact but for where the
-// stop falls in its step. Held, the motor row is softened by its constraint force mixing eps: it
-// solves v = eps x lambda, so the block creeps down at friction_cfm x m g sin(alpha).
-TEST(EngineFriction, OdesBlockSlidesToRestAsTheClosedFormSaysAndCreepsAtCfmTimesItsForce) {
+// A block launched down a slope (the closed form of tests/analytic/test_friction.cpp): a slider
+// motor at rest, bounded by mu N, slides it with the friction mu m g cos(alpha) and holds it with
+// m g sin(alpha); semi-implicit Euler under a constant force is exact but for where the stop falls
+// in its step. Held, the motor's row is softened by its constraint force mixing, so the block
+// creeps down at `creep_rate` [m/s] (the engine's law, the test's callers).
+void expect_block_slides_to_rest(const Simulation& exact, const EngineRun& run, double creep_rate) {
+  const double g = 9.81, mass = 2.0, alpha = std::numbers::pi / 6, v0 = 3.0;
+  const double a = g * (0.8 * std::cos(alpha) - std::sin(alpha)), stop = v0 / a;
+  const Trajectory& t = run.trajectory;
+  const double h = run.cost.time_step;
+  int held_first = -1;
+  for (int k = 0; k < t.samples(); ++k) {
+    if (!usable(t.status[static_cast<size_t>(k)]) || exact.trajectory.beside_stop(k)) continue;
+    const double time = t.time(k);
+    if (time < stop) {
+      EXPECT_NEAR(t.friction(k, 0), -0.8 * mass * g * std::cos(alpha), 1e-6 * mass * g) << time;
+      EXPECT_NEAR(t.s(k, 0), v0 * time - 0.5 * a * time * time, v0 * h) << time;
+      continue;
+    }
+    EXPECT_NEAR(t.friction(k, 0), -mass * g * std::sin(alpha), 1e-6 * mass * g) << time;
+    if (held_first < 0) {
+      held_first = k;
+      EXPECT_NEAR(t.s(k, 0), v0 * v0 / (2 * a), v0 * h);
+      continue;
+    }
+    const double creep = creep_rate * (time - t.time(held_first));
+    EXPECT_NEAR(t.s(k, 0) - t.s(held_first, 0), creep, 0.02 * creep + 1e-14) << time;
+  }
+  EXPECT_GT(held_first, 0);
+  EXPECT_NE(run.message.find("creep:"), std::string::npos) << run.message;
+}
+
+// Each engine's creep law, from its row's formulation. ODE's row with constraint force mixing eps
+// solves v = eps x lambda: the block creeps at friction_cfm x m g sin(alpha). Bullet's friction
+// row has its diagonal (the inverse effective mass, 1/m) grown by the fraction eps: its impulse
+// then stops eps / (1 + eps) short of cancelling the step's velocity, h g sin(alpha), so the block
+// creeps at eps x h g sin(alpha) (independent of its mass).
+TEST(EngineFriction, BlockSlidesToRestAsTheClosedFormSaysAndCreepsByItsEnginesLaw) {
   const Mechanism m = friction_mechanism("block_sliding_to_rest");
   const Simulation exact = simulate(m);
   ASSERT_TRUE(exact.ok && exact.trajectory.held_from) << exact.message;
-  const double g = 9.81, mass = 2.0, alpha = std::numbers::pi / 6, v0 = 3.0;
-  const double a = g * (0.8 * std::cos(alpha) - std::sin(alpha)), stop = v0 / a;
-  for (const double cfm : {1e-8, 1e-6}) {
-    const EngineRun run = run_ode(m, exact.trajectory, {{"friction_cfm", fmt::format("{}", cfm)}});
-    const Trajectory& t = run.trajectory;
-    const double h = run.cost.time_step;
-    int held_first = -1;
-    for (int k = 0; k < t.samples(); ++k) {
-      if (!usable(t.status[static_cast<size_t>(k)]) || exact.trajectory.beside_stop(k)) continue;
-      const double time = t.time(k);
-      if (time < stop) {
-        EXPECT_NEAR(t.friction(k, 0), -0.8 * mass * g * std::cos(alpha), 1e-6 * mass * g) << time;
-        EXPECT_NEAR(t.s(k, 0), v0 * time - 0.5 * a * time * time, v0 * h) << time;
-        continue;
-      }
-      EXPECT_NEAR(t.friction(k, 0), -mass * g * std::sin(alpha), 1e-6 * mass * g) << time;
-      if (held_first < 0) {
-        held_first = k;
-        EXPECT_NEAR(t.s(k, 0), v0 * v0 / (2 * a), v0 * h);
-        continue;
-      }
-      const double creep = cfm * mass * g * std::sin(alpha) * (time - t.time(held_first));
-      EXPECT_NEAR(t.s(k, 0) - t.s(held_first, 0), creep, 0.02 * creep + 1e-12) << time;
+  const double mass = 2.0, g_sin_alpha = 9.81 * 0.5;
+  struct Law {
+    std::string engine;
+    std::vector<double> cfm;
+    std::function<double(double cfm, double h)> creep_rate;
+  };
+  const std::vector<Law> laws = {
+      {"ode", {1e-8, 1e-6}, [&](double cfm, double) { return cfm * mass * g_sin_alpha; }},
+      {"bullet", {1e-10, 1e-6}, [&](double cfm, double h) { return cfm * h * g_sin_alpha; }}};
+  for (const Law& law : laws)
+    for (const double cfm : law.cfm) {
+      SCOPED_TRACE(fmt::format("{} at friction_cfm {}", law.engine, cfm));
+      const EngineRun run =
+          run_engine(law.engine, m, exact.trajectory, {{"friction_cfm", fmt::format("{}", cfm)}});
+      expect_block_slides_to_rest(exact, run, law.creep_rate(cfm, run.cost.time_step));
     }
-    EXPECT_GT(held_first, 0);
-    EXPECT_NE(run.message.find("creep:"), std::string::npos) << run.message;
-  }
 }
 
 // A pendulum with a constant pivot friction torque, against the exact forward dynamics (whose
-// swings tests/analytic/test_friction.cpp holds to their energy balance): ODE's error in the
-// angle over the whole decay, through ten reversals and the final hold, falls with the step at
-// least as its first power (a quarter of the step: 4.5 times smaller; each reversal falls
-// anywhere inside a step, so the order is not clean: halving gave 1.6, 2.7 and 1.2), and its
-// energy balance, which counts the friction motor's work, stays closed.
-TEST(EngineFriction, OdesPendulumDecaysAsTheExactOneAndConvergesWithTheStep) {
+// swings tests/analytic/test_friction.cpp holds to their energy balance): ODE's and Bullet's
+// error in the angle over the whole decay, through ten reversals and the final hold, falls with
+// the step at least as its first power (a quarter of the step: 4.5 and 4.4 times smaller; each
+// reversal falls anywhere inside a step, so the order is not clean: halving gave ODE 1.6, 2.7 and
+// 1.2), and the energy balance, which counts the friction motor's work, stays closed.
+TEST(EngineFriction, PendulumDecaysAsTheExactOneAndConvergesWithTheStep) {
   const Mechanism m = friction_mechanism("pendulum_pin_friction");
   const Simulation exact = simulate(m);
   ASSERT_TRUE(exact.ok) << exact.message;
-  const EngineRun coarse = run_ode(m, exact.trajectory);
-  const EngineRun fine = run_ode(m, exact.trajectory, {{"max_step_angle", "0.000625"}});
-  EXPECT_GT(angle_error(exact.trajectory, coarse) / angle_error(exact.trajectory, fine), 3.0);
-  // The friction's work is what the pendulum loses: without it the balance is off by the
-  // potential energy of the 60 degree drop (2.45 J).
-  const double scale = exact.energy_scale;
-  for (int k = 0; k < coarse.trajectory.samples(); ++k) {
-    if (!usable(coarse.trajectory.status[static_cast<size_t>(k)])) continue;
-    EXPECT_LT(std::abs(coarse.trajectory.energy(k, 3)), 1e-3 * scale) << coarse.trajectory.time(k);
+  for (const std::string engine : {"ode", "bullet"}) {
+    const EngineRun coarse = run_engine(engine, m, exact.trajectory);
+    const EngineRun fine =
+        run_engine(engine, m, exact.trajectory, {{"max_step_angle", "0.000625"}});
+    EXPECT_GT(angle_error(exact.trajectory, coarse) / angle_error(exact.trajectory, fine), 3.0)
+        << engine;
+    // The friction's work is what the pendulum loses: without it the balance is off by the
+    // potential energy of the 60 degree drop (2.45 J).
+    const double scale = exact.energy_scale;
+    for (int k = 0; k < coarse.trajectory.samples(); ++k) {
+      if (!usable(coarse.trajectory.status[static_cast<size_t>(k)])) continue;
+      EXPECT_LT(std::abs(coarse.trajectory.energy(k, 3)), 1e-3 * scale)
+          << engine << " at " << coarse.trajectory.time(k);
+    }
   }
 }
 
