@@ -33,6 +33,16 @@ runs = [("ode", n, s) for n, s in [
   ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_cfm=1e-6"]),
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["max_step_angle=0.00125"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
+]] + [("simbody", n, s) for n, s in [
+  ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["friction_load=last"]),
+  ("slider_crank_friction", []), ("slider_crank_friction", ["friction_load=last"]),
+  ("slider_crank_friction", ["friction_load=last", "max_step_angle=0.00125"]),
+  ("bevan_eccentric_friction", []),
+  ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_speed=1e-3"]),
+  ("block_sliding_to_rest", ["friction_speed=1e-5"]),
+  ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_speed=1e-3"]),
+  ("pendulum_pin_friction", ["friction_speed=1e-5"]),
+  ("pendulum_pin_friction", ["friction_speed=1e-6"]),
 ]] + [("mujoco", n, s) for n, s in [
   ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_load=last"]),
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_solref=0.005 1"]),
@@ -62,4 +72,5 @@ for engine, name, sets in runs:
     m = re.search(r"creep: (\S+ \S+)", ode["message"])
     creep = m.group(1) if m else "-"
     steps = ode["cost"].get("steps", "")
+    if m := re.search(r"took (\d+) internal steps", ode["message"]): steps = f"{m.group(1)} internal"  # Simbody's own
     print(f"| {engine} | {name} | {setting} | {fr:.3g} % | {eff} | {en} | {creep} | {steps} |")

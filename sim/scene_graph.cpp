@@ -341,13 +341,6 @@ std::vector<std::pair<int, double>> relative_angle_terms(const SceneGraph& g, in
   return terms;
 }
 
-std::string unmodelled_friction(const Mechanism& mechanism, std::string_view reason) {
-  const std::vector<int> rough = mechanism.friction_joints();
-  if (rough.empty()) return "";
-  return fmt::format("joint '{}' has friction, which {}",
-                     mechanism.joints[static_cast<size_t>(rough.front())].name, reason);
-}
-
 SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   SceneGraph g;
 

@@ -152,11 +152,6 @@ BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const 
 // An engine holds a cut pin's relative rotation so (MuJoCo's fixed tendon for its friction).
 std::vector<std::pair<int, double>> relative_angle_terms(const SceneGraph& g, int joint);
 
-// "" or, when `mechanism` has joint friction, why an engine that does not model it refuses it:
-// "joint '<name>' has friction, which <reason>" (a frictionless scene would be judged against the
-// exact forces with friction; docs/engines.md, "Joint friction").
-std::string unmodelled_friction(const Mechanism& mechanism, std::string_view reason);
-
 // The scene graph of `mechanism` under `policy`. Throws std::runtime_error when no engine can
 // realise it: a driver that no joint of the scene moves, or bodies not joined to the ground.
 SceneGraph scene_graph(const Mechanism& mechanism, const TreePolicy& policy = {});

@@ -66,6 +66,9 @@ struct Config {
   double divergence_energy = 1.0;
   std::string perturb_link;
   long max_steps = kDefaultMaxSteps;
+  // Joint friction (docs/engines.md, "Joint friction").
+  bool extrapolated_load = true;  // the load extrapolated along a step, else its start's
+  double friction_speed = 1e-4;   // v_s: of each friction joint's fastest rate in the reference
 };
 
 const SettingSchema& simbody_settings() {
@@ -142,6 +145,15 @@ const SettingSchema& simbody_settings() {
             "bound to pass it at its rate so far)";
         return s;
       }(),
+      shared_setting("friction_load"),
+      {.name = "friction_speed",
+       .kind = number,
+       .default_value = "0.0001",
+       .doc = "the regularised friction's transition speed v_s (-limit x tanh(v / v_s)), a "
+              "fraction of each friction joint's fastest rate in the reference: held, a joint "
+              "creeps at v_s atanh(force / limit)",
+       .range = {0.0, 1.0, true},
+       .friction = true},
   };
   return schema;
 }
@@ -167,6 +179,8 @@ Config parse_settings(const Settings& overrides) {
   c.divergence_energy = v.number("divergence_energy");
   c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
   c.max_steps = v.count("max_steps");
+  c.extrapolated_load = v.is("friction_load", "extrapolated");
+  c.friction_speed = v.number("friction_speed");
   return c;
 }
 
@@ -334,13 +348,162 @@ class LoadForce final : public SimTK::Force::Custom::Implementation {
   mutable Eigen::VectorXd q_, qdot_;
 };
 
+// Joint friction (docs/engines.md, "Joint friction"). Simbody 3.7 has no bounded constraint row
+// (ConditionalConstraint.h declares BoundedSpeedConstraint and StateLimitedFriction "not
+// implemented yet"), and a stick held by a Constraint::ConstantSpeed switched by events would
+// hold a mobilizer only (a loop's cut pin has none): each friction joint's friction is a
+// regularised Coulomb force, -limit x tanh(v / v_s), on its second link (a couple at a pin; at a
+// slide a force along the line at the slider's point), its opposite on the first, v the joint's
+// rate. It never sticks: held by a force F, the joint creeps at v_s atanh(F / limit). The limit
+// (friction_limit) takes its load from Simbody's own reactions at the state a step starts from
+// (the state's, not a step's as ODE's: no transients), extrapolated along the step at their rate
+// since the step before (`friction_load`); after a step that ended within v_s of rest, the
+// static limit. A state variable integrates the friction's power: its work over a step.
+struct FrictionSetup {
+  double t0 = 0.0;            // the start's time
+  ReadingTrend start;         // the reference's forces at t0, and their rate
+  bool extrapolated = true;   // the load extrapolated along the step
+  std::vector<double> speed;  // per Mechanism joint: v_s [rad/s or m/s] (friction joints)
+};
+
+class FrictionForce final : public SimTK::Force::Custom::Implementation {
+ public:
+  FrictionForce(const Mechanism& m, const SceneGraph& g,
+                const std::vector<SimTK::MobilizedBody>& body, const Readback& readback,
+                const Eigen::VectorXd& q0, const SimTK::GeneralForceSubsystem& forces,
+                FrictionSetup setup)
+      : m_(m),
+        readback_(readback),
+        forces_(forces),
+        q_(q0),
+        last_(std::move(setup.start.at)),
+        rate_(std::move(setup.start.rate)),
+        load_(last_),
+        t_last_(setup.t0),
+        extrapolated_(setup.extrapolated) {
+    for (const SceneJoint& j : g.joints) {
+      if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction) continue;
+      const JointFriction& f = *m.joints[static_cast<size_t>(j.source)].friction;
+      loaded_ |= f.load_dependent();
+      rough_.push_back({.joint = j.source,
+                        .a = body[static_cast<size_t>(j.a)],
+                        .b = body[static_cast<size_t>(j.b)],
+                        .slide = j.kind == SceneJoint::Kind::slide,
+                        .ub = vec3(j.ub),
+                        .direction = vec3(j.direction),
+                        .speed = setup.speed[static_cast<size_t>(j.source)]});
+    }
+  }
+  bool loaded() const { return loaded_; }
+  // Before a step from state s (Acceleration stage): the reactions there (`reading`, when
+  // loaded()), and whether each joint is held.
+  void begin_step(const SimTK::State& s, const ForceReading* reading) {
+    const double t = s.getTime();
+    if (reading) {
+      if (t > t_last_) {  // else the start's: its rate the reference's
+        rate_.set_zero();
+        rate_.add(1.0 / (t - t_last_), *reading);
+        rate_.add(-1.0 / (t - t_last_), last_);
+      }
+      last_ = *reading;
+    } else {
+      last_.add(t - t_last_, rate_);
+    }
+    t_last_ = t;
+    for (Rough& r : rough_) r.held = std::abs(rate(s, r)) < r.speed;
+  }
+  // Each friction at state s (Velocity stage) on its joint's second link into `out`; a slide's
+  // also into its joint's force, as the exact method's.
+  void write(const SimTK::State& s, ForceReading& out) const {
+    for (const Rough& r : rough_) {
+      const double f = friction(s, r);
+      out.friction[static_cast<size_t>(r.joint)] = f;
+      if (r.slide) out.joint_force[static_cast<size_t>(r.joint)] += f * vec2(axis(s, r));
+    }
+  }
+  // The friction's work since the start [J].
+  double work(const SimTK::State& s) const { return forces_.getZ(s)[z_]; }
+
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& forces,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
+    for (const Rough& r : rough_) {
+      const double f = friction(s, r);
+      if (!r.slide) {
+        r.b.applyBodyTorque(s, SimTK::Vec3(0, 0, f), forces);
+        r.a.applyBodyTorque(s, SimTK::Vec3(0, 0, -f), forces);
+        continue;
+      }
+      const SimTK::Vec3 along = f * axis(s, r);
+      const SimTK::Vec3 p = r.b.findStationLocationInGround(s, r.ub);
+      r.b.applyForceToBodyPoint(s, r.ub, along, forces);
+      r.a.applyForceToBodyPoint(s, r.a.findStationAtGroundPoint(s, p), -along, forces);
+    }
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State&) const override { return 0.0; }
+  void realizeTopology(SimTK::State& s) const override {
+    z_ = forces_.allocateZ(s, SimTK::Vector(1, 0.0));
+  }
+  void realizeAcceleration(const SimTK::State& s) const override {
+    double power = 0.0;
+    for (const Rough& r : rough_) power += friction(s, r) * rate(s, r);
+    forces_.updZDot(s)[z_] = power;
+  }
+
+ private:
+  struct Rough {
+    int joint = -1;  // the Mechanism joint
+    SimTK::MobilizedBody a, b;
+    bool slide = false;
+    SimTK::Vec3 ub, direction;  // the joint's point on b; a slide's line direction on a
+    double speed = 1.0;         // v_s
+    bool held = false;          // the last step ended within v_s of rest
+  };
+  // A slide's line in the ground.
+  static SimTK::Vec3 axis(const SimTK::State& s, const Rough& r) {
+    return r.a.getBodyRotation(s) * r.direction;
+  }
+  // The joint's rate: b's relative to a (about z, or the slider's point along the line).
+  static double rate(const SimTK::State& s, const Rough& r) {
+    if (!r.slide) return r.b.getBodyAngularVelocity(s)[2] - r.a.getBodyAngularVelocity(s)[2];
+    const SimTK::Vec3 p = r.b.findStationLocationInGround(s, r.ub);
+    const SimTK::Vec3 on_a = r.a.findStationVelocityInGround(s, r.a.findStationAtGroundPoint(s, p));
+    return SimTK::dot(r.b.findStationVelocityInGround(s, r.ub) - on_a, axis(s, r));
+  }
+  double friction(const SimTK::State& s, const Rough& r) const {
+    const JointFriction& law = *m_.joints[static_cast<size_t>(r.joint)].friction;
+    double limit = 0.0;
+    if (!loaded_) {
+      limit = law.limit(!r.slide, 0.0, r.held);
+    } else {
+      readback_.pose(s, q_);
+      load_ = last_;
+      if (extrapolated_) load_.add(s.getTime() - t_last_, rate_);
+      limit = friction_limit(m_, r.joint, q_, load_, r.held);
+    }
+    return -limit * std::tanh(rate(s, r) / r.speed);
+  }
+
+  const Mechanism& m_;
+  const Readback& readback_;
+  const SimTK::GeneralForceSubsystem& forces_;
+  std::vector<Rough> rough_;
+  bool loaded_ = false;
+  mutable Eigen::VectorXd q_;
+  ForceReading last_, rate_;  // the reactions at the step's start, and their rate [per s]
+  mutable ForceReading load_;
+  double t_last_;  // the time last_ is at
+  bool extrapolated_;
+  mutable SimTK::ZIndex z_;
+};
+
 // The Simbody system of a scene graph at configuration q with rates qdot, at time t0; its driven
 // mobilizer prescribed by the driver's law when `driven`. Throws (std::exception) when Simbody
 // refuses it.
 class Scene {
  public:
   Scene(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd& q,
-        const Eigen::VectorXd& qdot, double t0, bool driven)
+        const Eigen::VectorXd& qdot, double t0, bool driven,
+        std::optional<FrictionSetup> friction = std::nullopt)
       : m_(m), g_(g), matter_(system_), forces_(system_) {
     body_.resize(g.bodies.size());
     body_[0] = matter_.Ground();
@@ -400,6 +563,10 @@ class Scene {
     readback_.emplace(m, g, body_);
     load_ = new LoadForce(m, g, body_, *readback_, q, !driven);
     SimTK::Force::Custom(forces_, load_);  // Simbody owns load_
+    if (friction) {
+      friction_ = new FrictionForce(m, g, body_, *readback_, q, forces_, std::move(*friction));
+      SimTK::Force::Custom(forces_, friction_);  // Simbody owns friction_
+    }
     // Each driver's mobilizer prescribed by its own law.
     for (size_t di = 0; driven && di < g.driven.size(); ++di) {
       const DrivenCoordinate& d = g.driven[di];
@@ -426,6 +593,7 @@ class Scene {
   const SimTK::State& start() const { return state_; }
   const Readback& readback() const { return *readback_; }
   LoadForce& loads() { return *load_; }
+  FrictionForce* friction() { return friction_; }  // null without joint friction
 
   // The constraint forces at state s (Acceleration stage), in the mechanism's terms: a tree
   // joint's from its mobilizer's reaction, a cut hinge's from its ball; with `effort`, each
@@ -493,6 +661,7 @@ class Scene {
       }
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
+    if (friction_) friction_->write(s, out);
   }
 
  private:
@@ -516,6 +685,7 @@ class Scene {
   std::vector<SimTK::Constraint::CoordinateCoupler> couplers_;  // per SceneCoupling
   std::optional<Readback> readback_;
   LoadForce* load_ = nullptr;
+  FrictionForce* friction_ = nullptr;
   SimTK::State state_;
 };
 
@@ -593,8 +763,10 @@ std::string stopped_at(const Scene& scene, const SimTK::State& s, const std::str
 class SimbodySteps {
  public:
   // `t_end`: the time the run ends at, for the projection of its work.
-  SimbodySteps(Scene& scene, const Config& c, const Eigen::VectorXd& q0, double t_end)
+  SimbodySteps(Scene& scene, const Config& c, const Mechanism& m, const Eigen::VectorXd& q0,
+               double t_end)
       : scene_(scene),
+        reading_(m.joints.size(), m.drivers.size()),
         q_(q0),
         scratch_(scene.start()),
         max_steps_(c.max_steps),
@@ -619,6 +791,17 @@ class SimbodySteps {
   // Advances to time t1; "" or why the integrator could not.
   std::string advance(double t1) {
     try {
+      FrictionForce* friction = scene_.friction();
+      double work_before = 0.0;
+      if (friction) {
+        // The load at the state the step starts from; the advanced state's cache, computed with
+        // the last step's, goes.
+        if (friction->loaded())
+          if (std::string why = forces(false, reading_); !why.empty()) return why;
+        friction->begin_step(integrator_->getState(), friction->loaded() ? &reading_ : nullptr);
+        integrator_->updAdvancedState().invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
+        work_before = friction->work(integrator_->getState());
+      }
       while (integrator_->getTime() < t1) {
         const double before = integrator_->getTime();
         // No more steps in one call than the budget has left, so that it stops at max_steps.
@@ -639,12 +822,14 @@ class SimbodySteps {
         if (std::string why = over_budget(); !why.empty())
           return stopped_at(scene_, integrator_->getState(), why);
       }
+      if (friction) friction_work_ = friction->work(integrator_->getState()) - work_before;
     } catch (const std::exception& e) {
       return stopped_at(scene_, integrator_->getState(), simbody_error(e));
     }
     scene_.readback().pose(integrator_->getState(), q_);
     return "";
   }
+  double friction_work() const { return friction_work_; }  // over the last advance [J]
   // The forces at the current state, with the loads set since it was realized.
   std::string forces(bool effort, ForceReading& out) {
     try {
@@ -699,6 +884,8 @@ class SimbodySteps {
         max_steps_, projected, what(), t - t_begin_, t_end_ - t_begin_);
   }
   Scene& scene_;
+  ForceReading reading_;  // scratch: the friction's load
+  double friction_work_ = 0.0;
   std::unique_ptr<SimTK::Integrator> integrator_;
   Eigen::VectorXd q_;
   SimTK::State scratch_;
@@ -735,21 +922,59 @@ double wanted_step(const Trajectory& reference, const Config& c, const Span& spa
   return step_length(reference, span, c.dt, c.max_step_angle, 0);
 }
 
-Settings common_settings(const Config& c, double dt) {
-  return {{"integrator", c.integrator},
-          {"accuracy", format_number(c.accuracy)},
-          {"constraint_tolerance", format_number(c.constraint_tolerance)},
-          {"max_step", c.max_step > 0.0 ? format_number(c.max_step) : "auto"},
-          {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
-          {"interpolate", c.interpolate ? "1" : "0"},
-          {"dt", format_number(dt)},
-          {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"},
-          {"gap_threshold", format_number(c.gap_threshold)},
-          {"divergence_gap", format_number(c.divergence_gap)},
-          {"mass_model", "the definition's (Link::mass)"},
-          {"singular_rcond", format_number(c.singular_rcond)},
-          {"perturb_link", c.perturb_link},
-          {"max_steps", std::to_string(c.max_steps)}};
+// The friction's setup for a run over `span` of the reference, from time t0 (none without joint
+// friction): each friction joint's v_s the setting's fraction of its fastest rate over the
+// reference's usable samples (of the fastest link's, or that times the size for a slide, where
+// the joint never moves).
+std::optional<FrictionSetup> friction_setup(const Mechanism& m, const Trajectory& reference,
+                                            const Span& span, double t0, const Config& c) {
+  if (!m.has_friction()) return std::nullopt;
+  FrictionSetup out{.t0 = t0,
+                    .start = reference_trend(m, reference, span.first, t0),
+                    .extrapolated = c.extrapolated_load,
+                    .speed = std::vector<double>(m.joints.size(), 0.0)};
+  const std::vector<int> slides = m.slide_joints();
+  const auto omega = [&](int link, int k) {
+    const int i = m.moving_index(link);
+    return i < 0 ? 0.0 : reference.omega(k, i);
+  };
+  for (int ji : m.friction_joints()) {
+    const Joint& j = m.joints[static_cast<size_t>(ji)];
+    const auto slide = std::find(slides.begin(), slides.end(), ji);
+    double fastest = 0.0;
+    for (int k = span.first; k <= span.last; ++k) {
+      if (!usable(reference.status[static_cast<size_t>(k)])) continue;
+      const double rate = slide != slides.end() ? reference.sdot(k, slide - slides.begin())
+                                                : omega(j.link_b, k) - omega(j.link_a, k);
+      fastest = std::max(fastest, std::abs(rate));
+    }
+    if (fastest == 0.0) fastest = fastest_rate(reference, span) * (j.is_slide() ? m.size() : 1.0);
+    out.speed[static_cast<size_t>(ji)] = c.friction_speed * (fastest > 0.0 ? fastest : 1.0);
+  }
+  return out;
+}
+
+Settings common_settings(const Config& c, double dt, bool friction) {
+  Settings values = {
+      {"integrator", c.integrator},
+      {"accuracy", format_number(c.accuracy)},
+      {"constraint_tolerance", format_number(c.constraint_tolerance)},
+      {"max_step", c.max_step > 0.0 ? format_number(c.max_step) : "auto"},
+      {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
+      {"interpolate", c.interpolate ? "1" : "0"},
+      {"dt", format_number(dt)},
+      {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"},
+      {"gap_threshold", format_number(c.gap_threshold)},
+      {"divergence_gap", format_number(c.divergence_gap)},
+      {"mass_model", "the definition's (Link::mass)"},
+      {"singular_rcond", format_number(c.singular_rcond)},
+      {"perturb_link", c.perturb_link},
+      {"max_steps", std::to_string(c.max_steps)}};
+  if (friction) {
+    values.push_back(friction_load_value(c.extrapolated_load));
+    values.emplace_back("friction_speed", format_number(c.friction_speed));
+  }
+  return values;
 }
 
 // A kinematic run's scene for the shared run loop: the driven mobilizer follows the law by
@@ -803,6 +1028,7 @@ class SimbodyDynamicsScene final : public DynamicsScene {
   }
   long evaluations() const override { return steps_.evaluations(); }
   std::string note() const override { return steps_.note(c_); }
+  double friction_work() const override { return steps_.friction_work(); }
 
  private:
   struct Kept {
@@ -839,7 +1065,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   }
   const Config& c = p.config;
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  Settings values = common_settings(c, plan.grid.dt);
+  Settings values = common_settings(c, plan.grid.dt, p.m.has_friction());
   values.insert(
       values.end(),
       {{"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
@@ -847,12 +1073,14 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
        {"energy_threshold", format_number(c.energy_threshold)},
        {"divergence_energy", format_number(c.divergence_energy)},
        {"energy_scale", fmt::format("{:.6g} J", energy_scale)}});
-  out.settings = printed_settings(simbody_settings(), RunKind::dynamics, values);
+  out.settings =
+      printed_settings(simbody_settings(), RunKind::dynamics, values, p.m.has_friction());
   std::optional<Scene> scene;
   std::optional<SimbodySteps> steps;
   try {
-    scene.emplace(p.m, p.graph, plan.start.q, plan.start.qdot, plan.grid.time.front(), false);
-    steps.emplace(*scene, c, plan.start.q, plan.grid.time.back());
+    scene.emplace(p.m, p.graph, plan.start.q, plan.start.qdot, plan.grid.time.front(), false,
+                  friction_setup(p.m, reference, plan.span, plan.grid.time.front(), c));
+    steps.emplace(*scene, c, p.m, plan.start.q, plan.grid.time.back());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
   }
@@ -870,14 +1098,6 @@ class SimbodyEngine final : public Engine {
   const SettingSchema& settings_schema() const override { return simbody_settings(); }
 
   bool supports(const Mechanism& mechanism, std::string* why) const override {
-    if (const std::string rough =
-            unmodelled_friction(mechanism,
-                                "Simbody 3.7 has no Coulomb joint friction element "
-                                "(docs/engines.md, \"Joint friction\")");
-        !rough.empty()) {
-      if (why) *why = rough;
-      return false;
-    }
     try {
       const SceneGraph g = simbody_graph(mechanism);
       if (const std::string problem = driver_problem(g); !problem.empty() && !mechanism.dynamics) {
@@ -915,19 +1135,21 @@ class SimbodyEngine final : public Engine {
       return failed_run(std::move(out), e.what());
     }
     const Config& c = p.config;
-    Settings values = common_settings(c, plan.grid.dt);
+    Settings values = common_settings(c, plan.grid.dt, p.m.has_friction());
     values.insert(values.end(),
                   {{"driver_threshold", format_number(c.driver_threshold)},
                    {"forces",
                     "mobilizer reactions, ball constraint forces and the driven mobilizer's "
                     "prescribed-motion force at the pose each step leaves"},
                    {"branch_distance", format_number(c.branch_distance)}});
-    out.settings = printed_settings(simbody_settings(), RunKind::kinematic, values);
+    out.settings =
+        printed_settings(simbody_settings(), RunKind::kinematic, values, p.m.has_friction());
     std::optional<Scene> scene;
     std::optional<SimbodySteps> steps;
     try {
-      scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true);
-      steps.emplace(*scene, c, plan.q, plan.grid.time.back());
+      scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true,
+                    friction_setup(p.m, reference, plan.span, plan.grid.time.front(), c));
+      steps.emplace(*scene, c, p.m, plan.q, plan.grid.time.back());
     } catch (const std::exception& e) {
       return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
     }
