@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -123,32 +122,58 @@ FrictionError friction_error(const Trajectory& exact, const Trajectory& engine) 
 // linearly from the last two steps (the default) it is second order and, at the default step,
 // within the 0.3 % of peak compare holds ODE's and Bullet's forces to.
 TEST(EngineFriction, LoadDependentFrictionIsFirstOrderLateOrSecondOrderExtrapolated) {
-  const std::vector<std::array<std::string, 3>> steps = {
+  struct Steps {
+    std::string engine, coarse, fine;  // max_step_angle
+  };
+  const std::vector<Steps> engines = {
       {"ode", "0.01", "0.005"}, {"bullet", "0.01", "0.005"}, {"simbody", "0.0025", "0.00125"}};
-  for (const auto& [engine, coarse_angle, fine_angle] : steps) {
-    for (const char* name : {"slider_crank_friction", "bevan_eccentric_friction"}) {
-      const Mechanism m = friction_mechanism(name);
-      const Trajectory exact = sweep(m);
+  for (const char* name : {"slider_crank_friction", "bevan_eccentric_friction"}) {
+    const Mechanism m = friction_mechanism(name);
+    const Trajectory exact = sweep(m);
+    for (const Steps& steps : engines) {
+      SCOPED_TRACE(steps.engine + " on " + name);
       const auto late = [&](const std::string& step_angle) {
         return friction_error(
-            exact, run_engine(engine, m, exact,
+            exact, run_engine(steps.engine, m, exact,
                               {{"friction_load", "last"}, {"max_step_angle", step_angle}})
                        .trajectory);
       };
-      const FrictionError coarse = late(coarse_angle), fine = late(fine_angle);
-      EXPECT_GT(coarse.rms / fine.rms, 1.7) << engine << " on " << name;
-      EXPECT_LT(coarse.rms / fine.rms, 2.4) << engine << " on " << name;
+      const FrictionError coarse = late(steps.coarse), fine = late(steps.fine);
+      EXPECT_GT(coarse.rms / fine.rms, 1.7);
+      EXPECT_LT(coarse.rms / fine.rms, 2.4);
       const FrictionError extrapolated =
-          friction_error(exact, run_engine(engine, m, exact).trajectory);
-      EXPECT_LT(extrapolated.rms, coarse.rms / 5) << engine << " on " << name;
-      EXPECT_LT(extrapolated.worst, 0.3e-2) << engine << " on " << name;
+          friction_error(exact, run_engine(steps.engine, m, exact).trajectory);
+      EXPECT_LT(extrapolated.rms, coarse.rms / 5);
+      EXPECT_LT(extrapolated.worst, 0.3e-2);
     }
-    // The four-bar's massless crank between two friction pins (its pins' loads change 95 rad/s
-    // fast): extrapolated, within compare's force tolerance too.
-    const Mechanism m = friction_mechanism("fourbar_friction_circles");
+  }
+  // The four-bar's massless crank between two friction pins (its pins' loads change 95 rad/s
+  // fast): extrapolated, within compare's force tolerance too.
+  const Mechanism m = friction_mechanism("fourbar_friction_circles");
+  const Trajectory exact = sweep(m);
+  for (const Steps& steps : engines)
+    EXPECT_LT(friction_error(exact, run_engine(steps.engine, m, exact).trajectory).worst, 0.3e-2)
+        << steps.engine;
+}
+
+// Bullet's Dantzig solve can fail on the loops' redundant friction rows at some steps (on the
+// four-bar at steps of 5e-5 to 1.5e-4 s, one step in a run; which one depends on the step); its
+// fallback, sequential impulse, once read the four-bar's friction 95 % of peak off in samples
+// still marked ok. A failed solve is retried with the friction rows softer instead: over those
+// steps no run falls back, each says when it retried, and every friction keeps the error of its
+// step (0.075 to 0.33 % of peak, measured; 0.14 % at the default step), far from the fallback's.
+TEST(EngineFriction, BulletRetriesAFailedFrictionSolveSofterRatherThanFallBack) {
+  for (const char* name : {"fourbar_friction_circles", "slider_crank_friction"}) {
+    const Mechanism m = friction_mechanism(name);
     const Trajectory exact = sweep(m);
-    EXPECT_LT(friction_error(exact, run_engine(engine, m, exact).trajectory).worst, 0.3e-2)
-        << engine;
+    int retried = 0;
+    for (const char* dt : {"5e-05", "7e-05", "9.186e-05", "1.2e-04", "1.5e-04"}) {
+      const EngineRun run = run_engine("bullet", m, exact, {{"dt", dt}});
+      EXPECT_EQ(run.message.find("fell back"), std::string::npos) << name << " at " << dt;
+      retried += run.message.find("retried softer") != std::string::npos;
+      EXPECT_LT(friction_error(exact, run.trajectory).worst, 0.5e-2) << name << " at " << dt;
+    }
+    EXPECT_GT(retried, 0) << name;
   }
 }
 
