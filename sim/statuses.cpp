@@ -1,9 +1,11 @@
 #include "sim/statuses.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <utility>
+#include <vector>
 
 #include "analytic/model/units_text.h"
 #include "analytic/reference/trust.h"
@@ -96,22 +98,26 @@ std::string dynamics_span_note(const Trajectory& reference, Span span) {
 }
 
 std::string creep_note(const Mechanism& m, const Trajectory& reference, const Trajectory& run) {
-  if (!reference.held_from) return "";
-  int first = -1;
-  double creep = 0.0;
-  for (int k = 0; k < run.samples(); ++k) {
-    if (reference.time(k) <= *reference.held_from || !usable(run.status[static_cast<size_t>(k)]))
-      continue;
-    if (first < 0) first = k;
-    creep = std::max(creep, std::abs(run.driver_values(k, 0) - run.driver_values(first, 0)));
+  double creep = 0.0, held = 0.0;
+  std::vector<std::string> windows;
+  for (const auto& [from, to] : reference.held) {
+    int first = -1, last = -1;
+    for (int k = 0; k < run.samples(); ++k) {
+      if (reference.time(k) <= from || reference.time(k) > to ||
+          !usable(run.status[static_cast<size_t>(k)]))
+        continue;
+      if (first < 0) first = k;
+      last = k;
+      creep = std::max(creep, std::abs(run.driver_values(k, 0) - run.driver_values(first, 0)));
+    }
+    if (first < 0) continue;
+    held += reference.time(last) - reference.time(first);
+    windows.push_back(fmt::format("{:.6g} .. {:.6g}", reference.time(first), reference.time(last)));
   }
-  if (first < 0) return "";
-  const int last = run.samples() - 1;
+  if (windows.empty()) return "";
   return fmt::format(
-      "creep: {:.3g} {} in the {:.6g} s the exact motion is held at rest by friction (t = {:.6g} "
-      ".. {:.6g} s)",
-      creep, m.drivers.front().angular() ? "rad" : "m",
-      reference.time(last) - reference.time(first), reference.time(first), reference.time(last));
+      "creep: {:.3g} {} in the {:.6g} s the exact motion is held at rest by friction (t = {} s)",
+      creep, m.drivers.front().angular() ? "rad" : "m", held, fmt::join(windows, ", "));
 }
 
 std::string energy_drift_note(double threshold, double energy_scale, const Trajectory& reference,

@@ -82,8 +82,8 @@ void note_loop_gaps(int flagged, const Eigen::VectorXd& gaps, double threshold,
 void add_note(std::string& message, const std::string& note);
 
 // Joint friction: how far a dynamics run's coordinate moves while the exact motion is held at
-// rest (Trajectory::held_from), its largest departure from the first usable held sample; "" when
-// the exact motion is never held.
+// rest (Trajectory::held), its largest departure from the first usable sample of each time it is
+// held; "" when the exact motion is never held.
 std::string creep_note(const Mechanism& m, const Trajectory& reference, const Trajectory& run);
 
 // A run that could not be made: its reason, and every sample diverged (no engine value).

@@ -735,23 +735,10 @@ void check_friction(Reader& r, const Mechanism& m) {
               fmt::format("joint friction beside a gear pair ('{}') is not modelled yet: its "
                           "tooth force's separating part makes the pivots' reactions piecewise",
                           j.name));
-  if (m.dynamics) {
-    // At rest, held by friction, a mechanism stays for good only while nothing applied to it
-    // changes: a breakaway in time is not located yet.
-    const auto changes = [](const FreeCoordinate& c) {
-      return std::ranges::any_of(
-          c.effort, [&](const auto& row) { return row.second != c.effort.front().second; });
-    };
-    if (m.drivers.size() > 1)
-      r.error(first.friction->where,
-              "forward dynamics with joint friction and several free coordinates is not "
-              "modelled yet: one joint may stick while another slides");
-    else if (changes(*m.dynamics))
-      r.error(first.friction->where,
-              "forward dynamics with joint friction under an effort that changes in time is not "
-              "modelled yet: a mechanism held at rest would break away at an instant that is "
-              "not located; give a constant effort");
-  }
+  if (m.dynamics && m.drivers.size() > 1)
+    r.error(first.friction->where,
+            "forward dynamics with joint friction and several free coordinates is not modelled "
+            "yet: one joint may stick while another slides");
   const double unit = m.units.length;
   const std::string& name = m.units.length_name;
   const double size = m.size();

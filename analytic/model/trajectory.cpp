@@ -93,7 +93,7 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   loop_gap.setZero(samples);
   events.clear();
   stops.clear();
-  held_from.reset();
+  held.clear();
 
   transmission.clear();
   if (const auto fb = four_bar(mechanism)) transmission = {fb->b, fb->c, fb->d};

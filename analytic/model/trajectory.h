@@ -186,10 +186,10 @@ struct Trajectory {
   };
   std::vector<Event> events;
   // Forward dynamics with joint friction: the instants [s] a friction joint's sliding stops (to
-  // turn back or to be held), where its acceleration and its friction jump.
+  // turn back or to be held) or, held, breaks away, where its acceleration and its friction jump.
   std::vector<double> stops;
-  // At rest, held by friction, from this instant [s] to the end (none: it never is).
-  std::optional<double> held_from;
+  // At rest, held by friction, over each (from, to) [s] (to: the run's end when it stays).
+  std::vector<std::pair<double, double>> held;
 
   // Shapes every array for `samples` rows from the mechanism's name lists (the only allocation;
   // solvers then write rows in place). Force arrays are shaped and has_forces set only

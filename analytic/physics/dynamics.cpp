@@ -613,9 +613,11 @@ class SampleWriter {
 // 7(8), or Dormand-Prince 5(4)), each phase's friction opposing its direction of sliding; a step
 // over which the rate reaches zero is cut at that instant, found by bisection on single steps from
 // the step's start (on the phase's smooth motion, to 1e-14 of the time), and there the mechanism
-// either breaks away again (its direction from the static limits) or stays at rest, held: its loads
-// and effort are constant in time (the loader refuses an effort that changes with friction), so it
-// stays for good.
+// either breaks away again (its direction from the static limits) or stays at rest, held. Held,
+// only the effort changes in time (its loads are functions of the pose and its rates): it breaks
+// away at the first instant the effort, linear between its rows, takes it past a static limit,
+// found at its rows and by bisection inside the row interval it first does (to 1e-14 of the time),
+// or it stays for good.
 template <class Stepper>
 void integrate_phases(const Mechanism& mechanism, const SimulationOptions& options,
                       const std::vector<double>& times, double interval, EquationOfMotion& eom,
@@ -644,7 +646,7 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
     out.stops.emplace_back(t, y[0]);
     out.trajectory.stops.push_back(t);
     out.held = direction == 0;
-    if (out.held) out.trajectory.held_from = t;
+    if (out.held) out.trajectory.held.emplace_back(t, times.back());
     // One friction joint holds it with the friction that balances the loads (solve_held); how
     // several divide the load is not determined.
     const bool determined = mechanism.friction_joints().size() == 1;
@@ -657,6 +659,36 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
                                   : " (its forces inside the friction cones are not "
                                     "determined)")});
   };
+  // Held at x from t: the first instant in (t, end] the effort breaks it away (its direction
+  // set), or none (held to end). The effort is linear between its rows, so the held mechanism's
+  // margin to its static limits is monotone between them: each row interval's end is tried, and
+  // the first that breaks away is bisected.
+  const std::vector<std::pair<double, double>>& effort = mechanism.dynamics->effort;
+  const bool effort_changes = std::ranges::any_of(
+      effort, [&](const auto& row) { return row.second != effort.front().second; });
+  const auto breaks_away = [&](double from, double end, double d) -> std::optional<double> {
+    if (!effort_changes) return std::nullopt;
+    std::vector<double> ends;
+    for (const auto& row : effort)
+      if (row.first > from && row.first < end) ends.push_back(row.first);
+    ends.push_back(end);
+    double lo = from;
+    for (const double hi : ends) {
+      if (eom.breakaway(hi, d) == 0) {
+        lo = hi;
+        continue;
+      }
+      double a = lo, b = hi;
+      while (b - a > 1e-14 * std::max(b, interval)) {
+        const double mid = 0.5 * (a + b);
+        (eom.breakaway(mid, d) == 0 ? a : b) = mid;
+      }
+      eom.set_direction(eom.breakaway(b, d));
+      return b;
+    }
+    eom.set_direction(0);
+    return std::nullopt;
+  };
   double t = 0.0, dt = std::min(interval, kFirstStep);
   if (x[1] == 0.0)
     at_rest(t, x);
@@ -665,7 +697,23 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
   observe(x, times[0]);
   for (size_t k = 1; k < times.size(); ++k) {
     const double end = times[k];
-    while (t < end && eom.direction() != 0) {
+    while (t < end) {
+      if (eom.direction() == 0) {
+        const std::optional<double> away = breaks_away(t, end, x[0]);
+        if (!away) break;  // held through this interval
+        t = *away;
+        out.trajectory.held.back().second = t;
+        out.trajectory.stops.push_back(t);
+        out.held = false;
+        out.trajectory.events.push_back(
+            {t, PoseStatus::ok,
+             fmt::format("breaks away at t = {:.12g} s, coordinate {}: the effort overcomes the "
+                         "static friction",
+                         t, units.text(x[0], 12))});
+        forget(stepper);
+        dt = std::min(interval, kFirstStep);
+        continue;
+      }
       State trial = x;
       double from = t, h = std::min(dt, end - t);
       if (stepper.try_step(std::ref(eom), trial, from, h) == odeint::fail) {
@@ -697,7 +745,7 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
       forget(stepper);
       dt = std::min(interval, kFirstStep);
     }
-    t = end;  // at rest, it stays
+    t = end;
     observe(x, end);
   }
 }

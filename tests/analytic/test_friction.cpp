@@ -422,11 +422,6 @@ TEST(Friction, WrongFrictionIsRefusedAtItsKey) {
   ASSERT_NE(gear, std::string::npos);
   gears.insert(gears.find('\n', gear) + 1, "friction = { coefficient = 0.1 }\n");
   expect_refused(gears, "friction = { coefficient = 0.1 }", "its teeth have no friction");
-  // Not modelled yet, said at the friction: forward dynamics under an effort that changes.
-  expect_refused(test::source_text("mechanisms/friction/slider_crank_friction.toml") +
-                     "\n[dynamics]\nduration = 0.1\ninterval = 0.01\nrate = 10\n"
-                     "effort_table = [[0, 0], [1, 5]]\n",
-                 main_bearing, "under an effort that changes in time");
   expect_refused(with_friction("friction = { coefficient = 0.02, radius = 0.12 }",
                                "friction = { coefficient = 0.1, static_coefficient = 0.05, "
                                "radius = 0.12 }"),
@@ -460,6 +455,65 @@ TEST(FrictionDynamics, ABlockSlidesToRestAndSticksAsTheClosedFormSays) {
       EXPECT_NEAR(t.friction(k, 0), -2 * g * std::sin(alpha), 1e-9);
     EXPECT_NEAR(t.fn(k, 0), 2 * g * std::cos(alpha), 1e-9) << time;
   }
+}
+
+// A block held at rest on the slope by static friction, pushed down it by an effort that rises
+// 20 N a second to 20 N at 1 s, then held (effort_table): it breaks away when m g sin(alpha) +
+// F(t) reaches mu_s N, at t* = (mu_s N - m g sin(alpha)) / 20, and then slides with
+// a = ((mu_s - mu_k) N + 20 u) / m, u = t - t*: v = ((mu_s - mu_k) N u + 10 u^2) / m,
+// s = ((mu_s - mu_k) N u^2 / 2 + 10 u^3 / 3) / m, and from 1 s on at the constant acceleration
+// it has reached.
+// Until t* its friction is what holds it, m g sin(alpha) + F(t) up the slope; the energy balance
+// holds throughout, and the breakaway is an event and a stop (beside_stop).
+TEST(FrictionDynamics, AHeldBlockBreaksAwayWhenARisingEffortOvercomesItsStaticFriction) {
+  std::string text = test::source_text("mechanisms/friction/block_sliding_to_rest.toml");
+  const std::string launched = "rate = 3";
+  const size_t at = text.find(launched);
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, launched.size(), "rate = 0\neffort_table = [[0, 0], [1, 20]]");
+  const Mechanism m = parse_mechanism(text, "held_block.toml");
+  const Simulation run = simulate(m);
+  ASSERT_TRUE(run.ok) << run.message;
+  const double mass = 2.0, g = 9.81, alpha = std::numbers::pi / 6;
+  const double normal = mass * g * std::cos(alpha), along = mass * g * std::sin(alpha);
+  const double breakaway = (0.9 * normal - along) / 20.0;
+  const Trajectory& t = run.trajectory;
+  ASSERT_EQ(t.held.size(), 1u);
+  EXPECT_EQ(t.held[0].first, 0.0);
+  EXPECT_NEAR(t.held[0].second, breakaway, 1e-12);
+  EXPECT_FALSE(run.held);
+  ASSERT_EQ(t.stops.size(), 2u);  // the start at rest and the breakaway
+  EXPECT_NEAR(t.stops[1], breakaway, 1e-12);
+  EXPECT_TRUE(std::ranges::any_of(t.events, [&](const Trajectory::Event& e) {
+    return std::abs(e.driver - breakaway) < 1e-12 && e.message.find("breaks away") == 0;
+  }));
+  const double jump = (0.9 - 0.8) * normal;  // the friction's drop at the breakaway [N]
+  const auto ramp = [&](double u, double& s, double& v) {
+    s = (jump * u * u / 2 + 10.0 * u * u * u / 3) / mass;
+    v = (jump * u + 10.0 * u * u) / mass;
+  };
+  int sliding = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    const double time = t.time(k), u = std::max(0.0, time - breakaway);
+    const double u1 = 1.0 - breakaway, late = std::max(0.0, u - u1);
+    double s = 0.0, v = 0.0;
+    ramp(std::min(u, u1), s, v);
+    const double a1 = (jump + 20.0 * u1) / mass;
+    s += v * late + a1 * late * late / 2;
+    v += a1 * late;
+    EXPECT_NEAR(t.s(k, 0), s, 1e-9) << time;
+    EXPECT_NEAR(t.sdot(k, 0), v, 1e-9) << time;
+    EXPECT_LT(run.energy_error(k), 1e-11) << time;
+    if (t.beside_stop(k)) continue;
+    EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << time;
+    if (time < breakaway) {  // held: what balances gravity and the effort along the slope
+      EXPECT_NEAR(t.friction(k, 0), -(along + 20.0 * time), 1e-9) << time;
+    } else {
+      EXPECT_NEAR(t.friction(k, 0), -0.8 * normal, 1e-9) << time;
+      ++sliding;
+    }
+  }
+  EXPECT_GT(sliding, 100);
 }
 
 // A pendulum with a constant friction torque T at its pivot, released at rest: between two
