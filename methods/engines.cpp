@@ -76,6 +76,14 @@ std::vector<EngineEntry> make_table() {
                {"Euler/PGS", fixed({{"solver", "PGS"}})},
                {"Euler/Newton soft (MuJoCo default solref 0.02 1)",
                 fixed({{"solref", "0.02 1"}, {"solimp", "0.9 0.95 0.001 0.5 2"}})},
+           },
+       // Joint friction (docs/engines.md, "Joint friction"): its load one step late, and
+       // MuJoCo's own friction softness.
+       .friction_variants =
+           {
+               {"Euler/Newton friction load of the last step", fixed({{"friction_load", "last"}})},
+               {"Euler/Newton friction solref 0.02 1 (MuJoCo default)",
+                fixed({{"friction_solref", "0.02 1"}})},
            }},
       {.name = "bullet",
        .description = "Bullet 3.24 float64 scene",
@@ -107,6 +115,13 @@ std::vector<EngineEntry> make_table() {
                {"multibody/SI 100 it erp 1", fixed({{"formulation", "multibody"},
                                                     {"solver", "sequential_impulse"},
                                                     {"iterations", "100"}})},
+           },
+       // Joint friction: its load one step late, and softer friction rows.
+       .friction_variants =
+           {
+               {"rigid/MLCP Dantzig friction load of the last step",
+                fixed({{"friction_load", "last"}})},
+               {"rigid/MLCP Dantzig friction cfm 1e-6", fixed({{"friction_cfm", "1e-6"}})},
            }},
       {.name = "ode",
        .description = "ODE 0.16 double-precision scene",
@@ -135,6 +150,12 @@ std::vector<EngineEntry> make_table() {
                {"dWorldStep erp 0.2 (ODE default)", fixed({{"erp", "0.2"}})},
                {"dWorldStep cfm 1e-5 (ODE float default)", fixed({{"cfm", "1e-5"}})},
                {"dWorldStep finite rotation off", fixed({{"finite_rotation", "0"}})},
+           },
+       // Joint friction: its load one step late, and softer friction motors.
+       .friction_variants =
+           {
+               {"dWorldStep friction load of the last step", fixed({{"friction_load", "last"}})},
+               {"dWorldStep friction cfm 1e-6", fixed({{"friction_cfm", "1e-6"}})},
            }},
       // Simbody: reduced coordinates, error-controlled integration and constraint projection
       // (docs/engines.md, "Simbody"). Its forces are read at exact states (crank-rocker under
@@ -163,6 +184,14 @@ std::vector<EngineEntry> make_table() {
                {"Feldberg accuracy 1e-8", fixed({{"integrator", "feldberg"}})},
                {"CPodes accuracy 1e-8", fixed({{"integrator", "cpodes"}})},
                {"Merson constraint tolerance 1e-6", fixed({{"constraint_tolerance", "1e-6"}})},
+           },
+       // Joint friction: its regularisation's transition speed either side of the default, and
+       // its load from the step's start alone.
+       .friction_variants =
+           {
+               {"Merson friction speed 1e-3", fixed({{"friction_speed", "1e-3"}})},
+               {"Merson friction speed 1e-5", fixed({{"friction_speed", "1e-5"}})},
+               {"Merson friction load of the step's start", fixed({{"friction_load", "last"}})},
            }},
   };
 }

@@ -34,6 +34,9 @@ struct EngineEntry {
   compare::ClassTolerances tolerances, dynamics_tolerances;
   // The settings sweep's variants, the engine's default first (docs/sweep.md).
   std::vector<Variant> variants, dynamics_variants;
+  // Joint friction's variants, added to either for a mechanism with it (their settings are the
+  // engine's friction settings, which only such a mechanism takes).
+  std::vector<Variant> friction_variants;
 };
 
 // Every engine, in report order.

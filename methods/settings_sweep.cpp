@@ -142,9 +142,13 @@ std::string_view to_string(RunStatus s) {
 // ---------------------------------------------------------------------------------------------
 // Grids
 
-std::vector<Variant> engine_variants(std::string_view engine, bool dynamics) {
-  if (const EngineEntry* entry = find_engine(engine))
-    return dynamics ? entry->dynamics_variants : entry->variants;
+std::vector<Variant> engine_variants(std::string_view engine, bool dynamics, bool friction) {
+  if (const EngineEntry* entry = find_engine(engine)) {
+    std::vector<Variant> out = dynamics ? entry->dynamics_variants : entry->variants;
+    if (friction)
+      out.insert(out.end(), entry->friction_variants.begin(), entry->friction_variants.end());
+    return out;
+  }
   throw std::invalid_argument(fmt::format("no settings grid for '{}' (engines: {})", engine,
                                           fmt::join(engine_names(), ", ")));
 }
@@ -160,12 +164,12 @@ std::vector<double> accuracy_time_steps(double interval) {
 }
 
 std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts,
-                                   bool dynamics) {
+                                   bool dynamics, bool friction) {
   std::vector<double> sorted = dts;
   std::sort(sorted.begin(), sorted.end(), std::greater<>());
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
   std::vector<GridPoint> grid;
-  const std::vector<Variant> variants = engine_variants(engine, dynamics);
+  const std::vector<Variant> variants = engine_variants(engine, dynamics, friction);
   for (double dt : sorted)
     for (const Variant& v : variants)
       grid.push_back({std::string(engine), v.name, dt, v.settings(dt)});
@@ -816,7 +820,8 @@ Selection cheapest_setting(const Mechanism& mechanism, ReferenceLadder& ladder,
                            const std::vector<double>& dts, const sim::Settings& base,
                            const Progress& progress, int repeat, int jobs) {
   if (!(accuracy_pct > 0.0)) throw std::invalid_argument("the accuracy must be a positive %");
-  const std::vector<GridPoint> grid = engine_grid(engine, dts, mechanism.dynamics.has_value());
+  const std::vector<GridPoint> grid =
+      engine_grid(engine, dts, mechanism.dynamics.has_value(), mechanism.has_friction());
   std::vector<SweepRow> rows;
   Selection s;
   // A time step's variants at once, then the next finer step: stop at the end of the first time
@@ -872,7 +877,8 @@ SettingsSweep run_settings_sweep(const Mechanism& mechanism, const SettingsSweep
           fmt::format("{}: not an engine ({})", engine, fmt::join(engine_names(), ", ")));
       continue;
     }
-    const std::vector<GridPoint> g = engine_grid(engine, snapped, out.dynamics);
+    const std::vector<GridPoint> g =
+        engine_grid(engine, snapped, out.dynamics, mechanism.has_friction());
     grid.insert(grid.end(), g.begin(), g.end());
   }
 

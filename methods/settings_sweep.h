@@ -90,7 +90,9 @@ struct GridPoint {
 // solvers CG / PGS (Euler), loop softness: MuJoCo's own default solref "0.02 1" / solimp "0.9
 // 0.95 0.001", and the engine-notes (2 dt, 0.5). Bullet: formulation rigid / multibody, solver
 // MLCP Dantzig / sequential impulse (10 and 100 iterations), ERP 1 / 0.2.
-std::vector<Variant> engine_variants(std::string_view engine, bool dynamics = false);
+// A mechanism with joint friction (`friction`) adds the engine's friction variants.
+std::vector<Variant> engine_variants(std::string_view engine, bool dynamics = false,
+                                     bool friction = false);
 
 // The default time steps: 1e-2, 3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5 s (over two decades).
 std::vector<double> default_time_steps();
@@ -102,7 +104,7 @@ std::vector<double> accuracy_time_steps(double interval);
 // Every (time step, variant) of an engine, coarse to fine, the variants in engine_variants()
 // order within one time step.
 std::vector<GridPoint> engine_grid(std::string_view engine, const std::vector<double>& dts,
-                                   bool dynamics = false);
+                                   bool dynamics = false, bool friction = false);
 
 // Reference sweeps whose samples fall on step boundaries. The base sweep (the mechanism's
 // default grid, or SweepOptions::step) has sample interval h. A time step dt <= h is snapped to

@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <sstream>
+#include <string>
 
 #include "analytic/model/loader.h"
 #include "methods/engines.h"
@@ -345,6 +347,30 @@ TEST(Grid, CoarseToFineWithEveryVariantPerStepDefaultFirst) {
       EXPECT_EQ(s[0].second, "0.002 0.5");
     }
   EXPECT_THROW(engine_variants("adams"), std::invalid_argument);
+}
+
+// A mechanism with joint friction adds each engine's friction variants after its others (its
+// error against its friction settings, docs/sweep.md), for kinematic and dynamics cases alike;
+// each sets only friction settings, every one of them the engine takes for such a mechanism.
+TEST(Grid, FrictionAddsEachEnginesFrictionVariantsWhichItsSettingsTake) {
+  const Mechanism rough = load_mechanism(mechanism_path("friction/fourbar_friction_circles"));
+  for (const EngineEntry& e : engine_table())
+    for (const bool dynamics : {false, true}) {
+      const std::vector<Variant> plain = engine_variants(e.name, dynamics);
+      const std::vector<Variant> with = engine_variants(e.name, dynamics, true);
+      ASSERT_GE(e.friction_variants.size(), 2u) << e.name;
+      ASSERT_EQ(with.size(), plain.size() + e.friction_variants.size()) << e.name;
+      for (size_t i = 0; i < plain.size(); ++i) EXPECT_EQ(with[i].name, plain[i].name);
+      const std::unique_ptr<sim::Engine> engine = e.make();
+      for (size_t i = plain.size(); i < with.size(); ++i) {
+        const sim::Settings s = with[i].settings(1e-3);
+        ASSERT_FALSE(s.empty()) << with[i].name;
+        for (const auto& setting : s)
+          EXPECT_EQ(setting.first.rfind("friction_", 0), 0u) << with[i].name;
+        EXPECT_NO_THROW(engine->check_settings(rough, s)) << with[i].name;
+      }
+      EXPECT_EQ(engine_grid(e.name, {1e-3}, dynamics, true).size(), with.size());
+    }
 }
 
 TEST(Grid, DefaultTimeStepsSpanTwoDecades) {
