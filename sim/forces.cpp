@@ -338,9 +338,11 @@ void FrictionLoads::record(const ForceReading* reading, double h) {
     last_.add(h, rate_);
     return;
   }
-  rate_.set_zero();
-  rate_.add(1.0 / h, *reading);
-  rate_.add(-1.0 / h, last_);
+  if (h > 0.0) {  // else it replaces a reading at the same instant, whose rate stands
+    rate_.set_zero();
+    rate_.add(1.0 / h, *reading);
+    rate_.add(-1.0 / h, last_);
+  }
   last_ = *reading;
 }
 

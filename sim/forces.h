@@ -169,7 +169,8 @@ class FrictionLoads {
   const ForceReading& next(double h);
   // Whether the step about to end is read (the reading then goes to record).
   bool reads() const { return steps_ + 1 > transients_; }
-  // The step of h ended with `reading` (null when reads() was false).
+  // The step of h ended with `reading` (null when reads() was false; with h = 0 the reading
+  // replaces the last, at the same instant, and the rate stands).
   void record(const ForceReading* reading, double h);
 
  private:

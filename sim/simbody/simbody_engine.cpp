@@ -376,11 +376,8 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
         readback_(readback),
         forces_(forces),
         q_(q0),
-        last_(std::move(setup.start.at)),
-        rate_(std::move(setup.start.rate)),
-        load_(last_),
-        t_last_(setup.t0),
-        extrapolated_(setup.extrapolated) {
+        loads_(std::move(setup.start), setup.extrapolated, 0),
+        t_last_(setup.t0) {
     for (const SceneJoint& j : g.joints) {
       if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction) continue;
       const JointFriction& f = *m.joints[static_cast<size_t>(j.source)].friction;
@@ -399,16 +396,7 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
   // loaded()), and whether each joint is held.
   void begin_step(const SimTK::State& s, const ForceReading* reading) {
     const double t = s.getTime();
-    if (reading) {
-      if (t > t_last_) {  // else the start's: its rate the reference's
-        rate_.set_zero();
-        rate_.add(1.0 / (t - t_last_), *reading);
-        rate_.add(-1.0 / (t - t_last_), last_);
-      }
-      last_ = *reading;
-    } else {
-      last_.add(t - t_last_, rate_);
-    }
+    loads_.record(reading, t - t_last_);  // at the start, its reading replaces the reference's
     t_last_ = t;
     for (Rough& r : rough_) r.held = std::abs(rate(s, r)) < r.speed;
   }
@@ -476,9 +464,7 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
       limit = law.limit(!r.slide, 0.0, r.held);
     } else {
       readback_.pose(s, q_);
-      load_ = last_;
-      if (extrapolated_) load_.add(s.getTime() - t_last_, rate_);
-      limit = friction_limit(m_, r.joint, q_, load_, r.held);
+      limit = friction_limit(m_, r.joint, q_, loads_.next(s.getTime() - t_last_), r.held);
     }
     return -limit * std::tanh(rate(s, r) / r.speed);
   }
@@ -489,10 +475,9 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
   std::vector<Rough> rough_;
   bool loaded_ = false;
   mutable Eigen::VectorXd q_;
-  ForceReading last_, rate_;  // the reactions at the step's start, and their rate [per s]
-  mutable ForceReading load_;
-  double t_last_;  // the time last_ is at
-  bool extrapolated_;
+  // The reactions at the step's start and their rate (no transients: Simbody's own state's).
+  mutable FrictionLoads loads_;
+  double t_last_;  // the time of the last reading
   mutable SimTK::ZIndex z_;
 };
 
