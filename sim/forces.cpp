@@ -363,6 +363,40 @@ bool friction_held(double friction, double limit) {
   return std::abs(friction) < (1.0 - 1e-6) * limit;
 }
 
+FrictionBounds::FrictionBounds(const Mechanism& m, std::vector<int> joints, ReadingTrend start,
+                               bool extrapolated, int transients)
+    : m_(m), loads_(std::move(start), extrapolated, transients) {
+  for (int ji : joints) {
+    const Joint& j = m.joints[static_cast<size_t>(ji)];
+    joints_.push_back({ji});
+    loaded_ |= j.friction->load_dependent();
+    slide_loaded_ |= j.friction->load_dependent() && j.is_slide();
+  }
+}
+
+void FrictionBounds::bound(double h, const Eigen::VectorXd& q,
+                           const std::function<void(size_t, double)>& set) {
+  static const ForceReading kNone;  // a load-independent friction reads no load
+  const ForceReading& load = loaded_ ? loads_.next(h) : kNone;
+  for (size_t i = 0; i < joints_.size(); ++i) {
+    Rough& r = joints_[i];
+    r.limit = friction_limit(m_, r.joint, q, load, r.held);
+    set(i, r.limit);
+  }
+}
+
+double FrictionBounds::settle(double h, const ForceReading* reading,
+                              const std::function<Step(size_t)>& stepped) {
+  double work = 0.0;
+  for (size_t i = 0; i < joints_.size(); ++i) {
+    const Step s = stepped(i);
+    joints_[i].held = friction_held(s.friction, joints_[i].limit);
+    work += s.friction * s.moved;
+  }
+  if (loaded_) loads_.record(reading, h);
+  return work;
+}
+
 ForceStencil force_stencil(double t, long last_step, const std::vector<double>& step_time) {
   ForceStencil s;
   const long first_clean = 2, last_clean = last_step - 1;

@@ -191,6 +191,47 @@ double friction_limit(const Mechanism& m, int joint, const Eigen::VectorXd& q,
 // solver meets its bounds to round-off (within 1e-6 of the limit is at it, sliding).
 bool friction_held(double friction, double limit);
 
+// Joint friction an engine bounds per step as the largest force of a row or a motor at rest (ODE,
+// Bullet and MuJoCo): before each step, each friction joint's limit (friction_limit) under the
+// loads of the steps before (FrictionLoads), the static limit after a step that held the joint;
+// after it, whether the step held each joint (friction_held) and the friction's work.
+class FrictionBounds {
+ public:
+  // What a step did at a friction joint: its friction on the joint's second link (a pin's moment
+  // [N m], a slide's force along its line [N]) and that link's displacement relative to the
+  // first over the step [rad or m].
+  struct Step {
+    double friction = 0.0, moved = 0.0;
+  };
+  // For the Mechanism joints `joints`, each with friction, in the engine's own order: the index
+  // that bound and settle hand back.
+  FrictionBounds(const Mechanism& m, std::vector<int> joints, ReadingTrend start, bool extrapolated,
+                 int transients);
+  bool any() const { return !joints_.empty(); }
+  // Whether the step about to be taken is read (its reactions are the next steps' load).
+  bool reads() const { return loaded_ && loads_.reads(); }
+  // Whether bound reads its pose: a load-dependent slide's normal is across its guide's line.
+  bool reads_pose() const { return slide_loaded_; }
+  // Before a step of h from pose q (read only when reads_pose()): each joint's limit [N m or N],
+  // handed to set(i, limit).
+  void bound(double h, const Eigen::VectorXd& q, const std::function<void(size_t, double)>& set);
+  // After the step of h, with its reading (null unless reads()): what the step did at joint i,
+  // from stepped(i). Returns the friction's work over the step [J].
+  double settle(double h, const ForceReading* reading, const std::function<Step(size_t)>& stepped);
+
+ private:
+  struct Rough {
+    int joint = -1;
+    double limit = 0.0;
+    bool held = false;
+  };
+  const Mechanism& m_;
+  std::vector<Rough> joints_;
+  bool loaded_ = false;        // a friction grows with its joint's reaction
+  bool slide_loaded_ = false;  // a slide's among them
+  FrictionLoads loads_;
+};
+
 // Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the
 // second difference over poses k-1, k, k+1; a pose is `clean` when neither neighbour is the
 // start (pose 0, exact, without the stepping residual): 2 <= k <= last_step - 1. The weights of

@@ -1559,9 +1559,8 @@ DriveTarget drive_map(const Mechanism& m, const Plan& plan, const Config& config
 
 // The scene stepped and read back as the mechanism's coordinates after each step (angles on the
 // turn of the pose before), with the forces of the pose a step leaves: what both runs' scenes
-// share. Joint friction's limits follow the reactions of the steps before (FrictionLoads); the
-// first two steps' readings are transients of the start (BulletDynamicsScene), for which the
-// start's trend stands.
+// share. Joint friction is bounded per step by FrictionBounds; the first two steps' readings are
+// transients of the start (BulletDynamicsScene), for which the start's trend stands.
 class BulletSteps {
  public:
   static constexpr int kTransients = 2;
@@ -1571,14 +1570,10 @@ class BulletSteps {
         plan_(plan),
         scene_(scene),
         q_(q_start),
-        loads_(std::move(start), extrapolated, kTransients),
+        rough_(m.friction_joints()),
+        friction_(m, rough_, std::move(start), extrapolated, kTransients),
         reading_(m.joints.size(), m.drivers.size()) {
     for (int e : plan.driver_edges) driven_joints_.push_back(plan.edges[e].joint);
-    for (size_t ji = 0; ji < m.joints.size(); ++ji)
-      if (const Joint& j = m.joints[ji]; j.friction) {
-        rough_.push_back({static_cast<int>(ji)});
-        loaded_ |= j.friction->load_dependent();
-      }
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   // "" or why the scene read back is not the start it was built at.
@@ -1586,18 +1581,19 @@ class BulletSteps {
     return start_mismatch(m_, q_, q_start);
   }
   void step(double h, ForceReading* forces) {
-    const ForceReading& load = loaded_ ? loads_.next(h) : reading_;
-    for (Rough& r : rough_) {
-      r.limit = friction_limit(m_, r.joint, q_, load, r.held);
-      scene_.limit_friction(r.joint, r.limit);
-    }
+    if (friction_.any())
+      friction_.bound(h, q_,
+                      [&](size_t i, double limit) { scene_.limit_friction(rough_[i], limit); });
     scene_.step(h);
     ++evaluations_;  // stepSimulation(dt, 0, dt): one internal step, one solve of the model
-    const bool keep = loaded_ && loads_.reads();
+    const bool keep = friction_.reads();
     ForceReading* into = forces ? forces : keep ? &reading_ : nullptr;
     if (into) read_rigid_forces(m_, plan_, scene_, driven_joints_, q_, *into);
-    friction_work_ = read_friction(h, into);
-    if (loaded_) loads_.record(keep ? into : nullptr, h);
+    if (friction_.any())
+      friction_work_ = friction_.settle(h, keep ? into : nullptr, [&](size_t i) {
+        return FrictionBounds::Step{read_friction(rough_[i], into),
+                                    scene_.friction_rate(rough_[i]) * h};
+      });
     read_coordinates(scene_, plan_, m_, frames_, q_);
   }
   Scene& scene() { return scene_; }
@@ -1607,50 +1603,37 @@ class BulletSteps {
   double friction_work() const { return friction_work_; }  // over the last step [J]
 
  private:
-  // After a step of h from pose q_: each friction on its joint's second link into `out` (a slide's
-  // also into its joint's force, as the exact method's), whether it held its joint, and the work
-  // the friction did over the step (semi-implicit Euler: the step moves at its end's rates) [J].
-  double read_friction(double h, ForceReading* out) {
-    double work = 0.0;
-    for (Rough& r : rough_) {
-      const double friction = scene_.friction(r.joint);
-      r.held = friction_held(friction, r.limit);
-      work += friction * scene_.friction_rate(r.joint) * h;
-      if (!out) continue;
-      const size_t ji = static_cast<size_t>(r.joint);
-      out->friction[ji] = friction;
-      // A driven joint's friction is in its driver's row (RigidScene::Rough).
-      for (size_t d = 0; scene_.friction_in_driver(r.joint) && d < driven_joints_.size(); ++d) {
-        if (driven_joints_[d] != r.joint || scene_.driver_feedback(d)) continue;
-        const Driver& driver = m_.drivers[d];
-        const bool on_first =
-            driver.type == DriverType::link_angle && m_.joints[ji].link_a == driver.link;
-        out->effort_of(static_cast<int>(d)) -= on_first ? -friction : friction;
-      }
-      if (const Joint& j = m_.joints[ji]; j.is_slide()) {
-        const BodyMotion a = BodyMotion::of(m_.moving_index(j.link_a), q_, nullptr, nullptr);
-        out->joint_force[ji] += friction * a.turn(m_.links[j.link_a].lines[j.line].direction);
-      }
+  // After a step from pose q_: joint ji's friction on its second link (semi-implicit Euler: the
+  // step moves at its end's rates), also into `out` when given (a slide's also into its joint's
+  // force, as the exact method's).
+  double read_friction(int joint, ForceReading* out) const {
+    const double friction = scene_.friction(joint);
+    if (!out) return friction;
+    const size_t ji = static_cast<size_t>(joint);
+    out->friction[ji] = friction;
+    // A driven joint's friction is in its driver's row (RigidScene::Rough).
+    for (size_t d = 0; scene_.friction_in_driver(joint) && d < driven_joints_.size(); ++d) {
+      if (driven_joints_[d] != joint || scene_.driver_feedback(d)) continue;
+      const Driver& driver = m_.drivers[d];
+      const bool on_first =
+          driver.type == DriverType::link_angle && m_.joints[ji].link_a == driver.link;
+      out->effort_of(static_cast<int>(d)) -= on_first ? -friction : friction;
     }
-    return work;
+    if (const Joint& j = m_.joints[ji]; j.is_slide()) {
+      const BodyMotion a = BodyMotion::of(m_.moving_index(j.link_a), q_, nullptr, nullptr);
+      out->joint_force[ji] += friction * a.turn(m_.links[j.link_a].lines[j.line].direction);
+    }
+    return friction;
   }
 
-  // Per friction joint: its Mechanism joint, the limit of the last step and whether that step
-  // held it.
-  struct Rough {
-    int joint = -1;
-    double limit = 0.0;
-    bool held = false;
-  };
   const Mechanism& m_;
   const Plan& plan_;
   Scene& scene_;
   std::vector<int> driven_joints_;  // per driver: the Mechanism joint the scene graph drives
   std::vector<Pose> frames_;
   Eigen::VectorXd q_;
-  std::vector<Rough> rough_;
-  bool loaded_ = false;  // a friction grows with its joint's reaction
-  FrictionLoads loads_;
+  std::vector<int> rough_;  // the joints with friction
+  FrictionBounds friction_;
   ForceReading reading_;  // scratch: a step's reading for the friction's load
   double friction_work_ = 0.0;
   long evaluations_ = 0;

@@ -1086,65 +1086,47 @@ bool driver_reaction_readable(const Scene& s) {
 
 // Build stage: MuJoCo's model and data at the exact start (the plan's), moving with the exact
 // velocities, stepped for the shared run loop (sim/kinematic_run.h).
-// Joint friction as frictionloss (docs/engines.md, "Joint friction"): before each step every
-// friction joint's bound is set to its limit (friction_limit) under the loads of the steps before
-// (FrictionLoads), the static one after a step that held it (its row's force inside the bound);
-// after it, the rows' work over the step.
+// Joint friction as frictionloss (docs/engines.md, "Joint friction"): each friction joint's row
+// bounded per step by FrictionBounds.
 class FrictionLoss {
  public:
   FrictionLoss(const Mechanism& m, const Scene& s, const mjModel* mm, ReadingTrend start,
                bool extrapolated)
-      : m_(m), mass_scale_(s.mass_scale), loads_(std::move(start), extrapolated, 0) {
-    for (const SceneJoint& j : s.joints) {
-      if (!j.friction) continue;
-      dofs_.push_back({friction_row(mm, j)});
-      const Joint& source = m.joints[static_cast<size_t>(j.source)];
-      const bool loaded = source.friction->load_dependent();
-      loaded_ |= loaded;
-      slide_loaded_ |= loaded && source.is_slide();
-    }
-  }
-  bool any() const { return !dofs_.empty(); }
+      : mass_scale_(s.mass_scale),
+        rows_(rows_of(s, mm)),
+        bounds_(m, joints_of(rows_), std::move(start), extrapolated, 0) {}
+  bool any() const { return bounds_.any(); }
   // Whether the step about to be taken must be read (its reactions are the next steps' load).
-  bool reads() const { return loaded_ && loads_.reads(); }
-  // Before a step of h from the pose `pose` gives, read only when a load-dependent slide's normal
-  // (across its guide's line) needs it.
+  bool reads() const { return bounds_.reads(); }
+  // Before a step of h from the pose `pose` gives, read only when the bounds need it.
   void bound(mjModel* mm, const std::function<Eigen::VectorXd()>& pose, double h) {
-    const ForceReading* load = loaded_ ? &loads_.next(h) : nullptr;
-    const Eigen::VectorXd q = slide_loaded_ ? pose() : Eigen::VectorXd();
-    for (Dof& f : dofs_) {
-      const Joint& j = m_.joints[static_cast<size_t>(f.row.joint)];
-      f.limit = load ? friction_limit(m_, f.row.joint, q, *load, f.held)
-                     : j.friction->limit(!j.is_slide(), 0.0, f.held);
-      f.row.bound(mm, f.limit * mass_scale_);
-    }
+    bounds_.bound(h, bounds_.reads_pose() ? pose() : Eigen::VectorXd(),
+                  [&](size_t i, double limit) { rows_[i].bound(mm, limit * mass_scale_); });
   }
   // After the step of h from positions `before`, with its reading when reads() was true; the
   // friction's work over it [J].
   double after(const mjData* d, const std::vector<mjtNum>& before, const ForceReading* reading,
                double h) {
-    if (loaded_) loads_.record(reading, h);
-    double work = 0.0;
-    for (Dof& f : dofs_) {
-      const double force = f.row.force(d) / mass_scale_;
-      f.held = friction_held(force, f.limit);
-      work += force * f.row.moved(d, before);
-    }
-    return work;
+    return bounds_.settle(h, reading, [&](size_t i) {
+      return FrictionBounds::Step{rows_[i].force(d) / mass_scale_, rows_[i].moved(d, before)};
+    });
   }
 
  private:
-  struct Dof {
-    FrictionRow row;
-    double limit = 0.0;
-    bool held = false;
-  };
-  const Mechanism& m_;
+  static std::vector<FrictionRow> rows_of(const Scene& s, const mjModel* mm) {
+    std::vector<FrictionRow> rows;
+    for (const SceneJoint& j : s.joints)
+      if (j.friction) rows.push_back(friction_row(mm, j));
+    return rows;
+  }
+  static std::vector<int> joints_of(const std::vector<FrictionRow>& rows) {
+    std::vector<int> joints;
+    for (const FrictionRow& r : rows) joints.push_back(r.joint);
+    return joints;
+  }
   double mass_scale_;
-  FrictionLoads loads_;
-  std::vector<Dof> dofs_;
-  bool loaded_ = false;        // any friction load-dependent
-  bool slide_loaded_ = false;  // a slide's among them
+  std::vector<FrictionRow> rows_;
+  FrictionBounds bounds_;
 };
 
 class MujocoKinematicScene final : public KinematicScene {

@@ -529,56 +529,50 @@ class OdeScene {
   bool driving() const { return !motors_.empty(); }
 
   // Joint friction (docs/engines.md, "Joint friction"): each friction joint's motor at rest, its
-  // largest force the friction's limit.
-  bool rough() const { return !rough_.empty(); }
-  // Whether a friction grows with its joint's reaction (its limit follows the last step's).
-  bool loaded() const {
-    return std::any_of(rough_.begin(), rough_.end(),
-                       [](const Rough& r) { return r.law->load_dependent(); });
+  // largest force the friction's limit, bounded per step by FrictionBounds. The Mechanism joints
+  // with friction, in the order limit_friction and friction_step take them.
+  std::vector<int> friction_joints() const {
+    std::vector<int> out;
+    for (const Rough& r : rough_) out.push_back(g_.joints[r.joint].source);
+    return out;
   }
-  // Each limit for the next step from `load` (the reactions it is taken from) at pose q: the
-  // static one where the last step ended with the joint held (its friction inside its limit).
-  void limit_friction(const Eigen::VectorXd& q, const ForceReading& load) {
-    for (Rough& r : rough_) {
-      r.limit = friction_limit(m_, g_.joints[r.joint].source, q, load, r.held);
-      if (r.kind == Rough::Kind::angular)
-        dJointSetAMotorParam(r.motor, dParamFMax, r.limit);
-      else if (r.kind == Rough::Kind::own)
-        dJointSetSliderParam(r.motor, dParamFMax, r.limit);
-      else
-        dJointSetLMotorParam(r.motor, dParamFMax, r.limit);
+  // Friction joint i's limit for the next step [N m or N].
+  void limit_friction(size_t i, double limit) {
+    const Rough& r = rough_[i];
+    if (r.kind == Rough::Kind::angular)
+      dJointSetAMotorParam(r.motor, dParamFMax, limit);
+    else if (r.kind == Rough::Kind::own)
+      dJointSetSliderParam(r.motor, dParamFMax, limit);
+    else
+      dJointSetLMotorParam(r.motor, dParamFMax, limit);
+  }
+  // After a step of h: friction joint i's friction on its joint's second link, also into `out`
+  // when given (per Mechanism joint; a driven slide's linear motor's also into its joint's
+  // force), and the second link's displacement relative to the first.
+  FrictionBounds::Step friction_step(size_t i, double h, ForceReading* out) const {
+    const Rough& r = rough_[i];
+    const SceneJoint& j = g_.joints[r.joint];
+    // The friction on body1 of its motor (the joint's own body1 for a slider), and its rate.
+    double on_first = 0.0, rate = 0.0;
+    if (r.kind == Rough::Kind::angular) {
+      on_first = friction_feedback_[r.joint].t1[2];
+      rate = dJointGetHingeAngleRate(joints_[r.joint]);  // body1's about z less body2's
+    } else {
+      const dJointFeedback& f =
+          r.kind == Rough::Kind::own ? feedback_[r.joint] : friction_feedback_[r.joint];
+      const Eigen::Vector2d u = axis(r.joint);
+      on_first = Eigen::Vector2d(f.f1[0], f.f1[1]).dot(u);
+      rate = dJointGetSliderPositionRate(joints_[r.joint]);  // body1's along u less body2's
     }
-  }
-  // After a step: each friction on its joint's second link into `out` (per Mechanism joint; a
-  // driven slide's linear motor's also into its joint's force), whether it held its joint, and
-  // the work the friction did over the step of h [J].
-  double read_friction(double h, ForceReading* out) {
-    double work = 0.0;
-    for (Rough& r : rough_) {
-      const SceneJoint& j = g_.joints[r.joint];
-      // The friction on body1 of its motor (the joint's own body1 for a slider), and its rate.
-      double on_first = 0.0, rate = 0.0;
-      if (r.kind == Rough::Kind::angular) {
-        on_first = friction_feedback_[r.joint].t1[2];
-        rate = dJointGetHingeAngleRate(joints_[r.joint]);  // body1's about z less body2's
-      } else {
-        const dJointFeedback& f =
-            r.kind == Rough::Kind::own ? feedback_[r.joint] : friction_feedback_[r.joint];
-        const Eigen::Vector2d u = axis(r.joint);
-        on_first = Eigen::Vector2d(f.f1[0], f.f1[1]).dot(u);
-        rate = dJointGetSliderPositionRate(joints_[r.joint]);  // body1's along u less body2's
-      }
-      // On the joint's second link b, b's rate relative to a.
-      const double sign = body1_[r.joint] == j.b ? 1.0 : -1.0;
-      const double friction = sign * on_first;
-      work += friction * sign * rate * h;
-      r.held = friction_held(friction, r.limit);
-      if (!out) continue;
+    // On the joint's second link b, b's rate relative to a.
+    const double sign = body1_[r.joint] == j.b ? 1.0 : -1.0;
+    const double friction = sign * on_first;
+    if (out) {
       const size_t source = static_cast<size_t>(j.source);
       out->friction[source] = friction;
       if (r.kind == Rough::Kind::linear) out->joint_force[source] += friction * axis(r.joint);
     }
-    return work;
+    return {friction, sign * rate * h};
   }
 
  private:
@@ -594,7 +588,6 @@ class OdeScene {
     if (!mj.friction) return;
     Rough r;
     r.joint = ji;
-    r.law = &*mj.friction;
     dBodyID first = bodies_[static_cast<size_t>(body1_[ji])];
     dBodyID second = bodies_[static_cast<size_t>(body1_[ji] == j.a ? j.b : j.a)];
     if (j.kind == SceneJoint::Kind::hinge) {
@@ -687,16 +680,12 @@ class OdeScene {
   // joint points into it).
   std::vector<std::pair<int, dJointID>> transmissions_;
   std::vector<dJointFeedback> transmission_feedback_;
-  // Per friction joint: its scene joint, its motor, its law, the limit of the last step and
-  // whether that step held it.
+  // Per friction joint: its scene joint and its motor.
   struct Rough {
     enum class Kind { angular, own, linear };
     size_t joint = 0;
     Kind kind = Kind::angular;
     dJointID motor = nullptr;
-    const JointFriction* law = nullptr;
-    double limit = 0.0;
-    bool held = false;
   };
   std::vector<Rough> rough_;
   std::vector<dJointFeedback> friction_feedback_;  // per scene joint (sized before any points in)
@@ -904,20 +893,21 @@ class OdeSteps {
         g_(g),
         scene_(scene),
         q_(q),
-        loads_(std::move(start), extrapolated, kTransients),
+        friction_(m, scene.friction_joints(), std::move(start), extrapolated, kTransients),
         reading_(m.joints.size(), m.drivers.size()) {
     scene_.read(q_);
   }
   std::string step(double h, ForceReading* forces) {
-    const bool loaded = scene_.loaded();
-    if (scene_.rough()) scene_.limit_friction(q_, loaded ? loads_.next(h) : reading_);
+    if (friction_.any())
+      friction_.bound(h, q_, [&](size_t i, double limit) { scene_.limit_friction(i, limit); });
     const std::string why = scene_.step(h);
     ++evaluations_;  // one LCP solve of the model a step
-    const bool keep = loaded && loads_.reads();
+    const bool keep = friction_.reads();
     ForceReading* into = forces ? forces : keep ? &reading_ : nullptr;
     if (into) read_forces(m_, g_, scene_, q_, *into);
-    if (scene_.rough()) friction_work_ = scene_.read_friction(h, into);
-    if (loaded) loads_.record(keep ? into : nullptr, h);
+    if (friction_.any())
+      friction_work_ = friction_.settle(h, keep ? into : nullptr,
+                                        [&](size_t i) { return scene_.friction_step(i, h, into); });
     scene_.read(q_);
     return why;
   }
@@ -931,7 +921,7 @@ class OdeSteps {
   const SceneGraph& g_;
   OdeScene& scene_;
   Eigen::VectorXd q_;
-  FrictionLoads loads_;
+  FrictionBounds friction_;
   ForceReading reading_;  // scratch: a step's reading
   double friction_work_ = 0.0;
   long evaluations_ = 0;
