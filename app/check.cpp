@@ -15,6 +15,7 @@
 #include "analytic/physics/dynamics.h"
 #include "analytic/reference/sweep.h"
 #include "app/commands.h"
+#include "app/options.h"
 #include "compare/derived.h"
 
 namespace crosslink::app {

@@ -2,10 +2,8 @@
 // 0 success, 1 a failed verdict, 2 bad input (message on stderr).
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <functional>
-#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +15,11 @@
 
 namespace crosslink::methods {
 struct GridPoint;
+}
+// The command line's parser: CLI11, a heavy header, only where options are declared
+// (app/options.h).
+namespace CLI {
+class App;
 }
 
 namespace crosslink::app {
@@ -35,6 +38,13 @@ void add_merge(CLI::App& app, std::function<int()>& run);
 void add_engines(CLI::App& app, std::function<int()>& run);
 void add_new(CLI::App& app, std::function<int()>& run);
 
+// `crosslink merge` (app/merge.cpp): the parts a sharded sweep wrote, and what to write.
+struct MergeArgs {
+  std::vector<std::string> parts;
+  std::string csv, report, json;
+};
+int run_merge(const MergeArgs& args);
+
 // `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
 // position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.
 // `sweep`: the options of its assembling range and sweep (the command's are the defaults; the
@@ -48,23 +58,6 @@ struct CheckReport {
 };
 CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
                          const SweepOptions& sweep = {});
-
-// The limits on a command's work (app/limits.cpp): --max-samples on every command, --max-solves
-// on those that simulate a dynamics case, --max-steps on those that run engines.
-void add_max_samples(CLI::App& cmd, WorkLimits& limits);
-// The check of a numeric option: a finite number from `low` (excluded when `low_open`) to
-// `high`; NaN, infinities and values out of range are refused before any work (exit 2), the
-// message naming the option.
-CLI::Validator number_in(double low = -std::numeric_limits<double>::max(),
-                         double high = std::numeric_limits<double>::max(), bool low_open = false);
-// A positive step, time or time step.
-inline CLI::Validator positive_number() {
-  return number_in(0.0, std::numeric_limits<double>::max(), true);
-}
-void add_max_solves(CLI::App& cmd, WorkLimits& limits);
-void add_max_steps(CLI::App& cmd, long& max_steps);
-// --jobs N: the threads of a compare or sweep (methods/jobs.h), set to the machine's cores.
-void add_jobs(CLI::App& cmd, int& jobs);
 
 // Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
 // empty text; throws std::invalid_argument otherwise), and the progress line of a long search.

@@ -15,6 +15,7 @@
 #include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
+#include "app/options.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "methods/engines.h"

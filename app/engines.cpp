@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include "app/commands.h"
+#include "app/options.h"
 #include "methods/engines.h"
 
 namespace crosslink::app {

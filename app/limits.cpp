@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "app/commands.h"
+#include "app/options.h"
 #include "methods/jobs.h"
 
 namespace crosslink::app {

@@ -19,6 +19,7 @@
 #include "analytic/model/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
+#include "app/options.h"
 #include "app/sweep_parts.h"
 #include "methods/engines.h"
 #include "methods/sweep_json.h"
@@ -159,11 +160,6 @@ int write_sweep_outputs(const SweepOutputs& outputs, const methods::HtmlOptions&
 
 namespace {
 
-struct MergeArgs {
-  std::vector<std::string> parts;
-  std::string csv, report, json;
-};
-
 // Every field merge reads, checked before any is used, each refusal naming the part: a shard
 // index that is a whole number in [0, N), a count from 1, the definitions' texts and hashes, each
 // sweep's definition an index into them (its rows: methods/sweep_json.cpp).
@@ -228,6 +224,8 @@ std::string definitions_text(const json& definitions) {
                         d.at("fnv1a64").get<std::string>());
   return text;
 }
+
+}  // namespace
 
 int run_merge(const MergeArgs& args) {
   std::vector<json> parts;
@@ -338,8 +336,6 @@ int run_merge(const MergeArgs& args) {
                              sweep_document(whole, settings, definitions, swept, sweeps),
                              definitions, swept, sweeps);
 }
-
-}  // namespace
 
 void add_merge(CLI::App& app, std::function<int()>& run) {
   auto* cmd = app.add_subcommand(

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "app/commands.h"
+#include "app/options.h"
 
 namespace crosslink::app {
 

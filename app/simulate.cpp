@@ -9,6 +9,7 @@
 #include "analytic/model/loader.h"
 #include "analytic/physics/dynamics.h"
 #include "app/commands.h"
+#include "app/options.h"
 #include "app/output.h"
 
 namespace crosslink::app {

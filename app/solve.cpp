@@ -13,6 +13,7 @@
 #include "analytic/reference/trust.h"
 #include "app/commands.h"
 #include "app/files.h"
+#include "app/options.h"
 #include "app/output.h"
 #include "compare/derived.h"
 #include "compare/drawing_svg.h"

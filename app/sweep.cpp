@@ -21,6 +21,7 @@
 #include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
+#include "app/options.h"
 #include "app/sweep_parts.h"
 #include "methods/settings_sweep.h"
 #include "methods/study.h"

@@ -1630,8 +1630,8 @@ TEST(Cli, SweepOverTwoThreadsWritesTheCsvOfOne) {
   for (int jobs : {1, 2}) {
     const std::string path = (scratch_dir() / fmt::format("jobs{}.csv", jobs)).string();
     const CommandRun run = crosslink(fmt::format(
-        "sweep mechanisms/fourbar_crank_rocker.toml --dt 1e-3,2e-4 --repeat 2 --accuracy 1 "
-        "--jobs {} --csv \"{}\"",
+        "sweep mechanisms/fourbar_crank_rocker.toml --engines mujoco,bullet --dt 1e-3,2e-4 "
+        "--repeat 2 --accuracy 1 --jobs {} --csv \"{}\"",
         jobs, path));
     ASSERT_EQ(run.exit_code, 0) << run.err;
     // The cost columns (and the engines' rank, which orders them by CPU time), and the time in

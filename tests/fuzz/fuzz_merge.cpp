@@ -6,12 +6,10 @@
 // libFuzzer by -DCROSSLINK_FUZZ=ON (clang); replay.cpp runs kept inputs with any compiler.
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <fstream>
-#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -34,12 +32,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     out.write(text.data(), static_cast<std::streamsize>(text.size()));
   }
-  CLI::App app;
-  std::function<int()> run;
-  crosslink::app::add_merge(app, run);
   try {
-    app.parse("merge " + path, false);
-    if (run) run();
+    crosslink::app::run_merge({.parts = {path}});
   } catch (const std::exception&) {
     // Refused: exit code 2 (app/main.cpp), with its message.
   }
