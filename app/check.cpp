@@ -15,7 +15,6 @@
 #include "analytic/physics/dynamics.h"
 #include "analytic/reference/sweep.h"
 #include "app/commands.h"
-#include "app/options.h"
 #include "compare/derived.h"
 
 namespace crosslink::app {
@@ -372,25 +371,11 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   return report;
 }
 
-namespace {
-
 int run_check(const std::string& path, const WorkLimits& limits) {
   const CheckReport report = check_report(load_mechanism(path), limits);
   fmt::print("{}", report.out);
   fmt::print(stderr, "{}", report.err);
   return report.exit_code;
-}
-
-}  // namespace
-
-void add_check(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand("check", "Validate a mechanism definition and report on it");
-  auto path = std::make_shared<std::string>();
-  auto limits = std::make_shared<WorkLimits>();
-  cmd->add_option("FILE", *path, "mechanism definition (.toml)")->required();
-  add_max_samples(*cmd, *limits);
-  cmd->callback(
-      [&run, path, limits] { run = [path, limits] { return run_check(*path, *limits); }; });
 }
 
 }  // namespace crosslink::app

@@ -16,11 +16,6 @@
 namespace crosslink::methods {
 struct GridPoint;
 }
-// The command line's parser: CLI11, a heavy header, only where options are declared
-// (app/options.h).
-namespace CLI {
-class App;
-}
 
 namespace crosslink::app {
 
@@ -28,22 +23,80 @@ constexpr int kExitOk = 0;
 constexpr int kExitFail = 1;
 constexpr int kExitBadInput = 2;
 
-// Each registers its subcommand on `app` and sets `run` to its action.
-void add_check(CLI::App& app, std::function<int()>& run);
-void add_solve(CLI::App& app, std::function<int()>& run);
-void add_simulate(CLI::App& app, std::function<int()>& run);
-void add_compare(CLI::App& app, std::function<int()>& run);
-void add_sweep(CLI::App& app, std::function<int()>& run);
-void add_merge(CLI::App& app, std::function<int()>& run);
-void add_engines(CLI::App& app, std::function<int()>& run);
-void add_new(CLI::App& app, std::function<int()>& run);
+// The command line (app/options.cpp, the one file that includes the parser, CLI11): parses
+// argv into one subcommand's arguments and runs it; returns the process exit code.
+int run_command_line(int argc, char** argv);
 
-// `crosslink merge` (app/merge.cpp): the parts a sharded sweep wrote, and what to write.
+// Each subcommand, run on its parsed arguments (the files of the same names).
+int run_check(const std::string& path, const WorkLimits& limits);
+
+struct SolveArgs {
+  std::string path;
+  std::optional<double> at;
+  std::string format = "table";
+  double step = 0.0;
+  std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
+  bool ic = false;                // print the instantaneous centres (with --at)
+  std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
+  std::string columns;            // the sweep table's channels (table_channels)
+  std::string svg;                // the drawing to write (compare::drawing_svg)
+  double animate = 0.0;           // with svg: seconds per sweep of an animated drawing
+  WorkLimits limits;
+};
+int run_solve(const SolveArgs& args);
+
+struct SimulateArgs {
+  std::string path;
+  std::optional<double> duration, at;
+  std::string format = "table";
+  std::string integrator = "rkf78";
+  double tolerance = 1e-13;
+  WorkLimits limits;
+};
+int run_simulate(const SimulateArgs& args);
+
+struct CompareArgs {
+  std::string path;
+  std::string engines;  // default: every method (methods::method_names)
+  std::string report, csv, json;
+  std::string export_mjcf;  // write the MuJoCo scene (MJCF) it runs
+  std::optional<double> at;
+  double step = 0.0;
+  std::vector<std::string> tolerances;  // "velocity=0.5", "dyads:velocity=1e-6"
+  std::vector<std::string> settings;    // "dt=1e-4", "mujoco:dt=1e-4"
+  std::string accuracy;                 // "1" or "1%": cheapest engine settings (sweep.cpp)
+  bool all = false;
+  int jobs = 1;
+  WorkLimits limits;
+  long max_steps = sim::kDefaultMaxSteps;
+};
+int run_compare(CompareArgs args);
+
+// --repeat's bound: the grid's size multiplies the work.
+constexpr int kMaxRepeat = 100;
+struct SweepArgs {
+  std::vector<std::string> paths;
+  std::string engines;  // default: every engine (methods::engine_names)
+  std::vector<double> dts;
+  std::string report, csv, json, accuracy, shard;
+  double step = 0.0;
+  int repeat = 3;
+  int jobs = 1;
+  bool quiet = false;
+  WorkLimits limits;
+  long max_steps = sim::kDefaultMaxSteps;
+};
+int run_sweep(const SweepArgs& args);
+
+// `crosslink merge`: the parts a sharded sweep wrote, and what to write.
 struct MergeArgs {
   std::vector<std::string> parts;
   std::string csv, report, json;
 };
 int run_merge(const MergeArgs& args);
+
+// `crosslink new KIND [FILE]` (app/new.cpp).
+int run_new(const std::string& kind, const std::string& file);
 
 // `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
 // position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.

@@ -15,7 +15,6 @@
 #include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
-#include "app/options.h"
 #include "compare/comparison.h"
 #include "compare/report.h"
 #include "methods/engines.h"
@@ -27,22 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CompareArgs {
-  std::string path;
-  std::string engines = fmt::format("{}", fmt::join(methods::method_names(), ","));
-  std::string report, csv, json;
-  std::string export_mjcf;  // write the MuJoCo scene (MJCF) it runs
-  std::optional<double> at;
-  double step = 0.0;
-  std::vector<std::string> tolerances;  // "velocity=0.5", "dyads:velocity=1e-6"
-  std::vector<std::string> settings;    // "dt=1e-4", "mujoco:dt=1e-4"
-  std::string accuracy;                 // "1" or "1%": cheapest engine settings (sweep.cpp)
-  bool all = false;
-  int jobs = 1;
-  WorkLimits limits;
-  long max_steps = sim::kDefaultMaxSteps;
-};
-
 // The bundled sewing machine: relative to the current directory, else installed
 // (<prefix>/share/crosslink/mechanisms), else in the source tree crosslink was built from.
 std::string default_mechanism() {
@@ -52,6 +35,8 @@ std::string default_mechanism() {
     return (*share / relative).string();
   return (fs::path(CROSSLINK_SOURCE_DIR) / relative).string();
 }
+
+}  // namespace
 
 int run_compare(CompareArgs args) {
   if (args.path.empty()) args.path = default_mechanism();
@@ -119,47 +104,6 @@ int run_compare(CompareArgs args) {
   // Nothing compared is no PASS: the command asked for no comparison (docs/compare.md).
   if (cmp.nothing_compared()) return kExitBadInput;
   return cmp.pass() ? kExitOk : kExitFail;
-}
-
-}  // namespace
-
-void add_compare(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand(
-      "compare", "Compare every method against the exact sweep: verdicts, reports, exit code");
-  auto args = std::make_shared<CompareArgs>();
-  cmd->add_option("FILE", args->path,
-                  "mechanism definition (.toml); default: the bundled sewing machine");
-  cmd->add_option(
-         "--engines", args->engines,
-         "methods, comma-separated: " + fmt::format("{}", fmt::join(methods::method_names(), ",")))
-      ->capture_default_str();
-  cmd->add_option("--report", args->report, "write a self-contained HTML report");
-  cmd->add_option("--csv", args->csv, "write every sample of every comparison as CSV (SI)");
-  cmd->add_option("--json", args->json, "write the JSON document (SI; '-' for stdout)");
-  cmd->add_option("--at", args->at,
-                  "driver value of the report's drawing, in the file's units (default: start); "
-                  "with several drivers a time [s] (default: 0)")
-      ->check(number_in());
-  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)")
-      ->check(positive_number());
-  cmd->add_option("--tolerance", args->tolerances,
-                  "CLASS=PERCENT for the engines, or METHOD:CLASS=PERCENT (repeatable); classes: "
-                  "position, angle, velocity, acceleration, force, torque, energy");
-  cmd->add_option("--set", args->settings,
-                  "engine setting KEY=VALUE, or ENGINE:KEY=VALUE (repeatable), e.g. dt=1e-4");
-  cmd->add_option("--accuracy", args->accuracy,
-                  "X or X%: run each engine at its cheapest setting meeting X % of peak on every "
-                  "class (searched coarse to fine, docs/sweep.md); X becomes the engines' "
-                  "tolerance");
-  cmd->add_option("--export-mjcf", args->export_mjcf,
-                  "write the MuJoCo scene (MJCF) that runs alone in MuJoCo's own viewer: it starts "
-                  "at the definition's start and a clock turns the driver");
-  cmd->add_flag("--all", args->all, "list every channel and method instead of the summary");
-  add_max_samples(*cmd, args->limits);
-  add_max_solves(*cmd, args->limits);
-  add_max_steps(*cmd, args->max_steps);
-  add_jobs(*cmd, args->jobs);
-  cmd->callback([&run, args] { run = [args] { return run_compare(*args); }; });
 }
 
 }  // namespace crosslink::app

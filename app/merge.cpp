@@ -19,7 +19,6 @@
 #include "analytic/model/loader.h"
 #include "app/commands.h"
 #include "app/files.h"
-#include "app/options.h"
 #include "app/sweep_parts.h"
 #include "methods/engines.h"
 #include "methods/sweep_json.h"
@@ -335,18 +334,6 @@ int run_merge(const MergeArgs& args) {
   return write_sweep_outputs({args.csv, args.report, args.json}, html,
                              sweep_document(whole, settings, definitions, swept, sweeps),
                              definitions, swept, sweeps);
-}
-
-void add_merge(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand(
-      "merge", "Join the JSON parts of a sweep split into shards into one run's outputs");
-  auto args = std::make_shared<MergeArgs>();
-  cmd->add_option("PART", args->parts, "the parts: `crosslink sweep ... --shard I/N --json PART`")
-      ->required();
-  cmd->add_option("--csv", args->csv, "write the CSV a single run writes");
-  cmd->add_option("--report", args->report, "write the HTML report a single run writes");
-  cmd->add_option("--json", args->json, "write the JSON a single run writes (shard 0/1)");
-  cmd->callback([&run, args] { run = [args] { return run_merge(*args); }; });
 }
 
 }  // namespace crosslink::app

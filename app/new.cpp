@@ -5,11 +5,9 @@
 #include <array>
 #include <filesystem>
 #include <fstream>
-#include <memory>
 #include <string>
 
 #include "app/commands.h"
-#include "app/options.h"
 
 namespace crosslink::app {
 
@@ -35,36 +33,23 @@ const std::array<Template, 3> kTemplates{{
 
 }  // namespace
 
-void add_new(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand(
-      "new", "Write a commented starting definition to edit: fourbar, slider-crank or five-bar");
-  auto kind = std::make_shared<std::string>();
-  auto file = std::make_shared<std::string>();
-  cmd->add_option("KIND", *kind, "fourbar | slider-crank | five-bar")
-      ->required()
-      ->check(CLI::IsMember({"fourbar", "slider-crank", "five-bar"}));
-  cmd->add_option("FILE", *file, "where to write it (default: KIND.toml); never overwritten");
-  cmd->callback([&run, kind, file] {
-    run = [kind, file] {
-      const std::string path = file->empty() ? *kind + ".toml" : *file;
-      if (std::filesystem::exists(path)) {
-        fmt::print(stderr, "{}: error: the file exists; crosslink new does not overwrite it\n",
-                   path);
-        return kExitBadInput;
-      }
-      for (const Template& t : kTemplates) {
-        if (*kind != t.kind) continue;
-        std::ofstream out(path);
-        out << *t.text;
-        if (!out.flush()) {
-          fmt::print(stderr, "{}: error: cannot write the file\n", path);
-          return kExitBadInput;
-        }
-        fmt::print("wrote {}: {}. Edit it, then: crosslink check {}\n", path, t.what, path);
-      }
-      return kExitOk;
-    };
-  });
+int run_new(const std::string& kind, const std::string& file) {
+  const std::string path = file.empty() ? kind + ".toml" : file;
+  if (std::filesystem::exists(path)) {
+    fmt::print(stderr, "{}: error: the file exists; crosslink new does not overwrite it\n", path);
+    return kExitBadInput;
+  }
+  for (const Template& t : kTemplates) {
+    if (kind != t.kind) continue;
+    std::ofstream out(path);
+    out << *t.text;
+    if (!out.flush()) {
+      fmt::print(stderr, "{}: error: cannot write the file\n", path);
+      return kExitBadInput;
+    }
+    fmt::print("wrote {}: {}. Edit it, then: crosslink check {}\n", path, t.what, path);
+  }
+  return kExitOk;
 }
 
 }  // namespace crosslink::app

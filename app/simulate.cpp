@@ -9,20 +9,10 @@
 #include "analytic/model/loader.h"
 #include "analytic/physics/dynamics.h"
 #include "app/commands.h"
-#include "app/options.h"
 #include "app/output.h"
 
 namespace crosslink::app {
 namespace {
-
-struct SimulateArgs {
-  std::string path;
-  std::optional<double> duration, at;
-  std::string format = "table";
-  std::string integrator = "rkf78";
-  double tolerance = 1e-13;
-  WorkLimits limits;
-};
 
 // The energy balance at sample k [J]: null where the sample holds no motion.
 nlohmann::json energy_json(const Simulation& s, int k) {
@@ -40,6 +30,8 @@ Eigen::VectorXd energy_balances(const Simulation& s) {
     balance(k) = usable(s.trajectory.status[static_cast<size_t>(k)]) ? s.energy_balance(k) : NAN;
   return balance;
 }
+
+}  // namespace
 
 int run_simulate(const SimulateArgs& args) {
   const Mechanism m = load_mechanism(args.path);
@@ -117,34 +109,6 @@ int run_simulate(const SimulateArgs& args) {
     return kExitBadInput;
   }
   return kExitOk;
-}
-
-}  // namespace
-
-void add_simulate(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand(
-      "simulate",
-      "Exact forward dynamics of a dynamics case ([dynamics]), with its energy balance");
-  auto args = std::make_shared<SimulateArgs>();
-  cmd->add_option("FILE", args->path, "mechanism definition (.toml) with a [dynamics] table")
-      ->required();
-  cmd->add_option("--duration", args->duration, "simulated time [s] (default: the case's)")
-      ->check(number_in(0.0, limits::kDuration, true));
-  cmd->add_option("--at", args->at, "the state at this time [s] only")
-      ->check(number_in(0.0, limits::kDuration));
-  cmd->add_option("--format", args->format, "output format")
-      ->check(CLI::IsMember({"table", "json", "csv"}));
-  cmd->add_option("--integrator", args->integrator,
-                  "rkf78 (Runge-Kutta-Fehlberg 7(8), the default) or dopri5 (Dormand-Prince "
-                  "5(4), dense output): two independent integrations")
-      ->check(CLI::IsMember({"rkf78", "dopri5"}));
-  cmd->add_option("--tolerance", args->tolerance,
-                  "absolute and relative error per step (default 1e-13)")
-      ->check(number_in(1e-15, 1e-2));
-  cmd->get_option("--duration")->excludes(cmd->get_option("--at"));
-  add_max_samples(*cmd, args->limits);
-  add_max_solves(*cmd, args->limits);
-  cmd->callback([&run, args] { run = [args] { return run_simulate(*args); }; });
 }
 
 }  // namespace crosslink::app

@@ -13,27 +13,12 @@
 #include "analytic/reference/trust.h"
 #include "app/commands.h"
 #include "app/files.h"
-#include "app/options.h"
 #include "app/output.h"
 #include "compare/derived.h"
 #include "compare/drawing_svg.h"
 
 namespace crosslink::app {
 namespace {
-
-struct SolveArgs {
-  std::string path;
-  std::optional<double> at;
-  std::string format = "table";
-  double step = 0.0;
-  std::string method = "auto";    // dyads | newton | auto (dyads when the chain decomposes)
-  bool ic = false;                // print the instantaneous centres (with --at)
-  std::string at_limit = "stop";  // at a limit of the assembling range: stop | reverse
-  std::string columns;            // the sweep table's channels (table_channels)
-  std::string svg;                // the drawing to write (compare::drawing_svg)
-  double animate = 0.0;           // with svg: seconds per sweep of an animated drawing
-  WorkLimits limits;
-};
 
 // Kennedy–Aronhold centres at one sample and the velocities they give, beside the exact ones.
 void print_instant_centres(const Mechanism& m, const Trajectory& t) {
@@ -82,6 +67,8 @@ void print_instant_centres(const Mechanism& m, const Trajectory& t) {
                exact.norm() > 0.0 ? 100.0 * (v.point[p] - exact).norm() / exact.norm() : 0.0);
   }
 }
+
+}  // namespace
 
 int run_solve(const SolveArgs& args) {
   const Mechanism m = load_mechanism(args.path);
@@ -227,41 +214,6 @@ int run_solve(const SolveArgs& args) {
     return kExitBadInput;
   }
   return kExitOk;
-}
-
-}  // namespace
-
-void add_solve(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand("solve", "Exact kinematics at one driver value or over a sweep");
-  auto args = std::make_shared<SolveArgs>();
-  cmd->add_option("FILE", args->path, "mechanism definition (.toml)")->required();
-  cmd->add_option("--at", args->at, "driver value, in the file's units (default: whole sweep)")
-      ->check(number_in());
-  cmd->add_option("--step", args->step, "sweep step in the file's units (default 1 degree)")
-      ->check(positive_number());
-  cmd->add_option("--format", args->format, "output format")
-      ->check(CLI::IsMember({"table", "json", "csv"}));
-  cmd->add_option("--method", args->method,
-                  "dyads (closed form), newton, or auto (dyads when the chain decomposes)")
-      ->check(CLI::IsMember({"dyads", "newton", "auto"}));
-  cmd->add_option("--at-limit", args->at_limit,
-                  "at a limit of the assembling range (a toggle): stop, or reverse the driver "
-                  "as a real rocker would and follow the loop back on the other assembly mode")
-      ->check(CLI::IsMember({"stop", "reverse"}));
-  cmd->add_option(
-      "--columns", args->columns,
-      "the sweep table's columns, comma-separated: channel names (x.C, sddot.needle) "
-      "and kinds (alpha: every link's); default angle,omega,alpha,s,sdot,sddot but for the "
-      "driven crank and links held by a prismatic joint to the ground");
-  cmd->add_option("--svg", args->svg,
-                  "write the drawing as SVG: the links at --at (or the sweep's start), the "
-                  "paths of the moving points over the sweep");
-  cmd->add_option("--animate", args->animate,
-                  "with --svg: animate the drawing over the sweep, SECONDS per sweep (SMIL)");
-  cmd->add_flag("--ic", args->ic,
-                "with --at: instantaneous centres (Kennedy–Aronhold) and their velocities");
-  add_max_samples(*cmd, args->limits);
-  cmd->callback([&run, args] { run = [args] { return run_solve(*args); }; });
 }
 
 }  // namespace crosslink::app

@@ -21,7 +21,6 @@
 #include "analytic/model/units_text.h"
 #include "app/commands.h"
 #include "app/files.h"
-#include "app/options.h"
 #include "app/sweep_parts.h"
 #include "methods/settings_sweep.h"
 #include "methods/study.h"
@@ -106,20 +105,6 @@ namespace fs = std::filesystem;
 
 // The grid's size multiplies the work: bounded like every other input.
 constexpr size_t kMaxTimeSteps = 50;
-constexpr int kMaxRepeat = 100;
-
-struct SweepArgs {
-  std::vector<std::string> paths;
-  std::string engines = fmt::format("{}", fmt::join(methods::engine_names(), ","));
-  std::vector<double> dts;
-  std::string report, csv, json, accuracy, shard;
-  double step = 0.0;
-  int repeat = 3;
-  int jobs = 1;
-  bool quiet = false;
-  WorkLimits limits;
-  long max_steps = sim::kDefaultMaxSteps;
-};
 
 // The options that change a row: a part records them and merge refuses parts whose differ.
 nlohmann::json sweep_settings(const SweepArgs& args) {
@@ -171,6 +156,8 @@ methods::SettingsSweepOptions sweep_options(const Mechanism& m, const SweepArgs&
   return options;
 }
 
+}  // namespace
+
 int run_sweep(const SweepArgs& args) {
   const Shard shard = parse_shard(args.shard);
   const bool from_stdin =
@@ -220,49 +207,6 @@ int run_sweep(const SweepArgs& args) {
       sweep_document(shard, sweep_settings(args), definitions, swept, sweeps);
   return write_sweep_outputs({args.csv, args.report, args.json}, html, document, definitions, swept,
                              sweeps);
-}
-
-}  // namespace
-
-void add_sweep(CLI::App& app, std::function<int()>& run) {
-  auto* cmd = app.add_subcommand(
-      "sweep", "Speed against accuracy: every engine over a grid of its settings");
-  auto args = std::make_shared<SweepArgs>();
-  cmd->add_option("FILE", args->paths,
-                  "mechanism definitions (.toml), or folders of them (every *.toml below)")
-      ->required();
-  cmd->add_option(
-         "--engines", args->engines,
-         "engines, comma-separated: " + fmt::format("{}", fmt::join(methods::engine_names(), ",")))
-      ->capture_default_str();
-  std::string defaults;
-  for (double dt : methods::default_time_steps())
-    defaults += fmt::format("{}{:g}", defaults.empty() ? "" : ",", dt);
-  cmd->add_option("--dt", args->dts,
-                  "time steps [s], comma-separated (default " + defaults +
-                      "); each is snapped so samples fall on step boundaries")
-      ->delimiter(',')
-      ->check(positive_number());
-  cmd->add_option("--report", args->report, "write a self-contained HTML report");
-  cmd->add_option("--csv", args->csv, "write one row per engine setting as CSV (SI)");
-  cmd->add_option("--json", args->json,
-                  "write the sweep as JSON: the part `crosslink merge` joins (docs/json.md)");
-  cmd->add_option("--shard", args->shard,
-                  "I/N: sweep only shard I (0 to N-1) of N, the definitions whose index is I "
-                  "modulo N; its --json is a part for `crosslink merge`");
-  cmd->add_option("--accuracy", args->accuracy,
-                  "X or X%: the cheapest setting per engine meeting X % of peak on every class");
-  cmd->add_option("--step", args->step, "reference sweep step in the file's units (default 1 deg)")
-      ->check(positive_number());
-  cmd->add_option("--repeat", args->repeat,
-                  "time each setting N times, the cost is the median (the errors do not change)")
-      ->check(CLI::Range(1, kMaxRepeat))
-      ->capture_default_str();
-  cmd->add_flag("--quiet", args->quiet, "no progress lines on stderr");
-  add_max_samples(*cmd, args->limits);
-  add_max_steps(*cmd, args->max_steps);
-  add_jobs(*cmd, args->jobs);
-  cmd->callback([&run, args] { run = [args] { return run_sweep(*args); }; });
 }
 
 }  // namespace crosslink::app

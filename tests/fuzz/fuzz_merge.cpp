@@ -33,9 +33,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     out.write(text.data(), static_cast<std::streamsize>(text.size()));
   }
   try {
-    crosslink::app::run_merge({.parts = {path}});
+    crosslink::app::MergeArgs args;
+    args.parts = {path};
+    crosslink::app::run_merge(args);
   } catch (const std::exception&) {
-    // Refused: exit code 2 (app/main.cpp), with its message.
+    // Refused: exit code 2 (run_command_line, app/options.cpp), with its message.
   }
   return 0;
 }
