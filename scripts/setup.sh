@@ -9,7 +9,7 @@ shift || true
 TARGETS=("${@:-crosslink}")
 
 PACKAGES=(
-  build-essential cmake pkg-config git clang-format
+  build-essential cmake ninja-build pkg-config git clang-format
   libeigen3-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libbullet-dev libbullet-extras-dev libslvs1-dev
@@ -45,5 +45,10 @@ if [ ! -d report/node_modules ] || [ report/package-lock.json -nt report/node_mo
   (cd report && npm ci --no-audit --no-fund)
 fi
 
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
+# Ninja for a new build folder: it compiles a target's files while the libraries it links are
+# still being linked, and starts at once where make walks every target's rules; a folder
+# configured before keeps its generator.
+GENERATOR=()
+[ -f "$BUILD_DIR/CMakeCache.txt" ] || ! command -v ninja >/dev/null || GENERATOR=(-G Ninja)
+cmake -S . -B "$BUILD_DIR" "${GENERATOR[@]}" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$BUILD_DIR" -j2 --target "${TARGETS[@]}"
