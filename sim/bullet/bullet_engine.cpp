@@ -501,8 +501,8 @@ class Scene {
   virtual void limit_friction(int /*joint*/, double /*limit*/) { no_friction(); }
   virtual double friction(int /*joint*/) const { no_friction(); }
   virtual double friction_rate(int /*joint*/) const { no_friction(); }
-  // Whether joint `joint`'s friction acts through its driver's row (its effort includes it).
-  virtual bool friction_in_driver(int /*joint*/) const { no_friction(); }
+  // The driver whose row joint `joint`'s friction acts through (its effort includes it), or -1.
+  virtual int friction_driver(int /*joint*/) const { no_friction(); }
 
  private:
   [[noreturn]] static void no_friction() {
@@ -923,12 +923,13 @@ class RigidScene final : public Scene {
     rough_.resize(m.joints.size());  // sized once: each motor points at its feedback
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       if (!m.joints[ji].friction) continue;
-      const auto drives = [&](size_t d) {
-        return !plan.driver_planar[d] && plan.edges[plan.driver_edges[d]].joint == int(ji);
-      };
-      bool driven_joint = false;
-      for (size_t d = 0; driven && d < plan.driver_edges.size(); ++d) driven_joint |= drives(d);
-      add_friction(m, ji, driven_joint);
+      // The driver whose own row holds this joint (a link angle through a planar ground joint
+      // has a separate lock, and the joint its motor).
+      int driver = -1;
+      for (size_t d = 0; driven && d < plan.driver_edges.size(); ++d)
+        if (!plan.driver_planar[d] && plan.edges[plan.driver_edges[d]].joint == int(ji))
+          driver = static_cast<int>(d);
+      add_friction(m, ji, driver);
     }
     // Each driver: the driven joint's own constraint with one more freedom locked, or for a link
     // angle without a ground pivot a constraint between the ground and the link that locks only
@@ -1074,8 +1075,8 @@ class RigidScene final : public Scene {
     if (r.axis == kAboutZ) return on_b ? f.m_appliedTorqueBodyB.z() : -f.m_appliedTorqueBodyA.z();
     return (on_b ? f.m_appliedForceBodyB : -f.m_appliedForceBodyA).dot(line_axis(r));
   }
-  bool friction_in_driver(int joint) const override {
-    return !rough_[static_cast<size_t>(joint)].motor;
+  int friction_driver(int joint) const override {
+    return rough_[static_cast<size_t>(joint)].driver;
   }
   double friction_rate(int joint) const override {
     const Rough& r = rough_[static_cast<size_t>(joint)];
@@ -1106,12 +1107,13 @@ class RigidScene final : public Scene {
     btTransform fa, fb;  // the joint's frames on a and b
     int axis = 0;
     btGeneric6DofSpring2Constraint* motor = nullptr;  // null at a driven joint
+    int driver = -1;                                  // a driven joint's driver
     btJointFeedback feedback;
     double limit = 0.0;  // of the step
   };
   static constexpr int kAlongLine = 0, kAboutZ = 5;
 
-  void add_friction(const Mechanism& m, size_t ji, bool driven_joint) {
+  void add_friction(const Mechanism& m, size_t ji, int driver) {
     btGeneric6DofSpring2Constraint* joint = joint_constraint_[ji];
     Rough& r = rough_[ji];
     r.a = &joint->getRigidBodyA();
@@ -1119,7 +1121,8 @@ class RigidScene final : public Scene {
     r.fa = joint->getFrameOffsetA();
     r.fb = joint->getFrameOffsetB();
     r.axis = m.joints[ji].is_slide() ? kAlongLine : kAboutZ;
-    if (driven_joint) return;
+    r.driver = driver;
+    if (driver >= 0) return;
     r.motor = new btGeneric6DofSpring2Constraint(*r.a, *r.b, r.fa, r.fb);
     add(r.motor, Lock{});
     r.motor->enableMotor(r.axis, true);
@@ -1612,12 +1615,11 @@ class BulletSteps {
     const size_t ji = static_cast<size_t>(joint);
     out->friction[ji] = friction;
     // A driven joint's friction is in its driver's row (RigidScene::Rough).
-    for (size_t d = 0; scene_.friction_in_driver(joint) && d < driven_joints_.size(); ++d) {
-      if (driven_joints_[d] != joint || scene_.driver_feedback(d)) continue;
-      const Driver& driver = m_.drivers[d];
+    if (const int d = scene_.friction_driver(joint); d >= 0) {
+      const Driver& driver = m_.drivers[static_cast<size_t>(d)];
       const bool on_first =
           driver.type == DriverType::link_angle && m_.joints[ji].link_a == driver.link;
-      out->effort_of(static_cast<int>(d)) -= on_first ? -friction : friction;
+      out->effort_of(d) -= on_first ? -friction : friction;
     }
     if (const Joint& j = m_.joints[ji]; j.is_slide()) {
       const BodyMotion a = BodyMotion::of(m_.moving_index(j.link_a), q_, nullptr, nullptr);
