@@ -23,7 +23,7 @@ CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" "${GENERATOR[@]}" -DCMAKE_BUILD_
   -DCMAKE_C_FLAGS="$FLAGS" -DCMAKE_CXX_FLAGS="$FLAGS" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
-  -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF
+  -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF -DCROSSLINK_TEST_OPTIMIZATION=-O0
 cmake --build "$BUILD_DIR" -j2
 
 # Every report is an error; leaks too (detect_leaks is on by default on Linux x86_64).
