@@ -19,6 +19,7 @@ runs = [("ode", n, s) for n, s in [
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["max_step_angle=0.00125"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
   ("pendulum_pin_friction", ["friction_cfm=1e-6"]),
+  ("gear_pair_bearing_friction", []), ("gear_pair_bearing_friction", ["friction_load=last"]),
 ]] + [("bullet", n, s) for n, s in [
   ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["max_step_angle=0.005"]),
   ("fourbar_friction_circles", ["friction_load=last"]),
@@ -33,6 +34,7 @@ runs = [("ode", n, s) for n, s in [
   ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_cfm=1e-6"]),
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["max_step_angle=0.00125"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
+  ("gear_pair_bearing_friction", []), ("gear_pair_bearing_friction", ["friction_load=last"]),
 ]] + [("simbody", n, s) for n, s in [
   ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["friction_load=last"]),
   ("slider_crank_friction", []), ("slider_crank_friction", ["friction_load=last"]),
@@ -43,12 +45,14 @@ runs = [("ode", n, s) for n, s in [
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_speed=1e-3"]),
   ("pendulum_pin_friction", ["friction_speed=1e-5"]),
   ("pendulum_pin_friction", ["friction_speed=1e-6"]),
+  ("gear_pair_bearing_friction", []), ("gear_pair_bearing_friction", ["friction_load=last"]),
 ]] + [("mujoco", n, s) for n, s in [
   ("block_sliding_to_rest", []), ("block_sliding_to_rest", ["friction_load=last"]),
   ("pendulum_pin_friction", []), ("pendulum_pin_friction", ["friction_solref=0.005 1"]),
   ("pendulum_pin_friction", ["friction_solref=0.02 1"]),
   ("pendulum_pin_friction", ["max_step_angle=0.000625"]),
   ("fourbar_friction_circles", []), ("fourbar_friction_circles", ["friction_load=last"]),
+  ("gear_pair_bearing_friction", []), ("gear_pair_bearing_friction", ["friction_load=last"]),
 ]]
 print("| engine | definition | settings (besides the defaults) | friction | effort or coordinate | energy balance | creep | steps |")
 print("|---|---|---|---|---|---|---|---|")

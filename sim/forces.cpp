@@ -198,29 +198,33 @@ void ForceReading::add(double weight, const ForceReading& other) {
   }
 }
 
-namespace {
-// The reading with each gearing's couple moved onto its teeth at `state` (pass_tooth_force).
-ForceReading with_tooth_forces(const Mechanism& m, const KinematicState& state,
-                               const ForceReading& reading) {
-  ForceReading out = reading;
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    if (!j.is_gearing()) continue;
-    pass_tooth_force(
-        m, gear_paths(m, static_cast<int>(ji)), state, reading.gear_couple[ji], out.joint_force,
-        nullptr,
-        j.type == JointType::rack_pinion ? &out.couple[static_cast<size_t>(j.slide)] : nullptr);
-  }
+std::vector<GearPaths> gearings_of(const Mechanism& m) {
+  std::vector<GearPaths> out;
+  for (size_t ji = 0; ji < m.joints.size(); ++ji)
+    if (m.joints[ji].is_gearing()) out.push_back(gear_paths(m, static_cast<int>(ji)));
   return out;
 }
-}  // namespace
+
+void move_tooth_forces(const Mechanism& m, const std::vector<GearPaths>& gearings,
+                       const KinematicState& state, ForceReading& reading) {
+  for (const GearPaths& g : gearings) {
+    const Joint& j = m.joints[static_cast<size_t>(g.joint)];
+    pass_tooth_force(
+        m, g, state, reading.gear_couple[static_cast<size_t>(g.joint)], reading.joint_force,
+        nullptr,
+        j.type == JointType::rack_pinion ? &reading.couple[static_cast<size_t>(j.slide)] : nullptr);
+  }
+}
 
 void write_forces(const Mechanism& m, const KinematicState& state, const ForceReading& engine,
                   Trajectory& out, int row) {
   const bool gearing =
       std::any_of(m.joints.begin(), m.joints.end(), [](const Joint& j) { return j.is_gearing(); });
   std::optional<ForceReading> moved;
-  if (gearing) moved = with_tooth_forces(m, state, engine);
+  if (gearing) {
+    moved = engine;
+    move_tooth_forces(m, gearings_of(m), state, *moved);
+  }
   const ForceReading& reading = moved ? *moved : engine;
   const int ground = m.ground();
   auto motion = [&](int link) {
@@ -319,12 +323,22 @@ ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, in
   return out;
 }
 
-FrictionLoads::FrictionLoads(ReadingTrend start, bool extrapolated, int transients)
-    : last_(std::move(start.at)),
+FrictionLoads::FrictionLoads(const Mechanism& m, ReadingTrend start, bool extrapolated,
+                             int transients)
+    : m_(m),
+      last_(std::move(start.at)),
       rate_(std::move(start.rate)),
       load_(last_),
       extrapolated_(extrapolated),
-      transients_(transients) {}
+      transients_(transients) {
+  // The reference's forces are the teeth's already; an engine's gear couples are moved onto them.
+  if (std::ranges::any_of(m.joints, [](const Joint& j) { return j.friction.has_value(); }))
+    gearings_ = gearings_of(m);
+  if (!gearings_.empty()) {
+    pose_.emplace(m);
+    moved_ = last_;
+  }
+}
 
 const ForceReading& FrictionLoads::next(double h) {
   load_ = last_;
@@ -332,11 +346,17 @@ const ForceReading& FrictionLoads::next(double h) {
   return load_;
 }
 
-void FrictionLoads::record(const ForceReading* reading, double h) {
+void FrictionLoads::record(const ForceReading* reading, double h, const Eigen::VectorXd& q) {
   ++steps_;
   if (!reading) {  // the start's trend goes on
     last_.add(h, rate_);
     return;
+  }
+  if (geared()) {
+    pose_->q = q;
+    moved_ = *reading;
+    move_tooth_forces(m_, gearings_, *pose_, moved_);
+    reading = &moved_;
   }
   if (h > 0.0) {  // else it replaces a reading at the same instant, whose rate stands
     rate_.set_zero();
@@ -365,7 +385,7 @@ bool friction_held(double friction, double limit) {
 
 FrictionBounds::FrictionBounds(const Mechanism& m, std::vector<int> joints, ReadingTrend start,
                                bool extrapolated, int transients)
-    : m_(m), loads_(std::move(start), extrapolated, transients) {
+    : m_(m), loads_(m, std::move(start), extrapolated, transients) {
   for (int ji : joints) {
     const Joint& j = m.joints[static_cast<size_t>(ji)];
     joints_.push_back({ji});
@@ -377,6 +397,7 @@ FrictionBounds::FrictionBounds(const Mechanism& m, std::vector<int> joints, Read
 void FrictionBounds::bound(double h, const Eigen::VectorXd& q,
                            const std::function<void(size_t, double)>& set) {
   static const ForceReading kNone;  // a load-independent friction reads no load
+  if (loaded_ && loads_.geared()) pose_ = q;
   const ForceReading& load = loaded_ ? loads_.next(h) : kNone;
   for (size_t i = 0; i < joints_.size(); ++i) {
     Rough& r = joints_[i];
@@ -393,7 +414,7 @@ double FrictionBounds::settle(double h, const ForceReading* reading,
     joints_[i].held = friction_held(s.friction, joints_[i].limit);
     work += s.friction * s.moved;
   }
-  if (loaded_) loads_.record(reading, h);
+  if (loaded_) loads_.record(reading, h, pose_);
   return work;
 }
 

@@ -149,6 +149,12 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
 // The reference's forces at sample `row` as a reading (zero where it has none).
 ForceReading reference_reading(const Mechanism& m, const Trajectory& reference, int row);
 
+// Every gearing's paths (gear_paths), and a reading's gear couples moved onto the teeth at `state`
+// (pass_tooth_force): the reactions of the gears' bearings and racks' slides an exact method gives.
+std::vector<GearPaths> gearings_of(const Mechanism& m);
+void move_tooth_forces(const Mechanism& m, const std::vector<GearPaths>& gearings,
+                       const KinematicState& state, ForceReading& reading);
+
 // The reference's forces at time t near its first usable sample `first`, and their rate [per s]
 // between it and the next: where an engine whose joint friction follows the reactions of its
 // steps before starts from.
@@ -164,18 +170,25 @@ ReadingTrend reference_trend(const Mechanism& m, const Trajectory& reference, in
 // of its start) the start's trend stands for them.
 class FrictionLoads {
  public:
-  FrictionLoads(ReadingTrend start, bool extrapolated, int transients);
+  FrictionLoads(const Mechanism& m, ReadingTrend start, bool extrapolated, int transients);
   // The load for the next step, of h.
   const ForceReading& next(double h);
   // Whether the step about to end is read (the reading then goes to record).
   bool reads() const { return steps_ + 1 > transients_; }
+  // Whether record reads the pose: a gearing's couple is moved onto its teeth, which push on the
+  // gears' bearings and a rack's slide (pass_tooth_force).
+  bool geared() const { return !gearings_.empty(); }
   // The step of h ended with `reading` (null when reads() was false; with h = 0 the reading
-  // replaces the last, at the same instant, and the rate stands).
-  void record(const ForceReading* reading, double h);
+  // replaces the last, at the same instant, and the rate stands), read at pose q (when geared()).
+  void record(const ForceReading* reading, double h, const Eigen::VectorXd& q);
 
  private:
-  ForceReading last_, rate_;  // the last reading and its rate [per s]
-  ForceReading load_;         // scratch: the next step's load
+  const Mechanism& m_;
+  std::vector<GearPaths> gearings_;     // with joint friction
+  std::optional<KinematicState> pose_;  // scratch: the pose a reading was read at
+  ForceReading moved_;                  // scratch: a reading with its tooth forces moved
+  ForceReading last_, rate_;            // the last reading and its rate [per s]
+  ForceReading load_;                   // scratch: the next step's load
   bool extrapolated_;
   int transients_;
   long steps_ = 0;
@@ -210,8 +223,9 @@ class FrictionBounds {
   bool any() const { return !joints_.empty(); }
   // Whether the step about to be taken is read (its reactions are the next steps' load).
   bool reads() const { return loaded_ && loads_.reads(); }
-  // Whether bound reads its pose: a load-dependent slide's normal is across its guide's line.
-  bool reads_pose() const { return slide_loaded_; }
+  // Whether bound reads its pose: a load-dependent slide's normal is across its guide's line, and
+  // a gear's teeth push on its bearing.
+  bool reads_pose() const { return slide_loaded_ || (loaded_ && loads_.geared()); }
   // Before a step of h from pose q (read only when reads_pose()): each joint's limit [N m or N],
   // handed to set(i, limit).
   void bound(double h, const Eigen::VectorXd& q, const std::function<void(size_t, double)>& set);
@@ -230,6 +244,7 @@ class FrictionBounds {
   bool loaded_ = false;        // a friction grows with its joint's reaction
   bool slide_loaded_ = false;  // a slide's among them
   FrictionLoads loads_;
+  Eigen::VectorXd pose_;  // the pose of the step's start (when the loads are geared)
 };
 
 // Forces of pose k come from the step that leaves it (k -> k+1), whose acceleration is the

@@ -729,12 +729,6 @@ void check_friction(Reader& r, const Mechanism& m) {
   const std::vector<int> friction = m.friction_joints();
   if (friction.empty()) return;
   const Joint& first = m.joints[static_cast<size_t>(friction.front())];
-  for (const Joint& j : m.joints)
-    if (j.is_gearing())
-      r.error(first.friction->where,
-              fmt::format("joint friction beside a gear pair ('{}') is not modelled yet: its "
-                          "tooth force's separating part makes the pivots' reactions piecewise",
-                          j.name));
   if (m.dynamics && m.drivers.size() > 1)
     r.error(first.friction->where,
             "forward dynamics with joint friction and several free coordinates is not modelled "

@@ -164,29 +164,36 @@ GearPaths gear_paths(const Mechanism& m, int joint) {
   return g;
 }
 
+ToothForce tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state) {
+  const Joint& j = m.joints[static_cast<size_t>(g.joint)];
+  const BodyMotion carrier = motion(m, j.carrier, state);
+  const Link& c = m.links[static_cast<size_t>(j.carrier)];
+  ToothForce t;
+  t.pitch = carrier.position(pitch_point(m, j));
+  // Of the first moving gear's mate on it: the tangential part's moment about its centre is the
+  // couple; the separating part pushes a ring (the larger gear of an internal pair) outward,
+  // every other gear inward.
+  const bool first = m.moving_index(j.link_a) >= 0;
+  const double radius = first ? j.radius_a : j.radius_b;
+  const Eigen::Vector2d arm =
+      t.pitch -
+      carrier.position(c.points[static_cast<size_t>(first ? j.centre_a : j.centre_b)].local);
+  const bool ring =
+      j.type == JointType::gear && j.ratio < 0.0 && radius > (first ? j.radius_b : j.radius_a);
+  const double on_a = first ? 1.0 : -1.0;
+  t.tangential = on_a * perp(arm);
+  t.separating = on_a * (ring ? arm : Eigen::Vector2d(-arm));
+  t.tan_pressure = std::tan(j.pressure_angle);
+  t.radius = radius;
+  return t;
+}
+
 void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
                       double couple, std::vector<Eigen::Vector2d>& joint_force,
                       double* slide_normal, double* slide_moment) {
   const Joint& j = m.joints[static_cast<size_t>(g.joint)];
-  const BodyMotion carrier = motion(m, j.carrier, state);
-  const Link& c = m.links[static_cast<size_t>(j.carrier)];
-  const Eigen::Vector2d pitch = carrier.position(pitch_point(m, j));
-  // The tooth force on the first moving gear whose moment about its centre is the couple, and
-  // the separating force.
-  const bool first = m.moving_index(j.link_a) >= 0;
-  const double radius = first ? j.radius_a : j.radius_b;
-  const Eigen::Vector2d arm =
-      pitch -
-      carrier.position(c.points[static_cast<size_t>(first ? j.centre_a : j.centre_b)].local);
-  const double tangential = couple / radius;
-  // A ring (the larger gear of an internal pair) is pushed outward, every other gear inward.
-  const bool ring =
-      j.type == JointType::gear && j.ratio < 0.0 && radius > (first ? j.radius_b : j.radius_a);
-  const Eigen::Vector2d tooth =
-      (tangential * perp(arm) +
-       std::abs(tangential) * std::tan(j.pressure_angle) * (ring ? arm : Eigen::Vector2d(-arm))) /
-      radius;
-  const Eigen::Vector2d on_a = first ? tooth : Eigen::Vector2d(-tooth);
+  const ToothForce t = tooth_force(m, g, state);
+  const Eigen::Vector2d on_a = t.at(couple);
   joint_force[static_cast<size_t>(g.joint)] = -on_a;  // of the first gear on the second
   for (const auto& [ji, sign] : g.path_a) joint_force[static_cast<size_t>(ji)] += sign * on_a;
   for (const auto& [ji, sign] : g.path_b) joint_force[static_cast<size_t>(ji)] -= sign * on_a;
@@ -197,21 +204,56 @@ void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicSta
   const Eigen::Vector2d on_rack = -on_a;
   joint_force[static_cast<size_t>(j.slide)] -= on_rack.dot(slide.normal) * slide.normal;
   if (slide_normal) *slide_normal -= on_rack.dot(slide.normal);
-  if (slide_moment) *slide_moment -= cross(pitch - slide.point, on_rack);
+  if (slide_moment) *slide_moment -= cross(t.pitch - slide.point, on_rack);
+}
+
+std::pair<double, int> Kinetostatics::couple_per_multiplier(const Gearing& g,
+                                                            const KinematicState& state) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = m.joints[static_cast<size_t>(g.paths.joint)];
+  const int row = solver_.layout().joint(g.paths.joint).first_row;
+  const int k = m.moving_index(m.moving_index(j.link_a) >= 0 ? j.link_a : j.link_b);
+  return {-solver_.jacobian_entry(state, row, 3 * k + 2), row};
 }
 
 void Kinetostatics::add_tooth_force(const Gearing& g, const KinematicState& state,
                                     ForceSample& out) const {
   const Mechanism& m = solver_.mechanism();
-  const Joint& j = m.joints[static_cast<size_t>(g.paths.joint)];
-  const int row = solver_.layout().joint(g.paths.joint).first_row;
-  // The couple the row puts on one moving gear (the first unless it is the ground).
-  const int k = m.moving_index(m.moving_index(j.link_a) >= 0 ? j.link_a : j.link_b);
-  const double couple = -solver_.jacobian_entry(state, row, 3 * k + 2) * out.lambda(row);
+  const auto [per_multiplier, row] = couple_per_multiplier(g, state);
   const bool rack = g.slide >= 0;
-  pass_tooth_force(m, g.paths, state, couple, out.joint_force,
+  pass_tooth_force(m, g.paths, state, per_multiplier * out.lambda(row), out.joint_force,
                    rack ? &out.normal[static_cast<size_t>(g.slide)] : nullptr,
                    rack ? &out.moment[static_cast<size_t>(g.slide)] : nullptr);
+}
+
+Kinetostatics::ToothShare Kinetostatics::tooth_share(const Gearing& g, const KinematicState& state,
+                                                     int joint) const {
+  const Mechanism& m = solver_.mechanism();
+  double sign = 0.0;
+  for (const auto& [ji, s] : g.paths.path_a)
+    if (ji == joint) sign += s;
+  for (const auto& [ji, s] : g.paths.path_b)
+    if (ji == joint) sign -= s;
+  const bool slide = g.slide >= 0 && m.joints[static_cast<size_t>(g.paths.joint)].slide == joint;
+  ToothShare out;
+  if (sign == 0.0 && !slide) return out;
+  out.any = true;
+  const ToothForce t = tooth_force(m, g.paths, state);
+  const double per_couple = 1.0 / (t.radius * t.radius);
+  const Eigen::Vector2d odd = per_couple * t.tangential,
+                        even = per_couple * t.tan_pressure * t.separating;
+  out.odd.on_b = sign * odd;
+  out.even.on_b = sign * even;
+  if (!slide) return out;
+  // As pass_tooth_force: the rack's slide takes the tooth force's normal part and the couple of
+  // its offset from the slide's point.
+  const SlideAt at = slide_at(m, m.joints[static_cast<size_t>(joint)], state);
+  for (const auto& [share, f] : {std::pair{&out.odd, odd}, std::pair{&out.even, even}}) {
+    share->on_b += f.dot(at.normal) * at.normal;
+    share->normal += f.dot(at.normal);
+    share->moment += cross(t.pitch - at.point, f);
+  }
+  return out;
 }
 
 ForceSample Kinetostatics::make_sample() const {
@@ -458,19 +500,66 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     out.unit_lambda.col(f) = column;
   }
   // Each friction joint's reaction at the frictionless multipliers (A) and per unit of each
-  // friction (B), and the friction gain.
+  // friction (B).
   std::vector<Reaction> at_zero(static_cast<size_t>(k));
   std::vector<Reaction> per_unit(static_cast<size_t>(k * k));
-  Eigen::MatrixXd bound(k, k);  // |d f_j / d f_i| at most: g_j h_j(B_ji), h a norm
   for (Eigen::Index f = 0; f < k; ++f) {
     const int ji = friction_joints_[static_cast<size_t>(f)];
     at_zero[static_cast<size_t>(f)] = reaction(state, ji, out.lambda);
     for (Eigen::Index i = 0; i < k; ++i) {
       column = out.unit_lambda.col(i);
-      Reaction& b = per_unit[static_cast<size_t>(f * k + i)];
-      b = reaction(state, ji, column);
-      bound(f, i) = gain(f) * friction_load(static_cast<int>(f), b);
+      per_unit[static_cast<size_t>(f * k + i)] = reaction(state, ji, column);
     }
+  }
+  // A gear's bearing or a rack's slide also carries the tooth force (add_tooth_force): c P +
+  // |c| Q in its gearing's couple c = c_0 + sum_i x_i c_i, which is linear in the multipliers.
+  // P joins A and B; |c| Q, the separating force, is the reaction's second kink.
+  struct Mesh {
+    Eigen::Index f;
+    Reaction separating;       // Q
+    double c0;                 // c at x = 0
+    Eigen::VectorXd per_unit;  // c_i
+  };
+  std::vector<Mesh> meshes;
+  for (const Gearing& g : gearings_) {
+    const auto [per_multiplier, row] = couple_per_multiplier(g, state);
+    for (Eigen::Index f = 0; f < k; ++f) {
+      const ToothShare share = tooth_share(g, state, friction_joints_[static_cast<size_t>(f)]);
+      if (!share.any) continue;
+      Mesh mesh{f, share.even, per_multiplier * out.lambda(row),
+                per_multiplier * out.unit_lambda.row(row).transpose()};
+      at_zero[static_cast<size_t>(f)] = plus(at_zero[static_cast<size_t>(f)], mesh.c0, share.odd);
+      for (Eigen::Index i = 0; i < k; ++i)
+        per_unit[static_cast<size_t>(f * k + i)] =
+            plus(per_unit[static_cast<size_t>(f * k + i)], mesh.per_unit(i), share.odd);
+      meshes.push_back(std::move(mesh));
+    }
+  }
+  // The change of joint f's reaction per unit of friction i, with each of its meshes' couples
+  // growing in magnitude when it grows (`side` +1) or shrinking (-1), one bit of `sides` each.
+  const auto change = [&](Eigen::Index f, Eigen::Index i, const auto& side) {
+    Reaction d = per_unit[static_cast<size_t>(f * k + i)];
+    for (size_t n = 0; n < meshes.size(); ++n)
+      if (meshes[n].f == f) d = plus(d, side(n) * meshes[n].per_unit(i), meshes[n].separating);
+    return d;
+  };
+  // The friction gain's bound |d f_j / d f_i| <= g_j h_j(B_ji), h a norm, over either side of
+  // each mesh's kink.
+  Eigen::MatrixXd bound = Eigen::MatrixXd::Zero(k, k);
+  for (Eigen::Index f = 0; f < k; ++f) {
+    std::vector<size_t> own;
+    for (size_t n = 0; n < meshes.size(); ++n)
+      if (meshes[n].f == f) own.push_back(n);
+    for (Eigen::Index i = 0; i < k; ++i)
+      for (size_t sides = 0; sides < (size_t{1} << own.size()); ++sides) {
+        const auto side = [&](size_t n) {
+          const size_t bit =
+              static_cast<size_t>(std::find(own.begin(), own.end(), n) - own.begin());
+          return (sides >> bit & 1U) ? -1.0 : 1.0;
+        };
+        bound(f, i) =
+            std::max(bound(f, i), gain(f) * friction_load(static_cast<int>(f), change(f, i, side)));
+      }
   }
   // The gain: the spectral radius of that non-negative bound, the least Lipschitz constant of
   // the map over every weighting of the magnitudes (Perron-Frobenius): moments and forces have
@@ -483,10 +572,15 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     out.cause = friction_joints_[static_cast<size_t>(row)];
     return false;
   }
+  const auto couple_at = [&](const Eigen::VectorXd& x, const Mesh& mesh) {
+    return mesh.c0 + mesh.per_unit.dot(x);
+  };
   const auto reaction_at = [&](const Eigen::VectorXd& x, Eigen::Index f) {
     Reaction r = at_zero[static_cast<size_t>(f)];
     for (Eigen::Index i = 0; i < k; ++i)
       r = plus(r, x(i), per_unit[static_cast<size_t>(f * k + i)]);
+    for (const Mesh& mesh : meshes)
+      if (mesh.f == f) r = plus(r, std::abs(couple_at(x, mesh)), mesh.separating);
     return r;
   };
   // The magnitudes the reactions at x give: x is the solution where they are x.
@@ -508,12 +602,12 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
       break;
     }
     // Newton: (I - d image / dx) step = image(x) - x.
+    const auto side = [&](size_t n) { return couple_at(x, meshes[n]) < 0.0 ? -1.0 : 1.0; };
     for (Eigen::Index f = 0; f < k; ++f) {
       const Reaction r = reaction_at(x, f);
       for (Eigen::Index i = 0; i < k; ++i)
         slope(f, i) = (f == i ? 1.0 : 0.0) -
-                      gain(f) * friction_load_slope(static_cast<int>(f), r,
-                                                    per_unit[static_cast<size_t>(f * k + i)]);
+                      gain(f) * friction_load_slope(static_cast<int>(f), r, change(f, i, side));
     }
     trial = x + slope.partialPivLu().solve(y - x);
     image(trial, trial_image);

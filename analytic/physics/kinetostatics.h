@@ -31,7 +31,9 @@
 // or the coefficient mu, c_j the load-independent part. The reactions depend on the friction they
 // cause: with G_j the generalised force of a unit friction of joint j (its sign from the relative
 // rate), J^T lambda = b + sum_j f_j G_j gives lambda = lambda_0 + sum_j f_j Lambda_j, k extra
-// solves with J's factors, and every reaction is linear in lambda. That leaves k equations in the
+// solves with J's factors, and every reaction is linear in lambda (a gear's bearing and a rack's
+// slide add the separating force of their tooth force, |c| Q in the gearing's couple c, itself
+// linear in lambda: a second kink). That leaves k equations in the
 // k magnitudes, f_j = g_j h_j(A_j + sum_i f_i B_ji) + c_j, solved by Newton (with a fixed-point
 // step where Newton does not reduce the residual) to round-off. The friction gain, the spectral
 // radius of the matrix g_j h_j(B_ji) that bounds the map's slopes, bounds it: below 1 the map
@@ -47,6 +49,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -120,6 +123,19 @@ GearPaths gear_paths(const Mechanism& m, int joint);
 void pass_tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state,
                       double couple, std::vector<Eigen::Vector2d>& joint_force,
                       double* slide_normal, double* slide_moment);
+// Gearing g's tooth force on its first moving gear at `state`, at the pitch point, as a function
+// of the couple c its coupling puts on that gear: its tangential part is odd in c, the pressure
+// angle's separating part keeps its side whichever way c turns.
+struct ToothForce {
+  Eigen::Vector2d tangential, separating;  // directions: perp(arm) and the pushing side's arm
+  double tan_pressure = 0.0, radius = 1.0;
+  Eigen::Vector2d pitch;
+  Eigen::Vector2d at(double couple) const {
+    const double t = couple / radius;
+    return (t * tangential + std::abs(t) * tan_pressure * separating) / radius;
+  }
+};
+ToothForce tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state);
 
 class Kinetostatics {
  public:
@@ -196,6 +212,16 @@ class Kinetostatics {
   };
   // The tooth force at the multipliers, and what it changes in the other joints' reactions.
   void add_tooth_force(const Gearing& g, const KinematicState& state, ForceSample& out) const;
+  // The couple gearing g's row puts on its first moving gear per unit of its multiplier, and
+  // that row.
+  std::pair<double, int> couple_per_multiplier(const Gearing& g, const KinematicState& state) const;
+  // What gearing g's tooth force adds to joint `joint`'s reaction (add_tooth_force), per unit of
+  // its couple (`odd`) and of the couple's magnitude (`even`); none off its paths and its slide.
+  struct ToothShare {
+    bool any = false;
+    Reaction odd, even;
+  };
+  ToothShare tooth_share(const Gearing& g, const KinematicState& state, int joint) const;
   Reaction reaction(const KinematicState& state, int joint, const Eigen::VectorXd& lambda) const;
   // The efforts, reactions and shaking force from out.lambda and out.friction.
   void write_forces(KinematicState& state, ForceSample& out) const;

@@ -376,7 +376,7 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
         readback_(readback),
         forces_(forces),
         q_(q0),
-        loads_(std::move(setup.start), setup.extrapolated, 0),
+        loads_(m, std::move(setup.start), setup.extrapolated, 0),
         t_last_(setup.t0) {
     for (const SceneJoint& j : g.joints) {
       if (j.source < 0 || !m.joints[static_cast<size_t>(j.source)].friction) continue;
@@ -396,7 +396,8 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
   // loaded()), and whether each joint is held.
   void begin_step(const SimTK::State& s, const ForceReading* reading) {
     const double t = s.getTime();
-    loads_.record(reading, t - t_last_);  // at the start, its reading replaces the reference's
+    if (reading && loads_.geared()) readback_.pose(s, q_);
+    loads_.record(reading, t - t_last_, q_);  // at the start, it replaces the reference's
     t_last_ = t;
     for (Rough& r : rough_) r.held = std::abs(rate(s, r)) < r.speed;
   }

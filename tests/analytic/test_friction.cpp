@@ -39,11 +39,17 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 // with unknowns per revolute joint its force (of its first link on its second), per prismatic
 // joint its normal force (along the guide line's left normal) and its couple on the slider, and
 // the driver's torque; joint friction is a known load at given magnitudes, which are then
-// iterated: f = mu r |R| (pins), mu max(|N|, 2 |M| / b) (slides), plus the constant part.
-// Revolute and prismatic joints and one joint_angle driver, as the bundled friction files use.
+// iterated: f = mu r |R| (pins), mu max(|N|, 2 |M| / b) (slides), plus the constant part. An
+// external gear pair's teeth push at the pitch point (on the line of centres, r_a from the first
+// gear's centre): the unknown is the tangential force F_t on the second gear, and the separating
+// force |F_t| tan(phi) along the line of centres, away from the first, is iterated with the
+// friction. Revolute and prismatic joints, external gear pairs and one joint_angle driver, as the
+// bundled friction files use.
 struct NewtonEulerForces {
   Eigen::VectorXd unknowns;
+  std::vector<int> column;       // per joint: its first unknown (two; one for a gear pair)
   std::vector<double> friction;  // per joint: on its second link (moment, or force along the line)
+  std::vector<Eigen::Vector2d> mesh;  // per gear pair: the force of its first gear on its second
   int iterations = 0;
 };
 
@@ -56,10 +62,35 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
     return body(link).position(
         m.links[static_cast<size_t>(link)].points[static_cast<size_t>(point)].local);
   };
-  // The unknowns' columns: two per joint, then the driver's torque.
-  const int n = 2 * static_cast<int>(m.joints.size()) + 1;
+  // The unknowns' columns: two per joint (one per gear pair), then the driver's torque.
+  std::vector<int> column;
+  int n = 0;
+  for (const Joint& joint : m.joints) {
+    column.push_back(n);
+    n += joint.type == JointType::gear ? 1 : 2;
+  }
+  ++n;
   const int rows = 3 * m.moving_count();
-  EXPECT_EQ(n, rows) << "one driver, revolute and prismatic joints only";
+  EXPECT_EQ(n, rows) << "one driver, revolute and prismatic joints and gear pairs only";
+  // A gear pair's pitch point, the unit vector from its first centre to its second and the common
+  // tangent, from the gears' own centres (the named centre points on each gear link).
+  struct Teeth {
+    Eigen::Vector2d pitch, apart, tangent;
+  };
+  const auto teeth = [&](const Joint& joint) {
+    const Link& carrier = m.links[static_cast<size_t>(joint.carrier)];
+    const auto centre = [&](int gear, int on_carrier) {
+      const Link& g = m.links[static_cast<size_t>(gear)];
+      const std::string& name = carrier.points[static_cast<size_t>(on_carrier)].name;
+      const auto p = std::find_if(g.points.begin(), g.points.end(),
+                                  [&](const Point& x) { return x.name == name; });
+      return point_of(gear, static_cast<int>(p - g.points.begin()));
+    };
+    const Eigen::Vector2d a = centre(joint.link_a, joint.centre_a),
+                          b = centre(joint.link_b, joint.centre_b);
+    const Eigen::Vector2d apart = (b - a).normalized();
+    return Teeth{a + joint.radius_a * apart, apart, perp(apart)};
+  };
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows, n);
   Eigen::VectorXd known = Eigen::VectorXd::Zero(rows);  // applied, inertia and friction
   // Adds to link's rows, in column c of `a` (or to `known` when c < 0), a force at a point and a
@@ -80,7 +111,14 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
   std::vector<double> rate(m.joints.size()), sign(m.joints.size());
   for (size_t j = 0; j < m.joints.size(); ++j) {
     const Joint& joint = m.joints[j];
-    const int c = 2 * static_cast<int>(j);
+    const int c = column[j];
+    if (joint.type == JointType::gear) {
+      EXPECT_GT(joint.ratio, 0.0) << "external gear pairs only";
+      const Teeth g = teeth(joint);
+      put(joint.link_b, c, g.pitch, g.tangent, 0.0, nullptr);
+      put(joint.link_a, c, g.pitch, -g.tangent, 0.0, nullptr);
+      continue;
+    }
     if (joint.type == JointType::revolute) {
       const Eigen::Vector2d at = point_of(joint.link_b, joint.point_b);
       for (int axis = 0; axis < 2; ++axis) {
@@ -140,10 +178,21 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
   }
   const Eigen::PartialPivLU<Eigen::MatrixXd> lu(a);
   NewtonEulerForces out;
+  out.column = column;
   out.friction.assign(m.joints.size(), 0.0);
-  std::vector<double> magnitude(m.joints.size(), 0.0);
+  out.mesh.assign(m.joints.size(), Eigen::Vector2d::Zero());
+  std::vector<double> magnitude(m.joints.size(), 0.0), tangential(m.joints.size(), 0.0);
   for (out.iterations = 0; out.iterations < 2000; ++out.iterations) {
     Eigen::VectorXd b = known;
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      const Joint& joint = m.joints[j];
+      if (joint.type != JointType::gear) continue;
+      const Teeth g = teeth(joint);
+      const Eigen::Vector2d separating =
+          std::abs(tangential[j]) * std::tan(joint.pressure_angle) * g.apart;
+      put(joint.link_b, -1, g.pitch, separating, 0.0, &b);
+      put(joint.link_a, -1, g.pitch, -separating, 0.0, &b);
+    }
     for (size_t j = 0; j < m.joints.size(); ++j) {
       const Joint& joint = m.joints[j];
       if (!joint.friction) continue;
@@ -168,8 +217,7 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
       const Joint& joint = m.joints[j];
       if (!joint.friction) continue;
       const JointFriction& fr = *joint.friction;
-      const double x = out.unknowns(2 * static_cast<Eigen::Index>(j)),
-                   y = out.unknowns(2 * static_cast<Eigen::Index>(j) + 1);
+      const double x = out.unknowns(column[j]), y = out.unknowns(column[j] + 1);
       const double next =
           joint.type == JointType::revolute
               ? fr.coefficient * fr.radius * std::hypot(x, y) + fr.constant
@@ -181,7 +229,21 @@ NewtonEulerForces newton_euler(const Mechanism& m, const Eigen::VectorXd& q,
       largest = std::max(largest, next);
       magnitude[j] = next;
     }
+    for (size_t j = 0; j < m.joints.size(); ++j) {
+      if (m.joints[j].type != JointType::gear) continue;
+      const double next = out.unknowns(column[j]);
+      change = std::max(change, std::abs(std::abs(next) - std::abs(tangential[j])));
+      largest = std::max(largest, std::abs(next));
+      tangential[j] = next;
+    }
     if (change <= 1e-15 * largest) break;
+  }
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const Joint& joint = m.joints[j];
+    if (joint.type != JointType::gear) continue;
+    const Teeth g = teeth(joint);
+    out.mesh[j] = tangential[j] * g.tangent +
+                  std::abs(tangential[j]) * std::tan(joint.pressure_angle) * g.apart;
   }
   return out;
 }
@@ -214,7 +276,10 @@ TEST_P(FrictionFiles, NewtonEulerFixedPointGivesTheSweepsForces) {
     for (size_t j = 0; j < m.joints.size(); ++j) {
       const Joint& joint = m.joints[j];
       const auto c = static_cast<Eigen::Index>(j);
-      Eigen::Vector2d expected(ne.unknowns(2 * c), ne.unknowns(2 * c + 1));
+      const Eigen::Index u = ne.column[j];
+      Eigen::Vector2d expected = joint.type == JointType::gear
+                                     ? ne.mesh[j]
+                                     : Eigen::Vector2d(ne.unknowns(u), ne.unknowns(u + 1));
       if (joint.is_slide()) {
         const BodyMotion guide =
             BodyMotion::of(m.moving_index(joint.link_a), state.q, nullptr, nullptr);
@@ -222,9 +287,9 @@ TEST_P(FrictionFiles, NewtonEulerFixedPointGivesTheSweepsForces) {
                                                      .lines[static_cast<size_t>(joint.line)]
                                                      .direction);
         const auto s = static_cast<Eigen::Index>(slide++);
-        forces.emplace_back(t.fn(k, s), ne.unknowns(2 * c));
-        torques.emplace_back(t.moment(k, s), ne.unknowns(2 * c + 1));
-        expected = ne.unknowns(2 * c) * perp(along) + ne.friction[j] * along;
+        forces.emplace_back(t.fn(k, s), ne.unknowns(u));
+        torques.emplace_back(t.moment(k, s), ne.unknowns(u + 1));
+        expected = ne.unknowns(u) * perp(along) + ne.friction[j] * along;
       }
       forces.emplace_back(t.fx(k, c), expected.x());
       forces.emplace_back(t.fy(k, c), expected.y());
@@ -294,6 +359,92 @@ TEST(Friction, BevansEccentricByTheFrictionCircles) {
               -cross(c, Eigen::Vector2d(load, (p.y() - c.y()) * load / (p.x() - c.x()))),
               1e-12 * torque);
   EXPECT_NEAR(without.effort(0, 0) / ton_ft, 3.64, 0.005);
+}
+
+// A spur gear pair whose bearings have friction circles (mechanisms/friction/
+// gear_pair_bearing_friction.toml), by hand: each bearing carries only the tooth force, whose
+// tangential part F_t turns the gear and whose separating part F_t tan(phi) the pressure angle
+// adds, so |R| = F_t / cos(phi) at both; the wheel's balance against the load T_L and its
+// bearing's friction gives F_t, the pinion's the driver's torque.
+TEST(Friction, AGearPairsBearingsByTheFrictionCircles) {
+  const Mechanism m = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                     "/mechanisms/friction/gear_pair_bearing_friction.toml");
+  const double r1 = 0.05, r2 = 0.1, rho1 = 0.1 * 0.015, rho2 = 0.1 * 0.02, load = 50.0;
+  const double c = std::cos(20.0 * std::numbers::pi / 180.0);
+  const double tangential = load / (r2 - rho2 / c);
+  const double torque = tangential * (r1 + rho1 / c);
+  const Trajectory t = sweep(m);
+  ASSERT_TRUE(t.has_forces);
+  const Eigen::Index mesh = 2;  // the third joint
+  int checked = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << k;
+    EXPECT_NEAR(t.effort(k, 0), torque, 1e-12 * torque) << k;
+    // On each gear against its turn: the pinion turns counter-clockwise, the wheel clockwise.
+    EXPECT_NEAR(t.friction(k, 0), -rho1 * tangential / c, 1e-12 * torque) << k;
+    EXPECT_NEAR(t.friction(k, 1), rho2 * tangential / c, 1e-12 * torque) << k;
+    EXPECT_NEAR(std::hypot(t.fx(k, mesh), t.fy(k, mesh)), tangential / c, 1e-12 * tangential);
+    ++checked;
+  }
+  EXPECT_EQ(checked, t.samples());
+  // The file's description: 26.359 N m against the frictionless r_1 / r_2 T_L = 25 N m, an
+  // efficiency of 94.84 %.
+  EXPECT_NEAR(torque, 26.359, 5e-4);
+  EXPECT_NEAR(load * r1 / r2 / torque, 0.9484, 5e-5);
+}
+
+// The same pair coasting from 300 rpm with no load and a constant 0.5 N m more at the wheel's
+// bearing. With the gears' centres of mass on their axes and no gravity, the tooth force F_y
+// (on the wheel, along the common tangent) and the pinion's acceleration follow from
+//   I_1 alpha_1 = -r_1 F_y - rho_1 |F_y| / cos(phi)             (the pinion turns ccw)
+//   I_2 alpha_2 = -r_2 F_y + rho_2 |F_y| / cos(phi) + T_c,  alpha_2 = -(r_1 / r_2) alpha_1,
+// linear once F_y's sign is chosen (the one that agrees): a constant deceleration, so the pinion
+// stops at t* = omega_0 / |alpha_1| and friction holds it there.
+TEST(FrictionDynamics, AGearPairCoastsToRestAsTheClosedFormSays) {
+  std::string text = test::source_text("mechanisms/friction/gear_pair_bearing_friction.toml");
+  text = text.substr(0, text.find("[driver]")) +
+         "[driver]\ntype = \"joint_angle\"\njoint = \"A\"\nto = \"B\"\nstart = 0\n\n"
+         "[dynamics]\nduration = 2\ninterval = 0.01\nrate = 300\nrate_unit = \"rpm\"\n";
+  const std::string wheel = "friction = { coefficient = 0.1, radius = 20 }";
+  text.replace(text.find(wheel), wheel.size(),
+               "friction = { coefficient = 0.1, radius = 20, torque = 500 }");  // N mm
+  const Mechanism m = parse_mechanism(text, "coasting_gears.toml");
+  const double r1 = 0.05, r2 = 0.1, rho1 = 0.1 * 0.015, rho2 = 0.1 * 0.02, held = 0.5;
+  const double i1 = 0.0015, i2 = 0.024, c = std::cos(20.0 * std::numbers::pi / 180.0);
+  const double omega0 = 300 * 2 * std::numbers::pi / 60;
+  double alpha = 0.0, tooth = 0.0;
+  int agreeing = 0;
+  for (const double sign : {1.0, -1.0}) {
+    Eigen::Matrix2d a;
+    a << i1, r1 + sign * rho1 / c, -i2 * r1 / r2, r2 - sign * rho2 / c;
+    const Eigen::Vector2d x = a.partialPivLu().solve(Eigen::Vector2d(0.0, held));
+    if (sign * x(1) < 0.0) continue;
+    alpha = x(0);
+    tooth = x(1);
+    ++agreeing;
+  }
+  ASSERT_EQ(agreeing, 1);
+  ASSERT_LT(alpha, 0.0);
+  const double stop = -omega0 / alpha;
+  ASSERT_LT(stop, 2.0);
+
+  const Simulation run = simulate(m);
+  ASSERT_TRUE(run.ok) << run.message;
+  ASSERT_EQ(run.stops.size(), 1u);
+  EXPECT_TRUE(run.held);
+  EXPECT_NEAR(run.stops[0].first, stop, 1e-9 * stop);
+  const double rest = omega0 * stop + 0.5 * alpha * stop * stop;
+  EXPECT_NEAR(run.stops[0].second, rest, 1e-9 * rest);
+  const Trajectory& t = run.trajectory;
+  for (int k = 0; k < t.samples(); ++k) {
+    const double time = t.time(k);
+    const double angle = time < stop ? omega0 * time + 0.5 * alpha * time * time : rest;
+    EXPECT_NEAR(t.angle(k, 0), angle, 1e-9 * rest) << time;
+    EXPECT_LT(run.energy_error(k), 1e-9) << time;
+    if (time >= stop) continue;  // held by two bearings: how they share it is not determined
+    EXPECT_NEAR(t.fy(k, 2), tooth, 1e-9 * std::abs(tooth)) << time;
+    EXPECT_NEAR(t.friction(k, 1), rho2 * std::abs(tooth) / c + held, 1e-9 * held) << time;
+  }
 }
 
 // Where the rod stops turning (the crank at 90 and 270 deg), the crosshead pin's friction has no

@@ -51,7 +51,8 @@ double creep_of(const EngineRun& run) {
 // it refuses.
 TEST(EngineFriction, EachEngineRunsTheFrictionItModelsAndRefusesTheRestNamingTheJoint) {
   const std::vector<std::string> tree_only = {"block_sliding_to_rest", "pendulum_pin_friction",
-                                              "fourbar_friction_circles"};
+                                              "fourbar_friction_circles",
+                                              "gear_pair_bearing_friction"};
   for (const methods::EngineEntry& e : methods::engine_table()) {
     const auto engine = e.make();
     for (const std::string& path : test::friction_files()) {
