@@ -393,6 +393,44 @@ TEST(Friction, AGearPairsBearingsByTheFrictionCircles) {
   EXPECT_NEAR(load * r1 / r2 / torque, 0.9484, 5e-5);
 }
 
+// Ryan's rack and pinion (mechanisms/gears/ryan_rack_and_pinion.toml) made massless, with a 100 N
+// load against the rack's motion, friction at the rack's slide (mu 0.15, a point contact) and at
+// the pinion's bearing (mu 0.1 on a 3 mm journal), by hand: the teeth push the rack along its
+// line with F_t and away from the pinion with F_t tan(phi), which the guide's normal force N
+// balances, so F_t - mu N - F_L = 0 gives F_t = F_L / (1 - mu tan(phi)); the pinion's bearing
+// carries |R| = F_t / cos(phi), and T = F_t (r + mu_p r_p / cos(phi)).
+TEST(Friction, ARackAndPinionsSlideAndBearingByHand) {
+  std::string text = test::source_text("mechanisms/gears/ryan_rack_and_pinion.toml");
+  const auto after = [&](const std::string& line, const std::string& added) {
+    const size_t at = text.find(line);
+    ASSERT_NE(at, std::string::npos) << line;
+    text.insert(at + line.size(), added);
+  };
+  after("angle = \"deg\"\n", "mass = \"kg\"\nforce = \"N\"\n");
+  after("pose = [0, \"13 * 4 / (2 * pi)\", 0]\n", "mass = 0\ncom = [0, 0]\ninertia = 0\n");
+  after("pose = [0, 0, 0]\n", "mass = 0\ncom = [0, 0]\ninertia = 0\n");
+  after("point = \"X\"\n", "friction = { coefficient = 0.1, radius = 3 }\n");
+  after("point = \"A\"\n", "friction = { coefficient = 0.15 }\n");
+  text +=
+      "\n[[load]]\nname = \"resistance\"\nlink = \"rack\"\npoint = \"A\"\n"
+      "force = [-100, 0]\n";
+  const Mechanism m = parse_mechanism(text, "rough_rack.toml");
+  const double r = 0.052 / (2 * std::numbers::pi), tan_phi = std::tan(20 * std::numbers::pi / 180);
+  const double cos_phi = std::cos(20 * std::numbers::pi / 180);
+  const double tangential = 100.0 / (1.0 - 0.15 * tan_phi);
+  const double torque = tangential * (r + 0.1 * 0.003 / cos_phi);
+  const Trajectory t = sweep(m);
+  ASSERT_TRUE(t.has_forces);
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << k;
+    EXPECT_NEAR(t.effort(k, 0), torque, 1e-12 * torque) << k;
+    EXPECT_NEAR(std::abs(t.fn(k, 0)), tangential * tan_phi, 1e-12 * tangential) << k;
+    // Against the pinion's anticlockwise turn and the rack's motion to the right.
+    EXPECT_NEAR(t.friction(k, 0), -0.1 * 0.003 * tangential / cos_phi, 1e-12 * torque) << k;
+    EXPECT_NEAR(t.friction(k, 1), -0.15 * tangential * tan_phi, 1e-12 * tangential) << k;
+  }
+}
+
 // The same pair coasting from 300 rpm with no load and a constant 0.5 N m more at the wheel's
 // bearing. With the gears' centres of mass on their axes and no gravity, the tooth force F_y
 // (on the wheel, along the common tangent) and the pinion's acceleration follow from
