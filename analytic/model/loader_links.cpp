@@ -728,11 +728,6 @@ void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index) {
 void check_friction(Reader& r, const Mechanism& m) {
   const std::vector<int> friction = m.friction_joints();
   if (friction.empty()) return;
-  const Joint& first = m.joints[static_cast<size_t>(friction.front())];
-  if (m.dynamics && m.drivers.size() > 1)
-    r.error(first.friction->where,
-            "forward dynamics with joint friction and several free coordinates is not modelled "
-            "yet: one joint may stick while another slides");
   const double unit = m.units.length;
   const std::string& name = m.units.length_name;
   const double size = m.size();

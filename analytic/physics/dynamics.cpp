@@ -473,7 +473,81 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
         effort_(n_),
         dddot_(n_),
         rhs_(n_),
-        mass_(n_, n_) {}
+        mass_(n_, n_),
+        rough_(m.friction_joints()),
+        forces_(kinetostatics_.make_sample()) {
+    phase_.direction.assign(rough_.size(), 1);
+    phase_.holding.setZero(static_cast<Eigen::Index>(rough_.size()));
+  }
+
+  // Joint friction (docs/dynamics.md, "Joint friction"): each friction joint slides in one
+  // direction through a phase (its friction opposing it) or is held at rest relative to its first
+  // link (its friction what holds it, inside its static limit), so that the instant a phase ends
+  // is located on smooth motion (integrate_modes).
+  bool friction() const { return !rough_.empty(); }
+  const FrictionPhase& phase() const { return phase_; }
+  const std::vector<int>& friction_joints() const { return rough_; }
+
+  // The first friction joint (its index in friction_joints()) whose phase ends by state (t, x):
+  // sliding, its rate no longer has the phase's direction; held, its friction is past its static
+  // limit. -1: none.
+  int phase_ended(double t, const State& x) {
+    at(t, x);
+    for (size_t f = 0; f < rough_.size(); ++f) {
+      const int direction = phase_.direction[f];
+      const auto i = static_cast<int>(f);
+      if (direction != 0 && direction * kinetostatics_.relative_rate(state_, i) <= 0.0) return i;
+      if (direction == 0 && std::abs(phase_.holding(i)) >
+                                (1.0 + 1e-12) * kinetostatics_.friction_limit(i, forces_, true))
+        return i;
+    }
+    return -1;
+  }
+
+  // The phases from state (t, x) on, where the joints `ended` (friction_joints() indices) have
+  // just ended theirs, or every joint at the start: a joint that stops relative to its first link
+  // is held (its rate is made exactly zero, the other rates changed least in kinetic energy), and
+  // a held joint whose static limit cannot hold it slides away from the friction it needed. Each
+  // change is written to `changes` as (joint, new direction).
+  void choose_phases(double t, State& x, std::vector<int> ended,
+                     std::vector<std::pair<int, int>>& changes) {
+    at(t, x);
+    const bool start = ended.empty();
+    // Relative rates at or below 1e-9 of the fastest coordinate's (times the size for a slide)
+    // are at rest.
+    double rate = 0.0;
+    for (int i = 0; i < n_; ++i)
+      rate = std::max(rate, m_.drivers[static_cast<size_t>(i)].angular()
+                                ? std::abs(rate_(i))
+                                : std::abs(rate_(i)) / solver_.length_scale());
+    for (size_t f = 0; f < rough_.size(); ++f) {
+      const auto i = static_cast<int>(f);
+      const double w = kinetostatics_.relative_rate(state_, i);
+      const bool slide = m_.joints[static_cast<size_t>(rough_[f])].is_slide();
+      const bool stopped = std::ranges::find(ended, i) != ended.end() ||
+                           std::abs(w) <= 1e-9 * rate * (slide ? solver_.length_scale() : 1.0);
+      const int direction = stopped ? 0 : w > 0.0 ? 1 : -1;
+      if (start || direction != phase_.direction[f]) changes.emplace_back(i, direction);
+      phase_.direction[f] = direction;
+    }
+    hold_still(t, x);
+    // A held joint its static limit cannot hold slides, away from the friction that would have
+    // held it; then the others are asked again.
+    for (size_t round = 0; round <= rough_.size(); ++round) {
+      at(t, x);
+      int away = -1;
+      for (size_t f = 0; f < rough_.size() && away < 0; ++f) {
+        const auto i = static_cast<int>(f);
+        if (phase_.direction[f] == 0 &&
+            std::abs(phase_.holding(i)) > kinetostatics_.friction_limit(i, forces_, true))
+          away = i;
+      }
+      if (away < 0) return;
+      const int direction = phase_.holding(away) > 0.0 ? -1 : 1;
+      phase_.direction[static_cast<size_t>(away)] = direction;
+      changes.emplace_back(away, direction);
+    }
+  }
 
   // The start: each driver's start value and initial rate, no work done.
   static State start(const Mechanism& m) {
@@ -529,16 +603,121 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
                     fmt::format("the generalised mass is not positive definite at coordinates {}",
                                 shown(d_, 12))};
     dddot_ = llt.solve(rhs_);
-    state_.qddot += s_ * dddot_;
-    for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)].accel = dddot_(i);
-    if (power) *power = kinetostatics_.load_power(state_);
+    if (friction()) {
+      with_friction(t);
+    } else {
+      state_.qddot += s_ * dddot_;
+      for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)].accel = dddot_(i);
+    }
+    if (power)
+      *power = kinetostatics_.load_power(state_) +
+               (friction() ? kinetostatics_.friction_power(state_, forces_) : 0.0);
   }
   static double work(const State& x) { return x.back(); }
 
  private:
+  // The accelerations with joint friction, from at()'s without it (dddot_): those whose exact
+  // kinetostatics needs the given efforts, each sliding joint's friction against its phase's
+  // direction and each held joint's relative acceleration zero, its friction (the phase's
+  // holding) an unknown with them. The efforts are affine in both but for the friction's load
+  // (|R|, and the tooth force's separating part): Newton with a difference Jacobian, a handful of
+  // steps to round-off. Leaves the state and forces_ at the solution.
+  void with_friction(double t) {
+    const Eigen::VectorXd qddot0 = state_.qddot;  // every coordinate's acceleration 0
+    std::vector<Eigen::Index> held;
+    for (size_t f = 0; f < rough_.size(); ++f)
+      if (phase_.direction[f] == 0) held.push_back(static_cast<Eigen::Index>(f));
+    const Eigen::Index n = n_, unknowns = n + static_cast<Eigen::Index>(held.size());
+    const auto residual = [&](const Eigen::VectorXd& z, Eigen::VectorXd& r) {
+      for (size_t i = 0; i < held.size(); ++i)
+        phase_.holding(held[i]) = z(n + static_cast<Eigen::Index>(i));
+      state_.qddot = qddot0 + s_ * z.head(n);
+      for (int i = 0; i < n_; ++i) state_.drivers[static_cast<size_t>(i)].accel = z(i);
+      kinetostatics_.solve(state_, forces_, state_, false, &phase_);
+      if (forces_.status != PoseStatus::ok) throw Stopped{t, forces_.status, forces_.why(m_)};
+      r.head(n) = forces_.effort - effort_;
+      for (size_t i = 0; i < held.size(); ++i)
+        r(n + static_cast<Eigen::Index>(i)) =
+            kinetostatics_.relative_acceleration(state_, static_cast<int>(held[i]));
+    };
+    Eigen::VectorXd z(unknowns), r(unknowns), shifted(unknowns), r_shifted(unknowns);
+    z.head(n) = dddot_;
+    for (size_t i = 0; i < held.size(); ++i)
+      z(n + static_cast<Eigen::Index>(i)) = phase_.holding(held[i]);
+    residual(z, r);
+    // Each unknown's scale: the accelerations' and the efforts' and frictions' largest.
+    const double accel_scale = std::max(dddot_.lpNorm<Eigen::Infinity>(), 1e-12);
+    double force_scale = std::max(effort_.lpNorm<Eigen::Infinity>(), 1e-12);
+    for (const double f : forces_.friction) force_scale = std::max(force_scale, std::abs(f));
+    const auto scale = [&](Eigen::Index j) { return j < n ? accel_scale : force_scale; };
+    Eigen::MatrixXd jacobian(unknowns, unknowns);
+    for (Eigen::Index j = 0; j < unknowns; ++j) {
+      shifted = z;
+      const double h = 1e-7 * std::max(std::abs(z(j)), scale(j));
+      shifted(j) += h;
+      residual(shifted, r_shifted);
+      jacobian.col(j) = (r_shifted - r) / h;
+    }
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(jacobian);
+    residual(z, r);
+    for (int it = 0;; ++it) {
+      const Eigen::VectorXd step = lu.solve(r);
+      if (!step.allFinite())
+        throw Stopped{t, PoseStatus::friction_indeterminate,
+                      "the joints held by friction do not fix the motion with the sliding ones: "
+                      "how they share the load is not determined"};
+      z -= step;
+      residual(z, r);
+      bool small = true;
+      for (Eigen::Index j = 0; j < unknowns; ++j)
+        small = small && std::abs(step(j)) <= 1e-14 * std::max(std::abs(z(j)), scale(j));
+      if (small) break;
+      if (it == kFrictionNewtonSteps)
+        throw Stopped{t, PoseStatus::no_convergence,
+                      "the accelerations with joint friction did not converge"};
+    }
+    dddot_ = z.head(n);
+  }
+
+  // Newton's steps in with_friction: affine but for the friction's load, a few reach round-off.
+  static constexpr int kFrictionNewtonSteps = 50;
+
+  // Makes the held joints' relative rates exactly zero at state (t, x): the coordinates' rates
+  // change least in kinetic energy, d' = d - M^-1 G^T (G M^-1 G^T)^-1 G d (G the held joints'
+  // relative rates per unit rate of each coordinate, M = S^T M S).
+  void hold_still(double t, State& x) {
+    std::vector<int> held;
+    for (size_t f = 0; f < rough_.size(); ++f)
+      if (phase_.direction[f] == 0) held.push_back(static_cast<int>(f));
+    if (held.empty()) return;
+    at(t, x);
+    const auto h = static_cast<Eigen::Index>(held.size());
+    Eigen::MatrixXd g(h, n_);
+    const Eigen::VectorXd qdot = state_.qdot;
+    for (int i = 0; i < n_; ++i) {
+      state_.qdot = s_.col(i);
+      for (Eigen::Index k = 0; k < h; ++k)
+        g(k, i) = kinetostatics_.relative_rate(state_, held[static_cast<size_t>(k)]);
+    }
+    state_.qdot = qdot;
+    const Eigen::LLT<Eigen::MatrixXd> llt(mass_);
+    const Eigen::MatrixXd m_inv_gt = llt.solve(g.transpose());
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(g * m_inv_gt);
+    if (!lu.isInvertible())
+      throw Stopped{t, PoseStatus::friction_indeterminate,
+                    fmt::format("{} joints held by friction at once whose relative motions are "
+                                "not independent: how they share the load is not determined",
+                                held.size())};
+    rate_ -= m_inv_gt * lu.solve(g * rate_);
+    for (int i = 0; i < n_; ++i) x[static_cast<size_t>(n_ + i)] = rate_(i);
+  }
+
   const int n_;
   Eigen::VectorXd d_, rate_, effort_, dddot_, rhs_;
-  Eigen::MatrixXd mass_;  // S^T M S
+  Eigen::MatrixXd mass_;          // S^T M S
+  const std::vector<int> rough_;  // Mechanism::friction_joints()
+  FrictionPhase phase_;
+  ForceSample forces_;
 };
 
 // Writes the samples of a run: the pose, rates and forces at each sample's state, and the energy
@@ -555,6 +734,14 @@ class SampleWriter {
   const KinematicState* breaking_away(const typename Equations::State& y) const {
     if constexpr (requires { eom_.phase_motion(); })
       return y[1] == 0.0 ? eom_.phase_motion() : nullptr;
+    else
+      return nullptr;
+  }
+  // Several coordinates with joint friction: each joint's phase (a held joint's friction is
+  // what holds it).
+  const FrictionPhase* phase() const {
+    if constexpr (requires { eom_.phase(); })
+      return eom_.friction() ? &eom_.phase() : nullptr;
     else
       return nullptr;
   }
@@ -585,6 +772,8 @@ class SampleWriter {
         kinetostatics.solve_held(s, forces_, eom_.solver().mechanism().dynamics->effort_at(time));
       else if (const KinematicState* moving = breaking_away(y))
         kinetostatics.solve(s, forces_, *moving, false);
+      else if (const FrictionPhase* p = phase())
+        kinetostatics.solve(s, forces_, s, false, p);
       else
         kinetostatics.solve(s, forces_);
       // At rest, held by friction: the pose stands, the friction is somewhere in its cone.
@@ -609,6 +798,75 @@ class SampleWriter {
   int written_ = 0;
 };
 
+// Joint friction's steps: controlled steps of `Stepper` (Runge-Kutta-Fehlberg 7(8), or
+// Dormand-Prince 5(4)) on a phase's smooth motion; a step at whose end the phase no longer
+// `holds` is cut at the first instant it does not, found by bisection on single steps from the
+// step's start (to 1e-14 of the time).
+// odeint copies a fresh stepper into the controlled one, scratch arrays unset and written before
+// they are read: GCC 12 warns (-Wuninitialized, a false positive) once it inlines it.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+template <class Stepper, class State>
+class PhaseStepper {
+ public:
+  enum class Outcome { retried, stepped, phase_ended };
+  PhaseStepper(double tolerance, double interval)
+      : stepper_(boost::numeric::odeint::make_controlled(tolerance, tolerance, Stepper())),
+        interval_(interval) {
+    restart();
+  }
+  // The next step from (t, x) towards `end`: retried (its trial failed: a shorter one next),
+  // stepped, or cut where the phase ended (x and t there).
+  template <class Equations, class Holds>
+  Outcome step(Equations& eom, State& x, double& t, double end, const Holds& holds) {
+    namespace odeint = boost::numeric::odeint;
+    State trial = x;
+    double from = t, h = std::min(dt_, end - t);
+    if (stepper_.try_step(std::ref(eom), trial, from, h) == odeint::fail) {
+      dt_ = h;
+      return Outcome::retried;
+    }
+    dt_ = h;
+    if (end - from <= 1e-13 * end) from = end;
+    if (holds(from, trial)) {
+      x = trial;
+      t = from;
+      return Outcome::stepped;
+    }
+    double lo = 0.0, hi = from - t;
+    State y = x;  // do_step writes into a state of the right size
+    while (hi - lo > 1e-14 * std::max(t + hi, interval_)) {
+      const double mid = 0.5 * (lo + hi);
+      forget(single_);
+      single_.do_step(std::ref(eom), x, t, y, mid);
+      (holds(t + mid, y) ? lo : hi) = mid;
+    }
+    forget(single_);
+    single_.do_step(std::ref(eom), x, t, y, hi);
+    t += hi;
+    x = y;
+    restart();
+    return Outcome::phase_ended;
+  }
+  // A new phase: the next step starts small, with no derivative carried over.
+  void restart() {
+    forget(stepper_);
+    dt_ = std::min(interval_, kFirstStep);
+  }
+
+ private:
+  // Dormand-Prince reuses the last step's final derivative as the next step's first (FSAL): a
+  // step from any other state must forget it.
+  template <class S>
+  static void forget(S& fsal) {
+    if constexpr (requires { fsal.reset(); }) fsal.reset();
+  }
+  decltype(boost::numeric::odeint::make_controlled(1.0, 1.0, Stepper())) stepper_;
+  Stepper single_;
+  double interval_, dt_ = 0.0;
+};
+#pragma GCC diagnostic pop
+
 // Joint friction's phases (one coordinate): controlled steps of `Stepper` (Runge-Kutta-Fehlberg
 // 7(8), or Dormand-Prince 5(4)), each phase's friction opposing its direction of sliding; a step
 // over which the rate reaches zero is cut at that instant, found by bisection on single steps from
@@ -623,21 +881,8 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
                       const std::vector<double>& times, double interval, EquationOfMotion& eom,
                       SampleWriter<EquationOfMotion>& observe, Simulation& out,
                       EquationOfMotion::State x) {
-  namespace odeint = boost::numeric::odeint;
   using State = EquationOfMotion::State;
-  const double tol = options.tolerance;
-  // odeint copies a fresh stepper into the controlled one, scratch arrays unset and written
-  // before they are read: GCC 12 warns (-Wuninitialized, a false positive) once it inlines it.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-  auto stepper = odeint::make_controlled(tol, tol, Stepper());
-#pragma GCC diagnostic pop
-  Stepper single;
-  // Dormand-Prince reuses the last step's final derivative as the next step's first (FSAL): a
-  // step from any other state must forget it.
-  const auto forget = [](auto& fsal) {
-    if constexpr (requires { fsal.reset(); }) fsal.reset();
-  };
+  PhaseStepper<Stepper, State> steps(options.tolerance, interval);
   const auto units = driver_unit_of(mechanism.swept(), mechanism.units);
   const auto at_rest = [&](double t, State& y) {
     y[1] = 0.0;
@@ -689,7 +934,7 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
     eom.set_direction(0);
     return std::nullopt;
   };
-  double t = 0.0, dt = std::min(interval, kFirstStep);
+  double t = 0.0;
   if (x[1] == 0.0)
     at_rest(t, x);
   else
@@ -710,40 +955,80 @@ void integrate_phases(const Mechanism& mechanism, const SimulationOptions& optio
              fmt::format("breaks away at t = {:.12g} s, coordinate {}: the effort overcomes the "
                          "static friction",
                          t, units.text(x[0], 12))});
-        forget(stepper);
-        dt = std::min(interval, kFirstStep);
+        steps.restart();
         continue;
       }
-      State trial = x;
-      double from = t, h = std::min(dt, end - t);
-      if (stepper.try_step(std::ref(eom), trial, from, h) == odeint::fail) {
-        dt = h;
-        continue;
-      }
-      dt = h;
-      if (end - from <= 1e-13 * end) from = end;
-      if (eom.direction() * trial[1] > 0.0) {
-        x = trial;
-        t = from;
-        continue;
-      }
-      // The sliding stopped within the step: where.
-      double lo = 0.0, hi = from - t;
-      while (hi - lo > 1e-14 * std::max(t + hi, interval)) {
-        const double mid = 0.5 * (lo + hi);
-        State y;
-        forget(single);
-        single.do_step(std::ref(eom), x, t, y, mid);
-        (eom.direction() * y[1] > 0.0 ? lo : hi) = mid;
-      }
-      State y;
-      forget(single);
-      single.do_step(std::ref(eom), x, t, y, hi);
-      t += hi;
-      x = y;
-      at_rest(t, x);
-      forget(stepper);
-      dt = std::min(interval, kFirstStep);
+      // Sliding while the rate keeps the phase's direction; where it stops, at rest.
+      if (steps.step(eom, x, t, end, [&](double, const State& y) {
+            return eom.direction() * y[1] > 0.0;
+          }) == PhaseStepper<Stepper, State>::Outcome::phase_ended)
+        at_rest(t, x);
+    }
+    t = end;
+    observe(x, end);
+  }
+}
+
+// Joint friction's phases with several free coordinates: controlled steps of `Stepper`, each
+// friction joint sliding in its phase's direction or held at rest (SeveralEquations); a step by
+// whose end a phase has ended (a sliding joint's rate past zero, a held joint's friction past its
+// static limit) is cut at the first such instant, found by bisection on single steps from the
+// step's start (to 1e-14 of the time), and the phases are chosen again there
+// (choose_phases). Each change is an event and a stop.
+template <class Stepper>
+void integrate_modes(const Mechanism& mechanism, const SimulationOptions& options,
+                     const std::vector<double>& times, double interval, SeveralEquations& eom,
+                     SampleWriter<SeveralEquations>& observe, Simulation& out,
+                     SeveralEquations::State x) {
+  using State = SeveralEquations::State;
+  PhaseStepper<Stepper, State> steps(options.tolerance, interval);
+  std::vector<std::pair<int, int>> changes;
+  // Each joint whose phase changed at t is an event (one, whichever ways it went through), and
+  // the instant a stop.
+  const auto choose = [&](double t, State& y, std::vector<int> ended) {
+    const std::vector<int> before = eom.phase().direction;
+    changes.clear();
+    eom.choose_phases(t, y, std::move(ended), changes);
+    bool stop = false;
+    for (size_t f = 0; f < before.size(); ++f) {
+      const int now = eom.phase().direction[f];
+      // From the start a joint slides as it was launched, unless it is held or breaks away.
+      const bool changed =
+          t == 0.0 ? std::ranges::any_of(changes,
+                                         [&](const auto& c) {
+                                           return c.first == static_cast<int>(f) && c.second == 0;
+                                         })
+                   : now != before[f];
+      if (!changed) continue;
+      stop = true;
+      const Joint& j = mechanism.joints[static_cast<size_t>(eom.friction_joints()[f])];
+      const char* way = now > 0 ? "forward" : "backward";
+      out.trajectory.events.push_back(
+          {t, PoseStatus::ok,
+           now == 0 ? fmt::format("joint '{}' held at rest by its friction from t = {:.12g} s",
+                                  j.name, t)
+           : t > 0.0 && before[f] == -now
+               ? fmt::format("joint '{}' reverses at t = {:.12g} s, now {}: its friction cannot "
+                             "hold it",
+                             j.name, t, way)
+               : fmt::format("joint '{}' slides {} from t = {:.12g} s: its friction no longer "
+                             "holds it",
+                             j.name, way, t)});
+    }
+    if (stop) out.trajectory.stops.push_back(t);
+  };
+  double t = 0.0;
+  choose(t, x, {});
+  observe(x, times[0]);
+  for (size_t k = 1; k < times.size(); ++k) {
+    const double end = times[k];
+    while (t < end) {
+      const auto outcome = steps.step(
+          eom, x, t, end, [&](double at, const State& y) { return eom.phase_ended(at, y) < 0; });
+      // Others that ended at the same instant are found by choose_phases (a rate at rest, a
+      // held joint beyond its limit).
+      if (outcome == PhaseStepper<Stepper, State>::Outcome::phase_ended)
+        choose(t, x, {eom.phase_ended(t, x)});
     }
     t = end;
     observe(x, end);
@@ -765,7 +1050,7 @@ void integrate(const Mechanism& mechanism, const SimulationOptions& options,
     SampleWriter<Equations>& observe = writer.emplace(eom, out);
     typename Equations::State x = initial;
     bool phased = false;  // joint friction: in phases of one direction of sliding
-    if constexpr (std::is_same_v<Equations, EquationOfMotion>) phased = eom.friction();
+    phased = eom.friction();
     namespace odeint = boost::numeric::odeint;
     const double tol = options.tolerance;
     // Every trial step evaluates poses along it: the first is small (the controller grows it by
@@ -776,9 +1061,15 @@ void integrate(const Mechanism& mechanism, const SimulationOptions& options,
       if constexpr (std::is_same_v<Equations, EquationOfMotion>)
         integrate_phases<odeint::runge_kutta_dopri5<typename Equations::State>>(
             mechanism, options, times, interval, eom, observe, out, x);
+      else
+        integrate_modes<odeint::runge_kutta_dopri5<typename Equations::State>>(
+            mechanism, options, times, interval, eom, observe, out, x);
     } else if (phased && options.integrator == "rkf78") {
       if constexpr (std::is_same_v<Equations, EquationOfMotion>)
         integrate_phases<odeint::runge_kutta_fehlberg78<typename Equations::State>>(
+            mechanism, options, times, interval, eom, observe, out, x);
+      else
+        integrate_modes<odeint::runge_kutta_fehlberg78<typename Equations::State>>(
             mechanism, options, times, interval, eom, observe, out, x);
     } else if (options.integrator == "dopri5") {
       odeint::integrate_times(

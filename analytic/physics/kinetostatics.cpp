@@ -319,11 +319,11 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out) const {
 }
 
 void Kinetostatics::solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
-                          bool at_rest) const {
+                          bool at_rest, const FrictionPhase* phase) const {
   generalised_forces(state, out.generalised);
   solver_.multipliers(state, out.generalised, out.lambda);
   out.status = PoseStatus::ok;
-  if (!friction_joints_.empty() && !solve_friction(state, out, moving, at_rest)) return;
+  if (!friction_joints_.empty() && !solve_friction(state, out, moving, at_rest, phase)) return;
   write_forces(state, out);
 }
 
@@ -433,6 +433,32 @@ double Kinetostatics::relative_rate(const KinematicState& state, int f) const {
   return s.along.dot(s.slider.velocity(s.local) - on_guide);
 }
 
+double Kinetostatics::relative_acceleration(const KinematicState& state, int f) const {
+  const Mechanism& m = solver_.mechanism();
+  const Joint& j = friction_joint(static_cast<size_t>(f));
+  if (!j.is_slide()) return motion(m, j.link_b, state).alpha - motion(m, j.link_a, state).alpha;
+  // d/dt of along . (v_P - v_G), G the guide's point under the slider's P: the line turns with
+  // the guide, and G follows P across the guide.
+  const SlideAt s = slide_at(m, j, state);
+  const BodyMotion& g = s.guide;
+  const Eigen::Vector2d v = s.slider.velocity(s.local), arm = s.point - g.r;
+  const Eigen::Vector2d on_guide = g.v + g.omega * perp(arm);
+  const Eigen::Vector2d a_on_guide = g.a + g.alpha * perp(arm) + g.omega * perp(v - g.v);
+  return g.omega * perp(s.along).dot(v - on_guide) +
+         s.along.dot(s.slider.acceleration(s.local) - a_on_guide);
+}
+
+double Kinetostatics::friction_limit(int f, const ForceSample& forces, bool at_rest) const {
+  const Joint& j = friction_joint(static_cast<size_t>(f));
+  const JointFriction& law = *j.friction;
+  const auto ji = static_cast<size_t>(friction_joints_[static_cast<size_t>(f)]);
+  if (!j.is_slide()) return law.limit(true, forces.joint_force[ji].norm(), at_rest);
+  const auto slide = static_cast<size_t>(std::find(slide_joints_.begin(), slide_joints_.end(),
+                                                   friction_joints_[static_cast<size_t>(f)]) -
+                                         slide_joints_.begin());
+  return law.limit(false, law.load(false, forces.normal[slide], forces.moment[slide]), at_rest);
+}
+
 double Kinetostatics::friction_load(int f, const Reaction& r) const {
   const Joint& j = friction_joint(static_cast<size_t>(f));
   return j.is_slide() ? j.friction->load(false, r.normal, r.moment) : r.on_b.norm();
@@ -467,7 +493,8 @@ void Kinetostatics::add_unit_friction(const KinematicState& state, int f, double
 }
 
 bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
-                                   const KinematicState& moving, bool at_rest) const {
+                                   const KinematicState& moving, bool at_rest,
+                                   const FrictionPhase* phase) const {
   const Mechanism& m = solver_.mechanism();
   const auto k = static_cast<Eigen::Index>(friction_joints_.size());
   // The drivers' rate, as an angular rate: relative rates are judged against it.
@@ -481,6 +508,10 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     const Joint& j = friction_joint(static_cast<size_t>(f));
     return j.friction->load_gain(!j.is_slide(), at_rest);
   };
+  // A held joint's friction is given: x_f = -its value, with a unit friction of sign +1.
+  const auto is_held = [&](Eigen::Index f) {
+    return phase && phase->direction[static_cast<size_t>(f)] == 0;
+  };
   std::vector<double> sign(static_cast<size_t>(k));
   Eigen::VectorXd unit(out.lambda.size()), column(out.lambda.size());
   for (Eigen::Index f = 0; f < k; ++f) {
@@ -488,12 +519,15 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
     const double w = relative_rate(moving, static_cast<int>(f));
     const double stopped =
         kStoppedRate * rate * (friction_joint(static_cast<size_t>(f)).is_slide() ? size_ : 1.0);
-    if (!(std::abs(w) > stopped)) {
+    if (!phase && !(std::abs(w) > stopped)) {
       out.status = PoseStatus::friction_indeterminate;
       out.cause = ji;
       return false;
     }
-    sign[static_cast<size_t>(f)] = w > 0.0 ? 1.0 : -1.0;
+    sign[static_cast<size_t>(f)] = phase
+                                       ? (phase->direction[static_cast<size_t>(f)] < 0 ? -1.0 : 1.0)
+                                   : w > 0.0 ? 1.0
+                                             : -1.0;
     unit.setZero();
     add_unit_friction(state, static_cast<int>(f), sign[static_cast<size_t>(f)], unit);
     solver_.multipliers(state, unit, column);
@@ -547,6 +581,7 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
   // each mesh's kink.
   Eigen::MatrixXd bound = Eigen::MatrixXd::Zero(k, k);
   for (Eigen::Index f = 0; f < k; ++f) {
+    if (is_held(f)) continue;  // a given value: no slope
     std::vector<size_t> own;
     for (size_t n = 0; n < meshes.size(); ++n)
       if (meshes[n].f == f) own.push_back(n);
@@ -586,8 +621,9 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
   // The magnitudes the reactions at x give: x is the solution where they are x.
   const auto image = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     for (Eigen::Index f = 0; f < k; ++f)
-      y(f) = gain(f) * friction_load(static_cast<int>(f), reaction_at(x, f)) +
-             friction_joint(static_cast<size_t>(f)).friction->constant;
+      y(f) = is_held(f) ? -phase->holding(f)
+                        : gain(f) * friction_load(static_cast<int>(f), reaction_at(x, f)) +
+                              friction_joint(static_cast<size_t>(f)).friction->constant;
   };
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k), y(k), trial(k), trial_image(k);
   image(x, y);
@@ -607,7 +643,9 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
       const Reaction r = reaction_at(x, f);
       for (Eigen::Index i = 0; i < k; ++i)
         slope(f, i) = (f == i ? 1.0 : 0.0) -
-                      gain(f) * friction_load_slope(static_cast<int>(f), r, change(f, i, side));
+                      (is_held(f) ? 0.0
+                                  : gain(f) * friction_load_slope(static_cast<int>(f), r,
+                                                                  change(f, i, side)));
     }
     trial = x + slope.partialPivLu().solve(y - x);
     image(trial, trial_image);

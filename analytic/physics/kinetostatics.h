@@ -137,6 +137,14 @@ struct ToothForce {
 };
 ToothForce tooth_force(const Mechanism& m, const GearPaths& g, const KinematicState& state);
 
+// Forward dynamics with several free coordinates: each friction joint's phase (Mechanism::
+// friction_joints order), its direction of sliding (+1 or -1) or 0, held at rest relative to its
+// first link by `holding` (its friction on the second link; the unknown the motion solves for).
+struct FrictionPhase {
+  std::vector<int> direction;
+  Eigen::VectorXd holding;
+};
+
 class Kinetostatics {
  public:
   // A joint's reaction at multipliers `lambda` (linear in them): its rows' force on its second
@@ -159,8 +167,10 @@ class Kinetostatics {
   // instant its rate reaches zero (so that the instant can be located on smooth motion), and at
   // rest asks whether the mechanism breaks away along `moving`, with each friction at its static
   // limit (`at_rest`: static_coefficient).
-  void solve(KinematicState& state, ForceSample& out, const KinematicState& moving,
-             bool at_rest) const;
+  // With `phase`, each friction joint's sign is its phase's direction instead, and a joint held
+  // at rest takes the phase's friction as given.
+  void solve(KinematicState& state, ForceSample& out, const KinematicState& moving, bool at_rest,
+             const FrictionPhase* phase = nullptr) const;
   // A state at rest, held by friction, under the driver's effort `effort` (forward dynamics: the
   // effort is given, not solved for): with one friction joint, its friction is the one that
   // holds the mechanism, f = (effort - e0) / e1 (e0 the effort that would hold it without
@@ -184,6 +194,11 @@ class Kinetostatics {
   // link's angular velocity less its first's [rad/s], a slide's slider's velocity along the line
   // relative to the guide's point under it [m/s].
   double relative_rate(const KinematicState& state, int f) const;
+  // Its rate's time derivative at the state [rad/s^2 or m/s^2].
+  double relative_acceleration(const KinematicState& state, int f) const;
+  // Friction joint f's limit under the reactions of `forces` [N m or N] (its static one
+  // `at_rest`): what a joint held at rest may take before it slides.
+  double friction_limit(int f, const ForceSample& forces, bool at_rest) const;
 
   void write_sample(const ForceSample& sample, Trajectory& out, int row) const;
 
@@ -238,7 +253,7 @@ class Kinetostatics {
   // The friction magnitudes and the multipliers they give (see above); false with out.status
   // set when they are not determined.
   bool solve_friction(KinematicState& state, ForceSample& out, const KinematicState& moving,
-                      bool at_rest) const;
+                      bool at_rest, const FrictionPhase* phase) const;
 
   const NewtonSolver& solver_;
   std::vector<int> slide_joints_;

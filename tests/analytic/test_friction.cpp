@@ -255,6 +255,9 @@ class FrictionFiles : public ::testing::TestWithParam<std::string> {};
 // 1e-9 of its kind's peak over the sweep (forces; torques, which include a force times the size).
 TEST_P(FrictionFiles, NewtonEulerFixedPointGivesTheSweepsForces) {
   const Mechanism m = load_mechanism(GetParam());
+  if (m.drivers.size() > 1)
+    GTEST_SKIP() << "the Newton-Euler solve takes one driver; the two coordinates' motion is held "
+                    "by TwoCoordinatesStickAndSlipApartAsEachDoesAlone";
   const Trajectory t = sweep(m);
   ASSERT_TRUE(t.has_forces);
   const NewtonSolver solver(m);
@@ -743,6 +746,143 @@ TEST(FrictionDynamics, APendulumsSwingsDecayAsTheEnergyBalanceSays) {
     EXPECT_NEAR(other.stops[i].first, run.stops[i].first, 1e-8);
     EXPECT_NEAR(other.stops[i].second, run.stops[i].second, 1e-8);
   }
+}
+
+// A friction joint's relative acceleration (what a held joint's phase keeps at zero) is the time
+// derivative of its relative rate: against central differences along the quick-return's exact
+// motion at constant crank speed, on its slot (a slide on a turning guide) and on its ram's.
+TEST(Friction, RelativeAccelerationIsTheRelativeRatesDerivative) {
+  std::string text = test::source_text("mechanisms/quick_return.toml");
+  for (const std::string point :
+       {"slider = \"block\"\npoint = \"B\"\n", "slider = \"ram\"\npoint = \"E\"\n"}) {
+    const size_t at = text.find(point);
+    ASSERT_NE(at, std::string::npos);
+    text.insert(at + point.size(), "friction = { coefficient = 0.1 }\n");
+  }
+  const Mechanism m = parse_mechanism(text, "rough_quick_return.toml");
+  const NewtonSolver solver(m);
+  const Kinetostatics forces(solver);
+  const double speed = m.drivers[0].law.speed, h = 1e-5 / std::abs(speed);
+  KinematicState state(m);
+  ASSERT_EQ(solver.assemble(state).status, PoseStatus::ok);
+  const auto at_time = [&](double t, double theta) {
+    DriverState d = m.drivers[0].at_time(t);
+    d.value = theta + speed * t;
+    d.rate = speed;
+    d.accel = 0.0;
+    state.swept() = d;
+    EXPECT_EQ(solver.solve(state).status, PoseStatus::ok);
+  };
+  int checked = 0;
+  for (double theta = 0.1; theta < 6.2; theta += 0.7) {
+    for (int f = 0; f < 2; ++f) {
+      at_time(h, theta);
+      const double ahead = forces.relative_rate(state, f);
+      at_time(-h, theta);
+      const double behind = forces.relative_rate(state, f);
+      at_time(0.0, theta);
+      const double exact = forces.relative_acceleration(state, f);
+      const double scale = std::abs(speed) * std::abs(speed) * m.size();
+      EXPECT_NEAR((ahead - behind) / (2 * h), exact, 1e-8 * scale) << theta << " joint " << f;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 10);
+}
+
+// Two free coordinates whose friction sticks and slips apart (mechanisms/friction/
+// block_and_pendulum_two_coordinates.toml): nothing couples the block and the pendulum, so the
+// block follows its closed form (as ABlockSlidesToRestAndSticksAsTheClosedFormSays) and the
+// pendulum its run as the one coordinate of pendulum_pin_friction.toml (held to the energy
+// relation between its extremes by APendulumsSwingsDecayAsTheEnergyBalanceSays): every sample,
+// every friction, and every phase change at the instant each alone gives.
+TEST(FrictionDynamics, TwoCoordinatesStickAndSlipApartAsEachDoesAlone) {
+  const Mechanism m =
+      load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                     "/mechanisms/friction/block_and_pendulum_two_coordinates.toml");
+  const Mechanism alone = load_mechanism(std::string(CROSSLINK_SOURCE_DIR) +
+                                         "/mechanisms/friction/pendulum_pin_friction.toml");
+  const Simulation run = simulate(m), pendulum = simulate(alone);
+  ASSERT_TRUE(run.ok) << run.message;
+  ASSERT_TRUE(pendulum.ok) << pendulum.message;
+  const double g = 9.81, alpha = std::numbers::pi / 6, v0 = 3.0;
+  const double a = g * (0.8 * std::cos(alpha) - std::sin(alpha)), stop = v0 / a;
+  const Trajectory& t = run.trajectory;
+  const Trajectory& p = pendulum.trajectory;
+  ASSERT_EQ(t.samples(), p.samples());
+  const Eigen::Index arm = 1;  // the moving links: block, arm
+  for (int k = 0; k < t.samples(); ++k) {
+    const double time = t.time(k);
+    ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << time;
+    const double s = time < stop ? v0 * time - 0.5 * a * time * time : v0 * v0 / (2 * a);
+    EXPECT_NEAR(t.s(k, 0), s, 1e-9) << time;
+    EXPECT_NEAR(t.friction(k, 0),
+                time < stop ? -0.8 * 2 * g * std::cos(alpha) : -2 * g * std::sin(alpha), 1e-9)
+        << time;
+    EXPECT_NEAR(t.angle(k, arm), p.angle(k, 0), 1e-9) << time;
+    EXPECT_NEAR(t.friction(k, 1), p.friction(k, 0), 1e-9) << time;
+    EXPECT_LT(run.energy_error(k), 1e-11) << time;
+  }
+  // The phase changes: the block's stop and each of the pendulum's, and no other.
+  std::vector<double> expected = {stop};
+  for (const double at : p.stops) expected.push_back(at);
+  std::sort(expected.begin(), expected.end());
+  expected.erase(std::unique(expected.begin(), expected.end()), expected.end());
+  ASSERT_EQ(t.stops.size(), expected.size());
+  std::vector<double> found = t.stops;
+  std::sort(found.begin(), found.end());
+  for (size_t i = 0; i < found.size(); ++i) EXPECT_NEAR(found[i], expected[i], 1e-9) << i;
+}
+
+// Coupled coordinates: the MBDyn double pendulum (mechanisms/dynamics/double_pendulum_mbdyn.toml)
+// with friction circles at both pins and a constant 2 N m more at the elbow, whose phases
+// change while the other coordinate moves on. Every sample keeps the friction law of its phase
+// (sliding: mu r |R| + c against the joint's rate, |R| the sample's own reaction; held: the
+// joint's relative rate zero and its friction inside the static limit), the energy balance with
+// the friction's work closes, and the second integrator finds the same phase changes and motion.
+TEST(FrictionDynamics, ARoughDoublePendulumKeepsEachPhasesLawAndAgreesWithASecondIntegrator) {
+  std::string text = test::source_text("mechanisms/dynamics/double_pendulum_mbdyn.toml");
+  for (const auto& [pin, friction] :
+       {std::pair<std::string, std::string>{"point = \"O\"\n",
+                                            "friction = { coefficient = 0.2, radius = 0.02 }\n"},
+        {"point = \"B\"\n", "friction = { coefficient = 0.2, radius = 0.02, torque = 2 }\n"}}) {
+    const size_t at = text.find(pin);
+    ASSERT_NE(at, std::string::npos);
+    text.insert(at + pin.size(), friction);
+  }
+  const Mechanism m = parse_mechanism(text, "rough_double_pendulum.toml");
+  const Simulation run = simulate(m);
+  ASSERT_TRUE(run.ok) << run.message;
+  const Trajectory& t = run.trajectory;
+  ASSERT_GE(t.stops.size(), 3u) << "phases that change while the other coordinate moves";
+  const double constant[2] = {0.0, 2.0};
+  int held = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << t.time(k);
+    EXPECT_LT(run.energy_error(k), 1e-10) << t.time(k);
+    for (Eigen::Index f = 0; f < 2; ++f) {
+      const double load = 0.2 * 0.02 * std::hypot(t.fx(k, f), t.fy(k, f)) + constant[f];
+      const double rate = f == 0 ? t.omega(k, 0) : t.omega(k, 1) - t.omega(k, 0);
+      if (std::abs(rate) > 1e-9) {
+        EXPECT_NEAR(t.friction(k, f), rate > 0.0 ? -load : load, 1e-9 * load) << t.time(k);
+      } else {
+        EXPECT_LE(std::abs(t.friction(k, f)), load * (1 + 1e-12)) << t.time(k);
+        if (k > 0) ++held;
+      }
+    }
+  }
+  EXPECT_GT(held, 20) << "the elbow held while the shoulder swings";
+  SimulationOptions dopri5;
+  dopri5.integrator = "dopri5";
+  dopri5.tolerance = 1e-12;
+  const Simulation other = simulate(m, dopri5);
+  ASSERT_TRUE(other.ok) << other.message;
+  ASSERT_EQ(other.trajectory.stops.size(), t.stops.size());
+  for (size_t i = 0; i < t.stops.size(); ++i)
+    EXPECT_NEAR(other.trajectory.stops[i], t.stops[i], 1e-7) << i;
+  for (int k = 0; k < t.samples(); ++k)
+    for (Eigen::Index l = 0; l < 2; ++l)
+      EXPECT_NEAR(other.trajectory.angle(k, l), t.angle(k, l), 1e-7) << t.time(k);
 }
 
 }  // namespace

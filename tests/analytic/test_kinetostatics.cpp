@@ -86,8 +86,8 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
 }
 
 // Several drivers (and the gear trains): the drivers' power from their multipliers, the sum of
-// effort x rate, is the power balance's (input_power) at every sample, to 1e-9 of the largest
-// term of either side over the sweep.
+// effort x rate, is the power balance's (input_power, with the friction's dissipation at method
+// 1's magnitudes) at every sample, to 1e-9 of the largest term of either side over the sweep.
 class SeveralDrivers : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
@@ -106,7 +106,7 @@ TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
         power += term;
         scale = std::max(scale, std::abs(term));
       }
-      const double balance = kinetostatics.input_power(state);
+      const double balance = kinetostatics.input_power(state, &forces);
       // The balance's own terms, each link's rates of kinetic and potential energy, and the
       // reactions' power at the fastest link's speed: a chain without power (Ryan's rack at
       // constant speed) balances the multipliers' round-off against them.
@@ -132,10 +132,12 @@ TEST_P(SeveralDrivers, TheirEffortsTimesRatesBalanceThePower) {
   }
 }
 
-// mechanisms/drivers/*.toml and the gear trains.
+// mechanisms/drivers/*.toml, the gear trains and the friction files with several drivers.
 std::vector<std::string> driver_and_gear_files() {
   std::vector<std::string> files = test::files_in("drivers");
   for (std::string& f : test::gear_files()) files.push_back(std::move(f));
+  for (std::string& f : test::friction_files())
+    if (test::several_drivers(f)) files.push_back(std::move(f));
   return files;
 }
 
@@ -258,7 +260,8 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
 std::vector<std::string> with_gears() {
   std::vector<std::string> files = test::bundled_files(true);
   for (std::string& f : test::gear_files()) files.push_back(std::move(f));
-  for (std::string& f : test::friction_files()) files.push_back(std::move(f));
+  for (std::string& f : test::friction_files())
+    if (!test::several_drivers(f)) files.push_back(std::move(f));  // those: SeveralDrivers
   return files;
 }
 

@@ -55,6 +55,14 @@ inline std::vector<std::string> files_in(const std::string& folder) {
 inline std::vector<std::string> gear_files() {
   return files_in("gears");
 }
+// Whether a definition has several [[driver]]s.
+inline bool several_drivers(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  int drivers = 0;
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("[[driver]]", 0) == 0) ++drivers;
+  return drivers > 1;
+}
 // mechanisms/friction/: joint friction.
 inline std::vector<std::string> friction_files() {
   return files_in("friction");

@@ -50,9 +50,9 @@ double creep_of(const EngineRun& run) {
 // slider MuJoCo's reading would miss: the slider-crank's and Bevan's pin P), and names the joint
 // it refuses.
 TEST(EngineFriction, EachEngineRunsTheFrictionItModelsAndRefusesTheRestNamingTheJoint) {
-  const std::vector<std::string> tree_only = {"block_sliding_to_rest", "pendulum_pin_friction",
-                                              "fourbar_friction_circles",
-                                              "gear_pair_bearing_friction"};
+  const std::vector<std::string> tree_only = {
+      "block_sliding_to_rest", "pendulum_pin_friction", "fourbar_friction_circles",
+      "gear_pair_bearing_friction", "block_and_pendulum_two_coordinates"};
   for (const methods::EngineEntry& e : methods::engine_table()) {
     const auto engine = e.make();
     for (const std::string& path : test::friction_files()) {
