@@ -486,6 +486,8 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   // is located on smooth motion (integrate_modes).
   bool friction() const { return !rough_.empty(); }
   const FrictionPhase& phase() const { return phase_; }
+  // Whether the last phases chosen hold the whole mechanism at rest (choose_phases).
+  bool resting() const { return resting_; }
   const std::vector<int>& friction_joints() const { return rough_; }
 
   // The first friction joint (its index in friction_joints()) whose phase ends by state (t, x):
@@ -542,10 +544,11 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
             std::abs(phase_.holding(i)) > kinetostatics_.friction_limit(i, forces_, true))
           away = i;
       }
-      if (away < 0) return;
+      if (away < 0) break;
       const int direction = phase_.holding(away) > 0.0 ? -1 : 1;
       phase_.direction[static_cast<size_t>(away)] = direction;
       changes.emplace_back(away, direction);
+      resting_ = false;  // one slides away
     }
   }
 
@@ -685,10 +688,13 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   // Makes the held joints' relative rates exactly zero at state (t, x): the coordinates' rates
   // change least in kinetic energy, d' = d - M^-1 G^T (G M^-1 G^T)^-1 G d (G the held joints'
   // relative rates per unit rate of each coordinate, M = S^T M S).
+  // Held joints that fix every coordinate (as many as coordinates, independent) hold the whole
+  // mechanism at rest: its rates are then exactly zero (resting()).
   void hold_still(double t, State& x) {
     std::vector<int> held;
     for (size_t f = 0; f < rough_.size(); ++f)
       if (phase_.direction[f] == 0) held.push_back(static_cast<int>(f));
+    resting_ = false;
     if (held.empty()) return;
     at(t, x);
     const auto h = static_cast<Eigen::Index>(held.size());
@@ -708,7 +714,11 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
                     fmt::format("{} joints held by friction at once whose relative motions are "
                                 "not independent: how they share the load is not determined",
                                 held.size())};
-    rate_ -= m_inv_gt * lu.solve(g * rate_);
+    resting_ = h == n_;
+    if (resting_)
+      rate_.setZero();
+    else
+      rate_ -= m_inv_gt * lu.solve(g * rate_);
     for (int i = 0; i < n_; ++i) x[static_cast<size_t>(n_ + i)] = rate_(i);
   }
 
@@ -718,6 +728,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   const std::vector<int> rough_;  // Mechanism::friction_joints()
   FrictionPhase phase_;
   ForceSample forces_;
+  bool resting_ = false;
 };
 
 // Writes the samples of a run: the pose, rates and forces at each sample's state, and the energy
@@ -1016,6 +1027,14 @@ void integrate_modes(const Mechanism& mechanism, const SimulationOptions& option
                              j.name, way, t)});
     }
     if (stop) out.trajectory.stops.push_back(t);
+    // Held whole: the span an engine's creep is measured over (creep_note).
+    if (eom.resting() && !out.held) {
+      out.trajectory.held.emplace_back(t, times.back());
+      out.held = true;
+    } else if (!eom.resting() && out.held) {
+      out.trajectory.held.back().second = t;
+      out.held = false;
+    }
   };
   double t = 0.0;
   choose(t, x, {});

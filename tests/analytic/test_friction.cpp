@@ -832,6 +832,13 @@ TEST(FrictionDynamics, TwoCoordinatesStickAndSlipApartAsEachDoesAlone) {
   std::vector<double> found = t.stops;
   std::sort(found.begin(), found.end());
   for (size_t i = 0; i < found.size(); ++i) EXPECT_NEAR(found[i], expected[i], 1e-9) << i;
+  // At rest as a whole only once the pendulum is held too (the block held before): the span an
+  // engine's creep is measured over.
+  EXPECT_TRUE(run.held);
+  ASSERT_EQ(t.held.size(), 1u);
+  ASSERT_EQ(p.held.size(), 1u);
+  EXPECT_NEAR(t.held[0].first, p.held[0].first, 1e-9);
+  EXPECT_EQ(t.held[0].second, t.time(t.samples() - 1));
 }
 
 // Coupled coordinates: the MBDyn double pendulum (mechanisms/dynamics/double_pendulum_mbdyn.toml)
