@@ -499,9 +499,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
       const int direction = phase_.direction[f];
       const auto i = static_cast<int>(f);
       if (direction != 0 && direction * kinetostatics_.relative_rate(state_, i) <= 0.0) return i;
-      if (direction == 0 && std::abs(phase_.holding(i)) >
-                                (1.0 + 1e-12) * kinetostatics_.friction_limit(i, forces_, true))
-        return i;
+      if (direction == 0 && slips(i, 1.0 + 1e-12)) return i;
     }
     return -1;
   }
@@ -515,19 +513,11 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
                      std::vector<std::pair<int, int>>& changes) {
     at(t, x);
     const bool start = ended.empty();
-    // Relative rates at or below 1e-9 of the fastest coordinate's (times the size for a slide)
-    // are at rest.
-    double rate = 0.0;
-    for (int i = 0; i < n_; ++i)
-      rate = std::max(rate, m_.drivers[static_cast<size_t>(i)].angular()
-                                ? std::abs(rate_(i))
-                                : std::abs(rate_(i)) / solver_.length_scale());
     for (size_t f = 0; f < rough_.size(); ++f) {
       const auto i = static_cast<int>(f);
       const double w = kinetostatics_.relative_rate(state_, i);
-      const bool slide = m_.joints[static_cast<size_t>(rough_[f])].is_slide();
       const bool stopped = std::ranges::find(ended, i) != ended.end() ||
-                           std::abs(w) <= 1e-9 * rate * (slide ? solver_.length_scale() : 1.0);
+                           !(std::abs(w) > kinetostatics_.rest_rate(state_, i));
       const int direction = stopped ? 0 : w > 0.0 ? 1 : -1;
       if (start || direction != phase_.direction[f]) changes.emplace_back(i, direction);
       phase_.direction[f] = direction;
@@ -540,9 +530,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
       int away = -1;
       for (size_t f = 0; f < rough_.size() && away < 0; ++f) {
         const auto i = static_cast<int>(f);
-        if (phase_.direction[f] == 0 &&
-            std::abs(phase_.holding(i)) > kinetostatics_.friction_limit(i, forces_, true))
-          away = i;
+        if (phase_.direction[f] == 0 && slips(i)) away = i;
       }
       if (away < 0) break;
       const int direction = phase_.holding(away) > 0.0 ? -1 : 1;
@@ -627,9 +615,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   // steps to round-off. Leaves the state and forces_ at the solution.
   void with_friction(double t) {
     const Eigen::VectorXd qddot0 = state_.qddot;  // every coordinate's acceleration 0
-    std::vector<Eigen::Index> held;
-    for (size_t f = 0; f < rough_.size(); ++f)
-      if (phase_.direction[f] == 0) held.push_back(static_cast<Eigen::Index>(f));
+    const std::vector<int> held = held_joints();
     const Eigen::Index n = n_, unknowns = n + static_cast<Eigen::Index>(held.size());
     const auto residual = [&](const Eigen::VectorXd& z, Eigen::VectorXd& r) {
       for (size_t i = 0; i < held.size(); ++i)
@@ -640,8 +626,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
       if (forces_.status != PoseStatus::ok) throw Stopped{t, forces_.status, forces_.why(m_)};
       r.head(n) = forces_.effort - effort_;
       for (size_t i = 0; i < held.size(); ++i)
-        r(n + static_cast<Eigen::Index>(i)) =
-            kinetostatics_.relative_acceleration(state_, static_cast<int>(held[i]));
+        r(n + static_cast<Eigen::Index>(i)) = kinetostatics_.relative_acceleration(state_, held[i]);
     };
     Eigen::VectorXd z(unknowns), r(unknowns), shifted(unknowns), r_shifted(unknowns);
     z.head(n) = dddot_;
@@ -662,7 +647,6 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
       jacobian.col(j) = (r_shifted - r) / h;
     }
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(jacobian);
-    residual(z, r);
     for (int it = 0;; ++it) {
       const Eigen::VectorXd step = lu.solve(r);
       if (!step.allFinite())
@@ -682,6 +666,19 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
     dddot_ = z.head(n);
   }
 
+  // Whether held friction joint f needs more than `margin` times its static limit at the last
+  // evaluation: it slides.
+  bool slips(int f, double margin = 1.0) const {
+    return std::abs(phase_.holding(f)) > margin * kinetostatics_.friction_limit(f, forces_, true);
+  }
+  // The friction joints held at rest (friction_joints() indices).
+  std::vector<int> held_joints() const {
+    std::vector<int> held;
+    for (size_t f = 0; f < rough_.size(); ++f)
+      if (phase_.direction[f] == 0) held.push_back(static_cast<int>(f));
+    return held;
+  }
+
   // Newton's steps in with_friction: affine but for the friction's load, a few reach round-off.
   static constexpr int kFrictionNewtonSteps = 50;
 
@@ -691,9 +688,7 @@ class SeveralEquations : public FollowedChain<Eigen::VectorXd, Eigen::MatrixXd> 
   // Held joints that fix every coordinate (as many as coordinates, independent) hold the whole
   // mechanism at rest: its rates are then exactly zero (resting()).
   void hold_still(double t, State& x) {
-    std::vector<int> held;
-    for (size_t f = 0; f < rough_.size(); ++f)
-      if (phase_.direction[f] == 0) held.push_back(static_cast<int>(f));
+    const std::vector<int> held = held_joints();
     resting_ = false;
     if (held.empty()) return;
     at(t, x);
@@ -1068,8 +1063,7 @@ void integrate(const Mechanism& mechanism, const SimulationOptions& options,
     Equations& eom = started.emplace(mechanism, options.max_solves);
     SampleWriter<Equations>& observe = writer.emplace(eom, out);
     typename Equations::State x = initial;
-    bool phased = false;  // joint friction: in phases of one direction of sliding
-    phased = eom.friction();
+    const bool phased = eom.friction();  // joint friction: in phases of sliding and rest
     namespace odeint = boost::numeric::odeint;
     const double tol = options.tolerance;
     // Every trial step evaluates poses along it: the first is small (the controller grows it by

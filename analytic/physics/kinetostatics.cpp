@@ -433,6 +433,17 @@ double Kinetostatics::relative_rate(const KinematicState& state, int f) const {
   return s.along.dot(s.slider.velocity(s.local) - on_guide);
 }
 
+double Kinetostatics::rest_rate(const KinematicState& moving, int f) const {
+  const Mechanism& m = solver_.mechanism();
+  // The drivers' rate, as an angular rate: relative rates are judged against it.
+  double rate = 0.0;
+  for (size_t d = 0; d < m.drivers.size(); ++d) {
+    const double r = std::abs(moving.drivers[d].rate);
+    rate = std::max(rate, m.drivers[d].angular() ? r : r / size_);
+  }
+  return kStoppedRate * rate * (friction_joint(static_cast<size_t>(f)).is_slide() ? size_ : 1.0);
+}
+
 double Kinetostatics::relative_acceleration(const KinematicState& state, int f) const {
   const Mechanism& m = solver_.mechanism();
   const Joint& j = friction_joint(static_cast<size_t>(f));
@@ -495,14 +506,7 @@ void Kinetostatics::add_unit_friction(const KinematicState& state, int f, double
 bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
                                    const KinematicState& moving, bool at_rest,
                                    const FrictionPhase* phase) const {
-  const Mechanism& m = solver_.mechanism();
   const auto k = static_cast<Eigen::Index>(friction_joints_.size());
-  // The drivers' rate, as an angular rate: relative rates are judged against it.
-  double rate = 0.0;
-  for (size_t d = 0; d < m.drivers.size(); ++d) {
-    const double r = std::abs(moving.drivers[d].rate);
-    rate = std::max(rate, m.drivers[d].angular() ? r : r / size_);
-  }
   // g_j: the friction circle mu r (pin) or mu (slide), sliding or at its static limit.
   const auto gain = [&](Eigen::Index f) {
     const Joint& j = friction_joint(static_cast<size_t>(f));
@@ -517,9 +521,7 @@ bool Kinetostatics::solve_friction(KinematicState& state, ForceSample& out,
   for (Eigen::Index f = 0; f < k; ++f) {
     const int ji = friction_joints_[static_cast<size_t>(f)];
     const double w = relative_rate(moving, static_cast<int>(f));
-    const double stopped =
-        kStoppedRate * rate * (friction_joint(static_cast<size_t>(f)).is_slide() ? size_ : 1.0);
-    if (!phase && !(std::abs(w) > stopped)) {
+    if (!phase && !(std::abs(w) > rest_rate(moving, static_cast<int>(f)))) {
       out.status = PoseStatus::friction_indeterminate;
       out.cause = ji;
       return false;

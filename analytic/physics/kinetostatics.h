@@ -194,6 +194,9 @@ class Kinetostatics {
   // link's angular velocity less its first's [rad/s], a slide's slider's velocity along the line
   // relative to the guide's point under it [m/s].
   double relative_rate(const KinematicState& state, int f) const;
+  // The relative rate at or below which friction joint f is at rest relative to its first link
+  // in `moving`: 1e-9 of the drivers' fastest rate (times the size for a slide).
+  double rest_rate(const KinematicState& moving, int f) const;
   // Its rate's time derivative at the state [rad/s^2 or m/s^2].
   double relative_acceleration(const KinematicState& state, int f) const;
   // Friction joint f's limit under the reactions of `forces` [N m or N] (its static one
