@@ -347,8 +347,7 @@ void print_table_at(const Mechanism& m, const Trajectory& t, int row) {
     const Quantity q = Trajectory::quantity_of(name);
     if (q != Quantity::force && q != Quantity::torque) continue;
     const compare::DisplayUnit shown = compare::display_unit(m, name);
-    fmt::print("{:<24}{}  {}\n", name, rate((*t.channel(name))(row) / shown.scale, 14, 4),
-               shown.name);
+    fmt::print("{:<24}{}  {}\n", name, rate(*t.sample(name, row) / shown.scale, 14, 4), shown.name);
   }
 }
 

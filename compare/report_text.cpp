@@ -426,8 +426,8 @@ void print_console(const Comparison& cmp, std::FILE* out, const ConsoleOptions& 
                  "(sample {}): {} = {:.6g} {}, analytic = {:.6g} {}\n",
                  c.metrics.channel, to_string(c.metrics.quantity), c.method,
                  c.metrics.max_pct_of_peak, c.tolerance, where, k, c.method,
-                 (*cmp.method(c.method)->trajectory.channel(c.metrics.channel))(k) / u.scale,
-                 u.name, (*ref.channel(c.metrics.channel))(k) / u.scale, u.name);
+                 *cmp.method(c.method)->trajectory.sample(c.metrics.channel, k) / u.scale, u.name,
+                 *ref.sample(c.metrics.channel, k) / u.scale, u.name);
       if (const std::string why = worst_context_text(m, worst_context(ref, k, samples_in_time(m)));
           !why.empty())
         print_wrapped(out, why, 6, 100);

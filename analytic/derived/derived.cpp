@@ -28,7 +28,7 @@ struct Scalar {
 };
 
 double at(const Trajectory& t, const std::string& channel, int row) {
-  return (*t.channel(channel))(row);
+  return *t.sample(channel, row);
 }
 
 // The channel's value, and its slope from the next derivative the trajectory holds (positions

@@ -268,73 +268,88 @@ std::vector<std::string> Trajectory::channel_names() const {
 }
 
 std::optional<Eigen::VectorXd> Trajectory::channel(std::string_view name) const {
+  return rows_of(name, 0, samples());
+}
+
+std::optional<double> Trajectory::sample(std::string_view name, int row) const {
+  if (row < 0 || row >= samples()) return std::nullopt;
+  const std::optional<Eigen::VectorXd> one = rows_of(name, row, 1);
+  return one ? std::optional<double>((*one)(0)) : std::nullopt;
+}
+
+std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int first,
+                                                   int count) const {
+  // Column c of m over the rows asked for: a sample's value costs one element, not a column.
+  const auto col = [&](const Eigen::MatrixXd& m, Eigen::Index c) -> Eigen::VectorXd {
+    return m.col(c).segment(first, count);
+  };
+  const auto norm = [&](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Index c) {
+    return Eigen::VectorXd((col(a, c).array().square() + col(b, c).array().square()).sqrt());
+  };
   const size_t dot = name.find('.');
   if (dot == std::string_view::npos) return std::nullopt;
   const std::string_view kind = name.substr(0, dot), object = name.substr(dot + 1);
 
   if (const int l = index_of(link_names, object); l >= 0) {
-    if (kind == "angle") return angle.col(l);
-    if (kind == "omega") return omega.col(l);
-    if (kind == "alpha") return alpha.col(l);
+    if (kind == "angle") return col(angle, l);
+    if (kind == "omega") return col(omega, l);
+    if (kind == "alpha") return col(alpha, l);
   }
   if (const int p = index_of(point_names, object); p >= 0) {
-    if (kind == "x") return x.col(p);
-    if (kind == "y") return y.col(p);
-    if (kind == "vx") return vx.col(p);
-    if (kind == "vy") return vy.col(p);
-    if (kind == "ax") return ax.col(p);
-    if (kind == "ay") return ay.col(p);
-    if (kind == "v")
-      return Eigen::VectorXd((vx.col(p).array().square() + vy.col(p).array().square()).sqrt());
-    if (kind == "a")
-      return Eigen::VectorXd((ax.col(p).array().square() + ay.col(p).array().square()).sqrt());
+    if (kind == "x") return col(x, p);
+    if (kind == "y") return col(y, p);
+    if (kind == "vx") return col(vx, p);
+    if (kind == "vy") return col(vy, p);
+    if (kind == "ax") return col(ax, p);
+    if (kind == "ay") return col(ay, p);
+    if (kind == "v") return norm(vx, vy, p);
+    if (kind == "a") return norm(ax, ay, p);
   }
   if (const int j = index_of(slider_names, object); j >= 0) {
-    if (kind == "s") return s.col(j);
-    if (kind == "sdot") return sdot.col(j);
-    if (kind == "sddot") return sddot.col(j);
+    if (kind == "s") return col(s, j);
+    if (kind == "sdot") return col(sdot, j);
+    if (kind == "sddot") return col(sddot, j);
   }
   if (const int d = axis.timed() ? index_of(driver_names, object) : -1; d >= 0) {
     const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
-    if (kind == (slider ? "s" : "angle")) return driver_values.col(d);
-    if (has_forces && kind == (slider ? "force" : "torque")) return effort.col(d);
+    if (kind == (slider ? "s" : "angle")) return col(driver_values, d);
+    if (has_forces && kind == (slider ? "force" : "torque")) return col(effort, d);
   }
   if (kind == "mu" && !transmission.empty() && object == transmission[1]) {
     const int b = index_of(point_names, transmission[0]),
               c = index_of(point_names, transmission[1]),
               d = index_of(point_names, transmission[2]);
     if (b < 0 || c < 0 || d < 0) return std::nullopt;
-    Eigen::VectorXd mu(samples());
-    for (int r = 0; r < samples(); ++r)
-      mu(r) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
+    Eigen::VectorXd mu(count);
+    for (int r = first; r < first + count; ++r)
+      mu(r - first) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
     return mu;
   }
   if (const int f = has_forces ? index_of(friction_names, object) : -1; f >= 0)
     if (kind == (friction_sliding[static_cast<size_t>(f)] ? "friction_force" : "friction_moment"))
-      return friction.col(f);
+      return col(friction, f);
   if (kind == "energy") {
     if (!has_energy) return std::nullopt;
     for (size_t c = 0; c < kEnergyChannels.size(); ++c)
-      if (object == kEnergyChannels[c]) return energy.col(static_cast<Eigen::Index>(c));
+      if (object == kEnergyChannels[c]) return col(energy, static_cast<Eigen::Index>(c));
     return std::nullopt;
   }
   if (!has_forces) return std::nullopt;
   // The one driver's effort (several drivers' are named by driver, above).
   if (!axis.timed() && object == "driver" && kind == (swept_slider() ? "force" : "torque"))
-    return effort.col(axis.driver);
+    return col(effort, axis.driver);
   if (const int j = index_of(joint_names, object); j >= 0) {
-    if (kind == "fx") return fx.col(j);
-    if (kind == "fy") return fy.col(j);
-    if (kind == "f")
-      return Eigen::VectorXd((fx.col(j).array().square() + fy.col(j).array().square()).sqrt());
+    if (kind == "fx") return col(fx, j);
+    if (kind == "fy") return col(fy, j);
+    if (kind == "f") return norm(fx, fy, j);
   }
   if (const int j = index_of(slider_names, object); j >= 0) {
-    if (kind == "fn") return fn.col(j);
-    if (kind == "moment") return moment.col(j);
+    if (kind == "fn") return col(fn, j);
+    if (kind == "moment") return col(moment, j);
   }
   if (object == ground_name) {
     for (size_t c = 0; c < kShakingChannels.size(); ++c)
-      if (kind == kShakingChannels[c]) return shaking.col(static_cast<Eigen::Index>(c));
+      if (kind == kShakingChannels[c]) return col(shaking, static_cast<Eigen::Index>(c));
   }
   return std::nullopt;
 }

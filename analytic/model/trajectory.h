@@ -224,7 +224,13 @@ struct Trajectory {
   std::vector<std::string> channel_names() const;
   // The column of one channel over all samples, or nullopt for an unknown name.
   std::optional<Eigen::VectorXd> channel(std::string_view name) const;
+  // One channel's value at one sample (nullopt for an unknown name or a row out of range).
+  std::optional<double> sample(std::string_view name, int row) const;
   static Quantity quantity_of(std::string_view channel);  // by the prefix before '.'
+
+ private:
+  // Rows first .. first + count - 1 of one channel: channel's whole column, sample's one value.
+  std::optional<Eigen::VectorXd> rows_of(std::string_view name, int first, int count) const;
 };
 
 }  // namespace crosslink

@@ -2,7 +2,10 @@
 // (Trajectory::flag_non_finite; docs/json.md).
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cstdint>
 #include <limits>
+#include <optional>
 
 #include "analytic/model/loader.h"
 #include "analytic/reference/sweep.h"
@@ -24,6 +27,36 @@ Trajectory three_samples() {
   EXPECT_EQ(t.samples(), 3);
   for (PoseStatus s : t.status) EXPECT_EQ(s, PoseStatus::ok);
   return t;
+}
+
+// A channel's value at one sample (Trajectory::sample, which derived quantities read sample by
+// sample) is that row of its column (Trajectory::channel), bit for bit, for every channel a
+// sweep with forces, friction, sliders and a transmission angle names.
+TEST(Trajectory, OneSampleOfAChannelIsThatRowOfItsColumn) {
+  for (const char* file :
+       {"mechanisms/sewing_machine.toml", "mechanisms/friction/slider_crank_friction.toml",
+        "mechanisms/friction/fourbar_friction_circles.toml"}) {
+    const Mechanism m = load_mechanism(file);
+    SweepOptions options;
+    options.step = 0.25;
+    const Trajectory t = sweep(m, options);
+    ASSERT_GT(t.samples(), 3) << file;
+    ASSERT_TRUE(t.has_forces) << file;
+    for (const std::string& name : t.channel_names()) {
+      const std::optional<Eigen::VectorXd> column = t.channel(name);
+      ASSERT_TRUE(column) << name;
+      for (int r = 0; r < t.samples(); ++r) {
+        const std::optional<double> one = t.sample(name, r);
+        ASSERT_TRUE(one) << name << " row " << r;
+        EXPECT_EQ(std::bit_cast<uint64_t>(*one), std::bit_cast<uint64_t>((*column)(r)))
+            << name << " row " << r;
+      }
+      EXPECT_FALSE(t.sample(name, -1)) << name;
+      EXPECT_FALSE(t.sample(name, t.samples())) << name;
+    }
+    EXPECT_FALSE(t.sample("x.no_such_point", 0));
+    EXPECT_FALSE(t.sample("no_dot", 0));
+  }
 }
 
 TEST(Trajectory, ASolvedSampleWithANonFiniteValueIsFlaggedAndZeroed) {
