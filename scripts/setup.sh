@@ -2,6 +2,7 @@
 # Installs every Debian package crosslink needs (idempotent), then configures and builds.
 # Usage: scripts/setup.sh [build-dir [target ...]]   (default: build, and the target crosslink:
 # the command line, all the quick start's main job runs; scripts/test.sh builds `all`)
+#        scripts/setup.sh --packages   (the packages and the chart scripts only: .ci/run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${1:-build}
@@ -44,6 +45,8 @@ fi
 if [ ! -d report/node_modules ] || [ report/package-lock.json -nt report/node_modules ]; then
   (cd report && npm ci --no-audit --no-fund)
 fi
+
+[ "$BUILD_DIR" = --packages ] && exit 0
 
 # Ninja for a new build folder: it compiles a target's files while the libraries it links are
 # still being linked, and starts at once where make walks every target's rules; a folder

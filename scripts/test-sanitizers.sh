@@ -10,7 +10,8 @@
 # Nor `accuracy`: an engine's accuracy at a step far below its default (10^5 steps or more) or at
 # a setting another test runs too, whose code paths the default-step tests run sanitized; the
 # four took 68 s of its test time (2026-12-02).
-# Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz.
+# Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz; BUILD_ONLY=1 configures
+# and builds without testing (.ci/run starts the build so, beside the Release build and suite).
 # Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -25,6 +26,7 @@ CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" "${GENERATOR[@]}" -DCMAKE_BUILD_
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF -DCROSSLINK_TEST_OPTIMIZATION=-O0
 cmake --build "$BUILD_DIR" -j2
+[ -z "${BUILD_ONLY:-}" ] || exit 0
 
 # Every report is an error; leaks too (detect_leaks is on by default on Linux x86_64).
 export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1}
