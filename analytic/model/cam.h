@@ -1,0 +1,114 @@
+// Disc cams (issue 37): a follower's motion law over the cam angle, and the cam profile
+// synthesised from it for a translating or oscillating follower with a knife edge, a roller or a
+// flat face, with what a cam designer reads of it: pressure angle and radius of curvature.
+//
+// Conventions (docs/cams.md): the cam turns about its centre O, the origin, counterclockwise by
+// the cam angle theta; its profile is fixed in the cam frame, which is the fixed frame turned by
+// theta. A translating follower moves along +y on the line x = offset; an oscillating follower's
+// arm turns about its pivot, its angle gamma measured from +x, counterclockwise. The follower's
+// displacement s(theta) is a length for a translating follower and the arm's angle past its
+// lowest position for an oscillating one. Angles in radians, lengths in metres.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace crosslink::cam {
+
+// The standard motion laws over one segment, normalised: y(u) on u in [0, 1], y(0) = 0, y(1) = 1.
+enum class Law {
+  dwell,            // y = 0: the follower rests (its segment's end equals its start)
+  uniform,          // y = u: constant velocity, an infinite acceleration at each end
+  simple_harmonic,  // y = (1 - cos(pi u)) / 2
+  cycloidal,        // y = u - sin(2 pi u) / (2 pi)
+  polynomial_345,   // y = 10 u^3 - 15 u^4 + 6 u^5
+  polynomial_4567,  // y = 35 u^4 - 84 u^5 + 70 u^6 - 20 u^7
+};
+std::string to_string(Law law);
+
+// A normalised law and its first three derivatives in u.
+struct Normalised {
+  double y = 0.0, dy = 0.0, ddy = 0.0, dddy = 0.0;
+};
+Normalised normalised(Law law, double u);
+
+// The follower's displacement and its derivatives in the cam angle: s, ds/dtheta, d2s/dtheta2,
+// d3s/dtheta3. At a constant cam speed w the follower's velocity is w ds, its acceleration
+// w^2 dds and its jerk w^3 ddds.
+struct Motion {
+  double s = 0.0, ds = 0.0, dds = 0.0, ddds = 0.0;
+};
+
+// One segment of a motion program: a law over a cam angle span, from the displacement the
+// previous segment ended at to `to`.
+struct Segment {
+  Law law = Law::dwell;
+  double span = 0.0;  // [rad], > 0
+  double to = 0.0;    // the follower's displacement at the segment's end
+};
+
+// A follower's motion over one turn of the cam: segments back to back from cam angle 0
+// (starting at displacement `start`) whose spans make a whole turn and whose last ends at
+// `start`; or a table of (cam angle, displacement) through a periodic cubic spline (continuous
+// to the acceleration, its jerk piecewise constant).
+class MotionProgram {
+ public:
+  // Throws std::invalid_argument naming the segment (1-based) when a span is not positive, the
+  // spans do not make a turn, a dwell moves, or the last segment does not return to `start`.
+  MotionProgram(double start, std::vector<Segment> segments);
+  // Throws std::invalid_argument when the angles are not increasing within one turn or there
+  // are fewer than three points.
+  static MotionProgram table(const std::vector<std::pair<double, double>>& points);
+
+  Motion at(double theta) const;  // any theta: the program repeats every turn
+  const std::vector<Segment>& segments() const { return segments_; }
+
+ private:
+  MotionProgram() = default;
+  double start_ = 0.0;
+  std::vector<Segment> segments_;
+  std::vector<double> begins_;  // each segment's first cam angle
+  // The table's spline: knots (cam angle, displacement) and second derivatives there.
+  std::vector<double> knot_theta_, knot_s_, knot_m_;
+};
+
+enum class FollowerKind { knife_edge, roller, flat_faced };
+
+struct Follower {
+  FollowerKind kind = FollowerKind::roller;
+  bool oscillating = false;
+  double base_radius = 0.0;    // the profile's least radius [m]
+  double roller_radius = 0.0;  // roller
+  double offset = 0.0;         // translating: the axis's distance from the cam centre, along +x
+  Eigen::Vector2d pivot = Eigen::Vector2d::Zero();  // oscillating: the arm's pivot
+  double arm = 0.0;                                 // oscillating: pivot to the roller's centre
+};
+
+// The follower's pose and the profile's geometry at one cam angle.
+struct ProfilePoint {
+  // The follower in the fixed frame: the roller's centre or the knife's edge (for a flat face,
+  // the point of its face on its axis); and, oscillating, the arm's angle.
+  Eigen::Vector2d follower = Eigen::Vector2d::Zero();
+  double arm_angle = 0.0;
+  // In the cam frame: the pitch point (the roller's centre, the knife's edge, or for a flat face
+  // the contact point) and the profile point the follower touches, with the profile's outward
+  // unit normal there.
+  Eigen::Vector2d pitch = Eigen::Vector2d::Zero();
+  Eigen::Vector2d contact = Eigen::Vector2d::Zero();
+  Eigen::Vector2d normal = Eigen::Vector2d::Zero();
+  // The angle from the follower's direction of motion (a larger s) to the common normal at the
+  // contact, counterclockwise positive: positive on a rise of a radial translating follower.
+  double pressure_angle = 0.0;
+  // The profile's radius of curvature at the contact (positive where convex, negative where
+  // concave), and the pitch curve's (a roller's centre's path; equal for a knife or a flat face).
+  double radius_of_curvature = 0.0;
+  double pitch_radius_of_curvature = 0.0;
+};
+
+// Throws std::invalid_argument when the follower cannot reach the base circle (an oscillating
+// arm too short or too long for it) or its dimensions are not positive.
+ProfilePoint profile_at(const MotionProgram& motion, const Follower& follower, double theta);
+
+}  // namespace crosslink::cam
