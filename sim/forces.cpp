@@ -14,10 +14,6 @@
 namespace crosslink::sim {
 namespace {
 
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
-
 // Generalised forces (per body: force and moment about the frame origin) as each moving body's
 // force and moment about its centre of mass, at pose q.
 void body_loads(const Mechanism& m, const Eigen::VectorXd& q, const Eigen::VectorXd& generalised,

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "analytic/kinematics/newton.h"
+#include "analytic/model/planar.h"
 #include "analytic/model/units_text.h"
 
 namespace crosslink {
@@ -477,10 +478,6 @@ Annulus about(const std::vector<Eigen::Vector2d>& q, const Eigen::Vector2d& c) {
     a.outer = std::max(a.outer, (p - c).norm());
   }
   return a;
-}
-
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
 }
 
 // The narrowest annulus holding a few points: its centre is equidistant from three of them (a

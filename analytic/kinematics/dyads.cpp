@@ -8,14 +8,13 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "analytic/model/planar.h"
+
 namespace crosslink {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
 double angle_of(const Eigen::Vector2d& v) {
   return std::atan2(v.y(), v.x());
 }

@@ -19,16 +19,6 @@ constexpr double kTurn = 2.0 * kPi;
 // unit]: what a definition written in degrees to nine digits keeps.
 constexpr double kClosure = 1e-9;
 
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
-
-// The vector turned by angle a.
-Eigen::Vector2d turned(const Eigen::Vector2d& v, double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
-}
-
 // A cam angle taken into [0, 2 pi).
 double within_turn(double theta) {
   const double t = theta - kTurn * std::floor(theta / kTurn);
@@ -196,8 +186,9 @@ ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double t
     // the cam's centre (the support function's derivative), whatever the axis's offset.
     const double h = f.base_radius + m.s;
     p.follower = {f.offset, h};
-    p.contact = p.pitch = turned(Eigen::Vector2d(m.ds, h), -theta);
-    p.normal = turned(Eigen::Vector2d(0.0, 1.0), -theta);
+    const Eigen::Rotation2Dd to_cam(-theta);
+    p.contact = p.pitch = to_cam * Eigen::Vector2d(m.ds, h);
+    p.normal = to_cam * Eigen::Vector2d(0.0, 1.0);
     p.pressure_angle = 0.0;
     p.radius_of_curvature = p.pitch_radius_of_curvature = h + m.dds;
     return p;
@@ -205,7 +196,8 @@ ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double t
 
   // The roller's centre (or the knife's edge) F in the fixed frame, its derivatives in theta,
   // and the direction it moves in.
-  const double prime = f.base_radius + (f.kind == FollowerKind::roller ? f.roller_radius : 0.0);
+  const double r = f.kind == FollowerKind::roller ? f.roller_radius : 0.0;
+  const double prime = f.base_radius + r;
   Eigen::Vector2d F, dF, ddF, along;
   if (!f.oscillating) {
     if (!(std::abs(f.offset) < prime))
@@ -234,17 +226,17 @@ ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double t
   }
   p.follower = F;
   // In the cam frame P = R(-theta) F, and d/dtheta R(-theta) v = -R(-theta) perp(v).
-  p.pitch = turned(F, -theta);
-  const Eigen::Vector2d dP = turned(dF - perp(F), -theta);
-  const Eigen::Vector2d ddP = turned(ddF - 2.0 * perp(dF) - F, -theta);
+  const Eigen::Rotation2Dd to_cam(-theta);
+  p.pitch = to_cam * F;
+  const Eigen::Vector2d dP = to_cam * (dF - perp(F));
+  const Eigen::Vector2d ddP = to_cam * (ddF - 2.0 * perp(dF) - F);
   // The pitch curve runs clockwise as the cam turns, so its outward normal is its tangent
   // turned by +90 degrees, and a convex arc has cross(dP, ddP) < 0.
   p.normal = perp(dP.normalized());
   p.pitch_radius_of_curvature = -std::pow(dP.norm(), 3) / cross(dP, ddP);
-  const double r = f.kind == FollowerKind::roller ? f.roller_radius : 0.0;
   p.contact = p.pitch - r * p.normal;
   p.radius_of_curvature = p.pitch_radius_of_curvature - r;
-  const Eigen::Vector2d n = turned(p.normal, theta);  // the common normal, fixed frame
+  const Eigen::Vector2d n = to_cam.inverse() * p.normal;  // the common normal, fixed frame
   p.pressure_angle = std::atan2(cross(along, n), along.dot(n));
   return p;
 }

@@ -13,6 +13,11 @@ inline Eigen::Vector2d perp(const Eigen::Vector2d& v) {
   return {-v.y(), v.x()};
 }
 
+// The z component of a x b: a's turn towards b, scaled by both lengths.
+inline double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
 // Motion of a link frame: origin position, velocity, acceleration [m, m/s, m/s^2], angle,
 // angular velocity, angular acceleration [rad, rad/s, rad/s^2]. Ground is all zeros.
 struct BodyMotion {

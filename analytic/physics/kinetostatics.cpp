@@ -14,10 +14,6 @@
 namespace crosslink {
 namespace {
 
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
-
 // A link's motion at the state. Not from the solver's cached cos and sin: engines fill states
 // of their own (q only) to apply the same loads.
 BodyMotion motion(const Mechanism& m, int link, const KinematicState& state) {

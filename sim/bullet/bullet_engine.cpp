@@ -1238,9 +1238,6 @@ Eigen::VectorXd gear_multipliers(const Mechanism& m, const Plan& plan, const Sce
 void read_rigid_forces(const Mechanism& m, const Plan& plan, const Scene& scene,
                        const std::vector<int>& driven_joints, const Eigen::VectorXd& q,
                        ForceReading& out) {
-  auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return a.x() * b.y() - a.y() * b.x();
-  };
   out.set_zero();
   const Eigen::VectorXd gears =
       plan.rigid_gears.empty() ? Eigen::VectorXd() : gear_multipliers(m, plan, scene);

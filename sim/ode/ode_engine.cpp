@@ -231,12 +231,6 @@ std::string format_number(double v) {
 // ---------------------------------------------------------------------------------------------
 // Geometry
 
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
-Eigen::Vector2d perp(const Eigen::Vector2d& v) {
-  return {-v.y(), v.x()};
-}
 Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
   return Eigen::Rotation2Dd(angle) * v;
 }

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -277,9 +278,7 @@ TEST(CamProfile, CurvatureAndNormalAreThoseOfTheProfilesPoints) {
       EXPECT_NEAR((b.pitch - b.contact).norm(),
                   c.follower.roller_radius * (c.follower.kind == FollowerKind::roller), 1e-15);
       if (c.follower.kind != FollowerKind::flat_faced) {
-        const double turn = theta;
-        const Eigen::Vector2d seen(std::cos(turn) * b.pitch.x() - std::sin(turn) * b.pitch.y(),
-                                   std::sin(turn) * b.pitch.x() + std::cos(turn) * b.pitch.y());
+        const Eigen::Vector2d seen = Eigen::Rotation2Dd(theta) * b.pitch;
         EXPECT_NEAR((seen - b.follower).norm(), 0.0, 1e-15);
       }
       EXPECT_GT(b.normal.dot(b.contact), 0.0);  // outward, the cam's centre inside
