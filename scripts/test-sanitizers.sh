@@ -9,7 +9,8 @@
 # in the other compare tests); they took 290 s of the sanitized run's test time (2026-12-02).
 # Nor `accuracy`: an engine's accuracy at a step far below its default (10^5 steps or more) or at
 # a setting another test runs too, whose code paths the default-step tests run sanitized; the
-# four took 68 s of its test time (2026-12-02).
+# four took 68 s of its test time (2026-12-02); and the exact dynamics over A01's 2000 s, whose
+# integrators the other dynamics cases run sanitized (126 s, 2026-12-03).
 # Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz; BUILD_ONLY=1 configures
 # and builds without testing (.ci/run starts the build so, beside the Release build and suite).
 # Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
