@@ -36,6 +36,11 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
   if (j.type == JointType::revolute)
     return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name, m.links[j.link_b].name,
                        m.links[j.link_a].points[j.point_a].name);
+  if (j.type == JointType::pin_in_arc)
+    return fmt::format("pin_in_slot  {} in an arc of {} (point {}, radius {:g} {} about {})",
+                       m.links[j.link_b].name, m.links[j.link_a].name,
+                       m.links[j.link_b].points[j.point_b].name, j.radius_a / mm, unit,
+                       m.links[j.link_a].points[j.centre_a].name);
   return fmt::format("{:<12} {} on line '{}' of {} (point {})", to_string(j.type),
                      m.links[j.link_b].name, m.links[j.link_a].lines[j.line].name,
                      m.links[j.link_a].name, m.links[j.link_b].points[j.point_b].name);

@@ -80,6 +80,7 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
     const int other = j.link_a == u ? j.link_b : j.link_b == u ? j.link_a : -1;
     if (used[ji] || other < 0 || !placed[other]) continue;
     const int joint = static_cast<int>(ji);
+    if (j.type == JointType::pin_in_arc) continue;  // no closed form here: Newton's (below)
     if (j.type == JointType::gear) {
       // Its other gear and its carrier placed, the rolling of the pitch circles
       // theta_a - theta_c + ratio (theta_b - theta_c) = phase gives u's angle.
@@ -356,6 +357,11 @@ Decomposition decompose(const Mechanism& m) {
                             m.links[is_placed(j.link_a) ? j.link_b : j.link_a].name));
       break;
     }
+    for (const Joint& j : m.joints)
+      if (j.type == JointType::pin_in_arc) {
+        why = fmt::format("the dyads have no closed form for pin '{}' in its arc", j.name);
+        break;
+      }
     for (const Driver& d : m.drivers)
       if (d.type == DriverType::link_angle && !placed[static_cast<size_t>(d.link)]) {
         why = fmt::format(

@@ -197,6 +197,15 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
       c.how = fmt::format("primary: revolute {}", jt.name);
       continue;
     }
+    if (jt.type == JointType::pin_in_arc) {  // on the arc's normal at the pin: through its centre
+      const Eigen::Vector2d pin = b.position(m.links[jt.link_b].points[jt.point_b].local);
+      const Eigen::Vector2d centre = a.position(m.links[jt.link_a].points[jt.centre_a].local);
+      slot_lines[static_cast<size_t>(pair_index(n, jt.link_a, jt.link_b))].push_back(
+          {normalise_line(Eigen::Vector3d(pin.x(), pin.y(), 1.0)
+                              .cross(Eigen::Vector3d(centre.x(), centre.y(), 1.0))),
+           1.0, fmt::format("normal to arc {} at the pin", jt.name)});
+      continue;
+    }
     const Eigen::Vector2d direction = a.turn(m.links[jt.link_a].lines[jt.line].direction);
     if (jt.type == JointType::prismatic) {
       c.found = InstantCentre::Found::primary;

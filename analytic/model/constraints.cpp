@@ -34,6 +34,39 @@ void projection_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d
   }
 }
 
+// A pin in an arc: the pin P_b's offset from the arc's centre C_a, its length and direction (the
+// direction taken along x where the pin is at the centre, so that nothing divides by zero).
+struct ArcOffset {
+  Eigen::Vector2d d, e;
+  double length;
+};
+ArcOffset arc_offset(const BodyMotion& a, const Eigen::Vector2d& centre_a, const BodyMotion& b,
+                     const Eigen::Vector2d& pin_b) {
+  const Eigen::Vector2d d = b.position(pin_b) - a.position(centre_a);
+  const double l = d.norm();
+  return {d, l > 0.0 ? Eigen::Vector2d(d / l) : Eigen::Vector2d::UnitX(), l};
+}
+
+// Writes d|P_b - C_a|/dq = e . (dP_b/dq - dC_a/dq) into row `row`: the entries
+// projection_gradient writes, in its order (e turns with d, not with link a).
+template <class Matrix>
+void arc_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& centre_a, int kb,
+                  const Eigen::Vector2d& pin_b, Matrix& jac, int row) {
+  const BodyMotion a = frames.of(ka);
+  const BodyMotion b = frames.of(kb);
+  const Eigen::Vector2d e = arc_offset(a, centre_a, b, pin_b).e;
+  if (ka >= 0) {
+    jac(row, 3 * ka) = -e.x();
+    jac(row, 3 * ka + 1) = -e.y();
+    jac(row, 3 * ka + 2) = -e.dot(perp(a.turn(centre_a)));
+  }
+  if (kb >= 0) {
+    jac(row, 3 * kb) += e.x();
+    jac(row, 3 * kb + 1) += e.y();
+    jac(row, 3 * kb + 2) += e.dot(perp(b.turn(pin_b)));
+  }
+}
+
 // A revolute joint's two rows on link k: sign (I, perp(turn(point))), the identity's zeros
 // written too (as -I writes -0), so every holder gets the same entries.
 template <class Matrix>
@@ -66,6 +99,9 @@ void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& j
         if (a >= 0) jac(row + 1, 3 * a + 2) = -1.0;
         if (b >= 0) jac(row + 1, 3 * b + 2) = 1.0;
       }
+      return;
+    case Kind::pin_in_arc:
+      arc_gradient(frames, a, c.point_a, b, c.point_b, jac, row);
       return;
     case Kind::angle_driver:
       if (b >= 0) jac(row, 3 * b + 2) += 1.0;
@@ -138,6 +174,13 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
   c.a = m.moving_index(j.link_a);
   c.b = m.moving_index(j.link_b);
   c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  if (j.type == JointType::pin_in_arc) {
+    c.kind = Kind::pin_in_arc;
+    c.point_a =
+        m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+    c.radius = j.radius_a;
+    return c;
+  }
   if (j.type == JointType::revolute) {
     c.kind = Kind::revolute;
     c.point_a = m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.point_a)].local;
@@ -163,6 +206,8 @@ double ConstraintRows::value(const LinkFrames& frames) const {
     case Kind::rack_pinion:
       return project(frames.of(a), point_a, axis, frames.of(b), point_b).value -
              ratio * (angle_of(q, c) - angle_of(q, a)) - angle;
+    case Kind::pin_in_arc:
+      return arc_offset(frames.of(a), point_a, frames.of(b), point_b).length - radius;
     default:
       return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
   }
@@ -182,6 +227,7 @@ void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) co
       return;
     }
     case Kind::pin_in_slot:
+    case Kind::pin_in_arc:
     case Kind::angle_driver:
     case Kind::slider_driver:
     case Kind::gear:
@@ -207,6 +253,16 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
           project(frames.of(a, &qdot), point_a, axis, frames.of(b, &qdot), point_b).accel;
       if (kind == Kind::prismatic) out(first_row + 1) = 0.0;  // an angle is linear in q
       return;
+    case Kind::pin_in_arc: {
+      // d2|d|/dt2 = e . d'' + (|d'|^2 - (e . d')^2) / |d|, d'' with qddot = 0.
+      const BodyMotion ma = frames.of(a, &qdot), mb = frames.of(b, &qdot);
+      const ArcOffset o = arc_offset(ma, point_a, mb, point_b);
+      const Eigen::Vector2d rate = mb.velocity(point_b) - ma.velocity(point_a);
+      const double along = o.e.dot(rate);
+      out(first_row) = o.e.dot(mb.acceleration(point_b) - ma.acceleration(point_a)) +
+                       (o.length > 0.0 ? (rate.squaredNorm() - along * along) / o.length : 0.0);
+      return;
+    }
     case Kind::angle_driver:
     case Kind::gear:
       out(first_row) = 0.0;

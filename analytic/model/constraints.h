@@ -13,8 +13,9 @@
 // place a joint type's equations are written.
 //
 // Rows: the joints in Mechanism::joints order (revolute 2, prismatic 2: its line then its
-// relative angle, pin-in-slot 1: its line, gear pair and rack 1: the rolling of the pitch
-// circles), then one row per driver in Mechanism::drivers order.
+// relative angle, pin-in-slot 1: its line, pin in an arc 1: its distance from the centre, gear
+// pair and rack 1: the rolling of the pitch circles), then one row per driver in
+// Mechanism::drivers order.
 #pragma once
 
 #include <Eigen/Core>
@@ -52,6 +53,7 @@ struct ConstraintRows {
     revolute,       // r_a + A_a p_a - r_b - A_b p_b = 0                       (2 rows)
     prismatic,      // n_a . (P_b - O_a) = 0, theta_b - theta_a - angle = 0    (2 rows)
     pin_in_slot,    // n_a . (P_b - O_a) = 0                                   (1 row)
+    pin_in_arc,     // |P_b - C_a| - radius = 0                                (1 row)
     angle_driver,   // theta_b + angle - theta_a - d(t) = 0                    (1 row)
     slider_driver,  // u_a . (P_b - O_a) - d(t) = 0                            (1 row)
     gear,           // theta_a - theta_c + ratio (theta_b - theta_c) - phase = 0   (1 row)
@@ -72,6 +74,7 @@ struct ConstraintRows {
   // Prismatic: theta_b - theta_a held [rad]; angle driver: the measured arm's angle in b's frame;
   // gear pairs: the phase [rad or m].
   double angle = 0.0;
+  double radius = 0.0;  // pin_in_arc: the arc's, about point_a [m]
 
   int rows() const { return kind == Kind::revolute || kind == Kind::prismatic ? 2 : 1; }
   // Whether row `r` of the block (0-based) is an angle equation [rad] rather than a length [m].

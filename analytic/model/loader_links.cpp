@@ -345,14 +345,14 @@ void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& j
                    const std::string& what) {
   const toml::node* node = t.get("friction");
   if (!node) return;
-  if (!joint.is_slide() && joint.type != JointType::revolute) return;
-  if (joint.type == JointType::pin_in_slot) {
+  if (joint.type == JointType::pin_in_slot || joint.type == JointType::pin_in_arc) {
     r.error(r.at(*node),
             fmt::format("{}: friction on a pin in a slot is not modelled (its contact rolls and "
                         "slides at once): model the pin as a block on a prismatic joint",
                         what));
     return;
   }
+  if (!joint.is_slide() && joint.type != JointType::revolute) return;
   const auto* table = node->as_table();
   if (!table) {
     r.error(r.at(*node), fmt::format("'friction' in {} must be a table, e.g. friction = {{ "
@@ -414,6 +414,29 @@ void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& j
   joint.friction = f;
 }
 
+// A pin in a curved slot: `arc = { centre = "C", radius = 40 }` in place of `line`, the slot's
+// centreline a circle about point C of the guide (docs/mechanism-format.md, "Curved slots").
+void read_arc(Reader& r, const Mechanism& m, const toml::node& node, const std::string& what,
+              Joint& joint) {
+  joint.type = JointType::pin_in_arc;
+  const auto* arc = node.as_table();
+  if (!arc) {
+    r.error(r.at(node), fmt::format("'arc' in {} must be a table, e.g. arc = {{ centre = \"C\", "
+                                    "radius = 40 }}: the slot's centre on the guide and its radius",
+                                    what));
+    return;
+  }
+  const std::string awhat = fmt::format("the arc of {}", what);
+  r.known_keys(*arc, awhat, {"centre", "radius"});
+  const std::optional<std::string> centre = r.string(*arc, "centre", awhat, true);
+  const std::optional<double> radius = r.number(*arc, "radius", awhat, true, length_scale(m.units));
+  if (radius && !(*radius > 0.0))
+    r.error(r.at(arc->get("radius")), fmt::format("'radius' in {} must be positive", awhat));
+  joint.radius_a = radius.value_or(0.0);
+  if (joint.link_a >= 0 && centre)
+    joint.centre_a = resolve_point(r, m, joint.link_a, arc->get("centre"), *centre, awhat);
+}
+
 }  // namespace
 
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
@@ -458,12 +481,22 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     std::vector<std::string> keys = {"type",   "name",  "guide",   "line",
                                      "slider", "point", "friction"};
     if (joint.type == JointType::prismatic) keys.push_back("angle");
+    if (joint.type == JointType::pin_in_slot) keys.push_back("arc");
     r.known_keys(t, twhat, keys);
     joint.link_a = resolve_link(r, m, t, "guide", twhat);
     joint.link_b = resolve_link(r, m, t, "slider", twhat);
-    const std::optional<std::string> line = r.string(t, "line", twhat, true);
+    const toml::node* arc = t.get("arc");
+    if (arc && t.get("line")) {
+      r.error(r.at(*arc), fmt::format("{} gives both 'line' and 'arc': a slot is straight (line) "
+                                      "or a circular arc (arc)",
+                                      twhat));
+      return joint;
+    }
+    if (arc) read_arc(r, m, *arc, twhat, joint);
+    const std::optional<std::string> line =
+        arc ? std::optional<std::string>("arc") : r.string(t, "line", twhat, true);
     const std::optional<std::string> point = r.string(t, "point", twhat, true);
-    if (joint.link_a >= 0 && line) {
+    if (joint.link_a >= 0 && line && !arc) {
       joint.line = m.links[joint.link_a].find_line(*line);
       if (joint.line < 0) {
         std::vector<std::string> names;

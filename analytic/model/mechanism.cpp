@@ -55,6 +55,8 @@ std::string_view to_string(JointType type) {
       return "prismatic";
     case JointType::pin_in_slot:
       return "pin_in_slot";
+    case JointType::pin_in_arc:
+      return "pin_in_arc";
     case JointType::gear:
       return "gear";
     case JointType::rack_pinion:

@@ -82,6 +82,9 @@ enum class JointType {
   prismatic,    // point `point_b` of link_b (the slider) stays on line `line` of link_a (the
                 // guide), and the two links keep their relative angle
   pin_in_slot,  // point `point_b` of link_b stays on line `line` of link_a; rotation free
+  pin_in_arc,   // point `point_b` of link_b stays on a circle of link_a (a curved slot, or a
+                // roller's centre about an eccentric cam): radius `radius_a` about point
+                // `centre_a` of link_a; rotation free
   // Higher pairs (Kutzbach's j2: one freedom taken), coupling rotations by rolling pitch circles:
   gear,         // gear link_a meshes with gear link_b, both turning about points of `carrier`:
                 // (theta_a - theta_c) + ratio (theta_b - theta_c) = phase
@@ -126,8 +129,8 @@ struct JointFriction {
 struct Joint {
   std::string name;
   JointType type = JointType::revolute;
-  int link_a = -1;   // revolute: first link; prismatic, pin_in_slot: the guide (carries the line)
-  int link_b = -1;   // revolute: second link; prismatic, pin_in_slot: the slider / pin link
+  int link_a = -1;   // revolute: first link; slides and pin_in_arc: the guide (its line or arc)
+  int link_b = -1;   // revolute: second link; slides and pin_in_arc: the slider / pin link
   int point_a = -1;  // revolute only: point index on link_a
   int point_b = -1;  // point index on link_b
   int line = -1;     // prismatic, pin_in_slot: line index on link_a
@@ -137,10 +140,12 @@ struct Joint {
   // +r or -r [m/rad], the sign by the side of the rack's line the pinion's centre is on.
   int carrier = -1;  // the link both centres are fixed on (ground by default; the guide of a rack)
   int slide = -1;    // rack_pinion: the prismatic joint that carries the rack
-  int centre_a = -1, centre_b = -1;  // the centres on the carrier (points of it); rack: centre_a
+  // The centres on the carrier (points of it); rack: centre_a; pin_in_arc: the arc's centre on
+  // link_a.
+  int centre_a = -1, centre_b = -1;
   double ratio = 0.0;
   double phase = 0.0;                     // [rad] for a gear pair, [m] for a rack
-  double radius_a = 0.0, radius_b = 0.0;  // pitch radii [m] (a rack's: radius_a)
+  double radius_a = 0.0, radius_b = 0.0;  // pitch radii [m] (a rack's: radius_a); the arc's
   double pressure_angle = 0.0;            // of the teeth: the line of action's tilt [rad]
   std::optional<JointFriction> friction;  // revolute and prismatic joints only
   SourceLocation where;
@@ -148,7 +153,9 @@ struct Joint {
   bool is_slide() const { return type == JointType::prismatic || type == JointType::pin_in_slot; }
   bool is_gearing() const { return type == JointType::gear || type == JointType::rack_pinion; }
   // Freedoms it allows between its two links (a higher pair allows 2: Kutzbach's j2).
-  int dof() const { return type == JointType::pin_in_slot || is_gearing() ? 2 : 1; }
+  int dof() const {
+    return type == JointType::pin_in_slot || type == JointType::pin_in_arc || is_gearing() ? 2 : 1;
+  }
 };
 
 // A unit as the definition wrote it, to show a value back in it: file value = SI value / si.

@@ -32,8 +32,9 @@ Point point(const char* name, double x, double y) {
 
 // Ground G and three moving links A, B, C with every joint type, the ground on either side of a
 // slide: revolute G-A, revolute A-B, prismatic A-C (A the guide), pin-in-slot G-B (G the slot),
-// prismatic G-C, a gear pair A-C about B and A as a pinion on the rack C of G-C. Not a mechanism of
-// mobility one: the layout does not need a square system. The driver is of `type`; `scale`
+// prismatic G-C, a gear pair A-C about B, A as a pinion on the rack C of G-C, and C's pin S in an
+// arc of A about its point O. Not a mechanism of mobility one: the layout does not need a square
+// system. The driver is of `type`; `scale`
 // multiplies every length (1000: the same mechanism in mm).
 Mechanism every_kind(DriverType type, double scale = 1.0) {
   Mechanism m;
@@ -84,8 +85,12 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
   rack.slide = 4;
   rack.ratio = 0.23 * s;
   rack.phase = -0.05 * s;
+  Joint arc = joint("ACa", JointType::pin_in_arc, 1, 3, -1, 0, -1, 0.0);
+  arc.centre_a = 0;
+  arc.radius_a = 0.21 * s;
   m.joints.push_back(gear);
   m.joints.push_back(rack);
+  m.joints.push_back(arc);
   Driver d;
   d.type = type;
   switch (type) {
@@ -166,13 +171,13 @@ TEST_P(EveryKind, LayoutHasEveryKindInOrder) {
     kinds.insert(c.kind);
   }
   EXPECT_EQ(row, layout.rows());
-  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1);
+  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 1);
   EXPECT_EQ(layout.joint_row_count(), layout.rows() - 1);
   EXPECT_EQ(layout.driver_count(), 1);
   EXPECT_EQ(layout.driver_row(0), layout.rows() - 1);
   EXPECT_TRUE(kinds.count(Kind::revolute) && kinds.count(Kind::prismatic) &&
               kinds.count(Kind::pin_in_slot) && kinds.count(Kind::gear) &&
-              kinds.count(Kind::rack_pinion));
+              kinds.count(Kind::rack_pinion) && kinds.count(Kind::pin_in_arc));
   EXPECT_TRUE(
       kinds.count(GetParam() == DriverType::slider ? Kind::slider_driver : Kind::angle_driver));
 }
@@ -209,6 +214,13 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
       expected.segment<2>(row) = world(q, ka, m.links[j.link_a].points[j.point_a].local) -
                                  world(q, kb, m.links[j.link_b].points[j.point_b].local);
       row += 2;
+      continue;
+    }
+    if (j.type == JointType::pin_in_arc) {  // the pin's distance from the centre, less the radius
+      expected(row++) = (world(q, kb, m.links[j.link_b].points[j.point_b].local) -
+                         world(q, ka, m.links[j.link_a].points[j.centre_a].local))
+                            .norm() -
+                        j.radius_a;
       continue;
     }
     expected(row++) = slide_offset(j, false);
@@ -262,6 +274,9 @@ TEST_P(EveryKind, ClosedJointsHaveZeroRows) {
     Eigen::Vector2d target;
     if (j.type == JointType::revolute) {
       target = world(q, ka, m.links[j.link_a].points[j.point_a].local);
+    } else if (j.type == JointType::pin_in_arc) {
+      target = world(q, ka, m.links[j.link_a].points[j.centre_a].local) +
+               j.radius_a * Eigen::Vector2d(std::cos(0.8), std::sin(0.8));
     } else {
       const Line& line = m.links[j.link_a].lines[j.line];
       if (j.type == JointType::prismatic) q(3 * kb + 2) = angle_of(q, ka) + j.relative_angle;

@@ -256,10 +256,12 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   });
 }
 
-// Every bundled definition, the gear trains and the definitions with joint friction.
+// Every bundled definition, the gear trains, the curved slots and the definitions with joint
+// friction.
 std::vector<std::string> with_gears() {
   std::vector<std::string> files = test::bundled_files(true);
   for (std::string& f : test::gear_files()) files.push_back(std::move(f));
+  for (std::string& f : test::files_in("cams")) files.push_back(std::move(f));
   for (std::string& f : test::friction_files())
     if (!test::several_drivers(f)) files.push_back(std::move(f));  // those: SeveralDrivers
   return files;

@@ -27,12 +27,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The bundled definitions and the curved slots (mechanisms/cams/).
 std::vector<std::string> mechanism_files() {
   std::vector<std::string> files;
   const fs::path folder = fs::path(CROSSLINK_SOURCE_DIR) / "mechanisms";
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder))
-    if (entry.is_regular_file() && entry.path().extension() == ".toml")
-      files.push_back(entry.path().string());
+  for (const fs::path& dir : {folder, folder / "cams"})
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir))
+      if (entry.is_regular_file() && entry.path().extension() == ".toml")
+        files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
   return files;
 }
