@@ -34,17 +34,17 @@ void projection_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d
   }
 }
 
-// A pin in an arc: the pin P_b's offset from the arc's centre C_a, its length and direction (the
-// direction taken along x where the pin is at the centre, so that nothing divides by zero).
+// A pin in an arc: the length and direction of the pin P_b's offset from the arc's centre C_a
+// (the direction taken along x where the pin is at the centre, so that nothing divides by zero).
 struct ArcOffset {
-  Eigen::Vector2d d, e;
+  Eigen::Vector2d e;
   double length;
 };
 ArcOffset arc_offset(const BodyMotion& a, const Eigen::Vector2d& centre_a, const BodyMotion& b,
                      const Eigen::Vector2d& pin_b) {
   const Eigen::Vector2d d = b.position(pin_b) - a.position(centre_a);
   const double l = d.norm();
-  return {d, l > 0.0 ? Eigen::Vector2d(d / l) : Eigen::Vector2d::UnitX(), l};
+  return {l > 0.0 ? Eigen::Vector2d(d / l) : Eigen::Vector2d::UnitX(), l};
 }
 
 // Writes d|P_b - C_a|/dq = e . (dP_b/dq - dC_a/dq) into row `row`: the entries
