@@ -493,10 +493,9 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
       return joint;
     }
     if (arc) read_arc(r, m, *arc, twhat, joint);
-    const std::optional<std::string> line =
-        arc ? std::optional<std::string>("arc") : r.string(t, "line", twhat, true);
+    const std::optional<std::string> line = arc ? std::nullopt : r.string(t, "line", twhat, true);
     const std::optional<std::string> point = r.string(t, "point", twhat, true);
-    if (joint.link_a >= 0 && line && !arc) {
+    if (joint.link_a >= 0 && line) {
       joint.line = m.links[joint.link_a].find_line(*line);
       if (joint.line < 0) {
         std::vector<std::string> names;
@@ -512,7 +511,7 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
       r.error(joint.where, fmt::format("{}: guide and slider are the same link", twhat));
     const std::string default_name =
         (joint.link_b >= 0 ? m.links[joint.link_b].name : std::string("?")) + "/" +
-        line.value_or("?");
+        (arc ? std::string("arc") : line.value_or("?"));
     joint.name = r.string(t, "name", twhat, false).value_or(default_name);
     if (joint.type == JointType::prismatic) {
       if (const auto angle = r.number(t, "angle", twhat, false, angle_scale(m.units))) {

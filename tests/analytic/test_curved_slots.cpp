@@ -24,19 +24,11 @@
 namespace crosslink {
 namespace {
 
-// `text` with `from` replaced by `to` (which must occur once at least).
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << "test fault: '" << from << "' not in the definition";
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
-
 // A bundled definition with its lines changed, loaded from the scratch folder.
 Mechanism changed(const std::string& file,
                   const std::vector<std::pair<std::string, std::string>>& changes) {
   std::string text = test::source_text(file);
-  for (const auto& [from, to] : changes) text = replaced(text, from, to);
+  for (const auto& [from, to] : changes) text = test::replaced(text, from, to);
   const std::filesystem::path path = test::scratch_dir() / std::filesystem::path(file).filename();
   std::ofstream(path) << text;
   return load_mechanism(path.string());
@@ -143,7 +135,7 @@ TEST(CurvedSlots, EachFaultIsLocatedAtItsKey) {
        "friction on a pin in a slot is not modelled"},
   };
   for (const Case& c : cases) {
-    const std::string text = replaced(base, arc, c.to);
+    const std::string text = test::replaced(base, arc, c.to);
     const std::string error = test::error_of(text, "slot.toml");
     EXPECT_NE(error.find(c.says), std::string::npos) << c.to << "\n" << error;
     EXPECT_NE(error.find("slot.toml:" + std::to_string(test::line_of(text, c.key)) + ":"),

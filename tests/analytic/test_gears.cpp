@@ -617,14 +617,6 @@ TEST(Gears, ARackOnARefusedSlideIsNotReadOn) {
   EXPECT_EQ(found[0].where.line, line_of(text, "line = \"guide\""));
 }
 
-// `text` with the first `from` replaced by `to` (which must occur).
-std::string replace_first(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << "test fault: '" << from << "' not in the definition";
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
-
 // Issue 35, item 8: a planetary train whose sun mesh is moved onto the ground meshes the planet
 // with two fixed gears (24 teeth outside it, the 48-tooth ring round it) that ask opposite turns
 // of it for one turn of the arm: the arm, the driven link, cannot move (the sun, on its bearing
@@ -634,7 +626,7 @@ TEST(Gears, APlanetaryTrainLockedByItsMeshesIsRefusedAtTheDriver) {
   const std::string base = test::source_text("mechanisms/gears/planetary_fixed_ring.toml");
   ASSERT_NO_THROW(parse_mechanism(base, "planetary.toml"));  // the train as bundled moves
   const std::string locked =
-      replace_first(base, "gears = [\"sun\", \"planet\"]", "gears = [\"ground\", \"planet\"]");
+      test::replaced(base, "gears = [\"sun\", \"planet\"]", "gears = [\"ground\", \"planet\"]");
   const std::vector<Diagnostic> d = test::diagnostics_of(locked, "locked.toml");
   ASSERT_EQ(d.size(), 1u);
   EXPECT_EQ(d[0].where.line, test::line_of(locked, "[driver]"));
@@ -642,8 +634,8 @@ TEST(Gears, APlanetaryTrainLockedByItsMeshesIsRefusedAtTheDriver) {
   EXPECT_NE(d[0].message.find("the chain is locked"), std::string::npos) << d[0].str();
   EXPECT_NE(d[0].message.find("counts a mobility of 1"), std::string::npos) << d[0].str();
   // Driving the sun instead, the chain moves: the sun is free, the arm and planet held.
-  const std::string sun = replace_first(locked, "joint = \"arm_bearing\"\nto = \"P\"",
-                                        "joint = \"sun_bearing\"\nto = \"S\"");
+  const std::string sun = test::replaced(locked, "joint = \"arm_bearing\"\nto = \"P\"",
+                                         "joint = \"sun_bearing\"\nto = \"S\"");
   EXPECT_NO_THROW(parse_mechanism(sun, "sun.toml"));
 }
 

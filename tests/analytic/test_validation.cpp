@@ -28,6 +28,7 @@
 #include "tests/common/crank_rocker.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
+#include "tests/common/text.h"
 
 namespace crosslink {
 namespace {
@@ -39,14 +40,6 @@ const std::string kHeader = kBase.header, kGround = kBase.ground, kMoving = kBas
 
 std::string four_bar() {
   return kHeader + kGround + kMoving + kJoints + kDriver;
-}
-
-// `text` with the first occurrence of `from` replaced by `to` (which must occur).
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << "test fault: '" << from << "' not in the definition";
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
 }
 
 // 1-based line and column of the n-th (0-based) occurrence of `marker` in `text`.
@@ -67,6 +60,7 @@ Place place_of(const std::string& text, const std::string& marker, int nth = 0) 
 }
 
 using test::diagnostics_of;
+using test::replaced;
 
 // The diagnostic whose message holds every one of `phrases`; fails the test when none does.
 const Diagnostic* find(const std::vector<Diagnostic>& found,
