@@ -36,6 +36,23 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
   if (j.type == JointType::revolute)
     return fmt::format("revolute     {} - {} at {}", m.links[j.link_a].name, m.links[j.link_b].name,
                        m.links[j.link_a].points[j.point_a].name);
+  if (j.type == JointType::cam) {
+    const cam::Follower& f = j.contour->follower();
+    const char* kind = f.kind == cam::FollowerKind::flat_faced ? "flat-faced"
+                       : f.kind == cam::FollowerKind::roller   ? "roller"
+                                                               : "knife-edge";
+    std::string text =
+        fmt::format("cam          {} {} {} on {} about {} (base circle {:g} {}",
+                    f.oscillating ? "oscillating" : "translating", kind, m.links[j.link_b].name,
+                    m.links[j.link_a].name, m.links[j.link_a].points[j.centre_a].name,
+                    f.base_radius / mm, unit);
+    if (f.kind == cam::FollowerKind::roller)
+      text += fmt::format(", roller {:g} {}", f.roller_radius / mm, unit);
+    return text +
+           fmt::format("; least radius of curvature {:.4g} {}, largest pressure angle {:.2f} deg)",
+                       j.contour->least_radius_of_curvature() / mm, unit,
+                       j.contour->largest_pressure_angle() * 180.0 / std::numbers::pi);
+  }
   if (j.type == JointType::pin_in_arc)
     return fmt::format("pin_in_slot  {} in an arc of {} (point {}, radius {:g} {} about {})",
                        m.links[j.link_b].name, m.links[j.link_a].name,

@@ -191,7 +191,8 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
     const double force_unit = m.units.force;
     for (size_t j = 0; j < m.joints.size(); ++j) {
       const Joint& joint = m.joints[j];
-      if (joint.is_gearing()) continue;  // a mesh force acts at no named point: its chart shows it
+      // A mesh force, or a flat face's contact force, acts at no named point: its chart shows it.
+      if (joint.is_gearing() || joint.point_b < 0) continue;
       const auto at = where(m.links[static_cast<size_t>(joint.link_b)]
                                 .points[static_cast<size_t>(joint.point_b)]
                                 .name);

@@ -367,11 +367,10 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
-    if (j.type == JointType::pin_in_arc)
+    if (j.type == JointType::pin_in_arc || j.type == JointType::cam)
       throw std::runtime_error(fmt::format(
-          "joint '{}': a pin in a curved slot is in no engine's scene yet (issue 37); the exact "
-          "methods solve it",
-          j.name));
+          "joint '{}': {} is in no engine's scene yet (issue 37); the exact methods solve it",
+          j.name, j.type == JointType::cam ? "a cam" : "a pin in a curved slot"));
     SceneJoint sj;
     sj.name = j.name;
     sj.source = static_cast<int>(ji);

@@ -80,7 +80,8 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
     const int other = j.link_a == u ? j.link_b : j.link_b == u ? j.link_a : -1;
     if (used[ji] || other < 0 || !placed[other]) continue;
     const int joint = static_cast<int>(ji);
-    if (j.type == JointType::pin_in_arc) continue;  // no closed form here: Newton's (below)
+    // No closed form here for a curved slot or a cam: Newton's (below).
+    if (j.type == JointType::pin_in_arc || j.type == JointType::cam) continue;
     if (j.type == JointType::gear) {
       // Its other gear and its carrier placed, the rolling of the pitch circles
       // theta_a - theta_c + ratio (theta_b - theta_c) = phase gives u's angle.
@@ -358,8 +359,10 @@ Decomposition decompose(const Mechanism& m) {
       break;
     }
     for (const Joint& j : m.joints)
-      if (j.type == JointType::pin_in_arc) {
-        why = fmt::format("the dyads have no closed form for pin '{}' in its arc", j.name);
+      if (j.type == JointType::pin_in_arc || j.type == JointType::cam) {
+        why = j.type == JointType::cam
+                  ? fmt::format("the dyads have no closed form for cam '{}'", j.name)
+                  : fmt::format("the dyads have no closed form for pin '{}' in its arc", j.name);
         break;
       }
     for (const Driver& d : m.drivers)

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "analytic/model/constraints.h"
 #include "analytic/model/planar.h"
 
 namespace crosslink {
@@ -204,6 +205,15 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
           {normalise_line(Eigen::Vector3d(pin.x(), pin.y(), 1.0)
                               .cross(Eigen::Vector3d(centre.x(), centre.y(), 1.0))),
            1.0, fmt::format("normal to arc {} at the pin", jt.name)});
+      continue;
+    }
+    if (jt.type == JointType::cam) {  // on the common normal at the contact
+      const CamContact contact = cam_contact(m, jt, a, b);
+      const Eigen::Vector2d &p = contact.point, &u = contact.normal;
+      slot_lines[static_cast<size_t>(pair_index(n, jt.link_a, jt.link_b))].push_back(
+          {normalise_line(
+               Eigen::Vector3d(p.x(), p.y(), 1.0).cross(Eigen::Vector3d(u.x(), u.y(), 0.0))),
+           1.0, fmt::format("common normal of cam {} at the contact", jt.name)});
       continue;
     }
     const Eigen::Vector2d direction = a.turn(m.links[jt.link_a].lines[jt.line].direction);

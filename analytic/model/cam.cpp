@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -93,11 +95,15 @@ MotionProgram::MotionProgram(double start, std::vector<Segment> segments)
   if (std::abs(at - kTurn) > kClosure)
     throw std::invalid_argument(
         fmt::format("the segments' spans make {:.9g} deg, not a turn (360 deg)", at * 180.0 / kPi));
-  if (std::abs(level - start_) > kClosure * std::max(1.0, std::abs(start_)))
+  if (std::abs(level - start_) > kClosure * std::max(1.0, std::abs(start_))) {
+    // Said at the last segment that moves: its `to` is where the program ends.
+    size_t last = segments_.size();
+    while (last > 1 && segments_[last - 1].law == Law::dwell) --last;
     throw std::invalid_argument(
-        fmt::format("the rise does not close: the last segment ends at {:.9g}, the program "
+        fmt::format("segment {}: the rise does not close: the program ends at {:.9g} and "
                     "starts at {:.9g}",
-                    level, start_));
+                    last, level, start_));
+  }
 }
 
 MotionProgram MotionProgram::table(const std::vector<std::pair<double, double>>& points) {
@@ -171,62 +177,69 @@ Motion MotionProgram::at(double theta) const {
   return {from + rise * y.y, rise * y.dy / b, rise * y.ddy / (b * b), rise * y.dddy / (b * b * b)};
 }
 
-ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double theta) {
+FollowerPath follower_path(const MotionProgram& motion, const Follower& f, double theta) {
   if (!(f.base_radius > 0.0))
     throw std::invalid_argument("the base circle's radius must be positive");
   if (f.kind == FollowerKind::roller && !(f.roller_radius > 0.0))
     throw std::invalid_argument("the roller's radius must be positive");
+  if (f.kind == FollowerKind::flat_faced && f.oscillating)
+    throw std::invalid_argument("an oscillating flat-faced follower is not supported yet");
   const Motion m = motion.at(theta);
-  ProfilePoint p;
+  FollowerPath p;
+  if (f.kind == FollowerKind::flat_faced) {  // the face y = base + s, its point on the axis
+    p.F = {f.offset, f.base_radius + m.s};
+    p.dF = {0.0, m.ds};
+    p.ddF = {0.0, m.dds};
+    p.along = {0.0, 1.0};
+    return p;
+  }
+  const double prime = f.base_radius + (f.kind == FollowerKind::roller ? f.roller_radius : 0.0);
+  if (!f.oscillating) {
+    if (!(std::abs(f.offset) < prime))
+      throw std::invalid_argument(
+          "the follower's offset must be less than the prime circle's radius");
+    p.F = {f.offset, std::sqrt(prime * prime - f.offset * f.offset) + m.s};
+    p.dF = {0.0, m.ds};
+    p.ddF = {0.0, m.dds};
+    p.along = {0.0, 1.0};
+    return p;
+  }
+  if (!(f.arm > 0.0)) throw std::invalid_argument("the follower's arm must be positive");
+  // The arm's lowest angle puts F on the prime circle, on the side where a larger angle lifts
+  // it: |pivot + arm u(gamma)| = prime, d|F|/dgamma > 0.
+  const double d = f.pivot.norm();
+  const double c = (prime * prime - d * d - f.arm * f.arm) / (2.0 * f.arm * d);
+  if (!(d > 0.0) || !(std::abs(c) <= 1.0))
+    throw std::invalid_argument("the follower's arm cannot reach the prime circle from its pivot");
+  p.arm_angle = std::atan2(f.pivot.y(), f.pivot.x()) - std::acos(c) + m.s;
+  const Eigen::Vector2d u(std::cos(p.arm_angle), std::sin(p.arm_angle));
+  p.F = f.pivot + f.arm * u;
+  p.along = perp(u);
+  p.dF = f.arm * m.ds * p.along;
+  p.ddF = f.arm * (m.dds * p.along - m.ds * m.ds * u);
+  return p;
+}
 
+ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double theta) {
+  const FollowerPath path = follower_path(motion, f, theta);
+  ProfilePoint p;
+  p.follower = path.F;
+  p.arm_angle = path.arm_angle;
+  const Eigen::Rotation2Dd to_cam(-theta);
   if (f.kind == FollowerKind::flat_faced) {
-    if (f.oscillating)
-      throw std::invalid_argument("an oscillating flat-faced follower is not supported yet");
-    // The face y = base + s touches the cam where the profile's normal is +y: at x = ds from
-    // the cam's centre (the support function's derivative), whatever the axis's offset.
+    // The face touches the cam where the profile's normal is +y: at x = ds from the cam's
+    // centre (the support function's derivative), whatever the axis's offset.
+    const Motion m = motion.at(theta);
     const double h = f.base_radius + m.s;
-    p.follower = {f.offset, h};
-    const Eigen::Rotation2Dd to_cam(-theta);
     p.contact = p.pitch = to_cam * Eigen::Vector2d(m.ds, h);
     p.normal = to_cam * Eigen::Vector2d(0.0, 1.0);
     p.pressure_angle = 0.0;
     p.radius_of_curvature = p.pitch_radius_of_curvature = h + m.dds;
     return p;
   }
-
-  // The roller's centre (or the knife's edge) F in the fixed frame, its derivatives in theta,
-  // and the direction it moves in.
   const double r = f.kind == FollowerKind::roller ? f.roller_radius : 0.0;
-  const double prime = f.base_radius + r;
-  Eigen::Vector2d F, dF, ddF, along;
-  if (!f.oscillating) {
-    if (!(std::abs(f.offset) < prime))
-      throw std::invalid_argument(
-          "the follower's offset must be less than the prime circle's radius");
-    F = {f.offset, std::sqrt(prime * prime - f.offset * f.offset) + m.s};
-    dF = {0.0, m.ds};
-    ddF = {0.0, m.dds};
-    along = {0.0, 1.0};
-  } else {
-    if (!(f.arm > 0.0)) throw std::invalid_argument("the follower's arm must be positive");
-    // The arm's lowest angle puts F on the prime circle, on the side where a larger angle lifts
-    // it: |pivot + arm u(gamma)| = prime, d|F|/dgamma > 0.
-    const double d = f.pivot.norm();
-    const double c = (prime * prime - d * d - f.arm * f.arm) / (2.0 * f.arm * d);
-    if (!(d > 0.0) || !(std::abs(c) <= 1.0))
-      throw std::invalid_argument(
-          "the follower's arm cannot reach the prime circle from its pivot");
-    const double gamma = std::atan2(f.pivot.y(), f.pivot.x()) - std::acos(c) + m.s;
-    const Eigen::Vector2d u(std::cos(gamma), std::sin(gamma));
-    F = f.pivot + f.arm * u;
-    along = perp(u);
-    dF = f.arm * m.ds * along;
-    ddF = f.arm * (m.dds * along - m.ds * m.ds * u);
-    p.arm_angle = gamma;
-  }
-  p.follower = F;
+  const Eigen::Vector2d &F = path.F, &dF = path.dF, &ddF = path.ddF;
   // In the cam frame P = R(-theta) F, and d/dtheta R(-theta) v = -R(-theta) perp(v).
-  const Eigen::Rotation2Dd to_cam(-theta);
   p.pitch = to_cam * F;
   const Eigen::Vector2d dP = to_cam * (dF - perp(F));
   const Eigen::Vector2d ddP = to_cam * (ddF - 2.0 * perp(dF) - F);
@@ -237,8 +250,91 @@ ProfilePoint profile_at(const MotionProgram& motion, const Follower& f, double t
   p.contact = p.pitch - r * p.normal;
   p.radius_of_curvature = p.pitch_radius_of_curvature - r;
   const Eigen::Vector2d n = to_cam.inverse() * p.normal;  // the common normal, fixed frame
-  p.pressure_angle = std::atan2(cross(along, n), along.dot(n));
+  p.pressure_angle = std::atan2(cross(path.along, n), path.along.dot(n));
   return p;
+}
+
+namespace {
+constexpr int kSamples = 3600;  // a turn's samples for the profile's checks: every 0.1 degree
+constexpr double kDegree = kPi / 180.0;
+}  // namespace
+
+Contour::Contour(MotionProgram motion, Follower follower)
+    : motion_(std::move(motion)), follower_(follower) {
+  const bool flat = flat_faced();
+  largest_pressure_ = 0.0;
+  least_radius_ = std::numeric_limits<double>::infinity();
+  psi_.reserve(kSamples + 1);
+  for (int k = 0; k <= kSamples; ++k) {
+    const double theta = kTurn * k / kSamples;
+    const ProfilePoint p = profile_at(motion_, follower_, theta);
+    largest_pressure_ = std::max(largest_pressure_, std::abs(p.pressure_angle));
+    if (flat) {
+      if (!(p.radius_of_curvature > 0.0))
+        throw std::invalid_argument(fmt::format(
+            "the flat face's profile has a cusp at cam angle {:.1f} deg (its radius of curvature "
+            "base + s + s'' is {:.4g}): a larger base circle or a gentler law cuts it",
+            theta / kDegree, p.radius_of_curvature));
+      least_radius_ = std::min(least_radius_, p.radius_of_curvature);
+      continue;
+    }
+    if (p.pitch_radius_of_curvature > 0.0) {
+      if (follower_.kind == FollowerKind::roller &&
+          !(p.pitch_radius_of_curvature > follower_.roller_radius))
+        throw std::invalid_argument(fmt::format(
+            "the profile undercuts at cam angle {:.1f} deg: the pitch curve's radius of "
+            "curvature there ({:.4g}) is less than the roller's ({:.4g})",
+            theta / kDegree, p.pitch_radius_of_curvature, follower_.roller_radius));
+      least_radius_ = std::min(least_radius_, p.radius_of_curvature);
+    }
+    // A ray from the centre crosses the pitch curve once while its polar angle keeps falling.
+    const FollowerPath f = follower_path(motion_, follower_, theta);
+    if (!(cross(f.F, f.dF) < f.F.squaredNorm()))
+      throw std::invalid_argument(fmt::format(
+          "the pitch curve is not star-shaped about the cam's centre at cam angle {:.1f} deg: "
+          "the follower's path turns about the centre faster than the cam",
+          theta / kDegree));
+    const double angle = std::atan2(f.F.y(), f.F.x()) - theta;
+    psi_.push_back(k == 0 ? angle : psi_.back() + std::remainder(angle - psi_.back(), kTurn));
+  }
+}
+
+double Contour::cam_angle(double angle) const {
+  if (flat_faced()) return kPi / 2.0 - angle;  // the face's normal +y turned by -theta
+  // The turn's sample whose polar angle lies just above `angle` (taken into (psi_0 - 2 pi,
+  // psi_0]), then Newton on angle(F(theta)) - theta = angle.
+  const double x = angle + kTurn * std::floor((psi_.front() - angle) / kTurn);
+  const auto below = std::upper_bound(psi_.begin(), psi_.end(), x, std::greater<double>());
+  const size_t i = below == psi_.begin()
+                       ? 0  // x rounded above psi_0
+                       : std::min(static_cast<size_t>(below - psi_.begin()) - 1, psi_.size() - 2);
+  const double step = kTurn / kSamples;
+  double theta = step * (static_cast<double>(i) + (psi_[i] - x) / (psi_[i] - psi_[i + 1]));
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    const FollowerPath f = follower_path(motion_, follower_, theta);
+    const double slope = cross(f.F, f.dF) / f.F.squaredNorm() - 1.0;
+    const double delta = std::remainder(std::atan2(f.F.y(), f.F.x()) - theta - x, kTurn) / slope;
+    theta -= delta;
+    if (std::abs(delta) <= 1e-15) break;
+  }
+  return theta;
+}
+
+Polar Contour::at(double angle) const {
+  const double theta = cam_angle(angle);
+  if (flat_faced()) {  // h(alpha) = base + s(pi/2 - alpha)
+    const Motion m = motion_.at(theta);
+    return {follower_.base_radius + m.s, -m.ds, m.dds};
+  }
+  // rho = |F(theta)| against psi = angle(F) - theta, by the chain rule through theta.
+  const FollowerPath f = follower_path(motion_, follower_, theta);
+  const double r = f.F.norm(), r2 = f.F.squaredNorm();
+  const double dr = f.F.dot(f.dF) / r;
+  const double ddr = (f.dF.squaredNorm() + f.F.dot(f.ddF) - dr * dr) / r;
+  const double turn = cross(f.F, f.dF);
+  const double dpsi = turn / r2 - 1.0;
+  const double ddpsi = cross(f.F, f.ddF) / r2 - 2.0 * turn * f.F.dot(f.dF) / (r2 * r2);
+  return {r, dr / dpsi, (ddr * dpsi - dr * ddpsi) / (dpsi * dpsi * dpsi)};
 }
 
 }  // namespace crosslink::cam

@@ -111,4 +111,58 @@ struct ProfilePoint {
 // arm too short or too long for it) or its dimensions are not positive.
 ProfilePoint profile_at(const MotionProgram& motion, const Follower& follower, double theta);
 
+// The follower's reference point F in the fixed frame (the roller's centre or the knife's edge;
+// a flat face's point on its axis) at cam angle theta, its first two derivatives in theta, and
+// the direction a larger displacement moves it. Throws as profile_at.
+struct FollowerPath {
+  Eigen::Vector2d F = Eigen::Vector2d::Zero(), dF = Eigen::Vector2d::Zero(),
+                  ddF = Eigen::Vector2d::Zero(), along = Eigen::Vector2d::Zero();
+  double arm_angle = 0.0;  // oscillating: the arm's angle
+};
+FollowerPath follower_path(const MotionProgram& motion, const Follower& follower, double theta);
+
+// A function of an angle in the cam frame, with its first two derivatives in that angle.
+struct Polar {
+  double value = 0.0, d = 0.0, dd = 0.0;
+};
+
+// A cam's profile as a joint holds a follower to it, fixed in the cam frame about the cam's
+// centre. For a knife edge or a roller: the pitch curve in polar form, its radius rho(psi) at
+// the polar angle psi. For a flat face: the support function, the distance h(alpha) of the face
+// from the centre where the face's normal (away from the cam) makes the angle alpha. Either is
+// one smooth function of one angle, so a joint's constraint row is |P - C| - rho(psi) = 0 or
+// n . (O - C) - h(alpha) = 0 (docs/cams.md, "Cam joints").
+class Contour {
+ public:
+  // Throws std::invalid_argument, saying why, when the profile cannot be cut: a dimension
+  // profile_at refuses; a pitch curve that is not star-shaped about the centre (a ray from it
+  // would cross the curve twice, as when the follower's path turns faster than the cam); a
+  // roller larger than a convex stretch of the pitch curve's radius of curvature (the profile
+  // undercuts); a flat face on a profile whose radius of curvature h + h'' is not positive (a
+  // cusp); an oscillating flat face.
+  Contour(MotionProgram motion, Follower follower);
+
+  // rho(psi) for a knife edge or a roller, h(alpha) for a flat face: any angle, every turn.
+  Polar at(double angle) const;
+  // The cam angle theta at which the follower touches the profile at that polar angle (knife
+  // edge, roller) or normal angle (flat face).
+  double cam_angle(double angle) const;
+
+  const MotionProgram& motion() const { return motion_; }
+  const Follower& follower() const { return follower_; }
+  bool flat_faced() const { return follower_.kind == FollowerKind::flat_faced; }
+  // Over one turn, sampled every 0.1 degree: the profile's least radius of curvature where
+  // convex, and the largest pressure angle's magnitude.
+  double least_radius_of_curvature() const { return least_radius_; }
+  double largest_pressure_angle() const { return largest_pressure_; }
+
+ private:
+  MotionProgram motion_;
+  Follower follower_;
+  // The pitch point's polar angle psi(theta) = angle(F) - theta, unwrapped, at theta_k = k
+  // 2 pi / n (k = 0..n): it falls by a turn over a turn. Newton's start for cam_angle.
+  std::vector<double> psi_;
+  double least_radius_ = 0.0, largest_pressure_ = 0.0;
+};
+
 }  // namespace crosslink::cam

@@ -67,6 +67,63 @@ void arc_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& centr
   }
 }
 
+// A knife edge or roller's centre P_b on the pitch curve rho(psi) of cam a about C_a, at the
+// polar angle psi = angle(P_b - C_a) - theta_a of the cam's frame.
+double pitch_angle(const BodyMotion& a, const ArcOffset& o) {
+  return std::atan2(o.e.y(), o.e.x()) - a.theta;
+}
+
+// Writes d(|d| - rho(psi))/dq, d = P_b - C_a: with e = d / |d|, dpsi = perp(e) . dd / |d| -
+// dtheta_a, so the offset's gradient is g = e - rho' perp(e) / |d| and theta_a gains rho'.
+template <class Matrix>
+void pitch_gradient(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac, int row) {
+  const BodyMotion a = frames.of(c.a);
+  const BodyMotion b = frames.of(c.b);
+  const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
+  const double slope = c.contour->at(pitch_angle(a, o)).d;
+  const Eigen::Vector2d g = o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e);
+  if (c.a >= 0) {
+    jac(row, 3 * c.a) = -g.x();
+    jac(row, 3 * c.a + 1) = -g.y();
+    jac(row, 3 * c.a + 2) = slope - g.dot(perp(a.turn(c.point_a)));
+  }
+  if (c.b >= 0) {
+    jac(row, 3 * c.b) += g.x();
+    jac(row, 3 * c.b + 1) += g.y();
+    jac(row, 3 * c.b + 2) += g.dot(perp(b.turn(c.point_b)));
+  }
+}
+
+// A flat face of follower b, through O_b with the normal n_b away from the cam, tangent to the
+// profile whose support function is h(alpha), alpha the normal's angle in the cam's frame.
+struct FaceContact {
+  Eigen::Vector2d n, offset;  // n_b, and O_b - C_a
+  double alpha;
+};
+FaceContact face_contact(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
+  return {b.turn(c.axis), b.position(c.point_b) - a.position(c.point_a),
+          b.theta + c.angle - a.theta};
+}
+
+// Writes d(n . (O_b - C_a) - h(alpha))/dq, alpha = theta_b + angle - theta_a.
+template <class Matrix>
+void face_gradient(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac, int row) {
+  const BodyMotion a = frames.of(c.a);
+  const BodyMotion b = frames.of(c.b);
+  const FaceContact f = face_contact(c, a, b);
+  const double slope = c.contour->at(f.alpha).d;
+  if (c.a >= 0) {
+    jac(row, 3 * c.a) = -f.n.x();
+    jac(row, 3 * c.a + 1) = -f.n.y();
+    jac(row, 3 * c.a + 2) = slope - f.n.dot(perp(a.turn(c.point_a)));
+  }
+  if (c.b >= 0) {
+    jac(row, 3 * c.b) += f.n.x();
+    jac(row, 3 * c.b + 1) += f.n.y();
+    jac(row, 3 * c.b + 2) += perp(f.n).dot(f.offset) + f.n.dot(perp(b.turn(c.point_b))) - slope;
+  }
+}
+
 // A revolute joint's two rows on link k: sign (I, perp(turn(point))), the identity's zeros
 // written too (as -I writes -0), so every holder gets the same entries.
 template <class Matrix>
@@ -102,6 +159,12 @@ void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& j
       return;
     case Kind::pin_in_arc:
       arc_gradient(frames, a, c.point_a, b, c.point_b, jac, row);
+      return;
+    case Kind::cam_pitch:
+      pitch_gradient(c, frames, jac, row);
+      return;
+    case Kind::cam_face:
+      face_gradient(c, frames, jac, row);
       return;
     case Kind::angle_driver:
       if (b >= 0) jac(row, 3 * b + 2) += 1.0;
@@ -173,7 +236,24 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
   }
   c.a = m.moving_index(j.link_a);
   c.b = m.moving_index(j.link_b);
-  c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  if (j.point_b >= 0)
+    c.point_b = m.links[static_cast<size_t>(j.link_b)].points[static_cast<size_t>(j.point_b)].local;
+  if (j.type == JointType::cam) {
+    const Link& cam = m.links[static_cast<size_t>(j.link_a)];
+    const Link& follower = m.links[static_cast<size_t>(j.link_b)];
+    c.point_a = cam.points[static_cast<size_t>(j.centre_a)].local;
+    c.contour = j.contour;
+    if (j.line < 0) {
+      c.kind = Kind::cam_pitch;
+      return c;
+    }
+    const Line& face = follower.lines[static_cast<size_t>(j.line)];
+    c.kind = Kind::cam_face;
+    c.point_b = face.origin;
+    c.axis = perp(face.direction);
+    c.angle = std::atan2(c.axis.y(), c.axis.x());
+    return c;
+  }
   if (j.type == JointType::pin_in_arc) {
     c.kind = Kind::pin_in_arc;
     c.point_a =
@@ -196,6 +276,26 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
 
 }  // namespace
 
+CamContact cam_contact(const Mechanism& m, const Joint& j, const BodyMotion& a,
+                       const BodyMotion& b) {
+  const ConstraintRows c = joint_rows(m, j);
+  CamContact out;
+  if (c.kind == Kind::cam_face) {  // the support function's point: h n + h' perp(n) from C
+    const FaceContact f = face_contact(c, a, b);
+    const cam::Polar h = c.contour->at(f.alpha);
+    out.normal = f.n;
+    out.point = a.position(c.point_a) + h.value * f.n + h.d * perp(f.n);
+    return out;
+  }
+  // The pitch curve's normal at the knife edge or roller's centre: the row's gradient there.
+  const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
+  const double slope = c.contour->at(pitch_angle(a, o)).d;
+  const Eigen::Vector2d g = o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e);
+  out.normal = g.normalized();
+  out.point = b.position(c.point_b) - c.contour->follower().roller_radius * out.normal;
+  return out;
+}
+
 double ConstraintRows::value(const LinkFrames& frames) const {
   const Eigen::VectorXd& q = frames.q;
   switch (kind) {
@@ -208,6 +308,15 @@ double ConstraintRows::value(const LinkFrames& frames) const {
              ratio * (angle_of(q, c) - angle_of(q, a)) - angle;
     case Kind::pin_in_arc:
       return arc_offset(frames.of(a), point_a, frames.of(b), point_b).length - radius;
+    case Kind::cam_pitch: {
+      const BodyMotion ma = frames.of(a);
+      const ArcOffset o = arc_offset(ma, point_a, frames.of(b), point_b);
+      return o.length - contour->at(pitch_angle(ma, o)).value;
+    }
+    case Kind::cam_face: {
+      const FaceContact f = face_contact(*this, frames.of(a), frames.of(b));
+      return f.n.dot(f.offset) - contour->at(f.alpha).value;
+    }
     default:
       return project(frames.of(a), point_a, axis, frames.of(b), point_b).value;
   }
@@ -228,6 +337,8 @@ void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) co
     }
     case Kind::pin_in_slot:
     case Kind::pin_in_arc:
+    case Kind::cam_pitch:
+    case Kind::cam_face:
     case Kind::angle_driver:
     case Kind::slider_driver:
     case Kind::gear:
@@ -261,6 +372,37 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
       const double along = o.e.dot(rate);
       out(first_row) = o.e.dot(mb.acceleration(point_b) - ma.acceleration(point_a)) +
                        (o.length > 0.0 ? (rate.squaredNorm() - along * along) / o.length : 0.0);
+      return;
+    }
+    case Kind::cam_pitch: {
+      // |d|'' as pin_in_arc's, less rho'' psi'^2 + rho' psi'', where psi' = d x d' / |d|^2 -
+      // omega_a and psi'' = d x d'' / |d|^2 - 2 (d x d')(d . d') / |d|^4 (alpha_a = 0).
+      const BodyMotion ma = frames.of(a, &qdot), mb = frames.of(b, &qdot);
+      const ArcOffset o = arc_offset(ma, point_a, mb, point_b);
+      const Eigen::Vector2d d = o.length * o.e;
+      const Eigen::Vector2d rate = mb.velocity(point_b) - ma.velocity(point_a);
+      const Eigen::Vector2d accel = mb.acceleration(point_b) - ma.acceleration(point_a);
+      const double along = o.e.dot(rate), d2 = o.length * o.length;
+      const cam::Polar rho = contour->at(pitch_angle(ma, o));
+      const double psi_rate = d2 > 0.0 ? cross(d, rate) / d2 - ma.omega : 0.0;
+      const double psi_accel =
+          d2 > 0.0 ? cross(d, accel) / d2 - 2.0 * cross(d, rate) * d.dot(rate) / (d2 * d2) : 0.0;
+      out(first_row) = o.e.dot(accel) +
+                       (o.length > 0.0 ? (rate.squaredNorm() - along * along) / o.length : 0.0) -
+                       rho.dd * psi_rate * psi_rate - rho.d * psi_accel;
+      return;
+    }
+    case Kind::cam_face: {
+      // (n . D)'' = n'' . D + 2 n' . D' + n . D'' with n' = omega_b perp(n), n'' = -omega_b^2 n;
+      // h(alpha)'' = h'' (omega_b - omega_a)^2.
+      const BodyMotion ma = frames.of(a, &qdot), mb = frames.of(b, &qdot);
+      const FaceContact f = face_contact(*this, ma, mb);
+      const Eigen::Vector2d rate = mb.velocity(point_b) - ma.velocity(point_a);
+      const Eigen::Vector2d accel = mb.acceleration(point_b) - ma.acceleration(point_a);
+      const double turn = mb.omega - ma.omega;
+      out(first_row) = -mb.omega * mb.omega * f.n.dot(f.offset) +
+                       2.0 * mb.omega * perp(f.n).dot(rate) + f.n.dot(accel) -
+                       contour->at(f.alpha).dd * turn * turn;
       return;
     }
     case Kind::angle_driver:

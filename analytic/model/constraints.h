@@ -54,6 +54,8 @@ struct ConstraintRows {
     prismatic,      // n_a . (P_b - O_a) = 0, theta_b - theta_a - angle = 0    (2 rows)
     pin_in_slot,    // n_a . (P_b - O_a) = 0                                   (1 row)
     pin_in_arc,     // |P_b - C_a| - radius = 0                                (1 row)
+    cam_pitch,      // |P_b - C_a| - rho(angle(P_b - C_a) - theta_a) = 0       (1 row)
+    cam_face,       // n_b . (O_b - C_a) - h(theta_b + angle - theta_a) = 0    (1 row)
     angle_driver,   // theta_b + angle - theta_a - d(t) = 0                    (1 row)
     slider_driver,  // u_a . (P_b - O_a) - d(t) = 0                            (1 row)
     gear,           // theta_a - theta_c + ratio (theta_b - theta_c) - phase = 0   (1 row)
@@ -75,6 +77,10 @@ struct ConstraintRows {
   // gear pairs: the phase [rad or m].
   double angle = 0.0;
   double radius = 0.0;  // pin_in_arc: the arc's, about point_a [m]
+  // Cams: the profile about the cam's centre point_a (rho, or h), on a the cam and b the
+  // follower: point_b its knife edge or roller's centre, or its face's origin with the face's
+  // normal `axis` (away from the cam) at `angle` in b's frame.
+  std::shared_ptr<const cam::Contour> contour;
 
   int rows() const { return kind == Kind::revolute || kind == Kind::prismatic ? 2 : 1; }
   // Whether row `r` of the block (0-based) is an angle equation [rad] rather than a length [m].
@@ -94,6 +100,14 @@ struct ConstraintRows {
   // A one-row block's value: a driver's measured coordinate.
   double value(const LinkFrames& frames) const;
 };
+
+// A cam joint's contact at its links' motions (a the cam, b the follower): where the follower
+// touches the profile, and the common normal there pointing away from the cam, in world axes.
+struct CamContact {
+  Eigen::Vector2d point = Eigen::Vector2d::Zero(), normal = Eigen::Vector2d::UnitY();
+};
+CamContact cam_contact(const Mechanism& m, const Joint& cam, const BodyMotion& a,
+                       const BodyMotion& b);
 
 class ConstraintLayout {
  public:

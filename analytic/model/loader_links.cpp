@@ -331,12 +331,28 @@ int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* nod
   return index;
 }
 
-namespace {
+int resolve_line(Reader& r, const Mechanism& m, int link, const toml::node* node,
+                 const std::string& name, std::string_view what) {
+  const int index = m.links[link].find_line(name);
+  if (index < 0) {
+    std::vector<std::string> names;
+    for (const Line& l : m.links[link].lines) names.push_back(l.name);
+    r.error(r.at(node), fmt::format("{}: line '{}' is not on link '{}' (its lines: {})", what, name,
+                                    m.links[link].name, join(names)));
+  }
+  return index;
+}
 
-// A link's frame in the world as drawn (the origin where no pose is given).
 Eigen::Vector3d drawn_pose(const Link& link) {
   return link.pose.value_or(Eigen::Vector3d::Zero());
 }
+
+Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local) {
+  const Eigen::Vector3d p = drawn_pose(link);
+  return p.head<2>() + Eigen::Rotation2Dd(p(2)) * local;
+}
+
+namespace {
 
 // A joint's `friction = { ... }` (docs/mechanism-format.md, "Joint friction"): a Coulomb
 // coefficient with the pin's radius (revolute) or the slider's bearing length (prismatic,
@@ -495,16 +511,8 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     if (arc) read_arc(r, m, *arc, twhat, joint);
     const std::optional<std::string> line = arc ? std::nullopt : r.string(t, "line", twhat, true);
     const std::optional<std::string> point = r.string(t, "point", twhat, true);
-    if (joint.link_a >= 0 && line) {
-      joint.line = m.links[joint.link_a].find_line(*line);
-      if (joint.line < 0) {
-        std::vector<std::string> names;
-        for (const Line& l : m.links[joint.link_a].lines) names.push_back(l.name);
-        r.error(r.at(t.get("line")),
-                fmt::format("{}: line '{}' is not on link '{}' (its lines: {})", twhat, *line,
-                            m.links[joint.link_a].name, join(names)));
-      }
-    }
+    if (joint.link_a >= 0 && line)
+      joint.line = resolve_line(r, m, joint.link_a, t.get("line"), *line, twhat);
     if (joint.link_b >= 0 && point)
       joint.point_b = resolve_point(r, m, joint.link_b, t.get("point"), *point, twhat);
     if (joint.link_a >= 0 && joint.link_a == joint.link_b)
@@ -525,23 +533,19 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     read_friction(r, m, t, joint, fmt::format("{} ('{}')", twhat, joint.name));
     return joint;
   }
+  if (type == "cam") return read_cam(r, m, t, what);
   if (type == "gear" || type == "rack_pinion") {  // completed by read_gearing
     joint.type = type == "gear" ? JointType::gear : JointType::rack_pinion;
     return joint;
   }
   r.error(t.get("type") ? r.at(t.get("type")) : joint.where,
           fmt::format("{}: unknown joint type '{}' (valid types: revolute, prismatic, "
-                      "pin_in_slot, gear, rack_pinion)",
+                      "pin_in_slot, cam, gear, rack_pinion)",
                       what, type));
   return joint;
 }
 
 namespace {
-
-Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local) {
-  const Eigen::Vector3d p = drawn_pose(link);
-  return p.head<2>() + Eigen::Rotation2Dd(p(2)) * local;
-}
 
 // The point of the carrier that gear `gear` turns about: the one point name the two links share
 // (one name is one place, joined by revolutes: check_structure). -1, reported, when there is none

@@ -1,8 +1,9 @@
 // The loader's parts (internal to analytic/model/): the Reader that collects every problem of a
 // definition at its place, the units a number is read in, and what one part of the loader asks
 // of another. loader.cpp reads the top level and calls the others: loader_links.cpp (links,
-// joints, gears), loader_drivers.cpp (drivers, [dynamics]), loader_loads.cpp (loads, springs),
-// loader_outputs.cpp ([[derived]], the summary, [[reference]], [tolerance], [expect]).
+// joints, gears; loader_cams.cpp for a cam joint), loader_drivers.cpp (drivers, [dynamics]),
+// loader_loads.cpp (loads, springs), loader_outputs.cpp ([[derived]], the summary, [[reference]],
+// [tolerance], [expect]).
 #pragma once
 
 #include <fmt/format.h>
@@ -331,7 +332,14 @@ int resolve_link(Reader& r, const Mechanism& m, const toml::table& t, std::strin
                  std::string_view what);
 int resolve_point(Reader& r, const Mechanism& m, int link, const toml::node* node,
                   const std::string& name, std::string_view what);
+int resolve_line(Reader& r, const Mechanism& m, int link, const toml::node* node,
+                 const std::string& name, std::string_view what);
+// A link's frame in the world as drawn (the origin where no pose is given), and a point of it.
+Eigen::Vector3d drawn_pose(const Link& link);
+Eigen::Vector2d drawn_point(const Link& link, const Eigen::Vector2d& local);
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index);
+// loader_cams.cpp: a cam joint and its profile.
+Joint read_cam(Reader& r, const Mechanism& m, const toml::table& t, const std::string& what);
 void read_gearing(Reader& r, Mechanism& m, const toml::table& t, int index);
 // Joint friction the rest of the definition allows: journals that fit their links, and what is
 // not modelled yet (beside gear pairs, in [dynamics]).

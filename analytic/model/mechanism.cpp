@@ -57,6 +57,8 @@ std::string_view to_string(JointType type) {
       return "pin_in_slot";
     case JointType::pin_in_arc:
       return "pin_in_arc";
+    case JointType::cam:
+      return "cam";
     case JointType::gear:
       return "gear";
     case JointType::rack_pinion:

@@ -10,11 +10,14 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "analytic/model/cam.h"
 
 namespace crosslink {
 
@@ -85,6 +88,10 @@ enum class JointType {
   pin_in_arc,   // point `point_b` of link_b stays on a circle of link_a (a curved slot, or a
                 // roller's centre about an eccentric cam): radius `radius_a` about point
                 // `centre_a` of link_a; rotation free
+  cam,          // link_b (the follower) touches the profile cut in link_a (the cam) about its
+                // point `centre_a`: a knife edge or a roller's centre, point `point_b`, stays
+                // on the pitch curve; or a flat face, line `line` of link_b, stays tangent to
+                // the profile (`contour`, docs/cams.md); sliding and rolling free
   // Higher pairs (Kutzbach's j2: one freedom taken), coupling rotations by rolling pitch circles:
   gear,         // gear link_a meshes with gear link_b, both turning about points of `carrier`:
                 // (theta_a - theta_c) + ratio (theta_b - theta_c) = phase
@@ -133,7 +140,7 @@ struct Joint {
   int link_b = -1;   // revolute: second link; slides and pin_in_arc: the slider / pin link
   int point_a = -1;  // revolute only: point index on link_a
   int point_b = -1;  // point index on link_b
-  int line = -1;     // prismatic, pin_in_slot: line index on link_a
+  int line = -1;     // prismatic, pin_in_slot: line index on link_a (cam: the face, on link_b)
   double relative_angle = 0.0;  // prismatic: theta_b - theta_a, held constant [rad]
   // Gear pairs (gear, rack_pinion). The ratio is signed: a gear pair's + r_b / r_a when external
   // (the gears turn opposite ways relative to the carrier), - r_b / r_a when internal; a rack's
@@ -141,20 +148,26 @@ struct Joint {
   int carrier = -1;  // the link both centres are fixed on (ground by default; the guide of a rack)
   int slide = -1;    // rack_pinion: the prismatic joint that carries the rack
   // The centres on the carrier (points of it); rack: centre_a; pin_in_arc: the arc's centre on
-  // link_a.
+  // link_a; cam: the cam's centre on link_a.
   int centre_a = -1, centre_b = -1;
   double ratio = 0.0;
   double phase = 0.0;                     // [rad] for a gear pair, [m] for a rack
   double radius_a = 0.0, radius_b = 0.0;  // pitch radii [m] (a rack's: radius_a); the arc's
   double pressure_angle = 0.0;            // of the teeth: the line of action's tilt [rad]
   std::optional<JointFriction> friction;  // revolute and prismatic joints only
+  // cam: the profile cut in link_a, in link_a's frame about point centre_a (its own frame's
+  // axes are link_a's); `line`, for a flat face, is link_b's.
+  std::shared_ptr<const cam::Contour> contour;
   SourceLocation where;
 
   bool is_slide() const { return type == JointType::prismatic || type == JointType::pin_in_slot; }
   bool is_gearing() const { return type == JointType::gear || type == JointType::rack_pinion; }
   // Freedoms it allows between its two links (a higher pair allows 2: Kutzbach's j2).
   int dof() const {
-    return type == JointType::pin_in_slot || type == JointType::pin_in_arc || is_gearing() ? 2 : 1;
+    return type == JointType::pin_in_slot || type == JointType::pin_in_arc ||
+                   type == JointType::cam || is_gearing()
+               ? 2
+               : 1;
   }
 };
 

@@ -157,7 +157,12 @@ TEST(CamProgram, RefusesAProgramThatDoesNotCloseOrMakeATurn) {
   expect_refused(0.0, {{Law::cycloidal, 180 * kDeg, 0.01}, {Law::cycloidal, 170 * kDeg, 0.0}},
                  "make 350 deg, not a turn");
   expect_refused(0.0, {{Law::cycloidal, 180 * kDeg, 0.01}, {Law::cycloidal, 180 * kDeg, 0.002}},
-                 "the rise does not close: the last segment ends at 0.002");
+                 "segment 2: the rise does not close: the program ends at 0.002");
+  expect_refused(0.0,
+                 {{Law::cycloidal, 180 * kDeg, 0.01},
+                  {Law::cycloidal, 90 * kDeg, 0.002},
+                  {Law::dwell, 90 * kDeg, 0.002}},
+                 "segment 2: the rise does not close");
   expect_refused(0.0, {{Law::cycloidal, 180 * kDeg, 0.01}, {Law::dwell, 180 * kDeg, 0.0}},
                  "segment 2: a dwell holds the follower at 0.01");
   expect_refused(0.0, {{Law::cycloidal, -10 * kDeg, 0.01}, {Law::cycloidal, 370 * kDeg, 0.0}},
@@ -339,6 +344,75 @@ TEST(CamProfile, OscillatingArmTurnsByTheProgramAboutItsPivot) {
   Follower unreachable = f;
   unreachable.arm = 0.01;
   EXPECT_THROW(profile_at(p, unreachable, 0.0), std::invalid_argument);
+}
+
+// A contour's polar radius is the pitch point's distance from the centre at the polar angle the
+// pitch point is seen at, and the cam angle it names is the one the follower stands at there
+// (knife edge, roller); a flat face's support function is the face's distance Rb + s at the
+// normal angle pi/2 - theta. Its derivatives are the differences of its values.
+TEST(CamContour, RadiusAtThePitchPointsAngleIsItsDistance) {
+  for (const Case& c : followers()) {
+    SCOPED_TRACE(c.name);
+    const MotionProgram p = program_for(c.follower);
+    const Contour contour(p, c.follower);
+    const bool flat = c.follower.kind == FollowerKind::flat_faced;
+    EXPECT_EQ(contour.flat_faced(), flat);
+    for (int k = 0; k < 90; ++k) {
+      const double theta = (k + 0.29) * 4 * kDeg;
+      const FollowerPath f = follower_path(p, c.follower, theta);
+      const double angle =
+          flat ? kPi / 2 - theta : std::atan2(f.F.y(), f.F.x()) - theta + 2 * kPi * (k % 3 - 1);
+      const double expected = flat ? c.follower.base_radius + p.at(theta).s : f.F.norm();
+      EXPECT_NEAR(contour.at(angle).value, expected, 1e-12) << theta / kDeg;
+      EXPECT_NEAR(std::remainder(contour.cam_angle(angle) - theta, 2 * kPi), 0.0, 1e-12)
+          << theta / kDeg;
+      const double h = 1e-4;
+      const Polar a = contour.at(angle - h), b = contour.at(angle), e = contour.at(angle + h);
+      EXPECT_NEAR(b.d, (e.value - a.value) / (2 * h), 1e-8) << theta / kDeg;
+      EXPECT_NEAR(b.dd, (e.d - a.d) / (2 * h), 1e-6) << theta / kDeg;
+    }
+  }
+}
+
+// A profile that cannot be cut is refused, saying why: a roller larger than the pitch curve's
+// radius of curvature where it is convex (the profile undercuts), a flat face whose radius of
+// curvature turns negative (a cusp), a follower path that turns about the centre faster than the
+// cam (a ray would cross the pitch curve twice).
+TEST(CamContour, RefusesAProfileThatCannotBeCut) {
+  const auto refused = [](const MotionProgram& p, const Follower& f, const std::string& says) {
+    try {
+      const Contour contour(p, f);
+      ADD_FAILURE() << "accepted; expected: " << says;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  const MotionProgram p = rise_dwell_return_dwell();
+  // 20 mm in 40 degrees on a 10 mm base circle: the pitch curve's least convex radius is 6.8 mm,
+  // under the 10 mm roller. On a 20 mm knife-edge cam offset 19 mm, 20 mm in 60 degrees: the
+  // path's moment about the centre, e s', passes e^2 + y^2 = |F|^2 halfway up.
+  const auto steep = [](double span) {
+    return MotionProgram(0.0, {{Law::cycloidal, span * kDeg, 0.02},
+                               {Law::dwell, (180 - span) * kDeg, 0.02},
+                               {Law::cycloidal, span * kDeg, 0.0},
+                               {Law::dwell, (180 - span) * kDeg, 0.0}});
+  };
+  Follower undercut = followers()[0].follower;
+  undercut.base_radius = 0.01;
+  undercut.offset = 0.0;
+  refused(steep(40), undercut, "the profile undercuts");
+  Follower cusp = followers()[2].follower;
+  cusp.base_radius = 0.01;
+  refused(p, cusp, "has a cusp");
+  Follower knife = followers()[1].follower;
+  knife.base_radius = 0.02;
+  knife.offset = 0.019;
+  refused(steep(60), knife, "not star-shaped");
+  Follower swinging_face = followers()[2].follower;
+  swinging_face.oscillating = true;
+  swinging_face.pivot = {0.09, 0.03};
+  swinging_face.arm = 0.08;
+  refused(p, swinging_face, "oscillating flat-faced");
 }
 
 }  // namespace

@@ -16,9 +16,11 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <set>
 
+#include "analytic/model/cam.h"
 #include "analytic/model/constraints.h"
 
 namespace crosslink {
@@ -32,10 +34,11 @@ Point point(const char* name, double x, double y) {
 
 // Ground G and three moving links A, B, C with every joint type, the ground on either side of a
 // slide: revolute G-A, revolute A-B, prismatic A-C (A the guide), pin-in-slot G-B (G the slot),
-// prismatic G-C, a gear pair A-C about B, A as a pinion on the rack C of G-C, and C's pin S in an
-// arc of A about its point O. Not a mechanism of mobility one: the layout does not need a square
-// system. The driver is of `type`; `scale`
-// multiplies every length (1000: the same mechanism in mm).
+// prismatic G-C, a gear pair A-C about B, A as a pinion on the rack C of G-C, C's pin S in an
+// arc of A about its point O, B's point E a roller on a cam A about O, and C's face a flat-faced
+// follower on a cam B about its point B. Not a mechanism of mobility one: the layout does not
+// need a square system. The driver is of `type`; `scale` multiplies every length (1000: the
+// same mechanism in mm).
 Mechanism every_kind(DriverType type, double scale = 1.0) {
   Mechanism m;
   const double s = scale;
@@ -55,6 +58,10 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
   Link b{"B", false, {point("B", -0.1 * s, 0.03 * s), point("E", 0.4 * s, 0.25 * s)}, {}, {}, {},
          {},  {}};
   Link c{"C", false, {point("S", 0.02 * s, 0.09 * s)}, {}, {}, {}, {}, {}};
+  c.lines.push_back({"face",
+                     Eigen::Vector2d(-0.03 * s, 0.04 * s),
+                     Eigen::Vector2d(std::cos(0.3), std::sin(0.3)),
+                     {}});
   m.links = {ground, a, b, c};
   auto joint = [](const char* name, JointType t, int la, int lb, int pa, int pb, int line,
                   double angle) {
@@ -91,6 +98,19 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
   m.joints.push_back(gear);
   m.joints.push_back(rack);
   m.joints.push_back(arc);
+  // Cams cut for a cycloidal rise and return: an offset roller and a flat face.
+  const cam::MotionProgram rise(0.0, {{cam::Law::cycloidal, std::numbers::pi, 0.05 * s},
+                                      {cam::Law::cycloidal, std::numbers::pi, 0.0}});
+  cam::Follower roller{cam::FollowerKind::roller, false, 0.1 * s, 0.02 * s, 0.01 * s, {}, 0.0};
+  cam::Follower face{cam::FollowerKind::flat_faced, false, 0.15 * s, 0.0, 0.0, {}, 0.0};
+  Joint pitch = joint("ABc", JointType::cam, 1, 2, -1, 1, -1, 0.0);
+  pitch.centre_a = 0;
+  pitch.contour = std::make_shared<const cam::Contour>(rise, roller);
+  Joint flat = joint("BCc", JointType::cam, 2, 3, -1, -1, 0, 0.0);
+  flat.centre_a = 0;
+  flat.contour = std::make_shared<const cam::Contour>(rise, face);
+  m.joints.push_back(pitch);
+  m.joints.push_back(flat);
   Driver d;
   d.type = type;
   switch (type) {
@@ -171,13 +191,14 @@ TEST_P(EveryKind, LayoutHasEveryKindInOrder) {
     kinds.insert(c.kind);
   }
   EXPECT_EQ(row, layout.rows());
-  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 1);
+  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 1 + 1 + 1);
   EXPECT_EQ(layout.joint_row_count(), layout.rows() - 1);
   EXPECT_EQ(layout.driver_count(), 1);
   EXPECT_EQ(layout.driver_row(0), layout.rows() - 1);
   EXPECT_TRUE(kinds.count(Kind::revolute) && kinds.count(Kind::prismatic) &&
               kinds.count(Kind::pin_in_slot) && kinds.count(Kind::gear) &&
-              kinds.count(Kind::rack_pinion) && kinds.count(Kind::pin_in_arc));
+              kinds.count(Kind::rack_pinion) && kinds.count(Kind::pin_in_arc) &&
+              kinds.count(Kind::cam_pitch) && kinds.count(Kind::cam_face));
   EXPECT_TRUE(
       kinds.count(GetParam() == DriverType::slider ? Kind::slider_driver : Kind::angle_driver));
 }
@@ -221,6 +242,21 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
                          world(q, ka, m.links[j.link_a].points[j.centre_a].local))
                             .norm() -
                         j.radius_a;
+      continue;
+    }
+    if (j.type == JointType::cam) {  // the follower's distance from the centre, less the profile's
+      const Eigen::Vector2d centre = world(q, ka, m.links[j.link_a].points[j.centre_a].local);
+      if (j.contour->flat_faced()) {  // along the face's normal, at the normal's angle
+        const Line& face = m.links[j.link_b].lines[j.line];
+        const Eigen::Vector2d u = world_direction(q, kb, face.direction);
+        const Eigen::Vector2d n(-u.y(), u.x());
+        expected(row++) = n.dot(world(q, kb, face.origin) - centre) -
+                          j.contour->at(std::atan2(n.y(), n.x()) - angle_of(q, ka)).value;
+      } else {  // along the ray to the roller's centre, at the ray's angle
+        const Eigen::Vector2d d = world(q, kb, m.links[j.link_b].points[j.point_b].local) - centre;
+        expected(row++) =
+            d.norm() - j.contour->at(std::atan2(d.y(), d.x()) - angle_of(q, ka)).value;
+      }
       continue;
     }
     expected(row++) = slide_offset(j, false);
@@ -270,9 +306,21 @@ TEST_P(EveryKind, ClosedJointsHaveZeroRows) {
       EXPECT_NEAR(phi(layout.joint(m.find_joint(j.name)).first_row), 0.0, 1e-15) << j.name;
       continue;
     }
-    const Eigen::Vector2d pb = m.links[j.link_b].points[j.point_b].local;
+    const bool face = j.type == JointType::cam && j.contour->flat_faced();
+    const Eigen::Vector2d pb =
+        face ? m.links[j.link_b].lines[j.line].origin : m.links[j.link_b].points[j.point_b].local;
     Eigen::Vector2d target;
-    if (j.type == JointType::revolute) {
+    if (j.type == JointType::cam) {  // the profile at the angle 0.8 of the cam's frame
+      const double psi = 0.8, turned = angle_of(q, ka) + psi;
+      const Eigen::Vector2d ray(std::cos(turned), std::sin(turned));
+      const Eigen::Vector2d centre = world(q, ka, m.links[j.link_a].points[j.centre_a].local);
+      target = centre + j.contour->at(psi).value * ray;
+      if (face) {  // the face square to the ray, its origin 0.37 along it
+        const Line& line = m.links[j.link_b].lines[j.line];
+        q(3 * kb + 2) = turned - std::atan2(line.direction.x(), -line.direction.y());
+        target += 0.37 * world_direction(q, kb, line.direction);
+      }
+    } else if (j.type == JointType::revolute) {
       target = world(q, ka, m.links[j.link_a].points[j.point_a].local);
     } else if (j.type == JointType::pin_in_arc) {
       target = world(q, ka, m.links[j.link_a].points[j.centre_a].local) +

@@ -172,13 +172,15 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
     double scale = 0.0;
     for (size_t j = 0; j < m.joints.size(); ++j) {
       const Joint& joint = m.joints[j];
-      // A gear pair's force acts at its pitch point, fixed on its carrier.
-      const Eigen::Vector2d at = joint.is_gearing()
-                                     ? body(joint.carrier).position(pitch_point(m, joint))
-                                     : body(joint.link_b)
-                                           .position(m.links[static_cast<size_t>(joint.link_b)]
-                                                         .points[static_cast<size_t>(joint.point_b)]
-                                                         .local);
+      // A gear pair's force acts at its pitch point, fixed on its carrier; a cam's at the contact.
+      const Eigen::Vector2d at =
+          joint.is_gearing() ? body(joint.carrier).position(pitch_point(m, joint))
+          : joint.type == JointType::cam
+              ? cam_contact(m, joint, body(joint.link_a), body(joint.link_b)).point
+              : body(joint.link_b)
+                    .position(m.links[static_cast<size_t>(joint.link_b)]
+                                  .points[static_cast<size_t>(joint.point_b)]
+                                  .local);
       double couple = 0.0;
       const auto s = std::find(slides.begin(), slides.end(), static_cast<int>(j));
       if (s != slides.end()) couple = forces.moment[static_cast<size_t>(s - slides.begin())];

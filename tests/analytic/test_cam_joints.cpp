@@ -1,0 +1,335 @@
+// Cam joints (issue 37, slice 3): a follower held on a profile synthesised from its motion law,
+// solved by Newton on the one constraint row, against what is known without that row: the
+// laws' closed forms (Norton, Design of Machinery, ch. 8: cycloidal eq. 8.6, 3-4-5 eq. 8.9,
+// 4-5-6-7 eq. 8.10), written out here; the cam-follower instant centre, where the cam's velocity
+// is the follower's; and the follower's equations of motion, which give the contact force and
+// the driver's torque by power. Each channel is held to 1e-9 of its peak.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analytic/kinematics/instant_centres.h"
+#include "analytic/model/loader.h"
+#include "analytic/model/planar.h"
+#include "analytic/reference/sweep.h"
+#include "tests/common/cli.h"
+#include "tests/common/diagnostics.h"
+#include "tests/common/mechanisms.h"
+#include "tests/common/text.h"
+
+namespace crosslink {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+
+// One segment of a bundled program: a law over [begin, begin + span) degrees of cam angle,
+// from `from` to `to`.
+struct Piece {
+  std::string law;  // "dwell", "cycloidal", "345", "4567"
+  double begin, span, from, to;
+};
+
+// The follower's displacement and its first two derivatives in the cam angle [rad].
+struct Expected {
+  double s, ds, dds;
+};
+
+Expected closed_form(const std::vector<Piece>& program, double theta) {
+  theta = std::fmod(theta, 2 * kPi);
+  if (theta < 0) theta += 2 * kPi;
+  for (const Piece& p : program) {
+    const double beta = p.span * kDeg, u = (theta - p.begin * kDeg) / beta;
+    if (u < 0.0 || u > 1.0) continue;
+    const double h = p.to - p.from;
+    double y = 0, dy = 0, ddy = 0;
+    if (p.law == "cycloidal") {
+      y = u - std::sin(2 * kPi * u) / (2 * kPi);
+      dy = 1 - std::cos(2 * kPi * u);
+      ddy = 2 * kPi * std::sin(2 * kPi * u);
+    } else if (p.law == "345") {
+      y = 10 * std::pow(u, 3) - 15 * std::pow(u, 4) + 6 * std::pow(u, 5);
+      dy = 30 * u * u - 60 * std::pow(u, 3) + 30 * std::pow(u, 4);
+      ddy = 60 * u - 180 * u * u + 120 * std::pow(u, 3);
+    } else if (p.law == "4567") {
+      y = 35 * std::pow(u, 4) - 84 * std::pow(u, 5) + 70 * std::pow(u, 6) - 20 * std::pow(u, 7);
+      dy =
+          140 * std::pow(u, 3) - 420 * std::pow(u, 4) + 420 * std::pow(u, 5) - 140 * std::pow(u, 6);
+      ddy = 420 * u * u - 1680 * std::pow(u, 3) + 2100 * std::pow(u, 4) - 840 * std::pow(u, 5);
+    }
+    return {p.from + h * y, h * dy / beta, h * ddy / (beta * beta)};
+  }
+  ADD_FAILURE() << "no segment at " << theta;
+  return {};
+}
+
+// The bundled programs, as their files write them.
+const std::vector<Piece> kTranslatingRoller = {{"345", 0, 100, 0, 0.02},
+                                               {"dwell", 100, 80, 0.02, 0.02},
+                                               {"4567", 180, 100, 0.02, 0},
+                                               {"dwell", 280, 80, 0, 0}};
+const std::vector<Piece> kFlatFaced = {{"cycloidal", 0, 90, 0, 0.02},
+                                       {"dwell", 90, 90, 0.02, 0.02},
+                                       {"cycloidal", 180, 90, 0.02, 0},
+                                       {"dwell", 270, 90, 0, 0}};
+const std::vector<Piece> kOscillating = {{"cycloidal", 0, 120, 0, 15 * kDeg},
+                                         {"dwell", 120, 60, 15 * kDeg, 15 * kDeg},
+                                         {"345", 180, 120, 15 * kDeg, 0},
+                                         {"dwell", 300, 60, 0, 0}};
+
+Mechanism bundled(const std::string& stem) {
+  return load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/cams/" + stem + ".toml");
+}
+
+// Compares `actual(row)` with `expected(row)` over every sample, to 1e-9 of the expected peak;
+// an angle's difference is taken modulo a turn.
+template <class A, class F>
+void expect_close(const Trajectory& t, const std::string& what, A actual, F expected,
+                  bool angle = false) {
+  double peak = 0.0, apart = 0.0;
+  for (int k = 0; k < t.samples(); ++k) {
+    ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << k;
+    const double v = actual(k), e = expected(k);
+    peak = std::max(peak, std::abs(e));
+    apart = std::max(apart, std::abs(angle ? std::remainder(v - e, 2 * kPi) : v - e));
+  }
+  EXPECT_GT(peak, 0.0) << what;
+  EXPECT_LE(apart, 1e-9 * peak) << what << ": " << apart << " from the closed form, peak " << peak;
+  std::printf("  %-16s within %.2e of its peak %.6g over %d samples\n", what.c_str(), apart / peak,
+              peak, t.samples());
+}
+
+// A channel's value at a sample (the test fails where it has none).
+double value(const Trajectory& t, const std::string& name, int k) {
+  const std::optional<double> v = t.sample(name, k);
+  EXPECT_TRUE(v) << "no value of " << name << " at " << k;
+  return v.value_or(std::nan(""));
+}
+
+template <class F>
+void expect_channel(const Trajectory& t, const std::string& name, F expected, bool angle = false) {
+  expect_close(
+      t, name, [&](int k) { return value(t, name, k); }, expected, angle);
+}
+
+// A translating follower rises by its law: s, w s' and w^2 s'' at constant cam speed w.
+void expect_translating(const std::string& stem, const std::vector<Piece>& program, double s0) {
+  const Mechanism m = bundled(stem);
+  const Trajectory t = sweep(m);
+  const double w = m.drivers[0].law.speed;
+  ASSERT_GE(t.samples(), 360);
+  EXPECT_NEAR(t.swept(t.samples() - 1) - t.swept(0), 2 * kPi, 1e-12);
+  auto at = [&](int k) { return closed_form(program, t.swept(k)); };
+  std::printf("[ %s ]\n", stem.c_str());
+  expect_channel(t, "s.follower", [&](int k) { return s0 + at(k).s; });
+  expect_channel(t, "sdot.follower", [&](int k) { return w * at(k).ds; });
+  expect_channel(t, "sddot.follower", [&](int k) { return w * w * at(k).dds; });
+}
+
+TEST(CamJoints, TranslatingRollerRisesByThePolynomials) {
+  expect_translating("translating_roller_345", kTranslatingRoller,
+                     std::sqrt(0.05 * 0.05 - 0.01 * 0.01));  // sqrt(Rp^2 - e^2)
+}
+
+TEST(CamJoints, FlatFacedFollowerRisesByTheCycloid) {
+  expect_translating("cycloidal_flat_faced", kFlatFaced, 0.05);  // the base circle
+}
+
+// The arm turns from gamma0 = -acos((Rp^2 - d^2 - l^2) / (2 l d)), its roller's centre on the
+// prime circle, by the program's angle.
+TEST(CamJoints, OscillatingArmTurnsByItsLaws) {
+  const Mechanism m = bundled("oscillating_roller");
+  const Trajectory t = sweep(m);
+  const double w = m.drivers[0].law.speed, prime = 0.05, d = 0.1, l = 0.08;
+  const double gamma0 = -std::acos((prime * prime - d * d - l * l) / (2 * l * d));
+  auto at = [&](int k) { return closed_form(kOscillating, t.swept(k)); };
+  std::printf("[ oscillating_roller ]\n");
+  expect_channel(
+      t, "angle.arm", [&](int k) { return gamma0 + at(k).s; }, true);
+  expect_channel(t, "omega.arm", [&](int k) { return w * at(k).ds; });
+  expect_channel(t, "alpha.arm", [&](int k) { return w * w * at(k).dds; });
+}
+
+// The cam-follower centre is where the cam's velocity is the follower's. A translating follower
+// along y: on the line through the cam's centre O square to its motion, at x = s' (so v = w s');
+// an oscillating one about P = (d, 0): on the line OP, at x = s' d / (s' - 1). Found by Kennedy
+// from the common normal at the contact, and the velocities from the centres are the exact ones.
+TEST(CamJoints, CamFollowerCentreIsWhereTheirVelocitiesAgree) {
+  struct Case {
+    std::string stem, follower;
+    const std::vector<Piece>* program;
+  };
+  for (const Case& c : {Case{"translating_roller_345", "follower", &kTranslatingRoller},
+                        Case{"cycloidal_flat_faced", "follower", &kFlatFaced},
+                        Case{"oscillating_roller", "arm", &kOscillating}}) {
+    SCOPED_TRACE(c.stem);
+    const Mechanism m = bundled(c.stem);
+    const Trajectory t = sweep(m);
+    const int cam = m.find_link("cam"), follower = m.find_link(c.follower);
+    double worst = 0.0;
+    for (int k = 0; k < t.samples(); k += 7) {
+      const double ds = closed_form(*c.program, t.swept(k)).ds;
+      const InstantCentres ic = instant_centres(m, t, k);
+      const InstantCentre& centre = ic.at(cam, follower);
+      ASSERT_EQ(centre.found, InstantCentre::Found::kennedy) << k << " " << centre.how;
+      ASSERT_FALSE(centre.at_infinity()) << k;
+      const double x = c.follower == "arm" ? ds * 0.1 / (ds - 1.0) : ds;
+      EXPECT_NEAR(centre.position().x(), x, 1e-12) << k;
+      EXPECT_NEAR(centre.position().y(), 0.0, 1e-12) << k;
+      const CentreVelocities v = centre_velocities(m, ic, t, k);
+      ASSERT_TRUE(v.complete) << v.message;
+      double peak = 0.0;
+      for (int p = 0; p < static_cast<int>(t.point_names.size()); ++p)
+        peak = std::max(peak, std::hypot(t.vx(k, p), t.vy(k, p)));
+      for (int p = 0; p < static_cast<int>(t.point_names.size()); ++p)
+        worst = std::max(
+            worst, std::hypot(v.point[p].x() - t.vx(k, p), v.point[p].y() - t.vy(k, p)) / peak);
+    }
+    EXPECT_LE(worst, 1e-9);
+  }
+}
+
+// The contact force and the driver's torque from the follower's own equations of motion. A
+// translating follower of mass m along y: the cam pushes it along the common normal with
+// F_y = m (s'' - g_y) (the guide takes only the side force), at the pressure angle phi, so
+// F_x = -F_y tan phi with tan phi = (s' - e) / (s + sqrt(Rp^2 - e^2)) for a roller (Norton, ch.
+// 8, the offset roller follower's pressure angle) and 0 for a flat face. The cam turns at a
+// constant speed about its centre of mass, so the driver's power is the follower's: T w =
+// m s'' sdot - m g . v. An oscillating arm: T w = (I_P alpha - moment of gravity) omega, and the
+// contact force's moment about the pivot P, at the roller's centre C, is I_P alpha less gravity's.
+TEST(CamJoints, ContactForceAndTorqueAreTheFollowersEquationsOfMotion) {
+  for (const std::string stem : {"translating_roller_345", "cycloidal_flat_faced"}) {
+    SCOPED_TRACE(stem);
+    const Mechanism m = bundled(stem);
+    const Trajectory t = sweep(m);
+    ASSERT_TRUE(t.has_forces);
+    const double w = m.drivers[0].law.speed;
+    const MassProperties& follower = m.links[static_cast<size_t>(m.find_link("follower"))].mass;
+    const double mass = follower.mass, gy = m.gravity.y();
+    const bool roller = stem == "translating_roller_345";
+    const double e = 0.01, base = std::sqrt(0.05 * 0.05 - e * e);
+    auto fy = [&](int k) { return mass * (value(t, "sddot.follower", k) - gy); };
+    std::printf("[ %s ]\n", stem.c_str());
+    expect_channel(t, "fy.contact", fy);
+    if (roller) {
+      expect_channel(t, "fx.contact", [&](int k) {
+        const Expected x = closed_form(kTranslatingRoller, t.swept(k));
+        return -fy(k) * (x.ds - e) / (x.s + base);
+      });
+    } else {  // square to the face: no side force
+      double side = 0.0, peak = 0.0;
+      for (int k = 0; k < t.samples(); ++k) {
+        side = std::max(side, std::abs(value(t, "fx.contact", k)));
+        peak = std::max(peak, std::abs(fy(k)));
+      }
+      EXPECT_LE(side, 1e-12 * peak);
+    }
+    expect_channel(t, "torque.driver",
+                   [&](int k) { return fy(k) * value(t, "sdot.follower", k) / w; });
+  }
+  const Mechanism m = bundled("oscillating_roller");
+  const Trajectory t = sweep(m);
+  ASSERT_TRUE(t.has_forces);
+  const double w = m.drivers[0].law.speed;
+  const MassProperties& arm = m.links[static_cast<size_t>(m.find_link("arm"))].mass;
+  const double ip = arm.inertia + arm.mass * arm.com.squaredNorm();  // about the pivot
+  auto held = [&](int k) {  // I_P alpha less gravity's moment about P
+    const double angle = value(t, "angle.arm", k);
+    const Eigen::Vector2d com = Eigen::Rotation2Dd(angle) * arm.com;
+    return ip * value(t, "alpha.arm", k) - cross(com, arm.mass * m.gravity);
+  };
+  std::printf("[ oscillating_roller ]\n");
+  expect_channel(t, "torque.driver", [&](int k) { return held(k) * value(t, "omega.arm", k) / w; });
+  expect_close(
+      t, "moment of the contact force about P",
+      [&](int k) {
+        const Eigen::Vector2d arm_to_c(value(t, "x.C", k) - 0.1, value(t, "y.C", k));
+        return cross(arm_to_c,
+                     Eigen::Vector2d(value(t, "fx.contact", k), value(t, "fy.contact", k)));
+      },
+      held);
+}
+
+// Each fault of a cam joint is refused at its key, with what is wrong.
+TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
+  struct Case {
+    std::string file, from, to, key, says;
+  };
+  const std::string roller = "mechanisms/cams/translating_roller_345.toml",
+                    flat = "mechanisms/cams/cycloidal_flat_faced.toml",
+                    swinging = "mechanisms/cams/oscillating_roller.toml";
+  const std::string last_rise = "{ law = \"polynomial_4567\", span = 100, to = 0 }";
+  const std::vector<Case> cases = {
+      {roller, "roller_radius = 0.01", "roller_radius = 0", "roller_radius",
+       "the roller's radius must be positive"},
+      // 20 mm in 20 degrees: the pitch curve turns tighter than the roller.
+      {roller, "span = 100, to = 0.02 },\n  { law = \"dwell\", span = 80 }",
+       "span = 20, to = 0.02 },\n  { law = \"dwell\", span = 160 }", "roller_radius",
+       "the profile undercuts"},
+      {roller, "offset = 0.01", "offset = 0.06", "offset = 0.06",
+       "offset must be less than the prime circle's radius"},
+      {roller, last_rise, "{ law = \"polynomial_4567\", span = 100, to = 0.001 }",
+       "{ law = \"polynomial_4567\"", "segment 3: the rise does not close"},
+      {roller, "law = \"polynomial_345\"", "law = \"parabolic\"", "law = \"parabolic\"",
+       "unknown law 'parabolic'"},
+      {roller, "law = \"polynomial_345\", span = 100", "law = \"polynomial_345\", span = 90",
+       "motion = [", "make 350 deg, not a turn"},
+      {roller, "point = \"C\"\n\n[joint", "point = \"C\"\nface = \"axis\"\n\n[joint",
+       "face = \"axis\"", "gives both 'point' and 'face'"},
+      {roller, "offset = 0.01", "offset = 0.01\npivot = [0.1, 0]",
+       "pivot =", "is an oscillating follower's"},
+      {roller, "offset = 0.01", "offset = 0.01\nlift = 1", "lift", "unknown key 'lift'"},
+      {roller, "follower = \"translating\"", "follower = \"rotating\"", "follower = \"rotating\"",
+       "must be \"translating\" or \"oscillating\""},
+      {roller, "follower = \"follower\"", "follower = \"cam\"", "follower = \"cam\"",
+       "the cam and its follower are the same link"},
+      {flat, "base_radius = 0.05", "base_radius = 0.02", "base_radius", "has a cusp"},
+      {flat, "face = { through = \"F\", angle = 0 }", "face = { through = \"F\", angle = 180 }",
+       "face = \"face\"", "must point away from the cam"},
+      {flat, "base_radius = 0.05", "base_radius = 0.05\nroller_radius = 0.01", "roller_radius",
+       "gives 'roller_radius' for a flat face"},
+      {flat, "follower = \"translating\"",
+       "follower = \"oscillating\"\npivot = [0.1, 0]\narm = 0.08", "face = \"face\"",
+       "an oscillating flat-faced follower is not supported"},
+      {swinging, "arm = 0.08", "arm = 0.01", "arm = 0.01", "cannot reach the prime circle"},
+      {swinging, "arm = 0.08", "arm = 0.08\noffset = 0.01", "offset",
+       "is a translating follower's"},
+  };
+  for (const Case& c : cases) {
+    const std::string text = test::replaced(test::source_text(c.file), c.from, c.to);
+    const std::string error = test::error_of(text, "cam.toml");
+    EXPECT_NE(error.find(c.says), std::string::npos) << c.to << "\n" << error;
+    EXPECT_NE(error.find("cam.toml:" + std::to_string(test::line_of(text, c.key)) + ":"),
+              std::string::npos)
+        << c.to << " at '" << c.key << "'\n"
+        << error;
+  }
+}
+
+// `check` counts a cam as a half joint (Kutzbach's j2) and describes it; the dyads have no
+// closed form for it and say so; the engines refuse it with the reason, before any run.
+TEST(CamJoints, CheckCountsItsMobilityAndTheEnginesRefuseIt) {
+  const test::CommandRun check =
+      test::crosslink("check mechanisms/cams/translating_roller_345.toml");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  const std::string out = test::flattened(check.out);
+  for (const char* says :
+       {"M = 3(n-1) - 2 j1 - j2 = 3(3-1) - 2*2 - 1 = 1", "no closed form for cam 'contact'",
+        "cam translating roller follower on cam about O (base circle 0.04 m, "
+        "roller 0.01 m; least radius of curvature"})
+    EXPECT_NE(out.find(says), std::string::npos) << says << "\n" << check.out;
+  const test::CommandRun mujoco =
+      test::crosslink("compare mechanisms/cams/oscillating_roller.toml --engines mujoco");
+  EXPECT_NE(mujoco.out.find("a cam is in no engine's scene yet"), std::string::npos)
+      << mujoco.out << mujoco.err;
+}
+
+}  // namespace
+}  // namespace crosslink
