@@ -41,17 +41,26 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
     const char* kind = f.kind == cam::FollowerKind::flat_faced ? "flat-faced"
                        : f.kind == cam::FollowerKind::roller   ? "roller"
                                                                : "knife-edge";
-    std::string text =
-        fmt::format("cam          {} {} {} on {} about {} (base circle {:g} {}",
-                    f.oscillating ? "oscillating" : "translating", kind, m.links[j.link_b].name,
-                    m.links[j.link_a].name, m.links[j.link_a].points[j.centre_a].name,
-                    f.base_radius / mm, unit);
-    if (f.kind == cam::FollowerKind::roller)
-      text += fmt::format(", roller {:g} {}", f.roller_radius / mm, unit);
-    return text +
-           fmt::format("; least radius of curvature {:.4g} {}, largest pressure angle {:.2f} deg)",
-                       j.contour->least_radius_of_curvature() / mm, unit,
-                       j.contour->largest_pressure_angle() * 180.0 / std::numbers::pi);
+    const std::string roller = f.kind == cam::FollowerKind::roller
+                                   ? fmt::format(", roller {:g} {}", f.roller_radius / mm, unit)
+                                   : "";
+    // How the follower is kept on: a groove, or a spring against a contact that only pushes.
+    const std::string closure = j.form_closed ? "; form-closed" : "; force-closed";
+    const std::string& cam_link = m.links[j.link_a].name;
+    const std::string& centre = m.links[j.link_a].points[j.centre_a].name;
+    if (const cam::TangentCam* t = j.contour->tangent())
+      return fmt::format(
+          "cam          {} {} on tangent cam {} about {} (base circle {:g} {}, nose {:.6g} {} at "
+          "{:.6g} {} from the centre, lift {:g} {} over an ascent of {:.4g} deg{}{})",
+          kind, m.links[j.link_b].name, cam_link, centre, t->base_radius / mm, unit,
+          t->nose_radius / mm, unit, t->distance / mm, unit, t->lift() / mm, unit,
+          t->ascent() * 180.0 / std::numbers::pi, roller, closure);
+    return fmt::format(
+        "cam          {} {} {} on {} about {} (base circle {:g} {}{}; least radius of curvature "
+        "{:.4g} {}, largest pressure angle {:.2f} deg{})",
+        f.oscillating ? "oscillating" : "translating", kind, m.links[j.link_b].name, cam_link,
+        centre, f.base_radius / mm, unit, roller, j.contour->least_radius_of_curvature() / mm, unit,
+        j.contour->largest_pressure_angle() * 180.0 / std::numbers::pi, closure);
   }
   if (j.type == JointType::pin_in_arc)
     return fmt::format("pin_in_slot  {} in an arc of {} (point {}, radius {:g} {} about {})",

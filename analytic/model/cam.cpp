@@ -267,7 +267,7 @@ Contour::Contour(MotionProgram motion, Follower follower)
   psi_.reserve(kSamples + 1);
   for (int k = 0; k <= kSamples; ++k) {
     const double theta = kTurn * k / kSamples;
-    const ProfilePoint p = profile_at(motion_, follower_, theta);
+    const ProfilePoint p = profile_at(*motion_, follower_, theta);
     largest_pressure_ = std::max(largest_pressure_, std::abs(p.pressure_angle));
     if (flat) {
       if (!(p.radius_of_curvature > 0.0))
@@ -288,7 +288,7 @@ Contour::Contour(MotionProgram motion, Follower follower)
       least_radius_ = std::min(least_radius_, p.radius_of_curvature);
     }
     // A ray from the centre crosses the pitch curve once while its polar angle keeps falling.
-    const FollowerPath f = follower_path(motion_, follower_, theta);
+    const FollowerPath f = follower_path(*motion_, follower_, theta);
     if (!(cross(f.F, f.dF) < f.F.squaredNorm()))
       throw std::invalid_argument(fmt::format(
           "the pitch curve is not star-shaped about the cam's centre at cam angle {:.1f} deg: "
@@ -300,6 +300,7 @@ Contour::Contour(MotionProgram motion, Follower follower)
 }
 
 double Contour::cam_angle(double angle) const {
+  if (!motion_) throw std::logic_error("a tangent cam's contact follows its guide, not a law");
   if (flat_faced()) return kPi / 2.0 - angle;  // the face's normal +y turned by -theta
   // The turn's sample whose polar angle lies just above `angle` (taken into (psi_0 - 2 pi,
   // psi_0]), then Newton on angle(F(theta)) - theta = angle.
@@ -311,7 +312,7 @@ double Contour::cam_angle(double angle) const {
   const double step = kTurn / kSamples;
   double theta = step * (static_cast<double>(i) + (psi_[i] - x) / (psi_[i] - psi_[i + 1]));
   for (int iteration = 0; iteration < 30; ++iteration) {
-    const FollowerPath f = follower_path(motion_, follower_, theta);
+    const FollowerPath f = follower_path(*motion_, follower_, theta);
     const double slope = cross(f.F, f.dF) / f.F.squaredNorm() - 1.0;
     const double delta = std::remainder(std::atan2(f.F.y(), f.F.x()) - theta - x, kTurn) / slope;
     theta -= delta;
@@ -320,14 +321,88 @@ double Contour::cam_angle(double angle) const {
   return theta;
 }
 
+double TangentCam::ascent() const {
+  return std::acos((base_radius - nose_radius) / distance);
+}
+
+TangentCam TangentCam::from_lift(double base_radius, double lift, double ascent, double nose_radius,
+                                 double nose_angle) {
+  if (!(base_radius > 0.0))
+    throw std::invalid_argument("base_radius: the base circle's radius must be positive");
+  if (!(lift > 0.0)) throw std::invalid_argument("lift: the lift must be positive");
+  TangentCam cam;
+  cam.base_radius = base_radius;
+  cam.nose_angle = nose_angle;
+  if (std::isnan(nose_radius)) {
+    // Rb - Rn = (Rb + lift - Rn) cos(alpha), solved for Rn.
+    const double c = std::cos(ascent);
+    if (!(ascent > 0.0 && ascent < kPi / 2.0))
+      throw std::invalid_argument("ascent: the angle of ascent must lie between 0 and 90 deg");
+    nose_radius = (base_radius - (base_radius + lift) * c) / (1.0 - c);
+    if (!(nose_radius > 0.0))
+      throw std::invalid_argument(fmt::format(
+          "ascent: a lift of {:.6g} over {:.6g} deg leaves no nose (its radius {:.6g}): the "
+          "angle of ascent must exceed {:.6g} deg",
+          lift, ascent / kDegree, nose_radius,
+          std::acos(base_radius / (base_radius + lift)) / kDegree));
+  } else if (!(nose_radius > 0.0 && nose_radius < base_radius)) {
+    throw std::invalid_argument(
+        "nose_radius: the nose's radius must be positive and less than the base circle's");
+  }
+  cam.nose_radius = nose_radius;
+  cam.distance = base_radius + lift - nose_radius;
+  return cam;
+}
+
+Contour::Contour(TangentCam shape, Follower follower) : tangent_(shape), follower_(follower) {
+  if (follower_.kind == FollowerKind::flat_faced)
+    throw std::invalid_argument(
+        "a flat face on a tangent cam would leave the base circle for the nose at once, its "
+        "velocity not continuous: a tangent cam takes a knife edge or a roller");
+  if (follower_.kind == FollowerKind::roller && !(follower_.roller_radius > 0.0))
+    throw std::invalid_argument("the roller's radius must be positive");
+  // The flanks have no curvature, the base circle more radius than the nose.
+  least_radius_ = shape.nose_radius;
+  largest_pressure_ = std::numeric_limits<double>::quiet_NaN();
+}
+
+namespace {
+// A circle of radius r about the point at distance c in the direction 0, in polar form about
+// the origin: rho(t) = c cos t + sqrt(r^2 - c^2 sin^2 t), with its derivatives in t.
+Polar circle_polar(double c, double r, double t) {
+  const double a = c * std::cos(t), b = c * std::sin(t), w = std::sqrt(r * r - b * b);
+  return {a + w, -b - a * b / w, -a + (b * b - a * a) / w - a * a * b * b / (w * w * w)};
+}
+// The line n . x = p, n at the angle 0, in polar form: rho(t) = p / cos t.
+Polar line_polar(double p, double t) {
+  const double c = std::cos(t), s = std::sin(t);
+  return {p / c, p * s / (c * c), p * (1.0 + s * s) / (c * c * c)};
+}
+}  // namespace
+
 Polar Contour::at(double angle) const {
+  if (tangent_) {  // the pitch curve: each piece moved out by the roller's radius
+    const TangentCam& cam = *tangent_;
+    const double r = follower_.kind == FollowerKind::roller ? follower_.roller_radius : 0.0;
+    const double t = std::remainder(angle - cam.nose_angle, kTurn), alpha = cam.ascent();
+    const double nose = cam.nose_radius + r;
+    // The flank leaves the nose where the nose's normal is at alpha: seen from the centre at
+    // delta.
+    const double delta = std::atan2(nose * std::sin(alpha), cam.distance + nose * std::cos(alpha));
+    if (std::abs(t) <= delta) return circle_polar(cam.distance, nose, t);
+    if (std::abs(t) < alpha) {
+      const double side = t > 0.0 ? 1.0 : -1.0;  // the flank whose normal is at +-alpha
+      return line_polar(cam.base_radius + r, t - side * alpha);
+    }
+    return {cam.base_radius + r, 0.0, 0.0};
+  }
   const double theta = cam_angle(angle);
   if (flat_faced()) {  // h(alpha) = base + s(pi/2 - alpha)
-    const Motion m = motion_.at(theta);
+    const Motion m = motion_->at(theta);
     return {follower_.base_radius + m.s, -m.ds, m.dds};
   }
   // rho = |F(theta)| against psi = angle(F) - theta, by the chain rule through theta.
-  const FollowerPath f = follower_path(motion_, follower_, theta);
+  const FollowerPath f = follower_path(*motion_, follower_, theta);
   const double r = f.F.norm(), r2 = f.F.squaredNorm();
   const double dr = f.F.dot(f.dF) / r;
   const double ddr = (f.dF.squaredNorm() + f.F.dot(f.ddF) - dr * dr) / r;

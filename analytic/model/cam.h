@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -121,6 +122,25 @@ struct FollowerPath {
 };
 FollowerPath follower_path(const MotionProgram& motion, const Follower& follower, double theta);
 
+// A tangent cam (Rattan, Theory of Machines, "tangent cam"; Khurmi, "cams with specified
+// contours"): a base circle about the cam's centre, a nose circle of a smaller radius about a
+// point on the nose's axis, and straight flanks tangent to both. A radial follower rises over
+// the angle of ascent alpha, cos alpha = (Rb - Rn) / c, by the lift c + Rn - Rb, whatever its
+// roller.
+struct TangentCam {
+  double base_radius = 0.0;  // Rb
+  double nose_radius = 0.0;  // Rn, below Rb
+  double distance = 0.0;     // c: the nose circle's centre from the cam's centre
+  double nose_angle = 0.0;   // the nose axis's direction in the cam frame [rad]
+  double lift() const { return distance + nose_radius - base_radius; }
+  double ascent() const;
+  // From the base circle, the lift, and the angle of ascent or (NaN) the nose radius given
+  // instead. Throws std::invalid_argument naming the key at fault ("lift", "ascent",
+  // "nose_radius", "base_radius") when no tangent cam has them.
+  static TangentCam from_lift(double base_radius, double lift, double ascent, double nose_radius,
+                              double nose_angle);
+};
+
 // A function of an angle in the cam frame, with its first two derivatives in that angle.
 struct Polar {
   double value = 0.0, d = 0.0, dd = 0.0;
@@ -141,23 +161,29 @@ class Contour {
   // undercuts); a flat face on a profile whose radius of curvature h + h'' is not positive (a
   // cusp); an oscillating flat face.
   Contour(MotionProgram motion, Follower follower);
+  // A tangent cam's profile for a knife edge or a roller (a flat face would jump from the base
+  // circle to the nose: refused); the follower's motion is then whatever its guide makes it.
+  Contour(TangentCam shape, Follower follower);
 
   // rho(psi) for a knife edge or a roller, h(alpha) for a flat face: any angle, every turn.
   Polar at(double angle) const;
   // The cam angle theta at which the follower touches the profile at that polar angle (knife
-  // edge, roller) or normal angle (flat face).
+  // edge, roller) or normal angle (flat face); a profile cut from a motion law only.
   double cam_angle(double angle) const;
 
-  const MotionProgram& motion() const { return motion_; }
+  // The tangent cam's shape, or null for a profile cut from a motion law.
+  const TangentCam* tangent() const { return tangent_ ? &*tangent_ : nullptr; }
   const Follower& follower() const { return follower_; }
   bool flat_faced() const { return follower_.kind == FollowerKind::flat_faced; }
   // Over one turn, sampled every 0.1 degree: the profile's least radius of curvature where
-  // convex, and the largest pressure angle's magnitude.
+  // convex, and the largest pressure angle's magnitude (NaN for a tangent cam: it is the
+  // follower's guide's).
   double least_radius_of_curvature() const { return least_radius_; }
   double largest_pressure_angle() const { return largest_pressure_; }
 
  private:
-  MotionProgram motion_;
+  std::optional<MotionProgram> motion_;
+  std::optional<TangentCam> tangent_;
   Follower follower_;
   // The pitch point's polar angle psi(theta) = angle(F) - theta, unwrapped, at theta_k = k
   // 2 pi / n (k = 0..n): it falls by a turn over a turn. Newton's start for cam_angle.

@@ -114,6 +114,59 @@ const char* key_of(std::string_view message, bool oscillating) {
   return nullptr;
 }
 
+// `shape = "tangent"`: the base circle, the lift and the angle of ascent or the nose's radius.
+std::shared_ptr<const cam::Contour> read_shape(Reader& r, const Mechanism& m, const toml::table& p,
+                                               const std::string& what, const toml::node* face) {
+  r.known_keys(
+      p, what,
+      {"shape", "base_radius", "roller_radius", "lift", "ascent", "nose_radius", "nose_angle"});
+  const std::string shape = r.string(p, "shape", what, true).value_or("");
+  if (shape != "tangent") {
+    r.error(r.at(p.get("shape")),
+            fmt::format("{}: unknown shape '{}' (valid shapes: tangent)", what, shape));
+    return nullptr;
+  }
+  const Scale length = length_scale(m.units), angle = angle_scale(m.units);
+  const size_t before = r.diagnostics().size();
+  const double base = r.number(p, "base_radius", what, true, length).value_or(0.0);
+  const double lift = r.number(p, "lift", what, true, length).value_or(0.0);
+  const std::optional<double> ascent = r.number(p, "ascent", what, false, angle);
+  const std::optional<double> nose = r.number(p, "nose_radius", what, false, length);
+  if (ascent.has_value() == nose.has_value())
+    r.error(ascent ? r.at(p.get("nose_radius")) : r.inside(p),
+            fmt::format("{} needs one of 'ascent' (the angle of ascent) or 'nose_radius'", what));
+  const double nose_angle = r.number(p, "nose_angle", what, false, angle).value_or(0.0);
+  cam::Follower f;
+  const std::optional<double> roller = r.number(p, "roller_radius", what, false, length);
+  f.kind = face     ? cam::FollowerKind::flat_faced
+           : roller ? cam::FollowerKind::roller
+                    : cam::FollowerKind::knife_edge;
+  f.roller_radius = roller.value_or(0.0);
+  f.base_radius = base;
+  if (r.diagnostics().size() != before) return nullptr;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  try {
+    const cam::TangentCam cam = cam::TangentCam::from_lift(base, lift, ascent.value_or(nan),
+                                                           nose.value_or(nan), nose_angle);
+    return std::make_shared<const cam::Contour>(cam, f);
+  } catch (const std::invalid_argument& e) {
+    // "key: why" from the shape; the contour's refusals are the follower's.
+    const std::string message = e.what();
+    const size_t colon = message.find(": ");
+    const std::string key = colon == std::string::npos ? "" : message.substr(0, colon);
+    const toml::node* at = key.empty() ? nullptr : p.get(key);
+    if (at) {
+      r.error(r.at(at), fmt::format("{}: {}", what, message.substr(colon + 2)));
+    } else {
+      r.error(face ? r.at(*face)
+                   : r.at(p.get("roller_radius") ? p.get("roller_radius")
+                                                 : static_cast<const toml::node*>(&p)),
+              fmt::format("{}: {}", what, message));
+    }
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 Joint read_cam(Reader& r, const Mechanism& m, const toml::table& t, const std::string& joint_what) {
@@ -121,7 +174,18 @@ Joint read_cam(Reader& r, const Mechanism& m, const toml::table& t, const std::s
   joint.type = JointType::cam;
   joint.where = r.at(t);
   const std::string what = fmt::format("{} (cam)", joint_what);
-  r.known_keys(t, what, {"type", "name", "cam", "centre", "follower", "point", "face", "profile"});
+  r.known_keys(
+      t, what,
+      {"type", "name", "cam", "centre", "follower", "point", "face", "closure", "profile"});
+  if (const std::optional<std::string> closure = r.string(t, "closure", what, false)) {
+    if (*closure != "force" && *closure != "form")
+      r.error(r.at(t.get("closure")),
+              fmt::format("'closure' of {} must be \"force\" (a spring or gravity keeps the "
+                          "follower on; the default) or \"form\" (a groove holds it both ways), "
+                          "not '{}'",
+                          what, *closure));
+    joint.form_closed = *closure == "form";
+  }
   joint.link_a = resolve_link(r, m, t, "cam", what);
   joint.link_b = resolve_link(r, m, t, "follower", what);
   if (joint.link_a >= 0 && joint.link_a == joint.link_b)
@@ -149,6 +213,10 @@ Joint read_cam(Reader& r, const Mechanism& m, const toml::table& t, const std::s
   const toml::table* p = r.table(t, "profile", what, true);
   if (!p) return joint;
   const std::string pwhat = fmt::format("the profile of {}", what);
+  if (p->get("shape")) {  // the profile given, the follower's motion its guide's
+    joint.contour = read_shape(r, m, *p, pwhat, face_node);
+    return joint;
+  }
   r.known_keys(*p, pwhat,
                {"follower", "base_radius", "roller_radius", "offset", "pivot", "arm", "start",
                 "motion", "table"});

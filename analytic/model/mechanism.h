@@ -158,6 +158,10 @@ struct Joint {
   // cam: the profile cut in link_a, in link_a's frame about point centre_a (its own frame's
   // axes are link_a's); `line`, for a flat face, is link_b's.
   std::shared_ptr<const cam::Contour> contour;
+  // cam: a groove holds the follower on both sides (form closure); else the contact only pushes
+  // and a spring or gravity keeps the follower on the cam (force closure), which it leaves where
+  // the motion would need a pull (PoseStatus::contact_lost).
+  bool form_closed = false;
   SourceLocation where;
 
   bool is_slide() const { return type == JointType::prismatic || type == JointType::pin_in_slot; }

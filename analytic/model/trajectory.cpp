@@ -47,6 +47,8 @@ std::string_view to_string(PoseStatus status) {
       return "friction_indeterminate";
     case PoseStatus::self_locking:
       return "self_locking";
+    case PoseStatus::contact_lost:
+      return "contact_lost";
   }
   return "?";
 }

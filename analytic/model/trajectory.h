@@ -70,6 +70,9 @@ enum class PoseStatus : std::uint8_t {
   // determined by the motion.
   friction_indeterminate,  // a friction joint has no relative motion: friction in its cone
   self_locking,            // the friction gain is 1 or more: friction can hold the mechanism
+  // A force-closed cam's follower leaves the profile: holding it there would take a pull, so the
+  // follower is in flight and the pose solved is not its motion.
+  contact_lost,
 };
 std::string_view to_string(PoseStatus status);
 inline bool usable(PoseStatus s) {

@@ -321,6 +321,19 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out, const Kinemat
   out.status = PoseStatus::ok;
   if (!friction_joints_.empty() && !solve_friction(state, out, moving, at_rest, phase)) return;
   write_forces(state, out);
+  // A force-closed cam's contact only pushes: where the motion needs a pull the follower leaves.
+  const Mechanism& m = solver_.mechanism();
+  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (j.type != JointType::cam || j.form_closed) continue;
+    const double push = out.joint_force[ji].dot(
+        cam_contact(m, j, motion(m, j.link_a, state), motion(m, j.link_b, state)).normal);
+    if (push < 0.0 && (out.status == PoseStatus::ok || push < out.pull)) {
+      out.status = PoseStatus::contact_lost;
+      out.cause = static_cast<int>(ji);
+      out.pull = push;
+    }
+  }
 }
 
 void Kinetostatics::solve_held(KinematicState& state, ForceSample& out, double effort) const {
@@ -684,6 +697,12 @@ std::string ForceSample::why(const Mechanism& m) const {
           gain, joint);
     case PoseStatus::no_convergence:
       return "the friction magnitudes did not converge";
+    case PoseStatus::contact_lost:
+      return fmt::format(
+          "contact lost: the follower leaves cam '{}', whose contact only pushes: the motion needs "
+          "a pull of {:.4g} N there (the follower jumps; a stiffer or more preloaded spring, a "
+          "slower cam or a groove, closure = \"form\", keeps it on)",
+          m.joints[static_cast<size_t>(cause)].name, -pull);
     default:
       return "";
   }

@@ -95,6 +95,7 @@ struct ForceSample {
   PoseStatus status = PoseStatus::ok;
   int cause = -1;
   double gain = 0.0;
+  double pull = 0.0;  // contact_lost: the contact force along the normal joint `cause` needs, < 0
   Eigen::MatrixXd unit_lambda;  // scratch: Lambda_j per friction joint
 
   // Whether every value is a number: at a pose whose J is singular in floating point the

@@ -35,7 +35,8 @@ class Recorder {
     if (report.status != PoseStatus::ok || !out.has_forces) return;
     kinetostatics_.solve(state, forces_);
     if (forces_.status != PoseStatus::ok) {
-      // Joint friction the motion does not determine: the pose stands, its forces do not.
+      // Joint friction the motion does not determine (the pose stands, its forces do not), or a
+      // follower that leaves its cam (the pose is not its motion).
       out.status[static_cast<size_t>(row)] = forces_.status;
       out.events.push_back({out.along(row), forces_.status, forces_.why(solver_.mechanism())});
       return;

@@ -415,5 +415,53 @@ TEST(CamContour, RefusesAProfileThatCannotBeCut) {
   refused(p, swinging_face, "oscillating flat-faced");
 }
 
+// A tangent cam's pitch curve, in polar form, is continuous with its slope across each junction
+// of flank and circle (its curvature jumps there), passes through the base circle, the nose's
+// apex and the flanks' tangent points, and its derivatives are the differences of its values
+// inside each piece. The base 30, lift 17.5 over 75 degrees make the nose 23.889 about a point
+// 23.611 from the centre.
+TEST(CamContour, TangentCamIsPiecewiseCirclesAndLines) {
+  const TangentCam cam = TangentCam::from_lift(0.03, 0.0175, 75 * kDeg, std::nan(""), 0.3);
+  EXPECT_NEAR(cam.nose_radius, 0.023889031741350376, 1e-15);
+  EXPECT_NEAR(cam.distance, 0.023610968258649624, 1e-15);
+  EXPECT_NEAR(cam.ascent(), 75 * kDeg, 1e-14);
+  EXPECT_NEAR(cam.lift(), 0.0175, 1e-15);
+  Follower roller;
+  roller.roller_radius = 0.0175;
+  const Contour contour(cam, roller);
+  const double rb = 0.03 + 0.0175, l = cam.nose_radius + 0.0175;
+  EXPECT_NEAR(contour.at(0.3).value, cam.distance + l, 1e-15);  // the apex
+  EXPECT_NEAR(contour.at(0.3 + kPi).value, rb, 1e-15);          // the base circle
+  EXPECT_NEAR(contour.at(0.3 + 75 * kDeg).value, rb, 1e-15);    // where a flank begins
+  // Where the roller leaves the flank: its centre l from the nose's, along the flank's normal.
+  const Eigen::Vector2d leaves = cam.distance * Eigen::Vector2d(1, 0) +
+                                 l * Eigen::Vector2d(std::cos(75 * kDeg), std::sin(75 * kDeg));
+  const double delta = std::atan2(leaves.y(), leaves.x());
+  EXPECT_NEAR(contour.at(0.3 - delta).value, leaves.norm(), 1e-15);
+  EXPECT_NEAR(contour.at(0.3 + delta).value, leaves.norm(), 1e-15);
+  ASSERT_NE(contour.tangent(), nullptr);
+  EXPECT_TRUE(std::isnan(contour.largest_pressure_angle()));
+  EXPECT_EQ(contour.least_radius_of_curvature(), cam.nose_radius);
+  const double h = 1e-6;
+  for (double junction : {delta, 75 * kDeg, -delta, -75 * kDeg}) {
+    const Polar before = contour.at(0.3 + junction - h), after = contour.at(0.3 + junction + h);
+    EXPECT_NEAR(before.value + h * before.d, after.value - h * after.d, 1e-12) << junction;
+    EXPECT_NEAR(before.d, after.d, 1e-6) << junction;
+  }
+  for (int k = 0; k < 180; ++k) {
+    const double angle = 0.3 + (k + 0.37) * 2 * kDeg - kPi, d = 1e-5;  // no junction within d
+    const Polar a = contour.at(angle - d), b = contour.at(angle), e = contour.at(angle + d);
+    EXPECT_NEAR(b.d, (e.value - a.value) / (2 * d), 1e-9) << k;
+    EXPECT_NEAR(b.dd, (e.d - a.d) / (2 * d), 1e-7) << k;
+  }
+  Follower flat;
+  flat.kind = FollowerKind::flat_faced;
+  EXPECT_THROW(Contour(cam, flat), std::invalid_argument);
+  EXPECT_THROW(TangentCam::from_lift(0.03, 0.0175, 40 * kDeg, std::nan(""), 0.0),
+               std::invalid_argument);  // no nose
+  EXPECT_THROW(TangentCam::from_lift(0.03, 0.0175, std::nan(""), 0.035, 0.0),
+               std::invalid_argument);  // a nose larger than the base
+}
+
 }  // namespace
 }  // namespace crosslink::cam

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -257,6 +259,159 @@ TEST(CamJoints, ContactForceAndTorqueAreTheFollowersEquationsOfMotion) {
       held);
 }
 
+// The tangent cam's two phases in closed form (tangent_cam_roller.toml's comment): the follower's
+// rise x above the prime circle, its velocity and acceleration at cam angle theta [rad] and speed
+// w, the lift starting at theta = 0.5 deg, the apex an ascent later, the fall its mirror.
+struct TangentPhase {
+  double x, v, a;
+};
+TangentPhase tangent_closed_form(double theta, double w) {
+  const double rb = 30e-3, rr = 17.5e-3, lift = 17.5e-3, alpha = 75 * kDeg;
+  const double rn = (rb - (rb + lift) * std::cos(alpha)) / (1 - std::cos(alpha));
+  const double c = rb + lift - rn, l = rn + rr, prime = rb + rr;
+  // Where the roller leaves the flank for the nose, from the apex: the nose's normal at alpha.
+  const double delta = std::atan2(l * std::sin(alpha), c + l * std::cos(alpha));
+  theta = std::remainder(theta - 0.5 * kDeg, 2 * kPi);
+  double sign = 1.0;  // the fall is the rise's mirror about the apex: v changes sign
+  if (theta > alpha) {
+    theta = 2 * alpha - theta;
+    sign = -1.0;
+  }
+  if (theta <= 0.0) return {0.0, 0.0, 0.0};  // on the base circle
+  if (theta <= alpha - delta) {              // on a flank
+    const double cs = std::cos(theta), sn = std::sin(theta);
+    return {prime * (1 - cs) / cs, sign * w * prime * sn / (cs * cs),
+            w * w * prime * (2 - cs * cs) / (cs * cs * cs)};
+  }
+  // On the nose, phi before the apex: r(phi) = c cos phi + sqrt(l^2 - c^2 sin^2 phi), and
+  // dphi/dt = -w.
+  const double phi = alpha - theta, cp = std::cos(phi), sp = std::sin(phi);
+  const double root = std::sqrt(l * l - c * c * sp * sp);
+  const double r = c * cp + root;
+  const double dr = -c * sp - c * c * sp * cp / root;
+  const double ddr = -c * cp - c * c * (cp * cp - sp * sp) / root -
+                     std::pow(c, 4) * sp * sp * cp * cp / std::pow(root, 3);
+  return {r - prime, -sign * w * dr, w * w * ddr};
+}
+
+// The tangent cam's follower, solved by Newton on the profile's pitch curve, against the
+// textbook's closed forms of its flank and nose phases. At the start of lift the acceleration is
+// w^2 (Rb + Rr) = 187.52 m/s^2 at 600 rpm; the print's 187.6 is that value with pi = 3.142.
+TEST(CamJoints, TangentCamFollowsItsFlankAndNoseClosedForms) {
+  const Mechanism m = bundled("tangent_cam_roller");
+  const Trajectory t = sweep(m);
+  const double w = m.drivers[0].law.speed, prime = 47.5e-3;
+  auto at = [&](int k) { return tangent_closed_form(t.swept(k), w); };
+  std::printf("[ tangent_cam_roller ]\n");
+  expect_channel(t, "s.follower", [&](int k) { return prime + at(k).x; });
+  expect_channel(t, "sdot.follower", [&](int k) { return at(k).v; });
+  expect_channel(t, "sddot.follower", [&](int k) { return at(k).a; });
+  // The apex: a slider-crank at its dead centre, a = -w^2 c (1 + c / (Rn + Rr)).
+  const double cos_ascent = std::cos(75 * kDeg);
+  const double rn = (30e-3 - 47.5e-3 * cos_ascent) / (1 - cos_ascent), c = 47.5e-3 - rn;
+  const double apex = value(solve_at(m, 75.5 * kDeg), "sddot.follower", 0);
+  EXPECT_NEAR(apex, -w * w * c * (1 + c / (rn + 17.5e-3)), 1e-9 * std::abs(apex));
+  // Just after the start of lift.
+  const double a0 = value(solve_at(m, 0.5 * kDeg + 1e-10), "sddot.follower", 0);
+  EXPECT_NEAR(a0, w * w * prime, 1e-9 * a0);
+  const double print_pi = 3.142, printed = 187.6;
+  const double with_print_pi = std::pow(2 * print_pi * 600 / 60, 2) * prime;
+  EXPECT_NEAR(std::round(with_print_pi * 10) / 10, printed, 1e-12);
+  std::printf(
+      "  acceleration at the start of lift %.4f m/s^2; printed %.1f (%+.3f %%), which is "
+      "%.4f with pi = 3.142; at the apex %.4f m/s^2\n",
+      a0, printed, 100 * (printed - a0) / a0, with_print_pi, apex);
+}
+
+// spring_cam_jump.toml with `text` in place of `from`, loaded from the scratch folder.
+Mechanism spring_cam(const std::string& from = "", const std::string& to = "") {
+  std::string text = test::source_text("mechanisms/cams/spring_cam_jump.toml");
+  if (!from.empty()) text = test::replaced(text, from, to);
+  const std::filesystem::path path = test::scratch_dir() / "spring_cam_jump.toml";
+  std::ofstream(path) << text;
+  return load_mechanism(path.string());
+}
+
+// The spring-held flat face (spring_cam_jump.toml): along +y the cam pushes the follower with
+// N = m w^2 s'' + k (0.01 + s), and a force-closed contact cannot pull. The follower leaves where
+// N < 0: those samples, and only those, are flagged contact_lost with an event naming the cam;
+// elsewhere the contact force is N. The jump speed, the least w at which N reaches zero, is
+// min sqrt(k (0.01 + s) / (m |s''|)) over the decelerating stretches, found here on the closed
+// form; at its angle the follower stays on at 0.999 of it and leaves at 1.001. A grooved cam
+// (closure = "form") holds the follower both ways: nothing is flagged and N changes side.
+TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
+  const double mass = 0.08, k = 200.0;
+  auto push = [&](double theta, double w) {
+    const Expected x = closed_form(kFlatFaced, theta);
+    return mass * w * w * x.dds + k * (0.01 + x.s);
+  };
+  // The jump: on the return (cam angle 180 to 270 deg, s'' < 0 over its first half), the least
+  // speed that makes N zero, by a grid and golden-section refinement.
+  auto speed_at = [&](double theta) {
+    const Expected x = closed_form(kFlatFaced, theta);
+    return std::sqrt(k * (0.01 + x.s) / (mass * -x.dds));
+  };
+  double lo = 180.5 * kDeg, hi = 224.5 * kDeg, best = lo;
+  for (double theta = lo; theta < hi; theta += 0.01 * kDeg)
+    if (speed_at(theta) < speed_at(best)) best = theta;
+  lo = best - 0.01 * kDeg;
+  hi = best + 0.01 * kDeg;
+  for (int i = 0; i < 100; ++i) {
+    const double a = hi - 0.618 * (hi - lo), b = lo + 0.618 * (hi - lo);
+    (speed_at(a) < speed_at(b) ? hi : lo) = speed_at(a) < speed_at(b) ? b : a;
+  }
+  const double at = (lo + hi) / 2, jump = speed_at(at);
+  std::printf("  jump speed %.6f rad/s (%.4f rpm) at cam angle %.4f deg\n", jump, jump * 30 / kPi,
+              at / kDeg);
+
+  const Mechanism m = spring_cam();
+  const double w = m.drivers[0].law.speed;
+  ASSERT_GT(w, jump);
+  const Trajectory t = sweep(m);
+  int lost = 0;
+  double peak = 0.0, apart = 0.0;
+  for (int s = 0; s < t.samples(); ++s) {
+    const double n = push(t.swept(s), w);
+    const PoseStatus status = t.status[static_cast<size_t>(s)];
+    EXPECT_EQ(status, n < 0.0 ? PoseStatus::contact_lost : PoseStatus::ok) << t.swept(s) / kDeg;
+    if (status == PoseStatus::contact_lost) {
+      ++lost;
+      // Nothing of the sample exists: written null, empty or as a gap.
+      EXPECT_FALSE(value_exists(status, Quantity::position));
+      EXPECT_FALSE(value_exists(status, Quantity::force));
+      continue;
+    }
+    peak = std::max(peak, std::abs(n));
+    apart = std::max(apart, std::abs(value(t, "fy.contact", s) - n));
+  }
+  EXPECT_GT(lost, 0);
+  EXPECT_LE(apart, 1e-9 * peak);
+  const auto event = std::find_if(t.events.begin(), t.events.end(),
+                                  [](const auto& e) { return e.kind == PoseStatus::contact_lost; });
+  ASSERT_NE(event, t.events.end());
+  EXPECT_NE(event->message.find("the follower leaves cam 'contact'"), std::string::npos)
+      << event->message;
+  std::printf("  at %.0f rpm: %d of %d samples contact_lost; N within %.1e of its peak elsewhere\n",
+              w * 30 / kPi, lost, t.samples(), apart / peak);
+
+  Mechanism near = m;
+  near.drivers[0].law.speed = 0.999 * jump;
+  EXPECT_EQ(solve_at(near, at).status[0], PoseStatus::ok);
+  near.drivers[0].law.speed = 1.001 * jump;
+  EXPECT_EQ(solve_at(near, at).status[0], PoseStatus::contact_lost);
+
+  const Trajectory grooved =
+      sweep(spring_cam("name = \"contact\"", "name = \"contact\"\nclosure = \"form\""));
+  double least = 0.0, most = 0.0;
+  for (int s = 0; s < grooved.samples(); ++s) {
+    ASSERT_EQ(grooved.status[static_cast<size_t>(s)], PoseStatus::ok);
+    least = std::min(least, value(grooved, "fy.contact", s));
+    most = std::max(most, value(grooved, "fy.contact", s));
+  }
+  EXPECT_LT(least, 0.0);
+  EXPECT_GT(most, 0.0);
+}
+
 // Each fault of a cam joint is refused at its key, with what is wrong.
 TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
   struct Case {
@@ -264,7 +419,8 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
   };
   const std::string roller = "mechanisms/cams/translating_roller_345.toml",
                     flat = "mechanisms/cams/cycloidal_flat_faced.toml",
-                    swinging = "mechanisms/cams/oscillating_roller.toml";
+                    swinging = "mechanisms/cams/oscillating_roller.toml",
+                    tangent = "mechanisms/cams/tangent_cam_roller.toml";
   const std::string last_rise = "{ law = \"polynomial_4567\", span = 100, to = 0 }";
   const std::vector<Case> cases = {
       {roller, "roller_radius = 0.01", "roller_radius = 0", "roller_radius",
@@ -298,6 +454,16 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
       {flat, "follower = \"translating\"",
        "follower = \"oscillating\"\npivot = [0.1, 0]\narm = 0.08", "face = \"face\"",
        "an oscillating flat-faced follower is not supported"},
+      {tangent, "shape = \"tangent\"", "shape = \"heart\"", "shape", "unknown shape 'heart'"},
+      {tangent, "ascent = 75", "ascent = 95", "ascent = 95", "must lie between 0 and 90 deg"},
+      {tangent, "ascent = 75", "ascent = 40", "ascent = 40", "leaves no nose"},
+      {tangent, "ascent = 75", "nose_radius = 35", "nose_radius", "less than the base circle's"},
+      {tangent, "ascent = 75", "ascent = 75\nnose_radius = 20", "nose_radius",
+       "needs one of 'ascent' (the angle of ascent) or 'nose_radius'"},
+      {tangent, "lift = 17.5", "lift = 0", "lift = 0", "must be positive"},
+      {tangent, "lift = 17.5", "lift = 17.5\noffset = 1", "offset", "unknown key 'offset'"},
+      {roller, "closure = \"form\"", "closure = \"glue\"", "closure",
+       "'closure' of joint #3 (cam) must be \"force\""},
       {swinging, "arm = 0.08", "arm = 0.01", "arm = 0.01", "cannot reach the prime circle"},
       {swinging, "arm = 0.08", "arm = 0.08\noffset = 0.01", "offset",
        "is a translating follower's"},

@@ -56,6 +56,13 @@ void at_every_sample(const Mechanism& m, const NewtonSolver& solver, F f) {
   }
 }
 
+// The forces are the motion's: ok, or a force-closed cam's follower that leaves the cam there
+// (mechanisms/cams/spring_cam_jump.toml), whose forces are the ones that would hold it on (the
+// contact pulling), which balance as any others.
+bool held(const ForceSample& forces) {
+  return forces.status == PoseStatus::ok || forces.status == PoseStatus::contact_lost;
+}
+
 class EveryMechanism : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
@@ -71,7 +78,7 @@ TEST_P(EveryMechanism, MultipliersAndPowerBalanceGiveTheSameDriverEffort) {
     const double arm = m.drivers[0].angular() ? m.size() : 1.0;
     at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
       kinetostatics.solve(state, forces);
-      ASSERT_EQ(forces.status, PoseStatus::ok) << forces.why(m);
+      ASSERT_TRUE(held(forces)) << forces.why(m);
       for (const Eigen::Vector2d& f : forces.joint_force) scale = std::max(scale, arm * f.norm());
       // With joint friction, the power it dissipates at method 1's magnitudes.
       const std::optional<double> power = kinetostatics.power_balance(state, &forces);
@@ -157,7 +164,7 @@ TEST_P(EveryMechanism, ReactionsBalanceEveryLink) {
   const Driver& d = m.drivers[0];
   at_every_sample(m, solver, [&](KinematicState& state, const SolveReport&) {
     kinetostatics.solve(state, forces);
-    ASSERT_EQ(forces.status, PoseStatus::ok) << forces.why(m);
+    ASSERT_TRUE(held(forces)) << forces.why(m);
     const auto body = [&](int link) {
       return BodyMotion::of(m.moving_index(link), state.q, &state.qdot, &state.qddot);
     };
