@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "analytic/derived/claims.h"
+#include "analytic/derived/jump.h"
 #include "analytic/kinematics/branch.h"
 #include "analytic/kinematics/dyads.h"
 #include "analytic/kinematics/newton.h"
@@ -386,6 +387,24 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
   }
   std::vector<SingularPosition> singular;
   if (!m.at_rest()) report.sweep = print_singular_positions(m, options, out, singular);
+  // A force-closed cam's jump speed: faster, its follower leaves the cam (docs/cams.md).
+  for (size_t ji = 0; report.sweep && ji < m.joints.size(); ++ji) {
+    const Joint& j = m.joints[ji];
+    if (j.type != JointType::cam || j.form_closed) continue;
+    const JumpSpeed jump = jump_speed(m, static_cast<int>(ji));
+    if (!jump.speed) {
+      out += fmt::format("  jump speed of cam {}: none: {}\n", j.name, jump.reason);
+      continue;
+    }
+    const bool angular = m.swept().angular();
+    const DriverUnit unit = axis_unit_of(m);
+    out += fmt::format(
+        "  jump speed of cam {}: {:.6g} {}{} at driver = {:.6g} {} (faster, the follower leaves "
+        "the cam there)\n",
+        j.name, *jump.speed, angular ? "rad/s" : "m/s",
+        angular ? fmt::format(" ({:.6g} rpm)", *jump.speed * 30.0 / std::numbers::pi) : "",
+        jump.at / unit.scale, unit.name);
+  }
   out += fmt::format("  references: {}\n", m.references.size());
   if (assembled.status == PoseStatus::singular)
     out += fmt::format("  warning: the drawn position is singular: {}\n", assembled.message);

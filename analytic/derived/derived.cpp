@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 
+#include "analytic/derived/golden.h"
 #include "analytic/kinematics/newton.h"
 #include "analytic/model/planar.h"
 #include "analytic/model/units_text.h"
@@ -156,31 +157,12 @@ class ExactLocator : public Locator {
       }
     }
     // Golden-section search on the exact value.
-    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    double a = lo.v, b = hi.v;
-    double c = b - g * (b - a), d = a + g * (b - a);
     auto value = [&](double v) -> std::optional<double> {
       const Trajectory* p = pose(v, mid, f.positions);
       if (!p) return std::nullopt;
       return sign * f.value(*p, 0);
     };
-    std::optional<double> fc = value(c), fd = value(d);
-    for (int i = 0; i < 200 && fc && fd && b - a > 1e-13 * (1.0 + std::abs(a)); ++i) {
-      if (*fc > *fd) {
-        b = d;
-        d = c;
-        fd = fc;
-        c = b - g * (b - a);
-        fc = value(c);
-      } else {
-        a = c;
-        c = d;
-        fc = fd;
-        d = a + g * (b - a);
-        fd = value(d);
-      }
-    }
-    const double v = 0.5 * (a + b);
+    const double v = golden_section_max(value, lo.v, hi.v);
     const std::optional<double> fv = value(v);
     if (!fv) return std::nullopt;
     return Located{v, sign * *fv};

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "analytic/derived/jump.h"
 #include "analytic/kinematics/instant_centres.h"
 #include "analytic/model/loader.h"
 #include "analytic/model/planar.h"
@@ -394,6 +395,21 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   std::printf("  at %.0f rpm: %d of %d samples contact_lost; N within %.1e of its peak elsewhere\n",
               w * 30 / kPi, lost, t.samples(), apart / peak);
 
+  // crosslink's own: the least root of N = A + C w + B w^2 over the sweep's poses, refined.
+  const JumpSpeed located = jump_speed(m, m.find_joint("contact"));
+  ASSERT_TRUE(located.speed.has_value()) << located.reason;
+  EXPECT_NEAR(*located.speed, jump, 1e-9 * jump);
+  // The cycloid's rise mirrors its return: s and |s''| at 270 - theta on the rise are those at
+  // theta on the return, so the jump comes at both at once; either is the place.
+  const double mirror = 3 * kPi / 2 - at;
+  EXPECT_LT(std::min(std::abs(located.at - at), std::abs(located.at - mirror)), 1e-6);
+  std::printf("  located: %.9f rad/s at %.6f deg (closed form %.9f at %.6f and %.6f)\n",
+              *located.speed, located.at / kDeg, jump, at / kDeg, mirror / kDeg);
+  const test::CommandRun check = test::crosslink("check mechanisms/cams/spring_cam_jump.toml");
+  EXPECT_NE(check.out.find("jump speed of cam contact: 37.0593 rad/s (353.89 rpm) at driver = "),
+            std::string::npos)
+      << check.out;
+
   Mechanism near = m;
   near.drivers[0].law.speed = 0.999 * jump;
   EXPECT_EQ(solve_at(near, at).status[0], PoseStatus::ok);
@@ -410,6 +426,9 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   }
   EXPECT_LT(least, 0.0);
   EXPECT_GT(most, 0.0);
+  const Mechanism form = spring_cam("name = \"contact\"", "name = \"contact\"\nclosure = \"form\"");
+  EXPECT_NE(jump_speed(form, form.find_joint("contact")).reason.find("cannot jump"),
+            std::string::npos);
 }
 
 // Each fault of a cam joint is refused at its key, with what is wrong.
