@@ -80,7 +80,8 @@ JumpSpeed jump_speed(const Mechanism& m, int joint) {
       kinetostatics.solve(state, forces);  // contact_lost or not: the forces that hold it on
       const BodyMotion a = BodyMotion::of(m.moving_index(j.link_a), state.q, nullptr, nullptr);
       const BodyMotion b = BodyMotion::of(m.moving_index(j.link_b), state.q, nullptr, nullptr);
-      return forces.joint_force[static_cast<size_t>(joint)].dot(cam_contact(m, j, a, b).normal);
+      return forces.joint_force[static_cast<size_t>(joint)].dot(
+          cam_contact(solver.layout().joint(joint), a, b).normal);
     };
     const double rest = push(0.0), ahead = push(1.0), back = push(-1.0);
     if (!(rest > 0.0)) return -1.0;

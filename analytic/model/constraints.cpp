@@ -73,15 +73,25 @@ double pitch_angle(const BodyMotion& a, const ArcOffset& o) {
   return std::atan2(o.e.y(), o.e.x()) - a.theta;
 }
 
-// Writes d(|d| - rho(psi))/dq, d = P_b - C_a: with e = d / |d|, dpsi = perp(e) . dd / |d| -
-// dtheta_a, so the offset's gradient is g = e - rho' perp(e) / |d| and theta_a gains rho'.
+// The gradient of |d| - rho(psi) in d = P_b - C_a: with e = d / |d|, dpsi = perp(e) . dd / |d| -
+// dtheta_a, so it is g = e - rho' perp(e) / |d| (the pitch curve's normal at P_b), and theta_a
+// gains rho' (`slope`).
+struct PitchGradient {
+  Eigen::Vector2d g;
+  double slope;
+};
+PitchGradient pitch_gradient(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
+  const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
+  const double slope = c.contour->at(pitch_angle(a, o)).d;
+  return {o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e), slope};
+}
+
+// Writes d(|d| - rho(psi))/dq.
 template <class Matrix>
 void pitch_gradient(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac, int row) {
   const BodyMotion a = frames.of(c.a);
   const BodyMotion b = frames.of(c.b);
-  const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
-  const double slope = c.contour->at(pitch_angle(a, o)).d;
-  const Eigen::Vector2d g = o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e);
+  const auto [g, slope] = pitch_gradient(c, a, b);
   if (c.a >= 0) {
     jac(row, 3 * c.a) = -g.x();
     jac(row, 3 * c.a + 1) = -g.y();
@@ -278,7 +288,10 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
 
 CamContact cam_contact(const Mechanism& m, const Joint& j, const BodyMotion& a,
                        const BodyMotion& b) {
-  const ConstraintRows c = joint_rows(m, j);
+  return cam_contact(joint_rows(m, j), a, b);
+}
+
+CamContact cam_contact(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
   CamContact out;
   if (c.kind == Kind::cam_face) {  // the support function's point: h n + h' perp(n) from C
     const FaceContact f = face_contact(c, a, b);
@@ -288,10 +301,7 @@ CamContact cam_contact(const Mechanism& m, const Joint& j, const BodyMotion& a,
     return out;
   }
   // The pitch curve's normal at the knife edge or roller's centre: the row's gradient there.
-  const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
-  const double slope = c.contour->at(pitch_angle(a, o)).d;
-  const Eigen::Vector2d g = o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e);
-  out.normal = g.normalized();
+  out.normal = pitch_gradient(c, a, b).g.normalized();
   out.point = b.position(c.point_b) - c.contour->follower().roller_radius * out.normal;
   return out;
 }

@@ -108,6 +108,8 @@ struct CamContact {
 };
 CamContact cam_contact(const Mechanism& m, const Joint& cam, const BodyMotion& a,
                        const BodyMotion& b);
+// The same from the joint's rows in a layout (ConstraintLayout::joint), without rebuilding them.
+CamContact cam_contact(const ConstraintRows& cam, const BodyMotion& a, const BodyMotion& b);
 
 class ConstraintLayout {
  public:

@@ -147,6 +147,9 @@ Kinetostatics::Kinetostatics(const NewtonSolver& solver)
     gearings_.push_back(std::move(g));
   }
   friction_joints_ = m.friction_joints();
+  for (size_t ji = 0; ji < m.joints.size(); ++ji)
+    if (m.joints[ji].type == JointType::cam && !m.joints[ji].form_closed)
+      pushing_cams_.push_back(static_cast<int>(ji));
 }
 
 GearPaths gear_paths(const Mechanism& m, int joint) {
@@ -323,14 +326,15 @@ void Kinetostatics::solve(KinematicState& state, ForceSample& out, const Kinemat
   write_forces(state, out);
   // A force-closed cam's contact only pushes: where the motion needs a pull the follower leaves.
   const Mechanism& m = solver_.mechanism();
-  for (size_t ji = 0; ji < m.joints.size(); ++ji) {
-    const Joint& j = m.joints[ji];
-    if (j.type != JointType::cam || j.form_closed) continue;
-    const double push = out.joint_force[ji].dot(
-        cam_contact(m, j, motion(m, j.link_a, state), motion(m, j.link_b, state)).normal);
+  for (const int ji : pushing_cams_) {
+    const Joint& j = m.joints[static_cast<size_t>(ji)];
+    const double push = out.joint_force[static_cast<size_t>(ji)].dot(
+        cam_contact(solver_.layout().joint(ji), motion(m, j.link_a, state),
+                    motion(m, j.link_b, state))
+            .normal);
     if (push < 0.0 && (out.status == PoseStatus::ok || push < out.pull)) {
       out.status = PoseStatus::contact_lost;
-      out.cause = static_cast<int>(ji);
+      out.cause = ji;
       out.pull = push;
     }
   }

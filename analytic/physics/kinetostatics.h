@@ -263,7 +263,8 @@ class Kinetostatics {
   std::vector<int> slide_joints_;
   std::vector<Gearing> gearings_;
   std::vector<int> friction_joints_;
-  double size_ = 1.0;  // Mechanism::size(): relative sliding rates against it
+  std::vector<int> pushing_cams_;  // force-closed cam joints: their contact only pushes
+  double size_ = 1.0;              // Mechanism::size(): relative sliding rates against it
 };
 
 }  // namespace crosslink

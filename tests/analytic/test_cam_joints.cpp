@@ -10,8 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -22,6 +20,7 @@
 #include "analytic/model/loader.h"
 #include "analytic/model/planar.h"
 #include "analytic/reference/sweep.h"
+#include "tests/common/changed.h"
 #include "tests/common/cli.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
@@ -324,15 +323,6 @@ TEST(CamJoints, TangentCamFollowsItsFlankAndNoseClosedForms) {
       a0, printed, 100 * (printed - a0) / a0, with_print_pi, apex);
 }
 
-// spring_cam_jump.toml with `text` in place of `from`, loaded from the scratch folder.
-Mechanism spring_cam(const std::string& from = "", const std::string& to = "") {
-  std::string text = test::source_text("mechanisms/cams/spring_cam_jump.toml");
-  if (!from.empty()) text = test::replaced(text, from, to);
-  const std::filesystem::path path = test::scratch_dir() / "spring_cam_jump.toml";
-  std::ofstream(path) << text;
-  return load_mechanism(path.string());
-}
-
 // The spring-held flat face (spring_cam_jump.toml): along +y the cam pushes the follower with
 // N = m w^2 s'' + k (0.01 + s), and a force-closed contact cannot pull. The follower leaves where
 // N < 0: those samples, and only those, are flagged contact_lost with an event naming the cam;
@@ -365,7 +355,7 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   std::printf("  jump speed %.6f rad/s (%.4f rpm) at cam angle %.4f deg\n", jump, jump * 30 / kPi,
               at / kDeg);
 
-  const Mechanism m = spring_cam();
+  const Mechanism m = bundled("spring_cam_jump");
   const double w = m.drivers[0].law.speed;
   ASSERT_GT(w, jump);
   const Trajectory t = sweep(m);
@@ -417,7 +407,8 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   EXPECT_EQ(solve_at(near, at).status[0], PoseStatus::contact_lost);
 
   const Trajectory grooved =
-      sweep(spring_cam("name = \"contact\"", "name = \"contact\"\nclosure = \"form\""));
+      sweep(test::changed("mechanisms/cams/spring_cam_jump.toml",
+                          {{"name = \"contact\"", "name = \"contact\"\nclosure = \"form\""}}));
   double least = 0.0, most = 0.0;
   for (int s = 0; s < grooved.samples(); ++s) {
     ASSERT_EQ(grooved.status[static_cast<size_t>(s)], PoseStatus::ok);
@@ -426,7 +417,9 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   }
   EXPECT_LT(least, 0.0);
   EXPECT_GT(most, 0.0);
-  const Mechanism form = spring_cam("name = \"contact\"", "name = \"contact\"\nclosure = \"form\"");
+  const Mechanism form =
+      test::changed("mechanisms/cams/spring_cam_jump.toml",
+                    {{"name = \"contact\"", "name = \"contact\"\nclosure = \"form\""}});
   EXPECT_NE(jump_speed(form, form.find_joint("contact")).reason.find("cannot jump"),
             std::string::npos);
 }

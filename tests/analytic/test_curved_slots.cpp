@@ -10,12 +10,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <string>
 #include <vector>
 
 #include "analytic/model/loader.h"
 #include "analytic/reference/sweep.h"
+#include "tests/common/changed.h"
 #include "tests/common/cli.h"
 #include "tests/common/diagnostics.h"
 #include "tests/common/mechanisms.h"
@@ -23,16 +23,6 @@
 
 namespace crosslink {
 namespace {
-
-// A bundled definition with its lines changed, loaded from the scratch folder.
-Mechanism changed(const std::string& file,
-                  const std::vector<std::pair<std::string, std::string>>& changes) {
-  std::string text = test::source_text(file);
-  for (const auto& [from, to] : changes) text = test::replaced(text, from, to);
-  const std::filesystem::path path = test::scratch_dir() / std::filesystem::path(file).filename();
-  std::ofstream(path) << text;
-  return load_mechanism(path.string());
-}
 
 struct Channel {
   std::string in_a, in_b;  // its name in each sweep
@@ -69,11 +59,12 @@ void expect_equivalent(const Mechanism& ma, const Mechanism& mb,
 // rod BC (a = e = 0.04, b = 0.12, offset 0.01), here massless, with the disc's mass on the crank.
 TEST(CurvedSlots, EccentricCamIsTheOffsetSliderCrank) {
   const Mechanism cam = load_mechanism("mechanisms/cams/eccentric_cam_roller.toml");
-  const Mechanism slider_crank = changed("mechanisms/slider_crank_offset.toml",
-                                         {{"mass = 0.0157\ncom = [0.02, 0]\ninertia = 2.22417e-06",
-                                           "mass = 1.99758\ncom = \"B\"\ninertia = 8.09021e-03"},
-                                          {"mass = 0.0471\ncom = [0.06, 0]\ninertia = 5.69125e-05",
-                                           "mass = 0\ncom = [0.06, 0]\ninertia = 0"}});
+  const Mechanism slider_crank =
+      test::changed("mechanisms/slider_crank_offset.toml",
+                    {{"mass = 0.0157\ncom = [0.02, 0]\ninertia = 2.22417e-06",
+                      "mass = 1.99758\ncom = \"B\"\ninertia = 8.09021e-03"},
+                     {"mass = 0.0471\ncom = [0.06, 0]\ninertia = 5.69125e-05",
+                      "mass = 0\ncom = [0.06, 0]\ninertia = 0"}});
   expect_equivalent(
       cam, slider_crank,
       {{"angle.cam", "angle.crank"},
@@ -97,9 +88,9 @@ TEST(CurvedSlots, EccentricCamIsTheOffsetSliderCrank) {
 // B stays 0.12 m from the rocker's point C: the crank-rocker four-bar with its coupler massless.
 TEST(CurvedSlots, CurvedSlotRockerIsTheCrankRocker) {
   const Mechanism slot = load_mechanism("mechanisms/cams/curved_slot_rocker.toml");
-  const Mechanism fourbar = changed("mechanisms/fourbar_crank_rocker.toml",
-                                    {{"mass = 0.0471\ncom = [0.06, 0]\ninertia = 5.69125e-05",
-                                      "mass = 0\ncom = [0.06, 0]\ninertia = 0"}});
+  const Mechanism fourbar = test::changed("mechanisms/fourbar_crank_rocker.toml",
+                                          {{"mass = 0.0471\ncom = [0.06, 0]\ninertia = 5.69125e-05",
+                                            "mass = 0\ncom = [0.06, 0]\ninertia = 0"}});
   expect_equivalent(
       slot, fourbar,
       {{"angle.rocker", "angle.rocker"},
