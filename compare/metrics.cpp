@@ -33,7 +33,7 @@ double wrap_positive_angle(double radians) {
 std::string channel_kind(std::string_view channel) {
   const std::string_view prefix = channel.substr(0, channel.find('.'));
   const bool angular =
-      prefix == "angle" || prefix == "omega" || prefix == "alpha" || prefix == "mu";
+      Trajectory::quantity_of(channel) == Quantity::angle || prefix == "omega" || prefix == "alpha";
   return std::string(to_string(Trajectory::quantity_of(channel))) +
          (angular ? "/angular" : "/linear");
 }

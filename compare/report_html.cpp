@@ -246,6 +246,52 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
   return d;
 }
 
+// Each cam joint with a pressure angle (Trajectory::cams, docs/cams.md): its profile in the cam's
+// frame about its centre (360 points), the roller's radius (0: a knife edge or a face), and at
+// every sample with a position, from the reference's positions: the cam's centre and angle, the
+// contact, the common normal, where the follower's direction of motion is taken and it, and the
+// pressure angle; null at a sample without a position.
+json cam_drawings(const Mechanism& m, const Trajectory& ref) {
+  const DisplayUnit length = display_unit(m, "x.any"), angle = display_unit(m, "angle.any");
+  json cams = json::array();
+  for (const Trajectory::CamChannel& cam : ref.cams) {
+    const ConstraintRows& rows = cam.reading.rows;
+    const bool face = rows.kind == ConstraintRows::Kind::cam_face;
+    json outline = json::array();
+    double reach = 0.0;
+    for (const Eigen::Vector2d& u : cam.reading.outline(360)) {
+      outline.push_back({u.x() / length.scale, u.y() / length.scale});
+      reach = std::max(reach, u.norm());
+    }
+    json poses = json::array();
+    for (int k = 0; k < ref.samples(); ++k) {
+      if (!ref.has_value(k, Quantity::position)) {
+        poses.push_back(nullptr);
+        continue;
+      }
+      const CamReading::Pose p = cam.at(ref, k);
+      const auto xy = [&](const Eigen::Vector2d& v) {
+        return json::array({v.x() / length.scale, v.y() / length.scale});
+      };
+      poses.push_back({{"centre", xy(p.centre)},
+                       {"angle", p.cam_angle},
+                       {"contact", xy(p.contact.point)},
+                       {"normal", {p.contact.normal.x(), p.contact.normal.y()}},
+                       {"at", xy(p.at)},
+                       {"motion", {p.motion.x(), p.motion.y()}},
+                       {"phi", p.pressure_angle / angle.scale}});
+    }
+    cams.push_back({{"name", cam.reading.joint},
+                    {"outline", outline},
+                    {"reach", reach / length.scale},
+                    {"roller", face ? 0.0 : rows.contour->follower().roller_radius / length.scale},
+                    {"face", face},
+                    {"angle_unit", angle.name},
+                    {"poses", poses}});
+  }
+  return cams;
+}
+
 // The data object the page's script draws from (file units).
 json report_data(const Comparison& cmp, const Trajectory& pose) {
   const Mechanism& m = *cmp.mechanism;
@@ -362,6 +408,7 @@ json report_data(const Comparison& cmp, const Trajectory& pose) {
   // The points whose paths the path chart draws, as the drawing draws them.
   r["paths"] = moving_points(m);
   r["drawing"] = drawing(m, pose, display_unit(m, "x.any"));
+  r["drawing"]["cams"] = cam_drawings(m, ref);
   return r;
 }
 

@@ -220,6 +220,12 @@
     };
     for (const p of D.points) add(p.x, p.y);
     for (const r of pathRows) add(r.x, r.y);
+    for (const c of D.cams || [])  // a cam's profile turns within its reach about its centre
+      for (const p of c.poses)
+        if (p) {
+          add(p.centre[0] - c.reach, p.centre[1] - c.reach);
+          add(p.centre[0] + c.reach, p.centre[1] + c.reach);
+        }
     const margin = 28, maxWidth = 640, maxHeight = 560, minWidth = 400, minHeight = 240;
     const size = Math.max(x1 - x0, y1 - y0) || 1;  // a still point: any scale
     const ex = Math.max(x1 - x0, 1e-9 * size), ey = Math.max(y1 - y0, 1e-9 * size);
@@ -355,6 +361,7 @@
     })).filter((p) => p.x !== null && p.y !== null);
     const centres = here ? centresAtK0.inFrame : [], arrows = here ? centresAtK0.arrows : [];
     const forces = here ? D.forces : [];
+    const cams = camsAt(k);
 
     // What labels must not cover: markers as boxes, links and arrows as thick segments.
     const boxes = [], lines = [];
@@ -365,6 +372,7 @@
     };
     for (const s of segments) line(s.x, s.y, s.x2, s.y2, 3.5);
     for (const f of forces) line(f.x, f.y, f.x2, f.y2, 1.5);
+    for (const r of cams.rules) line(r.x, r.y, r.x2, r.y2, 1.5);
     for (const a of arrows) lines.push({ax: a.tail[0], ay: a.tail[1], bx: a.tip[0], by: a.tip[1], hw: 4});
     const items = [];
     for (const p of points) {
@@ -383,6 +391,10 @@
       if (frame.inside(px, py)) marker(px, py, 4.5);
       items.push({kind: 'force', text: f.label, size: 10, px, py, clear: 4});
     }
+    for (const l of cams.labels) {
+      const [px, py] = frame.toPx(l.x, l.y);
+      items.push({kind: 'cam', text: l.text, size: 10, px, py, clear: 4});
+    }
     const {placed, leaders, left} = placeLabels(items, boxes, lines);
     const of = (kind) => placed.filter((p) => p.kind === kind).map(({text, x, y}) => ({text, x, y}));
     return {
@@ -391,7 +403,46 @@
       centres, arrows, forces,
       pointLabels: of('point'), centreLabels: of('centre'), arrowLabels: of('arrow'),
       forceLabels: of('force'), leaders, left,
+      camProfiles: cams.profiles, camRollers: cams.rollers, camRules: cams.rules,
+      camLabels: of('cam'),
     };
+  }
+
+  // Each cam at sample k (docs/cams.md, "Pressure angle"): its profile turned with it about its
+  // centre, the roller, or the face through the contact, and from the roller's centre (the
+  // face's contact) the common normal and the follower's direction of motion, the pressure angle
+  // between them; nothing at a sample without a position.
+  function camsAt(k) {
+    const profiles = [], rollers = [], rules = [], labels = [];
+    for (const c of D.cams || []) {
+      const p = c.poses[k];
+      if (!p) continue;
+      const cos = Math.cos(p.angle), sin = Math.sin(p.angle);
+      c.outline.concat([c.outline[0]]).forEach(([u, v], i) =>
+        profiles.push({cam: c.name, i, x: p.centre[0] + cos * u - sin * v,
+                       y: p.centre[1] + sin * u + cos * v}));
+      for (let i = 0; c.roller > 0 && i <= 48; i++) {
+        const t = 2 * Math.PI * i / 48;
+        rollers.push({cam: c.name, i, x: p.at[0] + c.roller * Math.cos(t),
+                      y: p.at[1] + c.roller * Math.sin(t)});
+      }
+      const reach = 0.5 * c.reach;
+      const from = (d, length, kind, label) => rules.push({
+        cam: c.name, kind, label, x: p.at[0], y: p.at[1], x2: p.at[0] + length * d[0],
+        y2: p.at[1] + length * d[1]});
+      const phi = c.name + ' pressure angle ' + p.phi.toFixed(2) + ' ' + c.angle_unit;
+      from(p.normal, reach, 'common normal', phi);
+      from(p.motion, reach, 'direction of motion', phi);
+      if (c.face) {
+        const t = [-p.normal[1], p.normal[0]];
+        rules.push({cam: c.name, kind: 'face', label: c.name + ' face',
+                    x: p.contact[0] - reach * t[0], y: p.contact[1] - reach * t[1],
+                    x2: p.contact[0] + reach * t[0], y2: p.contact[1] + reach * t[1]});
+      }
+      labels.push({text: '\u03c6 ' + p.phi.toFixed(1) + ' ' + c.angle_unit,
+                   x: p.at[0] + reach * p.normal[0], y: p.at[1] + reach * p.normal[1]});
+    }
+    return {profiles, rollers, rules, labels};
   }
 
   function drawingSpec() {
@@ -413,7 +464,8 @@
       $schema: 'https://vega.github.io/schema/vega-lite/v6.json',
       width: frame.width, height: frame.height,
       datasets: {segments: [], points: [], guides: [], centres: [], arrows: [], forces: [],
-                 pointLabels: [], centreLabels: [], arrowLabels: [], forceLabels: [], leaders: []},
+                 pointLabels: [], centreLabels: [], arrowLabels: [], forceLabels: [], leaders: [],
+                 camProfiles: [], camRollers: [], camRules: [], camLabels: []},
       // Layer names are the SVG groups' classes ("<name>_marks") the browser test measures.
       layer: [
         {name: 'paths', data: {values: pathRows},
@@ -427,6 +479,21 @@
         {name: 'guides', data: {name: 'guides'},
          mark: {type: 'rule', strokeDash: [6, 4], color: '#888', clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2}},
+        // Cams: the profile, the roller, and the pressure angle's two rules.
+        {name: 'cam_profiles', data: {name: 'camProfiles'},
+         mark: {type: 'line', strokeWidth: 1.5, color: '#8c564b', clip: true},
+         encoding: {x: X, y: Y, detail: {field: 'cam'}, order: {field: 'i'},
+                    tooltip: [{field: 'cam'}]}},
+        {name: 'cam_rollers', data: {name: 'camRollers'},
+         mark: {type: 'line', strokeWidth: 1.5, color: '#555', clip: true},
+         encoding: {x: X, y: Y, detail: {field: 'cam'}, order: {field: 'i'}}},
+        {name: 'cam_rules', data: {name: 'camRules'},
+         mark: {type: 'rule', strokeWidth: 1.5, color: '#9467bd', clip: true},
+         encoding: {x: X, y: Y, x2: X2, y2: Y2,
+                    strokeDash: {field: 'kind', type: 'nominal', title: 'cam',
+                                 scale: {domain: ['common normal', 'direction of motion', 'face'],
+                                         range: [[1, 0], [4, 3], [1, 0]]}},
+                    tooltip: [{field: 'kind'}, {field: 'label'}]}},
         {name: 'links', data: {name: 'segments'},
          mark: {type: 'rule', strokeWidth: 5, opacity: 0.75, clip: true},
          encoding: {x: X, y: Y, x2: X2, y2: Y2,
@@ -470,6 +537,7 @@
         labels('centre_labels', 'centreLabels', 10, '#d62728'),
         labels('arrow_labels', 'arrowLabels', 10, '#d62728'),
         labels('force_labels', 'forceLabels', 10, '#2ca02c'),
+        labels('cam_labels', 'camLabels', 10, '#9467bd'),
       ],
       title: D.effort ? {text: 'reactions (green, from ' + D.masses + '): first link on second; ' +
                                D.effort,

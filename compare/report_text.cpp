@@ -22,7 +22,8 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
     return {derived_factor(m, *spec, *unit), derived_unit_name(m, *spec, *unit)};
   const std::string_view kind = channel.substr(0, channel.find('.'));
   const std::string& L = m.units.length_name;
-  if (kind == "angle" || kind == "mu") return {m.units.angle, m.units.angle_name};
+  if (Trajectory::quantity_of(channel) == Quantity::angle)
+    return {m.units.angle, m.units.angle_name};
   if (kind == "energy") return {1.0, "J"};
   if (kind == "omega") return {1.0, "rad/s"};
   if (kind == "alpha") return {1.0, "rad/s^2"};

@@ -1,7 +1,9 @@
 #include "analytic/model/constraints.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace crosslink {
 namespace {
@@ -304,6 +306,69 @@ CamContact cam_contact(const ConstraintRows& c, const BodyMotion& a, const BodyM
   out.normal = pitch_gradient(c, a, b).g.normalized();
   out.point = b.position(c.point_b) - c.contour->follower().roller_radius * out.normal;
   return out;
+}
+
+CamReading::Pose CamReading::at(const BodyMotion& cam, const BodyMotion& follower) const {
+  Pose p;
+  p.centre = cam.position(rows.point_a);
+  p.cam_angle = cam.theta;
+  p.contact = cam_contact(rows, cam, follower);
+  const Eigen::Vector2d& n = p.contact.normal;
+  p.at = rows.kind == Kind::cam_face ? p.contact.point : follower.position(rows.point_b);
+  p.motion = (pivoted ? perp(p.at - guide) : guide).normalized();
+  if (p.motion.dot(n) < 0.0) p.motion = -p.motion;
+  p.pressure_angle = std::atan2(cross(p.motion, n), p.motion.dot(n));
+  return p;
+}
+
+std::vector<Eigen::Vector2d> CamReading::outline(int count) const {
+  // The cam's frame unturned with its centre at the origin, and the follower placed where the
+  // row holds it at each angle: its pitch point at rho(psi), or its face at h(alpha).
+  BodyMotion cam;
+  cam.r = -rows.point_a;
+  std::vector<Eigen::Vector2d> points;
+  for (int k = 0; k < count; ++k) {
+    const double angle = 2.0 * std::numbers::pi * k / count;
+    const Eigen::Vector2d u(std::cos(angle), std::sin(angle));
+    BodyMotion follower;
+    if (rows.kind == Kind::cam_face) {
+      follower.theta = angle - rows.angle;
+      follower.rotation = Eigen::Rotation2Dd(follower.theta).toRotationMatrix();
+      follower.r = rows.contour->at(angle).value * u - follower.turn(rows.point_b);
+    } else {
+      follower.r = rows.contour->at(angle).value * u - rows.point_b;
+    }
+    points.push_back(cam_contact(rows, cam, follower).point);
+  }
+  return points;
+}
+
+std::vector<CamReading> cam_readings(const Mechanism& m) {
+  std::vector<CamReading> readings;
+  const int g = m.ground();
+  for (const Joint& cam : m.joints) {
+    if (cam.type != JointType::cam) continue;
+    int guides = 0;
+    CamReading r{cam.name, joint_rows(m, cam)};
+    for (const Joint& j : m.joints) {
+      const bool joins =
+          (j.link_a == g && j.link_b == cam.link_b) || (j.link_b == g && j.link_a == cam.link_b);
+      if (!joins) continue;
+      if (j.type == JointType::revolute) {
+        ++guides;
+        r.pivoted = true;
+        const int p = j.link_a == g ? j.point_a : j.point_b;
+        r.guide = m.links[static_cast<size_t>(g)].points[static_cast<size_t>(p)].local;
+      } else if (j.type == JointType::prismatic && j.link_a == g) {
+        ++guides;
+        r.guide = m.links[static_cast<size_t>(g)].lines[static_cast<size_t>(j.line)].direction;
+      } else {
+        guides += 2;  // a guide this reading does not take: no pressure angle
+      }
+    }
+    if (guides == 1) readings.push_back(std::move(r));
+  }
+  return readings;
 }
 
 double ConstraintRows::value(const LinkFrames& frames) const {

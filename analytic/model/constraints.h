@@ -111,6 +111,39 @@ CamContact cam_contact(const Mechanism& m, const Joint& cam, const BodyMotion& a
 // The same from the joint's rows in a layout (ConstraintLayout::joint), without rebuilding them.
 CamContact cam_contact(const ConstraintRows& cam, const BodyMotion& a, const BodyMotion& b);
 
+// A cam joint's pressure angle from its links' poses alone (docs/cams.md, "Pressure angle"): the
+// angle from the follower's direction of motion to the common normal, counterclockwise positive,
+// within [-90, 90] degrees. The direction is its guide's on the ground (square to the arm about a
+// pivot, along a prismatic joint's line) at the knife edge, the roller's centre or the face's
+// contact, taken the way the contact pushes: it exists whatever the follower's speed, at a dwell
+// too, and equals a textbook's (Norton, ch. 8) on a rise and on a return.
+struct CamReading {
+  std::string joint;     // the cam joint's name
+  ConstraintRows rows;   // its rows (a the cam, b the follower: moving indices, -1 the ground)
+  bool pivoted = false;  // the follower turns about a pivot
+  Eigen::Vector2d guide = Eigen::Vector2d::Zero();  // the pivot [m], or the line's direction
+
+  // At the links' poses: the cam's centre and angle, the contact, where the direction of motion
+  // is taken and it (a unit vector), and the pressure angle.
+  struct Pose {
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    double cam_angle = 0.0;
+    CamContact contact;
+    Eigen::Vector2d at = Eigen::Vector2d::Zero(), motion = Eigen::Vector2d::UnitY();
+    double pressure_angle = 0.0;
+  };
+  Pose at(const BodyMotion& cam, const BodyMotion& follower) const;
+  double pressure_angle(const BodyMotion& cam, const BodyMotion& follower) const {
+    return at(cam, follower).pressure_angle;
+  }
+  // The profile the follower touches, in the cam's frame about its centre (the centre at the
+  // origin), at `count` angles over a turn, in order around it.
+  std::vector<Eigen::Vector2d> outline(int count) const;
+};
+// Every cam joint whose follower has one guide on the ground (a revolute joint, or a prismatic
+// joint whose line is the ground's); a follower guided otherwise has no pressure angle here.
+std::vector<CamReading> cam_readings(const Mechanism& m);
+
 class ConstraintLayout {
  public:
   explicit ConstraintLayout(const Mechanism& mechanism);

@@ -17,7 +17,7 @@ std::string derived_names(const Mechanism& m) {
 // SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
 std::optional<double> reference_factor(const Mechanism& m, std::string_view quantity) {
   const std::string_view kind = quantity.substr(0, quantity.find('.'));
-  if (kind == "angle") return m.units.angle;
+  if (kind == "angle" || kind == "phi") return m.units.angle;
   if (kind == "omega" || kind == "alpha") return 1.0;
   static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",    "ax",
                                                         "ay", "a", "s",  "sdot", "sddot"};
@@ -173,7 +173,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
         r.error(r.at(t.get("channel")),
                 fmt::format("[[derived]]: '{}' is not a kinematic channel of this linkage "
                             "(kind.name, kind one of angle, omega, alpha, x, y, vx, vy, v, ax, "
-                            "ay, a, s, sdot, sddot; names: {})",
+                            "ay, a, s, sdot, sddot, phi (a cam's pressure angle); names: {})",
                             spec.channel, join(objects)));
         ok = false;
       } else if (!channels.empty() &&
@@ -327,6 +327,8 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   }
   add("toggles", K::toggles, "", "");
   if (const auto fb = four_bar(m)) add("transmission", K::transmission, "mu." + fb->c, "");
+  for (const CamReading& cam : cam_readings(m))
+    add("pressure_angle_" + cam.joint, K::extremes, "phi." + cam.joint, "");
   // The links a joint holds to the ground (the ground among them): no coupler's.
   std::vector<bool> grounded(m.links.size(), false);
   grounded[static_cast<size_t>(g)] = true;
@@ -397,7 +399,8 @@ void read_references(Reader& r, Mechanism& m, const toml::table& root) {
               fmt::format("[[reference]]: unknown quantity '{}' (expected kind.name with kind "
                           "one of angle, omega, alpha, x, y, vx, vy, v, ax, ay, a, s, sdot, "
                           "sddot, fx, fy, f, fn, moment, torque, force, shaking_fx, shaking_fy, "
-                          "shaking_moment; or a [[derived]] name{})",
+                          "shaking_moment, phi (a cam's pressure angle); or a [[derived]] "
+                          "name{})",
                           ref.quantity, derived_names(m)));
       continue;
     }

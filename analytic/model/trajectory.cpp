@@ -2,12 +2,21 @@
 
 #include "analytic/model/fourbar.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <utility>
 
 namespace crosslink {
+namespace {
+int index_of(const std::vector<std::string>& names, std::string_view name) {
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+}  // namespace
 
 std::string_view to_string(ParallelSingularity kind) {
   switch (kind) {
@@ -99,6 +108,27 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
 
   transmission.clear();
   if (const auto fb = four_bar(mechanism)) transmission = {fb->b, fb->c, fb->d};
+  cams.clear();
+  for (CamReading& reading : cam_readings(mechanism)) {
+    CamChannel cam{std::move(reading)};
+    // A named point of each moving link places its frame: the first of its points named.
+    const auto anchor = [&](int moving, int& point, Eigen::Vector2d& local) {
+      if (moving < 0) return true;
+      const auto link =
+          std::find_if(mechanism.links.begin(), mechanism.links.end(), [&](const Link& l) {
+            return mechanism.moving_index(static_cast<int>(&l - mechanism.links.data())) == moving;
+          });
+      for (const Point& p : link->points) {
+        point = index_of(point_names, p.name);
+        local = p.local;
+        if (point >= 0) return true;
+      }
+      return false;
+    };
+    if (anchor(cam.reading.rows.a, cam.cam_point, cam.cam_local) &&
+        anchor(cam.reading.rows.b, cam.follower_point, cam.follower_local))
+      cams.push_back(std::move(cam));
+  }
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
@@ -232,12 +262,21 @@ constexpr std::array<std::string_view, 3> kShakingChannels = {"shaking_fx", "sha
 constexpr std::array<std::string_view, 4> kEnergyChannels = {"kinetic", "potential", "work",
                                                              "error"};
 
-int index_of(const std::vector<std::string>& names, std::string_view name) {
-  for (size_t i = 0; i < names.size(); ++i)
-    if (names[i] == name) return static_cast<int>(i);
-  return -1;
-}
 }  // namespace
+
+CamReading::Pose Trajectory::CamChannel::at(const Trajectory& t, int row) const {
+  // A link's frame: its angle, and its origin where its named point puts it.
+  const auto frame = [&](int link, int point, const Eigen::Vector2d& local) {
+    BodyMotion m;
+    if (link < 0) return m;
+    m.theta = t.angle(row, link);
+    m.rotation = Eigen::Rotation2Dd(m.theta).toRotationMatrix();
+    m.r = Eigen::Vector2d(t.x(row, point), t.y(row, point)) - m.rotation * local;
+    return m;
+  };
+  return reading.at(frame(reading.rows.a, cam_point, cam_local),
+                    frame(reading.rows.b, follower_point, follower_local));
+}
 
 std::vector<std::string> Trajectory::channel_names() const {
   std::vector<std::string> names;
@@ -251,6 +290,7 @@ std::vector<std::string> Trajectory::channel_names() const {
   for (size_t d = 0; d < named; ++d)
     names.push_back((driver_sliders[d] ? "s." : "angle.") + driver_names[d]);
   if (!transmission.empty()) names.push_back("mu." + transmission[1]);
+  for (const CamChannel& cam : cams) names.push_back("phi." + cam.reading.joint);
   if (has_forces) {
     if (!axis.timed()) names.push_back(swept_slider() ? "force.driver" : "torque.driver");
     for (size_t d = 0; d < named; ++d)
@@ -327,6 +367,13 @@ std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int fi
       mu(r - first) = interior_angle({x(r, c), y(r, c)}, {x(r, b), y(r, b)}, {x(r, d), y(r, d)});
     return mu;
   }
+  if (kind == "phi")
+    for (const CamChannel& cam : cams) {
+      if (cam.reading.joint != object) continue;
+      Eigen::VectorXd phi(count);
+      for (int r = first; r < first + count; ++r) phi(r - first) = cam.at(*this, r).pressure_angle;
+      return phi;
+    }
   if (const int f = has_forces ? index_of(friction_names, object) : -1; f >= 0)
     if (kind == (friction_sliding[static_cast<size_t>(f)] ? "friction_force" : "friction_moment"))
       return col(friction, f);
@@ -358,7 +405,7 @@ std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int fi
 
 Quantity Trajectory::quantity_of(std::string_view channel) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
-  if (kind == "angle" || kind == "mu") return Quantity::angle;
+  if (kind == "angle" || kind == "mu" || kind == "phi") return Quantity::angle;
   if (kind == "omega" || kind == "vx" || kind == "vy" || kind == "v" || kind == "sdot")
     return Quantity::velocity;
   if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")

@@ -9,6 +9,8 @@
 //   x.<point> y.<point> vx.<point> vy.<point> v.<point>         [m, m/s]  (v = |velocity|)
 //   ax.<point> ay.<point> a.<point>                             [m/s^2]   (a = |acceleration|)
 //   s.<slider> sdot.<slider> sddot.<slider>                     [m, m/s, m/s^2]
+// From any method's positions: a four-bar's transmission angle and each cam's pressure angle
+//   mu.<C> phi.<cam>                                            [rad]
 // Several drivers (each named, [[driver]]): each driver's value, named as its kind of coordinate
 //   angle.<driver> (angular) | s.<driver> (slider)              [rad | m]
 // Link angles are continuous (unwrapped) along a sweep. With forces (kinetostatics, has_forces):
@@ -50,6 +52,7 @@
 #include <utility>
 #include <vector>
 
+#include "analytic/model/constraints.h"
 #include "analytic/model/mechanism.h"
 
 namespace crosslink {
@@ -159,6 +162,17 @@ struct Trajectory {
   // A four-bar's pivots B, C, D (analytic/model/fourbar.h), empty otherwise: the channel mu.<C>,
   // the transmission angle at C, from any method's positions.
   std::vector<std::string> transmission;
+  // Each cam joint with a pressure angle (CamReading, analytic/model/constraints.h): the channel
+  // phi.<joint> from any method's positions, each of its links' frames placed by a named point of
+  // the link (its index in point_names, -1 for the ground's frame, and its local coordinates).
+  struct CamChannel {
+    CamReading reading;
+    int cam_point = -1, follower_point = -1;
+    Eigen::Vector2d cam_local = Eigen::Vector2d::Zero(), follower_local = Eigen::Vector2d::Zero();
+    // The cam's and the follower's frames at sample `row` of `t`, from their positions.
+    CamReading::Pose at(const Trajectory& t, int row) const;
+  };
+  std::vector<CamChannel> cams;
   // The energy balance, when the method keeps it (see the channel list above).
   bool has_energy = false;
   Eigen::MatrixXd energy;  // 4 columns: kinetic, potential, work, error [J]

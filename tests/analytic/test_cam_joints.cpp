@@ -10,11 +10,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "analytic/derived/derived.h"
+#include "analytic/derived/golden.h"
 #include "analytic/derived/jump.h"
 #include "analytic/kinematics/instant_centres.h"
 #include "analytic/model/loader.h"
@@ -263,7 +266,7 @@ TEST(CamJoints, ContactForceAndTorqueAreTheFollowersEquationsOfMotion) {
 // rise x above the prime circle, its velocity and acceleration at cam angle theta [rad] and speed
 // w, the lift starting at theta = 0.5 deg, the apex an ascent later, the fall its mirror.
 struct TangentPhase {
-  double x, v, a;
+  double x, v, a, phi;  // phi: the pressure angle
 };
 TangentPhase tangent_closed_form(double theta, double w) {
   const double rb = 30e-3, rr = 17.5e-3, lift = 17.5e-3, alpha = 75 * kDeg;
@@ -277,11 +280,11 @@ TangentPhase tangent_closed_form(double theta, double w) {
     theta = 2 * alpha - theta;
     sign = -1.0;
   }
-  if (theta <= 0.0) return {0.0, 0.0, 0.0};  // on the base circle
-  if (theta <= alpha - delta) {              // on a flank
+  if (theta <= 0.0) return {0.0, 0.0, 0.0, 0.0};  // on the base circle
+  if (theta <= alpha - delta) {  // on a flank, whose normal has turned with the cam by theta
     const double cs = std::cos(theta), sn = std::sin(theta);
     return {prime * (1 - cs) / cs, sign * w * prime * sn / (cs * cs),
-            w * w * prime * (2 - cs * cs) / (cs * cs * cs)};
+            w * w * prime * (2 - cs * cs) / (cs * cs * cs), sign * theta};
   }
   // On the nose, phi before the apex: r(phi) = c cos phi + sqrt(l^2 - c^2 sin^2 phi), and
   // dphi/dt = -w.
@@ -291,7 +294,9 @@ TangentPhase tangent_closed_form(double theta, double w) {
   const double dr = -c * sp - c * c * sp * cp / root;
   const double ddr = -c * cp - c * c * (cp * cp - sp * sp) / root -
                      std::pow(c, 4) * sp * sp * cp * cp / std::pow(root, 3);
-  return {r - prime, -sign * w * dr, w * w * ddr};
+  // The normal through the nose's centre: in the triangle of the cam's centre, the nose's and
+  // the roller's, sin(pressure angle) / c = sin(phi) / (Rn + Rr).
+  return {r - prime, -sign * w * dr, w * w * ddr, sign * std::asin(c * sp / l)};
 }
 
 // The tangent cam's follower, solved by Newton on the profile's pitch curve, against the
@@ -306,6 +311,8 @@ TEST(CamJoints, TangentCamFollowsItsFlankAndNoseClosedForms) {
   expect_channel(t, "s.follower", [&](int k) { return prime + at(k).x; });
   expect_channel(t, "sdot.follower", [&](int k) { return at(k).v; });
   expect_channel(t, "sddot.follower", [&](int k) { return at(k).a; });
+  expect_channel(
+      t, "phi.contact", [&](int k) { return at(k).phi; }, true);
   // The apex: a slider-crank at its dead centre, a = -w^2 c (1 + c / (Rn + Rr)).
   const double cos_ascent = std::cos(75 * kDeg);
   const double rn = (30e-3 - 47.5e-3 * cos_ascent) / (1 - cos_ascent), c = 47.5e-3 - rn;
@@ -321,6 +328,129 @@ TEST(CamJoints, TangentCamFollowsItsFlankAndNoseClosedForms) {
       "  acceleration at the start of lift %.4f m/s^2; printed %.1f (%+.3f %%), which is "
       "%.4f with pi = 3.142; at the apex %.4f m/s^2\n",
       a0, printed, 100 * (printed - a0) / a0, with_print_pi, apex);
+}
+
+// The pressure angle phi.<cam>, read from positions alone, against what fixes it without the
+// profile's row. A translating roller: tan phi = (s' - e) / (s + sqrt(Rp^2 - e^2)) (Norton, Design
+// of Machinery, ch. 8); a flat face square to its motion: 0; an oscillating roller: the common
+// normal runs through the cam-follower centre I = (s' d / (s' - 1), 0) (as found above) and the
+// roller's centre C, which moves square to the arm PC. The design summary's extremes of the
+// channel (pressure_angle_contact) are located on exact poses; here golden-section search on the
+// closed form over each of the rise and the return finds them independently.
+TEST(CamJoints, PressureAngleIsTheClosedFormsAndItsExtremesAreLocated) {
+  const double e = 0.01, rp = 0.05, d = 0.1, l = 0.08;
+  const double gamma0 = -std::acos((rp * rp - d * d - l * l) / (2 * l * d));
+  const auto translating = [&](double theta) {
+    const Expected x = closed_form(kTranslatingRoller, theta);
+    return std::atan((x.ds - e) / (x.s + std::sqrt(rp * rp - e * e)));
+  };
+  const auto oscillating = [&](double theta) {
+    const Expected x = closed_form(kOscillating, theta);
+    const Eigen::Vector2d pivot(d, 0.0), centre(x.ds * d / (x.ds - 1.0), 0.0);
+    const Eigen::Vector2d c =
+        pivot + l * Eigen::Vector2d(std::cos(gamma0 + x.s), std::sin(gamma0 + x.s));
+    Eigen::Vector2d n = (c - centre).normalized();
+    if (n.dot(c) < 0.0) n = -n;  // away from the cam: the pitch curve is star-shaped about O
+    Eigen::Vector2d motion = perp(c - pivot);
+    if (motion.dot(n) < 0.0) motion = -motion;
+    return std::atan2(cross(motion, n), motion.dot(n));
+  };
+  struct Case {
+    std::string stem;
+    std::function<double(double)> phi;
+    // The cam angles [deg] of the rise and the return, each holding one extreme.
+    std::pair<double, double> rise, fall;
+  };
+  for (const Case& c :
+       {Case{"translating_roller_345", translating, {0, 100}, {180, 280}},
+        Case{"cycloidal_flat_faced", [](double) { return 0.0; }, {0, 90}, {180, 270}},
+        Case{"oscillating_roller", oscillating, {0, 120}, {180, 300}}}) {
+    SCOPED_TRACE(c.stem);
+    const Mechanism m = bundled(c.stem);
+    const Trajectory t = sweep(m);
+    std::printf("[ %s ]\n", c.stem.c_str());
+    if (c.stem == "cycloidal_flat_faced") {
+      for (int k = 0; k < t.samples(); ++k) EXPECT_NEAR(value(t, "phi.contact", k), 0.0, 1e-15);
+      continue;
+    }
+    expect_channel(
+        t, "phi.contact", [&](int k) { return c.phi(t.swept(k)); }, true);
+    const std::vector<DerivedValue> derived = derived_exact(m, t);
+    const auto extreme = [&](std::pair<double, double> span, double sign) {
+      return golden_section_max([&](double v) { return std::optional(sign * c.phi(v)); },
+                                span.first * kDeg, span.second * kDeg);
+    };
+    const double at_max = extreme(c.rise, 1.0), at_min = extreme(c.fall, -1.0);
+    const double max = *derived_value(derived, "pressure_angle_contact.max");
+    const double min = *derived_value(derived, "pressure_angle_contact.min");
+    EXPECT_NEAR(max, c.phi(at_max), 1e-12);
+    EXPECT_NEAR(min, c.phi(at_min), 1e-12);
+    // A flat extreme's place is found to about the square root of round-off.
+    EXPECT_NEAR(*derived_value(derived, "pressure_angle_contact.at_max"), at_max, 1e-6);
+    EXPECT_NEAR(*derived_value(derived, "pressure_angle_contact.at_min"), at_min, 1e-6);
+    std::printf("  pressure angle from %.6f deg at %.4f deg to %.6f deg at %.4f deg\n", min / kDeg,
+                at_min / kDeg, max / kDeg, at_max / kDeg);
+  }
+}
+
+// The profile as the report draws it (CamReading::outline, from the joint's row) is the one the
+// follower's law cuts: at each pitch or normal angle, the contact profile_at finds at the cam
+// angle that puts the follower there (analytic/model/cam.h, synthesised from the law, not the
+// row); and the tangent cam's outline lies on its base circle, its nose circle or its flanks.
+TEST(CamJoints, OutlineIsTheProfileTheLawCuts) {
+  using cam::Law;
+  struct Case {
+    std::string stem;
+    cam::MotionProgram program;
+    cam::Follower follower;
+  };
+  const std::vector<Case> cases = {
+      {"translating_roller_345",
+       cam::MotionProgram(0.0, {{Law::polynomial_345, 100 * kDeg, 0.02},
+                                {Law::dwell, 80 * kDeg, 0.02},
+                                {Law::polynomial_4567, 100 * kDeg, 0.0},
+                                {Law::dwell, 80 * kDeg, 0.0}}),
+       {cam::FollowerKind::roller, false, 0.04, 0.01, 0.01}},
+      {"cycloidal_flat_faced",
+       cam::MotionProgram(0.0, {{Law::cycloidal, 90 * kDeg, 0.02},
+                                {Law::dwell, 90 * kDeg, 0.02},
+                                {Law::cycloidal, 90 * kDeg, 0.0},
+                                {Law::dwell, 90 * kDeg, 0.0}}),
+       {cam::FollowerKind::flat_faced, false, 0.05}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.stem);
+    const CamReading reading = cam_readings(bundled(c.stem)).at(0);
+    const std::vector<Eigen::Vector2d> outline = reading.outline(360);
+    ASSERT_EQ(outline.size(), 360u);
+    double worst = 0.0;
+    for (size_t k = 0; k < outline.size(); ++k) {
+      const double theta = reading.rows.contour->cam_angle(2 * kPi * static_cast<double>(k) / 360);
+      const cam::ProfilePoint p = cam::profile_at(c.program, c.follower, theta);
+      worst = std::max(worst, (outline[k] - p.contact).norm());
+    }
+    EXPECT_LE(worst, 1e-12);
+    std::printf("  %s: outline within %.1e m of the law's profile at 360 angles\n", c.stem.c_str(),
+                worst);
+  }
+  const Mechanism m = bundled("tangent_cam_roller");
+  const CamReading reading = cam_readings(m).at(0);
+  const double rb = 30e-3, nose_angle = 14.5 * kDeg, alpha = 75 * kDeg;
+  const double rn = (rb - 47.5e-3 * std::cos(alpha)) / (1 - std::cos(alpha)), c = 47.5e-3 - rn;
+  const Eigen::Vector2d nose = c * Eigen::Vector2d(std::cos(nose_angle), std::sin(nose_angle));
+  int on_nose = 0, on_base = 0;
+  for (const Eigen::Vector2d& u : reading.outline(360)) {
+    const double base = std::abs(u.norm() - rb), tip = std::abs((u - nose).norm() - rn);
+    double flank = 1.0;
+    for (const double side : {-1.0, 1.0}) {  // a flank: n . u = Rb, n at the nose axis +- alpha
+      const double b = nose_angle + side * alpha;
+      flank = std::min(flank, std::abs(std::cos(b) * u.x() + std::sin(b) * u.y() - rb));
+    }
+    EXPECT_LE(std::min({base, tip, flank}), 1e-12) << u.transpose();
+    on_nose += tip <= 1e-12;
+    on_base += base <= 1e-12;
+  }
+  EXPECT_GT(on_nose, 0);
+  EXPECT_GT(on_base, 0);
 }
 
 // The spring-held flat face (spring_cam_jump.toml): along +y the cam pushes the follower with

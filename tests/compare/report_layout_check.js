@@ -67,6 +67,16 @@
                       outside: centreMarks.concat(arrows, heads).filter((e) => !inside(box(e)))
                           .length};
 
+    // Cams: each profile drawn inside the frame, its pressure angle's two rules and its label.
+    const cams = REPORT.drawing.cams || [];
+    if (cams.length) {
+      const profiles = marks(drawing, 'cam_profiles');
+      result.cams = {data: cams.length, profiles: profiles.length,
+                     rules: marks(drawing, 'cam_rules').length,
+                     labelled: boxes.filter((b) => b.text.startsWith('\u03c6 ')).length,
+                     outside: profiles.filter((e) => !inside(box(e))).length};
+    }
+
     // Charts: the x axis spans the sweep, so the exact position channel's line (which has a value
     // at every sample) runs from the plot's left edge to its right edge.
     const chart = document.querySelector('.chart[id^="chart-position"] svg');
@@ -116,6 +126,13 @@
     if (m.centres.markers + m.centres.arrows !== m.centres.data)
       f.push(m.centres.data + ' centres, ' + m.centres.markers + ' drawn and ' + m.centres.arrows +
              ' arrows');
+    if (m.cams) {
+      const c = m.cams;
+      if (c.profiles !== c.data) f.push(c.data + ' cams, ' + c.profiles + ' profiles drawn');
+      if (c.outside) f.push(c.outside + ' cam profiles outside the frame');
+      if (c.rules < 2 * c.data) f.push(c.rules + ' pressure-angle rules for ' + c.data + ' cams');
+      if (c.labelled !== c.data) f.push(c.labelled + ' pressure angles named for ' + c.data + ' cams');
+    }
     if (!m.chart) {
       f.push('no position chart');
     } else if (Math.abs(m.chart.line_left - m.chart.plot_left) > 1.5 ||
