@@ -56,6 +56,18 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
           kind, m.links[j.link_b].name, cam_link, centre, t->base_radius / mm, unit,
           t->nose_radius / mm, unit, t->distance / mm, unit, t->lift() / mm, unit,
           t->ascent() * 180.0 / std::numbers::pi, roller, closure);
+    if (j.contour->surface())
+      return fmt::format(
+          "cam          {} {} on cam {} about {} (a profile through its points{}; least radius of "
+          "curvature {:.4g} {}{})",
+          kind, m.links[j.link_b].name, cam_link, centre, roller,
+          j.contour->least_radius_of_curvature() / mm, unit, closure);
+    if (const cam::EccentricCam* e = j.contour->eccentric())
+      return fmt::format(
+          "cam          {} {} on eccentric cam {} about {} (disc of radius {:g} {} at an "
+          "eccentricity of {:g} {}, its centre at {:.6g} deg{}{})",
+          kind, m.links[j.link_b].name, cam_link, centre, e->radius / mm, unit,
+          e->eccentricity / mm, unit, e->angle * 180.0 / std::numbers::pi, roller, closure);
     return fmt::format(
         "cam          {} {} {} on {} about {} (base circle {:g} {}{}; least radius of curvature "
         "{:.4g} {}, largest pressure angle {:.2f} deg{})",

@@ -30,6 +30,8 @@ Quantity quantity_of(const DerivedSpec& spec, DerivedUnit unit, bool angular) {
       return Quantity::angle;
     case DerivedUnit::length:
       return Quantity::position;
+    case DerivedUnit::speed:
+      return Quantity::velocity;
   }
   return Quantity::position;
 }
@@ -54,6 +56,7 @@ double scale_of(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit,
     case DerivedUnit::length:
       return size;
     case DerivedUnit::ratio:
+    case DerivedUnit::speed:
       return exact ? std::abs(*exact) : 0.0;
   }
   return 0.0;

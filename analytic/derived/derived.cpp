@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "analytic/derived/golden.h"
+#include "analytic/derived/jump.h"
 #include "analytic/kinematics/newton.h"
 #include "analytic/model/planar.h"
 #include "analytic/model/units_text.h"
@@ -709,6 +710,17 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     out.fields.clear();
     for (size_t i = 0; i < toggles.size(); ++i)
       out.fields.push_back({fmt::format("toggle{}", i + 1), DerivedUnit::driver, toggles[i]});
+    return out;
+  }
+  if (spec.kind == K::jump_speed) {
+    if (!exact)
+      return fail(
+          "the jump speed is found from exact kinetostatic solves at three speeds at each pose; "
+          "a method's samples, at one speed, do not give it");
+    const JumpSpeed jump = jump_speed(m, m.find_joint(spec.cam));
+    if (!jump.speed) return fail(jump.reason);
+    set("speed", *jump.speed);
+    set("at", jump.at);
     return out;
   }
   const bool positions = spec.kind == K::straightness || spec.kind == K::circularity ||

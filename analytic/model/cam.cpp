@@ -108,20 +108,20 @@ MotionProgram::MotionProgram(double start, std::vector<Segment> segments)
 
 MotionProgram MotionProgram::table(const std::vector<std::pair<double, double>>& points) {
   const int n = static_cast<int>(points.size());
-  if (n < 3) throw std::invalid_argument("a table needs at least three points");
+  if (n < 3) throw std::invalid_argument("a periodic spline needs at least three points");
   MotionProgram p;
   for (int i = 0; i < n; ++i) {
     const auto& [theta, s] = points[static_cast<size_t>(i)];
     if (!std::isfinite(theta) || !std::isfinite(s))
-      throw std::invalid_argument(fmt::format("table point {}: not a number", i + 1));
+      throw std::invalid_argument(fmt::format("point {}: not a number", i + 1));
     if (i > 0 && !(theta > p.knot_theta_.back()))
       throw std::invalid_argument(
-          fmt::format("table point {}: its cam angle must exceed the one before", i + 1));
+          fmt::format("point {}: its angle must exceed the one before", i + 1));
     p.knot_theta_.push_back(theta);
     p.knot_s_.push_back(s);
   }
   if (!(p.knot_theta_.back() < p.knot_theta_.front() + kTurn))
-    throw std::invalid_argument("the table's cam angles must lie within one turn");
+    throw std::invalid_argument("the points' angles must lie within one turn");
   // The periodic spline's second derivatives M: for each knot i, with h the interval lengths
   // (the last wrapping to the first knot a turn on),
   // h[i-1] M[i-1] + 2 (h[i-1] + h[i]) M[i] + h[i] M[i+1] = 6 (slope[i] - slope[i-1]).
@@ -300,7 +300,8 @@ Contour::Contour(MotionProgram motion, Follower follower)
 }
 
 double Contour::cam_angle(double angle) const {
-  if (!motion_) throw std::logic_error("a tangent cam's contact follows its guide, not a law");
+  if (!motion_)
+    throw std::logic_error("a profile given by its shape: its contact follows the guide, no law");
   if (flat_faced()) return kPi / 2.0 - angle;  // the face's normal +y turned by -theta
   // The turn's sample whose polar angle lies just above `angle` (taken into (psi_0 - 2 pi,
   // psi_0]), then Newton on angle(F(theta)) - theta = angle.
@@ -354,16 +355,140 @@ TangentCam TangentCam::from_lift(double base_radius, double lift, double ascent,
   return cam;
 }
 
-Contour::Contour(TangentCam shape, Follower follower) : tangent_(shape), follower_(follower) {
+Contour::Contour(TangentCam shape, Follower follower) : Contour(follower) {
+  tangent_ = shape;
   if (follower_.kind == FollowerKind::flat_faced)
     throw std::invalid_argument(
         "a flat face on a tangent cam would leave the base circle for the nose at once, its "
         "velocity not continuous: a tangent cam takes a knife edge or a roller");
-  if (follower_.kind == FollowerKind::roller && !(follower_.roller_radius > 0.0))
-    throw std::invalid_argument("the roller's radius must be positive");
   // The flanks have no curvature, the base circle more radius than the nose.
   least_radius_ = shape.nose_radius;
-  largest_pressure_ = std::numeric_limits<double>::quiet_NaN();
+}
+
+Contour::Contour(Follower follower) : follower_(follower) {
+  if (follower_.kind == FollowerKind::roller && !(follower_.roller_radius > 0.0))
+    throw std::invalid_argument("the roller's radius must be positive");
+  largest_pressure_ = std::numeric_limits<double>::quiet_NaN();  // the follower's guide's
+}
+
+Contour::Contour(EccentricCam shape, Follower follower) : Contour(follower) {
+  eccentric_ = shape;
+  if (!(shape.eccentricity >= 0.0))
+    throw std::invalid_argument("eccentricity: the eccentricity must not be negative");
+  if (!(shape.radius > shape.eccentricity))
+    throw std::invalid_argument(
+        fmt::format("radius: the disc's radius {:.6g} must exceed its eccentricity {:.6g}, so "
+                    "that it holds the cam's centre",
+                    shape.radius, shape.eccentricity));
+  least_radius_ = shape.radius;
+}
+
+namespace {
+// A point X(phi) = r(phi) u(phi) of a surface given in polar form, and its first three
+// derivatives in phi (u' = perp(u), perp(u)' = -u).
+struct Curve {
+  Eigen::Vector2d X, dX, ddX, dddX;
+};
+Curve surface_point(const MotionProgram& radius, double phi) {
+  const Motion m = radius.at(phi);
+  const Eigen::Vector2d u(std::cos(phi), std::sin(phi)), v = perp(u);
+  return {m.s * u, m.ds * u + m.s * v, (m.dds - m.s) * u + 2.0 * m.ds * v,
+          (m.ddds - 3.0 * m.ds) * u + (3.0 * m.dds - m.s) * v};
+}
+// The curve moved by r along its outward normal n = -perp(X') / |X'| (the surface runs
+// counterclockwise), with its first two derivatives: a roller's centre on the surface.
+struct Path {
+  Eigen::Vector2d P, dP, ddP;
+};
+Path moved_out(const Curve& c, double r) {
+  const double s = c.dX.norm(), ds = c.dX.dot(c.ddX) / s;
+  const double dds = (c.ddX.squaredNorm() + c.dX.dot(c.dddX) - ds * ds) / s;
+  const Eigen::Vector2d n = -perp(c.dX) / s;
+  const Eigen::Vector2d dn = -perp(c.ddX) / s + perp(c.dX) * ds / (s * s);
+  const Eigen::Vector2d ddn = -perp(c.dddX) / s + 2.0 * perp(c.ddX) * ds / (s * s) +
+                              perp(c.dX) * (dds / (s * s) - 2.0 * ds * ds / (s * s * s));
+  return {c.X + r * n, c.dX + r * dn, c.ddX + r * ddn};
+}
+// A path F(t) in polar form: rho = |F| against psi = angle(F) - spin t, by the chain rule
+// through t (spin 1: a follower's path seen from the turning cam; 0: a curve of the cam).
+Polar polar_of(const Eigen::Vector2d& F, const Eigen::Vector2d& dF, const Eigen::Vector2d& ddF,
+               double spin) {
+  const double r = F.norm(), r2 = F.squaredNorm();
+  const double dr = F.dot(dF) / r;
+  const double ddr = (dF.squaredNorm() + F.dot(ddF) - dr * dr) / r;
+  const double turn = cross(F, dF);
+  const double dpsi = turn / r2 - spin;
+  const double ddpsi = cross(F, ddF) / r2 - 2.0 * turn * F.dot(dF) / (r2 * r2);
+  return {r, dr / dpsi, (ddr * dpsi - dr * ddpsi) / (dpsi * dpsi * dpsi)};
+}
+}  // namespace
+
+Contour Contour::from_points(MotionProgram surface, Follower follower) {
+  Contour c(follower);
+  c.surface_ = std::move(surface);
+  c.least_radius_ = std::numeric_limits<double>::infinity();
+  const bool flat = c.flat_faced();
+  const double r = follower.kind == FollowerKind::roller ? follower.roller_radius : 0.0;
+  for (int k = 0; k <= kSamples; ++k) {
+    const double phi = kTurn * k / kSamples;
+    const Curve s = surface_point(*c.surface_, phi);
+    const double bend = cross(s.dX, s.ddX);  // |X'|^3 times the curvature
+    const double radius = std::pow(s.dX.norm(), 3) / bend;
+    if (!(s.X.dot(Eigen::Vector2d(std::cos(phi), std::sin(phi))) > 0.0))
+      throw std::invalid_argument(
+          fmt::format("points: the profile's radius is not positive at {:.1f} deg", phi / kDegree));
+    if (flat && !(bend > 0.0))
+      throw std::invalid_argument(fmt::format(
+          "points: the profile is concave at {:.1f} deg: a flat face bridges a concave stretch, "
+          "so it needs a convex profile",
+          phi / kDegree));
+    if (bend < 0.0 && !(-radius > r))
+      throw std::invalid_argument(fmt::format(
+          "points: the profile's concave stretch at {:.1f} deg (radius of curvature {:.4g}) is "
+          "tighter than the {}",
+          phi / kDegree, -radius, r > 0.0 ? "roller" : "knife edge can follow"));
+    if (bend > 0.0) c.least_radius_ = std::min(c.least_radius_, radius);
+    // The angle the row reads: the face's normal's, or the pitch point's polar angle.
+    double angle = std::atan2(s.dX.y(), s.dX.x()) - kPi / 2.0;
+    if (!flat) {
+      const Path p = moved_out(s, r);
+      if (!(cross(p.P, p.dP) > 0.0))
+        throw std::invalid_argument(fmt::format(
+            "points: the roller's path is not star-shaped about the cam's centre at {:.1f} deg",
+            phi / kDegree));
+      angle = std::atan2(p.P.y(), p.P.x());
+    }
+    c.psi_.push_back(k == 0 ? angle : c.psi_.back() + std::remainder(angle - c.psi_.back(), kTurn));
+  }
+  return c;
+}
+
+double Contour::surface_angle(double angle) const {
+  const double x =
+      angle + kTurn * std::floor((psi_.back() - angle) / kTurn);  // in (psi_n - 2 pi, psi_n]
+  const auto above = std::upper_bound(psi_.begin(), psi_.end(), x);
+  const size_t i = above == psi_.begin()
+                       ? 0
+                       : std::min(static_cast<size_t>(above - psi_.begin()) - 1, psi_.size() - 2);
+  const double step = kTurn / kSamples;
+  double phi = step * (static_cast<double>(i) + (x - psi_[i]) / (psi_[i + 1] - psi_[i]));
+  const double r = follower_.kind == FollowerKind::roller ? follower_.roller_radius : 0.0;
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    const Curve s = surface_point(*surface_, phi);
+    double value = 0.0, slope = 0.0;
+    if (flat_faced()) {
+      value = std::atan2(s.dX.y(), s.dX.x()) - kPi / 2.0;
+      slope = cross(s.dX, s.ddX) / s.dX.squaredNorm();
+    } else {
+      const Path p = moved_out(s, r);
+      value = std::atan2(p.P.y(), p.P.x());
+      slope = cross(p.P, p.dP) / p.P.squaredNorm();
+    }
+    const double delta = std::remainder(value - x, kTurn) / slope;
+    phi -= delta;
+    if (std::abs(delta) <= 1e-15) break;
+  }
+  return phi;
 }
 
 namespace {
@@ -396,20 +521,36 @@ Polar Contour::at(double angle) const {
     }
     return {cam.base_radius + r, 0.0, 0.0};
   }
+  if (eccentric_) {  // the disc (moved out by the roller's radius), or its support function
+    const EccentricCam& cam = *eccentric_;
+    const double t = angle - cam.angle, e = cam.eccentricity;
+    if (flat_faced()) return {cam.radius + e * std::cos(t), -e * std::sin(t), -e * std::cos(t)};
+    const double r = follower_.kind == FollowerKind::roller ? follower_.roller_radius : 0.0;
+    return circle_polar(e, cam.radius + r, t);
+  }
+  if (surface_) {
+    if (flat_faced()) {  // h = X . n, h' = X . perp(n), h + h'' the radius of curvature
+      const Curve s = surface_point(*surface_, surface_angle(angle));
+      const Eigen::Vector2d n(std::cos(angle), std::sin(angle));
+      const double h = s.X.dot(n);
+      return {h, s.X.dot(perp(n)), std::pow(s.dX.norm(), 3) / cross(s.dX, s.ddX) - h};
+    }
+    if (follower_.kind == FollowerKind::knife_edge) {  // the pitch curve is the surface
+      const Motion m = surface_->at(angle);
+      return {m.s, m.ds, m.dds};
+    }
+    const Path p =
+        moved_out(surface_point(*surface_, surface_angle(angle)), follower_.roller_radius);
+    return polar_of(p.P, p.dP, p.ddP, 0.0);
+  }
   const double theta = cam_angle(angle);
   if (flat_faced()) {  // h(alpha) = base + s(pi/2 - alpha)
     const Motion m = motion_->at(theta);
     return {follower_.base_radius + m.s, -m.ds, m.dds};
   }
-  // rho = |F(theta)| against psi = angle(F) - theta, by the chain rule through theta.
+  // rho = |F(theta)| against psi = angle(F) - theta.
   const FollowerPath f = follower_path(*motion_, follower_, theta);
-  const double r = f.F.norm(), r2 = f.F.squaredNorm();
-  const double dr = f.F.dot(f.dF) / r;
-  const double ddr = (f.dF.squaredNorm() + f.F.dot(f.ddF) - dr * dr) / r;
-  const double turn = cross(f.F, f.dF);
-  const double dpsi = turn / r2 - 1.0;
-  const double ddpsi = cross(f.F, f.ddF) / r2 - 2.0 * turn * f.F.dot(f.dF) / (r2 * r2);
-  return {r, dr / dpsi, (ddr * dpsi - dr * ddpsi) / (dpsi * dpsi * dpsi)};
+  return polar_of(f.F, f.dF, f.ddF, 1.0);
 }
 
 }  // namespace crosslink::cam

@@ -141,6 +141,16 @@ struct TangentCam {
                               double nose_angle);
 };
 
+// An eccentric cam: a circular disc of radius R whose centre is the eccentricity e from the cam's
+// centre, in the direction `angle` of the cam frame. A knife edge or a roller (of radius r) on a
+// radial translating follower moves as the slider of a slider-crank of crank e and rod R + r; a
+// flat face square to its motion as a Scotch yoke's, by e sin of the cam angle.
+struct EccentricCam {
+  double radius = 0.0;        // R, more than e: the disc holds the cam's centre
+  double eccentricity = 0.0;  // e
+  double angle = 0.0;         // the disc centre's direction in the cam frame [rad]
+};
+
 // A function of an angle in the cam frame, with its first two derivatives in that angle.
 struct Polar {
   double value = 0.0, d = 0.0, dd = 0.0;
@@ -164,6 +174,16 @@ class Contour {
   // A tangent cam's profile for a knife edge or a roller (a flat face would jump from the base
   // circle to the nose: refused); the follower's motion is then whatever its guide makes it.
   Contour(TangentCam shape, Follower follower);
+  // An eccentric cam's profile for any follower; throws std::invalid_argument ("radius: ...",
+  // "eccentricity: ...") when the disc does not hold the cam's centre.
+  Contour(EccentricCam shape, Follower follower);
+  // A profile given by its points: the cam's surface r(phi) in polar form about its centre, a
+  // periodic cubic spline through them (MotionProgram::table's, phi for the cam angle and r for
+  // the displacement), for any follower. A roller's centre runs on the surface moved out by its
+  // radius along the normal, a flat face on its support function. Throws std::invalid_argument
+  // where the follower cannot follow it: a radius that is not positive, a concave stretch
+  // tighter than the roller, any concave stretch under a flat face.
+  static Contour from_points(MotionProgram surface, Follower follower);
 
   // rho(psi) for a knife edge or a roller, h(alpha) for a flat face: any angle, every turn.
   Polar at(double angle) const;
@@ -171,19 +191,30 @@ class Contour {
   // edge, roller) or normal angle (flat face); a profile cut from a motion law only.
   double cam_angle(double angle) const;
 
-  // The tangent cam's shape, or null for a profile cut from a motion law.
+  // The tangent or eccentric cam's shape, or null for another profile.
   const TangentCam* tangent() const { return tangent_ ? &*tangent_ : nullptr; }
+  const EccentricCam* eccentric() const { return eccentric_ ? &*eccentric_ : nullptr; }
   const Follower& follower() const { return follower_; }
   bool flat_faced() const { return follower_.kind == FollowerKind::flat_faced; }
+  // A profile given by its points (from_points), or null.
+  const MotionProgram* surface() const { return surface_ ? &*surface_ : nullptr; }
   // Over one turn, sampled every 0.1 degree: the profile's least radius of curvature where
-  // convex, and the largest pressure angle's magnitude (NaN for a tangent cam: it is the
-  // follower's guide's).
+  // convex, and the largest pressure angle's magnitude (NaN for a profile given by its shape: it
+  // is the follower's guide's).
   double least_radius_of_curvature() const { return least_radius_; }
   double largest_pressure_angle() const { return largest_pressure_; }
 
  private:
+  // A profile given by its shape or points: checks the roller's radius.
+  explicit Contour(Follower follower);
   std::optional<MotionProgram> motion_;
   std::optional<TangentCam> tangent_;
+  std::optional<EccentricCam> eccentric_;
+  std::optional<MotionProgram> surface_;  // a profile given by its points: r(phi)
+  // A profile given by its points: the surface angle phi at which the follower touches it when
+  // its pitch point's polar angle (or its face's normal's angle) is `angle`; psi_ then holds
+  // that angle at phi_k = k 2 pi / n (k = 0..n), rising by a turn over a turn.
+  double surface_angle(double angle) const;
   Follower follower_;
   // The pitch point's polar angle psi(theta) = angle(F) - theta, unwrapped, at theta_k = k
   // 2 pi / n (k = 0..n): it falls by a turn over a turn. Newton's start for cam_angle.

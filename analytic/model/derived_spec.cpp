@@ -26,6 +26,8 @@ std::vector<std::string> derived_fields(DerivedSpec::Kind kind) {
       return {"deviation", "extent", "direction"};
     case K::circularity:
       return {"deviation", "radius", "centre_x", "centre_y", "extent"};
+    case K::jump_speed:
+      return {"speed", "at"};
   }
   return {};
 }
@@ -33,8 +35,9 @@ std::vector<std::string> derived_fields(DerivedSpec::Kind kind) {
 DerivedUnit derived_field_unit(DerivedSpec::Kind kind, std::string_view field) {
   using K = DerivedSpec::Kind;
   if (field.starts_with("at_") || field.starts_with("toggle") || field == "increasing" ||
-      field == "decreasing")
+      field == "decreasing" || field == "at")
     return DerivedUnit::driver;
+  if (kind == K::jump_speed) return DerivedUnit::speed;
   if (kind == K::time_ratio) return DerivedUnit::ratio;
   if (kind == K::straightness)
     return field == "direction" ? DerivedUnit::angle : DerivedUnit::length;
@@ -52,6 +55,8 @@ double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit u
       return m.units.length;
     case DerivedUnit::angle:
       return m.units.angle;
+    case DerivedUnit::speed:
+      return m.swept().law.speed_unit.si;
     case DerivedUnit::channel:
       break;
   }
@@ -80,6 +85,8 @@ std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, Deriv
       return L;
     case DerivedUnit::angle:
       return m.units.angle_name;
+    case DerivedUnit::speed:
+      return m.swept().law.speed_unit.name;
     case DerivedUnit::channel:
       break;
   }
@@ -133,6 +140,8 @@ std::string_view to_string(DerivedSpec::Kind kind) {
       return "straightness";
     case K::circularity:
       return "circularity";
+    case K::jump_speed:
+      return "jump_speed";
   }
   return "";
 }

@@ -19,6 +19,7 @@ enum class DerivedUnit {
   ratio,    // a pure number
   length,   // m
   angle,    // rad
+  speed,    // the driver's speed (rad/s or m/s), in its law's unit
 };
 
 // The unit of field `field` of a quantity of kind `kind`.

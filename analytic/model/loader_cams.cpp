@@ -18,10 +18,31 @@ const std::vector<std::pair<std::string_view, cam::Law>> kLaws = {
     {"polynomial_4567", cam::Law::polynomial_4567},
 };
 
-// The number k of a message "segment k: ..." or "table point k: ..." (0 if it names none).
+// The number k of a message "segment k: ..." or "point k: ..." (0 if it names none).
 size_t numbered(const std::string& message, std::string_view prefix) {
   if (message.rfind(prefix, 0) != 0) return 0;
   return static_cast<size_t>(std::atoi(message.c_str() + prefix.size()));
+}
+
+// `[[angle, value], ...]` at `key` through a periodic cubic spline (MotionProgram::table), each
+// fault at its point.
+std::optional<cam::MotionProgram> read_spline(Reader& r, const toml::node& key,
+                                              const toml::array& array, const std::string& what,
+                                              const Scale& angle, const Scale& value) {
+  const size_t before = r.diagnostics().size();
+  std::vector<std::pair<double, double>> points;
+  for (size_t k = 0; k < array.size(); ++k) {
+    const auto v = r.numbers(array[k], fmt::format("point {} of {}", k + 1, what), {angle, value});
+    if (v) points.emplace_back((*v)[0], (*v)[1]);
+  }
+  if (r.diagnostics().size() != before) return std::nullopt;
+  try {
+    return cam::MotionProgram::table(points);
+  } catch (const std::invalid_argument& e) {
+    const size_t k = numbered(e.what(), "point ");
+    r.error(r.at(k > 0 ? array[k - 1] : key), fmt::format("{}: {}", what, e.what()));
+    return std::nullopt;
+  }
 }
 
 // `motion = [{ law, span, to }, ...]` from `start`, or `table = [[angle, s], ...]`.
@@ -43,23 +64,8 @@ std::optional<cam::MotionProgram> read_motion(Reader& r, const toml::table& p,
             fmt::format("'{}' in {} must be a non-empty array", motion ? "motion" : "table", what));
     return std::nullopt;
   }
+  if (table) return read_spline(r, *table, *array, what, angle, displacement);
   const size_t before = r.diagnostics().size();
-  if (table) {
-    std::vector<std::pair<double, double>> points;
-    for (size_t k = 0; k < array->size(); ++k) {
-      const auto v = r.numbers((*array)[k], fmt::format("table point {} of {}", k + 1, what),
-                               {angle, displacement});
-      if (v) points.emplace_back((*v)[0], (*v)[1]);
-    }
-    if (r.diagnostics().size() != before) return std::nullopt;
-    try {
-      return cam::MotionProgram::table(points);
-    } catch (const std::invalid_argument& e) {
-      const size_t k = numbered(e.what(), "table point ");
-      r.error(r.at(k > 0 ? &(*array)[k - 1] : table), fmt::format("{}: {}", what, e.what()));
-      return std::nullopt;
-    }
-  }
   std::vector<cam::Segment> segments;
   const double start = r.number(p, "start", what, false, displacement).value_or(0.0);
   double at = start;
@@ -114,16 +120,99 @@ const char* key_of(std::string_view message, bool oscillating) {
   return nullptr;
 }
 
-// `shape = "tangent"`: the base circle, the lift and the angle of ascent or the nose's radius.
+// A shape's refusal "key: why" at its key; the contour's refusals are the follower's.
+void refuse_shape(Reader& r, const toml::table& p, const std::string& what, const toml::node* face,
+                  const std::string& message) {
+  const size_t colon = message.find(": ");
+  const std::string key = colon == std::string::npos ? "" : message.substr(0, colon);
+  if (const toml::node* at = key.empty() ? nullptr : p.get(key)) {
+    r.error(r.at(at), fmt::format("{}: {}", what, message.substr(colon + 2)));
+    return;
+  }
+  r.error(face ? r.at(*face)
+               : r.at(p.get("roller_radius") ? p.get("roller_radius")
+                                             : static_cast<const toml::node*>(&p)),
+          fmt::format("{}: {}", what, message));
+}
+
+// The follower a shape's profile holds: a flat face, a roller (`roller_radius`) or a knife edge.
+cam::Follower shape_follower(Reader& r, const Mechanism& m, const toml::table& p,
+                             const std::string& what, const toml::node* face) {
+  cam::Follower f;
+  const std::optional<double> roller =
+      r.number(p, "roller_radius", what, false, length_scale(m.units));
+  f.kind = face     ? cam::FollowerKind::flat_faced
+           : roller ? cam::FollowerKind::roller
+                    : cam::FollowerKind::knife_edge;
+  f.roller_radius = roller.value_or(0.0);
+  return f;
+}
+
+// `shape = "eccentric"`: a disc of `radius` whose centre is `eccentricity` from the cam's, at
+// `lobe_angle` in the cam's frame.
+std::shared_ptr<const cam::Contour> read_eccentric(Reader& r, const Mechanism& m,
+                                                   const toml::table& p, const std::string& what,
+                                                   const toml::node* face) {
+  r.known_keys(p, what, {"shape", "radius", "eccentricity", "lobe_angle", "roller_radius"});
+  const Scale length = length_scale(m.units);
+  const size_t before = r.diagnostics().size();
+  cam::EccentricCam shape;
+  shape.radius = r.number(p, "radius", what, true, length).value_or(0.0);
+  shape.eccentricity = r.number(p, "eccentricity", what, true, length).value_or(0.0);
+  shape.angle = r.number(p, "lobe_angle", what, false, angle_scale(m.units)).value_or(0.0);
+  cam::Follower f = shape_follower(r, m, p, what, face);
+  f.base_radius = shape.radius - shape.eccentricity;
+  if (r.diagnostics().size() != before) return nullptr;
+  try {
+    return std::make_shared<const cam::Contour>(shape, f);
+  } catch (const std::invalid_argument& e) {
+    refuse_shape(r, p, what, face, e.what());
+  }
+  return nullptr;
+}
+
+// `shape = "points"`: the profile's surface through `points = [[angle, radius], ...]` in the cam's
+// frame (a periodic cubic spline, polar about the cam's centre).
+std::shared_ptr<const cam::Contour> read_points(Reader& r, const Mechanism& m, const toml::table& p,
+                                                const std::string& what, const toml::node* face) {
+  r.known_keys(p, what, {"shape", "points", "roller_radius"});
+  const size_t before = r.diagnostics().size();
+  cam::Follower f = shape_follower(r, m, p, what, face);
+  const toml::node* points = p.get("points");
+  const toml::array* array = points ? points->as_array() : nullptr;
+  if (!array || array->empty())
+    r.error(points ? r.at(*points) : r.inside(p),
+            fmt::format("{} needs 'points', a non-empty array of [angle, radius] of the "
+                        "profile in the cam's frame",
+                        what));
+  if (r.diagnostics().size() != before) return nullptr;
+  std::optional<cam::MotionProgram> surface =
+      read_spline(r, *points, *array, what, angle_scale(m.units), length_scale(m.units));
+  if (!surface) return nullptr;
+  try {
+    f.base_radius = 0.0;  // the least radius: the profile's own, below
+    cam::Contour contour = cam::Contour::from_points(std::move(*surface), f);
+    return std::make_shared<const cam::Contour>(std::move(contour));
+  } catch (const std::invalid_argument& e) {
+    refuse_shape(r, p, what, face, e.what());
+  }
+  return nullptr;
+}
+
+// `shape = "tangent"`: the base circle, the lift and the angle of ascent or the nose's radius;
+// `shape = "eccentric"`: read_eccentric; `shape = "points"`: read_points.
 std::shared_ptr<const cam::Contour> read_shape(Reader& r, const Mechanism& m, const toml::table& p,
                                                const std::string& what, const toml::node* face) {
+  const std::string shape = r.string(p, "shape", what, true).value_or("");
+  if (shape == "eccentric") return read_eccentric(r, m, p, what, face);
+  if (shape == "points") return read_points(r, m, p, what, face);
   r.known_keys(
       p, what,
       {"shape", "base_radius", "roller_radius", "lift", "ascent", "nose_radius", "nose_angle"});
-  const std::string shape = r.string(p, "shape", what, true).value_or("");
   if (shape != "tangent") {
     r.error(r.at(p.get("shape")),
-            fmt::format("{}: unknown shape '{}' (valid shapes: tangent)", what, shape));
+            fmt::format("{}: unknown shape '{}' (valid shapes: tangent, eccentric, points)", what,
+                        shape));
     return nullptr;
   }
   const Scale length = length_scale(m.units), angle = angle_scale(m.units);
@@ -136,12 +225,7 @@ std::shared_ptr<const cam::Contour> read_shape(Reader& r, const Mechanism& m, co
     r.error(ascent ? r.at(p.get("nose_radius")) : r.inside(p),
             fmt::format("{} needs one of 'ascent' (the angle of ascent) or 'nose_radius'", what));
   const double nose_angle = r.number(p, "nose_angle", what, false, angle).value_or(0.0);
-  cam::Follower f;
-  const std::optional<double> roller = r.number(p, "roller_radius", what, false, length);
-  f.kind = face     ? cam::FollowerKind::flat_faced
-           : roller ? cam::FollowerKind::roller
-                    : cam::FollowerKind::knife_edge;
-  f.roller_radius = roller.value_or(0.0);
+  cam::Follower f = shape_follower(r, m, p, what, face);
   f.base_radius = base;
   if (r.diagnostics().size() != before) return nullptr;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -150,19 +234,7 @@ std::shared_ptr<const cam::Contour> read_shape(Reader& r, const Mechanism& m, co
                                                            nose.value_or(nan), nose_angle);
     return std::make_shared<const cam::Contour>(cam, f);
   } catch (const std::invalid_argument& e) {
-    // "key: why" from the shape; the contour's refusals are the follower's.
-    const std::string message = e.what();
-    const size_t colon = message.find(": ");
-    const std::string key = colon == std::string::npos ? "" : message.substr(0, colon);
-    const toml::node* at = key.empty() ? nullptr : p.get(key);
-    if (at) {
-      r.error(r.at(at), fmt::format("{}: {}", what, message.substr(colon + 2)));
-    } else {
-      r.error(face ? r.at(*face)
-                   : r.at(p.get("roller_radius") ? p.get("roller_radius")
-                                                 : static_cast<const toml::node*>(&p)),
-              fmt::format("{}: {}", what, message));
-    }
+    refuse_shape(r, p, what, face, e.what());
   }
   return nullptr;
 }

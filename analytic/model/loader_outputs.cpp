@@ -111,14 +111,15 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   // The channels a sweep has (none when an earlier error leaves no linkage to lay them out).
   const std::vector<std::string> channels = channels_of(r, m);
   using K = DerivedSpec::Kind;
-  const std::vector<K> kinds = {K::extremes, K::stroke,       K::time_ratio,   K::dead_points,
-                                K::toggles,  K::transmission, K::straightness, K::circularity};
+  const std::vector<K> kinds = {K::extremes,     K::stroke,      K::time_ratio,
+                                K::dead_points,  K::toggles,     K::transmission,
+                                K::straightness, K::circularity, K::jump_speed};
   std::vector<std::string> kind_names;
   for (const K k : kinds) kind_names.emplace_back(to_string(k));
   const Driver& d = m.swept();
   for (const toml::node& entry : *array) {
     const toml::table& t = *entry.as_table();
-    r.known_keys(t, "[[derived]]", {"name", "quantity", "channel", "point", "range"});
+    r.known_keys(t, "[[derived]]", {"name", "quantity", "channel", "point", "cam", "range"});
     DerivedSpec spec;
     spec.where = r.at(t);
     spec.name = r.string(t, "name", "[[derived]]", true).value_or("");
@@ -157,8 +158,12 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
     const bool reads_channel = spec.kind == K::extremes || spec.kind == K::stroke ||
                                spec.kind == K::time_ratio || spec.kind == K::dead_points;
     const bool reads_point = spec.kind == K::straightness || spec.kind == K::circularity;
-    const std::string valid_keys = reads_point ? "point" : reads_channel ? "channel" : "range";
-    for (const char* key : {"channel", "point"})
+    const bool reads_cam = spec.kind == K::jump_speed;
+    const std::string valid_keys = reads_point     ? "point"
+                                   : reads_channel ? "channel"
+                                   : reads_cam     ? "cam"
+                                                   : "range";
+    for (const char* key : {"channel", "point", "cam"})
       if (const toml::node* n = t.get(key); n && valid_keys != key) {
         r.error(r.at(n), fmt::format("[[derived]] quantity '{}' takes no '{}'", quantity, key));
         ok = false;
@@ -222,6 +227,32 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
                 fmt::format("[[derived]]: no point '{}' (points: {})", spec.point, join(names)));
       }
       if (spec.point.empty()) ok = false;
+    }
+    if (reads_cam) {
+      spec.cam = r.string(t, "cam", "[[derived]]", true).value_or("");
+      std::vector<std::string> cams;
+      for (const Joint& j : m.joints)
+        if (j.type == JointType::cam && !j.form_closed) cams.push_back(j.name);
+      const int j = m.find_joint(spec.cam);
+      if (spec.cam.empty()) {
+        ok = false;
+      } else if (j < 0 || m.joints[static_cast<size_t>(j)].type != JointType::cam) {
+        r.error(r.at(t.get("cam")),
+                fmt::format("[[derived]] 'jump_speed': '{}' is no cam joint (force-closed cams: "
+                            "{})",
+                            spec.cam, cams.empty() ? "none" : join(cams)));
+        ok = false;
+      } else if (m.joints[static_cast<size_t>(j)].form_closed) {
+        r.error(r.at(t.get("cam")),
+                fmt::format("[[derived]] 'jump_speed': cam '{}' is form-closed (a groove holds "
+                            "its follower both ways), so it never jumps",
+                            spec.cam));
+        ok = false;
+      }
+      if (const toml::node* range = t.get("range")) {
+        r.error(r.at(*range), "[[derived]] 'jump_speed' is the whole cycle's: it takes no 'range'");
+        ok = false;
+      }
     }
     if (spec.kind == K::transmission) {
       if (const auto fb = four_bar(m)) {
@@ -307,15 +338,18 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
     channel = slider != outputs.rend() ? *slider : outputs.back();
   }
   using K = DerivedSpec::Kind;
-  const auto add = [&](std::string name, K kind, std::string on, std::string point) {
+  const auto add = [&](std::string name, K kind, std::string on, std::string point,
+                       std::string cam = "") {
     for (const DerivedSpec& d : m.derived)
-      if (d.name == name || (d.kind == kind && d.channel == on && d.point == point && !d.range))
+      if (d.name == name ||
+          (d.kind == kind && d.channel == on && d.point == point && d.cam == cam && !d.range))
         return;
     DerivedSpec spec;
     spec.name = std::move(name);
     spec.kind = kind;
     spec.channel = std::move(on);
     spec.point = std::move(point);
+    spec.cam = std::move(cam);
     spec.summary = true;
     spec.where = t ? r.at(*t) : r.file();
     m.derived.push_back(std::move(spec));
@@ -327,8 +361,15 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   }
   add("toggles", K::toggles, "", "");
   if (const auto fb = four_bar(m)) add("transmission", K::transmission, "mu." + fb->c, "");
+  // Each cam's pressure angle; a flat face's is the same throughout (its normal is the face's).
   for (const CamReading& cam : cam_readings(m))
-    add("pressure_angle_" + cam.joint, K::extremes, "phi." + cam.joint, "");
+    if (cam.rows.kind != ConstraintRows::Kind::cam_face)
+      add("pressure_angle_" + cam.joint, K::extremes, "phi." + cam.joint, "");
+  // The jump speed of each force-closed cam at the driver's constant speed.
+  if (m.swept().law.kind == MotionLaw::Kind::constant_speed)
+    for (const Joint& j : m.joints)
+      if (j.type == JointType::cam && !j.form_closed)
+        add("jump_speed_" + j.name, K::jump_speed, "", "", j.name);
   // The links a joint holds to the ground (the ground among them): no coupler's.
   std::vector<bool> grounded(m.links.size(), false);
   grounded[static_cast<size_t>(g)] = true;

@@ -4,6 +4,7 @@
 // 4-5-6-7 eq. 8.10), written out here; the cam-follower instant centre, where the cam's velocity
 // is the follower's; and the follower's equations of motion, which give the contact force and
 // the driver's torque by power. Each channel is held to 1e-9 of its peak.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -453,6 +454,131 @@ TEST(CamJoints, OutlineIsTheProfileTheLawCuts) {
   EXPECT_GT(on_base, 0);
 }
 
+// An eccentric cam given by its shape (shape = "eccentric"). A roller on it, as a cam joint, moves
+// and loads exactly as the same roller held R + r from the disc's centre by a pin in an arc
+// (eccentric_cam_roller.toml, itself the offset slider-crank: CurvedSlots.*). A flat face on it
+// (eccentric_flat_faced.toml) moves by simple harmonic motion, s = R - e cos(theta), with the
+// contact force N = m e w^2 cos(theta) + k (0.01 + e (1 - cos(theta))) along +y and none across,
+// a zero pressure angle, and the jump speed sqrt(k (0.01 + 2 e) / (m e)) at theta = 180 deg.
+TEST(CamJoints, EccentricShapeIsThePinInItsArcAndTheScotchYoke) {
+  const std::string arc =
+      "type = \"pin_in_slot\"      # the roller on the disc: C stays R + r from B\n"
+      "name = \"roller\"\nguide = \"cam\"\narc = { centre = \"B\", radius = 0.12 }\n"
+      "slider = \"follower\"\npoint = \"C\"\n";
+  const std::string disc =
+      "type = \"cam\"\nname = \"roller\"\nclosure = \"form\"\ncam = \"cam\"\ncentre = \"A\"\n"
+      "follower = \"follower\"\npoint = \"C\"\n\n[joint.profile]\nshape = \"eccentric\"\n"
+      "radius = 0.09\neccentricity = 0.04\nroller_radius = 0.03\n";
+  const Trajectory pinned = sweep(bundled("eccentric_cam_roller"));
+  const Trajectory cammed =
+      sweep(test::changed("mechanisms/cams/eccentric_cam_roller.toml", {{arc, disc}}));
+  std::printf("[ eccentric_cam_roller, the pin in an arc as a cam joint ]\n");
+  for (const std::string channel : {"x.C", "vx.C", "ax.C", "s.follower", "torque.driver",
+                                    "fx.roller", "fy.roller", "fx.A", "fy.A"})
+    expect_channel(cammed, channel, [&](int k) { return value(pinned, channel, k); });
+
+  const Mechanism m = bundled("eccentric_flat_faced");
+  const Trajectory t = sweep(m);
+  const double w = m.drivers[0].law.speed, e = 0.01, mass = 0.08, k = 200.0;
+  const auto n = [&](double theta, double speed) {
+    return mass * e * speed * speed * std::cos(theta) + k * (0.01 + e * (1 - std::cos(theta)));
+  };
+  std::printf("[ eccentric_flat_faced ]\n");
+  expect_channel(t, "s.follower", [&](int s) { return 0.04 - e * std::cos(t.swept(s)); });
+  expect_channel(t, "sdot.follower", [&](int s) { return e * w * std::sin(t.swept(s)); });
+  expect_channel(t, "sddot.follower", [&](int s) { return e * w * w * std::cos(t.swept(s)); });
+  expect_channel(t, "fy.contact", [&](int s) { return n(t.swept(s), w); });
+  for (int s = 0; s < t.samples(); ++s) {
+    EXPECT_NEAR(value(t, "fx.contact", s), 0.0, 1e-12);
+    EXPECT_NEAR(value(t, "phi.contact", s), 0.0, 1e-15);
+  }
+  const double jump = std::sqrt(k * (0.01 + 2 * e) / (mass * e));
+  const std::vector<DerivedValue> summary = derived_exact(m, t);
+  EXPECT_NEAR(*derived_value(summary, "jump_speed_contact.speed"), jump, 1e-9 * jump);
+  EXPECT_NEAR(*derived_value(summary, "jump_speed_contact.at"), kPi, 1e-6);
+  EXPECT_NEAR(n(kPi, jump), 0.0, 1e-12);
+  std::printf("  jump speed %.9f rad/s (closed form %.9f) at %.6f deg\n",
+              *derived_value(summary, "jump_speed_contact.speed"), jump,
+              *derived_value(summary, "jump_speed_contact.at") / kDeg);
+}
+
+// A profile given by its points (shape = "points"): a periodic cubic spline through them. Points
+// of the eccentric disc, r(phi) = e cos t + sqrt(R^2 - e^2 sin^2 t) (t = phi - lobe), give the
+// disc back as they grow denser, a spline's error falling with the fourth power of the spacing:
+// the roller's centre (and a knife edge's, on the disc of radius R + r) against the pin in the
+// arc (eccentric_cam_roller.toml), the flat face's travel against simple harmonic motion
+// (eccentric_flat_faced.toml). Each error halves its spacing 16-fold, within [10, 24].
+TEST(CamJoints, PointsProfileConvergesToTheDiscItSamples) {
+  const auto points = [](double radius, double e, double lobe, int n) {
+    std::string text = "points = [";
+    for (int i = 0; i < n; ++i) {
+      const double phi = 360.0 * i / n, t = phi * kDeg - lobe;
+      const double r = e * std::cos(t) + std::sqrt(radius * radius - std::pow(e * std::sin(t), 2));
+      text += fmt::format("{}[{:.17g}, {:.17g}]", i ? ", " : "", phi, r);
+    }
+    return text + "]\n";
+  };
+  const std::string arc =
+      "type = \"pin_in_slot\"      # the roller on the disc: C stays R + r from B\n"
+      "name = \"roller\"\nguide = \"cam\"\narc = { centre = \"B\", radius = 0.12 }\n"
+      "slider = \"follower\"\npoint = \"C\"\n";
+  const std::string cam =
+      "type = \"cam\"\nname = \"roller\"\nclosure = \"form\"\ncam = \"cam\"\ncentre = \"A\"\n"
+      "follower = \"follower\"\npoint = \"C\"\n\n[joint.profile]\nshape = \"points\"\n";
+  const Trajectory pinned = sweep(bundled("eccentric_cam_roller"));
+  const Mechanism yoke = bundled("eccentric_flat_faced");
+  const Trajectory shm = sweep(yoke);
+  // The worst difference over the sweep in % of the channel's peak.
+  const auto worst = [](const Trajectory& t, const Trajectory& exact, const std::string& name) {
+    double peak = 0.0, apart = 0.0;
+    for (int k = 0; k < t.samples(); ++k) {
+      peak = std::max(peak, std::abs(*exact.sample(name, k)));
+      apart = std::max(apart, std::abs(*t.sample(name, k) - *exact.sample(name, k)));
+    }
+    return apart / peak;
+  };
+  struct Case {
+    std::string what;
+    std::function<Trajectory(int)> run;
+    const Trajectory* exact;
+    std::string channel;
+  };
+  const std::vector<Case> cases = {
+      {"roller",
+       [&](int n) {
+         return sweep(
+             test::changed("mechanisms/cams/eccentric_cam_roller.toml",
+                           {{arc, cam + points(0.09, 0.04, 0.0, n) + "roller_radius = 0.03\n"}}));
+       },
+       &pinned, "x.C"},
+      {"knife edge",
+       [&](int n) {
+         return sweep(test::changed("mechanisms/cams/eccentric_cam_roller.toml",
+                                    {{arc, cam + points(0.12, 0.04, 0.0, n)}}));
+       },
+       &pinned, "x.C"},
+      {"flat face",
+       [&](int n) {
+         return sweep(test::changed(
+             "mechanisms/cams/eccentric_flat_faced.toml",
+             {{"shape = \"eccentric\"\nradius = 0.04\neccentricity = 0.01\nlobe_angle = -90",
+               "shape = \"points\"\n" + points(0.04, 0.01, -kPi / 2, n)}}));
+       },
+       &shm, "s.follower"}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    const double coarse = worst(c.run(24), *c.exact, c.channel);
+    const double fine = worst(c.run(48), *c.exact, c.channel);
+    EXPECT_GT(coarse / fine, 10.0);
+    EXPECT_LT(coarse / fine, 24.0);
+    EXPECT_LT(fine, 1e-5);
+    std::printf(
+        "  %-10s %s from the disc: %.2e of peak through 24 points, %.2e through 48 "
+        "(ratio %.1f)\n",
+        c.what.c_str(), c.channel.c_str(), coarse, fine, coarse / fine);
+  }
+}
+
 // The spring-held flat face (spring_cam_jump.toml): along +y the cam pushes the follower with
 // N = m w^2 s'' + k (0.01 + s), and a force-closed contact cannot pull. The follower leaves where
 // N < 0: those samples, and only those, are flagged contact_lost with an event naming the cam;
@@ -525,6 +651,13 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   EXPECT_LT(std::min(std::abs(located.at - at), std::abs(located.at - mirror)), 1e-6);
   std::printf("  located: %.9f rad/s at %.6f deg (closed form %.9f at %.6f and %.6f)\n",
               *located.speed, located.at / kDeg, jump, at / kDeg, mirror / kDeg);
+  // The design summary's jump_speed_contact is the same; read off a method's samples (one
+  // speed) it has no value.
+  const std::vector<DerivedValue> summary = derived_exact(m, t);
+  EXPECT_NEAR(*derived_value(summary, "jump_speed_contact.speed"), jump, 1e-9 * jump);
+  const double summary_at = *derived_value(summary, "jump_speed_contact.at");
+  EXPECT_LT(std::min(std::abs(summary_at - at), std::abs(summary_at - mirror)), 1e-6);
+  EXPECT_FALSE(derived_value(derived_sampled(m, t), "jump_speed_contact.speed").has_value());
   const test::CommandRun check = test::crosslink("check mechanisms/cams/spring_cam_jump.toml");
   EXPECT_NE(check.out.find("jump speed of cam contact: 37.0593 rad/s (353.89 rpm) at driver = "),
             std::string::npos)
@@ -552,6 +685,9 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
                     {{"name = \"contact\"", "name = \"contact\"\nclosure = \"form\""}});
   EXPECT_NE(jump_speed(form, form.find_joint("contact")).reason.find("cannot jump"),
             std::string::npos);
+  EXPECT_TRUE(std::none_of(form.derived.begin(), form.derived.end(), [](const DerivedSpec& d) {
+    return d.kind == DerivedSpec::Kind::jump_speed;
+  }));
 }
 
 // Each fault of a cam joint is refused at its key, with what is wrong.
@@ -562,7 +698,10 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
   const std::string roller = "mechanisms/cams/translating_roller_345.toml",
                     flat = "mechanisms/cams/cycloidal_flat_faced.toml",
                     swinging = "mechanisms/cams/oscillating_roller.toml",
-                    tangent = "mechanisms/cams/tangent_cam_roller.toml";
+                    tangent = "mechanisms/cams/tangent_cam_roller.toml",
+                    jumping = "mechanisms/cams/spring_cam_jump.toml",
+                    eccentric = "mechanisms/cams/eccentric_flat_faced.toml";
+  const std::string derived_jump = "[[derived]]\nname = \"jump\"\nquantity = \"jump_speed\"\n";
   const std::string last_rise = "{ law = \"polynomial_4567\", span = 100, to = 0 }";
   const std::vector<Case> cases = {
       {roller, "roller_radius = 0.01", "roller_radius = 0", "roller_radius",
@@ -596,7 +735,8 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
       {flat, "follower = \"translating\"",
        "follower = \"oscillating\"\npivot = [0.1, 0]\narm = 0.08", "face = \"face\"",
        "an oscillating flat-faced follower is not supported"},
-      {tangent, "shape = \"tangent\"", "shape = \"heart\"", "shape", "unknown shape 'heart'"},
+      {tangent, "shape = \"tangent\"", "shape = \"heart\"", "shape",
+       "unknown shape 'heart' (valid shapes: tangent, eccentric, points)"},
       {tangent, "ascent = 75", "ascent = 95", "ascent = 95", "must lie between 0 and 90 deg"},
       {tangent, "ascent = 75", "ascent = 40", "ascent = 40", "leaves no nose"},
       {tangent, "ascent = 75", "nose_radius = 35", "nose_radius", "less than the base circle's"},
@@ -604,11 +744,36 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
        "needs one of 'ascent' (the angle of ascent) or 'nose_radius'"},
       {tangent, "lift = 17.5", "lift = 0", "lift = 0", "must be positive"},
       {tangent, "lift = 17.5", "lift = 17.5\noffset = 1", "offset", "unknown key 'offset'"},
+      {eccentric, "radius = 0.04", "radius = 0.01", "radius = 0.01",
+       "the disc's radius 0.01 must exceed its eccentricity 0.01"},
+      {eccentric, "eccentricity = 0.01", "eccentricity = 0.01\nlift = 1", "lift",
+       "unknown key 'lift'"},
+      // Points: a radius that is not positive, angles that do not rise, a concave flat face.
+      {eccentric, "shape = \"eccentric\"\nradius = 0.04\neccentricity = 0.01\nlobe_angle = -90",
+       "shape = \"points\"\npoints = [[0, 0.04], [120, -0.01], [240, 0.04]]", "points = [[0",
+       "the profile's radius is not positive"},
+      {eccentric, "shape = \"eccentric\"\nradius = 0.04\neccentricity = 0.01\nlobe_angle = -90",
+       "shape = \"points\"\npoints = [\n  [0, 0.04],\n  [120, 0.04],\n  [100, 0.04],\n]",
+       "[100, 0.04]", "point 3: its angle must exceed the one before"},
+      {eccentric, "shape = \"eccentric\"\nradius = 0.04\neccentricity = 0.01\nlobe_angle = -90",
+       "shape = \"points\"\npoints = [[0, 0.04], [90, 0.02], [180, 0.04], [270, 0.02]]",
+       "points = [[0", "a flat face bridges a concave stretch"},
+      {eccentric, "shape = \"eccentric\"", "shape = \"heart\"", "shape = \"heart\"",
+       "unknown shape 'heart' (valid shapes: tangent, eccentric, points)"},
       {roller, "closure = \"form\"", "closure = \"glue\"", "closure",
        "'closure' of joint #3 (cam) must be \"force\""},
       {swinging, "arm = 0.08", "arm = 0.01", "arm = 0.01", "cannot reach the prime circle"},
       {swinging, "arm = 0.08", "arm = 0.08\noffset = 0.01", "offset",
        "is a translating follower's"},
+      // [[derived]] jump_speed: a cam joint's, force-closed, over the whole cycle.
+      {jumping, "[driver]", derived_jump + "cam = \"follower\"\n\n[driver]", "cam = \"follower\"",
+       "'follower' is no cam joint (force-closed cams: contact)"},
+      {roller, "[driver]", derived_jump + "cam = \"contact\"\n\n[driver]", "cam = \"contact\"",
+       "cam 'contact' is form-closed"},
+      {jumping, "[driver]", derived_jump + "cam = \"contact\"\nrange = [0, 90]\n\n[driver]",
+       "range = [0, 90]", "takes no 'range'"},
+      {jumping, "[driver]", derived_jump + "channel = \"s.follower\"\n\n[driver]",
+       "channel = \"s.follower\"", "takes no 'channel'"},
   };
   for (const Case& c : cases) {
     const std::string text = test::replaced(test::source_text(c.file), c.from, c.to);
