@@ -724,6 +724,7 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return out;
   }
   const bool positions = spec.kind == K::straightness || spec.kind == K::circularity ||
+                         spec.kind == K::least_radius ||
                          Trajectory::quantity_of(spec.channel) == Quantity::position ||
                          Trajectory::quantity_of(spec.channel) == Quantity::angle;
   const Interval in = interval_of(m, spec, t, positions);
@@ -811,6 +812,36 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return out;
   }
 
+  if (spec.kind == K::least_radius) {
+    // The largest curvature at the contact over the interval, read from positions.
+    const auto cam = std::find_if(t.cams.begin(), t.cams.end(),
+                                  [&](const auto& c) { return c.reading.joint == spec.cam; });
+    if (cam == t.cams.end())
+      return fail(fmt::format("cam '{}' has no follower guided on the ground to read", spec.cam));
+    // The same cam in any trajectory of the mechanism (an exact pose's too): by its place.
+    const auto index = static_cast<size_t>(cam - t.cams.begin());
+    Scalar curvature;
+    curvature.value = [index](const Trajectory& p, int row) {
+      return p.cams[index].at(p, row).curvature;
+    };
+    double least = INFINITY, most = -INFINITY;
+    for (const Sample& s : in.samples) {
+      least = std::min(least, curvature.value(t, s.row));
+      most = std::max(most, curvature.value(t, s.row));
+    }
+    if (!(most > 0.0)) return fail("the profile is nowhere convex where the follower touches it");
+    if (most - least <= 1e-12 * most) {  // one radius throughout (a disc): least everywhere
+      set("radius", 1.0 / most);
+      set("at", in.samples.front().v);
+      return out;
+    }
+    const std::optional<Located> hi = extreme(curvature, t, in, locator, true);
+    if (!hi) return fail("a pose near the largest curvature could not be solved");
+    set("radius", 1.0 / hi->value);
+    set("at", hi->v);
+    out.fields.back().ties = hi->ties;
+    return out;
+  }
   const Scalar f = channel_scalar(spec.channel);
   bool hi_turns = true, lo_turns = true;
   const std::optional<Located> hi = extreme(f, t, in, locator, true, &hi_turns);

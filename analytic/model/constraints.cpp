@@ -318,6 +318,17 @@ CamReading::Pose CamReading::at(const BodyMotion& cam, const BodyMotion& followe
   p.motion = (pivoted ? perp(p.at - guide) : guide).normalized();
   if (p.motion.dot(n) < 0.0) p.motion = -p.motion;
   p.pressure_angle = std::atan2(cross(p.motion, n), p.motion.dot(n));
+  if (rows.kind == Kind::cam_face) {  // the support function's h + h'' is the radius
+    const cam::Polar h = rows.contour->at(face_contact(rows, cam, follower).alpha);
+    p.curvature = 1.0 / (h.value + h.dd);
+    return p;
+  }
+  // The pitch curve's curvature from its polar form, and the profile's, a roller's radius in.
+  const ArcOffset o = arc_offset(cam, rows.point_a, follower, rows.point_b);
+  const cam::Polar rho = rows.contour->at(pitch_angle(cam, o));
+  const double pitch = (rho.value * rho.value + 2.0 * rho.d * rho.d - rho.value * rho.dd) /
+                       std::pow(rho.value * rho.value + rho.d * rho.d, 1.5);
+  p.curvature = pitch / (1.0 - rows.contour->follower().roller_radius * pitch);
   return p;
 }
 

@@ -131,6 +131,9 @@ struct CamReading {
     CamContact contact;
     Eigen::Vector2d at = Eigen::Vector2d::Zero(), motion = Eigen::Vector2d::UnitY();
     double pressure_angle = 0.0;
+    // The profile's curvature at the contact [1/m]: positive where convex, 0 on a straight
+    // stretch (its radius of curvature is 1 / curvature).
+    double curvature = 0.0;
   };
   Pose at(const BodyMotion& cam, const BodyMotion& follower) const;
   double pressure_angle(const BodyMotion& cam, const BodyMotion& follower) const {

@@ -28,6 +28,8 @@ std::vector<std::string> derived_fields(DerivedSpec::Kind kind) {
       return {"deviation", "radius", "centre_x", "centre_y", "extent"};
     case K::jump_speed:
       return {"speed", "at"};
+    case K::least_radius:
+      return {"radius", "at"};
   }
   return {};
 }
@@ -38,6 +40,7 @@ DerivedUnit derived_field_unit(DerivedSpec::Kind kind, std::string_view field) {
       field == "decreasing" || field == "at")
     return DerivedUnit::driver;
   if (kind == K::jump_speed) return DerivedUnit::speed;
+  if (kind == K::least_radius) return DerivedUnit::length;
   if (kind == K::time_ratio) return DerivedUnit::ratio;
   if (kind == K::straightness)
     return field == "direction" ? DerivedUnit::angle : DerivedUnit::length;
@@ -142,6 +145,8 @@ std::string_view to_string(DerivedSpec::Kind kind) {
       return "circularity";
     case K::jump_speed:
       return "jump_speed";
+    case K::least_radius:
+      return "least_radius";
   }
   return "";
 }

@@ -111,9 +111,9 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
   // The channels a sweep has (none when an earlier error leaves no linkage to lay them out).
   const std::vector<std::string> channels = channels_of(r, m);
   using K = DerivedSpec::Kind;
-  const std::vector<K> kinds = {K::extremes,     K::stroke,      K::time_ratio,
-                                K::dead_points,  K::toggles,     K::transmission,
-                                K::straightness, K::circularity, K::jump_speed};
+  const std::vector<K> kinds = {K::extremes,   K::stroke,       K::time_ratio,   K::dead_points,
+                                K::toggles,    K::transmission, K::straightness, K::circularity,
+                                K::jump_speed, K::least_radius};
   std::vector<std::string> kind_names;
   for (const K k : kinds) kind_names.emplace_back(to_string(k));
   const Driver& d = m.swept();
@@ -158,7 +158,7 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
     const bool reads_channel = spec.kind == K::extremes || spec.kind == K::stroke ||
                                spec.kind == K::time_ratio || spec.kind == K::dead_points;
     const bool reads_point = spec.kind == K::straightness || spec.kind == K::circularity;
-    const bool reads_cam = spec.kind == K::jump_speed;
+    const bool reads_cam = spec.kind == K::jump_speed || spec.kind == K::least_radius;
     const std::string valid_keys = reads_point     ? "point"
                                    : reads_channel ? "channel"
                                    : reads_cam     ? "cam"
@@ -230,26 +230,27 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
     }
     if (reads_cam) {
       spec.cam = r.string(t, "cam", "[[derived]]", true).value_or("");
+      const bool jump = spec.kind == K::jump_speed;  // of a force-closed cam, over the cycle
       std::vector<std::string> cams;
       for (const Joint& j : m.joints)
-        if (j.type == JointType::cam && !j.form_closed) cams.push_back(j.name);
+        if (j.type == JointType::cam && !(jump && j.form_closed)) cams.push_back(j.name);
       const int j = m.find_joint(spec.cam);
       if (spec.cam.empty()) {
         ok = false;
       } else if (j < 0 || m.joints[static_cast<size_t>(j)].type != JointType::cam) {
-        r.error(r.at(t.get("cam")),
-                fmt::format("[[derived]] 'jump_speed': '{}' is no cam joint (force-closed cams: "
-                            "{})",
-                            spec.cam, cams.empty() ? "none" : join(cams)));
+        r.error(
+            r.at(t.get("cam")),
+            fmt::format("[[derived]] '{}': '{}' is no cam joint ({}cams: {})", quantity, spec.cam,
+                        jump ? "force-closed " : "", cams.empty() ? "none" : join(cams)));
         ok = false;
-      } else if (m.joints[static_cast<size_t>(j)].form_closed) {
+      } else if (jump && m.joints[static_cast<size_t>(j)].form_closed) {
         r.error(r.at(t.get("cam")),
                 fmt::format("[[derived]] 'jump_speed': cam '{}' is form-closed (a groove holds "
                             "its follower both ways), so it never jumps",
                             spec.cam));
         ok = false;
       }
-      if (const toml::node* range = t.get("range")) {
+      if (const toml::node* range = t.get("range"); range && jump) {
         r.error(r.at(*range), "[[derived]] 'jump_speed' is the whole cycle's: it takes no 'range'");
         ok = false;
       }
@@ -365,6 +366,9 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   for (const CamReading& cam : cam_readings(m))
     if (cam.rows.kind != ConstraintRows::Kind::cam_face)
       add("pressure_angle_" + cam.joint, K::extremes, "phi." + cam.joint, "");
+  // Each cam's least radius of curvature where its follower touches it.
+  for (const Joint& j : m.joints)
+    if (j.type == JointType::cam) add("least_radius_" + j.name, K::least_radius, "", "", j.name);
   // The jump speed of each force-closed cam at the driver's constant speed.
   if (m.swept().law.kind == MotionLaw::Kind::constant_speed)
     for (const Joint& j : m.joints)

@@ -347,12 +347,14 @@ struct DerivedSpec {
     straightness,  // a point's path: its deviation from the minimum-zone line, and its extent
     circularity,   // a point's path: its deviation from the minimum-zone circle, its radius, centre
     jump_speed,    // a force-closed cam's: the least driver speed at which its follower leaves it
+    least_radius,  // a cam's: the least radius of curvature of its profile where the follower
+                   // touches it (convex), and the driver value there
   };
   std::string name;
   Kind kind = Kind::extremes;
   std::string channel;  // the channel it reads (straightness: none; transmission: mu.<C>)
   std::string point;    // straightness, circularity: the point whose path it reads
-  std::string cam;      // jump_speed: the cam joint
+  std::string cam;      // jump_speed, least_radius: the cam joint
   std::optional<std::pair<double, double>> range;  // a driver interval [rad or m]; none: the sweep
   // Of the design summary (docs/mechanism-format.md, "Design summary"): added by the loader for
   // every one-driver definition without being declared, not written in the file.

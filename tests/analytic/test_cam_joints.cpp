@@ -39,7 +39,7 @@ constexpr double kDeg = kPi / 180.0;
 // One segment of a bundled program: a law over [begin, begin + span) degrees of cam angle,
 // from `from` to `to`.
 struct Piece {
-  std::string law;  // "dwell", "cycloidal", "345", "4567"
+  std::string law;  // "dwell", "shm", "cycloidal", "345", "4567"
   double begin, span, from, to;
 };
 
@@ -56,7 +56,11 @@ Expected closed_form(const std::vector<Piece>& program, double theta) {
     if (u < 0.0 || u > 1.0) continue;
     const double h = p.to - p.from;
     double y = 0, dy = 0, ddy = 0;
-    if (p.law == "cycloidal") {
+    if (p.law == "shm") {
+      y = (1 - std::cos(kPi * u)) / 2;
+      dy = kPi / 2 * std::sin(kPi * u);
+      ddy = kPi * kPi / 2 * std::cos(kPi * u);
+    } else if (p.law == "cycloidal") {
       y = u - std::sin(2 * kPi * u) / (2 * kPi);
       dy = 1 - std::cos(2 * kPi * u);
       ddy = 2 * kPi * std::sin(2 * kPi * u);
@@ -92,6 +96,37 @@ const std::vector<Piece> kOscillating = {{"cycloidal", 0, 120, 0, 15 * kDeg},
 
 Mechanism bundled(const std::string& stem) {
   return load_mechanism(std::string(CROSSLINK_SOURCE_DIR) + "/mechanisms/cams/" + stem + ".toml");
+}
+
+// A bundled law-cut cam as analytic/model/cam.h synthesises it from its law and follower, apart
+// from the joint's row: its program and follower as its file writes them.
+struct LawCut {
+  std::string stem;
+  cam::MotionProgram program;
+  cam::Follower follower;
+};
+LawCut law_cut_cam(const std::string& stem) {
+  using cam::Law;
+  if (stem == "translating_roller_345")
+    return {stem,
+            cam::MotionProgram(0.0, {{Law::polynomial_345, 100 * kDeg, 0.02},
+                                     {Law::dwell, 80 * kDeg, 0.02},
+                                     {Law::polynomial_4567, 100 * kDeg, 0.0},
+                                     {Law::dwell, 80 * kDeg, 0.0}}),
+            {cam::FollowerKind::roller, false, 0.04, 0.01, 0.01}};
+  if (stem == "cycloidal_flat_faced")
+    return {stem,
+            cam::MotionProgram(0.0, {{Law::cycloidal, 90 * kDeg, 0.02},
+                                     {Law::dwell, 90 * kDeg, 0.02},
+                                     {Law::cycloidal, 90 * kDeg, 0.0},
+                                     {Law::dwell, 90 * kDeg, 0.0}}),
+            {cam::FollowerKind::flat_faced, false, 0.05}};
+  return {stem,
+          cam::MotionProgram(0.0, {{Law::cycloidal, 120 * kDeg, 15 * kDeg},
+                                   {Law::dwell, 60 * kDeg, 15 * kDeg},
+                                   {Law::polynomial_345, 120 * kDeg, 0.0},
+                                   {Law::dwell, 60 * kDeg, 0.0}}),
+          {cam::FollowerKind::roller, true, 0.04, 0.01, 0.0, {0.1, 0.0}, 0.08}};
 }
 
 // Compares `actual(row)` with `expected(row)` over every sample, to 1e-9 of the expected peak;
@@ -399,26 +434,9 @@ TEST(CamJoints, PressureAngleIsTheClosedFormsAndItsExtremesAreLocated) {
 // angle that puts the follower there (analytic/model/cam.h, synthesised from the law, not the
 // row); and the tangent cam's outline lies on its base circle, its nose circle or its flanks.
 TEST(CamJoints, OutlineIsTheProfileTheLawCuts) {
-  using cam::Law;
-  struct Case {
-    std::string stem;
-    cam::MotionProgram program;
-    cam::Follower follower;
-  };
-  const std::vector<Case> cases = {
-      {"translating_roller_345",
-       cam::MotionProgram(0.0, {{Law::polynomial_345, 100 * kDeg, 0.02},
-                                {Law::dwell, 80 * kDeg, 0.02},
-                                {Law::polynomial_4567, 100 * kDeg, 0.0},
-                                {Law::dwell, 80 * kDeg, 0.0}}),
-       {cam::FollowerKind::roller, false, 0.04, 0.01, 0.01}},
-      {"cycloidal_flat_faced",
-       cam::MotionProgram(0.0, {{Law::cycloidal, 90 * kDeg, 0.02},
-                                {Law::dwell, 90 * kDeg, 0.02},
-                                {Law::cycloidal, 90 * kDeg, 0.0},
-                                {Law::dwell, 90 * kDeg, 0.0}}),
-       {cam::FollowerKind::flat_faced, false, 0.05}}};
-  for (const Case& c : cases) {
+  const std::vector<LawCut> cases = {law_cut_cam("translating_roller_345"),
+                                     law_cut_cam("cycloidal_flat_faced")};
+  for (const LawCut& c : cases) {
     SCOPED_TRACE(c.stem);
     const CamReading reading = cam_readings(bundled(c.stem)).at(0);
     const std::vector<Eigen::Vector2d> outline = reading.outline(360);
@@ -577,6 +595,93 @@ TEST(CamJoints, PointsProfileConvergesToTheDiscItSamples) {
         "(ratio %.1f)\n",
         c.what.c_str(), c.channel.c_str(), coarse, fine, coarse / fine);
   }
+}
+
+// The least radius of curvature where the follower touches the profile (least_radius_<cam> in
+// the design summary), located on exact poses from the joint's row, against profile_at's radius
+// (synthesised from the law, analytic/model/cam.h) minimised by golden-section search over the
+// cam angle; a tangent cam's is its nose's radius, a disc's its own.
+TEST(CamJoints, LeastRadiusOfCurvatureIsLocated) {
+  for (const LawCut& c :
+       {law_cut_cam("translating_roller_345"), law_cut_cam("oscillating_roller")}) {
+    SCOPED_TRACE(c.stem);
+    const auto radius = [&](double theta) {
+      const double r = cam::profile_at(c.program, c.follower, theta).radius_of_curvature;
+      return r > 0.0 ? r : INFINITY;
+    };
+    double best = 0.0;
+    for (double theta = 0.0; theta < 2 * kPi; theta += 0.1 * kDeg)
+      if (radius(theta) < radius(best)) best = theta;
+    const double at = golden_section_max([&](double v) { return std::optional(-radius(v)); },
+                                         best - 0.2 * kDeg, best + 0.2 * kDeg);
+    const Mechanism m = bundled(c.stem);
+    const std::vector<DerivedValue> summary = derived_exact(m, sweep(m));
+    EXPECT_NEAR(*derived_value(summary, "least_radius_contact.radius"), radius(at),
+                1e-9 * radius(at));
+    EXPECT_NEAR(*derived_value(summary, "least_radius_contact.at"), at, 1e-6);
+    std::printf("  %s: least radius %.9g m at %.4f deg (by the law: %.9g at %.4f)\n",
+                c.stem.c_str(), *derived_value(summary, "least_radius_contact.radius"),
+                *derived_value(summary, "least_radius_contact.at") / kDeg, radius(at), at / kDeg);
+  }
+  const Mechanism tangent = bundled("tangent_cam_roller");
+  const double cos_ascent = std::cos(75 * kDeg);
+  const double nose = (30e-3 - 47.5e-3 * cos_ascent) / (1 - cos_ascent);
+  EXPECT_NEAR(*derived_value(derived_exact(tangent, sweep(tangent)), "least_radius_contact.radius"),
+              nose, 1e-12);
+  const Mechanism disc = bundled("eccentric_flat_faced");
+  EXPECT_NEAR(*derived_value(derived_exact(disc, sweep(disc)), "least_radius_contact.radius"), 0.04,
+              1e-15);
+}
+
+// A printed exercise (valve_cam_shm.toml): simple harmonic rise of 50 mm over 120 deg, dwell 30,
+// fall over 60, at 100 rpm. The sweep against the closed form (the acceleration away from the
+// segments' ends, where it jumps); the four printed maxima against the exact values at their
+// [[reference]] rows: three within their printed rounding, and the falling velocity's 0.78 m/s
+// not (exact 0.7854): it is twice the rising velocity's rounded 0.39.
+TEST(CamJoints, ValveCamPrintsAgainstTheExactValues) {
+  const std::vector<Piece> program = {{"shm", 0, 120, 0, 0.05},
+                                      {"dwell", 120, 30, 0.05, 0.05},
+                                      {"shm", 150, 60, 0.05, 0},
+                                      {"dwell", 210, 150, 0, 0}};
+  const Mechanism m = bundled("valve_cam_shm");
+  const Trajectory t = sweep(m);
+  const double w = m.drivers[0].law.speed;
+  auto at = [&](int k) { return closed_form(program, t.swept(k)); };
+  std::printf("[ valve_cam_shm ]\n");
+  expect_channel(t, "s.valve", [&](int k) { return 0.035 + at(k).s; });
+  expect_channel(t, "sdot.valve", [&](int k) { return w * at(k).ds; });
+  double peak = 0.0, apart = 0.0;
+  for (int k = 0; k < t.samples(); ++k) {
+    const double degrees = std::remainder(t.swept(k) / kDeg, 360.0);
+    if (std::abs(degrees) < 1e-9 || std::abs(degrees - 120) < 1e-9 ||
+        std::abs(degrees - 150) < 1e-9 || std::abs(degrees + 150) < 1e-9)
+      continue;  // a segment's end: either one-sided value
+    peak = std::max(peak, std::abs(w * w * at(k).dds));
+    apart = std::max(apart, std::abs(value(t, "sddot.valve", k) - w * w * at(k).dds));
+  }
+  EXPECT_LE(apart, 1e-9 * peak);
+  ASSERT_EQ(m.references.size(), 4u);
+  // The maxima: pi h w / (2 beta) and pi^2 h w^2 / (2 beta^2) rising (beta = 120 deg), twice
+  // and four times those falling (beta = 60 deg), the fall's of the other sign.
+  const double beta = 120 * kDeg, rise = kPi * 0.05 * w / (2 * beta);
+  const double lift = kPi * kPi * 0.05 * w * w / (2 * beta * beta);
+  const std::vector<double> exact = {rise, -2 * rise, lift, -4 * lift};
+  for (size_t i = 0; i < m.references.size(); ++i) {
+    const Reference& ref = m.references[i];
+    const double solved = value(solve_at(m, ref.driver_value), ref.quantity, 0);
+    // The closed form at the row's angle (the accelerations just inside a stroke's start).
+    const Expected x = closed_form(program, ref.driver_value);
+    const double closed = ref.quantity == "sdot.valve" ? w * x.ds : w * w * x.dds;
+    EXPECT_NEAR(solved, closed, 1e-9 * std::abs(closed)) << ref.quantity;
+    EXPECT_NEAR(closed, exact[i], 1e-6 * std::abs(exact[i])) << ref.quantity;
+    EXPECT_EQ(ref.within_rounding(solved), i != 1) << ref.quantity << " " << solved;
+    std::printf("  %-12s at %7.2f deg: exact %10.4f, printed %s (%+.3f %%)%s\n",
+                ref.quantity.c_str(), ref.driver_value / kDeg, solved, ref.printed.c_str(),
+                100 * (ref.value - solved) / solved,
+                ref.within_rounding(solved) ? ", within rounding" : "");
+  }
+  // The falling velocity's print: twice the rising one's rounded to 0.01 m/s.
+  EXPECT_NEAR(m.references[1].value, -2 * std::round(rise * 100) / 100, 1e-12);
 }
 
 // The spring-held flat face (spring_cam_jump.toml): along +y the cam pushes the follower with
@@ -772,6 +877,9 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
        "cam 'contact' is form-closed"},
       {jumping, "[driver]", derived_jump + "cam = \"contact\"\nrange = [0, 90]\n\n[driver]",
        "range = [0, 90]", "takes no 'range'"},
+      {jumping, "[driver]",
+       "[[derived]]\nname = \"bend\"\nquantity = \"least_radius\"\ncam = \"spring\"\n\n[driver]",
+       "cam = \"spring\"", "'spring' is no cam joint (cams: contact)"},
       {jumping, "[driver]", derived_jump + "channel = \"s.follower\"\n\n[driver]",
        "channel = \"s.follower\"", "takes no 'channel'"},
   };

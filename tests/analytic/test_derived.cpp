@@ -447,7 +447,7 @@ TEST(Derived, WrongInputIsLocated) {
   EXPECT_EQ(error_of(lines),
             fmt::format("m.toml:{}:12: error: [[derived]]: unknown quantity 'strok' (valid: "
                         "extremes, stroke, time_ratio, dead_points, toggles, transmission, "
-                        "straightness, circularity, jump_speed)",
+                        "straightness, circularity, jump_speed, least_radius)",
                         test::line_of(lines, "quantity = \"strok\"")));
   const std::string channel =
       base + "\n[[derived]]\nname = \"S\"\nquantity = \"stroke\"\nchannel = \"s.nothing\"\n";
