@@ -14,6 +14,7 @@
 #include <functional>
 #include <numbers>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -763,6 +764,37 @@ TEST(CamJoints, SpringHeldFollowerLeavesTheCamPastItsJumpSpeed) {
   const double summary_at = *derived_value(summary, "jump_speed_contact.at");
   EXPECT_LT(std::min(std::abs(summary_at - at), std::abs(summary_at - mirror)), 1e-6);
   EXPECT_FALSE(derived_value(derived_sampled(m, t), "jump_speed_contact.speed").has_value());
+  // In the CSV, the pressure angle of a sample the follower leaves has no value: an empty field
+  // exactly where the status is contact_lost, a number elsewhere.
+  const test::CommandRun csv =
+      test::crosslink("solve mechanisms/cams/spring_cam_jump.toml --format csv");
+  ASSERT_EQ(csv.exit_code, 0) << csv.err;
+  std::istringstream lines(csv.out);
+  std::string line;
+  std::getline(lines, line);
+  const auto fields = [](const std::string& row) {
+    std::vector<std::string> out(1);
+    for (const char c : row) {
+      if (c == ',')
+        out.emplace_back();
+      else
+        out.back().push_back(c);
+    }
+    return out;
+  };
+  const std::vector<std::string> header = fields(line);
+  const auto column = std::find(header.begin(), header.end(), "phi.contact");
+  ASSERT_NE(column, header.end()) << line;
+  int empty = 0, rows = 0;
+  while (std::getline(lines, line)) {
+    const std::vector<std::string> f = fields(line);
+    const bool left = f[3] == "contact_lost";
+    EXPECT_EQ(f[static_cast<size_t>(column - header.begin())].empty(), left) << line;
+    empty += left;
+    ++rows;
+  }
+  EXPECT_EQ(empty, lost);
+  EXPECT_EQ(rows, t.samples());
   const test::CommandRun check = test::crosslink("check mechanisms/cams/spring_cam_jump.toml");
   EXPECT_NE(check.out.find("jump speed of cam contact: 37.0593 rad/s (353.89 rpm) at driver = "),
             std::string::npos)
