@@ -77,15 +77,15 @@ double pitch_angle(const BodyMotion& a, const ArcOffset& o) {
 
 // The gradient of |d| - rho(psi) in d = P_b - C_a: with e = d / |d|, dpsi = perp(e) . dd / |d| -
 // dtheta_a, so it is g = e - rho' perp(e) / |d| (the pitch curve's normal at P_b), and theta_a
-// gains rho' (`slope`).
+// gains rho'; with rho itself there (`rho`).
 struct PitchGradient {
   Eigen::Vector2d g;
-  double slope;
+  cam::Polar rho;
 };
 PitchGradient pitch_gradient(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
   const ArcOffset o = arc_offset(a, c.point_a, b, c.point_b);
-  const double slope = c.contour->at(pitch_angle(a, o)).d;
-  return {o.e - (o.length > 0.0 ? slope / o.length : 0.0) * perp(o.e), slope};
+  const cam::Polar rho = c.contour->at(pitch_angle(a, o));
+  return {o.e - (o.length > 0.0 ? rho.d / o.length : 0.0) * perp(o.e), rho};
 }
 
 // Writes d(|d| - rho(psi))/dq.
@@ -93,7 +93,9 @@ template <class Matrix>
 void pitch_gradient(const ConstraintRows& c, const LinkFrames& frames, Matrix& jac, int row) {
   const BodyMotion a = frames.of(c.a);
   const BodyMotion b = frames.of(c.b);
-  const auto [g, slope] = pitch_gradient(c, a, b);
+  const PitchGradient p = pitch_gradient(c, a, b);
+  const Eigen::Vector2d& g = p.g;
+  const double slope = p.rho.d;
   if (c.a >= 0) {
     jac(row, 3 * c.a) = -g.x();
     jac(row, 3 * c.a + 1) = -g.y();
@@ -293,39 +295,55 @@ CamContact cam_contact(const Mechanism& m, const Joint& j, const BodyMotion& a,
   return cam_contact(joint_rows(m, j), a, b);
 }
 
-CamContact cam_contact(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
-  CamContact out;
+namespace {
+// The contact, and the profile's function where the follower touches it: the pitch curve's
+// rho(psi) at the knife edge or roller's centre, or the support function h(alpha) at the face's
+// normal (one evaluation of the contour for both).
+struct ContactOnProfile {
+  CamContact contact;
+  cam::Polar profile;
+};
+ContactOnProfile contact_on_profile(const ConstraintRows& c, const BodyMotion& a,
+                                    const BodyMotion& b) {
+  ContactOnProfile out;
   if (c.kind == Kind::cam_face) {  // the support function's point: h n + h' perp(n) from C
     const FaceContact f = face_contact(c, a, b);
-    const cam::Polar h = c.contour->at(f.alpha);
-    out.normal = f.n;
-    out.point = a.position(c.point_a) + h.value * f.n + h.d * perp(f.n);
+    out.profile = c.contour->at(f.alpha);
+    out.contact.normal = f.n;
+    out.contact.point = a.position(c.point_a) + out.profile.value * f.n + out.profile.d * perp(f.n);
     return out;
   }
   // The pitch curve's normal at the knife edge or roller's centre: the row's gradient there.
-  out.normal = pitch_gradient(c, a, b).g.normalized();
-  out.point = b.position(c.point_b) - c.contour->follower().roller_radius * out.normal;
+  const PitchGradient p = pitch_gradient(c, a, b);
+  out.profile = p.rho;
+  out.contact.normal = p.g.normalized();
+  out.contact.point =
+      b.position(c.point_b) - c.contour->follower().roller_radius * out.contact.normal;
   return out;
+}
+}  // namespace
+
+CamContact cam_contact(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
+  return contact_on_profile(c, a, b).contact;
 }
 
 CamReading::Pose CamReading::at(const BodyMotion& cam, const BodyMotion& follower) const {
   Pose p;
   p.centre = cam.position(rows.point_a);
   p.cam_angle = cam.theta;
-  p.contact = cam_contact(rows, cam, follower);
+  const auto [contact, profile] = contact_on_profile(rows, cam, follower);
+  p.contact = contact;
   const Eigen::Vector2d& n = p.contact.normal;
   p.at = rows.kind == Kind::cam_face ? p.contact.point : follower.position(rows.point_b);
   p.motion = (pivoted ? perp(p.at - guide) : guide).normalized();
   if (p.motion.dot(n) < 0.0) p.motion = -p.motion;
   p.pressure_angle = std::atan2(cross(p.motion, n), p.motion.dot(n));
   if (rows.kind == Kind::cam_face) {  // the support function's h + h'' is the radius
-    const cam::Polar h = rows.contour->at(face_contact(rows, cam, follower).alpha);
-    p.curvature = 1.0 / (h.value + h.dd);
+    p.curvature = 1.0 / (profile.value + profile.dd);
     return p;
   }
   // The pitch curve's curvature from its polar form, and the profile's, a roller's radius in.
-  const ArcOffset o = arc_offset(cam, rows.point_a, follower, rows.point_b);
-  const cam::Polar rho = rows.contour->at(pitch_angle(cam, o));
+  const cam::Polar& rho = profile;
   const double pitch = (rho.value * rho.value + 2.0 * rho.d * rho.d - rho.value * rho.dd) /
                        std::pow(rho.value * rho.value + rho.d * rho.d, 1.5);
   p.curvature = pitch / (1.0 - rows.contour->follower().roller_radius * pitch);
