@@ -198,7 +198,7 @@ std::vector<EngineEntry> make_table() {
 
 // The runs that print a setting.
 std::string runs_of(const sim::SettingSpec& s) {
-  const char* const with = s.friction ? " with joint friction" : "";
+  const char* const with = s.friction ? " with joint friction" : s.contact ? " with a cam" : "";
   switch (s.applies_to) {
     case sim::AppliesTo::kinematic:
       return fmt::format("kinematic{}", with);

@@ -108,12 +108,32 @@ KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory&
   return p;
 }
 
+JointGap::JointGap(const Mechanism& m, const NewtonSolver& solver)
+    : solver_(solver), size_(m.size()), phi_(m.coordinate_count()), drivers_(m.drivers.size()) {
+  for (size_t j = 0; j < m.joints.size(); ++j)
+    if (m.joints[j].type == JointType::cam && !m.joints[j].form_closed)
+      one_sided_.push_back(solver.layout().joint(static_cast<int>(j)).first_row);
+}
+
 double JointGap::joints() const {
   const ConstraintLayout& layout = solver_.layout();
   double gap = 0.0;
-  for (int r = 0; r < layout.joint_row_count(); ++r)
-    gap = std::max(gap, std::abs(phi_(r)) * (layout.angle_row(r) ? size_ : 1.0));
+  for (int r = 0; r < layout.joint_row_count(); ++r) {
+    const bool one_sided = std::find(one_sided_.begin(), one_sided_.end(), r) != one_sided_.end();
+    const double off = one_sided ? std::max(0.0, -phi_(r)) : std::abs(phi_(r));
+    gap = std::max(gap, off * (layout.angle_row(r) ? size_ : 1.0));
+  }
   return gap;
+}
+
+double JointGap::separation(const Eigen::VectorXd& q) {
+  if (one_sided_.empty()) return 0.0;
+  for (size_t d = 0; d < drivers_.size(); ++d)
+    drivers_[d].value = solver_.driver_value(q, static_cast<int>(d));
+  solver_.residual(q, drivers_, phi_);
+  double off = 0.0;
+  for (int r : one_sided_) off = std::max(off, phi_(r));
+  return off;
 }
 
 double JointGap::at(const Eigen::VectorXd& q, const std::vector<double>& driver_values,
@@ -337,16 +357,32 @@ void write_sample(int i, long now, const Mechanism& m, const Trajectory& referen
 // silently: Newton from there, at the reference's driver value) and the configuration Newton
 // closes from it, which must be the reference's (another solution is another assembly mode; a
 // model error does not move it and stays a reported difference); an event on each singular
-// sample and on the first jump.
+// sample and on the first jump. A sample whose follower stands off a force-closed cam by more
+// than the gap threshold is contact_lost, the follower in flight, with an event on the first.
 StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const Span& span,
                           const KinematicWatch& watch, const SampleRows& sampled,
                           const Eigen::VectorXd& gaps, Trajectory& out) {
   StatusJudge judge(reference, span, {watch.gap, watch.singular_rcond, watch.branch_distance},
                     true);
+  const NewtonSolver solver(m);
+  JointGap contact(m, solver);
+  bool left = false;
   judge_projected(
       judge, m, reference, sampled, gaps,
       [&](int i, KinematicState& probe) { reference_drivers(m, reference, i, probe); },
       [&](int i, const SolveReport& projected, const KinematicState& closed) {
+        const bool own_flag = usable(reference.status[static_cast<size_t>(i)]);
+        if (const double apart = contact.separation(sampled.configuration(i));
+            own_flag && apart > watch.gap) {
+          if (!left)
+            out.events.push_back(
+                {event_position(reference, i), PoseStatus::contact_lost,
+                 fmt::format("the follower leaves the cam ({} off its profile) where the exact "
+                             "motion keeps it on",
+                             length_text(m, apart))});
+          left = true;
+          return PoseStatus::contact_lost;
+        }
         double off = 0.0;
         const PoseStatus status = judge.judge(
             i, gaps(i), projected.rcond,
@@ -358,7 +394,6 @@ StatusJudge judge_samples(const Mechanism& m, const Trajectory& reference, const
             },
             out);
         // The engine's events on the flags it gives itself (a reference's flag kept has its own).
-        const bool own_flag = usable(reference.status[static_cast<size_t>(i)]);
         if (own_flag && status == PoseStatus::singular)
           out.events.push_back({event_position(reference, i), PoseStatus::singular,
                                 fmt::format("the constraint Jacobian at the engine's "

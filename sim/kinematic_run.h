@@ -114,11 +114,11 @@ struct DriveTarget {
 void auto_thresholds(const Mechanism& m, double& gap_threshold, double& driver_threshold);
 
 // The joints' gap of a pose (the largest residual of the joint rows, angle rows times the size)
-// and the driver row's error, from the one constraint layout.
+// and the driver row's error, from the one constraint layout. A force-closed cam's row counts its
+// penetration only: the follower may leave the cam (its separation, separation()).
 class JointGap {
  public:
-  JointGap(const Mechanism& m, const NewtonSolver& solver)
-      : solver_(solver), size_(m.size()), phi_(m.coordinate_count()), drivers_(m.drivers.size()) {}
+  JointGap(const Mechanism& m, const NewtonSolver& solver);
   // With each driver at its value in `driver_values` (as the reference counts them, in
   // Mechanism::drivers order): the gap (infinite when it or a driver's row is not finite) and
   // each driver row's error in `driver_errors`.
@@ -126,11 +126,15 @@ class JointGap {
             std::vector<double>& driver_errors);
   // A dynamics run: each driver's row is measured at the engine's own coordinate, so it is zero.
   double at(const Eigen::VectorXd& q);
+  // How far the followers of force-closed cams stand off their profiles at q [m] (0 when none
+  // does, or the mechanism has no such cam).
+  double separation(const Eigen::VectorXd& q);
 
  private:
   double joints() const;  // the joint rows' gap of phi_
   const NewtonSolver& solver_;
   double size_;
+  std::vector<int> one_sided_;  // the rows of force-closed cams: a positive residual stands off
   Eigen::VectorXd phi_;
   std::vector<DriverState> drivers_;  // scratch: the drivers' values as the layout takes them
 };

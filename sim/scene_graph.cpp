@@ -259,6 +259,47 @@ SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
   return c;
 }
 
+// Cam joint `joint` as contact (SceneContact): an eccentric cam's disc and a roller, knife edge or
+// flat face.
+SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body_of_link) {
+  const Joint& j = m.joints[static_cast<size_t>(joint)];
+  const cam::EccentricCam* disc = j.contour->eccentric();
+  const cam::Follower& follower = j.contour->follower();
+  if (!disc)
+    throw std::runtime_error(fmt::format(
+        "joint '{}': an engine holds a follower on a cam by contact, exact so far for a disc (an "
+        "eccentric cam) and a roller, knife edge or flat face; a profile cut from a motion law, "
+        "a tangent cam or a profile given by points has no exact contact shape in an engine yet "
+        "(a mesh's facets would bend its normal)",
+        j.name));
+  SceneContact c;
+  c.source = joint;
+  c.cam = body_of_link[static_cast<size_t>(j.link_a)];
+  c.follower = body_of_link[static_cast<size_t>(j.link_b)];
+  c.cam_centre =
+      m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local +
+      disc->eccentricity * Eigen::Vector2d(std::cos(disc->angle), std::sin(disc->angle));
+  c.cam_radius = disc->radius;
+  const Link& on = m.links[static_cast<size_t>(j.link_b)];
+  if (follower.kind == cam::FollowerKind::flat_faced) {
+    const Line& face = on.lines[static_cast<size_t>(j.line)];
+    const Eigen::Vector2d away = perp(face.direction);  // +90 deg from the line: from the cam
+    const double half = 0.125 * disc->radius;
+    c.face = true;
+    c.follower_centre = face.origin + half * away;
+    c.box_angle = std::atan2(face.direction.y(), face.direction.x());
+    c.box_half = {2.0 * m.size() + 4.0 * disc->radius, half, half};
+    return c;
+  }
+  c.follower_centre = on.points[static_cast<size_t>(j.point_b)].local;
+  c.follower_radius = follower.roller_radius;
+  if (follower.kind == cam::FollowerKind::knife_edge) {
+    c.follower_radius = 0.25 * disc->radius;
+    c.cam_radius -= c.follower_radius;
+  }
+  return c;
+}
+
 }  // namespace
 
 int reduce_couplings(const std::vector<std::vector<std::pair<int, double>>>& rows, int most,
@@ -367,10 +408,21 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
-    if (j.type == JointType::pin_in_arc || j.type == JointType::cam)
+    if (j.type == JointType::pin_in_arc)
       throw std::runtime_error(fmt::format(
-          "joint '{}': {} is in no engine's scene yet (issue 37); the exact methods solve it",
-          j.name, j.type == JointType::cam ? "a cam" : "a pin in a curved slot"));
+          "joint '{}': a pin in a curved slot is in no engine's scene yet (issue 37); the exact "
+          "methods solve it",
+          j.name));
+    if (j.type == JointType::cam) {
+      if (!policy.contacts)
+        throw std::runtime_error(fmt::format(
+            "joint '{}': a cam is in this engine's scene only as contact, which it does not "
+            "model yet (MuJoCo and ODE do: docs/cams.md, \"The engines' contact\"); the exact "
+            "methods solve it",
+            j.name));
+      g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link));
+      continue;
+    }
     SceneJoint sj;
     sj.name = j.name;
     sj.source = static_cast<int>(ji);

@@ -89,6 +89,29 @@ struct SceneCoupling {
                    // coupling's push along the line besides its own reaction
 };
 
+// A cam joint (JointType::cam) realised as contact between two shapes, never in the tree: the
+// follower is held on the cam by its spring or gravity through the contact, which only pushes, as
+// the joint does. So far the pairs whose contact is exact, each shape centred in the plane z = 0:
+// an eccentric cam's disc, a sphere, and a roller, another sphere, whose distance is
+// |C_follower - C_cam| - (R + r) along the line of centres (a knife edge, radius 0, is a sphere of
+// a quarter of the disc's radius on a disc smaller by as much: the same distance and normal, an
+// engine's spheres being of positive size); or a flat face, a box whose face lies on the face's
+// line, a plate a quarter of the disc's radius thick behind it and long enough for any contact
+// along it, whose distance is n . (C_cam - O) - R along the face's normal (docs/cams.md, "The
+// engines' contact"). Every engine builds these shapes as they are.
+struct SceneContact {
+  int source = -1;                                       // the Mechanism joint
+  int cam = -1, follower = -1;                           // bodies
+  Eigen::Vector2d cam_centre = Eigen::Vector2d::Zero();  // the disc's sphere, local on cam
+  double cam_radius = 0.0;                               // [m]
+  // The follower's sphere, or (face) its box: its centre, local on the follower [m].
+  Eigen::Vector2d follower_centre = Eigen::Vector2d::Zero();
+  double follower_radius = 0.0;  // the sphere's [m]
+  bool face = false;
+  double box_angle = 0.0;  // the box's x axis (along the face) in the follower's frame [rad]
+  Eigen::Vector3d box_half = Eigen::Vector3d::Zero();  // its half sizes along x, y, z [m]
+};
+
 // Linear couplings of coordinates, each a row of (coordinate, coefficient) terms held at zero
 // rate, recombined for an engine whose coupling joins at most two coordinates: a planetary
 // train's gear pair on a moving carrier spans three (sun, planet, carrier), but once the train's
@@ -119,6 +142,8 @@ struct TreePolicy {
   // by putting its deeper end on a planar ground joint (Bullet's multibody MLCP solve gets those
   // loops wrong). Tree joints are then ordered by depth.
   bool split_loops = false;
+  // Cam joints become SceneContacts (the engine realises contact); else a cam is refused.
+  bool contacts = false;
 };
 
 struct SceneGraph {
@@ -136,6 +161,7 @@ struct SceneGraph {
   std::vector<int> cuts;                 // joints left out of the tree, in joint order
   std::vector<DrivenCoordinate> driven;  // per driver of the Mechanism
   std::vector<SceneCoupling> couplings;  // per gear pair or rack, in joint order
+  std::vector<SceneContact> contacts;    // per cam joint (TreePolicy::contacts), in joint order
   // A slide among the cuts (a loop of slides only), which no point constraint closes; -1: none.
   int cut_slide = -1;
   // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).

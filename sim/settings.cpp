@@ -111,16 +111,16 @@ std::string allowed_values(const SettingSpec& spec) {
   return spec.allowed;
 }
 
-bool applies(const SettingSpec& spec, RunKind run, bool friction) {
-  if (spec.friction && !friction) return false;
+bool applies(const SettingSpec& spec, RunKind run, bool friction, bool contact) {
+  if ((spec.friction && !friction) || (spec.contact && !contact)) return false;
   return spec.applies_to == AppliesTo::both ||
          (spec.applies_to == AppliesTo::kinematic) == (run == RunKind::kinematic);
 }
 
 RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force,
-                             bool friction) {
+                             bool friction, bool contact) {
   const char* const kind = run == RunKind::kinematic ? "kinematic" : "dynamics";
-  const auto declared = [&](const SettingSpec& s) { return applies(s, run, friction); };
+  const auto declared = [&](const SettingSpec& s) { return applies(s, run, friction, contact); };
   auto named = [&](std::string_view name) {
     return std::find_if(in_force.begin(), in_force.end(),
                         [&](const auto& value) { return value.first == name; });

@@ -65,6 +65,8 @@ struct SettingSpec {
   bool reported = false;
   // Joint friction's: read and printed only in a run of a mechanism with joint friction.
   bool friction = false;
+  // Cam contact's: read and printed only in a run of a mechanism with a cam joint.
+  bool contact = false;
 };
 using SettingSchema = std::vector<SettingSpec>;
 
@@ -84,17 +86,18 @@ std::string allowed_values(const SettingSpec& spec);
 
 // Whether `spec` is printed by a run of this kind.
 // `friction`: of a mechanism with joint friction (else its entries, SettingSpec::friction, do not
-// apply).
-bool applies(const SettingSpec& spec, RunKind run, bool friction = true);
+// apply); `contact`: of one with a cam joint (SettingSpec::contact).
+bool applies(const SettingSpec& spec, RunKind run, bool friction = true, bool contact = true);
 
 // What a run prints (EngineRun::settings): every entry `schema` declares for this kind of run,
 // set or reported, in the schema's order, each with its value in force from `in_force` (by name:
 // auto resolved, the step the run took). Throws std::logic_error when a declared entry has no
 // value, or a value is given twice or for a name not declared for this kind of run: the printed
 // list is the schema's.
-// Joint friction's entries (SettingSpec::friction) only for a mechanism with it (`friction`).
+// Joint friction's entries (SettingSpec::friction) only for a mechanism with it (`friction`), cam
+// contact's (SettingSpec::contact) only for one with a cam joint (`contact`).
 RunSettings printed_settings(const SettingSchema& schema, RunKind run, const RunSettings& in_force,
-                             bool friction = false);
+                             bool friction = false, bool contact = false);
 
 // An engine's settings read against its schema: every declared setting's text (its default
 // unless given; a later override wins), each override checked by its kind before any run.

@@ -106,6 +106,12 @@ class MessageCapture {
 // Settings
 
 const char* const kSolimp = "0.9999 0.9999 0.001 0.5 2";
+// A cam's contact: an impedance of 0.5 lets the contact settle at a steady penetration (4 (1 - d)
+// h^2 times the follower's unconstrained acceleration into the cam): nearer 1 the penetration
+// vanishes and the contact flickers on and off, lower (0.3) and higher (0.6) its force alternates
+// between 0 and twice its value from step to step (measured on eccentric_roller_spring.toml from
+// 120 to 260 rpm, dt auto and halved; docs/cams.md, "The engines' contact").
+const char* const kContactSolimp = "0.5 0.5 0.001 0.5 2";
 // The conditioning limits below are fractions of the chain's own (the reference's median rcond,
 // analytic/reference/trust.h), chosen to equal the absolute limits they replace on the bundled
 // linkages: 1e-6 at a four-bar's 0.1, 1e-3 at IFToMM A02 N = 2's 0.033.
@@ -116,8 +122,15 @@ constexpr double kSingularRcond = 1e-5;
 // step (measured; docs/engines.md, "Forward dynamics"), while from 6.7e-4 on it is within 1e-5:
 // flagged below 1e-3 there, 0.03 of that chain's own conditioning (0.033).
 constexpr double kDynamicsSingularRcond = 0.03;
-// Periodic sweeps: steps run before the first sample and after the last.
-constexpr long kPreroll = 8;
+// Periodic sweeps: steps run before the first sample and after the last. A cam's soft contact
+// starts at the exact start's zero penetration and settles to the one its load holds over some
+// tens of steps (docs/cams.md, "The engines' contact").
+constexpr long kPreroll = 8, kContactPreroll = 64;
+long preroll(const Mechanism& m) {
+  const bool contact = std::any_of(m.joints.begin(), m.joints.end(),
+                                   [](const Joint& j) { return j.type == JointType::cam; });
+  return contact ? kContactPreroll : kPreroll;
+}
 // A sample whose configuration, closed exactly on the definition, is further than this from the
 // reference's (of the mechanism's size, or rad) is on another assembly mode: branch_jump. Closed
 // configurations on the same branch agree to the Newton tolerance.
@@ -132,6 +145,7 @@ struct Config {
   std::string solref = "deadbeat", solimp = kSolimp;
   std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
   std::string friction_solref = "auto";
+  std::string contact_solref = "auto", contact_solimp = kContactSolimp;
   bool extrapolated_load = true;
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
@@ -225,6 +239,20 @@ const SettingSchema& mujoco_settings() {
        .allowed = "auto (2 dt, 1), or timeconst dampratio (both > 0), or -stiffness -damping "
                   "(stiffness > 0, damping >= 0)",
        .friction = true},
+      {.name = "contact_solref",
+       .kind = text,
+       .default_value = "auto",
+       .doc = "a cam's contact pair's solref",
+       .allowed = "auto (2 dt, 1), or timeconst dampratio (both > 0), or -stiffness -damping "
+                  "(stiffness > 0, damping >= 0)",
+       .contact = true},
+      {.name = "contact_solimp",
+       .kind = text,
+       .default_value = kContactSolimp,
+       .doc = "a cam's contact pair's solimp",
+       .allowed = "dmin dmax width [midpoint [power]]: dmin, dmax in (0, 1), width > 0, "
+                  "midpoint in [0, 1], power >= 1",
+       .contact = true},
       {.name = "driver_armature",
        .kind = number,
        .default_value = "auto",
@@ -309,6 +337,8 @@ Config parse_settings(const Settings& overrides) {
                              {"driver_solref", &c.driver_solref},
                              {"driver_solimp", &c.driver_solimp},
                              {"friction_solref", &c.friction_solref},
+                             {"contact_solref", &c.contact_solref},
+                             {"contact_solimp", &c.contact_solimp},
                              {"gap_threshold", &c.gap_threshold},
                              {"driver_threshold", &c.driver_threshold},
                              {"perturb_link", &c.perturb_link},
@@ -352,17 +382,17 @@ Eigen::Vector2d solref_of(const std::string& name, const std::string& text, doub
   return {v[0], v[1]};
 }
 
-// The frictionloss rows' solref. auto: a time constant of two steps, critically damped, the
-// stiffest MuJoCo honours (with mjENBL_REFSAFE a shorter one is raised to it), whose creep and
-// error are the least (docs/engines.md, "Joint friction"); no deadbeat (its step's, which the
-// rows would not follow).
-Eigen::Vector2d friction_solref(const std::string& text, double dt) {
+// The frictionloss rows' and the cams' contact pairs' solref. auto: a time constant of two steps,
+// critically damped, the stiffest MuJoCo honours (with mjENBL_REFSAFE a shorter one is raised to
+// it): for friction the least creep and error (docs/engines.md, "Joint friction"), for a contact
+// the least penetration without bounce (docs/cams.md, "The engines' contact"); no deadbeat (its
+// step's, which the rows would not follow).
+Eigen::Vector2d two_step_solref(const std::string& name, const std::string& text, double dt) {
   if (text == "auto") return {2.0 * dt, 1.0};
   if (text == "deadbeat")
-    throw std::runtime_error(
-        "setting friction_solref = \"deadbeat\": expected timeconst dampratio or -stiffness "
-        "-damping");
-  return solref_of("friction_solref", text, 1.0);
+    throw std::runtime_error(fmt::format(
+        "setting {} = \"deadbeat\": expected timeconst dampratio or -stiffness -damping", name));
+  return solref_of(name, text, 1.0);
 }
 
 // MuJoCo's (dmin, dmax, width, midpoint, power), its defaults after the numbers given: the
@@ -431,7 +461,9 @@ MjcfOptions mjcf_options(const Mechanism& m, const Config& c, double dt) {
   o.solimp = solimp_of("solimp", c.solimp);
   o.driver_solref = solref_of("driver_solref", c.driver_solref, dt);
   o.driver_solimp = solimp_of("driver_solimp", c.driver_solimp);
-  o.friction_solref = friction_solref(c.friction_solref, dt);
+  o.friction_solref = two_step_solref("friction_solref", c.friction_solref, dt);
+  o.contact_solref = two_step_solref("contact_solref", c.contact_solref, dt);
+  o.contact_solimp = solimp_of("contact_solimp", c.contact_solimp);
   o.gravity = m.gravity;
   return o;
 }
@@ -516,7 +548,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   const Mechanism scene_mechanism = perturbed(m, p.config.perturb_link);
   p.span = usable_span(reference);
   p.plan = plan_kinematic(scene_mechanism, reference, wanted_step(reference, p.config, p.span),
-                          InnerTimes::step_multiples, kPreroll, p.config.max_steps,
+                          InnerTimes::step_multiples, preroll(m), p.config.max_steps,
                           singular_rcond(p.config, kSingularRcond),
                           !p.config.perturb_link.empty() && p.config.perturb_link != "none");
   p.grid = p.plan.grid;
@@ -647,6 +679,10 @@ class ForceReader {
           mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(c.source)].name.c_str()));
     for (const SceneJoint& j : s.joints)
       if (j.friction) friction_rows_.push_back(friction_row(mm, j));
+    for (const SceneContact& c : s.contacts)
+      contact_geoms_.emplace_back(
+          mj_name2id(mm, mjOBJ_GEOM, mujoco_scene::contact_geom(m, c, true).c_str()),
+          mj_name2id(mm, mjOBJ_GEOM, mujoco_scene::contact_geom(m, c, false).c_str()));
   }
 
   // `d` right after mj_step from pose k (its forward data: efc_*, qacc, qfrc_bias, xfrc_applied);
@@ -662,20 +698,27 @@ class ForceReader {
     mj_fwdVelocity(mm_, d2);
     if (d2->ne != ne || d2->nefc != d->nefc)
       throw std::runtime_error("MuJoCo: the constraint rows changed between step and read");
-    Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d->efc_force, ne);
-    // No constraint row (forward dynamics of an open chain: no driver equality, no cut joint,
-    // IFToMM A01's pendulum): nothing to centre, and Eigen's decomposition of an nv x 0 matrix
-    // reads out of bounds.
-    if (centred_ && ne > 0) {
-      const Eigen::Map<const Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-          jacobian(d->efc_J, ne, nv);
+    std::copy(d->efc_force, d->efc_force + d->nefc, d2->efc_force);
+    // The rows that hold the pose at any velocity: the equalities, and a cam's contact while it
+    // pushes (a frictionless contact's one row). No such row (forward dynamics of an open chain:
+    // no driver equality, no cut joint, IFToMM A01's pendulum): nothing to centre, and Eigen's
+    // decomposition of an nv x 0 matrix reads out of bounds.
+    std::vector<int> held;
+    for (int r = 0; r < d->nefc; ++r)
+      if (r < ne || d->efc_type[r] == mjCNSTR_CONTACT_FRICTIONLESS) held.push_back(r);
+    if (centred_ && !held.empty()) {
+      using RowMajor = Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      const Eigen::Map<const RowMajor> all(d->efc_J, d->nefc, nv);
+      const RowMajor jacobian = all(held, Eigen::all);  // row-major as efc_J: the same solve
       const Eigen::VectorXd bias = Eigen::Map<const Eigen::VectorXd>(d2->qfrc_bias, nv) -
                                    Eigen::Map<const Eigen::VectorXd>(d->qfrc_bias, nv);
       // Least squares: a connect's z row is zero in a planar scene.
-      force += jacobian.transpose().completeOrthogonalDecomposition().solve(bias);
+      const Eigen::VectorXd change =
+          jacobian.transpose().completeOrthogonalDecomposition().solve(bias);
+      for (size_t i = 0; i < held.size(); ++i)
+        d2->efc_force[held[i]] += change(static_cast<Eigen::Index>(i));
     }
-    std::copy(force.data(), force.data() + ne, d2->efc_force);
-    std::copy(d->efc_force + ne, d->efc_force + d->nefc, d2->efc_force + ne);  // friction loss
+    const Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d2->efc_force, ne);
     std::copy(d->qacc, d->qacc + nv, d2->qacc);
     mj_rnePostConstraint(mm_, d2);
     extract(d2, force, out);
@@ -756,6 +799,22 @@ class ForceReader {
       out.joint_force[static_cast<size_t>(slide.source)] -=
           f * world_direction(d2, slide.a, slide.direction);
     }
+    // A cam's contact: its normal force, along the contact frame's normal from geom1 to geom2, on
+    // geom2's body (mj_rnePostConstraint); none while the spheres are apart.
+    for (size_t c = 0; c < contact_geoms_.size(); ++c) {
+      const auto [on_cam, on_follower] = contact_geoms_[c];
+      for (int i = 0; i < d2->ncon; ++i) {
+        const mjContact& con = d2->contact[i];
+        const double sign = con.geom2 == on_follower && con.geom1 == on_cam   ? 1.0
+                            : con.geom1 == on_follower && con.geom2 == on_cam ? -1.0
+                                                                              : 0.0;
+        if (sign == 0.0 || con.efc_address < 0) continue;
+        mjtNum f[6];
+        mj_contactForce(mm_, d2, i, f);
+        out.joint_force[static_cast<size_t>(s_.contacts[c].source)] +=
+            sign * f[0] * Eigen::Vector2d(con.frame[0], con.frame[1]);
+      }
+    }
     // Friction loss: its row's force along the joint's coordinate, which runs from a to b.
     for (const FrictionRow& f : friction_rows_)
       out.friction[static_cast<size_t>(f.joint)] = f.force(d2);
@@ -791,7 +850,8 @@ class ForceReader {
   std::vector<int> driver_eq_;    // per driver: its equality (-1: none, forward dynamics)
   std::vector<int> driven_dof_;   // per driver: the driven tree joint's degree of freedom (-1: a
                                   // tendon driver)
-  std::vector<FrictionRow> friction_rows_;  // per joint with friction
+  std::vector<FrictionRow> friction_rows_;          // per joint with friction
+  std::vector<std::pair<int, int>> contact_geoms_;  // per contact: its geoms on cam and follower
 };
 
 // The forward evaluations one mj_step makes with `integrator` (MuJoCo 2.2's mj_step in
@@ -1034,6 +1094,10 @@ Settings step_settings(const Prepared& p) {
     values.push_back(friction_load_value(p.config.extrapolated_load));
     values.emplace_back("friction_solref", numbers(p.options.friction_solref));
   }
+  if (!p.scene.contacts.empty()) {
+    values.emplace_back("contact_solref", numbers(p.options.contact_solref));
+    values.emplace_back("contact_solimp", numbers(p.options.contact_solimp));
+  }
   return values;
 }
 
@@ -1056,7 +1120,8 @@ Settings kinematic_settings(const Prepared& p, const KinematicWatch& w, bool wit
            "3-point central differences of step positions; 4-point one-sided at the first and "
            "last usable samples"},
       });
-  return printed_settings(mujoco_settings(), RunKind::kinematic, values, rough(p.scene));
+  return printed_settings(mujoco_settings(), RunKind::kinematic, values, rough(p.scene),
+                          !p.scene.contacts.empty());
 }
 
 // The tree joints' rates of the state (q, qdot) into d->qvel: the scene starts on the exact
@@ -1212,6 +1277,8 @@ class MujocoKinematicScene final : public KinematicScene {
       mm_->eq_solref[mjNREF * e] = -1.0 / (h * h);
       mm_->eq_solref[mjNREF * e + 1] = -1.0 / h;
     }
+    if (p_.config.contact_solref == "auto")
+      for (int i = 0; i < mm_->npair; ++i) mm_->pair_solref[mjNREF * i] = 2.0 * h;
   }
 
   const Prepared& p_;
@@ -1280,7 +1347,8 @@ Settings dynamics_settings(const Prepared& p, const DynamicsChoices& choice,
           {"divergence_energy", fmt::format("{:g}", p.config.divergence_energy)},
           {"energy_scale", fmt::format("{:.6g} J", w.energy_scale)},
       });
-  return printed_settings(mujoco_settings(), RunKind::dynamics, values, rough(p.scene));
+  return printed_settings(mujoco_settings(), RunKind::dynamics, values, rough(p.scene),
+                          !p.scene.contacts.empty());
 }
 
 // A dynamics run's scene for the shared run loop (sim/dynamics_run.h): MuJoCo's model at the
@@ -1462,7 +1530,9 @@ class MujocoEngine final : public Engine {
         (void)solref_of(name, text, 1.0);
       (void)solimp_of("solimp", c.solimp);
       (void)solimp_of("driver_solimp", c.driver_solimp);
-      (void)friction_solref(c.friction_solref, 1.0);
+      (void)two_step_solref("friction_solref", c.friction_solref, 1.0);
+      (void)two_step_solref("contact_solref", c.contact_solref, 1.0);
+      (void)solimp_of("contact_solimp", c.contact_solimp);
     } catch (const std::runtime_error& e) {
       throw std::invalid_argument(e.what());
     }

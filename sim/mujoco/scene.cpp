@@ -50,7 +50,7 @@ void place_child(Scene& s, const SceneJoint& j) {
 }  // namespace
 
 Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
-  SceneGraph graph = scene_graph(m);
+  SceneGraph graph = scene_graph(m, TreePolicy{.contacts = true});
   if (graph.cut_slide >= 0)
     throw std::runtime_error(fmt::format(
         "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
@@ -100,6 +100,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   for (const Driver& d : m.drivers)
     s.driver_names.push_back(m.axis().timed() ? "driver:" + d.name : "driver");
   s.couplings = std::move(graph.couplings);
+  s.contacts = std::move(graph.contacts);
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
   // scene that loads as it is keeps its unit).
@@ -134,6 +135,10 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   // Place every body from its tree parent, so tree joints hold to rounding in the scene.
   for (int j : s.tree_order) place_child(s, s.joints[j]);
   return s;
+}
+
+std::string contact_geom(const Mechanism& m, const SceneContact& c, bool cam) {
+  return (cam ? "cam:" : "follower:") + m.joints[static_cast<size_t>(c.source)].name;
 }
 
 bool realisable(const Mechanism& mechanism, std::string* why) {
@@ -249,8 +254,33 @@ std::string friction_attributes(const SceneJoint& j, const MjcfOptions& o) {
                      o.friction_solref.x(), o.friction_solref.y());
 }
 
-void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& children, int depth,
-                const MjcfOptions& o, std::vector<int>& written, std::string& out) {
+// The contact shapes on body `link` (Scene::contacts, as SceneContact gives them), contype and
+// conaffinity 0, so that only their <pair> collides (MuJoCo's sphere-sphere and sphere-box
+// contacts are analytic).
+std::string contact_geoms(const Mechanism& m, const Scene& s, int link, const std::string& pad) {
+  std::string out;
+  for (const SceneContact& c : s.contacts)
+    for (const bool cam : {true, false}) {
+      if ((cam ? c.cam : c.follower) != link) continue;
+      const Eigen::Vector2d& at = cam ? c.cam_centre : c.follower_centre;
+      const std::string shape =
+          !cam && c.face ? fmt::format(
+                               "type=\"box\" pos=\"{:.17g} {:.17g} 0\" quat=\"{}\" size=\"{:.17g} "
+                               "{:.17g} {:.17g}\"",
+                               at.x(), at.y(), quat_z(c.box_angle), c.box_half.x(), c.box_half.y(),
+                               c.box_half.z())
+                         : fmt::format("type=\"sphere\" pos=\"{:.17g} {:.17g} 0\" size=\"{:.17g}\"",
+                                       at.x(), at.y(), cam ? c.cam_radius : c.follower_radius);
+      out += fmt::format(
+          "{}<geom name=\"{}\" {} contype=\"0\" conaffinity=\"0\" rgba=\"0.6 0.6 0.6 0.5\"/>\n",
+          pad, escape(contact_geom(m, c, cam)), shape);
+    }
+  return out;
+}
+
+void write_body(const Mechanism& m, const Scene& s, int link,
+                const std::vector<std::vector<int>>& children, int depth, const MjcfOptions& o,
+                std::vector<int>& written, std::string& out) {
   const Standalone* standalone = o.standalone ? &*o.standalone : nullptr;
   const std::string pad(static_cast<size_t>(2 * depth), ' ');
   for (int j : children[link]) {
@@ -293,7 +323,8 @@ void write_body(const Scene& s, int link, const std::vector<std::vector<int>>& c
     }
     written.push_back(j);
     if (standalone) out += link_geometry(child, sj.child, standalone->radius, pad + "  ");
-    write_body(s, sj.child, children, depth + 1, o, written, out);
+    out += contact_geoms(m, s, sj.child, pad + "  ");
+    write_body(m, s, sj.child, children, depth + 1, o, written, out);
     out += pad + "</body>\n";
   }
 }
@@ -309,27 +340,31 @@ std::string vec(const Eigen::VectorXd& v) {
 std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   const Standalone* alone = o.standalone ? &*o.standalone : nullptr;
   std::string out = fmt::format("<mujoco model=\"{}\">\n", escape(m.name));
-  const bool gravity = o.gravity != Eigen::Vector2d::Zero();
+  const bool gravity = o.gravity != Eigen::Vector2d::Zero(), contacts = !s.contacts.empty();
+  // A cam's contact pair is the only contact (Scene::contacts).
+  const char* const contact_words = contacts ? "contacts only a cam's pair" : "contacts off";
   if (!alone)
-    out += "  <!-- crosslink: planar linkage; contacts off, no geoms -->\n";
+    out += fmt::format("  <!-- crosslink: planar linkage; {}, {} -->\n", contact_words,
+                       contacts ? "no other geoms" : "no geoms");
   else if (alone->clock)
-    out +=
+    out += fmt::format(
         "  <!-- crosslink: planar linkage for MuJoCo alone (docs/engines.md, \"The exported "
-        "scene\"); contacts off, geoms drawn only; the hinge \"clock\" moves the driver -->\n";
+        "scene\"); {}, geoms drawn only; the hinge \"clock\" moves the driver -->\n",
+        contact_words);
   else
-    out +=
+    out += fmt::format(
         "  <!-- crosslink: planar linkage for MuJoCo alone (docs/engines.md, \"The exported "
-        "scene\"); contacts off, geoms drawn only; the coordinate moves freely under gravity: "
-        "the definition's loads, springs and effort are crosslink's run's, not in this file "
-        "-->\n";
+        "scene\"); {}, geoms drawn only; the coordinate moves freely under gravity: the "
+        "definition's loads, springs and effort are crosslink's run's, not in this file -->\n",
+        contact_words);
   out += "  <compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n";
   // Dense Jacobian: the force reading solves with the equality rows of efc_J.
   out += fmt::format(
       "  <option timestep=\"{:.17g}\" integrator=\"{}\" solver=\"{}\" iterations=\"{}\" "
       "tolerance=\"{:.17g}\" jacobian=\"dense\" gravity=\"{:.17g} {:.17g} 0\">\n"
-      "    <flag contact=\"disable\" gravity=\"{}\"/>\n  </option>\n",
+      "    <flag contact=\"{}\" gravity=\"{}\"/>\n  </option>\n",
       o.dt, o.integrator, o.solver, o.iterations, o.tolerance, o.gravity.x(), o.gravity.y(),
-      gravity ? "enable" : "disable");
+      contacts ? "enable" : "disable", gravity ? "enable" : "disable");
   Eigen::Vector2d low = Eigen::Vector2d::Constant(INFINITY), high = -low;
   for (const SceneLink& link : s.links)
     for (const Eigen::Vector2d& p : link.points) {
@@ -354,7 +389,7 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   }
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);
-  write_body(s, 0, children, 2, o, written, out);
+  write_body(m, s, 0, children, 2, o, written, out);
   const Clock* clock = alone && alone->clock ? &*alone->clock : nullptr;
   if (clock)  // its own body, off the linkage's tree; not drawn
     out += fmt::format(
@@ -447,8 +482,19 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
           vec(o.driver_solimp));
   }
   equality += "  </equality>\n";
-  out += fmt::format("  <size njmax=\"{}\" nconmax=\"0\"/>\n", rows);
+  // A frictionless contact (condim 1) is one row.
+  const int pairs = static_cast<int>(s.contacts.size());
+  out += fmt::format("  <size njmax=\"{}\" nconmax=\"{}\"/>\n", rows + pairs, pairs);
   out += equality;
+  if (contacts) {
+    out += "  <contact>\n";
+    for (const SceneContact& c : s.contacts)
+      out += fmt::format(
+          "    <pair geom1=\"{}\" geom2=\"{}\" condim=\"1\" solref=\"{}\" solimp=\"{}\"/>\n",
+          escape(contact_geom(m, c, true)), escape(contact_geom(m, c, false)),
+          vec(o.contact_solref), vec(o.contact_solimp));
+    out += "  </contact>\n";
+  }
   if (alone) {  // "start": the exact start's velocities (MuJoCo's simulate loads it by its Key)
     std::string qvel;
     for (int j : written)

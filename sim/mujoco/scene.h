@@ -55,6 +55,10 @@ struct Scene {
   // length at qpos0 (the assembled start) by a tendon equality of the same name with the loop
   // constraints' solref and solimp.
   std::vector<SceneCoupling> couplings;
+  // Cam joints: their shapes (SceneContact), geom contact_geom(c, true) on the cam and
+  // contact_geom(c, false) on the follower, and one <pair> with condim 1 (frictionless: the joint
+  // slides and rolls free) and the contact solref and solimp.
+  std::vector<SceneContact> contacts;
   double size = 1.0;  // Mechanism::size() [m]
   // The scene's unit of mass in kg is 1 / mass_scale: every mass and inertia of the scene is the
   // mechanism's times mass_scale, and so is every force MuJoCo applies or reports. MuJoCo refuses
@@ -64,6 +68,9 @@ struct Scene {
   // light.
   double mass_scale = 1.0;
 };
+
+// The geom of contact c on its cam (`cam`) or its follower: "cam:<joint>", "follower:<joint>".
+std::string contact_geom(const Mechanism& mechanism, const SceneContact& c, bool cam);
 
 // Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving
 // link, Mechanism order) of an assembled configuration. Throws std::runtime_error when MuJoCo
@@ -101,6 +108,8 @@ struct MjcfOptions {
   Eigen::Vector2d driver_solref = Eigen::Vector2d(-1e6, -1e3);  // driver equality
   Eigen::Matrix<double, 5, 1> driver_solimp;
   Eigen::Vector2d friction_solref = Eigen::Vector2d(0.02, 1.0);  // frictionloss rows
+  Eigen::Vector2d contact_solref = Eigen::Vector2d(0.02, 1.0);   // cams' contact pairs
+  Eigen::Matrix<double, 5, 1> contact_solimp;
   // Per driver: the rotor inertia on its driven tree joint [kg m^2, or kg] (none: 0).
   std::vector<double> driver_armature;
   Eigen::Vector2d gravity = Eigen::Vector2d::Zero();  // the Mechanism's [m/s^2]; zero: off

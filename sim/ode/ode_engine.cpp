@@ -37,8 +37,13 @@ namespace crosslink::sim {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+// A cam's contact is sought this fraction of the disc's radius ahead (OdeScene::touch).
+constexpr double kContactMargin = 0.1;
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
+// A cam's contact joint carries the start's transient longer (its first step's force lacks the
+// velocity terms as every joint's, and the follower then settles on the disc).
+constexpr long kContactPreroll = 32;
 // The default step's largest turn of the fastest link [rad]: kinematic runs as Bullet's (each step
 // is a Newton step towards the driver, error O(dt^2)); forward dynamics as MuJoCo's and Bullet's
 // (errors accumulate over a run).
@@ -103,6 +108,7 @@ struct Config {
   double cfm = 1e-10;
   bool extrapolated_load = true;
   double friction_cfm = 1e-8;
+  double contact_erp = 1.0, contact_cfm = 1e-10;  // a cam's contact joint's (ODE's soft_erp, cfm)
   bool finite_rotation = true;
   double gap_threshold = 0.0;     // [m]; 0 (auto): 1e-4 of the size
   double divergence_gap = 0.1;    // of the size
@@ -173,6 +179,18 @@ const SettingSchema& ode_settings() {
               "loop with friction at every pin fails)",
        .range = {0.0, 1.0, true},
        .friction = true},
+      {.name = "contact_erp",
+       .kind = number,
+       .default_value = "1",
+       .doc = "a cam's contact joint's error reduction per step (its soft_erp)",
+       .range = {0.0, 1.0},
+       .contact = true},
+      {.name = "contact_cfm",
+       .kind = number,
+       .default_value = "1e-10",
+       .doc = "a cam's contact joint's constraint force mixing (its soft_cfm)",
+       .range = {0.0, 1.0, true},
+       .contact = true},
       {.name = "precision", .doc = "the ODE build linked", .reported = true},
       shared_setting("gap_threshold"),
       shared_setting("divergence_gap"),
@@ -210,6 +228,8 @@ Config parse_settings(const Settings& overrides) {
   c.cfm = v.number("cfm");
   c.extrapolated_load = v.is("friction_load", "extrapolated");
   c.friction_cfm = v.number("friction_cfm");
+  c.contact_erp = v.number("contact_erp");
+  c.contact_cfm = v.number("contact_cfm");
   c.finite_rotation = v.is("finite_rotation", "1");
   c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
   c.divergence_gap = v.number("divergence_gap");
@@ -414,6 +434,10 @@ class OdeScene {
     for (const SceneCoupling& c : g.couplings) add_transmission(c.source, q);
     friction_feedback_.resize(g.joints.size());
     for (size_t ji = 0; ji < g.joints.size(); ++ji) add_friction(ji, driven, q);
+    contact_erp_ = config.contact_erp;
+    contact_cfm_ = config.contact_cfm;
+    contacts_.resize(g.contacts.size());  // sized before any joint points into a feedback
+    for (size_t c = 0; c < g.contacts.size(); ++c) add_contact(c);
     if (driven)
       for (const DrivenCoordinate& dc : g.driven) {
         Motor motor;
@@ -436,6 +460,11 @@ class OdeScene {
     }
     dWorldSetStepThreadingImplementation(world_, nullptr, nullptr);
     dThreadingFreeImplementation(threading_);
+    for (const Contact& c : contacts_) {  // no space holds them: each destroyed alone
+      dGeomDestroy(c.cam);
+      dGeomDestroy(c.follower);
+    }
+    if (contact_group_) dJointGroupDestroy(contact_group_);
     dWorldDestroy(world_);  // its bodies and joints with it
   }
   OdeScene(const OdeScene&) = delete;
@@ -465,6 +494,7 @@ class OdeScene {
   // One step; "" or ODE's warning of it.
   std::string step(double h) {
     ode_message.clear();
+    touch(h);
     try {
       if (quick_)
         dWorldQuickStep(world_, h);
@@ -517,6 +547,15 @@ class OdeScene {
     s.force = {force[0], force[1]};
     s.torque = first ? f.t1[2] : f.t2[2];
     return s;
+  }
+
+  // What cam contact c (SceneGraph::contacts) put on its follower in the last step: nothing while
+  // its shapes were apart.
+  Eigen::Vector2d contact_force(size_t c) const {
+    const Contact& contact = contacts_[c];
+    if (!contact.touching) return Eigen::Vector2d::Zero();
+    const dReal* f = contact.follower_first ? contact.feedback.f1 : contact.feedback.f2;
+    return {f[0], f[1]};
   }
 
   // Whether motors drive the drivers' joints (a kinematic run).
@@ -652,6 +691,62 @@ class OdeScene {
     transmissions_.push_back({joint, t});
   }
 
+  // Cam contact c's shapes (SceneContact), each placed from its body's centre of mass; the disc
+  // collided larger by the contact's margin (touch()).
+  void add_contact(size_t c) {
+    const SceneContact& sc = g_.contacts[c];
+    if (!contact_group_) contact_group_ = dJointGroupCreate(0);
+    const auto place = [&](dGeomID geom, int body, const Eigen::Vector2d& at, double angle) {
+      dGeomSetBody(geom, bodies_[static_cast<size_t>(body)]);
+      const Eigen::Vector2d offset = at - g_.bodies[static_cast<size_t>(body)].centre;
+      dGeomSetOffsetPosition(geom, offset.x(), offset.y(), 0.0);
+      dMatrix3 r;
+      dRFromAxisAndAngle(r, 0.0, 0.0, 1.0, angle);
+      dGeomSetOffsetRotation(geom, r);
+    };
+    Contact& contact = contacts_[c];
+    contact.margin = kContactMargin * sc.cam_radius;
+    contact.cam = dCreateSphere(nullptr, sc.cam_radius + contact.margin);
+    place(contact.cam, sc.cam, sc.cam_centre, 0.0);
+    contact.follower = sc.face ? dCreateBox(nullptr, 2.0 * sc.box_half.x(), 2.0 * sc.box_half.y(),
+                                            2.0 * sc.box_half.z())
+                               : dCreateSphere(nullptr, sc.follower_radius);
+    place(contact.follower, sc.follower, sc.follower_centre, sc.face ? sc.box_angle : 0.0);
+  }
+
+  // Before a step of h: each cam's contact joint where its shapes come within the margin,
+  // frictionless (mu 0), its softness the contact's own ERP and CFM. The disc is collided enlarged
+  // by the margin and the depth taken back; shapes still apart get a joint that lets them close
+  // that gap in the step and no more (a speculative contact: ODE clamps a negative depth to 0, so
+  // the gap is its normal velocity, dContactMotionN, gap / h), and the contact holds from step to
+  // step instead of flickering at zero depth.
+  void touch(double h) {
+    if (!contact_group_) return;
+    dJointGroupEmpty(contact_group_);
+    for (size_t c = 0; c < contacts_.size(); ++c) {
+      Contact& contact = contacts_[c];
+      dContact touching{};
+      contact.touching =
+          dCollide(contact.cam, contact.follower, 1, &touching.geom, sizeof(dContact)) > 0;
+      if (!contact.touching) continue;
+      touching.geom.depth -= contact.margin;
+      touching.surface.mode = dContactSoftERP | dContactSoftCFM;
+      if (touching.geom.depth < 0.0) {
+        touching.surface.mode |= dContactMotionN;
+        touching.surface.motionN = touching.geom.depth / h;
+        touching.geom.depth = 0.0;
+      }
+      touching.surface.mu = 0.0;
+      touching.surface.soft_erp = contact_erp_;
+      touching.surface.soft_cfm = contact_cfm_;
+      dJointID joint = dJointCreateContact(world_, contact_group_, &touching);
+      dBodyID first = dGeomGetBody(touching.geom.g1), second = dGeomGetBody(touching.geom.g2);
+      dJointAttach(joint, first, second);
+      dJointSetFeedback(joint, &contact.feedback);
+      contact.follower_first = first == bodies_[static_cast<size_t>(g_.contacts[c].follower)];
+    }
+  }
+
   const Mechanism& m_;
   const SceneGraph& g_;
   bool quick_;
@@ -683,8 +778,20 @@ class OdeScene {
   };
   std::vector<Rough> rough_;
   std::vector<dJointFeedback> friction_feedback_;  // per scene joint (sized before any points in)
-  bool interrupted_ = false;                       // a step threw (an ODE error inside it)
-  std::unique_lock<std::mutex> random_order_;      // a quick-step run's hold on dRandInt's seed
+  // Per cam contact (SceneGraph::contacts): its two geoms, on no space, collided by dCollide
+  // before each step; while they touch, a frictionless contact joint in contact_group_, emptied
+  // at the next step.
+  struct Contact {
+    dGeomID cam = nullptr, follower = nullptr;
+    double margin = 0.0;  // the disc collided larger by it [m]
+    dJointFeedback feedback{};
+    bool touching = false, follower_first = false;  // whether the follower is the joint's body1
+  };
+  std::vector<Contact> contacts_;
+  dJointGroupID contact_group_ = nullptr;
+  double contact_erp_ = 1.0, contact_cfm_ = 1e-10;
+  bool interrupted_ = false;                   // a step threw (an ODE error inside it)
+  std::unique_lock<std::mutex> random_order_;  // a quick-step run's hold on dRandInt's seed
 };
 
 // A gear pair's reading in the terms every engine's takes (ForceReading::gear_couple): ODE's
@@ -767,6 +874,8 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
     out.joint_force[ji] = on_b;
   }
   for (const SceneCoupling& c : g.couplings) read_tooth_force(m, scene, c.source, q, out);
+  for (size_t c = 0; c < g.contacts.size(); ++c)
+    out.joint_force[static_cast<size_t>(g.contacts[c].source)] = scene.contact_force(c);
   for (size_t di = 0; di < m.drivers.size(); ++di) {
     if (m.drivers[di].type != DriverType::link_angle) continue;
     const DrivenCoordinate& dc = g.driven[di];
@@ -801,6 +910,7 @@ struct Prepared {
 TreePolicy ode_policy() {
   TreePolicy policy;
   policy.planar_joints = true;
+  policy.contacts = true;
   return policy;
 }
 
@@ -846,7 +956,7 @@ double max_step_angle(const Config& config, bool dynamics) {
 }
 
 Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle,
-                         bool friction) {
+                         bool friction, bool contact) {
   Settings values = {
       {"stepper", config.stepper},
       {"iterations",
@@ -868,6 +978,10 @@ Settings common_settings(const Config& config, const TimeGrid& grid, double step
   if (friction) {
     values.push_back(friction_load_value(config.extrapolated_load));
     values.emplace_back("friction_cfm", format_number(config.friction_cfm));
+  }
+  if (contact) {
+    values.emplace_back("contact_erp", format_number(config.contact_erp));
+    values.emplace_back("contact_cfm", format_number(config.contact_cfm));
   }
   return values;
 }
@@ -1008,7 +1122,8 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
             ? Eigen::VectorXd(start.start.qdot - 0.5 * (time[1] - time[0]) * start.start.qddot)
             : start.start.qdot;
     const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction());
+    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction(),
+                                      !p.graph.contacts.empty());
     const Settings more = {
         {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
         {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
@@ -1017,7 +1132,8 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
         {"divergence_energy", format_number(config.divergence_energy)},
         {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
     values.insert(values.end(), more.begin(), more.end());
-    out.settings = printed_settings(ode_settings(), RunKind::dynamics, values, p.m.has_friction());
+    out.settings = printed_settings(ode_settings(), RunKind::dynamics, values, p.m.has_friction(),
+                                    !p.graph.contacts.empty());
     OdeScene scene(p.m, p.graph, config, start.start.q, &velocity, false);
     OdeSteps steps(p.m, p.graph, scene, start.start.q,
                    reference_trend(p.m, reference, start.span.first, time.front()),
@@ -1048,14 +1164,16 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
     KinematicPlan start = plan_kinematic(
         p.m, reference,
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
-        InnerTimes::interval_fractions, kPreroll, config.max_steps, config.singular_rcond,
-        !config.perturb_link.empty());
-    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction());
+        InnerTimes::interval_fractions, p.graph.contacts.empty() ? kPreroll : kContactPreroll,
+        config.max_steps, config.singular_rcond, !config.perturb_link.empty());
+    Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction(),
+                                      !p.graph.contacts.empty());
     const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
                            {"forces", "dJointFeedback of the step leaving each sampled pose"},
                            {"branch_distance", format_number(config.branch_distance)}};
     values.insert(values.end(), more.begin(), more.end());
-    out.settings = printed_settings(ode_settings(), RunKind::kinematic, values, p.m.has_friction());
+    out.settings = printed_settings(ode_settings(), RunKind::kinematic, values, p.m.has_friction(),
+                                    !p.graph.contacts.empty());
     const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * p.m.size(),
                                   config.driver_threshold, config.singular_rcond,
                                   config.branch_distance};
