@@ -38,7 +38,10 @@ namespace {
 
 constexpr long kPreroll = 4;  // periodic sweeps: steps before the first sample (and after the
                               // last); the start is exact, so this only centres the stencils
-constexpr long kRing = 16;    // states kept for the dynamics run's state readout
+// A cam's compliant contact starts at the exact start's zero penetration and settles into the
+// one its load holds over some tens of the reported poses' spacing.
+constexpr long kContactPreroll = 64;
+constexpr long kRing = 16;  // states kept for the dynamics run's state readout
 // Forward dynamics reads rates and forces from Simbody's state, so the reported poses' spacing
 // only sets the trapezoid rule of the loads' work: at 0.02 rad the Andrews squeezer's work is
 // within 5e-5 % of the exact one (0.0025: 8e-7 %) at a third of the cost.
@@ -69,6 +72,9 @@ struct Config {
   // Joint friction (docs/engines.md, "Joint friction").
   bool extrapolated_load = true;  // the load extrapolated along a step, else its start's
   double friction_speed = 1e-4;   // v_s: of each friction joint's fastest rate in the reference
+  // A cam's compliant contact (docs/cams.md, "The engines' contact"): each surface's material.
+  double contact_stiffness = 2e11;      // [Pa]: steel's Young's modulus
+  double contact_dissipation = 1000.0;  // Hunt and Crossley's c [s/m]
 };
 
 const SettingSchema& simbody_settings() {
@@ -154,6 +160,19 @@ const SettingSchema& simbody_settings() {
               "creeps at v_s atanh(force / limit)",
        .range = {0.0, 1.0, true},
        .friction = true},
+      {.name = "contact_stiffness",
+       .kind = number,
+       .default_value = "2e11",
+       .doc = "a cam's contact surfaces' stiffness [Pa] (Hertz: Young's modulus; 2e11 steel)",
+       .range = kPositive,
+       .contact = true},
+      {.name = "contact_dissipation",
+       .kind = number,
+       .default_value = "1000",
+       .doc = "a cam's contact surfaces' Hunt-Crossley dissipation c [s/m]: the force is the "
+              "Hertz force times 1 + 3/2 c x the rate of penetration",
+       .range = kNonNegative,
+       .contact = true},
   };
   return schema;
 }
@@ -181,6 +200,8 @@ Config parse_settings(const Settings& overrides) {
   c.max_steps = v.count("max_steps");
   c.extrapolated_load = v.is("friction_load", "extrapolated");
   c.friction_speed = v.number("friction_speed");
+  c.contact_stiffness = v.number("contact_stiffness");
+  c.contact_dissipation = v.number("contact_dissipation");
   return c;
 }
 
@@ -218,7 +239,7 @@ double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 // The graph's tree policy for Simbody: MuJoCo's (no planar joints, no split loops), which both
 // reduced-coordinate engines then share. A link's driven angle must be one mobilizer's.
 SceneGraph simbody_graph(const Mechanism& m) {
-  SceneGraph g = scene_graph(m, TreePolicy{});
+  SceneGraph g = scene_graph(m, TreePolicy{.contacts = true});
   if (g.cut_slide >= 0)
     throw std::runtime_error("a loop of slides only: Simbody's scene closes cuts at hinges");
   return g;
@@ -306,18 +327,20 @@ class Readback {
 
 // The definition's loads on the moving links, at their centres of mass: set for the next step
 // (a kinematic run, where they change no motion), or evaluated by Simbody at every state from
-// the state itself (a dynamics run: DynamicsLoads at its time, positions and velocities).
+// the state itself (DynamicsLoads at its time, positions and velocities): a dynamics run, and a
+// kinematic run with a cam, whose follower the loads move (held over a step, a spring's force
+// would lag by k v h: 0.13 % of the contact force's peak on eccentric_roller_spring.toml).
 class LoadForce final : public SimTK::Force::Custom::Implementation {
  public:
   LoadForce(const Mechanism& m, const SceneGraph& g, const std::vector<SimTK::MobilizedBody>& body,
-            const Readback& readback, const Eigen::VectorXd& q0, bool dynamics)
+            const Readback& readback, const Eigen::VectorXd& q0, bool from_state)
       : readback_(readback), q_(q0), qdot_(Eigen::VectorXd::Zero(q0.size())) {
     for (size_t b = 0; b < g.bodies.size(); ++b)
       if (g.bodies[b].source >= 0 && !g.bodies[b].ground) {
         body_.push_back(body[b]);
         centre_.push_back(vec3(g.bodies[b].centre));
       }
-    if (dynamics) {
+    if (from_state) {
       dynamics_.emplace(m);
       if (!dynamics_->any()) dynamics_.reset();
     }
@@ -485,11 +508,16 @@ class FrictionForce final : public SimTK::Force::Custom::Implementation {
 // The Simbody system of a scene graph at configuration q with rates qdot, at time t0; its driven
 // mobilizer prescribed by the driver's law when `driven`. Throws (std::exception) when Simbody
 // refuses it.
+// A cam's contact surfaces' material (Config::contact_stiffness, contact_dissipation).
+struct ContactSetup {
+  double stiffness = 0.0, dissipation = 0.0;
+};
+
 class Scene {
  public:
   Scene(const Mechanism& m, const SceneGraph& g, const Eigen::VectorXd& q,
         const Eigen::VectorXd& qdot, double t0, bool driven,
-        std::optional<FrictionSetup> friction = std::nullopt)
+        std::optional<FrictionSetup> friction = std::nullopt, ContactSetup contact = {})
       : m_(m), g_(g), matter_(system_), forces_(system_) {
     body_.resize(g.bodies.size());
     body_[0] = matter_.Ground();
@@ -547,12 +575,13 @@ class Scene {
     }
     SimTK::Force::UniformGravity(forces_, matter_, vec3(m.gravity));
     readback_.emplace(m, g, body_);
-    load_ = new LoadForce(m, g, body_, *readback_, q, !driven);
+    load_ = new LoadForce(m, g, body_, *readback_, q, !driven || !g.contacts.empty());
     SimTK::Force::Custom(forces_, load_);  // Simbody owns load_
     if (friction) {
       friction_ = new FrictionForce(m, g, body_, *readback_, q, forces_, std::move(*friction));
       SimTK::Force::Custom(forces_, friction_);  // Simbody owns friction_
     }
+    if (!g.contacts.empty()) add_contacts(contact);
     // Each driver's mobilizer prescribed by its own law.
     for (size_t di = 0; driven && di < g.driven.size(); ++di) {
       const DrivenCoordinate& d = g.driven[di];
@@ -563,6 +592,10 @@ class Scene {
           mobod, new DriveMotion(m.drivers[di], t0, coordinate0, orientation(dj) * d.sign));
     }
     system_.realizeTopology();
+    for (Surfaces& pair : surfaces_)
+      for (auto* which : {&pair.cam, &pair.follower})
+        which->index = tracker_->getContactSurfaceIndex(
+            body_[static_cast<size_t>(which->body)].getMobilizedBodyIndex(), which->on_body);
     state_ = system_.getDefaultState();
     state_.setTime(t0);
     for (int ji : g.tree_order) {
@@ -648,9 +681,56 @@ class Scene {
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
     if (friction_) friction_->write(s, out);
+    // A cam's contact: its compliant force on the follower, while the surfaces touch.
+    for (size_t k = 0; k < surfaces_.size(); ++k) {
+      const SimTK::ContactSnapshot& active = tracker_->getActiveContacts(s);
+      const SimTK::ContactId id =
+          active.getContactIdForSurfacePair(surfaces_[k].cam.index, surfaces_[k].follower.index);
+      if (!id.isValid()) continue;
+      const SimTK::Vec3 on_second = compliant_->getContactForceById(s, id).getForceOnSurface2()[1];
+      const double sign =
+          active.getContactById(id).getSurface2() == surfaces_[k].follower.index ? 1.0 : -1.0;
+      out.joint_force[static_cast<size_t>(g_.contacts[k].source)] = sign * vec2(on_second);
+    }
   }
 
  private:
+  // The cams' contacts (SceneContact): Simbody's compliant contact, the Hertz force of its
+  // ContactTrackerSubsystem's sphere-sphere and half-space-sphere pairs with Hunt and Crossley's
+  // dissipation (CompliantContactSubsystem's default generators), frictionless; a flat face is a
+  // half-space through its line, exact as the box of the other engines.
+  void add_contacts(const ContactSetup& contact) {
+    tracker_.emplace(system_);
+    compliant_.emplace(system_, *tracker_);
+    const SimTK::ContactMaterial material(contact.stiffness, contact.dissipation, 0.0, 0.0, 0.0);
+    std::vector<int> on_body(g_.bodies.size(), 0);
+    const auto add = [&](int body, const SimTK::Transform& at,
+                         const SimTK::ContactGeometry& shape) {
+      body_[static_cast<size_t>(body)].updBody().addContactSurface(
+          at, SimTK::ContactSurface(shape, material));
+      return Surface{body, on_body[static_cast<size_t>(body)]++, {}};
+    };
+    for (const SceneContact& c : g_.contacts) {
+      Surfaces pair;
+      pair.cam = add(c.cam, SimTK::Transform(vec3(c.cam_centre)),
+                     SimTK::ContactGeometry::Sphere(c.cam_radius));
+      if (c.face) {
+        // The half-space x > 0 of its frame, its outward normal -x towards the cam: x along the
+        // face's normal away from the cam, the origin on the face's line.
+        const double normal = c.box_angle + 0.5 * std::numbers::pi;
+        const Eigen::Vector2d away(std::cos(normal), std::sin(normal));
+        const Eigen::Vector2d on_face = c.follower_centre - c.box_half.y() * away;
+        pair.follower =
+            add(c.follower, SimTK::Transform(SimTK::Rotation(normal, SimTK::ZAxis), vec3(on_face)),
+                SimTK::ContactGeometry::HalfSpace());
+      } else {
+        pair.follower = add(c.follower, SimTK::Transform(vec3(c.follower_centre)),
+                            SimTK::ContactGeometry::Sphere(c.follower_radius));
+      }
+      surfaces_.push_back(pair);
+    }
+  }
+
   // A joint's value and rate (theta_b - theta_a, or the slide's s) from the mechanism's state.
   Eigen::Vector2d joint_value(const SceneJoint& j, const Eigen::VectorXd& q,
                               const Eigen::VectorXd& qdot) const {
@@ -672,6 +752,18 @@ class Scene {
   std::optional<Readback> readback_;
   LoadForce* load_ = nullptr;
   FrictionForce* friction_ = nullptr;
+  // Cams: the contact subsystems and, per SceneContact, its two surfaces (body, its surface's
+  // number on the body, and once the topology is realised its index in the tracker).
+  std::optional<SimTK::ContactTrackerSubsystem> tracker_;
+  std::optional<SimTK::CompliantContactSubsystem> compliant_;
+  struct Surface {
+    int body = -1, on_body = 0;
+    SimTK::ContactSurfaceIndex index;
+  };
+  struct Surfaces {
+    Surface cam, follower;
+  };
+  std::vector<Surfaces> surfaces_;
   SimTK::State state_;
 };
 
@@ -940,7 +1032,7 @@ std::optional<FrictionSetup> friction_setup(const Mechanism& m, const Trajectory
   return out;
 }
 
-Settings common_settings(const Config& c, double dt, bool friction) {
+Settings common_settings(const Config& c, double dt, bool friction, bool contact) {
   Settings values = {
       {"integrator", c.integrator},
       {"accuracy", format_number(c.accuracy)},
@@ -959,6 +1051,10 @@ Settings common_settings(const Config& c, double dt, bool friction) {
   if (friction) {
     values.push_back(friction_load_value(c.extrapolated_load));
     values.emplace_back("friction_speed", format_number(c.friction_speed));
+  }
+  if (contact) {
+    values.emplace_back("contact_stiffness", format_number(c.contact_stiffness));
+    values.emplace_back("contact_dissipation", format_number(c.contact_dissipation));
   }
   return values;
 }
@@ -1051,7 +1147,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   }
   const Config& c = p.config;
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  Settings values = common_settings(c, plan.grid.dt, p.m.has_friction());
+  Settings values = common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
   values.insert(
       values.end(),
       {{"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
@@ -1059,8 +1155,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
        {"energy_threshold", format_number(c.energy_threshold)},
        {"divergence_energy", format_number(c.divergence_energy)},
        {"energy_scale", fmt::format("{:.6g} J", energy_scale)}});
-  out.settings =
-      printed_settings(simbody_settings(), RunKind::dynamics, values, p.m.has_friction());
+  out.settings = printed_settings(simbody_settings(), RunKind::dynamics, values, p.m.has_friction(),
+                                  !p.graph.contacts.empty());
   std::optional<Scene> scene;
   std::optional<SimbodySteps> steps;
   try {
@@ -1114,27 +1210,30 @@ class SimbodyEngine final : public Engine {
       p = prepare(original, reference, overrides);
       if (const std::string problem = driver_problem(p.graph); !problem.empty())
         throw std::runtime_error(problem);
-      plan = plan_kinematic(p.m, reference, wanted_step(reference, p.config, p.span),
-                            InnerTimes::step_multiples, kPreroll, p.config.max_steps,
-                            p.config.singular_rcond, !p.config.perturb_link.empty());
+      plan = plan_kinematic(
+          p.m, reference, wanted_step(reference, p.config, p.span), InnerTimes::step_multiples,
+          p.graph.contacts.empty() ? kPreroll : kContactPreroll, p.config.max_steps,
+          p.config.singular_rcond, !p.config.perturb_link.empty());
     } catch (const std::exception& e) {
       return failed_run(std::move(out), e.what());
     }
     const Config& c = p.config;
-    Settings values = common_settings(c, plan.grid.dt, p.m.has_friction());
+    Settings values =
+        common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
     values.insert(values.end(),
                   {{"driver_threshold", format_number(c.driver_threshold)},
                    {"forces",
                     "mobilizer reactions, ball constraint forces and the driven mobilizer's "
                     "prescribed-motion force at the pose each step leaves"},
                    {"branch_distance", format_number(c.branch_distance)}});
-    out.settings =
-        printed_settings(simbody_settings(), RunKind::kinematic, values, p.m.has_friction());
+    out.settings = printed_settings(simbody_settings(), RunKind::kinematic, values,
+                                    p.m.has_friction(), !p.graph.contacts.empty());
     std::optional<Scene> scene;
     std::optional<SimbodySteps> steps;
     try {
       scene.emplace(p.m, p.graph, plan.q, plan.qdot, plan.grid.time.front(), true,
-                    friction_setup(p.m, reference, plan.span, plan.grid.time.front(), c));
+                    friction_setup(p.m, reference, plan.span, plan.grid.time.front(), c),
+                    ContactSetup{c.contact_stiffness, c.contact_dissipation});
       steps.emplace(*scene, c, p.m, plan.q, plan.grid.time.back());
     } catch (const std::exception& e) {
       return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
