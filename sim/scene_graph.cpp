@@ -417,8 +417,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
       if (!policy.contacts)
         throw std::runtime_error(fmt::format(
             "joint '{}': a cam is in this engine's scene only as contact, which it does not "
-            "model yet (MuJoCo, ODE and Simbody do: docs/cams.md, \"The engines' contact\"); "
-            "the exact methods solve it",
+            "model yet (docs/cams.md, \"The engines' contact\"); the exact methods solve it",
             j.name));
       g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link));
       continue;

@@ -53,6 +53,9 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
+// A cam's contact carries the start's transient longer (as ODE's: its first step's force lacks
+// the velocity terms, and the follower then settles on the disc).
+constexpr long kContactPreroll = 32;
 // Forward dynamics: the default step turns the fastest link by at most this much [rad], as
 // MuJoCo's (errors accumulate over a run; docs/engines.md, "Forward dynamics").
 constexpr double kDynamicsMaxStepAngle = 0.0025;
@@ -265,6 +268,8 @@ struct Plan {
   };
   std::vector<RigidGear> rigid_gears;
   Eigen::MatrixXd rigid_mix;
+  // Cam joints (rigid formulation): their shapes, bodies as nodes + 1 (the graph's numbering).
+  std::vector<SceneContact> contacts;
 };
 
 int node_of_link(const Plan& plan, int link) {
@@ -318,7 +323,24 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   policy.ground_pivots_first = true;
   policy.planar_joints = true;
   policy.split_loops = multibody;
+  policy.contacts = true;
   const SceneGraph g = scene_graph(m, policy);
+  for (const SceneContact& c : g.contacts) {
+    const std::string& name = m.joints[static_cast<size_t>(c.source)].name;
+    if (multibody)
+      throw std::runtime_error(fmt::format(
+          "joint '{}' is a cam: the multibody formulation keeps no contact between its links "
+          "here; formulation=rigid holds the follower on the cam",
+          name));
+    if (c.face)
+      throw std::runtime_error(fmt::format(
+          "joint '{}' is a cam with a flat face: Bullet's sphere-box contact, made where the "
+          "shapes overlap, does not hold the follower from step to step (measured: the contact "
+          "force chatters, 195 % of peak), and the margin given back that holds a roller leaves "
+          "the face floating off the disc (every sample contact_lost); a roller or knife edge is "
+          "held",
+          name));
+  }
   // Rigid: a gear pair about the ground, btGearConstraint between the two rigid bodies.
   // Multibody: a coupling of two tree joints, btMultiBodyGearConstraint. No other gearing
   // (docs/engines.md, "Gear couplings").
@@ -391,6 +413,7 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   plan.gearings = std::move(gearings);
   plan.rigid_gears = std::move(rigid_gears);
   plan.rigid_mix = std::move(rigid_mix);
+  plan.contacts = g.contacts;
   return plan;
 }
 
@@ -489,6 +512,8 @@ class Scene {
   // centre of mass in N m): per mechanism joint, and of driver d's separate constraint (null
   // when the driver is a joint's own constraint). Null when the scene reads no forces.
   virtual const btJointFeedback* feedback(int /*joint*/) const { return nullptr; }
+  // What cam joint `joint` put on its follower in the last step.
+  virtual Eigen::Vector2d contact_force(int /*joint*/) const { return Eigen::Vector2d::Zero(); }
   virtual const btJointFeedback* driver_feedback(size_t /*d*/) const { return nullptr; }
   // Forward dynamics: the bodies set moving as the nodes at `poses` with `rates` (each node
   // frame origin's velocity and angular velocity).
@@ -570,6 +595,25 @@ void silence_profiler() {
     btSetCustomEnterProfileZoneFunc(no_profile_zone);
     btSetCustomLeaveProfileZoneFunc(no_profile_leave);
   });
+}
+
+// A cam's contact (RigidScene::add_contact_shapes): the disc is collided larger by a margin, a
+// fraction of its radius, kept in its body's user pointer, and each contact point's distance is
+// given it back as the point is made: shapes still apart by less than the margin get a contact
+// whose gap Bullet's solver lets close within the step and no more (a positive distance's
+// speculative row), so the contact holds from step to step instead of flickering at zero depth
+// (Bullet's sphere-sphere points are remade every step).
+constexpr double kContactMargin = 0.1;
+bool give_back_margin(btManifoldPoint& point, const btCollisionObjectWrapper* a, int, int,
+                      const btCollisionObjectWrapper* b, int, int) {
+  for (const btCollisionObjectWrapper* w : {a, b})
+    if (const auto* margin = static_cast<const double*>(w->getCollisionObject()->getUserPointer()))
+      point.m_distance1 += *margin;
+  return false;
+}
+void use_contact_margins() {
+  static std::once_flag once;
+  std::call_once(once, [] { gContactAddedCallback = give_back_margin; });
 }
 
 // Joint-solver settings of both formulations: iterations, ERP (no softening), split impulse
@@ -853,10 +897,14 @@ class RigidScene final : public Scene {
     ground_ = new btRigidBody(0.0, nullptr, &empty_);
     world_->addRigidBody(ground_, 0, 0);
     const int links = m.moving_count();
+    add_contact_shapes(links);
     for (int v = 0; v < links; ++v) {
       const SceneBody& node = plan.nodes[v];
+      btCollisionShape* shape = shape_[static_cast<size_t>(v)]
+                                    ? shape_[static_cast<size_t>(v)].get()
+                                    : static_cast<btCollisionShape*>(&empty_);
       btRigidBody::btRigidBodyConstructionInfo ci(
-          node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
+          node.mass, nullptr, shape, btVector3(node.inertia, node.inertia, node.inertia));
       auto* body = new btRigidBody(ci);
       const Pose& p = poses[v];
       body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.centre))));
@@ -866,7 +914,21 @@ class RigidScene final : public Scene {
       body->setFlags(0);  // no gyroscopic terms
       body->setSleepingThresholds(0.0, 0.0);
       body->setActivationState(DISABLE_DEACTIVATION);
-      world_->addRigidBody(body, 0, 0);
+      // A cam's or follower's shape collides with the other's only, frictionless and without
+      // bounce (the joint slides and rolls free); every other body collides with nothing.
+      const int group = group_[static_cast<size_t>(v)];
+      body->setFriction(0.0);
+      body->setRollingFriction(0.0);
+      body->setSpinningFriction(0.0);
+      body->setRestitution(0.0);
+      const int mask =
+          ((group & kCamGroup) ? kFollowerGroup : 0) | ((group & kFollowerGroup) ? kCamGroup : 0);
+      if (margin_[static_cast<size_t>(v)] > 0.0) {
+        body->setUserPointer(&margin_[static_cast<size_t>(v)]);
+        body->setCollisionFlags(body->getCollisionFlags() |
+                                btCollisionObject::CF_CUSTOM_MATERIAL_CALLBACK);
+      }
+      world_->addRigidBody(body, group, mask);
       bodies_.push_back(body);
     }
     gear_.assign(m.joints.size(), nullptr);
@@ -874,6 +936,11 @@ class RigidScene final : public Scene {
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       const Joint& j = m.joints[ji];
       const int a = plan_node(m, j.link_a), b = plan_node(m, j.link_b);
+      if (j.type == JointType::cam) {  // contact between shapes: no constraint
+        joint_constraint_.push_back(nullptr);
+        joint_lock_.emplace_back();
+        continue;
+      }
       if (j.is_gearing()) {
         // Its row: omega_a + ratio omega_b = 0 about z (Plan::RigidGear: the gear pair's rates
         // about the ground, or recombined with the train's others), at the velocity level only.
@@ -917,6 +984,7 @@ class RigidScene final : public Scene {
       // setJointFeedback is what fills it (enableFeedback alone does not: bullet3 issue 593).
       btTypedConstraint* c = joint_constraint_[ji];
       if (!c) c = gear_[ji];
+      if (!c) continue;  // a cam
       c->setJointFeedback(&joint_feedback_[ji]);
       c->enableFeedback(true);
     }
@@ -1021,7 +1089,33 @@ class RigidScene final : public Scene {
     }
   }
 
-  void step(double dt) override { world_->stepSimulation(dt, 0, dt); }
+  void step(double dt) override {
+    world_->stepSimulation(dt, 0, dt);
+    last_dt_ = dt;
+  }
+
+  // The contact manifold's points between the cam's and the follower's shapes: each point's
+  // impulse along its normal (on body B, pointing to A) over the step, on the follower.
+  Eigen::Vector2d contact_force(int joint) const override {
+    Eigen::Vector2d on_follower = Eigen::Vector2d::Zero();
+    for (const SceneContact& c : plan_.contacts) {
+      if (c.source != joint) continue;
+      const btCollisionObject* cam = bodies_[static_cast<size_t>(c.cam - 1)];
+      const btCollisionObject* follower = bodies_[static_cast<size_t>(c.follower - 1)];
+      for (int k = 0; k < dispatcher_.getNumManifolds(); ++k) {
+        const btPersistentManifold* manifold = dispatcher_.getManifoldByIndexInternal(k);
+        const bool follower_a = manifold->getBody0() == follower && manifold->getBody1() == cam;
+        if (!follower_a && !(manifold->getBody0() == cam && manifold->getBody1() == follower))
+          continue;
+        for (int i = 0; i < manifold->getNumContacts(); ++i) {
+          const btManifoldPoint& point = manifold->getContactPoint(i);
+          const btVector3 f = point.m_normalWorldOnB * (point.getAppliedImpulse() / last_dt_);
+          on_follower += (follower_a ? 1.0 : -1.0) * Eigen::Vector2d(f.x(), f.y());
+        }
+      }
+    }
+    return on_follower;
+  }
 
   void read(std::vector<Pose>& frames) const override {
     frames.resize(plan_.nodes.size());
@@ -1167,6 +1261,39 @@ class RigidScene final : public Scene {
   }
   btRigidBody& body(int node) const { return node < 0 ? *ground_ : *bodies_[node]; }
 
+  // The cams' shapes (SceneContact) on the first `links` nodes: the disc's sphere, the follower's
+  // sphere or box (its margin 0: the box's own faces), each placed from its body's centre of mass.
+  void add_contact_shapes(int links) {
+    shape_.resize(static_cast<size_t>(links));
+    group_.assign(static_cast<size_t>(links), 0);
+    margin_.assign(static_cast<size_t>(links), 0.0);
+    if (!plan_.contacts.empty()) use_contact_margins();
+    for (const SceneContact& c : plan_.contacts)
+      for (const bool cam : {true, false}) {
+        const auto v = static_cast<size_t>((cam ? c.cam : c.follower) - 1);  // graph body to node
+        if (!shape_[v]) shape_[v] = std::make_unique<btCompoundShape>();
+        group_[v] |= cam ? kCamGroup : kFollowerGroup;
+        btTransform at(btQuaternion::getIdentity(),
+                       bt((cam ? c.cam_centre : c.follower_centre) - plan_.nodes[v].centre));
+        std::unique_ptr<btCollisionShape> child;
+        if (!cam && c.face) {
+          child = std::make_unique<btBoxShape>(
+              btVector3(c.box_half.x(), c.box_half.y(), c.box_half.z()));
+          child->setMargin(0.0);
+          at.setRotation(rot_z(c.box_angle));
+        } else if (cam) {
+          // Sphere on sphere only: a box's points persist from step to step, their distance
+          // refreshed, so a face's contact holds without (and would lose a margin given back).
+          margin_[v] = c.face ? 0.0 : kContactMargin * c.cam_radius;
+          child = std::make_unique<btSphereShape>(c.cam_radius + margin_[v]);
+        } else {
+          child = std::make_unique<btSphereShape>(c.follower_radius);
+        }
+        shape_[v]->addChildShape(at, child.get());
+        children_.push_back(std::move(child));
+      }
+  }
+
   // Locked axes get lower = upper (the linear x lock at `x_value`); free axes lower > upper.
   static void set_limits(btGeneric6DofSpring2Constraint* c, const Lock& lock, double x_value) {
     c->setLinearLowerLimit(
@@ -1197,6 +1324,14 @@ class RigidScene final : public Scene {
   btConstraintSolver* solver_ = nullptr;
   btDiscreteDynamicsWorld* world_ = nullptr;
   btEmptyShape empty_;
+  // Cams (Plan::contacts): per link node, its compound of contact shapes (null: none) and its
+  // collision group; the shapes in them; the last step's length (a contact impulse's).
+  static constexpr int kCamGroup = 1 << 6, kFollowerGroup = 1 << 7;
+  std::vector<std::unique_ptr<btCompoundShape>> shape_;
+  std::vector<std::unique_ptr<btCollisionShape>> children_;
+  std::vector<int> group_;
+  std::vector<double> margin_;  // per link node: its disc's margin (add_contact_shapes)
+  double last_dt_ = 1.0;
   btRigidBody* ground_ = nullptr;
   std::vector<btRigidBody*> bodies_;
   std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;  // per joint;
@@ -1244,6 +1379,10 @@ void read_rigid_forces(const Mechanism& m, const Plan& plan, const Scene& scene,
   Eigen::Index gearing = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
+    if (j.type == JointType::cam) {
+      out.joint_force[ji] = scene.contact_force(static_cast<int>(ji));
+      continue;
+    }
     const btJointFeedback& fb = *scene.feedback(static_cast<int>(ji));
     if (j.is_gearing()) {  // the couple on the first moving gear (write_forces: the teeth)
       const double lambda = gears(gearing++);
@@ -1845,8 +1984,11 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                                 config.branch_distance};
   KinematicPlan start;
   try {
-    start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions, kPreroll,
-                           config.max_steps, config.singular_rcond, !config.perturb_link.empty());
+    const bool cam = std::any_of(m.joints.begin(), m.joints.end(),
+                                 [](const Joint& j) { return j.type == JointType::cam; });
+    start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions,
+                           cam ? kContactPreroll : kPreroll, config.max_steps,
+                           config.singular_rcond, !config.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }
