@@ -246,10 +246,12 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
     out.fx(row, static_cast<Eigen::Index>(ji)) = f.x();
     out.fy(row, static_cast<Eigen::Index>(ji)) = f.y();
     const BodyMotion a = motion(j.link_a), b = motion(j.link_b);
-    // A gearing's force acts at its pitch point.
-    const Eigen::Vector2d point = j.is_gearing()
-                                      ? motion(j.carrier).position(pitch_point(m, j))
-                                      : b.position(m.links[j.link_b].points[j.point_b].local);
+    // Where the force acts: a gearing's pitch point, a cam's contact, else the joint's point.
+    const auto point = [&]() -> Eigen::Vector2d {
+      if (j.is_gearing()) return motion(j.carrier).position(pitch_point(m, j));
+      if (j.type == JointType::cam) return cam_contact(m, j, a, b).point;
+      return b.position(m.links[j.link_b].points[j.point_b].local);
+    };
     if (j.is_slide()) {
       const Line& line = m.links[j.link_a].lines[j.line];
       out.fn(row, slide) = f.dot(a.turn(perp(line.direction)));
@@ -257,8 +259,8 @@ void write_forces(const Mechanism& m, const KinematicState& state, const ForceRe
       ++slide;
     }
     // The ground is the first link (it receives -f and the opposite couple) or the second.
-    if (j.link_a == ground) on_ground(point, -f, -reading.couple[ji] - friction_moment);
-    if (j.link_b == ground) on_ground(point, f, reading.couple[ji] + friction_moment);
+    if (j.link_a == ground) on_ground(point(), -f, -reading.couple[ji] - friction_moment);
+    if (j.link_b == ground) on_ground(point(), f, reading.couple[ji] + friction_moment);
   }
   // Each driver's reaction on the ground.
   for (int di = 0; di < static_cast<int>(m.drivers.size()); ++di) {
