@@ -434,6 +434,19 @@ void note_samples(const Mechanism& definition, const Trajectory& reference, cons
             to_string(reference.status[static_cast<size_t>(span.first > 0 ? 0 : samples - 1)])));
   add_note(run.message, kept_note(judge.kept(), true));
   add_note(run.message, branch_jump_note(judge.jumped()));
+  // The engine's own contact_lost (judge_samples): where its follower flies.
+  int flying = 0, first_flying = -1;
+  for (int i = 0; i < samples; ++i)
+    if (out.status[static_cast<size_t>(i)] == PoseStatus::contact_lost &&
+        usable(reference.status[static_cast<size_t>(i)]) && flying++ == 0)
+      first_flying = i;
+  if (flying > 0)
+    add_note(
+        run.message,
+        fmt::format("the follower is off its cam at {} samples where the exact motion keeps "
+                    "it on, first at {} (contact_lost: it flies, docs/cams.md)",
+                    flying,
+                    sweep_position_text(definition, event_position(reference, first_flying), 6)));
   note_loop_gaps(judge.loop_gaps(), gaps, gap_threshold, reference, run, definition);
 }
 
