@@ -436,11 +436,12 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         "  <actuator>\n    <general name=\"clock\" joint=\"clock\" gainprm=\"0\" "
         "biastype=\"affine\" biasprm=\"{:.17g} 0 0\"/>\n  </actuator>\n",
         clock->torque);
-  // The constraint rows are the equalities' (3 per connect, 1 per tendon or joint equality) and
-  // one per joint with friction loss: no limits or contacts. <size> holds MuJoCo to them: without
-  // it MuJoCo 2.2.2 sizes every mjData for 500 rows and 100 contacts (about 13 MB, zeroed at each
-  // mj_makeData), and its stack from those by its own rule (user_model.cc: 5 (njmax + neq +
-  // nv)^2 + 20 per element, at least 1000), which stays its rule here, from these rows.
+  // The constraint rows are the equalities' (3 per connect, 1 per tendon or joint equality), one
+  // per joint with friction loss and one per cam's contact pair: no limits, no other contacts.
+  // <size> holds MuJoCo to them: without it MuJoCo 2.2.2 sizes every mjData for 500 rows and 100
+  // contacts (about 13 MB, zeroed at each mj_makeData), and its stack from those by its own rule
+  // (user_model.cc: 5 (njmax + neq + nv)^2 + 20 per element, at least 1000), which stays its rule
+  // here, from these rows.
   int rows = 3 * static_cast<int>(s.cuts.size());
   for (const SceneJoint& sj : s.joints) rows += sj.friction ? 1 : 0;
   std::string equality = "  <equality>\n";
