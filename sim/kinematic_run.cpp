@@ -128,9 +128,7 @@ double JointGap::joints() const {
 
 double JointGap::separation(const Eigen::VectorXd& q) {
   if (one_sided_.empty()) return 0.0;
-  for (size_t d = 0; d < drivers_.size(); ++d)
-    drivers_[d].value = solver_.driver_value(q, static_cast<int>(d));
-  solver_.residual(q, drivers_, phi_);
+  measure(q);
   double off = 0.0;
   for (int r : one_sided_) off = std::max(off, phi_(r));
   return off;
@@ -150,10 +148,14 @@ double JointGap::at(const Eigen::VectorXd& q, const std::vector<double>& driver_
   return gap;
 }
 
-double JointGap::at(const Eigen::VectorXd& q) {
+void JointGap::measure(const Eigen::VectorXd& q) {
   for (size_t d = 0; d < drivers_.size(); ++d)
     drivers_[d].value = solver_.driver_value(q, static_cast<int>(d));
   solver_.residual(q, drivers_, phi_);
+}
+
+double JointGap::at(const Eigen::VectorXd& q) {
+  measure(q);
   const double gap = joints();
   return std::isfinite(gap) ? gap : INFINITY;
 }

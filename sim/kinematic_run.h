@@ -132,6 +132,8 @@ class JointGap {
 
  private:
   double joints() const;  // the joint rows' gap of phi_
+  // phi_ at q with each driver's row at its measured value (zero).
+  void measure(const Eigen::VectorXd& q);
   const NewtonSolver& solver_;
   double size_;
   std::vector<int> one_sided_;  // the rows of force-closed cams: a positive residual stands off

@@ -280,6 +280,7 @@ SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body
       m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local +
       disc->eccentricity * Eigen::Vector2d(std::cos(disc->angle), std::sin(disc->angle));
   c.cam_radius = disc->radius;
+  c.margin = 0.1 * disc->radius;
   const Link& on = m.links[static_cast<size_t>(j.link_b)];
   if (follower.kind == cam::FollowerKind::flat_faced) {
     const Line& face = on.lines[static_cast<size_t>(j.line)];

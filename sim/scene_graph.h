@@ -110,6 +110,9 @@ struct SceneContact {
   bool face = false;
   double box_angle = 0.0;  // the box's x axis (along the face) in the follower's frame [rad]
   Eigen::Vector3d box_half = Eigen::Vector3d::Zero();  // its half sizes along x, y, z [m]
+  // How far ahead an engine whose contact is made only where its shapes overlap seeks it, to make
+  // it speculative (ODE, Bullet: the disc collided larger by it, the gap given back) [m].
+  double margin = 0.0;
 };
 
 // Linear couplings of coordinates, each a row of (coordinate, coefficient) terms held at zero

@@ -597,13 +597,12 @@ void silence_profiler() {
   });
 }
 
-// A cam's contact (RigidScene::add_contact_shapes): the disc is collided larger by a margin, a
-// fraction of its radius, kept in its body's user pointer, and each contact point's distance is
+// A cam's contact (RigidScene::add_contact_shapes): the disc is collided larger by its margin
+// (SceneContact::margin), kept in its body's user pointer, and each contact point's distance is
 // given it back as the point is made: shapes still apart by less than the margin get a contact
 // whose gap Bullet's solver lets close within the step and no more (a positive distance's
 // speculative row), so the contact holds from step to step instead of flickering at zero depth
 // (Bullet's sphere-sphere points are remade every step).
-constexpr double kContactMargin = 0.1;
 bool give_back_margin(btManifoldPoint& point, const btCollisionObjectWrapper* a, int, int,
                       const btCollisionObjectWrapper* b, int, int) {
   for (const btCollisionObjectWrapper* w : {a, b})
@@ -1284,7 +1283,7 @@ class RigidScene final : public Scene {
         } else if (cam) {
           // Sphere on sphere only: a box's points persist from step to step, their distance
           // refreshed, so a face's contact holds without (and would lose a margin given back).
-          margin_[v] = c.face ? 0.0 : kContactMargin * c.cam_radius;
+          margin_[v] = c.face ? 0.0 : c.margin;
           child = std::make_unique<btSphereShape>(c.cam_radius + margin_[v]);
         } else {
           child = std::make_unique<btSphereShape>(c.follower_radius);

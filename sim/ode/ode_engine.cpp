@@ -37,8 +37,6 @@ namespace crosslink::sim {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-// A cam's contact is sought this fraction of the disc's radius ahead (OdeScene::touch).
-constexpr double kContactMargin = 0.1;
 constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sample (and after
                               // the last), so the start's transient stays out of the stencils
 // A cam's contact joint carries the start's transient longer (its first step's force lacks the
@@ -705,7 +703,7 @@ class OdeScene {
       dGeomSetOffsetRotation(geom, r);
     };
     Contact& contact = contacts_[c];
-    contact.margin = kContactMargin * sc.cam_radius;
+    contact.margin = sc.margin;
     contact.cam = dCreateSphere(nullptr, sc.cam_radius + contact.margin);
     place(contact.cam, sc.cam, sc.cam_centre, 0.0);
     contact.follower = sc.face ? dCreateBox(nullptr, 2.0 * sc.box_half.x(), 2.0 * sc.box_half.y(),
