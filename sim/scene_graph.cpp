@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 
@@ -369,6 +370,18 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
   const Joint& j = m.joints[body.joint];
   BodyMotion block = BodyMotion::of(m.moving_index(j.link_a), q, qdot, nullptr);
   const BodyMotion pin = BodyMotion::of(m.moving_index(j.link_b), q, qdot, nullptr);
+  if (j.type == JointType::pin_in_arc) {
+    // The arm's angle is the line CP's, on the turn nearest its guide's.
+    const Eigen::Vector2d local = m.links[j.link_a].points[j.centre_a].local;
+    const Eigen::Vector2d d = pin.position(body.pin_point) - block.position(local);
+    const double theta = block.theta + std::remainder(std::atan2(d.y(), d.x()) - block.theta,
+                                                      2.0 * std::numbers::pi);
+    if (qdot)
+      block.omega =
+          cross(d, pin.velocity(body.pin_point) - block.velocity(local)) / d.squaredNorm();
+    block.theta = theta;
+    block.rotation = Eigen::Rotation2Dd(theta).toRotationMatrix();
+  }
   block.r = pin.position(body.pin_point);
   block.v = pin.velocity(body.pin_point);
   return block;
@@ -404,16 +417,12 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     g.bodies.push_back(body);
   }
 
-  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin.
+  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin, a
+  // pin-in-arc an arm hinged at the arc's centre plus a hinge at the pin.
   std::vector<int> joint_of(m.joints.size(), -1);
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
-    if (j.type == JointType::pin_in_arc)
-      throw std::runtime_error(fmt::format(
-          "joint '{}': a pin in a curved slot is in no engine's scene yet (issue 37); the exact "
-          "methods solve it",
-          j.name));
     if (j.type == JointType::cam) {
       if (!policy.contacts)
         throw std::runtime_error(fmt::format(
@@ -421,6 +430,15 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
             "model yet (docs/cams.md, \"The engines' contact\"); the exact methods solve it",
             j.name));
       g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link));
+      continue;
+    }
+    if (j.type == JointType::pin_in_arc && policy.arc_rows) {
+      g.arcs.push_back({.source = static_cast<int>(ji),
+                        .guide = body_of_link[j.link_a],
+                        .pin = body_of_link[j.link_b],
+                        .centre = m.links[j.link_a].points[j.centre_a].local,
+                        .point = m.links[j.link_b].points[j.point_b].local,
+                        .radius = j.radius_a});
       continue;
     }
     SceneJoint sj;
@@ -435,11 +453,15 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
       g.joints.push_back(sj);
       continue;
     }
-    const Line& line = m.links[j.link_a].lines[j.line];
-    sj.kind = SceneJoint::Kind::slide;
-    sj.origin = line.origin;
-    sj.direction = line.direction;
-    sj.relative_angle = j.relative_angle;
+    if (j.type == JointType::pin_in_arc) {
+      sj.ua = m.links[j.link_a].points[j.centre_a].local;
+    } else {
+      const Line& line = m.links[j.link_a].lines[j.line];
+      sj.kind = SceneJoint::Kind::slide;
+      sj.origin = line.origin;
+      sj.direction = line.direction;
+      sj.relative_angle = j.relative_angle;
+    }
     if (j.type == JointType::prismatic) {
       g.joints.push_back(sj);
       continue;
@@ -460,10 +482,14 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     pin.a = k;
     pin.b = sj.b;
     pin.ub = sj.ub;
-    sj.name = j.name + "_slide";
+    sj.name = j.name;
+    sj.name += sj.kind == SceneJoint::Kind::slide ? "_slide" : "_centre";
     sj.b = k;
-    sj.ub.setZero();
+    // The arm's frame sits at the pin, its x axis along the radius.
+    sj.ub = sj.kind == SceneJoint::Kind::slide ? Eigen::Vector2d::Zero()
+                                               : Eigen::Vector2d(-j.radius_a, 0.0);
     sj.relative_angle = 0.0;
+    sj.block_guide = true;
     g.joints.push_back(sj);
     g.joints.push_back(pin);
   }
@@ -482,7 +508,10 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     if (sj.in_tree) ++joined;
   }
   if (joined + 1 != g.bodies.size())
-    throw std::runtime_error("some links are not connected to the ground by joints");
+    throw std::runtime_error(
+        g.arcs.empty() ? "some links are not connected to the ground by joints"
+                       : "some links are not connected to the ground by joints but curved "
+                         "slots, which this engine holds as rows outside its tree");
   list_cuts(g);
   for (int c : g.cuts)
     if (g.joints[c].kind != SceneJoint::Kind::hinge) {

@@ -18,18 +18,21 @@
 namespace crosslink::sim {
 
 // A rigid body. Its frame is the link frame of the Mechanism, so a point's local coordinates
-// carry over; a block's frame sits at its pin with its guide's orientation.
+// carry over; a block's frame sits at its pin: a straight slot's turns with its guide, a curved
+// slot's points its x axis from the arc's centre to the pin.
 struct SceneBody {
   std::string name;
-  int source = -1;  // Mechanism link index; -1 for a pin-in-slot block
+  int source = -1;  // Mechanism link index; -1 for a block
   bool ground = false;
   // The mass model every engine gets: the link's scene_mass() (sim/forces.h); a block has
   // auxiliary_mass() at its pin and a negligible inertia.
   double mass = 0.0;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // local [m]
   double inertia = 0.0;                              // about z through the centre [kg m^2]
-  // A block: it realises pin-in-slot joint `joint` (Mechanism index), turns with body `guide`
-  // and carries point `pin_point` of body `pin`, which is where its frame sits.
+  // A block: it realises pin-in-slot or pin-in-arc joint `joint` (Mechanism index) on body
+  // `guide` and carries point `pin_point` of body `pin`, which is where its frame sits. A
+  // straight slot's block slides on the guide's line; a curved slot's is an arm hinged at the
+  // arc's centre, its radius long (a pin on a circle is a binary link to the centre).
   int joint = -1, guide = -1, pin = -1;
   Eigen::Vector2d pin_point = Eigen::Vector2d::Zero();
 };
@@ -55,6 +58,10 @@ struct SceneJoint {
   // The spanning tree: a tree joint's parent body (nearer the ground) and child.
   bool in_tree = false;
   int parent = -1, child = -1;
+  // The joint between a block and its guide (a slot's slide, an arc's centre hinge). The block
+  // is massless but for 1e-6 of a link, so this joint carries its pin's force, which an engine
+  // reads at the pin's joint.
+  bool block_guide = false;
 };
 
 // A driver realised in the scene: the joint values whose weighted sum is the driver's value
@@ -115,6 +122,15 @@ struct SceneContact {
   double margin = 0.0;
 };
 
+// A pin in a curved slot held by a distance row of the engine's own (TreePolicy::arc_rows): point
+// `point` of body `pin` stays `radius` from point `centre` of body `guide`.
+struct SceneArc {
+  int source = -1;           // the Mechanism joint
+  int guide = -1, pin = -1;  // bodies
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero(), point = Eigen::Vector2d::Zero();  // local [m]
+  double radius = 0.0;                                                                // [m]
+};
+
 // Linear couplings of coordinates, each a row of (coordinate, coefficient) terms held at zero
 // rate, recombined for an engine whose coupling joins at most two coordinates: a planetary
 // train's gear pair on a moving carrier spans three (sun, planet, carrier), but once the train's
@@ -147,14 +163,19 @@ struct TreePolicy {
   bool split_loops = false;
   // Cam joints become SceneContacts (the engine realises contact); else a cam is refused.
   bool contacts = false;
+  // A pin-in-arc is a SceneArc, a distance row the engine holds itself (MuJoCo's spatial
+  // tendon), instead of an arm between two hinges: MuJoCo's equality rows keep a softness in
+  // proportion to their inverse inertia, and an arm's (auxiliary_mass()) lets the row give way.
+  bool arc_rows = false;
 };
 
 struct SceneGraph {
   // Bodies: the ground (0), the moving links in Mechanism order, then one block per pin-in-slot
-  // in joint order.
+  // or (without TreePolicy::arc_rows) pin-in-arc in joint order.
   std::vector<SceneBody> bodies;
   // Joints in Mechanism order, a pin-in-slot as its slide (guide to block) then its pin (block
-  // to pin link); planar joints last.
+  // to pin link), a pin-in-arc as its centre hinge (guide to block) then its pin; planar joints
+  // last.
   std::vector<SceneJoint> joints;
   // The spanning tree, the minimum spanning tree under the preference: the driven joints first
   // (so the driver acts on a joint of the tree), then slides and planar joints (so every cut is
@@ -165,6 +186,7 @@ struct SceneGraph {
   std::vector<DrivenCoordinate> driven;  // per driver of the Mechanism
   std::vector<SceneCoupling> couplings;  // per gear pair or rack, in joint order
   std::vector<SceneContact> contacts;    // per cam joint (TreePolicy::contacts), in joint order
+  std::vector<SceneArc> arcs;            // per pin-in-arc (TreePolicy::arc_rows), in joint order
   // A slide among the cuts (a loop of slides only), which no point constraint closes; -1: none.
   int cut_slide = -1;
   // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).
@@ -172,7 +194,8 @@ struct SceneGraph {
 };
 
 // A body's motion from the Mechanism's coordinates q (and rates qdot, when given): a link's, or a
-// block's, which sits at its pin and turns with its guide.
+// block's, which sits at its pin and turns with its guide (a straight slot) or with the line
+// from the arc's centre to the pin (a curved slot).
 BodyMotion body_motion(const Mechanism& mechanism, const SceneBody& body, const Eigen::VectorXd& q,
                        const Eigen::VectorXd* qdot = nullptr);
 

@@ -930,6 +930,24 @@ class RigidScene final : public Scene {
       world_->addRigidBody(body, group, mask);
       bodies_.push_back(body);
     }
+    // A curved slot's arm (the scene graph's block) is a body of its own between two hinges; a
+    // straight slot's block is not (its 6-dof constraint locks the line's normal alone).
+    for (size_t v = static_cast<size_t>(links); v < plan.nodes.size(); ++v) {
+      const SceneBody& node = plan.nodes[v];
+      if (m.joints[static_cast<size_t>(node.joint)].type != JointType::pin_in_arc) continue;
+      btRigidBody::btRigidBodyConstructionInfo ci(
+          node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
+      auto* arm = new btRigidBody(ci);
+      arm->setWorldTransform(btTransform(rot_z(poses[v].theta), bt(poses[v].r)));
+      arm->setLinearFactor(btVector3(1, 1, 0));
+      arm->setAngularFactor(btVector3(0, 0, 1));
+      arm->setDamping(0.0, 0.0);
+      arm->setFlags(0);
+      arm->setSleepingThresholds(0.0, 0.0);
+      arm->setActivationState(DISABLE_DEACTIVATION);
+      world_->addRigidBody(arm, 0, 0);
+      arms_.emplace_back(static_cast<int>(v), arm);
+    }
     gear_.assign(m.joints.size(), nullptr);
     size_t gearing = 0;
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
@@ -953,6 +971,25 @@ class RigidScene final : public Scene {
         continue;
       }
       const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
+      if (j.type == JointType::pin_in_arc) {
+        // The arm's frame sits at the pin (its centre of mass), its x axis along the radius.
+        const int arm = arm_node(static_cast<int>(ji));
+        const auto at = [](const Eigen::Vector2d& p) {
+          return btTransform(btQuaternion::getIdentity(), bt(p));
+        };
+        Lock hinge;
+        hinge.linear[0] = hinge.linear[1] = true;
+        add(new btGeneric6DofSpring2Constraint(
+                body(a), body(arm), at(m.links[j.link_a].points[j.centre_a].local - com(a)),
+                at({-j.radius_a, 0.0})),
+            hinge);
+        auto* pin =
+            new btGeneric6DofSpring2Constraint(body(arm), body(b), at({0.0, 0.0}), at(pb - com(b)));
+        add(pin, hinge);
+        joint_constraint_.push_back(pin);  // its feedback: the pin's force on link_b
+        joint_lock_.push_back(hinge);
+        continue;
+      }
       btTransform fa, fb;
       if (j.type == JointType::revolute) {
         fa = btTransform(btQuaternion::getIdentity(),
@@ -1044,9 +1081,11 @@ class RigidScene final : public Scene {
     for (auto* c : gear_) delete c;
     for (auto* c : constraints_) world_->removeConstraint(c);
     for (auto* b : bodies_) world_->removeRigidBody(b);
+    for (auto& [node, arm] : arms_) world_->removeRigidBody(arm);
     world_->removeRigidBody(ground_);
     for (auto* c : constraints_) delete c;
     for (auto* b : bodies_) delete b;
+    for (auto& [node, arm] : arms_) delete arm;
     delete ground_;
     delete world_;
     delete solver_;
@@ -1146,6 +1185,10 @@ class RigidScene final : public Scene {
           rates[v].v + rates[v].omega * perp2(turn(poses[v].theta, plan_.nodes[v].centre));
       bodies_[v]->setLinearVelocity(bt(c));
       bodies_[v]->setAngularVelocity(btVector3(0, 0, rates[v].omega));
+    }
+    for (auto& [node, arm] : arms_) {  // each centred at its frame
+      arm->setLinearVelocity(bt(rates[static_cast<size_t>(node)].v));
+      arm->setAngularVelocity(btVector3(0, 0, rates[static_cast<size_t>(node)].omega));
     }
   }
   const btJointFeedback* driver_feedback(size_t d) const override {
@@ -1258,7 +1301,19 @@ class RigidScene final : public Scene {
   Eigen::Vector2d com(int node) const {
     return node < 0 ? Eigen::Vector2d::Zero() : plan_.nodes[node].centre;
   }
-  btRigidBody& body(int node) const { return node < 0 ? *ground_ : *bodies_[node]; }
+  btRigidBody& body(int node) const {
+    if (node < 0) return *ground_;
+    if (static_cast<size_t>(node) < bodies_.size()) return *bodies_[static_cast<size_t>(node)];
+    for (const auto& [v, arm] : arms_)
+      if (v == node) return *arm;
+    throw std::logic_error("Bullet: a node without a rigid body");
+  }
+  // The node of the arm that realises pin-in-arc joint `joint`.
+  int arm_node(int joint) const {
+    for (const auto& [v, arm] : arms_)
+      if (plan_.nodes[static_cast<size_t>(v)].joint == joint) return v;
+    throw std::logic_error("Bullet: a curved slot without its arm");
+  }
 
   // The cams' shapes (SceneContact) on the first `links` nodes: the disc's sphere, the follower's
   // sphere or box (its margin 0: the box's own faces), each placed from its body's centre of mass.
@@ -1332,7 +1387,8 @@ class RigidScene final : public Scene {
   std::vector<double> margin_;  // per link node: its disc's margin (add_contact_shapes)
   double last_dt_ = 1.0;
   btRigidBody* ground_ = nullptr;
-  std::vector<btRigidBody*> bodies_;
+  std::vector<btRigidBody*> bodies_;                // per moving link (its node)
+  std::vector<std::pair<int, btRigidBody*>> arms_;  // (node, body) per curved slot
   std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;  // per joint;
                                                                                  // null: a gear
   std::vector<btGearConstraint*> gear_;  // per joint: a gear pair's, or null

@@ -677,6 +677,9 @@ class ForceReader {
     for (const SceneCoupling& c : s.couplings)
       coupling_eq_.push_back(
           mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(c.source)].name.c_str()));
+    for (const SceneArc& a : s.arcs)
+      arc_eq_.push_back(
+          mj_name2id(mm, mjOBJ_EQUALITY, m.joints[static_cast<size_t>(a.source)].name.c_str()));
     for (const SceneJoint& j : s.joints)
       if (j.friction) friction_rows_.push_back(friction_row(mm, j));
     for (const SceneContact& c : s.contacts)
@@ -720,29 +723,69 @@ class ForceReader {
     }
     const Eigen::VectorXd force = Eigen::Map<const Eigen::VectorXd>(d2->efc_force, ne);
     std::copy(d->qacc, d->qacc + nv, d2->qacc);
-    mj_rnePostConstraint(mm_, d2);
+    rne_post_constraint(d2, force);
     extract(d2, force, out);
   }
 
   // MuJoCo's own forces at the state of `forwarded`, on which mj_forward has just run (its
   // constraint forces and accelerations at its positions and velocities).
   void read_state(mjData* forwarded, ForceReading& out) {
-    mj_rnePostConstraint(mm_, forwarded);
-    extract(forwarded, Eigen::Map<const Eigen::VectorXd>(forwarded->efc_force, forwarded->ne), out);
+    const Eigen::VectorXd force =
+        Eigen::Map<const Eigen::VectorXd>(forwarded->efc_force, forwarded->ne);
+    rne_post_constraint(forwarded, force);
+    extract(forwarded, force, out);
   }
 
  private:
+  int row_of(const mjData* d, int eq) const {
+    for (int r = 0; r < d->ne; ++r)
+      if (d->efc_type[r] == mjCNSTR_EQUALITY && d->efc_id[r] == eq) return r;
+    throw std::runtime_error("MuJoCo: no constraint row for an equality");
+  }
+
+  // Curved slot k's force on its pin, from the equality forces: its tendon's force f pulls the
+  // pin towards the arc's centre (the length |P - C| grows along u = (P - C) / |P - C|, so J^T f
+  // is f u at P and -f u at C).
+  Eigen::Vector2d arc_force(const mjData* d, const Eigen::VectorXd& force, size_t k) const {
+    const SceneArc& a = s_.arcs[k];
+    const Eigen::Vector2d u =
+        (world_point(d, a.pin, a.point) - world_point(d, a.guide, a.centre)).normalized();
+    return force(row_of(d, arc_eq_[k])) * u;
+  }
+
+  // mj_rnePostConstraint (cfrc_int) with the curved slots' tendon forces counted on the bodies:
+  // MuJoCo counts a connect's and a contact's there, not a tendon's, which would be read as the
+  // tree joints' instead. Each goes in as an applied force at its sites for the call.
+  void rne_post_constraint(mjData* d, const Eigen::VectorXd& force) const {
+    if (arc_eq_.empty()) {
+      mj_rnePostConstraint(mm_, d);
+      return;
+    }
+    const std::vector<mjtNum> applied(d->xfrc_applied, d->xfrc_applied + 6 * mm_->nbody);
+    const auto push = [&](int link, const Eigen::Vector2d& local, const Eigen::Vector2d& f) {
+      const int body = body_[static_cast<size_t>(link)];
+      if (body == 0) return;  // the world's is read by no joint
+      const Eigen::Vector2d com(d->xipos[3 * body], d->xipos[3 * body + 1]);
+      mjtNum* x = d->xfrc_applied + 6 * body;  // force, then torque about the centre of mass
+      x[0] += f.x();
+      x[1] += f.y();
+      x[5] += cross2(world_point(d, link, local) - com, f);
+    };
+    for (size_t k = 0; k < arc_eq_.size(); ++k) {
+      const Eigen::Vector2d on_pin = arc_force(d, force, k);
+      push(s_.arcs[k].pin, s_.arcs[k].point, on_pin);
+      push(s_.arcs[k].guide, s_.arcs[k].centre, -on_pin);
+    }
+    mj_rnePostConstraint(mm_, d);
+    std::copy(applied.begin(), applied.end(), d->xfrc_applied);
+  }
+
   // The reading from d2 (constraint rows, and cfrc_int after mj_rnePostConstraint) with the
   // equality forces `force`. Without a driver equality (forward dynamics) the effort is left at
   // zero: it is an applied load there, not a reaction.
   void extract(const mjData* d2, const Eigen::VectorXd& force, ForceReading& out) const {
-    const int ne = d2->ne;
     out.set_zero();
-    const auto row_of = [&](int eq) {
-      for (int r = 0; r < ne; ++r)
-        if (d2->efc_type[r] == mjCNSTR_EQUALITY && d2->efc_id[r] == eq) return r;
-      throw std::runtime_error("MuJoCo: no constraint row for an equality");
-    };
+    const auto row_of = [&](int eq) { return this->row_of(d2, eq); };
     for (size_t d = 0; d < driver_eq_.size(); ++d) {
       if (driver_eq_[d] < 0) continue;
       // The driver moves the driven joint's armature too (driver_armature): its share, the
@@ -754,9 +797,7 @@ class ForceReader {
     }
     for (size_t ji = 0; ji < s_.joints.size(); ++ji) {
       const SceneJoint& j = s_.joints[ji];
-      const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
-      // A pin-in-slot's force is its pin's (the block between is massless to 1e-6).
-      if (mj.type == JointType::pin_in_slot && j.kind == SceneJoint::Kind::slide) continue;
+      if (j.block_guide) continue;  // a slot's force is its pin's
       Eigen::Vector2d on_b;
       double couple_b = 0.0;
       Eigen::Vector2d about = Eigen::Vector2d::Zero();
@@ -799,6 +840,9 @@ class ForceReader {
       out.joint_force[static_cast<size_t>(slide.source)] -=
           f * world_direction(d2, slide.a, slide.direction);
     }
+    // A curved slot's: its tendon's pull on the pin.
+    for (size_t k = 0; k < s_.arcs.size(); ++k)
+      out.joint_force[static_cast<size_t>(s_.arcs[k].source)] = arc_force(d2, force, k);
     // A cam's contact: its normal force, along the contact frame's normal from geom1 to geom2, on
     // geom2's body (mj_rnePostConstraint); none while the spheres are apart.
     for (size_t c = 0; c < contact_geoms_.size(); ++c) {
@@ -847,6 +891,7 @@ class ForceReader {
   std::vector<int> body_;         // per scene link: MuJoCo body id (world 0)
   std::vector<int> cut_eq_;       // per scene joint: its connect equality, -1 in the tree
   std::vector<int> coupling_eq_;  // per coupling: its tendon equality
+  std::vector<int> arc_eq_;       // per curved slot: its tendon equality
   std::vector<int> driver_eq_;    // per driver: its equality (-1: none, forward dynamics)
   std::vector<int> driven_dof_;   // per driver: the driven tree joint's degree of freedom (-1: a
                                   // tendon driver)

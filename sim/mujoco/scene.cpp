@@ -50,7 +50,7 @@ void place_child(Scene& s, const SceneJoint& j) {
 }  // namespace
 
 Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
-  SceneGraph graph = scene_graph(m, TreePolicy{.contacts = true});
+  SceneGraph graph = scene_graph(m, TreePolicy{.contacts = true, .arc_rows = true});
   if (graph.cut_slide >= 0)
     throw std::runtime_error(fmt::format(
         "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
@@ -101,6 +101,7 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
     s.driver_names.push_back(m.axis().timed() ? "driver:" + d.name : "driver");
   s.couplings = std::move(graph.couplings);
   s.contacts = std::move(graph.contacts);
+  s.arcs = std::move(graph.arcs);
 
   // The unit of mass: the lightest mass or inertia at kLightest or more, ten times mjMINVAL (a
   // scene that loads as it is keeps its unit).
@@ -135,6 +136,10 @@ Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
   // Place every body from its tree parent, so tree joints hold to rounding in the scene.
   for (int j : s.tree_order) place_child(s, s.joints[j]);
   return s;
+}
+
+std::string arc_site(const Mechanism& m, const SceneArc& a, bool centre) {
+  return m.joints[static_cast<size_t>(a.source)].name + (centre ? ":centre" : ":pin");
 }
 
 std::string contact_geom(const Mechanism& m, const SceneContact& c, bool cam) {
@@ -278,6 +283,18 @@ std::string contact_geoms(const Mechanism& m, const Scene& s, int link, const st
   return out;
 }
 
+std::string arc_sites(const Mechanism& m, const Scene& s, int link, const std::string& pad) {
+  std::string out;
+  for (const SceneArc& a : s.arcs)
+    for (const bool centre : {true, false}) {
+      if ((centre ? a.guide : a.pin) != link) continue;
+      const Eigen::Vector2d& at = centre ? a.centre : a.point;
+      out += fmt::format("{}<site name=\"{}\" pos=\"{:.17g} {:.17g} 0\"/>\n", pad,
+                         escape(arc_site(m, a, centre)), at.x(), at.y());
+    }
+  return out;
+}
+
 void write_body(const Mechanism& m, const Scene& s, int link,
                 const std::vector<std::vector<int>>& children, int depth, const MjcfOptions& o,
                 std::vector<int>& written, std::string& out) {
@@ -324,6 +341,7 @@ void write_body(const Mechanism& m, const Scene& s, int link,
     written.push_back(j);
     if (standalone) out += link_geometry(child, sj.child, standalone->radius, pad + "  ");
     out += contact_geoms(m, s, sj.child, pad + "  ");
+    out += arc_sites(m, s, sj.child, pad + "  ");
     write_body(m, s, sj.child, children, depth + 1, o, written, out);
     out += pad + "</body>\n";
   }
@@ -389,6 +407,7 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   }
   std::vector<std::vector<int>> children(s.links.size());
   for (int j : s.tree_order) children[s.joints[j].parent].push_back(j);
+  out += arc_sites(m, s, 0, "    ");
   write_body(m, s, 0, children, 2, o, written, out);
   const Clock* clock = alone && alone->clock ? &*alone->clock : nullptr;
   if (clock)  // its own body, off the linkage's tree; not drawn
@@ -416,7 +435,7 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   const bool friction_tendons =
       std::any_of(s.joints.begin(), s.joints.end(),
                   [](const SceneJoint& j) { return !j.friction_terms.empty(); });
-  if (driver_tendon_written || !s.couplings.empty() || friction_tendons) {
+  if (driver_tendon_written || !s.couplings.empty() || friction_tendons || !s.arcs.empty()) {
     out += "  <tendon>\n";
     for (size_t d = 0; d < s.driven.size(); ++d)
       if (tendon_written(d)) fixed(s.driver_names[d], s.driven[d].terms);
@@ -424,6 +443,12 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
       out +=
           "    <fixed name=\"clock\">\n      <joint joint=\"clock\" coef=\"1\"/>\n    </fixed>\n";
     for (const SceneCoupling& c : s.couplings) fixed(m.joints[c.source].name, c.terms);
+    for (const SceneArc& a : s.arcs)
+      out += fmt::format(
+          "    <spatial name=\"{}\">\n      <site site=\"{}\"/>\n      <site site=\"{}\"/>\n"
+          "    </spatial>\n",
+          escape(m.joints[a.source].name), escape(arc_site(m, a, true)),
+          escape(arc_site(m, a, false)));
     for (const SceneJoint& j : s.joints)
       if (!j.friction_terms.empty()) {
         if (o.standalone) out += friction_comment(j, "    ");
@@ -454,12 +479,15 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
         s.links[sj.b].ground ? "world" : escape(s.links[sj.b].name), sj.ua.x(), sj.ua.y(),
         vec(o.solref), vec(o.solimp));
   }
-  for (const SceneCoupling& c : s.couplings) {
+  std::vector<int> held;  // the joints a tendon equality holds: gear pairs, racks, curved slots
+  for (const SceneCoupling& c : s.couplings) held.push_back(c.source);
+  for (const SceneArc& a : s.arcs) held.push_back(a.source);
+  for (const int joint : held) {
     ++rows;
     equality += fmt::format(
         "    <tendon name=\"{0}\" tendon1=\"{0}\" polycoef=\"0 0 0 0 0\" solref=\"{1}\" "
         "solimp=\"{2}\"/>\n",
-        escape(m.joints[c.source].name), vec(o.solref), vec(o.solimp));
+        escape(m.joints[static_cast<size_t>(joint)].name), vec(o.solref), vec(o.solimp));
   }
   // MuJoCo's equalities hold changes from qpos0 (the start): the driver's equals the clock's.
   for (size_t d = 0; d < s.driven.size(); ++d) {

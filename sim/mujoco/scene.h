@@ -59,6 +59,11 @@ struct Scene {
   // contact_geom(c, false) on the follower, and one <pair> with condim 1 (frictionless: the joint
   // slides and rolls free) and the contact solref and solimp.
   std::vector<SceneContact> contacts;
+  // Pins in curved slots: each a spatial tendon from site arc_site(a, true) at the arc's centre
+  // to site arc_site(a, false) at the pin, named after its joint, held at its length at qpos0
+  // (the radius, assembled) by a tendon equality of the same name with the loop constraints'
+  // solref and solimp: one row, and no body between.
+  std::vector<SceneArc> arcs;
   double size = 1.0;  // Mechanism::size() [m]
   // The scene's unit of mass in kg is 1 / mass_scale: every mass and inertia of the scene is the
   // mechanism's times mass_scale, and so is every force MuJoCo applies or reports. MuJoCo refuses
@@ -71,6 +76,9 @@ struct Scene {
 
 // The geom of contact c on its cam (`cam`) or its follower: "cam:<joint>", "follower:<joint>".
 std::string contact_geom(const Mechanism& mechanism, const SceneContact& c, bool cam);
+
+// The site of arc a at its centre (`centre`) or at its pin: "<joint>:centre", "<joint>:pin".
+std::string arc_site(const Mechanism& mechanism, const SceneArc& a, bool centre);
 
 // Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving
 // link, Mechanism order) of an assembled configuration. Throws std::runtime_error when MuJoCo

@@ -436,6 +436,8 @@ class OdeScene {
     contact_cfm_ = config.contact_cfm;
     contacts_.resize(g.contacts.size());  // sized before any joint points into a feedback
     for (size_t c = 0; c < g.contacts.size(); ++c) add_contact(c);
+    arc_feedback_.resize(g.arcs.size());
+    for (size_t k = 0; k < g.arcs.size(); ++k) add_arc(k, q);
     if (driven)
       for (const DrivenCoordinate& dc : g.driven) {
         Motor motor;
@@ -545,6 +547,15 @@ class OdeScene {
     s.force = {force[0], force[1]};
     s.torque = first ? f.t1[2] : f.t2[2];
     return s;
+  }
+
+  // What curved slot k (SceneGraph::arcs) put on its pin's link in the last step (through its
+  // guide when the pin's is the ground).
+  Eigen::Vector2d arc_force(size_t k) const {
+    const dJointFeedback& f = arc_feedback_[k];
+    const dReal* on = bodies_[static_cast<size_t>(g_.arcs[k].pin)] ? f.f1 : f.f2;
+    const Eigen::Vector2d force(on[0], on[1]);
+    return bodies_[static_cast<size_t>(g_.arcs[k].pin)] ? force : Eigen::Vector2d(-force);
   }
 
   // What cam contact c (SceneGraph::contacts) put on its follower in the last step: nothing while
@@ -691,6 +702,25 @@ class OdeScene {
 
   // Cam contact c's shapes (SceneContact), each placed from its body's centre of mass; the disc
   // collided larger by the contact's margin (touch()).
+  // Curved slot k: ODE's double ball (dJointCreateDBall), which holds the distance between its
+  // anchors, the arc's centre and the pin, at the radius: one row, and no body between.
+  void add_arc(size_t k, const Eigen::VectorXd& q) {
+    const SceneArc& a = g_.arcs[k];
+    const auto at = [&](int body, const Eigen::Vector2d& local) {
+      return frame_of(m_, g_.bodies[static_cast<size_t>(body)], q).position(local);
+    };
+    const bool pin_moves = bodies_[static_cast<size_t>(a.pin)] != nullptr;
+    const Eigen::Vector2d first = pin_moves ? at(a.pin, a.point) : at(a.guide, a.centre);
+    const Eigen::Vector2d second = pin_moves ? at(a.guide, a.centre) : at(a.pin, a.point);
+    dJointID joint = dJointCreateDBall(world_, nullptr);
+    dJointAttach(joint, bodies_[static_cast<size_t>(pin_moves ? a.pin : a.guide)],
+                 bodies_[static_cast<size_t>(pin_moves ? a.guide : a.pin)]);
+    dJointSetDBallAnchor1(joint, first.x(), first.y(), 0.0);
+    dJointSetDBallAnchor2(joint, second.x(), second.y(), 0.0);
+    dJointSetDBallDistance(joint, a.radius);
+    dJointSetFeedback(joint, &arc_feedback_[k]);
+  }
+
   void add_contact(size_t c) {
     const SceneContact& sc = g_.contacts[c];
     if (!contact_group_) contact_group_ = dJointGroupCreate(0);
@@ -755,6 +785,7 @@ class OdeScene {
   std::vector<dJointID> joints_;
   std::vector<int> body1_;  // per joint: the scene body that is ODE's body1
   std::vector<dJointFeedback> feedback_;
+  std::vector<dJointFeedback> arc_feedback_;  // per SceneArc: its body1 is the pin's, if moving
   // A driver's motor: its driven joint (or a floating link's angular motor), and how its rate
   // runs against the driven coordinate.
   struct Motor {
@@ -835,10 +866,7 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
   };
   for (size_t sj = 0; sj < g.joints.size(); ++sj) {
     const SceneJoint& j = g.joints[sj];
-    // A pin-in-slot's force is its pin's (the block is massless but for 1e-6 of a link).
-    if (j.kind == SceneJoint::Kind::planar ||
-        (j.kind == SceneJoint::Kind::slide && g.bodies[static_cast<size_t>(j.b)].joint >= 0))
-      continue;
+    if (j.kind == SceneJoint::Kind::planar || j.block_guide) continue;  // a slot's: its pin's
     const size_t ji = static_cast<size_t>(j.source);
     const Joint& mj = m.joints[ji];
     const BodyMotion b = frame_of(m, g.bodies[static_cast<size_t>(j.b)], q);
@@ -874,6 +902,8 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
   for (const SceneCoupling& c : g.couplings) read_tooth_force(m, scene, c.source, q, out);
   for (size_t c = 0; c < g.contacts.size(); ++c)
     out.joint_force[static_cast<size_t>(g.contacts[c].source)] = scene.contact_force(c);
+  for (size_t k = 0; k < g.arcs.size(); ++k)
+    out.joint_force[static_cast<size_t>(g.arcs[k].source)] = scene.arc_force(k);
   for (size_t di = 0; di < m.drivers.size(); ++di) {
     if (m.drivers[di].type != DriverType::link_angle) continue;
     const DrivenCoordinate& dc = g.driven[di];
@@ -909,6 +939,9 @@ TreePolicy ode_policy() {
   TreePolicy policy;
   policy.planar_joints = true;
   policy.contacts = true;
+  // An arm of auxiliary_mass() between two hinges stopped forward dynamics in ODE's
+  // "!bSafeNormalize4Fault" (curved_slot_rocker.toml falling from rest): the double ball instead.
+  policy.arc_rows = true;
   return policy;
 }
 

@@ -239,7 +239,7 @@ double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 // The graph's tree policy for Simbody: MuJoCo's (no planar joints, no split loops), which both
 // reduced-coordinate engines then share. A link's driven angle must be one mobilizer's.
 SceneGraph simbody_graph(const Mechanism& m) {
-  SceneGraph g = scene_graph(m, TreePolicy{.contacts = true});
+  SceneGraph g = scene_graph(m, TreePolicy{.contacts = true, .arc_rows = true});
   if (g.cut_slide >= 0)
     throw std::runtime_error("a loop of slides only: Simbody's scene closes cuts at hinges");
   return g;
@@ -554,6 +554,11 @@ class Scene {
       ball_.emplace_back(ji, SimTK::Constraint::Ball(body_[static_cast<size_t>(j.a)], vec3(j.ua),
                                                      body_[static_cast<size_t>(j.b)], vec3(j.ub)));
     }
+    // A curved slot: a rod from the arc's centre to the pin, its radius long (one constraint
+    // row, and no body between).
+    for (const SceneArc& a : g.arcs)
+      rods_.emplace_back(body_[static_cast<size_t>(a.guide)], vec3(a.centre),
+                         body_[static_cast<size_t>(a.pin)], vec3(a.point), a.radius);
     // A gear pair or rack: a coordinate coupler holding its linear function of the mobilities
     // (SceneCoupling, with each q = orientation x value) at its start value.
     for (const SceneCoupling& c : g.couplings) {
@@ -634,9 +639,7 @@ class Scene {
     }
     for (size_t ji = 0; ji < g_.joints.size(); ++ji) {
       const SceneJoint& j = g_.joints[ji];
-      const Joint& mj = m_.joints[static_cast<size_t>(j.source)];
-      // A pin-in-slot's force is its pin's (the block between is massless to 1e-6).
-      if (mj.type == JointType::pin_in_slot && j.kind == SceneJoint::Kind::slide) continue;
+      if (j.block_guide) continue;  // a slot's force is its pin's
       const SimTK::MobilizedBody& b = body_[static_cast<size_t>(j.b)];
       const Eigen::Vector2d point_b = vec2(b.getBodyTransform(s) * vec3(j.ub));
       Eigen::Vector2d on_b = Eigen::Vector2d::Zero();
@@ -681,6 +684,10 @@ class Scene {
       out.joint_force[static_cast<size_t>(j.source)] = on_b;
     }
     if (friction_) friction_->write(s, out);
+    // A curved slot: its rod's tension pulls the pin towards the arc's centre.
+    for (size_t k = 0; k < rods_.size(); ++k)
+      out.joint_force[static_cast<size_t>(g_.arcs[k].source)] =
+          -rods_[k].getRodTension(s) * vec2(rods_[k].findRodOrientationInG(s));
     // A cam's contact: its compliant force on the follower, while the surfaces touch.
     for (size_t k = 0; k < surfaces_.size(); ++k) {
       const SimTK::ContactSnapshot& active = tracker_->getActiveContacts(s);
@@ -748,6 +755,7 @@ class Scene {
   SimTK::GeneralForceSubsystem forces_;
   std::vector<SimTK::MobilizedBody> body_;                      // per scene body; 0 the ground
   std::vector<std::pair<int, SimTK::Constraint::Ball>> ball_;   // (cut joint, its ball)
+  std::vector<SimTK::Constraint::Rod> rods_;                    // per SceneArc
   std::vector<SimTK::Constraint::CoordinateCoupler> couplers_;  // per SceneCoupling
   std::optional<Readback> readback_;
   LoadForce* load_ = nullptr;

@@ -3,14 +3,20 @@
 // joint is in it; it is the minimum spanning tree of the preference (driven joint, slides,
 // ground pivots for Bullet, hinges); every cut is a hinge and there are as many cuts as the
 // linkage has independent loops; a floating link's driven angle is the sum of its path's hinges.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
 #include <random>
 #include <string>
 #include <tuple>
 
+#include "analytic/kinematics/instant_centres.h"
 #include "analytic/model/loader.h"
+#include "analytic/reference/sweep.h"
 #include "sim/forces.h"
 #include "sim/scene_graph.h"
 
@@ -274,6 +280,72 @@ TEST(SceneGraph, APlanetaryTrainRecombinesByWillis) {
   // The sun-planet pair alone (a ring that is a moving body of its own) joins three bodies
   // whatever is done: it is named.
   EXPECT_EQ(reduce_couplings({rows[0]}, 2, out), 0);
+}
+
+// A pin in a curved slot (mechanisms/cams/curved_slot_rocker.toml, its slot an arc of radius 0.12
+// about the rocker's C): an arm hinged at the arc's centre on the guide and at the pin, its frame
+// at the pin with its x axis from the centre, so the arm turns with the line CP (its angle and
+// rate against that line's from the exact motion, and its rate against a central difference of
+// the angle over the exact sweep); or, under arc_rows, a row of the engine's own and no body.
+TEST(SceneGraph, ACurvedSlotIsAnArmHingedAtItsCentreOrARow) {
+  const Mechanism m = load_mechanism(bundled("cams/curved_slot_rocker"));
+  const SceneGraph g = scene_graph(m);
+  ASSERT_EQ(g.bodies.size(), 4u);  // ground, crank, rocker, the slot's arm
+  const SceneBody& arm = g.bodies[3];
+  EXPECT_EQ(arm.source, -1);
+  EXPECT_EQ(arm.joint, 2);
+  const auto named = [&](const std::string& name) {
+    return std::find_if(g.joints.begin(), g.joints.end(),
+                        [&](const SceneJoint& j) { return j.name == name; });
+  };
+  const auto centre = named("slot_centre"), pin = named("slot_pin");
+  ASSERT_NE(centre, g.joints.end());
+  ASSERT_NE(pin, g.joints.end());
+  EXPECT_EQ(centre->kind, SceneJoint::Kind::hinge);
+  EXPECT_TRUE(centre->block_guide);
+  EXPECT_FALSE(pin->block_guide);
+  EXPECT_EQ(centre->b, 3);
+  EXPECT_EQ(pin->a, 3);
+  EXPECT_DOUBLE_EQ(centre->ub.x(), -0.12);
+  const Trajectory exact = sweep(m);
+  const double h = exact.time(1) - exact.time(0);
+  double worst_angle = 0.0, worst_rate = 0.0, worst_difference = 0.0;
+  for (int i = 1; i + 1 < exact.samples(); ++i) {
+    const Eigen::VectorXd q = coordinates_at(m, exact, i), qdot = rates_at(m, exact, i);
+    const BodyMotion motion = body_motion(m, arm, q, &qdot);
+    const auto point = [&](const char* axis, const char* name) {
+      return Eigen::Vector2d(*exact.sample(fmt::format("{}x.{}", axis, name), i),
+                             *exact.sample(fmt::format("{}y.{}", axis, name), i));
+    };
+    const Eigen::Vector2d c = point("", "C"), p = point("", "B");
+    const Eigen::Vector2d vc = point("v", "C"), vp = point("v", "B");
+    const Eigen::Vector2d d = p - c;
+    worst_angle = std::max(
+        worst_angle,
+        std::abs(std::remainder(motion.theta - std::atan2(d.y(), d.x()), 2 * std::numbers::pi)));
+    worst_rate = std::max(worst_rate, std::abs(motion.omega - cross(d, vp - vc) / d.squaredNorm()));
+    const auto angle = [&](int k) {
+      return body_motion(m, arm, coordinates_at(m, exact, k)).theta;
+    };
+    const double difference =
+        std::remainder(angle(i + 1) - angle(i - 1), 2 * std::numbers::pi) / (2 * h);
+    worst_difference = std::max(worst_difference, std::abs(motion.omega - difference));
+    EXPECT_NEAR((motion.r - p).norm(), 0.0, 1e-15);
+  }
+  std::printf("arm: angle %.3g rad, rate %.3g rad/s from CP's; rate %.3g rad/s from differences\n",
+              worst_angle, worst_rate, worst_difference);
+  EXPECT_LT(worst_angle, 1e-12);
+  EXPECT_LT(worst_rate, 1e-9);
+  EXPECT_LT(worst_difference, 1e-3 * 8 * std::numbers::pi);  // O(h^2) of the crank's 8 pi rad/s
+
+  const SceneGraph rows = scene_graph(m, TreePolicy{.arc_rows = true});
+  EXPECT_EQ(rows.bodies.size(), 3u);
+  ASSERT_EQ(rows.arcs.size(), 1u);
+  EXPECT_EQ(rows.arcs[0].source, 2);
+  EXPECT_EQ(rows.arcs[0].guide, 2);  // the rocker
+  EXPECT_EQ(rows.arcs[0].pin, 1);    // the crank
+  EXPECT_DOUBLE_EQ(rows.arcs[0].radius, 0.12);
+  EXPECT_EQ(rows.joints.size(), 2u);  // the two ground pivots
 }
 
 }  // namespace
