@@ -4,18 +4,16 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analytic/kinematics/dyads.h"
 #include "analytic/kinematics/instant_centres.h"
 #include "analytic/model/loader.h"
 #include "analytic/model/units_text.h"
-#include "analytic/reference/dyad_sweep.h"
 #include "analytic/reference/sweep.h"
-#include "analytic/reference/trust.h"
 #include "app/commands.h"
 #include "app/files.h"
 #include "app/output.h"
 #include "compare/derived.h"
 #include "compare/drawing_svg.h"
+#include "methods/solve.h"
 
 namespace crosslink::app {
 namespace {
@@ -112,70 +110,14 @@ int run_solve(const SolveArgs& args) {
   // Several drivers: the sweep's parameter is time, and --at is a time [s].
   const bool timed = m.axis().timed();
   const double at = single ? *args.at * axis_unit_of(m).scale : 0;
-  if (single)
-    check_solve_at_work(m, at, options, args.limits);
-  else
-    check_sweep_work(m, options, args.limits);
-  Trajectory t = single ? solve_at(m, at, options) : sweep(m, options);
-  if (single && t.status[0] == PoseStatus::cannot_assemble) {
-    // No pose exists: an error in every format, with the range `check` finds where it is known.
-    std::string where;
-    if (!timed && m.swept().law.kind == MotionLaw::Kind::constant_speed && !m.at_rest()) {
-      const AssemblingRange range = assembling_range(m, options);
-      if (range.unknown.empty() && !range.full_cycle && range.lower < range.upper)
-        where = fmt::format(
-            ": outside the driver's assembling range, {}, as `crosslink check` reports it",
-            range.explain(m));
-    }
-    fmt::print(stderr, "{}\n",
-               Diagnostic{start_where(m), fmt::format("cannot_assemble at {}{}",
-                                                      sweep_position_text(m, at, 6), where)}
-                   .str());
-    return kExitBadInput;
-  }
-  // [[derived]] quantities, located on the Newton sweep (its events hold the toggles).
-  const std::vector<DerivedValue> derived =
-      single ? std::vector<DerivedValue>{} : derived_exact(m, t);
-  // Closed-form dyads at the same driver values, when asked for (or, for auto, when possible).
-  // Reversing at a toggle revisits driver values on the other assembly mode: the traced Newton
-  // sweep follows that; auto keeps it.
-  const Decomposition decomposition =
-      reverse && args.method != "dyads" ? Decomposition{} : decompose(m);
-  if (args.method == "dyads" && !decomposition.complete) {
-    fmt::print(stderr, "{}: error: --method dyads: the chain {}\n", m.file,
-               "does not decompose into dyads: " + decomposition.reason);
-    return kExitBadInput;
-  }
-  std::string why = "newton (asked for)";
-  if (decomposition.complete) {
-    // The dyads march from the drawn position too: to the pose solve_at solved, whole turns of a
-    // driver that turns fully nearer the start.
-    const SkippedTurns skip = single ? skipped_turns(m, at, options) : SkippedTurns{};
-    // (Newton's own sample is shifted for the dyads' grid and back, not copied.)
-    const auto swept = static_cast<Eigen::Index>(m.axis().driver);  // when skip.turns != 0
-    if (skip.turns != 0) t.driver_values(0, swept) -= skip.driver_shift();
-    Trajectory closed = dyad_sweep(m, t, args.method != "newton");
-    if (skip.turns != 0) t.driver_values(0, swept) += skip.driver_shift();
-    skip.move_on(m, at, closed);
-    // The two exact methods check each other (analytic/reference/trust.h): a sample they disagree
-    // on is flagged with the reason, whichever of them is printed.
-    cross_check(m, t, closed);
-    if (args.method != "newton") {
-      for (int k = 0; k < t.samples(); ++k)
-        if (t.status[static_cast<size_t>(k)] == PoseStatus::exact_methods_disagree &&
-            usable(closed.status[static_cast<size_t>(k)]))
-          closed.status[static_cast<size_t>(k)] = PoseStatus::exact_methods_disagree;
-      for (const Trajectory::Event& e : t.events)
-        if (e.kind == PoseStatus::exact_methods_disagree) closed.events.push_back(e);
-      t = std::move(closed);
-      why = "dyads (closed form, " + std::to_string(decomposition.groups.size()) + " groups)";
-    }
-  } else if (args.method == "auto" && reverse) {
-    why = "newton (--at-limit reverse: the traced sweep follows the loop through its toggles)";
-  } else if (args.method == "auto") {
-    why = "newton (the chain does not decompose into dyads: " + decomposition.reason + ")";
-  }
-  t.flag_non_finite();  // the dyads' samples (Newton's are flagged as they are written)
+  const methods::Solution solution =
+      methods::solve(m, {.method = args.method,
+                         .at = single ? std::optional<double>(at) : std::nullopt,
+                         .sweep = options,
+                         .limits = args.limits});
+  const Trajectory& t = solution.trajectory;
+  const std::vector<DerivedValue>& derived = solution.derived;
+  const std::string& why = solution.method;
   fmt::print(stderr, "{}: method: {}\n", m.file, why);
   for (const Trajectory::Event& e : t.events)
     fmt::print(stderr, "{}: note: {} at {}: {}\n", m.file, to_string(e.kind),

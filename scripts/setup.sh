@@ -19,6 +19,8 @@ PACKAGES=(
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
   python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py
+  # The Python module (python/, docs/python.md) and its tests (tests/python, pytest)
+  python3-dev pybind11-dev python3-numpy python3-pytest
   # tests/cluster/slurm_sweep.sh (label cluster): slurmctld, slurmd and the client commands; it
   # pulls munge, whose daemon the test's auth/none Slurm does not use
   slurm-wlm

@@ -10,7 +10,9 @@
 # Nor `accuracy`: an engine's accuracy at a step far below its default (10^5 steps or more) or at
 # a setting another test runs too, whose code paths the default-step tests run sanitized; the
 # four took 68 s of its test time (2026-12-02); and the exact dynamics over A01's 2000 s, whose
-# integrators the other dynamics cases run sanitized (126 s, 2026-12-03).
+# integrators the other dynamics cases run sanitized (126 s, 2026-12-03). Nor the Python module:
+# a sanitized extension needs the sanitizer's runtime preloaded into Python, and the library it
+# calls runs sanitized in every other test.
 # Extra arguments go to ctest, e.g. scripts/test-sanitizers.sh -L fuzz; BUILD_ONLY=1 configures
 # and builds without testing (.ci/run starts the build so, beside the Release build and suite).
 # Usage: scripts/test-sanitizers.sh [ctest arguments]   (folder: build-asan)
@@ -25,7 +27,8 @@ CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" "${GENERATOR[@]}" -DCMAKE_BUILD_
   -DCMAKE_C_FLAGS="$FLAGS" -DCMAKE_CXX_FLAGS="$FLAGS" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
-  -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF -DCROSSLINK_TEST_OPTIMIZATION=-O0
+  -DCROSSLINK_FUZZ=ON -DCROSSLINK_BUILD_BENCH=OFF -DCROSSLINK_TEST_OPTIMIZATION=-O0 \
+  -DCROSSLINK_PYTHON=OFF
 cmake --build "$BUILD_DIR" -j2
 [ -z "${BUILD_ONLY:-}" ] || exit 0
 

@@ -319,19 +319,11 @@ std::optional<double> Trajectory::sample(std::string_view name, int row) const {
   return one ? std::optional<double>((*one)(0)) : std::nullopt;
 }
 
-std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int first,
-                                                   int count) const {
-  // Column c of m over the rows asked for: a sample's value costs one element, not a column.
-  const auto col = [&](const Eigen::MatrixXd& m, Eigen::Index c) -> Eigen::VectorXd {
-    return m.col(c).segment(first, count);
-  };
-  const auto norm = [&](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Index c) {
-    return Eigen::VectorXd((col(a, c).array().square() + col(b, c).array().square()).sqrt());
-  };
+const double* Trajectory::stored(std::string_view name) const {
+  const auto col = [](const Eigen::MatrixXd& m, Eigen::Index c) { return m.col(c).data(); };
   const size_t dot = name.find('.');
-  if (dot == std::string_view::npos) return std::nullopt;
+  if (dot == std::string_view::npos) return nullptr;
   const std::string_view kind = name.substr(0, dot), object = name.substr(dot + 1);
-
   if (const int l = index_of(link_names, object); l >= 0) {
     if (kind == "angle") return col(angle, l);
     if (kind == "omega") return col(omega, l);
@@ -344,8 +336,6 @@ std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int fi
     if (kind == "vy") return col(vy, p);
     if (kind == "ax") return col(ax, p);
     if (kind == "ay") return col(ay, p);
-    if (kind == "v") return norm(vx, vy, p);
-    if (kind == "a") return norm(ax, ay, p);
   }
   if (const int j = index_of(slider_names, object); j >= 0) {
     if (kind == "s") return col(s, j);
@@ -356,6 +346,50 @@ std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int fi
     const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
     if (kind == (slider ? "s" : "angle")) return col(driver_values, d);
     if (has_forces && kind == (slider ? "force" : "torque")) return col(effort, d);
+  }
+  if (const int f = has_forces ? index_of(friction_names, object) : -1; f >= 0)
+    if (kind == (friction_sliding[static_cast<size_t>(f)] ? "friction_force" : "friction_moment"))
+      return col(friction, f);
+  if (kind == "energy") {
+    if (!has_energy) return nullptr;
+    for (size_t c = 0; c < kEnergyChannels.size(); ++c)
+      if (object == kEnergyChannels[c]) return col(energy, static_cast<Eigen::Index>(c));
+    return nullptr;
+  }
+  if (!has_forces) return nullptr;
+  // The one driver's effort (several drivers' are named by driver, above).
+  if (!axis.timed() && object == "driver" && kind == (swept_slider() ? "force" : "torque"))
+    return col(effort, axis.driver);
+  if (const int j = index_of(joint_names, object); j >= 0) {
+    if (kind == "fx") return col(fx, j);
+    if (kind == "fy") return col(fy, j);
+  }
+  if (const int j = index_of(slider_names, object); j >= 0) {
+    if (kind == "fn") return col(fn, j);
+    if (kind == "moment") return col(moment, j);
+  }
+  if (object == ground_name)
+    for (size_t c = 0; c < kShakingChannels.size(); ++c)
+      if (kind == kShakingChannels[c]) return col(shaking, static_cast<Eigen::Index>(c));
+  return nullptr;
+}
+
+std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int first,
+                                                   int count) const {
+  if (const double* column = stored(name))  // a sample's value costs one element, not a column
+    return Eigen::Map<const Eigen::VectorXd>(column + first, count);
+  // The channels computed from stored ones: magnitudes, the transmission and pressure angles.
+  const auto norm = [&](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Index c) {
+    return Eigen::VectorXd((a.col(c).segment(first, count).array().square() +
+                            b.col(c).segment(first, count).array().square())
+                               .sqrt());
+  };
+  const size_t dot = name.find('.');
+  if (dot == std::string_view::npos) return std::nullopt;
+  const std::string_view kind = name.substr(0, dot), object = name.substr(dot + 1);
+  if (const int p = index_of(point_names, object); p >= 0) {
+    if (kind == "v") return norm(vx, vy, p);
+    if (kind == "a") return norm(ax, ay, p);
   }
   if (kind == "mu" && !transmission.empty() && object == transmission[1]) {
     const int b = index_of(point_names, transmission[0]),
@@ -374,32 +408,8 @@ std::optional<Eigen::VectorXd> Trajectory::rows_of(std::string_view name, int fi
       for (int r = first; r < first + count; ++r) phi(r - first) = cam.at(*this, r).pressure_angle;
       return phi;
     }
-  if (const int f = has_forces ? index_of(friction_names, object) : -1; f >= 0)
-    if (kind == (friction_sliding[static_cast<size_t>(f)] ? "friction_force" : "friction_moment"))
-      return col(friction, f);
-  if (kind == "energy") {
-    if (!has_energy) return std::nullopt;
-    for (size_t c = 0; c < kEnergyChannels.size(); ++c)
-      if (object == kEnergyChannels[c]) return col(energy, static_cast<Eigen::Index>(c));
-    return std::nullopt;
-  }
-  if (!has_forces) return std::nullopt;
-  // The one driver's effort (several drivers' are named by driver, above).
-  if (!axis.timed() && object == "driver" && kind == (swept_slider() ? "force" : "torque"))
-    return col(effort, axis.driver);
-  if (const int j = index_of(joint_names, object); j >= 0) {
-    if (kind == "fx") return col(fx, j);
-    if (kind == "fy") return col(fy, j);
+  if (const int j = has_forces ? index_of(joint_names, object) : -1; j >= 0)
     if (kind == "f") return norm(fx, fy, j);
-  }
-  if (const int j = index_of(slider_names, object); j >= 0) {
-    if (kind == "fn") return col(fn, j);
-    if (kind == "moment") return col(moment, j);
-  }
-  if (object == ground_name) {
-    for (size_t c = 0; c < kShakingChannels.size(); ++c)
-      if (kind == kShakingChannels[c]) return col(shaking, static_cast<Eigen::Index>(c));
-  }
   return std::nullopt;
 }
 
@@ -417,6 +427,27 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
     return Quantity::torque;
   if (kind == "energy") return Quantity::energy;
   return Quantity::position;
+}
+
+std::string_view Trajectory::si_unit(std::string_view channel) {
+  const std::string_view kind = channel.substr(0, channel.find('.'));
+  switch (quantity_of(channel)) {
+    case Quantity::position:
+      return "m";
+    case Quantity::angle:
+      return "rad";
+    case Quantity::velocity:
+      return kind == "omega" ? "rad/s" : "m/s";
+    case Quantity::acceleration:
+      return kind == "alpha" ? "rad/s^2" : "m/s^2";
+    case Quantity::force:
+      return "N";
+    case Quantity::torque:
+      return "N m";
+    case Quantity::energy:
+      return "J";
+  }
+  return "";
 }
 
 }  // namespace crosslink

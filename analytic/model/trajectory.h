@@ -244,6 +244,12 @@ struct Trajectory {
   // One channel's value at one sample (nullopt for an unknown name or a row out of range).
   std::optional<double> sample(std::string_view name, int row) const;
   static Quantity quantity_of(std::string_view channel);  // by the prefix before '.'
+  // The SI unit of a channel's values: "m", "rad", "m/s", "rad/s", "m/s^2", "rad/s^2", "N",
+  // "N m" or "J" (JSON and CSV hold SI).
+  static std::string_view si_unit(std::string_view channel);
+  // A channel held in one of the matrices above: its column, samples() values in a row, or null
+  // for one computed from others (a magnitude v, a or f; mu, phi) or no channel at all.
+  const double* stored(std::string_view name) const;
 
  private:
   // Rows first .. first + count - 1 of one channel: channel's whole column, sample's one value.

@@ -1,0 +1,206 @@
+// The Python module `crosslink` (docs/python.md): the library's own calls, their results as
+// Python objects and numpy arrays. It holds no study of its own: solve is methods::solve, as
+// `crosslink solve` calls it, so every value is the command's to the bit.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analytic/model/loader.h"
+#include "analytic/model/units_text.h"
+#include "compare/derived.h"
+#include "methods/engines.h"
+#include "methods/solve.h"
+#include "sim/settings.h"
+
+namespace py = pybind11;
+
+namespace crosslink::python {
+namespace {
+
+// A loaded definition, shared by every result made from it (a result reads its names).
+struct PyMechanism {
+  std::shared_ptr<const Mechanism> m;
+};
+
+// A solution: the trajectory and its mechanism, kept alive by every array viewing them.
+struct PySolution {
+  std::shared_ptr<const Mechanism> m;
+  std::shared_ptr<const methods::Solution> solution;
+  const Trajectory& t() const { return solution->trajectory; }
+};
+
+// A stored channel is a read-only view of its column, owned by the solution (no copy); one
+// computed from others (a magnitude, mu, phi) a new array. Either is masked where its value does
+// not exist at the sample's status: a flagged sample is no number (numpy.ma).
+py::object channel(const PySolution& s, const std::string& name) {
+  const Trajectory& t = s.t();
+  const auto n = static_cast<py::ssize_t>(t.samples());
+  py::array_t<double> data;
+  if (const double* column = t.stored(name)) {
+    // The capsule holds the solution for as long as the array (or a view of it) lives.
+    const py::capsule owner(new std::shared_ptr<const methods::Solution>(s.solution), [](void* p) {
+      delete static_cast<std::shared_ptr<const methods::Solution>*>(p);
+    });
+    data = py::array_t<double>({n}, {static_cast<py::ssize_t>(sizeof(double))}, column, owner);
+    data.attr("setflags")(py::arg("write") = false);
+  } else if (const std::optional<Eigen::VectorXd> computed = t.channel(name)) {
+    data = py::array_t<double>(n, computed->data());
+  } else {
+    throw py::key_error(name);
+  }
+  py::array_t<bool> mask(n);
+  const Quantity quantity = Trajectory::quantity_of(name);
+  auto flags = mask.mutable_unchecked<1>();
+  for (py::ssize_t r = 0; r < n; ++r)
+    flags(r) = !value_exists(t.status[static_cast<size_t>(r)], quantity);
+  return py::module_::import("numpy.ma")
+      .attr("MaskedArray")(data, py::arg("mask") = mask, py::arg("copy") = false);
+}
+
+PyMechanism load(const std::string& path) {
+  return {std::make_shared<const Mechanism>(load_mechanism(path))};
+}
+
+PyMechanism loads(const std::string& text, const std::string& name) {
+  return {std::make_shared<const Mechanism>(parse_mechanism(text, name))};
+}
+
+PySolution solve(const PyMechanism& pm, std::optional<double> step, std::optional<double> at,
+                 const std::string& method, const std::string& at_limit, long max_samples) {
+  const Mechanism& m = *pm.m;
+  // In the file's units, as the command's --step and --at.
+  const double scale = axis_unit_of(m).scale;
+  methods::SolveOptions options;
+  options.method = method;
+  if (step) options.sweep.step = *step * scale;
+  if (at) options.at = *at * scale;
+  if (at_limit == "reverse")
+    options.sweep.at_limit = SweepOptions::AtLimit::reverse;
+  else if (at_limit != "stop")
+    throw std::invalid_argument("at_limit '" + at_limit + "': stop or reverse");
+  options.limits.max_samples = max_samples;
+  std::shared_ptr<const methods::Solution> solution;
+  {
+    py::gil_scoped_release unlocked;  // the exact solver reads no Python object
+    solution = std::make_shared<const methods::Solution>(methods::solve(m, options));
+  }
+  return {pm.m, std::move(solution)};
+}
+
+py::list engines() {
+  py::list out;
+  for (const methods::EngineEntry& e : methods::engine_table()) {
+    py::list settings;
+    for (const sim::SettingSpec& spec : e.make()->settings_schema())
+      settings.append(py::dict(py::arg("name") = spec.name, py::arg("default") = spec.default_value,
+                               py::arg("takes") = sim::allowed_values(spec),
+                               py::arg("what") = spec.doc, py::arg("reported") = spec.reported));
+    out.append(py::dict(py::arg("name") = e.name, py::arg("description") = e.description,
+                        py::arg("settings") = settings));
+  }
+  return out;
+}
+
+}  // namespace
+}  // namespace crosslink::python
+
+PYBIND11_MODULE(crosslink, module) {
+  using namespace crosslink;
+  using namespace crosslink::python;
+  module.doc() =
+      "crosslink: exact kinematics of planar linkages, cross-validated against physics engines "
+      "(docs/python.md)";
+
+  // A definition's problems, each "file:line:col: error: message" as the command prints them.
+  py::register_exception<DefinitionError>(module, "DefinitionError", PyExc_ValueError);
+
+  py::class_<PyMechanism>(module, "Mechanism", "A definition, loaded and assembled")
+      .def_property_readonly("name", [](const PyMechanism& p) { return p.m->name; })
+      .def_property_readonly("file", [](const PyMechanism& p) { return p.m->file; })
+      .def_property_readonly("links",
+                             [](const PyMechanism& p) {
+                               std::vector<std::string> names;
+                               for (const Link& l : p.m->links) names.push_back(l.name);
+                               return names;
+                             })
+      .def_property_readonly("joints",
+                             [](const PyMechanism& p) {
+                               std::vector<std::string> names;
+                               for (const Joint& j : p.m->joints) names.push_back(j.name);
+                               return names;
+                             })
+      .def_property_readonly("mobility",
+                             [](const PyMechanism& p) { return mobility(*p.m).mobility; })
+      .def_property_readonly("mobility_text",
+                             [](const PyMechanism& p) { return mobility(*p.m).explain(); })
+      .def("__repr__", [](const PyMechanism& p) {
+        return "<crosslink.Mechanism '" + p.m->name + "' from " + p.m->file + ">";
+      });
+
+  py::class_<PySolution>(module, "Solution",
+                         "The exact solution: every channel as a masked numpy array (SI)")
+      .def_property_readonly("method", [](const PySolution& s) { return s.solution->method; })
+      .def_property_readonly("channels", [](const PySolution& s) { return s.t().channel_names(); })
+      .def("__getitem__", &channel, py::arg("channel"))
+      .def("__contains__",
+           [](const PySolution& s, const std::string& name) {
+             return s.t().stored(name) != nullptr || s.t().channel(name).has_value();
+           })
+      .def("__len__", [](const PySolution& s) { return s.t().samples(); })
+      .def_static(
+          "unit", [](const std::string& name) { return std::string(Trajectory::si_unit(name)); },
+          py::arg("channel"), "The SI unit of a channel's values")
+      .def_property_readonly("status",
+                             [](const PySolution& s) {
+                               std::vector<std::string> out;
+                               for (PoseStatus status : s.t().status)
+                                 out.emplace_back(to_string(status));
+                               return out;
+                             })
+      .def_property_readonly("time",
+                             [](const PySolution& s) {
+                               const Trajectory& t = s.t();
+                               py::array_t<double> out(t.samples());
+                               for (int r = 0; r < t.samples(); ++r) out.mutable_at(r) = t.time(r);
+                               return out;
+                             })
+      .def_property_readonly("driver",
+                             [](const PySolution& s) {
+                               const Trajectory& t = s.t();
+                               py::array_t<double> out(t.samples());
+                               for (int r = 0; r < t.samples(); ++r)
+                                 out.mutable_at(r) = t.driver_field(r);
+                               return out;
+                             })
+      .def_property_readonly(
+          "events",
+          [](const PySolution& s) {
+            py::list out;
+            for (const Trajectory::Event& e : s.t().events)
+              out.append(py::dict(py::arg("kind") = std::string(to_string(e.kind)),
+                                  py::arg("at") = e.driver, py::arg("message") = e.message));
+            return out;
+          })
+      .def_property_readonly("derived", [](const PySolution& s) {
+        return py::module_::import("json").attr("loads")(
+            compare::derived_json(s.solution->derived).dump());
+      });
+
+  module.def("load", &load, py::arg("path"),
+             "Loads and assembles a definition file; raises DefinitionError with every problem");
+  module.def("loads", &loads, py::arg("text"), py::arg("name") = "<string>",
+             "The same from text; `name` stands for the file in messages");
+  module.def("solve", &solve, py::arg("mechanism"), py::arg("step") = py::none(),
+             py::arg("at") = py::none(), py::arg("method") = "auto", py::arg("at_limit") = "stop",
+             py::arg("max_samples") = WorkLimits{}.max_samples,
+             "The exact sweep (or one pose at `at`), as `crosslink solve`: step and at in the "
+             "file's units of the driver");
+  module.def("engines", &engines, "Every engine and its settings, as `crosslink engines`");
+}
