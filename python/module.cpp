@@ -14,9 +14,13 @@
 
 #include "analytic/model/loader.h"
 #include "analytic/model/units_text.h"
+#include "analytic/physics/dynamics.h"
+#include "analytic/reference/budget.h"
 #include "compare/derived.h"
+#include "compare/report.h"
 #include "methods/engines.h"
 #include "methods/solve.h"
+#include "methods/study.h"
 #include "sim/settings.h"
 
 namespace py = pybind11;
@@ -29,12 +33,27 @@ struct PyMechanism {
   std::shared_ptr<const Mechanism> m;
 };
 
-// A solution: the trajectory and its mechanism, kept alive by every array viewing them.
+// A trajectory (a solution, a simulation, one method of a comparison) and what owns it, kept
+// alive by every array viewing it.
 struct PySolution {
-  std::shared_ptr<const Mechanism> m;
-  std::shared_ptr<const methods::Solution> solution;
-  const Trajectory& t() const { return solution->trajectory; }
+  std::shared_ptr<const void> owner;
+  const Trajectory* trajectory = nullptr;
+  std::string method;                // which method made it, and why
+  nlohmann::json derived = nullptr;  // a solution's [[derived]] values
+  // A simulation's energies per sample [J] (kinetic, potential, work, balance); else empty.
+  std::vector<std::pair<std::string, Eigen::VectorXd>> energy;
+  const Trajectory& t() const { return *trajectory; }
 };
+
+// A masked numpy array of `values` (copied), masked where the sample holds no `quantity`.
+py::object masked(const Trajectory& t, const py::array_t<double>& data, Quantity quantity) {
+  py::array_t<bool> mask(static_cast<py::ssize_t>(t.samples()));
+  auto flags = mask.mutable_unchecked<1>();
+  for (py::ssize_t r = 0; r < flags.shape(0); ++r)
+    flags(r) = !value_exists(t.status[static_cast<size_t>(r)], quantity);
+  return py::module_::import("numpy.ma")
+      .attr("MaskedArray")(data, py::arg("mask") = mask, py::arg("copy") = false);
+}
 
 // A stored channel is a read-only view of its column, owned by the solution (no copy); one
 // computed from others (a magnitude, mu, phi) a new array. Either is masked where its value does
@@ -44,10 +63,9 @@ py::object channel(const PySolution& s, const std::string& name) {
   const auto n = static_cast<py::ssize_t>(t.samples());
   py::array_t<double> data;
   if (const double* column = t.stored(name)) {
-    // The capsule holds the solution for as long as the array (or a view of it) lives.
-    const py::capsule owner(new std::shared_ptr<const methods::Solution>(s.solution), [](void* p) {
-      delete static_cast<std::shared_ptr<const methods::Solution>*>(p);
-    });
+    // The capsule holds the owner for as long as the array (or a view of it) lives.
+    const py::capsule owner(new std::shared_ptr<const void>(s.owner),
+                            [](void* p) { delete static_cast<std::shared_ptr<const void>*>(p); });
     data = py::array_t<double>({n}, {static_cast<py::ssize_t>(sizeof(double))}, column, owner);
     data.attr("setflags")(py::arg("write") = false);
   } else if (const std::optional<Eigen::VectorXd> computed = t.channel(name)) {
@@ -55,13 +73,7 @@ py::object channel(const PySolution& s, const std::string& name) {
   } else {
     throw py::key_error(name);
   }
-  py::array_t<bool> mask(n);
-  const Quantity quantity = Trajectory::quantity_of(name);
-  auto flags = mask.mutable_unchecked<1>();
-  for (py::ssize_t r = 0; r < n; ++r)
-    flags(r) = !value_exists(t.status[static_cast<size_t>(r)], quantity);
-  return py::module_::import("numpy.ma")
-      .attr("MaskedArray")(data, py::arg("mask") = mask, py::arg("copy") = false);
+  return masked(t, data, Trajectory::quantity_of(name));
 }
 
 PyMechanism load(const std::string& path) {
@@ -91,7 +103,74 @@ PySolution solve(const PyMechanism& pm, std::optional<double> step, std::optiona
     py::gil_scoped_release unlocked;  // the exact solver reads no Python object
     solution = std::make_shared<const methods::Solution>(methods::solve(m, options));
   }
-  return {pm.m, std::move(solution)};
+  return {solution,
+          &solution->trajectory,
+          solution->method,
+          compare::derived_json(solution->derived),
+          {}};
+}
+
+// A dynamics case's exact forward dynamics, as `crosslink simulate` (its CSV's energy columns:
+// not a number where the sample holds no motion).
+PySolution simulate_case(const PyMechanism& pm, std::optional<double> duration,
+                         const std::string& integrator, double tolerance, long max_solves) {
+  const Mechanism& m = *pm.m;
+  if (!m.dynamics)
+    throw std::invalid_argument(
+        "not a dynamics case: simulate needs a [dynamics] table (docs/dynamics.md); solve gives "
+        "a prescribed motion");
+  SimulationOptions options{.integrator = integrator, .tolerance = tolerance};
+  if (duration) options.duration = *duration;
+  check_simulation_work(m, options, "duration", WorkLimits{.max_solves = max_solves});
+  options.max_solves = max_solves;
+  std::shared_ptr<const Simulation> run;
+  {
+    py::gil_scoped_release unlocked;
+    run = std::make_shared<const Simulation>(crosslink::simulate(m, options));
+  }
+  if (run->over_budget) throw DefinitionError({Diagnostic{m.dynamics->where, run->message}});
+  PySolution out{run, &run->trajectory, run->trajectory.method, nullptr, {}};
+  Eigen::VectorXd balance(run->trajectory.samples());
+  for (int k = 0; k < balance.size(); ++k) balance(k) = run->energy_balance(k);
+  out.energy = {{"kinetic", run->kinetic},
+                {"potential", run->potential},
+                {"work", run->work},
+                {"balance", balance}};
+  return out;
+}
+
+// A comparison, as `crosslink compare`: its JSON, and each method's trajectory.
+struct PyComparison {
+  std::shared_ptr<const Mechanism> m;
+  std::shared_ptr<const compare::Comparison> comparison;
+};
+
+PyComparison compare_methods(const PyMechanism& pm, std::optional<std::vector<std::string>> engines,
+                             const std::vector<std::string>& tolerances,
+                             const std::vector<std::string>& settings,
+                             std::optional<double> accuracy, std::optional<double> step,
+                             std::optional<double> at, int jobs, long max_steps) {
+  const Mechanism& m = *pm.m;
+  const double scale = axis_unit_of(m).scale;
+  methods::CompareOptions options;
+  if (engines) options.methods = *engines;
+  options.tolerances = tolerances;
+  options.settings = settings;
+  options.accuracy_pct = accuracy;
+  if (step) options.step = *step * scale;
+  if (at) options.at = *at * scale;
+  options.max_steps = max_steps;
+  options.jobs = jobs;
+  std::shared_ptr<const compare::Comparison> comparison;
+  {
+    py::gil_scoped_release unlocked;
+    comparison = std::make_shared<const compare::Comparison>(methods::run_compare(m, options));
+  }
+  return {pm.m, std::move(comparison)};
+}
+
+py::object from_json(const nlohmann::json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
 }
 
 py::list engines() {
@@ -146,7 +225,7 @@ PYBIND11_MODULE(crosslink, module) {
 
   py::class_<PySolution>(module, "Solution",
                          "The exact solution: every channel as a masked numpy array (SI)")
-      .def_property_readonly("method", [](const PySolution& s) { return s.solution->method; })
+      .def_property_readonly("method", [](const PySolution& s) { return s.method; })
       .def_property_readonly("channels", [](const PySolution& s) { return s.t().channel_names(); })
       .def("__getitem__", &channel, py::arg("channel"))
       .def("__contains__",
@@ -188,9 +267,33 @@ PYBIND11_MODULE(crosslink, module) {
                                   py::arg("at") = e.driver, py::arg("message") = e.message));
             return out;
           })
-      .def_property_readonly("derived", [](const PySolution& s) {
-        return py::module_::import("json").attr("loads")(
-            compare::derived_json(s.solution->derived).dump());
+      .def_property_readonly("derived", [](const PySolution& s) { return from_json(s.derived); })
+      .def_property_readonly("energy", [](const PySolution& s) {
+        py::dict out;
+        for (const auto& [name, values] : s.energy)
+          out[py::str(name)] =
+              masked(s.t(), py::array_t<double>(values.size(), values.data()), Quantity::energy);
+        return out;
+      });
+
+  py::class_<PyComparison>(module, "Comparison",
+                           "Every method against the exact reference, as `crosslink compare`")
+      .def_property_readonly(
+          "json", [](const PyComparison& c) { return from_json(compare::to_json(*c.comparison)); })
+      .def_property_readonly("passed", [](const PyComparison& c) { return c.comparison->pass(); })
+      .def_property_readonly("nothing_compared",
+                             [](const PyComparison& c) { return c.comparison->nothing_compared(); })
+      .def_property_readonly("methods",
+                             [](const PyComparison& c) {
+                               std::vector<std::string> names;
+                               for (const compare::MethodRun& r : c.comparison->methods)
+                                 names.push_back(r.name);
+                               return names;
+                             })
+      .def("__getitem__", [](const PyComparison& c, const std::string& method) {
+        const compare::MethodRun* run = c.comparison->method(method);
+        if (!run) throw py::key_error(method);
+        return PySolution{c.comparison, &run->trajectory, run->name, nullptr, {}};
       });
 
   module.def("load", &load, py::arg("path"),
@@ -202,5 +305,16 @@ PYBIND11_MODULE(crosslink, module) {
              py::arg("max_samples") = WorkLimits{}.max_samples,
              "The exact sweep (or one pose at `at`), as `crosslink solve`: step and at in the "
              "file's units of the driver");
+  module.def("simulate", &simulate_case, py::arg("mechanism"), py::arg("duration") = py::none(),
+             py::arg("integrator") = "rkf78", py::arg("tolerance") = 1e-13,
+             py::arg("max_solves") = SimulationOptions::kDefaultMaxSolves,
+             "A dynamics case's exact forward dynamics, as `crosslink simulate`");
+  module.def("compare", &compare_methods, py::arg("mechanism"), py::arg("methods") = py::none(),
+             py::arg("tolerances") = std::vector<std::string>{},
+             py::arg("settings") = std::vector<std::string>{}, py::arg("accuracy") = py::none(),
+             py::arg("step") = py::none(), py::arg("at") = py::none(), py::arg("jobs") = 1,
+             py::arg("max_steps") = sim::kDefaultMaxSteps,
+             "Every method against the exact reference, as `crosslink compare`: methods, "
+             "tolerances and settings as its --engines, --tolerance and --set texts");
   module.def("engines", &engines, "Every engine and its settings, as `crosslink engines`");
 }

@@ -4,6 +4,7 @@ empty, and an error is the command's message."""
 import csv
 import glob
 import io
+import json
 import os
 import subprocess
 import threading
@@ -162,3 +163,70 @@ def test_the_mechanism_and_the_engine_table():
         assert engine["name"] in listed
         for setting in engine["settings"]:
             assert setting["name"] in listed
+
+
+DYNAMICS = sorted(
+    path
+    for path in glob.glob("mechanisms/**/*.toml", recursive=True)
+    if "[dynamics]" in open(path, encoding="utf-8").read()
+)
+
+
+@pytest.mark.parametrize("path", DYNAMICS)
+def test_a_simulation_and_its_energies_are_the_commands_csv_to_the_bit(path):
+    run = command("simulate", path, "--format", "csv")
+    assert run.returncode == 0, run.stderr
+    rows = list(csv.DictReader(io.StringIO(run.stdout)))
+    simulation = crosslink.simulate(crosslink.load(path))
+    assert simulation.status == [row["status"] for row in rows]
+    assert np.array_equal(simulation.time, [float(row["time"]) for row in rows])
+    columns = [(name, simulation[name]) for name in simulation.channels]
+    columns += [("energy." + name, values) for name, values in simulation.energy.items()]
+    for name, values in columns:
+        cells = [row[name] for row in rows]
+        assert list(np.ma.getmaskarray(values)) == [cell == "" for cell in cells], name
+        for value, cell in zip(values.filled(np.nan), cells):
+            if cell:
+                assert value == float(cell), name
+
+
+def without_wall_times(document):
+    # A run's clock times (wall, CPU) are the one thing two runs of the same study differ in.
+    if isinstance(document, dict):
+        return {
+            k: without_wall_times(v)
+            for k, v in document.items()
+            if not k.startswith("wall_") and not k.endswith("cpu_seconds")
+        }
+    if isinstance(document, list):
+        return [without_wall_times(v) for v in document]
+    return document
+
+
+@pytest.mark.parametrize(
+    "path, methods",
+    [
+        ("mechanisms/fourbar_crank_rocker.toml", "analytic,dyads,ic,mujoco,bullet,ode,simbody"),
+        ("mechanisms/dynamics/double_pendulum_mbdyn.toml", "mujoco,simbody"),
+        ("mechanisms/cams/curved_slot_rocker.toml", "mujoco,ode"),
+    ],
+)
+def test_a_comparison_is_the_commands_json(path, methods):
+    run = command("compare", path, "--engines", methods, "--json", "-")
+    expected = json.loads(run.stdout)
+    comparison = crosslink.compare(crosslink.load(path), methods=methods.split(","))
+    assert without_wall_times(comparison.json) == without_wall_times(expected)
+    assert comparison.passed == expected["pass"] == (run.returncode == 0)
+    assert comparison.methods == [m["name"] for m in expected["methods"]]
+    # Each method's trajectory, as its samples in the JSON's channels.
+    for method in comparison.methods[1:]:
+        trajectory = comparison[method]
+        assert len(trajectory) == expected["samples"]
+
+
+def test_compare_refuses_what_the_command_refuses():
+    m = crosslink.load("mechanisms/fourbar_crank_rocker.toml")
+    with pytest.raises(ValueError, match="no_such_setting"):
+        crosslink.compare(m, methods=["mujoco"], settings=["mujoco:no_such_setting=1"])
+    with pytest.raises(ValueError, match="not a dynamics case"):
+        crosslink.simulate(m)
