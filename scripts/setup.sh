@@ -19,8 +19,10 @@ PACKAGES=(
   clang libclang-rt-14-dev  # scripts/test-sanitizers.sh: ASan, UBSan and libFuzzer
   nodejs chromium  # report/'s chart scripts (npm ci); the report's headless-browser test
   python3  # bench/: writes A02 with N = 160 at build time; scripts/behaviour-diff.py
-  # The Python module (python/, docs/python.md) and its tests (tests/python, pytest)
+  # The Python module (python/, docs/python.md) and its tests (tests/python, pytest); the
+  # notebook (examples/) executed in them
   python3-dev pybind11-dev python3-numpy python3-pytest
+  python3-nbclient python3-nbformat python3-ipykernel python3-matplotlib
   # tests/cluster/slurm_sweep.sh (label cluster): slurmctld, slurmd and the client commands; it
   # pulls munge, whose daemon the test's auth/none Slurm does not use
   slurm-wlm
