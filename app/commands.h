@@ -112,9 +112,6 @@ struct CheckReport {
 CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
                          const SweepOptions& sweep = {});
 
-// Shared by sweep and compare (app/sweep.cpp): "--accuracy X" or "X%" in % of peak (nullopt for
-// empty text; throws std::invalid_argument otherwise), and the progress line of a long search.
-std::optional<double> parse_accuracy(const std::string& text);
 // The progress of a long search on stderr: on a terminal one line each run rewrites; otherwise
 // (a log, a CI job) one line per finished series, an engine variant over its time steps (a
 // timing round of it: "(timing)"), when its engine's grid or round ends. finish() ends the line

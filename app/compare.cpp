@@ -19,6 +19,7 @@
 #include "compare/report.h"
 #include "methods/engines.h"
 #include "methods/study.h"
+#include "methods/sweep_parts.h"
 #include "sim/mujoco/mujoco_engine.h"
 
 namespace crosslink::app {
@@ -48,7 +49,7 @@ int run_compare(CompareArgs args) {
   options.methods = split(args.engines, ',');
   options.tolerances = args.tolerances;
   options.settings = args.settings;
-  options.accuracy_pct = parse_accuracy(args.accuracy);
+  options.accuracy_pct = methods::parse_accuracy(args.accuracy);
   options.step = args.step * axis_scale;  // 0: the default
   if (args.at) options.at = *args.at * axis_scale;
   options.limits = args.limits;

@@ -21,6 +21,7 @@
 #include "methods/engines.h"
 #include "methods/solve.h"
 #include "methods/study.h"
+#include "methods/sweep_parts.h"
 #include "sim/settings.h"
 
 namespace py = pybind11;
@@ -173,6 +174,45 @@ py::object from_json(const nlohmann::json& j) {
   return py::module_::import("json").attr("loads")(j.dump());
 }
 
+// A settings sweep of definitions (files or folders), or of shard "I/N" of them, as `crosslink
+// sweep --json`: the part's document. A Dask task, a Slurm array task or one process writes the
+// same part; merge joins them.
+py::object sweep_definitions(const std::vector<std::string>& paths,
+                             std::optional<std::vector<std::string>> engines,
+                             const std::vector<double>& dts, double step, int repeat,
+                             const std::string& accuracy, const std::string& shard, int jobs,
+                             long max_steps, long max_samples) {
+  const methods::Shard part = methods::parse_shard(shard);
+  methods::SweepRun run{.dts = dts,
+                        .step = step,
+                        .repeat = repeat,
+                        .accuracy = accuracy,
+                        .max_steps = max_steps,
+                        .jobs = jobs};
+  if (engines) run.engines = *engines;
+  run.limits.max_samples = max_samples;
+  nlohmann::json document;
+  {
+    py::gil_scoped_release unlocked;
+    const std::vector<methods::DefinitionFile> definitions = methods::definition_files(paths);
+    const methods::ShardSweeps swept = methods::sweep_shard(definitions, part, run);
+    document = methods::sweep_document(part, methods::sweep_settings(run), definitions, swept.swept,
+                                       swept.sweeps);
+  }
+  return from_json(document);
+}
+
+// Parts (sweep's documents, in any order) joined into the document of one run, as `crosslink
+// merge --json`; a part is named "part K" (from 1) in messages.
+py::object merge_parts(const py::list& parts) {
+  const py::object dumps = py::module_::import("json").attr("dumps");
+  std::vector<std::pair<std::string, nlohmann::json>> given;
+  for (size_t k = 0; k < parts.size(); ++k)
+    given.emplace_back("part " + std::to_string(k + 1),
+                       nlohmann::json::parse(dumps(parts[k]).cast<std::string>()));
+  return from_json(methods::merge_parts(given).document);
+}
+
 py::list engines() {
   py::list out;
   for (const methods::EngineEntry& e : methods::engine_table()) {
@@ -316,5 +356,14 @@ PYBIND11_MODULE(crosslink, module) {
              py::arg("max_steps") = sim::kDefaultMaxSteps,
              "Every method against the exact reference, as `crosslink compare`: methods, "
              "tolerances and settings as its --engines, --tolerance and --set texts");
+  module.def("sweep", &sweep_definitions, py::arg("paths"), py::arg("engines") = py::none(),
+             py::arg("dts") = std::vector<double>{}, py::arg("step") = 0.0, py::arg("repeat") = 3,
+             py::arg("accuracy") = "", py::arg("shard") = "", py::arg("jobs") = 1,
+             py::arg("max_steps") = sim::kDefaultMaxSteps,
+             py::arg("max_samples") = WorkLimits{}.max_samples,
+             "Every engine over a grid of its settings, as `crosslink sweep --json`: the "
+             "document of the definitions (files or folders), or of shard \"I/N\" of them");
+  module.def("merge", &merge_parts, py::arg("parts"),
+             "Sweep documents of every shard joined into one run's, as `crosslink merge --json`");
   module.def("engines", &engines, "Every engine and its settings, as `crosslink engines`");
 }

@@ -23,6 +23,7 @@ PACKAGES=(
   # notebook (examples/) executed in them
   python3-dev pybind11-dev python3-numpy python3-pytest
   python3-nbclient python3-nbformat python3-ipykernel python3-matplotlib
+  python3-dask python3-distributed  # a sweep's shards as Dask tasks (tests/python/test_dask.py)
   # tests/cluster/slurm_sweep.sh (label cluster): slurmctld, slurmd and the client commands; it
   # pulls munge, whose daemon the test's auth/none Slurm does not use
   slurm-wlm
