@@ -98,20 +98,6 @@ int run_merge(const MergeArgs& args);
 // `crosslink new KIND [FILE]` (app/new.cpp).
 int run_new(const std::string& kind, const std::string& file);
 
-// `crosslink check` on a loaded definition: the report (stdout), the error when the drawn
-// position cannot be assembled (stderr), and the exit code. Throws as check_sweep_work does.
-// `sweep`: the options of its assembling range and sweep (the command's are the defaults; the
-// fuzz target bounds its grid and tracer).
-struct CheckReport {
-  int exit_code = kExitOk;
-  std::string out, err;
-  // The sweep its singular positions come from (solve's default sweep with the same options),
-  // for a caller that goes on to solve; none at rest or when the chain cannot start.
-  std::optional<Trajectory> sweep;
-};
-CheckReport check_report(const Mechanism& mechanism, const WorkLimits& limits,
-                         const SweepOptions& sweep = {});
-
 // The progress of a long search on stderr: on a terminal one line each run rewrites; otherwise
 // (a log, a CI job) one line per finished series, an engine variant over its time steps (a
 // timing round of it: "(timing)"), when its engine's grid or round ends. finish() ends the line

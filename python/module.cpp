@@ -18,6 +18,7 @@
 #include "analytic/reference/budget.h"
 #include "compare/derived.h"
 #include "compare/report.h"
+#include "methods/check.h"
 #include "methods/engines.h"
 #include "methods/solve.h"
 #include "methods/study.h"
@@ -213,6 +214,20 @@ py::object merge_parts(const py::list& parts) {
   return from_json(methods::merge_parts(given).document);
 }
 
+// `crosslink check`'s report: its text (the command's stdout), the error where the definition
+// cannot start (its stderr) and the command's exit code (1: a claim fails; 2: it cannot start).
+py::dict check(const PyMechanism& pm, long max_samples) {
+  methods::CheckReport report;
+  {
+    py::gil_scoped_release unlocked;
+    WorkLimits limits;
+    limits.max_samples = max_samples;
+    report = methods::check_report(*pm.m, limits);
+  }
+  return py::dict(py::arg("exit_code") = report.exit_code, py::arg("report") = report.out,
+                  py::arg("errors") = report.err);
+}
+
 py::list engines() {
   py::list out;
   for (const methods::EngineEntry& e : methods::engine_table()) {
@@ -340,6 +355,9 @@ PYBIND11_MODULE(crosslink, module) {
              "Loads and assembles a definition file; raises DefinitionError with every problem");
   module.def("loads", &loads, py::arg("text"), py::arg("name") = "<string>",
              "The same from text; `name` stands for the file in messages");
+  module.def("check", &check, py::arg("mechanism"),
+             py::arg("max_samples") = WorkLimits{}.max_samples,
+             "`crosslink check`'s report: {exit_code, report, errors}");
   module.def("solve", &solve, py::arg("mechanism"), py::arg("step") = py::none(),
              py::arg("at") = py::none(), py::arg("method") = "auto", py::arg("at_limit") = "stop",
              py::arg("max_samples") = WorkLimits{}.max_samples,

@@ -34,6 +34,7 @@
 #include "analytic/reference/budget.h"
 #include "analytic/reference/dyad_sweep.h"
 #include "app/commands.h"
+#include "methods/check.h"
 
 namespace {
 
@@ -193,7 +194,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const Mechanism m = parse_mechanism(text, "fuzz.toml");
-    const app::CheckReport report = app::check_report(m, {}, bounded_sweep(m));
+    const methods::CheckReport report = methods::check_report(m, {}, bounded_sweep(m));
     if (has_non_finite_word(report.out + report.err) && !has_non_finite_word(text))
       violation("check printed a non-finite value:\n" + report.out + report.err);
     if (report.exit_code == app::kExitOk) solve(m, report.sweep);

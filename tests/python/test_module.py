@@ -230,3 +230,12 @@ def test_compare_refuses_what_the_command_refuses():
         crosslink.compare(m, methods=["mujoco"], settings=["mujoco:no_such_setting=1"])
     with pytest.raises(ValueError, match="not a dynamics case"):
         crosslink.simulate(m)
+
+
+@pytest.mark.parametrize("path", sorted(glob.glob("mechanisms/**/*.toml", recursive=True)))
+def test_check_is_the_commands_report(path):
+    run = command("check", path)
+    report = crosslink.check(crosslink.load(path))
+    assert report["exit_code"] == run.returncode
+    assert report["report"] == run.stdout
+    assert report["errors"] == run.stderr
