@@ -21,3 +21,15 @@ endif()
 if(NOT output MATCHES "100% tests passed")
   message(FATAL_ERROR "the consumer's check did not pass")
 endif()
+# The Python module, when built, installs under the prefix too and imports from there alone (no
+# semicolon in the code: run() takes its arguments as a list).
+file(GLOB _modules "${WORK}/prefix/lib/python*/dist-packages/crosslink*.so")
+if(_modules AND EXISTS /usr/bin/python3)
+  get_filename_component(_site "${_modules}" DIRECTORY)
+  run(${CMAKE_COMMAND} -E chdir "${WORK}" ${CMAKE_COMMAND} -E env "PYTHONPATH=${_site}"
+      /usr/bin/python3 -c
+      "import crosslink\nprint(crosslink.__file__, crosslink.load('${MECHANISM}').name)")
+  if(NOT output MATCHES "${WORK}/prefix/lib/python")
+    message(FATAL_ERROR "the installed Python module was not the one imported")
+  endif()
+endif()
