@@ -1,6 +1,6 @@
 // The Python module `crosslink` (docs/python.md): the library's own calls, their results as
-// Python objects and numpy arrays. It holds no study of its own: solve is methods::solve, as
-// `crosslink solve` calls it, so every value is the command's to the bit.
+// Python objects and numpy arrays. It holds no study of its own: check, solve, compare, sweep and
+// merge are the methods:: calls the command makes, so every value is the command's to the bit.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -47,7 +47,7 @@ struct PySolution {
   const Trajectory& t() const { return *trajectory; }
 };
 
-// A masked numpy array of `values` (copied), masked where the sample holds no `quantity`.
+// A masked numpy array over `data` (not copied), masked where the sample holds no `quantity`.
 py::object masked(const Trajectory& t, const py::array_t<double>& data, Quantity quantity) {
   py::array_t<bool> mask(static_cast<py::ssize_t>(t.samples()));
   auto flags = mask.mutable_unchecked<1>();
