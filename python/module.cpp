@@ -184,13 +184,14 @@ py::object sweep_definitions(const std::vector<std::string>& paths,
                              const std::string& accuracy, const std::string& shard, int jobs,
                              long max_steps, long max_samples) {
   const methods::Shard part = methods::parse_shard(shard);
-  methods::SweepRun run{.dts = dts,
-                        .step = step,
-                        .repeat = repeat,
-                        .accuracy = accuracy,
-                        .max_steps = max_steps,
-                        .jobs = jobs};
+  methods::SweepRun run;
   if (engines) run.engines = *engines;
+  run.dts = dts;
+  run.step = step;
+  run.repeat = repeat;
+  run.accuracy = accuracy;
+  run.max_steps = max_steps;
+  run.jobs = jobs;
   run.limits.max_samples = max_samples;
   nlohmann::json document;
   {
