@@ -364,15 +364,30 @@ int reduce_couplings(const std::vector<std::vector<std::pair<int, double>>>& row
   return -1;
 }
 
+std::optional<ArcGeometry> arc_geometry(const Mechanism& m, const Joint& j) {
+  if (j.type == JointType::pin_in_arc)
+    return ArcGeometry{m.links[j.link_a].points[j.centre_a].local,
+                       m.links[j.link_b].points[j.point_b].local, j.radius_a};
+  if (j.type != JointType::cam || !j.form_closed || j.contour->flat_faced()) return std::nullopt;
+  const cam::EccentricCam* disc = j.contour->eccentric();
+  if (!disc) return std::nullopt;
+  const cam::Follower& follower = j.contour->follower();
+  return ArcGeometry{
+      m.links[j.link_a].points[j.centre_a].local +
+          disc->eccentricity * Eigen::Vector2d(std::cos(disc->angle), std::sin(disc->angle)),
+      m.links[j.link_b].points[j.point_b].local,
+      disc->radius + (follower.kind == cam::FollowerKind::roller ? follower.roller_radius : 0.0)};
+}
+
 BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::VectorXd& q,
                        const Eigen::VectorXd* qdot) {
   if (body.source >= 0) return BodyMotion::of(m.moving_index(body.source), q, qdot, nullptr);
   const Joint& j = m.joints[body.joint];
   BodyMotion block = BodyMotion::of(m.moving_index(j.link_a), q, qdot, nullptr);
   const BodyMotion pin = BodyMotion::of(m.moving_index(j.link_b), q, qdot, nullptr);
-  if (j.type == JointType::pin_in_arc) {
+  if (const std::optional<ArcGeometry> arc = arc_geometry(m, j)) {
     // The arm's angle is the line CP's, on the turn nearest its guide's.
-    const Eigen::Vector2d local = m.links[j.link_a].points[j.centre_a].local;
+    const Eigen::Vector2d local = arc->centre;
     const Eigen::Vector2d d = pin.position(body.pin_point) - block.position(local);
     const double theta = block.theta + std::remainder(std::atan2(d.y(), d.x()) - block.theta,
                                                       2.0 * std::numbers::pi);
@@ -417,13 +432,24 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     g.bodies.push_back(body);
   }
 
-  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin, a
-  // pin-in-arc an arm hinged at the arc's centre plus a hinge at the pin.
+  // Joints; a pin-in-slot becomes a block sliding on the line plus a hinge at the pin, a point on
+  // a circle (a pin-in-arc, a grooved disc's roller) an arm hinged at the centre and at the pin.
   std::vector<int> joint_of(m.joints.size(), -1);
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
-    if (j.type == JointType::cam) {
+    // A point held on a circle: the engine's own row, or an arm between two hinges (below).
+    const std::optional<ArcGeometry> arc = arc_geometry(m, j);
+    if (arc && policy.arc_rows) {
+      g.arcs.push_back({.source = static_cast<int>(ji),
+                        .guide = body_of_link[j.link_a],
+                        .pin = body_of_link[j.link_b],
+                        .centre = arc->centre,
+                        .point = arc->point,
+                        .radius = arc->radius});
+      continue;
+    }
+    if (j.type == JointType::cam && !arc) {
       if (!policy.contacts)
         throw std::runtime_error(fmt::format(
             "joint '{}': a cam is in this engine's scene only as contact, which it does not "
@@ -432,29 +458,20 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
       g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link));
       continue;
     }
-    if (j.type == JointType::pin_in_arc && policy.arc_rows) {
-      g.arcs.push_back({.source = static_cast<int>(ji),
-                        .guide = body_of_link[j.link_a],
-                        .pin = body_of_link[j.link_b],
-                        .centre = m.links[j.link_a].points[j.centre_a].local,
-                        .point = m.links[j.link_b].points[j.point_b].local,
-                        .radius = j.radius_a});
-      continue;
-    }
     SceneJoint sj;
     sj.name = j.name;
     sj.source = static_cast<int>(ji);
     sj.a = body_of_link[j.link_a];
     sj.b = body_of_link[j.link_b];
-    sj.ub = m.links[j.link_b].points[j.point_b].local;
+    sj.ub = arc ? arc->point : m.links[j.link_b].points[j.point_b].local;
     joint_of[ji] = static_cast<int>(g.joints.size());
     if (j.type == JointType::revolute) {
       sj.ua = m.links[j.link_a].points[j.point_a].local;
       g.joints.push_back(sj);
       continue;
     }
-    if (j.type == JointType::pin_in_arc) {
-      sj.ua = m.links[j.link_a].points[j.centre_a].local;
+    if (arc) {
+      sj.ua = arc->centre;
     } else {
       const Line& line = m.links[j.link_a].lines[j.line];
       sj.kind = SceneJoint::Kind::slide;
@@ -486,8 +503,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     sj.name += sj.kind == SceneJoint::Kind::slide ? "_slide" : "_centre";
     sj.b = k;
     // The arm's frame sits at the pin, its x axis along the radius.
-    sj.ub = sj.kind == SceneJoint::Kind::slide ? Eigen::Vector2d::Zero()
-                                               : Eigen::Vector2d(-j.radius_a, 0.0);
+    sj.ub = arc ? Eigen::Vector2d(-arc->radius, 0.0) : Eigen::Vector2d::Zero();
     sj.relative_angle = 0.0;
     sj.block_guide = true;
     g.joints.push_back(sj);

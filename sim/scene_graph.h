@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -121,6 +122,17 @@ struct SceneContact {
   // it speculative (ODE, Bullet: the disc collided larger by it, the gap given back) [m].
   double margin = 0.0;
 };
+
+// A point of one link held on a circle of another: a pin in a curved slot, or the centre of a
+// roller (or a knife edge) in a groove cut round a disc, a form-closed eccentric cam, which is the
+// same pair (docs/cams.md, "Circular slots and eccentric cams"): point `point` of the joint's
+// link_b stays `radius` from `centre` of its link_a (local [m]). A force-closed cam, a flat face
+// and any other profile are none: contact holds them.
+struct ArcGeometry {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero(), point = Eigen::Vector2d::Zero();
+  double radius = 0.0;
+};
+std::optional<ArcGeometry> arc_geometry(const Mechanism& mechanism, const Joint& joint);
 
 // A pin in a curved slot held by a distance row of the engine's own (TreePolicy::arc_rows): point
 // `point` of body `pin` stays `radius` from point `centre` of body `guide`.

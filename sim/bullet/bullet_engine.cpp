@@ -934,7 +934,7 @@ class RigidScene final : public Scene {
     // straight slot's block is not (its 6-dof constraint locks the line's normal alone).
     for (size_t v = static_cast<size_t>(links); v < plan.nodes.size(); ++v) {
       const SceneBody& node = plan.nodes[v];
-      if (m.joints[static_cast<size_t>(node.joint)].type != JointType::pin_in_arc) continue;
+      if (!arc_geometry(m, m.joints[static_cast<size_t>(node.joint)])) continue;
       btRigidBody::btRigidBodyConstructionInfo ci(
           node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
       auto* arm = new btRigidBody(ci);
@@ -953,7 +953,8 @@ class RigidScene final : public Scene {
     for (size_t ji = 0; ji < m.joints.size(); ++ji) {
       const Joint& j = m.joints[ji];
       const int a = plan_node(m, j.link_a), b = plan_node(m, j.link_b);
-      if (j.type == JointType::cam) {  // contact between shapes: no constraint
+      const std::optional<ArcGeometry> arc = arc_geometry(m, j);
+      if (j.type == JointType::cam && !arc) {  // contact between shapes: no constraint
         joint_constraint_.push_back(nullptr);
         joint_lock_.emplace_back();
         continue;
@@ -971,7 +972,7 @@ class RigidScene final : public Scene {
         continue;
       }
       const Eigen::Vector2d& pb = m.links[j.link_b].points[j.point_b].local;
-      if (j.type == JointType::pin_in_arc) {
+      if (arc) {
         // The arm's frame sits at the pin (its centre of mass), its x axis along the radius.
         const int arm = arm_node(static_cast<int>(ji));
         const auto at = [](const Eigen::Vector2d& p) {
@@ -979,12 +980,11 @@ class RigidScene final : public Scene {
         };
         Lock hinge;
         hinge.linear[0] = hinge.linear[1] = true;
-        add(new btGeneric6DofSpring2Constraint(
-                body(a), body(arm), at(m.links[j.link_a].points[j.centre_a].local - com(a)),
-                at({-j.radius_a, 0.0})),
+        add(new btGeneric6DofSpring2Constraint(body(a), body(arm), at(arc->centre - com(a)),
+                                               at({-arc->radius, 0.0})),
             hinge);
-        auto* pin =
-            new btGeneric6DofSpring2Constraint(body(arm), body(b), at({0.0, 0.0}), at(pb - com(b)));
+        auto* pin = new btGeneric6DofSpring2Constraint(body(arm), body(b), at({0.0, 0.0}),
+                                                       at(arc->point - com(b)));
         add(pin, hinge);
         joint_constraint_.push_back(pin);  // its feedback: the pin's force on link_b
         joint_lock_.push_back(hinge);
@@ -1434,7 +1434,7 @@ void read_rigid_forces(const Mechanism& m, const Plan& plan, const Scene& scene,
   Eigen::Index gearing = 0;
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
-    if (j.type == JointType::cam) {
+    if (j.type == JointType::cam && !arc_geometry(m, j)) {
       out.joint_force[ji] = scene.contact_force(static_cast<int>(ji));
       continue;
     }
