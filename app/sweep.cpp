@@ -96,24 +96,22 @@ int run_sweep(const SweepArgs& args) {
                               .limits = args.limits,
                               .jobs = args.jobs};
 
-  // Fail on an unwritable report before the long part (after the definitions are read).
+  // Every definition of the shard is read and its options checked before any runs; then an
+  // unwritable report fails before the long part.
+  methods::ShardSweeps swept = methods::prepare_shard(definitions, shard, run);
   compare::HtmlOptions html;
   html.asset_dirs = installed_asset_dirs();
-  const auto check_report = [&] {
-    if (args.report.empty()) return;
+  if (!args.report.empty()) {
     std::string searched;
     if (!compare::find_report_assets(html.asset_dirs, &searched))
       throw std::invalid_argument(fmt::format(
           "--report: the chart scripts are missing (looked in {}); run scripts/setup.sh",
           searched));
-  };
+  }
   std::optional<ProgressLines> lines;
-  bool checked = false;
-  const methods::ShardSweeps swept = methods::sweep_shard(
-      definitions, shard, run,
+  methods::sweep_shard(
+      swept,
       [&](size_t k, methods::SettingsSweepOptions& options) {
-        if (!checked) check_report();
-        checked = true;
         if (definitions.size() > 1 && !args.quiet)
           fmt::print(stderr, "definition {} of {}: {}\n", k + 1, definitions.size(),
                      definitions[k].path);
@@ -121,7 +119,6 @@ int run_sweep(const SweepArgs& args) {
         if (!args.quiet) options.progress = lines->progress();
       },
       [&] { lines->finish(); });
-  if (!checked) check_report();
   const nlohmann::json document = methods::sweep_document(shard, methods::sweep_settings(run),
                                                           definitions, swept.swept, swept.sweeps);
   return write_sweep_outputs({args.csv, args.report, args.json}, html, document, definitions,

@@ -212,28 +212,29 @@ json sweep_settings(const SweepRun& run) {
   return j;
 }
 
-ShardSweeps sweep_shard(const std::vector<DefinitionFile>& definitions, const Shard& shard,
-                        const SweepRun& run,
-                        const std::function<void(size_t, SettingsSweepOptions&)>& starting,
-                        const std::function<void()>& finished) {
+ShardSweeps prepare_shard(const std::vector<DefinitionFile>& definitions, const Shard& shard,
+                          const SweepRun& run) {
   const bool several = definitions.size() > 1;
   ShardSweeps out;
   for (size_t k = 0; k < definitions.size(); ++k)
     if (shard.holds(k)) out.swept.push_back(k);
-  // Every definition of the shard is read and its options checked before any runs; reserved, so
-  // that the sweeps' pointers to them hold.
+  // Reserved, so that the sweeps' pointers to them hold.
   out.mechanisms.reserve(out.swept.size());
-  std::vector<SettingsSweepOptions> options;
   for (size_t k : out.swept) {
     out.mechanisms.push_back(load_mechanism(definitions[k].path));
-    options.push_back(sweep_options(out.mechanisms.back(), run, several));
-  }
-  for (size_t i = 0; i < out.swept.size(); ++i) {
-    if (starting) starting(out.swept[i], options[i]);
-    out.sweeps.push_back(run_settings_sweep(out.mechanisms[i], options[i]));
-    if (finished) finished();
+    out.options.push_back(sweep_options(out.mechanisms.back(), run, several));
   }
   return out;
+}
+
+void sweep_shard(ShardSweeps& shard,
+                 const std::function<void(size_t, SettingsSweepOptions&)>& starting,
+                 const std::function<void()>& finished) {
+  for (size_t i = 0; i < shard.swept.size(); ++i) {
+    if (starting) starting(shard.swept[i], shard.options[i]);
+    shard.sweeps.push_back(run_settings_sweep(shard.mechanisms[i], shard.options[i]));
+    if (finished) finished();
+  }
 }
 
 json sweep_document(const Shard& shard, const json& settings,

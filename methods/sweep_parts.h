@@ -55,18 +55,21 @@ struct SweepRun {
 };
 nlohmann::json sweep_settings(const SweepRun& run);
 
-// A shard's sweeps: every definition it holds read and its options checked before any runs, then
-// swept in order; `starting(k, options)` before definition k's (to print its name, set its
+// A shard's sweeps, in two steps: prepare_shard reads every definition it holds and checks its
+// options, before any runs (a caller checks its own outputs between); sweep_shard then sweeps
+// them in order, `starting(k, options)` before definition k's (to print its name, set its
 // progress), `finished()` after each. The sweeps point into `mechanisms`, which moves with them.
 struct ShardSweeps {
   std::vector<Mechanism> mechanisms;
-  std::vector<size_t> swept;  // the definitions' indices
+  std::vector<size_t> swept;                  // the definitions' indices
+  std::vector<SettingsSweepOptions> options;  // per swept definition (none merged)
   std::vector<SettingsSweep> sweeps;
 };
-ShardSweeps sweep_shard(const std::vector<DefinitionFile>& definitions, const Shard& shard,
-                        const SweepRun& run,
-                        const std::function<void(size_t, SettingsSweepOptions&)>& starting = {},
-                        const std::function<void()>& finished = {});
+ShardSweeps prepare_shard(const std::vector<DefinitionFile>& definitions, const Shard& shard,
+                          const SweepRun& run);
+void sweep_shard(ShardSweeps& shard,
+                 const std::function<void(size_t, SettingsSweepOptions&)>& starting = {},
+                 const std::function<void()>& finished = {});
 
 // What a part is: the run's shard, its settings, every definition of the whole run (path, hash,
 // text) and the sweeps of its own shard's definitions.

@@ -197,7 +197,8 @@ py::object sweep_definitions(const std::vector<std::string>& paths,
   {
     py::gil_scoped_release unlocked;
     const std::vector<methods::DefinitionFile> definitions = methods::definition_files(paths);
-    const methods::ShardSweeps swept = methods::sweep_shard(definitions, part, run);
+    methods::ShardSweeps swept = methods::prepare_shard(definitions, part, run);
+    methods::sweep_shard(swept);
     document = methods::sweep_document(part, methods::sweep_settings(run), definitions, swept.swept,
                                        swept.sweeps);
   }
@@ -299,12 +300,10 @@ PYBIND11_MODULE(crosslink, module) {
                                  out.emplace_back(to_string(status));
                                return out;
                              })
+      // Each sample's time, and its position along the sweep (the CSV's `driver`).
       .def_property_readonly("time",
                              [](const PySolution& s) {
-                               const Trajectory& t = s.t();
-                               py::array_t<double> out(t.samples());
-                               for (int r = 0; r < t.samples(); ++r) out.mutable_at(r) = t.time(r);
-                               return out;
+                               return py::array_t<double>(s.t().samples(), s.t().time.data());
                              })
       .def_property_readonly("driver",
                              [](const PySolution& s) {

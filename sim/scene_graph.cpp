@@ -260,6 +260,12 @@ SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
   return c;
 }
 
+// The centre of an eccentric cam's disc, local on the cam (joint j's link_a).
+Eigen::Vector2d disc_centre(const Mechanism& m, const Joint& j, const cam::EccentricCam& disc) {
+  return m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local +
+         disc.eccentricity * Eigen::Vector2d(std::cos(disc.angle), std::sin(disc.angle));
+}
+
 // Cam joint `joint` as contact (SceneContact): an eccentric cam's disc and a roller, knife edge or
 // flat face.
 SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body_of_link) {
@@ -277,9 +283,7 @@ SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body
   c.source = joint;
   c.cam = body_of_link[static_cast<size_t>(j.link_a)];
   c.follower = body_of_link[static_cast<size_t>(j.link_b)];
-  c.cam_centre =
-      m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local +
-      disc->eccentricity * Eigen::Vector2d(std::cos(disc->angle), std::sin(disc->angle));
+  c.cam_centre = disc_centre(m, j, *disc);
   c.cam_radius = disc->radius;
   c.margin = 0.1 * disc->radius;
   const Link& on = m.links[static_cast<size_t>(j.link_b)];
@@ -373,9 +377,7 @@ std::optional<ArcGeometry> arc_geometry(const Mechanism& m, const Joint& j) {
   if (!disc) return std::nullopt;
   const cam::Follower& follower = j.contour->follower();
   return ArcGeometry{
-      m.links[j.link_a].points[j.centre_a].local +
-          disc->eccentricity * Eigen::Vector2d(std::cos(disc->angle), std::sin(disc->angle)),
-      m.links[j.link_b].points[j.point_b].local,
+      disc_centre(m, j, *disc), m.links[j.link_b].points[j.point_b].local,
       disc->radius + (follower.kind == cam::FollowerKind::roller ? follower.roller_radius : 0.0)};
 }
 
@@ -387,13 +389,12 @@ BodyMotion body_motion(const Mechanism& m, const SceneBody& body, const Eigen::V
   const BodyMotion pin = BodyMotion::of(m.moving_index(j.link_b), q, qdot, nullptr);
   if (const std::optional<ArcGeometry> arc = arc_geometry(m, j)) {
     // The arm's angle is the line CP's, on the turn nearest its guide's.
-    const Eigen::Vector2d local = arc->centre;
-    const Eigen::Vector2d d = pin.position(body.pin_point) - block.position(local);
+    const Eigen::Vector2d d = pin.position(body.pin_point) - block.position(arc->centre);
     const double theta = block.theta + std::remainder(std::atan2(d.y(), d.x()) - block.theta,
                                                       2.0 * std::numbers::pi);
     if (qdot)
       block.omega =
-          cross(d, pin.velocity(body.pin_point) - block.velocity(local)) / d.squaredNorm();
+          cross(d, pin.velocity(body.pin_point) - block.velocity(arc->centre)) / d.squaredNorm();
     block.theta = theta;
     block.rotation = Eigen::Rotation2Dd(theta).toRotationMatrix();
   }
@@ -441,12 +442,8 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
     // A point held on a circle: the engine's own row, or an arm between two hinges (below).
     const std::optional<ArcGeometry> arc = arc_geometry(m, j);
     if (arc && policy.arc_rows) {
-      g.arcs.push_back({.source = static_cast<int>(ji),
-                        .guide = body_of_link[j.link_a],
-                        .pin = body_of_link[j.link_b],
-                        .centre = arc->centre,
-                        .point = arc->point,
-                        .radius = arc->radius});
+      g.arcs.push_back(
+          {*arc, static_cast<int>(ji), body_of_link[j.link_a], body_of_link[j.link_b]});
       continue;
     }
     if (j.type == JointType::cam && !arc) {

@@ -30,10 +30,10 @@ struct SceneBody {
   double mass = 0.0;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // local [m]
   double inertia = 0.0;                              // about z through the centre [kg m^2]
-  // A block: it realises pin-in-slot or pin-in-arc joint `joint` (Mechanism index) on body
-  // `guide` and carries point `pin_point` of body `pin`, which is where its frame sits. A
-  // straight slot's block slides on the guide's line; a curved slot's is an arm hinged at the
-  // arc's centre, its radius long (a pin on a circle is a binary link to the centre).
+  // A block: it realises joint `joint` (Mechanism index; a pin-in-slot, or a point on a circle:
+  // arc_geometry) on body `guide` and carries point `pin_point` of body `pin`, which is where its
+  // frame sits. A straight slot's block slides on the guide's line; a circle's is an arm hinged
+  // at its centre, its radius long (a point on a circle is a binary link to the centre).
   int joint = -1, guide = -1, pin = -1;
   Eigen::Vector2d pin_point = Eigen::Vector2d::Zero();
 };
@@ -134,13 +134,11 @@ struct ArcGeometry {
 };
 std::optional<ArcGeometry> arc_geometry(const Mechanism& mechanism, const Joint& joint);
 
-// A pin in a curved slot held by a distance row of the engine's own (TreePolicy::arc_rows): point
-// `point` of body `pin` stays `radius` from point `centre` of body `guide`.
-struct SceneArc {
+// A point on a circle (arc_geometry) held by a distance row of the engine's own
+// (TreePolicy::arc_rows): `point` of body `pin` stays `radius` from `centre` of body `guide`.
+struct SceneArc : ArcGeometry {
   int source = -1;           // the Mechanism joint
   int guide = -1, pin = -1;  // bodies
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero(), point = Eigen::Vector2d::Zero();  // local [m]
-  double radius = 0.0;                                                                // [m]
 };
 
 // Linear couplings of coordinates, each a row of (coordinate, coefficient) terms held at zero
@@ -175,19 +173,20 @@ struct TreePolicy {
   bool split_loops = false;
   // Cam joints become SceneContacts (the engine realises contact); else a cam is refused.
   bool contacts = false;
-  // A pin-in-arc is a SceneArc, a distance row the engine holds itself (MuJoCo's spatial
-  // tendon), instead of an arm between two hinges: MuJoCo's equality rows keep a softness in
-  // proportion to their inverse inertia, and an arm's (auxiliary_mass()) lets the row give way.
+  // A point on a circle (arc_geometry: a pin-in-arc, a grooved disc's roller) is a SceneArc, a
+  // distance row the engine holds itself (MuJoCo's spatial tendon), instead of an arm between two
+  // hinges: MuJoCo's equality rows keep a softness in proportion to their inverse inertia, and an
+  // arm's (auxiliary_mass()) lets the row give way.
   bool arc_rows = false;
 };
 
 struct SceneGraph {
   // Bodies: the ground (0), the moving links in Mechanism order, then one block per pin-in-slot
-  // or (without TreePolicy::arc_rows) pin-in-arc in joint order.
+  // or (without TreePolicy::arc_rows) point on a circle, in joint order.
   std::vector<SceneBody> bodies;
   // Joints in Mechanism order, a pin-in-slot as its slide (guide to block) then its pin (block
-  // to pin link), a pin-in-arc as its centre hinge (guide to block) then its pin; planar joints
-  // last.
+  // to pin link), a point on a circle as its centre hinge (guide to block) then its pin; planar
+  // joints last.
   std::vector<SceneJoint> joints;
   // The spanning tree, the minimum spanning tree under the preference: the driven joints first
   // (so the driver acts on a joint of the tree), then slides and planar joints (so every cut is
@@ -198,7 +197,7 @@ struct SceneGraph {
   std::vector<DrivenCoordinate> driven;  // per driver of the Mechanism
   std::vector<SceneCoupling> couplings;  // per gear pair or rack, in joint order
   std::vector<SceneContact> contacts;    // per cam joint (TreePolicy::contacts), in joint order
-  std::vector<SceneArc> arcs;            // per pin-in-arc (TreePolicy::arc_rows), in joint order
+  std::vector<SceneArc> arcs;            // per point on a circle (TreePolicy::arc_rows)
   // A slide among the cuts (a loop of slides only), which no point constraint closes; -1: none.
   int cut_slide = -1;
   // split_loops: "" or why the loops could not be split (the graph is then the unsplit one).

@@ -435,6 +435,22 @@ Eigen::Vector2d turn(double angle, const Eigen::Vector2d& v) {
   return Eigen::Rotation2Dd(angle) * v;
 }
 
+// A rigid body of the plane at pose p: node's mass and inertia about its centre, which `shape`
+// is placed from; it moves in the plane only, undamped, without gyroscopic terms, never asleep.
+btRigidBody* planar_body(const SceneBody& node, const Pose& p, btCollisionShape* shape) {
+  btRigidBody::btRigidBodyConstructionInfo ci(node.mass, nullptr, shape,
+                                              btVector3(node.inertia, node.inertia, node.inertia));
+  auto* body = new btRigidBody(ci);
+  body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.centre))));
+  body->setLinearFactor(btVector3(1, 1, 0));
+  body->setAngularFactor(btVector3(0, 0, 1));
+  body->setDamping(0.0, 0.0);
+  body->setFlags(0);  // no gyroscopic terms
+  body->setSleepingThresholds(0.0, 0.0);
+  body->setActivationState(DISABLE_DEACTIVATION);
+  return body;
+}
+
 // Node frame poses from mechanism coordinates q.
 std::vector<Pose> node_poses(const Mechanism& m, const Plan& plan, const Eigen::VectorXd& q) {
   std::vector<Pose> poses(plan.nodes.size());
@@ -902,17 +918,7 @@ class RigidScene final : public Scene {
       btCollisionShape* shape = shape_[static_cast<size_t>(v)]
                                     ? shape_[static_cast<size_t>(v)].get()
                                     : static_cast<btCollisionShape*>(&empty_);
-      btRigidBody::btRigidBodyConstructionInfo ci(
-          node.mass, nullptr, shape, btVector3(node.inertia, node.inertia, node.inertia));
-      auto* body = new btRigidBody(ci);
-      const Pose& p = poses[v];
-      body->setWorldTransform(btTransform(rot_z(p.theta), bt(p.r + turn(p.theta, node.centre))));
-      body->setLinearFactor(btVector3(1, 1, 0));
-      body->setAngularFactor(btVector3(0, 0, 1));
-      body->setDamping(0.0, 0.0);
-      body->setFlags(0);  // no gyroscopic terms
-      body->setSleepingThresholds(0.0, 0.0);
-      body->setActivationState(DISABLE_DEACTIVATION);
+      auto* body = planar_body(node, poses[v], shape);
       // A cam's or follower's shape collides with the other's only, frictionless and without
       // bounce (the joint slides and rolls free); every other body collides with nothing.
       const int group = group_[static_cast<size_t>(v)];
@@ -930,21 +936,13 @@ class RigidScene final : public Scene {
       world_->addRigidBody(body, group, mask);
       bodies_.push_back(body);
     }
-    // A curved slot's arm (the scene graph's block) is a body of its own between two hinges; a
-    // straight slot's block is not (its 6-dof constraint locks the line's normal alone).
+    // A circle's arm (the scene graph's block: a curved slot, a grooved disc) is a body of its own
+    // between two hinges; a straight slot's block is not (its 6-dof constraint locks the line's
+    // normal alone).
     for (size_t v = static_cast<size_t>(links); v < plan.nodes.size(); ++v) {
       const SceneBody& node = plan.nodes[v];
       if (!arc_geometry(m, m.joints[static_cast<size_t>(node.joint)])) continue;
-      btRigidBody::btRigidBodyConstructionInfo ci(
-          node.mass, nullptr, &empty_, btVector3(node.inertia, node.inertia, node.inertia));
-      auto* arm = new btRigidBody(ci);
-      arm->setWorldTransform(btTransform(rot_z(poses[v].theta), bt(poses[v].r)));
-      arm->setLinearFactor(btVector3(1, 1, 0));
-      arm->setAngularFactor(btVector3(0, 0, 1));
-      arm->setDamping(0.0, 0.0);
-      arm->setFlags(0);
-      arm->setSleepingThresholds(0.0, 0.0);
-      arm->setActivationState(DISABLE_DEACTIVATION);
+      auto* arm = planar_body(node, poses[v], &empty_);
       world_->addRigidBody(arm, 0, 0);
       arms_.emplace_back(static_cast<int>(v), arm);
     }
@@ -1308,7 +1306,7 @@ class RigidScene final : public Scene {
       if (v == node) return *arm;
     throw std::logic_error("Bullet: a node without a rigid body");
   }
-  // The node of the arm that realises pin-in-arc joint `joint`.
+  // The node of the arm that realises joint `joint`, a point on a circle (arc_geometry).
   int arm_node(int joint) const {
     for (const auto& [v, arm] : arms_)
       if (plan_.nodes[static_cast<size_t>(v)].joint == joint) return v;
@@ -1388,7 +1386,7 @@ class RigidScene final : public Scene {
   double last_dt_ = 1.0;
   btRigidBody* ground_ = nullptr;
   std::vector<btRigidBody*> bodies_;                // per moving link (its node)
-  std::vector<std::pair<int, btRigidBody*>> arms_;  // (node, body) per curved slot
+  std::vector<std::pair<int, btRigidBody*>> arms_;  // (node, body) per point on a circle
   std::vector<btGeneric6DofSpring2Constraint*> constraints_, joint_constraint_;  // per joint;
                                                                                  // null: a gear
   std::vector<btGearConstraint*> gear_;  // per joint: a gear pair's, or null

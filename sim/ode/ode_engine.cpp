@@ -700,8 +700,6 @@ class OdeScene {
     transmissions_.push_back({joint, t});
   }
 
-  // Cam contact c's shapes (SceneContact), each placed from its body's centre of mass; the disc
-  // collided larger by the contact's margin (touch()).
   // Curved slot k: ODE's double ball (dJointCreateDBall), which holds the distance between its
   // anchors, the arc's centre and the pin, at the radius: one row, and no body between.
   void add_arc(size_t k, const Eigen::VectorXd& q) {
@@ -721,6 +719,8 @@ class OdeScene {
     dJointSetFeedback(joint, &arc_feedback_[k]);
   }
 
+  // Cam contact c's shapes (SceneContact), each placed from its body's centre of mass; the disc
+  // collided larger by the contact's margin (touch()).
   void add_contact(size_t c) {
     const SceneContact& sc = g_.contacts[c];
     if (!contact_group_) contact_group_ = dJointGroupCreate(0);
