@@ -8,6 +8,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "analytic/model/constraints.h"
 #include "sim/forces.h"
 
 namespace crosslink::sim {
@@ -266,43 +267,95 @@ Eigen::Vector2d disc_centre(const Mechanism& m, const Joint& j, const cam::Eccen
          disc.eccentricity * Eigen::Vector2d(std::cos(disc.angle), std::sin(disc.angle));
 }
 
-// Cam joint `joint` as contact (SceneContact): an eccentric cam's disc and a roller, knife edge or
-// flat face.
-SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body_of_link) {
+// A cam whose profile is not a disc as a convex polygon of `facets` vertices on its profile, local
+// on the cam (SceneContact::cam_polygon), moved in by `inset` (a knife edge's sphere); sets the
+// polygon and its prism's half thickness, and returns its largest radius from the cam's centre.
+double cam_polygon(const Mechanism& m, const Joint& j, int facets, double inset, SceneContact& c) {
+  const Eigen::Vector2d centre =
+      m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+  double largest = 0.0;
+  for (const CamContact& p : cam_profile(m, j, facets)) {
+    c.cam_polygon.push_back(p.point - inset * p.normal);
+    largest = std::max(largest, (c.cam_polygon.back() - centre).norm());
+  }
+  // The engine's mesh is its convex hull: a concave stretch would be bridged, not followed.
+  const size_t n = c.cam_polygon.size();
+  for (size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d& a = c.cam_polygon[k];
+    const Eigen::Vector2d& b = c.cam_polygon[(k + 1) % n];
+    const Eigen::Vector2d& d = c.cam_polygon[(k + 2) % n];
+    if (cross(b - a, d - b) < -1e-12 * (b - a).squaredNorm()) {
+      const Eigen::Vector2d u = b - centre;
+      throw std::runtime_error(fmt::format(
+          "joint '{}': the profile is concave at {:.1f} deg in the cam's frame; an engine's mesh "
+          "of it is its convex hull, which would bridge the hollow; the exact methods solve it",
+          j.name, std::atan2(u.y(), u.x()) * 180.0 / std::numbers::pi));
+    }
+  }
+  c.cam_half_thickness = 0.25 * largest;
+  return largest;
+}
+
+// Cam joint `joint` as contact (SceneContact): an eccentric cam's disc, or (facets > 0) any other
+// convex profile as a prism, and a roller, knife edge or flat face.
+SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body_of_link,
+                     int facets) {
   const Joint& j = m.joints[static_cast<size_t>(joint)];
   const cam::EccentricCam* disc = j.contour->eccentric();
   const cam::Follower& follower = j.contour->follower();
-  if (!disc)
+  if (!disc && facets == 0)
     throw std::runtime_error(fmt::format(
-        "joint '{}': an engine holds a follower on a cam by contact, exact so far for a disc (an "
-        "eccentric cam) and a roller, knife edge or flat face; a profile cut from a motion law, "
-        "a tangent cam or a profile given by points has no exact contact shape in an engine yet "
-        "(a mesh's facets would bend its normal)",
+        "joint '{}': this engine holds a follower on a cam by contact with a disc (an eccentric "
+        "cam) only; a profile cut from a motion law, a tangent cam or a profile given by points "
+        "would be a mesh, which it does not build yet",
+        j.name));
+  // A groove holds the follower both ways; a contact only pushes. (A roller or knife edge in a
+  // groove round a disc is a point on a circle, arc_geometry's, and no contact.)
+  if (j.form_closed && !disc)
+    throw std::runtime_error(fmt::format(
+        "joint '{}': a groove round a profile that is not a disc holds the follower both ways, "
+        "and its outer wall is concave, which no engine's convex shape is; the exact methods "
+        "solve it",
+        j.name));
+  if (j.form_closed)
+    throw std::runtime_error(fmt::format(
+        "joint '{}': a flat face held on its disc both ways (a yoke, closure = \"form\") would be "
+        "two faces about the disc, which no engine's scene builds yet (a contact only pushes); "
+        "the exact methods solve it",
         j.name));
   SceneContact c;
   c.source = joint;
   c.cam = body_of_link[static_cast<size_t>(j.link_a)];
   c.follower = body_of_link[static_cast<size_t>(j.link_b)];
-  c.cam_centre = disc_centre(m, j, *disc);
-  c.cam_radius = disc->radius;
-  c.margin = 0.1 * disc->radius;
+  // A knife edge is a sphere of a quarter of the disc's radius on a disc smaller by as much; on a
+  // polygon, of half the profile's least radius of curvature, on the profile moved in by as much.
+  const bool knife = follower.kind == cam::FollowerKind::knife_edge;
+  const double knife_radius =
+      disc ? 0.25 * disc->radius : 0.5 * j.contour->least_radius_of_curvature();
+  double size = 0.0;  // the cam's radius
+  if (disc) {
+    c.cam_centre = disc_centre(m, j, *disc);
+    c.cam_radius = disc->radius - (knife ? knife_radius : 0.0);
+    size = disc->radius;
+  } else {
+    c.cam_centre =
+        m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+    size = cam_polygon(m, j, facets, knife ? knife_radius : 0.0, c);
+  }
+  c.margin = 0.1 * size;
   const Link& on = m.links[static_cast<size_t>(j.link_b)];
   if (follower.kind == cam::FollowerKind::flat_faced) {
     const Line& face = on.lines[static_cast<size_t>(j.line)];
     const Eigen::Vector2d away = perp(face.direction);  // +90 deg from the line: from the cam
-    const double half = 0.125 * disc->radius;
+    const double half = 0.125 * size;
     c.face = true;
     c.follower_centre = face.origin + half * away;
     c.box_angle = std::atan2(face.direction.y(), face.direction.x());
-    c.box_half = {2.0 * m.size() + 4.0 * disc->radius, half, half};
+    c.box_half = {2.0 * m.size() + 4.0 * size, half, half};
     return c;
   }
   c.follower_centre = on.points[static_cast<size_t>(j.point_b)].local;
-  c.follower_radius = follower.roller_radius;
-  if (follower.kind == cam::FollowerKind::knife_edge) {
-    c.follower_radius = 0.25 * disc->radius;
-    c.cam_radius -= c.follower_radius;
-  }
+  c.follower_radius = knife ? knife_radius : follower.roller_radius;
   return c;
 }
 
@@ -452,7 +505,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
             "joint '{}': a cam is in this engine's scene only as contact, which it does not "
             "model yet (docs/cams.md, \"The engines' contact\"); the exact methods solve it",
             j.name));
-      g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link));
+      g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link, policy.cam_facets));
       continue;
     }
     SceneJoint sj;

@@ -121,6 +121,12 @@ struct SceneContact {
   // How far ahead an engine whose contact is made only where its shapes overlap seeks it, to make
   // it speculative (ODE, Bullet: the disc collided larger by it, the gap given back) [m].
   double margin = 0.0;
+  // A profile that is not a disc (TreePolicy::cam_facets): the cam is a prism over this convex
+  // polygon, local on the cam, counterclockwise, its vertices on the profile (a knife edge's
+  // moved in by the sphere's radius), `cam_half_thickness` either side of z = 0, instead of the
+  // disc's sphere. Its facets bend the profile's normal by up to half a facet's turn.
+  std::vector<Eigen::Vector2d> cam_polygon;
+  double cam_half_thickness = 0.0;  // [m]
 };
 
 // A point of one link held on a circle of another: a pin in a curved slot, or the centre of a
@@ -178,6 +184,9 @@ struct TreePolicy {
   // hinges: MuJoCo's equality rows keep a softness in proportion to their inverse inertia, and an
   // arm's (auxiliary_mass()) lets the row give way.
   bool arc_rows = false;
+  // A cam whose profile is not a disc becomes a convex prism of this many facets a turn
+  // (SceneContact::cam_polygon: the engine's mesh); 0: refused.
+  int cam_facets = 0;
 };
 
 struct SceneGraph {

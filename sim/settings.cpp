@@ -63,19 +63,21 @@ std::vector<double> setting_numbers(std::string_view name, const std::string& te
   return values;
 }
 
-long setting_count(std::string_view name, const std::string& text, long most) {
+long setting_count(std::string_view name, const std::string& text, long most, long least) {
+  const std::string takes = fmt::format("a whole number from {} to {}", least, most);
   // Digits alone are read exactly (a count beyond 2^53 is not rounded); "5e1" as a number.
   if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) {
     try {
       const long long v = std::stoll(text);
-      if (v >= 1 && v <= most) return static_cast<long>(v);
+      if (v >= least && v <= most) return static_cast<long>(v);
     } catch (const std::out_of_range&) {
     }
-    refuse(name, text, fmt::format("a whole number from 1 to {}", most));
+    refuse(name, text, takes);
   }
   const std::optional<double> v = finite(text);
-  if (!v || *v < 1.0 || *v > static_cast<double>(most) || *v != std::floor(*v))
-    refuse(name, text, fmt::format("a whole number from 1 to {}", most));
+  if (!v || *v < static_cast<double>(least) || *v > static_cast<double>(most) ||
+      *v != std::floor(*v))
+    refuse(name, text, takes);
   return static_cast<long>(*v);
 }
 
@@ -102,7 +104,8 @@ std::string allowed_values(const SettingSpec& spec) {
     case SettingKind::number:
       return or_words(describe(spec.range), spec.words);
     case SettingKind::count:
-      return or_words(fmt::format("a whole number from 1 to {}", spec.most), spec.words);
+      return or_words(fmt::format("a whole number from {} to {}", spec.least, spec.most),
+                      spec.words);
     case SettingKind::choice:
       return one_of(spec.words);
     case SettingKind::text:
@@ -173,6 +176,17 @@ SettingSpec shared_setting(std::string_view name) {
                 "the step before; extrapolated, linearly from the two steps before",
             .words = {"extrapolated", "last"},
             .friction = true};
+  // Declared by the engines that mesh a cam (SceneContact::cam_polygon).
+  if (name == "cam_facets")
+    return {.name = "cam_facets",
+            .kind = count,
+            .default_value = std::to_string(kDefaultCamFacets),
+            .doc =
+                "a cam profile that is not a disc: its convex mesh's facets a turn, the "
+                "vertices on the profile",
+            .most = 1'000'000,
+            .least = 3,  // a polygon
+            .contact = true};
   if (name == "divergence_energy")
     return {.name = "divergence_energy",
             .kind = number,
@@ -269,7 +283,8 @@ SettingValues::SettingValues(const SettingSchema& schema, std::string_view engin
     if (spec.kind == SettingKind::choice && !word) refuse(name, value, allowed_values(spec));
     if (spec.kind == SettingKind::number && !word && !within(value, spec.range))
       refuse(name, value, allowed_values(spec));
-    if (spec.kind == SettingKind::count && !word) (void)setting_count(name, value, spec.most);
+    if (spec.kind == SettingKind::count && !word)
+      (void)setting_count(name, value, spec.most, spec.least);
     const auto i = static_cast<size_t>(it - schema.begin());
     text_[i] = value;
     given_[i] = true;
@@ -295,7 +310,7 @@ double SettingValues::number(std::string_view name) const {
 }
 
 long SettingValues::count(std::string_view name) const {
-  return setting_count(name, text(name), spec(name).most);
+  return setting_count(name, text(name), spec(name).most, spec(name).least);
 }
 
 Mechanism perturbed(const Mechanism& m, const std::string& text) {

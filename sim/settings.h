@@ -38,6 +38,10 @@ constexpr long kDefaultMaxSteps = 2'000'000;
 // The most steps a run may be allowed (the command line's --max-steps bound).
 constexpr long kMostSteps = 1'000'000'000'000'000'000;
 
+// A cam profile that is not a disc is an engine's convex mesh of this many facets a turn
+// (the shared setting "cam_facets").
+constexpr int kDefaultCamFacets = 1440;
+
 enum class SettingKind {
   number,  // a finite number in `range`, or one of `words` ("auto": the engine decides)
   count,   // a whole number from 1 to `most`, or one of `words`
@@ -57,6 +61,7 @@ struct SettingSpec {
   std::string doc = {};            // one line: what it does
   SettingRange range = {};         // number
   long most = std::numeric_limits<int>::max();  // count
+  long least = 1;                               // count
   std::vector<std::string> words = {};          // choice: its values; number, count: besides
   std::string allowed = {};                     // text: what it takes
   AppliesTo applies_to = AppliesTo::both;       // the runs that print it
@@ -71,7 +76,8 @@ struct SettingSpec {
 using SettingSchema = std::vector<SettingSpec>;
 
 // A setting every engine declares alike, by name: "max_steps", "perturb_link",
-// "divergence_energy", "friction_load" (those that model joint friction), and the reported
+// "divergence_energy", "friction_load" (those that model joint friction), "cam_facets" (those
+// that mesh a cam), and the reported
 // "mass_model", "driver", "energy_scale"; and those Bullet, ODE and Simbody declare alike:
 // "gap_threshold", "divergence_gap", "driver_threshold", "singular_rcond", "branch_distance",
 // "energy_threshold" (std::logic_error for another name).
@@ -124,9 +130,9 @@ double setting_number(std::string_view name, const std::string& text,
                       const SettingRange& range = {});
 // Finite numbers separated by spaces ("0.02 1").
 std::vector<double> setting_numbers(std::string_view name, const std::string& text);
-// A whole number from 1 to `most` ("50", "5e1"; not "2.5" nor "3e9" beyond an int).
+// A whole number from `least` to `most` ("50", "5e1"; not "2.5" nor "3e9" beyond an int).
 long setting_count(std::string_view name, const std::string& text,
-                   long most = std::numeric_limits<int>::max());
+                   long most = std::numeric_limits<int>::max(), long least = 1);
 
 // The test hook perturb_link = "<moving link>:<positive factor>": that link's points and line
 // origins scaled, so the scene is assembled for a valid but wrong linkage. "" or "none": `m` as

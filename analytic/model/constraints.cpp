@@ -350,12 +350,15 @@ CamReading::Pose CamReading::at(const BodyMotion& cam, const BodyMotion& followe
   return p;
 }
 
-std::vector<Eigen::Vector2d> CamReading::outline(int count) const {
-  // The cam's frame unturned with its centre at the origin, and the follower placed where the
-  // row holds it at each angle: its pitch point at rho(psi), or its face at h(alpha).
+namespace {
+// The contacts round a cam's profile in its cam link's frame, the centre at `centre`: the cam's
+// frame unturned, and the follower placed where the row holds it at each of `count` angles, its
+// pitch point at rho(psi) or its face at h(alpha).
+std::vector<CamContact> profile_contacts(const ConstraintRows& rows, int count,
+                                         const Eigen::Vector2d& centre) {
   BodyMotion cam;
-  cam.r = -rows.point_a;
-  std::vector<Eigen::Vector2d> points;
+  cam.r = centre - rows.point_a;
+  std::vector<CamContact> contacts;
   for (int k = 0; k < count; ++k) {
     const double angle = 2.0 * std::numbers::pi * k / count;
     const Eigen::Vector2d u(std::cos(angle), std::sin(angle));
@@ -367,9 +370,23 @@ std::vector<Eigen::Vector2d> CamReading::outline(int count) const {
     } else {
       follower.r = rows.contour->at(angle).value * u - rows.point_b;
     }
-    points.push_back(cam_contact(rows, cam, follower).point);
+    follower.r += centre;
+    contacts.push_back(cam_contact(rows, cam, follower));
   }
+  return contacts;
+}
+}  // namespace
+
+std::vector<Eigen::Vector2d> CamReading::outline(int count) const {
+  std::vector<Eigen::Vector2d> points;
+  for (const CamContact& c : profile_contacts(rows, count, Eigen::Vector2d::Zero()))
+    points.push_back(c.point);
   return points;
+}
+
+std::vector<CamContact> cam_profile(const Mechanism& m, const Joint& cam, int count) {
+  const ConstraintRows rows = joint_rows(m, cam);
+  return profile_contacts(rows, count, rows.point_a);
 }
 
 std::vector<CamReading> cam_readings(const Mechanism& m) {

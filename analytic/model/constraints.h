@@ -110,6 +110,9 @@ CamContact cam_contact(const Mechanism& m, const Joint& cam, const BodyMotion& a
                        const BodyMotion& b);
 // The same from the joint's rows in a layout (ConstraintLayout::joint), without rebuilding them.
 CamContact cam_contact(const ConstraintRows& cam, const BodyMotion& a, const BodyMotion& b);
+// A cam joint's profile in its cam link's own frame: where the follower touches it, and the
+// normal there, at `count` angles over a turn, in order around it (an engine's mesh of it).
+std::vector<CamContact> cam_profile(const Mechanism& m, const Joint& cam, int count);
 
 // A cam joint's pressure angle from its links' poses alone (docs/cams.md, "Pressure angle"): the
 // angle from the follower's direction of motion to the common normal, counterclockwise positive,

@@ -146,6 +146,7 @@ struct Config {
   std::string driver_solref = "deadbeat", driver_solimp = kSolimp;
   std::string friction_solref = "auto";
   std::string contact_solref = "auto", contact_solimp = kContactSolimp;
+  int cam_facets = kDefaultCamFacets;
   bool extrapolated_load = true;
   std::string gap_threshold = "auto", driver_threshold = "auto";
   std::string perturb_link = "none";
@@ -253,6 +254,7 @@ const SettingSchema& mujoco_settings() {
        .allowed = "dmin dmax width [midpoint [power]]: dmin, dmax in (0, 1), width > 0, "
                   "midpoint in [0, 1], power >= 1",
        .contact = true},
+      shared_setting("cam_facets"),
       {.name = "driver_armature",
        .kind = number,
        .default_value = "auto",
@@ -353,6 +355,7 @@ Config parse_settings(const Settings& overrides) {
   c.extrapolated_load = v.is("friction_load", "extrapolated");
   if (!v.is("driver_armature", "auto")) c.driver_armature = v.number("driver_armature");
   c.max_steps = v.count("max_steps");
+  c.cam_facets = static_cast<int>(v.count("cam_facets"));
   c.energy_threshold = v.number("energy_threshold");
   c.divergence_energy = v.number("divergence_energy");
   return c;
@@ -554,7 +557,7 @@ Prepared prepare(const Mechanism& m, const Trajectory& reference, const Settings
   p.grid = p.plan.grid;
   p.start = Start{p.plan.q, p.plan.qdot};
   p.periodic = p.plan.preroll > 0;
-  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
+  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, p.config.cam_facets);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   for (size_t d = 0; d < p.scene.driven.size(); ++d)
     p.options.driver_armature.push_back(driver_armature(
@@ -942,7 +945,7 @@ Prepared prepare_dynamics(const Mechanism& m, const Trajectory& reference,
                     InnerTimes::step_multiples, p.config.max_steps, perturb);
   p.grid = p.dynamics.grid;
   p.start = Start{p.dynamics.start.q, p.dynamics.start.qdot};
-  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q);
+  p.scene = mujoco_scene::build_scene(scene_mechanism, p.start.q, p.config.cam_facets);
   p.options = mjcf_options(m, p.config, p.grid.dt);
   p.options.driven = false;
   p.mjcf = mujoco_scene::to_mjcf(m, p.scene, p.options);
@@ -1142,6 +1145,7 @@ Settings step_settings(const Prepared& p) {
   if (!p.scene.contacts.empty()) {
     values.emplace_back("contact_solref", numbers(p.options.contact_solref));
     values.emplace_back("contact_solimp", numbers(p.options.contact_solimp));
+    values.emplace_back("cam_facets", std::to_string(p.config.cam_facets));
   }
   return values;
 }
@@ -1754,7 +1758,7 @@ std::string mujoco_mjcf(const Mechanism& mechanism, const Trajectory& reference,
     const auto start = exact_start(mechanism, reference, row);
     if (!start) throw std::runtime_error("could not close the loops at the definition's start");
     p.start = *start;
-    p.scene = mujoco_scene::build_scene(mechanism, p.start.q);
+    p.scene = mujoco_scene::build_scene(mechanism, p.start.q, p.config.cam_facets);
   }
   p.options.standalone = standalone(mechanism, reference, p, row);
   return mujoco_scene::to_mjcf(mechanism, p.scene, p.options);

@@ -49,8 +49,9 @@ void place_child(Scene& s, const SceneJoint& j) {
 
 }  // namespace
 
-Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q) {
-  SceneGraph graph = scene_graph(m, TreePolicy{.contacts = true, .arc_rows = true});
+Scene build_scene(const Mechanism& m, const Eigen::VectorXd& q, int cam_facets) {
+  SceneGraph graph =
+      scene_graph(m, TreePolicy{.contacts = true, .arc_rows = true, .cam_facets = cam_facets});
   if (graph.cut_slide >= 0)
     throw std::runtime_error(fmt::format(
         "joint {} closes a loop of slides only; a cut slide has no <connect> equivalent",
@@ -261,7 +262,7 @@ std::string friction_attributes(const SceneJoint& j, const MjcfOptions& o) {
 
 // The contact shapes on body `link` (Scene::contacts, as SceneContact gives them), contype and
 // conaffinity 0, so that only their <pair> collides (MuJoCo's sphere-sphere and sphere-box
-// contacts are analytic).
+// contacts are analytic; a profile's mesh, written in <asset>, is collided by MPR).
 std::string contact_geoms(const Mechanism& m, const Scene& s, int link, const std::string& pad) {
   std::string out;
   for (const SceneContact& c : s.contacts)
@@ -269,13 +270,16 @@ std::string contact_geoms(const Mechanism& m, const Scene& s, int link, const st
       if ((cam ? c.cam : c.follower) != link) continue;
       const Eigen::Vector2d& at = cam ? c.cam_centre : c.follower_centre;
       const std::string shape =
-          !cam && c.face ? fmt::format(
-                               "type=\"box\" pos=\"{:.17g} {:.17g} 0\" quat=\"{}\" size=\"{:.17g} "
-                               "{:.17g} {:.17g}\"",
-                               at.x(), at.y(), quat_z(c.box_angle), c.box_half.x(), c.box_half.y(),
-                               c.box_half.z())
-                         : fmt::format("type=\"sphere\" pos=\"{:.17g} {:.17g} 0\" size=\"{:.17g}\"",
-                                       at.x(), at.y(), cam ? c.cam_radius : c.follower_radius);
+          cam && !c.cam_polygon.empty()
+              ? fmt::format("type=\"mesh\" mesh=\"{}\"", escape(contact_geom(m, c, true)))
+          : !cam && c.face
+              ? fmt::format(
+                    "type=\"box\" pos=\"{:.17g} {:.17g} 0\" quat=\"{}\" size=\"{:.17g} "
+                    "{:.17g} {:.17g}\"",
+                    at.x(), at.y(), quat_z(c.box_angle), c.box_half.x(), c.box_half.y(),
+                    c.box_half.z())
+              : fmt::format("type=\"sphere\" pos=\"{:.17g} {:.17g} 0\" size=\"{:.17g}\"", at.x(),
+                            at.y(), cam ? c.cam_radius : c.follower_radius);
       out += fmt::format(
           "{}<geom name=\"{}\" {} contype=\"0\" conaffinity=\"0\" rgba=\"0.6 0.6 0.6 0.5\"/>\n",
           pad, escape(contact_geom(m, c, cam)), shape);
@@ -394,6 +398,20 @@ std::string to_mjcf(const Mechanism& m, const Scene& s, const MjcfOptions& o) {
   if (alone)  // frame the linkage; the camera "plane" looks down on its plane
     out += fmt::format("  <statistic center=\"{:.9g} {:.9g} 0\" extent=\"{:.9g}\"/>\n", centre.x(),
                        centre.y(), s.size);
+  // A cam whose profile is not a disc: a prism over its polygon, whose convex hull MuJoCo
+  // collides (SceneContact::cam_polygon).
+  std::string meshes;
+  for (const SceneContact& c : s.contacts) {
+    if (c.cam_polygon.empty()) continue;
+    std::string vertices;
+    for (const Eigen::Vector2d& p : c.cam_polygon)
+      for (const double z : {-c.cam_half_thickness, c.cam_half_thickness})
+        vertices +=
+            fmt::format("{}{:.17g} {:.17g} {:.17g}", vertices.empty() ? "" : " ", p.x(), p.y(), z);
+    meshes += fmt::format("    <mesh name=\"{}\" vertex=\"{}\"/>\n",
+                          escape(contact_geom(m, c, true)), vertices);
+  }
+  if (!meshes.empty()) out += "  <asset>\n" + meshes + "  </asset>\n";
   out += "  <worldbody>\n";
   std::vector<int> written;  // tree joints in the order MuJoCo numbers them
   if (alone) {

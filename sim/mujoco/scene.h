@@ -13,6 +13,7 @@
 #include "analytic/model/mechanism.h"
 #include "analytic/model/trajectory.h"
 #include "sim/scene_graph.h"
+#include "sim/settings.h"
 
 namespace crosslink::sim::mujoco_scene {
 
@@ -55,9 +56,10 @@ struct Scene {
   // length at qpos0 (the assembled start) by a tendon equality of the same name with the loop
   // constraints' solref and solimp.
   std::vector<SceneCoupling> couplings;
-  // Cam joints: their shapes (SceneContact), geom contact_geom(c, true) on the cam and
-  // contact_geom(c, false) on the follower, and one <pair> with condim 1 (frictionless: the joint
-  // slides and rolls free) and the contact solref and solimp.
+  // Cam joints: their shapes (SceneContact), geom contact_geom(c, true) on the cam (a profile
+  // that is not a disc: the mesh of that name) and contact_geom(c, false) on the follower, and one
+  // <pair> with condim 1 (frictionless: the joint slides and rolls free) and the contact solref
+  // and solimp.
   std::vector<SceneContact> contacts;
   // Pins in curved slots: each a spatial tendon from site arc_site(a, true) at the arc's centre
   // to site arc_site(a, false) at the pin, named after its joint, held at its length at qpos0
@@ -81,9 +83,11 @@ std::string contact_geom(const Mechanism& mechanism, const SceneContact& c, bool
 std::string arc_site(const Mechanism& mechanism, const SceneArc& a, bool centre);
 
 // Builds the scene from the mechanism and the absolute coordinates q (x, y, theta per moving
-// link, Mechanism order) of an assembled configuration. Throws std::runtime_error when MuJoCo
-// cannot realise the mechanism (the message says why).
-Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q);
+// link, Mechanism order) of an assembled configuration; a cam whose profile is not a disc is a
+// mesh of `cam_facets` facets a turn. Throws std::runtime_error when MuJoCo cannot realise the
+// mechanism (the message says why).
+Scene build_scene(const Mechanism& mechanism, const Eigen::VectorXd& q,
+                  int cam_facets = kDefaultCamFacets);
 
 // Just the realisability check of build_scene (no configuration needed).
 bool realisable(const Mechanism& mechanism, std::string* why);

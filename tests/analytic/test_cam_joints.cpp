@@ -927,8 +927,9 @@ TEST(CamJoints, EachFaultIsLocatedAtItsKey) {
 }
 
 // `check` counts a cam as a half joint (Kutzbach's j2) and describes it; the dyads have no
-// closed form for it and say so; MuJoCo, which holds only a disc's follower by contact, refuses
-// it with the reason, before any run (tests/sim/test_engine_cams.cpp).
+// closed form for it and say so; MuJoCo, which meshes a profile that is not a disc but holds no
+// groove round one, refuses the grooved oscillating roller with the reason, before any run
+// (tests/sim/test_engine_cams.cpp).
 TEST(CamJoints, CheckCountsItsMobilityAndTheEnginesRefuseIt) {
   const test::CommandRun check =
       test::crosslink("check mechanisms/cams/translating_roller_345.toml");
@@ -941,8 +942,8 @@ TEST(CamJoints, CheckCountsItsMobilityAndTheEnginesRefuseIt) {
     EXPECT_NE(out.find(says), std::string::npos) << says << "\n" << check.out;
   const test::CommandRun mujoco =
       test::crosslink("compare mechanisms/cams/oscillating_roller.toml --engines mujoco");
-  EXPECT_NE(mujoco.out.find("a profile cut from a motion law, a tangent cam or a profile given "
-                            "by points has no exact contact shape in an engine yet"),
+  EXPECT_NE(mujoco.out.find("joint 'contact': a groove round a profile that is not a disc holds "
+                            "the follower both ways"),
             std::string::npos)
       << mujoco.out << mujoco.err;
 }

@@ -16,6 +16,13 @@ const NAMED = {
       "contact: the two versions' contact ends 5.1e-6 apart after 25200 steps (the sphere-sphere " +
       "contact of eccentric_roller_spring agrees to the bit)",
   },
+  "mechanisms/cams/spring_cam_jump.toml": {
+    bound: 5e-3,
+    why: "its cam, a profile cut from a motion law, is a mesh, the exports' one mesh: 2.2.2 " +
+      "collides it with the face's box by libccd's MPR on single-precision vertices, 3.3.8 by " +
+      "its own convex collider, and past the jump speed the follower flies and lands: the two " +
+      "end 1.6e-3 apart after 16800 steps",
+  },
 };
 const require = createRequire(pathToFileURL(path.resolve("report/package.json")));
 const loadMujoco = (await import(pathToFileURL(require.resolve("mujoco-js")))).default;
