@@ -296,10 +296,11 @@ double cam_polygon(const Mechanism& m, const Joint& j, int facets, double inset,
   return largest;
 }
 
-// Cam joint `joint` as contact (SceneContact): an eccentric cam's disc, or (facets > 0) any other
-// convex profile as a prism, and a roller, knife edge or flat face.
-SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body_of_link,
-                     int facets) {
+// Cam joint `joint` as contact (SceneContacts, appended to `out`): an eccentric cam's disc, or
+// (facets > 0) any other convex profile as a prism, and a roller, knife edge or flat face; a flat
+// face in a groove round its disc (a yoke) as two faces about it.
+void add_contacts(const Mechanism& m, int joint, const std::vector<int>& body_of_link, int facets,
+                  std::vector<SceneContact>& out) {
   const Joint& j = m.joints[static_cast<size_t>(joint)];
   const cam::EccentricCam* disc = j.contour->eccentric();
   const cam::Follower& follower = j.contour->follower();
@@ -310,18 +311,12 @@ SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body
         "would be a mesh, which it does not build yet",
         j.name));
   // A groove holds the follower both ways; a contact only pushes. (A roller or knife edge in a
-  // groove round a disc is a point on a circle, arc_geometry's, and no contact.)
+  // groove round a disc is a point on a circle, arc_geometry's, and no contact; a flat face, two.)
   if (j.form_closed && !disc)
     throw std::runtime_error(fmt::format(
         "joint '{}': a groove round a profile that is not a disc holds the follower both ways, "
         "and its outer wall is concave, which no engine's convex shape is; the exact methods "
         "solve it",
-        j.name));
-  if (j.form_closed)
-    throw std::runtime_error(fmt::format(
-        "joint '{}': a flat face held on its disc both ways (a yoke, closure = \"form\") would be "
-        "two faces about the disc, which no engine's scene builds yet (a contact only pushes); "
-        "the exact methods solve it",
         j.name));
   SceneContact c;
   c.source = joint;
@@ -352,11 +347,18 @@ SceneContact contact(const Mechanism& m, int joint, const std::vector<int>& body
     c.follower_centre = face.origin + half * away;
     c.box_angle = std::atan2(face.direction.y(), face.direction.x());
     c.box_half = {2.0 * m.size() + 4.0 * size, half, half};
-    return c;
+    out.push_back(c);
+    if (j.form_closed) {  // a disc's breadth is its diameter in every direction
+      c.far = true;
+      c.follower_centre = face.origin - (2.0 * disc->radius + half) * away;
+      c.box_angle += std::numbers::pi;
+      out.push_back(c);
+    }
+    return;
   }
   c.follower_centre = on.points[static_cast<size_t>(j.point_b)].local;
   c.follower_radius = knife ? knife_radius : follower.roller_radius;
-  return c;
+  out.push_back(c);
 }
 
 }  // namespace
@@ -505,7 +507,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
             "joint '{}': a cam is in this engine's scene only as contact, which it does not "
             "model yet (docs/cams.md, \"The engines' contact\"); the exact methods solve it",
             j.name));
-      g.contacts.push_back(contact(m, static_cast<int>(ji), body_of_link, policy.cam_facets));
+      add_contacts(m, static_cast<int>(ji), body_of_link, policy.cam_facets, g.contacts);
       continue;
     }
     SceneJoint sj;

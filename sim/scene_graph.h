@@ -127,6 +127,10 @@ struct SceneContact {
   // disc's sphere. Its facets bend the profile's normal by up to half a facet's turn.
   std::vector<Eigen::Vector2d> cam_polygon;
   double cam_half_thickness = 0.0;  // [m]
+  // A flat face held on its disc both ways (closure = "form": a yoke) is two contacts of one
+  // joint: the face's, and this far one's, its face's line moved the disc's diameter across the
+  // disc and its box beyond it (box_angle turned half a turn: its normal away from the cam).
+  bool far = false;
 };
 
 // A point of one link held on a circle of another: a pin in a curved slot, or the centre of a

@@ -144,7 +144,8 @@ std::string arc_site(const Mechanism& m, const SceneArc& a, bool centre) {
 }
 
 std::string contact_geom(const Mechanism& m, const SceneContact& c, bool cam) {
-  return (cam ? "cam:" : "follower:") + m.joints[static_cast<size_t>(c.source)].name;
+  return (cam ? "cam:" : "follower:") + m.joints[static_cast<size_t>(c.source)].name +
+         (c.far ? ":far" : "");
 }
 
 bool realisable(const Mechanism& mechanism, std::string* why) {

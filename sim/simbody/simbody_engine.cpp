@@ -688,7 +688,10 @@ class Scene {
     for (size_t k = 0; k < rods_.size(); ++k)
       out.joint_force[static_cast<size_t>(g_.arcs[k].source)] =
           -rods_[k].getRodTension(s) * vec2(rods_[k].findRodOrientationInG(s));
-    // A cam's contact: its compliant force on the follower, while the surfaces touch.
+    // A cam's contact: its compliant force on the follower, while the surfaces touch (a yoke's
+    // two faces are one joint's).
+    for (const SceneContact& c : g_.contacts)
+      out.joint_force[static_cast<size_t>(c.source)].setZero();
     for (size_t k = 0; k < surfaces_.size(); ++k) {
       const SimTK::ContactSnapshot& active = tracker_->getActiveContacts(s);
       const SimTK::ContactId id =
@@ -697,7 +700,7 @@ class Scene {
       const SimTK::Vec3 on_second = compliant_->getContactForceById(s, id).getForceOnSurface2()[1];
       const double sign =
           active.getContactById(id).getSurface2() == surfaces_[k].follower.index ? 1.0 : -1.0;
-      out.joint_force[static_cast<size_t>(g_.contacts[k].source)] = sign * vec2(on_second);
+      out.joint_force[static_cast<size_t>(g_.contacts[k].source)] += sign * vec2(on_second);
     }
   }
 
@@ -719,8 +722,11 @@ class Scene {
     };
     for (const SceneContact& c : g_.contacts) {
       Surfaces pair;
-      pair.cam = add(c.cam, SimTK::Transform(vec3(c.cam_centre)),
-                     SimTK::ContactGeometry::Sphere(c.cam_radius));
+      // A yoke's far face touches the near face's disc: a second sphere there would touch the
+      // near face too, and double its contact.
+      pair.cam = c.far ? surfaces_.back().cam
+                       : add(c.cam, SimTK::Transform(vec3(c.cam_centre)),
+                             SimTK::ContactGeometry::Sphere(c.cam_radius));
       if (c.face) {
         // The half-space x > 0 of its frame, its outward normal -x towards the cam: x along the
         // face's normal away from the cam, the origin on the face's line.
