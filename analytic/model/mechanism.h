@@ -470,6 +470,10 @@ struct Mechanism {
   bool has_friction() const {
     return std::any_of(joints.begin(), joints.end(), [](const auto& j) { return j.friction; });
   }
+  bool has_cam() const {
+    return std::any_of(joints.begin(), joints.end(),
+                       [](const auto& j) { return j.type == JointType::cam; });
+  }
   // Distinct point names in first-appearance order, and the (link, point) each is read from.
   struct NamedPoint {
     std::string name;

@@ -2037,10 +2037,8 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
                                 config.branch_distance};
   KinematicPlan start;
   try {
-    const bool cam = std::any_of(m.joints.begin(), m.joints.end(),
-                                 [](const Joint& j) { return j.type == JointType::cam; });
     start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions,
-                           cam ? kContactPreroll : kPreroll, config.max_steps,
+                           m.has_cam() ? kContactPreroll : kPreroll, config.max_steps,
                            config.singular_rcond, !config.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());

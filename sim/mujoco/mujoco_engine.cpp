@@ -127,9 +127,7 @@ constexpr double kDynamicsSingularRcond = 0.03;
 // tens of steps (docs/cams.md, "The engines' contact").
 constexpr long kPreroll = 8, kContactPreroll = 64;
 long preroll(const Mechanism& m) {
-  const bool contact = std::any_of(m.joints.begin(), m.joints.end(),
-                                   [](const Joint& j) { return j.type == JointType::cam; });
-  return contact ? kContactPreroll : kPreroll;
+  return m.has_cam() ? kContactPreroll : kPreroll;
 }
 // A sample whose configuration, closed exactly on the definition, is further than this from the
 // reference's (of the mechanism's size, or rad) is on another assembly mode: branch_jump. Closed

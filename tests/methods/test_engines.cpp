@@ -112,12 +112,10 @@ TEST(EngineTable, EveryRunPrintsItsSchema) {
     const Mechanism m = load_mechanism(path);
     const sim::RunKind kind = m.dynamics ? sim::RunKind::dynamics : sim::RunKind::kinematic;
     const MethodRun reference = run_reference(m);
-    const bool has_cam = std::any_of(m.joints.begin(), m.joints.end(),
-                                     [](const Joint& j) { return j.type == JointType::cam; });
     for (const EngineEntry& e : engine_table()) {
       std::vector<std::string> declared;
       for (const sim::SettingSpec& s : e.make()->settings_schema())
-        if (sim::applies(s, kind, m.has_friction(), has_cam)) declared.push_back(s.name);
+        if (sim::applies(s, kind, m.has_friction(), m.has_cam())) declared.push_back(s.name);
       const MethodRun run = run_method(e.name, m, reference, {});
       if (!run.available && m.has_friction()) continue;  // an engine without joint friction
       ASSERT_TRUE(run.ok) << e.name << " on " << path << ": " << run.message;
