@@ -37,6 +37,7 @@ CASES = [
      [[], ["steps_per_sample=4"]]),
     ("bullet", "eccentric_roller_spring", 240, (200, 240), 0, roller_depth,
      [[], ["steps_per_sample=4"], ["solver=sequential_impulse"]]),
+    ("bullet", "eccentric_flat_faced", 600, (500, 600), 180, face_depth, [[]]),
     ("simbody", "eccentric_roller_spring", 240, (200, 240), 0, roller_depth,
      [[], ["contact_stiffness=2e12"], ["contact_stiffness=2e10"], ["contact_dissipation=100"],
       ["contact_dissipation=1"]]),

@@ -332,14 +332,6 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
           "joint '{}' is a cam: the multibody formulation keeps no contact between its links "
           "here; formulation=rigid holds the follower on the cam",
           name));
-    if (c.face)
-      throw std::runtime_error(fmt::format(
-          "joint '{}' is a cam with a flat face: Bullet's sphere-box contact, made where the "
-          "shapes overlap, does not hold the follower from step to step (measured: the contact "
-          "force chatters, 195 % of peak), and the margin given back that holds a roller leaves "
-          "the face floating off the disc (every sample contact_lost); a roller or knife edge is "
-          "held",
-          name));
   }
   // Rigid: a gear pair about the ground, btGearConstraint between the two rigid bodies.
   // Multibody: a coupling of two tree joints, btMultiBodyGearConstraint. No other gearing
@@ -617,13 +609,22 @@ void silence_profiler() {
 // (SceneContact::margin), kept in its body's user pointer, and each contact point's distance is
 // given it back as the point is made: shapes still apart by less than the margin get a contact
 // whose gap Bullet's solver lets close within the step and no more (a positive distance's
-// speculative row), so the contact holds from step to step instead of flickering at zero depth
-// (Bullet's sphere-sphere points are remade every step).
+// speculative row), so the contact holds from step to step instead of flickering at zero depth.
+// The point on the grown disc moves back by the margin too: a point kept from step to step (a
+// box's, against the disc: its distance is refreshed from its points; a sphere's are remade)
+// keeps the margin given back.
 bool give_back_margin(btManifoldPoint& point, const btCollisionObjectWrapper* a, int, int,
                       const btCollisionObjectWrapper* b, int, int) {
-  for (const btCollisionObjectWrapper* w : {a, b})
-    if (const auto* margin = static_cast<const double*>(w->getCollisionObject()->getUserPointer()))
-      point.m_distance1 += *margin;
+  for (const bool on_a : {true, false}) {
+    const btCollisionObject* body = (on_a ? a : b)->getCollisionObject();
+    const auto* margin = static_cast<const double*>(body->getUserPointer());
+    if (!margin) continue;
+    point.m_distance1 += *margin;
+    // The normal points from B to A: A's surface lies back along it, B's forward.
+    btVector3& at = on_a ? point.m_positionWorldOnA : point.m_positionWorldOnB;
+    at += (on_a ? *margin : -*margin) * point.m_normalWorldOnB;
+    (on_a ? point.m_localPointA : point.m_localPointB) = body->getWorldTransform().invXform(at);
+  }
   return false;
 }
 void use_contact_margins() {
@@ -1131,11 +1132,12 @@ class RigidScene final : public Scene {
   }
 
   // The contact manifold's points between the cam's and the follower's shapes: each point's
-  // impulse along its normal (on body B, pointing to A) over the step, on the follower.
+  // impulse along its normal (on body B, pointing to A) over the step, on the follower. A yoke's
+  // two faces are on the same two bodies: their points are in the same manifolds, read once.
   Eigen::Vector2d contact_force(int joint) const override {
     Eigen::Vector2d on_follower = Eigen::Vector2d::Zero();
     for (const SceneContact& c : plan_.contacts) {
-      if (c.source != joint) continue;
+      if (c.source != joint || c.far) continue;
       const btCollisionObject* cam = bodies_[static_cast<size_t>(c.cam - 1)];
       const btCollisionObject* follower = bodies_[static_cast<size_t>(c.follower - 1)];
       for (int k = 0; k < dispatcher_.getNumManifolds(); ++k) {
@@ -1334,9 +1336,7 @@ class RigidScene final : public Scene {
           child->setMargin(0.0);
           at.setRotation(rot_z(c.box_angle));
         } else if (cam) {
-          // Sphere on sphere only: a box's points persist from step to step, their distance
-          // refreshed, so a face's contact holds without (and would lose a margin given back).
-          margin_[v] = c.face ? 0.0 : c.margin;
+          margin_[v] = c.margin;
           child = std::make_unique<btSphereShape>(c.cam_radius + margin_[v]);
         } else {
           child = std::make_unique<btSphereShape>(c.follower_radius);

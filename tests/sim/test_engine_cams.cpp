@@ -70,8 +70,8 @@ const HeldCam kHeld[] = {
 // measured (MuJoCo 1.6e-6, 6.4e-6, 5.3e-6 and 1.35e-6, 1.0e-6, 2.1e-6; ODE, at its coarser
 // default step, 1.3e-5, 5.3e-5, 4.1e-5 and 7.6e-6, 3.2e-5, 4.7e-6; Simbody, whose Hertz contact of
 // steel sinks the follower half a micrometre, 4.3e-6, 1.3e-5, 1.55e-5 and 8.4e-6, 4.25e-5,
-// 2.0e-5; Bullet, on the roller, ODE's to the digits shown: both solve the same velocity-level
-// LCP at the same steps).
+// 2.0e-5; Bullet ODE's to the digits shown: both solve the same velocity-level LCP at the same
+// steps).
 struct Bounds {
   const char* engine;
   double travel[2], acceleration[2], force[2];
@@ -80,7 +80,7 @@ const Bounds kBounds[] = {
     {"mujoco", {1e-5, 5e-6}, {2e-5, 5e-6}, {2e-5, 1e-5}},
     {"ode", {5e-5, 3e-5}, {2e-4, 1e-4}, {2e-4, 2e-5}},
     {"simbody", {1.5e-5, 3e-5}, {5e-5, 1.5e-4}, {5e-5, 6e-5}},
-    {"bullet", {5e-5, 0}, {2e-4, 0}, {2e-4, 0}},  // the roller only: it refuses the flat face
+    {"bullet", {5e-5, 3e-5}, {2e-4, 1e-4}, {2e-4, 2e-5}},
 };
 
 // Below its jump speed the follower stays on the disc: the engine's contact holds it (MuJoCo's soft
@@ -130,7 +130,6 @@ TEST(EngineCams, EachEnginesJumpSpeedFromItsContactForceIsTheExactOne) {
   for (const auto& [engine, within] :
        {std::pair{"mujoco", 1e-5}, {"ode", 1e-4}, {"simbody", 1e-4}, {"bullet", 1e-4}})
     for (const HeldCam& held : kHeld) {
-      if (std::string_view(engine) == "bullet" && held.jump_sample != 0) continue;  // the roller
       SCOPED_TRACE(std::string(engine) + " on " + held.name);
       Mechanism m = cam_mechanism(held.name);
       double exact_n[2], engine_n[2];
@@ -308,25 +307,26 @@ TEST(EngineCams, AGroovedDiscHoldsItsFollowerPastTheJumpSpeedAsACurvedSlot) {
 }
 
 // A flat face in a groove round its disc (a yoke, closure = "form") is held both ways: every
-// engine but Bullet (which refuses a flat face) makes it two contacts of the one joint, the face
-// and a far face the disc's diameter across it (SceneContact::far). eccentric_flat_faced.toml so
+// engine makes it two contacts of the one joint, the face and a far face the disc's diameter
+// across it (SceneContact::far). eccentric_flat_faced.toml so
 // grooved and run at 1000 rpm, past the spring-held face's jump speed (827 rpm): the exact contact
 // force along the follower's line changes side (at 127 and 234 deg), no sample loses contact, and
 // each engine follows the travel and that force to bounds a few times the measured (printed: MuJoCo
-// 1.0e-6 and 1.8e-3 of peak, ODE 7.6e-6 and 1.9e-5, Simbody 1.4e-5 and 9.9e-3). MuJoCo's and
-// Simbody's worst force is at the crossing at 234 deg, where the load passes from one face to the
-// other through their compliance (a Hertz contact is softest at no load); ODE's speculative
-// contact has none.
+// 1.0e-6 and 1.8e-3 of peak, ODE 7.6e-6 and 1.9e-5, Simbody 1.4e-5 and 9.9e-3, Bullet 7.6e-6 and
+// 4.7e-2). MuJoCo's and Simbody's worst force is at the crossing at 234 deg, where the load passes
+// from one face to the other through their compliance (a Hertz contact is softest at no load);
+// ODE's speculative contact has none. Bullet's travel is ODE's, but its force, read from the
+// manifold points of the two faces between the same two bodies, is noisy by about 0.5 % of peak
+// throughout and 4.7 % at the first sample: why is not found (ODE solves the same LCP).
 TEST(EngineCams, AYokeHoldsItsFlatFaceBothWaysAsTwoFaces) {
   const Mechanism m = test::changed("mechanisms/cams/eccentric_flat_faced.toml",
                                     {{"face = \"face\"\n", "face = \"face\"\nclosure = \"form\"\n"},
                                      {"speed = 600", "speed = 1000"}});
-  expect_held_both_ways(
-      m, "fy.contact", "the yoke at 1000 rpm",
-      {{"mujoco", {5e-6, 5e-3}}, {"ode", {3e-5, 1e-4}}, {"simbody", {5e-5, 3e-2}}});
-  std::string why;
-  EXPECT_FALSE(methods::find_engine("bullet")->make()->supports(m, &why));
-  EXPECT_NE(why.find("joint 'contact' is a cam with a flat face"), std::string::npos) << why;
+  expect_held_both_ways(m, "fy.contact", "the yoke at 1000 rpm",
+                        {{"mujoco", {5e-6, 5e-3}},
+                         {"ode", {3e-5, 1e-4}},
+                         {"simbody", {5e-5, 3e-2}},
+                         {"bullet", {3e-5, 0.1}}});
 }
 
 // translating_roller_345.toml (a 3-4-5 rise and a 4-5-6-7 return, offset roller) without its
@@ -393,9 +393,6 @@ TEST(EngineCams, EachEngineRefusesACamItCannotHoldNamingTheJointAndWhy) {
     }
   }
   std::string why;
-  EXPECT_FALSE(methods::find_engine("bullet")->make()->supports(
-      cam_mechanism("eccentric_flat_faced"), &why));
-  EXPECT_NE(why.find("joint 'contact' is a cam with a flat face"), std::string::npos) << why;
   for (const char* holding : {"ode", "simbody", "bullet"}) {
     const auto engine = methods::find_engine(holding)->make();
     for (const char* name : {"spring_cam_jump", "tangent_cam_roller", "oscillating_roller"}) {
