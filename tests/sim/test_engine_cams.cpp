@@ -332,12 +332,14 @@ TEST(EngineCams, AYokeHoldsItsFlatFaceBothWaysAsTwoFaces) {
 // translating_roller_345.toml (a 3-4-5 rise and a 4-5-6-7 return, offset roller) without its
 // groove, held on by a spring from S = (0.01, -0.1), 200 N/m, free length 0.1 m, at its 300 rpm:
 // below its jump speed (check: 703.7 rpm). Its profile is cut from the motion law, not a disc.
-Mechanism spring_held_345() {
+// With `knife`, its roller taken off: a knife edge on the same pitch curve.
+Mechanism spring_held_345(bool knife = false) {
   return test::changed(
       "mechanisms/cams/translating_roller_345.toml",
       {{"closure = \"form\"          # a groove holds the follower both ways: no spring keeps it "
         "on\n",
         ""},
+       {"roller_radius = 0.01\n", knife ? "" : "roller_radius = 0.01\n"},
        {"D = [0.01, 0] }", "D = [0.01, 0], S = [0.01, -0.1] }"},
        {"[driver]",
         "[[spring]]\nname = \"return_spring\"\nlinks = [\"ground\", \"follower\"]\n"
@@ -350,9 +352,10 @@ Mechanism spring_held_345() {
 // past the exact profile by their sagitta besides MuJoCo's own penetration: the run's largest
 // gap, which falls at each doubling from 90 to 360 facets by more than 2.5 (measured 3.1 and 2.7;
 // the sagitta alone by 4), and at the default 1440 facets no sample is flagged and the travel is
-// within 1e-4 of peak (measured 4.1e-5). Its acceleration and the contact force do not follow: the
-// facets' corners and MPR's contact on a float mesh kick the follower from step to step (printed;
-// docs/engines.md, "Cams", measures them against the facets, the step and the contact).
+// within 1e-4 of peak (measured 4.1e-5), as is a knife edge's. Its acceleration and the contact
+// force do not follow: the facets' corners and MPR's contact on a float mesh kick the follower from
+// step to step (printed; docs/engines.md, "Cams", measures them against the facets, the step and
+// the contact).
 TEST(EngineCams, MuJoCoHoldsAFollowerOnAMeshOfAProfileThatIsNotADisc) {
   const Mechanism m = spring_held_345();
   const Trajectory exact = sweep(m);
@@ -375,6 +378,16 @@ TEST(EngineCams, MuJoCoHoldsAFollowerOnAMeshOfAProfileThatIsNotADisc) {
     EXPECT_LT(worst(exact, t, "s.follower"), 1e-4);
   }
   for (size_t k = 1; k < 3; ++k) EXPECT_GT(gap[k - 1] / gap[k], 2.5) << k;
+  // A knife edge: a sphere of half the least radius of curvature on the profile moved in by as
+  // much (measured 3.9e-5 of peak in travel).
+  const Mechanism knife = spring_held_345(true);
+  const Trajectory knife_exact = sweep(knife);
+  const EngineRun run = engine->run(knife, knife_exact, {});
+  ASSERT_TRUE(run.ok) << run.message;
+  for (PoseStatus status : run.trajectory.status) EXPECT_EQ(status, PoseStatus::ok);
+  fmt::print("mujoco, knife edge: of peak: s {:.3g}\n",
+             worst(knife_exact, run.trajectory, "s.follower"));
+  EXPECT_LT(worst(knife_exact, run.trajectory, "s.follower"), 1e-4);
 }
 
 // Every engine holds the disc's roller; Bullet refuses its flat face, and each engine a cam it has
