@@ -299,17 +299,18 @@ double cam_polygon(const Mechanism& m, const Joint& j, int facets, double inset,
 // Cam joint `joint` as contact (SceneContacts, appended to `out`): an eccentric cam's disc, or
 // (facets > 0) any other convex profile as a prism, and a roller, knife edge or flat face; a flat
 // face in a groove round its disc (a yoke) as two faces about it.
-void add_contacts(const Mechanism& m, int joint, const std::vector<int>& body_of_link, int facets,
-                  std::vector<SceneContact>& out) {
+void add_contacts(const Mechanism& m, int joint, const std::vector<int>& body_of_link,
+                  const TreePolicy& policy, std::vector<SceneContact>& out) {
   const Joint& j = m.joints[static_cast<size_t>(joint)];
   const cam::EccentricCam* disc = j.contour->eccentric();
   const cam::Follower& follower = j.contour->follower();
+  const int facets = policy.cam_facets;
   if (!disc && facets == 0)
     throw std::runtime_error(fmt::format(
         "joint '{}': this engine holds a follower on a cam by contact with a disc (an eccentric "
         "cam) only; a profile cut from a motion law, a tangent cam or a profile given by points "
-        "would be a mesh, which it does not build yet",
-        j.name));
+        "would be a mesh, {}",
+        j.name, policy.no_mesh));
   // A groove holds the follower both ways; a contact only pushes. (A roller or knife edge in a
   // groove round a disc is a point on a circle, arc_geometry's, and no contact; a flat face, two.)
   if (j.form_closed && !disc)
@@ -507,7 +508,7 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
             "joint '{}': a cam is in this engine's scene only as contact, which it does not "
             "model yet (docs/cams.md, \"The engines' contact\"); the exact methods solve it",
             j.name));
-      add_contacts(m, static_cast<int>(ji), body_of_link, policy.cam_facets, g.contacts);
+      add_contacts(m, static_cast<int>(ji), body_of_link, policy, g.contacts);
       continue;
     }
     SceneJoint sj;

@@ -189,8 +189,10 @@ struct TreePolicy {
   // arm's (auxiliary_mass()) lets the row give way.
   bool arc_rows = false;
   // A cam whose profile is not a disc becomes a convex prism of this many facets a turn
-  // (SceneContact::cam_polygon: the engine's mesh); 0: refused.
+  // (SceneContact::cam_polygon: the engine's mesh); 0: refused, for the reason `no_mesh` gives
+  // (what was measured of the engine's own convex contact).
   int cam_facets = 0;
+  std::string_view no_mesh = "which it does not build yet";
 };
 
 struct SceneGraph {

@@ -324,6 +324,9 @@ Plan make_plan(const Mechanism& m, bool multibody, std::string* split_error) {
   policy.planar_joints = true;
   policy.split_loops = multibody;
   policy.contacts = true;
+  policy.no_mesh =
+      "which Bullet's hull does not hold: a hull of the profile's prism flagged 257 of 361 "
+      "samples of a spring-held cam (docs/cams.md)";
   const SceneGraph g = scene_graph(m, policy);
   for (const SceneContact& c : g.contacts) {
     const std::string& name = m.joints[static_cast<size_t>(c.source)].name;
