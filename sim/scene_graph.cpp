@@ -261,18 +261,22 @@ SceneCoupling coupling(const Mechanism& m, int joint, const SceneGraph& g,
   return c;
 }
 
-// The centre of an eccentric cam's disc, local on the cam (joint j's link_a).
+// The cam's centre (the point it turns about), local on the cam (joint j's link_a).
+Eigen::Vector2d cam_centre(const Mechanism& m, const Joint& j) {
+  return m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+}
+
+// The centre of an eccentric cam's disc, local on the cam.
 Eigen::Vector2d disc_centre(const Mechanism& m, const Joint& j, const cam::EccentricCam& disc) {
-  return m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local +
+  return cam_centre(m, j) +
          disc.eccentricity * Eigen::Vector2d(std::cos(disc.angle), std::sin(disc.angle));
 }
 
 // A cam whose profile is not a disc as a convex polygon of `facets` vertices on its profile, local
 // on the cam (SceneContact::cam_polygon), moved in by `inset` (a knife edge's sphere); sets the
-// polygon and its prism's half thickness, and returns its largest radius from the cam's centre.
+// polygon and its prism's half thickness, and returns its largest radius from c.cam_centre.
 double cam_polygon(const Mechanism& m, const Joint& j, int facets, double inset, SceneContact& c) {
-  const Eigen::Vector2d centre =
-      m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+  const Eigen::Vector2d& centre = c.cam_centre;
   double largest = 0.0;
   for (const CamContact& p : cam_profile(m, j, facets)) {
     c.cam_polygon.push_back(p.point - inset * p.normal);
@@ -334,8 +338,7 @@ void add_contacts(const Mechanism& m, int joint, const std::vector<int>& body_of
     c.cam_radius = disc->radius - (knife ? knife_radius : 0.0);
     size = disc->radius;
   } else {
-    c.cam_centre =
-        m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
+    c.cam_centre = cam_centre(m, j);
     size = cam_polygon(m, j, facets, knife ? knife_radius : 0.0, c);
   }
   c.margin = 0.1 * size;

@@ -900,9 +900,7 @@ void read_forces(const Mechanism& m, const SceneGraph& g, const OdeScene& scene,
     out.joint_force[ji] = on_b;
   }
   for (const SceneCoupling& c : g.couplings) read_tooth_force(m, scene, c.source, q, out);
-  for (const SceneContact& c : g.contacts)  // a yoke's two faces are one joint's
-    out.joint_force[static_cast<size_t>(c.source)].setZero();
-  for (size_t c = 0; c < g.contacts.size(); ++c)
+  for (size_t c = 0; c < g.contacts.size(); ++c)  // a yoke's two faces are one joint's
     out.joint_force[static_cast<size_t>(g.contacts[c].source)] += scene.contact_force(c);
   for (size_t k = 0; k < g.arcs.size(); ++k)
     out.joint_force[static_cast<size_t>(g.arcs[k].source)] = scene.arc_force(k);

@@ -690,8 +690,6 @@ class Scene {
           -rods_[k].getRodTension(s) * vec2(rods_[k].findRodOrientationInG(s));
     // A cam's contact: its compliant force on the follower, while the surfaces touch (a yoke's
     // two faces are one joint's).
-    for (const SceneContact& c : g_.contacts)
-      out.joint_force[static_cast<size_t>(c.source)].setZero();
     for (size_t k = 0; k < surfaces_.size(); ++k) {
       const SimTK::ContactSnapshot& active = tracker_->getActiveContacts(s);
       const SimTK::ContactId id =
