@@ -113,11 +113,11 @@ void add_solve(CLI::App& app, std::function<int()>& run) {
                   "at a limit of the assembling range (a toggle): stop, or reverse the driver "
                   "as a real rocker would and follow the loop back on the other assembly mode")
       ->check(CLI::IsMember({"stop", "reverse"}));
-  cmd->add_option(
-      "--columns", args->columns,
-      "the sweep table's columns, comma-separated: channel names (x.C, sddot.needle) "
-      "and kinds (alpha: every link's); default angle,omega,alpha,s,sdot,sddot but for the "
-      "driven crank and links held by a prismatic joint to the ground");
+  cmd->add_option("--columns", args->columns,
+                  "the sweep table's columns, comma-separated: channel names (x.C, sddot.needle) "
+                  "and kinds (alpha: every link's); default "
+                  "angle,omega,alpha,s,sdot,sddot,jerk,angular_jerk but for the "
+                  "driven crank and links held by a prismatic joint to the ground");
   cmd->add_option("--svg", args->svg,
                   "write the drawing as SVG: the links at --at (or the sweep's start), the "
                   "paths of the moving points over the sweep");

@@ -83,6 +83,18 @@ nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
     j["sliders"][t.slider_names[s]] = {
         {"s", pos(t.s(row, c))}, {"sdot", rate(t.sdot(row, c))}, {"sddot", rate(t.sddot(row, c))}};
   }
+  // Each cam's pressure angle and, from the exact kinematics, its follower's jerk.
+  if (!t.cams.empty()) {
+    j["cams"] = nlohmann::json::object();
+    for (size_t c = 0; c < t.cams.size(); ++c) {
+      const CamReading& r = t.cams[c].reading;
+      nlohmann::json cam = {{"phi", nullptr}};
+      if (has_position(status)) cam["phi"] = pos(t.cams[c].at(t, row).pressure_angle);
+      if (t.has_jerk)
+        cam[r.pivoted ? "angular_jerk" : "jerk"] = rate(t.jerk(row, static_cast<Eigen::Index>(c)));
+      j["cams"][r.joint] = cam;
+    }
+  }
   j["forces"] = forces_json(m, t, row);
   return j;
 }
@@ -211,7 +223,7 @@ std::vector<std::string> table_channels(const Mechanism& m, const Trajectory& t,
       kinds.push_back(kind_of(name));
   std::vector<std::string> words;
   if (choice.empty())
-    words = {"angle", "omega", "alpha", "s", "sdot", "sddot"};
+    words = {"angle", "omega", "alpha", "s", "sdot", "sddot", "jerk", "angular_jerk"};
   else
     for (size_t at = 0; at <= choice.size();) {
       const size_t comma = std::min(choice.find(',', at), choice.size());

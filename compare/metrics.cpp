@@ -32,8 +32,8 @@ double wrap_positive_angle(double radians) {
 
 std::string channel_kind(std::string_view channel) {
   const std::string_view prefix = channel.substr(0, channel.find('.'));
-  const bool angular =
-      Trajectory::quantity_of(channel) == Quantity::angle || prefix == "omega" || prefix == "alpha";
+  const bool angular = Trajectory::quantity_of(channel) == Quantity::angle || prefix == "omega" ||
+                       prefix == "alpha" || prefix == "angular_jerk";
   return std::string(to_string(Trajectory::quantity_of(channel))) +
          (angular ? "/angular" : "/linear");
 }
@@ -61,10 +61,11 @@ double peak_floor(std::string_view channel, double kind_peak, double magnitude_p
                      scales.size > 0.0 ? 0.01 * scales.torque / scales.size : 0.0});
   if (q == Quantity::torque)
     return std::max({magnitude_peak, 0.01 * kind_peak, 0.01 * scales.force * scales.size});
-  if (q != Quantity::velocity && q != Quantity::acceleration) return 0.0;
+  if (q != Quantity::velocity && q != Quantity::acceleration && q != Quantity::jerk) return 0.0;
   const bool angular = channel_kind(channel).ends_with("/angular");
-  const double rate =
-      q == Quantity::velocity ? scales.driver_rate : scales.driver_rate * scales.driver_rate;
+  double rate = scales.driver_rate;  // to the power of the derivative's order
+  if (q != Quantity::velocity) rate *= scales.driver_rate;
+  if (q == Quantity::jerk) rate *= scales.driver_rate;
   const double characteristic = angular ? rate : rate * scales.size;
   return std::max({magnitude_peak, 0.01 * kind_peak, characteristic});
 }

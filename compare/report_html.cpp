@@ -442,6 +442,8 @@ std::optional<double> definition_tolerance(const ToleranceOverrides& t, Quantity
       return t.velocity;
     case Quantity::acceleration:
       return t.acceleration;
+    case Quantity::jerk:
+      return std::nullopt;
     case Quantity::force:
       return t.force;
     case Quantity::torque:

@@ -27,11 +27,14 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
   if (kind == "energy") return {1.0, "J"};
   if (kind == "omega") return {1.0, "rad/s"};
   if (kind == "alpha") return {1.0, "rad/s^2"};
+  if (kind == "angular_jerk") return {1.0, "rad/s^3"};
   switch (Trajectory::quantity_of(channel)) {
     case Quantity::velocity:
       return {m.units.length, L + "/s"};
     case Quantity::acceleration:
       return {m.units.length, L + "/s^2"};
+    case Quantity::jerk:
+      return {m.units.length, L + "/s^3"};
     case Quantity::force:
       return {m.units.force, m.units.force_name};
     case Quantity::torque:

@@ -23,6 +23,7 @@ double& ClassTolerances::of(Quantity q) {
     case Quantity::velocity:
       return velocity;
     case Quantity::acceleration:
+    case Quantity::jerk:  // only the exact kinematics report it (a cam follower's): no class
       return acceleration;
     case Quantity::force:
       return force;

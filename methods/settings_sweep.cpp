@@ -123,6 +123,8 @@ std::optional<ErrorClass> error_class_of(Quantity q) {
       return ErrorClass::force;
     case Quantity::energy:
       return std::nullopt;  // its own column (energy_pct)
+    case Quantity::jerk:
+      return std::nullopt;  // no engine reports it
   }
   return std::nullopt;
 }

@@ -19,6 +19,7 @@ KinematicState::KinematicState(const Mechanism& mechanism) {
   q.setZero(n);
   qdot.setZero(n);
   qddot.setZero(n);
+  qdddot.setZero(n);
   phi.setZero(n);
   rhs.setZero(n);
   jacobian = SparseJacobian(ConstraintLayout(mechanism), n);
@@ -274,7 +275,8 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
       layout_(mechanism),
       length_scale_(mechanism.size()),
       named_points_(mechanism.named_points()),
-      slide_joints_(mechanism.slide_joints()) {
+      slide_joints_(mechanism.slide_joints()),
+      solves_jerk_(!cam_readings(mechanism).empty()) {
   // A square system: one driver row per freedom (the loader refuses a mobility other than the
   // number of drivers).
   if (layout_.rows() != mechanism.coordinate_count())
@@ -609,6 +611,9 @@ void NewtonSolver::solve_acceleration(KinematicState& state) const {
 void NewtonSolver::acceleration_at_frames(KinematicState& state) const {
   layout_.acceleration_rhs(frames(state), state.qdot, state.drivers, state.rhs);
   solve_linear(state, state.qddot);
+  if (!solves_jerk_) return;
+  layout_.jerk_rhs(frames(state), state.qdot, state.qddot, state.drivers, state.rhs);
+  solve_linear(state, state.qdddot);
 }
 
 SolveReport NewtonSolver::solve(KinematicState& state) const {
@@ -619,6 +624,7 @@ SolveReport NewtonSolver::solve(KinematicState& state) const {
   } else {
     state.qdot.setZero();
     state.qddot.setZero();
+    state.qdddot.setZero();
   }
   return report;
 }
@@ -762,6 +768,7 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
     // No motion to report, and qddot held Newton's last step as scratch (possibly not finite).
     state.qdot.setZero();
     state.qddot.setZero();
+    state.qdddot.setZero();
   }
   return report;
 }
@@ -814,6 +821,9 @@ void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& 
     out.sddot(row, column) = s.accel;
     ++column;
   }
+  if (out.has_jerk)
+    for (size_t c = 0; c < out.cams.size(); ++c)
+      out.jerk(row, static_cast<Eigen::Index>(c)) = out.cams[c].reading.follower_jerk(state.qdddot);
   out.flag_non_finite(row);
 }
 

@@ -6,6 +6,7 @@
 //   position      Phi(q) = 0                 Newton with the analytic Jacobian J = dPhi/dq
 //   velocity      J qdot  = nu               nu: each driver's rate in its row
 //   acceleration  J qddot = gamma            gamma = -(J qdot)_q qdot + each driver's accel
+//   jerk          J q'''  = eta              with a cam: its follower's jerk (constraints.h)
 // Velocity and acceleration reuse the LU factorisation of J at the converged position; they are
 // never obtained by differencing positions.
 #pragma once
@@ -93,6 +94,8 @@ struct KinematicState {
   explicit KinematicState(const Mechanism& mechanism);
 
   Eigen::VectorXd q, qdot, qddot;  // coordinates and their time derivatives
+  // Their third derivatives: solved only for a mechanism with a cam (its follower's jerk), else 0.
+  Eigen::VectorXd qdddot;
   // The drivers' states, one per driver in Mechanism::drivers order, as the layout takes them.
   std::vector<DriverState> drivers;
   SweepAxis axis;  // the mechanism's (Mechanism::axis())
@@ -162,7 +165,8 @@ class NewtonSolver {
   // accelerations' over its cube), so the tolerance's residual is not enough for them. Leaves J
   // factorised at the pose, as solve_position does.
   SolveReport polish(KinematicState& state, SolveReport report) const;
-  // Linear solves with the factorisation left by solve_position.
+  // Linear solves with the factorisation left by solve_position; the acceleration's is followed
+  // by the jerk's where the mechanism has a cam.
   void solve_velocity(KinematicState& state) const;
   void solve_acceleration(KinematicState& state) const;
   // All three; the usual entry point.
@@ -221,6 +225,7 @@ class NewtonSolver {
   std::vector<int> scaled_rows_;  // rows whose scale is not 1
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
+  bool solves_jerk_ = false;  // a cam's follower has a jerk to report
 };
 
 }  // namespace crosslink

@@ -53,23 +53,26 @@ Normalised normalised(Law law, double u) {
     case Law::dwell:
       return {};
     case Law::uniform:
-      return {u, 1.0, 0.0, 0.0};
+      return {u, 1.0, 0.0, 0.0, 0.0};
     case Law::simple_harmonic: {
       const double c = std::cos(kPi * u), s = std::sin(kPi * u);
-      return {(1.0 - c) / 2.0, kPi / 2.0 * s, kPi * kPi / 2.0 * c, -kPi * kPi * kPi / 2.0 * s};
+      return {(1.0 - c) / 2.0, kPi / 2.0 * s, kPi * kPi / 2.0 * c, -kPi * kPi * kPi / 2.0 * s,
+              -kPi * kPi * kPi * kPi / 2.0 * c};
     }
     case Law::cycloidal: {
       const double c = std::cos(kTurn * u), s = std::sin(kTurn * u);
-      return {u - s / kTurn, 1.0 - c, kTurn * s, kTurn * kTurn * c};
+      return {u - s / kTurn, 1.0 - c, kTurn * s, kTurn * kTurn * c, -kTurn * kTurn * kTurn * s};
     }
     case Law::polynomial_345:
       return {10.0 * u3 - 15.0 * u4 + 6.0 * u4 * u, 30.0 * u2 - 60.0 * u3 + 30.0 * u4,
-              60.0 * u - 180.0 * u2 + 120.0 * u3, 60.0 - 360.0 * u + 360.0 * u2};
+              60.0 * u - 180.0 * u2 + 120.0 * u3, 60.0 - 360.0 * u + 360.0 * u2,
+              -360.0 + 720.0 * u};
     case Law::polynomial_4567:
       return {35.0 * u4 - 84.0 * u4 * u + 70.0 * u3 * u3 - 20.0 * u4 * u3,
               140.0 * u3 - 420.0 * u4 + 420.0 * u4 * u - 140.0 * u3 * u3,
               420.0 * u2 - 1680.0 * u3 + 2100.0 * u4 - 840.0 * u4 * u,
-              840.0 * u - 5040.0 * u2 + 8400.0 * u3 - 4200.0 * u4};
+              840.0 * u - 5040.0 * u2 + 8400.0 * u3 - 4200.0 * u4,
+              840.0 - 10080.0 * u + 25200.0 * u2 - 16800.0 * u3};
   }
   return {};
 }
@@ -164,7 +167,7 @@ Motion MotionProgram::at(double theta) const {
     const double ci = si / h - mi * h / 6.0, cj = sj / h - mj * h / 6.0;
     return {mi * r * r * r / (6.0 * h) + mj * t * t * t / (6.0 * h) + ci * r + cj * t,
             -mi * r * r / (2.0 * h) + mj * t * t / (2.0 * h) - ci + cj, (mi * r + mj * t) / h,
-            (mj - mi) / h};
+            (mj - mi) / h, 0.0};
   }
   const double x = within_turn(theta);
   size_t k =
@@ -174,7 +177,8 @@ Motion MotionProgram::at(double theta) const {
   const double from = k == 0 ? start_ : segments_[k - 1].to;
   const double rise = g.to - from, b = g.span;
   const Normalised y = normalised(g.law, std::clamp((x - begins_[k]) / b, 0.0, 1.0));
-  return {from + rise * y.y, rise * y.dy / b, rise * y.ddy / (b * b), rise * y.dddy / (b * b * b)};
+  return {from + rise * y.y, rise * y.dy / b, rise * y.ddy / (b * b), rise * y.dddy / (b * b * b),
+          rise * y.ddddy / (b * b * b * b)};
 }
 
 FollowerPath follower_path(const MotionProgram& motion, const Follower& f, double theta) {
@@ -190,6 +194,7 @@ FollowerPath follower_path(const MotionProgram& motion, const Follower& f, doubl
     p.F = {f.offset, f.base_radius + m.s};
     p.dF = {0.0, m.ds};
     p.ddF = {0.0, m.dds};
+    p.dddF = {0.0, m.ddds};
     p.along = {0.0, 1.0};
     return p;
   }
@@ -201,6 +206,7 @@ FollowerPath follower_path(const MotionProgram& motion, const Follower& f, doubl
     p.F = {f.offset, std::sqrt(prime * prime - f.offset * f.offset) + m.s};
     p.dF = {0.0, m.ds};
     p.ddF = {0.0, m.dds};
+    p.dddF = {0.0, m.ddds};
     p.along = {0.0, 1.0};
     return p;
   }
@@ -217,6 +223,7 @@ FollowerPath follower_path(const MotionProgram& motion, const Follower& f, doubl
   p.along = perp(u);
   p.dF = f.arm * m.ds * p.along;
   p.ddF = f.arm * (m.dds * p.along - m.ds * m.ds * u);
+  p.dddF = f.arm * ((m.ddds - m.ds * m.ds * m.ds) * p.along - 3.0 * m.ds * m.dds * u);
   return p;
 }
 
@@ -384,21 +391,22 @@ Contour::Contour(EccentricCam shape, Follower follower) : Contour(follower) {
 }
 
 namespace {
-// A point X(phi) = r(phi) u(phi) of a surface given in polar form, and its first three
+// A point X(phi) = r(phi) u(phi) of a surface given in polar form, and its first four
 // derivatives in phi (u' = perp(u), perp(u)' = -u).
 struct Curve {
-  Eigen::Vector2d X, dX, ddX, dddX;
+  Eigen::Vector2d X, dX, ddX, dddX, ddddX;
 };
 Curve surface_point(const MotionProgram& radius, double phi) {
   const Motion m = radius.at(phi);
   const Eigen::Vector2d u(std::cos(phi), std::sin(phi)), v = perp(u);
   return {m.s * u, m.ds * u + m.s * v, (m.dds - m.s) * u + 2.0 * m.ds * v,
-          (m.ddds - 3.0 * m.ds) * u + (3.0 * m.dds - m.s) * v};
+          (m.ddds - 3.0 * m.ds) * u + (3.0 * m.dds - m.s) * v,
+          (m.dddds - 6.0 * m.dds + m.s) * u + 4.0 * (m.ddds - m.ds) * v};
 }
 // The curve moved by r along its outward normal n = -perp(X') / |X'| (the surface runs
-// counterclockwise), with its first two derivatives: a roller's centre on the surface.
+// counterclockwise), with its first three derivatives: a roller's centre on the surface.
 struct Path {
-  Eigen::Vector2d P, dP, ddP;
+  Eigen::Vector2d P, dP, ddP, dddP;
 };
 Path moved_out(const Curve& c, double r) {
   const double s = c.dX.norm(), ds = c.dX.dot(c.ddX) / s;
@@ -407,19 +415,31 @@ Path moved_out(const Curve& c, double r) {
   const Eigen::Vector2d dn = -perp(c.ddX) / s + perp(c.dX) * ds / (s * s);
   const Eigen::Vector2d ddn = -perp(c.dddX) / s + 2.0 * perp(c.ddX) * ds / (s * s) +
                               perp(c.dX) * (dds / (s * s) - 2.0 * ds * ds / (s * s * s));
-  return {c.X + r * n, c.dX + r * dn, c.ddX + r * ddn};
+  // The third by differentiating n s = -perp(X') and s^2 = X' . X' three times.
+  const double ddds = (3.0 * c.ddX.dot(c.dddX) + c.dX.dot(c.ddddX) - 3.0 * ds * dds) / s;
+  const Eigen::Vector2d dddn = (-perp(c.ddddX) - 3.0 * ddn * ds - 3.0 * dn * dds - n * ddds) / s;
+  return {c.X + r * n, c.dX + r * dn, c.ddX + r * ddn, c.dddX + r * dddn};
 }
 // A path F(t) in polar form: rho = |F| against psi = angle(F) - spin t, by the chain rule
 // through t (spin 1: a follower's path seen from the turning cam; 0: a curve of the cam).
 Polar polar_of(const Eigen::Vector2d& F, const Eigen::Vector2d& dF, const Eigen::Vector2d& ddF,
-               double spin) {
+               const Eigen::Vector2d& dddF, double spin) {
   const double r = F.norm(), r2 = F.squaredNorm();
   const double dr = F.dot(dF) / r;
   const double ddr = (dF.squaredNorm() + F.dot(ddF) - dr * dr) / r;
   const double turn = cross(F, dF);
   const double dpsi = turn / r2 - spin;
   const double ddpsi = cross(F, ddF) / r2 - 2.0 * turn * F.dot(dF) / (r2 * r2);
-  return {r, dr / dpsi, (ddr * dpsi - dr * ddpsi) / (dpsi * dpsi * dpsi)};
+  // The third derivatives of r (r^2 = F . F) and of the polar angle (its rate times r^2 is
+  // cross(F, F')), each differentiated once more.
+  const double dddr = (3.0 * dF.dot(ddF) + F.dot(dddF) - 3.0 * dr * ddr) / r;
+  const double dr2 = 2.0 * F.dot(dF), ddr2 = 2.0 * (dF.squaredNorm() + F.dot(ddF));
+  const double dddpsi =
+      (cross(dF, ddF) + cross(F, dddF) - 2.0 * ddpsi * dr2 - (dpsi + spin) * ddr2) / r2;
+  const double p3 = dpsi * dpsi * dpsi;
+  return {r, dr / dpsi, (ddr * dpsi - dr * ddpsi) / p3,
+          ((dddr * dpsi - dr * dddpsi) * dpsi - 3.0 * ddpsi * (ddr * dpsi - dr * ddpsi)) /
+              (p3 * dpsi * dpsi)};
 }
 }  // namespace
 
@@ -496,12 +516,16 @@ namespace {
 // the origin: rho(t) = c cos t + sqrt(r^2 - c^2 sin^2 t), with its derivatives in t.
 Polar circle_polar(double c, double r, double t) {
   const double a = c * std::cos(t), b = c * std::sin(t), w = std::sqrt(r * r - b * b);
-  return {a + w, -b - a * b / w, -a + (b * b - a * a) / w - a * a * b * b / (w * w * w)};
+  const double w3 = w * w * w;
+  return {a + w, -b - a * b / w, -a + (b * b - a * a) / w - a * a * b * b / w3,
+          b + 4.0 * a * b / w + 3.0 * a * b * (b * b - a * a) / w3 -
+              3.0 * a * a * a * b * b * b / (w3 * w * w)};
 }
 // The line n . x = p, n at the angle 0, in polar form: rho(t) = p / cos t.
 Polar line_polar(double p, double t) {
   const double c = std::cos(t), s = std::sin(t);
-  return {p / c, p * s / (c * c), p * (1.0 + s * s) / (c * c * c)};
+  return {p / c, p * s / (c * c), p * (1.0 + s * s) / (c * c * c),
+          p * s * (5.0 + s * s) / (c * c * c * c)};
 }
 }  // namespace
 
@@ -519,12 +543,13 @@ Polar Contour::at(double angle) const {
       const double side = t > 0.0 ? 1.0 : -1.0;  // the flank whose normal is at +-alpha
       return line_polar(cam.base_radius + r, t - side * alpha);
     }
-    return {cam.base_radius + r, 0.0, 0.0};
+    return {cam.base_radius + r, 0.0, 0.0, 0.0};
   }
   if (eccentric_) {  // the disc (moved out by the roller's radius), or its support function
     const EccentricCam& cam = *eccentric_;
     const double t = angle - cam.angle, e = cam.eccentricity;
-    if (flat_faced()) return {cam.radius + e * std::cos(t), -e * std::sin(t), -e * std::cos(t)};
+    if (flat_faced())
+      return {cam.radius + e * std::cos(t), -e * std::sin(t), -e * std::cos(t), e * std::sin(t)};
     const double r = follower_.kind == FollowerKind::roller ? follower_.roller_radius : 0.0;
     return circle_polar(e, cam.radius + r, t);
   }
@@ -532,25 +557,31 @@ Polar Contour::at(double angle) const {
     if (flat_faced()) {  // h = X . n, h' = X . perp(n), h + h'' the radius of curvature
       const Curve s = surface_point(*surface_, surface_angle(angle));
       const Eigen::Vector2d n(std::cos(angle), std::sin(angle));
-      const double h = s.X.dot(n);
-      return {h, s.X.dot(perp(n)), std::pow(s.dX.norm(), 3) / cross(s.dX, s.ddX) - h};
+      const double h = s.X.dot(n), h1 = s.X.dot(perp(n));
+      // The radius of curvature |X'|^3 / k, k = cross(X', X''), turned from phi to the normal's
+      // angle, which turns k / |X'|^2 per unit of phi.
+      const double speed = s.dX.norm(), k = cross(s.dX, s.ddX);
+      const double radius = speed * speed * speed / k;
+      const double radius_per_phi =
+          3.0 * speed * s.dX.dot(s.ddX) / k - radius * cross(s.dX, s.dddX) / k;
+      return {h, h1, radius - h, radius_per_phi * speed * speed / k - h1};
     }
     if (follower_.kind == FollowerKind::knife_edge) {  // the pitch curve is the surface
       const Motion m = surface_->at(angle);
-      return {m.s, m.ds, m.dds};
+      return {m.s, m.ds, m.dds, m.ddds};
     }
     const Path p =
         moved_out(surface_point(*surface_, surface_angle(angle)), follower_.roller_radius);
-    return polar_of(p.P, p.dP, p.ddP, 0.0);
+    return polar_of(p.P, p.dP, p.ddP, p.dddP, 0.0);
   }
   const double theta = cam_angle(angle);
   if (flat_faced()) {  // h(alpha) = base + s(pi/2 - alpha)
     const Motion m = motion_->at(theta);
-    return {follower_.base_radius + m.s, -m.ds, m.dds};
+    return {follower_.base_radius + m.s, -m.ds, m.dds, -m.ddds};
   }
   // rho = |F(theta)| against psi = angle(F) - theta.
   const FollowerPath f = follower_path(*motion_, follower_, theta);
-  return polar_of(f.F, f.dF, f.ddF, 1.0);
+  return polar_of(f.F, f.dF, f.ddF, f.dddF, 1.0);
 }
 
 }  // namespace crosslink::cam

@@ -29,17 +29,18 @@ enum class Law {
 };
 std::string to_string(Law law);
 
-// A normalised law and its first three derivatives in u.
+// A normalised law and its first four derivatives in u (the fourth: a roller's path on a profile
+// given by its points has a third derivative through the surface's fourth).
 struct Normalised {
-  double y = 0.0, dy = 0.0, ddy = 0.0, dddy = 0.0;
+  double y = 0.0, dy = 0.0, ddy = 0.0, dddy = 0.0, ddddy = 0.0;
 };
 Normalised normalised(Law law, double u);
 
 // The follower's displacement and its derivatives in the cam angle: s, ds/dtheta, d2s/dtheta2,
-// d3s/dtheta3. At a constant cam speed w the follower's velocity is w ds, its acceleration
-// w^2 dds and its jerk w^3 ddds.
+// d3s/dtheta3 (and d4s/dtheta4). At a constant cam speed w the follower's velocity is w ds, its
+// acceleration w^2 dds and its jerk w^3 ddds.
 struct Motion {
-  double s = 0.0, ds = 0.0, dds = 0.0, ddds = 0.0;
+  double s = 0.0, ds = 0.0, dds = 0.0, ddds = 0.0, dddds = 0.0;
 };
 
 // One segment of a motion program: a law over a cam angle span, from the displacement the
@@ -113,11 +114,12 @@ struct ProfilePoint {
 ProfilePoint profile_at(const MotionProgram& motion, const Follower& follower, double theta);
 
 // The follower's reference point F in the fixed frame (the roller's centre or the knife's edge;
-// a flat face's point on its axis) at cam angle theta, its first two derivatives in theta, and
+// a flat face's point on its axis) at cam angle theta, its first three derivatives in theta, and
 // the direction a larger displacement moves it. Throws as profile_at.
 struct FollowerPath {
   Eigen::Vector2d F = Eigen::Vector2d::Zero(), dF = Eigen::Vector2d::Zero(),
-                  ddF = Eigen::Vector2d::Zero(), along = Eigen::Vector2d::Zero();
+                  ddF = Eigen::Vector2d::Zero(), dddF = Eigen::Vector2d::Zero(),
+                  along = Eigen::Vector2d::Zero();
   double arm_angle = 0.0;  // oscillating: the arm's angle
 };
 FollowerPath follower_path(const MotionProgram& motion, const Follower& follower, double theta);
@@ -151,9 +153,10 @@ struct EccentricCam {
   double angle = 0.0;         // the disc centre's direction in the cam frame [rad]
 };
 
-// A function of an angle in the cam frame, with its first two derivatives in that angle.
+// A function of an angle in the cam frame, with its first three derivatives in that angle (the
+// third: the follower's jerk).
 struct Polar {
-  double value = 0.0, d = 0.0, dd = 0.0;
+  double value = 0.0, d = 0.0, dd = 0.0, ddd = 0.0;
 };
 
 // A cam's profile as a joint holds a follower to it, fixed in the cam frame about the cam's

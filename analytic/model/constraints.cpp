@@ -417,6 +417,12 @@ std::vector<CamReading> cam_readings(const Mechanism& m) {
   return readings;
 }
 
+double CamReading::follower_jerk(const Eigen::VectorXd& qdddot) const {
+  const int k = rows.b;
+  if (k < 0) return 0.0;
+  return pivoted ? qdddot(3 * k + 2) : guide.dot(qdddot.segment<2>(3 * k));
+}
+
 double ConstraintRows::value(const LinkFrames& frames) const {
   const Eigen::VectorXd& q = frames.q;
   switch (kind) {
@@ -524,6 +530,96 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
       out(first_row) = -mb.omega * mb.omega * f.n.dot(f.offset) +
                        2.0 * mb.omega * perp(f.n).dot(rate) + f.n.dot(accel) -
                        contour->at(f.alpha).dd * turn * turn;
+      return;
+    }
+    case Kind::angle_driver:
+    case Kind::gear:
+      out(first_row) = 0.0;
+      return;
+  }
+}
+
+namespace {
+// A vector fixed in a link, or a point of it, and its first three time derivatives with
+// q''' = 0: w''' = -3 omega alpha w - omega^3 perp(w) (the link's own jerk and the origin's are
+// q''', the unknowns).
+struct Jet {
+  Eigen::Vector2d d0, d1, d2, d3;
+  Jet operator-(const Jet& o) const { return {d0 - o.d0, d1 - o.d1, d2 - o.d2, d3 - o.d3}; }
+};
+Jet vector_jet(const BodyMotion& m, const Eigen::Vector2d& local) {
+  const Eigen::Vector2d w = m.turn(local);
+  return {w, m.omega * perp(w), m.alpha * perp(w) - m.omega * m.omega * w,
+          -3.0 * m.omega * m.alpha * w - m.omega * m.omega * m.omega * perp(w)};
+}
+Jet point_jet(const BodyMotion& m, const Eigen::Vector2d& local) {
+  Jet j = vector_jet(m, local);
+  j.d0 += m.r;
+  j.d1 += m.v;
+  j.d2 += m.a;
+  return j;
+}
+// (u . v)''' by Leibniz.
+double dot_jerk(const Jet& u, const Jet& v) {
+  return u.d3.dot(v.d0) + 3.0 * u.d2.dot(v.d1) + 3.0 * u.d1.dot(v.d2) + u.d0.dot(v.d3);
+}
+// |d| and the polar angle of d, each with its first three derivatives: from |d|^2 = d . d and
+// angle' |d|^2 = cross(d, d'), differentiated.
+struct PolarJet {
+  double r, r1, r2, r3, a1, a2, a3;
+};
+PolarJet polar_jet(const Jet& d) {
+  PolarJet p{};
+  const double h = d.d0.squaredNorm(), h1 = 2.0 * d.d0.dot(d.d1),
+               h2 = 2.0 * (d.d1.squaredNorm() + d.d0.dot(d.d2));
+  p.r = std::sqrt(h);
+  if (!(p.r > 0.0)) return p;  // the pin on the centre: no direction (as arc_offset's)
+  p.r1 = d.d0.dot(d.d1) / p.r;
+  p.r2 = (d.d1.squaredNorm() + d.d0.dot(d.d2) - p.r1 * p.r1) / p.r;
+  p.r3 = (3.0 * d.d1.dot(d.d2) + d.d0.dot(d.d3) - 3.0 * p.r1 * p.r2) / p.r;
+  p.a1 = cross(d.d0, d.d1) / h;
+  p.a2 = (cross(d.d0, d.d2) - p.a1 * h1) / h;
+  p.a3 = (cross(d.d1, d.d2) + cross(d.d0, d.d3) - 2.0 * p.a2 * h1 - p.a1 * h2) / h;
+  return p;
+}
+// f(x(t))''' with x''' = 0: f''' x'^3 + 3 f'' x' x''.
+double composed_jerk(const cam::Polar& f, double x1, double x2) {
+  return f.ddd * x1 * x1 * x1 + 3.0 * f.dd * x1 * x2;
+}
+}  // namespace
+
+void ConstraintRows::jerk_terms(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                const Eigen::VectorXd& qddot, Eigen::VectorXd& out) const {
+  const BodyMotion ma = frames.of(a, &qdot, &qddot), mb = frames.of(b, &qdot, &qddot);
+  switch (kind) {
+    case Kind::revolute:
+      out.segment<2>(first_row) = point_jet(ma, point_a).d3 - point_jet(mb, point_b).d3;
+      return;
+    case Kind::prismatic:
+    case Kind::pin_in_slot:
+    case Kind::slider_driver:
+    case Kind::rack_pinion:  // its angle term is linear in q
+      out(first_row) =
+          dot_jerk(vector_jet(ma, axis), point_jet(mb, point_b) - point_jet(ma, point_a));
+      if (kind == Kind::prismatic) out(first_row + 1) = 0.0;  // an angle is linear in q
+      return;
+    case Kind::pin_in_arc:
+      out(first_row) = polar_jet(point_jet(mb, point_b) - point_jet(ma, point_a)).r3;
+      return;
+    case Kind::cam_pitch: {
+      // |d| - rho(psi), psi = angle(d) - theta_a: psi' = angle' - omega_a, psi'' = angle'' -
+      // alpha_a, psi''' = angle'''.
+      const PolarJet p = polar_jet(point_jet(mb, point_b) - point_jet(ma, point_a));
+      const cam::Polar rho = contour->at(pitch_angle(ma, arc_offset(ma, point_a, mb, point_b)));
+      out(first_row) = p.r3 - composed_jerk(rho, p.a1 - ma.omega, p.a2 - ma.alpha) - rho.d * p.a3;
+      return;
+    }
+    case Kind::cam_face: {
+      // n . D - h(alpha), alpha = theta_b + angle - theta_a linear in q.
+      const FaceContact f = face_contact(*this, ma, mb);
+      out(first_row) =
+          dot_jerk(vector_jet(mb, axis), point_jet(mb, point_b) - point_jet(ma, point_a)) -
+          composed_jerk(contour->at(f.alpha), mb.omega - ma.omega, mb.alpha - ma.alpha);
       return;
     }
     case Kind::angle_driver:
@@ -686,6 +782,15 @@ void ConstraintLayout::acceleration_rhs(const LinkFrames& frames, const Eigen::V
   for (const ConstraintRows& c : blocks_) c.velocity_squared(frames, qdot, gamma);
   gamma = -gamma;
   for (int d = 0; d < driver_count(); ++d) gamma(driver_row(d)) += drivers[d].accel;
+}
+
+void ConstraintLayout::jerk_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                                const Eigen::VectorXd& qddot, std::span<const DriverState> drivers,
+                                Eigen::VectorXd& eta) const {
+  eta.resize(rows_);
+  for (const ConstraintRows& c : blocks_) c.jerk_terms(frames, qdot, qddot, eta);
+  eta = -eta;
+  for (int d = 0; d < driver_count(); ++d) eta(driver_row(d)) += drivers[d].jerk;
 }
 
 }  // namespace crosslink

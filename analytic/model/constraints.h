@@ -8,6 +8,7 @@
 // of its rows are angle equations. Only a driver's row depends on time, so the right-hand sides
 //   velocity      J qdot  = nu      nu: each driver's rate in its row, 0 elsewhere
 //   acceleration  J qddot = gamma   gamma = -(velocity-squared terms) + each driver's accel
+//   jerk          J q'''  = eta     eta = -(the terms of d3Phi/dt3 without q''') + driver's jerk
 // are assembled by the layout from the drivers' states. As Pinocchio keeps one definition per
 // joint type visited by every algorithm, one switch on the kind in constraints.cpp is the only
 // place a joint type's equations are written.
@@ -93,6 +94,9 @@ struct ConstraintRows {
   // Writes the block's rows of d2Phi/dt2 with qddot = 0: the velocity-squared terms.
   void velocity_squared(const LinkFrames& frames, const Eigen::VectorXd& qdot,
                         Eigen::VectorXd& out) const;
+  // Writes the block's rows of d3Phi/dt3 with q''' = 0: 3 Phi_qq[qdot, qddot] + Phi_qqq[qdot^3].
+  void jerk_terms(const LinkFrames& frames, const Eigen::VectorXd& qdot,
+                  const Eigen::VectorXd& qddot, Eigen::VectorXd& out) const;
   // Writes the block's rows of dPhi/dq into `jac`, whose other entries of those rows are zero.
   // The same entries, in the same order, whatever holds them (dense, or the layout's pattern).
   void jacobian(const LinkFrames& frames, Eigen::MatrixXd& jac) const;
@@ -145,6 +149,10 @@ struct CamReading {
   // The profile the follower touches, in the cam's frame about its centre (the centre at the
   // origin), at `count` angles over a turn, in order around it.
   std::vector<Eigen::Vector2d> outline(int count) const;
+  // The follower's jerk from the coordinates' third derivatives: an arm's angular jerk about its
+  // pivot [rad/s^3], or a translating follower's along its guide's line [m/s^3] (the sense its
+  // slide s grows in).
+  double follower_jerk(const Eigen::VectorXd& qdddot) const;
 };
 // Every cam joint whose follower has one guide on the ground (a revolute joint, or a prismatic
 // joint whose line is the ground's); a follower guided otherwise has no pressure angle here.
@@ -179,6 +187,9 @@ class ConstraintLayout {
   // gamma = -(velocity-squared terms of d2Phi/dt2) + each driver's acceleration in its row.
   void acceleration_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot,
                         std::span<const DriverState> drivers, Eigen::VectorXd& gamma) const;
+  // eta = -(the jerk terms of d3Phi/dt3) + each driver's jerk in its row (docs/cams.md, "Jerk").
+  void jerk_rhs(const LinkFrames& frames, const Eigen::VectorXd& qdot, const Eigen::VectorXd& qddot,
+                std::span<const DriverState> drivers, Eigen::VectorXd& eta) const;
 
  private:
   std::vector<ConstraintRows> blocks_;  // the joints', then the drivers'

@@ -72,6 +72,8 @@ double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit u
       return spec.channel.starts_with("omega") ? 1.0 : m.units.length;
     case Quantity::acceleration:
       return spec.channel.starts_with("alpha") ? 1.0 : m.units.length;
+    case Quantity::jerk:
+      return spec.channel.starts_with("angular_jerk") ? 1.0 : m.units.length;
     default:
       return 1.0;
   }
@@ -102,6 +104,8 @@ std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, Deriv
       return spec.channel.starts_with("omega") ? "rad/s" : L + "/s";
     case Quantity::acceleration:
       return spec.channel.starts_with("alpha") ? "rad/s^2" : L + "/s^2";
+    case Quantity::jerk:
+      return spec.channel.starts_with("angular_jerk") ? "rad/s^3" : L + "/s^3";
     default:
       return "";
   }

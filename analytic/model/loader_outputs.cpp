@@ -18,9 +18,9 @@ std::string derived_names(const Mechanism& m) {
 std::optional<double> reference_factor(const Mechanism& m, std::string_view quantity) {
   const std::string_view kind = quantity.substr(0, quantity.find('.'));
   if (kind == "angle" || kind == "phi") return m.units.angle;
-  if (kind == "omega" || kind == "alpha") return 1.0;
-  static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",    "ax",
-                                                        "ay", "a", "s",  "sdot", "sddot"};
+  if (kind == "omega" || kind == "alpha" || kind == "angular_jerk") return 1.0;
+  static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",     "ax",
+                                                        "ay", "a", "s",  "sdot", "sddot", "jerk"};
   if (std::find(lengths.begin(), lengths.end(), kind) != lengths.end()) return m.units.length;
   static const std::vector<std::string_view> forces = {"fx",         "fy",         "f",    "fn",
                                                        "shaking_fx", "shaking_fy", "force"};
@@ -178,7 +178,8 @@ void read_derived(Reader& r, Mechanism& m, const toml::table& root) {
         r.error(r.at(t.get("channel")),
                 fmt::format("[[derived]]: '{}' is not a kinematic channel of this linkage "
                             "(kind.name, kind one of angle, omega, alpha, x, y, vx, vy, v, ax, "
-                            "ay, a, s, sdot, sddot, phi (a cam's pressure angle); names: {})",
+                            "ay, a, s, sdot, sddot, phi (a cam's pressure angle), jerk or "
+                            "angular_jerk (a cam's follower's); names: {})",
                             spec.channel, join(objects)));
         ok = false;
       } else if (!channels.empty() &&
@@ -366,6 +367,12 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   for (const CamReading& cam : cam_readings(m))
     if (cam.rows.kind != ConstraintRows::Kind::cam_face)
       add("pressure_angle_" + cam.joint, K::extremes, "phi." + cam.joint, "");
+  // Each cam's follower's jerk, a rate: over the driver it is its motion in time at constant
+  // speed (a step of it, where a law meets a dwell, is located at its edge).
+  for (const CamReading& cam : cam_readings(m))
+    if (m.swept().law.kind == MotionLaw::Kind::constant_speed)
+      add("jerk_" + cam.joint, K::extremes, (cam.pivoted ? "angular_jerk." : "jerk.") + cam.joint,
+          "");
   // Each cam's least radius of curvature where its follower touches it.
   for (const Joint& j : m.joints)
     if (j.type == JointType::cam) add("least_radius_" + j.name, K::least_radius, "", "", j.name);

@@ -80,7 +80,7 @@ std::string_view to_string(DriverType type) {
 }
 
 namespace {
-// Natural cubic spline through (t_i, v_i): value and first two derivatives at t.
+// Natural cubic spline through (t_i, v_i): value and first three derivatives at t.
 DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v, double time) {
   const size_t n = t.size();
   // Second derivatives M_i by the tridiagonal system of a natural spline (M_0 = M_n-1 = 0).
@@ -104,6 +104,7 @@ DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v
   s.rate = (v[k] - v[k - 1]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m[k - 1] +
            (3.0 * b * b - 1.0) / 6.0 * h * m[k];
   s.accel = a * m[k - 1] + b * m[k];
+  s.jerk = (m[k] - m[k - 1]) / h;
   return s;
 }
 }  // namespace
@@ -136,18 +137,20 @@ DriverState Driver::at_time(double t) const {
       s.accel = law.acceleration;
       break;
     case MotionLaw::Kind::polynomial: {
-      // q = start + sum_k c_k t^k (k from 1): Horner for the value and both derivatives.
+      // q = start + sum_k c_k t^k (k from 1): Horner for the value and its derivatives.
       const std::vector<double>& c = law.coefficients;
-      double value = 0.0, rate = 0.0, accel = 0.0;
+      double value = 0.0, rate = 0.0, accel = 0.0, jerk = 0.0;
       for (size_t i = c.size(); i-- > 0;) {
         const double k = static_cast<double>(i + 1);
         value = value * t + c[i];
         rate = rate * t + k * c[i];
         if (i >= 1) accel = accel * t + k * (k - 1.0) * c[i];
+        if (i >= 2) jerk = jerk * t + k * (k - 1.0) * (k - 2.0) * c[i];
       }
       s.value = start + value * t;
       s.rate = rate;
       s.accel = accel;
+      s.jerk = jerk;
       break;
     }
     case MotionLaw::Kind::table:

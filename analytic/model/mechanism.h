@@ -200,12 +200,13 @@ struct MotionLaw {
 // The key that states the law in a definition: "speed", "acceleration", "polynomial", "table".
 std::string_view to_string(MotionLaw::Kind kind);
 
-// The driver's value and its first two time derivatives at one instant.
+// The driver's value and its first three time derivatives at one instant.
 struct DriverState {
   double time = 0.0;   // [s]
   double value = 0.0;  // [rad] or [m]
   double rate = 0.0;   // [rad/s] or [m/s]
   double accel = 0.0;  // [rad/s^2] or [m/s^2]
+  double jerk = 0.0;   // [rad/s^3] or [m/s^3]
 };
 
 enum class DriverType {

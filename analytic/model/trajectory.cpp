@@ -72,6 +72,8 @@ std::string_view to_string(Quantity q) {
       return "velocity";
     case Quantity::acceleration:
       return "acceleration";
+    case Quantity::jerk:
+      return "jerk";
     case Quantity::force:
       return "force";
     case Quantity::torque:
@@ -129,6 +131,8 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
         anchor(cam.reading.rows.b, cam.follower_point, cam.follower_local))
       cams.push_back(std::move(cam));
   }
+  has_jerk = !cams.empty();
+  jerk.setZero(samples, static_cast<Eigen::Index>(cams.size()));
   joint_names.clear();
   for (const Joint& j : mechanism.joints) joint_names.push_back(j.name);
   ground_name = mechanism.links[static_cast<size_t>(mechanism.ground())].name;
@@ -160,6 +164,11 @@ void Trajectory::resize(const Mechanism& mechanism, int samples, bool with_force
   energy.resize(0, 4);
 }
 
+void Trajectory::drop_jerk() {
+  has_jerk = false;
+  jerk.setZero(samples(), 0);
+}
+
 void Trajectory::add_energy() {
   has_energy = true;
   energy.setZero(samples(), 4);
@@ -182,6 +191,7 @@ double Trajectory::energy_scale() const {
 void Trajectory::resize_as(const Mechanism& mechanism, const Trajectory& reference,
                            bool with_forces, bool energy) {
   resize(mechanism, reference.samples(), with_forces);
+  drop_jerk();
   if (energy) add_energy();
   time = reference.time;
   driver_values = reference.driver_values;
@@ -225,8 +235,8 @@ bool Trajectory::flag_non_finite(int row) {
   clean(time(row));
   clean(rcond(row));
   clean(loop_gap(row));
-  for (Eigen::MatrixXd* m :
-       {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot, &driver_values})
+  for (Eigen::MatrixXd* m : {&angle, &omega, &alpha, &x, &y, &vx, &vy, &ax, &ay, &s, &sdot, &sddot,
+                             &driver_values, &jerk})
     for (Eigen::Index c = 0; c < m->cols(); ++c) clean((*m)(row, c));
   if (has_energy)
     for (Eigen::Index c = 0; c < energy.cols(); ++c) clean(energy(row, c));
@@ -291,6 +301,9 @@ std::vector<std::string> Trajectory::channel_names() const {
     names.push_back((driver_sliders[d] ? "s." : "angle.") + driver_names[d]);
   if (!transmission.empty()) names.push_back("mu." + transmission[1]);
   for (const CamChannel& cam : cams) names.push_back("phi." + cam.reading.joint);
+  if (has_jerk)
+    for (const CamChannel& cam : cams)
+      names.push_back((cam.reading.pivoted ? "angular_jerk." : "jerk.") + cam.reading.joint);
   if (has_forces) {
     if (!axis.timed()) names.push_back(swept_slider() ? "force.driver" : "torque.driver");
     for (size_t d = 0; d < named; ++d)
@@ -342,6 +355,10 @@ const double* Trajectory::stored(std::string_view name) const {
     if (kind == "sdot") return col(sdot, j);
     if (kind == "sddot") return col(sddot, j);
   }
+  if (has_jerk && (kind == "jerk" || kind == "angular_jerk"))
+    for (size_t c = 0; c < cams.size(); ++c)
+      if (cams[c].reading.joint == object && cams[c].reading.pivoted == (kind == "angular_jerk"))
+        return col(jerk, static_cast<Eigen::Index>(c));
   if (const int d = axis.timed() ? index_of(driver_names, object) : -1; d >= 0) {
     const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
     if (kind == (slider ? "s" : "angle")) return col(driver_values, d);
@@ -420,6 +437,7 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
     return Quantity::velocity;
   if (kind == "alpha" || kind == "ax" || kind == "ay" || kind == "a" || kind == "sddot")
     return Quantity::acceleration;
+  if (kind == "jerk" || kind == "angular_jerk") return Quantity::jerk;
   if (kind == "fx" || kind == "fy" || kind == "f" || kind == "fn" || kind == "force" ||
       kind == "shaking_fx" || kind == "shaking_fy" || kind == "friction_force")
     return Quantity::force;
@@ -440,6 +458,8 @@ std::string_view Trajectory::si_unit(std::string_view channel) {
       return kind == "omega" ? "rad/s" : "m/s";
     case Quantity::acceleration:
       return kind == "alpha" ? "rad/s^2" : "m/s^2";
+    case Quantity::jerk:
+      return kind == "angular_jerk" ? "rad/s^3" : "m/s^3";
     case Quantity::force:
       return "N";
     case Quantity::torque:

@@ -11,6 +11,9 @@
 //   s.<slider> sdot.<slider> sddot.<slider>                     [m, m/s, m/s^2]
 // From any method's positions: a four-bar's transmission angle and each cam's pressure angle
 //   mu.<C> phi.<cam>                                            [rad]
+// From the exact kinematics (has_jerk): each cam's follower's jerk along its motion, a
+// translating follower's along its guide, an arm's about its pivot
+//   jerk.<cam> | angular_jerk.<cam>                             [m/s^3 | rad/s^3]
 // Several drivers (each named, [[driver]]): each driver's value, named as its kind of coordinate
 //   angle.<driver> (angular) | s.<driver> (slider)              [rad | m]
 // Link angles are continuous (unwrapped) along a sweep. With forces (kinetostatics, has_forces):
@@ -96,7 +99,7 @@ inline bool has_position(PoseStatus s) {
 enum class ParallelSingularity : std::uint8_t { none, direct, inverse };
 std::string_view to_string(ParallelSingularity kind);
 
-enum class Quantity { position, angle, velocity, acceleration, force, torque, energy };
+enum class Quantity { position, angle, velocity, acceleration, jerk, force, torque, energy };
 std::string_view to_string(Quantity q);
 // Whether a sample with status `s` has a value of quantity `q` (see has_position).
 inline bool value_exists(PoseStatus s, Quantity q) {
@@ -173,6 +176,12 @@ struct Trajectory {
     CamReading::Pose at(const Trajectory& t, int row) const;
   };
   std::vector<CamChannel> cams;
+  // Each cam channel's follower jerk (CamReading::follower_jerk), one column per cam, when the
+  // method solves the third derivatives (the exact kinematics; has_jerk); an engine's state and
+  // forward dynamics have none, and no such channel.
+  bool has_jerk = false;
+  Eigen::MatrixXd jerk;
+  void drop_jerk();
   // The energy balance, when the method keeps it (see the channel list above).
   bool has_energy = false;
   Eigen::MatrixXd energy;  // 4 columns: kinetic, potential, work, error [J]
@@ -213,7 +222,7 @@ struct Trajectory {
   // `with_forces`.
   void resize(const Mechanism& mechanism, int samples, bool with_forces = false);
   // The same for a run of `reference`'s sweep (an engine's): its samples' times and drivers'
-  // values, with an energy balance when `energy`.
+  // values, with an energy balance when `energy`, without jerk.
   void resize_as(const Mechanism& mechanism, const Trajectory& reference, bool with_forces,
                  bool energy = false);
   int samples() const { return static_cast<int>(time.size()); }
@@ -244,8 +253,8 @@ struct Trajectory {
   // One channel's value at one sample (nullopt for an unknown name or a row out of range).
   std::optional<double> sample(std::string_view name, int row) const;
   static Quantity quantity_of(std::string_view channel);  // by the prefix before '.'
-  // The SI unit of a channel's values: "m", "rad", "m/s", "rad/s", "m/s^2", "rad/s^2", "N",
-  // "N m" or "J" (JSON and CSV hold SI).
+  // The SI unit of a channel's values: "m", "rad", "m/s", "rad/s", "m/s^2", "rad/s^2", "m/s^3",
+  // "rad/s^3", "N", "N m" or "J" (JSON and CSV hold SI).
   static std::string_view si_unit(std::string_view channel);
   // A channel held in one of the matrices above: its column, samples() values in a row, or null
   // for one computed from others (a magnitude v, a or f; mu, phi) or no channel at all.

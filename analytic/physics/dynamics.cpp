@@ -1159,6 +1159,7 @@ Simulation simulate(const Mechanism& mechanism, const SimulationOptions& options
   Trajectory& t = out.trajectory;
   t.method = "exact dynamics (" + options.integrator + ")";
   t.resize(mechanism, n, true);
+  t.drop_jerk();  // the integrator's state has no third derivative
   for (int k = 0; k < n; ++k) t.time(k) = times[static_cast<size_t>(k)];
   out.kinetic.setZero(n);
   out.potential.setZero(n);

@@ -105,7 +105,7 @@ class SingularBand {
 inline void drop_rates(Trajectory& t, int row) {
   t.status[static_cast<size_t>(row)] = PoseStatus::singular;
   for (Eigen::MatrixXd* m : {&t.omega, &t.alpha, &t.vx, &t.vy, &t.ax, &t.ay, &t.sdot, &t.sddot,
-                             &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking, &t.friction})
+                             &t.jerk, &t.fx, &t.fy, &t.fn, &t.moment, &t.shaking, &t.friction})
     if (m->rows() > row && m->cols() > 0) m->row(row).setZero();  // no columns: no data to offset
   if (t.effort.rows() > row && t.effort.cols() > 0) t.effort.row(row).setZero();
 }

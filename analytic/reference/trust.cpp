@@ -56,7 +56,7 @@ namespace {
 // not compared (forces, energy).
 double channel_scale(std::string_view channel, double size, double rate) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
-  const bool angular = kind == "omega" || kind == "alpha";
+  const bool angular = kind == "omega" || kind == "alpha" || kind == "angular_jerk";
   switch (Trajectory::quantity_of(channel)) {
     case Quantity::position:
       return size;
@@ -66,6 +66,8 @@ double channel_scale(std::string_view channel, double size, double rate) {
       return angular ? rate : rate * size;
     case Quantity::acceleration:
       return angular ? rate * rate : rate * rate * size;
+    case Quantity::jerk:
+      return angular ? rate * rate * rate : rate * rate * rate * size;
     default:
       return 0.0;
   }
@@ -97,7 +99,9 @@ CrossCheck cross_check(const Mechanism& mechanism, Trajectory& reference,
     if (scale <= 0.0 || !b) continue;
     const Quantity q = Trajectory::quantity_of(c);
     columns.push_back({c, *reference.channel(c), *b, scale, q == Quantity::angle,
-                       q == Quantity::acceleration ? 2 : 1});
+                       q == Quantity::acceleration ? 2
+                       : q == Quantity::jerk       ? 3
+                                                   : 1});
   }
   for (int k = 0; k < n; ++k) {
     const auto ks = static_cast<size_t>(k);

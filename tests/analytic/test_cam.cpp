@@ -99,6 +99,7 @@ TEST(CamLaws, DerivativesAreTheDifferencesOfTheValues) {
       EXPECT_NEAR((b.y - a.y) / (2 * h), c.dy, 1e-8);
       EXPECT_NEAR((b.dy - a.dy) / (2 * h), c.ddy, 1e-7);
       EXPECT_NEAR((b.ddy - a.ddy) / (2 * h), c.dddy, 1e-5);
+      EXPECT_NEAR((b.dddy - a.dddy) / (2 * h), c.ddddy, 1e-4);
     }
   }
 }
@@ -370,6 +371,7 @@ TEST(CamContour, RadiusAtThePitchPointsAngleIsItsDistance) {
       const Polar a = contour.at(angle - h), b = contour.at(angle), e = contour.at(angle + h);
       EXPECT_NEAR(b.d, (e.value - a.value) / (2 * h), 1e-8) << theta / kDeg;
       EXPECT_NEAR(b.dd, (e.d - a.d) / (2 * h), 1e-6) << theta / kDeg;
+      EXPECT_NEAR(b.ddd, (e.dd - a.dd) / (2 * h), 1e-6) << theta / kDeg;
     }
   }
 }
@@ -453,6 +455,7 @@ TEST(CamContour, TangentCamIsPiecewiseCirclesAndLines) {
     const Polar a = contour.at(angle - d), b = contour.at(angle), e = contour.at(angle + d);
     EXPECT_NEAR(b.d, (e.value - a.value) / (2 * d), 1e-9) << k;
     EXPECT_NEAR(b.dd, (e.d - a.d) / (2 * d), 1e-7) << k;
+    EXPECT_NEAR(b.ddd, (e.dd - a.dd) / (2 * d), 1e-6) << k;
   }
   Follower flat;
   flat.kind = FollowerKind::flat_faced;
@@ -461,6 +464,41 @@ TEST(CamContour, TangentCamIsPiecewiseCirclesAndLines) {
                std::invalid_argument);  // no nose
   EXPECT_THROW(TangentCam::from_lift(0.03, 0.0175, std::nan(""), 0.035, 0.0),
                std::invalid_argument);  // a nose larger than the base
+}
+
+// The third derivative in the angle (the follower's jerk) of an eccentric cam's contour and of a
+// profile given by its points is the difference of the second, for every follower: the disc's
+// circle and support function in closed form, the points' spline inside its pieces (its third
+// derivative steps at the knots, every 30 degrees here; the samples keep 9 degrees from them,
+// more than a roller's or a face's angle strays from the point it touches).
+TEST(CamContour, ThirdDerivativeIsTheDifferenceOfTheSecond) {
+  Follower knife;
+  knife.kind = FollowerKind::knife_edge;
+  Follower roller;
+  roller.roller_radius = 0.01;
+  Follower flat;
+  flat.kind = FollowerKind::flat_faced;
+  std::vector<std::pair<double, double>> points;
+  for (int k = 0; k < 12; ++k) {
+    const double phi = k * 30 * kDeg;
+    points.emplace_back(phi, 0.04 + 0.004 * std::cos(phi) + 0.002 * std::sin(2 * phi));
+  }
+  const double h = 1e-5;
+  for (const Follower& f : {knife, roller, flat}) {
+    SCOPED_TRACE(static_cast<int>(f.kind));
+    const Contour disc(EccentricCam{0.05, 0.012, 0.4}, f);
+    const Contour shape = Contour::from_points(MotionProgram::table(points), f);
+    for (int k = 0; k < 12; ++k) {
+      for (double off : {-6.0, 0.0, 6.0}) {
+        const double angle = (k * 30 + 15 + off) * kDeg;
+        for (const Contour* c : {&disc, &shape}) {
+          const Polar a = c->at(angle - h), b = c->at(angle), e = c->at(angle + h);
+          EXPECT_NEAR(b.ddd, (e.dd - a.dd) / (2 * h), 1e-7 * std::max(1.0, std::abs(b.ddd)))
+              << angle / kDeg << (c == &disc ? " disc" : " points");
+        }
+      }
+    }
+  }
 }
 
 }  // namespace

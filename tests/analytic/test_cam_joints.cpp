@@ -28,6 +28,7 @@
 #include "tests/common/changed.h"
 #include "tests/common/cli.h"
 #include "tests/common/diagnostics.h"
+#include "tests/common/jet.h"
 #include "tests/common/mechanisms.h"
 #include "tests/common/text.h"
 
@@ -44,41 +45,59 @@ struct Piece {
   double begin, span, from, to;
 };
 
-// The follower's displacement and its first two derivatives in the cam angle [rad].
+// The follower's displacement and its first three derivatives in the cam angle [rad]. Where two
+// segments meet the third derivative may step (a 3-4-5 rise from a dwell): `ddds_after` is the
+// later segment's there, either side's the exact one (ddds elsewhere).
 struct Expected {
-  double s, ds, dds;
+  double s, ds, dds, ddds, ddds_after;
+  // The side of a step nearer to `jerk` (w^3 times it: a follower's jerk at cam speed w).
+  double jerk_nearer(double jerk, double w) const {
+    const double a = w * w * w * ddds, b = w * w * w * ddds_after;
+    return std::abs(jerk - a) <= std::abs(jerk - b) ? a : b;
+  }
 };
 
 Expected closed_form(const std::vector<Piece>& program, double theta) {
   theta = std::fmod(theta, 2 * kPi);
   if (theta < 0) theta += 2 * kPi;
-  for (const Piece& p : program) {
-    const double beta = p.span * kDeg, u = (theta - p.begin * kDeg) / beta;
-    if (u < 0.0 || u > 1.0) continue;
-    const double h = p.to - p.from;
-    double y = 0, dy = 0, ddy = 0;
-    if (p.law == "shm") {
-      y = (1 - std::cos(kPi * u)) / 2;
-      dy = kPi / 2 * std::sin(kPi * u);
-      ddy = kPi * kPi / 2 * std::cos(kPi * u);
-    } else if (p.law == "cycloidal") {
-      y = u - std::sin(2 * kPi * u) / (2 * kPi);
-      dy = 1 - std::cos(2 * kPi * u);
-      ddy = 2 * kPi * std::sin(2 * kPi * u);
-    } else if (p.law == "345") {
-      y = 10 * std::pow(u, 3) - 15 * std::pow(u, 4) + 6 * std::pow(u, 5);
-      dy = 30 * u * u - 60 * std::pow(u, 3) + 30 * std::pow(u, 4);
-      ddy = 60 * u - 180 * u * u + 120 * std::pow(u, 3);
-    } else if (p.law == "4567") {
-      y = 35 * std::pow(u, 4) - 84 * std::pow(u, 5) + 70 * std::pow(u, 6) - 20 * std::pow(u, 7);
-      dy =
-          140 * std::pow(u, 3) - 420 * std::pow(u, 4) + 420 * std::pow(u, 5) - 140 * std::pow(u, 6);
-      ddy = 420 * u * u - 1680 * std::pow(u, 3) + 2100 * std::pow(u, 4) - 840 * std::pow(u, 5);
+  std::optional<Expected> found;
+  // A turn on too: the last segment ends where the first begins.
+  for (const double at : {theta, theta + 2 * kPi})
+    for (const Piece& p : program) {
+      const double beta = p.span * kDeg, u = (at - p.begin * kDeg) / beta;
+      if (u < 0.0 || u > 1.0) continue;
+      const double h = p.to - p.from;
+      double y = 0, dy = 0, ddy = 0, dddy = 0;
+      if (p.law == "shm") {
+        y = (1 - std::cos(kPi * u)) / 2;
+        dy = kPi / 2 * std::sin(kPi * u);
+        ddy = kPi * kPi / 2 * std::cos(kPi * u);
+        dddy = -kPi * kPi * kPi / 2 * std::sin(kPi * u);
+      } else if (p.law == "cycloidal") {
+        y = u - std::sin(2 * kPi * u) / (2 * kPi);
+        dy = 1 - std::cos(2 * kPi * u);
+        ddy = 2 * kPi * std::sin(2 * kPi * u);
+        dddy = 4 * kPi * kPi * std::cos(2 * kPi * u);
+      } else if (p.law == "345") {
+        y = 10 * std::pow(u, 3) - 15 * std::pow(u, 4) + 6 * std::pow(u, 5);
+        dy = 30 * u * u - 60 * std::pow(u, 3) + 30 * std::pow(u, 4);
+        ddy = 60 * u - 180 * u * u + 120 * std::pow(u, 3);
+        dddy = 60 - 360 * u + 360 * u * u;
+      } else if (p.law == "4567") {
+        y = 35 * std::pow(u, 4) - 84 * std::pow(u, 5) + 70 * std::pow(u, 6) - 20 * std::pow(u, 7);
+        dy = 140 * std::pow(u, 3) - 420 * std::pow(u, 4) + 420 * std::pow(u, 5) -
+             140 * std::pow(u, 6);
+        ddy = 420 * u * u - 1680 * std::pow(u, 3) + 2100 * std::pow(u, 4) - 840 * std::pow(u, 5);
+        dddy = 840 * u - 5040 * u * u + 8400 * std::pow(u, 3) - 4200 * std::pow(u, 4);
+      }
+      const double ddds = h * dddy / (beta * beta * beta);
+      if (found)  // the other segment at a junction
+        found->ddds_after = ddds;
+      else
+        found = Expected{p.from + h * y, h * dy / beta, h * ddy / (beta * beta), ddds, ddds};
     }
-    return {p.from + h * y, h * dy / beta, h * ddy / (beta * beta)};
-  }
-  ADD_FAILURE() << "no segment at " << theta;
-  return {};
+  if (!found) ADD_FAILURE() << "no segment at " << theta;
+  return found.value_or(Expected{});
 }
 
 // The bundled programs, as their files write them.
@@ -173,11 +192,57 @@ void expect_translating(const std::string& stem, const std::vector<Piece>& progr
   expect_channel(t, "s.follower", [&](int k) { return s0 + at(k).s; });
   expect_channel(t, "sdot.follower", [&](int k) { return w * at(k).ds; });
   expect_channel(t, "sddot.follower", [&](int k) { return w * w * at(k).dds; });
+  expect_channel(t, "jerk.contact",
+                 [&](int k) { return at(k).jerk_nearer(value(t, "jerk.contact", k), w); });
 }
 
 TEST(CamJoints, TranslatingRollerRisesByThePolynomials) {
   expect_translating("translating_roller_345", kTranslatingRoller,
                      std::sqrt(0.05 * 0.05 - 0.01 * 0.01));  // sqrt(Rp^2 - e^2)
+  // The design summary's jerk extremes: the 3-4-5 rise's largest, 60 h / beta^3 (w^3 times),
+  // at either end of it; the 4-5-6-7 return's, where y'''' = 840 (1 - 12u + 30u^2 - 20u^3) =
+  // 840 (2u - 1)(10u^2 - 10u + 1) vanishes, u = (1 - sqrt(0.6)) / 2, found by hand.
+  const Mechanism m = bundled("translating_roller_345");
+  const std::vector<DerivedValue> summary = derived_exact(m, sweep(m));
+  const double w = m.drivers[0].law.speed, beta = 100 * kDeg, h = 0.02;
+  const double rise = 60 * h / std::pow(beta, 3) * std::pow(w, 3);
+  const double u = (1 - std::sqrt(0.6)) / 2;
+  const double fall = -h *
+                      (840 * u - 5040 * u * u + 8400 * std::pow(u, 3) - 4200 * std::pow(u, 4)) /
+                      std::pow(beta, 3) * std::pow(w, 3);
+  EXPECT_NEAR(*derived_value(summary, "jerk_contact.max"), rise, 1e-9 * rise);
+  const double at_max = *derived_value(summary, "jerk_contact.at_max") / kDeg;
+  EXPECT_TRUE(std::abs(at_max) < 1e-6 || std::abs(at_max - 100) < 1e-6 ||
+              std::abs(at_max - 360) < 1e-6)
+      << at_max;
+  EXPECT_NEAR(*derived_value(summary, "jerk_contact.min"), fall, 1e-9 * rise);
+  EXPECT_NEAR(*derived_value(summary, "jerk_contact.at_min"), (180 + 100 * u) * kDeg, 1e-6);
+  std::printf("  jerk from %.6g (closed form %.6g) to %.6g m/s^3 (%.6g)\n",
+              *derived_value(summary, "jerk_contact.min"), fall,
+              *derived_value(summary, "jerk_contact.max"), rise);
+}
+
+// A cam that speeds up, theta = c1 t + c2 t^2 + c3 t^3 (the driver's polynomial law): the
+// follower's jerk is the chain rule's s''' theta'^3 + 3 s'' theta' theta'' + s' theta''', the
+// driver's own jerk 6 c3 in the last term.
+TEST(CamJoints, JerkIsTheChainRuleUnderACamThatSpeedsUp) {
+  const Mechanism m = test::changed(
+      "mechanisms/cams/translating_roller_345.toml",
+      {{"speed = 300\nspeed_unit = \"rpm\"", "polynomial = [1800, 900, 300]\nduration = 0.2"}});
+  const Trajectory t = sweep(m);
+  ASSERT_GE(t.samples(), 360);
+  std::printf("[ translating_roller_345, a polynomial driver ]\n");
+  expect_channel(t, "jerk.contact", [&](int k) {
+    const double time = t.time(k);
+    const double theta = (1800 * time + 900 * time * time + 300 * time * time * time) * kDeg;
+    EXPECT_NEAR(theta, t.swept(k), 1e-12) << k;
+    const double w = (1800 + 1800 * time + 900 * time * time) * kDeg,
+                 dw = (1800 + 1800 * time) * kDeg, ddw = 1800 * kDeg;
+    const Expected e = closed_form(kTranslatingRoller, theta);
+    const double rest = 3 * e.dds * w * dw + e.ds * ddw;
+    const double jerk = value(t, "jerk.contact", k) - rest;
+    return e.jerk_nearer(jerk, w) + rest;
+  });
 }
 
 TEST(CamJoints, FlatFacedFollowerRisesByTheCycloid) {
@@ -197,6 +262,8 @@ TEST(CamJoints, OscillatingArmTurnsByItsLaws) {
       t, "angle.arm", [&](int k) { return gamma0 + at(k).s; }, true);
   expect_channel(t, "omega.arm", [&](int k) { return w * at(k).ds; });
   expect_channel(t, "alpha.arm", [&](int k) { return w * w * at(k).dds; });
+  expect_channel(t, "angular_jerk.contact",
+                 [&](int k) { return at(k).jerk_nearer(value(t, "angular_jerk.contact", k), w); });
 }
 
 // The cam-follower centre is where the cam's velocity is the follower's. A translating follower
@@ -336,6 +403,22 @@ TangentPhase tangent_closed_form(double theta, double w) {
   return {r - prime, -sign * w * dr, w * w * ddr, sign * std::asin(c * sp / l)};
 }
 
+// The same rise in a jet of the cam angle (flank and nose written again in its arithmetic): its
+// derivatives to round-off, the follower's jerk w^3 x''' at constant speed w.
+test::Jet tangent_rise(double theta) {
+  using test::Jet;
+  const double rb = 30e-3, rr = 17.5e-3, lift = 17.5e-3, alpha = 75 * kDeg;
+  const double rn = (rb - (rb + lift) * std::cos(alpha)) / (1 - std::cos(alpha));
+  const double c = rb + lift - rn, l = rn + rr, prime = rb + rr;
+  const double delta = std::atan2(l * std::sin(alpha), c + l * std::cos(alpha));
+  Jet t(std::remainder(theta - 0.5 * kDeg, 2 * kPi), 1.0);
+  if (t.v > alpha) t = 2 * alpha - t;  // the fall, the rise's mirror
+  if (t.v <= 0.0) return 0.0;
+  if (t.v <= alpha - delta) return prime * (1.0 / cos(t) - 1.0);
+  const Jet phi = alpha - t, sp = sin(phi);
+  return c * cos(phi) + sqrt(l * l - c * c * sp * sp) - prime;
+}
+
 // The tangent cam's follower, solved by Newton on the profile's pitch curve, against the
 // textbook's closed forms of its flank and nose phases. At the start of lift the acceleration is
 // w^2 (Rb + Rr) = 187.52 m/s^2 at 600 rpm; the print's 187.6 is that value with pi = 3.142.
@@ -350,6 +433,11 @@ TEST(CamJoints, TangentCamFollowsItsFlankAndNoseClosedForms) {
   expect_channel(t, "sddot.follower", [&](int k) { return at(k).a; });
   expect_channel(
       t, "phi.contact", [&](int k) { return at(k).phi; }, true);
+  expect_channel(t, "jerk.contact", [&](int k) {
+    const test::Jet x = tangent_rise(t.swept(k));
+    EXPECT_NEAR(x.dd * w * w, at(k).a, 1e-9 * w * w * 0.05) << k;  // the jet is the closed form
+    return w * w * w * x.ddd;
+  });
   // The apex: a slider-crank at its dead centre, a = -w^2 c (1 + c / (Rn + Rr)).
   const double cos_ascent = std::cos(75 * kDeg);
   const double rn = (30e-3 - 47.5e-3 * cos_ascent) / (1 - cos_ascent), c = 47.5e-3 - rn;
@@ -495,6 +583,16 @@ TEST(CamJoints, EccentricShapeIsThePinInItsArcAndTheScotchYoke) {
   for (const std::string channel : {"x.C", "vx.C", "ax.C", "s.follower", "torque.driver",
                                     "fx.roller", "fy.roller", "fx.A", "fy.A"})
     expect_channel(cammed, channel, [&](int k) { return value(pinned, channel, k); });
+  // The roller's jerk: the offset slider-crank's x = e cos t + sqrt((R + r)^2 - (f - e sin t)^2),
+  // f = 0.01 the line's offset, differentiated in a jet of the cam angle.
+  const double speed = bundled("eccentric_cam_roller").drivers[0].law.speed;
+  expect_channel(cammed, "jerk.roller", [&](int k) {
+    const test::Jet a(cammed.swept(k), 1.0);
+    const test::Jet x =
+        0.04 * cos(a) + sqrt(0.12 * 0.12 - (0.01 - 0.04 * sin(a)) * (0.01 - 0.04 * sin(a)));
+    EXPECT_NEAR(x.v, value(pinned, "x.C", k), 1e-12) << k;  // the jet is the slider-crank
+    return speed * speed * speed * x.ddd;
+  });
 
   const Mechanism m = bundled("eccentric_flat_faced");
   const Trajectory t = sweep(m);
@@ -506,6 +604,7 @@ TEST(CamJoints, EccentricShapeIsThePinInItsArcAndTheScotchYoke) {
   expect_channel(t, "s.follower", [&](int s) { return 0.04 - e * std::cos(t.swept(s)); });
   expect_channel(t, "sdot.follower", [&](int s) { return e * w * std::sin(t.swept(s)); });
   expect_channel(t, "sddot.follower", [&](int s) { return e * w * w * std::cos(t.swept(s)); });
+  expect_channel(t, "jerk.contact", [&](int s) { return -e * w * w * w * std::sin(t.swept(s)); });
   expect_channel(t, "fy.contact", [&](int s) { return n(t.swept(s), w); });
   for (int s = 0; s < t.samples(); ++s) {
     EXPECT_NEAR(value(t, "fx.contact", s), 0.0, 1e-12);

@@ -404,6 +404,32 @@ TEST_P(EveryKind, VelocityAndAccelerationAlongATrajectory) {
   }
 }
 
+// Along the same trajectory (q''' = 0) the jerk terms are d/dt of the second derivative
+// J(q) qddot + (velocity-squared terms at q, qdot); the right-hand side adds the driver's jerk.
+TEST_P(EveryKind, JerkTermsAreTheSecondDerivativesRate) {
+  const ConstraintLayout layout(every_kind(GetParam()));
+  const Eigen::VectorXd q0 = pose(), v = rate(), a = accel();
+  auto second = [&](double t) {
+    const Eigen::VectorXd q = q0 + v * t + 0.5 * a * t * t, qdot = v + a * t;
+    Eigen::VectorXd squared(layout.rows());
+    for (const ConstraintRows& c : layout.blocks())
+      c.velocity_squared(LinkFrames{q}, qdot, squared);
+    return Eigen::VectorXd(jacobian(layout, q) * a + squared);
+  };
+  const double h = 1e-5;
+  const Eigen::VectorXd numeric = (second(h) - second(-h)) / (2 * h);
+  Eigen::VectorXd terms(layout.rows());
+  for (const ConstraintRows& c : layout.blocks()) c.jerk_terms(LinkFrames{q0}, v, a, terms);
+  EXPECT_LT((terms - numeric).lpNorm<Eigen::Infinity>(), 1e-6) << terms.transpose() << "\n"
+                                                               << numeric.transpose();
+  EXPECT_GT(numeric.lpNorm<Eigen::Infinity>(), 1e-3);  // terms to check
+  const DriverState driver{0.0, 0.0, 2.5, -4.0, 7.0};
+  Eigen::VectorXd eta(layout.rows());
+  layout.jerk_rhs(LinkFrames{q0}, v, a, {&driver, 1}, eta);
+  for (int r = 0; r < layout.rows(); ++r)
+    EXPECT_NEAR(eta(r), -terms(r) + (r == layout.driver_row(0) ? driver.jerk : 0.0), 1e-15);
+}
+
 INSTANTIATE_TEST_SUITE_P(Drivers, EveryKind,
                          testing::Values(DriverType::joint_angle, DriverType::slider,
                                          DriverType::link_angle),

@@ -30,6 +30,7 @@
 #include "analytic/reference/dyad_sweep.h"
 #include "analytic/reference/sweep.h"
 #include "tests/common/exact.h"
+#include "tests/common/jet.h"
 #include "tests/common/mechanisms.h"
 
 namespace crosslink {
@@ -43,48 +44,7 @@ constexpr double kDeg = kPi / 180.0;
 // omega of -4.19 rad/s for +6.28: O(1)).
 constexpr double kRoundOff = 1e-9;
 
-// A value and its first two derivatives with respect to the driver.
-struct Jet {
-  double v = 0, d = 0, dd = 0;
-  Jet() = default;
-  Jet(double value, double d1 = 0, double d2 = 0) : v(value), d(d1), dd(d2) {}
-};
-Jet operator+(Jet a, Jet b) {
-  return {a.v + b.v, a.d + b.d, a.dd + b.dd};
-}
-Jet operator-(Jet a, Jet b) {
-  return {a.v - b.v, a.d - b.d, a.dd - b.dd};
-}
-Jet operator*(Jet a, Jet b) {
-  return {a.v * b.v, a.d * b.v + a.v * b.d, a.dd * b.v + 2 * a.d * b.d + a.v * b.dd};
-}
-// f(a) from f, f', f'' at a.v (the chain rule to second order).
-Jet apply(Jet a, double f, double f1, double f2) {
-  return {f, f1 * a.d, f2 * a.d * a.d + f1 * a.dd};
-}
-Jet operator/(Jet a, Jet b) {
-  return a * apply(b, 1 / b.v, -1 / (b.v * b.v), 2 / (b.v * b.v * b.v));
-}
-Jet sqrt(Jet a) {
-  const double s = std::sqrt(a.v);
-  return apply(a, s, 0.5 / s, -0.25 / (s * a.v));
-}
-Jet cos(Jet a) {
-  return apply(a, std::cos(a.v), -std::sin(a.v), -std::cos(a.v));
-}
-Jet sin(Jet a) {
-  return apply(a, std::sin(a.v), std::cos(a.v), -std::sin(a.v));
-}
-Jet acos(Jet a) {
-  const double w = 1 - a.v * a.v;
-  return apply(a, std::acos(a.v), -1 / std::sqrt(w), -a.v / (w * std::sqrt(w)));
-}
-// atan2(y, x): d = (x dy - y dx) / r^2, differentiated once more.
-Jet atan2(Jet y, Jet x) {
-  const Jet r2 = x * x + y * y;
-  const Jet rate = (x * Jet(y.d, y.dd) - y * Jet(x.d, x.dd)) / r2;
-  return {std::atan2(y.v, x.v), rate.v, rate.d};
-}
+using test::Jet;  // a value and its derivatives with respect to the driver
 
 struct Vec {
   Jet x, y;

@@ -114,6 +114,7 @@ Agreement agreement(const Mechanism& m, const Trajectory& exact, const Trajector
           a.worst_acceleration = name;
         }
         break;
+      case Quantity::jerk:
       case Quantity::force:
       case Quantity::torque:
       case Quantity::energy:
