@@ -74,6 +74,15 @@ std::string joint_text(const Mechanism& m, const Joint& j) {
         centre, f.base_radius / mm, unit, roller, j.contour->least_radius_of_curvature() / mm, unit,
         j.contour->largest_pressure_angle() * 180.0 / std::numbers::pi, closure);
   }
+  if (j.type == JointType::pin_in_spline) {
+    std::vector<std::string> through;
+    for (int p : j.through) through.push_back(m.links[j.link_a].points[p].name);
+    return fmt::format(
+        "pin_in_slot  {} in a spline slot of {} (point {}, through {}, {:g} {} "
+        "along its chord)",
+        m.links[j.link_b].name, m.links[j.link_a].name, m.links[j.link_b].points[j.point_b].name,
+        fmt::join(through, ", "), j.slot->last() / mm, unit);
+  }
   if (j.type == JointType::pin_in_arc)
     return fmt::format("pin_in_slot  {} in an arc of {} (point {}, radius {:g} {} about {})",
                        m.links[j.link_b].name, m.links[j.link_a].name,
@@ -391,10 +400,17 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
         "positions over a sweep need a speed\n";
   } else if (!m.axis().timed() && m.swept().law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m, options);
-    out += fmt::format("  assembling range: {}{}\n", range.explain(m),
+    const bool slot_ends = std::any_of(m.joints.begin(), m.joints.end(), [](const Joint& j) {
+      return j.type == JointType::pin_in_spline;
+    });
+    out += fmt::format("  assembling range: {}{}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
                            ? ""
-                           : " (limits: toggles; the chain cannot close beyond)");
+                           : " (limits: toggles; the chain cannot close beyond)",
+                       slot_ends ? "; within it a spline slot's ends stop its pin where the "
+                                   "sweep's cannot_assemble events below say (at the first "
+                                   "sample past each)"
+                                 : "");
   }
   std::vector<SingularPosition> singular;
   if (!m.at_rest()) report.sweep = print_singular_positions(m, options, out, singular);

@@ -498,6 +498,13 @@ SceneGraph scene_graph(const Mechanism& m, const TreePolicy& policy) {
   for (size_t ji = 0; ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];
     if (j.is_gearing()) continue;  // a SceneCoupling, once the tree is known
+    if (j.type == JointType::pin_in_spline)
+      throw std::runtime_error(fmt::format(
+          "joint '{}': a pin in a spline slot is not built in the engines: none has a point-on-"
+          "curve row for a curve other than a line or a circle (a groove's walls as contact "
+          "shapes, or a custom constraint, would be the engine's own model); the exact methods "
+          "solve it (docs/cams.md, \"Spline slots\")",
+          j.name));
     // A point held on a circle: the engine's own row, or an arm between two hinges (below).
     const std::optional<ArcGeometry> arc = arc_geometry(m, j);
     if (arc && policy.arc_rows) {

@@ -81,7 +81,9 @@ std::vector<Tie> ties_of(const Mechanism& m, int u, const std::vector<char>& pla
     if (used[ji] || other < 0 || !placed[other]) continue;
     const int joint = static_cast<int>(ji);
     // No closed form here for a curved slot or a cam: Newton's (below).
-    if (j.type == JointType::pin_in_arc || j.type == JointType::cam) continue;
+    if (j.type == JointType::pin_in_arc || j.type == JointType::pin_in_spline ||
+        j.type == JointType::cam)
+      continue;
     if (j.type == JointType::gear) {
       // Its other gear and its carrier placed, the rolling of the pitch circles
       // theta_a - theta_c + ratio (theta_b - theta_c) = phase gives u's angle.
@@ -359,10 +361,12 @@ Decomposition decompose(const Mechanism& m) {
       break;
     }
     for (const Joint& j : m.joints)
-      if (j.type == JointType::pin_in_arc || j.type == JointType::cam) {
+      if (j.type == JointType::pin_in_arc || j.type == JointType::pin_in_spline ||
+          j.type == JointType::cam) {
         why = j.type == JointType::cam
                   ? fmt::format("the dyads have no closed form for cam '{}'", j.name)
-                  : fmt::format("the dyads have no closed form for pin '{}' in its arc", j.name);
+                  : fmt::format("the dyads have no closed form for pin '{}' in its {}", j.name,
+                                j.type == JointType::pin_in_arc ? "arc" : "spline slot");
         break;
       }
     for (const Driver& d : m.drivers)

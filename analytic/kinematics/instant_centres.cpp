@@ -207,6 +207,19 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
            1.0, fmt::format("normal to arc {} at the pin", jt.name)});
       continue;
     }
+    if (jt.type == JointType::pin_in_spline) {  // on the slot's normal at the pin
+      const std::vector<Point>& guide = m.links[jt.link_a].points;
+      const Eigen::Vector2d start = guide[jt.through.front()].local;
+      const Eigen::Vector2d chord = (guide[jt.through.back()].local - start).normalized();
+      const Eigen::Vector2d pin = b.position(m.links[jt.link_b].points[jt.point_b].local);
+      const double x = a.turn(chord).dot(pin - a.position(start));
+      const Eigen::Vector2d u = a.turn(perp(chord) - jt.slot->at(x).dy * chord);
+      slot_lines[static_cast<size_t>(pair_index(n, jt.link_a, jt.link_b))].push_back(
+          {normalise_line(
+               Eigen::Vector3d(pin.x(), pin.y(), 1.0).cross(Eigen::Vector3d(u.x(), u.y(), 0.0))),
+           1.0, fmt::format("normal to spline slot {} at the pin", jt.name)});
+      continue;
+    }
     if (jt.type == JointType::cam) {  // on the common normal at the contact
       const CamContact contact = cam_contact(m, jt, a, b);
       const Eigen::Vector2d &p = contact.point, &u = contact.normal;

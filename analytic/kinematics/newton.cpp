@@ -277,6 +277,9 @@ NewtonSolver::NewtonSolver(const Mechanism& mechanism, NewtonOptions options)
       named_points_(mechanism.named_points()),
       slide_joints_(mechanism.slide_joints()),
       solves_jerk_(!cam_readings(mechanism).empty()) {
+  for (size_t j = 0; j < mechanism.joints.size(); ++j)
+    if (mechanism.joints[j].type == JointType::pin_in_spline)
+      spline_slots_.push_back(static_cast<int>(j));
   // A square system: one driver row per freedom (the loader refuses a mobility other than the
   // number of drivers).
   if (layout_.rows() != mechanism.coordinate_count())
@@ -761,6 +764,11 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
           drawn_rcond);
     }
   }
+  if (const SlotEnd past = usable(report.status) ? past_slot_end(state.q) : SlotEnd{};
+      !past.where.empty()) {  // the drawing's pin is beyond its slot
+    report.status = PoseStatus::cannot_assemble;
+    report.message = past.message;
+  }
   if (report.status == PoseStatus::ok) {
     solve_velocity(state);
     solve_acceleration(state);
@@ -771,6 +779,33 @@ SolveReport NewtonSolver::assemble(KinematicState& state) const {
     state.qdddot.setZero();
   }
   return report;
+}
+
+NewtonSolver::SlotEnd NewtonSolver::past_slot_end(const Eigen::VectorXd& q) const {
+  const Mechanism& m = mechanism_;
+  for (int j : spline_slots_) {
+    const ConstraintRows& slot = layout_.joint(j);
+    const double x = project(BodyMotion::of(slot.a, q, nullptr, nullptr), slot.point_a, slot.axis,
+                             BodyMotion::of(slot.b, q, nullptr, nullptr), slot.point_b)
+                         .value;
+    const double beyond = std::max(slot.slot->first() - x, x - slot.slot->last());
+    if (!(beyond > 1e-9 * length_scale_)) continue;
+    const Joint& joint = m.joints[static_cast<size_t>(j)];
+    const auto name = [&](int link, int point) -> const std::string& {
+      return m.links[static_cast<size_t>(link)].points[static_cast<size_t>(point)].name;
+    };
+    SlotEnd out;
+    out.where = fmt::format(
+        "past the end {} of spline slot '{}'",
+        name(joint.link_a, x < slot.slot->first() ? joint.through.front() : joint.through.back()),
+        joint.name);
+    out.message = fmt::format(
+        "the pin {} is {} (by {:.6g} m along its chord): the slot's end stops the motion, so "
+        "there is no pose here",
+        name(joint.link_b, joint.point_b), out.where, beyond);
+    return out;
+  }
+  return {};
 }
 
 void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& report,
@@ -825,6 +860,15 @@ void NewtonSolver::write_sample(const KinematicState& state, const SolveReport& 
     for (size_t c = 0; c < out.cams.size(); ++c)
       out.jerk(row, static_cast<Eigen::Index>(c)) = out.cams[c].reading.follower_jerk(state.qdddot);
   out.flag_non_finite(row);
+  if (has_position(out.status[static_cast<size_t>(row)]))
+    if (const SlotEnd past = past_slot_end(state.q); !past.where.empty()) {
+      out.status[static_cast<size_t>(row)] = PoseStatus::cannot_assemble;
+      if (std::none_of(out.events.begin(), out.events.end(), [&](const Trajectory::Event& e) {
+            return e.kind == PoseStatus::cannot_assemble &&
+                   e.message.find(past.where) != std::string::npos;
+          }))
+        out.events.push_back({out.along(row), PoseStatus::cannot_assemble, past.message});
+    }
 }
 
 }  // namespace crosslink

@@ -191,7 +191,16 @@ class NewtonSolver {
   // The rows of Phi: each joint's and the driver's, their equations and which are angles.
   const ConstraintLayout& layout() const { return layout_; }
 
-  // Writes sample `row` of a trajectory from a solved state.
+  // The first spline slot whose pin lies past one of its ends at q: `where` names the end and the
+  // slot, `message` says it; both empty when every pin is in its slot.
+  struct SlotEnd {
+    std::string where, message;
+  };
+  SlotEnd past_slot_end(const Eigen::VectorXd& q) const;
+
+  // Writes sample `row` of a trajectory from a solved state. A pose whose pin lies past an end of
+  // its spline slot does not exist (the slot's end stops the motion): the sample is flagged
+  // cannot_assemble, and the trajectory's first such sample gets an event.
   void write_sample(const KinematicState& state, const SolveReport& report, Trajectory& out,
                     int row) const;
 
@@ -225,7 +234,8 @@ class NewtonSolver {
   std::vector<int> scaled_rows_;  // rows whose scale is not 1
   std::vector<Mechanism::NamedPoint> named_points_;
   std::vector<int> slide_joints_;
-  bool solves_jerk_ = false;  // a cam's follower has a jerk to report
+  bool solves_jerk_ = false;       // a cam's follower has a jerk to report
+  std::vector<int> spline_slots_;  // joints whose pin must stay between its slot's ends
 };
 
 }  // namespace crosslink

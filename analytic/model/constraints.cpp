@@ -69,6 +69,20 @@ void arc_gradient(const LinkFrames& frames, int ka, const Eigen::Vector2d& centr
   }
 }
 
+// A pin in a spline slot: its place along the chord (x) and its height over it (y), with their
+// first two time derivatives (at the frames' rates), and the curve there.
+struct SlotOffset {
+  Projection x, y;
+  SplinePoint curve;
+};
+SlotOffset slot_offset(const ConstraintRows& c, const BodyMotion& a, const BodyMotion& b) {
+  SlotOffset o{project(a, c.point_a, c.axis, b, c.point_b),
+               project(a, c.point_a, perp(c.axis), b, c.point_b),
+               {}};
+  o.curve = c.slot->at(o.x.value);
+  return o;
+}
+
 // A knife edge or roller's centre P_b on the pitch curve rho(psi) of cam a about C_a, at the
 // polar angle psi = angle(P_b - C_a) - theta_a of the cam's frame.
 double pitch_angle(const BodyMotion& a, const ArcOffset& o) {
@@ -174,6 +188,12 @@ void write_jacobian(const ConstraintRows& c, const LinkFrames& frames, Matrix& j
     case Kind::pin_in_arc:
       arc_gradient(frames, a, c.point_a, b, c.point_b, jac, row);
       return;
+    case Kind::pin_in_spline: {  // d(y - f(x)) = the projection's on n - f'(x) u, frozen
+      const SlotOffset o = slot_offset(c, frames.of(a), frames.of(b));
+      projection_gradient(frames, a, c.point_a, perp(c.axis) - o.curve.dy * c.axis, b, c.point_b,
+                          jac, row);
+      return;
+    }
     case Kind::cam_pitch:
       pitch_gradient(c, frames, jac, row);
       return;
@@ -273,6 +293,14 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
     c.point_a =
         m.links[static_cast<size_t>(j.link_a)].points[static_cast<size_t>(j.centre_a)].local;
     c.radius = j.radius_a;
+    return c;
+  }
+  if (j.type == JointType::pin_in_spline) {
+    const Link& guide = m.links[static_cast<size_t>(j.link_a)];
+    c.kind = Kind::pin_in_spline;
+    c.point_a = guide.points[static_cast<size_t>(j.through.front())].local;
+    c.axis = (guide.points[static_cast<size_t>(j.through.back())].local - c.point_a).normalized();
+    c.slot = j.slot;
     return c;
   }
   if (j.type == JointType::revolute) {
@@ -435,6 +463,10 @@ double ConstraintRows::value(const LinkFrames& frames) const {
              ratio * (angle_of(q, c) - angle_of(q, a)) - angle;
     case Kind::pin_in_arc:
       return arc_offset(frames.of(a), point_a, frames.of(b), point_b).length - radius;
+    case Kind::pin_in_spline: {
+      const SlotOffset o = slot_offset(*this, frames.of(a), frames.of(b));
+      return o.y.value - o.curve.y;
+    }
     case Kind::cam_pitch: {
       const BodyMotion ma = frames.of(a);
       const ArcOffset o = arc_offset(ma, point_a, frames.of(b), point_b);
@@ -464,6 +496,7 @@ void ConstraintRows::position(const LinkFrames& frames, Eigen::VectorXd& phi) co
     }
     case Kind::pin_in_slot:
     case Kind::pin_in_arc:
+    case Kind::pin_in_spline:
     case Kind::cam_pitch:
     case Kind::cam_face:
     case Kind::angle_driver:
@@ -499,6 +532,11 @@ void ConstraintRows::velocity_squared(const LinkFrames& frames, const Eigen::Vec
       const double along = o.e.dot(rate);
       out(first_row) = o.e.dot(mb.acceleration(point_b) - ma.acceleration(point_a)) +
                        (o.length > 0.0 ? (rate.squaredNorm() - along * along) / o.length : 0.0);
+      return;
+    }
+    case Kind::pin_in_spline: {  // y'' - f'' x'^2 - f' x'', with qddot = 0
+      const SlotOffset o = slot_offset(*this, frames.of(a, &qdot), frames.of(b, &qdot));
+      out(first_row) = o.y.accel - o.curve.ddy * o.x.rate * o.x.rate - o.curve.dy * o.x.accel;
       return;
     }
     case Kind::cam_pitch: {
@@ -606,6 +644,15 @@ void ConstraintRows::jerk_terms(const LinkFrames& frames, const Eigen::VectorXd&
     case Kind::pin_in_arc:
       out(first_row) = polar_jet(point_jet(mb, point_b) - point_jet(ma, point_a)).r3;
       return;
+    case Kind::pin_in_spline: {  // y''' - f''' x'^3 - 3 f'' x' x'' - f' x''', with q''' = 0
+      const SlotOffset o = slot_offset(*this, ma, mb);
+      const Jet d = point_jet(mb, point_b) - point_jet(ma, point_a);
+      const double x3 = dot_jerk(vector_jet(ma, axis), d);
+      const double y3 = dot_jerk(vector_jet(ma, perp(axis)), d);
+      out(first_row) = y3 - o.curve.dddy * o.x.rate * o.x.rate * o.x.rate -
+                       3.0 * o.curve.ddy * o.x.rate * o.x.accel - o.curve.dy * x3;
+      return;
+    }
     case Kind::cam_pitch: {
       // |d| - rho(psi), psi = angle(d) - theta_a: psi' = angle' - omega_a, psi'' = angle'' -
       // alpha_a, psi''' = angle'''.

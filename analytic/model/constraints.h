@@ -14,7 +14,8 @@
 // place a joint type's equations are written.
 //
 // Rows: the joints in Mechanism::joints order (revolute 2, prismatic 2: its line then its
-// relative angle, pin-in-slot 1: its line, pin in an arc 1: its distance from the centre, gear
+// relative angle, pin-in-slot 1: its line, pin in an arc 1: its distance from the centre, pin
+// in a spline slot 1: its height over the chord less the curve's, gear
 // pair and rack 1: the rolling of the pitch circles), then one row per driver in
 // Mechanism::drivers order.
 #pragma once
@@ -55,6 +56,7 @@ struct ConstraintRows {
     prismatic,      // n_a . (P_b - O_a) = 0, theta_b - theta_a - angle = 0    (2 rows)
     pin_in_slot,    // n_a . (P_b - O_a) = 0                                   (1 row)
     pin_in_arc,     // |P_b - C_a| - radius = 0                                (1 row)
+    pin_in_spline,  // n_a . (P_b - O_a) - y(u_a . (P_b - O_a)) = 0            (1 row)
     cam_pitch,      // |P_b - C_a| - rho(angle(P_b - C_a) - theta_a) = 0       (1 row)
     cam_face,       // n_b . (O_b - C_a) - h(theta_b + angle - theta_a) = 0    (1 row)
     angle_driver,   // theta_b + angle - theta_a - d(t) = 0                    (1 row)
@@ -78,6 +80,9 @@ struct ConstraintRows {
   // gear pairs: the phase [rad or m].
   double angle = 0.0;
   double radius = 0.0;  // pin_in_arc: the arc's, about point_a [m]
+  // pin_in_spline: the slot's centreline y(x) over its chord, which starts at point_a and runs
+  // along `axis` (u_a; n_a is it turned by +90 degrees).
+  std::shared_ptr<const NaturalSpline> slot;
   // Cams: the profile about the cam's centre point_a (rho, or h), on a the cam and b the
   // follower: point_b its knife edge or roller's centre, or its face's origin with the face's
   // normal `axis` (away from the cam) at `angle` in b's frame.

@@ -361,7 +361,8 @@ void read_friction(Reader& r, const Mechanism& m, const toml::table& t, Joint& j
                    const std::string& what) {
   const toml::node* node = t.get("friction");
   if (!node) return;
-  if (joint.type == JointType::pin_in_slot || joint.type == JointType::pin_in_arc) {
+  if (joint.type == JointType::pin_in_slot || joint.type == JointType::pin_in_arc ||
+      joint.type == JointType::pin_in_spline) {
     r.error(r.at(*node),
             fmt::format("{}: friction on a pin in a slot is not modelled (its contact rolls and "
                         "slides at once): model the pin as a block on a prismatic joint",
@@ -453,6 +454,67 @@ void read_arc(Reader& r, const Mechanism& m, const toml::node& node, const std::
     joint.centre_a = resolve_point(r, m, joint.link_a, arc->get("centre"), *centre, awhat);
 }
 
+// A pin in a spline slot: `spline = { through = ["S1", "S2", "S3"] }` in place of `line`, the
+// slot's centreline a natural cubic spline through points of the guide in order, a graph over
+// its chord from the first to the last (docs/mechanism-format.md, "Curved slots").
+void read_spline(Reader& r, const Mechanism& m, const toml::node& node, const std::string& what,
+                 Joint& joint) {
+  joint.type = JointType::pin_in_spline;
+  const auto* spline = node.as_table();
+  const std::string swhat = fmt::format("the spline of {}", what);
+  const toml::node* through = spline ? spline->get("through") : nullptr;
+  const auto* names = through ? through->as_array() : nullptr;
+  if (!spline || !names) {
+    r.error(r.at(through ? *through : node),
+            fmt::format("'spline' in {} must be a table of the guide's points it runs through, "
+                        "in order, e.g. spline = {{ through = [\"S1\", \"S2\", \"S3\"] }}",
+                        what));
+    return;
+  }
+  r.known_keys(*spline, swhat, {"through"});
+  if (joint.link_a < 0) return;
+  std::vector<Eigen::Vector2d> at;
+  for (const toml::node& n : *names) {
+    const std::optional<std::string> name = n.value<std::string>();
+    const int point = name ? resolve_point(r, m, joint.link_a, &n, *name, swhat) : -1;
+    if (!name) r.error(r.at(n), fmt::format("'through' in {} holds point names", swhat));
+    if (point < 0) return;
+    joint.through.push_back(point);
+    at.push_back(m.links[joint.link_a].points[point].local);
+  }
+  if (at.size() < 3) {
+    r.error(r.at(*through), fmt::format("'through' in {} needs at least three points (two make "
+                                        "a straight slot: a line)",
+                                        swhat));
+    return;
+  }
+  const Eigen::Vector2d chord = at.back() - at.front();
+  if (!(chord.norm() > 0.0)) {
+    r.error(r.at(*through), fmt::format("{} ends where it starts: a slot has two ends (a closed "
+                                        "groove is a cam joint's)",
+                                        swhat));
+    return;
+  }
+  // The centreline as y(x) over the chord: each point further along it than the one before.
+  const Eigen::Vector2d along = chord.normalized();
+  std::vector<double> x, y;
+  for (size_t i = 0; i < at.size(); ++i) {
+    x.push_back(along.dot(at[i] - at.front()));
+    y.push_back(cross(along, at[i] - at.front()));
+    if (i > 0 && !(x[i] > x[i - 1])) {
+      r.error(r.at((*names)[i]),
+              fmt::format("{}: point '{}' is not further along the chord (from '{}' to '{}') "
+                          "than the point before it: the slot is held as a curve over its chord, "
+                          "so it may bend, but not turn back (split it, or use an arc)",
+                          swhat, m.links[joint.link_a].points[joint.through[i]].name,
+                          m.links[joint.link_a].points[joint.through.front()].name,
+                          m.links[joint.link_a].points[joint.through.back()].name));
+      return;
+    }
+  }
+  joint.slot = std::make_shared<const NaturalSpline>(std::move(x), std::move(y));
+}
+
 }  // namespace
 
 Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index) {
@@ -497,19 +559,28 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
     std::vector<std::string> keys = {"type",   "name",  "guide",   "line",
                                      "slider", "point", "friction"};
     if (joint.type == JointType::prismatic) keys.push_back("angle");
-    if (joint.type == JointType::pin_in_slot) keys.push_back("arc");
+    if (joint.type == JointType::pin_in_slot) {
+      keys.push_back("arc");
+      keys.push_back("spline");
+    }
     r.known_keys(t, twhat, keys);
     joint.link_a = resolve_link(r, m, t, "guide", twhat);
     joint.link_b = resolve_link(r, m, t, "slider", twhat);
     const toml::node* arc = t.get("arc");
-    if (arc && t.get("line")) {
-      r.error(r.at(*arc), fmt::format("{} gives both 'line' and 'arc': a slot is straight (line) "
-                                      "or a circular arc (arc)",
-                                      twhat));
+    const toml::node* spline = t.get("spline");
+    if ((arc != nullptr) + (spline != nullptr) + (t.get("line") != nullptr) > 1) {
+      r.error(r.at(arc ? *arc : *spline),
+              fmt::format("{} gives more than one of 'line', 'arc' and 'spline': a slot is "
+                          "straight (line), a circular arc (arc) or a curve through points "
+                          "(spline)",
+                          twhat));
       return joint;
     }
     if (arc) read_arc(r, m, *arc, twhat, joint);
-    const std::optional<std::string> line = arc ? std::nullopt : r.string(t, "line", twhat, true);
+    if (spline) read_spline(r, m, *spline, twhat, joint);
+    const bool curved = arc || spline;
+    const std::optional<std::string> line =
+        curved ? std::nullopt : r.string(t, "line", twhat, true);
     const std::optional<std::string> point = r.string(t, "point", twhat, true);
     if (joint.link_a >= 0 && line)
       joint.line = resolve_line(r, m, joint.link_a, t.get("line"), *line, twhat);
@@ -519,7 +590,9 @@ Joint read_joint(Reader& r, const Mechanism& m, const toml::table& t, int index)
       r.error(joint.where, fmt::format("{}: guide and slider are the same link", twhat));
     const std::string default_name =
         (joint.link_b >= 0 ? m.links[joint.link_b].name : std::string("?")) + "/" +
-        (arc ? std::string("arc") : line.value_or("?"));
+        (arc      ? std::string("arc")
+         : spline ? std::string("spline")
+                  : line.value_or("?"));
     joint.name = r.string(t, "name", twhat, false).value_or(default_name);
     if (joint.type == JointType::prismatic) {
       if (const auto angle = r.number(t, "angle", twhat, false, angle_scale(m.units))) {

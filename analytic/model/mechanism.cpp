@@ -1,6 +1,7 @@
 #include "analytic/model/mechanism.h"
 
 #include "analytic/model/planar.h"
+#include "analytic/model/spline.h"
 
 #include <fmt/format.h>
 
@@ -57,6 +58,8 @@ std::string_view to_string(JointType type) {
       return "pin_in_slot";
     case JointType::pin_in_arc:
       return "pin_in_arc";
+    case JointType::pin_in_spline:
+      return "pin_in_spline";
     case JointType::cam:
       return "cam";
     case JointType::gear:
@@ -78,36 +81,6 @@ std::string_view to_string(DriverType type) {
   }
   return "?";
 }
-
-namespace {
-// Natural cubic spline through (t_i, v_i): value and first three derivatives at t.
-DriverState spline_at(const std::vector<double>& t, const std::vector<double>& v, double time) {
-  const size_t n = t.size();
-  // Second derivatives M_i by the tridiagonal system of a natural spline (M_0 = M_n-1 = 0).
-  std::vector<double> m(n, 0.0), c(n, 0.0), d(n, 0.0);
-  for (size_t i = 1; i + 1 < n; ++i) {
-    const double h0 = t[i] - t[i - 1], h1 = t[i + 1] - t[i];
-    const double a = h0, b = 2.0 * (h0 + h1), cc = h1;
-    const double r = 6.0 * ((v[i + 1] - v[i]) / h1 - (v[i] - v[i - 1]) / h0);
-    const double denom = b - a * c[i - 1];
-    c[i] = cc / denom;
-    d[i] = (r - a * d[i - 1]) / denom;
-  }
-  for (size_t i = n - 2; i >= 1; --i) m[i] = d[i] - c[i] * m[i + 1];
-  const size_t k = std::clamp<size_t>(
-      static_cast<size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin()), 1, n - 1);
-  const double h = t[k] - t[k - 1], a = (t[k] - time) / h, b = (time - t[k - 1]) / h;
-  DriverState s;
-  s.time = time;
-  s.value =
-      a * v[k - 1] + b * v[k] + ((a * a * a - a) * m[k - 1] + (b * b * b - b) * m[k]) * h * h / 6.0;
-  s.rate = (v[k] - v[k - 1]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m[k - 1] +
-           (3.0 * b * b - 1.0) / 6.0 * h * m[k];
-  s.accel = a * m[k - 1] + b * m[k];
-  s.jerk = (m[k] - m[k - 1]) / h;
-  return s;
-}
-}  // namespace
 
 std::string_view to_string(MotionLaw::Kind kind) {
   switch (kind) {
@@ -153,9 +126,14 @@ DriverState Driver::at_time(double t) const {
       s.jerk = jerk;
       break;
     }
-    case MotionLaw::Kind::table:
-      s = spline_at(law.table_time, law.table_value, t);
+    case MotionLaw::Kind::table: {
+      const SplinePoint p = NaturalSpline(law.table_time, law.table_value).at(t);
+      s.value = p.y;
+      s.rate = p.dy;
+      s.accel = p.ddy;
+      s.jerk = p.dddy;
       break;
+    }
   }
   return s;
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analytic/model/cam.h"
+#include "analytic/model/spline.h"
 
 namespace crosslink {
 
@@ -81,17 +82,20 @@ struct Link {
 };
 
 enum class JointType {
-  revolute,     // point `point_a` of link_a coincides with point `point_b` of link_b
-  prismatic,    // point `point_b` of link_b (the slider) stays on line `line` of link_a (the
-                // guide), and the two links keep their relative angle
-  pin_in_slot,  // point `point_b` of link_b stays on line `line` of link_a; rotation free
-  pin_in_arc,   // point `point_b` of link_b stays on a circle of link_a (a curved slot, or a
-                // roller's centre about an eccentric cam): radius `radius_a` about point
-                // `centre_a` of link_a; rotation free
-  cam,          // link_b (the follower) touches the profile cut in link_a (the cam) about its
-                // point `centre_a`: a knife edge or a roller's centre, point `point_b`, stays
-                // on the pitch curve; or a flat face, line `line` of link_b, stays tangent to
-                // the profile (`contour`, docs/cams.md); sliding and rolling free
+  revolute,       // point `point_a` of link_a coincides with point `point_b` of link_b
+  prismatic,      // point `point_b` of link_b (the slider) stays on line `line` of link_a (the
+                  // guide), and the two links keep their relative angle
+  pin_in_slot,    // point `point_b` of link_b stays on line `line` of link_a; rotation free
+  pin_in_arc,     // point `point_b` of link_b stays on a circle of link_a (a curved slot, or a
+                  // roller's centre about an eccentric cam): radius `radius_a` about point
+                  // `centre_a` of link_a; rotation free
+  pin_in_spline,  // point `point_b` of link_b stays on a curved slot of link_a: a natural cubic
+                  // spline through points `through` of link_a, a graph y(x) over its chord
+                  // (`slot`); rotation free
+  cam,            // link_b (the follower) touches the profile cut in link_a (the cam) about its
+                  // point `centre_a`: a knife edge or a roller's centre, point `point_b`, stays
+                  // on the pitch curve; or a flat face, line `line` of link_b, stays tangent to
+                  // the profile (`contour`, docs/cams.md); sliding and rolling free
   // Higher pairs (Kutzbach's j2: one freedom taken), coupling rotations by rolling pitch circles:
   gear,         // gear link_a meshes with gear link_b, both turning about points of `carrier`:
                 // (theta_a - theta_c) + ratio (theta_b - theta_c) = phase
@@ -158,6 +162,11 @@ struct Joint {
   // cam: the profile cut in link_a, in link_a's frame about point centre_a (its own frame's
   // axes are link_a's); `line`, for a flat face, is link_b's.
   std::shared_ptr<const cam::Contour> contour;
+  // pin_in_spline: the slot's points on link_a, first to last, and its centreline y(x), x along
+  // the chord from the first point towards the last, y to the chord's left (docs/cams.md,
+  // "Spline slots").
+  std::vector<int> through;
+  std::shared_ptr<const NaturalSpline> slot;
   // cam: a groove holds the follower on both sides (form closure); else the contact only pushes
   // and a spring or gravity keeps the follower on the cam (force closure), which it leaves where
   // the motion would need a pull (PoseStatus::contact_lost).
@@ -169,7 +178,7 @@ struct Joint {
   // Freedoms it allows between its two links (a higher pair allows 2: Kutzbach's j2).
   int dof() const {
     return type == JointType::pin_in_slot || type == JointType::pin_in_arc ||
-                   type == JointType::cam || is_gearing()
+                   type == JointType::pin_in_spline || type == JointType::cam || is_gearing()
                ? 2
                : 1;
   }

@@ -36,7 +36,8 @@ Point point(const char* name, double x, double y) {
 // slide: revolute G-A, revolute A-B, prismatic A-C (A the guide), pin-in-slot G-B (G the slot),
 // prismatic G-C, a gear pair A-C about B, A as a pinion on the rack C of G-C, C's pin S in an
 // arc of A about its point O, B's point E a roller on a cam A about O, and C's face a flat-faced
-// follower on a cam B about its point B. Not a mechanism of mobility one: the layout does not
+// follower on a cam B about its point B, and C's point S in a spline slot of A through its
+// points Q1 ... Q4. Not a mechanism of mobility one: the layout does not
 // need a square system. The driver is of `type`; `scale` multiplies every length (1000: the
 // same mechanism in mm).
 Mechanism every_kind(DriverType type, double scale = 1.0) {
@@ -49,8 +50,16 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
                           Eigen::Vector2d(-0.2 * s, 0.05 * s),
                           Eigen::Vector2d(std::cos(2.0), std::sin(2.0)),
                           {}});
-  Link a{"A", false, {point("O", 0.05 * s, -0.02 * s), point("B", 0.7 * s, 0.1 * s)}, {}, {}, {},
-         {},  {}};
+  Link a{"A",
+         false,
+         {point("O", 0.05 * s, -0.02 * s), point("B", 0.7 * s, 0.1 * s),
+          point("Q1", -0.1 * s, -0.3 * s), point("Q2", 0.1 * s, -0.2 * s),
+          point("Q3", 0.3 * s, -0.32 * s), point("Q4", 0.6 * s, -0.25 * s)},
+         {},
+         {},
+         {},
+         {},
+         {}};
   a.lines.push_back({"guide",
                      Eigen::Vector2d(0.2 * s, -0.1 * s),
                      Eigen::Vector2d(std::cos(-0.4), std::sin(-0.4)),
@@ -111,6 +120,18 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
   flat.contour = std::make_shared<const cam::Contour>(rise, face);
   m.joints.push_back(pitch);
   m.joints.push_back(flat);
+  // The spline over its chord Q1-Q4: each point's place along it and height to its left.
+  Joint spline = joint("ACs", JointType::pin_in_spline, 1, 3, -1, 0, -1, 0.0);
+  spline.through = {2, 3, 4, 5};
+  const Eigen::Vector2d q1 = a.points[2].local, chord = (a.points[5].local - q1).normalized();
+  std::vector<double> along, height;
+  for (int p : spline.through) {
+    const Eigen::Vector2d d = a.points[static_cast<size_t>(p)].local - q1;
+    along.push_back(chord.dot(d));
+    height.push_back(chord.x() * d.y() - chord.y() * d.x());
+  }
+  spline.slot = std::make_shared<const NaturalSpline>(along, height);
+  m.joints.push_back(spline);
   Driver d;
   d.type = type;
   switch (type) {
@@ -191,14 +212,15 @@ TEST_P(EveryKind, LayoutHasEveryKindInOrder) {
     kinds.insert(c.kind);
   }
   EXPECT_EQ(row, layout.rows());
-  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 1 + 1 + 1);
+  EXPECT_EQ(layout.rows(), 2 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 1 + 1 + 1 + 1);
   EXPECT_EQ(layout.joint_row_count(), layout.rows() - 1);
   EXPECT_EQ(layout.driver_count(), 1);
   EXPECT_EQ(layout.driver_row(0), layout.rows() - 1);
   EXPECT_TRUE(kinds.count(Kind::revolute) && kinds.count(Kind::prismatic) &&
               kinds.count(Kind::pin_in_slot) && kinds.count(Kind::gear) &&
               kinds.count(Kind::rack_pinion) && kinds.count(Kind::pin_in_arc) &&
-              kinds.count(Kind::cam_pitch) && kinds.count(Kind::cam_face));
+              kinds.count(Kind::cam_pitch) && kinds.count(Kind::cam_face) &&
+              kinds.count(Kind::pin_in_spline));
   EXPECT_TRUE(
       kinds.count(GetParam() == DriverType::slider ? Kind::slider_driver : Kind::angle_driver));
 }
@@ -242,6 +264,14 @@ TEST_P(EveryKind, PositionRowsAreTheirGeometry) {
                          world(q, ka, m.links[j.link_a].points[j.centre_a].local))
                             .norm() -
                         j.radius_a;
+      continue;
+    }
+    if (j.type == JointType::pin_in_spline) {  // the pin's height over the chord, less the curve's
+      const Eigen::Vector2d q1 = world(q, ka, m.links[j.link_a].points[j.through.front()].local);
+      const Eigen::Vector2d chord =
+          (world(q, ka, m.links[j.link_a].points[j.through.back()].local) - q1).normalized();
+      const Eigen::Vector2d d = world(q, kb, m.links[j.link_b].points[j.point_b].local) - q1;
+      expected(row++) = cross(chord, d) - j.slot->at(chord.dot(d)).y;
       continue;
     }
     if (j.type == JointType::cam) {  // the follower's distance from the centre, less the profile's
@@ -325,6 +355,11 @@ TEST_P(EveryKind, ClosedJointsHaveZeroRows) {
     } else if (j.type == JointType::pin_in_arc) {
       target = world(q, ka, m.links[j.link_a].points[j.centre_a].local) +
                j.radius_a * Eigen::Vector2d(std::cos(0.8), std::sin(0.8));
+    } else if (j.type == JointType::pin_in_spline) {  // on the curve 0.37 along its chord
+      const Eigen::Vector2d q1 = world(q, ka, m.links[j.link_a].points[j.through.front()].local);
+      const Eigen::Vector2d chord =
+          (world(q, ka, m.links[j.link_a].points[j.through.back()].local) - q1).normalized();
+      target = q1 + 0.37 * chord + j.slot->at(0.37).y * Eigen::Vector2d(-chord.y(), chord.x());
     } else {
       const Line& line = m.links[j.link_a].lines[j.line];
       if (j.type == JointType::prismatic) q(3 * kb + 2) = angle_of(q, ka) + j.relative_angle;

@@ -6,10 +6,14 @@
 // motion and the same forces, solved from different constraint rows (the arc's distance row
 // against two revolutes' four): each channel is held to 1e-9 of its peak, the bound
 // for an independent check.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <Eigen/Core>
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -106,27 +110,14 @@ TEST(CurvedSlots, CurvedSlotRockerIsTheCrankRocker) {
        {"fy.D", "fy.D"}});
 }
 
-// Each fault of an arc is refused at its key.
-TEST(CurvedSlots, EachFaultIsLocatedAtItsKey) {
-  const std::string base = test::source_text("mechanisms/cams/curved_slot_rocker.toml");
-  const std::string arc = "arc = { centre = \"C\", radius = 0.12 }";
-  struct Case {
-    std::string to, key, says;
-  };
-  const std::vector<Case> cases = {
-      {"arc = 0.12", "arc = 0.12", "'arc' in joint #3 (pin_in_slot) must be a table"},
-      {"arc = { centre = \"C\", radius = -0.12 }", "arc =", "'radius' in the arc of joint #3"},
-      {"arc = { centre = \"C\", radius = 0 }", "arc =", "must be positive"},
-      {"arc = { centre = \"Q\", radius = 0.12 }", "arc =", "'Q'"},
-      {"arc = { radius = 0.12 }", "arc =", "needs 'centre'"},
-      {"arc = { centre = \"C\" }", "arc =", "needs 'radius'"},
-      {"arc = { centre = \"C\", radius = 0.12, turn = 1 }", "arc =", "unknown key 'turn'"},
-      {arc + "\nline = \"x\"", "arc =", "gives both 'line' and 'arc'"},
-      {arc + "\nfriction = { coefficient = 0.1 }", "friction",
-       "friction on a pin in a slot is not modelled"},
-  };
-  for (const Case& c : cases) {
-    const std::string text = test::replaced(base, arc, c.to);
+// A slot's text changed to `to`, refused at the line of `key`, saying `says`.
+struct Fault {
+  std::string to, key, says;
+};
+void expect_faults_at_keys(const std::string& base, const std::string& slot,
+                           const std::vector<Fault>& faults) {
+  for (const Fault& c : faults) {
+    const std::string text = test::replaced(base, slot, c.to);
     const std::string error = test::error_of(text, "slot.toml");
     EXPECT_NE(error.find(c.says), std::string::npos) << c.to << "\n" << error;
     EXPECT_NE(error.find("slot.toml:" + std::to_string(test::line_of(text, c.key)) + ":"),
@@ -134,6 +125,25 @@ TEST(CurvedSlots, EachFaultIsLocatedAtItsKey) {
         << c.to << "\n"
         << error;
   }
+}
+
+// Each fault of an arc is refused at its key.
+TEST(CurvedSlots, EachFaultIsLocatedAtItsKey) {
+  const std::string base = test::source_text("mechanisms/cams/curved_slot_rocker.toml");
+  const std::string arc = "arc = { centre = \"C\", radius = 0.12 }";
+  const std::vector<Fault> cases = {
+      {"arc = 0.12", "arc = 0.12", "'arc' in joint #3 (pin_in_slot) must be a table"},
+      {"arc = { centre = \"C\", radius = -0.12 }", "arc =", "'radius' in the arc of joint #3"},
+      {"arc = { centre = \"C\", radius = 0 }", "arc =", "must be positive"},
+      {"arc = { centre = \"Q\", radius = 0.12 }", "arc =", "'Q'"},
+      {"arc = { radius = 0.12 }", "arc =", "needs 'centre'"},
+      {"arc = { centre = \"C\" }", "arc =", "needs 'radius'"},
+      {"arc = { centre = \"C\", radius = 0.12, turn = 1 }", "arc =", "unknown key 'turn'"},
+      {arc + "\nline = \"x\"", "arc =", "gives more than one of 'line', 'arc' and 'spline'"},
+      {arc + "\nfriction = { coefficient = 0.1 }", "friction",
+       "friction on a pin in a slot is not modelled"},
+  };
+  expect_faults_at_keys(base, arc, cases);
 }
 
 // Grübler–Kutzbach counts the pin in its slot as a half joint; the dyads have no closed form for
@@ -148,6 +158,153 @@ TEST(CurvedSlots, CheckCountsItsMobilityAndSaysTheDyadsHaveNoClosedForm) {
   EXPECT_NE(check.out.find("crank in an arc of rocker (point B, radius 0.12 m about C)"),
             std::string::npos)
       << check.out;
+}
+
+// The rocker of curved_slot_rocker.toml with its slot a spline through `points` (its frame).
+Mechanism spline_rocker(const std::vector<Eigen::Vector2d>& points,
+                        const std::string& pose = "[0.10, 0, 62.720]") {
+  std::string named, through;
+  for (size_t i = 0; i < points.size(); ++i) {
+    named += fmt::format(", S{} = [{:.17g}, {:.17g}]", i + 1, points[i].x(), points[i].y());
+    through += fmt::format("{}\"S{}\"", i ? ", " : "", i + 1);
+  }
+  return test::changed(
+      "mechanisms/cams/curved_slot_rocker.toml",
+      {{"C = [0.08, 0] }", "C = [0.08, 0]" + named + " }"},
+       {"pose = [0.10, 0, 62.720]", "pose = " + pose},
+       {"arc = { centre = \"C\", radius = 0.12 }", "spline = { through = [" + through + "] }"}});
+}
+
+// Points of the slot's arc (radius 0.12 about C = (0.08, 0) on the rocker), n of them evenly from
+// `from` to `to` degrees.
+std::vector<Eigen::Vector2d> arc_points(int n, double from, double to) {
+  std::vector<Eigen::Vector2d> out;
+  for (int i = 0; i < n; ++i) {
+    const double a = (from + (to - from) * i / (n - 1)) * std::numbers::pi / 180.0;
+    out.emplace_back(0.08 + 0.12 * std::cos(a), 0.12 * std::sin(a));
+  }
+  return out;
+}
+
+// A spline through points of a line is the line: the slot of the rocker along its own x axis
+// through D (an inverted slider-crank), as a straight slot and as a spline through four of its
+// points, solved to the same motion and forces to round-off.
+TEST(SplineSlots, ThroughPointsOfALineItIsTheStraightSlot) {
+  const std::vector<std::pair<std::string, std::string>> straight = {
+      {"C = [0.08, 0] }", "C = [0.08, 0] }\nlines = { along = { through = \"D\", angle = 0 } }"},
+      {"pose = [0.10, 0, 62.720]", "pose = [0.10, 0, 180]"},
+      {"arc = { centre = \"C\", radius = 0.12 }", "line = \"along\""}};
+  const Mechanism line = test::changed("mechanisms/cams/curved_slot_rocker.toml", straight);
+  const Mechanism spline =
+      spline_rocker({{0.0, 0.0}, {0.05, 0.0}, {0.12, 0.0}, {0.2, 0.0}}, "[0.10, 0, 180]");
+  expect_equivalent(spline, line,
+                    {{"angle.rocker", "angle.rocker"},
+                     {"omega.rocker", "omega.rocker"},
+                     {"alpha.rocker", "alpha.rocker"},
+                     {"ax.B", "ax.B"},
+                     {"torque.driver", "torque.driver"},
+                     {"fx.slot", "fx.slot"},
+                     {"fy.slot", "fy.slot"},
+                     {"fx.D", "fx.D"}});
+}
+
+// Through points of the arc, the spline comes to the arc as they grow denser: the rocker's angle
+// against curved_slot_rocker.toml's, its largest error over the sweep falling with the fourth
+// power of the spacing (each halving divides it by 16, here within [12, 20]). The slot runs from
+// 60 to 175 degrees of the arc; the pin, between 93.6 and 153.6.
+TEST(SplineSlots, ThroughPointsOfTheArcItComesToTheArc) {
+  const Trajectory arc = sweep(load_mechanism("mechanisms/cams/curved_slot_rocker.toml"));
+  double before = 0.0;
+  for (int n : {33, 65, 129}) {
+    const Trajectory t = sweep(spline_rocker(arc_points(n, 60, 175)));
+    ASSERT_EQ(t.samples(), arc.samples());
+    double error = 0.0;
+    for (int k = 0; k < t.samples(); ++k) {
+      ASSERT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::ok) << n << " " << k;
+      error = std::max(error, std::abs(t.angle(k, 1) - arc.angle(k, 1)));
+    }
+    std::printf("  %2d points: the rocker within %.3e rad of the arc's%s\n", n, error,
+                before > 0.0 ? fmt::format(", {:.2f} times nearer", before / error).c_str() : "");
+    if (before > 0.0) {
+      EXPECT_GT(before / error, 12.0) << n;
+      EXPECT_LT(before / error, 20.0) << n;
+    }
+    before = error;
+  }
+  EXPECT_LT(before, 1e-7);
+}
+
+// A slot shorter than the pin's travel: from 100 to 160 degrees of the arc, where the pin runs
+// from 93.6 to 153.6. Past its end S1 the pose does not exist: those samples are flagged
+// cannot_assemble, with an event at the first, and the rest are solved. A slot from 100 to 150
+// does not hold the drawing (the pin at 153.6 degrees at the start): `check` refuses it there.
+TEST(SplineSlots, PastAnEndThePinStopsAndTheSampleIsFlagged) {
+  const Trajectory arc = sweep(load_mechanism("mechanisms/cams/curved_slot_rocker.toml"));
+  const Trajectory t = sweep(spline_rocker(arc_points(13, 100, 160)));
+  ASSERT_EQ(t.samples(), arc.samples());
+  int flagged = 0;
+  for (int k = 0; k < t.samples(); ++k) {
+    // Where the arc's pin is, in degrees about C in the rocker's frame.
+    const double theta = arc.angle(k, 1);
+    const Eigen::Vector2d c(0.10 + 0.08 * std::cos(theta), 0.08 * std::sin(theta));
+    const Eigen::Vector2d b = Eigen::Vector2d(*arc.sample("x.B", k), *arc.sample("y.B", k)) - c;
+    const double at = std::atan2(b.y(), b.x()) - theta;
+    const double deg = std::remainder(at, 2 * std::numbers::pi) * 180 / std::numbers::pi;
+    const PoseStatus s = t.status[static_cast<size_t>(k)];
+    if (deg < 99) EXPECT_EQ(s, PoseStatus::cannot_assemble) << k << " " << deg;
+    if (deg > 101) EXPECT_EQ(s, PoseStatus::ok) << k << " " << deg;
+    flagged += s == PoseStatus::cannot_assemble;
+  }
+  EXPECT_GT(flagged, 0);
+  int events = 0;
+  for (const Trajectory::Event& e : t.events)
+    if (e.kind == PoseStatus::cannot_assemble) {
+      ++events;
+      EXPECT_NE(e.message.find("past the end S1 of spline slot 'slot'"), std::string::npos)
+          << e.message;
+    }
+  EXPECT_EQ(events, 1);
+
+  const Mechanism short_slot = spline_rocker(arc_points(11, 100, 150));
+  const test::CommandRun check = test::crosslink("check " + short_slot.file);
+  EXPECT_EQ(check.exit_code, 2);
+  EXPECT_NE(check.err.find("error: cannot assemble at driver = 0 deg: the pin B is past the end "
+                           "S11 of spline slot 'slot'"),
+            std::string::npos)
+      << check.err;
+}
+
+// Each fault of a spline slot is refused at its key; the engines refuse it, saying why.
+TEST(SplineSlots, EachFaultIsLocatedAtItsKeyAndTheEnginesRefuseIt) {
+  const std::string base = test::source_text("mechanisms/cams/spline_slot_rocker.toml");
+  const std::string spline =
+      "spline = { through = [\"S1\", \"S2\", \"S3\", \"S4\", \"S5\", "
+      "\"S6\", \"S7\"] }";
+  const std::vector<Fault> cases = {
+      {"spline = { through = [\"S1\", \"S7\"] }", "spline =", "needs at least three points"},
+      {"spline = { through = [\"S1\", \"S3\", \"S2\", \"S7\"] }",
+       "spline =", "point 'S2' is not further along the chord"},
+      {"spline = { through = [\"S1\", \"S4\", \"S1\"] }", "spline =", "ends where it starts"},
+      {"spline = { through = [\"S1\", \"Q\", \"S7\"] }", "spline =", "point 'Q' is not on"},
+      {"spline = [\"S1\", \"S4\", \"S7\"]", "spline =", "'spline' in joint #3 (pin_in_slot) must"},
+      {"spline = { through = [\"S1\", \"S4\", \"S7\"], degree = 3 }",
+       "spline =", "unknown key 'degree'"},
+      {spline + "\narc = { centre = \"C\", radius = 0.12 }",
+       "arc =", "gives more than one of 'line', 'arc' and 'spline'"},
+      {spline + "\nfriction = { coefficient = 0.1 }", "friction",
+       "friction on a pin in a slot is not modelled"},
+  };
+  expect_faults_at_keys(base, spline, cases);
+  const test::CommandRun compare =
+      test::crosslink("compare mechanisms/cams/spline_slot_rocker.toml");
+  EXPECT_EQ(compare.exit_code, 0) << compare.err;
+  for (const char* engine : {"mujoco", "bullet", "ode", "simbody"})
+    EXPECT_NE(compare.out.find(fmt::format("{:<9} not run: cannot realise this mechanism: joint "
+                                           "'slot': a pin in a spline slot is not built",
+                                           engine)),
+              std::string::npos)
+        << engine << "\n"
+        << compare.out;
 }
 
 }  // namespace
