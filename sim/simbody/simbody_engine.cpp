@@ -237,9 +237,20 @@ double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 }
 
 // The graph's tree policy for Simbody: MuJoCo's (no planar joints, no split loops), which both
-// reduced-coordinate engines then share. A link's driven angle must be one mobilizer's.
+// reduced-coordinate engines then share. A link's driven angle must be one mobilizer's. Its mesh
+// contact is an elastic foundation (ElasticFoundationForce.h, 3.7: a spring of stiffness k a at
+// the centre of each face of area a), read, not tried: a prism of the profile would press on a
+// roller only where a face's centre lies inside it, with a force that grows with the faces'
+// area and the prism's thickness rather than the contact's.
 SceneGraph simbody_graph(const Mechanism& m) {
-  SceneGraph g = scene_graph(m, TreePolicy{.contacts = true, .arc_rows = true});
+  SceneGraph g = scene_graph(
+      m, TreePolicy{.contacts = true,
+                    .arc_rows = true,
+                    .no_mesh = "which Simbody's mesh contact would not hold as the profile: it is "
+                               "an elastic foundation, a spring at the centre of each face "
+                               "(ElasticFoundationForce.h), whose force follows the faces' area "
+                               "and the prism's thickness rather than the contact (read, not "
+                               "tried; docs/cams.md)"});
   if (g.cut_slide >= 0)
     throw std::runtime_error("a loop of slides only: Simbody's scene closes cuts at hinges");
   return g;
