@@ -800,7 +800,7 @@ NewtonSolver::SlotEnd NewtonSolver::past_slot_end(const Eigen::VectorXd& q) cons
         name(joint.link_a, x < slot.slot->first() ? joint.through.front() : joint.through.back()),
         joint.name);
     out.message = fmt::format(
-        "the pin {} is {} (by {:.6g} m along its chord): the slot's end stops the motion, so "
+        "the pin {} is {}, by {:.6g} m along its chord: the slot's end stops the motion, so "
         "there is no pose here",
         name(joint.link_b, joint.point_b), out.where, beyond);
     return out;

@@ -727,8 +727,36 @@ std::string_view to_string(SingularKind kind) {
   return "?";
 }
 
-Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
-                 std::vector<SingularPosition>& singular) {
+namespace {
+// Where a pin leaves its spline slot (NewtonSolver::write_sample's event, at the first sample
+// past the end): bisection on exact solves between that sample and the one before, which holds
+// the pin, to the driver's round-off; the event moves there.
+void locate_slot_ends(const Mechanism& mechanism, const SweepOptions& options, Trajectory& out) {
+  if (mechanism.axis().timed()) return;
+  for (Trajectory::Event& e : out.events) {
+    if (e.kind != PoseStatus::cannot_assemble || e.message.find("spline slot") == std::string::npos)
+      continue;
+    int k = 0;
+    while (k < out.samples() && out.along(k) != e.driver) ++k;
+    if (k == 0 || k == out.samples() || !usable(out.status[static_cast<size_t>(k - 1)])) continue;
+    double held = out.along(k - 1), past = out.along(k);
+    const double resolution =
+        8.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(held), std::abs(past));
+    while (std::abs(past - held) > resolution) {
+      const double mid = 0.5 * (held + past);
+      (usable(solve_at(mechanism, mid, options).status[0]) ? held : past) = mid;
+    }
+    e.driver = past;
+    e.message += fmt::format(
+        " (at the first sample past it, {}; the pin reaches the end at driver = {}, where this "
+        "event is placed)",
+        driver_unit_of(mechanism).text(out.along(k), 6), driver_unit_of(mechanism).text(past, 9));
+  }
+}
+
+// The sweep, the pins' leaving their spline slots placed on the samples past the ends.
+Trajectory sweep_once(const Mechanism& mechanism, const SweepOptions& options,
+                      std::vector<SingularPosition>& singular) {
   const NewtonSolver solver(mechanism, options.newton);
   KinematicState state(mechanism);
   const SolveReport assembled = solver.assemble(state);
@@ -756,6 +784,15 @@ Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
     solver.solve_position(state);
   }
   return follower_sweep(mechanism, options, solver, state, assembled);
+}
+
+}  // namespace
+
+Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options,
+                 std::vector<SingularPosition>& singular) {
+  Trajectory out = sweep_once(mechanism, options, singular);
+  locate_slot_ends(mechanism, options, out);
+  return out;
 }
 
 Trajectory sweep(const Mechanism& mechanism, const SweepOptions& options) {

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
@@ -264,6 +265,29 @@ TEST(SplineSlots, PastAnEndThePinStopsAndTheSampleIsFlagged) {
           << e.message;
     }
   EXPECT_EQ(events, 1);
+  // The event is placed where the pin reaches S1, between the last sample that holds it and the
+  // first past it: there the pin is on S1, 100 degrees round the arc.
+  const Mechanism m = spline_rocker(arc_points(13, 100, 160));
+  for (const Trajectory::Event& e : t.events) {
+    if (e.kind != PoseStatus::cannot_assemble) continue;
+    int k = 0;
+    while (t.along(k) < e.driver) ++k;
+    EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::cannot_assemble);
+    EXPECT_EQ(t.status[static_cast<size_t>(k - 1)], PoseStatus::ok);
+    // Just short of it (the bisection's bracket is a few round-offs wide), the pin is held, and
+    // within the ends' tolerance of S1: 1e-9 of the mechanism's size along the chord, which the
+    // slot leaves S1 at 30 degrees to.
+    const Trajectory at = solve_at(m, e.driver - 1e-12);
+    ASSERT_EQ(at.status[0], PoseStatus::ok);
+    const double theta = at.angle(0, 1);
+    const Eigen::Vector2d s1 =
+        Eigen::Vector2d(0.10, 0.0) + Eigen::Rotation2Dd(theta) * arc_points(13, 100, 160).front();
+    EXPECT_LT((Eigen::Vector2d(*at.sample("x.B", 0), *at.sample("y.B", 0)) - s1).norm(),
+              1e-9 * m.size() / std::cos(30 * std::numbers::pi / 180) + 1e-15)
+        << e.message;
+    std::printf("  the pin reaches S1 at %.9f deg: %s\n", e.driver * 180 / std::numbers::pi,
+                e.message.c_str());
+  }
 
   const Mechanism short_slot = spline_rocker(arc_points(11, 100, 150));
   const test::CommandRun check = test::crosslink("check " + short_slot.file);
