@@ -169,6 +169,32 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
       }
     if (!link.ground) ++moving;
   }
+  // Spline slots: the centreline from end to end as 48 chords, in the guide's frame at its pose.
+  for (const Joint& j : m.joints) {
+    if (j.type != JointType::pin_in_spline) continue;
+    const Link& guide = m.links[static_cast<size_t>(j.link_a)];
+    const int k = m.moving_index(j.link_a);
+    if (k >= 0 && !where(guide.points[0].name)) continue;
+    const Eigen::Rotation2Dd R(k >= 0 ? pose.angle(0, k) : 0.0);
+    const Eigen::Vector2d p0 = k >= 0 ? *where(guide.points[0].name) : guide.points[0].local;
+    const Eigen::Vector2d start = guide.points[static_cast<size_t>(j.through.front())].local;
+    const Eigen::Vector2d u =
+        (guide.points[static_cast<size_t>(j.through.back())].local - start).normalized();
+    const auto at = [&](int i) {
+      const double x = j.slot->first() + (j.slot->last() - j.slot->first()) * i / 48.0;
+      const Eigen::Vector2d local = start + x * u + j.slot->at(x).y * perp(u);
+      return Eigen::Vector2d((p0 + R * (local - guide.points[0].local)) / length.scale);
+    };
+    for (int i = 0; i < 48; ++i) {
+      const Eigen::Vector2d a = at(i), b = at(i + 1);
+      d["guides"].push_back({{"line", j.name},
+                             {"moving", k >= 0},
+                             {"x", a.x()},
+                             {"y", a.y()},
+                             {"x2", b.x()},
+                             {"y2", b.y()}});
+    }
+  }
   // p and q name the ends, so that the page can redraw the segment at any sample.
   for (const LinkSegment& s : link_segments(m, pose)) {
     const Eigen::Vector2d a = *where(s.p), b = *where(s.q);

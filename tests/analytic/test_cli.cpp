@@ -1775,6 +1775,61 @@ TEST(Cli, TheReportMarksTheDeadPointsAndTheStroke) {
   EXPECT_EQ(r.at("paths"), nlohmann::json::array({"B", "C"}));
 }
 
+// A spline slot is drawn from end to end as chords along its centreline, in the rocker's frame
+// at the pose drawn: the first chord starts at S1, the last ends at S7, and every vertex lies
+// within a millimetre of the arc the points were taken from (radius 0.12 m about the rocker's C:
+// the spline's free ends bend it off by up to 0.5 mm), in order along the chord.
+TEST(Cli, TheReportDrawsASplineSlotThroughItsPoints) {
+  const std::string html = (scratch_dir() / "spline_slot.html").string();
+  const CommandRun run = crosslink(
+      "compare mechanisms/cams/spline_slot_rocker.toml --engines "
+      "analytic,ic --report \"" +
+      html + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = read_file(html);
+  const size_t from = page.find("const REPORT = ") + std::string("const REPORT = ").size();
+  const nlohmann::json r =
+      nlohmann::json::parse(page.substr(from, page.find(";</script>", from) - from));
+  std::vector<nlohmann::json> chords;
+  for (const nlohmann::json& g : r.at("drawing").at("guides"))
+    if (g.at("line") == "slot") chords.push_back(g);
+  ASSERT_EQ(chords.size(), 48u);
+  const auto vertex = [](const nlohmann::json& g, const char* x, const char* y) {
+    return Eigen::Vector2d(g.at(x).get<double>(), g.at(y).get<double>());
+  };
+  // The rocker where the drawing puts it: D, and C at 0.08 m along its x axis (m: the file's).
+  std::map<std::string, Eigen::Vector2d> drawn;
+  for (const nlohmann::json& p : r.at("drawing").at("points"))
+    drawn[p.at("name").get<std::string>()] = vertex(p, "x", "y");
+  const Eigen::Vector2d d = drawn.at("D"), c = drawn.at("C");
+  const double theta = std::atan2(c.y() - d.y(), c.x() - d.x());
+  const auto world = [&](double x, double y) {
+    return Eigen::Vector2d(d.x() + std::cos(theta) * x - std::sin(theta) * y,
+                           d.y() + std::sin(theta) * x + std::cos(theta) * y);
+  };
+  const Eigen::Vector2d s1 = world(0.100837781, 0.118176930), s7 = world(-0.038176930, 0.020837781);
+  EXPECT_LT((vertex(chords.front(), "x", "y") - s1).norm(), 1e-12);
+  EXPECT_LT((vertex(chords.back(), "x2", "y2") - s7).norm(), 1e-12);
+  // Each vertex, taken back to the rocker's frame and its chord S1-S7, further along the chord
+  // than the one before, and the S points on the drawn curve.
+  const Eigen::Vector2d first(0.100837781, 0.118176930),
+      along = (Eigen::Vector2d(-0.038176930, 0.020837781) - first).normalized();
+  double x_before = -1.0;
+  for (size_t i = 0; i < chords.size(); ++i) {
+    EXPECT_TRUE(chords[i].at("moving").get<bool>());
+    if (i > 0) EXPECT_EQ(vertex(chords[i], "x", "y"), vertex(chords[i - 1], "x2", "y2")) << i;
+    const Eigen::Vector2d v = vertex(chords[i], "x", "y") - d;
+    const Eigen::Vector2d local(std::cos(theta) * v.x() + std::sin(theta) * v.y(),
+                                -std::sin(theta) * v.x() + std::cos(theta) * v.y());
+    const double x = along.dot(local - first),
+                 y = along.x() * (local - first).y() - along.y() * (local - first).x();
+    EXPECT_GT(x, x_before) << i;
+    EXPECT_LE(y, 1e-12) << i;  // the arc bulges away from C, to the chord's right
+    EXPECT_NEAR((vertex(chords[i], "x", "y") - c).norm(), 0.12, 1e-3) << i;  // near the arc
+    x_before = x;
+  }
+}
+
 // Issue 32 item 6: the drawing to take away. The crank-rocker's crank A = (0, 0) to B, 40 mm
 // long, drawn at theta2 = 0 and swept at 1 degree: the SVG's crank segment ends at B = (0.04, 0)
 // (y down in SVG), each moving point's path is one polyline, and the animation's frames put B at
