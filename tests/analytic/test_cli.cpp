@@ -1744,22 +1744,26 @@ TEST(Cli, TheReportDrawsSeveralDriversAtATime) {
   EXPECT_NE(page.find(R"x("kind":"inverse singularity (driver right)")x"), std::string::npos);
 }
 
+// The data of `compare FILE --engines ENGINES --report`'s page (its `const REPORT = ...`); the
+// test fails where the command does.
+nlohmann::json report_data(const std::string& file, const std::string& engines) {
+  const std::string html =
+      (scratch_dir() / (std::filesystem::path(file).stem().string() + "_report.html")).string();
+  const CommandRun run =
+      crosslink("compare " + file + " --engines " + engines + " --report \"" + html + "\"");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = read_file(html);
+  const size_t from = page.find("const REPORT = ") + std::string("const REPORT = ").size();
+  return nlohmann::json::parse(page.substr(from, page.find(";</script>", from) - from));
+}
+
 // Issue 32 item 4: the report marks the design summary's dead points on its charts and drawing,
 // each where the closed form puts it (the offset slider-crank's, crank r = 0.04, rod l = 0.12,
 // offset e = 0.01 m: extended at asin(e/(l+r)), folded at 180 deg + asin(e/(l-r))), the stroke's
 // ends on the slider's chart (sqrt((l-r)^2-e^2) and sqrt((l+r)^2-e^2)), and draws the path of
 // every moving named point, not of the ground's.
 TEST(Cli, TheReportMarksTheDeadPointsAndTheStroke) {
-  const std::string html = (scratch_dir() / "offset_dead_points.html").string();
-  const CommandRun run = crosslink(
-      "compare mechanisms/slider_crank_offset.toml --engines "
-      "analytic,dyads --report \"" +
-      html + "\"");
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  const std::string page = read_file(html);
-  const size_t from = page.find("const REPORT = ") + std::string("const REPORT = ").size();
-  const nlohmann::json r =
-      nlohmann::json::parse(page.substr(from, page.find(";</script>", from) - from));
+  const nlohmann::json r = report_data("mechanisms/slider_crank_offset.toml", "analytic,dyads");
   const double r_ = 0.04, l = 0.12, e = 0.01, deg = 180.0 / std::numbers::pi;
   std::map<std::string, double> dead;
   for (const nlohmann::json& d : r.at("dead_points"))
@@ -1780,16 +1784,7 @@ TEST(Cli, TheReportMarksTheDeadPointsAndTheStroke) {
 // within a millimetre of the arc the points were taken from (radius 0.12 m about the rocker's C:
 // the spline's free ends bend it off by up to 0.5 mm), in order along the chord.
 TEST(Cli, TheReportDrawsASplineSlotThroughItsPoints) {
-  const std::string html = (scratch_dir() / "spline_slot.html").string();
-  const CommandRun run = crosslink(
-      "compare mechanisms/cams/spline_slot_rocker.toml --engines "
-      "analytic,ic --report \"" +
-      html + "\"");
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  const std::string page = read_file(html);
-  const size_t from = page.find("const REPORT = ") + std::string("const REPORT = ").size();
-  const nlohmann::json r =
-      nlohmann::json::parse(page.substr(from, page.find(";</script>", from) - from));
+  const nlohmann::json r = report_data("mechanisms/cams/spline_slot_rocker.toml", "analytic,ic");
   std::vector<nlohmann::json> chords;
   for (const nlohmann::json& g : r.at("drawing").at("guides"))
     if (g.at("line") == "slot") chords.push_back(g);
