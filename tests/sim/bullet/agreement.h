@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <string>
 
 #include "analytic/model/mechanism.h"
@@ -26,12 +27,12 @@ inline Agreement agreement(const Mechanism& m, const Trajectory& ref, const Traj
     return ref.status[i] == PoseStatus::ok && run.status[i] == PoseStatus::ok;
   };
   for (int i = 0; i < ref.samples(); ++i) a.compared += usable(i);
-  double class_peak[6] = {0, 0, 0, 0, 0, 0};
+  std::map<Quantity, double> class_peak;  // each quantity's largest value
   for (const std::string& ch : ref.channel_names()) {
     const auto r = *ref.channel(ch);
     for (int i = 0; i < r.size(); ++i)
       if (usable(i)) {
-        double& p = class_peak[static_cast<int>(Trajectory::quantity_of(ch))];
+        double& p = class_peak[Trajectory::quantity_of(ch)];
         p = std::max(p, std::abs(r(i)));
       }
   }
@@ -58,7 +59,7 @@ inline Agreement agreement(const Mechanism& m, const Trajectory& ref, const Traj
     }
     // A channel that is (near) zero by construction, like the angular acceleration of a crank
     // at constant speed, is judged against 1e-3 of its class peak.
-    peak = std::max(peak, 1e-3 * class_peak[static_cast<int>(q)]);
+    peak = std::max(peak, 1e-3 * class_peak[q]);
     if (q == Quantity::position) a.position = std::max(a.position, err / m.size());
     if (q == Quantity::angle) a.angle = std::max(a.angle, err);
     if (q == Quantity::velocity && err / peak > a.velocity) {
