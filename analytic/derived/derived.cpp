@@ -700,7 +700,8 @@ DerivedValue compute(const Mechanism& m, const DerivedSpec& spec, const Trajecto
     return v;
   };
   if (t.samples() == 0) return fail("the method has no samples");
-  if (!spec.channel.empty() && !t.channel(spec.channel))  // a follower's jerk, in an engine
+  // A channel the method does not report (a follower's jerk, in an engine): one sample asked.
+  if (!spec.channel.empty() && !t.sample(spec.channel, 0))
     return fail(fmt::format("the method does not report {}", spec.channel));
   if (spec.kind == K::toggles) {
     if (!exact) return fail("toggles are located by the exact tracer, not read off samples");
