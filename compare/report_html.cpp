@@ -177,9 +177,7 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
     if (k >= 0 && !where(guide.points[0].name)) continue;
     const Eigen::Rotation2Dd R(k >= 0 ? pose.angle(0, k) : 0.0);
     const Eigen::Vector2d p0 = k >= 0 ? *where(guide.points[0].name) : guide.points[0].local;
-    const Eigen::Vector2d start = guide.points[static_cast<size_t>(j.through.front())].local;
-    const Eigen::Vector2d u =
-        (guide.points[static_cast<size_t>(j.through.back())].local - start).normalized();
+    const Eigen::Vector2d &start = j.chord_start, &u = j.chord_axis;
     const auto at = [&](int i) {
       const double x = j.slot->first() + (j.slot->last() - j.slot->first()) * i / 48.0;
       const Eigen::Vector2d local = start + x * u + j.slot->at(x).y * perp(u);

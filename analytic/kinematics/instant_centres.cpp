@@ -208,9 +208,7 @@ InstantCentres instant_centres(const Mechanism& m, const Trajectory& exact, int 
       continue;
     }
     if (jt.type == JointType::pin_in_spline) {  // on the slot's normal at the pin
-      const std::vector<Point>& guide = m.links[jt.link_a].points;
-      const Eigen::Vector2d start = guide[jt.through.front()].local;
-      const Eigen::Vector2d chord = (guide[jt.through.back()].local - start).normalized();
+      const Eigen::Vector2d &start = jt.chord_start, &chord = jt.chord_axis;
       const Eigen::Vector2d pin = b.position(m.links[jt.link_b].points[jt.point_b].local);
       const double x = a.turn(chord).dot(pin - a.position(start));
       const Eigen::Vector2d u = a.turn(perp(chord) - jt.slot->at(x).dy * chord);

@@ -296,10 +296,9 @@ ConstraintRows joint_rows(const Mechanism& m, const Joint& j) {
     return c;
   }
   if (j.type == JointType::pin_in_spline) {
-    const Link& guide = m.links[static_cast<size_t>(j.link_a)];
     c.kind = Kind::pin_in_spline;
-    c.point_a = guide.points[static_cast<size_t>(j.through.front())].local;
-    c.axis = (guide.points[static_cast<size_t>(j.through.back())].local - c.point_a).normalized();
+    c.point_a = j.chord_start;
+    c.axis = j.chord_axis;
     c.slot = j.slot;
     return c;
   }

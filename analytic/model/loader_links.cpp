@@ -512,6 +512,8 @@ void read_spline(Reader& r, const Mechanism& m, const toml::node& node, const st
       return;
     }
   }
+  joint.chord_start = at.front();
+  joint.chord_axis = along;
   joint.slot = std::make_shared<const NaturalSpline>(std::move(x), std::move(y));
 }
 

@@ -162,10 +162,11 @@ struct Joint {
   // cam: the profile cut in link_a, in link_a's frame about point centre_a (its own frame's
   // axes are link_a's); `line`, for a flat face, is link_b's.
   std::shared_ptr<const cam::Contour> contour;
-  // pin_in_spline: the slot's points on link_a, first to last, and its centreline y(x), x along
-  // the chord from the first point towards the last, y to the chord's left (docs/cams.md,
-  // "Spline slots").
+  // pin_in_spline: the slot's points on link_a, first to last; its chord, from the first point
+  // (`chord_start`, link_a's frame) along the unit `chord_axis` towards the last; and its
+  // centreline y(x), x along the chord, y to its left (docs/cams.md, "Spline slots").
   std::vector<int> through;
+  Eigen::Vector2d chord_start = Eigen::Vector2d::Zero(), chord_axis = Eigen::Vector2d::UnitX();
   std::shared_ptr<const NaturalSpline> slot;
   // cam: a groove holds the follower on both sides (form closure); else the contact only pushes
   // and a spring or gravity keeps the follower on the cam (force closure), which it leaves where

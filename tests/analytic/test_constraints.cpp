@@ -130,6 +130,8 @@ Mechanism every_kind(DriverType type, double scale = 1.0) {
     along.push_back(chord.dot(d));
     height.push_back(chord.x() * d.y() - chord.y() * d.x());
   }
+  spline.chord_start = q1;
+  spline.chord_axis = chord;
   spline.slot = std::make_shared<const NaturalSpline>(along, height);
   m.joints.push_back(spline);
   Driver d;
