@@ -90,8 +90,7 @@ nlohmann::json sample_json(const Mechanism& m, const Trajectory& t, int row) {
       const CamReading& r = t.cams[c].reading;
       nlohmann::json cam = {{"phi", nullptr}};
       if (has_position(status)) cam["phi"] = pos(t.cams[c].at(t, row).pressure_angle);
-      if (t.has_jerk)
-        cam[r.pivoted ? "angular_jerk" : "jerk"] = rate(t.jerk(row, static_cast<Eigen::Index>(c)));
+      if (t.has_jerk) cam[r.jerk_kind()] = rate(t.jerk(row, static_cast<Eigen::Index>(c)));
       j["cams"][r.joint] = cam;
     }
   }

@@ -31,11 +31,8 @@ double wrap_positive_angle(double radians) {
 }
 
 std::string channel_kind(std::string_view channel) {
-  const std::string_view prefix = channel.substr(0, channel.find('.'));
-  const bool angular = Trajectory::quantity_of(channel) == Quantity::angle || prefix == "omega" ||
-                       prefix == "alpha" || prefix == "angular_jerk";
   return std::string(to_string(Trajectory::quantity_of(channel))) +
-         (angular ? "/angular" : "/linear");
+         (Trajectory::angular(channel) ? "/angular" : "/linear");
 }
 
 double channel_peak(std::string_view channel, const Eigen::VectorXd& reference,

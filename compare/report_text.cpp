@@ -20,28 +20,8 @@ DisplayUnit display_unit(const Mechanism& m, std::string_view channel) {
   const DerivedSpec* spec = nullptr;
   if (const std::optional<DerivedUnit> unit = derived_unit_of(m, channel, &spec))
     return {derived_factor(m, *spec, *unit), derived_unit_name(m, *spec, *unit)};
-  const std::string_view kind = channel.substr(0, channel.find('.'));
-  const std::string& L = m.units.length_name;
-  if (Trajectory::quantity_of(channel) == Quantity::angle)
-    return {m.units.angle, m.units.angle_name};
-  if (kind == "energy") return {1.0, "J"};
-  if (kind == "omega") return {1.0, "rad/s"};
-  if (kind == "alpha") return {1.0, "rad/s^2"};
-  if (kind == "angular_jerk") return {1.0, "rad/s^3"};
-  switch (Trajectory::quantity_of(channel)) {
-    case Quantity::velocity:
-      return {m.units.length, L + "/s"};
-    case Quantity::acceleration:
-      return {m.units.length, L + "/s^2"};
-    case Quantity::jerk:
-      return {m.units.length, L + "/s^3"};
-    case Quantity::force:
-      return {m.units.force, m.units.force_name};
-    case Quantity::torque:
-      return {m.units.force * m.units.length, m.units.force_name + " " + L};
-    default:
-      return {m.units.length, L};
-  }
+  Trajectory::Unit unit = Trajectory::unit_in(m.units, channel);
+  return {unit.si, std::move(unit.name)};
 }
 
 bool samples_in_time(const Mechanism& m) {

@@ -24,6 +24,8 @@
 #include <algorithm>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -134,6 +136,10 @@ struct CamReading {
   ConstraintRows rows;   // its rows (a the cam, b the follower: moving indices, -1 the ground)
   bool pivoted = false;  // the follower turns about a pivot
   Eigen::Vector2d guide = Eigen::Vector2d::Zero();  // the pivot [m], or the line's direction
+
+  // The follower's jerk: an arm's angular, a translating follower's linear (docs/cams.md).
+  std::string_view jerk_kind() const { return pivoted ? "angular_jerk" : "jerk"; }
+  std::string jerk_channel() const { return std::string(jerk_kind()) + "." + joint; }
 
   // At the links' poses: the cam's centre and angle, the contact, where the direction of motion
   // is taken and it (a unit vector), and the pressure angle.

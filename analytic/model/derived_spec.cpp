@@ -63,31 +63,17 @@ double derived_factor(const Mechanism& m, const DerivedSpec& spec, DerivedUnit u
     case DerivedUnit::channel:
       break;
   }
-  switch (Trajectory::quantity_of(spec.channel)) {
-    case Quantity::angle:
-      return m.units.angle;
-    case Quantity::position:
-      return m.units.length;
-    case Quantity::velocity:
-      return spec.channel.starts_with("omega") ? 1.0 : m.units.length;
-    case Quantity::acceleration:
-      return spec.channel.starts_with("alpha") ? 1.0 : m.units.length;
-    case Quantity::jerk:
-      return spec.channel.starts_with("angular_jerk") ? 1.0 : m.units.length;
-    default:
-      return 1.0;
-  }
+  return Trajectory::unit_in(m.units, spec.channel).si;
 }
 
 std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, DerivedUnit unit) {
-  const std::string& L = m.units.length_name;
   switch (unit) {
     case DerivedUnit::driver:
       return driver_unit_of(m).name;
     case DerivedUnit::ratio:
       return "";
     case DerivedUnit::length:
-      return L;
+      return m.units.length_name;
     case DerivedUnit::angle:
       return m.units.angle_name;
     case DerivedUnit::speed:
@@ -95,20 +81,7 @@ std::string derived_unit_name(const Mechanism& m, const DerivedSpec& spec, Deriv
     case DerivedUnit::channel:
       break;
   }
-  switch (Trajectory::quantity_of(spec.channel)) {
-    case Quantity::angle:
-      return m.units.angle_name;
-    case Quantity::position:
-      return L;
-    case Quantity::velocity:
-      return spec.channel.starts_with("omega") ? "rad/s" : L + "/s";
-    case Quantity::acceleration:
-      return spec.channel.starts_with("alpha") ? "rad/s^2" : L + "/s^2";
-    case Quantity::jerk:
-      return spec.channel.starts_with("angular_jerk") ? "rad/s^3" : L + "/s^3";
-    default:
-      return "";
-  }
+  return Trajectory::unit_in(m.units, spec.channel).name;
 }
 
 std::optional<DerivedUnit> derived_unit_of(const Mechanism& m, std::string_view quantity,

@@ -17,17 +17,18 @@ std::string derived_names(const Mechanism& m) {
 // SI factor for a [[reference]] value, from its channel's kind (see docs/mechanism-format.md).
 std::optional<double> reference_factor(const Mechanism& m, std::string_view quantity) {
   const std::string_view kind = quantity.substr(0, quantity.find('.'));
-  if (kind == "angle" || kind == "phi") return m.units.angle;
-  if (kind == "omega" || kind == "alpha" || kind == "angular_jerk") return 1.0;
-  static const std::vector<std::string_view> lengths = {"x",  "y", "vx", "vy",   "v",     "ax",
-                                                        "ay", "a", "s",  "sdot", "sddot", "jerk"};
-  if (std::find(lengths.begin(), lengths.end(), kind) != lengths.end()) return m.units.length;
-  static const std::vector<std::string_view> forces = {"fx",         "fy",         "f",    "fn",
-                                                       "shaking_fx", "shaking_fy", "force"};
-  if (std::find(forces.begin(), forces.end(), kind) != forces.end()) return m.units.force;
-  if (kind == "torque" || kind == "moment" || kind == "shaking_moment")
-    return m.units.force * m.units.length;
-  return std::nullopt;
+  // The kinds a reference may name: kinematic, a cam's, and forces and moments.
+  static const std::vector<std::string_view> kinematic = {
+      "angle", "omega", "alpha", "x", "y", "vx", "vy", "v", "ax", "ay", "a", "s", "sdot", "sddot"};
+  static const std::vector<std::string_view> cam = {"phi", "jerk", "angular_jerk"};
+  static const std::vector<std::string_view> forces = {
+      "fx",         "fy",         "f",      "fn",     "force",
+      "shaking_fx", "shaking_fy", "torque", "moment", "shaking_moment"};
+  const auto in = [&](const std::vector<std::string_view>& kinds) {
+    return std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
+  };
+  if (!in(kinematic) && !in(cam) && !in(forces)) return std::nullopt;
+  return Trajectory::unit_in(m.units, quantity).si;
 }
 
 // The names a reference channel may end in: the mechanism's outputs.
@@ -371,8 +372,7 @@ void add_design_summary(Reader& r, Mechanism& m, const toml::table& root) {
   // speed (a step of it, where a law meets a dwell, is located at its edge).
   for (const CamReading& cam : cam_readings(m))
     if (m.swept().law.kind == MotionLaw::Kind::constant_speed)
-      add("jerk_" + cam.joint, K::extremes, (cam.pivoted ? "angular_jerk." : "jerk.") + cam.joint,
-          "");
+      add("jerk_" + cam.joint, K::extremes, cam.jerk_channel(), "");
   // Each cam's least radius of curvature where its follower touches it.
   for (const Joint& j : m.joints)
     if (j.type == JointType::cam) add("least_radius_" + j.name, K::least_radius, "", "", j.name);

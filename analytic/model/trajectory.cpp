@@ -302,8 +302,7 @@ std::vector<std::string> Trajectory::channel_names() const {
   if (!transmission.empty()) names.push_back("mu." + transmission[1]);
   for (const CamChannel& cam : cams) names.push_back("phi." + cam.reading.joint);
   if (has_jerk)
-    for (const CamChannel& cam : cams)
-      names.push_back((cam.reading.pivoted ? "angular_jerk." : "jerk.") + cam.reading.joint);
+    for (const CamChannel& cam : cams) names.push_back(cam.reading.jerk_channel());
   if (has_forces) {
     if (!axis.timed()) names.push_back(swept_slider() ? "force.driver" : "torque.driver");
     for (size_t d = 0; d < named; ++d)
@@ -355,10 +354,9 @@ const double* Trajectory::stored(std::string_view name) const {
     if (kind == "sdot") return col(sdot, j);
     if (kind == "sddot") return col(sddot, j);
   }
-  if (has_jerk && (kind == "jerk" || kind == "angular_jerk"))
+  if (has_jerk)
     for (size_t c = 0; c < cams.size(); ++c)
-      if (cams[c].reading.joint == object && cams[c].reading.pivoted == (kind == "angular_jerk"))
-        return col(jerk, static_cast<Eigen::Index>(c));
+      if (cams[c].reading.jerk_channel() == name) return col(jerk, static_cast<Eigen::Index>(c));
   if (const int d = axis.timed() ? index_of(driver_names, object) : -1; d >= 0) {
     const bool slider = driver_sliders[static_cast<size_t>(d)] != 0;
     if (kind == (slider ? "s" : "angle")) return col(driver_values, d);
@@ -447,27 +445,34 @@ Quantity Trajectory::quantity_of(std::string_view channel) {
   return Quantity::position;
 }
 
-std::string_view Trajectory::si_unit(std::string_view channel) {
+bool Trajectory::angular(std::string_view channel) {
   const std::string_view kind = channel.substr(0, channel.find('.'));
+  return quantity_of(channel) == Quantity::angle || kind == "omega" || kind == "alpha" ||
+         kind == "angular_jerk";
+}
+
+Trajectory::Unit Trajectory::unit_in(const Units& units, std::string_view channel) {
+  const std::string& L = units.length_name;
+  const bool turn = angular(channel);
   switch (quantity_of(channel)) {
     case Quantity::position:
-      return "m";
+      return {units.length, L};
     case Quantity::angle:
-      return "rad";
+      return {units.angle, units.angle_name};
     case Quantity::velocity:
-      return kind == "omega" ? "rad/s" : "m/s";
+      return turn ? Unit{1.0, "rad/s"} : Unit{units.length, L + "/s"};
     case Quantity::acceleration:
-      return kind == "alpha" ? "rad/s^2" : "m/s^2";
+      return turn ? Unit{1.0, "rad/s^2"} : Unit{units.length, L + "/s^2"};
     case Quantity::jerk:
-      return kind == "angular_jerk" ? "rad/s^3" : "m/s^3";
+      return turn ? Unit{1.0, "rad/s^3"} : Unit{units.length, L + "/s^3"};
     case Quantity::force:
-      return "N";
+      return {units.force, units.force_name};
     case Quantity::torque:
-      return "N m";
+      return {units.force * units.length, units.force_name + " " + L};
     case Quantity::energy:
-      return "J";
+      return {1.0, "J"};
   }
-  return "";
+  return {};
 }
 
 }  // namespace crosslink

@@ -253,9 +253,18 @@ struct Trajectory {
   // One channel's value at one sample (nullopt for an unknown name or a row out of range).
   std::optional<double> sample(std::string_view name, int row) const;
   static Quantity quantity_of(std::string_view channel);  // by the prefix before '.'
+  // An angle or a rate of one (omega, alpha, angular_jerk), whose unit has no length in it.
+  static bool angular(std::string_view channel);
+  // A channel's unit in the units a definition is written in: its name, and the SI value of one
+  // of it (what a value in it is multiplied by to give the SI one).
+  struct Unit {
+    double si = 1.0;
+    std::string name;
+  };
+  static Unit unit_in(const Units& units, std::string_view channel);
   // The SI unit of a channel's values: "m", "rad", "m/s", "rad/s", "m/s^2", "rad/s^2", "m/s^3",
   // "rad/s^3", "N", "N m" or "J" (JSON and CSV hold SI).
-  static std::string_view si_unit(std::string_view channel);
+  static std::string si_unit(std::string_view channel) { return unit_in(Units{}, channel).name; }
   // A channel held in one of the matrices above: its column, samples() values in a row, or null
   // for one computed from others (a magnitude v, a or f; mu, phi) or no channel at all.
   const double* stored(std::string_view name) const;

@@ -55,8 +55,7 @@ namespace {
 // The characteristic scale of a kinematic channel (trust.h), or 0 for a channel that is
 // not compared (forces, energy).
 double channel_scale(std::string_view channel, double size, double rate) {
-  const std::string_view kind = channel.substr(0, channel.find('.'));
-  const bool angular = kind == "omega" || kind == "alpha" || kind == "angular_jerk";
+  const bool angular = Trajectory::angular(channel);
   switch (Trajectory::quantity_of(channel)) {
     case Quantity::position:
       return size;
