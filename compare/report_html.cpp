@@ -169,19 +169,26 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
       }
     if (!link.ground) ++moving;
   }
-  // Spline slots: the centreline from end to end as 48 chords, in the guide's frame at its pose.
+  // Curved slots as 48 chords in the guide's frame at its pose: a spline slot's centreline from
+  // end to end, an arc's whole circle (it has no ends: the pin may go round it).
   for (const Joint& j : m.joints) {
-    if (j.type != JointType::pin_in_spline) continue;
+    if (j.type != JointType::pin_in_spline && j.type != JointType::pin_in_arc) continue;
     const Link& guide = m.links[static_cast<size_t>(j.link_a)];
     const int k = m.moving_index(j.link_a);
     if (k >= 0 && !where(guide.points[0].name)) continue;
     const Eigen::Rotation2Dd R(k >= 0 ? pose.angle(0, k) : 0.0);
     const Eigen::Vector2d p0 = k >= 0 ? *where(guide.points[0].name) : guide.points[0].local;
-    const Eigen::Vector2d &start = j.chord_start, &u = j.chord_axis;
-    const auto at = [&](int i) {
+    const auto local = [&](int i) -> Eigen::Vector2d {
+      if (j.type == JointType::pin_in_arc) {
+        const double angle = 2.0 * std::numbers::pi * i / 48.0;
+        return guide.points[static_cast<size_t>(j.centre_a)].local +
+               j.radius_a * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      }
       const double x = j.slot->first() + (j.slot->last() - j.slot->first()) * i / 48.0;
-      const Eigen::Vector2d local = start + x * u + j.slot->at(x).y * perp(u);
-      return Eigen::Vector2d((p0 + R * (local - guide.points[0].local)) / length.scale);
+      return j.chord_start + x * j.chord_axis + j.slot->at(x).y * perp(j.chord_axis);
+    };
+    const auto at = [&](int i) {
+      return Eigen::Vector2d((p0 + R * (local(i) - guide.points[0].local)) / length.scale);
     };
     for (int i = 0; i < 48; ++i) {
       const Eigen::Vector2d a = at(i), b = at(i + 1);

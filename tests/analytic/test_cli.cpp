@@ -1779,19 +1779,27 @@ TEST(Cli, TheReportMarksTheDeadPointsAndTheStroke) {
   EXPECT_EQ(r.at("paths"), nlohmann::json::array({"B", "C"}));
 }
 
+// The drawing's guides (and slots' chords) of one line or slot, in order.
+std::vector<nlohmann::json> drawn_guides(const nlohmann::json& report, const std::string& line) {
+  std::vector<nlohmann::json> guides;
+  for (const nlohmann::json& g : report.at("drawing").at("guides"))
+    if (g.at("line") == line) guides.push_back(g);
+  return guides;
+}
+
+// A drawn element's point (x, y) or its end (x2, y2).
+Eigen::Vector2d vertex(const nlohmann::json& element, const char* x, const char* y) {
+  return Eigen::Vector2d(element.at(x).get<double>(), element.at(y).get<double>());
+}
+
 // A spline slot is drawn from end to end as chords along its centreline, in the rocker's frame
 // at the pose drawn: the first chord starts at S1, the last ends at S7, and every vertex lies
 // within a millimetre of the arc the points were taken from (radius 0.12 m about the rocker's C:
 // the spline's free ends bend it off by up to 0.5 mm), in order along the chord.
 TEST(Cli, TheReportDrawsASplineSlotThroughItsPoints) {
   const nlohmann::json r = report_data("mechanisms/cams/spline_slot_rocker.toml", "analytic,ic");
-  std::vector<nlohmann::json> chords;
-  for (const nlohmann::json& g : r.at("drawing").at("guides"))
-    if (g.at("line") == "slot") chords.push_back(g);
+  const std::vector<nlohmann::json> chords = drawn_guides(r, "slot");
   ASSERT_EQ(chords.size(), 48u);
-  const auto vertex = [](const nlohmann::json& g, const char* x, const char* y) {
-    return Eigen::Vector2d(g.at(x).get<double>(), g.at(y).get<double>());
-  };
   // The rocker where the drawing puts it: D, and C at 0.08 m along its x axis (m: the file's).
   std::map<std::string, Eigen::Vector2d> drawn;
   for (const nlohmann::json& p : r.at("drawing").at("points"))
@@ -1812,7 +1820,9 @@ TEST(Cli, TheReportDrawsASplineSlotThroughItsPoints) {
   double x_before = -1.0;
   for (size_t i = 0; i < chords.size(); ++i) {
     EXPECT_TRUE(chords[i].at("moving").get<bool>());
-    if (i > 0) EXPECT_EQ(vertex(chords[i], "x", "y"), vertex(chords[i - 1], "x2", "y2")) << i;
+    if (i > 0) {
+      EXPECT_EQ(vertex(chords[i], "x", "y"), vertex(chords[i - 1], "x2", "y2")) << i;
+    }
     const Eigen::Vector2d v = vertex(chords[i], "x", "y") - d;
     const Eigen::Vector2d local(std::cos(theta) * v.x() + std::sin(theta) * v.y(),
                                 -std::sin(theta) * v.x() + std::cos(theta) * v.y());
@@ -1822,6 +1832,26 @@ TEST(Cli, TheReportDrawsASplineSlotThroughItsPoints) {
     EXPECT_LE(y, 1e-12) << i;  // the arc bulges away from C, to the chord's right
     EXPECT_NEAR((vertex(chords[i], "x", "y") - c).norm(), 0.12, 1e-3) << i;  // near the arc
     x_before = x;
+  }
+}
+
+// An arc slot has no ends (the pin may go round it): its whole circle, 0.12 m about the rocker's
+// C in curved_slot_rocker.toml, as 48 equal chords that close.
+TEST(Cli, TheReportDrawsAnArcSlotAsItsCircle) {
+  const nlohmann::json r = report_data("mechanisms/cams/curved_slot_rocker.toml", "analytic,ic");
+  const std::vector<nlohmann::json> chords = drawn_guides(r, "slot");
+  ASSERT_EQ(chords.size(), 48u);
+  Eigen::Vector2d c = Eigen::Vector2d::Constant(std::nan(""));
+  for (const nlohmann::json& p : r.at("drawing").at("points"))
+    if (p.at("name") == "C") c = vertex(p, "x", "y");
+  const double chord = 2.0 * 0.12 * std::sin(std::numbers::pi / 48.0);
+  for (size_t i = 0; i < chords.size(); ++i) {
+    EXPECT_TRUE(chords[i].at("moving").get<bool>());
+    const Eigen::Vector2d a = vertex(chords[i], "x", "y"), b = vertex(chords[i], "x2", "y2");
+    // Each chord starts where the one before ends, and the last ends where the first starts.
+    EXPECT_LT((a - vertex(chords[(i + 47) % 48], "x2", "y2")).norm(), 1e-12) << i;
+    EXPECT_NEAR((a - c).norm(), 0.12, 1e-12) << i;
+    EXPECT_NEAR((b - a).norm(), chord, 1e-12) << i;
   }
 }
 
