@@ -1546,12 +1546,13 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
 
 // The values in force both runs print (`steps_per_sample`: each run's own account of it;
 // `friction`: of a mechanism with joint friction).
-Settings common_settings(const Config& config, double dt, const std::string& steps_per_sample,
-                         bool friction) {
+// The step is the grid's longest (an explicit dt divides each sample interval).
+Settings common_settings(const Config& config, const TimeGrid& grid, bool friction) {
   Settings values = {{"formulation", config.formulation},
                      {"solver", config.solver},
-                     {"dt", format_number(dt)},
-                     {"steps_per_sample", steps_per_sample},
+                     {"dt", format_number(grid.dt)},
+                     {"steps_per_sample", config.dt == 0.0 ? std::to_string(grid.steps_per_sample)
+                                                           : "unused (dt given)"},
                      {"max_step_angle", config.dt == 0.0 ? format_number(config.max_step_angle)
                                                          : "unused (dt given)"},
                      {"iterations", std::to_string(config.iterations)},
@@ -1682,46 +1683,13 @@ std::string fallback_note(const Scene& scene) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// A kinematic run: prepare() and the step length plan it (plan_kinematic(): span, grid, start);
+// A kinematic run: prepare() and step_length() plan it (plan_kinematic(): span, grid, start);
 // plan_scene() and drive_map() place the scene, build_scene() builds it; BulletKinematicScene is
 // its backend to the shared run loop (sim/kinematic_run.h), which steps, samples, reads forces and
 // judges the statuses.
 
-// The step length: samples fall on step boundaries unless an explicit dt does not divide the
-// sample interval (then the local polynomial through the nearest steps is evaluated there). One
-// step length for the whole run (the O(dt^2) residual of each step depends on its length, so a
-// stencil across a change of length would see a jump): steps_per_sample per sample interval, more
-// if the reference's fastest link would turn more than max_step_angle in a step (near an assembly
-// limit the links turn ever faster against the driver).
-struct StepLength {
-  double interval = 0.0;  // the first sample interval [s]
-  double dt = 0.0;
-  int steps_per_sample = 0;
-};
-
-StepLength kinematic_step(const Trajectory& reference, const Span& span, const Config& config) {
-  StepLength s;
-  s.interval = reference.time(span.first + 1) - reference.time(span.first);
-  s.dt = config.dt;
-  s.steps_per_sample = config.steps_per_sample;
-  if (s.dt == 0.0) {
-    const double fastest = fastest_rate(reference, span);
-    if (config.max_step_angle > 0.0)
-      s.steps_per_sample = std::max<int>(
-          s.steps_per_sample,
-          // At most an int: beyond, the run's step limit refuses it (check_steps).
-          static_cast<int>(std::min(std::ceil(fastest * s.interval / config.max_step_angle - 1e-9),
-                                    double(std::numeric_limits<int>::max()))));
-    s.dt = s.interval / s.steps_per_sample;
-  }
-  return s;
-}
-
-Settings kinematic_settings(const Config& config, const StepLength& step, bool friction) {
-  Settings values = common_settings(config, step.dt,
-                                    config.dt == 0.0 ? std::to_string(step.steps_per_sample)
-                                                     : format_number(step.interval / step.dt),
-                                    friction);
+Settings kinematic_settings(const Config& config, const TimeGrid& grid, bool friction) {
+  Settings values = common_settings(config, grid, friction);
   const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
                          {"forces", config.formulation == "rigid"
                                         ? "btJointFeedback of the step leaving each sampled pose"
@@ -1874,14 +1842,9 @@ class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
 // build_scene() build it; BulletDynamicsScene is its backend to the shared run loop
 // (sim/dynamics_run.h).
 
-Settings dynamics_settings(const Config& config, const Trajectory& reference, const Span& span,
-                           double dt, double energy_scale, bool with_forces, bool friction) {
-  const double interval = reference.time(span.first + 1) - reference.time(span.first);
-  Settings values = common_settings(
-      config, dt,
-      config.dt == 0.0 ? std::to_string(static_cast<long>(std::round(interval / dt)))
-                       : "unused (dt given)",
-      friction);
+Settings dynamics_settings(const Config& config, const TimeGrid& grid, double energy_scale,
+                           bool with_forces, bool friction) {
+  Settings values = common_settings(config, grid, friction);
   const Settings more = {
       {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
       {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
@@ -1956,8 +1919,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   if (why = build_scene(m, plan, config, start.start.q, {}, &velocity, false, scene); !why.empty())
     return failed_run(std::move(out), why);
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  out.settings = dynamics_settings(config, reference, p.span, start.grid.dt, energy_scale,
-                                   with_forces, m.has_friction());
+  out.settings = dynamics_settings(config, start.grid, energy_scale, with_forces, m.has_friction());
   BulletSteps steps(m, plan, *scene, start.start.q,
                     reference_trend(m, reference, start.span.first, time.front()),
                     config.extrapolated_load);
@@ -2033,27 +1995,27 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   }
   Config& config = p.config;
   const Mechanism& m = p.m;
-  StepLength step = kinematic_step(reference, p.span, config);
-  out.settings = kinematic_settings(config, step, m.has_friction());
   const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * m.size(),
                                 config.driver_threshold, config.singular_rcond,
                                 config.branch_distance};
   KinematicPlan start;
   try {
-    start = plan_kinematic(m, reference, step.dt, InnerTimes::interval_fractions,
-                           m.has_cam() ? kContactPreroll : kPreroll, config.max_steps,
-                           config.singular_rcond, !config.perturb_link.empty());
+    start = plan_kinematic(
+        m, reference,
+        step_length(reference, p.span, config.dt, config.max_step_angle, config.steps_per_sample),
+        InnerTimes::interval_fractions, m.has_cam() ? kContactPreroll : kPreroll, config.max_steps,
+        config.singular_rcond, !config.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }
-  step.dt = start.grid.dt;  // an explicit dt divides each sample interval
+  out.settings = kinematic_settings(config, start.grid, m.has_friction());
 
   Plan plan;
   std::vector<std::string> notes;
   std::string why;
   if (!plan_scene(m, true, config, plan, notes, why)) return failed_run(std::move(out), why);
   // The formulation may have fallen back.
-  out.settings = kinematic_settings(config, step, m.has_friction());
+  out.settings = kinematic_settings(config, start.grid, m.has_friction());
   const bool with_forces = config.formulation == "rigid";
   std::vector<DriveTarget> drive;
   std::vector<double> coordinate0;
