@@ -48,11 +48,6 @@ DriveTarget DriveTarget::of(const Mechanism& m, const KinematicPlan& plan, size_
   return out;
 }
 
-void auto_thresholds(const Mechanism& m, double& gap_threshold, double& driver_threshold) {
-  if (gap_threshold == 0.0) gap_threshold = 1e-4 * m.size();
-  if (driver_threshold == 0.0) driver_threshold = 1e-4 * driver_watch_unit(m);
-}
-
 KinematicPlan plan_kinematic(const Mechanism& scene_mechanism, const Trajectory& reference,
                              double wanted, InnerTimes inner, long preroll, long max_steps,
                              double singular_rcond, bool perturbed) {

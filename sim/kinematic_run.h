@@ -109,10 +109,6 @@ struct DriveTarget {
   double target(double law) const { return coordinate0 + sign * (law + driver_offset - driver0); }
 };
 
-// The auto values of the thresholds an engine's watch uses where its settings leave them 0:
-// a joint gap of 1e-4 of the mechanism's size, a driver off its law by 1e-4 of driver_watch_unit.
-void auto_thresholds(const Mechanism& m, double& gap_threshold, double& driver_threshold);
-
 // The joints' gap of a pose (the largest residual of the joint rows, angle rows times the size)
 // and the driver row's error, from the one constraint layout. A force-closed cam's row counts its
 // penetration only: the follower may leave the cam (its separation, separation()).

@@ -15,6 +15,7 @@
 #include "sim/sampling.h"
 #include "sim/scene_graph.h"
 #include "sim/settings.h"
+#include "sim/shared_settings.h"
 #include "sim/statuses.h"
 
 #include <btBulletDynamicsCommon.h>
@@ -73,27 +74,12 @@ struct Config {
   double dt = 0.0;                      // 0: sample interval / steps_per_sample
   int iterations = 50;                  // sequential impulse (and MLCP's fallback)
   double erp = 1.0;
-  double gap_threshold = 0.0;     // [m]; 0 (auto) until prepare(): 1e-4 of the size
-  double divergence_gap = 0.1;    // relative to the mechanism's size
-  double driver_threshold = 0.0;  // [rad], or [m] for a slider: a driver further from its law
-                                  // is lost (diverged); 0 (auto) until prepare(): 1e-4 rad, or
-                                  // 1e-4 of the size
-  bool split_impulse = false;     // Bullet's split impulse (position correction apart)
-  // Samples whose Jacobian is conditioned worse than this fraction of the chain's own (the
-  // reference's median rcond, analytic/reference/trust.h) are flagged singular: 1e-3 on IFToMM A02
-  // N = 2, 3e-3 on a four-bar.
-  double singular_rcond = 0.03;
-  double branch_distance = 1e-4;  // closed configuration this far from the reference's (of
-                                  // the size, or rad): another assembly mode, branch_jump
-  std::string perturb_link;       // "<moving link>:<factor>" (sim::perturbed), or empty
-  long max_steps = kDefaultMaxSteps;
+  bool split_impulse = false;  // Bullet's split impulse (position correction apart)
   // Forward dynamics only (docs/engines.md, "Forward dynamics").
-  bool staggered_start = true;     // start from v0 - h/2 a0 (semi-implicit Euler's half step)
-  double energy_threshold = 1e-3;  // |energy.error| over the energy scale: a note
-  double divergence_energy = 1.0;  // beyond it the run stops: diverged
+  bool staggered_start = true;  // start from v0 - h/2 a0 (semi-implicit Euler's half step)
   // Joint friction (docs/engines.md, "Joint friction").
-  bool extrapolated_load = true;  // the load from the last two steps' reactions, else the last's
-  double friction_cfm = 1e-10;    // the friction rows' compliance, of their diagonal
+  double friction_cfm = 1e-10;  // the friction rows' compliance, of their diagonal
+  SharedSettings shared;        // the watch's thresholds, the test hook, the step budget
 };
 
 // Every setting, its default and what it takes, and the values a run reports, in the order a run
@@ -192,19 +178,10 @@ Config parse_settings(const Settings& overrides) {
   c.max_step_angle_given = v.given("max_step_angle");
   c.iterations = static_cast<int>(v.count("iterations"));
   c.erp = v.number("erp");
-  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
-  c.singular_rcond = v.number("singular_rcond");
-  c.branch_distance = v.number("branch_distance");
-  c.divergence_gap = v.number("divergence_gap");
-  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
   c.split_impulse = v.is("split_impulse", "1");
-  c.max_steps = v.count("max_steps");
   c.staggered_start = v.is("start", "staggered");
-  c.energy_threshold = v.number("energy_threshold");
-  c.divergence_energy = v.number("divergence_energy");
-  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
-  c.extrapolated_load = v.is("friction_load", "extrapolated");
   c.friction_cfm = v.number("friction_cfm");
+  c.shared = SharedSettings(v);
   return c;
 }
 
@@ -1533,8 +1510,8 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   if (!btIsDoublePrecision()) throw std::runtime_error("Bullet is not the float64 build");
   Prepared p;
   p.config = parse_settings(overrides);
-  p.m = perturbed(original, p.config.perturb_link);
-  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);  // of the scene's
+  p.m = perturbed(original, p.config.shared.perturb_link);
+  p.config.shared.resolve(p.m);  // of the scene's
   // The run starts at the reference's first usable (ok) sample and stops at its last; outside
   // them the reference is at or past an assembly limit.
   p.span = usable_span(reference);
@@ -1558,17 +1535,8 @@ Settings common_settings(const Config& config, const TimeGrid& grid, bool fricti
                      {"iterations", std::to_string(config.iterations)},
                      {"erp", format_number(config.erp)},
                      {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-                     {"gap_threshold", format_number(config.gap_threshold)},
-                     {"divergence_gap", format_number(config.divergence_gap)},
-                     {"split_impulse", config.split_impulse ? "1" : "0"},
-                     {"mass_model", "the definition's (Link::mass)"},
-                     {"singular_rcond", format_number(config.singular_rcond)},
-                     {"perturb_link", config.perturb_link},
-                     {"max_steps", std::to_string(config.max_steps)}};
-  if (friction) {
-    values.push_back(friction_load_value(config.extrapolated_load));
-    values.emplace_back("friction_cfm", format_number(config.friction_cfm));
-  }
+                     {"split_impulse", config.split_impulse ? "1" : "0"}};
+  if (friction) values.emplace_back("friction_cfm", format_number(config.friction_cfm));
   return values;
 }
 
@@ -1690,12 +1658,11 @@ std::string fallback_note(const Scene& scene) {
 
 Settings kinematic_settings(const Config& config, const TimeGrid& grid, bool friction) {
   Settings values = common_settings(config, grid, friction);
-  const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
-                         {"forces", config.formulation == "rigid"
-                                        ? "btJointFeedback of the step leaving each sampled pose"
-                                        : "not read (multibody joint feedback is wrong in 3.24)"},
-                         {"branch_distance", format_number(config.branch_distance)}};
-  values.insert(values.end(), more.begin(), more.end());
+  const Settings shared = config.shared.kinematic_printed(friction);
+  values.insert(values.end(), shared.begin(), shared.end());
+  values.emplace_back("forces", config.formulation == "rigid"
+                                    ? "btJointFeedback of the step leaving each sampled pose"
+                                    : "not read (multibody joint feedback is wrong in 3.24)");
   return printed_settings(bullet_settings(), RunKind::kinematic, values, friction);
 }
 
@@ -1845,15 +1812,12 @@ class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
 Settings dynamics_settings(const Config& config, const TimeGrid& grid, double energy_scale,
                            bool with_forces, bool friction) {
   Settings values = common_settings(config, grid, friction);
-  const Settings more = {
-      {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
-      {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
-      {"forces", with_forces ? "btJointFeedback of the step leaving each sample"
-                             : "not read (multibody joint feedback is wrong in 3.24)"},
-      {"energy_threshold", format_number(config.energy_threshold)},
-      {"divergence_energy", format_number(config.divergence_energy)},
-      {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
-  values.insert(values.end(), more.begin(), more.end());
+  const Settings shared = config.shared.dynamics_printed(energy_scale, friction);
+  values.insert(values.end(), shared.begin(), shared.end());
+  values.emplace_back("start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)");
+  values.emplace_back("forces", with_forces
+                                    ? "btJointFeedback of the step leaving each sample"
+                                    : "not read (multibody joint feedback is wrong in 3.24)");
   return printed_settings(bullet_settings(), RunKind::dynamics, values, friction);
 }
 
@@ -1897,8 +1861,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     start = plan_dynamics(original, p.m, reference,
                           step_length(reference, p.span, p.config.dt, p.config.max_step_angle,
                                       p.config.steps_per_sample),
-                          InnerTimes::interval_fractions, p.config.max_steps,
-                          !p.config.perturb_link.empty());
+                          InnerTimes::interval_fractions, p.config.shared.max_steps,
+                          !p.config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }
@@ -1922,12 +1886,10 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   out.settings = dynamics_settings(config, start.grid, energy_scale, with_forces, m.has_friction());
   BulletSteps steps(m, plan, *scene, start.start.q,
                     reference_trend(m, reference, start.span.first, time.front()),
-                    config.extrapolated_load);
+                    config.shared.extrapolated_load);
   if (why = steps.check_start(start.start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletDynamicsScene stepped(steps, velocity);
-  const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * m.size(),
-                               config.singular_rcond,   energy_scale,
-                               config.energy_threshold, config.divergence_energy};
+  const DynamicsWatch watch = config.shared.dynamics_watch(m, energy_scale);
   run_dynamics(original, m, reference, start, watch, with_forces, stepped, begin, out);
   for (const std::string& note : notes) add_note(out.message, note);
   return out;
@@ -1971,7 +1933,7 @@ class BulletEngine final : public Engine {
 
   // Every name and every value, perturb_link's link among the mechanism's.
   void check_settings(const Mechanism& m, const Settings& overrides) const override {
-    (void)perturbed(m, parse_settings(overrides).perturb_link);
+    (void)perturbed(m, parse_settings(overrides).shared.perturb_link);
   }
 
   EngineRun run(const Mechanism& original, const Trajectory& reference,
@@ -1995,16 +1957,14 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   }
   Config& config = p.config;
   const Mechanism& m = p.m;
-  const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * m.size(),
-                                config.driver_threshold, config.singular_rcond,
-                                config.branch_distance};
+  const KinematicWatch watch = config.shared.kinematic_watch(m);
   KinematicPlan start;
   try {
     start = plan_kinematic(
         m, reference,
         step_length(reference, p.span, config.dt, config.max_step_angle, config.steps_per_sample),
-        InnerTimes::interval_fractions, m.has_cam() ? kContactPreroll : kPreroll, config.max_steps,
-        config.singular_rcond, !config.perturb_link.empty());
+        InnerTimes::interval_fractions, m.has_cam() ? kContactPreroll : kPreroll,
+        config.shared.max_steps, config.shared.singular_rcond, !config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }
@@ -2029,7 +1989,7 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
     return failed_run(std::move(out), why);
   BulletSteps steps(m, plan, *scene, start.q,
                     reference_trend(m, reference, start.span.first, start.grid.time.front()),
-                    config.extrapolated_load);
+                    config.shared.extrapolated_load);
   if (why = steps.check_start(start.q); !why.empty()) return failed_run(std::move(out), why);
   BulletKinematicScene stepped(steps, drive);
   for (const std::string& note : notes) add_note(start.note, note);

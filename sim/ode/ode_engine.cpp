@@ -31,6 +31,7 @@
 #include "sim/sampling.h"
 #include "sim/scene_graph.h"
 #include "sim/settings.h"
+#include "sim/shared_settings.h"
 #include "sim/statuses.h"
 
 namespace crosslink::sim {
@@ -104,20 +105,11 @@ struct Config {
   bool max_step_angle_given = false;
   double erp = 1.0;
   double cfm = 1e-10;
-  bool extrapolated_load = true;
   double friction_cfm = 1e-8;
   double contact_erp = 1.0, contact_cfm = 1e-10;  // a cam's contact joint's (ODE's soft_erp, cfm)
   bool finite_rotation = true;
-  double gap_threshold = 0.0;     // [m]; 0 (auto): 1e-4 of the size
-  double divergence_gap = 0.1;    // of the size
-  double driver_threshold = 0.0;  // [rad] or [m]; 0 (auto): 1e-4 rad, or 1e-4 of the size
-  double singular_rcond = 0.03;   // as Bullet's (a maximal-coordinate scene alike)
-  double branch_distance = 1e-4;
   bool staggered_start = true;
-  double energy_threshold = 1e-3;
-  double divergence_energy = 1.0;
-  std::string perturb_link;
-  long max_steps = kDefaultMaxSteps;
+  SharedSettings shared;  // the watch's thresholds, the test hook, the step budget
 };
 
 const SettingSchema& ode_settings() {
@@ -224,21 +216,12 @@ Config parse_settings(const Settings& overrides) {
   c.max_step_angle = c.max_step_angle_given ? v.number("max_step_angle") : 0.0;
   c.erp = v.number("erp");
   c.cfm = v.number("cfm");
-  c.extrapolated_load = v.is("friction_load", "extrapolated");
   c.friction_cfm = v.number("friction_cfm");
   c.contact_erp = v.number("contact_erp");
   c.contact_cfm = v.number("contact_cfm");
   c.finite_rotation = v.is("finite_rotation", "1");
-  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
-  c.divergence_gap = v.number("divergence_gap");
-  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
-  c.singular_rcond = v.number("singular_rcond");
-  c.branch_distance = v.number("branch_distance");
   c.staggered_start = v.is("start", "staggered");
-  c.energy_threshold = v.number("energy_threshold");
-  c.divergence_energy = v.number("divergence_energy");
-  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
-  c.max_steps = v.count("max_steps");
+  c.shared = SharedSettings(v);
   return c;
 }
 
@@ -977,8 +960,8 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   ode_start();
   Prepared p;
   p.config = parse_settings(overrides);
-  p.m = perturbed(original, p.config.perturb_link);
-  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);
+  p.m = perturbed(original, p.config.shared.perturb_link);
+  p.config.shared.resolve(p.m);
   p.graph = ode_graph(p.m);
   p.span = usable_span(reference);
   return p;
@@ -1003,16 +986,8 @@ Settings common_settings(const Config& config, const TimeGrid& grid, double step
       {"cfm", format_number(config.cfm)},
       {"finite_rotation", config.finite_rotation ? "1" : "0"},
       {"precision", "float64 (ODE_double_precision)"},
-      {"gap_threshold", format_number(config.gap_threshold)},
-      {"divergence_gap", format_number(config.divergence_gap)},
-      {"mass_model", "the definition's (Link::mass)"},
-      {"singular_rcond", format_number(config.singular_rcond)},
-      {"perturb_link", config.perturb_link},
-      {"max_steps", std::to_string(config.max_steps)}};
-  if (friction) {
-    values.push_back(friction_load_value(config.extrapolated_load));
-    values.emplace_back("friction_cfm", format_number(config.friction_cfm));
-  }
+  };
+  if (friction) values.emplace_back("friction_cfm", format_number(config.friction_cfm));
   if (contact) {
     values.emplace_back("contact_erp", format_number(config.contact_erp));
     values.emplace_back("contact_cfm", format_number(config.contact_cfm));
@@ -1149,7 +1124,8 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
     const DynamicsPlan start = plan_dynamics(
         original, p.m, reference,
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
-        InnerTimes::interval_fractions, config.max_steps, !config.perturb_link.empty());
+        InnerTimes::interval_fractions, config.shared.max_steps,
+        !config.shared.perturb_link.empty());
     const std::vector<double>& time = start.grid.time;
     const Eigen::VectorXd velocity =
         config.staggered_start
@@ -1159,25 +1135,21 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
     Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction(),
                                       !p.graph.contacts.empty());
     const Settings more = {
-        {"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
         {"start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)"},
-        {"forces", "dJointFeedback of the step leaving each sample"},
-        {"energy_threshold", format_number(config.energy_threshold)},
-        {"divergence_energy", format_number(config.divergence_energy)},
-        {"energy_scale", fmt::format("{:.6g} J", energy_scale)}};
+        {"forces", "dJointFeedback of the step leaving each sample"}};
+    const Settings shared = config.shared.dynamics_printed(energy_scale, p.m.has_friction());
+    values.insert(values.end(), shared.begin(), shared.end());
     values.insert(values.end(), more.begin(), more.end());
     out.settings = printed_settings(ode_settings(), RunKind::dynamics, values, p.m.has_friction(),
                                     !p.graph.contacts.empty());
     OdeScene scene(p.m, p.graph, config, start.start.q, &velocity, false);
     OdeSteps steps(p.m, p.graph, scene, start.start.q,
                    reference_trend(p.m, reference, start.span.first, time.front()),
-                   config.extrapolated_load);
+                   config.shared.extrapolated_load);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.start.q); !why.empty())
       return failed_run(std::move(out), why);
     OdeDynamicsScene stepped(steps, velocity);
-    const DynamicsWatch watch = {config.gap_threshold,    config.divergence_gap * p.m.size(),
-                                 config.singular_rcond,   energy_scale,
-                                 config.energy_threshold, config.divergence_energy};
+    const DynamicsWatch watch = config.shared.dynamics_watch(p.m, energy_scale);
     run_dynamics(original, p.m, reference, start, watch, true, stepped, begin, out);
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
@@ -1199,22 +1171,19 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
         p.m, reference,
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
         InnerTimes::interval_fractions, p.graph.contacts.empty() ? kPreroll : kContactPreroll,
-        config.max_steps, config.singular_rcond, !config.perturb_link.empty());
+        config.shared.max_steps, config.shared.singular_rcond, !config.shared.perturb_link.empty());
     Settings values = common_settings(config, start.grid, step_angle, p.m.has_friction(),
                                       !p.graph.contacts.empty());
-    const Settings more = {{"driver_threshold", format_number(config.driver_threshold)},
-                           {"forces", "dJointFeedback of the step leaving each sampled pose"},
-                           {"branch_distance", format_number(config.branch_distance)}};
-    values.insert(values.end(), more.begin(), more.end());
+    const Settings shared = config.shared.kinematic_printed(p.m.has_friction());
+    values.insert(values.end(), shared.begin(), shared.end());
+    values.emplace_back("forces", "dJointFeedback of the step leaving each sampled pose");
     out.settings = printed_settings(ode_settings(), RunKind::kinematic, values, p.m.has_friction(),
                                     !p.graph.contacts.empty());
-    const KinematicWatch watch = {config.gap_threshold, config.divergence_gap * p.m.size(),
-                                  config.driver_threshold, config.singular_rcond,
-                                  config.branch_distance};
+    const KinematicWatch watch = config.shared.kinematic_watch(p.m);
     OdeScene scene(p.m, p.graph, config, start.q, &start.qdot, true);
     OdeSteps steps(p.m, p.graph, scene, start.q,
                    reference_trend(p.m, reference, start.span.first, start.grid.time.front()),
-                   config.extrapolated_load);
+                   config.shared.extrapolated_load);
     if (const std::string why = start_mismatch(p.m, steps.pose(), start.q); !why.empty())
       return failed_run(std::move(out), why);
     for (size_t d = 0; d < p.graph.driven.size(); ++d)
@@ -1261,7 +1230,7 @@ class OdeEngine final : public Engine {
   }
 
   void check_settings(const Mechanism& m, const Settings& overrides) const override {
-    (void)perturbed(m, parse_settings(overrides).perturb_link);
+    (void)perturbed(m, parse_settings(overrides).shared.perturb_link);
   }
 
   EngineRun run(const Mechanism& original, const Trajectory& reference,

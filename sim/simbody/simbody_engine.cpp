@@ -31,6 +31,7 @@
 #include "sim/sampling.h"
 #include "sim/scene_graph.h"
 #include "sim/settings.h"
+#include "sim/shared_settings.h"
 #include "sim/statuses.h"
 
 namespace crosslink::sim {
@@ -60,21 +61,12 @@ struct Config {
   double dt = 0.0;  // the reported poses' spacing; 0: auto (max_step_angle)
   double max_step_angle = 0.0025;
   bool max_step_angle_given = false;  // else a dynamics run uses kDynamicsMaxStepAngle
-  double gap_threshold = 0.0;         // [m]; 0 (auto): 1e-4 of the size
-  double divergence_gap = 0.1;        // of the size
-  double driver_threshold = 0.0;      // 0 (auto): 1e-4 rad, or 1e-4 of the size
-  double singular_rcond = 0.03;
-  double branch_distance = 1e-4;
-  double energy_threshold = 1e-3;
-  double divergence_energy = 1.0;
-  std::string perturb_link;
-  long max_steps = kDefaultMaxSteps;
   // Joint friction (docs/engines.md, "Joint friction").
-  bool extrapolated_load = true;  // the load extrapolated along a step, else its start's
-  double friction_speed = 1e-4;   // v_s: of each friction joint's fastest rate in the reference
+  double friction_speed = 1e-4;  // v_s: of each friction joint's fastest rate in the reference
   // A cam's compliant contact (docs/cams.md, "The engines' contact"): each surface's material.
   double contact_stiffness = 2e11;      // [Pa]: steel's Young's modulus
   double contact_dissipation = 1000.0;  // Hunt and Crossley's c [s/m]
+  SharedSettings shared;                // the watch's thresholds, the test hook, the step budget
 };
 
 const SettingSchema& simbody_settings() {
@@ -189,19 +181,10 @@ Config parse_settings(const Settings& overrides) {
   c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
   c.max_step_angle = v.number("max_step_angle");
   c.max_step_angle_given = v.given("max_step_angle");
-  c.gap_threshold = v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold");
-  c.divergence_gap = v.number("divergence_gap");
-  c.driver_threshold = v.is("driver_threshold", "auto") ? 0.0 : v.number("driver_threshold");
-  c.singular_rcond = v.number("singular_rcond");
-  c.branch_distance = v.number("branch_distance");
-  c.energy_threshold = v.number("energy_threshold");
-  c.divergence_energy = v.number("divergence_energy");
-  c.perturb_link = v.is("perturb_link", "none") ? "" : v.text("perturb_link");
-  c.max_steps = v.count("max_steps");
-  c.extrapolated_load = v.is("friction_load", "extrapolated");
   c.friction_speed = v.number("friction_speed");
   c.contact_stiffness = v.number("contact_stiffness");
   c.contact_dissipation = v.number("contact_dissipation");
+  c.shared = SharedSettings(v);
   return c;
 }
 
@@ -870,7 +853,7 @@ class SimbodySteps {
         reading_(m.joints.size(), m.drivers.size()),
         q_(q0),
         scratch_(scene.start()),
-        max_steps_(c.max_steps),
+        max_steps_(c.shared.max_steps),
         t_begin_(scene.start().getTime()),
         t_end_(t_end) {
     integrator_ = make_integrator(c, scene.system());
@@ -1010,8 +993,8 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
                  const Settings& overrides) {
   Prepared p;
   p.config = parse_settings(overrides);
-  p.m = perturbed(original, p.config.perturb_link);
-  auto_thresholds(p.m, p.config.gap_threshold, p.config.driver_threshold);
+  p.m = perturbed(original, p.config.shared.perturb_link);
+  p.config.shared.resolve(p.m);
   p.span = usable_span(reference);
   p.graph = simbody_graph(p.m);
   return p;
@@ -1032,7 +1015,7 @@ std::optional<FrictionSetup> friction_setup(const Mechanism& m, const Trajectory
   if (!m.has_friction()) return std::nullopt;
   FrictionSetup out{.t0 = t0,
                     .start = reference_trend(m, reference, span.first, t0),
-                    .extrapolated = c.extrapolated_load,
+                    .extrapolated = c.shared.extrapolated_load,
                     .speed = std::vector<double>(m.joints.size(), 0.0)};
   const std::vector<int> slides = m.slide_joints();
   const auto omega = [&](int link, int k) {
@@ -1064,17 +1047,8 @@ Settings common_settings(const Config& c, double dt, bool friction, bool contact
       {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
       {"interpolate", c.interpolate ? "1" : "0"},
       {"dt", format_number(dt)},
-      {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"},
-      {"gap_threshold", format_number(c.gap_threshold)},
-      {"divergence_gap", format_number(c.divergence_gap)},
-      {"mass_model", "the definition's (Link::mass)"},
-      {"singular_rcond", format_number(c.singular_rcond)},
-      {"perturb_link", c.perturb_link},
-      {"max_steps", std::to_string(c.max_steps)}};
-  if (friction) {
-    values.push_back(friction_load_value(c.extrapolated_load));
-    values.emplace_back("friction_speed", format_number(c.friction_speed));
-  }
+      {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"}};
+  if (friction) values.emplace_back("friction_speed", format_number(c.friction_speed));
   if (contact) {
     values.emplace_back("contact_stiffness", format_number(c.contact_stiffness));
     values.emplace_back("contact_dissipation", format_number(c.contact_dissipation));
@@ -1163,21 +1137,18 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     p = prepare(original, reference, overrides);
     if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
     plan = plan_dynamics(original, p.m, reference, wanted_step(reference, p.config, p.span),
-                         InnerTimes::step_multiples, p.config.max_steps,
-                         !p.config.perturb_link.empty());
+                         InnerTimes::step_multiples, p.config.shared.max_steps,
+                         !p.config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }
   const Config& c = p.config;
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
   Settings values = common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
-  values.insert(
-      values.end(),
-      {{"driver", "none: the coordinate moves under the applied effort (forward dynamics)"},
-       {"forces", "mobilizer reactions and ball constraint forces at each sampled state"},
-       {"energy_threshold", format_number(c.energy_threshold)},
-       {"divergence_energy", format_number(c.divergence_energy)},
-       {"energy_scale", fmt::format("{:.6g} J", energy_scale)}});
+  const Settings shared = c.shared.dynamics_printed(energy_scale, p.m.has_friction());
+  values.insert(values.end(), shared.begin(), shared.end());
+  values.emplace_back("forces",
+                      "mobilizer reactions and ball constraint forces at each sampled state");
   out.settings = printed_settings(simbody_settings(), RunKind::dynamics, values, p.m.has_friction(),
                                   !p.graph.contacts.empty());
   std::optional<Scene> scene;
@@ -1190,9 +1161,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
     return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
   }
   SimbodyDynamicsScene stepped(*steps, c);
-  const DynamicsWatch watch = {c.gap_threshold,    c.divergence_gap * p.m.size(),
-                               c.singular_rcond,   energy_scale,
-                               c.energy_threshold, c.divergence_energy};
+  const DynamicsWatch watch = c.shared.dynamics_watch(p.m, energy_scale);
   sim::run_dynamics(original, p.m, reference, plan, watch, true, stepped, begin, out);
   return out;
 }
@@ -1217,7 +1186,7 @@ class SimbodyEngine final : public Engine {
   }
 
   void check_settings(const Mechanism& m, const Settings& overrides) const override {
-    (void)perturbed(m, parse_settings(overrides).perturb_link);
+    (void)perturbed(m, parse_settings(overrides).shared.perturb_link);
   }
 
   EngineRun run(const Mechanism& original, const Trajectory& reference,
@@ -1235,20 +1204,19 @@ class SimbodyEngine final : public Engine {
         throw std::runtime_error(problem);
       plan = plan_kinematic(
           p.m, reference, wanted_step(reference, p.config, p.span), InnerTimes::step_multiples,
-          p.graph.contacts.empty() ? kPreroll : kContactPreroll, p.config.max_steps,
-          p.config.singular_rcond, !p.config.perturb_link.empty());
+          p.graph.contacts.empty() ? kPreroll : kContactPreroll, p.config.shared.max_steps,
+          p.config.shared.singular_rcond, !p.config.shared.perturb_link.empty());
     } catch (const std::exception& e) {
       return failed_run(std::move(out), e.what());
     }
     const Config& c = p.config;
     Settings values =
         common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
-    values.insert(values.end(),
-                  {{"driver_threshold", format_number(c.driver_threshold)},
-                   {"forces",
-                    "mobilizer reactions, ball constraint forces and the driven mobilizer's "
-                    "prescribed-motion force at the pose each step leaves"},
-                   {"branch_distance", format_number(c.branch_distance)}});
+    const Settings shared = c.shared.kinematic_printed(p.m.has_friction());
+    values.insert(values.end(), shared.begin(), shared.end());
+    values.emplace_back("forces",
+                        "mobilizer reactions, ball constraint forces and the driven mobilizer's "
+                        "prescribed-motion force at the pose each step leaves");
     out.settings = printed_settings(simbody_settings(), RunKind::kinematic, values,
                                     p.m.has_friction(), !p.graph.contacts.empty());
     std::optional<Scene> scene;
@@ -1262,8 +1230,7 @@ class SimbodyEngine final : public Engine {
       return failed_run(std::move(out), "scene build failed: " + simbody_error(e));
     }
     SimbodyKinematicScene stepped(*steps, c);
-    const KinematicWatch watch = {c.gap_threshold, c.divergence_gap * p.m.size(),
-                                  c.driver_threshold, c.singular_rcond, c.branch_distance};
+    const KinematicWatch watch = c.shared.kinematic_watch(p.m);
     run_kinematic(original, p.m, reference, plan, watch, true, stepped, begin, out);
     return out;
   }
