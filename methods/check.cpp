@@ -255,6 +255,34 @@ Trajectory print_singular_positions(const Mechanism& m, const SweepOptions& opti
   return t;
 }
 
+// Each spline slot's ends where the sweep met them (the sweep's events: where the pin leaves the
+// slot and where it comes back), as the driver's values past them, which have no pose; the
+// assembling range above is its toggles'.
+// (A sweep in time lists its events only: the ends are located on a driver's value.)
+void print_slot_ends(const Mechanism& m, const Trajectory& t, std::string& out) {
+  if (m.axis().timed()) return;
+  const DriverUnit unit = axis_unit_of(m);
+  for (const Joint& j : m.joints) {
+    if (j.type != JointType::pin_in_spline) continue;
+    const std::string slot = fmt::format("spline slot '{}'", j.name);
+    std::vector<std::string> past;  // "from A to B"
+    std::string from = t.samples() > 0 ? unit.text(t.along(0), 9) : "";
+    bool open = false;  // the pin is past an end
+    for (const Trajectory::Event& e : t.events) {
+      if (e.kind != PoseStatus::cannot_assemble || e.message.find(slot) == std::string::npos)
+        continue;
+      const bool back = e.message.find(" comes back from past ") != std::string::npos;
+      if (!back) from = unit.text(e.driver, 9);
+      if (back) past.push_back(fmt::format("from {} to {}", from, unit.text(e.driver, 9)));
+      open = !back;
+    }
+    if (open) past.push_back(fmt::format("from {} to the sweep's end", from));
+    out += past.empty() ? fmt::format("  {}: holds its pin over the sweep\n", slot)
+                        : fmt::format("  {}: its ends stop the pin: no pose {}\n", slot,
+                                      fmt::join(past, ", "));
+  }
+}
+
 // Which assembly the chain starts on, who chose it, and whether another closes there.
 void print_modes(const Mechanism& m, const KinematicState& assembled, std::string& out) {
   std::string chosen =
@@ -400,20 +428,14 @@ CheckReport check_report(const Mechanism& m, const WorkLimits& limits,
         "positions over a sweep need a speed\n";
   } else if (!m.axis().timed() && m.swept().law.kind == MotionLaw::Kind::constant_speed) {
     const AssemblingRange range = assembling_range(m, options);
-    const bool slot_ends = std::any_of(m.joints.begin(), m.joints.end(), [](const Joint& j) {
-      return j.type == JointType::pin_in_spline;
-    });
-    out += fmt::format("  assembling range: {}{}{}\n", range.explain(m),
+    out += fmt::format("  assembling range: {}{}\n", range.explain(m),
                        range.full_cycle || !range.unknown.empty()
                            ? ""
-                           : " (limits: toggles; the chain cannot close beyond)",
-                       slot_ends ? "; within it a spline slot's ends stop its pin where the "
-                                   "sweep's cannot_assemble events below say (at the first "
-                                   "sample past each)"
-                                 : "");
+                           : " (limits: toggles; the chain cannot close beyond)");
   }
   std::vector<SingularPosition> singular;
   if (!m.at_rest()) report.sweep = print_singular_positions(m, options, out, singular);
+  if (report.sweep) print_slot_ends(m, *report.sweep, out);
   // A force-closed cam's jump speed: faster, its follower leaves the cam (docs/cams.md).
   for (size_t ji = 0; report.sweep && ji < m.joints.size(); ++ji) {
     const Joint& j = m.joints[ji];

@@ -729,29 +729,62 @@ std::string_view to_string(SingularKind kind) {
 
 namespace {
 // Where a pin leaves its spline slot (NewtonSolver::write_sample's event, at the first sample
-// past the end): bisection on exact solves between that sample and the one before, which holds
-// the pin, to the driver's round-off; the event moves there.
+// past the end) and where it comes back (an event of its own, at the first sample that holds it
+// again): bisection on exact solves between the sample past the end and its neighbour holding the
+// pin, to the driver's round-off; the event is placed at the value past the end.
 void locate_slot_ends(const Mechanism& mechanism, const SweepOptions& options, Trajectory& out) {
   if (mechanism.axis().timed()) return;
-  for (Trajectory::Event& e : out.events) {
-    if (e.kind != PoseStatus::cannot_assemble || e.message.find("spline slot") == std::string::npos)
-      continue;
-    int k = 0;
-    while (k < out.samples() && out.along(k) != e.driver) ++k;
-    if (k == 0 || k == out.samples() || !usable(out.status[static_cast<size_t>(k - 1)])) continue;
-    double held = out.along(k - 1), past = out.along(k);
+  const DriverUnit unit = driver_unit_of(mechanism);
+  const auto reached = [&](double held, double past) {
     const double resolution =
         8.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(held), std::abs(past));
     while (std::abs(past - held) > resolution) {
       const double mid = 0.5 * (held + past);
       (usable(solve_at(mechanism, mid, options).status[0]) ? held : past) = mid;
     }
-    e.driver = past;
+    return past;
+  };
+  for (Trajectory::Event& e : out.events) {
+    if (e.kind != PoseStatus::cannot_assemble || e.message.find("spline slot") == std::string::npos)
+      continue;
+    int k = 0;
+    while (k < out.samples() && out.along(k) != e.driver) ++k;
+    if (k == 0 || k == out.samples() || !usable(out.status[static_cast<size_t>(k - 1)])) continue;
+    e.driver = reached(out.along(k - 1), out.along(k));
     e.message += fmt::format(
         " (at the first sample past it, {}; the pin reaches the end at driver = {}, where this "
         "event is placed)",
-        driver_unit_of(mechanism).text(out.along(k), 6), driver_unit_of(mechanism).text(past, 9));
+        unit.text(out.along(k), 6), unit.text(e.driver, 9));
   }
+  // Each run of samples past an end that the sweep leaves again: where the pin is back.
+  std::vector<Trajectory::Event> back;
+  for (int k = 1; k < out.samples(); ++k) {
+    if (out.status[static_cast<size_t>(k - 1)] != PoseStatus::cannot_assemble ||
+        !usable(out.status[static_cast<size_t>(k)]))
+      continue;
+    const Trajectory before = solve_at(mechanism, out.along(k - 1), options);
+    const auto slot = std::find_if(before.events.begin(), before.events.end(), [](const auto& e) {
+      return e.kind == PoseStatus::cannot_assemble &&
+             e.message.find("spline slot") != std::string::npos;
+    });
+    if (slot == before.events.end()) continue;  // not a slot's end that flagged it
+    // "the pin B is past the end S1 of spline slot 'slot', by ...": the pin and the end.
+    std::string pin = slot->message.substr(0, slot->message.find(", by "));
+    pin.replace(pin.find(" is past "), 9, " comes back from past ");
+    const double at = reached(out.along(k), out.along(k - 1));
+    back.emplace_back(at, PoseStatus::cannot_assemble,
+                      fmt::format("{}: the samples since it left have no pose (at the first "
+                                  "sample that holds it, {}; the pin reaches the end at driver = "
+                                  "{}, where this event is placed)",
+                                  pin, unit.text(out.along(k), 6), unit.text(at, 9)));
+  }
+  if (back.empty()) return;
+  // In the sweep's order, which runs either way.
+  const double ahead = out.along(out.samples() - 1) < out.along(0) ? -1.0 : 1.0;
+  out.events.insert(out.events.end(), back.begin(), back.end());
+  std::stable_sort(out.events.begin(), out.events.end(), [ahead](const auto& a, const auto& b) {
+    return ahead * a.driver < ahead * b.driver;
+  });
 }
 
 // The sweep, the pins' leaving their spline slots placed on the samples past the ends.

@@ -163,7 +163,8 @@ TEST(CurvedSlots, CheckCountsItsMobilityAndSaysTheDyadsHaveNoClosedForm) {
 
 // The rocker of curved_slot_rocker.toml with its slot a spline through `points` (its frame).
 Mechanism spline_rocker(const std::vector<Eigen::Vector2d>& points,
-                        const std::string& pose = "[0.10, 0, 62.720]") {
+                        const std::string& pose = "[0.10, 0, 62.720]",
+                        const std::string& speed = "240") {
   std::string named, through;
   for (size_t i = 0; i < points.size(); ++i) {
     named += fmt::format(", S{} = [{:.17g}, {:.17g}]", i + 1, points[i].x(), points[i].y());
@@ -173,6 +174,7 @@ Mechanism spline_rocker(const std::vector<Eigen::Vector2d>& points,
       "mechanisms/cams/curved_slot_rocker.toml",
       {{"C = [0.08, 0] }", "C = [0.08, 0]" + named + " }"},
        {"pose = [0.10, 0, 62.720]", "pose = " + pose},
+       {"speed = 240 ", "speed = " + speed + " "},
        {"arc = { centre = \"C\", radius = 0.12 }", "spline = { through = [" + through + "] }"}});
 }
 
@@ -237,8 +239,10 @@ TEST(SplineSlots, ThroughPointsOfTheArcItComesToTheArc) {
 
 // A slot shorter than the pin's travel: from 100 to 160 degrees of the arc, where the pin runs
 // from 93.6 to 153.6. Past its end S1 the pose does not exist: those samples are flagged
-// cannot_assemble, with an event at the first, and the rest are solved. A slot from 100 to 150
-// does not hold the drawing (the pin at 153.6 degrees at the start): `check` refuses it there.
+// cannot_assemble, with an event where the pin leaves the slot and one where it comes back, and
+// the rest are solved; `check` prints the driver's values between as the slot's. A slot from 100
+// to 150 does not hold the drawing (the pin at 153.6 degrees at the start): `check` refuses it
+// there.
 TEST(SplineSlots, PastAnEndThePinStopsAndTheSampleIsFlagged) {
   const Trajectory arc = sweep(load_mechanism("mechanisms/cams/curved_slot_rocker.toml"));
   const Trajectory t = sweep(spline_rocker(arc_points(13, 100, 160)));
@@ -257,37 +261,71 @@ TEST(SplineSlots, PastAnEndThePinStopsAndTheSampleIsFlagged) {
     flagged += s == PoseStatus::cannot_assemble;
   }
   EXPECT_GT(flagged, 0);
-  int events = 0;
+  std::vector<const Trajectory::Event*> ends;
   for (const Trajectory::Event& e : t.events)
-    if (e.kind == PoseStatus::cannot_assemble) {
-      ++events;
-      EXPECT_NE(e.message.find("past the end S1 of spline slot 'slot'"), std::string::npos)
-          << e.message;
-    }
-  EXPECT_EQ(events, 1);
-  // The event is placed where the pin reaches S1, between the last sample that holds it and the
-  // first past it: there the pin is on S1, 100 degrees round the arc.
+    if (e.kind == PoseStatus::cannot_assemble) ends.push_back(&e);
+  ASSERT_EQ(ends.size(), 2u);
+  EXPECT_NE(ends[0]->message.find("the pin B is past the end S1 of spline slot 'slot'"),
+            std::string::npos)
+      << ends[0]->message;
+  EXPECT_NE(
+      ends[1]->message.find("the pin B comes back from past the end S1 of spline slot 'slot'"),
+      std::string::npos)
+      << ends[1]->message;
+  // Each event is placed where the pin reaches S1, between the sample that holds it and its
+  // neighbour past it (after it where the pin leaves, before it where it comes back): there the
+  // pin is on S1, 100 degrees round the arc.
   const Mechanism m = spline_rocker(arc_points(13, 100, 160));
-  for (const Trajectory::Event& e : t.events) {
-    if (e.kind != PoseStatus::cannot_assemble) continue;
+  for (const Trajectory::Event* e : ends) {
+    const bool back = e == ends[1];
     int k = 0;
-    while (t.along(k) < e.driver) ++k;
-    EXPECT_EQ(t.status[static_cast<size_t>(k)], PoseStatus::cannot_assemble);
-    EXPECT_EQ(t.status[static_cast<size_t>(k - 1)], PoseStatus::ok);
-    // Just short of it (the bisection's bracket is a few round-offs wide), the pin is held, and
-    // within the ends' tolerance of S1: 1e-9 of the mechanism's size along the chord, which the
-    // slot leaves S1 at 30 degrees to.
-    const Trajectory at = solve_at(m, e.driver - 1e-12);
+    while (t.along(k) < e->driver) ++k;
+    EXPECT_EQ(t.status[static_cast<size_t>(k)],
+              back ? PoseStatus::ok : PoseStatus::cannot_assemble);
+    EXPECT_EQ(t.status[static_cast<size_t>(k - 1)],
+              back ? PoseStatus::cannot_assemble : PoseStatus::ok);
+    // On the held side of it (the bisection's bracket is a few round-offs wide), the pin is held,
+    // and within the ends' tolerance of S1: 1e-9 of the mechanism's size along the chord, which
+    // the slot leaves S1 at 30 degrees to.
+    const Trajectory at = solve_at(m, e->driver + (back ? 1e-12 : -1e-12));
     ASSERT_EQ(at.status[0], PoseStatus::ok);
     const double theta = at.angle(0, 1);
     const Eigen::Vector2d s1 =
         Eigen::Vector2d(0.10, 0.0) + Eigen::Rotation2Dd(theta) * arc_points(13, 100, 160).front();
     EXPECT_LT((Eigen::Vector2d(*at.sample("x.B", 0), *at.sample("y.B", 0)) - s1).norm(),
               1e-9 * m.size() / std::cos(30 * std::numbers::pi / 180) + 1e-15)
-        << e.message;
-    std::printf("  the pin reaches S1 at %.9f deg: %s\n", e.driver * 180 / std::numbers::pi,
-                e.message.c_str());
+        << e->message;
+    std::printf("  the pin reaches S1 at %.9f deg: %s\n", e->driver * 180 / std::numbers::pi,
+                e->message.c_str());
   }
+  // `check` prints the driver's values past the end, from one event to the other.
+  const test::CommandRun checked = test::crosslink("check " + m.file);
+  EXPECT_EQ(checked.exit_code, 0) << checked.err;
+  EXPECT_NE(
+      checked.out.find(fmt::format(
+          "spline slot 'slot': its ends stop the pin: no pose from {:.9g} deg to {:.9g} deg\n",
+          ends[0]->driver / m.units.angle, ends[1]->driver / m.units.angle)),
+      std::string::npos)
+      << checked.out;
+  // The bundled slot, from 80 to 170 degrees, holds the pin over its whole travel.
+  const test::CommandRun bundled = test::crosslink("check mechanisms/cams/spline_slot_rocker.toml");
+  EXPECT_NE(bundled.out.find("  spline slot 'slot': holds its pin over the sweep\n"),
+            std::string::npos)
+      << bundled.out;
+
+  // Swept the other way, the crank meets the same two places in turn, a turn below: the pin
+  // leaves where it came back and comes back where it left, and the events keep the sweep's
+  // order.
+  const Trajectory reversed =
+      sweep(spline_rocker(arc_points(13, 100, 160), "[0.10, 0, 62.720]", "-240"));
+  std::vector<const Trajectory::Event*> back_ends;
+  for (const Trajectory::Event& e : reversed.events)
+    if (e.kind == PoseStatus::cannot_assemble) back_ends.push_back(&e);
+  ASSERT_EQ(back_ends.size(), 2u);
+  EXPECT_NE(back_ends[0]->message.find(" is past the end S1"), std::string::npos);
+  EXPECT_NE(back_ends[1]->message.find(" comes back from past the end S1"), std::string::npos);
+  EXPECT_NEAR(back_ends[0]->driver, ends[1]->driver - 2 * std::numbers::pi, 1e-12);
+  EXPECT_NEAR(back_ends[1]->driver, ends[0]->driver - 2 * std::numbers::pi, 1e-12);
 
   const Mechanism short_slot = spline_rocker(arc_points(11, 100, 150));
   const test::CommandRun check = test::crosslink("check " + short_slot.file);
