@@ -7,8 +7,11 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <optional>
 #include <stdexcept>
 
+#include "analytic/model/planar.h"
 #include "compare/report.h"
 
 namespace crosslink::compare {
@@ -32,6 +35,70 @@ std::vector<std::string> moving_points(const Mechanism& m) {
   std::vector<std::string> out;
   for (const Mechanism::NamedPoint& p : m.named_points())
     if (!m.links[static_cast<size_t>(p.link)].ground) out.push_back(p.name);
+  return out;
+}
+
+namespace {
+// A link's frame at a sample: a point given in it, placed from the link's first point and angle.
+struct Placement {
+  Eigen::Vector2d first, first_local;
+  Eigen::Rotation2Dd rotation{0.0};
+  Eigen::Vector2d operator()(const Eigen::Vector2d& local) const {
+    return first + rotation * (local - first_local);
+  }
+};
+}  // namespace
+
+std::vector<GuideOutline> guide_outlines(const Mechanism& m, const Trajectory& t, int k,
+                                         double reach) {
+  const auto where = [&](const std::string& name) -> std::optional<Eigen::Vector2d> {
+    const auto p = std::find(t.point_names.begin(), t.point_names.end(), name);
+    if (p == t.point_names.end()) return std::nullopt;
+    const auto c = static_cast<Eigen::Index>(p - t.point_names.begin());
+    return Eigen::Vector2d(t.x(k, c), t.y(k, c));
+  };
+  // Where link `l` is at `k`: its first point and its angle; none without a position.
+  const auto placed = [&](int l) -> std::optional<Placement> {
+    const Link& link = m.links[static_cast<size_t>(l)];
+    const int moving = m.moving_index(l);
+    if (link.points.empty()) return std::nullopt;
+    if (moving < 0)
+      return Placement{link.points[0].local, link.points[0].local, Eigen::Rotation2Dd(0.0)};
+    const auto p0 = where(link.points[0].name);
+    if (!p0) return std::nullopt;
+    return Placement{*p0, link.points[0].local, Eigen::Rotation2Dd(t.angle(k, moving))};
+  };
+  std::vector<GuideOutline> out;
+  for (size_t l = 0; l < m.links.size(); ++l) {
+    const Link& link = m.links[l];
+    if (link.lines.empty()) continue;
+    const auto at = placed(static_cast<int>(l));
+    if (!at) continue;
+    for (const Line& line : link.lines) {
+      const Eigen::Vector2d o = (*at)(line.origin), u = at->rotation * line.direction;
+      out.push_back({line.name, link.name, !link.ground, {o - reach * u, o + reach * u}});
+    }
+  }
+  for (const Joint& j : m.joints) {
+    if (j.type != JointType::pin_in_spline && j.type != JointType::pin_in_arc) continue;
+    const auto at = placed(j.link_a);
+    if (!at) continue;
+    const Link& guide = m.links[static_cast<size_t>(j.link_a)];
+    GuideOutline slot{j.name, guide.name, !guide.ground, {}};
+    for (int i = 0; i <= 48; ++i) {
+      if (j.type == JointType::pin_in_arc) {
+        const double angle = 2.0 * std::numbers::pi * i / 48.0;
+        slot.points.push_back(
+            (*at)(guide.points[static_cast<size_t>(j.centre_a)].local +
+                  j.radius_a * Eigen::Vector2d(std::cos(angle), std::sin(angle))));
+      } else {
+        const double x = j.slot->first() + (j.slot->last() - j.slot->first()) * i / 48.0;
+        slot.points.push_back(
+            (*at)(j.chord_start + x * j.chord_axis + j.slot->at(x).y * perp(j.chord_axis)));
+      }
+    }
+    out.push_back(std::move(slot));
+  }
   return out;
 }
 
@@ -70,13 +137,55 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
   const auto X = [&](int k, Eigen::Index p) { return t.x(k, p) / unit; };
   const auto Y = [&](int k, Eigen::Index p) { return -t.y(k, p) / unit; };
 
-  // The frame: every point at every shown sample, with a margin of 8 % of the larger span.
-  double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
-  for (const int k : shown)
-    for (Eigen::Index p = 0; p < t.x.cols(); ++p) {
-      x0 = std::min(x0, X(k, p)), x1 = std::max(x1, X(k, p));
-      y0 = std::min(y0, Y(k, p)), y1 = std::max(y1, Y(k, p));
+  // Each cam's profile at sample k, closed, and its roller's centre and radius (0: a knife edge or
+  // a face): the cam turned with its link about its centre.
+  struct CamOutline {
+    std::string link;
+    std::vector<Eigen::Vector2d> profile;
+    Eigen::Vector2d roller_centre;
+    double roller = 0.0;
+  };
+  const auto cams_at = [&](int k) {
+    std::vector<CamOutline> out;
+    for (const Trajectory::CamChannel& cam : t.cams) {
+      const CamReading::Pose p = cam.at(t, k);
+      const ConstraintRows& rows = cam.reading.rows;
+      const Joint& joint = m.joints[static_cast<size_t>(m.find_joint(cam.reading.joint))];
+      CamOutline c{m.links[static_cast<size_t>(joint.link_a)].name,
+                   {},
+                   p.at,
+                   rows.kind == ConstraintRows::Kind::cam_face
+                       ? 0.0
+                       : rows.contour->follower().roller_radius};
+      const Eigen::Rotation2Dd R(p.cam_angle);
+      for (const Eigen::Vector2d& u : cam.reading.outline(360))
+        c.profile.push_back(p.centre + R * u);
+      c.profile.push_back(c.profile.front());
+      out.push_back(std::move(c));
     }
+    return out;
+  };
+  std::vector<std::vector<CamOutline>> cam_outlines(static_cast<size_t>(t.samples()));
+  if (!t.cams.empty())
+    for (const int k : shown) cam_outlines[static_cast<size_t>(k)] = cams_at(k);
+
+  // The frame: every point, curved slot, line guide's origin and cam at every shown sample, with
+  // a margin of 8 % of the larger span.
+  double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
+  const auto frame = [&](double x, double y) {
+    x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  };
+  for (const int k : shown) {
+    for (Eigen::Index p = 0; p < t.x.cols(); ++p) frame(X(k, p), Y(k, p));
+    for (const GuideOutline& g : guide_outlines(m, t, k, 0.0))
+      for (const Eigen::Vector2d& v : g.points) frame(v.x() / unit, -v.y() / unit);
+    for (const CamOutline& c : cam_outlines[static_cast<size_t>(k)]) {
+      for (const Eigen::Vector2d& v : c.profile) frame(v.x() / unit, -v.y() / unit);
+      const Eigen::Vector2d r = c.roller_centre / unit;
+      frame(r.x() - c.roller / unit, -r.y() - c.roller / unit);
+      frame(r.x() + c.roller / unit, -r.y() + c.roller / unit);
+    }
+  }
   const double span = std::max({x1 - x0, y1 - y0, m.size() / unit * 1e-3});
   const double margin = 0.08 * span;
   x0 -= margin, x1 += margin, y0 -= margin, y1 += margin;
@@ -93,17 +202,21 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
       html_escape(m.name), html_escape(m.name), html_escape(m.file),
       html_escape(m.units.length_name), number(x0), number(y0), number(x1 - x0), number(y1 - y0));
 
-  // The ground's guides, across the frame.
-  const Link& ground = m.links[static_cast<size_t>(m.ground())];
-  for (const Line& line : ground.lines) {
-    const Eigen::Vector2d o = line.origin / unit, u = line.direction;
-    const double reach = 2.0 * std::hypot(x1 - x0, y1 - y0);
+  // The ground's guides dashed: its lines across the frame, its curved slots as they lie.
+  const double across = 2.0 * std::hypot(x1 - x0, y1 - y0) * unit;
+  const auto polyline = [&](const std::vector<Eigen::Vector2d>& points) {
+    std::string text;
+    for (const Eigen::Vector2d& v : points)
+      text += fmt::format("{}{},{}", text.empty() ? "" : " ", number(v.x() / unit),
+                          number(-v.y() / unit));
+    return text;
+  };
+  for (const GuideOutline& g : guide_outlines(m, t, row, across)) {
+    if (g.moving) continue;
     out += fmt::format(
-        "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\" stroke-width=\"{}\" "
-        "stroke-dasharray=\"{} {}\"/>\n",
-        number(o.x() - reach * u.x()), number(-(o.y() - reach * u.y())),
-        number(o.x() + reach * u.x()), number(-(o.y() + reach * u.y())), number(thin),
-        number(4 * thin), number(3 * thin));
+        "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-width=\"{}\" "
+        "stroke-dasharray=\"{} {}\"><title>{}</title></polyline>\n",
+        polyline(g.points), number(thin), number(4 * thin), number(3 * thin), html_escape(g.name));
   }
 
   // The paths of the moving points, one polyline per run of shown samples.
@@ -133,28 +246,71 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
   const auto animated = [&](const char* attribute, auto value) {
     return fmt::format(" {}=\"{}\"", attribute, number(value(row)));
   };
-  const auto animation = [&](const char* attribute, auto value) {
+  // An attribute's values through the shown samples, `text(k)` each.
+  const auto frames = [&](const char* attribute, auto text) {
     if (animate_seconds <= 0.0) return std::string();
     std::string values;
     for (const int k : shown) {
       if (!values.empty()) values += ';';
-      values += number(value(k));
+      values += text(k);
     }
     return fmt::format(
         "<animate attributeName=\"{}\" dur=\"{}s\" repeatCount=\"indefinite\" values=\"{}\"/>",
         attribute, number(animate_seconds), values);
   };
+  const auto animation = [&](const char* attribute, auto value) {
+    return frames(attribute, [&](int k) { return number(value(k)); });
+  };
 
-  // The links, in the report's colours.
+  // The links, their slots and cams in the report's colours.
   std::vector<std::string> link_names;
   for (const Link& link : m.links)
     if (!link.ground) link_names.push_back(link.name);
+  const auto colour_of = [&](const std::string& link) {
+    return kColours[static_cast<size_t>(std::find(link_names.begin(), link_names.end(), link) -
+                                        link_names.begin()) %
+                    kColours.size()];
+  };
+  // The slots on moving links, thin.
+  const double reach = m.size();
+  const std::vector<GuideOutline> guides = guide_outlines(m, t, row, reach);
+  for (size_t g = 0; g < guides.size(); ++g) {
+    if (!guides[g].moving) continue;
+    out += fmt::format(
+        "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\"><title>{}"
+        "</title>{}</polyline>\n",
+        polyline(guides[g].points), colour_of(guides[g].link), number(2 * thin),
+        html_escape(guides[g].name), frames("points", [&](int k) {
+          return polyline(guide_outlines(m, t, k, reach)[g].points);
+        }));
+  }
+  // The cams' profiles, and their rollers.
+  const std::vector<CamOutline>& cams = cam_outlines[static_cast<size_t>(row)];
+  for (size_t c = 0; c < cams.size(); ++c) {
+    const std::string& name = t.cams[c].reading.joint;
+    out += fmt::format(
+        "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\"><title>{} "
+        "profile</title>{}</polyline>\n",
+        polyline(cams[c].profile), colour_of(cams[c].link), number(2 * thin), html_escape(name),
+        frames("points",
+               [&](int k) { return polyline(cam_outlines[static_cast<size_t>(k)][c].profile); }));
+    if (cams[c].roller <= 0.0) continue;
+    const auto x = [&](int k) {
+      return cam_outlines[static_cast<size_t>(k)][c].roller_centre.x() / unit;
+    };
+    const auto y = [&](int k) {
+      return -cam_outlines[static_cast<size_t>(k)][c].roller_centre.y() / unit;
+    };
+    out += fmt::format(
+        "<circle{}{} r=\"{}\" fill=\"none\" stroke=\"#222\" stroke-width=\"{}\"><title>{} "
+        "roller</title>{}{}</circle>\n",
+        animated("cx", x), animated("cy", y), number(cams[c].roller / unit), number(thin),
+        html_escape(name), animation("cx", x), animation("cy", y));
+  }
+
   for (const LinkSegment& s : link_segments(m, t)) {
     const Eigen::Index p = column(s.p), q = column(s.q);
-    const auto colour =
-        kColours[static_cast<size_t>(std::find(link_names.begin(), link_names.end(), s.link) -
-                                     link_names.begin()) %
-                 kColours.size()];
+    const auto colour = colour_of(s.link);
     const auto xp = [&](int k) { return X(k, p); };
     const auto yp = [&](int k) { return Y(k, p); };
     const auto xq = [&](int k) { return X(k, q); };

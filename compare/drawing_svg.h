@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "analytic/model/mechanism.h"
 #include "analytic/model/trajectory.h"
 
@@ -20,9 +22,23 @@ std::vector<LinkSegment> link_segments(const Mechanism& mechanism, const Traject
 // order): the points whose paths the drawings and the report's path chart draw.
 std::vector<std::string> moving_points(const Mechanism& mechanism);
 
+// A guide as drawn at sample `k` of `trajectory` (m, y up): a line guide `reach` either side of
+// its origin; a curved slot's centreline in 48 chords, a spline slot's from end to end, an arc's
+// whole circle, closed (it has no ends: the pin may go round it). Line guides first, in link
+// order, then the curved slots in joint order; none on a moving link without a position at `k`.
+struct GuideOutline {
+  std::string name;  // the line's, or the slot's joint's
+  std::string link;  // that carries it
+  bool moving = false;
+  std::vector<Eigen::Vector2d> points;
+};
+std::vector<GuideOutline> guide_outlines(const Mechanism& mechanism, const Trajectory& trajectory,
+                                         int k, double reach);
+
 // The links at sample `row` of `sweep` (file length units, y up), the ground's pivots and guides,
 // every moving point's path over the sweep in grey (the coupler curves; broken where a sample
-// has no position); the points named. With `animate_seconds` > 0, the links and moving points go
+// has no position), the slots on moving links and the cams' profiles with their rollers in the
+// links' colours; the points named. With `animate_seconds` > 0, the links and moving points go
 // through every sample with a position in turn, one sweep per that many seconds, repeating
 // (SMIL <animate>, which browsers play from the file alone), and the names are left out.
 std::string drawing_svg(const Mechanism& mechanism, const Trajectory& sweep, int row,

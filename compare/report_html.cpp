@@ -149,57 +149,17 @@ json drawing(const Mechanism& m, const Trajectory& pose, const DisplayUnit& leng
     return std::nullopt;
   };
   const double reach = m.size();
-  int moving = 0;
-  for (const Link& link : m.links) {
-    const double theta = link.ground ? 0.0 : pose.angle(0, moving);
-    // Guides and slots, from the link's first point and its angle.
-    if (!link.points.empty() && (link.ground || where(link.points[0].name)))
-      for (const Line& line : link.lines) {
-        const Eigen::Vector2d p0 = link.ground ? link.points[0].local : *where(link.points[0].name);
-        const Eigen::Rotation2Dd R(theta);
-        const Eigen::Vector2d o = p0 + R * (line.origin - link.points[0].local);
-        const Eigen::Vector2d u = R * line.direction;
-        const Eigen::Vector2d a = o - reach * u, b = o + reach * u;
-        d["guides"].push_back({{"line", line.name},
-                               {"moving", !link.ground},
-                               {"x", a.x() / length.scale},
-                               {"y", a.y() / length.scale},
-                               {"x2", b.x() / length.scale},
-                               {"y2", b.y() / length.scale}});
-      }
-    if (!link.ground) ++moving;
-  }
-  // Curved slots as 48 chords in the guide's frame at its pose: a spline slot's centreline from
-  // end to end, an arc's whole circle (it has no ends: the pin may go round it).
-  for (const Joint& j : m.joints) {
-    if (j.type != JointType::pin_in_spline && j.type != JointType::pin_in_arc) continue;
-    const Link& guide = m.links[static_cast<size_t>(j.link_a)];
-    const int k = m.moving_index(j.link_a);
-    if (k >= 0 && !where(guide.points[0].name)) continue;
-    const Eigen::Rotation2Dd R(k >= 0 ? pose.angle(0, k) : 0.0);
-    const Eigen::Vector2d p0 = k >= 0 ? *where(guide.points[0].name) : guide.points[0].local;
-    const auto local = [&](int i) -> Eigen::Vector2d {
-      if (j.type == JointType::pin_in_arc) {
-        const double angle = 2.0 * std::numbers::pi * i / 48.0;
-        return guide.points[static_cast<size_t>(j.centre_a)].local +
-               j.radius_a * Eigen::Vector2d(std::cos(angle), std::sin(angle));
-      }
-      const double x = j.slot->first() + (j.slot->last() - j.slot->first()) * i / 48.0;
-      return j.chord_start + x * j.chord_axis + j.slot->at(x).y * perp(j.chord_axis);
-    };
-    const auto at = [&](int i) {
-      return Eigen::Vector2d((p0 + R * (local(i) - guide.points[0].local)) / length.scale);
-    };
-    for (int i = 0; i < 48; ++i) {
-      const Eigen::Vector2d a = at(i), b = at(i + 1);
-      d["guides"].push_back({{"line", j.name},
-                             {"moving", k >= 0},
+  // Guides and slots, each as its chords.
+  for (const GuideOutline& g : guide_outlines(m, pose, 0, reach))
+    for (size_t i = 0; i + 1 < g.points.size(); ++i) {
+      const Eigen::Vector2d a = g.points[i] / length.scale, b = g.points[i + 1] / length.scale;
+      d["guides"].push_back({{"line", g.name},
+                             {"moving", g.moving},
                              {"x", a.x()},
                              {"y", a.y()},
                              {"x2", b.x()},
                              {"y2", b.y()}});
     }
-  }
   // p and q name the ends, so that the page can redraw the segment at any sample.
   for (const LinkSegment& s : link_segments(m, pose)) {
     const Eigen::Vector2d a = *where(s.p), b = *where(s.q);

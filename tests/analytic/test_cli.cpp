@@ -1902,6 +1902,124 @@ TEST(Cli, SolveDrawsTheMechanismAsSvgAndAnimatesIt) {
             2);
 }
 
+// An element of a drawing by its title: from its opening tag to its closing one.
+std::string svg_element(const std::string& svg, const std::string& title) {
+  const size_t at = svg.find("<title>" + title + "</title>");
+  if (at == std::string::npos) return "";
+  const size_t from = svg.rfind("\n", at) + 1;
+  return svg.substr(from, svg.find("\n", at) - from);
+}
+// An attribute of the element's opening tag, or each frame of its animation.
+std::string svg_attribute(const std::string& element, const std::string& name) {
+  size_t at = element.find(" " + name + "=\"");
+  if (at == std::string::npos) return "";
+  at += name.size() + 3;
+  return element.substr(at, element.find('"', at) - at);
+}
+std::vector<std::string> svg_frames(const std::string& element, const std::string& name) {
+  const size_t at = element.find("<animate attributeName=\"" + name + "\"");
+  if (at == std::string::npos) return {};
+  std::stringstream values(svg_attribute(element.substr(at), "values"));
+  std::vector<std::string> out;
+  for (std::string v; std::getline(values, v, ';');) out.push_back(v);
+  return out;
+}
+std::vector<Eigen::Vector2d> svg_points(const std::string& text) {
+  std::stringstream in(text);
+  std::vector<Eigen::Vector2d> out;
+  for (std::string xy; in >> xy;) {
+    const size_t comma = xy.find(',');
+    out.emplace_back(std::stod(xy.substr(0, comma)), std::stod(xy.substr(comma + 1)));
+  }
+  return out;
+}
+
+// The drawing to take away draws what the report draws: a slot on a moving link and a cam's
+// profile with its roller, in place at every frame. Held by the definitions' geometry, against
+// the points the drawing puts: the curved slot's every vertex 0.12 m from its centre C, the
+// eccentric disc's 0.09 m from its centre X, the roller 0.03 m about the follower's C, 0.12 m
+// from X (the disc and the roller touch), the follower's line through D = (0, 0.01); to the
+// drawing's six digits.
+TEST(Cli, TheSvgDrawsSlotsAndCamsInPlace) {
+  const auto drawn = [](const std::string& file, bool animate) {
+    const std::string svg = (scratch_dir() / "slots_and_cams.svg").string();
+    const CommandRun run =
+        crosslink("solve " + file + " --svg \"" + svg + "\"" + (animate ? " --animate 4" : ""));
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return read_file(svg);
+  };
+  // Each frame of a circle's centre.
+  const auto centres = [](const std::string& element) {
+    std::vector<Eigen::Vector2d> out;
+    const std::vector<std::string> x = svg_frames(element, "cx"), y = svg_frames(element, "cy");
+    for (size_t f = 0; f < x.size() && f < y.size(); ++f)
+      out.emplace_back(std::stod(x[f]), std::stod(y[f]));
+    return out;
+  };
+  const auto expect_on_circle = [](const std::vector<Eigen::Vector2d>& vertices,
+                                   const Eigen::Vector2d& centre, double radius,
+                                   const std::string& what) {
+    ASSERT_FALSE(vertices.empty()) << what;
+    EXPECT_EQ(vertices.front(), vertices.back()) << what << ": closed";
+    for (const Eigen::Vector2d& v : vertices)
+      ASSERT_NEAR((v - centre).norm(), radius, 2e-6) << what;
+  };
+
+  const std::string slot_rocker = drawn("mechanisms/cams/curved_slot_rocker.toml", true);
+  const std::string slot = svg_element(slot_rocker, "slot");
+  const std::vector<Eigen::Vector2d> c = centres(svg_element(slot_rocker, "C"));
+  const std::vector<std::string> slot_frames = svg_frames(slot, "points");
+  ASSERT_EQ(c.size(), 361u);
+  ASSERT_EQ(slot_frames.size(), c.size()) << slot;
+  expect_on_circle(svg_points(svg_attribute(slot, "points")), c[0], 0.12, "slot at the start");
+  for (size_t f = 0; f < c.size(); ++f)
+    expect_on_circle(svg_points(slot_frames[f]), c[f], 0.12, fmt::format("slot, frame {}", f));
+
+  const std::string cam = drawn("mechanisms/cams/eccentric_roller_spring.toml", true);
+  const std::string profile = svg_element(cam, "contact profile");
+  const std::string roller = svg_element(cam, "contact roller");
+  const std::vector<Eigen::Vector2d> x = centres(svg_element(cam, "X"));
+  const std::vector<Eigen::Vector2d> follower = centres(svg_element(cam, "C"));
+  const std::vector<Eigen::Vector2d> rolling = centres(roller);
+  const std::vector<std::string> profile_frames = svg_frames(profile, "points");
+  ASSERT_EQ(x.size(), 361u);
+  ASSERT_EQ(profile_frames.size(), x.size()) << profile.substr(0, 400);
+  ASSERT_EQ(rolling.size(), follower.size());
+  EXPECT_EQ(svg_attribute(roller, "r"), "0.03");
+  for (size_t f = 0; f < x.size(); ++f) {
+    const std::vector<Eigen::Vector2d> disc = svg_points(profile_frames[f]);
+    EXPECT_EQ(disc.size(), 361u);
+    expect_on_circle(disc, x[f], 0.09, fmt::format("disc, frame {}", f));
+    EXPECT_NEAR((rolling[f] - follower[f]).norm(), 0.0, 2e-6) << "roller, frame " << f;
+    EXPECT_NEAR((rolling[f] - x[f]).norm(), 0.12, 2e-6) << "roller, frame " << f;
+  }
+  // Still, at the start: the disc about X, inside the frame; the follower's line dashed through D.
+  const std::string still = drawn("mechanisms/cams/eccentric_roller_spring.toml", false);
+  const std::string x_still = svg_element(still, "X");
+  const Eigen::Vector2d x0(std::stod(svg_attribute(x_still, "cx")),
+                           std::stod(svg_attribute(x_still, "cy")));
+  const std::vector<Eigen::Vector2d> disc =
+      svg_points(svg_attribute(svg_element(still, "contact profile"), "points"));
+  expect_on_circle(disc, x0, 0.09, "disc at the start");
+  const std::vector<double> box = [&] {
+    std::stringstream in(svg_attribute(still.substr(still.find("<svg ")), "viewBox"));
+    std::vector<double> out(4);
+    for (double& v : out) in >> v;
+    return out;
+  }();
+  for (const Eigen::Vector2d& v : disc) {
+    EXPECT_GT(v.x(), box[0]);
+    EXPECT_LT(v.x(), box[0] + box[2]);
+    EXPECT_GT(v.y(), box[1]);
+    EXPECT_LT(v.y(), box[1] + box[3]);
+  }
+  const std::vector<Eigen::Vector2d> axis =
+      svg_points(svg_attribute(svg_element(still, "follower_axis"), "points"));
+  ASSERT_EQ(axis.size(), 2u);
+  EXPECT_FALSE(svg_attribute(svg_element(still, "follower_axis"), "stroke-dasharray").empty());
+  for (const Eigen::Vector2d& v : axis) EXPECT_NEAR(v.y(), -0.01, 1e-9);
+}
+
 // Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
 // five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so; so
 // does a rack and pinion whose pinion is placed.
