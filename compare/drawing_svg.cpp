@@ -20,13 +20,33 @@ std::vector<LinkSegment> link_segments(const Mechanism& m, const Trajectory& t) 
   std::vector<LinkSegment> out;
   for (const Link& link : m.links) {
     if (link.ground) continue;
-    std::vector<std::string> names;
+    std::vector<const Point*> points;
     for (const Point& p : link.points)
       if (std::find(t.point_names.begin(), t.point_names.end(), p.name) != t.point_names.end())
-        names.push_back(p.name);
-    if (names.size() < 2) continue;
-    for (size_t i = 0; i < (names.size() == 2 ? 1 : names.size()); ++i)
-      out.push_back({link.name, names[i], names[(i + 1) % names.size()]});
+        points.push_back(&p);
+    // The convex hull in the link's frame, counterclockwise (Andrew's monotone chain): a rigid
+    // link's at every pose. Points on an edge or inside it are left to their dots.
+    std::sort(points.begin(), points.end(), [](const Point* a, const Point* b) {
+      return std::pair(a->local.x(), a->local.y()) < std::pair(b->local.x(), b->local.y());
+    });
+    const auto turn = [](const Point* o, const Point* a, const Point* b) {
+      const Eigen::Vector2d u = a->local - o->local, v = b->local - o->local;
+      return u.x() * v.y() - u.y() * v.x();
+    };
+    std::vector<const Point*> hull;
+    for (int pass = 0; pass < 2; ++pass) {  // the lower chain left to right, the upper back
+      const size_t base = hull.size();
+      for (const Point* p : points) {
+        while (hull.size() >= base + 2 && turn(hull[hull.size() - 2], hull.back(), p) <= 0.0)
+          hull.pop_back();
+        hull.push_back(p);
+      }
+      hull.pop_back();  // the chain's last point starts the other
+      std::reverse(points.begin(), points.end());
+    }
+    if (hull.size() < 2) continue;
+    for (size_t i = 0; i < (hull.size() == 2 ? 1 : hull.size()); ++i)
+      out.push_back({link.name, hull[i]->name, hull[(i + 1) % hull.size()]->name});
   }
   return out;
 }

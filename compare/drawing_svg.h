@@ -12,8 +12,9 @@
 
 namespace crosslink::compare {
 
-// A link's drawn segment between two of its named points: consecutive points, closed for three
-// or more (a ternary link is its triangle). Only points the trajectory has.
+// A link's drawn segment between two of its named points: the edges of the convex hull of its
+// points, a binary link its one line, a ternary link its triangle; a point on an edge or inside
+// is drawn as a point only. Only points the trajectory has.
 struct LinkSegment {
   std::string link, p, q;
 };

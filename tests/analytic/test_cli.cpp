@@ -2020,6 +2020,68 @@ TEST(Cli, TheSvgDrawsSlotsAndCamsInPlace) {
   for (const Eigen::Vector2d& v : axis) EXPECT_NEAR(v.y(), -0.01, 1e-9);
 }
 
+// A link is drawn as the convex hull of its points, in the report and the drawing alike
+// (compare::link_segments): the 3-RRR platform as its triangle C1 C2 C3, its centre P a point
+// inside, not a corner of a dented quadrilateral; the spline slot's rocker as the outline of its
+// nine points, closed, every point on it or inside.
+TEST(Cli, TheDrawingOutlinesALinkByTheHullOfItsPoints) {
+  const auto drawn = [](const std::string& file) {
+    const std::string svg = (scratch_dir() / "hull.svg").string();
+    const CommandRun run = crosslink("solve " + file + " --svg \"" + svg + "\"");
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return read_file(svg);
+  };
+  // The link's drawn lines, and where the drawing puts a named point.
+  const auto edges = [](const std::string& svg, const std::string& link) {
+    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> out;
+    std::stringstream lines(svg);
+    for (std::string line; std::getline(lines, line);)
+      if (line.rfind("<line ", 0) == 0 &&
+          line.find("<title>" + link + "</title>") != std::string::npos)
+        out.emplace_back(Eigen::Vector2d(std::stod(svg_attribute(line, "x1")),
+                                         std::stod(svg_attribute(line, "y1"))),
+                         Eigen::Vector2d(std::stod(svg_attribute(line, "x2")),
+                                         std::stod(svg_attribute(line, "y2"))));
+    return out;
+  };
+  const auto point = [](const std::string& svg, const std::string& name) {
+    const std::string dot = svg_element(svg, name);
+    if (svg_attribute(dot, "cx").empty())  // a ground pivot: its triangle's apex
+      return svg_points(svg_attribute(dot, "points")).front();
+    return Eigen::Vector2d(std::stod(svg_attribute(dot, "cx")),
+                           std::stod(svg_attribute(dot, "cy")));
+  };
+
+  const std::string platform = drawn("mechanisms/drivers/three_rrr_turning.toml");
+  const auto triangle = edges(platform, "platform");
+  ASSERT_EQ(triangle.size(), 3u) << platform;
+  for (const char* corner : {"C1", "C2", "C3"}) {
+    int ends = 0;
+    for (const auto& [a, b] : triangle)
+      ends += (a == point(platform, corner)) + (b == point(platform, corner));
+    EXPECT_EQ(ends, 2) << corner;
+  }
+  for (const auto& [a, b] : triangle) {
+    EXPECT_NE(a, point(platform, "P"));
+    EXPECT_NE(b, point(platform, "P"));
+  }
+
+  const std::string rocker = drawn("mechanisms/cams/spline_slot_rocker.toml");
+  const auto outline = edges(rocker, "rocker");
+  ASSERT_GE(outline.size(), 3u) << rocker;
+  for (size_t i = 0; i < outline.size(); ++i)  // closed, each edge starting where one ended
+    EXPECT_EQ(outline[i].first, outline[(i + outline.size() - 1) % outline.size()].second) << i;
+  for (const char* name : {"C", "D", "S1", "S2", "S3", "S4", "S5", "S6", "S7"}) {
+    const Eigen::Vector2d p = point(rocker, name);
+    // Inside every edge, counterclockwise in the link's frame, so clockwise as SVG's y runs down
+    // (to the drawing's six digits).
+    for (const auto& [a, b] : outline) {
+      const Eigen::Vector2d u = b - a, v = p - a;
+      EXPECT_LE(u.x() * v.y() - u.y() * v.x(), 1e-6 * u.norm()) << name;
+    }
+  }
+}
+
 // Issue 20 item 3: a gear pair whose one gear's angle is known gives the other's, so the geared
 // five-bar decomposes into closed-form groups (it fell back to Newton), and `check` says so; so
 // does a rack and pinion whose pinion is placed.
