@@ -71,4 +71,9 @@ RunSettings SharedSettings::dynamics_printed(double energy_scale, bool friction)
   return values;
 }
 
+StepAngle::StepAngle(const SettingValues& v, double kinematic, double dynamics)
+    : kinematic(kinematic), dynamics(dynamics) {
+  if (!v.is("max_step_angle", "auto")) given = v.number("max_step_angle");
+}
+
 }  // namespace crosslink::sim

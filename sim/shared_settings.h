@@ -5,6 +5,7 @@
 // conditioning thresholds other defaults.)
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "analytic/model/mechanism.h"
@@ -41,6 +42,19 @@ struct SharedSettings {
   // for a mechanism with joint friction.
   RunSettings kinematic_printed(bool friction) const;
   RunSettings dynamics_printed(double energy_scale, bool friction) const;
+};
+
+// max_step_angle, step_length's bound on the fastest link's turn in a step [rad] (0: none): the
+// value given, or with "auto" the engine's own for the kind of run, which its schema's doc gives.
+struct StepAngle {
+  std::optional<double> given;
+  double kinematic = 0.0, dynamics = 0.0;  // the engine's auto values
+
+  StepAngle() = default;
+  StepAngle(const SettingValues& v, double kinematic, double dynamics);
+  double of(bool dynamics_run) const {
+    return given ? *given : dynamics_run ? dynamics : kinematic;
+  }
 };
 
 }  // namespace crosslink::sim

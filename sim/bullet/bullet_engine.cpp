@@ -57,8 +57,10 @@ constexpr long kPreroll = 4;  // periodic sweeps: steps run before the first sam
 // A cam's contact carries the start's transient longer (as ODE's: its first step's force lacks
 // the velocity terms, and the follower then settles on the disc).
 constexpr long kContactPreroll = 32;
-// Forward dynamics: the default step turns the fastest link by at most this much [rad], as
-// MuJoCo's (errors accumulate over a run; docs/engines.md, "Forward dynamics").
+// The default step's largest turn of the fastest link [rad]: kinematic runs' (each step is a step
+// towards the driver, error O(dt^2)); forward dynamics as MuJoCo's (errors accumulate over a run;
+// docs/engines.md, "Forward dynamics").
+constexpr double kKinematicMaxStepAngle = 0.01;
 constexpr double kDynamicsMaxStepAngle = 0.0025;
 
 // ---------------------------------------------------------------------------------------------
@@ -68,9 +70,8 @@ struct Config {
   std::string formulation = "rigid";    // rigid | multibody
   std::string solver = "mlcp_dantzig";  // mlcp_dantzig | sequential_impulse
   int steps_per_sample = 2;             // used when dt is not given
-  double max_step_angle = 0.01;         // used when dt is not given: more steps in a sample
+  StepAngle max_step_angle;             // used when dt is not given: more steps in a sample
                                         // interval where a link turns faster [rad per step]
-  bool max_step_angle_given = false;    // else a dynamics case uses kDynamicsMaxStepAngle
   double dt = 0.0;                      // 0: sample interval / steps_per_sample
   int iterations = 50;                  // sequential impulse (and MLCP's fallback)
   double erp = 1.0;
@@ -111,10 +112,11 @@ const SettingSchema& bullet_settings() {
        .doc = "auto dt: steps per sample interval (at least)"},
       {.name = "max_step_angle",
        .kind = number,
-       .default_value = "0.01",
-       .doc = "auto dt: the most the fastest link turns in a step [rad] (0: off; forward "
-              "dynamics: 0.0025)",
-       .range = kNonNegative},
+       .default_value = "auto",
+       .doc = "auto dt: the most the fastest link turns in a step [rad] (0: off); auto: 0.01, "
+              "forward dynamics 0.0025",
+       .range = kNonNegative,
+       .words = {"auto"}},
       {.name = "iterations",
        .kind = count,
        .default_value = "50",
@@ -174,8 +176,7 @@ Config parse_settings(const Settings& overrides) {
   c.solver = v.text("solver");
   c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
   c.steps_per_sample = static_cast<int>(v.count("steps_per_sample"));
-  c.max_step_angle = v.number("max_step_angle");
-  c.max_step_angle_given = v.given("max_step_angle");
+  c.max_step_angle = StepAngle(v, kKinematicMaxStepAngle, kDynamicsMaxStepAngle);
   c.iterations = static_cast<int>(v.count("iterations"));
   c.erp = v.number("erp");
   c.split_impulse = v.is("split_impulse", "1");
@@ -1524,18 +1525,19 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
 // The values in force both runs print (`steps_per_sample`: each run's own account of it;
 // `friction`: of a mechanism with joint friction).
 // The step is the grid's longest (an explicit dt divides each sample interval).
-Settings common_settings(const Config& config, const TimeGrid& grid, bool friction) {
-  Settings values = {{"formulation", config.formulation},
-                     {"solver", config.solver},
-                     {"dt", format_number(grid.dt)},
-                     {"steps_per_sample", config.dt == 0.0 ? std::to_string(grid.steps_per_sample)
-                                                           : "unused (dt given)"},
-                     {"max_step_angle", config.dt == 0.0 ? format_number(config.max_step_angle)
-                                                         : "unused (dt given)"},
-                     {"iterations", std::to_string(config.iterations)},
-                     {"erp", format_number(config.erp)},
-                     {"precision", btIsDoublePrecision() ? "float64" : "float32"},
-                     {"split_impulse", config.split_impulse ? "1" : "0"}};
+Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle,
+                         bool friction) {
+  Settings values = {
+      {"formulation", config.formulation},
+      {"solver", config.solver},
+      {"dt", format_number(grid.dt)},
+      {"steps_per_sample",
+       config.dt == 0.0 ? std::to_string(grid.steps_per_sample) : "unused (dt given)"},
+      {"max_step_angle", config.dt == 0.0 ? format_number(step_angle) : "unused (dt given)"},
+      {"iterations", std::to_string(config.iterations)},
+      {"erp", format_number(config.erp)},
+      {"precision", btIsDoublePrecision() ? "float64" : "float32"},
+      {"split_impulse", config.split_impulse ? "1" : "0"}};
   if (friction) values.emplace_back("friction_cfm", format_number(config.friction_cfm));
   return values;
 }
@@ -1657,7 +1659,7 @@ std::string fallback_note(const Scene& scene) {
 // judges the statuses.
 
 Settings kinematic_settings(const Config& config, const TimeGrid& grid, bool friction) {
-  Settings values = common_settings(config, grid, friction);
+  Settings values = common_settings(config, grid, config.max_step_angle.of(false), friction);
   const Settings shared = config.shared.kinematic_printed(friction);
   values.insert(values.end(), shared.begin(), shared.end());
   values.emplace_back("forces", config.formulation == "rigid"
@@ -1811,7 +1813,7 @@ class BulletKinematicScene final : public BulletLoopScene<KinematicScene> {
 
 Settings dynamics_settings(const Config& config, const TimeGrid& grid, double energy_scale,
                            bool with_forces, bool friction) {
-  Settings values = common_settings(config, grid, friction);
+  Settings values = common_settings(config, grid, config.max_step_angle.of(true), friction);
   const Settings shared = config.shared.dynamics_printed(energy_scale, friction);
   values.insert(values.end(), shared.begin(), shared.end());
   values.emplace_back("start", config.staggered_start ? "staggered (v0 - h/2 a0)" : "exact (v0)");
@@ -1857,10 +1859,9 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   DynamicsPlan start;
   try {
     p = prepare(original, reference, overrides);
-    if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
     start = plan_dynamics(original, p.m, reference,
-                          step_length(reference, p.span, p.config.dt, p.config.max_step_angle,
-                                      p.config.steps_per_sample),
+                          step_length(reference, p.span, p.config.dt,
+                                      p.config.max_step_angle.of(true), p.config.steps_per_sample),
                           InnerTimes::interval_fractions, p.config.shared.max_steps,
                           !p.config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
@@ -1960,11 +1961,12 @@ EngineRun BulletEngine::run(const Mechanism& original, const Trajectory& referen
   const KinematicWatch watch = config.shared.kinematic_watch(m);
   KinematicPlan start;
   try {
-    start = plan_kinematic(
-        m, reference,
-        step_length(reference, p.span, config.dt, config.max_step_angle, config.steps_per_sample),
-        InnerTimes::interval_fractions, m.has_cam() ? kContactPreroll : kPreroll,
-        config.shared.max_steps, config.shared.singular_rcond, !config.shared.perturb_link.empty());
+    start = plan_kinematic(m, reference,
+                           step_length(reference, p.span, config.dt,
+                                       config.max_step_angle.of(false), config.steps_per_sample),
+                           InnerTimes::interval_fractions, m.has_cam() ? kContactPreroll : kPreroll,
+                           config.shared.max_steps, config.shared.singular_rcond,
+                           !config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
     return failed_run(std::move(out), e.what());
   }

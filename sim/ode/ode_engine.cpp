@@ -101,8 +101,7 @@ struct Config {
   int iterations = 20;            // quick's
   double dt = 0.0;                // 0: auto
   int steps_per_sample = 2;
-  double max_step_angle = 0.0;  // 0 given: off; auto below
-  bool max_step_angle_given = false;
+  StepAngle max_step_angle;
   double erp = 1.0;
   double cfm = 1e-10;
   double friction_cfm = 1e-8;
@@ -212,8 +211,7 @@ Config parse_settings(const Settings& overrides) {
   c.iterations = static_cast<int>(v.count("iterations"));
   c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
   c.steps_per_sample = static_cast<int>(v.count("steps_per_sample"));
-  c.max_step_angle_given = !v.is("max_step_angle", "auto");
-  c.max_step_angle = c.max_step_angle_given ? v.number("max_step_angle") : 0.0;
+  c.max_step_angle = StepAngle(v, kKinematicMaxStepAngle, kDynamicsMaxStepAngle);
   c.erp = v.number("erp");
   c.cfm = v.number("cfm");
   c.friction_cfm = v.number("friction_cfm");
@@ -967,11 +965,6 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
   return p;
 }
 
-double max_step_angle(const Config& config, bool dynamics) {
-  if (config.max_step_angle_given) return config.max_step_angle;
-  return dynamics ? kDynamicsMaxStepAngle : kKinematicMaxStepAngle;
-}
-
 Settings common_settings(const Config& config, const TimeGrid& grid, double step_angle,
                          bool friction, bool contact) {
   Settings values = {
@@ -1120,7 +1113,7 @@ EngineRun run_ode_dynamics(const Mechanism& original, const Trajectory& referenc
   try {
     Prepared p = prepare(original, reference, overrides);
     const Config& config = p.config;
-    const double step_angle = max_step_angle(config, true);
+    const double step_angle = config.max_step_angle.of(true);
     const DynamicsPlan start = plan_dynamics(
         original, p.m, reference,
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),
@@ -1166,7 +1159,7 @@ EngineRun run_ode_kinematic(const Mechanism& original, const Trajectory& referen
   try {
     Prepared p = prepare(original, reference, overrides);
     const Config& config = p.config;
-    const double step_angle = max_step_angle(config, false);
+    const double step_angle = config.max_step_angle.of(false);
     KinematicPlan start = plan_kinematic(
         p.m, reference,
         step_length(reference, p.span, config.dt, step_angle, config.steps_per_sample),

@@ -47,6 +47,8 @@ constexpr long kRing = 16;  // states kept for the dynamics run's state readout
 // only sets the trapezoid rule of the loads' work: at 0.02 rad the Andrews squeezer's work is
 // within 5e-5 % of the exact one (0.0025: 8e-7 %) at a third of the cost.
 constexpr double kDynamicsMaxStepAngle = 0.02;
+// A kinematic run's: its rates and accelerations are central differences of the reported poses.
+constexpr double kKinematicMaxStepAngle = 0.0025;
 
 // ---------------------------------------------------------------------------------------------
 // Settings
@@ -59,8 +61,7 @@ struct Config {
   double fixed_step = 0.0;  // 0: error-controlled
   bool interpolate = false;
   double dt = 0.0;  // the reported poses' spacing; 0: auto (max_step_angle)
-  double max_step_angle = 0.0025;
-  bool max_step_angle_given = false;  // else a dynamics run uses kDynamicsMaxStepAngle
+  StepAngle max_step_angle;
   // Joint friction (docs/engines.md, "Joint friction").
   double friction_speed = 1e-4;  // v_s: of each friction joint's fastest rate in the reference
   // A cam's compliant contact (docs/cams.md, "The engines' contact"): each surface's material.
@@ -119,10 +120,11 @@ const SettingSchema& simbody_settings() {
        .words = {"auto"}},
       {.name = "max_step_angle",
        .kind = number,
-       .default_value = "0.0025",
-       .doc = "auto dt: the most the fastest link turns between two reported poses [rad] "
-              "(forward dynamics: 0.02)",
-       .range = kPositive},
+       .default_value = "auto",
+       .doc = "auto dt: the most the fastest link turns between two reported poses [rad]; auto: "
+              "0.0025, forward dynamics 0.02",
+       .range = kPositive,
+       .words = {"auto"}},
       shared_setting("gap_threshold"),
       shared_setting("divergence_gap"),
       shared_setting("driver_threshold"),
@@ -179,8 +181,7 @@ Config parse_settings(const Settings& overrides) {
   c.fixed_step = v.is("fixed_step", "off") ? 0.0 : v.number("fixed_step");
   c.interpolate = v.is("interpolate", "1");
   c.dt = v.is("dt", "auto") ? 0.0 : v.number("dt");
-  c.max_step_angle = v.number("max_step_angle");
-  c.max_step_angle_given = v.given("max_step_angle");
+  c.max_step_angle = StepAngle(v, kKinematicMaxStepAngle, kDynamicsMaxStepAngle);
   c.friction_speed = v.number("friction_speed");
   c.contact_stiffness = v.number("contact_stiffness");
   c.contact_dissipation = v.number("contact_dissipation");
@@ -1002,8 +1003,8 @@ Prepared prepare(const Mechanism& original, const Trajectory& reference,
 
 // The reported poses' spacing: dt, or the step in which the reference's fastest link turns by
 // max_step_angle (central differences of the poses err as (omega dt)^2).
-double wanted_step(const Trajectory& reference, const Config& c, const Span& span) {
-  return step_length(reference, span, c.dt, c.max_step_angle, 0);
+double wanted_step(const Trajectory& reference, const Config& c, const Span& span, bool dynamics) {
+  return step_length(reference, span, c.dt, c.max_step_angle.of(dynamics), 0);
 }
 
 // The friction's setup for a run over `span` of the reference, from time t0 (none without joint
@@ -1038,16 +1039,16 @@ std::optional<FrictionSetup> friction_setup(const Mechanism& m, const Trajectory
   return out;
 }
 
-Settings common_settings(const Config& c, double dt, bool friction, bool contact) {
-  Settings values = {
-      {"integrator", c.integrator},
-      {"accuracy", format_number(c.accuracy)},
-      {"constraint_tolerance", format_number(c.constraint_tolerance)},
-      {"max_step", c.max_step > 0.0 ? format_number(c.max_step) : "auto"},
-      {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
-      {"interpolate", c.interpolate ? "1" : "0"},
-      {"dt", format_number(dt)},
-      {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle) : "unused (dt given)"}};
+Settings common_settings(const Config& c, double dt, bool dynamics, bool friction, bool contact) {
+  Settings values = {{"integrator", c.integrator},
+                     {"accuracy", format_number(c.accuracy)},
+                     {"constraint_tolerance", format_number(c.constraint_tolerance)},
+                     {"max_step", c.max_step > 0.0 ? format_number(c.max_step) : "auto"},
+                     {"fixed_step", c.fixed_step > 0.0 ? format_number(c.fixed_step) : "off"},
+                     {"interpolate", c.interpolate ? "1" : "0"},
+                     {"dt", format_number(dt)},
+                     {"max_step_angle", c.dt == 0.0 ? format_number(c.max_step_angle.of(dynamics))
+                                                    : "unused (dt given)"}};
   if (friction) values.emplace_back("friction_speed", format_number(c.friction_speed));
   if (contact) {
     values.emplace_back("contact_stiffness", format_number(c.contact_stiffness));
@@ -1135,8 +1136,7 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   DynamicsPlan plan;
   try {
     p = prepare(original, reference, overrides);
-    if (!p.config.max_step_angle_given) p.config.max_step_angle = kDynamicsMaxStepAngle;
-    plan = plan_dynamics(original, p.m, reference, wanted_step(reference, p.config, p.span),
+    plan = plan_dynamics(original, p.m, reference, wanted_step(reference, p.config, p.span, true),
                          InnerTimes::step_multiples, p.config.shared.max_steps,
                          !p.config.shared.perturb_link.empty());
   } catch (const std::exception& e) {
@@ -1144,7 +1144,8 @@ EngineRun run_dynamics(const Mechanism& original, const Trajectory& reference,
   }
   const Config& c = p.config;
   const double energy_scale = std::max(reference_energy_scale(original, reference), 1e-12);
-  Settings values = common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
+  Settings values =
+      common_settings(c, plan.grid.dt, true, p.m.has_friction(), !p.graph.contacts.empty());
   const Settings shared = c.shared.dynamics_printed(energy_scale, p.m.has_friction());
   values.insert(values.end(), shared.begin(), shared.end());
   values.emplace_back("forces",
@@ -1202,16 +1203,17 @@ class SimbodyEngine final : public Engine {
       p = prepare(original, reference, overrides);
       if (const std::string problem = driver_problem(p.graph); !problem.empty())
         throw std::runtime_error(problem);
-      plan = plan_kinematic(
-          p.m, reference, wanted_step(reference, p.config, p.span), InnerTimes::step_multiples,
-          p.graph.contacts.empty() ? kPreroll : kContactPreroll, p.config.shared.max_steps,
-          p.config.shared.singular_rcond, !p.config.shared.perturb_link.empty());
+      plan = plan_kinematic(p.m, reference, wanted_step(reference, p.config, p.span, false),
+                            InnerTimes::step_multiples,
+                            p.graph.contacts.empty() ? kPreroll : kContactPreroll,
+                            p.config.shared.max_steps, p.config.shared.singular_rcond,
+                            !p.config.shared.perturb_link.empty());
     } catch (const std::exception& e) {
       return failed_run(std::move(out), e.what());
     }
     const Config& c = p.config;
     Settings values =
-        common_settings(c, plan.grid.dt, p.m.has_friction(), !p.graph.contacts.empty());
+        common_settings(c, plan.grid.dt, false, p.m.has_friction(), !p.graph.contacts.empty());
     const Settings shared = c.shared.kinematic_printed(p.m.has_friction());
     values.insert(values.end(), shared.begin(), shared.end());
     values.emplace_back("forces",
