@@ -148,6 +148,10 @@ RunSettings printed_settings(const SettingSchema& schema, RunKind run, const Run
   return out;
 }
 
+std::string format_number(double v) {
+  return fmt::format("{:.6g}", v);
+}
+
 std::pair<std::string, std::string> friction_load_value(bool extrapolated) {
   return {"friction_load", extrapolated ? "extrapolated" : "last"};
 }

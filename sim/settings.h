@@ -85,6 +85,8 @@ SettingSpec shared_setting(std::string_view name);
 
 // The shared "friction_load" as a run prints it: `extrapolated` (the default) or the last step's.
 std::pair<std::string, std::string> friction_load_value(bool extrapolated);
+// A number in force as a run prints it: six significant digits.
+std::string format_number(double v);
 
 // What a setting takes, in words: "a positive number, or auto", "Euler, RK4 or implicit"; "reported
 // by the run, not set" for a reported value.

@@ -4,14 +4,6 @@
 
 namespace crosslink::sim {
 
-namespace {
-
-std::string number(double v) {
-  return fmt::format("{:.6g}", v);
-}
-
-}  // namespace
-
 SharedSettings::SharedSettings(const SettingValues& v)
     : gap_threshold(v.is("gap_threshold", "auto") ? 0.0 : v.number("gap_threshold")),
       divergence_gap(v.number("divergence_gap")),
@@ -42,9 +34,9 @@ DynamicsWatch SharedSettings::dynamics_watch(const Mechanism& m, double energy_s
 namespace {
 
 RunSettings common(const SharedSettings& s, bool friction) {
-  RunSettings values = {{"gap_threshold", number(s.gap_threshold)},
-                        {"divergence_gap", number(s.divergence_gap)},
-                        {"singular_rcond", number(s.singular_rcond)},
+  RunSettings values = {{"gap_threshold", format_number(s.gap_threshold)},
+                        {"divergence_gap", format_number(s.divergence_gap)},
+                        {"singular_rcond", format_number(s.singular_rcond)},
                         {"mass_model", "the definition's (Link::mass)"},
                         {"perturb_link", s.perturb_link},
                         {"max_steps", std::to_string(s.max_steps)}};
@@ -56,8 +48,8 @@ RunSettings common(const SharedSettings& s, bool friction) {
 
 RunSettings SharedSettings::kinematic_printed(bool friction) const {
   RunSettings values = common(*this, friction);
-  values.emplace_back("driver_threshold", number(driver_threshold));
-  values.emplace_back("branch_distance", number(branch_distance));
+  values.emplace_back("driver_threshold", format_number(driver_threshold));
+  values.emplace_back("branch_distance", format_number(branch_distance));
   return values;
 }
 
@@ -65,8 +57,8 @@ RunSettings SharedSettings::dynamics_printed(double energy_scale, bool friction)
   RunSettings values = common(*this, friction);
   values.emplace_back("driver",
                       "none: the coordinate moves under the applied effort (forward dynamics)");
-  values.emplace_back("energy_threshold", number(energy_threshold));
-  values.emplace_back("divergence_energy", number(divergence_energy));
+  values.emplace_back("energy_threshold", format_number(energy_threshold));
+  values.emplace_back("divergence_energy", format_number(divergence_energy));
   values.emplace_back("energy_scale", fmt::format("{:.6g} J", energy_scale));
   return values;
 }

@@ -1380,10 +1380,6 @@ class RigidScene final : public Scene {
 // ---------------------------------------------------------------------------------------------
 // Run
 
-std::string format_number(double v) {
-  return fmt::format("{:.6g}", v);
-}
-
 // Forces of the rigid scene at pose q (the pose the last step left), in the mechanism's terms.
 // btJointFeedback holds each constraint's impulse / dt on its bodies, the torques about each
 // body's centre of mass: a joint's couple is taken about its point, and a driven joint's own

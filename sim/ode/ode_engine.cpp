@@ -223,10 +223,6 @@ Config parse_settings(const Settings& overrides) {
   return c;
 }
 
-std::string format_number(double v) {
-  return fmt::format("{:.6g}", v);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Geometry
 

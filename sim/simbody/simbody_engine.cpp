@@ -189,10 +189,6 @@ Config parse_settings(const Settings& overrides) {
   return c;
 }
 
-std::string format_number(double v) {
-  return fmt::format("{:.6g}", v);
-}
-
 // A Simbody exception's message on one line (it spans several, with the nested exceptions).
 std::string simbody_error(const std::exception& e) {
   std::string out = "Simbody: ";
