@@ -165,9 +165,13 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
     Eigen::Vector2d roller_centre;
     double roller = 0.0;
   };
+  // Each cam's profile in its own frame, about its centre: the same at every sample.
+  std::vector<std::vector<Eigen::Vector2d>> profiles;
+  for (const Trajectory::CamChannel& cam : t.cams) profiles.push_back(cam.reading.outline(360));
   const auto cams_at = [&](int k) {
     std::vector<CamOutline> out;
-    for (const Trajectory::CamChannel& cam : t.cams) {
+    for (size_t ci = 0; ci < t.cams.size(); ++ci) {
+      const Trajectory::CamChannel& cam = t.cams[ci];
       const CamReading::Pose p = cam.at(t, k);
       const ConstraintRows& rows = cam.reading.rows;
       const Joint& joint = m.joints[static_cast<size_t>(m.find_joint(cam.reading.joint))];
@@ -178,8 +182,7 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
                        ? 0.0
                        : rows.contour->follower().roller_radius};
       const Eigen::Rotation2Dd R(p.cam_angle);
-      for (const Eigen::Vector2d& u : cam.reading.outline(360))
-        c.profile.push_back(p.centre + R * u);
+      for (const Eigen::Vector2d& u : profiles[ci]) c.profile.push_back(p.centre + R * u);
       c.profile.push_back(c.profile.front());
       out.push_back(std::move(c));
     }
@@ -291,9 +294,12 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
                                         link_names.begin()) %
                     kColours.size()];
   };
-  // The slots on moving links, thin.
+  // The slots on moving links, thin, at every sample drawn.
   const double reach = m.size();
-  const std::vector<GuideOutline> guides = guide_outlines(m, t, row, reach);
+  std::vector<std::vector<GuideOutline>> guides_at(static_cast<size_t>(t.samples()));
+  for (const int k : animate_seconds > 0.0 ? shown : std::vector<int>{row})
+    guides_at[static_cast<size_t>(k)] = guide_outlines(m, t, k, reach);
+  const std::vector<GuideOutline>& guides = guides_at[static_cast<size_t>(row)];
   for (size_t g = 0; g < guides.size(); ++g) {
     if (!guides[g].moving) continue;
     out += fmt::format(
@@ -301,7 +307,7 @@ std::string drawing_svg(const Mechanism& m, const Trajectory& t, int row, double
         "</title>{}</polyline>\n",
         polyline(guides[g].points), colour_of(guides[g].link), number(2 * thin),
         html_escape(guides[g].name), frames("points", [&](int k) {
-          return polyline(guide_outlines(m, t, k, reach)[g].points);
+          return polyline(guides_at[static_cast<size_t>(k)][g].points);
         }));
   }
   // The cams' profiles, and their rollers.
